@@ -1,0 +1,23 @@
+# firmware_core: portable fixed-point library.
+CORE_SRC := $(wildcard firmware_core/*.c)
+CORE_HDR := $(wildcard firmware_core/*.h)
+CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/host/%.o)
+CORE_LIB := $(BUILD)/host/libit2n.a
+CORE_SAN_OBJ := $(CORE_SRC:%.c=$(BUILD)/san/%.o)
+CORE_SAN_LIB := $(BUILD)/san/libit2n.a
+
+ALL_TARGETS += $(CORE_LIB)
+
+$(BUILD)/host/firmware_core/%.o: firmware_core/%.c $(CORE_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(CORE_CFLAGS) -c $< -o $@
+
+$(BUILD)/san/firmware_core/%.o: firmware_core/%.c $(CORE_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(CORE_CFLAGS) $(SAN_FLAGS) -c $< -o $@
+
+$(CORE_LIB): $(CORE_OBJ)
+	@rm -f $@; ar rcs $@ $^
+
+$(CORE_SAN_LIB): $(CORE_SAN_OBJ)
+	@rm -f $@; ar rcs $@ $^

@@ -1,0 +1,285 @@
+/*
+ * it2n — interval type-2 neutrosophic Bézier surface (IT2NBS) interpolation.
+ *
+ * Portable C99 core: fixed-point only, no heap, no floating point, no global
+ * mutable state. All memory is in the structs below, sized at compile time
+ * and owned by the caller. See docs/numerics.md for every Q format.
+ *
+ * Copyright (c) 2026 the it2n authors. MIT licence (see LICENSE).
+ */
+#ifndef IT2N_H
+#define IT2N_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+/* ---- Compile-time options (override with -D) ---------------------------- */
+
+/* Largest polynomial degree in either direction (grid up to (D+1)x(D+1)).
+ * Memory grows with (D+1)^2; 7 is the documented default. */
+#ifndef IT2N_MAX_DEGREE
+#define IT2N_MAX_DEGREE 7
+#endif
+
+/* Largest |coordinate| accepted on input, in whole units. With the worst
+ * degree-7 amplification of the inverse collocation matrices (~4.4e4) the
+ * control points still fit the Q39.24 value type. */
+#ifndef IT2N_COORD_LIMIT
+#define IT2N_COORD_LIMIT 8388607
+#endif
+
+/* Newton iterations per footprint in it2n_locate before giving up. */
+#ifndef IT2N_LOCATE_MAX_ITER
+#define IT2N_LOCATE_MAX_ITER 40
+#endif
+
+/* Coarse start grid for it2n_locate (per direction). */
+#ifndef IT2N_LOCATE_GRID
+#define IT2N_LOCATE_GRID 8
+#endif
+
+#if IT2N_MAX_DEGREE < 1 || IT2N_MAX_DEGREE > 15
+#error "IT2N_MAX_DEGREE must be within 1..15"
+#endif
+
+/* ---- Fixed-point formats ------------------------------------------------ */
+
+/* it2n_val: coordinates, memberships, control points, results, derivatives.
+ * Signed Q39.24 in int64_t: value = raw / 2^24. */
+typedef int64_t it2n_val;
+#define IT2N_VAL_FRAC 24
+#define IT2N_VAL_ONE ((it2n_val)1 << IT2N_VAL_FRAC)
+
+/* it2n_par: surface parameters u, w and basis values. Q31.32 in int64_t:
+ * value = raw / 2^32, so 1.0 is exactly representable. */
+typedef int64_t it2n_par;
+#define IT2N_PAR_FRAC 32
+#define IT2N_PAR_ONE ((it2n_par)1 << IT2N_PAR_FRAC)
+
+/* ---- Errors ------------------------------------------------------------- */
+
+/* Negative codes so functions can return a count or an error. */
+enum it2n_error {
+    IT2N_OK = 0,
+    IT2N_ERR_INVAL = -1,       /* bad argument (degree, index, flags)      */
+    IT2N_ERR_RANGE = -2,       /* value outside its accepted range         */
+    IT2N_ERR_DUPLICATE = -3,   /* (i, j, footprint) given twice            */
+    IT2N_ERR_MISSING = -4,     /* (i, j, footprint) absent                 */
+    IT2N_ERR_ORDER = -5,       /* footprints not nested on an axis         */
+    IT2N_ERR_OVERFLOW = -6,    /* intermediate result not representable    */
+    IT2N_ERR_SINGULAR = -7,    /* collocation matrix singular              */
+    IT2N_ERR_DEGENERATE = -8,  /* degenerate chord-length parameterisation */
+    IT2N_ERR_STATE = -9,       /* model not solved / wrong kind            */
+    IT2N_ERR_NOCONV = -10      /* iteration did not converge               */
+};
+
+/* Footprints, in nesting order on every coordinate axis. */
+enum it2n_fp {
+    IT2N_FP_LL = 0, IT2N_FP_LR, IT2N_FP_L, IT2N_FP_D, IT2N_FP_R, IT2N_FP_RL,
+    IT2N_FP_RR, IT2N_FP_COUNT
+};
+
+/* Channels of one footprint surface. */
+enum it2n_ch {
+    IT2N_CH_X = 0, IT2N_CH_Y, IT2N_CH_Z, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F,
+    IT2N_CH_COUNT
+};
+
+/* Where and why an operation failed; filled on every error. */
+typedef struct it2n_errinfo {
+    int code;        /* enum it2n_error                                  */
+    int16_t i, j;    /* grid point, or -1                                */
+    int8_t fp;       /* footprint, or -1                                 */
+    int8_t ch;       /* channel, or -1                                   */
+    it2n_val value;  /* offending value (Q24), when meaningful           */
+    it2n_val lo, hi; /* accepted range or neighbour bound (Q24)          */
+} it2n_errinfo;
+
+/* ---- Data set ----------------------------------------------------------- */
+
+#define IT2N_DIM (IT2N_MAX_DEGREE + 1)
+
+/* Model flags (it2n_dataset.flags). */
+#define IT2N_F_Z 0x01u          /* coordinates carry z                   */
+#define IT2N_F_TYPE1 0x02u      /* only footprint D (type-1 neutrosophic) */
+#define IT2N_F_CHORD 0x04u      /* chord-length params instead of uniform */
+#define IT2N_F_ALL (IT2N_F_Z | IT2N_F_TYPE1 | IT2N_F_CHORD)
+
+/* Grid data being assembled. values[i][j][fp][ch] in Q24; present[i][j] is a
+ * bit mask of footprints given. Unused z channels are zero. */
+typedef struct it2n_dataset {
+    uint8_t n, m;   /* degrees: grid is (n+1) x (m+1) */
+    uint8_t flags;  /* IT2N_F_*                       */
+    uint8_t present[IT2N_DIM][IT2N_DIM];
+    it2n_val values[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
+} it2n_dataset;
+
+/*
+ * Start an empty data set of degrees n x m (1..IT2N_MAX_DEGREE each) with
+ * IT2N_F_* flags. Returns IT2N_OK, or IT2N_ERR_INVAL (ds untouched).
+ */
+int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
+                      it2n_errinfo *err);
+
+/*
+ * Store one footprint of grid point (i, j): vals[IT2N_CH_COUNT] in Q24
+ * (z ignored unless IT2N_F_Z). Checks index, footprint (only D for type-1),
+ * coordinate limit and T, I, F in [0, 1]. With replace false a second put of
+ * the same (i, j, fp) fails with IT2N_ERR_DUPLICATE. On error nothing changes.
+ */
+int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], bool replace,
+                     it2n_errinfo *err);
+
+/* Number of (i, j, footprint) entries the data set still lacks. */
+unsigned it2n_dataset_missing(const it2n_dataset *ds);
+
+/*
+ * Full validation: every entry present, footprints nested
+ * LL <= LR <= L <= D <= R <= RL <= RR on every coordinate axis.
+ * Returns IT2N_OK or the first error found (row-major order).
+ */
+int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err);
+
+/* ---- Model -------------------------------------------------------------- */
+
+/* A solved model: data, parameters, inverse collocation matrices (for the
+ * O(n*m) update) and control nets ctrl[i][j][fp][ch] in Q24. */
+typedef struct it2n_model {
+    it2n_dataset data;
+    it2n_par u[IT2N_DIM], w[IT2N_DIM];          /* collocation params  */
+    it2n_par ainv[IT2N_DIM][IT2N_DIM];          /* (M^T)^-1, Q32       */
+    it2n_par binv[IT2N_DIM][IT2N_DIM];          /* N^-1, Q32           */
+    it2n_val ctrl[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
+    uint32_t generation;                        /* bumped on change    */
+    uint8_t solved;                             /* 1 once solved       */
+} it2n_model;
+
+/* Mark a model empty (unsolved). Always succeeds. */
+void it2n_model_init(it2n_model *mdl);
+
+/*
+ * Validate ds and solve every control net, P = (M^T)^-1 F N^-1. Atomic: on
+ * any error mdl is unchanged. Bumps mdl->generation on success.
+ */
+int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
+                     it2n_errinfo *err);
+
+/*
+ * Replace one footprint of one data point in a solved model. Uniform
+ * parameterisation: O(n*m) per channel, within 1 LSB of a full re-solve.
+ * Chord-length: parameters depend on the data, so a full re-solve. Atomic.
+ */
+int it2n_model_update(it2n_model *mdl, unsigned i, unsigned j, unsigned fp,
+                      const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err);
+
+/* Footprints a model carries: IT2N_FP_D only for type-1, else all seven. */
+static inline bool it2n_model_has_fp(const it2n_model *mdl, unsigned fp)
+{
+    return (mdl->data.flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D
+                                            : fp < IT2N_FP_COUNT;
+}
+
+/* ---- Evaluation --------------------------------------------------------- */
+
+/* Interval summary of T, I, F (index 0..2) at one (u, w). */
+typedef struct it2n_summary {
+    it2n_val upper_min[3], upper_max[3]; /* over LL, D, RR */
+    it2n_val lower_min[3], lower_max[3]; /* over LR, D, RL */
+} it2n_summary;
+
+/* All surfaces at one (u, w). out_of_range bit (fp*3 + k) flags membership
+ * k (T, I, F) of footprint fp leaving [0, 1]; the raw value is kept. */
+typedef struct it2n_point {
+    it2n_val v[IT2N_FP_COUNT][IT2N_CH_COUNT];
+    it2n_summary sum;
+    uint32_t out_of_range;
+} it2n_point;
+
+/*
+ * Evaluate every footprint surface at (u, w), Q32, within [0, 1] inclusive.
+ * Returns IT2N_OK, IT2N_ERR_STATE (unsolved) or IT2N_ERR_RANGE.
+ */
+int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out);
+
+/*
+ * Partial derivatives dS/du (du) and dS/dw (dw) of every surface at (u, w).
+ * Only the v arrays are filled.
+ */
+int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
+               it2n_point *dw);
+
+/* Sink for it2n_sample: called once per grid node, row-major. Return
+ * non-zero to stop early (that value is returned by it2n_sample). */
+typedef int (*it2n_sample_cb)(void *ctx, unsigned r, unsigned c, it2n_par u,
+                              it2n_par w, const it2n_point *pt);
+
+/*
+ * Evaluate on a uniform rows x cols parameter grid (each >= 2, <= 65535),
+ * u = r/(rows-1), w = c/(cols-1), reusing row basis work. Returns IT2N_OK,
+ * an error, or the callback's non-zero stop value.
+ */
+int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
+                it2n_sample_cb cb, void *ctx);
+
+/* ---- Locate ------------------------------------------------------------- */
+
+enum it2n_loc_status {
+    IT2N_LOC_INSIDE = 0,  /* surface passes through (x, y) in [0,1]^2    */
+    IT2N_LOC_OUTSIDE = 1, /* nearest point is on the boundary, not exact */
+    IT2N_LOC_NOCONV = 2   /* Newton and fallback failed                  */
+};
+
+typedef struct it2n_locate_fp {
+    it2n_par u, w;                 /* parameters found (Q32)       */
+    it2n_val v[IT2N_CH_COUNT];     /* surface values there         */
+    it2n_val residual;             /* |S_xy(u,w) - (x,y)|_inf, Q24 */
+    uint8_t status;                /* enum it2n_loc_status         */
+} it2n_locate_fp;
+
+typedef struct it2n_locate_result {
+    it2n_locate_fp fp[IT2N_FP_COUNT];
+} it2n_locate_result;
+
+/*
+ * For each footprint find (u, w) with (x(u,w), y(u,w)) = (x, y): Newton from
+ * the best node of a coarse grid, with step halving as the safe fallback.
+ */
+int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
+                it2n_locate_result *out);
+
+/* ---- Text conversion (no stdio; exact decimal rounding) ----------------- */
+
+/*
+ * Parse a decimal number ("-12.5", "0.000001", "3e-2") of len bytes into Q24,
+ * rounded to nearest, ties away from zero. Returns IT2N_OK, IT2N_ERR_INVAL
+ * (not a number) or IT2N_ERR_RANGE (|value| beyond IT2N_COORD_LIMIT).
+ */
+int it2n_parse_val(const char *s, size_t len, it2n_val *out);
+
+/* Parse a decimal parameter into Q32; must lie within [0, 1]. */
+int it2n_parse_par(const char *s, size_t len, it2n_par *out);
+
+/*
+ * Format a Q24 value with `decimals` (0..9) digits after the point, rounded
+ * to nearest, into buf (NUL-terminated). Returns the length, or
+ * IT2N_ERR_RANGE if buf is too small.
+ */
+int it2n_format_val(char *buf, size_t size, it2n_val v, unsigned decimals);
+
+/* Same for a Q32 parameter / basis value. */
+int it2n_format_par(char *buf, size_t size, it2n_par p, unsigned decimals);
+
+/* ---- Names and messages ------------------------------------------------- */
+
+/* "LL", "LR", "L", "D", "R", "RL", "RR", or NULL. */
+const char *it2n_fp_name(unsigned fp);
+/* Footprint index for a name, or IT2N_ERR_INVAL. */
+int it2n_fp_from_name(const char *name, size_t len);
+/* "x", "y", "z", "T", "I", "F", or NULL. */
+const char *it2n_ch_name(unsigned ch);
+/* Short English description of an error code. */
+const char *it2n_strerror(int code);
+
+#endif /* IT2N_H */
