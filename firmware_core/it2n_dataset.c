@@ -1,0 +1,161 @@
+/*
+ * Data set assembly and validation. Every check reports what, where and
+ * which limit; nothing is written unless every check passed.
+ */
+#include <string.h>
+
+#include "it2n_internal.h"
+
+#define COORD_MAX ((it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC)
+
+int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
+                      it2n_errinfo *err)
+{
+    if (ds == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (n < 1u || n > IT2N_MAX_DEGREE) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1,
+                          (it2n_val)n, 1, IT2N_MAX_DEGREE);
+    }
+    if (m < 1u || m > IT2N_MAX_DEGREE) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1,
+                          (it2n_val)m, 1, IT2N_MAX_DEGREE);
+    }
+    if ((flags & ~IT2N_F_ALL) != 0u) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1,
+                          (it2n_val)flags, 0, IT2N_F_ALL);
+    }
+    memset(ds, 0, sizeof(*ds));
+    ds->n = (uint8_t)n;
+    ds->m = (uint8_t)m;
+    ds->flags = (uint8_t)flags;
+    return IT2N_OK;
+}
+
+int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
+{
+    unsigned ch;
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        it2n_val v = vals[ch], lo, hi;
+        if (!it2n__ch_used(flags, ch)) {
+            continue;
+        }
+        if (ch <= IT2N_CH_Z) {
+            lo = -COORD_MAX;
+            hi = COORD_MAX;
+        } else {
+            lo = 0;
+            hi = IT2N_VAL_ONE;
+        }
+        if (v < lo || v > hi) {
+            return it2n__fail(err, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp,
+                              (int)ch, v, lo, hi);
+        }
+    }
+    return IT2N_OK;
+}
+
+int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], bool replace,
+                     it2n_errinfo *err)
+{
+    int rc;
+    unsigned ch;
+    if (ds == NULL || vals == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (i > ds->n || j > ds->m) {
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, -1, -1,
+                          (it2n_val)(i > ds->n ? i : j), 0,
+                          (it2n_val)(i > ds->n ? ds->n : ds->m));
+    }
+    if (fp >= IT2N_FP_COUNT || ((1u << fp) & it2n__fp_mask(ds->flags)) == 0u) {
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
+                          (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
+    }
+    rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+    if (rc != IT2N_OK) {
+        return rc;
+    }
+    if (!replace && (ds->present[i][j] & (1u << fp)) != 0u) {
+        return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp,
+                          -1, 0, 0, 0);
+    }
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        ds->values[i][j][fp][ch] = it2n__ch_used(ds->flags, ch) ? vals[ch] : 0;
+    }
+    ds->present[i][j] = (uint8_t)(ds->present[i][j] | (1u << fp));
+    return IT2N_OK;
+}
+
+unsigned it2n_dataset_missing(const it2n_dataset *ds)
+{
+    unsigned i, j, fp, missing = 0u, mask = it2n__fp_mask(ds->flags);
+    for (i = 0; i <= ds->n; i++) {
+        for (j = 0; j <= ds->m; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if ((mask & (1u << fp)) && !(ds->present[i][j] & (1u << fp))) {
+                    missing++;
+                }
+            }
+        }
+    }
+    return missing;
+}
+
+int it2n__check_nesting(unsigned flags, unsigned i, unsigned j,
+                        const it2n_val *pt, it2n_errinfo *err)
+{
+    unsigned ch, fp;
+    if (flags & IT2N_F_TYPE1) {
+        return IT2N_OK;
+    }
+    for (fp = 1; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < it2n__ncoord(flags); ch++) {
+            it2n_val prev = pt[(fp - 1u) * IT2N_CH_COUNT + ch];
+            it2n_val v = pt[fp * IT2N_CH_COUNT + ch];
+            if (v < prev) {
+                return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
+                                  (int)fp, (int)ch, v, prev, v);
+            }
+        }
+    }
+    return IT2N_OK;
+}
+
+int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
+{
+    unsigned i, j, fp, mask;
+    int rc;
+    if (ds == NULL || ds->n < 1u || ds->n > IT2N_MAX_DEGREE || ds->m < 1u ||
+        ds->m > IT2N_MAX_DEGREE || (ds->flags & ~IT2N_F_ALL) != 0u) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    mask = it2n__fp_mask(ds->flags);
+    for (i = 0; i <= ds->n; i++) {
+        for (j = 0; j <= ds->m; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (!(mask & (1u << fp))) {
+                    continue;
+                }
+                if (!(ds->present[i][j] & (1u << fp))) {
+                    return it2n__fail(err, IT2N_ERR_MISSING, (int)i, (int)j,
+                                      (int)fp, -1, 0, 0, 0);
+                }
+                /* Re-check ranges: the struct may have been filled by hand. */
+                rc = it2n__check_vals(ds->flags, i, j, fp,
+                                      ds->values[i][j][fp], err);
+                if (rc != IT2N_OK) {
+                    return rc;
+                }
+            }
+            rc = it2n__check_nesting(ds->flags, i, j, &ds->values[i][j][0][0], err);
+            if (rc != IT2N_OK) {
+                return rc;
+            }
+        }
+    }
+    return IT2N_OK;
+}
