@@ -1,0 +1,359 @@
+/*
+ * The subcommands: load the dataset, call the core, print CSV. Every number
+ * goes through it2n_format_val/it2n_format_par, so output is exact decimal
+ * rounding of the fixed-point results.
+ */
+#include "cli.h"
+#include "csv.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Big structs live here rather than on the stack. */
+static it2n_csv g_csv;
+static it2n_dataset g_ds;
+static it2n_model g_mdl;
+
+static void report(const it2n_csv_error *e, const char *name)
+{
+    char msg[512];
+    it2n_csv_message(e, name, msg, sizeof(msg));
+    fprintf(stderr, "%s\n", msg);
+}
+
+static const char *display_name(const cli_opts *o)
+{
+    return strcmp(o->path, "-") == 0 ? "<stdin>" : o->path;
+}
+
+/* Read and validate the dataset, then solve it. */
+static int load(const cli_opts *o)
+{
+    const char *name = display_name(o);
+    FILE *f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
+    char chunk[4096];
+    it2n_csv_error e;
+    it2n_errinfo info;
+    size_t got;
+    int rc = IT2N_OK;
+
+    if (f == NULL) {
+        fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
+        return CLI_EXIT_DATA;
+    }
+    it2n_csv_init(&g_csv, o->flags);
+    while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
+        rc = it2n_csv_feed(&g_csv, chunk, got, &e);
+    }
+    if (rc == IT2N_OK && ferror(f)) {
+        fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
+        if (f != stdin) {
+            fclose(f);
+        }
+        return CLI_EXIT_DATA;
+    }
+    if (f != stdin) {
+        fclose(f);
+    }
+    if (rc == IT2N_OK) {
+        rc = it2n_csv_finish(&g_csv, &g_ds, &e);
+    }
+    if (rc != IT2N_OK) {
+        report(&e, name);
+        return CLI_EXIT_DATA;
+    }
+    it2n_model_init(&g_mdl);
+    rc = it2n_model_solve(&g_mdl, &g_ds, &info);
+    if (rc != IT2N_OK) {
+        it2n_csv_locate(&g_csv, &info, &e);
+        report(&e, name);
+        return CLI_EXIT_DATA;
+    }
+    return CLI_EXIT_OK;
+}
+
+static void put_val(it2n_val v, unsigned decimals)
+{
+    char buf[48];
+    if (it2n_format_val(buf, sizeof(buf), v, decimals) < 0) {
+        fputs("?", stdout); /* cannot happen: buf fits any int64 */
+        return;
+    }
+    fputs(buf, stdout);
+}
+
+static void put_par(it2n_par p, unsigned decimals)
+{
+    char buf[48];
+    if (it2n_format_par(buf, sizeof(buf), p, decimals) < 0) {
+        fputs("?", stdout);
+        return;
+    }
+    fputs(buf, stdout);
+}
+
+static bool has_z(void)
+{
+    return (g_mdl.data.flags & IT2N_F_Z) != 0u;
+}
+
+/* ",x,y[,z],T,I,F" from a channel vector. */
+static void put_channels(const it2n_val *v, unsigned decimals)
+{
+    unsigned ch;
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        if (ch == IT2N_CH_Z && !has_z()) {
+            continue;
+        }
+        putchar(',');
+        put_val(v[ch], decimals);
+    }
+}
+
+static void put_header(const char *lead, const char *tail)
+{
+    printf("%s,x,y%s,T,I,F%s\n", lead, has_z() ? ",z" : "", tail);
+}
+
+static int finish_output(void)
+{
+    if (fflush(stdout) != 0 || ferror(stdout)) {
+        fprintf(stderr, "it2n: write error: %s\n", strerror(errno));
+        return CLI_EXIT_DATA;
+    }
+    return CLI_EXIT_OK;
+}
+
+static int cmd_check(const cli_opts *o)
+{
+    const it2n_dataset *d = &g_mdl.data;
+    bool t1 = (d->flags & IT2N_F_TYPE1) != 0u;
+    printf("%s: ok: %ux%u grid (n=%u, m=%u), %s, coordinates %s, %s "
+           "parameters\n",
+           display_name(o), d->n + 1u, d->m + 1u, d->n, d->m,
+           t1 ? "type-1 (footprint D)" : "type-2 (7 footprints)",
+           has_z() ? "x,y,z" : "x,y",
+           (d->flags & IT2N_F_CHORD) ? "chord-length" : "uniform");
+    return finish_output();
+}
+
+static int cmd_solve(const cli_opts *o)
+{
+    unsigned i, j, fp;
+    put_header("i,j,footprint", "");
+    for (i = 0; i <= g_mdl.data.n; i++) {
+        for (j = 0; j <= g_mdl.data.m; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (!it2n_model_has_fp(&g_mdl, fp)) {
+                    continue;
+                }
+                printf("%u,%u,%s", i, j, it2n_fp_name(fp));
+                put_channels(g_mdl.ctrl[i][j][fp], o->decimals);
+                putchar('\n');
+            }
+        }
+    }
+    return finish_output();
+}
+
+/* Names of the memberships of fp flagged out of [0, 1], or "-". */
+static void put_flags(uint32_t oor, unsigned fp)
+{
+    static const char *const tif[3] = {"T", "I", "F"};
+    bool any = false;
+    unsigned k;
+    putchar(',');
+    for (k = 0; k < 3u; k++) {
+        if (oor & ((uint32_t)1 << (fp * 3u + k))) {
+            printf("%s%s", any ? "|" : "", tif[k]);
+            any = true;
+        }
+    }
+    if (!any) {
+        putchar('-');
+    }
+}
+
+/* A summary row: coordinates empty, T,I,F filled, flags from the values. */
+static void put_summary_row(it2n_par u, it2n_par w, const char *what,
+                            const it2n_val tif[3], unsigned decimals)
+{
+    static const char *const names[3] = {"T", "I", "F"};
+    bool any = false;
+    unsigned k;
+    put_par(u, decimals);
+    putchar(',');
+    put_par(w, decimals);
+    printf(",%s,,%s", what, has_z() ? ",," : "");
+    for (k = 0; k < 3u; k++) {
+        putchar(',');
+        put_val(tif[k], decimals);
+    }
+    putchar(',');
+    for (k = 0; k < 3u; k++) {
+        if (tif[k] < 0 || tif[k] > IT2N_VAL_ONE) {
+            printf("%s%s", any ? "|" : "", names[k]);
+            any = true;
+        }
+    }
+    if (!any) {
+        putchar('-');
+    }
+    putchar('\n');
+}
+
+static void put_point(it2n_par u, it2n_par w, const it2n_point *pt,
+                      const cli_opts *o)
+{
+    unsigned fp;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if (!it2n_model_has_fp(&g_mdl, fp)) {
+            continue;
+        }
+        put_par(u, o->decimals);
+        putchar(',');
+        put_par(w, o->decimals);
+        printf(",%s", it2n_fp_name(fp));
+        put_channels(pt->v[fp], o->decimals);
+        put_flags(pt->out_of_range, fp);
+        putchar('\n');
+    }
+    if (o->summary) {
+        put_summary_row(u, w, "upper_min", pt->sum.upper_min, o->decimals);
+        put_summary_row(u, w, "upper_max", pt->sum.upper_max, o->decimals);
+        put_summary_row(u, w, "lower_min", pt->sum.lower_min, o->decimals);
+        put_summary_row(u, w, "lower_max", pt->sum.lower_max, o->decimals);
+    }
+}
+
+static int core_fail(const char *what, int rc)
+{
+    fprintf(stderr, "it2n: %s failed: %s\n", what, it2n_strerror(rc));
+    return CLI_EXIT_DATA;
+}
+
+static int cmd_eval(const cli_opts *o)
+{
+    it2n_point pt;
+    size_t k;
+    put_header("u,w,footprint", ",out_of_range");
+    for (k = 0; k < o->nat; k++) {
+        int rc = it2n_eval(&g_mdl, o->at[k].a, o->at[k].b, &pt);
+        if (rc != IT2N_OK) {
+            return core_fail("eval", rc);
+        }
+        put_point(o->at[k].a, o->at[k].b, &pt, o);
+    }
+    return finish_output();
+}
+
+static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
+                      it2n_par w, const it2n_point *pt)
+{
+    (void)r;
+    (void)c;
+    put_point(u, w, pt, (const cli_opts *)ctx);
+    return ferror(stdout) ? 1 : 0;
+}
+
+static int cmd_sample(const cli_opts *o)
+{
+    int rc;
+    put_header("u,w,footprint", ",out_of_range");
+    rc = it2n_sample(&g_mdl, o->rows, o->cols, sample_row, (void *)o);
+    if (rc < 0) {
+        return core_fail("sample", rc);
+    }
+    return finish_output();
+}
+
+static int cmd_deriv(const cli_opts *o)
+{
+    it2n_point du, dw;
+    size_t k;
+    unsigned fp;
+    put_header("u,w,footprint,wrt", "");
+    for (k = 0; k < o->nat; k++) {
+        int rc = it2n_deriv(&g_mdl, o->at[k].a, o->at[k].b, &du, &dw);
+        if (rc != IT2N_OK) {
+            return core_fail("deriv", rc);
+        }
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            int d;
+            if (!it2n_model_has_fp(&g_mdl, fp)) {
+                continue;
+            }
+            for (d = 0; d < 2; d++) {
+                put_par(o->at[k].a, o->decimals);
+                putchar(',');
+                put_par(o->at[k].b, o->decimals);
+                printf(",%s,%s", it2n_fp_name(fp), d == 0 ? "u" : "w");
+                put_channels(d == 0 ? du.v[fp] : dw.v[fp], o->decimals);
+                putchar('\n');
+            }
+        }
+    }
+    return finish_output();
+}
+
+static int cmd_locate(const cli_opts *o)
+{
+    static const char *const status[3] = {"inside", "outside", "noconv"};
+    it2n_locate_result res;
+    size_t k;
+    unsigned fp;
+    printf("x,y,footprint,u,w%s,T,I,F,status\n", has_z() ? ",z" : "");
+    for (k = 0; k < o->nat; k++) {
+        int rc = it2n_locate(&g_mdl, o->at[k].a, o->at[k].b, &res);
+        if (rc != IT2N_OK) {
+            return core_fail("locate", rc);
+        }
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            const it2n_locate_fp *r = &res.fp[fp];
+            unsigned ch;
+            if (!it2n_model_has_fp(&g_mdl, fp)) {
+                continue;
+            }
+            put_val(o->at[k].a, o->decimals);
+            putchar(',');
+            put_val(o->at[k].b, o->decimals);
+            printf(",%s,", it2n_fp_name(fp));
+            put_par(r->u, o->decimals);
+            putchar(',');
+            put_par(r->w, o->decimals);
+            for (ch = has_z() ? IT2N_CH_Z : IT2N_CH_T; ch < IT2N_CH_COUNT;
+                 ch++) {
+                putchar(',');
+                put_val(r->v[ch], o->decimals);
+            }
+            printf(",%s\n", r->status < 3u ? status[r->status] : "?");
+        }
+    }
+    return finish_output();
+}
+
+int cli_run(const cli_opts *o)
+{
+    int rc = load(o);
+    if (rc != CLI_EXIT_OK) {
+        return rc;
+    }
+    if (strcmp(o->cmd, "check") == 0) {
+        return cmd_check(o);
+    }
+    if (strcmp(o->cmd, "solve") == 0) {
+        return cmd_solve(o);
+    }
+    if (strcmp(o->cmd, "eval") == 0) {
+        return cmd_eval(o);
+    }
+    if (strcmp(o->cmd, "sample") == 0) {
+        return cmd_sample(o);
+    }
+    if (strcmp(o->cmd, "deriv") == 0) {
+        return cmd_deriv(o);
+    }
+    return cmd_locate(o);
+}

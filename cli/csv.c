@@ -1,0 +1,497 @@
+/*
+ * Streaming dataset CSV reader (see csv.h for the format and contract).
+ * Lines are collected in a fixed buffer; each complete line is parsed at
+ * once, and each row is validated by the core on a scratch data set so
+ * errors carry the line that caused them.
+ */
+#include "csv.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#define CSV_MAX_FIELDS 10
+
+static const char hdr_xy[] = "i,j,footprint,x,y,T,I,F";
+static const char hdr_xyz[] = "i,j,footprint,x,y,z,T,I,F";
+
+typedef struct csv_field {
+    const char *s;
+    size_t len;
+} csv_field;
+
+static void set_text(it2n_csv_error *e, const char *s, size_t len)
+{
+    if (len >= sizeof(e->text)) {
+        len = sizeof(e->text) - 1u;
+    }
+    memcpy(e->text, s, len);
+    e->text[len] = '\0';
+}
+
+static void err_clear(it2n_csv_error *e)
+{
+    memset(e, 0, sizeof(*e));
+    e->info.i = -1;
+    e->info.j = -1;
+    e->info.fp = -1;
+    e->info.ch = -1;
+}
+
+/* Record the first error (sticky) and return its code. */
+static int fail(it2n_csv *p, int code, int field, const csv_field *f)
+{
+    p->err.code = code;
+    p->err.info.code = code;
+    p->err.line = p->line;
+    p->err.field = field;
+    if (f != NULL) {
+        set_text(&p->err, f->s, f->len);
+    }
+    p->error = code;
+    return code;
+}
+
+static bool is_space(char c)
+{
+    return c == ' ' || c == '\t';
+}
+
+static csv_field trim(const char *s, size_t len)
+{
+    csv_field f;
+    while (len > 0u && is_space(*s)) {
+        s++;
+        len--;
+    }
+    while (len > 0u && is_space(s[len - 1u])) {
+        len--;
+    }
+    f.s = s;
+    f.len = len;
+    return f;
+}
+
+/* Split on ','; returns the field count (CSV_MAX_FIELDS + 1 if more). */
+static int split(const char *s, size_t len, csv_field *out)
+{
+    int n = 0;
+    size_t start = 0, k;
+    for (k = 0; k <= len; k++) {
+        if (k == len || s[k] == ',') {
+            if (n == CSV_MAX_FIELDS) {
+                return CSV_MAX_FIELDS + 1;
+            }
+            out[n++] = trim(s + start, k - start);
+            start = k + 1u;
+        }
+    }
+    return n;
+}
+
+static bool field_is(const csv_field *f, const char *name)
+{
+    return f->len == strlen(name) && memcmp(f->s, name, f->len) == 0;
+}
+
+static int parse_header(it2n_csv *p, const char *s, size_t len)
+{
+    csv_field f[CSV_MAX_FIELDS];
+    static const char *const xy[] = {"i", "j", "footprint", "x",
+                                     "y", "T", "I", "F"};
+    static const char *const xyz[] = {"i", "j", "footprint", "x", "y",
+                                      "z", "T", "I", "F"};
+    const char *const *want = NULL;
+    int n = split(s, len, f), k;
+    csv_field whole;
+
+    if (n == 8) {
+        want = xy;
+    } else if (n == 9) {
+        want = xyz;
+    }
+    for (k = 0; want != NULL && k < n; k++) {
+        if (!field_is(&f[k], want[k])) {
+            want = NULL;
+        }
+    }
+    if (want == NULL) {
+        whole = trim(s, len);
+        return fail(p, IT2N_CSV_ERR_HEADER, 0, &whole);
+    }
+    p->z = n == 9;
+    p->header = 1;
+    it2n_dataset_init(&p->scratch, IT2N_MAX_DEGREE, IT2N_MAX_DEGREE,
+                      p->z ? IT2N_F_Z : 0u, NULL);
+    return IT2N_OK;
+}
+
+/* A grid index: decimal digits only, value 0..IT2N_MAX_DEGREE. */
+static bool parse_index(const csv_field *f, unsigned *out)
+{
+    unsigned v = 0;
+    size_t k;
+    if (f->len == 0u || f->len > 3u) {
+        return false;
+    }
+    for (k = 0; k < f->len; k++) {
+        if (f->s[k] < '0' || f->s[k] > '9') {
+            return false;
+        }
+        v = v * 10u + (unsigned)(f->s[k] - '0');
+    }
+    if (v > IT2N_MAX_DEGREE) {
+        return false;
+    }
+    *out = v;
+    return true;
+}
+
+static int parse_row(it2n_csv *p, const char *s, size_t len)
+{
+    static const int8_t ch_xy[] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I,
+                                   IT2N_CH_F};
+    static const int8_t ch_xyz[] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_Z,
+                                    IT2N_CH_T, IT2N_CH_I, IT2N_CH_F};
+    csv_field f[CSV_MAX_FIELDS];
+    const int8_t *chs = p->z ? ch_xyz : ch_xy;
+    int want = p->z ? 9 : 8;
+    int n = split(s, len, f), k, rc, fp;
+    unsigned i, j;
+    it2n_val vals[IT2N_CH_COUNT];
+    it2n_errinfo info;
+
+    if (n != want) {
+        fail(p, IT2N_CSV_ERR_FIELDS, 0, NULL);
+        p->err.got = n > CSV_MAX_FIELDS ? CSV_MAX_FIELDS + 1 : n;
+        p->err.expected = want;
+        return p->error;
+    }
+    if (!parse_index(&f[0], &i)) {
+        return fail(p, IT2N_CSV_ERR_INDEX, 1, &f[0]);
+    }
+    p->err.info.i = (int16_t)i;
+    if (!parse_index(&f[1], &j)) {
+        return fail(p, IT2N_CSV_ERR_INDEX, 2, &f[1]);
+    }
+    p->err.info.j = (int16_t)j;
+    fp = it2n_fp_from_name(f[2].s, f[2].len);
+    if (fp < 0) {
+        return fail(p, IT2N_CSV_ERR_FOOTPRINT, 3, &f[2]);
+    }
+    p->err.info.fp = (int8_t)fp;
+
+    memset(vals, 0, sizeof(vals));
+    for (k = 3; k < want; k++) {
+        int8_t ch = chs[k - 3];
+        rc = it2n_parse_val(f[k].s, f[k].len, &vals[ch]);
+        if (rc != IT2N_OK) {
+            p->err.info.ch = ch;
+            if (rc == IT2N_ERR_RANGE) {
+                p->err.info.lo = -(it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE;
+                p->err.info.hi = (it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE;
+                if (ch >= IT2N_CH_T) {
+                    p->err.info.lo = 0;
+                    p->err.info.hi = IT2N_VAL_ONE;
+                }
+                return fail(p, IT2N_ERR_RANGE, k + 1, &f[k]);
+            }
+            return fail(p, IT2N_CSV_ERR_NUMBER, k + 1, &f[k]);
+        }
+    }
+
+    if (p->lines[i][j][fp] != 0u) {
+        fail(p, IT2N_ERR_DUPLICATE, 0, NULL);
+        p->err.other = p->lines[i][j][fp];
+        return p->error;
+    }
+    rc = it2n_dataset_put(&p->scratch, i, j, (unsigned)fp, vals, false, &info);
+    if (rc != IT2N_OK) {
+        int field = 0;
+        for (k = 3; k < want; k++) {
+            if (info.ch >= 0 && chs[k - 3] == info.ch) {
+                field = k + 1;
+            }
+        }
+        fail(p, rc, field, field > 0 ? &f[field - 1] : NULL);
+        p->err.info = info;
+        return p->error;
+    }
+    p->lines[i][j][fp] = (uint32_t)p->line;
+    p->rows++;
+    p->max_i = i > p->max_i ? i : p->max_i;
+    p->max_j = j > p->max_j ? j : p->max_j;
+    if (fp != IT2N_FP_D) {
+        p->non_d = 1;
+    }
+    return IT2N_OK;
+}
+
+static int parse_line(it2n_csv *p)
+{
+    const char *s = p->buf;
+    size_t len = p->len, k;
+    csv_field t;
+
+    if (p->overlong) {
+        return fail(p, IT2N_CSV_ERR_LONG, 0, NULL);
+    }
+    if (p->line == 1u && len >= 3u && memcmp(s, "\xEF\xBB\xBF", 3) == 0) {
+        s += 3; /* UTF-8 byte order mark */
+        len -= 3u;
+    }
+    for (k = 0; k < len; k++) {
+        unsigned char c = (unsigned char)s[k];
+        if ((c < 0x20u && c != '\t') || c == 0x7Fu) {
+            fail(p, IT2N_CSV_ERR_BINARY, 0, NULL);
+            p->err.got = c;
+            return p->error;
+        }
+    }
+    t = trim(s, len);
+    if (t.len == 0u || t.s[0] == '#') {
+        return IT2N_OK;
+    }
+    if (!p->header) {
+        return parse_header(p, t.s, t.len);
+    }
+    err_clear(&p->err);
+    return parse_row(p, t.s, t.len);
+}
+
+void it2n_csv_init(it2n_csv *p, unsigned flags)
+{
+    memset(p, 0, sizeof(*p));
+    err_clear(&p->err);
+    p->flags = flags & IT2N_F_CHORD;
+}
+
+static int report(const it2n_csv *p, it2n_csv_error *err)
+{
+    if (err != NULL) {
+        *err = p->err;
+    }
+    return p->error;
+}
+
+int it2n_csv_feed(it2n_csv *p, const char *data, size_t len,
+                  it2n_csv_error *err)
+{
+    size_t k;
+    for (k = 0; k < len && p->error == 0; k++) {
+        char c = data[k];
+        if (c == '\n') {
+            p->line++;
+            if (p->len > 0u && p->buf[p->len - 1u] == '\r') {
+                p->len--;
+            }
+            if (p->len > IT2N_CSV_LINE_MAX) {
+                p->overlong = 1;
+            }
+            parse_line(p);
+            p->len = 0;
+            p->overlong = 0;
+        } else if (p->len < IT2N_CSV_LINE_MAX + 1u) {
+            /* One extra byte so a CR before LF still fits a full line. */
+            p->buf[p->len++] = c;
+        } else {
+            p->overlong = 1;
+        }
+    }
+    return report(p, err);
+}
+
+void it2n_csv_locate(const it2n_csv *p, const it2n_errinfo *info,
+                     it2n_csv_error *err)
+{
+    err_clear(err);
+    err->code = info->code;
+    err->info = *info;
+    if (info->i >= 0 && info->j >= 0 && info->fp >= 0 &&
+        info->i < IT2N_DIM && info->j < IT2N_DIM &&
+        info->fp < IT2N_FP_COUNT) {
+        err->line = p->lines[info->i][info->j][info->fp];
+        if (err->line != 0u && info->ch >= 0 && info->ch < IT2N_CH_COUNT) {
+            err->field = 4 + info->ch - ((!p->z && info->ch > IT2N_CH_Z) ? 1 : 0);
+        }
+    }
+}
+
+int it2n_csv_finish(it2n_csv *p, it2n_dataset *ds, it2n_csv_error *err)
+{
+    it2n_dataset out;
+    it2n_errinfo info;
+    unsigned flags, i, j, fp;
+    int rc;
+
+    if (p->error == 0 && (p->len > 0u || p->overlong)) {
+        /* Last line without a line end. */
+        it2n_csv_feed(p, "\n", 1u, NULL);
+    }
+    if (p->error != 0) {
+        return report(p, err);
+    }
+    if (!p->header) {
+        p->line = 0;
+        fail(p, IT2N_CSV_ERR_HEADER, 0, NULL);
+        return report(p, err);
+    }
+    if (p->rows == 0u) {
+        p->line = 0;
+        fail(p, IT2N_CSV_ERR_EMPTY, 0, NULL);
+        return report(p, err);
+    }
+    if (p->max_i == 0u || p->max_j == 0u) {
+        p->line = 0;
+        fail(p, IT2N_CSV_ERR_DEGREE, 0, NULL);
+        p->err.got = p->max_i == 0u ? 'i' : 'j';
+        return report(p, err);
+    }
+    flags = p->flags | (p->z ? IT2N_F_Z : 0u) |
+            (p->non_d ? 0u : IT2N_F_TYPE1);
+    rc = it2n_dataset_init(&out, p->max_i, p->max_j, flags, &info);
+    for (i = 0; rc == IT2N_OK && i <= p->max_i; i++) {
+        for (j = 0; rc == IT2N_OK && j <= p->max_j; j++) {
+            for (fp = 0; rc == IT2N_OK && fp < IT2N_FP_COUNT; fp++) {
+                if (p->lines[i][j][fp] != 0u) {
+                    rc = it2n_dataset_put(&out, i, j, fp,
+                                          p->scratch.values[i][j][fp], false,
+                                          &info);
+                }
+            }
+        }
+    }
+    if (rc == IT2N_OK) {
+        rc = it2n_dataset_check(&out, &info);
+    }
+    if (rc != IT2N_OK) {
+        it2n_csv_locate(p, &info, &p->err);
+        p->err.code = rc;
+        p->error = rc;
+        return report(p, err);
+    }
+    memcpy(ds, &out, sizeof(out));
+    return IT2N_OK;
+}
+
+/* ---- Messages ----------------------------------------------------------- */
+
+/* Q24 value as short decimal text: 6 decimals, trailing zeros dropped. */
+static void short_val(char *buf, size_t size, it2n_val v)
+{
+    int n = it2n_format_val(buf, size, v, 6);
+    if (n <= 0) {
+        snprintf(buf, size, "?");
+        return;
+    }
+    while (n > 1 && buf[n - 1] == '0') {
+        buf[--n] = '\0';
+    }
+    if (n > 1 && buf[n - 1] == '.') {
+        buf[--n] = '\0';
+    }
+}
+
+/* " at (i=2,j=1,RL)" or "" */
+static void where(char *buf, size_t size, const it2n_errinfo *info)
+{
+    const char *fpn = info->fp >= 0 ? it2n_fp_name((unsigned)info->fp) : NULL;
+    if (info->i >= 0 && info->j >= 0 && fpn != NULL) {
+        snprintf(buf, size, " at (i=%d,j=%d,%s)", info->i, info->j, fpn);
+    } else if (info->i >= 0 && info->j >= 0) {
+        snprintf(buf, size, " at (i=%d,j=%d)", info->i, info->j);
+    } else {
+        buf[0] = '\0';
+    }
+}
+
+int it2n_csv_message(const it2n_csv_error *e, const char *name, char *buf,
+                     size_t size)
+{
+    char pre[256], at[48], v[32], lo[32], hi[32], txt[48];
+    const it2n_errinfo *info = &e->info;
+    const char *chn =
+        info->ch >= 0 ? it2n_ch_name((unsigned)info->ch) : NULL;
+
+    if (chn == NULL) {
+        chn = "value";
+    }
+    if (e->line != 0u) {
+        snprintf(pre, sizeof(pre), "%s:%lu", name, e->line);
+    } else {
+        snprintf(pre, sizeof(pre), "%s", name);
+    }
+    where(at, sizeof(at), info);
+    short_val(v, sizeof(v), info->value);
+    short_val(lo, sizeof(lo), info->lo);
+    short_val(hi, sizeof(hi), info->hi);
+    snprintf(txt, sizeof(txt), "%s", e->text[0] != '\0' ? e->text : v);
+
+    switch (e->code) {
+    case IT2N_CSV_ERR_HEADER:
+        if (e->line == 0u) {
+            return snprintf(buf, size,
+                            "%s: no header line (expected '%s' or '%s')", pre,
+                            hdr_xy, hdr_xyz);
+        }
+        return snprintf(buf, size, "%s: bad header '%s' (expected '%s' or '%s')",
+                        pre, e->text, hdr_xy, hdr_xyz);
+    case IT2N_CSV_ERR_FIELDS:
+        return snprintf(buf, size, "%s: %s%d fields, expected %d (%s)", pre,
+                        e->got > CSV_MAX_FIELDS ? "more than " : "",
+                        e->got > CSV_MAX_FIELDS ? CSV_MAX_FIELDS : e->got,
+                        e->expected, e->expected == 9 ? hdr_xyz : hdr_xy);
+    case IT2N_CSV_ERR_NUMBER:
+        return snprintf(buf, size, "%s: %s='%s' is not a decimal number%s",
+                        pre, chn, e->text, at);
+    case IT2N_CSV_ERR_INDEX:
+        return snprintf(buf, size,
+                        "%s: %s='%s' is not a grid index 0..%d "
+                        "(IT2N_MAX_DEGREE)",
+                        pre, e->field == 1 ? "i" : "j", e->text,
+                        IT2N_MAX_DEGREE);
+    case IT2N_CSV_ERR_FOOTPRINT:
+        return snprintf(buf, size,
+                        "%s: unknown footprint '%s' (expected one of LL, LR, "
+                        "L, D, R, RL, RR)",
+                        pre, e->text);
+    case IT2N_CSV_ERR_LONG:
+        return snprintf(buf, size, "%s: line longer than %d bytes", pre,
+                        IT2N_CSV_LINE_MAX);
+    case IT2N_CSV_ERR_EMPTY:
+        return snprintf(buf, size, "%s: no data rows after the header", pre);
+    case IT2N_CSV_ERR_DEGREE:
+        return snprintf(buf, size,
+                        "%s: every row has %c=0: need 2 to %d grid points "
+                        "per direction (degree 1..%d)",
+                        pre, e->got, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE);
+    case IT2N_CSV_ERR_BINARY:
+        return snprintf(buf, size, "%s: control byte 0x%02x in line", pre,
+                        (unsigned)e->got);
+    case IT2N_ERR_RANGE:
+        return snprintf(buf, size, "%s: %s=%s outside [%s,%s]%s", pre, chn,
+                        txt, lo, hi, at);
+    case IT2N_ERR_DUPLICATE:
+        if (e->other != 0u) {
+            return snprintf(buf, size, "%s: duplicate row%s (first on line %lu)",
+                            pre, at, e->other);
+        }
+        return snprintf(buf, size, "%s: duplicate row%s", pre, at);
+    case IT2N_ERR_MISSING:
+        return snprintf(buf, size, "%s: missing row%s%s", pre, at,
+                        info->fp >= 0 && info->fp != IT2N_FP_D
+                            ? " (rows other than D are present, so every "
+                              "grid point needs all seven footprints)"
+                            : "");
+    case IT2N_ERR_ORDER:
+        return snprintf(buf, size,
+                        "%s: %s=%s breaks footprint nesting "
+                        "LL<=LR<=L<=D<=R<=RL<=RR (neighbour bounds [%s,%s])%s",
+                        pre, chn, v, lo, hi, at);
+    default:
+        if (info->ch >= 0) {
+            return snprintf(buf, size, "%s: %s (%s)%s", pre,
+                            it2n_strerror(e->code), chn, at);
+        }
+        return snprintf(buf, size, "%s: %s%s", pre, it2n_strerror(e->code), at);
+    }
+}

@@ -1,0 +1,105 @@
+/*
+ * Streaming reader for the it2n dataset CSV format, shared by the CLI and the
+ * daemon. No heap, never prints or exits: errors come back as structs and
+ * it2n_csv_message() turns one into text (the only libc use is snprintf).
+ *
+ * Format: '#' comment lines and blank lines anywhere; a header line
+ *   i,j,footprint,x,y,T,I,F   or   i,j,footprint,x,y,z,T,I,F
+ * then one row per grid point and footprint. Fields may be padded with
+ * spaces or tabs; lines end in LF or CRLF. Degrees are n = max i, m = max j;
+ * z is present iff the header has it; the model is type-1 iff every row is
+ * footprint D, otherwise all seven footprints are required.
+ *
+ * Contract:
+ *   it2n_csv_init(p, flags);                     flags: extra IT2N_F_* (CHORD)
+ *   it2n_csv_feed(p, buf, len, &e) ...           any chunking, same result
+ *   it2n_csv_finish(p, &ds, &e);                 builds and checks ds
+ * The first error is sticky: later feeds and finish return it again. The
+ * parser keeps the line of every (i, j, footprint) so errors found later
+ * (it2n_model_solve, ...) can be mapped back with it2n_csv_locate().
+ */
+#ifndef IT2N_CSV_H
+#define IT2N_CSV_H
+
+#include "it2n.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Longest accepted line, in bytes, without the line end. */
+#define IT2N_CSV_LINE_MAX 256
+
+/* Reader errors; core errors (IT2N_ERR_*) are passed through unchanged. */
+enum it2n_csv_error_code {
+    IT2N_CSV_ERR_HEADER = -101,   /* header missing or not a known layout */
+    IT2N_CSV_ERR_FIELDS = -102,   /* wrong number of fields in a row      */
+    IT2N_CSV_ERR_NUMBER = -103,   /* field is not a decimal number        */
+    IT2N_CSV_ERR_INDEX = -104,    /* i or j not an integer in 0..MAX      */
+    IT2N_CSV_ERR_FOOTPRINT = -105,/* unknown footprint name               */
+    IT2N_CSV_ERR_LONG = -106,     /* line longer than IT2N_CSV_LINE_MAX   */
+    IT2N_CSV_ERR_EMPTY = -107,    /* no data rows                         */
+    IT2N_CSV_ERR_DEGREE = -108,   /* max i or max j is 0 (degree < 1)     */
+    IT2N_CSV_ERR_BINARY = -109    /* NUL or other control byte in a line  */
+};
+
+/* What went wrong and where. line is 1-based, 0 when no row is to blame. */
+typedef struct it2n_csv_error {
+    int code;                /* IT2N_CSV_ERR_* or IT2N_ERR_*              */
+    unsigned long line;      /* offending line, or 0                      */
+    unsigned long other;     /* first line of a duplicate, or 0           */
+    int field;               /* 1-based field number, or 0                */
+    int got, expected;       /* field count, or the control byte in got   */
+    char text[40];           /* offending field text (truncated), or ""   */
+    it2n_errinfo info;       /* core detail (code, i, j, fp, ch, ...)     */
+} it2n_csv_error;
+
+/* Parser state; all memory is here (about 24 KiB). Treat as opaque. */
+typedef struct it2n_csv {
+    int error;                       /* sticky first error, or 0      */
+    it2n_csv_error err;              /* ... and its detail            */
+    unsigned long line;              /* lines completed so far        */
+    size_t len;                      /* bytes in buf                  */
+    uint8_t overlong, cr, header, z; /* line state, header seen, z    */
+    unsigned flags;                  /* extra IT2N_F_* from init      */
+    unsigned rows, max_i, max_j;
+    uint8_t non_d;                   /* a footprint other than D seen */
+    char buf[IT2N_CSV_LINE_MAX + 1];
+    uint32_t lines[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT]; /* 0 = absent */
+    /* Rows as read, validated by it2n_dataset_put on a maximal grid so
+     * range errors are found (and named) on the line that has them. */
+    it2n_dataset scratch;
+} it2n_csv;
+
+/* Start reading; flags are extra IT2N_F_* bits for the data set (CHORD). */
+void it2n_csv_init(it2n_csv *p, unsigned flags);
+
+/*
+ * Consume len bytes (any split, even mid-line). Returns IT2N_OK or the first
+ * error (also stored in *err when err is not NULL).
+ */
+int it2n_csv_feed(it2n_csv *p, const char *data, size_t len,
+                  it2n_csv_error *err);
+
+/*
+ * End of input: derive degrees, z and type-1, fill ds with
+ * it2n_dataset_init/it2n_dataset_put in file order, then
+ * it2n_dataset_check. Returns IT2N_OK or the first error with its line.
+ * ds is only written on success.
+ */
+int it2n_csv_finish(it2n_csv *p, it2n_dataset *ds, it2n_csv_error *err);
+
+/*
+ * Turn a core error found after parsing (it2n_model_solve, ...) into a
+ * reader error naming the line of (info->i, info->j, info->fp) if known.
+ */
+void it2n_csv_locate(const it2n_csv *p, const it2n_errinfo *info,
+                     it2n_csv_error *err);
+
+/*
+ * Describe err as "NAME:LINE: message" (NAME alone if no line) in buf, NUL
+ * terminated, truncated to size. Returns the length snprintf would write.
+ */
+int it2n_csv_message(const it2n_csv_error *err, const char *name, char *buf,
+                     size_t size);
+
+#endif /* IT2N_CSV_H */

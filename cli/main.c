@@ -1,0 +1,319 @@
+/*
+ * it2n — host command-line tool for IT2NBS interpolation models.
+ * Option parsing and help texts; the commands are in commands.c.
+ * Exit status: 0 ok, 1 usage error, 2 data error.
+ */
+#include "cli.h"
+
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct cli_cmd {
+    const char *name;
+    const char *args;     /* synopsis after DATA.csv         */
+    const char *summary;  /* one line for `it2n --help`      */
+    const char *help;     /* details for `it2n CMD --help`   */
+    unsigned opts;        /* CLI_O_* accepted                */
+} cli_cmd;
+
+#define CLI_O_AT_UW 0x01u
+#define CLI_O_AT_XY 0x02u
+#define CLI_O_SUMMARY 0x04u
+#define CLI_O_GRID 0x08u
+
+static const char common_help[] =
+    "Common options:\n"
+    "  --chord         chord-length parameters instead of uniform i/n, j/m\n"
+    "  --decimals N    digits after the point, 6..9 (default 6)\n"
+    "  -h, --help      this help\n"
+    "DATA.csv is '-' for standard input. Exit status: 0 ok, 1 usage error,\n"
+    "2 data error (message on stderr as FILE:LINE: ...).\n";
+
+static const cli_cmd cmds[] = {
+    {"check", "", "validate the dataset (and that it solves)",
+     "Validate DATA.csv: header, every (i,j,footprint) exactly once,\n"
+     "T,I,F in [0,1], coordinates within range, footprints nested\n"
+     "LL<=LR<=L<=D<=R<=RL<=RR on every axis, and that the model solves.\n"
+     "Prints one summary line on success.\n",
+     0u},
+    {"solve", "", "print the control nets",
+     "Print the Bezier control points of every footprint surface as CSV\n"
+     "with the input's columns: i,j,footprint,x,y[,z],T,I,F.\n",
+     0u},
+    {"eval", "--at U,W [--at U,W ...] [--summary]",
+     "evaluate the surfaces at parameters (u,w)",
+     "Evaluate every footprint surface at each (u,w) in [0,1]^2.\n"
+     "Header u,w,footprint,x,y[,z],T,I,F,out_of_range; out_of_range names\n"
+     "the memberships outside [0,1] (e.g. T|F) or is '-'.\n"
+     "  --at U,W     parameters, repeatable, in order of output\n"
+     "  --summary    after each point, rows upper_min, upper_max (over\n"
+     "               LL,D,RR) and lower_min, lower_max (over LR,D,RL) with\n"
+     "               empty coordinates and the T,I,F bounds\n",
+     CLI_O_AT_UW | CLI_O_SUMMARY},
+    {"sample", "--grid RxC [--summary]",
+     "evaluate on a uniform RxC parameter grid",
+     "Like eval on u = r/(R-1), w = c/(C-1), row-major; R, C in 2..65535.\n"
+     "  --grid RxC   grid size\n"
+     "  --summary    interval summary rows as in eval\n",
+     CLI_O_GRID | CLI_O_SUMMARY},
+    {"locate", "--at X,Y [--at X,Y ...]",
+     "find each footprint's (u,w) through a location (x,y)",
+     "For each footprint find (u,w) whose surface passes through (x,y) and\n"
+     "print the memberships there. Header x,y,footprint,u,w[,z],T,I,F,status\n"
+     "with status inside, outside (nearest boundary point) or noconv.\n"
+     "  --at X,Y     location, repeatable\n",
+     CLI_O_AT_XY},
+    {"deriv", "--at U,W [--at U,W ...]",
+     "partial derivatives dS/du and dS/dw",
+     "Print dS/du (wrt=u) and dS/dw (wrt=w) of every surface at each (u,w).\n"
+     "Header u,w,footprint,wrt,x,y[,z],T,I,F.\n"
+     "  --at U,W     parameters, repeatable\n",
+     CLI_O_AT_UW},
+};
+#define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
+
+static void usage_all(FILE *out)
+{
+    size_t k;
+    fprintf(out,
+            "Usage: it2n COMMAND DATA.csv [OPTIONS]\n"
+            "Interval type-2 neutrosophic Bezier surface interpolation.\n\n"
+            "Commands:\n");
+    for (k = 0; k < NCMDS; k++) {
+        fprintf(out, "  %-8s %s\n", cmds[k].name, cmds[k].summary);
+    }
+    fprintf(out,
+            "\nDATA.csv: header i,j,footprint,x,y[,z],T,I,F then one row per\n"
+            "grid point and footprint (LL,LR,L,D,R,RL,RR, or D only).\n"
+            "'it2n COMMAND --help' for details; 'it2n --version'.\n\n%s",
+            common_help);
+}
+
+static void usage_cmd(const cli_cmd *c)
+{
+    printf("Usage: it2n %s DATA.csv%s%s [--chord] [--decimals N]\n\n%s\n%s",
+           c->name, c->args[0] ? " " : "", c->args, c->help, common_help);
+}
+
+static int usage_error(const char *cmd, const char *fmt, const char *arg)
+{
+    fprintf(stderr, "it2n: ");
+    fprintf(stderr, fmt, arg);
+    fprintf(stderr, "\nTry 'it2n %s%s--help'.\n", cmd ? cmd : "",
+            cmd ? " " : "");
+    return CLI_EXIT_USAGE;
+}
+
+static const cli_cmd *find_cmd(const char *name)
+{
+    size_t k;
+    for (k = 0; k < NCMDS; k++) {
+        if (strcmp(cmds[k].name, name) == 0) {
+            return &cmds[k];
+        }
+    }
+    return NULL;
+}
+
+/* "A,B" -> two numbers, both parameters (Q32) or both values (Q24). */
+static int parse_pair(const char *s, bool par, cli_at *out, const char **why)
+{
+    const char *comma = strchr(s, ',');
+    int rc1, rc2;
+    if (comma == NULL) {
+        *why = "expected two numbers separated by a comma";
+        return -1;
+    }
+    if (par) {
+        rc1 = it2n_parse_par(s, (size_t)(comma - s), &out->a);
+        rc2 = it2n_parse_par(comma + 1, strlen(comma + 1), &out->b);
+    } else {
+        rc1 = it2n_parse_val(s, (size_t)(comma - s), &out->a);
+        rc2 = it2n_parse_val(comma + 1, strlen(comma + 1), &out->b);
+    }
+    if (rc1 == IT2N_ERR_INVAL || rc2 == IT2N_ERR_INVAL) {
+        *why = "not a decimal number";
+        return -1;
+    }
+    if (rc1 != IT2N_OK || rc2 != IT2N_OK) {
+        *why = par ? "parameters must lie in [0,1]"
+                   : "coordinate beyond IT2N_COORD_LIMIT";
+        return -1;
+    }
+    return 0;
+}
+
+/* "RxC" with R, C in 2..65535. */
+static bool parse_grid(const char *s, unsigned *r, unsigned *c)
+{
+    char *end;
+    unsigned long a, b;
+    if (*s < '0' || *s > '9') {
+        return false;
+    }
+    a = strtoul(s, &end, 10);
+    if (*end != 'x' && *end != 'X') {
+        return false;
+    }
+    s = end + 1;
+    if (*s < '0' || *s > '9') {
+        return false;
+    }
+    b = strtoul(s, &end, 10);
+    if (*end != '\0' || a < 2 || b < 2 || a > 65535 || b > 65535) {
+        return false;
+    }
+    *r = (unsigned)a;
+    *c = (unsigned)b;
+    return true;
+}
+
+int main(int argc, char **argv)
+{
+    static const struct option longopts[] = {
+        {"at", required_argument, NULL, 'a'},
+        {"summary", no_argument, NULL, 's'},
+        {"grid", required_argument, NULL, 'g'},
+        {"chord", no_argument, NULL, 'c'},
+        {"decimals", required_argument, NULL, 'd'},
+        {"help", no_argument, NULL, 'h'},
+        {"version", no_argument, NULL, 'V'},
+        {NULL, 0, NULL, 0}};
+    cli_opts o;
+    const cli_cmd *c;
+    bool grid = false;
+    int opt, rc;
+
+    memset(&o, 0, sizeof(o));
+    o.decimals = 6;
+    if (argc < 2) {
+        usage_all(stderr);
+        return CLI_EXIT_USAGE;
+    }
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
+        strcmp(argv[1], "help") == 0) {
+        if (argc > 2 && (c = find_cmd(argv[2])) != NULL) {
+            usage_cmd(c);
+        } else {
+            usage_all(stdout);
+        }
+        return CLI_EXIT_OK;
+    }
+    if (strcmp(argv[1], "--version") == 0) {
+        printf("it2n %s (IT2N_MAX_DEGREE %d)\n", IT2N_CLI_VERSION,
+               IT2N_MAX_DEGREE);
+        return CLI_EXIT_OK;
+    }
+    c = find_cmd(argv[1]);
+    if (c == NULL) {
+        return usage_error(NULL, "unknown command '%s'", argv[1]);
+    }
+    o.cmd = c->name;
+
+    /* getopt_long permutes, so options may come before or after DATA. */
+    optind = 2;
+    opterr = 0;
+    while ((opt = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        const char *why = NULL;
+        char *end;
+        unsigned long d;
+        switch (opt) {
+        case 'h':
+            usage_cmd(c);
+            free(o.at);
+            return CLI_EXIT_OK;
+        case 'V':
+            printf("it2n %s\n", IT2N_CLI_VERSION);
+            free(o.at);
+            return CLI_EXIT_OK;
+        case 'c':
+            o.flags |= IT2N_F_CHORD;
+            break;
+        case 'd':
+            d = strtoul(optarg, &end, 10);
+            if (*optarg < '0' || *optarg > '9' || *end != '\0' || d < 6 ||
+                d > 9) {
+                free(o.at);
+                return usage_error(c->name, "--decimals '%s': expected 6..9",
+                                   optarg);
+            }
+            o.decimals = (unsigned)d;
+            break;
+        case 's':
+            if (!(c->opts & CLI_O_SUMMARY)) {
+                free(o.at);
+                return usage_error(c->name, "--summary does not apply to %s",
+                                   c->name);
+            }
+            o.summary = true;
+            break;
+        case 'g':
+            if (!(c->opts & CLI_O_GRID)) {
+                free(o.at);
+                return usage_error(c->name, "--grid does not apply to %s",
+                                   c->name);
+            }
+            if (!parse_grid(optarg, &o.rows, &o.cols)) {
+                free(o.at);
+                return usage_error(c->name,
+                                   "--grid '%s': expected RxC with R, C in "
+                                   "2..65535",
+                                   optarg);
+            }
+            grid = true;
+            break;
+        case 'a': {
+            cli_at *n;
+            if (!(c->opts & (CLI_O_AT_UW | CLI_O_AT_XY))) {
+                free(o.at);
+                return usage_error(c->name, "--at does not apply to %s",
+                                   c->name);
+            }
+            n = realloc(o.at, (o.nat + 1u) * sizeof(*o.at));
+            if (n == NULL) {
+                free(o.at);
+                fprintf(stderr, "it2n: out of memory\n");
+                return CLI_EXIT_DATA;
+            }
+            o.at = n;
+            if (parse_pair(optarg, (c->opts & CLI_O_AT_UW) != 0u,
+                           &o.at[o.nat], &why) != 0) {
+                fprintf(stderr, "it2n: --at '%s': %s\n", optarg, why);
+                fprintf(stderr, "Try 'it2n %s --help'.\n", c->name);
+                free(o.at);
+                return CLI_EXIT_USAGE;
+            }
+            o.nat++;
+            break;
+        }
+        case ':':
+            free(o.at);
+            return usage_error(c->name, "option '%s' needs an argument",
+                               argv[optind - 1]);
+        default:
+            free(o.at);
+            return usage_error(c->name, "unknown option '%s'",
+                               argv[optind - 1]);
+        }
+    }
+    if (optind != argc - 1) {
+        free(o.at);
+        return usage_error(c->name, "%s", optind >= argc
+                                              ? "missing DATA.csv"
+                                              : "expected exactly one DATA.csv");
+    }
+    o.path = argv[optind];
+    if ((c->opts & (CLI_O_AT_UW | CLI_O_AT_XY)) && o.nat == 0u) {
+        free(o.at);
+        return usage_error(c->name, "%s needs at least one --at", c->name);
+    }
+    if ((c->opts & CLI_O_GRID) && !grid) {
+        free(o.at);
+        return usage_error(c->name, "%s needs --grid RxC", c->name);
+    }
+    rc = cli_run(&o);
+    free(o.at);
+    return rc;
+}
