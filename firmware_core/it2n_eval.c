@@ -160,12 +160,32 @@ int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out)
     return IT2N_OK;
 }
 
-int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
-               it2n_point *dw)
+int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
+                    it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw)
 {
     it2n_par bu[IT2N_DIM], bw[IT2N_DIM], dbu[IT2N_DIM], dbw[IT2N_DIM];
     it2n_val q[IT2N_Q_SIZE];
-    unsigned mask, n, m;
+    unsigned n = mdl->data.n, m = mdl->data.m;
+    const it2n_val *net = &mdl->ctrl[0][0][0][0];
+    it2n__basis(n, u, bu);
+    it2n__basis(m, w, bw);
+    dbasis(n, u, dbu);
+    dbasis(m, w, dbw);
+    it2n__stage_u(net, n, bu, m + 1u, fpmask, q);
+    if (v != NULL) {
+        it2n__stage_w(q, m, bw, fpmask, v);
+    }
+    if (!stage_w_checked(q, m, dbw, fpmask, dw) ||
+        !stage_u_checked(net, n, dbu, m + 1u, fpmask, q) ||
+        !stage_w_checked(q, m, bw, fpmask, du)) {
+        return IT2N_ERR_OVERFLOW;
+    }
+    return IT2N_OK;
+}
+
+int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
+               it2n_point *dw)
+{
     if (mdl == NULL || du == NULL || dw == NULL) {
         return IT2N_ERR_INVAL;
     }
@@ -175,24 +195,10 @@ int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
     if (!par_ok(u) || !par_ok(w)) {
         return IT2N_ERR_RANGE;
     }
-    n = mdl->data.n;
-    m = mdl->data.m;
-    mask = it2n__fp_mask(mdl->data.flags);
-    it2n__basis(n, u, bu);
-    it2n__basis(m, w, bw);
-    dbasis(n, u, dbu);
-    dbasis(m, w, dbw);
     memset(du, 0, sizeof(*du));
     memset(dw, 0, sizeof(*dw));
-    if (!stage_u_checked(&mdl->ctrl[0][0][0][0], n, dbu, m + 1u, mask, q) ||
-        !stage_w_checked(q, m, bw, mask, &du->v[0][0])) {
-        return IT2N_ERR_OVERFLOW;
-    }
-    it2n__stage_u(&mdl->ctrl[0][0][0][0], n, bu, m + 1u, mask, q);
-    if (!stage_w_checked(q, m, dbw, mask, &dw->v[0][0])) {
-        return IT2N_ERR_OVERFLOW;
-    }
-    return IT2N_OK;
+    return it2n__eval_full(mdl, it2n__fp_mask(mdl->data.flags), u, w, NULL,
+                           &du->v[0][0], &dw->v[0][0]);
 }
 
 /* Grid parameter k / (count - 1) in Q32. */

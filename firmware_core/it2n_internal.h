@@ -62,6 +62,12 @@ void it2n__stage_u(const it2n_val *net, unsigned nb,
 void it2n__stage_w(const it2n_val *q, unsigned mb,
                    const it2n_par bw[IT2N_DIM], unsigned fpmask, it2n_val *out);
 
+/* Values (v, may be NULL), dS/du and dS/dw of the footprints in fpmask at
+ * (u, w), flat [fp][ch] arrays. IT2N_ERR_OVERFLOW if a derivative does not
+ * fit. */
+int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
+                    it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw);
+
 /* Fill out->sum and out->out_of_range from out->v. */
 void it2n__summarise(const it2n_model *mdl, it2n_point *out);
 

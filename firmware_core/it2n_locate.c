@@ -1,0 +1,233 @@
+/*
+ * Locate: for a location (x, y), find on each footprint surface the (u, w)
+ * whose (x, y) coordinates match, and report the memberships there.
+ *
+ * Newton's method on the 2x2 system, started from the best node of a coarse
+ * parameter grid. The safe fallback is step halving: a step is taken only if
+ * it reduces the residual, and iterates are clamped to [0, 1]^2. An iterate
+ * stuck on the boundary means the location lies outside the surface's image.
+ */
+#include <string.h>
+
+#include "it2n_internal.h"
+
+typedef struct loc_state {
+    it2n_par u, w;
+    it2n_val v[IT2N_FP_COUNT][IT2N_CH_COUNT];
+    it2n_val du[IT2N_FP_COUNT][IT2N_CH_COUNT];
+    it2n_val dw[IT2N_FP_COUNT][IT2N_CH_COUNT];
+    int64_t rx, ry, res;
+} loc_state;
+
+static int64_t abs64(int64_t v)
+{
+    return v < 0 ? -v : v;
+}
+
+/* Evaluate footprint fp at (u, w) into st; false on derivative overflow. */
+static bool probe(const it2n_model *mdl, unsigned fp, it2n_par u, it2n_par w,
+                  it2n_val x, it2n_val y, loc_state *st)
+{
+    int64_t ax, ay;
+    st->u = u;
+    st->w = w;
+    if (it2n__eval_full(mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0],
+                        &st->dw[0][0]) != IT2N_OK) {
+        return false;
+    }
+    /* Surface points lie in the control net's hull (< 2^62): no overflow. */
+    st->rx = st->v[fp][IT2N_CH_X] - x;
+    st->ry = st->v[fp][IT2N_CH_Y] - y;
+    ax = abs64(st->rx);
+    ay = abs64(st->ry);
+    st->res = ax > ay ? ax : ay;
+    return true;
+}
+
+static unsigned bitlen(uint64_t v)
+{
+    unsigned k = 0;
+    while (v != 0u && k < 64u) {
+        v >>= 1;
+        k++;
+    }
+    return k;
+}
+
+/* Arithmetic shift right that is well defined for negatives. */
+static int64_t shr(int64_t v, unsigned s)
+{
+    return v < 0 ? -(int64_t)((uint64_t)(-v) >> s) : (int64_t)((uint64_t)v >> s);
+}
+
+/*
+ * Newton step (du, dw) in Q32 solving J d = -r; false if J is singular.
+ * J and r are scaled together (the step is invariant) so every product fits.
+ */
+static bool newton_step(const loc_state *st, unsigned fp, int64_t *su,
+                        int64_t *sw)
+{
+    int64_t e[6];
+    unsigned k, top = 0u, sh;
+    it2n_i128 det, nu, nw;
+    e[0] = st->du[fp][IT2N_CH_X];
+    e[1] = st->dw[fp][IT2N_CH_X];
+    e[2] = st->du[fp][IT2N_CH_Y];
+    e[3] = st->dw[fp][IT2N_CH_Y];
+    e[4] = st->rx;
+    e[5] = st->ry;
+    for (k = 0; k < 6u; k++) {
+        unsigned b = bitlen((uint64_t)abs64(e[k]));
+        top = b > top ? b : top;
+    }
+    sh = top > 40u ? top - 40u : 0u;
+    for (k = 0; k < 6u; k++) {
+        e[k] = shr(e[k], sh);
+    }
+    det = it2n_i128_sub(it2n_mul64(e[0], e[3]), it2n_mul64(e[1], e[2]));
+    if (det.lo == 0u && det.hi == 0u) {
+        return false;
+    }
+    /* du = -(Yw rx - Xw ry) / det, dw = -(Xu ry - Yu rx) / det */
+    nu = it2n_i128_sub(it2n_mul64(e[3], e[4]), it2n_mul64(e[1], e[5]));
+    nw = it2n_i128_sub(it2n_mul64(e[0], e[5]), it2n_mul64(e[2], e[4]));
+    /* nu, nw < 2^81; times 2^32 < 2^113 fits. */
+    {
+        it2n_i128 nus = it2n_i128_zero(), nws = it2n_i128_zero();
+        unsigned b;
+        for (b = 0; b < 32u; b++) { /* shift left 32 by doubling */
+            nu = it2n_i128_add(nu, nu);
+            nw = it2n_i128_add(nw, nw);
+        }
+        nus = it2n_i128_neg(nu);
+        nws = it2n_i128_neg(nw);
+        if (!it2n_i128_div(nus, det, su) || !it2n_i128_div(nws, det, sw)) {
+            /* Step beyond 2^31 units of parameter: clamp below. */
+            *su = it2n_i128_neg_p(nus) != it2n_i128_neg_p(det) ? -IT2N_PAR_ONE
+                                                               : IT2N_PAR_ONE;
+            *sw = it2n_i128_neg_p(nws) != it2n_i128_neg_p(det) ? -IT2N_PAR_ONE
+                                                               : IT2N_PAR_ONE;
+        }
+    }
+    return true;
+}
+
+static it2n_par clamp01(int64_t t)
+{
+    return t < 0 ? 0 : (t > IT2N_PAR_ONE ? IT2N_PAR_ONE : t);
+}
+
+static bool on_boundary(const loc_state *st)
+{
+    return st->u == 0 || st->u == IT2N_PAR_ONE || st->w == 0 ||
+           st->w == IT2N_PAR_ONE;
+}
+
+/* Convergence tolerance: ~1e-6 absolute plus ~1e-6 of the net's extent,
+ * since basis rounding scales with the control points. */
+static int64_t tolerance(const it2n_model *mdl, unsigned fp)
+{
+    int64_t big = 0;
+    unsigned a, b, ch;
+    for (a = 0; a <= mdl->data.n; a++) {
+        for (b = 0; b <= mdl->data.m; b++) {
+            for (ch = IT2N_CH_X; ch <= IT2N_CH_Y; ch++) {
+                int64_t v = abs64(mdl->ctrl[a][b][fp][ch]);
+                big = v > big ? v : big;
+            }
+        }
+    }
+    return 16 + (big >> 20);
+}
+
+static void locate_fp(const it2n_model *mdl, unsigned fp, it2n_val x,
+                      it2n_val y, it2n_locate_fp *out)
+{
+    loc_state best, cand;
+    int64_t tol = tolerance(mdl, fp);
+    unsigned a, b, it;
+    uint8_t status = IT2N_LOC_NOCONV;
+    bool have = false;
+    for (a = 0; a <= IT2N_LOCATE_GRID; a++) {
+        for (b = 0; b <= IT2N_LOCATE_GRID; b++) {
+            it2n_par u = (it2n_par)(((uint64_t)a << IT2N_PAR_FRAC) /
+                                    IT2N_LOCATE_GRID);
+            it2n_par w = (it2n_par)(((uint64_t)b << IT2N_PAR_FRAC) /
+                                    IT2N_LOCATE_GRID);
+            if (probe(mdl, fp, u, w, x, y, &cand) &&
+                (!have || cand.res < best.res)) {
+                best = cand;
+                have = true;
+            }
+        }
+    }
+    if (!have) {
+        memset(out, 0, sizeof(*out));
+        out->status = IT2N_LOC_NOCONV;
+        return;
+    }
+    for (it = 0; it < IT2N_LOCATE_MAX_ITER; it++) {
+        int64_t su, sw, mag;
+        unsigned half;
+        bool moved = false;
+        if (best.res <= tol / 16) {
+            break; /* polished well below the tolerance */
+        }
+        if (!newton_step(&best, fp, &su, &sw)) {
+            break;
+        }
+        /* Limit a step to half the square: Newton far from the root can
+         * overshoot wildly. */
+        mag = abs64(su) > abs64(sw) ? abs64(su) : abs64(sw);
+        if (mag > IT2N_PAR_ONE / 2) {
+            unsigned s = bitlen((uint64_t)mag) - 31u;
+            su = shr(su, s);
+            sw = shr(sw, s);
+        }
+        for (half = 0; half < 24u; half++) {
+            it2n_par u = clamp01(best.u + su), w = clamp01(best.w + sw);
+            if ((u != best.u || w != best.w) &&
+                probe(mdl, fp, u, w, x, y, &cand) && cand.res < best.res) {
+                best = cand;
+                moved = true;
+                break;
+            }
+            su = shr(su, 1u);
+            sw = shr(sw, 1u);
+        }
+        if (!moved) {
+            break;
+        }
+    }
+    if (best.res <= tol) {
+        status = IT2N_LOC_INSIDE;
+    } else if (on_boundary(&best)) {
+        status = IT2N_LOC_OUTSIDE;
+    }
+    out->u = best.u;
+    out->w = best.w;
+    memcpy(out->v, best.v[fp], sizeof(out->v));
+    out->residual = best.res;
+    out->status = status;
+}
+
+int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
+                it2n_locate_result *out)
+{
+    unsigned fp;
+    if (mdl == NULL || out == NULL) {
+        return IT2N_ERR_INVAL;
+    }
+    if (!mdl->solved) {
+        return IT2N_ERR_STATE;
+    }
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if (it2n_model_has_fp(mdl, fp)) {
+            locate_fp(mdl, fp, x, y, &out->fp[fp]);
+        } else {
+            memset(&out->fp[fp], 0, sizeof(out->fp[fp]));
+            out->fp[fp].status = IT2N_LOC_NOCONV;
+        }
+    }
+    return IT2N_OK;
+}
