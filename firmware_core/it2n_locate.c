@@ -148,6 +148,7 @@ static void locate_fp(const it2n_model *mdl, unsigned fp, it2n_val x,
     unsigned a, b, it;
     uint8_t status = IT2N_LOC_NOCONV;
     bool have = false;
+    memset(&best, 0, sizeof(best));
     for (a = 0; a <= IT2N_LOCATE_GRID; a++) {
         for (b = 0; b <= IT2N_LOCATE_GRID; b++) {
             it2n_par u = (it2n_par)(((uint64_t)a << IT2N_PAR_FRAC) /
