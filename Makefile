@@ -36,6 +36,7 @@ include cli/cli.mk
 -include daemon/daemon.mk
 include tests/tests.mk
 -include mk/cross.mk
+include mk/lint.mk
 
 .PHONY: all run test bench fuzz cross size install clean deps help
 

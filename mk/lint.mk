@@ -1,0 +1,10 @@
+# Static analysis: cppcheck must stay clean on every C directory.
+CPPCHECK_FLAGS := --enable=warning,portability,performance --error-exitcode=1 -q \
+  --inline-suppr --suppress=missingIncludeSystem -Ifirmware_core -Iprotocol
+
+.PHONY: test-lint
+test-lint:
+	cppcheck --std=c99 $(CPPCHECK_FLAGS) firmware_core protocol
+	cppcheck --std=c11 $(CPPCHECK_FLAGS) -D_GNU_SOURCE $(wildcard cli daemon)
+
+TEST_TARGETS += test-lint
