@@ -1,0 +1,37 @@
+# tests/core: reference tests of firmware_core against a long-double
+# Bernstein-collocation reference (accuracy, validation, operations).
+# Each program is built twice: against $(CORE_LIB) and, with $(SAN_FLAGS),
+# against $(CORE_SAN_LIB). Targets: tests-core (both), tests-core-plain,
+# tests-core-san.
+TC_DIR := tests/core
+TC_PROGS := test_accuracy test_validation test_operations
+TC_COMMON := $(TC_DIR)/ref.c $(TC_DIR)/tc_util.c
+TC_HDRS := $(TC_DIR)/ref.h $(TC_DIR)/tc_util.h $(CORE_HDR)
+TC_CFLAGS := $(HOST_CFLAGS) -I$(TC_DIR)
+TC_LIBS := -lcmocka -lm
+TC_BIN := $(TC_PROGS:%=$(BUILD)/tests/core/%)
+TC_SAN_BIN := $(TC_PROGS:%=$(BUILD)/tests/core/san/%)
+
+# Only once the core has sources (the header lands first).
+ifneq ($(strip $(CORE_SRC)),)
+TEST_TARGETS += tests-core
+endif
+
+.PHONY: tests-core tests-core-plain tests-core-san
+
+tests-core: tests-core-plain tests-core-san
+
+$(BUILD)/tests/core/%: $(TC_DIR)/%.c $(TC_COMMON) $(TC_HDRS) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(TC_CFLAGS) $< $(TC_COMMON) $(CORE_LIB) $(TC_LIBS) -o $@
+
+$(BUILD)/tests/core/san/%: $(TC_DIR)/%.c $(TC_COMMON) $(TC_HDRS) $(CORE_SAN_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(TC_CFLAGS) $(SAN_FLAGS) $< $(TC_COMMON) $(CORE_SAN_LIB) $(TC_LIBS) -o $@
+
+tests-core-plain: $(TC_BIN)
+	@set -e; for t in $(TC_BIN); do echo "== $$t"; $$t; done
+
+tests-core-san: $(TC_SAN_BIN)
+	@set -e; for t in $(TC_SAN_BIN); do echo "== $$t"; \
+	  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 $$t; done

@@ -1,0 +1,490 @@
+/*
+ * Accuracy of the core against the long-double reference (issue 2,
+ * "Accuracy"): the paper's data set and generated smooth data for every
+ * degree pair 1..7 x 1..7 (seven nested footprints with and without z,
+ * type-1, chord-length), evaluated at random 6-decimal (u, w) and on the
+ * borders; plus the paper's properties: interpolation of every data point,
+ * corner control points, convex hull of the control net, affine invariance.
+ * Prints the worst error seen per degree class.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "it2n.h"
+#include "ref.h"
+#include "tc_util.h"
+
+/* Worst errors, [0] = degree <= 3 both ways, [1] = degree <= 7. */
+typedef struct acc_stats {
+    long double memb[2], coord[2], coord_ratio[2], hull_lsb;
+    unsigned long checks, failures;
+} acc_stats;
+
+static acc_stats g_stats;
+
+#define MAX_REPORTS 12
+
+static void acc_fail(acc_stats *st, const char *fmt, ...)
+{
+    st->failures++;
+    if (st->failures > MAX_REPORTS)
+        return;
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stderr, "  MISMATCH: ");
+    vfprintf(stderr, fmt, ap);
+    fprintf(stderr, "\n");
+    va_end(ap);
+}
+
+static unsigned n_channels_checked(const tc_case *c, unsigned ch)
+{
+    return ch == IT2N_CH_Z && !(c->flags & IT2N_F_Z) ? 0u : 1u;
+}
+
+/* Compare one core evaluation with the reference at exact (ue, we). */
+static void acc_point(const tc_case *c, const it2n_model *mdl,
+                      const ref_model *r, long double ue, long double we,
+                      it2n_par uq, it2n_par wq, acc_stats *st,
+                      const char *label)
+{
+    it2n_point pt;
+    long double ref[REF_FP][REF_CH];
+    int cls = (c->n <= 3 && c->m <= 3) ? 0 : 1;
+    long double tm = tc_tol_memb(c->n, c->m);
+    long double maxabs = tc_maxabs(c);
+    long double tcd = tc_tol_coord(c->n, c->m, maxabs);
+
+    int rc = it2n_eval(mdl, uq, wq, &pt);
+    if (rc != IT2N_OK) {
+        acc_fail(st, "%s: it2n_eval(u=%.6Lf, w=%.6Lf) -> %d", label, ue, we, rc);
+        return;
+    }
+    ref_eval(r, ue, we, ref);
+    for (unsigned fp = 0; fp < REF_FP; fp++) {
+        if (!tc_has_fp(c, fp))
+            continue;
+        for (unsigned ch = 0; ch < REF_CH; ch++) {
+            st->checks++;
+            if (!n_channels_checked(c, ch)) {
+                if (pt.v[fp][ch] != 0)
+                    acc_fail(st, "%s: z of a model without z is %lld, not 0",
+                             label, (long long)pt.v[fp][ch]);
+                continue;
+            }
+            long double got = tc_ld(pt.v[fp][ch]);
+            long double e = fabsl(got - ref[fp][ch]);
+            bool memb = ch >= IT2N_CH_T;
+            long double tol = memb ? tm : tcd;
+            if (memb) {
+                if (e > st->memb[cls])
+                    st->memb[cls] = e;
+            } else {
+                if (e > st->coord[cls])
+                    st->coord[cls] = e;
+                if (e / tcd > st->coord_ratio[cls])
+                    st->coord_ratio[cls] = e / tcd;
+            }
+            if (!(e <= tol))
+                acc_fail(st, "%s %ux%u flags %u: (u=%.6Lf, w=%.6Lf) %s.%s got "
+                         "%.9Lf expected %.9Lf err %.3Le > tol %.3Le",
+                         label, c->n, c->m, c->flags, ue, we, it2n_fp_name(fp),
+                         it2n_ch_name(ch), got, ref[fp][ch], e, tol);
+
+            /* Convex hull of this channel's control net (exact maths; the
+             * fixed-point sum may round by a couple of LSB). */
+            it2n_val lo = mdl->ctrl[0][0][fp][ch], hi = lo;
+            for (unsigned i = 0; i <= c->n; i++)
+                for (unsigned j = 0; j <= c->m; j++) {
+                    it2n_val p = mdl->ctrl[i][j][fp][ch];
+                    lo = p < lo ? p : lo;
+                    hi = p > hi ? p : hi;
+                }
+            it2n_val v = pt.v[fp][ch];
+            long double out = v < lo ? (long double)(lo - v)
+                            : v > hi ? (long double)(v - hi) : 0.0L;
+            if (out > st->hull_lsb)
+                st->hull_lsb = out;
+            if (out > 2.0L)
+                acc_fail(st, "%s %ux%u: (u=%.6Lf, w=%.6Lf) %s.%s = %lld outside "
+                         "control hull [%lld, %lld]", label, c->n, c->m, ue, we,
+                         it2n_fp_name(fp), it2n_ch_name(ch), (long long)v,
+                         (long long)lo, (long long)hi);
+        }
+        /* out_of_range bit k of footprint fp <=> membership outside [0,1]. */
+        for (unsigned k = 0; k < 3; k++) {
+            it2n_val v = pt.v[fp][IT2N_CH_T + k];
+            bool oor = v < 0 || v > IT2N_VAL_ONE;
+            bool bit = (pt.out_of_range >> (fp * 3u + k)) & 1u;
+            if (oor != bit)
+                acc_fail(st, "%s: out_of_range bit %u is %d for value %lld",
+                         label, fp * 3u + k, (int)bit, (long long)v);
+        }
+    }
+    if (c->flags & IT2N_F_TYPE1)
+        return;
+    /* Interval summary: exact min/max over {LL,D,RR} and {LR,D,RL}. */
+    for (unsigned k = 0; k < 3; k++) {
+        unsigned ch = IT2N_CH_T + k;
+        it2n_val a = pt.v[IT2N_FP_LL][ch], d = pt.v[IT2N_FP_D][ch],
+                 b = pt.v[IT2N_FP_RR][ch];
+        it2n_val umin = a < d ? (a < b ? a : b) : (d < b ? d : b);
+        it2n_val umax = a > d ? (a > b ? a : b) : (d > b ? d : b);
+        a = pt.v[IT2N_FP_LR][ch];
+        b = pt.v[IT2N_FP_RL][ch];
+        it2n_val lmin = a < d ? (a < b ? a : b) : (d < b ? d : b);
+        it2n_val lmax = a > d ? (a > b ? a : b) : (d > b ? d : b);
+        if (pt.sum.upper_min[k] != umin || pt.sum.upper_max[k] != umax ||
+            pt.sum.lower_min[k] != lmin || pt.sum.lower_max[k] != lmax)
+            acc_fail(st, "%s: summary %s upper [%lld,%lld] lower [%lld,%lld], "
+                     "expected [%lld,%lld] [%lld,%lld]", label,
+                     it2n_ch_name(ch), (long long)pt.sum.upper_min[k],
+                     (long long)pt.sum.upper_max[k],
+                     (long long)pt.sum.lower_min[k],
+                     (long long)pt.sum.lower_max[k], (long long)umin,
+                     (long long)umax, (long long)lmin, (long long)lmax);
+    }
+}
+
+/* Interpolation of every data point and corner control points. */
+static void acc_nodes(const tc_case *c, const it2n_model *mdl,
+                      const ref_model *r, acc_stats *st, const char *label)
+{
+    long double tm = tc_tol_memb(c->n, c->m);
+    long double tcd = tc_tol_coord(c->n, c->m, tc_maxabs(c));
+    for (unsigned i = 0; i <= c->n; i++) {
+        long double e = fabsl(tc_ldp(mdl->u[i]) - r->u[i]);
+        if (e > 1e-6L)
+            acc_fail(st, "%s %ux%u: u[%u] = %.9Lf, reference %.9Lf", label,
+                     c->n, c->m, i, tc_ldp(mdl->u[i]), r->u[i]);
+    }
+    for (unsigned j = 0; j <= c->m; j++) {
+        long double e = fabsl(tc_ldp(mdl->w[j]) - r->w[j]);
+        if (e > 1e-6L)
+            acc_fail(st, "%s %ux%u: w[%u] = %.9Lf, reference %.9Lf", label,
+                     c->n, c->m, j, tc_ldp(mdl->w[j]), r->w[j]);
+    }
+    for (unsigned i = 0; i <= c->n; i++)
+        for (unsigned j = 0; j <= c->m; j++) {
+            it2n_point pt;
+            int rc = it2n_eval(mdl, mdl->u[i], mdl->w[j], &pt);
+            if (rc != IT2N_OK) {
+                acc_fail(st, "%s: eval at node (%u,%u) -> %d", label, i, j, rc);
+                continue;
+            }
+            bool corner = (i == 0 || i == c->n) && (j == 0 || j == c->m);
+            for (unsigned fp = 0; fp < REF_FP; fp++) {
+                if (!tc_has_fp(c, fp))
+                    continue;
+                for (unsigned ch = 0; ch < REF_CH; ch++) {
+                    if (!n_channels_checked(c, ch))
+                        continue;
+                    long double tol = ch >= IT2N_CH_T ? tm : tcd;
+                    long double want = c->v[i][j][fp][ch];
+                    long double e = fabsl(tc_ld(pt.v[fp][ch]) - want);
+                    st->checks++;
+                    if (!(e <= tol))
+                        acc_fail(st, "%s %ux%u: S(u_%u, w_%u) %s.%s = %.9Lf, data "
+                                 "%.6Lf (err %.3Le)", label, c->n, c->m, i, j,
+                                 it2n_fp_name(fp), it2n_ch_name(ch),
+                                 tc_ld(pt.v[fp][ch]), want, e);
+                    if (corner) {
+                        e = fabsl(tc_ld(mdl->ctrl[i][j][fp][ch]) - want);
+                        if (!(e <= tol))
+                            acc_fail(st, "%s %ux%u: corner control P[%u][%u] "
+                                     "%s.%s = %.9Lf, data %.6Lf", label, c->n,
+                                     c->m, i, j, it2n_fp_name(fp),
+                                     it2n_ch_name(ch),
+                                     tc_ld(mdl->ctrl[i][j][fp][ch]), want);
+                    }
+                }
+            }
+        }
+}
+
+static void acc_case(const tc_case *c, acc_stats *st, uint64_t seed,
+                     unsigned npts, const char *label)
+{
+    static it2n_model mdl;
+    static ref_model r;
+    tc_model(c, &mdl);
+    tc_ref(c, &r);
+    acc_nodes(c, &mdl, &r, st, label);
+    uint64_t s = seed * 0x9E3779B97F4A7C15ULL + 1u;
+    for (unsigned k = 0; k < npts + 8u; k++) {
+        it2n_par uq, wq;
+        long double ue = tc_rand_par(&s, &uq), we = tc_rand_par(&s, &wq);
+        /* Borders: u or w exactly 0 or 1, and the four corners. */
+        if (k >= npts) {
+            unsigned b = k - npts;
+            if (b < 4) {
+                ue = (b & 1u) ? 1.0L : 0.0L;
+                uq = (b & 1u) ? IT2N_PAR_ONE : 0;
+                if (b & 2u) {
+                    we = ue;
+                    wq = uq;
+                }
+            } else {
+                we = (b & 1u) ? 1.0L : 0.0L;
+                wq = (b & 1u) ? IT2N_PAR_ONE : 0;
+                if (b & 2u) {
+                    ue = 1.0L - we;
+                    uq = IT2N_PAR_ONE - wq;
+                }
+            }
+        }
+        acc_point(c, &mdl, &r, ue, we, uq, wq, st, label);
+    }
+}
+
+static void acc_report(const char *what, const acc_stats *st)
+{
+    printf("  [accuracy] %-28s worst |err|: deg<=3 memb %.3Le coord %.3Le "
+           "(%.3f of tol); deg<=7 memb %.3Le coord %.3Le (%.3f of tol); "
+           "hull overshoot %.0Lf LSB; %lu checks\n",
+           what, st->memb[0], st->coord[0], (double)st->coord_ratio[0],
+           st->memb[1], st->coord[1], (double)st->coord_ratio[1],
+           st->hull_lsb, st->checks);
+}
+
+static void acc_merge(const acc_stats *st)
+{
+    for (int k = 0; k < 2; k++) {
+        g_stats.memb[k] = fmaxl(g_stats.memb[k], st->memb[k]);
+        g_stats.coord[k] = fmaxl(g_stats.coord[k], st->coord[k]);
+        g_stats.coord_ratio[k] = fmaxl(g_stats.coord_ratio[k], st->coord_ratio[k]);
+    }
+    g_stats.hull_lsb = fmaxl(g_stats.hull_lsb, st->hull_lsb);
+    g_stats.checks += st->checks;
+}
+
+static void acc_finish(const char *what, const acc_stats *st)
+{
+    acc_report(what, st);
+    acc_merge(st);
+    if (st->failures)
+        fail_msg("%s: %lu of %lu checks out of tolerance", what, st->failures,
+                 st->checks);
+}
+
+static void test_paper(void **state)
+{
+    (void)state;
+    static tc_case c;
+    acc_stats st = {0};
+    tc_paper(&c);
+    acc_case(&c, &st, 1, 400, "paper");
+    acc_finish("paper 4x4", &st);
+}
+
+/* Every degree pair 1..7 x 1..7 with the given flags and coordinate scale. */
+static void sweep(unsigned flags, long double scale, const char *what)
+{
+    static tc_case c;
+    acc_stats st = {0};
+    char label[64];
+    for (unsigned n = 1; n <= IT2N_MAX_DEGREE; n++)
+        for (unsigned m = 1; m <= IT2N_MAX_DEGREE; m++) {
+            tc_smooth(&c, n, m, flags, scale, n * 16u + m);
+            snprintf(label, sizeof label, "%s", what);
+            acc_case(&c, &st, n * 131u + m * 7u + flags, 40, label);
+        }
+    acc_finish(what, &st);
+}
+
+static void test_sweep_xy(void **state)
+{
+    (void)state;
+    sweep(0, 10.0L, "smooth x,y scale 10");
+}
+
+static void test_sweep_xyz(void **state)
+{
+    (void)state;
+    sweep(IT2N_F_Z, 10.0L, "smooth x,y,z scale 10");
+}
+
+static void test_sweep_xyz_large(void **state)
+{
+    (void)state;
+    sweep(IT2N_F_Z, 5000.0L, "smooth x,y,z scale 5000");
+}
+
+static void test_sweep_type1(void **state)
+{
+    (void)state;
+    sweep(IT2N_F_TYPE1, 10.0L, "type-1 x,y");
+    sweep(IT2N_F_TYPE1 | IT2N_F_Z, 100.0L, "type-1 x,y,z scale 100");
+}
+
+static void test_sweep_chord(void **state)
+{
+    (void)state;
+    sweep(IT2N_F_CHORD, 10.0L, "chord x,y");
+    sweep(IT2N_F_CHORD | IT2N_F_Z | IT2N_F_TYPE1, 10.0L, "chord type-1 x,y,z");
+}
+
+/*
+ * Affine invariance: map x,y(,z) by A p + b (non-negative A keeps the
+ * nesting), re-solve, compare with A S(u,w) + b of the original model.
+ * Memberships are untouched, so their surfaces must be bit-identical.
+ */
+static void affine_case(const tc_case *c0, acc_stats *st)
+{
+    static const long double a[3][3] = {
+        {1.5L, 0.25L, 0.125L}, {0.5L, 0.75L, 0.0L}, {0.2L, 0.1L, 1.1L}};
+    static const long double b[3] = {3.25L, -7.5L, 2.0L};
+    static tc_case c1;
+    static it2n_model m0, m1;
+    unsigned dims = (c0->flags & IT2N_F_Z) ? 3u : 2u;
+    c1 = *c0;
+    for (unsigned i = 0; i <= c0->n; i++)
+        for (unsigned j = 0; j <= c0->m; j++)
+            for (unsigned fp = 0; fp < REF_FP; fp++) {
+                if (!tc_has_fp(c0, fp))
+                    continue;
+                for (unsigned d = 0; d < dims; d++) {
+                    long double s = b[d];
+                    for (unsigned e = 0; e < dims; e++)
+                        s += a[d][e] * c0->v[i][j][fp][e];
+                    tc_set(&c1, i, j, fp, d, s);
+                }
+            }
+    tc_model(c0, &m0);
+    tc_model(&c1, &m1);
+    long double t0 = tc_tol_coord(c0->n, c0->m, tc_maxabs(c0));
+    long double t1 = tc_tol_coord(c1.n, c1.m, tc_maxabs(&c1));
+    /* The transformed data are rounded to 6 decimals: <= 5e-7 per point,
+     * amplified by at most the Lebesgue constant (< 100 up to degree 7). */
+    long double tol = t1 + 1.75L * t0 + 5e-5L;
+    uint64_t s = 77;
+    for (unsigned k = 0; k < 60; k++) {
+        it2n_par uq, wq;
+        long double ue = tc_rand_par(&s, &uq), we = tc_rand_par(&s, &wq);
+        it2n_point p0, p1;
+        assert_int_equal(it2n_eval(&m0, uq, wq, &p0), IT2N_OK);
+        assert_int_equal(it2n_eval(&m1, uq, wq, &p1), IT2N_OK);
+        for (unsigned fp = 0; fp < REF_FP; fp++) {
+            if (!tc_has_fp(c0, fp))
+                continue;
+            for (unsigned d = 0; d < dims; d++) {
+                long double want = b[d];
+                for (unsigned e = 0; e < dims; e++)
+                    want += a[d][e] * tc_ld(p0.v[fp][e]);
+                long double err = fabsl(tc_ld(p1.v[fp][d]) - want);
+                st->checks++;
+                if (!(err <= tol))
+                    acc_fail(st, "affine %ux%u (u=%.6Lf,w=%.6Lf) %s.%s: %.9Lf vs "
+                             "%.9Lf (err %.3Le > %.3Le)", c0->n, c0->m, ue, we,
+                             it2n_fp_name(fp), it2n_ch_name(d),
+                             tc_ld(p1.v[fp][d]), want, err, tol);
+            }
+            for (unsigned ch = IT2N_CH_T; ch <= IT2N_CH_F; ch++) {
+                st->checks++;
+                if (p0.v[fp][ch] != p1.v[fp][ch])
+                    acc_fail(st, "affine %ux%u: membership %s.%s changed %lld -> "
+                             "%lld", c0->n, c0->m, it2n_fp_name(fp),
+                             it2n_ch_name(ch), (long long)p0.v[fp][ch],
+                             (long long)p1.v[fp][ch]);
+            }
+        }
+    }
+}
+
+static void test_affine(void **state)
+{
+    (void)state;
+    static tc_case c;
+    acc_stats st = {0};
+    tc_paper(&c);
+    affine_case(&c, &st);
+    static const unsigned pairs[][2] = {{1, 1}, {2, 5}, {3, 3}, {4, 7}, {7, 7}};
+    for (unsigned k = 0; k < sizeof pairs / sizeof pairs[0]; k++) {
+        tc_smooth(&c, pairs[k][0], pairs[k][1], 0, 10.0L, k);
+        affine_case(&c, &st);
+        tc_smooth(&c, pairs[k][0], pairs[k][1], IT2N_F_Z, 10.0L, k);
+        affine_case(&c, &st);
+    }
+    if (st.failures)
+        fail_msg("affine invariance: %lu of %lu checks failed", st.failures,
+                 st.checks);
+}
+
+/*
+ * Worst case for the value range: degree 7x7, coordinates alternating
+ * +-IT2N_COORD_LIMIT. The header promises the control points still fit, so
+ * the solve must succeed and interpolate (or report IT2N_ERR_OVERFLOW —
+ * never wrap).
+ */
+static void test_extreme_coordinates(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl;
+    static ref_model r;
+    static it2n_dataset ds;
+    acc_stats st = {0};
+    unsigned n = IT2N_MAX_DEGREE, m = IT2N_MAX_DEGREE;
+    tc_init(&c, n, m, IT2N_F_Z);
+    long double lim = (long double)IT2N_COORD_LIMIT;
+    for (unsigned i = 0; i <= n; i++)
+        for (unsigned j = 0; j <= m; j++)
+            for (unsigned fp = 0; fp < REF_FP; fp++) {
+                long double sgn = ((i + j) & 1u) ? -1.0L : 1.0L;
+                /* nested: LL <= ... <= RR, all within the limit */
+                long double base = sgn * (lim - 8.0L) + (long double)fp;
+                tc_set(&c, i, j, fp, IT2N_CH_X, base);
+                tc_set(&c, i, j, fp, IT2N_CH_Y, -sgn * (lim - 8.0L) + (long double)fp);
+                tc_set(&c, i, j, fp, IT2N_CH_Z, base);
+                tc_set(&c, i, j, fp, IT2N_CH_T, (i + j) & 1u ? 0.0L : 1.0L);
+                tc_set(&c, i, j, fp, IT2N_CH_I, 0.5L);
+                tc_set(&c, i, j, fp, IT2N_CH_F, (i * j) & 1u ? 1.0L : 0.0L);
+            }
+    tc_dataset(&c, &ds);
+    it2n_model_init(&mdl);
+    it2n_errinfo err;
+    int rc = it2n_model_solve(&mdl, &ds, &err);
+    printf("  [accuracy] alternating +-COORD_LIMIT 7x7: solve -> %d (%s)\n", rc,
+           it2n_strerror(rc));
+    if (rc == IT2N_ERR_OVERFLOW)
+        return;
+    assert_int_equal(rc, IT2N_OK);
+    tc_ref(&c, &r);
+    acc_nodes(&c, &mdl, &r, &st, "extreme");
+    uint64_t s = 5;
+    for (unsigned k = 0; k < 20; k++) {
+        it2n_par uq, wq;
+        long double ue = tc_rand_par(&s, &uq), we = tc_rand_par(&s, &wq);
+        acc_point(&c, &mdl, &r, ue, we, uq, wq, &st, "extreme");
+    }
+    acc_finish("alternating +-limit 7x7", &st);
+}
+
+static void test_print_summary(void **state)
+{
+    (void)state;
+    acc_report("ALL (for docs/numerics.md)", &g_stats);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_paper),
+        cmocka_unit_test(test_sweep_xy),
+        cmocka_unit_test(test_sweep_xyz),
+        cmocka_unit_test(test_sweep_xyz_large),
+        cmocka_unit_test(test_sweep_type1),
+        cmocka_unit_test(test_sweep_chord),
+        cmocka_unit_test(test_affine),
+        cmocka_unit_test(test_extreme_coordinates),
+        cmocka_unit_test(test_print_summary),
+    };
+    return cmocka_run_group_tests_name("core accuracy", tests, NULL, NULL);
+}

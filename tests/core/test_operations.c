@@ -1,0 +1,690 @@
+/*
+ * Operations at the C API level (issue 2, "Operations"): derivatives against
+ * central differences of the long-double reference, it2n_sample against
+ * it2n_eval (bit-identical) with early stop, incremental update against a
+ * full re-solve (1 LSB), chord-length parameters against The NURBS Book's
+ * averaged chord lengths, locate, the out-of-range flag and the generation
+ * counter.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "it2n.h"
+#include "ref.h"
+#include "tc_util.h"
+
+#define ONE IT2N_VAL_ONE
+
+/* ---- derivatives ------------------------------------------------------- */
+
+/*
+ * d/du of a degree-n Bernstein surface is n * sum (P[i+1]-P[i]) B^{n-1}: the
+ * control-point error is amplified by at most 2n, so the tolerance is
+ * 2 * max(n, m) times the value tolerance.
+ */
+static void deriv_case(const tc_case *c, uint64_t seed, long double *worst)
+{
+    static it2n_model mdl;
+    static ref_model r;
+    tc_model(c, &mdl);
+    tc_ref(c, &r);
+    unsigned deg = c->n > c->m ? c->n : c->m;
+    long double tm = 2.0L * deg * tc_tol_memb(c->n, c->m);
+    long double tcd = 2.0L * deg * tc_tol_coord(c->n, c->m, tc_maxabs(c));
+    uint64_t s = seed;
+    for (unsigned k = 0; k < 30; k++) {
+        it2n_par uq, wq;
+        long double ue = tc_rand_par(&s, &uq), we = tc_rand_par(&s, &wq);
+        if (k == 0) { ue = 0.0L; uq = 0; we = 1.0L; wq = IT2N_PAR_ONE; }
+        if (k == 1) { ue = 1.0L; uq = IT2N_PAR_ONE; }
+        it2n_point du, dw;
+        long double rdu[REF_FP][REF_CH], rdw[REF_FP][REF_CH];
+        int rc = it2n_deriv(&mdl, uq, wq, &du, &dw);
+        if (rc != IT2N_OK)
+            fail_msg("deriv %ux%u at (%.6Lf,%.6Lf) -> %d", c->n, c->m, ue, we, rc);
+        ref_deriv_fd(&r, ue, we, 1e-5L, rdu, rdw);
+        for (unsigned fp = 0; fp < REF_FP; fp++) {
+            if (!tc_has_fp(c, fp))
+                continue;
+            for (unsigned ch = 0; ch < REF_CH; ch++) {
+                if (ch == IT2N_CH_Z && !(c->flags & IT2N_F_Z))
+                    continue;
+                long double tol = ch >= IT2N_CH_T ? tm : tcd;
+                long double eu = fabsl(tc_ld(du.v[fp][ch]) - rdu[fp][ch]);
+                long double ew = fabsl(tc_ld(dw.v[fp][ch]) - rdw[fp][ch]);
+                long double e = eu > ew ? eu : ew;
+                if (e / tol > *worst)
+                    *worst = e / tol;
+                if (!(e <= tol))
+                    fail_msg("deriv %ux%u (u=%.6Lf,w=%.6Lf) %s.%s: du %.9Lf vs "
+                             "%.9Lf, dw %.9Lf vs %.9Lf (tol %.3Le)", c->n, c->m,
+                             ue, we, it2n_fp_name(fp), it2n_ch_name(ch),
+                             tc_ld(du.v[fp][ch]), rdu[fp][ch],
+                             tc_ld(dw.v[fp][ch]), rdw[fp][ch], tol);
+            }
+        }
+    }
+}
+
+static void test_derivatives(void **state)
+{
+    (void)state;
+    static tc_case c;
+    long double worst = 0.0L;
+    tc_paper(&c);
+    deriv_case(&c, 11, &worst);
+    for (unsigned n = 1; n <= IT2N_MAX_DEGREE; n += 2)
+        for (unsigned m = 1; m <= IT2N_MAX_DEGREE; m += 3) {
+            tc_smooth(&c, n, m, (n + m) & 1u ? IT2N_F_Z : 0u, 10.0L, n + m);
+            deriv_case(&c, n * 10u + m, &worst);
+        }
+    tc_smooth(&c, 5, 7, IT2N_F_CHORD | IT2N_F_Z, 10.0L, 3);
+    deriv_case(&c, 99, &worst);
+    tc_smooth(&c, 4, 2, IT2N_F_TYPE1, 10.0L, 3);
+    deriv_case(&c, 98, &worst);
+    printf("  [operations] derivatives: worst error %.3f of tolerance\n",
+           (double)worst);
+}
+
+/* ---- sample ------------------------------------------------------------ */
+
+typedef struct sample_ctx {
+    const it2n_model *mdl;
+    unsigned rows, cols, calls, stop_at;
+    unsigned bad;
+} sample_ctx;
+
+static int sample_cb(void *vctx, unsigned r, unsigned c, it2n_par u, it2n_par w,
+                     const it2n_point *pt)
+{
+    sample_ctx *x = vctx;
+    unsigned idx = x->calls++;
+    it2n_point ref;
+    /* row-major order and exact end points */
+    if (r != idx / x->cols || c != idx % x->cols)
+        x->bad++;
+    it2n_par eu = (it2n_par)llroundl((long double)r / (x->rows - 1) * TC_Q32);
+    it2n_par ew = (it2n_par)llroundl((long double)c / (x->cols - 1) * TC_Q32);
+    if (llabs(u - eu) > 1 || llabs(w - ew) > 1)
+        x->bad++;
+    if ((r == 0 && u != 0) || (r == x->rows - 1 && u != IT2N_PAR_ONE) ||
+        (c == 0 && w != 0) || (c == x->cols - 1 && w != IT2N_PAR_ONE))
+        x->bad++;
+    if (it2n_eval(x->mdl, u, w, &ref) != IT2N_OK ||
+        memcmp(ref.v, pt->v, sizeof ref.v) != 0 ||
+        memcmp(&ref.sum, &pt->sum, sizeof ref.sum) != 0 ||
+        ref.out_of_range != pt->out_of_range) {
+        if (x->bad < 5)
+            fprintf(stderr, "  sample node (%u,%u) differs from it2n_eval\n", r, c);
+        x->bad++;
+    }
+    return idx == x->stop_at ? 42 : 0;
+}
+
+static void test_sample(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl;
+    static const unsigned grids[][2] = {{2, 2}, {5, 9}, {33, 17}, {2, 101}};
+    for (unsigned variant = 0; variant < 3; variant++) {
+        if (variant == 0)
+            tc_paper(&c);
+        else
+            tc_smooth(&c, variant == 1 ? 7u : 2u, variant == 1 ? 5u : 6u,
+                      variant == 1 ? IT2N_F_Z : IT2N_F_TYPE1, 10.0L, variant);
+        tc_model(&c, &mdl);
+        for (unsigned g = 0; g < sizeof grids / sizeof grids[0]; g++) {
+            sample_ctx x = {&mdl, grids[g][0], grids[g][1], 0, UINT32_MAX, 0};
+            assert_int_equal(it2n_sample(&mdl, x.rows, x.cols, sample_cb, &x),
+                             IT2N_OK);
+            assert_int_equal(x.calls, x.rows * x.cols);
+            assert_int_equal(x.bad, 0);
+            /* early stop: the callback's value comes back, no more calls */
+            sample_ctx y = {&mdl, grids[g][0], grids[g][1], 0, x.rows * x.cols / 2, 0};
+            assert_int_equal(it2n_sample(&mdl, y.rows, y.cols, sample_cb, &y), 42);
+            assert_int_equal(y.calls, y.stop_at + 1u);
+            assert_int_equal(y.bad, 0);
+        }
+    }
+    /* bad grid sizes and unsolved model */
+    sample_ctx z = {&mdl, 2, 2, 0, UINT32_MAX, 0};
+    assert_true(it2n_sample(&mdl, 1, 5, sample_cb, &z) < 0);
+    assert_true(it2n_sample(&mdl, 5, 0, sample_cb, &z) < 0);
+    assert_true(it2n_sample(&mdl, 65536, 2, sample_cb, &z) < 0);
+    assert_int_equal(z.calls, 0);
+    static it2n_model empty;
+    it2n_model_init(&empty);
+    assert_int_equal(it2n_sample(&empty, 3, 3, sample_cb, &z), IT2N_ERR_STATE);
+    assert_int_equal(z.calls, 0);
+}
+
+/* ---- incremental update ------------------------------------------------ */
+
+static long long max_ctrl_diff(const it2n_model *a, const it2n_model *b,
+                               unsigned *at)
+{
+    long long worst = 0;
+    for (unsigned i = 0; i < IT2N_DIM; i++)
+        for (unsigned j = 0; j < IT2N_DIM; j++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
+                for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                    long long d = llabs(a->ctrl[i][j][fp][ch] - b->ctrl[i][j][fp][ch]);
+                    if (d > worst) {
+                        worst = d;
+                        *at = ((i * IT2N_DIM + j) * IT2N_FP_COUNT + fp) * 8u + ch;
+                    }
+                }
+    return worst;
+}
+
+/* New values for (i, j, fp) that keep the nesting: move the whole point. */
+static void moved_vals(const tc_case *c, unsigned i, unsigned j, unsigned fp,
+                       uint64_t *s, tc_case *out)
+{
+    *out = *c;
+    long double dx = ((long double)(tc_rand(s) % 1000u) - 500.0L) * 1e-5L;
+    unsigned lo = tc_has_fp(c, IT2N_FP_LL) ? 0u : IT2N_FP_D;
+    unsigned hi = tc_has_fp(c, IT2N_FP_LL) ? IT2N_FP_COUNT - 1u : IT2N_FP_D;
+    (void)fp;
+    for (unsigned f = lo; f <= hi; f++)
+        for (unsigned ch = IT2N_CH_X; ch <= IT2N_CH_Z; ch++)
+            if (ch != IT2N_CH_Z || (c->flags & IT2N_F_Z))
+                tc_set(out, i, j, f, ch, c->v[i][j][f][ch] + dx);
+    tc_set(out, i, j, fp, IT2N_CH_T, (long double)(tc_rand(s) % 1000001u) * 1e-6L);
+    tc_set(out, i, j, fp, IT2N_CH_I, (long double)(tc_rand(s) % 1000001u) * 1e-6L);
+    tc_set(out, i, j, fp, IT2N_CH_F, (long double)(tc_rand(s) % 1000001u) * 1e-6L);
+}
+
+static void test_update_vs_resolve(void **state)
+{
+    (void)state;
+    static tc_case c, c2;
+    static it2n_model inc, full;
+    static const unsigned pairs[][2] = {{1, 1}, {2, 3}, {3, 3}, {5, 4}, {7, 2}, {7, 7}};
+    it2n_errinfo err;
+    long long worst = 0;
+    uint64_t s = 2024;
+    for (unsigned p = 0; p < sizeof pairs / sizeof pairs[0]; p++)
+        for (unsigned zf = 0; zf < 2; zf++) {
+            unsigned flags = zf ? IT2N_F_Z : (p & 1u ? IT2N_F_TYPE1 : 0u);
+            tc_smooth(&c, pairs[p][0], pairs[p][1], flags, 10.0L, p);
+            for (unsigned t = 0; t < 6; t++) {
+                unsigned i = (unsigned)(tc_rand(&s) % (c.n + 1u));
+                unsigned j = (unsigned)(tc_rand(&s) % (c.m + 1u));
+                unsigned fp = (flags & IT2N_F_TYPE1) ? IT2N_FP_D
+                            : (unsigned)(tc_rand(&s) % IT2N_FP_COUNT);
+                tc_model(&c, &inc);
+                uint32_t gen = inc.generation;
+                moved_vals(&c, i, j, fp, &s, &c2);
+                /* coordinates of all footprints moved: update each */
+                unsigned lo = (flags & IT2N_F_TYPE1) ? IT2N_FP_D : 0u;
+                unsigned hi = (flags & IT2N_F_TYPE1) ? IT2N_FP_D : IT2N_FP_COUNT - 1u;
+                /* Move outward-first so nesting holds after every step. */
+                long double dx = c2.v[i][j][lo][IT2N_CH_X] - c.v[i][j][lo][IT2N_CH_X];
+                for (unsigned k = lo; k <= hi; k++) {
+                    unsigned f = dx > 0 ? hi - (k - lo) : k;
+                    int rc = it2n_model_update(&inc, i, j, f, c2.q[i][j][f], &err);
+                    if (rc != IT2N_OK)
+                        fail_msg("update %ux%u (%u,%u,%u) -> %d", c.n, c.m, i, j, f, rc);
+                }
+                assert_true(inc.generation != gen);
+                tc_model(&c2, &full);
+                assert_memory_equal(&inc.data, &full.data, sizeof full.data);
+                unsigned at = 0;
+                long long d = max_ctrl_diff(&inc, &full, &at);
+                if (d > worst)
+                    worst = d;
+                if (d > 1)
+                    fail_msg("update %ux%u flags %u at (%u,%u): control points "
+                             "differ from full re-solve by %lld LSB (entry %u)",
+                             c.n, c.m, flags, i, j, d, at);
+            }
+        }
+    printf("  [operations] single-point update vs re-solve: worst %lld LSB\n", worst);
+}
+
+/* A long run of updates must not drift from the full re-solve. */
+static void test_update_chain(void **state)
+{
+    (void)state;
+    static tc_case c, c2;
+    static it2n_model inc, full;
+    it2n_errinfo err;
+    uint64_t s = 99;
+    tc_smooth(&c, 7, 7, 0, 10.0L, 5);
+    tc_model(&c, &inc);
+    for (unsigned t = 0; t < 50; t++) {
+        unsigned i = (unsigned)(tc_rand(&s) % 8u), j = (unsigned)(tc_rand(&s) % 8u);
+        c2 = c;
+        for (unsigned ch = IT2N_CH_T; ch <= IT2N_CH_F; ch++)
+            tc_set(&c2, i, j, IT2N_FP_D, ch, (long double)(tc_rand(&s) % 1000001u) * 1e-6L);
+        assert_int_equal(it2n_model_update(&inc, i, j, IT2N_FP_D, c2.q[i][j][IT2N_FP_D],
+                                           &err), IT2N_OK);
+        c = c2;
+    }
+    tc_model(&c, &full);
+    unsigned at = 0;
+    long long d = max_ctrl_diff(&inc, &full, &at);
+    printf("  [operations] 50 chained updates 7x7 vs re-solve: %lld LSB\n", d);
+    if (d > 1)
+        fail_msg("50 chained updates drift %lld LSB from a full re-solve", d);
+}
+
+static void test_update_chord(void **state)
+{
+    (void)state;
+    static tc_case c, c2;
+    static it2n_model inc, full;
+    it2n_errinfo err;
+    uint64_t s = 7;
+    for (unsigned variant = 0; variant < 2; variant++) {
+        unsigned flags = IT2N_F_CHORD | (variant ? IT2N_F_Z : IT2N_F_TYPE1);
+        tc_smooth(&c, 4, 5, flags, 10.0L, 1);
+        tc_model(&c, &inc);
+        for (unsigned t = 0; t < 4; t++) {
+            unsigned i = (unsigned)(tc_rand(&s) % 5u), j = (unsigned)(tc_rand(&s) % 6u);
+            moved_vals(&c, i, j, IT2N_FP_D, &s, &c2);
+            /* D alone moves within its neighbours' gap */
+            static tc_case c3;
+            c3 = c;
+            for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                c3.v[i][j][IT2N_FP_D][ch] = c2.v[i][j][IT2N_FP_D][ch];
+                c3.q[i][j][IT2N_FP_D][ch] = c2.q[i][j][IT2N_FP_D][ch];
+            }
+            uint32_t gen = inc.generation;
+            assert_int_equal(it2n_model_update(&inc, i, j, IT2N_FP_D,
+                                               c3.q[i][j][IT2N_FP_D], &err), IT2N_OK);
+            assert_true(inc.generation != gen);
+            tc_model(&c3, &full);
+            /* used entries only: the unused ones are test_model_bytes' */
+            assert_memory_equal(inc.u, full.u, (c3.n + 1u) * sizeof full.u[0]);
+            assert_memory_equal(inc.w, full.w, (c3.m + 1u) * sizeof full.w[0]);
+            assert_memory_equal(&inc.data, &full.data, sizeof full.data);
+            for (unsigned a = 0; a <= c3.n; a++)
+                for (unsigned b = 0; b <= c3.m; b++)
+                    if (memcmp(inc.ctrl[a][b], full.ctrl[a][b],
+                               sizeof full.ctrl[a][b]) != 0)
+                        fail_msg("chord update: ctrl[%u][%u] differs from the "
+                                 "full re-solve", a, b);
+            c = c3;
+        }
+    }
+}
+
+/* ---- chord-length parameters ------------------------------------------ */
+
+static void test_chord_params(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl;
+    static ref_model r;
+    long double worst = 0.0L;
+    for (unsigned n = 1; n <= IT2N_MAX_DEGREE; n++)
+        for (unsigned m = 1; m <= IT2N_MAX_DEGREE; m++) {
+            unsigned flags = IT2N_F_CHORD | ((n + m) % 3u == 0 ? IT2N_F_Z : 0u);
+            tc_smooth(&c, n, m, flags, 10.0L, n * m);
+            /* uneven spacing so chord params differ from uniform ones */
+            for (unsigned i = 0; i <= n; i++)
+                for (unsigned j = 0; j <= m; j++)
+                    for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                        long double a = (long double)i / n, b = (long double)j / m;
+                        tc_set(&c, i, j, fp, IT2N_CH_X, 10.0L * a * a + 0.25L * fp);
+                        tc_set(&c, i, j, fp, IT2N_CH_Y, 8.0L * b * sqrtl(b) + a + 0.25L * fp);
+                    }
+            tc_model(&c, &mdl);
+            tc_ref(&c, &r);
+            for (unsigned i = 0; i <= n; i++) {
+                long double e = fabsl(tc_ldp(mdl.u[i]) - r.u[i]);
+                worst = fmaxl(worst, e);
+                if (e > 1e-6L)
+                    fail_msg("chord %ux%u: u[%u] = %.9Lf, reference %.9Lf", n, m,
+                             i, tc_ldp(mdl.u[i]), r.u[i]);
+            }
+            for (unsigned j = 0; j <= m; j++) {
+                long double e = fabsl(tc_ldp(mdl.w[j]) - r.w[j]);
+                worst = fmaxl(worst, e);
+                if (e > 1e-6L)
+                    fail_msg("chord %ux%u: w[%u] = %.9Lf, reference %.9Lf", n, m,
+                             j, tc_ldp(mdl.w[j]), r.w[j]);
+            }
+            assert_true(mdl.u[0] == 0 && mdl.u[n] == IT2N_PAR_ONE);
+            assert_true(mdl.w[0] == 0 && mdl.w[m] == IT2N_PAR_ONE);
+        }
+    printf("  [operations] chord-length parameters: worst |err| %.3Le\n", worst);
+}
+
+/* Rows degenerate one by one: skipped while any row has length. */
+static void test_chord_degenerate(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_dataset ds;
+    static it2n_model mdl;
+    static ref_model r;
+    it2n_errinfo err;
+    for (unsigned dir = 0; dir < 2; dir++) {
+        tc_init(&c, 3, 4, IT2N_F_CHORD);
+        for (unsigned i = 0; i <= 3; i++)
+            for (unsigned j = 0; j <= 4; j++)
+                for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                    /* dir 0: points move only with j (rows along u collapse) */
+                    long double t = dir == 0 ? (long double)j : (long double)i;
+                    tc_set(&c, i, j, fp, IT2N_CH_X, 3.0L * t + 0.5L * fp);
+                    tc_set(&c, i, j, fp, IT2N_CH_Y, t * t + 0.5L * fp);
+                    tc_set(&c, i, j, fp, IT2N_CH_T, 0.5L);
+                    tc_set(&c, i, j, fp, IT2N_CH_I, 0.5L);
+                    tc_set(&c, i, j, fp, IT2N_CH_F, 0.5L);
+                }
+        tc_dataset(&c, &ds);
+        it2n_model_init(&mdl);
+        memset(&err, 0, sizeof err);
+        assert_int_equal(it2n_model_solve(&mdl, &ds, &err), IT2N_ERR_DEGENERATE);
+        assert_int_equal(err.code, IT2N_ERR_DEGENERATE);
+        assert_int_equal(mdl.solved, 0);
+        /* One line with strictly increasing, uneven chords makes it valid
+         * again: A9.3 skips the degenerate lines and uses that one alone. */
+        static const long double step[5] = {0.0L, 0.5L, 0.75L, 1.5L, 1.75L};
+        for (unsigned k = 0; k <= (dir == 0 ? 3u : 4u); k++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (dir == 0)
+                    tc_set(&c, k, 4, fp, IT2N_CH_X, 12.0L + 0.5L * fp + step[k]);
+                else
+                    tc_set(&c, 3, k, fp, IT2N_CH_Y, 9.0L + 0.5L * fp + step[k]);
+            }
+        tc_model(&c, &mdl);
+        tc_ref(&c, &r);
+        for (unsigned i = 0; i <= 3; i++)
+            if (fabsl(tc_ldp(mdl.u[i]) - r.u[i]) > 1e-6L)
+                fail_msg("dir %u: u[%u] = %.9Lf, reference %.9Lf", dir, i,
+                         tc_ldp(mdl.u[i]), r.u[i]);
+        for (unsigned j = 0; j <= 4; j++)
+            if (fabsl(tc_ldp(mdl.w[j]) - r.w[j]) > 1e-6L)
+                fail_msg("dir %u: w[%u] = %.9Lf, reference %.9Lf", dir, j,
+                         tc_ldp(mdl.w[j]), r.w[j]);
+    }
+}
+
+/* ---- locate ------------------------------------------------------------ */
+
+static void locate_case(const tc_case *c, uint64_t seed, long double *worst_uw)
+{
+    static it2n_model mdl;
+    static ref_model r;
+    tc_model(c, &mdl);
+    tc_ref(c, &r);
+    long double tm = tc_tol_memb(c->n, c->m);
+    uint64_t s = seed;
+    for (unsigned k = 0; k < 12; k++) {
+        it2n_par uq, wq;
+        long double ue = tc_rand_par(&s, &uq), we = tc_rand_par(&s, &wq);
+        if (k == 0) { ue = 0.0L; we = 0.0L; }
+        if (k == 1) { ue = 1.0L; we = 0.5L; }
+        long double ref[REF_FP][REF_CH], rdu[REF_FP][REF_CH], rdw[REF_FP][REF_CH];
+        ref_eval(&r, ue, we, ref);
+        ref_deriv_fd(&r, ue, we, 1e-5L, rdu, rdw);
+        for (unsigned fp = 0; fp < REF_FP; fp++) {
+            if (!tc_has_fp(c, fp))
+                continue;
+            it2n_locate_result res;
+            it2n_val x = (it2n_val)llroundl(ref[fp][IT2N_CH_X] * TC_Q24);
+            it2n_val y = (it2n_val)llroundl(ref[fp][IT2N_CH_Y] * TC_Q24);
+            int rc = it2n_locate(&mdl, x, y, &res);
+            if (rc != IT2N_OK)
+                fail_msg("locate -> %d", rc);
+            const it2n_locate_fp *f = &res.fp[fp];
+            long double du = fabsl(tc_ldp(f->u) - ue), dw = fabsl(tc_ldp(f->w) - we);
+            *worst_uw = fmaxl(*worst_uw, fmaxl(du, dw));
+            if (f->status != IT2N_LOC_INSIDE || du > 1e-5L || dw > 1e-5L)
+                fail_msg("locate %ux%u %s at (x=%.6Lf,y=%.6Lf): status %u u=%.9Lf "
+                         "w=%.9Lf, expected inside u=%.6Lf w=%.6Lf", c->n, c->m,
+                         it2n_fp_name(fp), ref[fp][IT2N_CH_X], ref[fp][IT2N_CH_Y],
+                         f->status, tc_ldp(f->u), tc_ldp(f->w), ue, we);
+            /* memberships there: tolerance plus the slope times the (u,w) miss */
+            for (unsigned ch = IT2N_CH_T; ch <= IT2N_CH_F; ch++) {
+                long double tol = tm + fabsl(rdu[fp][ch]) * du + fabsl(rdw[fp][ch]) * dw;
+                long double e = fabsl(tc_ld(f->v[ch]) - ref[fp][ch]);
+                if (!(e <= tol))
+                    fail_msg("locate %s.%s = %.9Lf, reference %.9Lf (tol %.3Le)",
+                             it2n_fp_name(fp), it2n_ch_name(ch), tc_ld(f->v[ch]),
+                             ref[fp][ch], tol);
+            }
+            /* values and residual consistent with it2n_eval at the (u,w) found */
+            it2n_point pt;
+            assert_int_equal(it2n_eval(&mdl, f->u, f->w, &pt), IT2N_OK);
+            for (unsigned ch = 0; ch < REF_CH; ch++)
+                if (llabs(pt.v[fp][ch] - f->v[ch]) > 1)
+                    fail_msg("locate %s.%s %lld != eval %lld", it2n_fp_name(fp),
+                             it2n_ch_name(ch), (long long)f->v[ch],
+                             (long long)pt.v[fp][ch]);
+            it2n_val rx = llabs(pt.v[fp][IT2N_CH_X] - x), ry = llabs(pt.v[fp][IT2N_CH_Y] - y);
+            it2n_val res_inf = rx > ry ? rx : ry;
+            if (llabs(f->residual - res_inf) > 2)
+                fail_msg("locate residual %lld, eval says %lld",
+                         (long long)f->residual, (long long)res_inf);
+        }
+    }
+    /* far away: outside for every footprint, parameters still in [0,1] */
+    it2n_locate_result res;
+    long double far = tc_maxabs(c) * 4.0L + 100.0L;
+    assert_int_equal(it2n_locate(&mdl, (it2n_val)llroundl(far * TC_Q24),
+                                 (it2n_val)llroundl(-far * TC_Q24), &res), IT2N_OK);
+    for (unsigned fp = 0; fp < REF_FP; fp++) {
+        if (!tc_has_fp(c, fp))
+            continue;
+        if (res.fp[fp].status != IT2N_LOC_OUTSIDE)
+            fail_msg("far point: %s status %u, expected outside", it2n_fp_name(fp),
+                     res.fp[fp].status);
+        assert_true(res.fp[fp].u >= 0 && res.fp[fp].u <= IT2N_PAR_ONE);
+        assert_true(res.fp[fp].w >= 0 && res.fp[fp].w <= IT2N_PAR_ONE);
+        assert_true(res.fp[fp].residual > 0);
+    }
+}
+
+static void test_locate(void **state)
+{
+    (void)state;
+    static tc_case c;
+    long double worst = 0.0L;
+    tc_paper(&c);
+    locate_case(&c, 3, &worst);
+    tc_smooth(&c, 5, 4, IT2N_F_Z, 10.0L, 1);
+    locate_case(&c, 4, &worst);
+    tc_smooth(&c, 7, 7, 0, 100.0L, 2);
+    locate_case(&c, 5, &worst);
+    tc_smooth(&c, 2, 6, IT2N_F_TYPE1, 10.0L, 3);
+    locate_case(&c, 6, &worst);
+    tc_smooth(&c, 3, 3, IT2N_F_CHORD, 10.0L, 4);
+    locate_case(&c, 7, &worst);
+    printf("  [operations] locate: worst |du|,|dw| %.3Le\n", worst);
+    static it2n_model empty;
+    it2n_locate_result res;
+    it2n_model_init(&empty);
+    assert_int_equal(it2n_locate(&empty, 0, 0, &res), IT2N_ERR_STATE);
+}
+
+/* ---- out-of-range flag, parameter range, generation ------------------- */
+
+static void test_out_of_range_flag(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl;
+    /* memberships alternate 0/1: the degree-6 interpolant overshoots */
+    tc_smooth(&c, 6, 6, 0, 10.0L, 1);
+    for (unsigned i = 0; i <= 6; i++)
+        for (unsigned j = 0; j <= 6; j++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                tc_set(&c, i, j, fp, IT2N_CH_T, (i + j) & 1u ? 1.0L : 0.0L);
+                tc_set(&c, i, j, fp, IT2N_CH_I, 0.5L);
+                tc_set(&c, i, j, fp, IT2N_CH_F, i & 1u ? 0.0L : 1.0L);
+            }
+    tc_model(&c, &mdl);
+    unsigned seen_hi = 0, seen_lo = 0, seen_in = 0;
+    for (unsigned a = 0; a <= 60; a++)
+        for (unsigned b = 0; b <= 60; b++) {
+            it2n_point pt;
+            it2n_par u = (it2n_par)(((uint64_t)a << IT2N_PAR_FRAC) / 60u);
+            it2n_par w = (it2n_par)(((uint64_t)b << IT2N_PAR_FRAC) / 60u);
+            assert_int_equal(it2n_eval(&mdl, u, w, &pt), IT2N_OK);
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
+                for (unsigned k = 0; k < 3; k++) {
+                    it2n_val v = pt.v[fp][IT2N_CH_T + k];
+                    bool bit = (pt.out_of_range >> (fp * 3u + k)) & 1u;
+                    if (v > IT2N_VAL_ONE) seen_hi++;
+                    else if (v < 0) seen_lo++;
+                    else seen_in++;
+                    if (bit != (v < 0 || v > IT2N_VAL_ONE))
+                        fail_msg("(a=%u,b=%u) %s.%s = %lld: flag %d", a, b,
+                                 it2n_fp_name(fp), it2n_ch_name(IT2N_CH_T + k),
+                                 (long long)v, (int)bit);
+                }
+            assert_true(pt.out_of_range < (1u << 21));
+        }
+    /* the data must really exercise both sides */
+    assert_true(seen_hi > 0);
+    assert_true(seen_lo > 0);
+    assert_true(seen_in > 0);
+    /* the raw values are kept, e.g. the middle of the first cell */
+    it2n_point pt;
+    long double ref[REF_FP][REF_CH];
+    static ref_model r;
+    tc_ref(&c, &r);
+    ref_eval(&r, 1.0L / 12.0L, 1.0L / 12.0L, ref);
+    it2n_par h = (it2n_par)llroundl(TC_Q32 / 12.0L);
+    assert_int_equal(it2n_eval(&mdl, h, h, &pt), IT2N_OK);
+    printf("  [operations] overshoot T(1/12,1/12) core %.6Lf reference %.6Lf\n",
+           tc_ld(pt.v[IT2N_FP_D][IT2N_CH_T]), ref[IT2N_FP_D][IT2N_CH_T]);
+    assert_true(fabsl(tc_ld(pt.v[IT2N_FP_D][IT2N_CH_T]) - ref[IT2N_FP_D][IT2N_CH_T]) <= 1e-4L);
+}
+
+static void test_eval_param_range_and_state(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl;
+    it2n_point pt, du, dw;
+    it2n_model_init(&mdl);
+    assert_int_equal(mdl.solved, 0);
+    assert_int_equal(it2n_eval(&mdl, 0, 0, &pt), IT2N_ERR_STATE);
+    assert_int_equal(it2n_deriv(&mdl, 0, 0, &du, &dw), IT2N_ERR_STATE);
+    tc_paper(&c);
+    tc_model(&c, &mdl);
+    assert_int_equal(mdl.solved, 1);
+    assert_int_equal(it2n_eval(&mdl, -1, 0, &pt), IT2N_ERR_RANGE);
+    assert_int_equal(it2n_eval(&mdl, 0, IT2N_PAR_ONE + 1, &pt), IT2N_ERR_RANGE);
+    assert_int_equal(it2n_eval(&mdl, INT64_MIN, 0, &pt), IT2N_ERR_RANGE);
+    assert_int_equal(it2n_eval(&mdl, 0, INT64_MAX, &pt), IT2N_ERR_RANGE);
+    assert_int_equal(it2n_deriv(&mdl, IT2N_PAR_ONE + 1, 0, &du, &dw), IT2N_ERR_RANGE);
+    assert_int_equal(it2n_eval(&mdl, IT2N_PAR_ONE, IT2N_PAR_ONE, &pt), IT2N_OK);
+    /* S(1,1) is the corner data (3,3,D) = (17,-17) T 0.7 */
+    assert_true(llabs(pt.v[IT2N_FP_D][IT2N_CH_X] - 17 * ONE) <= 2);
+    assert_true(llabs(pt.v[IT2N_FP_D][IT2N_CH_Y] + 17 * ONE) <= 2);
+    assert_true(llabs(pt.v[IT2N_FP_D][IT2N_CH_T] - tc_q24("0.7")) <= 2);
+}
+
+static void test_generation(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl;
+    static it2n_dataset ds;
+    it2n_errinfo err;
+    it2n_point pt;
+    it2n_model_init(&mdl);
+    uint32_t g0 = mdl.generation;
+    tc_paper(&c);
+    tc_dataset(&c, &ds);
+    assert_int_equal(it2n_model_solve(&mdl, &ds, &err), IT2N_OK);
+    uint32_t g1 = mdl.generation;
+    assert_true(g1 != g0);
+    /* read-only operations leave it */
+    assert_int_equal(it2n_eval(&mdl, 0, 0, &pt), IT2N_OK);
+    assert_true(mdl.generation == g1);
+    assert_int_equal(it2n_model_update(&mdl, 1, 1, IT2N_FP_D, c.q[1][1][IT2N_FP_D],
+                                       &err), IT2N_OK);
+    uint32_t g2 = mdl.generation;
+    assert_true(g2 != g1);
+    assert_int_equal(it2n_model_solve(&mdl, &ds, &err), IT2N_OK);
+    assert_true(mdl.generation != g2 && mdl.generation != g1);
+    /* a failed update does not bump */
+    it2n_val v[IT2N_CH_COUNT];
+    memcpy(v, c.q[0][0][IT2N_FP_D], sizeof v);
+    v[IT2N_CH_T] = -5;
+    uint32_t g3 = mdl.generation;
+    assert_int_equal(it2n_model_update(&mdl, 0, 0, IT2N_FP_D, v, &err), IT2N_ERR_RANGE);
+    assert_true(mdl.generation == g3);
+}
+
+/*
+ * A solved model is a function of its data set: solving the same data into
+ * structs that held different bytes before it2n_model_init, from different
+ * stack contents, gives byte-identical models (no stale or uninitialised
+ * memory in the unused rows of u, w, ainv, binv, ctrl).
+ */
+static void dirty_stack(unsigned char fill)
+{
+    volatile unsigned char junk[16384];
+    for (size_t k = 0; k < sizeof junk; k++)
+        junk[k] = fill;
+}
+
+static void test_model_bytes(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_dataset ds;
+    static it2n_model a, b;
+    it2n_errinfo err;
+    static const unsigned cases[][3] = {
+        {3, 3, 0}, {2, 5, IT2N_F_CHORD}, {4, 1, IT2N_F_CHORD | IT2N_F_Z},
+        {1, 1, IT2N_F_TYPE1}};
+    for (unsigned k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        tc_smooth(&c, cases[k][0], cases[k][1], cases[k][2], 10.0L, k);
+        tc_dataset(&c, &ds);
+        memset(&a, 0x00, sizeof a);
+        memset(&b, 0xFF, sizeof b);
+        it2n_model_init(&a);
+        it2n_model_init(&b);
+        a.generation = b.generation = 0; /* counters may legitimately differ */
+        dirty_stack(0x00);
+        assert_int_equal(it2n_model_solve(&a, &ds, &err), IT2N_OK);
+        dirty_stack(0xA7);
+        assert_int_equal(it2n_model_solve(&b, &ds, &err), IT2N_OK);
+        const unsigned char *pa = (const void *)&a, *pb = (const void *)&b;
+        for (size_t off = 0; off < sizeof a; off++)
+            if (pa[off] != pb[off])
+                fail_msg("%ux%u flags %u: models differ at byte %zu (u at %zu, "
+                         "w at %zu, ainv at %zu, binv at %zu, ctrl at %zu)",
+                         c.n, c.m, c.flags, off, offsetof(it2n_model, u),
+                         offsetof(it2n_model, w), offsetof(it2n_model, ainv),
+                         offsetof(it2n_model, binv), offsetof(it2n_model, ctrl));
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_eval_param_range_and_state),
+        cmocka_unit_test(test_derivatives),
+        cmocka_unit_test(test_sample),
+        cmocka_unit_test(test_update_vs_resolve),
+        cmocka_unit_test(test_update_chain),
+        cmocka_unit_test(test_update_chord),
+        cmocka_unit_test(test_chord_params),
+        cmocka_unit_test(test_chord_degenerate),
+        cmocka_unit_test(test_locate),
+        cmocka_unit_test(test_out_of_range_flag),
+        cmocka_unit_test(test_generation),
+        cmocka_unit_test(test_model_bytes),
+    };
+    return cmocka_run_group_tests_name("core operations", tests, NULL, NULL);
+}
