@@ -121,6 +121,26 @@ void tc_smooth(tc_case *c, unsigned n, unsigned m, unsigned flags,
         }
 }
 
+void tc_extreme(tc_case *c)
+{
+    unsigned n = IT2N_MAX_DEGREE, m = IT2N_MAX_DEGREE;
+    long double lim = (long double)IT2N_COORD_LIMIT;
+    tc_init(c, n, m, IT2N_F_Z);
+    for (unsigned i = 0; i <= n; i++)
+        for (unsigned j = 0; j <= m; j++)
+            for (unsigned fp = 0; fp < REF_FP; fp++) {
+                long double sgn = ((i + j) & 1u) ? -1.0L : 1.0L;
+                /* nested: LL <= ... <= RR, all within the limit */
+                long double base = sgn * (lim - 8.0L) + (long double)fp;
+                tc_set(c, i, j, fp, IT2N_CH_X, base);
+                tc_set(c, i, j, fp, IT2N_CH_Y, -sgn * (lim - 8.0L) + (long double)fp);
+                tc_set(c, i, j, fp, IT2N_CH_Z, base);
+                tc_set(c, i, j, fp, IT2N_CH_T, (i + j) & 1u ? 0.0L : 1.0L);
+                tc_set(c, i, j, fp, IT2N_CH_I, 0.5L);
+                tc_set(c, i, j, fp, IT2N_CH_F, (i * j) & 1u ? 1.0L : 0.0L);
+            }
+}
+
 bool tc_has_fp(const tc_case *c, unsigned fp)
 {
     return (c->flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;

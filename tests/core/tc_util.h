@@ -40,6 +40,9 @@ void tc_paper(tc_case *c);
  * footprints nested with spacing scale/40; memberships 0.5 +- 0.3 sin(). */
 void tc_smooth(tc_case *c, unsigned n, unsigned m, unsigned flags,
                long double scale, unsigned seed);
+/* Worst case for the value range: degree IT2N_MAX_DEGREE both ways, x, y, z
+ * alternating near +-IT2N_COORD_LIMIT, memberships alternating 0/1. */
+void tc_extreme(tc_case *c);
 /* Footprint present in this case? */
 bool tc_has_fp(const tc_case *c, unsigned fp);
 /* Largest |coordinate| in the case. */

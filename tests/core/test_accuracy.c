@@ -431,22 +431,7 @@ static void test_extreme_coordinates(void **state)
     static ref_model r;
     static it2n_dataset ds;
     acc_stats st = {0};
-    unsigned n = IT2N_MAX_DEGREE, m = IT2N_MAX_DEGREE;
-    tc_init(&c, n, m, IT2N_F_Z);
-    long double lim = (long double)IT2N_COORD_LIMIT;
-    for (unsigned i = 0; i <= n; i++)
-        for (unsigned j = 0; j <= m; j++)
-            for (unsigned fp = 0; fp < REF_FP; fp++) {
-                long double sgn = ((i + j) & 1u) ? -1.0L : 1.0L;
-                /* nested: LL <= ... <= RR, all within the limit */
-                long double base = sgn * (lim - 8.0L) + (long double)fp;
-                tc_set(&c, i, j, fp, IT2N_CH_X, base);
-                tc_set(&c, i, j, fp, IT2N_CH_Y, -sgn * (lim - 8.0L) + (long double)fp);
-                tc_set(&c, i, j, fp, IT2N_CH_Z, base);
-                tc_set(&c, i, j, fp, IT2N_CH_T, (i + j) & 1u ? 0.0L : 1.0L);
-                tc_set(&c, i, j, fp, IT2N_CH_I, 0.5L);
-                tc_set(&c, i, j, fp, IT2N_CH_F, (i * j) & 1u ? 1.0L : 0.0L);
-            }
+    tc_extreme(&c);
     tc_dataset(&c, &ds);
     it2n_model_init(&mdl);
     it2n_errinfo err;

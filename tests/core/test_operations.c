@@ -251,7 +251,8 @@ static void test_update_vs_resolve(void **state)
     printf("  [operations] single-point update vs re-solve: worst %lld LSB\n", worst);
 }
 
-/* A long run of updates must not drift from the full re-solve. */
+/* A long run of updates must not drift from the full re-solve: after every
+ * update the model is what a full re-solve of its data gives (1 LSB). */
 static void test_update_chain(void **state)
 {
     (void)state;
@@ -261,6 +262,7 @@ static void test_update_chain(void **state)
     uint64_t s = 99;
     tc_smooth(&c, 7, 7, 0, 10.0L, 5);
     tc_model(&c, &inc);
+    long long first_bad = -1, worst = 0;
     for (unsigned t = 0; t < 50; t++) {
         unsigned i = (unsigned)(tc_rand(&s) % 8u), j = (unsigned)(tc_rand(&s) % 8u);
         c2 = c;
@@ -269,13 +271,19 @@ static void test_update_chain(void **state)
         assert_int_equal(it2n_model_update(&inc, i, j, IT2N_FP_D, c2.q[i][j][IT2N_FP_D],
                                            &err), IT2N_OK);
         c = c2;
+        tc_model(&c, &full);
+        unsigned at = 0;
+        long long d = max_ctrl_diff(&inc, &full, &at);
+        if (d > worst)
+            worst = d;
+        if (d > 1 && first_bad < 0)
+            first_bad = t + 1;
     }
-    tc_model(&c, &full);
-    unsigned at = 0;
-    long long d = max_ctrl_diff(&inc, &full, &at);
-    printf("  [operations] 50 chained updates 7x7 vs re-solve: %lld LSB\n", d);
-    if (d > 1)
-        fail_msg("50 chained updates drift %lld LSB from a full re-solve", d);
+    printf("  [operations] 50 chained updates 7x7 vs re-solve: worst %lld LSB\n",
+           worst);
+    if (worst > 1)
+        fail_msg("chained updates drift from a full re-solve: more than 1 LSB "
+                 "from update #%lld on, %lld LSB worst in 50", first_bad, worst);
 }
 
 static void test_update_chord(void **state)
@@ -625,6 +633,88 @@ static void test_generation(void **state)
 }
 
 /*
+ * Operations on the value-range worst case (7x7, +-IT2N_COORD_LIMIT
+ * alternating): each either works (and is accurate) or reports
+ * IT2N_ERR_OVERFLOW; never a wrapped result (UBSan build) and failures
+ * change nothing.
+ */
+static void test_extreme_operations(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl, copy;
+    static ref_model r;
+    it2n_errinfo err;
+    tc_extreme(&c);
+    tc_model(&c, &mdl);
+    tc_ref(&c, &r);
+    uint64_t s = 31;
+    unsigned ok = 0, ovf = 0;
+    for (unsigned k = 0; k < 20; k++) {
+        it2n_par uq, wq;
+        long double ue = tc_rand_par(&s, &uq), we = tc_rand_par(&s, &wq);
+        it2n_point du, dw;
+        long double rdu[REF_FP][REF_CH], rdw[REF_FP][REF_CH];
+        int rc = it2n_deriv(&mdl, uq, wq, &du, &dw);
+        if (rc == IT2N_ERR_OVERFLOW) {
+            ovf++;
+            continue;
+        }
+        assert_int_equal(rc, IT2N_OK);
+        ok++;
+        ref_deriv_fd(&r, ue, we, 1e-6L, rdu, rdw);
+        long double tol = 2.0L * 7.0L * tc_tol_coord(7, 7, tc_maxabs(&c));
+        for (unsigned fp = 0; fp < REF_FP; fp++)
+            for (unsigned ch = IT2N_CH_X; ch <= IT2N_CH_Z; ch++) {
+                long double e = fmaxl(fabsl(tc_ld(du.v[fp][ch]) - rdu[fp][ch]),
+                                      fabsl(tc_ld(dw.v[fp][ch]) - rdw[fp][ch]));
+                if (!(e <= tol))
+                    fail_msg("extreme deriv (u=%.6Lf,w=%.6Lf) %s.%s: du %.3Lf vs "
+                             "%.3Lf, dw %.3Lf vs %.3Lf", ue, we, it2n_fp_name(fp),
+                             it2n_ch_name(ch), tc_ld(du.v[fp][ch]), rdu[fp][ch],
+                             tc_ld(dw.v[fp][ch]), rdw[fp][ch]);
+            }
+    }
+    printf("  [operations] extreme 7x7 derivatives: %u ok, %u overflow\n", ok, ovf);
+    /* locate: any status, but a defined one */
+    it2n_locate_result res;
+    int rc = it2n_locate(&mdl, 12345 * ONE, -54321 * ONE, &res);
+    assert_int_equal(rc, IT2N_OK);
+    for (unsigned fp = 0; fp < REF_FP; fp++) {
+        assert_true(res.fp[fp].status <= IT2N_LOC_NOCONV);
+        assert_true(res.fp[fp].u >= 0 && res.fp[fp].u <= IT2N_PAR_ONE);
+        assert_true(res.fp[fp].w >= 0 && res.fp[fp].w <= IT2N_PAR_ONE);
+    }
+    /* update a middle point to the other extreme: ok and == re-solve within
+     * 1 LSB, or overflow with the model untouched */
+    static tc_case c2;
+    c2 = c;
+    for (unsigned fp = 0; fp < REF_FP; fp++) {
+        tc_set(&c2, 3, 4, fp, IT2N_CH_X, -(long double)IT2N_COORD_LIMIT + (long double)fp);
+        tc_set(&c2, 3, 4, fp, IT2N_CH_Z, -(long double)IT2N_COORD_LIMIT + (long double)fp);
+    }
+    copy = mdl;
+    rc = it2n_model_update(&mdl, 3, 4, IT2N_FP_LL, c2.q[3][4][IT2N_FP_LL], &err);
+    printf("  [operations] extreme 7x7 update to -limit: %d (%s)\n", rc,
+           it2n_strerror(rc));
+    if (rc == IT2N_ERR_OVERFLOW) {
+        assert_memory_equal(&mdl, &copy, sizeof mdl);
+    } else {
+        assert_int_equal(rc, IT2N_OK);
+        static tc_case c3;
+        static it2n_model full;
+        c3 = c;
+        memcpy(c3.q[3][4][IT2N_FP_LL], c2.q[3][4][IT2N_FP_LL], sizeof c3.q[3][4][0]);
+        memcpy(c3.v[3][4][IT2N_FP_LL], c2.v[3][4][IT2N_FP_LL], sizeof c3.v[3][4][0]);
+        tc_model(&c3, &full);
+        unsigned at = 0;
+        long long d = max_ctrl_diff(&mdl, &full, &at);
+        if (d > 1)
+            fail_msg("extreme update differs from re-solve by %lld LSB", d);
+    }
+}
+
+/*
  * A solved model is a function of its data set: solving the same data into
  * structs that held different bytes before it2n_model_init, from different
  * stack contents, gives byte-identical models (no stale or uninitialised
@@ -684,6 +774,7 @@ int main(void)
         cmocka_unit_test(test_locate),
         cmocka_unit_test(test_out_of_range_flag),
         cmocka_unit_test(test_generation),
+        cmocka_unit_test(test_extreme_operations),
         cmocka_unit_test(test_model_bytes),
     };
     return cmocka_run_group_tests_name("core operations", tests, NULL, NULL);
