@@ -1,0 +1,408 @@
+/*
+ * Reliable transport state machine (see it2n_link.h for the contract and
+ * docs/protocol.md "Reliable delivery" for the rules on the wire).
+ *
+ * Copyright (c) 2026 the it2n authors. MIT licence (see LICENSE).
+ */
+#include <string.h>
+
+#include "it2n_link.h"
+
+#define H_EMPTY 0u
+#define H_WAITING 1u /* delivered, the application has not answered */
+#define H_ANSWERED 2u
+
+#define W IT2N_PROTO_WINDOW
+
+static bool due(uint32_t now, uint32_t deadline)
+{
+    return (uint32_t)(now - deadline) < 0x80000000u;
+}
+
+int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
+{
+    if (cfg == NULL || cfg->out == NULL || cfg->out->write == NULL ||
+        cfg->on_rx == NULL || cfg->rto_ms == 0u || cfg->max_tries == 0u)
+        return IT2N_ERR_INVAL;
+    memset(l, 0, sizeof *l);
+    l->cfg = *cfg;
+    l->tx_next = cfg->first_seq;
+    it2n_frame_decoder_init(&l->dec);
+    return IT2N_OK;
+}
+
+/* ---- sender ------------------------------------------------------------- */
+
+static const it2n_link_slot *oldest_of(const it2n_link *l)
+{
+    const it2n_link_slot *best = NULL;
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        const it2n_link_slot *s = &l->slot[k];
+        /* Age relative to tx_next, which is ahead of every slot in flight. */
+        if (s->used && (best == NULL || (uint16_t)(l->tx_next - s->seq) >
+                                            (uint16_t)(l->tx_next - best->seq)))
+            best = s;
+    }
+    return best;
+}
+
+static it2n_link_slot *oldest_slot(it2n_link *l)
+{
+    const it2n_link_slot *o = oldest_of(l);
+    return o == NULL ? NULL : &l->slot[o - l->slot];
+}
+
+unsigned it2n_link_pending(const it2n_link *l)
+{
+    unsigned k, n = 0;
+    for (k = 0; k < W; k++)
+        n += l->slot[k].used;
+    return n;
+}
+
+bool it2n_link_can_send(const it2n_link *l)
+{
+    const it2n_link_slot *old = oldest_of(l);
+    if (old == NULL)
+        return true;
+    /* Until the peer accepted our SYN frame, it travels alone; otherwise
+     * the span of sequence numbers in flight stays below the window so the
+     * receiver's duplicate history always covers every retransmission. */
+    if (!l->tx_synced)
+        return false;
+    return (uint16_t)(l->tx_next - old->seq) < W;
+}
+
+static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
+{
+    it2n_frame_hdr h;
+    h.version = IT2N_PROTO_VERSION;
+    h.type = s->type;
+    h.flags = (uint8_t)(IT2N_FLAG_REL | s->flags |
+                        (s->tries > 0u ? IT2N_FLAG_RETX : 0u));
+    h.seq = s->seq;
+    h.len = s->len;
+    if (s->tries > 0u)
+        l->stats.tx_retx++;
+    l->stats.tx_frames++;
+    /* A stream error only loses this transmission; the timer retries. */
+    (void)it2n_frame_write(l->cfg.out, &h, s->payload, s->len);
+    s->tries++;
+    s->deadline = now + l->cfg.rto_ms;
+}
+
+int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
+{
+    it2n_link_slot *s = NULL;
+    unsigned k;
+    int len;
+
+    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK)
+        return IT2N_PROTO_ERR_TYPE; /* link-internal, never reliable */
+    if (!it2n_link_can_send(l))
+        return IT2N_PROTO_ERR_BUSY;
+    for (k = 0; k < W && s == NULL; k++)
+        if (!l->slot[k].used)
+            s = &l->slot[k];
+    if (s == NULL)
+        return IT2N_PROTO_ERR_BUSY;
+    len = it2n_msg_pack(msg, s->payload, sizeof s->payload, NULL);
+    if (len < 0)
+        return len;
+    s->used = 1;
+    s->tries = 0;
+    s->type = msg->type;
+    s->flags = l->tx_synced ? 0u : IT2N_FLAG_SYN;
+    s->seq = l->tx_next++;
+    s->len = (uint16_t)len;
+    transmit(l, s, now);
+    return (int32_t)s->seq;
+}
+
+static void finish(it2n_link *l, it2n_link_slot *s, int code,
+                   const it2n_msg_nack *nack)
+{
+    uint16_t seq = s->seq;
+    uint8_t type = s->type;
+    if (s->flags & IT2N_FLAG_SYN)
+        l->tx_synced = 1;
+    s->used = 0;
+    if (l->cfg.on_done != NULL)
+        l->cfg.on_done(l->cfg.app, seq, type, code, nack);
+}
+
+static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
+{
+    uint16_t seq = m->type == IT2N_MSG_ACK ? m->u.ack.seq : m->u.nack.seq;
+    it2n_link_slot *s = NULL;
+    unsigned k;
+
+    for (k = 0; k < W && s == NULL; k++)
+        if (l->slot[k].used && l->slot[k].seq == seq)
+            s = &l->slot[k];
+    if (s == NULL) {
+        l->stats.rx_stale_acks++;
+        return;
+    }
+    l->stats.rx_acks++;
+    if (m->type == IT2N_MSG_ACK) {
+        l->stats.tx_acked++;
+        finish(l, s, IT2N_OK, NULL);
+    } else if (m->u.nack.code == IT2N_PROTO_ERR_NOSYNC) {
+        /* Peer lost its state (restart): resend the oldest frame with SYN,
+         * the others follow once it is accepted. */
+        it2n_link_slot *old;
+        if (!l->tx_synced)
+            return; /* already resyncing */
+        l->tx_synced = 0;
+        old = oldest_slot(l);
+        old->flags |= IT2N_FLAG_SYN;
+        transmit(l, old, now);
+    } else {
+        l->stats.tx_nacked++;
+        finish(l, s, m->u.nack.code, &m->u.nack);
+    }
+}
+
+int it2n_link_poll(it2n_link *l, uint32_t now)
+{
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *s = &l->slot[k];
+        if (!s->used || !due(now, s->deadline))
+            continue;
+        if (s->tries >= l->cfg.max_tries) {
+            /* Lost for good: report it and resync the rest, so the
+             * receiver does not wait for this sequence number forever. */
+            l->stats.tx_timeouts++;
+            finish(l, s, IT2N_PROTO_ERR_TIMEOUT, NULL);
+            l->tx_synced = 0;
+            continue;
+        }
+        if (!l->tx_synced) {
+            it2n_link_slot *old = oldest_slot(l);
+            if (old != s) {
+                s->deadline = now + l->cfg.rto_ms; /* wait for the SYN */
+                continue;
+            }
+            s->flags |= IT2N_FLAG_SYN;
+        }
+        transmit(l, s, now);
+    }
+    return IT2N_OK;
+}
+
+uint32_t it2n_link_next_timeout(const it2n_link *l, uint32_t now)
+{
+    uint32_t best = UINT32_MAX;
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        const it2n_link_slot *s = &l->slot[k];
+        uint32_t left;
+        if (!s->used)
+            continue;
+        left = due(now, s->deadline) ? 0u : s->deadline - now;
+        if (left < best)
+            best = left;
+    }
+    return best;
+}
+
+/* ---- receiver ----------------------------------------------------------- */
+
+static void send_answer(it2n_link *l, const it2n_msg_nack *a)
+{
+    it2n_msg m;
+    uint8_t buf[64];
+    it2n_frame_hdr h;
+    int len;
+
+    memset(&m, 0, sizeof m);
+    if (a->code == 0) {
+        m.type = IT2N_MSG_ACK;
+        m.u.ack.seq = a->seq;
+    } else {
+        m.type = IT2N_MSG_NACK;
+        m.u.nack = *a;
+    }
+    len = it2n_msg_pack(&m, buf, sizeof buf, NULL);
+    if (len < 0)
+        return;
+    h.version = IT2N_PROTO_VERSION;
+    h.type = m.type;
+    h.flags = 0;
+    h.seq = 0;
+    h.len = (uint16_t)len;
+    (void)it2n_frame_write(l->cfg.out, &h, buf, (size_t)len);
+}
+
+static void nack_plain(it2n_msg_nack *a, uint16_t seq, int code)
+{
+    memset(a, 0, sizeof *a);
+    a->seq = seq;
+    a->code = (int16_t)code;
+    a->i = a->j = -1;
+    a->fp = a->ch = -1;
+}
+
+static it2n_link_hist *hist_find(it2n_link *l, uint16_t seq)
+{
+    it2n_link_hist *h = &l->hist[seq % W];
+    return h->state != H_EMPTY && h->seq == seq ? h : NULL;
+}
+
+int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
+                       const it2n_errinfo *detail)
+{
+    it2n_link_hist *h = hist_find(l, seq);
+    if (h == NULL || h->state != H_WAITING)
+        return IT2N_PROTO_ERR_SEQ;
+    nack_plain(&h->answer, seq, code > 0 ? IT2N_ERR_INVAL : code);
+    if (code < 0 && detail != NULL) {
+        h->answer.i = detail->i;
+        h->answer.j = detail->j;
+        h->answer.fp = detail->fp;
+        h->answer.ch = detail->ch;
+        h->answer.value = detail->value;
+        h->answer.lo = detail->lo;
+        h->answer.hi = detail->hi;
+    }
+    h->state = H_ANSWERED;
+    send_answer(l, &h->answer);
+    return IT2N_OK;
+}
+
+static void deliver(it2n_link *l, const it2n_frame_hdr *fh, const uint8_t *p)
+{
+    it2n_link_hist *h = &l->hist[fh->seq % W];
+    it2n_proto_errinfo info;
+    it2n_msg m;
+    int r;
+
+    if (h->state == H_WAITING) { /* the app still owes seq - W an answer */
+        l->stats.rx_ahead++;
+        return;
+    }
+    h->seq = fh->seq;
+    h->state = H_WAITING;
+    l->rx_next = (uint16_t)(fh->seq + 1u);
+    r = it2n_msg_unpack(fh->type, p, fh->len, &m, &info);
+    if (r < 0) {
+        /* Malformed message: answered by the link, never delivered. The
+         * detail says where: lo = payload offset, value found, hi = limit. */
+        l->stats.rx_bad_msg++;
+        nack_plain(&h->answer, fh->seq, r);
+        h->answer.lo = info.offset;
+        h->answer.value = info.value;
+        h->answer.hi = info.limit;
+        h->state = H_ANSWERED;
+        send_answer(l, &h->answer);
+        return;
+    }
+    l->stats.rx_delivered++;
+    r = l->cfg.on_rx(l->cfg.app, fh->seq, &m);
+    if (r != IT2N_LINK_DEFER)
+        (void)it2n_link_complete(l, fh->seq, r, NULL);
+}
+
+static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
+                        const uint8_t *p)
+{
+    it2n_link_hist *h;
+    it2n_msg_nack a;
+
+    if (fh->flags & IT2N_FLAG_SYN) {
+        if (!l->rx_synced || hist_find(l, fh->seq) == NULL) {
+            /* New sequence (peer started or resynced): forget the old. */
+            l->rx_synced = 1;
+            l->rx_next = fh->seq;
+            memset(l->hist, 0, sizeof l->hist);
+        }
+    } else if (!l->rx_synced) {
+        l->stats.rx_nosync++;
+        nack_plain(&a, fh->seq, IT2N_PROTO_ERR_NOSYNC);
+        send_answer(l, &a);
+        return;
+    }
+    if (fh->seq == l->rx_next) {
+        deliver(l, fh, p);
+        return;
+    }
+    h = hist_find(l, fh->seq);
+    if (h != NULL && (uint16_t)(l->rx_next - fh->seq) <= W) {
+        l->stats.rx_dup++;
+        if (h->state == H_ANSWERED)
+            send_answer(l, &h->answer); /* our answer was lost: repeat it */
+        return;
+    }
+    l->stats.rx_ahead++; /* out of order or stale: the sender retries */
+}
+
+static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
+                     const uint8_t *p, uint32_t now)
+{
+    if (r == IT2N_PROTO_ERR_VERSION) {
+        /* Intact frame of another version: tell a reliable sender which
+         * version we speak (NACK value) instead of letting it retry. */
+        if (fh->flags & IT2N_FLAG_REL) {
+            it2n_msg_nack a;
+            nack_plain(&a, fh->seq, IT2N_PROTO_ERR_VERSION);
+            a.value = fh->version;
+            a.lo = IT2N_PROTO_VERSION;
+            a.hi = IT2N_PROTO_VERSION;
+            send_answer(l, &a);
+        }
+        return;
+    }
+    if (r != 1)
+        return; /* damaged: counted by the decoder, sender retransmits */
+    if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK) {
+        it2n_msg m;
+        if (it2n_msg_unpack(fh->type, p, fh->len, &m, NULL) == IT2N_OK)
+            on_answer(l, &m, now);
+        else
+            l->stats.rx_bad_msg++;
+        return;
+    }
+    if (!(fh->flags & IT2N_FLAG_REL)) {
+        l->stats.rx_bad_msg++; /* every other message must be reliable */
+        return;
+    }
+    on_reliable(l, fh, p);
+}
+
+int it2n_link_input(it2n_link *l, const uint8_t *data, size_t len,
+                    uint32_t now)
+{
+    while (len > 0u) {
+        it2n_frame_hdr fh;
+        const uint8_t *p = NULL;
+        size_t used = 0;
+        int r = it2n_frame_decode(&l->dec, data, len, &used, &fh, &p);
+        if (r != 0)
+            on_frame(l, r, &fh, p, now);
+        data += used;
+        len -= used;
+    }
+    return IT2N_OK;
+}
+
+int it2n_link_pump(it2n_link *l, uint32_t now)
+{
+    uint8_t buf[64];
+    unsigned k;
+
+    if (l->cfg.in == NULL || l->cfg.in->read == NULL)
+        return IT2N_PROTO_ERR_STREAM;
+    /* Bounded: at most two maximal frames per call, then let poll run. */
+    for (k = 0; k < 2u * IT2N_FRAME_MAX_WIRE / sizeof buf + 1u; k++) {
+        int n = l->cfg.in->read(l->cfg.in, buf, sizeof buf);
+        if (n < 0)
+            return IT2N_PROTO_ERR_STREAM;
+        if (n == 0)
+            break;
+        (void)it2n_link_input(l, buf, (size_t)n > sizeof buf ? sizeof buf : (size_t)n, now);
+    }
+    return IT2N_OK;
+}

@@ -1,0 +1,494 @@
+/*
+ * Message pack/unpack. One codec walks each layout for both directions, so
+ * the writer and the reader cannot drift apart; validation then runs on the
+ * struct with the same rules either way.
+ *
+ * Copyright (c) 2026 the it2n authors. MIT licence (see LICENSE).
+ */
+#include <string.h>
+
+#include "it2n_msg.h"
+
+typedef struct cur {
+    uint8_t *out;     /* pack: destination                 */
+    const uint8_t *in; /* unpack: source                    */
+    size_t pos, end;  /* end: capacity (pack) / length     */
+    bool pack;
+    int err;
+    it2n_proto_errinfo *info;
+} cur;
+
+static void fail(cur *c, int code, size_t off, int64_t value, int64_t limit)
+{
+    if (c->err != 0)
+        return;
+    c->err = code;
+    if (c->info != NULL) {
+        c->info->code = code;
+        c->info->offset = (uint16_t)(off > 0xFFFFu ? 0xFFFFu : off);
+        c->info->value = value;
+        c->info->limit = limit;
+    }
+}
+
+/* Move n bytes between the wire and tmp (little-endian order). */
+static bool io(cur *c, uint8_t *tmp, size_t n)
+{
+    if (c->err != 0)
+        return false;
+    if (n > c->end - c->pos) {
+        fail(c, c->pack ? IT2N_PROTO_ERR_NOSPACE : IT2N_PROTO_ERR_PAYLOAD,
+             c->pos, (int64_t)c->end, (int64_t)(c->pos + n));
+        return false;
+    }
+    if (c->pack)
+        memcpy(c->out + c->pos, tmp, n);
+    else
+        memcpy(tmp, c->in + c->pos, n);
+    c->pos += n;
+    return true;
+}
+
+static void c_u8(cur *c, uint8_t *v)
+{
+    (void)io(c, v, 1u);
+}
+
+static void c_i8(cur *c, int8_t *v)
+{
+    uint8_t t = (uint8_t)*v;
+    if (io(c, &t, 1u) && !c->pack)
+        *v = (int8_t)(t >= 0x80u ? (int)t - 256 : (int)t);
+}
+
+static void c_u16(cur *c, uint16_t *v)
+{
+    uint8_t t[2];
+    t[0] = (uint8_t)(*v & 0xFFu);
+    t[1] = (uint8_t)(*v >> 8);
+    if (io(c, t, 2u) && !c->pack)
+        *v = (uint16_t)(t[0] | (t[1] << 8));
+}
+
+static void c_i16(cur *c, int16_t *v)
+{
+    uint16_t u = (uint16_t)*v;
+    c_u16(c, &u);
+    if (!c->pack && c->err == 0)
+        *v = (int16_t)(u >= 0x8000u ? (int32_t)u - 65536 : (int32_t)u);
+}
+
+static void c_u32(cur *c, uint32_t *v)
+{
+    uint8_t t[4];
+    unsigned k;
+    for (k = 0; k < 4u; k++)
+        t[k] = (uint8_t)((*v >> (8u * k)) & 0xFFu);
+    if (io(c, t, 4u) && !c->pack) {
+        *v = 0;
+        for (k = 0; k < 4u; k++)
+            *v |= (uint32_t)t[k] << (8u * k);
+    }
+}
+
+static void c_i64(cur *c, int64_t *v)
+{
+    uint64_t u = (uint64_t)*v;
+    uint8_t t[8];
+    unsigned k;
+    for (k = 0; k < 8u; k++)
+        t[k] = (uint8_t)((u >> (8u * k)) & 0xFFu);
+    if (io(c, t, 8u) && !c->pack) {
+        u = 0;
+        for (k = 0; k < 8u; k++)
+            u |= (uint64_t)t[k] << (8u * k);
+        /* Two's complement without implementation-defined conversion. */
+        *v = u >= 0x8000000000000000u
+                 ? -(int64_t)(~u) - 1
+                 : (int64_t)u;
+    }
+}
+
+static void c_vals(cur *c, it2n_val *v, size_t n)
+{
+    size_t k;
+    for (k = 0; k < n && c->err == 0; k++)
+        c_i64(c, &v[k]);
+}
+
+/* Field check: off is the payload offset the field was (or would be) at. */
+static void need(cur *c, bool ok, size_t off, int64_t value, int64_t limit)
+{
+    if (!ok)
+        fail(c, IT2N_PROTO_ERR_FIELD, off, value, limit);
+}
+
+static void c_fp(cur *c, uint8_t *fp)
+{
+    size_t off = c->pos;
+    c_u8(c, fp);
+    need(c, c->err != 0 || *fp < IT2N_FP_COUNT, off, *fp, IT2N_FP_COUNT - 1);
+}
+
+static void c_par(cur *c, uint32_t *p)
+{
+    size_t off = c->pos;
+    c_u32(c, p);
+    need(c, c->err != 0 || *p <= IT2N_WIRE_PAR_ONE, off, *p,
+         IT2N_WIRE_PAR_ONE);
+}
+
+static void c_hello(cur *c, it2n_msg_hello *h)
+{
+    size_t off = c->pos;
+    c_u8(c, &h->version_min);
+    c_u8(c, &h->version_max);
+    need(c, c->err != 0 || (h->version_min >= 1u &&
+                            h->version_min <= h->version_max),
+         off, h->version_min, h->version_max);
+    c_u8(c, &h->max_degree);
+    c_u8(c, &h->window);
+    c_u32(c, &h->caps);
+    c_u16(c, &h->max_payload);
+    c_u16(c, &h->max_models);
+    (void)io(c, (uint8_t *)h->node, sizeof h->node);
+}
+
+static void c_configure(cur *c, it2n_msg_configure *m)
+{
+    size_t off = c->pos;
+    c_u8(c, &m->model);
+    c_u8(c, &m->n);
+    c_u8(c, &m->m);
+    c_u8(c, &m->flags);
+    if (c->err != 0)
+        return;
+    need(c, m->model != IT2N_MODEL_ALL, off, m->model, IT2N_MODEL_ALL - 1);
+    need(c, m->n >= 1u && m->n <= IT2N_MAX_DEGREE, off + 1u, m->n,
+         IT2N_MAX_DEGREE);
+    need(c, m->m >= 1u && m->m <= IT2N_MAX_DEGREE, off + 2u, m->m,
+         IT2N_MAX_DEGREE);
+    need(c, (m->flags & ~IT2N_F_ALL) == 0u, off + 3u, m->flags, IT2N_F_ALL);
+}
+
+static void c_model(cur *c, uint8_t *model, bool all_ok)
+{
+    size_t off = c->pos;
+    c_u8(c, model);
+    need(c, c->err != 0 || all_ok || *model != IT2N_MODEL_ALL, off, *model,
+         IT2N_MODEL_ALL - 1);
+}
+
+static void c_put(cur *c, it2n_msg_put *p)
+{
+    size_t off = c->pos, k;
+    uint8_t zero = 0;
+    c_model(c, &p->model, false);
+    c_u8(c, &p->flags);
+    c_u8(c, &p->count);
+    c_u8(c, &zero);
+    if (c->err != 0)
+        return;
+    need(c, (p->flags & ~IT2N_PUT_REPLACE) == 0u, off + 1u, p->flags,
+         IT2N_PUT_REPLACE);
+    need(c, p->count >= 1u && p->count <= IT2N_PUT_MAX, off + 2u, p->count,
+         IT2N_PUT_MAX);
+    for (k = 0; k < p->count && c->err == 0; k++) {
+        it2n_put_entry *e = &p->e[k];
+        size_t eo = c->pos;
+        uint8_t pad = 0;
+        c_u8(c, &e->i);
+        c_u8(c, &e->j);
+        need(c, c->err != 0 || e->i <= IT2N_MAX_DEGREE, eo, e->i,
+             IT2N_MAX_DEGREE);
+        need(c, c->err != 0 || e->j <= IT2N_MAX_DEGREE, eo + 1u, e->j,
+             IT2N_MAX_DEGREE);
+        c_fp(c, &e->fp);
+        c_u8(c, &pad);
+        c_vals(c, e->vals, IT2N_CH_COUNT);
+    }
+}
+
+static void c_event(cur *c, it2n_msg_event *e)
+{
+    size_t off;
+    c_u8(c, &e->model);
+    off = c->pos;
+    c_u8(c, &e->kind);
+    need(c, c->err != 0 || (e->kind >= IT2N_EV_CONFIGURED &&
+                            e->kind <= IT2N_EV_ERROR),
+         off, e->kind, IT2N_EV_ERROR);
+    c_i16(c, &e->code);
+    c_u32(c, &e->generation);
+}
+
+static void c_nack(cur *c, it2n_msg_nack *n)
+{
+    size_t off;
+    c_u16(c, &n->seq);
+    off = c->pos;
+    c_i16(c, &n->code);
+    need(c, c->err != 0 || n->code < 0, off, n->code, -1);
+    c_i16(c, &n->i);
+    c_i16(c, &n->j);
+    c_i8(c, &n->fp);
+    c_i8(c, &n->ch);
+    c_i64(c, &n->value);
+    c_i64(c, &n->lo);
+    c_i64(c, &n->hi);
+}
+
+static void c_query_result(cur *c, it2n_msg_query_result *q)
+{
+    size_t k;
+    c_u16(c, &q->re);
+    c_model(c, &q->model, false);
+    c_par(c, &q->u);
+    c_par(c, &q->w);
+    c_u32(c, &q->out_of_range);
+    for (k = 0; k < IT2N_FP_COUNT; k++)
+        c_vals(c, q->v[k], IT2N_CH_COUNT);
+    c_vals(c, q->sum.upper_min, 3u);
+    c_vals(c, q->sum.upper_max, 3u);
+    c_vals(c, q->sum.lower_min, 3u);
+    c_vals(c, q->sum.lower_max, 3u);
+}
+
+static void c_locate_result(cur *c, it2n_msg_locate_result *l)
+{
+    size_t k;
+    c_u16(c, &l->re);
+    c_model(c, &l->model, false);
+    c_i64(c, &l->x);
+    c_i64(c, &l->y);
+    for (k = 0; k < IT2N_FP_COUNT && c->err == 0; k++) {
+        it2n_locate_wire *f = &l->fp[k];
+        size_t off;
+        c_par(c, &f->u);
+        c_par(c, &f->w);
+        off = c->pos;
+        c_u8(c, &f->status);
+        need(c, c->err != 0 || f->status <= IT2N_LOC_NOCONV, off, f->status,
+             IT2N_LOC_NOCONV);
+        c_i64(c, &f->residual);
+        c_vals(c, f->v, IT2N_CH_COUNT);
+    }
+}
+
+static void c_sample_data(cur *c, it2n_msg_sample_data *s)
+{
+    size_t off, k;
+    uint32_t total;
+    c_u16(c, &s->re);
+    c_model(c, &s->model, false);
+    c_fp(c, &s->fp);
+    off = c->pos;
+    c_u16(c, &s->rows);
+    c_u16(c, &s->cols);
+    c_u32(c, &s->start);
+    c_u8(c, &s->count);
+    if (c->err != 0)
+        return;
+    total = (uint32_t)s->rows * s->cols;
+    need(c, s->rows >= 2u, off, s->rows, 2);
+    need(c, s->cols >= 2u, off + 2u, s->cols, 2);
+    need(c, s->count >= 1u && s->count <= IT2N_SAMPLE_MAX, off + 8u, s->count,
+         IT2N_SAMPLE_MAX);
+    need(c, s->start < total && s->count <= total - s->start, off + 4u,
+         s->start, total);
+    for (k = 0; k < s->count && c->err == 0; k++)
+        c_vals(c, s->v[k], IT2N_CH_COUNT);
+}
+
+static void c_net_row(cur *c, it2n_msg_net_row *r)
+{
+    size_t off, k;
+    c_u16(c, &r->re);
+    c_model(c, &r->model, false);
+    c_fp(c, &r->fp);
+    off = c->pos;
+    c_u8(c, &r->n);
+    c_u8(c, &r->m);
+    c_u8(c, &r->row);
+    if (c->err != 0)
+        return;
+    need(c, r->n >= 1u && r->n <= IT2N_MAX_DEGREE, off, r->n, IT2N_MAX_DEGREE);
+    need(c, r->m >= 1u && r->m <= IT2N_MAX_DEGREE, off + 1u, r->m,
+         IT2N_MAX_DEGREE);
+    need(c, r->row <= r->n, off + 2u, r->row, r->n);
+    for (k = 0; k <= r->m && c->err == 0; k++)
+        c_vals(c, r->v[k], IT2N_CH_COUNT);
+}
+
+static void c_status(cur *c, it2n_msg_status *s)
+{
+    size_t off;
+    c_u16(c, &s->re);
+    c_model(c, &s->model, false);
+    off = c->pos;
+    c_u8(c, &s->state);
+    need(c, c->err != 0 || s->state <= IT2N_MS_ERROR, off, s->state,
+         IT2N_MS_ERROR);
+    c_u8(c, &s->n);
+    c_u8(c, &s->m);
+    off = c->pos;
+    c_u8(c, &s->flags);
+    need(c, c->err != 0 || (s->flags & ~IT2N_F_ALL) == 0u, off, s->flags,
+         IT2N_F_ALL);
+    c_u16(c, &s->missing);
+    c_u32(c, &s->generation);
+    c_i16(c, &s->last_error);
+}
+
+/* Walk one message; the caller checks c->err and the final position. */
+static void codec(cur *c, it2n_msg *m)
+{
+    switch (m->type) {
+    case IT2N_MSG_HELLO: c_hello(c, &m->u.hello); break;
+    case IT2N_MSG_CONFIGURE: c_configure(c, &m->u.configure); break;
+    case IT2N_MSG_PUT: c_put(c, &m->u.put); break;
+    case IT2N_MSG_COMMIT:
+    case IT2N_MSG_GET_STATUS: c_model(c, &m->u.model.model, false); break;
+    case IT2N_MSG_RESET: c_model(c, &m->u.model.model, true); break;
+    case IT2N_MSG_QUERY:
+        c_model(c, &m->u.query.model, false);
+        c_par(c, &m->u.query.u);
+        c_par(c, &m->u.query.w);
+        break;
+    case IT2N_MSG_LOCATE:
+        c_model(c, &m->u.locate.model, false);
+        c_i64(c, &m->u.locate.x);
+        c_i64(c, &m->u.locate.y);
+        break;
+    case IT2N_MSG_SAMPLE: {
+        size_t off;
+        c_model(c, &m->u.sample.model, false);
+        c_fp(c, &m->u.sample.fp);
+        off = c->pos;
+        c_u16(c, &m->u.sample.rows);
+        c_u16(c, &m->u.sample.cols);
+        need(c, c->err != 0 || m->u.sample.rows >= 2u, off, m->u.sample.rows, 2);
+        need(c, c->err != 0 || m->u.sample.cols >= 2u, off + 2u,
+             m->u.sample.cols, 2);
+        break;
+    }
+    case IT2N_MSG_GET_NET:
+        c_model(c, &m->u.get_net.model, false);
+        c_fp(c, &m->u.get_net.fp);
+        break;
+    case IT2N_MSG_EVENT: c_event(c, &m->u.event); break;
+    case IT2N_MSG_ACK: c_u16(c, &m->u.ack.seq); break;
+    case IT2N_MSG_NACK: c_nack(c, &m->u.nack); break;
+    case IT2N_MSG_QUERY_RESULT: c_query_result(c, &m->u.query_result); break;
+    case IT2N_MSG_LOCATE_RESULT: c_locate_result(c, &m->u.locate_result); break;
+    case IT2N_MSG_SAMPLE_DATA: c_sample_data(c, &m->u.sample_data); break;
+    case IT2N_MSG_NET_ROW: c_net_row(c, &m->u.net_row); break;
+    case IT2N_MSG_STATUS: c_status(c, &m->u.status); break;
+    default: fail(c, IT2N_PROTO_ERR_TYPE, 0, m->type, 0); break;
+    }
+}
+
+int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
+                  it2n_proto_errinfo *err)
+{
+    cur c;
+    it2n_msg tmp;
+
+    /* The codec takes a mutable struct (it reads into it when unpacking);
+     * packing works on a copy so the caller's const message stays intact. */
+    memcpy(&tmp, msg, sizeof tmp);
+    memset(&c, 0, sizeof c);
+    c.out = buf;
+    c.end = cap > IT2N_PROTO_MAX_PAYLOAD ? IT2N_PROTO_MAX_PAYLOAD : cap;
+    c.pack = true;
+    c.info = err;
+    codec(&c, &tmp);
+    if (c.err != 0)
+        return c.err;
+    if (err != NULL)
+        memset(err, 0, sizeof *err);
+    return (int)c.pos;
+}
+
+int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
+                    it2n_proto_errinfo *err)
+{
+    cur c;
+
+    memset(&c, 0, sizeof c);
+    memset(msg, 0, sizeof *msg);
+    msg->type = type;
+    c.in = p;
+    c.end = len;
+    c.info = err;
+    codec(&c, msg);
+    if (c.err == 0 && c.pos != len)
+        fail(&c, IT2N_PROTO_ERR_PAYLOAD, c.pos, (int64_t)len, (int64_t)c.pos);
+    if (c.err != 0)
+        return c.err;
+    if (err != NULL)
+        memset(err, 0, sizeof *err);
+    return IT2N_OK;
+}
+
+uint32_t it2n_par_to_wire(it2n_par p)
+{
+    if (p <= 0)
+        return 0u;
+    if (p >= IT2N_PAR_ONE)
+        return IT2N_WIRE_PAR_ONE;
+    return (uint32_t)((p + 2) >> 2);
+}
+
+it2n_par it2n_par_from_wire(uint32_t w)
+{
+    return (it2n_par)w * 4;
+}
+
+const char *it2n_msg_name(uint8_t type)
+{
+    switch (type) {
+    case IT2N_MSG_HELLO: return "HELLO";
+    case IT2N_MSG_CONFIGURE: return "CONFIGURE";
+    case IT2N_MSG_PUT: return "PUT";
+    case IT2N_MSG_COMMIT: return "COMMIT";
+    case IT2N_MSG_QUERY: return "QUERY";
+    case IT2N_MSG_LOCATE: return "LOCATE";
+    case IT2N_MSG_SAMPLE: return "SAMPLE";
+    case IT2N_MSG_GET_NET: return "GET_NET";
+    case IT2N_MSG_GET_STATUS: return "GET_STATUS";
+    case IT2N_MSG_RESET: return "RESET";
+    case IT2N_MSG_EVENT: return "EVENT";
+    case IT2N_MSG_ACK: return "ACK";
+    case IT2N_MSG_NACK: return "NACK";
+    case IT2N_MSG_QUERY_RESULT: return "QUERY_RESULT";
+    case IT2N_MSG_LOCATE_RESULT: return "LOCATE_RESULT";
+    case IT2N_MSG_SAMPLE_DATA: return "SAMPLE_DATA";
+    case IT2N_MSG_NET_ROW: return "NET_ROW";
+    case IT2N_MSG_STATUS: return "STATUS";
+    default: return NULL;
+    }
+}
+
+const char *it2n_proto_strerror(int code)
+{
+    switch (code) {
+    case IT2N_PROTO_ERR_COBS: return "bad byte stuffing or truncated frame";
+    case IT2N_PROTO_ERR_SHORT: return "frame shorter than header and CRC";
+    case IT2N_PROTO_ERR_CRC: return "CRC mismatch";
+    case IT2N_PROTO_ERR_OVERSIZE: return "frame exceeds the maximum size";
+    case IT2N_PROTO_ERR_LENGTH: return "header length disagrees with frame";
+    case IT2N_PROTO_ERR_VERSION: return "unsupported protocol version";
+    case IT2N_PROTO_ERR_TYPE: return "unknown message type";
+    case IT2N_PROTO_ERR_PAYLOAD: return "payload size wrong for its type";
+    case IT2N_PROTO_ERR_FIELD: return "field outside its range";
+    case IT2N_PROTO_ERR_NOSYNC: return "receiver not synchronised";
+    case IT2N_PROTO_ERR_BUSY: return "send window full";
+    case IT2N_PROTO_ERR_TIMEOUT: return "no acknowledgement after retries";
+    case IT2N_PROTO_ERR_STREAM: return "stream I/O error";
+    case IT2N_PROTO_ERR_MODEL: return "unknown model id";
+    case IT2N_PROTO_ERR_SEQ: return "sequence number not awaiting an ACK";
+    case IT2N_PROTO_ERR_NOSPACE: return "buffer too small";
+    default: return code >= IT2N_ERR_NOCONV && code <= 0 ? "core error" : "unknown error";
+    }
+}

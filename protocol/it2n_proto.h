@@ -1,0 +1,196 @@
+/*
+ * it2n — serial framing protocol: limits, error codes, CRC, COBS, frames.
+ *
+ * Wire format (docs/protocol.md is the normative text):
+ *   frame   = COBS(header || payload || crc32c) 0x00
+ *   header  = version u8, type u8, flags u8, reserved u8, seq u16le, len u16le
+ *   crc32c  = CRC-32C (Castagnoli) over header and payload, u32le
+ *
+ * Portable C99: no heap, no floating point, no global mutable state. Every
+ * context lives in caller memory; any number of them may coexist.
+ *
+ * Copyright (c) 2026 the it2n authors. MIT licence (see LICENSE).
+ */
+#ifndef IT2N_PROTO_H
+#define IT2N_PROTO_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "it2n.h"
+#include "it2n_stream.h"
+
+/* ---- Compile-time limits (override with -D; both peers must agree) ------ */
+
+/* Largest payload of one frame, bytes. Must hold the largest fixed-size
+ * message (LOCATE_RESULT, 474 bytes) and fit the u16 length field. */
+#ifndef IT2N_PROTO_MAX_PAYLOAD
+#define IT2N_PROTO_MAX_PAYLOAD 1024
+#endif
+
+/* Reliable frames in flight per direction (sender window = receiver
+ * duplicate-history depth). */
+#ifndef IT2N_PROTO_WINDOW
+#define IT2N_PROTO_WINDOW 4
+#endif
+
+#if IT2N_PROTO_MAX_PAYLOAD < 480 || IT2N_PROTO_MAX_PAYLOAD > 65535
+#error "IT2N_PROTO_MAX_PAYLOAD must be within 480..65535"
+#endif
+#if IT2N_PROTO_WINDOW < 1 || IT2N_PROTO_WINDOW > 64
+#error "IT2N_PROTO_WINDOW must be within 1..64"
+#endif
+
+/* Protocol version carried in every header. */
+#define IT2N_PROTO_VERSION 1
+
+#define IT2N_FRAME_HDR_SIZE 8
+#define IT2N_FRAME_CRC_SIZE 4
+/* Frame before stuffing: header + payload + CRC. */
+#define IT2N_FRAME_MIN_RAW (IT2N_FRAME_HDR_SIZE + IT2N_FRAME_CRC_SIZE)
+#define IT2N_FRAME_MAX_RAW (IT2N_FRAME_MIN_RAW + IT2N_PROTO_MAX_PAYLOAD)
+/* COBS adds one byte per started 254-byte block; plus the 0x00 delimiter. */
+#define IT2N_COBS_MAX(n) ((n) + (n) / 254u + 1u)
+#define IT2N_FRAME_MAX_WIRE (IT2N_COBS_MAX(IT2N_FRAME_MAX_RAW) + 1u)
+
+/* Header flags. */
+#define IT2N_FLAG_REL 0x01u  /* reliable: receiver answers ACK or NACK     */
+#define IT2N_FLAG_SYN 0x02u  /* first frame of a sequence: resync receiver */
+#define IT2N_FLAG_RETX 0x04u /* retransmission (informational only)       */
+
+/* ---- Errors (negative, disjoint from enum it2n_error) ------------------- */
+
+enum it2n_proto_error {
+    IT2N_PROTO_ERR_COBS = -100,     /* bad byte stuffing / truncated frame  */
+    IT2N_PROTO_ERR_SHORT = -101,    /* frame shorter than header + CRC      */
+    IT2N_PROTO_ERR_CRC = -102,      /* CRC mismatch                         */
+    IT2N_PROTO_ERR_OVERSIZE = -103, /* frame larger than IT2N_FRAME_MAX_RAW */
+    IT2N_PROTO_ERR_LENGTH = -104,   /* header length != payload length      */
+    IT2N_PROTO_ERR_VERSION = -105,  /* unsupported protocol version         */
+    IT2N_PROTO_ERR_TYPE = -106,     /* unknown message type                 */
+    IT2N_PROTO_ERR_PAYLOAD = -107,  /* payload size wrong for its type      */
+    IT2N_PROTO_ERR_FIELD = -108,    /* field outside its documented range   */
+    IT2N_PROTO_ERR_NOSYNC = -109,   /* receiver has no sequence: send SYN   */
+    IT2N_PROTO_ERR_BUSY = -110,     /* send window full, try later          */
+    IT2N_PROTO_ERR_TIMEOUT = -111,  /* retransmissions exhausted            */
+    IT2N_PROTO_ERR_STREAM = -112,   /* stream callback failed               */
+    IT2N_PROTO_ERR_MODEL = -113,    /* unknown / unusable model id          */
+    IT2N_PROTO_ERR_SEQ = -114,      /* sequence number not awaiting an ACK  */
+    IT2N_PROTO_ERR_NOSPACE = -115   /* caller buffer too small              */
+};
+
+/* Short English description of a protocol or core error code. */
+const char *it2n_proto_strerror(int code);
+
+/* Where and why a parse failed: code, payload byte offset of the offending
+ * field, the value found and the limit it broke (0 when meaningless). */
+typedef struct it2n_proto_errinfo {
+    int code;
+    uint16_t offset;
+    int64_t value;
+    int64_t limit;
+} it2n_proto_errinfo;
+
+/* ---- CRC-32C ------------------------------------------------------------ */
+
+/* Start value for it2n_crc32c_update. */
+#define IT2N_CRC32C_INIT 0xFFFFFFFFu
+
+/* Fold len bytes into a running (not yet inverted) CRC-32C. */
+uint32_t it2n_crc32c_update(uint32_t crc, const uint8_t *p, size_t len);
+
+/* CRC-32C of a buffer (reflected 0x1EDC6F41, init and xorout 0xFFFFFFFF);
+ * "123456789" gives 0xE3069283. */
+uint32_t it2n_crc32c(const uint8_t *p, size_t len);
+
+/* ---- COBS --------------------------------------------------------------- */
+
+/*
+ * COBS-encode len bytes of src into dst (capacity cap), no delimiter.
+ * Returns the encoded length (<= IT2N_COBS_MAX(len)) or
+ * IT2N_PROTO_ERR_NOSPACE. src and dst must not overlap.
+ */
+int it2n_cobs_encode(const uint8_t *src, size_t len, uint8_t *dst, size_t cap);
+
+/*
+ * Decode one COBS block sequence (no 0x00 inside, no delimiter) of len bytes
+ * into dst. Returns the decoded length, IT2N_PROTO_ERR_COBS on a zero byte
+ * or a code pointing past the end, or IT2N_PROTO_ERR_NOSPACE.
+ */
+int it2n_cobs_decode(const uint8_t *src, size_t len, uint8_t *dst, size_t cap);
+
+/* ---- Frames ------------------------------------------------------------- */
+
+typedef struct it2n_frame_hdr {
+    uint8_t version; /* IT2N_PROTO_VERSION when sending          */
+    uint8_t type;    /* enum it2n_msg_type                       */
+    uint8_t flags;   /* IT2N_FLAG_*                               */
+    uint16_t seq;    /* sequence number (reliable frames)        */
+    uint16_t len;    /* payload length, <= IT2N_PROTO_MAX_PAYLOAD */
+} it2n_frame_hdr;
+
+/*
+ * Encode a complete wire frame (stuffed, with trailing 0x00) into out.
+ * hdr->len must equal len. Returns the wire length or
+ * IT2N_PROTO_ERR_NOSPACE / IT2N_PROTO_ERR_OVERSIZE; out untouched on error
+ * except for NOSPACE, where it may be partly written.
+ */
+int it2n_frame_encode(const it2n_frame_hdr *hdr, const uint8_t *payload,
+                      size_t len, uint8_t *out, size_t cap);
+
+/*
+ * Same, written through an output stream in blocks of at most 255 bytes,
+ * with only a 255-byte buffer on the stack. Returns the wire length,
+ * IT2N_PROTO_ERR_OVERSIZE or IT2N_PROTO_ERR_STREAM.
+ */
+int it2n_frame_write(it2n_ostream *os, const it2n_frame_hdr *hdr,
+                     const uint8_t *payload, size_t len);
+
+/* Decoder statistics: frames accepted and dropped per reason. */
+typedef struct it2n_frame_stats {
+    uint32_t ok, cobs, shortf, crc, oversize, length, version;
+} it2n_frame_stats;
+
+/*
+ * Streaming decoder: bytes in, one frame at a time out. Unstuffs on the fly
+ * into buf, so memory is IT2N_FRAME_MAX_RAW plus a few bytes. After any
+ * error it resynchronises at the next 0x00; at most the damaged frame is
+ * lost. Empty frames (0x00 0x00) are ignored, so a sender may start with a
+ * 0x00 to flush garbage at the receiver.
+ */
+typedef struct it2n_frame_decoder {
+    uint16_t len;      /* bytes unstuffed so far                  */
+    uint8_t code;      /* bytes left in the current COBS block    */
+    uint8_t zero;      /* a 0x00 is due before the next block     */
+    uint8_t overflow;  /* frame too long: skipping to delimiter   */
+    uint8_t started;   /* at least one byte since last delimiter  */
+    it2n_frame_stats stats;
+    uint8_t buf[IT2N_FRAME_MAX_RAW];
+} it2n_frame_decoder;
+
+/* Reset a decoder (also clears its statistics). */
+void it2n_frame_decoder_init(it2n_frame_decoder *d);
+
+/*
+ * Feed bytes. Stops after the first completed or dropped frame and stores in
+ * *used how many bytes it consumed (call again with the rest). Returns
+ *   0   all bytes consumed, no frame complete yet;
+ *   1   a valid frame: *hdr filled, *payload points into d->buf and stays
+ *       valid until the next call;
+ *   <0  a frame was dropped (IT2N_PROTO_ERR_COBS, _SHORT, _CRC, _OVERSIZE,
+ *       _LENGTH, _VERSION). For _VERSION (CRC good) *hdr is filled so the
+ *       receiver can answer the peer.
+ */
+int it2n_frame_decode(it2n_frame_decoder *d, const uint8_t *data, size_t len,
+                      size_t *used, it2n_frame_hdr *hdr,
+                      const uint8_t **payload);
+
+/*
+ * Freestanding self-test: re-encodes every golden vector (protocol/vectors/)
+ * from a const table, compares bytes and decodes them back. Returns 0, or
+ * -(number of the first failing check). No stdio, no heap.
+ */
+int it2n_proto_selftest(void);
+
+#endif /* IT2N_PROTO_H */

@@ -1,0 +1,60 @@
+#!/usr/bin/env python3
+"""Independent check of protocol/vectors/*.hex, written from docs/protocol.md
+only (no shared code with the C implementation): COBS, CRC-32C, header
+fields and the payload size each message type documents."""
+import glob, os, struct, sys
+
+def crc32c(data):
+    crc = 0xFFFFFFFF
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = (crc >> 1) ^ (0x82F63B78 if crc & 1 else 0)
+    return crc ^ 0xFFFFFFFF
+
+def cobs_decode(enc):
+    out, i = bytearray(), 0
+    while i < len(enc):
+        code = enc[i]; i += 1
+        assert code != 0 and i + code - 1 <= len(enc), "bad COBS code"
+        out += enc[i:i + code - 1]; i += code - 1
+        if code != 0xFF and i < len(enc):
+            out.append(0)
+    return bytes(out)
+
+# Fixed payload sizes from docs/protocol.md (None: variable, checked below).
+SIZES = {0x01: 28, 0x02: 4, 0x03: None, 0x04: 1, 0x05: 9, 0x06: 17, 0x07: 6,
+         0x08: 2, 0x09: 1, 0x0A: 1, 0x10: 8, 0x20: 2, 0x21: 34, 0x45: 447,
+         0x46: 474, 0x47: None, 0x48: None, 0x49: 15}
+
+def main(vdir):
+    files = sorted(glob.glob(os.path.join(vdir, "*.hex")))
+    assert len(files) == len(SIZES), f"expected {len(SIZES)} vectors, got {len(files)}"
+    seen = set()
+    for f in files:
+        hexs = "".join(l for l in open(f) if not l.startswith("#"))
+        wire = bytes.fromhex(hexs)
+        assert wire[-1] == 0 and 0 not in wire[:-1], f"{f}: delimiter"
+        raw = cobs_decode(wire[:-1])
+        ver, typ, flags, _res, seq, ln = struct.unpack_from("<BBBBHH", raw)
+        assert ver == 1, f"{f}: version {ver}"
+        assert ln == len(raw) - 12, f"{f}: length {ln} vs {len(raw) - 12}"
+        (crc,) = struct.unpack_from("<I", raw, len(raw) - 4)
+        assert crc == crc32c(raw[:-4]), f"{f}: CRC"
+        p = raw[8:-4]
+        want = SIZES[typ]
+        if typ == 0x03:
+            want = 4 + 52 * p[2]
+        elif typ == 0x47:
+            want = 13 + 48 * p[12]
+        elif typ == 0x48:
+            want = 7 + 48 * (p[5] + 1)
+        assert len(p) == want, f"{f}: payload {len(p)} != {want}"
+        rel = typ not in (0x20, 0x21)
+        assert bool(flags & 1) == rel, f"{f}: REL flag"
+        seen.add(typ)
+    assert seen == set(SIZES), "a message type has no vector"
+    print(f"check_vectors: {len(files)} vectors OK")
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else "protocol/vectors")
