@@ -1,0 +1,46 @@
+/*
+ * The fixed computations behind the core test vectors. The generator (host)
+ * and the checker (host and Cortex-M3) run exactly this code, so an expected
+ * value can only differ when the core computes something different.
+ *
+ * Freestanding C99: no heap, no float, no libc beyond memset/memcpy.
+ */
+#ifndef IT2N_VEC_SCENARIOS_H
+#define IT2N_VEC_SCENARIOS_H
+
+#include <stdint.h>
+
+#include "it2n.h"
+
+/*
+ * Output stream contract: `put` is called once per recorded output, always
+ * in the same order; `tag` is a static string naming the quantity (for
+ * diagnostics only, never compared), `value` the exact raw result (Q24, Q32,
+ * an error code, a count or a 64-bit FNV-1a hash of a larger array). `state`
+ * is the caller's, passed through untouched.
+ */
+typedef void (*it2n_vec_put)(void *state, const char *tag, int64_t value);
+
+/* Working memory for one run. Large (about 2.5 model structs): callers keep
+ * it in static storage (.bss), never on a small embedded stack. */
+typedef struct it2n_vec_work {
+    it2n_dataset ds, ds2;
+    it2n_model a, b;
+    it2n_point pt, du, dw;
+    it2n_locate_result loc;
+    it2n_errinfo err;
+} it2n_vec_work;
+
+/* Run every scenario, streaming outputs to put(state, ...). */
+void it2n_vec_scenarios(it2n_vec_work *work, it2n_vec_put put, void *state);
+
+/* Q24 rows of the paper's 4x4 example (examples/paper_4x4.csv). */
+typedef struct it2n_vec_paper_row {
+    uint8_t i, j, fp;
+    it2n_val x, y, t, ind, f;
+} it2n_vec_paper_row;
+
+#define IT2N_VEC_PAPER_ROWS 112
+extern const it2n_vec_paper_row it2n_vec_paper[IT2N_VEC_PAPER_ROWS];
+
+#endif /* IT2N_VEC_SCENARIOS_H */
