@@ -29,9 +29,11 @@ $(BUILD)/tests/core/san/%: $(TC_DIR)/%.c $(TC_COMMON) $(TC_HDRS) $(CORE_SAN_LIB)
 	@mkdir -p $(@D)
 	$(CC) $(TC_CFLAGS) $(SAN_FLAGS) $< $(TC_COMMON) $(CORE_SAN_LIB) $(TC_LIBS) -o $@
 
+# Run every program even when one fails, then fail if any did.
 tests-core-plain: $(TC_BIN)
-	@set -e; for t in $(TC_BIN); do echo "== $$t"; $$t; done
+	@rc=0; for t in $(TC_BIN); do echo "== $$t"; $$t || rc=1; done; exit $$rc
 
 tests-core-san: $(TC_SAN_BIN)
-	@set -e; for t in $(TC_SAN_BIN); do echo "== $$t"; \
-	  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 $$t; done
+	@rc=0; for t in $(TC_SAN_BIN); do echo "== $$t"; \
+	  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 $$t || rc=1; \
+	done; exit $$rc

@@ -419,6 +419,41 @@ static void test_solve_degenerate_atomic(void **state)
     assert_int_equal(it2n_model_solve(&mdl, &ds, &err), IT2N_OK);
 }
 
+/* A chord-length update that would collapse every line along u is rejected
+ * (the update re-solves) and leaves the model byte-identical. */
+static void test_update_chord_degenerate_atomic(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl, copy;
+    it2n_errinfo err;
+    tc_init(&c, 1, 1, IT2N_F_CHORD);
+    for (unsigned i = 0; i <= 1; i++)
+        for (unsigned j = 0; j <= 1; j++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                long double bump = (i == 1 && j == 0 && fp == IT2N_FP_D) ? 0.05L : 0.0L;
+                tc_set(&c, i, j, fp, IT2N_CH_X, 5.0L * j + 0.1L * fp);
+                tc_set(&c, i, j, fp, IT2N_CH_Y, 0.1L * fp + bump);
+                tc_set(&c, i, j, fp, IT2N_CH_T, 0.25L * (i + j));
+                tc_set(&c, i, j, fp, IT2N_CH_I, 0.5L);
+                tc_set(&c, i, j, fp, IT2N_CH_F, 0.5L);
+            }
+    tc_model(&c, &mdl);
+    copy = mdl;
+    it2n_val v[IT2N_CH_COUNT];
+    memcpy(v, c.q[1][0][IT2N_FP_D], sizeof v);
+    v[IT2N_CH_Y] = c.q[0][0][IT2N_FP_D][IT2N_CH_Y]; /* D(1,0) onto D(0,0) */
+    memset(&err, 0, sizeof err);
+    assert_int_equal(it2n_model_update(&mdl, 1, 0, IT2N_FP_D, v, &err),
+                     IT2N_ERR_DEGENERATE);
+    assert_int_equal(err.code, IT2N_ERR_DEGENERATE);
+    assert_memory_equal(&mdl, &copy, sizeof mdl);
+    /* evaluation still works on the old model */
+    it2n_point pt;
+    assert_int_equal(it2n_eval(&mdl, IT2N_PAR_ONE, 0, &pt), IT2N_OK);
+    assert_true(pt.v[IT2N_FP_D][IT2N_CH_Y] == c.q[1][0][IT2N_FP_D][IT2N_CH_Y]);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -431,6 +466,7 @@ int main(void)
         cmocka_unit_test(test_order),
         cmocka_unit_test(test_update_atomic),
         cmocka_unit_test(test_solve_degenerate_atomic),
+        cmocka_unit_test(test_update_chord_degenerate_atomic),
     };
     return cmocka_run_group_tests_name("core validation", tests, NULL, NULL);
 }
