@@ -1,0 +1,36 @@
+# tests/bench/: core benchmark. `make bench` prints ratios measured in one
+# run (update vs re-solve, sample vs eval, solve by degree) and, when
+# valgrind is installed, callgrind instruction counts per operation.
+# `bench-smoke` (in make test) runs ~1 s and checks results, never times.
+BENCH_B := $(BUILD)/bench
+
+$(BENCH_B)/bench_core: tests/bench/bench_core.c $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) $< $(CORE_LIB) -o $@
+
+.PHONY: bench-core bench-callgrind bench-smoke
+bench-core: $(BENCH_B)/bench_core
+	$<
+
+# Inclusive instruction counts of each public operation, one call each at
+# degree 7x7 (sample: 16x16 nodes; eval: 256 calls).
+bench-callgrind: $(BENCH_B)/bench_core
+	@if ! command -v valgrind >/dev/null; then echo "bench-callgrind: valgrind not installed, skipped"; exit 0; fi; \
+	out=$(BENCH_B)/callgrind.out; \
+	valgrind --tool=callgrind --callgrind-out-file=$$out $< --ops >/dev/null 2>&1 || exit 1; \
+	echo "callgrind: instructions (inclusive), degree 7x7:"; \
+	callgrind_annotate --inclusive=yes $$out 2>/dev/null | \
+	  awk '$$0 ~ /=> .*:it2n_(model_solve|model_update|sample|eval) \(/ { \
+	      ir = $$1; gsub(",", "", ir); f = $$0; sub(/.*:/, "", f); sub(/ .*/, "", f); \
+	      n = $$NF; gsub(/[()x]/, "", n); c[f] = ir; k[f] = n } \
+	    END { if (!("it2n_model_solve" in c)) { print "bench-callgrind: no counts" > "/dev/stderr"; exit 1 } \
+	      for (f in c) printf "  %-18s %6d call(s) %14d Ir\n", f, k[f], c[f]; \
+	      printf "  solve / update      %.1fx\n", c["it2n_model_solve"] / c["it2n_model_update"]; \
+	      printf "  256 evals / sample  %.2fx\n", c["it2n_eval"] / c["it2n_sample"] }'
+
+BENCH_TARGETS += bench-core bench-callgrind
+
+bench-smoke: $(BENCH_B)/bench_core
+	$< --smoke
+
+TEST_TARGETS += bench-smoke
