@@ -1,0 +1,436 @@
+/* conf.c — see conf.h. */
+#include "conf.h"
+
+#include <ini.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "it2n.h"
+#include "it2n_regmap.h"
+
+struct parse {
+    struct conf c;
+    int listen_set;      /* first tcp_listen replaces the default */
+    int models_set;      /* first [model:N] replaces the default */
+    char err[256];
+    char sec[64], key[64];  /* where the last error was raised */
+};
+
+static int parse_int(const char *v, long lo, long hi, int *out)
+{
+    char *end;
+    long x = strtol(v, &end, 0);
+    if (!*v || *end || x < lo || x > hi)
+        return -1;
+    *out = (int)x;
+    return 0;
+}
+
+static int parse_bool(const char *v, int *out)
+{
+    if (!strcasecmp(v, "yes") || !strcasecmp(v, "true") || !strcmp(v, "1") || !strcasecmp(v, "on"))
+        *out = 1;
+    else if (!strcasecmp(v, "no") || !strcasecmp(v, "false") || !strcmp(v, "0") || !strcasecmp(v, "off"))
+        *out = 0;
+    else
+        return -1;
+    return 0;
+}
+
+static int copy_str(char *dst, size_t size, const char *v)
+{
+    size_t len = strlen(v);
+    if (len == 0 || len >= size)
+        return -1;
+    memcpy(dst, v, len + 1);
+    return 0;
+}
+
+/* "host:port", "[v6]:port" or ":port" (all IPv4 and IPv6). */
+static int parse_listen(const char *v, struct conf_listen *l)
+{
+    const char *colon;
+    size_t hlen;
+    if (v[0] == '[') {
+        const char *close = strchr(v, ']');
+        if (!close || close[1] != ':')
+            return -1;
+        hlen = (size_t)(close - v - 1);
+        if (hlen >= sizeof l->host)
+            return -1;
+        memcpy(l->host, v + 1, hlen);
+        l->host[hlen] = 0;
+        colon = close + 1;
+    } else {
+        colon = strrchr(v, ':');
+        if (!colon)
+            return -1;
+        hlen = (size_t)(colon - v);
+        if (hlen >= sizeof l->host)
+            return -1;
+        memcpy(l->host, v, hlen);
+        l->host[hlen] = 0;
+    }
+    int port;
+    if (parse_int(colon + 1, 0, 65535, &port))
+        return -1;
+    snprintf(l->port, sizeof l->port, "%d", port);
+    return 0;
+}
+
+static int parse_order(const char *v, int *out)
+{
+    static const char *const names[] = { "ABCD", "CDAB", "BADC", "DCBA" };
+    for (int k = 0; k < 4; k++)
+        if (!strcasecmp(v, names[k])) {
+            *out = k;
+            return 0;
+        }
+    return -1;
+}
+
+static int parse_usb(const char *v, struct conf_link *l)
+{
+    unsigned vid, pid;
+    int used = 0;
+    if (sscanf(v, "%4x:%4x%n", &vid, &pid, &used) != 2)
+        return -1;
+    l->vid = (uint16_t)vid;
+    l->pid = (uint16_t)pid;
+    l->serial[0] = 0;
+    if (v[used] == ':')
+        return copy_str(l->serial, sizeof l->serial, v + used + 1);
+    return v[used] ? -1 : 0;
+}
+
+#define FAIL(...) do { snprintf(p->err, sizeof p->err, __VA_ARGS__); return 0; } while (0)
+
+static int key_daemon(struct parse *p, const char *name, const char *v)
+{
+    struct conf *c = &p->c;
+    if (!strcmp(name, "state_dir")) {
+        if (copy_str(c->state_dir, sizeof c->state_dir, v))
+            FAIL("path empty or too long");
+    } else if (!strcmp(name, "snapshot_interval")) {
+        if (parse_int(v, 1, 86400, &c->snapshot_interval))
+            FAIL("expected seconds 1..86400");
+    } else if (!strcmp(name, "fsync")) {
+        if (parse_bool(v, &c->fsync))
+            FAIL("expected yes or no");
+    } else if (!strcmp(name, "max_models")) {
+        if (parse_int(v, 1, CONF_MAX_MODELS, &c->max_models))
+            FAIL("expected 1..%d", CONF_MAX_MODELS);
+    } else if (!strcmp(name, "link_backoff_max")) {
+        if (parse_int(v, 1, 3600, &c->link_backoff_max))
+            FAIL("expected seconds 1..3600");
+    } else {
+        FAIL("unknown key");
+    }
+    return 1;
+}
+
+static int key_modbus(struct parse *p, const char *name, const char *v)
+{
+    struct conf *c = &p->c;
+    if (!strcmp(name, "tcp_listen")) {
+        if (!p->listen_set) {
+            c->nlisten = 0;
+            p->listen_set = 1;
+        }
+        if (!strcasecmp(v, "none"))
+            return 1;
+        if (c->nlisten == CONF_MAX_LISTEN)
+            FAIL("more than %d listen addresses", CONF_MAX_LISTEN);
+        if (parse_listen(v, &c->listen[c->nlisten]))
+            FAIL("expected host:port, [v6addr]:port or :port");
+        c->nlisten++;
+    } else if (!strcmp(name, "max_clients")) {
+        if (parse_int(v, 1, 512, &c->max_clients))
+            FAIL("expected 1..512");
+    } else if (!strcmp(name, "idle_timeout")) {
+        if (parse_int(v, 1, 86400, &c->idle_timeout))
+            FAIL("expected seconds 1..86400");
+    } else if (!strcmp(name, "byte_timeout")) {
+        if (parse_int(v, 10, 60000, &c->byte_timeout))
+            FAIL("expected milliseconds 10..60000");
+    } else if (!strcmp(name, "float_word_order")) {
+        if (parse_order(v, &c->word_order))
+            FAIL("expected ABCD, CDAB, BADC or DCBA");
+    } else if (!strcmp(name, "coord_scale")) {
+        if (parse_int(v, 1, 10000, &c->coord_scale))
+            FAIL("expected 1..10000");
+    } else if (!strcmp(name, "grid_rows")) {
+        if (parse_int(v, 2, 16, &c->grid_rows))
+            FAIL("expected 2..16");
+    } else if (!strcmp(name, "grid_cols")) {
+        if (parse_int(v, 2, 16, &c->grid_cols))
+            FAIL("expected 2..16");
+    } else {
+        FAIL("unknown key");
+    }
+    return 1;
+}
+
+static int key_rtu(struct parse *p, struct conf_rtu *r, const char *name, const char *v)
+{
+    if (!strcmp(name, "device")) {
+        if (copy_str(r->device, sizeof r->device, v))
+            FAIL("path empty or too long");
+    } else if (!strcmp(name, "baud")) {
+        if (parse_int(v, 1200, 4000000, &r->baud))
+            FAIL("expected 1200..4000000");
+    } else if (!strcmp(name, "parity")) {
+        if (!strcasecmp(v, "none") || !strcasecmp(v, "N"))
+            r->parity = 'N';
+        else if (!strcasecmp(v, "even") || !strcasecmp(v, "E"))
+            r->parity = 'E';
+        else if (!strcasecmp(v, "odd") || !strcasecmp(v, "O"))
+            r->parity = 'O';
+        else
+            FAIL("expected none, even or odd");
+    } else if (!strcmp(name, "stop_bits")) {
+        if (parse_int(v, 1, 2, &r->stop_bits))
+            FAIL("expected 1 or 2");
+    } else if (!strcmp(name, "rs485")) {
+        if (parse_bool(v, &r->rs485))
+            FAIL("expected yes or no");
+    } else {
+        FAIL("unknown key");
+    }
+    return 1;
+}
+
+static int key_model(struct parse *p, struct conf_model *m, const char *name, const char *v)
+{
+    int b;
+    if (!strcmp(name, "unit_id")) {
+        if (parse_int(v, 1, 247, &m->unit))
+            FAIL("expected 1..247");
+    } else if (!strcmp(name, "n")) {
+        if (parse_int(v, 1, IT2N_MAX_DEGREE, &m->n))
+            FAIL("expected 1..%d", IT2N_MAX_DEGREE);
+    } else if (!strcmp(name, "m")) {
+        if (parse_int(v, 1, IT2N_MAX_DEGREE, &m->m))
+            FAIL("expected 1..%d", IT2N_MAX_DEGREE);
+    } else if (!strcmp(name, "z") || !strcmp(name, "type1") || !strcmp(name, "chord")) {
+        unsigned bit = name[0] == 'z' ? IT2N_F_Z : name[0] == 't' ? IT2N_F_TYPE1 : IT2N_F_CHORD;
+        if (parse_bool(v, &b))
+            FAIL("expected yes or no");
+        m->flags = b ? (m->flags | bit) : (m->flags & ~bit);
+    } else if (!strcmp(name, "preload")) {
+        if (!strcmp(v, "paper"))
+            m->preload = 1;
+        else if (!strcmp(v, "none"))
+            m->preload = 0;
+        else
+            FAIL("expected paper or none");
+    } else {
+        FAIL("unknown key");
+    }
+    return 1;
+}
+
+static int key_link(struct parse *p, struct conf_link *l, const char *name, const char *v)
+{
+    if (!strcmp(name, "type")) {
+        if (!strcmp(v, "serial"))
+            l->type = CONF_LINK_SERIAL;
+        else if (!strcmp(v, "usb"))
+            l->type = CONF_LINK_USB;
+        else
+            FAIL("expected serial or usb");
+    } else if (!strcmp(name, "device")) {
+        if (copy_str(l->device, sizeof l->device, v))
+            FAIL("path empty or too long");
+    } else if (!strcmp(name, "baud")) {
+        if (parse_int(v, 1200, 4000000, &l->baud))
+            FAIL("expected 1200..4000000");
+    } else if (!strcmp(name, "usb")) {
+        if (parse_usb(v, l))
+            FAIL("expected VID:PID[:serial] in hex");
+    } else {
+        FAIL("unknown key");
+    }
+    return 1;
+}
+
+/* Named sections "kind:NAME": find or create the entry for NAME. */
+static int handler(void *user, const char *section, const char *name, const char *value)
+{
+    struct parse *p = user;
+    struct conf *c = &p->c;
+    if (!name)  /* section start without keys (INI_CALL_HANDLER_ON_NEW_SECTION) */
+        return 1;
+    snprintf(p->sec, sizeof p->sec, "%s", section);
+    snprintf(p->key, sizeof p->key, "%s", name);
+    if (!strcmp(section, "daemon"))
+        return key_daemon(p, name, value);
+    if (!strcmp(section, "modbus"))
+        return key_modbus(p, name, value);
+    if (!strncmp(section, "rtu:", 4) && section[4]) {
+        int k;
+        for (k = 0; k < c->nrtu; k++)
+            if (!strcmp(c->rtu[k].name, section + 4))
+                break;
+        if (k == c->nrtu) {
+            if (k == CONF_MAX_RTU)
+                FAIL("more than %d [rtu:] sections", CONF_MAX_RTU);
+            memset(&c->rtu[k], 0, sizeof c->rtu[k]);
+            if (copy_str(c->rtu[k].name, sizeof c->rtu[k].name, section + 4))
+                FAIL("section name too long");
+            c->rtu[k].baud = 19200;
+            c->rtu[k].parity = 'E';
+            c->rtu[k].stop_bits = 1;
+            c->nrtu++;
+        }
+        return key_rtu(p, &c->rtu[k], name, value);
+    }
+    if (!strncmp(section, "model:", 6)) {
+        int id, k;
+        if (parse_int(section + 6, 1, 65535, &id))
+            FAIL("model section must be [model:ID], ID 1..65535");
+        if (!p->models_set) {
+            c->nmodels = 0;
+            p->models_set = 1;
+        }
+        for (k = 0; k < c->nmodels; k++)
+            if (c->model[k].id == id)
+                break;
+        if (k == c->nmodels) {
+            if (k == CONF_MAX_MODELS)
+                FAIL("more than %d models", CONF_MAX_MODELS);
+            memset(&c->model[k], 0, sizeof c->model[k]);
+            c->model[k].id = id;
+            c->model[k].unit = id <= 247 ? id : 0;
+            c->model[k].n = 3;
+            c->model[k].m = 3;
+            c->nmodels++;
+        }
+        return key_model(p, &c->model[k], name, value);
+    }
+    if (!strncmp(section, "link:", 5) && section[5]) {
+        int k;
+        for (k = 0; k < c->nlinks; k++)
+            if (!strcmp(c->link[k].name, section + 5))
+                break;
+        if (k == c->nlinks) {
+            if (k == CONF_MAX_LINKS)
+                FAIL("more than %d links", CONF_MAX_LINKS);
+            memset(&c->link[k], 0, sizeof c->link[k]);
+            if (copy_str(c->link[k].name, sizeof c->link[k].name, section + 5))
+                FAIL("section name too long");
+            c->link[k].baud = 115200;
+            c->nlinks++;
+        }
+        return key_link(p, &c->link[k], name, value);
+    }
+    FAIL("unknown section");
+}
+
+void conf_default(struct conf *c)
+{
+    memset(c, 0, sizeof *c);
+    snprintf(c->state_dir, sizeof c->state_dir, "./state");
+    c->snapshot_interval = 60;
+    c->fsync = 1;
+    c->max_models = 8;
+    snprintf(c->listen[0].host, sizeof c->listen[0].host, "127.0.0.1");
+    snprintf(c->listen[0].port, sizeof c->listen[0].port, "1502");
+    c->nlisten = 1;
+    c->max_clients = 32;
+    c->idle_timeout = 300;
+    c->byte_timeout = 500;
+    c->word_order = IT2N_WO_ABCD;
+    c->coord_scale = 100;
+    c->grid_rows = 5;
+    c->grid_cols = 5;
+    c->model[0].id = 1;
+    c->model[0].unit = 1;
+    c->model[0].n = 3;
+    c->model[0].m = 3;
+    c->model[0].preload = 1;
+    c->nmodels = 1;
+    c->link_backoff_max = 30;
+}
+
+/* Cross-key checks, done after the whole file is read. */
+static int validate(const struct conf *c, char *err, size_t errsize)
+{
+    if (c->nmodels > c->max_models) {
+        snprintf(err, errsize, "[daemon] max_models: %d models configured, limit %d", c->nmodels,
+                 c->max_models);
+        return -1;
+    }
+    if (c->grid_rows * c->grid_cols > (int)IT2N_REGMAP_GRID_MAX_NODES) {
+        snprintf(err, errsize, "[modbus] grid_rows x grid_cols exceeds %u nodes",
+                 IT2N_REGMAP_GRID_MAX_NODES);
+        return -1;
+    }
+    for (int k = 0; k < c->nmodels; k++) {
+        const struct conf_model *m = &c->model[k];
+        if (m->unit < 1) {
+            snprintf(err, errsize, "[model:%d] unit_id: required for ids above 247", m->id);
+            return -1;
+        }
+        for (int l = 0; l < k; l++)
+            if (c->model[l].unit == m->unit) {
+                snprintf(err, errsize, "[model:%d] unit_id: %d already used by model %d", m->id,
+                         m->unit, c->model[l].id);
+                return -1;
+            }
+        if (m->preload && (m->n != 3 || m->m != 3 || (m->flags & (IT2N_F_Z | IT2N_F_TYPE1)))) {
+            snprintf(err, errsize,
+                     "[model:%d] preload: the paper data set needs n = m = 3, no z, not type1", m->id);
+            return -1;
+        }
+    }
+    for (int k = 0; k < c->nrtu; k++)
+        if (!c->rtu[k].device[0]) {
+            snprintf(err, errsize, "[rtu:%s] device: required", c->rtu[k].name);
+            return -1;
+        }
+    for (int k = 0; k < c->nlinks; k++) {
+        const struct conf_link *l = &c->link[k];
+        if (l->type == CONF_LINK_SERIAL && !l->device[0]) {
+            snprintf(err, errsize, "[link:%s] device: required for type serial", l->name);
+            return -1;
+        }
+        if (l->type == CONF_LINK_USB && !l->vid && !l->pid) {
+            snprintf(err, errsize, "[link:%s] usb: required for type usb", l->name);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
+{
+    struct parse *p = calloc(1, sizeof *p);
+    int rc;
+    if (!p) {
+        snprintf(err, errsize, "%s: out of memory", path);
+        return -1;
+    }
+    p->c = *c;
+    /* libinih stops at the first handler failure and returns its line. */
+    rc = ini_parse(path, handler, p);
+    if (rc == -1) {
+        snprintf(err, errsize, "%s: cannot open", path);
+    } else if (rc == -2) {
+        snprintf(err, errsize, "%s: out of memory", path);
+    } else if (rc > 0) {
+        if (p->err[0])
+            snprintf(err, errsize, "%s:%d: [%s] %s: %s", path, rc, p->sec, p->key, p->err);
+        else
+            snprintf(err, errsize, "%s:%d: syntax error", path, rc);
+    } else if (validate(&p->c, p->err, sizeof p->err)) {
+        snprintf(err, errsize, "%s: %s", path, p->err);
+        rc = 1;
+    } else {
+        *c = p->c;
+    }
+    free(p);
+    return rc == 0 ? 0 : -1;
+}

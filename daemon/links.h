@@ -1,0 +1,19 @@
+/* links — instrument links speaking the protocol/ framing: tty devices
+ * (link_serial.c) and raw USB bulk devices (link_usb.c). A link that
+ * hangs up, errors or disappears is closed and reopened with exponential
+ * backoff; Modbus keeps serving meanwhile. Points received update the
+ * models; the ACK goes out only after the WAL commit. */
+#ifndef IT2ND_LINKS_H
+#define IT2ND_LINKS_H
+
+#include "conf.h"
+
+/* Open every configured link (failures retry with backoff). */
+int links_start(const struct conf *c);
+/* Reconcile with a reloaded configuration: unchanged links stay open. */
+int links_reload(const struct conf *c);
+/* Send ACKs held for the WAL commit (commit_ok 0: NACK). */
+void links_release(int commit_ok);
+void links_stop(void);
+
+#endif

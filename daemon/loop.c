@@ -1,0 +1,195 @@
+/* loop.c — see loop.h. Small tables scanned linearly: the daemon has tens of
+ * fds and timers, so this is simpler and as fast as a heap. */
+#include "loop.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+struct fd_ent {
+    int fd;
+    short events;
+    loop_fd_cb cb;
+    void *arg;
+};
+
+struct timer_ent {
+    long id;
+    uint64_t due;
+    loop_timer_cb cb;
+    void *arg;
+};
+
+struct hook_ent {
+    loop_hook_cb cb;
+    void *arg;
+};
+
+static struct fd_ent *fds;
+static size_t nfds, capfds;
+static struct timer_ent *timers;
+static size_t ntimers, captimers;
+static struct hook_ent hooks[8];
+static size_t nhooks;
+static long next_timer_id = 1;
+static int woken;
+
+uint64_t loop_now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+}
+
+int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg)
+{
+    if (nfds == capfds) {
+        size_t cap = capfds ? capfds * 2 : 16;
+        struct fd_ent *p = realloc(fds, cap * sizeof *p);
+        if (!p)
+            return -1;
+        fds = p;
+        capfds = cap;
+    }
+    fds[nfds].fd = fd;
+    fds[nfds].events = events;
+    fds[nfds].cb = cb;
+    fds[nfds].arg = arg;
+    nfds++;
+    return 0;
+}
+
+void loop_mod_fd(int fd, short events)
+{
+    for (size_t k = 0; k < nfds; k++)
+        if (fds[k].fd == fd)
+            fds[k].events = events;
+}
+
+void loop_del_fd(int fd)
+{
+    /* Mark only: the dispatcher may be iterating; compacted after. */
+    for (size_t k = 0; k < nfds; k++)
+        if (fds[k].fd == fd)
+            fds[k].fd = -1;
+}
+
+long loop_add_timer(uint64_t delay_ms, loop_timer_cb cb, void *arg)
+{
+    if (ntimers == captimers) {
+        size_t cap = captimers ? captimers * 2 : 16;
+        struct timer_ent *p = realloc(timers, cap * sizeof *p);
+        if (!p)
+            return -1;
+        timers = p;
+        captimers = cap;
+    }
+    timers[ntimers].id = next_timer_id++;
+    timers[ntimers].due = loop_now_ms() + delay_ms;
+    timers[ntimers].cb = cb;
+    timers[ntimers].arg = arg;
+    return timers[ntimers++].id;
+}
+
+void loop_cancel_timer(long id)
+{
+    for (size_t k = 0; k < ntimers; k++)
+        if (timers[k].id == id) {
+            timers[k] = timers[--ntimers];
+            return;
+        }
+}
+
+int loop_add_hook(loop_hook_cb cb, void *arg)
+{
+    if (nhooks == sizeof hooks / sizeof hooks[0])
+        return -1;
+    hooks[nhooks].cb = cb;
+    hooks[nhooks].arg = arg;
+    nhooks++;
+    return 0;
+}
+
+void loop_wake(void)
+{
+    woken = 1;
+}
+
+static void compact_fds(void)
+{
+    size_t out = 0;
+    for (size_t k = 0; k < nfds; k++)
+        if (fds[k].fd >= 0)
+            fds[out++] = fds[k];
+    nfds = out;
+}
+
+static void run_timers(void)
+{
+    uint64_t now = loop_now_ms();
+    /* Restart the scan after each callback: it may add or cancel timers. */
+    for (;;) {
+        size_t k;
+        for (k = 0; k < ntimers; k++)
+            if (timers[k].due <= now)
+                break;
+        if (k == ntimers)
+            return;
+        struct timer_ent t = timers[k];
+        timers[k] = timers[--ntimers];
+        t.cb(t.arg);
+    }
+}
+
+int loop_run_once(int max_wait_ms)
+{
+    struct pollfd pfd[1024];
+    size_t n = nfds < 1024 ? nfds : 1024;
+    int timeout = max_wait_ms;
+    uint64_t now = loop_now_ms();
+
+    for (size_t k = 0; k < ntimers; k++) {
+        int64_t d = (int64_t)(timers[k].due - now);
+        int dd = d < 0 ? 0 : d > 60000 ? 60000 : (int)d;
+        if (timeout < 0 || dd < timeout)
+            timeout = dd;
+    }
+    if (woken) {
+        timeout = 0;
+        woken = 0;
+    }
+    for (size_t k = 0; k < n; k++) {
+        pfd[k].fd = fds[k].fd;
+        pfd[k].events = fds[k].events;
+        pfd[k].revents = 0;
+    }
+    int rc = poll(pfd, n, timeout);
+    if (rc < 0 && errno != EINTR)
+        return -1;
+    for (size_t k = 0; rc > 0 && k < n; k++) {
+        if (!pfd[k].revents)
+            continue;
+        /* The table may have been changed by an earlier callback. */
+        for (size_t e = 0; e < nfds; e++)
+            if (fds[e].fd == pfd[k].fd && fds[e].fd >= 0) {
+                fds[e].cb(fds[e].arg, fds[e].fd, pfd[k].revents);
+                break;
+            }
+    }
+    compact_fds();
+    run_timers();
+    for (size_t k = 0; k < nhooks; k++)
+        hooks[k].cb(hooks[k].arg);
+    compact_fds();
+    return 0;
+}
+
+void loop_free(void)
+{
+    free(fds);
+    free(timers);
+    fds = NULL;
+    timers = NULL;
+    nfds = capfds = ntimers = captimers = nhooks = 0;
+}

@@ -1,0 +1,273 @@
+/* it2nd — serves firmware_core models over Modbus TCP/RTU and takes data
+ * points from instruments on serial/USB links. See docs/daemon.md. */
+#include <errno.h>
+#include <fcntl.h>
+#include <getopt.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "conf.h"
+#include "links.h"
+#include "log.h"
+#include "loop.h"
+#include "mb_rtu.h"
+#include "mb_tcp.h"
+#include "models.h"
+#include "notify.h"
+#include "store.h"
+
+#ifndef IT2ND_VERSION
+#define IT2ND_VERSION "0.1.0"
+#endif
+
+static volatile sig_atomic_t sig_stop, sig_reload;
+static int sig_pipe[2] = { -1, -1 };
+static struct conf cfg;
+static const char *conf_path;
+static struct mb_opts mbo;
+static long snap_timer, wd_timer;
+
+static void on_signal(int sig)
+{
+    int saved = errno;
+    if (sig == SIGHUP)
+        sig_reload = 1;
+    else
+        sig_stop = 1;
+    if (write(sig_pipe[1], "s", 1) < 0) {
+        /* pipe full: the flag is set, the loop will see it */
+    }
+    errno = saved;
+}
+
+static void on_sig_pipe(void *arg, int fd, short revents)
+{
+    char buf[64];
+    (void)arg;
+    (void)revents;
+    while (read(fd, buf, sizeof buf) > 0) {
+    }
+}
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: it2nd [-c FILE] [--check-config] [--foreground] [-v...] [--help] [--version]\n"
+            "  -c, --config FILE   configuration (INI); default: built-in (Modbus TCP\n"
+            "                      127.0.0.1:1502, model 1 on unit 1 with the paper data)\n"
+            "  -t, --check-config  validate the configuration and exit\n"
+            "  -f, --foreground    log to stderr (default when not started by systemd: syslog)\n"
+            "  -v, --verbose       more logging (-vv debug)\n"
+            "  -h, --help          this text\n"
+            "  -V, --version       print the version\n");
+}
+
+static void fill_opts(void)
+{
+    mbo.word_order = cfg.word_order;
+    mbo.coord_scale = cfg.coord_scale;
+    mbo.grid_rows = (unsigned)cfg.grid_rows;
+    mbo.grid_cols = (unsigned)cfg.grid_cols;
+}
+
+static int load_conf(struct conf *c)
+{
+    char err[512];
+    conf_default(c);
+    if (conf_path && conf_load(c, conf_path, err, sizeof err)) {
+        log_err("%s", err);
+        return -1;
+    }
+    return 0;
+}
+
+static int setup_models(void)
+{
+    if (models_init(cfg.max_models))
+        return -1;
+    for (int k = 0; k < cfg.nmodels; k++) {
+        const struct conf_model *m = &cfg.model[k];
+        struct model *md = models_add(m->id, m->unit, (unsigned)m->n, (unsigned)m->m, m->flags);
+        if (!md) {
+            log_err("model %d: cannot create", m->id);
+            return -1;
+        }
+        if (m->preload) {
+            int rc = models_preload_paper(md);
+            if (rc != IT2N_OK) {
+                log_err("model %d: paper data set does not load: %s", m->id, it2n_strerror(rc));
+                return -1;
+            }
+        }
+        log_info("model %d on unit %d: %ux%u, flags %u, %s", m->id, m->unit, m->n, m->m, m->flags,
+                 m->preload ? "paper data preloaded" : "empty");
+    }
+    return 0;
+}
+
+/* Group commit: after every loop iteration, one fsync for everything
+ * queued, then the held replies and ACKs go out. */
+static void commit_hook(void *arg)
+{
+    (void)arg;
+    if (!store_pending())
+        return;
+    int ok = store_commit() == 0;
+    mb_tcp_release(ok);
+    mb_rtu_release(ok);
+    links_release(ok);
+}
+
+static void send_status(void)
+{
+    char buf[256];
+    struct store_stats st;
+    uint32_t pts = 0, req = 0;
+    int solved = 0;
+    store_get_stats(&st);
+    for (int k = 0; k < models_count(); k++) {
+        const struct model *md = models_at(k);
+        pts += md->points_rx;
+        req += md->requests;
+        solved += md->state == IT2N_RS_SOLVED;
+    }
+    snprintf(buf, sizeof buf,
+             "STATUS=%d/%d models solved, %d tcp clients, %u requests, %u points, %llu wal records",
+             solved, models_count(), mb_tcp_clients(), req, pts, (unsigned long long)st.records);
+    notify_send(buf);
+}
+
+static void on_snapshot(void *arg)
+{
+    (void)arg;
+    if (store_wal_bytes() > 0)
+        store_snapshot();
+    send_status();
+    snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
+}
+
+static void on_watchdog(void *arg)
+{
+    (void)arg;
+    notify_send("WATCHDOG=1");
+    wd_timer = loop_add_timer(notify_watchdog_ms() / 2, on_watchdog, NULL);
+}
+
+static void reload(void)
+{
+    struct conf nc;
+    log_notice("reloading configuration");
+    notify_send("RELOADING=1");
+    if (load_conf(&nc)) {
+        log_err("reload failed; keeping the running configuration");
+        notify_send("READY=1");
+        return;
+    }
+    /* Models and the state directory need a restart; say so. */
+    if (nc.nmodels != cfg.nmodels || memcmp(nc.model, cfg.model, sizeof nc.model) ||
+        strcmp(nc.state_dir, cfg.state_dir))
+        log_warn("reload: model or state_dir changes take effect at restart");
+    memcpy(nc.model, cfg.model, sizeof nc.model);
+    nc.nmodels = cfg.nmodels;
+    snprintf(nc.state_dir, sizeof nc.state_dir, "%s", cfg.state_dir);
+    cfg = nc;
+    fill_opts();
+    mb_tcp_reload(&cfg, &mbo);
+    mb_rtu_reload(&cfg, &mbo);
+    links_reload(&cfg);
+    loop_cancel_timer(snap_timer);
+    snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
+    notify_send("READY=1");
+    log_notice("configuration reloaded");
+}
+
+int main(int argc, char **argv)
+{
+    static const struct option lopts[] = {
+        { "config", required_argument, NULL, 'c' }, { "check-config", no_argument, NULL, 't' },
+        { "foreground", no_argument, NULL, 'f' },   { "verbose", no_argument, NULL, 'v' },
+        { "help", no_argument, NULL, 'h' },         { "version", no_argument, NULL, 'V' },
+        { NULL, 0, NULL, 0 }
+    };
+    int opt, check = 0, fg = 0, verbose = 0;
+    while ((opt = getopt_long(argc, argv, "c:tfvhV", lopts, NULL)) != -1) {
+        switch (opt) {
+        case 'c': conf_path = optarg; break;
+        case 't': check = 1; break;
+        case 'f': fg = 1; break;
+        case 'v': verbose++; break;
+        case 'h': usage(stdout); return 0;
+        case 'V': printf("it2nd %s (register map %u)\n", IT2ND_VERSION, IT2N_REGMAP_VERSION); return 0;
+        default: usage(stderr); return 2;
+        }
+    }
+    if (optind != argc) {
+        usage(stderr);
+        return 2;
+    }
+    log_open(fg || check, verbose);
+    if (load_conf(&cfg))
+        return 1;
+    if (check) {
+        printf("%s: configuration OK (%d listen, %d rtu, %d models, %d links)\n",
+               conf_path ? conf_path : "built-in", cfg.nlisten, cfg.nrtu, cfg.nmodels, cfg.nlinks);
+        return 0;
+    }
+    notify_init();
+
+    if (pipe2(sig_pipe, O_NONBLOCK | O_CLOEXEC))
+        return 1;
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL);
+    signal(SIGPIPE, SIG_IGN);
+    loop_add_fd(sig_pipe[0], POLLIN, on_sig_pipe, NULL);
+
+    fill_opts();
+    if (setup_models())
+        return 1;
+    if (store_open(cfg.state_dir, cfg.fsync))
+        return 1;
+    models_set_journal(store_append, NULL);
+    loop_add_hook(commit_hook, NULL);
+    if (mb_tcp_start(&cfg, &mbo) || mb_rtu_start(&cfg, &mbo)) {
+        log_err("no Modbus endpoint could be opened");
+        return 1;
+    }
+    links_start(&cfg);
+    snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
+    if (notify_watchdog_ms())
+        wd_timer = loop_add_timer(notify_watchdog_ms() / 2, on_watchdog, NULL);
+    notify_send("READY=1");
+    send_status();
+    log_notice("it2nd %s ready (%d models)", IT2ND_VERSION, models_count());
+
+    while (!sig_stop) {
+        if (sig_reload) {
+            sig_reload = 0;
+            reload();
+        }
+        if (loop_run_once(-1)) {
+            log_err("poll: %s", strerror(errno));
+            break;
+        }
+    }
+    notify_send("STOPPING=1");
+    log_notice("stopping: flushing state");
+    commit_hook(NULL);
+    links_stop();
+    mb_rtu_stop();
+    mb_tcp_stop();
+    store_snapshot();
+    store_close();
+    models_free();
+    loop_free();
+    return 0;
+}

@@ -1,0 +1,492 @@
+/* mb_map.c — see mb_map.h. Floats are used here only to present results;
+ * the model and every input stay in the core's fixed point. */
+#include "mb_map.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "it2n_regmap.h"
+
+_Static_assert(IT2N_DIM <= IT2N_REGMAP_DIM, "control-net stride of the map too small");
+_Static_assert(IT2N_FP_COUNT == IT2N_REGMAP_FP && IT2N_CH_COUNT == IT2N_REGMAP_CH,
+               "map footprint/channel counts");
+
+/* 128-bit intermediates for exact scaling (GCC/Clang extension). */
+__extension__ typedef __int128 i128;
+
+#define QIDX(a) ((a) - IT2N_REG_Q_U16)
+
+void mbmap_put_f32(uint16_t out[2], float f, int word_order)
+{
+    uint32_t b;
+    memcpy(&b, &f, sizeof b);
+    uint16_t hi = (uint16_t)(b >> 16), lo = (uint16_t)b;
+    uint16_t shi = (uint16_t)((hi >> 8) | (hi << 8)), slo = (uint16_t)((lo >> 8) | (lo << 8));
+    switch (word_order) {
+    case IT2N_WO_CDAB: out[0] = lo; out[1] = hi; break;
+    case IT2N_WO_BADC: out[0] = shi; out[1] = slo; break;
+    case IT2N_WO_DCBA: out[0] = slo; out[1] = shi; break;
+    default: out[0] = hi; out[1] = lo; break;
+    }
+}
+
+float mbmap_get_f32(const uint16_t in[2], int word_order)
+{
+    uint16_t hi, lo;
+    switch (word_order) {
+    case IT2N_WO_CDAB: hi = in[1]; lo = in[0]; break;
+    case IT2N_WO_BADC: hi = (uint16_t)((in[0] >> 8) | (in[0] << 8)); lo = (uint16_t)((in[1] >> 8) | (in[1] << 8)); break;
+    case IT2N_WO_DCBA: hi = (uint16_t)((in[1] >> 8) | (in[1] << 8)); lo = (uint16_t)((in[0] >> 8) | (in[0] << 8)); break;
+    default: hi = in[0]; lo = in[1]; break;
+    }
+    uint32_t b = ((uint32_t)hi << 16) | lo;
+    float f;
+    memcpy(&f, &b, sizeof f);
+    return f;
+}
+
+static float q24f(it2n_val v)
+{
+    return (float)((double)v / (double)IT2N_VAL_ONE);
+}
+
+int64_t mbmap_scale(it2n_val v, int64_t scale, int64_t lo, int64_t hi, int *sat)
+{
+    /* |v| < 2^47 after the core's limits and scale <= 10000 < 2^14: the
+     * product fits int64. Round half away from zero. */
+    i128 s = (i128)v * scale;
+    i128 half = IT2N_VAL_ONE / 2;
+    i128 q = (s >= 0 ? s + half : s - half) / IT2N_VAL_ONE;
+    if (q > hi) {
+        *sat = 1;
+        return hi;
+    }
+    if (q < lo) {
+        *sat = 1;
+        return lo;
+    }
+    return (int64_t)q;
+}
+
+static void put_u32(uint16_t *out, uint32_t v)
+{
+    out[0] = (uint16_t)(v >> 16);
+    out[1] = (uint16_t)v;
+}
+
+static uint32_t get_u32(const uint16_t *in)
+{
+    return ((uint32_t)in[0] << 16) | in[1];
+}
+
+/* Scaled integer (register = value * scale) to Q24, exact rounding. */
+static it2n_val from_scaled(int64_t raw, int64_t scale)
+{
+    i128 s = (i128)raw * IT2N_VAL_ONE;
+    return (it2n_val)((s >= 0 ? s + scale / 2 : s - scale / 2) / scale);
+}
+
+/* Make sure q's cached result matches the model's current generation. */
+static int query_result(struct model *md, struct mb_query *q)
+{
+    if (md->state != IT2N_RS_SOLVED)
+        return MBX_BUSY;
+    if (q->kind == 0)
+        return MBX_OK;
+    if (q->valid && q->model_id == md->id && q->gen == md->gen)
+        return MBX_OK;
+    memset(&q->pt, 0, sizeof q->pt);
+    q->locfail = 0;
+    if (q->kind == 1) {
+        if (it2n_eval(&md->mdl, q->u, q->w, &q->pt) != IT2N_OK)
+            return MBX_DEVICE_FAILURE;
+    } else {
+        it2n_locate_result lr;
+        if (it2n_locate(&md->mdl, q->x, q->y, &lr) != IT2N_OK)
+            return MBX_DEVICE_FAILURE;
+        it2n_val mn[4][3], mx[4][3];
+        static const int up[3] = { IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR };
+        static const int low[3] = { IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL };
+        for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            if (!it2n_model_has_fp(&md->mdl, fp))
+                continue;
+            memcpy(q->pt.v[fp], lr.fp[fp].v, sizeof q->pt.v[fp]);
+            if (lr.fp[fp].status != IT2N_LOC_INSIDE)
+                q->locfail |= (uint16_t)(1u << fp);
+            for (unsigned k = 0; k < 3; k++) {
+                it2n_val t = lr.fp[fp].v[IT2N_CH_T + k];
+                if (t < 0 || t > IT2N_VAL_ONE)
+                    q->pt.out_of_range |= 1u << (fp * 3 + k);
+            }
+        }
+        /* Interval summary from the located surface values (the core's
+         * summary is per (u, w); here each footprint has its own). */
+        for (int k = 0; k < 3; k++) {
+            const int *sets[2] = { up, low };
+            for (int s = 0; s < 2; s++) {
+                it2n_val lo = 0, hi = 0;
+                int first = 1;
+                for (int e = 0; e < 3; e++) {
+                    if (!it2n_model_has_fp(&md->mdl, (unsigned)sets[s][e]))
+                        continue;
+                    it2n_val t = q->pt.v[sets[s][e]][IT2N_CH_T + k];
+                    if (first || t < lo)
+                        lo = t;
+                    if (first || t > hi)
+                        hi = t;
+                    first = 0;
+                }
+                mn[s][k] = lo;
+                mx[s][k] = hi;
+            }
+            q->pt.sum.upper_min[k] = mn[0][k];
+            q->pt.sum.upper_max[k] = mx[0][k];
+            q->pt.sum.lower_min[k] = mn[1][k];
+            q->pt.sum.lower_max[k] = mx[1][k];
+        }
+    }
+    q->valid = 1;
+    q->model_id = md->id;
+    q->gen = md->gen;
+    return MBX_OK;
+}
+
+static it2n_val sum_value(const it2n_summary *s, unsigned idx)
+{
+    unsigned set = idx / 3, k = idx % 3;
+    switch (set) {
+    case 0: return s->upper_min[k];
+    case 1: return s->upper_max[k];
+    case 2: return s->lower_min[k];
+    default: return s->lower_max[k];
+    }
+}
+
+/* Fill registers [start, end) of one block into buf (indexed from start). */
+static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts *o,
+                      const it2n_regmap_block *b, uint16_t *buf, unsigned from, unsigned to)
+{
+    unsigned len = b->end - b->start;
+    int rc, sat;
+    memset(buf, 0, len * sizeof *buf);
+    switch (b->start) {
+    case IT2N_REG_MAP_VERSION: {
+        uint16_t *r = buf;
+        r[IT2N_REG_MAP_VERSION] = IT2N_REGMAP_VERSION;
+        r[IT2N_REG_STATE] = (uint16_t)md->state;
+        r[IT2N_REG_N] = md->ds.n;
+        r[IT2N_REG_M] = md->ds.m;
+        r[IT2N_REG_FLAGS] = md->ds.flags;
+        r[IT2N_REG_PRESENT] = (uint16_t)models_present(md);
+        r[IT2N_REG_REQUIRED] = (uint16_t)models_required(md);
+        put_u32(&r[IT2N_REG_GENERATION], md->gen);
+        r[IT2N_REG_LAST_ERR] = (uint16_t)(int16_t)md->last_err.code;
+        r[IT2N_REG_ERR_I] = (uint16_t)(md->last_err.code ? md->last_err.i : -1);
+        r[IT2N_REG_ERR_J] = (uint16_t)(md->last_err.code ? md->last_err.j : -1);
+        r[IT2N_REG_ERR_FP] = (uint16_t)(md->last_err.code ? md->last_err.fp : -1);
+        put_u32(&r[IT2N_REG_POINTS_RX], md->points_rx);
+        put_u32(&r[IT2N_REG_SOLVES], md->solves);
+        put_u32(&r[IT2N_REG_REQUESTS], md->requests);
+        put_u32(&r[IT2N_REG_EXCEPTIONS], md->exceptions);
+        r[IT2N_REG_WORD_ORDER] = (uint16_t)o->word_order;
+        r[IT2N_REG_COORD_SCALE] = (uint16_t)o->coord_scale;
+        r[IT2N_REG_GRID_ROWS] = (uint16_t)o->grid_rows;
+        r[IT2N_REG_GRID_COLS] = (uint16_t)o->grid_cols;
+        r[IT2N_REG_MODEL_ID] = (uint16_t)md->id;
+        return MBX_OK;
+    }
+    case IT2N_REG_CFG_N:
+        buf[0] = md->ds.n;
+        buf[1] = md->ds.m;
+        buf[2] = md->ds.flags;
+        buf[3] = 0;
+        return MBX_OK;
+    case IT2N_REG_UP_I:
+        memcpy(buf, md->upload, sizeof md->upload);
+        return MBX_OK;
+    case IT2N_REG_Q_U16:
+        memcpy(buf, q->regs, sizeof q->regs);
+        return MBX_OK;
+    case IT2N_REG_Q_KIND:
+        rc = query_result(md, q);
+        if (rc == MBX_BUSY) { /* status stays readable while unsolved */
+            buf[0] = (uint16_t)q->kind;
+            return MBX_OK;
+        }
+        if (rc)
+            return rc;
+        buf[0] = (uint16_t)q->kind;
+        put_u32(&buf[IT2N_REG_Q_GEN - IT2N_REG_Q_KIND], q->kind ? q->gen : 0);
+        buf[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND] = q->locfail;
+        put_u32(&buf[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND], q->pt.out_of_range);
+        return MBX_OK;
+    case IT2N_REG_RES_F32:
+        if ((rc = query_result(md, q)) != MBX_OK)
+            return rc;
+        if (q->kind == 0)
+            return MBX_OK;
+        for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
+            for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++)
+                mbmap_put_f32(&buf[(fp * IT2N_CH_COUNT + ch) * 2], q24f(q->pt.v[fp][ch]), o->word_order);
+        for (unsigned s = 0; s < 12; s++)
+            mbmap_put_f32(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32 + s * 2], q24f(sum_value(&q->pt.sum, s)),
+                          o->word_order);
+        return MBX_OK;
+    case IT2N_REG_RES_SCALED:
+        if ((rc = query_result(md, q)) != MBX_OK)
+            return rc;
+        if (q->kind == 0)
+            return MBX_OK;
+        for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            uint16_t *r = &buf[fp * IT2N_REG_RES_SCALED_STRIDE];
+            uint16_t mask = 0;
+            for (unsigned ch = 0; ch < 3; ch++) {
+                sat = 0;
+                int64_t v = mbmap_scale(q->pt.v[fp][ch], o->coord_scale, INT32_MIN, INT32_MAX, &sat);
+                put_u32(&r[ch * 2], (uint32_t)(int32_t)v);
+                mask = (uint16_t)(mask | (sat ? 1u << ch : 0u));
+            }
+            for (unsigned k = 0; k < 3; k++) {
+                sat = 0;
+                int64_t v = mbmap_scale(q->pt.v[fp][IT2N_CH_T + k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+                r[6 + k] = (uint16_t)(int16_t)v;
+                mask = (uint16_t)(mask | (sat ? 1u << (3 + k) : 0u));
+            }
+            buf[IT2N_REG_SAT - IT2N_REG_RES_SCALED + fp] = mask;
+        }
+        {
+            uint16_t mask = 0;
+            for (unsigned s = 0; s < 12; s++) {
+                sat = 0;
+                int64_t v = mbmap_scale(sum_value(&q->pt.sum, s), IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+                buf[IT2N_REG_SUM_SCALED - IT2N_REG_RES_SCALED + s] = (uint16_t)(int16_t)v;
+                mask = (uint16_t)(mask | (sat ? 1u << s : 0u));
+            }
+            buf[IT2N_REG_SAT_SUM - IT2N_REG_RES_SCALED] = mask;
+        }
+        return MBX_OK;
+    case IT2N_REG_GRID: {
+        unsigned nodes = o->grid_rows * o->grid_cols;
+        if (to - b->start > nodes * 3u)
+            return MBX_ILLEGAL_ADDRESS;
+        if (md->state != IT2N_RS_SOLVED)
+            return MBX_BUSY;
+        if (models_grid(md, o->grid_rows, o->grid_cols) != IT2N_OK)
+            return MBX_DEVICE_FAILURE;
+        for (unsigned nd = 0; nd < nodes; nd++)
+            for (unsigned k = 0; k < 3; k++)
+                buf[nd * 3 + k] = (uint16_t)md->grid[nd][k];
+        return MBX_OK;
+    }
+    case IT2N_REG_CTRL: {
+        if (md->state != IT2N_RS_SOLVED)
+            return MBX_BUSY;
+        /* Only the requested span: the block is 5376 registers. */
+        unsigned first = (from - b->start) / 2, last = (to - b->start + 1) / 2;
+        for (unsigned e = first; e < last; e++) {
+            unsigned ch = e % 6, j = (e / 6) % 8, i = (e / 48) % 8, fp = e / 384;
+            if (i <= md->mdl.data.n && j <= md->mdl.data.m && it2n_model_has_fp(&md->mdl, fp))
+                mbmap_put_f32(&buf[e * 2], q24f(md->mdl.ctrl[i][j][fp][ch]), o->word_order);
+        }
+        return MBX_OK;
+    }
+    default:
+        return MBX_ILLEGAL_ADDRESS;
+    }
+}
+
+int mbmap_read(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+               unsigned count, uint16_t *out)
+{
+    static uint16_t buf[IT2N_REG_CTRL_END - IT2N_REG_CTRL];
+    const it2n_regmap_block *b = it2n_regmap_find(addr, count);
+    int rc;
+    if (!b)
+        return MBX_ILLEGAL_ADDRESS;
+    rc = fill_block(md, q, o, b, buf, addr, addr + count);
+    if (rc)
+        return rc;
+    memcpy(out, &buf[addr - b->start], count * sizeof *out);
+    return MBX_OK;
+}
+
+static int map_core_err(int code)
+{
+    switch (code) {
+    case IT2N_ERR_INVAL:
+    case IT2N_ERR_RANGE:
+    case IT2N_ERR_DUPLICATE:
+        return MBX_ILLEGAL_VALUE;
+    case IT2N_ERR_MISSING:
+        return MBX_BUSY;
+    default:
+        return MBX_DEVICE_FAILURE;
+    }
+}
+
+static int write_config(struct model *md, unsigned addr, unsigned count, const uint16_t *v,
+                        int *persisted)
+{
+    unsigned n = md->ds.n, m = md->ds.m, flags = md->ds.flags, cmd = 0;
+    it2n_errinfo err;
+    int rc;
+    for (unsigned k = 0; k < count; k++) {
+        unsigned a = addr + k;
+        if (a == IT2N_REG_CFG_N)
+            n = v[k];
+        else if (a == IT2N_REG_CFG_M)
+            m = v[k];
+        else if (a == IT2N_REG_CFG_FLAGS)
+            flags = v[k];
+        else
+            cmd = v[k];
+    }
+    if (n < 1 || n > IT2N_MAX_DEGREE || m < 1 || m > IT2N_MAX_DEGREE || (flags & ~IT2N_F_ALL) ||
+        cmd > IT2N_CMD_CLEAR)
+        return MBX_ILLEGAL_VALUE;
+    if (cmd == IT2N_CMD_COMMIT && (n != md->ds.n || m != md->ds.m || flags != md->ds.flags))
+        return MBX_BUSY; /* a fresh configuration has no points to commit */
+    if (cmd == IT2N_CMD_COMMIT && it2n_dataset_missing(&md->ds) != 0)
+        return MBX_BUSY;
+    if (n != md->ds.n || m != md->ds.m || flags != md->ds.flags) {
+        rc = models_configure(md, n, m, flags, &err);
+        if (rc)
+            return map_core_err(rc);
+        *persisted = 1;
+    }
+    if (cmd == IT2N_CMD_CLEAR) {
+        if (models_clear(md))
+            return MBX_DEVICE_FAILURE;
+        *persisted = 1;
+    } else if (cmd == IT2N_CMD_COMMIT) {
+        rc = models_commit(md, &err);
+        if (rc)
+            return map_core_err(rc);
+        *persisted = 1;
+    }
+    return MBX_OK;
+}
+
+static int write_upload(struct model *md, const struct mb_opts *o, unsigned addr, unsigned count,
+                        const uint16_t *v, int *persisted)
+{
+    it2n_val vals[IT2N_CH_COUNT] = { 0 };
+    it2n_errinfo err;
+    int rc;
+    if (addr != IT2N_REG_UP_I || count != IT2N_REG_UPLOAD_END - IT2N_REG_UP_I)
+        return MBX_ILLEGAL_VALUE;
+#define UP(a) v[(a) - IT2N_REG_UP_I]
+    unsigned i = UP(IT2N_REG_UP_I), j = UP(IT2N_REG_UP_J), fp = UP(IT2N_REG_UP_FP);
+    if (i > md->ds.n || j > md->ds.m || fp >= IT2N_FP_COUNT)
+        return MBX_ILLEGAL_VALUE;
+    for (unsigned c = 0; c < 3; c++)
+        vals[c] = from_scaled((int32_t)get_u32(&UP(IT2N_REG_UP_X + 2 * c)), o->coord_scale);
+    for (unsigned k = 0; k < 3; k++) {
+        unsigned t = UP(IT2N_REG_UP_T + k);
+        if (t > IT2N_REGMAP_MEMB_SCALE)
+            return MBX_ILLEGAL_VALUE;
+        vals[IT2N_CH_T + k] = from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
+    }
+#undef UP
+    rc = models_put(md, i, j, fp, vals, &err);
+    if (rc)
+        return map_core_err(rc);
+    memcpy(md->upload, v, sizeof md->upload);
+    *persisted = 1;
+    return MBX_OK;
+}
+
+/* Does [addr, addr+count) cut a 32-bit value starting at `a` in half? */
+static int cuts(unsigned addr, unsigned count, unsigned a)
+{
+    unsigned end = addr + count;
+    return (addr == a + 1) || (end == a + 1);
+}
+
+static int par_from_f32(float f, it2n_par *out)
+{
+    if (!(f >= 0.0f && f <= 1.0f))  /* also rejects NaN */
+        return -1;
+    *out = (it2n_par)llround((double)f * (double)IT2N_PAR_ONE);
+    return 0;
+}
+
+static int write_query(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+                       unsigned count, const uint16_t *v)
+{
+    struct mb_query nq = *q;
+    unsigned end = addr + count;
+    static const unsigned wide[] = { IT2N_REG_Q_UF, IT2N_REG_Q_WF, IT2N_REG_Q_XS, IT2N_REG_Q_YS,
+                                     IT2N_REG_Q_XF, IT2N_REG_Q_YF };
+    (void)md;
+    for (unsigned k = 0; k < sizeof wide / sizeof wide[0]; k++)
+        if (cuts(addr, count, wide[k]))
+            return MBX_ILLEGAL_VALUE;
+    int uv = addr < IT2N_REG_Q_XS, xy = end > IT2N_REG_Q_XS;
+    if (uv && xy)
+        return MBX_ILLEGAL_VALUE;
+    memcpy(&nq.regs[QIDX(addr)], v, count * sizeof *v);
+#define IN(a) (addr <= (a) && (a) < end)
+    if (uv) {
+        if (IN(IT2N_REG_Q_U16)) {
+            if (nq.regs[QIDX(IT2N_REG_Q_U16)] > IT2N_REGMAP_MEMB_SCALE)
+                return MBX_ILLEGAL_VALUE;
+            nq.u = (it2n_par)(((i128)nq.regs[QIDX(IT2N_REG_Q_U16)] * IT2N_PAR_ONE + 5000) / 10000);
+        } else if (IN(IT2N_REG_Q_UF) && par_from_f32(mbmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_UF)], o->word_order), &nq.u)) {
+            return MBX_ILLEGAL_VALUE;
+        }
+        if (IN(IT2N_REG_Q_W16)) {
+            if (nq.regs[QIDX(IT2N_REG_Q_W16)] > IT2N_REGMAP_MEMB_SCALE)
+                return MBX_ILLEGAL_VALUE;
+            nq.w = (it2n_par)(((i128)nq.regs[QIDX(IT2N_REG_Q_W16)] * IT2N_PAR_ONE + 5000) / 10000);
+        } else if (IN(IT2N_REG_Q_WF) && par_from_f32(mbmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_WF)], o->word_order), &nq.w)) {
+            return MBX_ILLEGAL_VALUE;
+        }
+        nq.kind = 1;
+    } else {
+        if (IN(IT2N_REG_Q_XS))
+            nq.x = from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_XS)]), o->coord_scale);
+        if (IN(IT2N_REG_Q_YS))
+            nq.y = from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_YS)]), o->coord_scale);
+        for (int c = 0; c < 2; c++) {
+            unsigned a = c ? IT2N_REG_Q_YF : IT2N_REG_Q_XF;
+            if (!IN(a))
+                continue;
+            float f = mbmap_get_f32(&nq.regs[QIDX(a)], o->word_order);
+            if (!isfinite(f) || fabsf(f) > (float)IT2N_COORD_LIMIT)
+                return MBX_ILLEGAL_VALUE;
+            it2n_val val = (it2n_val)llround((double)f * (double)IT2N_VAL_ONE);
+            if (c)
+                nq.y = val;
+            else
+                nq.x = val;
+        }
+        if (nq.x > (it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE || nq.x < -(it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE ||
+            nq.y > (it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE || nq.y < -(it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE)
+            return MBX_ILLEGAL_VALUE;
+        nq.kind = 2;
+    }
+#undef IN
+    nq.valid = 0;
+    *q = nq;
+    return MBX_OK;
+}
+
+int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+                unsigned count, const uint16_t *vals, int *persisted)
+{
+    const it2n_regmap_block *b = it2n_regmap_find(addr, count);
+    *persisted = 0;
+    if (!b || b->access != IT2N_RA_RW)
+        return MBX_ILLEGAL_ADDRESS;
+    switch (b->start) {
+    case IT2N_REG_CFG_N:
+        return write_config(md, addr, count, vals, persisted);
+    case IT2N_REG_UP_I:
+        return write_upload(md, o, addr, count, vals, persisted);
+    case IT2N_REG_Q_U16:
+        return write_query(md, q, o, addr, count, vals);
+    default:
+        return MBX_ILLEGAL_ADDRESS;
+    }
+}

@@ -1,0 +1,62 @@
+/* mb_map — serving the register map (protocol/it2n_regmap.h) for one model:
+ * reads fill registers from the model and the connection's query; writes
+ * are validated completely before anything changes. Returns Modbus
+ * exception codes so the transports only frame. No I/O here. */
+#ifndef IT2ND_MB_MAP_H
+#define IT2ND_MB_MAP_H
+
+#include <stdint.h>
+
+#include "it2n.h"
+#include "models.h"
+
+/* Modbus exception codes used by the map. */
+enum {
+    MBX_OK = 0,
+    MBX_ILLEGAL_FUNCTION = 0x01,
+    MBX_ILLEGAL_ADDRESS = 0x02,
+    MBX_ILLEGAL_VALUE = 0x03,
+    MBX_DEVICE_FAILURE = 0x04,
+    MBX_BUSY = 0x06,
+    MBX_GATEWAY_TARGET = 0x0B
+};
+
+struct mb_opts {
+    int word_order;      /* enum it2n_regmap_order */
+    int32_t coord_scale; /* coordinates: register = value * scale */
+    unsigned grid_rows, grid_cols;
+};
+
+/* Per-connection query state. Zero-initialise. */
+struct mb_query {
+    uint16_t regs[IT2N_REG_QUERY_END - IT2N_REG_Q_U16]; /* inputs as written */
+    int kind;            /* 0 none, 1 (u, w), 2 (x, y) */
+    it2n_par u, w;
+    it2n_val x, y;
+    /* Cached result, valid when valid && model gen == gen && model id. */
+    int valid, model_id;
+    uint32_t gen;
+    it2n_point pt;
+    uint16_t locfail;
+};
+
+/* Encode a float into two registers in the given word order. */
+void mbmap_put_f32(uint16_t out[2], float f, int word_order);
+/* Decode two registers in the given word order. */
+float mbmap_get_f32(const uint16_t in[2], int word_order);
+
+/* Q24 to a scaled integer, rounded, clamped to [lo, hi]; *sat set on clamp. */
+int64_t mbmap_scale(it2n_val v, int64_t scale, int64_t lo, int64_t hi, int *sat);
+
+/* Read count registers from addr into out. Returns MBX_OK or an exception
+ * (02 outside the map, 06 results while unsolved, 04 evaluation failure). */
+int mbmap_read(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+               unsigned count, uint16_t *out);
+
+/* Write count registers. Validates fully first; on any exception nothing
+ * changed. *persisted set to 1 when the model changed (the reply must wait
+ * for the WAL commit). */
+int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+                unsigned count, const uint16_t *vals, int *persisted);
+
+#endif

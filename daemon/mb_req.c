@@ -1,0 +1,142 @@
+/* mb_req.c — see mb_req.h. */
+#include "mb_req.h"
+
+#include <errno.h>
+#include <string.h>
+
+#include "it2n_regmap.h"
+#include "log.h"
+#include "store.h"
+
+int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp)
+{
+    memset(s, 0, sizeof *s);
+    s->map = modbus_mapping_new(0, 0, IT2N_REG_CTRL_END, IT2N_REG_CTRL_END);
+    if (!s->map)
+        return -1;
+    s->ctx = ctx;
+    s->is_tcp = is_tcp;
+    return 0;
+}
+
+void mb_session_free(struct mb_session *s)
+{
+    if (s->map)
+        modbus_mapping_free(s->map);
+    s->map = NULL;
+}
+
+static int exception(struct mb_session *s, struct model *md, const uint8_t *req, int code)
+{
+    if (md)
+        md->exceptions++;
+    return modbus_reply_exception(s->ctx, req, (unsigned)code) < 0 ? -1 : 0;
+}
+
+static unsigned u16at(const uint8_t *p)
+{
+    return (unsigned)p[0] << 8 | p[1];
+}
+
+int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struct mb_opts *o)
+{
+    int hl = modbus_get_header_length(s->ctx);
+    int unit, fc, rc, persisted = 0;
+    struct model *md;
+    uint16_t vals[MODBUS_MAX_WR_WRITE_REGISTERS > MODBUS_MAX_WRITE_REGISTERS ? MODBUS_MAX_WR_WRITE_REGISTERS
+                                                                          : MODBUS_MAX_WRITE_REGISTERS];
+    const uint8_t *pdu = req + hl;
+    int plen = len - hl;
+
+    if (plen < 1)
+        return 0;
+    unit = req[hl - 1];
+    fc = pdu[0];
+    md = models_by_unit(unit);
+    if (!md) {
+        /* RTU: another slave on the bus (or broadcast) — stay silent. */
+        if (!s->is_tcp)
+            return 0;
+        return exception(s, NULL, req, MBX_GATEWAY_TARGET);
+    }
+    md->requests++;
+    switch (fc) {
+    case MODBUS_FC_READ_HOLDING_REGISTERS:
+    case MODBUS_FC_READ_INPUT_REGISTERS: {
+        if (plen != 5)
+            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+        unsigned addr = u16at(pdu + 1), count = u16at(pdu + 3);
+        if (count < 1 || count > MODBUS_MAX_READ_REGISTERS)
+            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+        uint16_t *dst = fc == MODBUS_FC_READ_HOLDING_REGISTERS ? s->map->tab_registers
+                                                                : s->map->tab_input_registers;
+        if (addr + count > IT2N_REG_CTRL_END)
+            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
+        rc = mbmap_read(md, &s->q, o, addr, count, dst + addr);
+        break;
+    }
+    case MODBUS_FC_WRITE_SINGLE_REGISTER: {
+        if (plen != 5)
+            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+        vals[0] = (uint16_t)u16at(pdu + 3);
+        rc = mbmap_write(md, &s->q, o, u16at(pdu + 1), 1, vals, &persisted);
+        break;
+    }
+    case MODBUS_FC_WRITE_MULTIPLE_REGISTERS: {
+        if (plen < 6)
+            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+        unsigned addr = u16at(pdu + 1), count = u16at(pdu + 3), bytes = pdu[5];
+        if (count < 1 || count > MODBUS_MAX_WRITE_REGISTERS || bytes != count * 2 || plen != 6 + (int)bytes)
+            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+        for (unsigned k = 0; k < count; k++)
+            vals[k] = (uint16_t)u16at(pdu + 6 + 2 * k);
+        rc = mbmap_write(md, &s->q, o, addr, count, vals, &persisted);
+        break;
+    }
+    case MODBUS_FC_WRITE_AND_READ_REGISTERS: {
+        if (plen < 10)
+            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+        unsigned raddr = u16at(pdu + 1), rcount = u16at(pdu + 3);
+        unsigned waddr = u16at(pdu + 5), wcount = u16at(pdu + 7), bytes = pdu[9];
+        if (rcount < 1 || rcount > MODBUS_MAX_WR_READ_REGISTERS || wcount < 1 ||
+            wcount > MODBUS_MAX_WR_WRITE_REGISTERS || bytes != wcount * 2 || plen != 10 + (int)bytes)
+            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+        /* Check the read range before writing, so a bad read changes nothing. */
+        if (!it2n_regmap_find(raddr, rcount))
+            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
+        for (unsigned k = 0; k < wcount; k++)
+            vals[k] = (uint16_t)u16at(pdu + 10 + 2 * k);
+        rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, &persisted);
+        if (rc == MBX_OK)
+            rc = mbmap_read(md, &s->q, o, raddr, rcount, s->map->tab_registers + raddr);
+        /* modbus_reply stores the written values into the scratch map
+         * before reading, so an overlapping read echoes what was written. */
+        break;
+    }
+    default:
+        return exception(s, md, req, MBX_ILLEGAL_FUNCTION);
+    }
+    if (persisted) {
+        /* Held until the WAL commit; an exception after a persisted write
+         * (FC23 read failing) is also held so the order stays. */
+        memcpy(s->held, req, (size_t)len);
+        s->held_len = len;
+        s->held_exc = rc;
+        s->held_model = md;
+        return 1;
+    }
+    if (rc != MBX_OK)
+        return exception(s, md, req, rc);
+    return modbus_reply(s->ctx, req, len, s->map) < 0 ? -1 : 0;
+}
+
+int mb_req_release(struct mb_session *s, int commit_ok)
+{
+    int len = s->held_len, exc = commit_ok ? s->held_exc : MBX_DEVICE_FAILURE;
+    s->held_len = 0;
+    if (len <= 0)
+        return 0;
+    if (exc != MBX_OK)
+        return exception(s, s->held_model, s->held, exc);
+    return modbus_reply(s->ctx, s->held, len, s->map) < 0 ? -1 : 0;
+}

@@ -1,0 +1,38 @@
+/* mb_req — one Modbus request (a complete ADU, TCP or RTU) against the
+ * model table: decode, check counts, run mb_map, answer with libmodbus'
+ * modbus_reply()/modbus_reply_exception() on the session's context. A
+ * request that changed a model is held until the WAL commit (group commit)
+ * and answered by mb_req_release(). */
+#ifndef IT2ND_MB_REQ_H
+#define IT2ND_MB_REQ_H
+
+#include <modbus.h>
+#include <stdint.h>
+
+#include "mb_map.h"
+
+struct mb_session {
+    modbus_t *ctx;              /* one per connection / serial port */
+    modbus_mapping_t *map;      /* scratch registers for modbus_reply */
+    int is_tcp;
+    struct mb_query q;          /* per-connection query state */
+    uint8_t held[MODBUS_TCP_MAX_ADU_LENGTH];
+    int held_len;               /* > 0: reply waits for the commit */
+    int held_exc;               /* exception to send instead, or 0 */
+    struct model *held_model;
+};
+
+/* Create the scratch mapping and attach ctx. Returns 0 or -1. */
+int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp);
+void mb_session_free(struct mb_session *s);
+
+/* Handle one complete ADU (header + PDU, CRC excluded for RTU). Returns 0
+ * when answered (or ignored), 1 when held for the commit, -1 when the
+ * connection should be closed (send failure). */
+int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struct mb_opts *o);
+
+/* After store_commit(): answer a held request (commit_ok 0 turns it into
+ * exception 04). Returns 0 or -1 on send failure. */
+int mb_req_release(struct mb_session *s, int commit_ok);
+
+#endif

@@ -1,0 +1,16 @@
+/* mb_rtu — Modbus RTU slaves on serial devices ([rtu:NAME] sections), one
+ * libmodbus RTU context per port. Frames are assembled in the loop from
+ * non-blocking reads (length from the function code, CRC checked here),
+ * then answered with modbus_reply on the port's context. */
+#ifndef IT2ND_MB_RTU_H
+#define IT2ND_MB_RTU_H
+
+#include "conf.h"
+#include "mb_map.h"
+
+int mb_rtu_start(const struct conf *c, const struct mb_opts *o);
+int mb_rtu_reload(const struct conf *c, const struct mb_opts *o);
+void mb_rtu_release(int commit_ok);
+void mb_rtu_stop(void);
+
+#endif

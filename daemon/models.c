@@ -1,0 +1,347 @@
+/* models.c — see models.h. */
+#include "models.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "log.h"
+#include "paper_data.h"
+
+static struct model **table;
+static int nmodels, maxmodels;
+static model_journal_fn journal;
+static void *journal_arg;
+static int replaying;
+
+int models_init(int max)
+{
+    table = calloc((size_t)max, sizeof *table);
+    if (!table)
+        return -1;
+    maxmodels = max;
+    nmodels = 0;
+    return 0;
+}
+
+void models_free(void)
+{
+    for (int k = 0; k < nmodels; k++)
+        free(table[k]);
+    free(table);
+    table = NULL;
+    nmodels = maxmodels = 0;
+}
+
+void models_set_journal(model_journal_fn fn, void *arg)
+{
+    journal = fn;
+    journal_arg = arg;
+}
+
+static int jlog(const struct model_rec *rec)
+{
+    if (replaying || !journal)
+        return 0;
+    return journal(journal_arg, rec);
+}
+
+struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flags)
+{
+    struct model *md;
+    it2n_errinfo err;
+    if (nmodels == maxmodels || models_by_id(id) || models_by_unit(unit))
+        return NULL;
+    md = calloc(1, sizeof *md);
+    if (!md)
+        return NULL;
+    md->id = id;
+    md->unit = unit;
+    if (it2n_dataset_init(&md->ds, n, m, flags, &err) != IT2N_OK) {
+        free(md);
+        return NULL;
+    }
+    it2n_model_init(&md->mdl);
+    md->state = IT2N_RS_EMPTY;
+    table[nmodels++] = md;
+    return md;
+}
+
+struct model *models_by_id(int id)
+{
+    for (int k = 0; k < nmodels; k++)
+        if (table[k]->id == id)
+            return table[k];
+    return NULL;
+}
+
+struct model *models_by_unit(int unit)
+{
+    for (int k = 0; k < nmodels; k++)
+        if (table[k]->unit == unit)
+            return table[k];
+    return NULL;
+}
+
+int models_count(void)
+{
+    return nmodels;
+}
+
+struct model *models_at(int k)
+{
+    return k >= 0 && k < nmodels ? table[k] : NULL;
+}
+
+unsigned models_required(const struct model *md)
+{
+    unsigned fps = (md->ds.flags & IT2N_F_TYPE1) ? 1u : IT2N_FP_COUNT;
+    return (md->ds.n + 1u) * (md->ds.m + 1u) * fps;
+}
+
+unsigned models_present(const struct model *md)
+{
+    return models_required(md) - it2n_dataset_missing(&md->ds);
+}
+
+static void set_err(struct model *md, const it2n_errinfo *err)
+{
+    md->last_err = *err;
+}
+
+/* Solve md->ds into md->mdl. On failure md->mdl is unchanged. */
+static int solve(struct model *md, it2n_errinfo *err)
+{
+    int rc = it2n_model_solve(&md->mdl, &md->ds, err);
+    if (rc != IT2N_OK) {
+        set_err(md, err);
+        return rc;
+    }
+    md->state = IT2N_RS_SOLVED;
+    md->gen++;
+    md->solves++;
+    memset(&md->last_err, 0, sizeof md->last_err);
+    return IT2N_OK;
+}
+
+int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err)
+{
+    it2n_dataset ds;
+    struct model_rec rec = { .op = MOP_CONFIG, .id = md->id, .n = n, .m = m, .flags = flags };
+    int rc = it2n_dataset_init(&ds, n, m, flags, err);
+    if (rc != IT2N_OK)
+        return rc;
+    if (jlog(&rec)) {
+        err->code = IT2N_ERR_STATE;
+        return IT2N_ERR_STATE;
+    }
+    md->ds = ds;
+    it2n_model_init(&md->mdl);
+    md->state = IT2N_RS_EMPTY;
+    md->grid_valid = 0;
+    md->gen++;
+    return IT2N_OK;
+}
+
+int models_clear(struct model *md)
+{
+    it2n_errinfo err;
+    struct model_rec rec = { .op = MOP_CLEAR, .id = md->id };
+    if (jlog(&rec))
+        return IT2N_ERR_STATE;
+    it2n_dataset_init(&md->ds, md->ds.n, md->ds.m, md->ds.flags, &err);
+    it2n_model_init(&md->mdl);
+    md->state = IT2N_RS_EMPTY;
+    md->grid_valid = 0;
+    md->gen++;
+    return IT2N_OK;
+}
+
+int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
+               const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
+{
+    struct model_rec rec = { .op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp };
+    int rc;
+    memcpy(rec.vals, vals, sizeof rec.vals);
+
+    if (md->state == IT2N_RS_SOLVED) {
+        /* Incremental: the core's update is atomic on error. Keep a copy
+         * only to undo a journal failure. */
+        it2n_model *save = malloc(sizeof *save);
+        if (!save) {
+            err->code = IT2N_ERR_STATE;
+            return IT2N_ERR_STATE;
+        }
+        *save = md->mdl;
+        rc = it2n_model_update(&md->mdl, i, j, fp, vals, err);
+        if (rc == IT2N_OK && jlog(&rec)) {
+            md->mdl = *save;
+            err->code = rc = IT2N_ERR_STATE;
+        }
+        free(save);
+        if (rc != IT2N_OK) {
+            set_err(md, err);
+            return rc;
+        }
+        md->ds = md->mdl.data;
+        md->gen++;
+        md->points_rx++;
+        return IT2N_OK;
+    }
+
+    it2n_dataset *save = malloc(sizeof *save);
+    if (!save) {
+        err->code = IT2N_ERR_STATE;
+        return IT2N_ERR_STATE;
+    }
+    *save = md->ds;
+    int prev_state = md->state;
+    uint32_t prev_gen = md->gen, prev_solves = md->solves;
+    rc = it2n_dataset_put(&md->ds, i, j, fp, vals, true, err);
+    if (rc == IT2N_OK && it2n_dataset_missing(&md->ds) == 0)
+        rc = solve(md, err);  /* completion solves; a failure rejects the point */
+    if (rc == IT2N_OK && jlog(&rec)) {
+        err->code = rc = IT2N_ERR_STATE;
+    }
+    if (rc != IT2N_OK) {
+        md->ds = *save;
+        if (md->state == IT2N_RS_SOLVED) { /* solve ran, journal failed */
+            it2n_model_init(&md->mdl);
+            md->state = prev_state;
+            md->gen = prev_gen;
+            md->solves = prev_solves;
+        }
+        free(save);
+        set_err(md, err);
+        return rc;
+    }
+    free(save);
+    if (md->state != IT2N_RS_SOLVED)
+        md->state = IT2N_RS_INCOMPLETE;
+    md->points_rx++;
+    return IT2N_OK;
+}
+
+int models_commit(struct model *md, it2n_errinfo *err)
+{
+    struct model_rec rec = { .op = MOP_COMMIT, .id = md->id };
+    it2n_model *save;
+    int rc, state = md->state;
+    uint32_t gen = md->gen, solves = md->solves;
+    memset(err, 0, sizeof *err);
+    if (it2n_dataset_missing(&md->ds) != 0) {
+        err->code = IT2N_ERR_MISSING;
+        return IT2N_ERR_MISSING;
+    }
+    save = malloc(sizeof *save);
+    if (!save) {
+        err->code = IT2N_ERR_STATE;
+        return IT2N_ERR_STATE;
+    }
+    *save = md->mdl;
+    rc = solve(md, err);
+    if (rc == IT2N_OK && jlog(&rec)) {
+        md->mdl = *save;
+        md->state = state;
+        md->gen = gen;
+        md->solves = solves;
+        err->code = rc = IT2N_ERR_STATE;
+    }
+    if (rc != IT2N_OK && md->state != IT2N_RS_SOLVED)
+        md->state = IT2N_RS_FAILED;
+    free(save);
+    return rc;
+}
+
+int models_apply(const struct model_rec *rec, it2n_errinfo *err)
+{
+    struct model *md = models_by_id(rec->id);
+    int rc;
+    memset(err, 0, sizeof *err);
+    if (!md) {
+        err->code = IT2N_ERR_INVAL;
+        return IT2N_ERR_INVAL;
+    }
+    replaying = 1;
+    switch (rec->op) {
+    case MOP_CONFIG:
+        rc = models_configure(md, rec->n, rec->m, rec->flags, err);
+        break;
+    case MOP_POINT:
+        rc = models_put(md, rec->i, rec->j, rec->fp, rec->vals, err);
+        break;
+    case MOP_COMMIT:
+        rc = models_commit(md, err);
+        break;
+    case MOP_CLEAR:
+        rc = models_clear(md);
+        break;
+    default:
+        rc = err->code = IT2N_ERR_INVAL;
+        break;
+    }
+    replaying = 0;
+    return rc;
+}
+
+int models_preload_paper(struct model *md)
+{
+    it2n_errinfo err;
+    int rc = IT2N_OK;
+    replaying = 1; /* configuration, not journaled */
+    for (size_t k = 0; k < paper_nrows && rc == IT2N_OK; k++) {
+        const struct paper_row *r = &paper_rows[k];
+        it2n_val v[IT2N_CH_COUNT] = { 0 };
+        static const int ch[5] = { IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F };
+        int fp = it2n_fp_from_name(r->fp, strlen(r->fp));
+        if (fp < 0) {
+            rc = fp;
+            break;
+        }
+        for (int c = 0; c < 5 && rc == IT2N_OK; c++)
+            rc = it2n_parse_val(r->val[c], strlen(r->val[c]), &v[ch[c]]);
+        if (rc == IT2N_OK)
+            rc = models_put(md, r->i, r->j, (unsigned)fp, v, &err);
+    }
+    replaying = 0;
+    md->points_rx = 0;
+    return rc;
+}
+
+struct grid_ctx {
+    struct model *md;
+    unsigned cols;
+};
+
+static int16_t memb16(it2n_val v)
+{
+    /* x10000, rounded half away from zero, saturated. */
+    int64_t s = v * 10000;
+    int64_t q = (s + (s >= 0 ? (IT2N_VAL_ONE / 2) : -(IT2N_VAL_ONE / 2))) / IT2N_VAL_ONE;
+    return (int16_t)(q > 32767 ? 32767 : q < -32767 ? -32767 : q);
+}
+
+static int grid_cb(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w, const it2n_point *pt)
+{
+    struct grid_ctx *g = ctx;
+    (void)u;
+    (void)w;
+    for (int k = 0; k < 3; k++)
+        g->md->grid[r * g->cols + c][k] = memb16(pt->v[IT2N_FP_D][IT2N_CH_T + k]);
+    return 0;
+}
+
+int models_grid(struct model *md, unsigned rows, unsigned cols)
+{
+    struct grid_ctx g = { md, cols };
+    int rc;
+    if (md->state != IT2N_RS_SOLVED)
+        return IT2N_ERR_STATE;
+    if (md->grid_valid && md->grid_gen == md->gen)
+        return IT2N_OK;
+    rc = it2n_sample(&md->mdl, rows, cols, grid_cb, &g);
+    if (rc != IT2N_OK)
+        return rc;
+    md->grid_gen = md->gen;
+    md->grid_valid = 1;
+    return IT2N_OK;
+}

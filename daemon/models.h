@@ -1,0 +1,80 @@
+/* models — the model table: per model id a staging data set and a solved
+ * it2n_model. Points PUT before the model is complete go to the data set;
+ * completion or COMMIT solves with it2n_model_solve; PUTs into a solved
+ * model use it2n_model_update (O(n*m)). Every accepted change is reported
+ * to the journal hook (the WAL) before the caller acknowledges it; a
+ * rejected change leaves the model exactly as it was. */
+#ifndef IT2ND_MODELS_H
+#define IT2ND_MODELS_H
+
+#include <stdint.h>
+
+#include "it2n.h"
+#include "it2n_regmap.h"
+
+struct model {
+    int id, unit;
+    it2n_dataset ds;           /* current data (staging and solved)   */
+    it2n_model mdl;            /* valid when state == IT2N_RS_SOLVED  */
+    int state;                 /* enum it2n_regmap_state              */
+    uint32_t gen;              /* bumped on every solve and update    */
+    it2n_errinfo last_err;     /* code 0 = none                       */
+    uint32_t points_rx, solves, requests, exceptions;
+    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I]; /* last upload */
+    /* Sample grid cache (D footprint T, I, F x10000), valid for grid_gen. */
+    int16_t grid[IT2N_REGMAP_GRID_MAX_NODES][3];
+    uint32_t grid_gen;
+    int grid_valid;
+};
+
+/* Journal record kinds (also the WAL record types). */
+enum model_op { MOP_CONFIG = 1, MOP_POINT = 2, MOP_COMMIT = 3, MOP_CLEAR = 4 };
+
+struct model_rec {
+    int op;
+    int id;
+    unsigned n, m, flags;              /* MOP_CONFIG */
+    unsigned i, j, fp;                 /* MOP_POINT  */
+    it2n_val vals[IT2N_CH_COUNT];      /* MOP_POINT  */
+};
+
+/* Called for every accepted change; non-zero return rejects it (e.g. the
+ * WAL cannot be written), in which case the model is rolled back. */
+typedef int (*model_journal_fn)(void *arg, const struct model_rec *rec);
+
+/* Create the table with room for max models. Returns 0 or -1. */
+int models_init(int max);
+void models_free(void);
+void models_set_journal(model_journal_fn fn, void *arg);
+
+/* Add a model (id unique, unit unique). Returns it, or NULL. */
+struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flags);
+struct model *models_by_id(int id);
+struct model *models_by_unit(int unit);
+int models_count(void);
+struct model *models_at(int k);
+
+/* Load the paper's example data set (n = m = 3) and solve. Not journaled:
+ * it is part of the configuration. Returns an it2n error code. */
+int models_preload_paper(struct model *md);
+
+/* Operations. Return IT2N_OK or a negative it2n error code; err filled. A
+ * journal failure returns IT2N_ERR_STATE with nothing changed. */
+int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err);
+int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
+               const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err);
+int models_commit(struct model *md, it2n_errinfo *err);
+int models_clear(struct model *md);
+
+/* Apply a record (WAL replay): same as the operations, not journaled. */
+int models_apply(const struct model_rec *rec, it2n_errinfo *err);
+
+/* Entries present / required of the current configuration. */
+unsigned models_present(const struct model *md);
+unsigned models_required(const struct model *md);
+
+/* Refresh the sample grid cache if the generation moved. Returns 0 or an
+ * it2n error code. */
+int models_grid(struct model *md, unsigned rows, unsigned cols);
+
+#endif

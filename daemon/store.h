@@ -1,0 +1,47 @@
+/* store — persistence in the state directory: a write-ahead log of model
+ * records (CRC-32C protected, versioned) with group commit, and periodic
+ * snapshots of every model written to a temporary file, fsynced and
+ * renamed into place.
+ *
+ * Contract: store_append() queues a record; nothing may be acknowledged
+ * until store_commit() has returned 0 (one write + fdatasync for every
+ * record queued since the last commit). Recovery keeps every record that
+ * validates, logs what it drops and truncates the WAL after the last good
+ * record. */
+#ifndef IT2ND_STORE_H
+#define IT2ND_STORE_H
+
+#include <stdint.h>
+
+#include "models.h"
+
+/* Open (create) dir, recover snapshot + WAL into the model table (models
+ * must already be configured). fsync 0 skips fdatasync (tests only).
+ * Returns 0, or -1 if the directory cannot be used. */
+int store_open(const char *dir, int fsync);
+
+/* Queue one record (model journal hook). Returns 0 or -1. */
+int store_append(void *arg, const struct model_rec *rec);
+
+/* Write and fdatasync queued records. Returns 0, or -1 (the queued
+ * records are then lost and must not be acknowledged). */
+int store_commit(void);
+
+/* Records queued and not yet committed. */
+int store_pending(void);
+
+/* Write a snapshot of all models, then start an empty WAL. 0 or -1. */
+int store_snapshot(void);
+
+/* Bytes in the WAL since the last snapshot. */
+uint64_t store_wal_bytes(void);
+
+/* Counters for STATUS=. */
+struct store_stats {
+    uint64_t records, commits, snapshots, dropped;
+};
+void store_get_stats(struct store_stats *st);
+
+void store_close(void);
+
+#endif

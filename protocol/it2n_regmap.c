@@ -1,0 +1,179 @@
+/*
+ * it2n_regmap.c — the register map table. Pure data: docs/registers.md is
+ * generated from it, so descriptions are written for a PLC engineer.
+ */
+#include "it2n_regmap.h"
+
+#define F1(a, t, s, n, u, d) { (a), 1u, 0u, (t), (s), (n), (u), (d) }
+#define FN(a, c, st, t, s, n, u, d) { (a), (c), (st), (t), (s), (n), (u), (d) }
+#define NF(x) (sizeof(x) / sizeof((x)[0]))
+
+static const it2n_regmap_field status_fields[] = {
+    F1(IT2N_REG_MAP_VERSION, IT2N_RT_U16, 1, "map_version", "-",
+       "Register map layout version (1)."),
+    F1(IT2N_REG_STATE, IT2N_RT_U16, 1, "state", "-",
+       "0 empty, 1 incomplete (points missing), 2 solved, 3 solve failed."),
+    F1(IT2N_REG_N, IT2N_RT_U16, 1, "n", "-", "Degree in u (grid rows - 1)."),
+    F1(IT2N_REG_M, IT2N_RT_U16, 1, "m", "-", "Degree in w (grid columns - 1)."),
+    F1(IT2N_REG_FLAGS, IT2N_RT_U16, 1, "flags", "bits",
+       "bit0 z coordinates, bit1 type-1 (footprint D only), bit2 chord-length parameters."),
+    F1(IT2N_REG_PRESENT, IT2N_RT_U16, 1, "points_present", "entries",
+       "(i, j, footprint) entries received for the current configuration."),
+    F1(IT2N_REG_REQUIRED, IT2N_RT_U16, 1, "points_required", "entries",
+       "Entries a complete model needs: (n+1)(m+1) x footprints."),
+    F1(IT2N_REG_GENERATION, IT2N_RT_U32, 1, "generation", "-",
+       "Bumped on every solve or incremental update; poll it to see new results."),
+    F1(IT2N_REG_LAST_ERR, IT2N_RT_I16, 1, "last_error", "-",
+       "Last it2n error code (0 none, -1 invalid, -2 range, -5 order, -6 overflow, -7 singular, -8 degenerate)."),
+    F1(IT2N_REG_ERR_I, IT2N_RT_I16, 1, "last_error_i", "-", "Grid row of the last error, or -1."),
+    F1(IT2N_REG_ERR_J, IT2N_RT_I16, 1, "last_error_j", "-", "Grid column of the last error, or -1."),
+    F1(IT2N_REG_ERR_FP, IT2N_RT_I16, 1, "last_error_fp", "-", "Footprint (0 LL .. 6 RR) of the last error, or -1."),
+    F1(IT2N_REG_POINTS_RX, IT2N_RT_U32, 1, "points_received", "count",
+       "Data points accepted since start (links and Modbus)."),
+    F1(IT2N_REG_SOLVES, IT2N_RT_U32, 1, "solves", "count", "Successful full solves since start."),
+    F1(IT2N_REG_REQUESTS, IT2N_RT_U32, 1, "requests", "count", "Modbus requests served for this unit."),
+    F1(IT2N_REG_EXCEPTIONS, IT2N_RT_U32, 1, "exceptions", "count", "Modbus exception replies for this unit."),
+    F1(IT2N_REG_WORD_ORDER, IT2N_RT_U16, 1, "float_word_order", "-",
+       "Float32 byte order: 0 ABCD (big-endian, default), 1 CDAB, 2 BADC, 3 DCBA."),
+    F1(IT2N_REG_COORD_SCALE, IT2N_RT_U16, 1, "coord_scale", "-",
+       "Coordinate scale of scaled-integer coordinates: value = register / coord_scale."),
+    F1(IT2N_REG_GRID_ROWS, IT2N_RT_U16, 1, "grid_rows", "-", "Rows of the sample grid block."),
+    F1(IT2N_REG_GRID_COLS, IT2N_RT_U16, 1, "grid_cols", "-", "Columns of the sample grid block."),
+    F1(IT2N_REG_MODEL_ID, IT2N_RT_U16, 1, "model_id", "-", "Model id on the serial links."),
+};
+
+static const it2n_regmap_field config_fields[] = {
+    F1(IT2N_REG_CFG_N, IT2N_RT_U16, 1, "cfg_n", "-",
+       "Degree in u, 1..7. Writing a new configuration clears the model's points."),
+    F1(IT2N_REG_CFG_M, IT2N_RT_U16, 1, "cfg_m", "-", "Degree in w, 1..7."),
+    F1(IT2N_REG_CFG_FLAGS, IT2N_RT_U16, 1, "cfg_flags", "bits",
+       "bit0 z, bit1 type-1, bit2 chord-length; other bits answer 03."),
+    F1(IT2N_REG_COMMAND, IT2N_RT_U16, 1, "command", "-",
+       "Write 1 = commit (solve now; 06 while points are missing, 04 if the solve fails), 2 = clear points. Reads 0."),
+};
+
+static const it2n_regmap_field upload_fields[] = {
+    F1(IT2N_REG_UP_I, IT2N_RT_U16, 1, "up_i", "-", "Grid row 0..n."),
+    F1(IT2N_REG_UP_J, IT2N_RT_U16, 1, "up_j", "-", "Grid column 0..m."),
+    F1(IT2N_REG_UP_FP, IT2N_RT_U16, 1, "up_fp", "-", "Footprint 0 LL, 1 LR, 2 L, 3 D, 4 R, 5 RL, 6 RR."),
+    F1(IT2N_REG_UP_X, IT2N_RT_I32, IT2N_REGMAP_SCALE_COORD, "up_x", "coord", "x coordinate."),
+    F1(IT2N_REG_UP_Y, IT2N_RT_I32, IT2N_REGMAP_SCALE_COORD, "up_y", "coord", "y coordinate."),
+    F1(IT2N_REG_UP_Z, IT2N_RT_I32, IT2N_REGMAP_SCALE_COORD, "up_z", "coord", "z coordinate (ignored without flag z)."),
+    F1(IT2N_REG_UP_T, IT2N_RT_U16, IT2N_REGMAP_MEMB_SCALE, "up_T", "1", "Truth membership, 0..10000."),
+    F1(IT2N_REG_UP_I_M, IT2N_RT_U16, IT2N_REGMAP_MEMB_SCALE, "up_I", "1", "Indeterminacy membership, 0..10000."),
+    F1(IT2N_REG_UP_F, IT2N_RT_U16, IT2N_REGMAP_MEMB_SCALE, "up_F", "1", "Falsity membership, 0..10000."),
+};
+
+static const it2n_regmap_field query_fields[] = {
+    F1(IT2N_REG_Q_U16, IT2N_RT_U16, IT2N_REGMAP_MEMB_SCALE, "q_u", "1", "Parameter u x10000 (0..10000)."),
+    F1(IT2N_REG_Q_W16, IT2N_RT_U16, IT2N_REGMAP_MEMB_SCALE, "q_w", "1", "Parameter w x10000 (0..10000)."),
+    F1(IT2N_REG_Q_UF, IT2N_RT_F32, 1, "q_u_f", "1", "Parameter u as float32, [0, 1]."),
+    F1(IT2N_REG_Q_WF, IT2N_RT_F32, 1, "q_w_f", "1", "Parameter w as float32, [0, 1]."),
+    F1(IT2N_REG_Q_XS, IT2N_RT_I32, IT2N_REGMAP_SCALE_COORD, "q_x", "coord", "Locate: x, scaled integer."),
+    F1(IT2N_REG_Q_YS, IT2N_RT_I32, IT2N_REGMAP_SCALE_COORD, "q_y", "coord", "Locate: y, scaled integer."),
+    F1(IT2N_REG_Q_XF, IT2N_RT_F32, 1, "q_x_f", "coord", "Locate: x as float32."),
+    F1(IT2N_REG_Q_YF, IT2N_RT_F32, 1, "q_y_f", "coord", "Locate: y as float32."),
+};
+
+static const it2n_regmap_field qstatus_fields[] = {
+    F1(IT2N_REG_Q_KIND, IT2N_RT_U16, 1, "q_kind", "-", "0 no query yet, 1 (u, w) evaluation, 2 (x, y) locate."),
+    F1(IT2N_REG_Q_GEN, IT2N_RT_U32, 1, "q_generation", "-", "Model generation the results were computed from."),
+    F1(IT2N_REG_Q_LOCFAIL, IT2N_RT_U16, 1, "q_locate_fail", "bits",
+       "Locate only: bit fp set when (x, y) is not inside that footprint surface (nearest boundary point given)."),
+    F1(IT2N_REG_Q_OOR, IT2N_RT_U32, 1, "q_out_of_range", "bits",
+       "Bit fp*3+k: membership k (0 T, 1 I, 2 F) of footprint fp left [0, 1] (raw value kept)."),
+};
+
+static const it2n_regmap_field res_f32_fields[] = {
+    FN(IT2N_REG_RES_F32, IT2N_REGMAP_FP * IT2N_REGMAP_CH, 2u, IT2N_RT_F32, 1, "res[fp][ch]", "coord / 1",
+       "Surface value of footprint fp (0 LL..6 RR), channel ch (0 x, 1 y, 2 z, 3 T, 4 I, 5 F) at "
+       "address 128 + (fp*6 + ch)*2."),
+    FN(IT2N_REG_SUM_F32, 12u, 2u, IT2N_RT_F32, 1, "sum[s][k]", "1",
+       "Interval summary: s = 0 upper_min, 1 upper_max (over LL, D, RR), 2 lower_min, 3 lower_max "
+       "(over LR, D, RL); k = 0 T, 1 I, 2 F; address 212 + (s*3 + k)*2."),
+};
+
+static const it2n_regmap_field res_sc_fields[] = {
+    FN(IT2N_REG_RES_SCALED, IT2N_REGMAP_FP, IT2N_REG_RES_SCALED_STRIDE, IT2N_RT_I32,
+       IT2N_REGMAP_SCALE_COORD, "res_xyz[fp]", "coord",
+       "x, y, z of footprint fp as three i32 at 256 + fp*9 + {0, 2, 4}, saturated to the i32 range."),
+    FN(IT2N_REG_RES_SCALED + 6u, IT2N_REGMAP_FP, IT2N_REG_RES_SCALED_STRIDE, IT2N_RT_I16,
+       IT2N_REGMAP_MEMB_SCALE, "res_tif[fp]", "1",
+       "T, I, F of footprint fp as three i16 x10000 at 256 + fp*9 + {6, 7, 8}, saturated to +-32767."),
+    FN(IT2N_REG_SUM_SCALED, 12u, 1u, IT2N_RT_I16, IT2N_REGMAP_MEMB_SCALE, "sum_sc[s][k]", "1",
+       "Interval summary as i16 x10000 at 320 + s*3 + k (s, k as in the float32 summary)."),
+    FN(IT2N_REG_SAT, IT2N_REGMAP_FP, 1u, IT2N_RT_U16, 1, "sat[fp]", "bits",
+       "Bit ch set when the scaled value of footprint fp, channel ch was saturated."),
+    F1(IT2N_REG_SAT_SUM, IT2N_RT_U16, 1, "sat_sum", "bits",
+       "Bit s*3+k set when scaled summary value (s, k) was saturated."),
+};
+
+static const it2n_regmap_field grid_fields[] = {
+    FN(IT2N_REG_GRID, IT2N_REGMAP_GRID_MAX_NODES, 3u, IT2N_RT_I16, IT2N_REGMAP_MEMB_SCALE, "grid[r][c]", "1",
+       "T, I, F of footprint D at u = r/(rows-1), w = c/(cols-1) as i16 x10000 at "
+       "1024 + (r*cols + c)*3 + k. Only rows*cols nodes exist; reading past them answers 02."),
+};
+
+static const it2n_regmap_field ctrl_fields[] = {
+    FN(IT2N_REG_CTRL, IT2N_REGMAP_FP * IT2N_REGMAP_DIM * IT2N_REGMAP_DIM * IT2N_REGMAP_CH, 2u,
+       IT2N_RT_F32, 1, "ctrl[fp][i][j][ch]", "coord / 1",
+       "Control point (i, j) of footprint fp, channel ch at 2048 + (((fp*8 + i)*8 + j)*6 + ch)*2; "
+       "entries outside the model's degrees read 0."),
+};
+
+const it2n_regmap_block it2n_regmap_blocks[] = {
+    { IT2N_REG_MAP_VERSION, IT2N_REG_STATUS_END, IT2N_RA_RO, 0u, "status",
+      "Model state and counters.", status_fields, NF(status_fields) },
+    { IT2N_REG_CFG_N, IT2N_REG_CONFIG_END, IT2N_RA_RW, 0u, "configuration",
+      "Model configuration and command. Writes are persisted before the reply.",
+      config_fields, NF(config_fields) },
+    { IT2N_REG_UP_I, IT2N_REG_UPLOAD_END, IT2N_RA_RW, 0u, "upload",
+      "One data point, written as the whole block (40..51, 12 registers) in one FC16/FC23 request; "
+      "any other write here answers 03. Stored (and persisted) before the reply; completes or "
+      "updates the model like a point from a link.", upload_fields, NF(upload_fields) },
+    { IT2N_REG_Q_U16, IT2N_REG_QUERY_END, IT2N_RA_RW, 1u, "query",
+      "Per-connection query inputs. Writing u and/or w (either view) evaluates at (u, w); writing x "
+      "and/or y locates (x, y) on every footprint. 32-bit values must be written whole; one write may "
+      "not mix (u, w) with (x, y). Use FC23 to write and read the result in one transaction.",
+      query_fields, NF(query_fields) },
+    { IT2N_REG_Q_KIND, IT2N_REG_QSTATUS_END, IT2N_RA_RO, 1u, "query_status",
+      "Per-connection query status.", qstatus_fields, NF(qstatus_fields) },
+    { IT2N_REG_RES_F32, IT2N_REG_SUM_F32 + 24u, IT2N_RA_RO, 1u, "results_f32",
+      "Result of this connection's last query, float32 view (recomputed when the model changes). "
+      "Answers 06 while the model is not solved.", res_f32_fields, NF(res_f32_fields) },
+    { IT2N_REG_RES_SCALED, IT2N_REG_RESULTS_END, IT2N_RA_RO, 1u, "results_scaled",
+      "Result of this connection's last query, scaled-integer view with saturation flags. "
+      "Answers 06 while the model is not solved.", res_sc_fields, NF(res_sc_fields) },
+    { IT2N_REG_GRID, IT2N_REG_GRID_END, IT2N_RA_RO, 0u, "sample_grid",
+      "Precomputed sample grid (grid_rows x grid_cols, configured), refreshed on every generation. "
+      "Answers 06 while the model is not solved.", grid_fields, NF(grid_fields) },
+    { IT2N_REG_CTRL, IT2N_REG_CTRL_END, IT2N_RA_RO, 0u, "control_net",
+      "Solved control nets, float32. Answers 06 while the model is not solved.",
+      ctrl_fields, NF(ctrl_fields) },
+};
+
+const size_t it2n_regmap_nblocks = NF(it2n_regmap_blocks);
+
+const it2n_regmap_block *it2n_regmap_find(unsigned addr, unsigned count)
+{
+    size_t k;
+    if (count == 0u)
+        return NULL;
+    for (k = 0; k < it2n_regmap_nblocks; k++) {
+        const it2n_regmap_block *b = &it2n_regmap_blocks[k];
+        if (addr >= b->start && addr < b->end)
+            return (count <= (unsigned)(b->end - addr)) ? b : NULL;
+    }
+    return NULL;
+}
+
+const char *it2n_regmap_type_name(unsigned type)
+{
+    static const char *const names[] = { "u16", "i16", "u32", "i32", "f32" };
+    return type < 5u ? names[type] : "?";
+}
+
+unsigned it2n_regmap_type_words(unsigned type)
+{
+    return (type == IT2N_RT_U16 || type == IT2N_RT_I16) ? 1u : 2u;
+}

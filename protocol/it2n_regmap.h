@@ -1,0 +1,189 @@
+/*
+ * it2n_regmap — the it2nd Modbus register map, defined once as data.
+ *
+ * Every address the daemon serves is listed in it2n_regmap_blocks[]; the
+ * daemon decodes requests against it and daemon/tools/gen_registers prints
+ * docs/registers.md from it. Addresses are 0-based protocol (PDU) addresses;
+ * the documentation adds the 3xxxx / 4xxxx reference notation.
+ *
+ * Portable C99: pure data plus a lookup, no float, no heap, no state.
+ */
+#ifndef IT2N_REGMAP_H
+#define IT2N_REGMAP_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Map layout version, readable at IT2N_REG_MAP_VERSION. Bump on any change
+ * that moves or retypes a register. */
+#define IT2N_REGMAP_VERSION 1u
+
+/* Stride of the control-net read-out in i and j, independent of the core's
+ * compile-time IT2N_MAX_DEGREE so addresses never move. */
+#define IT2N_REGMAP_DIM 8u
+#define IT2N_REGMAP_FP 7u  /* footprints LL..RR */
+#define IT2N_REGMAP_CH 6u  /* channels x, y, z, T, I, F */
+#define IT2N_REGMAP_GRID_MAX_NODES 256u
+
+/* Membership scale of every scaled-integer membership register. */
+#define IT2N_REGMAP_MEMB_SCALE 10000
+
+/* ---- Status (read-only) ---- */
+#define IT2N_REG_MAP_VERSION 0u
+#define IT2N_REG_STATE 1u        /* enum it2n_regmap_state            */
+#define IT2N_REG_N 2u
+#define IT2N_REG_M 3u
+#define IT2N_REG_FLAGS 4u
+#define IT2N_REG_PRESENT 5u      /* (i, j, footprint) entries present */
+#define IT2N_REG_REQUIRED 6u     /* entries a complete model needs    */
+#define IT2N_REG_GENERATION 7u   /* u32, bumped on every solve/update */
+#define IT2N_REG_LAST_ERR 9u     /* i16 it2n error code, 0 = none     */
+#define IT2N_REG_ERR_I 10u
+#define IT2N_REG_ERR_J 11u
+#define IT2N_REG_ERR_FP 12u
+#define IT2N_REG_POINTS_RX 13u   /* u32 */
+#define IT2N_REG_SOLVES 15u      /* u32 */
+#define IT2N_REG_REQUESTS 17u    /* u32 */
+#define IT2N_REG_EXCEPTIONS 19u  /* u32 */
+#define IT2N_REG_WORD_ORDER 21u
+#define IT2N_REG_COORD_SCALE 22u
+#define IT2N_REG_GRID_ROWS 23u
+#define IT2N_REG_GRID_COLS 24u
+#define IT2N_REG_MODEL_ID 25u
+#define IT2N_REG_STATUS_END 26u
+
+/* ---- Model configuration (read/write) ---- */
+#define IT2N_REG_CFG_N 32u
+#define IT2N_REG_CFG_M 33u
+#define IT2N_REG_CFG_FLAGS 34u
+#define IT2N_REG_COMMAND 35u
+#define IT2N_REG_CONFIG_END 36u
+
+/* ---- Data point upload (read/write, whole block in one request) ---- */
+#define IT2N_REG_UP_I 40u
+#define IT2N_REG_UP_J 41u
+#define IT2N_REG_UP_FP 42u
+#define IT2N_REG_UP_X 43u  /* i32 scaled by the coordinate scale */
+#define IT2N_REG_UP_Y 45u
+#define IT2N_REG_UP_Z 47u
+#define IT2N_REG_UP_T 49u  /* u16 x10000 */
+#define IT2N_REG_UP_I_M 50u
+#define IT2N_REG_UP_F 51u
+#define IT2N_REG_UPLOAD_END 52u
+
+/* ---- Query inputs (read/write, per connection) ---- */
+#define IT2N_REG_Q_U16 64u   /* u x10000 */
+#define IT2N_REG_Q_W16 65u   /* w x10000 */
+#define IT2N_REG_Q_UF 66u    /* f32 */
+#define IT2N_REG_Q_WF 68u    /* f32 */
+#define IT2N_REG_Q_XS 70u    /* i32 scaled */
+#define IT2N_REG_Q_YS 72u    /* i32 scaled */
+#define IT2N_REG_Q_XF 74u    /* f32 */
+#define IT2N_REG_Q_YF 76u    /* f32 */
+#define IT2N_REG_QUERY_END 78u
+
+/* ---- Query status (read-only, per connection) ---- */
+#define IT2N_REG_Q_KIND 80u     /* 0 none, 1 (u, w), 2 (x, y)        */
+#define IT2N_REG_Q_GEN 81u      /* u32 model generation of the result */
+#define IT2N_REG_Q_LOCFAIL 83u  /* bit fp: (x, y) not inside surface  */
+#define IT2N_REG_Q_OOR 84u      /* u32, bit fp*3+k: membership k outside [0,1] */
+#define IT2N_REG_QSTATUS_END 86u
+
+/* ---- Results ---- */
+#define IT2N_REG_RES_F32 128u      /* f32 v[fp][ch], 2 words each   */
+#define IT2N_REG_SUM_F32 212u      /* f32 summary, 12 values        */
+#define IT2N_REG_RES_SCALED 256u   /* per fp: x,y,z i32; T,I,F i16  */
+#define IT2N_REG_RES_SCALED_STRIDE 9u
+#define IT2N_REG_SUM_SCALED 320u   /* i16 x10000, 12 values         */
+#define IT2N_REG_SAT 332u          /* per fp saturation mask, bit ch */
+#define IT2N_REG_SAT_SUM 339u      /* summary saturation mask, bit k */
+#define IT2N_REG_RESULTS_END 340u
+
+/* ---- Sample grid (read-only): D footprint T, I, F x10000 per node ---- */
+#define IT2N_REG_GRID 1024u
+#define IT2N_REG_GRID_END (IT2N_REG_GRID + 3u * IT2N_REGMAP_GRID_MAX_NODES)
+
+/* ---- Control nets (read-only): f32 ctrl[fp][i][j][ch] ---- */
+#define IT2N_REG_CTRL 2048u
+#define IT2N_REG_CTRL_END \
+    (IT2N_REG_CTRL + 2u * IT2N_REGMAP_FP * IT2N_REGMAP_DIM * IT2N_REGMAP_DIM * IT2N_REGMAP_CH)
+
+/* Values of IT2N_REG_STATE. */
+enum it2n_regmap_state {
+    IT2N_RS_EMPTY = 0,      /* no data point yet                       */
+    IT2N_RS_INCOMPLETE = 1, /* points missing; results answer 06       */
+    IT2N_RS_SOLVED = 2,     /* results valid                           */
+    IT2N_RS_FAILED = 3      /* complete but the solve failed (LAST_ERR) */
+};
+
+/* Values written to IT2N_REG_COMMAND. */
+enum it2n_regmap_cmd {
+    IT2N_CMD_COMMIT = 1, /* solve now (fails 06 while points are missing) */
+    IT2N_CMD_CLEAR = 2   /* drop all points, keep the configuration       */
+};
+
+/* Word orders for float32 (IT2N_REG_WORD_ORDER); A is the most significant
+ * byte of the IEEE-754 value. */
+enum it2n_regmap_order {
+    IT2N_WO_ABCD = 0, IT2N_WO_CDAB = 1, IT2N_WO_BADC = 2, IT2N_WO_DCBA = 3
+};
+
+/* Register value types. */
+enum it2n_regmap_type {
+    IT2N_RT_U16 = 0,
+    IT2N_RT_I16,
+    IT2N_RT_U32,   /* two registers, high word first */
+    IT2N_RT_I32,   /* two registers, high word first */
+    IT2N_RT_F32    /* two registers, configured word order */
+};
+
+/* Scale of a field: 1 plain, IT2N_REGMAP_SCALE_COORD the configured
+ * coordinate scale, otherwise value = register / scale. */
+#define IT2N_REGMAP_SCALE_COORD (-1)
+
+/* Access. */
+enum it2n_regmap_access { IT2N_RA_RO = 0, IT2N_RA_RW = 1 };
+
+/* One field: `count` values of `type` starting at addr, `stride` registers
+ * apart (count 1: stride unused). */
+typedef struct it2n_regmap_field {
+    uint16_t addr;
+    uint16_t count;
+    uint16_t stride;
+    uint8_t type;      /* enum it2n_regmap_type */
+    int32_t scale;     /* 1, IT2N_REGMAP_SCALE_COORD or a divisor */
+    const char *name;
+    const char *unit;
+    const char *desc;
+} it2n_regmap_field;
+
+/* One contiguous block of registers. Reads inside a block are valid
+ * (subject to per-block rules in desc); reads outside every block answer
+ * exception 02. */
+typedef struct it2n_regmap_block {
+    uint16_t start;
+    uint16_t end;       /* one past the last register */
+    uint8_t access;     /* enum it2n_regmap_access */
+    uint8_t per_conn;   /* 1: values belong to the Modbus connection */
+    const char *name;
+    const char *desc;
+    const it2n_regmap_field *fields;
+    size_t nfields;
+} it2n_regmap_block;
+
+extern const it2n_regmap_block it2n_regmap_blocks[];
+extern const size_t it2n_regmap_nblocks;
+
+/*
+ * The block that wholly contains [addr, addr + count), or NULL if the range
+ * leaves the map or spans two blocks. count must be >= 1.
+ */
+const it2n_regmap_block *it2n_regmap_find(unsigned addr, unsigned count);
+
+/* Name of a type ("u16", ...), or "?". */
+const char *it2n_regmap_type_name(unsigned type);
+
+/* Registers one value of `type` occupies (1 or 2). */
+unsigned it2n_regmap_type_words(unsigned type);
+
+#endif /* IT2N_REGMAP_H */
