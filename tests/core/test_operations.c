@@ -715,6 +715,39 @@ static void test_extreme_operations(void **state)
 }
 
 /*
+ * Locate with locations far beyond any coordinate (up to INT64_MIN/MAX): the
+ * residual x(u,w) - x must not overflow. Either IT2N_ERR_RANGE, or OK with
+ * every footprint outside.
+ */
+static void test_locate_huge_location(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl;
+    static const it2n_val xs[][2] = {
+        {INT64_MAX, INT64_MIN}, {INT64_MIN, INT64_MAX}, {INT64_MIN, 0},
+        {0, INT64_MAX}, {INT64_MAX / 2, -(INT64_MAX / 2)}};
+    tc_paper(&c);
+    tc_model(&c, &mdl);
+    for (unsigned k = 0; k < sizeof xs / sizeof xs[0]; k++) {
+        it2n_locate_result res;
+        int rc = it2n_locate(&mdl, xs[k][0], xs[k][1], &res);
+        if (rc == IT2N_ERR_RANGE)
+            continue;
+        if (rc != IT2N_OK)
+            fail_msg("locate(%lld, %lld) -> %d", (long long)xs[k][0],
+                     (long long)xs[k][1], rc);
+        for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            if (res.fp[fp].status != IT2N_LOC_OUTSIDE)
+                fail_msg("locate(%lld, %lld) %s: status %u, expected outside",
+                         (long long)xs[k][0], (long long)xs[k][1],
+                         it2n_fp_name(fp), res.fp[fp].status);
+            assert_true(res.fp[fp].residual > 0);
+        }
+    }
+}
+
+/*
  * A solved model is a function of its data set: solving the same data into
  * structs that held different bytes before it2n_model_init, from different
  * stack contents, gives byte-identical models (no stale or uninitialised
@@ -775,6 +808,7 @@ int main(void)
         cmocka_unit_test(test_out_of_range_flag),
         cmocka_unit_test(test_generation),
         cmocka_unit_test(test_extreme_operations),
+        cmocka_unit_test(test_locate_huge_location),
         cmocka_unit_test(test_model_bytes),
     };
     return cmocka_run_group_tests_name("core operations", tests, NULL, NULL);

@@ -454,6 +454,77 @@ static void test_update_chord_degenerate_atomic(void **state)
     assert_true(pt.v[IT2N_FP_D][IT2N_CH_Y] == c.q[1][0][IT2N_FP_D][IT2N_CH_Y]);
 }
 
+/*
+ * A data set filled by hand (the struct is public): it2n_dataset_check and
+ * it2n_model_solve re-check what it2n_dataset_put would have refused, with
+ * the same detail, and a bad struct never reaches the solver.
+ */
+static void test_hand_filled_dataset(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_dataset ds, bad;
+    static it2n_model mdl, copy;
+    it2n_errinfo err;
+    tc_smooth(&c, 2, 3, 0, 10.0L, 8);
+    tc_dataset(&c, &ds);
+    tc_model(&c, &mdl);
+    copy = mdl;
+
+    bad = ds;
+    bad.values[1][2][IT2N_FP_RL][IT2N_CH_T] = tc_q24("1.2");
+    memset(&err, 0, sizeof err);
+    assert_int_equal(it2n_dataset_check(&bad, &err), IT2N_ERR_RANGE);
+    expect_err(&err, IT2N_ERR_RANGE, 1, 2, IT2N_FP_RL, IT2N_CH_T);
+    assert_true(err.value == tc_q24("1.2") && err.lo == 0 && err.hi == ONE);
+    assert_int_equal(it2n_model_solve(&mdl, &bad, &err), IT2N_ERR_RANGE);
+    assert_memory_equal(&mdl, &copy, sizeof mdl);
+
+    bad = ds;
+    bad.values[0][3][IT2N_FP_LL][IT2N_CH_X] = INT64_MIN;
+    assert_int_equal(it2n_dataset_check(&bad, &err), IT2N_ERR_RANGE);
+    expect_err(&err, IT2N_ERR_RANGE, 0, 3, IT2N_FP_LL, IT2N_CH_X);
+    assert_int_equal(it2n_model_solve(&mdl, &bad, &err), IT2N_ERR_RANGE);
+    assert_memory_equal(&mdl, &copy, sizeof mdl);
+
+    static const uint8_t degs[][2] = {{0, 2}, {2, 0}, {IT2N_MAX_DEGREE + 1, 1}};
+    for (unsigned k = 0; k < 3; k++) {
+        bad = ds;
+        bad.n = degs[k][0];
+        bad.m = degs[k][1];
+        assert_int_equal(it2n_dataset_check(&bad, &err), IT2N_ERR_INVAL);
+        assert_int_equal(it2n_model_solve(&mdl, &bad, &err), IT2N_ERR_INVAL);
+        assert_memory_equal(&mdl, &copy, sizeof mdl);
+    }
+    bad = ds;
+    bad.flags = 0x40u;
+    assert_int_equal(it2n_model_solve(&mdl, &bad, &err), IT2N_ERR_INVAL);
+    assert_memory_equal(&mdl, &copy, sizeof mdl);
+
+    /* z of a model without IT2N_F_Z is documented as zero; garbage there must
+     * be refused or ignored, never turned into a z surface or an overflow. */
+    static const it2n_val junk[] = {INT64_MIN, INT64_MAX, 5 * ONE};
+    for (unsigned k = 0; k < 3; k++) {
+        bad = ds;
+        bad.values[2][1][IT2N_FP_D][IT2N_CH_Z] = junk[k];
+        int rc = it2n_model_solve(&mdl, &bad, &err);
+        if (rc < 0) {
+            assert_memory_equal(&mdl, &copy, sizeof mdl);
+            continue;
+        }
+        if (rc != IT2N_OK)
+            fail_msg("solve with junk z -> %d", rc);
+        it2n_point pt;
+        assert_int_equal(it2n_eval(&mdl, IT2N_PAR_ONE, IT2N_PAR_ONE / 3, &pt), IT2N_OK);
+        for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
+            if (pt.v[fp][IT2N_CH_Z] != 0)
+                fail_msg("unused z %lld in the data gave a z surface (%s z = %lld)",
+                         (long long)junk[k], it2n_fp_name(fp),
+                         (long long)pt.v[fp][IT2N_CH_Z]);
+        tc_model(&c, &mdl);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -467,6 +538,7 @@ int main(void)
         cmocka_unit_test(test_update_atomic),
         cmocka_unit_test(test_solve_degenerate_atomic),
         cmocka_unit_test(test_update_chord_degenerate_atomic),
+        cmocka_unit_test(test_hand_filled_dataset),
     };
     return cmocka_run_group_tests_name("core validation", tests, NULL, NULL);
 }
