@@ -10,10 +10,7 @@ CLI_SAN_OBJ := $(CLI_SRC:%.c=$(BUILD)/san/%.o)
 CLI_CSV_OBJ := $(BUILD)/host/cli/csv.o
 CLI_CSV_SAN_OBJ := $(BUILD)/san/cli/csv.o
 
-# TEMPORARY until firmware_core defines it2n_locate: skip the link in `all`.
-ifneq ($(shell grep -ls '^int it2n_locate' firmware_core/*.c),)
 ALL_TARGETS += $(CLI_BIN)
-endif
 INSTALL_TARGETS += install-cli
 
 $(BUILD)/host/cli/%.o: cli/%.c $(CLI_HDR) $(CORE_HDR)

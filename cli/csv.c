@@ -482,11 +482,32 @@ int it2n_csv_message(const it2n_csv_error *e, const char *name, char *buf,
                             ? " (rows other than D are present, so every "
                               "grid point needs all seven footprints)"
                             : "");
-    case IT2N_ERR_ORDER:
+    case IT2N_ERR_ORDER: {
+        /* The core reports value = v and lo = the previous footprint's. */
+        const char *prev = info->fp > 0
+                               ? it2n_fp_name((unsigned)info->fp - 1u)
+                               : NULL;
         return snprintf(buf, size,
-                        "%s: %s=%s breaks footprint nesting "
-                        "LL<=LR<=L<=D<=R<=RL<=RR (neighbour bounds [%s,%s])%s",
-                        pre, chn, v, lo, hi, at);
+                        "%s: %s=%s below %s's %s=%s: footprints must nest "
+                        "LL<=LR<=L<=D<=R<=RL<=RR%s",
+                        pre, chn, v, prev != NULL ? prev : "previous", chn, lo,
+                        at);
+    }
+    case IT2N_ERR_DEGENERATE: {
+        /* i (u direction) or j (w direction) names the parameter that
+         * coincides with its predecessor; neither when all points do. */
+        bool wdir = info->j >= 0 || (info->i < 0 && info->value != 0);
+        int k = wdir ? info->j : info->i;
+        char which[48] = "every line of data points has zero length";
+        if (k >= 0) {
+            snprintf(which, sizeof(which), "parameters %d and %d coincide",
+                     k - 1, k);
+        }
+        return snprintf(buf, size,
+                        "%s: degenerate chord-length parameterisation in the "
+                        "%s direction: %s (drop --chord for uniform)",
+                        pre, wdir ? "w (j)" : "u (i)", which);
+    }
     default:
         if (info->ch >= 0) {
             return snprintf(buf, size, "%s: %s (%s)%s", pre,

@@ -1,0 +1,48 @@
+# tests/cli: text conversion and CSV reader unit tests (cmocka), the CSV
+# fuzzer's fixed corpus, and end-to-end runs of the it2n binary against an
+# exact rational reference. Everything is built normally and with $(SAN_FLAGS).
+CLI_T := $(BUILD)/tests/cli
+CLI_T_LIBS := -lcmocka
+FUZZ_SECONDS ?= 60
+
+$(CLI_T)/%: tests/cli/%.c $(CLI_CSV_OBJ) $(CORE_LIB) $(CLI_HDR) $(CORE_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -Icli -o $@ $< $(CLI_CSV_OBJ) $(CORE_LIB) $(CLI_T_LIBS)
+
+$(CLI_T)/san/%: tests/cli/%.c $(CLI_CSV_SAN_OBJ) $(CORE_SAN_LIB) $(CLI_HDR) $(CORE_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -Icli -o $@ $< $(CLI_CSV_SAN_OBJ) \
+	  $(CORE_SAN_LIB) $(CLI_T_LIBS)
+
+CLI_T_UNITS := test_text test_csv
+CLI_T_BINS := $(addprefix $(CLI_T)/,$(CLI_T_UNITS)) \
+              $(addprefix $(CLI_T)/san/,$(CLI_T_UNITS) fuzz_csv)
+
+.PHONY: cli-test-unit cli-test-corpus cli-test-e2e cli-fuzz
+TEST_TARGETS += cli-test-unit cli-test-corpus cli-test-e2e
+FUZZ_TARGETS += cli-fuzz
+
+cli-test-unit: $(CLI_T_BINS)
+	@for t in $(CLI_T_UNITS); do \
+	  $(CLI_T)/$$t && $(CLI_T)/san/$$t || exit 1; \
+	done
+
+cli-test-corpus: $(CLI_T)/san/fuzz_csv
+	$(CLI_T)/san/fuzz_csv tests/cli/corpus
+
+cli-test-e2e: $(CLI_BIN) $(CLI_SAN_BIN)
+	python3 tests/cli/e2e.py $(CLI_BIN)
+	python3 tests/cli/e2e.py $(CLI_SAN_BIN)
+
+# libFuzzer build: clang instruments the core and the reader too.
+CLI_FUZZ_BIN := $(BUILD)/fuzz/cli_fuzz_csv
+$(CLI_FUZZ_BIN): tests/cli/fuzz_csv.c cli/csv.c $(CORE_SRC) $(CLI_HDR) $(CORE_HDR)
+	@mkdir -p $(@D)
+	clang -std=c11 -D_GNU_SOURCE -DFUZZ_LIBFUZZER -O1 -g \
+	  -fsanitize=fuzzer,address,undefined -Ifirmware_core -Icli \
+	  -o $@ tests/cli/fuzz_csv.c cli/csv.c $(CORE_SRC)
+
+cli-fuzz: $(CLI_FUZZ_BIN)
+	@rm -rf $(BUILD)/fuzz/cli_corpus; mkdir -p $(BUILD)/fuzz/cli_corpus
+	$(CLI_FUZZ_BIN) -max_total_time=$(FUZZ_SECONDS) -max_len=4096 \
+	  -timeout=10 $(BUILD)/fuzz/cli_corpus tests/cli/corpus
