@@ -55,6 +55,11 @@ static void test_dataset_init_bad_degree(void **state)
         assert_int_equal(it2n_dataset_init(&ds, bad[k][0], bad[k][1], 0, &err),
                          IT2N_ERR_INVAL);
         assert_int_equal(err.code, IT2N_ERR_INVAL);
+        /* which limit: the offending degree and the accepted range */
+        unsigned badv = (bad[k][0] < 1u || bad[k][0] > IT2N_MAX_DEGREE) ? bad[k][0]
+                                                                        : bad[k][1];
+        assert_true(err.value == (it2n_val)badv);
+        assert_true(err.lo == 1 && err.hi == IT2N_MAX_DEGREE);
         assert_memory_equal(&ds, &copy, sizeof ds);
     }
     /* unknown flag bits */
