@@ -18,6 +18,16 @@ typedef struct golden {
 
 #include "it2n_vectors.inc"
 
+/* memcmp is not among the symbols a freestanding build may import. */
+static bool same(const uint8_t *a, const uint8_t *b, size_t n)
+{
+    size_t k;
+    for (k = 0; k < n; k++)
+        if (a[k] != b[k])
+            return false;
+    return true;
+}
+
 /* Output stream that compares instead of storing. */
 typedef struct cmp_state {
     const uint8_t *want;
@@ -28,7 +38,7 @@ typedef struct cmp_state {
 static int cmp_write(it2n_ostream *s, const uint8_t *buf, size_t len)
 {
     cmp_state *c = (cmp_state *)s->state;
-    if (len > c->len - c->pos || memcmp(c->want + c->pos, buf, len) != 0)
+    if (len > c->len - c->pos || !same(c->want + c->pos, buf, len))
         c->bad = 1;
     else
         c->pos += len;
@@ -70,13 +80,13 @@ static int check_one(unsigned k, selftest_mem *t)
     r = it2n_frame_decode(&t->dec, g->bytes, g->len, &used, &got, &p);
     if (r != 1 || used != g->len || got.type != hdr.type ||
         got.seq != hdr.seq || got.flags != hdr.flags || got.len != hdr.len ||
-        memcmp(p, t->payload, got.len) != 0)
+        !same(p, t->payload, got.len))
         return 4;
     if (it2n_msg_unpack(got.type, p, got.len, &t->back, NULL) != IT2N_OK)
         return 5;
     /* Re-pack what was parsed: must give the same payload again. */
     len = it2n_msg_pack(&t->back, t->dec.buf, sizeof t->dec.buf, NULL);
-    if (len != (int)got.len || memcmp(t->dec.buf, t->payload, got.len) != 0)
+    if (len != (int)got.len || !same(t->dec.buf, t->payload, got.len))
         return 6;
     return 0;
 }

@@ -1,0 +1,359 @@
+/* Unit tests: reliable link state machine, frame by frame. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <cmocka.h>
+
+#include "proto_test.h"
+
+typedef struct ep {
+    it2n_link l;
+    mem_out out;
+    it2n_ostream os;
+    int rx_ret;                 /* what on_rx returns */
+    unsigned nrx, ndone;
+    uint16_t rx_seq[64];
+    it2n_msg last_rx;
+    int done_code[64];
+    uint16_t done_seq[64];
+    it2n_msg_nack last_nack;
+} ep;
+
+static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
+{
+    ep *e = app;
+    e->rx_seq[e->nrx++ % 64] = seq;
+    e->last_rx = *msg;
+    return e->rx_ret;
+}
+
+static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *n)
+{
+    ep *e = app;
+    (void)type;
+    e->done_seq[e->ndone % 64] = seq;
+    e->done_code[e->ndone++ % 64] = code;
+    if (n)
+        e->last_nack = *n;
+}
+
+static void ep_init(ep *e, uint16_t first, uint8_t tries)
+{
+    memset(e, 0, sizeof *e);
+    e->os = mem_stream(&e->out);
+    it2n_link_cfg c = {&e->os, NULL, on_rx, on_done, e, 100, tries, first};
+    assert_int_equal(it2n_link_init(&e->l, &c), IT2N_OK);
+}
+
+static unsigned frames_in(const ep *e)
+{
+    unsigned n = 0;
+    for (size_t k = 0; k < e->out.len; k++)
+        n += e->out.buf[k] == 0;
+    return n;
+}
+
+/* Deliver everything `from` wrote to `to`; optionally drop it instead. */
+static void xfer(ep *from, ep *to, uint32_t now, int drop)
+{
+    if (!drop)
+        assert_int_equal(it2n_link_input(&to->l, from->out.buf, from->out.len, now), IT2N_OK);
+    from->out.len = 0;
+}
+
+static it2n_msg cfg_msg(uint8_t model)
+{
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_CONFIGURE;
+    m.u.configure.model = model;
+    m.u.configure.n = 3;
+    m.u.configure.m = 2;
+    return m;
+}
+
+static ep *A, *B;
+
+static int setup(void **st)
+{
+    (void)st;
+    A = calloc(1, sizeof *A);
+    B = calloc(1, sizeof *B);
+    ep_init(A, 1000, 5);
+    ep_init(B, 7, 5);
+    return 0;
+}
+
+static int teardown(void **st)
+{
+    (void)st;
+    free(A);
+    free(B);
+    return 0;
+}
+
+static void test_init_checks(void **st)
+{
+    (void)st;
+    it2n_link l;
+    it2n_link_cfg c = {&A->os, NULL, on_rx, NULL, A, 0, 3, 0};
+    assert_int_equal(it2n_link_init(&l, &c), IT2N_ERR_INVAL); /* rto 0 */
+    c.rto_ms = 10;
+    c.on_rx = NULL;
+    assert_int_equal(it2n_link_init(&l, &c), IT2N_ERR_INVAL);
+}
+
+static void test_basic_ack_and_window(void **st)
+{
+    (void)st;
+    it2n_msg m = cfg_msg(1);
+    assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
+    assert_false(it2n_link_can_send(&A->l)); /* SYN travels alone */
+    assert_int_equal(it2n_link_send(&A->l, &m, 0), IT2N_PROTO_ERR_BUSY);
+    assert_int_equal(frames_in(A), 1);
+    xfer(A, B, 1, 0);
+    assert_int_equal(B->nrx, 1);
+    assert_int_equal(B->rx_seq[0], 1000);
+    assert_int_equal(B->last_rx.u.configure.n, 3);
+    assert_int_equal(frames_in(B), 1); /* the ACK */
+    xfer(B, A, 2, 0);
+    assert_int_equal(A->ndone, 1);
+    assert_int_equal(A->done_code[0], 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    /* Now a full window, then BUSY. */
+    for (int k = 0; k < IT2N_PROTO_WINDOW; k++)
+        assert_int_equal(it2n_link_send(&A->l, &m, 3), 1001 + k);
+    assert_int_equal(it2n_link_send(&A->l, &m, 3), IT2N_PROTO_ERR_BUSY);
+    assert_int_equal(it2n_link_pending(&A->l), IT2N_PROTO_WINDOW);
+    xfer(A, B, 4, 0);
+    assert_int_equal(B->nrx, 1 + IT2N_PROTO_WINDOW);
+    xfer(B, A, 5, 0);
+    assert_int_equal(A->ndone, 1 + IT2N_PROTO_WINDOW);
+    assert_int_equal(it2n_link_next_timeout(&A->l, 5), UINT32_MAX);
+    /* ACK/NACK are link-internal. */
+    m.type = IT2N_MSG_ACK;
+    assert_int_equal(it2n_link_send(&A->l, &m, 5), IT2N_PROTO_ERR_TYPE);
+    /* An invalid message never leaves. */
+    m = cfg_msg(1);
+    m.u.configure.n = 0;
+    assert_int_equal(it2n_link_send(&A->l, &m, 5), IT2N_PROTO_ERR_FIELD);
+    assert_int_equal(frames_in(A), 0);
+}
+
+static void test_duplicate_applied_once(void **st)
+{
+    (void)st;
+    it2n_msg m = cfg_msg(2);
+    it2n_link_send(&A->l, &m, 0);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 1); /* ACK lost */
+    assert_int_equal(B->nrx, 1);
+    assert_int_equal(it2n_link_next_timeout(&A->l, 40), 60);
+    it2n_link_poll(&A->l, 99);
+    assert_int_equal(frames_in(A), 0); /* not yet */
+    it2n_link_poll(&A->l, 100);
+    assert_int_equal(frames_in(A), 1);
+    assert_true(A->out.buf[1] != 0); /* sanity: encoded */
+    xfer(A, B, 100, 0);
+    assert_int_equal(B->nrx, 1);      /* not delivered again */
+    assert_int_equal(B->l.stats.rx_dup, 1);
+    assert_int_equal(frames_in(B), 1); /* but ACKed again */
+    xfer(B, A, 101, 0);
+    assert_int_equal(A->ndone, 1);
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    /* A late duplicate ACK is ignored. */
+    it2n_link_send(&A->l, &m, 200);
+    xfer(A, B, 200, 0);
+    mem_out save = B->out;
+    xfer(B, A, 201, 0);
+    B->out = save;
+    xfer(B, A, 202, 0);
+    assert_int_equal(A->ndone, 2);
+    assert_int_equal(A->l.stats.rx_stale_acks, 1);
+}
+
+static void test_deferred_ack_and_nack_detail(void **st)
+{
+    (void)st;
+    it2n_msg m = cfg_msg(3);
+    B->rx_ret = IT2N_LINK_DEFER;
+    int32_t s = it2n_link_send(&A->l, &m, 0);
+    xfer(A, B, 0, 0);
+    assert_int_equal(B->nrx, 1);
+    assert_int_equal(frames_in(B), 0); /* nothing until the app answers */
+    it2n_link_poll(&A->l, 100);      /* retransmission while B is busy */
+    xfer(A, B, 100, 0);
+    assert_int_equal(B->nrx, 1);
+    assert_int_equal(frames_in(B), 0);
+    assert_int_equal(it2n_link_complete(&B->l, (uint16_t)s, 0, NULL), IT2N_OK);
+    assert_int_equal(it2n_link_complete(&B->l, (uint16_t)s, 0, NULL), IT2N_PROTO_ERR_SEQ);
+    xfer(B, A, 101, 0);
+    assert_int_equal(A->done_code[0], 0);
+    /* Now a NACK with detail from the core's errinfo. */
+    s = it2n_link_send(&A->l, &m, 200);
+    xfer(A, B, 200, 0);
+    it2n_errinfo ei = {IT2N_ERR_RANGE, 2, 3, IT2N_FP_R, IT2N_CH_I, 17 << 20, 0, IT2N_VAL_ONE};
+    assert_int_equal(it2n_link_complete(&B->l, (uint16_t)s, IT2N_ERR_RANGE, &ei), IT2N_OK);
+    xfer(B, A, 201, 0);
+    assert_int_equal(A->ndone, 2);
+    assert_int_equal(A->done_code[1], IT2N_ERR_RANGE);
+    assert_int_equal(A->last_nack.i, 2);
+    assert_int_equal(A->last_nack.j, 3);
+    assert_int_equal(A->last_nack.fp, IT2N_FP_R);
+    assert_int_equal(A->last_nack.ch, IT2N_CH_I);
+    assert_true(A->last_nack.value == 17 << 20);
+    assert_true(A->last_nack.hi == IT2N_VAL_ONE);
+    /* The retransmitted, NACKed frame gets the same NACK again. */
+    A->l.slot[0].used = 1; /* pretend the NACK was lost: resend by hand */
+    A->l.slot[0].seq = (uint16_t)s;
+    A->l.slot[0].deadline = 0;
+    it2n_link_poll(&A->l, 300);
+    xfer(A, B, 300, 0);
+    assert_int_equal(B->nrx, 2);
+    xfer(B, A, 301, 0);
+    assert_int_equal(A->done_code[2], IT2N_ERR_RANGE);
+    /* Callback returning a negative code NACKs at once. */
+    B->rx_ret = IT2N_PROTO_ERR_MODEL;
+    it2n_link_send(&A->l, &m, 400);
+    xfer(A, B, 400, 0);
+    xfer(B, A, 400, 0);
+    assert_int_equal(A->done_code[3], IT2N_PROTO_ERR_MODEL);
+}
+
+static void test_malformed_is_nacked_not_delivered(void **st)
+{
+    (void)st;
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0); /* sync first */
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    uint8_t p[4] = {1, 0, 3, 0}; /* CONFIGURE with n = 0 */
+    it2n_frame_hdr h = {1, IT2N_MSG_CONFIGURE, IT2N_FLAG_REL, 1001, 4};
+    uint8_t w[64];
+    int n = it2n_frame_encode(&h, p, 4, w, sizeof w);
+    it2n_link_input(&B->l, w, (size_t)n, 1);
+    assert_int_equal(B->nrx, 1);
+    assert_int_equal(B->l.stats.rx_bad_msg, 1);
+    /* B's answer is a NACK FIELD for 1001 with offset 1 (n) in lo. */
+    A->l.slot[0].used = 1;
+    A->l.slot[0].seq = 1001;
+    A->l.slot[0].deadline = 1000000;
+    xfer(B, A, 2, 0);
+    assert_int_equal(A->done_code[1], IT2N_PROTO_ERR_FIELD);
+    assert_true(A->last_nack.lo == 1);
+    assert_true(A->last_nack.value == 0);
+    assert_true(A->last_nack.hi == IT2N_MAX_DEGREE);
+}
+
+static void test_receiver_restart_resyncs(void **st)
+{
+    (void)st;
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    ep_init(B, 7, 5); /* B restarts and forgets everything */
+    it2n_link_send(&A->l, &m, 10);
+    it2n_link_send(&A->l, &m, 10);
+    xfer(A, B, 10, 0);
+    assert_int_equal(B->nrx, 0);
+    assert_int_equal(B->l.stats.rx_nosync, 2);
+    xfer(B, A, 11, 0); /* two NOSYNC NACKs: A resends 1001 with SYN */
+    assert_int_equal(A->ndone, 1);
+    assert_int_equal(frames_in(A), 1);
+    xfer(A, B, 12, 0);
+    assert_int_equal(B->nrx, 1);
+    assert_int_equal(B->rx_seq[0], 1001);
+    xfer(B, A, 13, 0);
+    it2n_link_poll(&A->l, 200); /* 1002 retransmitted on its timer */
+    xfer(A, B, 200, 0);
+    assert_int_equal(B->nrx, 2);
+    assert_int_equal(B->rx_seq[1], 1002);
+    xfer(B, A, 201, 0);
+    assert_int_equal(A->ndone, 3);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+static void test_timeout_reports_and_resyncs(void **st)
+{
+    (void)st;
+    ep_init(A, 50, 3);
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    for (uint32_t t = 0; t <= 400; t += 50) {
+        it2n_link_poll(&A->l, t);
+        xfer(A, B, t, 1);
+    }
+    assert_int_equal(A->ndone, 1);
+    assert_int_equal(A->done_code[0], IT2N_PROTO_ERR_TIMEOUT);
+    assert_int_equal(A->l.stats.tx_frames, 3);
+    assert_int_equal(A->l.stats.tx_timeouts, 1);
+    /* The next message starts a new sequence and gets through. */
+    assert_int_equal(it2n_link_send(&A->l, &m, 500), 51);
+    assert_int_equal(A->l.slot[0].flags & IT2N_FLAG_SYN, IT2N_FLAG_SYN);
+    xfer(A, B, 500, 0);
+    assert_int_equal(B->nrx, 1);
+}
+
+static void test_version_mismatch_is_answered(void **st)
+{
+    (void)st;
+    it2n_frame_hdr h = {2, IT2N_MSG_HELLO, IT2N_FLAG_REL | IT2N_FLAG_SYN, 9, 0};
+    uint8_t w[64];
+    int n = it2n_frame_encode(&h, NULL, 0, w, sizeof w);
+    it2n_link_input(&B->l, w, (size_t)n, 0);
+    assert_int_equal(B->nrx, 0);
+    assert_int_equal(frames_in(B), 1);
+    it2n_frame_decoder d;
+    it2n_frame_decoder_init(&d);
+    size_t used;
+    const uint8_t *p;
+    it2n_frame_hdr got;
+    it2n_msg back;
+    assert_int_equal(it2n_frame_decode(&d, B->out.buf, B->out.len, &used, &got, &p), 1);
+    assert_int_equal(got.version, IT2N_PROTO_VERSION);
+    assert_int_equal(it2n_msg_unpack(got.type, p, got.len, &back, NULL), IT2N_OK);
+    assert_int_equal(back.type, IT2N_MSG_NACK);
+    assert_int_equal(back.u.nack.seq, 9);
+    assert_int_equal(back.u.nack.code, IT2N_PROTO_ERR_VERSION);
+    assert_true(back.u.nack.value == 2 && back.u.nack.hi == IT2N_PROTO_VERSION);
+}
+
+static void test_seq_wraps(void **st)
+{
+    (void)st;
+    ep_init(A, 65533, 5);
+    it2n_msg m = cfg_msg(1);
+    for (int round = 0; round < 3; round++) {
+        int sent = 0;
+        while (it2n_link_can_send(&A->l) && sent < IT2N_PROTO_WINDOW) {
+            assert_true(it2n_link_send(&A->l, &m, 0) >= 0);
+            sent++;
+        }
+        xfer(A, B, 0, 0);
+        xfer(B, A, 0, 0);
+    }
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(B->nrx, A->ndone);
+    assert_int_equal(B->nrx, 1 + 2 * IT2N_PROTO_WINDOW);
+    for (unsigned k = 0; k < B->nrx; k++)
+        assert_int_equal(B->rx_seq[k], (uint16_t)(65533u + k));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_init_checks, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_basic_ack_and_window, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_duplicate_applied_once, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_deferred_ack_and_nack_detail, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_malformed_is_nacked_not_delivered, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_receiver_restart_resyncs, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_timeout_reports_and_resyncs, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_version_mismatch_is_answered, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_seq_wraps, setup, teardown),
+    };
+    return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
+}

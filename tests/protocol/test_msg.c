@@ -1,0 +1,176 @@
+/* Unit tests: message pack/unpack bounds and field checks. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <cmocka.h>
+
+#include "proto_test.h"
+
+static it2n_msg m, back;
+static uint8_t buf[IT2N_PROTO_MAX_PAYLOAD + 8];
+
+static void test_length_must_be_exact(void **st)
+{
+    (void)st;
+    for (unsigned k = 0; k < IT2N_VECTOR_COUNT; k++) {
+        it2n_frame_hdr h;
+        it2n_proto_vector(k, &h, &m);
+        int len = it2n_msg_pack(&m, buf, sizeof buf, NULL);
+        assert_true(len > 0);
+        assert_int_equal(it2n_msg_unpack(m.type, buf, (size_t)len, &back, NULL), IT2N_OK);
+        /* Every shorter length and one longer is refused as PAYLOAD. */
+        for (int cut = 0; cut < len; cut++) {
+            it2n_proto_errinfo e;
+            int r = it2n_msg_unpack(m.type, buf, (size_t)cut, &back, &e);
+            /* A shorter variable-length message may fail its count check
+             * first (FIELD); it must never be accepted. */
+            assert_true(r == IT2N_PROTO_ERR_PAYLOAD || r == IT2N_PROTO_ERR_FIELD);
+            assert_int_equal(e.code, r);
+        }
+        buf[len] = 0;
+        assert_int_equal(it2n_msg_unpack(m.type, buf, (size_t)len + 1, &back, NULL), IT2N_PROTO_ERR_PAYLOAD);
+        /* Packing into one byte too few: NOSPACE. */
+        assert_int_equal(it2n_msg_pack(&m, buf, (size_t)len - 1, NULL), IT2N_PROTO_ERR_NOSPACE);
+    }
+}
+
+static void test_unknown_type(void **st)
+{
+    (void)st;
+    it2n_proto_errinfo e;
+    assert_int_equal(it2n_msg_unpack(0x7F, buf, 0, &back, &e), IT2N_PROTO_ERR_TYPE);
+    assert_int_equal(e.value, 0x7F);
+    m.type = 0;
+    assert_int_equal(it2n_msg_pack(&m, buf, sizeof buf, NULL), IT2N_PROTO_ERR_TYPE);
+    assert_null(it2n_msg_name(0x7F));
+    assert_string_equal(it2n_msg_name(IT2N_MSG_PUT), "PUT");
+}
+
+/* Pack a valid message, patch one payload byte, expect FIELD at offset. */
+static void expect_field_at(uint8_t type, size_t off, uint8_t bad, int64_t limit, size_t field)
+{
+    it2n_frame_hdr h;
+    unsigned k;
+    for (k = 0; k < IT2N_VECTOR_COUNT; k++) {
+        it2n_proto_vector(k, &h, &m);
+        if (m.type == type)
+            break;
+    }
+    assert_true(k < IT2N_VECTOR_COUNT);
+    int len = it2n_msg_pack(&m, buf, sizeof buf, NULL);
+    assert_true(len > (int)off);
+    buf[off] = bad;
+    it2n_proto_errinfo e;
+    int r = it2n_msg_unpack(type, buf, (size_t)len, &back, &e);
+    if (r != IT2N_PROTO_ERR_FIELD)
+        fail_msg("type 0x%02x off %zu byte 0x%02x: got %d", type, off, bad, r);
+    assert_int_equal(e.offset, field);
+    assert_int_equal(e.limit, limit);
+}
+
+static void expect_field(uint8_t type, size_t off, uint8_t bad, int64_t limit)
+{
+    expect_field_at(type, off, bad, limit, off);
+}
+
+static void test_field_checks(void **st)
+{
+    (void)st;
+    expect_field(IT2N_MSG_CONFIGURE, 0, 0xFF, 0xFE);             /* model ALL */
+    expect_field(IT2N_MSG_CONFIGURE, 1, 0, IT2N_MAX_DEGREE);     /* n = 0 */
+    expect_field(IT2N_MSG_CONFIGURE, 2, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE);
+    expect_field(IT2N_MSG_CONFIGURE, 3, 0x08, IT2N_F_ALL);       /* unknown flag */
+    expect_field(IT2N_MSG_PUT, 1, 0x02, IT2N_PUT_REPLACE);       /* unknown flag */
+    expect_field(IT2N_MSG_PUT, 2, 0, IT2N_PUT_MAX);              /* count 0 */
+    expect_field(IT2N_MSG_PUT, 4, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE); /* i */
+    expect_field(IT2N_MSG_PUT, 5, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE); /* j */
+    expect_field(IT2N_MSG_PUT, 6, IT2N_FP_COUNT, IT2N_FP_COUNT - 1);     /* fp */
+    expect_field(IT2N_MSG_PUT, 4 + 52 + 2, 9, IT2N_FP_COUNT - 1);        /* 2nd fp */
+    expect_field_at(IT2N_MSG_QUERY, 4, 0x41, IT2N_WIRE_PAR_ONE, 1); /* u > 1.0 */
+    expect_field(IT2N_MSG_SAMPLE, 1, 7, IT2N_FP_COUNT - 1);
+    expect_field(IT2N_MSG_SAMPLE, 2, 1, 2);                      /* rows 1 */
+    expect_field(IT2N_MSG_EVENT, 1, 0, IT2N_EV_ERROR);
+    expect_field_at(IT2N_MSG_NACK, 3, 0x00, -1, 2);              /* code >= 0 */
+    expect_field(IT2N_MSG_NET_ROW, 6, 4, 3);                     /* row > n */
+    expect_field(IT2N_MSG_STATUS, 3, 4, IT2N_MS_ERROR);
+    expect_field(IT2N_MSG_LOCATE_RESULT, 19 + 8, 3, IT2N_LOC_NOCONV); /* status */
+    expect_field(IT2N_MSG_SAMPLE_DATA, 12, 0, IT2N_SAMPLE_MAX);  /* count 0 */
+}
+
+static void test_pack_refuses_what_unpack_refuses(void **st)
+{
+    (void)st;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_CONFIGURE;
+    m.u.configure.n = 3;
+    m.u.configure.m = 0;
+    it2n_proto_errinfo e;
+    assert_int_equal(it2n_msg_pack(&m, buf, sizeof buf, &e), IT2N_PROTO_ERR_FIELD);
+    assert_int_equal(e.offset, 2);
+    m.type = IT2N_MSG_PUT;
+    m.u.put.count = (uint8_t)(IT2N_PUT_MAX + 1);
+    assert_int_equal(it2n_msg_pack(&m, buf, sizeof buf, NULL), IT2N_PROTO_ERR_FIELD);
+    m.type = IT2N_MSG_SAMPLE_DATA;
+    m.u.sample_data.rows = 2;
+    m.u.sample_data.cols = 2;
+    m.u.sample_data.start = 3;
+    m.u.sample_data.count = 2; /* 3 + 2 > 4 points */
+    assert_int_equal(it2n_msg_pack(&m, buf, sizeof buf, NULL), IT2N_PROTO_ERR_FIELD);
+}
+
+static void test_max_put_fits(void **st)
+{
+    (void)st;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_PUT;
+    m.u.put.count = IT2N_PUT_MAX;
+    for (unsigned k = 0; k < IT2N_PUT_MAX; k++) {
+        m.u.put.e[k].i = (uint8_t)(k % (IT2N_MAX_DEGREE + 1));
+        m.u.put.e[k].fp = (uint8_t)(k % IT2N_FP_COUNT);
+        for (unsigned c = 0; c < IT2N_CH_COUNT; c++)
+            m.u.put.e[k].vals[c] = (it2n_val)(k * 1000 + c) * (c % 2 ? -1 : 1) * IT2N_VAL_ONE;
+    }
+    int len = it2n_msg_pack(&m, buf, sizeof buf, NULL);
+    assert_int_equal(len, (int)(IT2N_PUT_HDR + IT2N_PUT_MAX * IT2N_PUT_ENTRY));
+    assert_true(len <= IT2N_PROTO_MAX_PAYLOAD);
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_PUT, buf, (size_t)len, &back, NULL), IT2N_OK);
+    assert_memory_equal(&back.u.put, &m.u.put, sizeof m.u.put);
+    /* Extremes of int64 survive the wire. */
+    m.u.put.count = 1;
+    m.u.put.e[0].vals[0] = INT64_MIN;
+    m.u.put.e[0].vals[1] = INT64_MAX;
+    m.u.put.e[0].vals[2] = -1;
+    len = it2n_msg_pack(&m, buf, sizeof buf, NULL);
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_PUT, buf, (size_t)len, &back, NULL), IT2N_OK);
+    assert_true(back.u.put.e[0].vals[0] == INT64_MIN);
+    assert_true(back.u.put.e[0].vals[1] == INT64_MAX);
+    assert_true(back.u.put.e[0].vals[2] == -1);
+}
+
+static void test_par_conversion(void **st)
+{
+    (void)st;
+    assert_int_equal(it2n_par_to_wire(0), 0);
+    assert_int_equal(it2n_par_to_wire(IT2N_PAR_ONE), IT2N_WIRE_PAR_ONE);
+    assert_int_equal(it2n_par_to_wire(IT2N_PAR_ONE / 2), IT2N_WIRE_PAR_ONE / 2);
+    assert_int_equal(it2n_par_to_wire(-5), 0);
+    assert_int_equal(it2n_par_to_wire(IT2N_PAR_ONE + 9), IT2N_WIRE_PAR_ONE);
+    assert_int_equal(it2n_par_to_wire(6), 2); /* rounds to nearest */
+    assert_true(it2n_par_from_wire(IT2N_WIRE_PAR_ONE) == IT2N_PAR_ONE);
+    assert_true(it2n_par_from_wire(1) == 4);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_length_must_be_exact),
+        cmocka_unit_test(test_unknown_type),
+        cmocka_unit_test(test_field_checks),
+        cmocka_unit_test(test_pack_refuses_what_unpack_refuses),
+        cmocka_unit_test(test_max_put_fits),
+        cmocka_unit_test(test_par_conversion),
+    };
+    return cmocka_run_group_tests_name("proto_msg", tests, NULL, NULL);
+}
