@@ -145,13 +145,16 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err);
 /* ---- Model -------------------------------------------------------------- */
 
 /* A solved model: data, parameters, inverse collocation matrices (for the
- * O(n*m) update) and control nets ctrl[i][j][fp][ch] in Q24. */
+ * O(n*m) update) and control nets ctrl[i][j][fp][ch] in Q24. ctrl_rem keeps
+ * the 32 bits each control point's rounding dropped, so a chain of
+ * incremental updates stays bit-identical to a full re-solve. */
 typedef struct it2n_model {
     it2n_dataset data;
     it2n_par u[IT2N_DIM], w[IT2N_DIM];          /* collocation params  */
     it2n_par ainv[IT2N_DIM][IT2N_DIM];          /* (M^T)^-1, Q32       */
     it2n_par binv[IT2N_DIM][IT2N_DIM];          /* N^-1, Q32           */
     it2n_val ctrl[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
+    int32_t ctrl_rem[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
     uint32_t generation;                        /* bumped on change    */
     uint8_t solved;                             /* 1 once solved       */
 } it2n_model;
@@ -168,7 +171,8 @@ int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
 
 /*
  * Replace one footprint of one data point in a solved model. Uniform
- * parameterisation: O(n*m) per channel, within 1 LSB of a full re-solve.
+ * parameterisation: O(n*m) per channel, bit-identical to a full re-solve
+ * (also after any number of updates).
  * Chord-length: parameters depend on the data, so a full re-solve. Atomic.
  */
 int it2n_model_update(it2n_model *mdl, unsigned i, unsigned j, unsigned fp,
@@ -245,6 +249,7 @@ typedef struct it2n_locate_result {
 /*
  * For each footprint find (u, w) with (x(u,w), y(u,w)) = (x, y): Newton from
  * the best node of a coarse grid, with step halving as the safe fallback.
+ * x, y beyond +-IT2N_COORD_LIMIT give IT2N_ERR_RANGE.
  */
 int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
                 it2n_locate_result *out);

@@ -126,7 +126,7 @@ void it2n__summarise(const it2n_model *mdl, it2n_point *out)
         for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
             it2n_val v = out->v[fp][ch];
             if (it2n_model_has_fp(mdl, fp) && (v < 0 || v > IT2N_VAL_ONE)) {
-                out->out_of_range |= 1ul << (fp * 3u + k);
+                out->out_of_range |= (uint32_t)1u << (fp * 3u + k);
             }
         }
     }

@@ -11,6 +11,8 @@
 
 #include "it2n_internal.h"
 
+#define COORD_MAX ((it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC)
+
 typedef struct loc_state {
     it2n_par u, w;
     it2n_val v[IT2N_FP_COUNT][IT2N_CH_COUNT];
@@ -221,6 +223,9 @@ int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
     }
     if (!mdl->solved) {
         return IT2N_ERR_STATE;
+    }
+    if (x < -COORD_MAX || x > COORD_MAX || y < -COORD_MAX || y > COORD_MAX) {
+        return IT2N_ERR_RANGE;
     }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if (it2n_model_has_fp(mdl, fp)) {

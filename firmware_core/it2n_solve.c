@@ -223,6 +223,25 @@ done:
     return IT2N_OK;
 }
 
+/*
+ * Split an exact Q56 sum s into its Q24 rounding p = round(s / 2^32) and the
+ * remainder r = s - p * 2^32 in [-2^31, 2^31). False if p does not fit.
+ */
+static bool split_sum(it2n_i128 s, int64_t *p, int32_t *r)
+{
+    int64_t q;
+    it2n_i128 rem;
+    if (!it2n_i128_round(s, IT2N_PAR_FRAC, &q)) {
+        return false;
+    }
+    rem = it2n_i128_sub(s, it2n_i128_shl(q, IT2N_PAR_FRAC));
+    *p = q;
+    /* rem lies in [-2^31, 2^31): rebuild it from its low word portably. */
+    *r = (int32_t)((rem.lo >> 63) ? -(int64_t)(~rem.lo) - 1
+                                  : (int64_t)rem.lo);
+    return true;
+}
+
 /* W = round(ainv[a][i] * binv[b][j]), Q32, for all data points (i, j). */
 static bool weights(it2n_par ainv[IT2N_DIM][IT2N_DIM],
                     it2n_par binv[IT2N_DIM][IT2N_DIM], unsigned n,
@@ -269,7 +288,12 @@ static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
     it2n_val maxabs[IT2N_CH_COUNT];
     unsigned a, b, i, j, fp, ch, n = ds->n, m = ds->m;
     unsigned mask = it2n__fp_mask(ds->flags);
-    int rc = solve_dir(ds, 0u, &su, err);
+    int rc;
+    /* Entries beyond the degree stay zero: the model bytes are a function
+     * of the data alone. */
+    memset(&su, 0, sizeof(su));
+    memset(&sw, 0, sizeof(sw));
+    rc = solve_dir(ds, 0u, &su, err);
     if (rc == IT2N_OK) {
         rc = solve_dir(ds, 1u, &sw, err);
     }
@@ -278,7 +302,7 @@ static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
     }
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
         maxabs[ch] = 0;
-        for (i = 0; i <= n; i++) {
+        for (i = 0; i <= n && it2n__ch_used(ds->flags, ch); i++) {
             for (j = 0; j <= m; j++) {
                 for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                     it2n_val v = ds->values[i][j][fp][ch];
@@ -323,6 +347,7 @@ static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
     memcpy(mdl->ainv, su.inv, sizeof(mdl->ainv));
     memcpy(mdl->binv, sw.inv, sizeof(mdl->binv));
     memset(mdl->ctrl, 0, sizeof(mdl->ctrl));
+    memset(mdl->ctrl_rem, 0, sizeof(mdl->ctrl_rem));
     for (a = 0; a <= n; a++) {
         for (b = 0; b <= m; b++) {
             if (!weights(su.inv, sw.inv, n, m, a, b, wt)) {
@@ -334,14 +359,17 @@ static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
                 }
                 for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
                     it2n_i128 s = it2n_i128_zero();
+                    if (!it2n__ch_used(ds->flags, ch)) {
+                        continue; /* unused z: ignore whatever it holds */
+                    }
                     for (i = 0; i <= n; i++) {
                         for (j = 0; j <= m; j++) {
                             s = it2n_mac(s, wt[i][j],
                                          ds->values[i][j][fp][ch]);
                         }
                     }
-                    mdl->ctrl[a][b][fp][ch] =
-                        it2n_i128_round_fit(s, IT2N_PAR_FRAC);
+                    (void)split_sum(s, &mdl->ctrl[a][b][fp][ch],
+                                    &mdl->ctrl_rem[a][b][fp][ch]);
                 }
             }
         }
@@ -365,7 +393,12 @@ int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
     return solve_core(mdl, ds, err);
 }
 
-/* Apply (store) or dry-run the incremental change delta[ch] at (i, j, fp). */
+/*
+ * Apply (store) or dry-run the incremental change delta[ch] at (i, j, fp):
+ * the exact sum behind each control point, ctrl * 2^32 + ctrl_rem, gains
+ * W * delta with the same W the solve used, so the result is bit-identical
+ * to a full re-solve.
+ */
 static bool update_pass(it2n_model *mdl, unsigned i, unsigned j, unsigned fp,
                         const int64_t delta[IT2N_CH_COUNT], bool store)
 {
@@ -377,16 +410,22 @@ static bool update_pass(it2n_model *mdl, unsigned i, unsigned j, unsigned fp,
                 return false;
             }
             for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                int64_t d, v;
+                it2n_i128 s;
+                int64_t p;
+                int32_t r;
                 if (delta[ch] == 0) {
                     continue;
                 }
-                if (!q32_mul(w, delta[ch], &d) ||
-                    !it2n_add_ok(mdl->ctrl[a][b][fp][ch], d, &v)) {
+                s = it2n_i128_add(
+                    it2n_i128_shl(mdl->ctrl[a][b][fp][ch], IT2N_PAR_FRAC),
+                    it2n_i128_from(mdl->ctrl_rem[a][b][fp][ch]));
+                s = it2n_mac(s, w, delta[ch]);
+                if (!split_sum(s, &p, &r)) {
                     return false;
                 }
                 if (store) {
-                    mdl->ctrl[a][b][fp][ch] = v;
+                    mdl->ctrl[a][b][fp][ch] = p;
+                    mdl->ctrl_rem[a][b][fp][ch] = r;
                 }
             }
         }
