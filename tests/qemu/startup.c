@@ -11,19 +11,62 @@
 
 extern uint32_t __data_load[], __data_start[], __data_end[];
 extern uint32_t __bss_start[], __bss_end[];
-extern uint32_t __stack_top[];
+extern uint32_t __stack_bottom[], __stack_top[];
 
 int main(void);
 void it2n_reset_handler(void);
 void it2n_fault_handler(void);
 
+#define STACK_PAINT 0x57acc0deu
+
+/* Fill the unused stack below the current frame (less a margin) with a
+ * pattern, so the high-water mark can be read back after main. */
+static void paint_stack(void)
+{
+    volatile uint32_t here = 0;
+    uint32_t *p = __stack_bottom;
+    uint32_t *end = (uint32_t *)(uintptr_t)(((uintptr_t)&here - 64u) & ~(uintptr_t)3u);
+    while (p < end) {
+        *p++ = STACK_PAINT;
+    }
+    (void)here;
+}
+
+static uint32_t stack_used(void)
+{
+    const uint32_t *p = __stack_bottom;
+    while (p < __stack_top && *p == STACK_PAINT) {
+        p++;
+    }
+    return (uint32_t)((uintptr_t)__stack_top - (uintptr_t)p);
+}
+
+static void write_u32(const char *prefix, uint32_t v, const char *suffix)
+{
+    char buf[12];
+    unsigned n = sizeof buf - 1u;
+    buf[n] = '\0';
+    do {
+        buf[--n] = (char)('0' + (char)(v % 10u));
+        v /= 10u;
+    } while (v != 0u && n > 0u);
+    it2n_sh_write0(prefix);
+    it2n_sh_write0(&buf[n]);
+    it2n_sh_write0(suffix);
+}
+
 void it2n_reset_handler(void)
 {
     size_t data_len = (size_t)((uintptr_t)__data_end - (uintptr_t)__data_start);
     size_t bss_len = (size_t)((uintptr_t)__bss_end - (uintptr_t)__bss_start);
+    int rc;
     memcpy(__data_start, __data_load, data_len);
     memset(__bss_start, 0, bss_len);
-    it2n_sh_exit(main());
+    paint_stack();
+    rc = main();
+    write_u32("stack high-water mark: ", stack_used(), " bytes of ");
+    write_u32("", (uint32_t)((uintptr_t)__stack_top - (uintptr_t)__stack_bottom), "\n");
+    it2n_sh_exit(rc);
 }
 
 /* Any fault (bad access, undefined instruction, stack overflow into the
