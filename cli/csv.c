@@ -11,6 +11,12 @@
 
 #define CSV_MAX_FIELDS 10
 
+/* Sizes the code relies on. */
+_Static_assert(IT2N_CSV_LINE_MAX >= 64 && IT2N_CSV_LINE_MAX < 65536,
+               "line buffer");
+_Static_assert(IT2N_MAX_DEGREE <= 999, "grid index fits the 3-digit parse");
+_Static_assert(sizeof(((it2n_csv_error *)0)->text) >= 16, "error text");
+
 static const char hdr_xy[] = "i,j,footprint,x,y,T,I,F";
 static const char hdr_xyz[] = "i,j,footprint,x,y,z,T,I,F";
 
@@ -216,7 +222,9 @@ static int parse_row(it2n_csv *p, const char *s, size_t len)
         p->err.info = info;
         return p->error;
     }
-    p->lines[i][j][fp] = (uint32_t)p->line;
+    /* Saturate: 0 means absent, and no real row lies 4 G lines down. */
+    p->lines[i][j][fp] =
+        p->line > UINT32_MAX ? UINT32_MAX : (uint32_t)p->line;
     p->rows++;
     p->max_i = i > p->max_i ? i : p->max_i;
     p->max_j = j > p->max_j ? j : p->max_j;

@@ -148,7 +148,7 @@ class Ref:
         return 1e-4 + 1e-5 * float(big)
 
 
-def compare_eval(ref, out, what, summary=False):
+def compare_eval(ref, out, what, tol_memb=TOL_MEMB):
     hdr, rs = rows(out)
     exp_hdr = "u,w,footprint,x,y" + (",z" if ref.has_z else "") + \
         ",T,I,F,out_of_range"
@@ -164,7 +164,7 @@ def compare_eval(ref, out, what, summary=False):
         for k, ch in enumerate(ref.chs):
             exact = ref.surf(fp, ch, u, w)
             err = abs(float(Fr(r[3 + k]) - exact))
-            tol = TOL_MEMB if ch in "TIF" else ref.coord_tol()
+            tol = tol_memb if ch in "TIF" else ref.coord_tol()
             if ch in "TIF":
                 worst = max(worst, err)
                 outside = exact < 0 or exact > 1
@@ -340,6 +340,18 @@ def main():
         rc, out, err = run(*args)
         check(rc == 0, f"{path} eval rc {rc} {err}")
         compare_eval(r2, out, f"{path}{' --chord' if chord else ''}")
+    # Degree 7 x 7 (the maximum), smooth data: within 1e-4.
+    big = "tests/cli/corpus/max_degree.csv"
+    r7 = Ref(big)
+    args = ["eval", big, "--decimals", "9"]
+    for a in ["0.5,0.5", "0.05,0.95", "0.93,0.11", "0.3,0.3"]:
+        args += ["--at", a]
+    rc, out, err = run(*args)
+    check(rc == 0, f"7x7 eval rc {rc} {err}")
+    worst7 = compare_eval(r7, out, "7x7 eval", tol_memb=1e-4)
+    print(f"cli e2e: degree 7x7 eval worst membership error {worst7:.2e} "
+          "(limit 1e-04)")
+
     rc, out, _ = run("eval", "examples/type1_4x3.csv", "--at", "0.5,0.5")
     _, rs = rows(out)
     check(len(rs) == 1 and rs[0][2] == "D" and rs[0][-1] == "T" and
