@@ -18,8 +18,8 @@ CLI_T_UNITS := test_text test_csv
 CLI_T_BINS := $(addprefix $(CLI_T)/,$(CLI_T_UNITS)) \
               $(addprefix $(CLI_T)/san/,$(CLI_T_UNITS) fuzz_csv)
 
-.PHONY: cli-test-unit cli-test-corpus cli-test-e2e cli-fuzz
-TEST_TARGETS += cli-test-unit cli-test-corpus cli-test-e2e
+.PHONY: cli-test-unit cli-test-corpus cli-test-e2e cli-cppcheck cli-fuzz
+TEST_TARGETS += cli-test-unit cli-test-corpus cli-test-e2e cli-cppcheck
 FUZZ_TARGETS += cli-fuzz
 
 cli-test-unit: $(CLI_T_BINS)
@@ -33,6 +33,11 @@ cli-test-corpus: $(CLI_T)/san/fuzz_csv
 cli-test-e2e: $(CLI_BIN) $(CLI_SAN_BIN)
 	python3 tests/cli/e2e.py $(CLI_BIN)
 	python3 tests/cli/e2e.py $(CLI_SAN_BIN)
+
+cli-cppcheck:
+	cppcheck --std=c11 --enable=warning,portability,performance \
+	  --error-exitcode=1 -q -Ifirmware_core -Icli \
+	  cli/ tests/cli/ firmware_core/it2n_text.c
 
 # libFuzzer build: clang instruments the core and the reader too.
 CLI_FUZZ_BIN := $(BUILD)/fuzz/cli_fuzz_csv
