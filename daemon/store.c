@@ -419,6 +419,8 @@ static size_t replay_wal(uint64_t sseq, size_t *total)
         }
         seq = rseq;
     }
+    if (off < len && off + REC_HDR > len)
+        log_err("wal: truncated record at offset %zu; %zu byte(s) dropped", off, len - off);
     log_info("wal: %u record(s) replayed, %u already in the snapshot, %u failed", applied, skipped, failed);
     stats.dropped += len - off;
     free(buf);
