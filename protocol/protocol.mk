@@ -73,6 +73,26 @@ proto-cppcheck:
 proto-vectors: $(PROTO_TB)/gen_vectors
 	$(PROTO_TB)/gen_vectors protocol/vectors protocol/it2n_vectors.inc $(PROTO_T)/corpus
 
+# End to end: the example instrument over a lossy pty against a receiver
+# built from the link and the core (needs the core library).
+PROTO_E2E_DEPS := $(PROTO_T)/test_instrument.c examples/instrument/synth.c \
+  examples/instrument/synth.h $(PROTO_THDR)
+$(PROTO_TB)/e2e/test_instrument: $(PROTO_E2E_DEPS) $(PROTO_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -I$(PROTO_T) -Iexamples/instrument $(PROTO_T)/test_instrument.c \
+	  examples/instrument/synth.c -o $@ $(PROTO_LIB) $(CORE_LIB) -lcmocka
+
+$(PROTO_TB)/e2e/san/test_instrument: $(PROTO_E2E_DEPS) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -I$(PROTO_T) -Iexamples/instrument $(PROTO_T)/test_instrument.c \
+	  examples/instrument/synth.c -o $@ $(PROTO_SAN_LIB) $(CORE_SAN_LIB) -lcmocka
+
+.PHONY: proto-e2e
+TEST_TARGETS += proto-e2e
+proto-e2e: $(PROTO_TB)/e2e/test_instrument $(PROTO_TB)/e2e/san/test_instrument $(BUILD)/host/it2n-instrument
+	$(PROTO_TB)/e2e/test_instrument $(BUILD)/host/it2n-instrument
+	$(PROTO_TB)/e2e/san/test_instrument $(BUILD)/host/it2n-instrument
+
 # ---- libFuzzer (clang) ----------------------------------------------------
 PROTO_FUZZ := $(BUILD)/fuzz/proto_fuzz
 FUZZ_TARGETS += proto-fuzz
