@@ -724,7 +724,7 @@ static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     /* rc */
     0,
     /* update.ctrl_hash */
-    7606728025719004100,
+    -3983502189608478028,
     /* eval.rc */
     0,
     /* point.v */
@@ -800,7 +800,7 @@ static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     /* update.resolve_hash */
     -3983502189608478028,
     /* update.max_lsb_vs_resolve */
-    1,
+    0,
     /* rc */
     -2,
     /* err.code */
