@@ -1,0 +1,111 @@
+/* test_conf — configuration: defaults, every section kind, and fatal
+ * errors naming file:line: [section] key. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "conf.h"
+#include "it2n.h"
+
+static char path[64];
+
+static int load(const char *text, struct conf *c, char *err, size_t size)
+{
+    FILE *f;
+    snprintf(path, sizeof path, "/tmp/it2nd-test-conf.%d.ini", (int)getpid());
+    f = fopen(path, "w");
+    fputs(text, f);
+    fclose(f);
+    conf_default(c);
+    int rc = conf_load(c, path, err, size);
+    unlink(path);
+    return rc;
+}
+
+static void test_default(void **st)
+{
+    struct conf c;
+    (void)st;
+    conf_default(&c);
+    assert_int_equal(c.nlisten, 1);
+    assert_string_equal(c.listen[0].host, "127.0.0.1");
+    assert_string_equal(c.listen[0].port, "1502");
+    assert_int_equal(c.nmodels, 1);
+    assert_int_equal(c.model[0].unit, 1);
+    assert_int_equal(c.model[0].preload, 1);
+    assert_string_equal(c.state_dir, "./state");
+}
+
+static void test_full(void **st)
+{
+    struct conf c;
+    char err[256];
+    (void)st;
+    assert_int_equal(load("[daemon]\nstate_dir=/var/lib/it2n\n"
+                          "[modbus]\ntcp_listen = [::1]:1502\ntcp_listen = 0.0.0.0:502\n"
+                          "float_word_order = dcba\ncoord_scale = 1000\n"
+                          "[rtu:a]\ndevice=/dev/ttyUSB0\nparity=none\nbaud=9600\n"
+                          "[model:7]\nunit_id=9\nn=2\nm=5\nchord=yes\nz=yes\n"
+                          "[link:p]\ntype=usb\nusb=1d50:6018:ABC\n",
+                          &c, err, sizeof err), 0);
+    assert_int_equal(c.nlisten, 2);
+    assert_string_equal(c.listen[0].host, "::1");
+    assert_string_equal(c.listen[1].port, "502");
+    assert_int_equal(c.word_order, 3);
+    assert_int_equal(c.nrtu, 1);
+    assert_int_equal(c.rtu[0].parity, 'N');
+    assert_int_equal(c.nmodels, 1);
+    assert_int_equal(c.model[0].id, 7);
+    assert_int_equal(c.model[0].unit, 9);
+    assert_int_equal(c.model[0].flags, IT2N_F_CHORD | IT2N_F_Z);
+    assert_int_equal(c.link[0].vid, 0x1d50);
+    assert_string_equal(c.link[0].serial, "ABC");
+}
+
+static void test_errors(void **st)
+{
+    struct conf c, before;
+    char err[256], want[256];
+    (void)st;
+    static const struct {
+        const char *text;
+        int line;
+        const char *tail;
+    } t[] = {
+        { "[modbus]\ncoord_scale = 0\n", 2, "[modbus] coord_scale: expected 1..10000" },
+        { "[daemon]\n\n; c\nnope = 1\n", 4, "[daemon] nope: unknown key" },
+        { "[model:1]\nn = 8\n", 2, "[model:1] n: expected 1..7" },
+        { "[modbus]\nfloat_word_order = ABDC\n", 2, "[modbus] float_word_order: expected ABCD, CDAB, BADC or DCBA" },
+        { "[link:x]\nusb = zz\n", 2, "[link:x] usb: expected VID:PID[:serial] in hex" },
+        { "[bogus]\na = 1\n", 2, "[bogus] a: unknown section" },
+        { "[modbus]\ntcp_listen = nocolon\n", 2, "[modbus] tcp_listen: expected host:port, [v6addr]:port or :port" },
+    };
+    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
+        conf_default(&before);
+        assert_int_equal(load(t[k].text, &c, err, sizeof err), -1);
+        snprintf(want, sizeof want, "%s:%d: %s", path, t[k].line, t[k].tail);
+        assert_string_equal(err, want);
+        assert_memory_equal(&c, &before, sizeof c); /* unchanged on error */
+    }
+    /* cross-key checks */
+    assert_int_equal(load("[model:1]\nunit_id=3\n[model:2]\nunit_id=3\n", &c, err, sizeof err), -1);
+    assert_non_null(strstr(err, "[model:2] unit_id: 3 already used by model 1"));
+    assert_int_equal(load("[model:1]\nn=2\npreload=paper\n", &c, err, sizeof err), -1);
+    assert_non_null(strstr(err, "preload"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_default),
+        cmocka_unit_test(test_full),
+        cmocka_unit_test(test_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,177 @@
+/* test_mb_map — register encoding golden vectors (every float word order),
+ * scaled integers with saturation, and map semantics against a model
+ * solved from the paper data: reads, writes, exceptions, atomicity. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "it2n_regmap.h"
+#include "mb_map.h"
+#include "models.h"
+
+/* -123.456f = 0xC2F6E979: every byte distinct, so each order is visible. */
+static void test_f32_golden(void **st)
+{
+    static const uint16_t want[4][2] = {
+        { 0xC2F6, 0xE979 }, /* ABCD */
+        { 0xE979, 0xC2F6 }, /* CDAB */
+        { 0xF6C2, 0x79E9 }, /* BADC */
+        { 0x79E9, 0xF6C2 }, /* DCBA */
+    };
+    (void)st;
+    for (int o = 0; o < 4; o++) {
+        uint16_t r[2];
+        mbmap_put_f32(r, -123.456f, o);
+        assert_int_equal(r[0], want[o][0]);
+        assert_int_equal(r[1], want[o][1]);
+        assert_true(mbmap_get_f32(want[o], o) == -123.456f);
+    }
+}
+
+static void test_scale(void **st)
+{
+    int sat = 0;
+    (void)st;
+    /* 0.5 membership -> 5000; 1/3 rounds to 3333; -0.0000500… -> -1 (half away from zero) */
+    assert_int_equal(mbmap_scale(IT2N_VAL_ONE / 2, 10000, -32767, 32767, &sat), 5000);
+    assert_int_equal(mbmap_scale(IT2N_VAL_ONE / 3, 10000, -32767, 32767, &sat), 3333);
+    assert_int_equal(mbmap_scale(-(IT2N_VAL_ONE / 20000 + 1), 10000, -32767, 32767, &sat), -1);
+    assert_int_equal(sat, 0);
+    assert_int_equal(mbmap_scale(4 * IT2N_VAL_ONE, 10000, -32767, 32767, &sat), 32767);
+    assert_int_equal(sat, 1);
+    sat = 0;
+    assert_int_equal(mbmap_scale(-8000000 * IT2N_VAL_ONE, 1000, INT32_MIN, INT32_MAX, &sat), INT32_MIN);
+    assert_int_equal(sat, 1);
+}
+
+static struct model *md;
+static const struct mb_opts opts = { IT2N_WO_ABCD, 100, 5, 5 };
+
+static int setup(void **st)
+{
+    (void)st;
+    if (models_init(4))
+        return -1;
+    md = models_add(1, 1, 3, 3, 0);
+    return md && models_preload_paper(md) == IT2N_OK ? 0 : -1;
+}
+
+static int teardown(void **st)
+{
+    (void)st;
+    models_free();
+    return 0;
+}
+
+static void test_status(void **st)
+{
+    struct mb_query q;
+    uint16_t r[IT2N_REG_STATUS_END];
+    (void)st;
+    memset(&q, 0, sizeof q);
+    assert_int_equal(mbmap_read(md, &q, &opts, 0, IT2N_REG_STATUS_END, r), MBX_OK);
+    assert_int_equal(r[IT2N_REG_MAP_VERSION], IT2N_REGMAP_VERSION);
+    assert_int_equal(r[IT2N_REG_STATE], IT2N_RS_SOLVED);
+    assert_int_equal(r[IT2N_REG_PRESENT], 112);
+    assert_int_equal(r[IT2N_REG_REQUIRED], 112);
+    assert_int_equal(r[IT2N_REG_COORD_SCALE], 100);
+    /* gaps and block-spanning reads */
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_STATUS_END, 1, r), MBX_ILLEGAL_ADDRESS);
+    assert_int_equal(mbmap_read(md, &q, &opts, 20, 20, r), MBX_ILLEGAL_ADDRESS);
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_CTRL_END, 1, r), MBX_ILLEGAL_ADDRESS);
+}
+
+static void test_query_uw(void **st)
+{
+    struct mb_query q;
+    uint16_t in[2] = { 2500, 5000 }, r[128];
+    it2n_point pt;
+    int persisted;
+    (void)st;
+    memset(&q, 0, sizeof q);
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_U16, 2, in, &persisted), MBX_OK);
+    assert_int_equal(persisted, 0);
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_RES_F32, 108, r), MBX_OK);
+    assert_int_equal(it2n_eval(&md->mdl, IT2N_PAR_ONE / 4, IT2N_PAR_ONE / 2, &pt), IT2N_OK);
+    for (int fp = 0; fp < 7; fp++)
+        for (int ch = 0; ch < 6; ch++)
+            assert_true(mbmap_get_f32(&r[(fp * 6 + ch) * 2], IT2N_WO_ABCD) ==
+                        (float)((double)pt.v[fp][ch] / IT2N_VAL_ONE));
+    /* D footprint T in the scaled view */
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_RES_SCALED, 84, r), MBX_OK);
+    int sat = 0;
+    assert_int_equal((int16_t)r[3 * 9 + 6], mbmap_scale(pt.v[3][3], 10000, -32767, 32767, &sat));
+    assert_int_equal(r[IT2N_REG_SAT - IT2N_REG_RES_SCALED + 3], 0);
+}
+
+static void test_rejected_writes_change_nothing(void **st)
+{
+    struct mb_query q, q0;
+    uint16_t good[2] = { 1000, 2000 }, bad[2] = { 1000, 10001 };
+    int persisted;
+    uint32_t gen = md->gen;
+    (void)st;
+    memset(&q, 0, sizeof q);
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_U16, 2, good, &persisted), MBX_OK);
+    q0 = q;
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_U16, 2, bad, &persisted), MBX_ILLEGAL_VALUE);
+    assert_memory_equal(&q, &q0, sizeof q);
+    /* half a float */
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_UF + 1, 1, good, &persisted), MBX_ILLEGAL_VALUE);
+    /* f32 u = 1.5 */
+    uint16_t f[2];
+    mbmap_put_f32(f, 1.5f, IT2N_WO_ABCD);
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_UF, 2, f, &persisted), MBX_ILLEGAL_VALUE);
+    assert_memory_equal(&q, &q0, sizeof q);
+    /* degree 0 and 8, flags bit 3 */
+    uint16_t cfg[3] = { 0, 3, 0 };
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_CFG_N, 3, cfg, &persisted), MBX_ILLEGAL_VALUE);
+    cfg[0] = 8;
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_CFG_N, 3, cfg, &persisted), MBX_ILLEGAL_VALUE);
+    cfg[0] = 3;
+    cfg[2] = 8;
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_CFG_N, 3, cfg, &persisted), MBX_ILLEGAL_VALUE);
+    /* upload that breaks footprint nesting: solve (update) fails -> 04 */
+    uint16_t up[12] = { 0, 0, IT2N_FP_LL, 0, 1000, 0, 0, 0, 0, 5000, 5000, 5000 }; /* x = 10 > D's -17 */
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_UP_I, 12, up, &persisted), MBX_DEVICE_FAILURE);
+    assert_int_equal(persisted, 0);
+    /* read-only block */
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_STATE, 1, good, &persisted), MBX_ILLEGAL_ADDRESS);
+    assert_int_equal(md->gen, gen);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+}
+
+static void test_incomplete_is_busy(void **st)
+{
+    struct model *m2 = models_add(2, 2, 2, 2, IT2N_F_TYPE1);
+    struct mb_query q;
+    uint16_t r[8], one = IT2N_CMD_COMMIT;
+    int persisted;
+    (void)st;
+    assert_non_null(m2);
+    memset(&q, 0, sizeof q);
+    assert_int_equal(mbmap_read(m2, &q, &opts, IT2N_REG_RES_F32, 2, r), MBX_BUSY);
+    assert_int_equal(mbmap_read(m2, &q, &opts, IT2N_REG_GRID, 3, r), MBX_BUSY);
+    assert_int_equal(mbmap_read(m2, &q, &opts, IT2N_REG_CTRL, 2, r), MBX_BUSY);
+    assert_int_equal(mbmap_write(m2, &q, &opts, IT2N_REG_COMMAND, 1, &one, &persisted), MBX_BUSY);
+    /* grid beyond rows*cols nodes is outside the map */
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_GRID + 75, 1, r), MBX_ILLEGAL_ADDRESS);
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_GRID + 72, 3, r), MBX_OK);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_f32_golden),
+        cmocka_unit_test(test_scale),
+        cmocka_unit_test(test_status),
+        cmocka_unit_test(test_query_uw),
+        cmocka_unit_test(test_rejected_writes_change_nothing),
+        cmocka_unit_test(test_incomplete_is_busy),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
