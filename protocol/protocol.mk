@@ -72,6 +72,7 @@ proto-cppcheck:
 # message table (only after an intended wire change; review the diff).
 proto-vectors: $(PROTO_TB)/gen_vectors
 	$(PROTO_TB)/gen_vectors protocol/vectors protocol/it2n_vectors.inc $(PROTO_T)/corpus
+	python3 $(PROTO_T)/check_vectors.py --update-doc protocol/vectors
 
 # End to end: the example instrument over a lossy pty against a receiver
 # built from the link and the core (needs the core library).

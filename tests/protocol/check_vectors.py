@@ -54,7 +54,32 @@ def main(vdir):
         assert bool(flags & 1) == rel, f"{f}: REL flag"
         seen.add(typ)
     assert seen == set(SIZES), "a message type has no vector"
+    doc = os.path.join(os.path.dirname(vdir.rstrip("/")), "..", "docs", "protocol.md")
+    if os.path.exists(doc):  # Appendix A of the spec must show today's bytes
+        text = open(doc).read()
+        for f in files:
+            body = "".join(l for l in open(f) if not l.startswith("#"))
+            assert body in text, f"docs/protocol.md Appendix A is stale for {f}"
     print(f"check_vectors: {len(files)} vectors OK")
 
+APPX = "## Appendix A: golden vectors"
+APPX_END = "0x0100 + NN; HELLO also SYN; ACK and NACK have flags 0 and seq 0.\n"
+
+def update_doc(vdir, doc):
+    """Rewrite Appendix A of docs/protocol.md from the vector files."""
+    text = open(doc).read()
+    cut = text.index(APPX_END, text.index(APPX)) + len(APPX_END)
+    out = text[:cut]
+    for f in sorted(glob.glob(os.path.join(vdir, "*.hex"))):
+        lines = open(f).read().splitlines()
+        body = [l for l in lines if not l.startswith("#")]
+        out += (f"\n### {os.path.basename(f)}\n{lines[0].lstrip('# ')}\n\n```\n"
+                + "\n".join(body) + "\n```\n")
+    open(doc, "w").write(out)
+
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "protocol/vectors")
+    args = [a for a in sys.argv[1:] if a != "--update-doc"]
+    vd = args[0] if args else "protocol/vectors"
+    if "--update-doc" in sys.argv:
+        update_doc(vd, os.path.join(os.path.dirname(vd.rstrip("/")), "..", "docs", "protocol.md"))
+    main(vd)
