@@ -46,7 +46,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
     uint16_t vals[MODBUS_MAX_WR_WRITE_REGISTERS > MODBUS_MAX_WRITE_REGISTERS ? MODBUS_MAX_WR_WRITE_REGISTERS
                                                                           : MODBUS_MAX_WRITE_REGISTERS];
     const uint8_t *pdu = req + hl;
-    int plen = len - hl;
+    int plen = len - hl - (s->is_tcp ? 0 : 2); /* RTU: CRC (already checked) */
 
     if (plen < 1)
         return 0;

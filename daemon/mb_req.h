@@ -26,7 +26,8 @@ struct mb_session {
 int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp);
 void mb_session_free(struct mb_session *s);
 
-/* Handle one complete ADU (header + PDU, CRC excluded for RTU). Returns 0
+/* Handle one complete ADU (header + PDU, and for RTU the checked CRC, as
+ * modbus_reply expects). Returns 0
  * when answered (or ignored), 1 when held for the commit, -1 when the
  * connection should be closed (send failure). */
 int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struct mb_opts *o);

@@ -1,7 +1,271 @@
-/* mb_rtu.c — placeholder. */
+/* mb_rtu.c — see mb_rtu.h.
+ *
+ * libmodbus' modbus_receive() blocks until a frame is complete, which would
+ * stall the loop; instead bytes are read non-blocking and a request frame
+ * is complete when its length (known from the function code: 8 bytes for
+ * 03/04/06, 9 + n for 16, 13 + n for 23) has arrived. A frame that never
+ * completes, or has an unknown function code, is settled by the inter-frame
+ * silence (t3.5, at least 20 ms for scheduling jitter). CRC errors drop the
+ * frame silently, as the RTU specification requires. */
 #include "mb_rtu.h"
 
-int mb_rtu_start(const struct conf *c, const struct mb_opts *o) { (void)c; (void)o; return 0; }
-int mb_rtu_reload(const struct conf *c, const struct mb_opts *o) { (void)c; (void)o; return 0; }
-void mb_rtu_release(int commit_ok) { (void)commit_ok; }
-void mb_rtu_stop(void) {}
+#include <errno.h>
+#include <fcntl.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "log.h"
+#include "loop.h"
+#include "mb_req.h"
+
+struct rtu_port {
+    struct conf_rtu cfg;
+    modbus_t *ctx;
+    int fd;
+    struct mb_session s;
+    uint8_t buf[MODBUS_RTU_MAX_ADU_LENGTH];
+    size_t len;
+    uint64_t last_rx;
+    unsigned gap_ms;
+    long retry_timer;
+    unsigned backoff_ms;
+};
+
+static struct rtu_port ports[CONF_MAX_RTU];
+static int nports;
+static struct mb_opts opts;
+static long sweep_timer;
+
+static uint16_t crc16(const uint8_t *p, size_t n)
+{
+    uint16_t crc = 0xFFFF;
+    while (n--) {
+        crc ^= *p++;
+        for (int k = 0; k < 8; k++)
+            crc = (uint16_t)((crc & 1) ? (crc >> 1) ^ 0xA001 : crc >> 1);
+    }
+    return crc;
+}
+
+/* Expected request length from what we have, 0 if not yet known, -1 if
+ * the function code gives no length (settle by silence). */
+static long expected_len(const uint8_t *b, size_t n)
+{
+    if (n < 2)
+        return 0;
+    switch (b[1]) {
+    case 3: case 4: case 6: return 8;
+    case 16: return n < 7 ? 0 : 9 + (long)b[6];
+    case 23: return n < 11 ? 0 : 13 + (long)b[10];
+    default: return -1;
+    }
+}
+
+static void drop(struct rtu_port *p, size_t n)
+{
+    memmove(p->buf, p->buf + n, p->len - n);
+    p->len -= n;
+}
+
+static void port_open(void *arg);
+
+static void port_fail(struct rtu_port *p, const char *why)
+{
+    log_warn("rtu %s (%s): %s; reopening in %u ms", p->cfg.name, p->cfg.device, why, p->backoff_ms);
+    if (p->fd >= 0)
+        loop_del_fd(p->fd);
+    if (p->ctx) {
+        modbus_close(p->ctx);
+        modbus_free(p->ctx);
+        mb_session_free(&p->s);
+    }
+    p->ctx = NULL;
+    p->fd = -1;
+    p->len = 0;
+    p->retry_timer = loop_add_timer(p->backoff_ms, port_open, p);
+    p->backoff_ms = p->backoff_ms * 2 > 30000 ? 30000 : p->backoff_ms * 2;
+}
+
+static int handle_frame(struct rtu_port *p, size_t n)
+{
+    uint16_t crc = crc16(p->buf, n - 2);
+    if (n < 4 || (p->buf[n - 2] | p->buf[n - 1] << 8) != crc) {
+        log_debug("rtu %s: CRC error, %zu byte(s) dropped", p->cfg.name, n);
+        drop(p, n);
+        return 0;
+    }
+    int rc = mb_req_handle(&p->s, p->buf, (int)n, &opts);
+    drop(p, n);
+    if (rc < 0)
+        port_fail(p, "write failed");
+    return rc;
+}
+
+static void process(struct rtu_port *p)
+{
+    while (p->len && !p->s.held_len && p->ctx) {
+        long want = expected_len(p->buf, p->len);
+        if (want == 0 || want < 0 || (size_t)want > p->len) {
+            if (want > (long)sizeof p->buf) /* cannot be a request: resync */
+                p->len = 0;
+            return;
+        }
+        if (handle_frame(p, (size_t)want) < 0)
+            return;
+    }
+}
+
+static void on_port(void *arg, int fd, short revents)
+{
+    struct rtu_port *p = arg;
+    ssize_t r;
+    if (revents & (POLLERR | POLLHUP | POLLNVAL)) {
+        port_fail(p, "hang-up or error");
+        return;
+    }
+    r = read(fd, p->buf + p->len, sizeof p->buf - p->len);
+    if (r <= 0) {
+        if (r < 0 && (errno == EAGAIN || errno == EINTR))
+            return;
+        port_fail(p, r ? strerror(errno) : "end of file");
+        return;
+    }
+    p->len += (size_t)r;
+    p->last_rx = loop_now_ms();
+    p->backoff_ms = 500;
+    process(p);
+}
+
+/* Silence: an incomplete frame is dropped; a frame with an unknown
+ * function code is complete and answered (exception 01 if it is ours). */
+static void sweep(void *arg)
+{
+    uint64_t now = loop_now_ms();
+    (void)arg;
+    for (int k = 0; k < nports; k++) {
+        struct rtu_port *p = &ports[k];
+        if (!p->ctx || !p->len || p->s.held_len || now - p->last_rx < p->gap_ms)
+            continue;
+        if (expected_len(p->buf, p->len) < 0 && p->len >= 4)
+            handle_frame(p, p->len);
+        else
+            p->len = 0;
+    }
+    sweep_timer = loop_add_timer(10, sweep, NULL);
+}
+
+static void port_open(void *arg)
+{
+    struct rtu_port *p = arg;
+    p->retry_timer = 0;
+    p->ctx = modbus_new_rtu(p->cfg.device, p->cfg.baud, p->cfg.parity, 8, p->cfg.stop_bits);
+    if (!p->ctx) {
+        port_fail(p, "bad parameters");
+        return;
+    }
+    if (modbus_connect(p->ctx)) {
+        modbus_free(p->ctx);
+        p->ctx = NULL;
+        port_fail(p, modbus_strerror(errno));
+        return;
+    }
+    if (p->cfg.rs485 && modbus_rtu_set_serial_mode(p->ctx, MODBUS_RTU_RS485))
+        log_warn("rtu %s: RS-485 mode not supported by %s: %s", p->cfg.name, p->cfg.device,
+                 modbus_strerror(errno));
+    if (mb_session_init(&p->s, p->ctx, 0)) {
+        modbus_close(p->ctx);
+        modbus_free(p->ctx);
+        p->ctx = NULL;
+        port_fail(p, "out of memory");
+        return;
+    }
+    p->fd = modbus_get_socket(p->ctx);
+    fcntl(p->fd, F_SETFL, fcntl(p->fd, F_GETFL) | O_NONBLOCK);
+    /* t3.5 = 3.5 characters of 11 bits, floor 20 ms (scheduling jitter). */
+    unsigned t35 = (unsigned)(38500 / p->cfg.baud) + 1;
+    p->gap_ms = t35 < 20 ? 20 : t35;
+    p->len = 0;
+    loop_add_fd(p->fd, POLLIN, on_port, p);
+    log_notice("modbus rtu %s on %s, %d %c%d", p->cfg.name, p->cfg.device, p->cfg.baud, p->cfg.parity,
+               p->cfg.stop_bits);
+}
+
+static void close_port(struct rtu_port *p)
+{
+    if (p->retry_timer)
+        loop_cancel_timer(p->retry_timer);
+    if (p->ctx) {
+        loop_del_fd(p->fd);
+        modbus_close(p->ctx);
+        modbus_free(p->ctx);
+        mb_session_free(&p->s);
+    }
+    memset(p, 0, sizeof *p);
+    p->fd = -1;
+}
+
+static void open_all(const struct conf *c)
+{
+    for (int k = 0; k < c->nrtu; k++) {
+        struct rtu_port *p = &ports[nports++];
+        memset(p, 0, sizeof *p);
+        p->cfg = c->rtu[k];
+        p->fd = -1;
+        p->backoff_ms = 500;
+        port_open(p);
+    }
+}
+
+int mb_rtu_start(const struct conf *c, const struct mb_opts *o)
+{
+    opts = *o;
+    nports = 0;
+    open_all(c);
+    if (c->nrtu)
+        sweep_timer = loop_add_timer(10, sweep, NULL);
+    return 0;
+}
+
+int mb_rtu_reload(const struct conf *c, const struct mb_opts *o)
+{
+    int same = c->nrtu == nports;
+    opts = *o;
+    for (int k = 0; same && k < nports; k++)
+        same = !memcmp(&c->rtu[k], &ports[k].cfg, sizeof c->rtu[k]);
+    if (same)
+        return 0;
+    log_notice("rtu: ports changed; reopening");
+    for (int k = 0; k < nports; k++)
+        close_port(&ports[k]);
+    nports = 0;
+    open_all(c);
+    if (c->nrtu && !sweep_timer)
+        sweep_timer = loop_add_timer(10, sweep, NULL);
+    return 0;
+}
+
+void mb_rtu_release(int commit_ok)
+{
+    for (int k = 0; k < nports; k++) {
+        struct rtu_port *p = &ports[k];
+        if (!p->ctx || !p->s.held_len)
+            continue;
+        if (mb_req_release(&p->s, commit_ok) < 0) {
+            port_fail(p, "write failed");
+            continue;
+        }
+        process(p);
+        if (p->s.held_len)
+            loop_wake();
+    }
+}
+
+void mb_rtu_stop(void)
+{
+    for (int k = 0; k < nports; k++)
+        close_port(&ports[k]);
+    nports = 0;
+    if (sweep_timer)
+        loop_cancel_timer(sweep_timer);
+    sweep_timer = 0;
+}

@@ -15,6 +15,7 @@ trap 'cleanup' EXIT
 cleanup() {
     [ -n "$PID" ] && kill -9 "$PID" 2>/dev/null
     [ -n "${NPID:-}" ] && kill "$NPID" 2>/dev/null
+    [ -n "${BPID:-}" ] && kill "$BPID" 2>/dev/null
     if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "e2e: logs kept in $T" >&2; fi
 }
 fail() { echo "e2e: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
@@ -23,11 +24,17 @@ free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",
 
 PORT=$(free_port)
 STATE=$T/state
+# Null-modem pty pair for Modbus RTU: the daemon on side A, clients on B.
+"$PTY" > "$T/pty" &
+BPID=$!
+for _ in $(seq 50); do [ -s "$T/pty" ] && break; sleep 0.02; done
+read -r RTU_A RTU_B < "$T/pty"
 
 write_conf() { # extra lines on stdin
     {
         printf '[daemon]\nstate_dir = %s\nsnapshot_interval = 3600\n' "$STATE"
         printf '[modbus]\ntcp_listen = 127.0.0.1:%s\n' "$PORT"
+        printf '[rtu:bus]\ndevice = %s\nbaud = 19200\n' "$RTU_A"
         cat
     } > "$T/it2nd.conf"
 }
@@ -85,6 +92,12 @@ grep -q '^READY=1$' "$T/notify.log" && grep -q '^STATUS=.*models solved' "$T/not
 plc verify "$PAPER" 6 && ok "paper data: FC23 queries, grid, control nets match the core" || fail "verify paper"
 plc exceptions && ok "exception codes; rejected writes change nothing" || fail "exceptions"
 plc concurrent 16 "$PAPER" && ok "16 concurrent connections read their own answers" || fail "concurrent"
+
+# Modbus RTU on the pty pair, served at the same time as TCP.
+"$PLC" --rtu "$RTU_B" verify "$PAPER" 3 && "$PLC" --rtu "$RTU_B" exceptions \
+    && ok "Modbus RTU: queries, grid, control nets, exceptions" || fail "RTU"
+out=$(mbpoll -m rtu -a 1 -0 -r 0 -c 8 -t 3 -b 19200 -P even -1 "$RTU_B" 2>&1)
+echo "$out" | grep -q '^\[1\]:[[:space:]]*2$' && ok "mbpoll over RTU" || fail "mbpoll RTU: $out"
 
 # A half-sent request from one client must not stall another.
 python3 - "$PORT" <<'PY' &
