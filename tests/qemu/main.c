@@ -1,5 +1,5 @@
 /*
- * Cortex-M3 test image: runs the core test vectors (tests/vectors/) and, when
+ * Cortex-M test image: runs the core test vectors (tests/vectors/) and, when
  * the protocol self-test is built in, it2n_proto_selftest(). Prints PASS or
  * FAIL lines through semihosting; the exit status is what `make test` checks.
  */
@@ -20,7 +20,13 @@ int main(void)
 {
     int failed = 0;
 
-    it2n_sh_write0("it2n Cortex-M3 image (qemu mps2-an385)\n");
+#if defined(__ARM_ARCH_6M__)
+    it2n_sh_write0("it2n test image, ARMv6-M code (Cortex-M0+)\n");
+#elif defined(__ARM_ARCH_7EM__)
+    it2n_sh_write0("it2n test image, ARMv7E-M code (Cortex-M4)\n");
+#else
+    it2n_sh_write0("it2n test image, ARMv7-M code (Cortex-M3)\n");
+#endif
     if (it2n_core_vectors_run(qemu_log) != 0) {
         it2n_sh_write0("FAIL: core vectors\n");
         failed = 1;

@@ -1,4 +1,4 @@
-/* ARM semihosting calls used by the Cortex-M3 test image. */
+/* ARM semihosting calls used by the Cortex-M test images. */
 #include "semihost.h"
 
 #include <stdint.h>

@@ -1,5 +1,5 @@
 /*
- * Freestanding start-up for the Cortex-M3 test image (qemu mps2-an385):
+ * Freestanding start-up for the Cortex-M test images (qemu mps2-an385/386):
  * vector table, reset handler (copy .data, zero .bss, call main, report the
  * exit status) and a fault handler that fails the run instead of hanging.
  * Symbols come from mps2_an385.ld.
@@ -73,7 +73,7 @@ void it2n_reset_handler(void)
  * guard) ends the run with a distinct status so `make test` fails. */
 void it2n_fault_handler(void)
 {
-    it2n_sh_write0("FAULT: the Cortex-M3 image took a hard fault\n");
+    it2n_sh_write0("FAULT: the test image took a hard fault\n");
     it2n_sh_exit(3);
 }
 
