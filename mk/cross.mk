@@ -23,11 +23,16 @@ CROSS_CFLAGS := -ffreestanding -std=c99 -Os -g $(CORE_WARN) \
 # Empty this list once fixed; heap and float references can never be waived.
 CROSS_WAIVE := memcmp strlen
 
-CROSS_ARCHS := m0p m4
+# m0p_d3: the small-part configuration (IT2N_MAX_DEGREE=3) on Cortex-M0+,
+# which also proves a non-default configuration builds warning-free.
+CROSS_ARCHS := m0p m4 m0p_d3
 CROSS_CPU_m0p := -mcpu=cortex-m0plus -mthumb
 CROSS_CPU_m4  := -mcpu=cortex-m4 -mthumb
+CROSS_CPU_m0p_d3 := -mcpu=cortex-m0plus -mthumb
+CROSS_DEF_m0p_d3 := -DIT2N_MAX_DEGREE=3
 CROSS_NAME_m0p := Cortex-M0+
 CROSS_NAME_m4  := Cortex-M4 (soft float)
+CROSS_NAME_m0p_d3 := Cortex-M0+ MAX_DEGREE=3
 
 # Per target: objects (+ .su/.ci next to them), a partial link of the whole
 # library (what symcheck inspects) and a full link from api_refs.c.
@@ -36,14 +41,14 @@ CROSS_OBJ_$(1) = $$(CROSS_SRC:%.c=$(CROSS_DIR)/$(1)/%.o)
 
 $(CROSS_DIR)/$(1)/%.o: %.c $$(CROSS_HDR)
 	@mkdir -p $$(@D)
-	$(CROSS_CC) $(CROSS_CPU_$(1)) $(CROSS_CFLAGS) -c $$< -o $$@
+	$(CROSS_CC) $(CROSS_CPU_$(1)) $(CROSS_DEF_$(1)) $(CROSS_CFLAGS) -c $$< -o $$@
 
 $(CROSS_DIR)/$(1)/libit2n-r.o: $$(CROSS_OBJ_$(1))
 	$(CROSS_CC) $(CROSS_CPU_$(1)) -nostdlib -r -o $$@ $$^
 
 $(CROSS_DIR)/$(1)/api_refs.o: $(CROSS_TOOLS)/api_refs.c $$(CROSS_HDR)
 	@mkdir -p $$(@D)
-	$(CROSS_CC) $(CROSS_CPU_$(1)) $(CROSS_CFLAGS) -c $$< -o $$@
+	$(CROSS_CC) $(CROSS_CPU_$(1)) $(CROSS_DEF_$(1)) $(CROSS_CFLAGS) -c $$< -o $$@
 
 # Symbols are checked first, so -lc can only supply memcpy/memset/memmove.
 $(CROSS_DIR)/$(1)/it2n-api.elf: $(CROSS_DIR)/$(1)/api_refs.o $(CROSS_DIR)/$(1)/libit2n-r.o
@@ -99,14 +104,14 @@ size: $(CROSS_ARCHS:%=cross-%) $(CROSS_HOST_OBJ) $(CROSS_DIR)/sizes-default.o $(
 	@echo "   text of a --gc-sections link of the whole core API with libgcc and newlib's mem*) =="
 	@printf '  %-24s %12s %10s %12s %18s\n' target "text+rodata" "data+bss" "(core only)" "linked, core API"
 	@for a in $(CROSS_ARCHS); do \
-	  name=$$a; case $$a in m0p) name="$(CROSS_NAME_m0p)";; m4) name="$(CROSS_NAME_m4)";; esac; \
+	  name=$$a; case $$a in m0p) name="$(CROSS_NAME_m0p)";; m4) name="$(CROSS_NAME_m4)";; m0p_d3) name="$(CROSS_NAME_m0p_d3)";; esac; \
 	  core=$$($(CROSS_SIZE) -A $(CROSS_DIR)/$$a/firmware_core/*.o | awk '$$1 ~ /^\.(text|rodata)/ {f += $$2} END {print f}'); \
 	  $(CROSS_SIZE) -A $(CROSS_DIR)/$$a/libit2n-r.o | awk -v n="$$name" -v core=$$core -v elf="$$($(CROSS_SIZE) -B $(CROSS_DIR)/$$a/it2n-api.elf | awk 'NR==2 {print $$1}')" \
 	    '$$1 ~ /^\.(text|rodata)/ {f += $$2} $$1 ~ /^\.(data|bss)/ {r += $$2} \
 	     END {printf "  %-24s %12d %10d %12d %18d\n", n, f, r, core, elf}'; \
 	done
 	@for a in $(CROSS_ARCHS); do \
-	  name=$$a; case $$a in m0p) name="$(CROSS_NAME_m0p)";; m4) name="$(CROSS_NAME_m4)";; esac; \
+	  name=$$a; case $$a in m0p) name="$(CROSS_NAME_m0p)";; m4) name="$(CROSS_NAME_m4)";; m0p_d3) name="$(CROSS_NAME_m0p_d3)";; esac; \
 	  echo; $(call CROSS_PUBLIC,$(CROSS_NM),$(CROSS_DIR)/$$a/libit2n-r.o) > $(CROSS_DIR)/$$a/public.txt; \
 	  python3 $(CROSS_TOOLS)/stack_report.py "$$name, -Os" $(CROSS_DIR)/$$a/public.txt \
 	    $$(find $(CROSS_DIR)/$$a -name '*.ci' | sort) || exit 1; \
