@@ -123,6 +123,16 @@ static void need(cur *c, bool ok, size_t off, int64_t value, int64_t limit)
         fail(c, IT2N_PROTO_ERR_FIELD, off, value, limit);
 }
 
+/* Reserved byte: written 0 and required to be 0, so every message has one
+ * encoding (a later use needs a new protocol version anyway). */
+static void c_reserved(cur *c)
+{
+    size_t off = c->pos;
+    uint8_t zero = 0;
+    c_u8(c, &zero);
+    need(c, c->err != 0 || zero == 0u, off, zero, 0);
+}
+
 static void c_fp(cur *c, uint8_t *fp)
 {
     size_t off = c->pos;
@@ -182,11 +192,10 @@ static void c_model(cur *c, uint8_t *model, bool all_ok)
 static void c_put(cur *c, it2n_msg_put *p)
 {
     size_t off = c->pos, k;
-    uint8_t zero = 0;
     c_model(c, &p->model, false);
     c_u8(c, &p->flags);
     c_u8(c, &p->count);
-    c_u8(c, &zero);
+    c_reserved(c);
     if (c->err != 0)
         return;
     need(c, (p->flags & ~IT2N_PUT_REPLACE) == 0u, off + 1u, p->flags,
@@ -196,7 +205,6 @@ static void c_put(cur *c, it2n_msg_put *p)
     for (k = 0; k < p->count && c->err == 0; k++) {
         it2n_put_entry *e = &p->e[k];
         size_t eo = c->pos;
-        uint8_t pad = 0;
         c_u8(c, &e->i);
         c_u8(c, &e->j);
         need(c, c->err != 0 || e->i <= IT2N_MAX_DEGREE, eo, e->i,
@@ -204,7 +212,7 @@ static void c_put(cur *c, it2n_msg_put *p)
         need(c, c->err != 0 || e->j <= IT2N_MAX_DEGREE, eo + 1u, e->j,
              IT2N_MAX_DEGREE);
         c_fp(c, &e->fp);
-        c_u8(c, &pad);
+        c_reserved(c);
         c_vals(c, e->vals, IT2N_CH_COUNT);
     }
 }

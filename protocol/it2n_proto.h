@@ -80,7 +80,9 @@ enum it2n_proto_error {
     IT2N_PROTO_ERR_NOSPACE = -115   /* caller buffer too small              */
 };
 
-/* Short English description of a protocol or core error code. */
+/* Short English description of a protocol error code (-100..); for the
+ * core's codes (-1..-10) it says "core error": use it2n_strerror, which
+ * lives in the core so that protocol/ links without it. */
 const char *it2n_proto_strerror(int code);
 
 /* Where and why a parse failed: code, payload byte offset of the offending

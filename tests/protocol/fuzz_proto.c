@@ -88,7 +88,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     /* 3: the link receiver on the same bytes. */
     it2n_link_cfg cfg = {&os, NULL, rx_any, NULL, NULL, 10, 3, 0};
     check(it2n_link_init(&link, &cfg) == IT2N_OK, "link init");
+    /* One frame in flight so injected ACK/NACK (NOSYNC...) hit a sender. */
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_COMMIT;
+    check(it2n_link_send(&link, &m, 0) == 0, "first send gets seq 0");
     check(it2n_link_input(&link, data, size, 0) == IT2N_OK, "link input");
+    check(it2n_link_pending(&link) <= IT2N_PROTO_WINDOW, "window bound");
+    (void)it2n_link_poll(&link, 5);
+    (void)it2n_link_poll(&link, 50);
     for (uint16_t s = 0; s < 8; s++)
         (void)it2n_link_complete(&link, s, s & 2 ? 0 : IT2N_ERR_RANGE, NULL);
     return 0;

@@ -84,6 +84,8 @@ static void test_field_checks(void **st)
     expect_field(IT2N_MSG_CONFIGURE, 3, 0x08, IT2N_F_ALL);       /* unknown flag */
     expect_field(IT2N_MSG_PUT, 1, 0x02, IT2N_PUT_REPLACE);       /* unknown flag */
     expect_field(IT2N_MSG_PUT, 2, 0, IT2N_PUT_MAX);              /* count 0 */
+    expect_field(IT2N_MSG_PUT, 3, 1, 0);                         /* reserved */
+    expect_field(IT2N_MSG_PUT, 7, 0x80, 0);                      /* entry reserved */
     expect_field(IT2N_MSG_PUT, 4, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE); /* i */
     expect_field(IT2N_MSG_PUT, 5, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE); /* j */
     expect_field(IT2N_MSG_PUT, 6, IT2N_FP_COUNT, IT2N_FP_COUNT - 1);     /* fp */
