@@ -1,8 +1,6 @@
 /*
  * Names of footprints, channels and error codes (const tables only).
  */
-#include <string.h>
-
 #include "it2n_internal.h"
 
 static const char *const fp_names[IT2N_FP_COUNT] = {"LL", "LR", "L", "D",
@@ -18,8 +16,14 @@ const char *it2n_fp_name(unsigned fp)
 int it2n_fp_from_name(const char *name, size_t len)
 {
     unsigned k;
-    for (k = 0; k < IT2N_FP_COUNT; k++) {
-        if (strlen(fp_names[k]) == len && memcmp(fp_names[k], name, len) == 0) {
+    /* Hand-rolled compare: the core links only memcpy/memset/memmove. */
+    for (k = 0; k < IT2N_FP_COUNT && name != NULL; k++) {
+        const char *ref = fp_names[k];
+        size_t i = 0;
+        while (i < len && ref[i] != '\0' && ref[i] == name[i]) {
+            i++;
+        }
+        if (i == len && ref[i] == '\0') {
             return (int)k;
         }
     }
