@@ -289,8 +289,8 @@ static int handler(void *user, const char *section, const char *name, const char
     }
     if (!strncmp(section, "model:", 6)) {
         int id, k;
-        if (parse_int(section + 6, 1, 65535, &id))
-            FAIL("model section must be [model:ID], ID 1..65535");
+        if (parse_int(section + 6, 0, 254, &id))
+            FAIL("model section must be [model:ID], ID 0..254 (the model id on the links)");
         if (!p->models_set) {
             c->nmodels = 0;
             p->models_set = 1;
@@ -303,7 +303,7 @@ static int handler(void *user, const char *section, const char *name, const char
                 FAIL("more than %d models", CONF_MAX_MODELS);
             memset(&c->model[k], 0, sizeof c->model[k]);
             c->model[k].id = id;
-            c->model[k].unit = id <= 247 ? id : 0;
+            c->model[k].unit = id >= 1 && id <= 247 ? id : 0;
             c->model[k].n = 3;
             c->model[k].m = 3;
             c->nmodels++;
@@ -371,7 +371,7 @@ static int validate(const struct conf *c, char *err, size_t errsize)
     for (int k = 0; k < c->nmodels; k++) {
         const struct conf_model *m = &c->model[k];
         if (m->unit < 1) {
-            snprintf(err, errsize, "[model:%d] unit_id: required for ids above 247", m->id);
+            snprintf(err, errsize, "[model:%d] unit_id: required for model ids 0 and above 247", m->id);
             return -1;
         }
         for (int l = 0; l < k; l++)

@@ -29,7 +29,7 @@ struct conf_rtu {
 };
 
 struct conf_model {
-    int id;           /* 1..65535, model id on the serial links */
+    int id;           /* 0..254, model id on the serial links */
     int unit;         /* Modbus unit id 1..247 */
     int n, m;
     unsigned flags;   /* IT2N_F_* */

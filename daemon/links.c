@@ -1,7 +1,448 @@
-/* links.c — placeholder until the link implementation lands. */
+/* links.c — see links.h. The protocol application of the daemon side:
+ *   HELLO       ACK, answered with the daemon's own HELLO
+ *   CONFIGURE   (re)start collecting the model (clears its points)
+ *   PUT         all entries or none; REPLACE flag honoured
+ *   COMMIT      solve; RESET clear (0xFF: every model)
+ *   GET_STATUS / QUERY / LOCATE   ACK, then the response frame
+ * Data messages are ACKed only after the WAL commit (links_release); a
+ * refused one is NACKed at once with the core's error detail and changed
+ * nothing. SAMPLE and GET_NET are NACKed with IT2N_PROTO_ERR_TYPE. */
 #include "links.h"
 
-int links_start(const struct conf *c) { (void)c; return 0; }
-int links_reload(const struct conf *c) { (void)c; return 0; }
-void links_release(int commit_ok) { (void)commit_ok; }
-void links_stop(void) {}
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "it2n_link.h"
+#include "link_serial.h"
+#include "link_usb.h"
+#include "log.h"
+#include "loop.h"
+#include "models.h"
+#include "store.h"
+
+#define HELD_MAX 16
+
+struct link {
+    struct conf_link cfg;
+    int fd;                   /* serial; -1 when closed        */
+    struct usb_link *usb;     /* usb; NULL when closed         */
+    int up;
+    it2n_link pl;
+    it2n_ostream os;
+    uint16_t held[HELD_MAX];  /* seqs whose ACK waits for the commit */
+    int nheld;
+    unsigned backoff_ms;
+    long retry_timer, poll_timer;
+    uint32_t entries;         /* entries accepted, for logs   */
+};
+
+static struct link *links;
+static int nlinks;
+static int backoff_max_ms;
+
+static uint32_t now32(void)
+{
+    return (uint32_t)loop_now_ms();
+}
+
+static void link_open(void *arg);
+
+/* Output stream: non-blocking; a frame that does not fit is dropped (the
+ * contract allows it: reliable frames are retransmitted). */
+static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
+{
+    struct link *l = s->state;
+    if (!l->up)
+        return -1;
+    if (l->cfg.type == CONF_LINK_USB)
+        return link_usb_write(l->usb, buf, len);
+    while (len) {
+        ssize_t n = write(l->fd, buf, len);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0)
+            return errno == EAGAIN ? 0 : -1;
+        buf += n;
+        len -= (size_t)n;
+    }
+    return 0;
+}
+
+static void link_down(struct link *l, const char *why)
+{
+    if (!l->up && l->retry_timer)
+        return;
+    log_warn("link %s: %s; reopening in %u ms", l->cfg.name, why, l->backoff_ms);
+    if (l->fd >= 0) {
+        loop_del_fd(l->fd);
+        close(l->fd);
+        l->fd = -1;
+    }
+    if (l->usb) {
+        link_usb_close(l->usb);
+        l->usb = NULL;
+    }
+    l->up = 0;
+    l->nheld = 0; /* never ACKed: the instrument retransmits */
+    if (l->poll_timer)
+        loop_cancel_timer(l->poll_timer);
+    l->poll_timer = 0;
+    l->retry_timer = loop_add_timer(l->backoff_ms, link_open, l);
+    l->backoff_ms = l->backoff_ms * 2 > (unsigned)backoff_max_ms ? (unsigned)backoff_max_ms : l->backoff_ms * 2;
+}
+
+static void hold(struct link *l, uint16_t seq)
+{
+    if (l->nheld < HELD_MAX)
+        l->held[l->nheld++] = seq;
+}
+
+static void send_hello(struct link *l)
+{
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_HELLO;
+    m.u.hello.version_min = IT2N_PROTO_VERSION;
+    m.u.hello.version_max = IT2N_PROTO_VERSION;
+    m.u.hello.max_degree = IT2N_MAX_DEGREE;
+    m.u.hello.window = IT2N_PROTO_WINDOW;
+    m.u.hello.caps = IT2N_CAP_SERVER | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1;
+    m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
+    m.u.hello.max_models = (uint16_t)models_count();
+    memcpy(m.u.hello.node, "it2nd", 5);
+    it2n_link_send(&l->pl, &m, now32());
+}
+
+static int model_state(const struct model *md)
+{
+    switch (md->state) {
+    case IT2N_RS_SOLVED: return IT2N_MS_SOLVED;
+    case IT2N_RS_INCOMPLETE: return IT2N_MS_COLLECTING;
+    case IT2N_RS_FAILED: return IT2N_MS_ERROR;
+    default: return IT2N_MS_EMPTY;
+    }
+}
+
+/* ACK now, then send a response. */
+static int respond(struct link *l, uint16_t seq, const it2n_msg *rsp)
+{
+    it2n_link_complete(&l->pl, seq, 0, NULL);
+    if (it2n_link_send(&l->pl, rsp, now32()) < 0)
+        log_info("link %s: response to seq %u dropped (window full)", l->cfg.name, seq);
+    return IT2N_LINK_DEFER;
+}
+
+static int refuse(struct link *l, uint16_t seq, int code, const it2n_errinfo *err)
+{
+    log_info("link %s: seq %u refused: %s", l->cfg.name, seq, it2n_strerror(code));
+    it2n_link_complete(&l->pl, seq, code, err);
+    return IT2N_LINK_DEFER;
+}
+
+static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg_put *p)
+{
+    struct model *save = malloc(sizeof *save);
+    struct store_mark mark = store_mark();
+    it2n_errinfo err;
+    int rc = IT2N_OK;
+    if (!save)
+        return IT2N_ERR_STATE;
+    *save = *md;
+    for (unsigned k = 0; k < p->count && rc == IT2N_OK; k++)
+        rc = models_put(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals, (p->flags & IT2N_PUT_REPLACE) != 0, &err);
+    if (rc != IT2N_OK) {
+        /* All or nothing: the model and the WAL queue go back. */
+        it2n_errinfo keep = md->last_err;
+        *md = *save;
+        md->last_err = keep;
+        store_rollback(mark);
+        free(save);
+        return refuse(l, seq, rc, &err);
+    }
+    free(save);
+    l->entries += p->count;
+    hold(l, seq);
+    return IT2N_LINK_DEFER;
+}
+
+static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
+{
+    struct link *l = app;
+    struct model *md = NULL;
+    it2n_errinfo err;
+    it2n_msg rsp;
+    int rc;
+    memset(&err, 0, sizeof err);
+    memset(&rsp, 0, sizeof rsp);
+    switch (msg->type) {
+    case IT2N_MSG_HELLO:
+        log_info("link %s: HELLO from '%.16s'", l->cfg.name, msg->u.hello.node);
+        it2n_link_complete(&l->pl, seq, 0, NULL);
+        send_hello(l);
+        return IT2N_LINK_DEFER;
+    case IT2N_MSG_CONFIGURE:
+        md = models_by_id(msg->u.configure.model);
+        if (!md)
+            return IT2N_PROTO_ERR_MODEL;
+        rc = models_configure(md, msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags, &err);
+        if (rc)
+            return refuse(l, seq, rc, &err);
+        hold(l, seq);
+        return IT2N_LINK_DEFER;
+    case IT2N_MSG_PUT:
+        md = models_by_id(msg->u.put.model);
+        if (!md)
+            return IT2N_PROTO_ERR_MODEL;
+        return do_put(l, seq, md, &msg->u.put);
+    case IT2N_MSG_COMMIT:
+        md = models_by_id(msg->u.model.model);
+        if (!md)
+            return IT2N_PROTO_ERR_MODEL;
+        rc = models_commit(md, &err);
+        if (rc)
+            return refuse(l, seq, rc, &err);
+        hold(l, seq);
+        return IT2N_LINK_DEFER;
+    case IT2N_MSG_RESET:
+        for (int k = 0; k < models_count(); k++) {
+            struct model *m = models_at(k);
+            if (msg->u.model.model == IT2N_MODEL_ALL || m->id == msg->u.model.model) {
+                if (models_clear(m))
+                    return IT2N_ERR_STATE;
+                md = m;
+            }
+        }
+        if (!md)
+            return IT2N_PROTO_ERR_MODEL;
+        hold(l, seq);
+        return IT2N_LINK_DEFER;
+    case IT2N_MSG_GET_STATUS:
+        md = models_by_id(msg->u.model.model);
+        if (!md)
+            return IT2N_PROTO_ERR_MODEL;
+        rsp.type = IT2N_MSG_STATUS;
+        rsp.u.status.re = seq;
+        rsp.u.status.model = (uint8_t)md->id;
+        rsp.u.status.state = (uint8_t)model_state(md);
+        rsp.u.status.n = md->ds.n;
+        rsp.u.status.m = md->ds.m;
+        rsp.u.status.flags = md->ds.flags;
+        rsp.u.status.missing = (uint16_t)it2n_dataset_missing(&md->ds);
+        rsp.u.status.generation = md->gen;
+        rsp.u.status.last_error = (int16_t)md->last_err.code;
+        return respond(l, seq, &rsp);
+    case IT2N_MSG_QUERY: {
+        it2n_point pt;
+        md = models_by_id(msg->u.query.model);
+        if (!md)
+            return IT2N_PROTO_ERR_MODEL;
+        if (md->state != IT2N_RS_SOLVED)
+            return IT2N_ERR_STATE;
+        rc = it2n_eval(&md->mdl, it2n_par_from_wire(msg->u.query.u), it2n_par_from_wire(msg->u.query.w), &pt);
+        if (rc)
+            return rc;
+        rsp.type = IT2N_MSG_QUERY_RESULT;
+        rsp.u.query_result.re = seq;
+        rsp.u.query_result.model = (uint8_t)md->id;
+        rsp.u.query_result.u = msg->u.query.u;
+        rsp.u.query_result.w = msg->u.query.w;
+        rsp.u.query_result.out_of_range = pt.out_of_range;
+        memcpy(rsp.u.query_result.v, pt.v, sizeof pt.v);
+        rsp.u.query_result.sum = pt.sum;
+        return respond(l, seq, &rsp);
+    }
+    case IT2N_MSG_LOCATE: {
+        it2n_locate_result lr;
+        md = models_by_id(msg->u.locate.model);
+        if (!md)
+            return IT2N_PROTO_ERR_MODEL;
+        if (md->state != IT2N_RS_SOLVED)
+            return IT2N_ERR_STATE;
+        rc = it2n_locate(&md->mdl, msg->u.locate.x, msg->u.locate.y, &lr);
+        if (rc)
+            return rc;
+        rsp.type = IT2N_MSG_LOCATE_RESULT;
+        rsp.u.locate_result.re = seq;
+        rsp.u.locate_result.model = (uint8_t)md->id;
+        rsp.u.locate_result.x = msg->u.locate.x;
+        rsp.u.locate_result.y = msg->u.locate.y;
+        for (int fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            it2n_locate_wire *w = &rsp.u.locate_result.fp[fp];
+            w->u = it2n_par_to_wire(lr.fp[fp].u);
+            w->w = it2n_par_to_wire(lr.fp[fp].w);
+            w->status = lr.fp[fp].status;
+            w->residual = lr.fp[fp].residual;
+            memcpy(w->v, lr.fp[fp].v, sizeof w->v);
+        }
+        return respond(l, seq, &rsp);
+    }
+    default:
+        return IT2N_PROTO_ERR_TYPE;
+    }
+}
+
+static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *nack)
+{
+    struct link *l = app;
+    (void)nack;
+    if (code)
+        log_debug("link %s: our %s (seq %u) not acknowledged: %s", l->cfg.name, it2n_msg_name(type), seq,
+                  it2n_proto_strerror(code));
+}
+
+static void feed(struct link *l, const uint8_t *buf, size_t n)
+{
+    l->backoff_ms = 500;
+    it2n_link_input(&l->pl, buf, n, now32());
+    /* If the data needed no commit the ACKs are already out. */
+}
+
+static void on_serial(void *arg, int fd, short revents)
+{
+    struct link *l = arg;
+    uint8_t buf[4096];
+    ssize_t n = read(fd, buf, sizeof buf);
+    if (n > 0) {
+        feed(l, buf, (size_t)n);
+        return;
+    }
+    if (n < 0 && (errno == EAGAIN || errno == EINTR))
+        return;
+    link_down(l, n == 0 ? "hang-up" : (revents & POLLHUP) ? "hang-up" : strerror(errno));
+}
+
+static void usb_rx(void *arg, const uint8_t *buf, size_t n)
+{
+    feed(arg, buf, n);
+}
+
+static void usb_gone(void *arg, const char *why)
+{
+    link_down(arg, why);
+}
+
+/* Retransmissions of our own frames (HELLO, responses). */
+static void on_poll(void *arg)
+{
+    struct link *l = arg;
+    it2n_link_poll(&l->pl, now32());
+    l->poll_timer = loop_add_timer(100, on_poll, l);
+}
+
+static void link_open(void *arg)
+{
+    struct link *l = arg;
+    it2n_link_cfg cfg;
+    l->retry_timer = 0;
+    if (l->cfg.type == CONF_LINK_SERIAL) {
+        l->fd = link_serial_open(l->cfg.device, l->cfg.baud);
+        if (l->fd < 0) {
+            link_down(l, strerror(errno));
+            return;
+        }
+    } else {
+        l->usb = link_usb_open(&l->cfg, usb_rx, usb_gone, l);
+        if (!l->usb) {
+            link_down(l, "USB device not present");
+            return;
+        }
+    }
+    memset(&cfg, 0, sizeof cfg);
+    l->os.write = os_write;
+    l->os.state = l;
+    cfg.out = &l->os;
+    cfg.on_rx = on_rx;
+    cfg.on_done = on_done;
+    cfg.app = l;
+    cfg.rto_ms = 300;
+    cfg.max_tries = 5;
+    cfg.first_seq = (uint16_t)loop_now_ms();
+    it2n_link_init(&l->pl, &cfg);
+    l->up = 1;
+    l->nheld = 0;
+    if (l->fd >= 0)
+        loop_add_fd(l->fd, POLLIN, on_serial, l);
+    l->poll_timer = loop_add_timer(100, on_poll, l);
+    log_notice("link %s: open (%s)", l->cfg.name, l->cfg.type == CONF_LINK_SERIAL ? l->cfg.device : "usb");
+}
+
+/* Hotplug arrival: retry waiting USB links now instead of after backoff. */
+static void usb_arrived(void *arg)
+{
+    (void)arg;
+    for (int k = 0; k < nlinks; k++) {
+        struct link *l = &links[k];
+        if (l->cfg.type == CONF_LINK_USB && !l->up && l->retry_timer) {
+            loop_cancel_timer(l->retry_timer);
+            l->retry_timer = loop_add_timer(0, link_open, l);
+        }
+    }
+}
+
+int links_start(const struct conf *c)
+{
+    backoff_max_ms = c->link_backoff_max * 1000;
+    links = calloc(CONF_MAX_LINKS, sizeof *links);
+    nlinks = 0;
+    if (!links)
+        return -1;
+    if (c->nlinks && link_usb_init())
+        log_warn("libusb unavailable: USB links will not open");
+    link_usb_on_arrival(usb_arrived, NULL);
+    for (int k = 0; k < c->nlinks; k++) {
+        struct link *l = &links[nlinks++];
+        l->cfg = c->link[k];
+        l->fd = -1;
+        l->backoff_ms = 500;
+        link_open(l);
+    }
+    return 0;
+}
+
+int links_reload(const struct conf *c)
+{
+    int same = c->nlinks == nlinks;
+    backoff_max_ms = c->link_backoff_max * 1000;
+    for (int k = 0; same && k < nlinks; k++)
+        same = !memcmp(&c->link[k], &links[k].cfg, sizeof c->link[k]);
+    if (same)
+        return 0;
+    /* Simple and safe: reopen all (unacknowledged frames are retransmitted
+     * by the instruments). */
+    log_notice("links changed; reopening");
+    links_stop();
+    return links_start(c);
+}
+
+void links_release(int commit_ok)
+{
+    for (int k = 0; k < nlinks; k++) {
+        struct link *l = &links[k];
+        for (int h = 0; h < l->nheld; h++)
+            it2n_link_complete(&l->pl, l->held[h], commit_ok ? 0 : IT2N_ERR_STATE, NULL);
+        l->nheld = 0;
+    }
+}
+
+void links_stop(void)
+{
+    for (int k = 0; k < nlinks; k++) {
+        struct link *l = &links[k];
+        if (l->retry_timer)
+            loop_cancel_timer(l->retry_timer);
+        if (l->poll_timer)
+            loop_cancel_timer(l->poll_timer);
+        if (l->fd >= 0) {
+            loop_del_fd(l->fd);
+            close(l->fd);
+        }
+        if (l->usb)
+            link_usb_close(l->usb);
+    }
+    free(links);
+    links = NULL;
+    nlinks = 0;
+    link_usb_exit();
+}

@@ -388,7 +388,7 @@ static int write_upload(struct model *md, const struct mb_opts *o, unsigned addr
         vals[IT2N_CH_T + k] = from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
     }
 #undef UP
-    rc = models_put(md, i, j, fp, vals, &err);
+    rc = models_put(md, i, j, fp, vals, true, &err);
     if (rc)
         return map_core_err(rc);
     memcpy(md->upload, v, sizeof md->upload);

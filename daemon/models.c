@@ -157,12 +157,22 @@ int models_clear(struct model *md)
 }
 
 int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
-               const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
+               const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err)
 {
-    struct model_rec rec = { .op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp };
+    struct model_rec rec = { .op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp, .replace = replace };
     int rc;
     memcpy(rec.vals, vals, sizeof rec.vals);
 
+    if (!replace && i <= md->ds.n && j <= md->ds.m && fp < IT2N_FP_COUNT &&
+        (md->ds.present[i][j] & (1u << fp))) {
+        memset(err, 0, sizeof *err);
+        err->code = IT2N_ERR_DUPLICATE;
+        err->i = (int16_t)i;
+        err->j = (int16_t)j;
+        err->fp = (int8_t)fp;
+        err->ch = -1;
+        return IT2N_ERR_DUPLICATE;
+    }
     if (md->state == IT2N_RS_SOLVED) {
         /* Incremental: the core's update is atomic on error. Keep a copy
          * only to undo a journal failure. */
@@ -267,7 +277,7 @@ int models_apply(const struct model_rec *rec, it2n_errinfo *err)
         rc = models_configure(md, rec->n, rec->m, rec->flags, err);
         break;
     case MOP_POINT:
-        rc = models_put(md, rec->i, rec->j, rec->fp, rec->vals, err);
+        rc = models_put(md, rec->i, rec->j, rec->fp, rec->vals, rec->replace, err);
         break;
     case MOP_COMMIT:
         rc = models_commit(md, err);
@@ -300,7 +310,7 @@ int models_preload_paper(struct model *md)
         for (int c = 0; c < 5 && rc == IT2N_OK; c++)
             rc = it2n_parse_val(r->val[c], strlen(r->val[c]), &v[ch[c]]);
         if (rc == IT2N_OK)
-            rc = models_put(md, r->i, r->j, (unsigned)fp, v, &err);
+            rc = models_put(md, r->i, r->j, (unsigned)fp, v, false, &err);
     }
     replaying = 0;
     md->points_rx = 0;

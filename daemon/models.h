@@ -36,6 +36,7 @@ struct model_rec {
     unsigned n, m, flags;              /* MOP_CONFIG */
     unsigned i, j, fp;                 /* MOP_POINT  */
     it2n_val vals[IT2N_CH_COUNT];      /* MOP_POINT  */
+    bool replace;                      /* MOP_POINT  */
 };
 
 /* Called for every accepted change; non-zero return rejects it (e.g. the
@@ -61,8 +62,9 @@ int models_preload_paper(struct model *md);
 /* Operations. Return IT2N_OK or a negative it2n error code; err filled. A
  * journal failure returns IT2N_ERR_STATE with nothing changed. */
 int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err);
+/* replace false: an entry already present fails with IT2N_ERR_DUPLICATE. */
 int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
-               const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err);
+               const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err);
 int models_commit(struct model *md, it2n_errinfo *err);
 int models_clear(struct model *md);
 

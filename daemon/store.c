@@ -79,7 +79,7 @@ static size_t encode_payload(const struct model_rec *r, uint8_t *p)
     case MOP_POINT:
         p[n++] = (uint8_t)r->i;
         p[n++] = (uint8_t)r->j;
-        p[n++] = (uint8_t)r->fp;
+        p[n++] = (uint8_t)(r->fp | (r->replace ? 0x80u : 0u));
         for (int c = 0; c < IT2N_CH_COUNT; c++) {
             put64(p + n, (uint64_t)r->vals[c]);
             n += 8;
@@ -111,7 +111,8 @@ static int decode_payload(int type, const uint8_t *p, size_t len, struct model_r
             return -1;
         r->i = p[2];
         r->j = p[3];
-        r->fp = p[4];
+        r->fp = p[4] & 0x7Fu;
+        r->replace = (p[4] & 0x80u) != 0;
         for (int c = 0; c < IT2N_CH_COUNT; c++)
             r->vals[c] = (it2n_val)get64(p + 5 + 8 * c);
         return 0;
@@ -153,6 +154,19 @@ int store_append(void *arg, const struct model_rec *rec)
 int store_pending(void)
 {
     return qrecs;
+}
+
+struct store_mark store_mark(void)
+{
+    struct store_mark m = { qlen, qrecs, seq };
+    return m;
+}
+
+void store_rollback(struct store_mark m)
+{
+    qlen = m.len;
+    qrecs = m.recs;
+    seq = m.seq;
 }
 
 static int write_all(int fd, const uint8_t *p, size_t len)

@@ -11,6 +11,7 @@
 #ifndef IT2ND_STORE_H
 #define IT2ND_STORE_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "models.h"
@@ -29,6 +30,15 @@ int store_commit(void);
 
 /* Records queued and not yet committed. */
 int store_pending(void);
+
+/* Drop records queued after a mark (a batch that failed half-way). */
+struct store_mark {
+    size_t len;
+    int recs;
+    uint64_t seq;
+};
+struct store_mark store_mark(void);
+void store_rollback(struct store_mark m);
 
 /* Write a snapshot of all models, then start an empty WAL. 0 or -1. */
 int store_snapshot(void);

@@ -24,6 +24,10 @@ $(SIM_PLC): tests/sim/plc.c tests/sim/simcommon.h $(CLI_CSV_OBJ) $(CORE_LIB)
 	@mkdir -p $(@D)
 	$(CC) $(SIM_CFLAGS) $< -o $@ $(CLI_CSV_OBJ) $(CORE_LIB) $(DAEMON_LIBS)
 
+$(SIM_INSTR): tests/sim/instrument.c tests/sim/simcommon.h $(CLI_CSV_OBJ) $(PROTO_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(SIM_CFLAGS) $< -o $@ $(CLI_CSV_OBJ) $(PROTO_LIB) $(CORE_LIB) -lutil
+
 SIM_PTY := $(BUILD)/tests/sim/ptybridge
 $(SIM_PTY): tests/sim/ptybridge.c
 	@mkdir -p $(@D)
@@ -43,7 +47,7 @@ daemon-regdoc: $(GEN_REGISTERS)
 	  { echo "docs/registers.md is stale: run 'make docs/registers.md'" >&2; exit 1; }
 	@echo "docs/registers.md is current"
 
-daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY)
+daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR)
 	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) INSTR=$(SIM_INSTR) PTY=$(SIM_PTY) \
 	  timeout 300 $(DT)/e2e.sh
 

@@ -36,7 +36,7 @@ static void put(struct model *md, unsigned i, unsigned j, int x, int y, int t)
     v[IT2N_CH_X] = (it2n_val)x * IT2N_VAL_ONE;
     v[IT2N_CH_Y] = (it2n_val)y * IT2N_VAL_ONE;
     v[IT2N_CH_T] = (it2n_val)t * IT2N_VAL_ONE / 10;
-    assert_int_equal(models_put(md, i, j, IT2N_FP_D, v, &err), IT2N_OK);
+    assert_int_equal(models_put(md, i, j, IT2N_FP_D, v, true, &err), IT2N_OK);
 }
 
 static void path(char *buf, size_t size, const char *name)

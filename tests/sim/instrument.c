@@ -1,0 +1,279 @@
+/*
+ * instrument — simulated instrument for the daemon's end-to-end tests:
+ * streams a CSV data set as HELLO, CONFIGURE, PUT batches and COMMIT with
+ * the protocol/ reliable link, over its own pty (the daemon opens the
+ * slave through a symlink, like /dev/serial/by-id/...), with faults:
+ *
+ *   instrument --link PATH --csv FILE [--model ID] [--batch K] [--replace]
+ *              [--garbage PCT] [--drop PCT] [--dup PCT] [--seed S]
+ *              [--hangup-after N] [--ack-log FILE] [--timeout S] [--no-configure]
+ *
+ *   --garbage  PCT of frames preceded by random bytes (and a delimiter)
+ *   --drop     PCT of frames never written (the link retransmits)
+ *   --dup      PCT of frames written twice (the receiver must apply once)
+ *   --hangup-after N  close the pty once N entries are ACKed (exit 4)
+ *   --ack-log  after every ACKed PUT, the total of ACKed entries (a line)
+ * Exit: 0 everything ACKed, 1 NACK, 2 usage/data, 3 timeout/I-O, 4 hang-up.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <pty.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "it2n_link.h"
+#include "simcommon.h"
+
+static int master = -1;
+static unsigned pct_garbage, pct_drop, pct_dup;
+static uint32_t rng = 12345;
+static uint8_t frame[IT2N_FRAME_MAX_WIRE + 16];
+static size_t flen;
+static FILE *acklog;
+static unsigned acked, nack_code_seen;
+static uint8_t put_count[65536];
+
+static uint32_t rnd(void)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 17;
+    rng ^= rng << 5;
+    return rng;
+}
+
+static uint32_t now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint32_t)((uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u);
+}
+
+static void raw_write(const uint8_t *p, size_t n)
+{
+    while (n) {
+        ssize_t w = write(master, p, n);
+        if (w < 0 && (errno == EAGAIN || errno == EINTR)) {
+            usleep(1000);
+            continue;
+        }
+        if (w <= 0)
+            return;
+        p += w;
+        n -= (size_t)w;
+    }
+}
+
+/* Collect a whole frame (ends with 0x00), then apply the faults. */
+static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
+{
+    (void)s;
+    if (flen + len > sizeof frame)
+        flen = 0;
+    memcpy(frame + flen, buf, len);
+    flen += len;
+    if (frame[flen - 1] != 0)
+        return 0;
+    if (rnd() % 100 < pct_garbage) {
+        uint8_t g[24];
+        size_t n = 1 + rnd() % 20;
+        for (size_t k = 0; k < n; k++)
+            g[k] = (uint8_t)(1 + rnd() % 255);
+        g[n] = 0;
+        raw_write(g, n + 1);
+    }
+    if (rnd() % 100 >= pct_drop) {
+        raw_write(frame, flen);
+        if (rnd() % 100 < pct_dup)
+            raw_write(frame, flen);
+    }
+    flen = 0;
+    return 0;
+}
+
+static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
+{
+    (void)app;
+    (void)seq;
+    (void)msg;
+    return 0; /* the daemon's HELLO and responses: ACK */
+}
+
+static int failed;
+
+static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *nack)
+{
+    (void)app;
+    if (code == 0) {
+        if (type == IT2N_MSG_PUT) {
+            acked += put_count[seq];
+            if (acklog) {
+                fprintf(acklog, "%u\n", acked);
+                fflush(acklog);
+            }
+        }
+        return;
+    }
+    fprintf(stderr, "instrument: %s seq %u refused: %d (%s)", it2n_msg_name(type), seq, code,
+            it2n_proto_strerror(code));
+    if (nack)
+        fprintf(stderr, " at i %d j %d fp %d ch %d", nack->i, nack->j, nack->fp, nack->ch);
+    fputc('\n', stderr);
+    nack_code_seen = 1;
+    failed = code == IT2N_PROTO_ERR_TIMEOUT ? 3 : 1;
+}
+
+static int make_link(const char *path)
+{
+    char name[128], tmp[512];
+    int slave;
+    struct termios t;
+    if (openpty(&master, &slave, name, NULL, NULL))
+        return -1;
+    tcgetattr(slave, &t);
+    cfmakeraw(&t);
+    tcsetattr(slave, TCSANOW, &t);
+    fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK);
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    unlink(tmp);
+    if (symlink(name, tmp) || rename(tmp, path))
+        return -1;
+    /* slave stays open: the master then never reports a hang-up while the
+     * daemon is between opens. */
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    const char *link_path = NULL, *csv = NULL;
+    unsigned model = 1, batch = 4, replace = 0, hangup_after = 0, timeout_s = 30, configure = 1;
+    static it2n_dataset ds;
+    static it2n_link l;
+    it2n_ostream os = { os_write, NULL };
+    it2n_link_cfg cfg;
+    for (int k = 1; k < argc; k++) {
+        const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
+        if (!strcmp(a, "--replace")) { replace = 1; continue; }
+        if (!strcmp(a, "--no-configure")) { configure = 0; continue; }
+        if (!v) { fprintf(stderr, "instrument: %s needs a value\n", a); return 2; }
+        k++;
+        if (!strcmp(a, "--link")) link_path = v;
+        else if (!strcmp(a, "--csv")) csv = v;
+        else if (!strcmp(a, "--model")) model = (unsigned)atoi(v);
+        else if (!strcmp(a, "--batch")) batch = (unsigned)atoi(v);
+        else if (!strcmp(a, "--garbage")) pct_garbage = (unsigned)atoi(v);
+        else if (!strcmp(a, "--drop")) pct_drop = (unsigned)atoi(v);
+        else if (!strcmp(a, "--dup")) pct_dup = (unsigned)atoi(v);
+        else if (!strcmp(a, "--seed")) rng = (uint32_t)strtoul(v, NULL, 0) | 1u;
+        else if (!strcmp(a, "--hangup-after")) hangup_after = (unsigned)atoi(v);
+        else if (!strcmp(a, "--timeout")) timeout_s = (unsigned)atoi(v);
+        else if (!strcmp(a, "--ack-log")) acklog = fopen(v, "w");
+        else { fprintf(stderr, "instrument: unknown option %s\n", a); return 2; }
+    }
+    if (!link_path || !csv || batch < 1 || batch > IT2N_PUT_MAX)
+        return 2;
+    sim_load_csv(csv, 0, &ds);
+    if (make_link(link_path)) {
+        perror("instrument: pty");
+        return 3;
+    }
+    memset(&cfg, 0, sizeof cfg);
+    cfg.out = &os;
+    cfg.on_rx = on_rx;
+    cfg.on_done = on_done;
+    cfg.rto_ms = 150;
+    cfg.max_tries = 100;
+    cfg.first_seq = (uint16_t)(rnd() & 0xFFFF);
+    it2n_link_init(&l, &cfg);
+
+    unsigned step = configure ? 0 : 2, i = 0, j = 0, fp = 0;
+    uint32_t start = now_ms();
+    while (!failed) {
+        uint32_t now = now_ms();
+        it2n_msg m;
+        if (now - start > timeout_s * 1000u) {
+            fprintf(stderr, "instrument: timeout, %u entries ACKed\n", acked);
+            return 3;
+        }
+        while (step < 4 && it2n_link_can_send(&l)) {
+            memset(&m, 0, sizeof m);
+            if (step == 0) {
+                m.type = IT2N_MSG_HELLO;
+                m.u.hello.version_min = m.u.hello.version_max = IT2N_PROTO_VERSION;
+                m.u.hello.max_degree = IT2N_MAX_DEGREE;
+                m.u.hello.window = IT2N_PROTO_WINDOW;
+                m.u.hello.caps = IT2N_CAP_INSTRUMENT;
+                m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
+                m.u.hello.max_models = 1;
+                memcpy(m.u.hello.node, "sim-instrument", 14);
+                step = 1;
+            } else if (step == 1) {
+                m.type = IT2N_MSG_CONFIGURE;
+                m.u.configure.model = (uint8_t)model;
+                m.u.configure.n = ds.n;
+                m.u.configure.m = ds.m;
+                m.u.configure.flags = ds.flags;
+                step = 2;
+            } else if (step == 2) {
+                m.type = IT2N_MSG_PUT;
+                m.u.put.model = (uint8_t)model;
+                m.u.put.flags = replace ? IT2N_PUT_REPLACE : 0;
+                while (i <= ds.n && m.u.put.count < batch) {
+                    if (ds.present[i][j] & (1u << fp)) {
+                        it2n_put_entry *e = &m.u.put.e[m.u.put.count++];
+                        e->i = (uint8_t)i;
+                        e->j = (uint8_t)j;
+                        e->fp = (uint8_t)fp;
+                        memcpy(e->vals, ds.values[i][j][fp], sizeof e->vals);
+                    }
+                    if (++fp == IT2N_FP_COUNT) {
+                        fp = 0;
+                        if (++j > ds.m) {
+                            j = 0;
+                            i++;
+                        }
+                    }
+                }
+                if (m.u.put.count == 0) {
+                    step = 3;
+                    continue;
+                }
+            } else {
+                m.type = IT2N_MSG_COMMIT;
+                m.u.model.model = (uint8_t)model;
+                step = 4;
+            }
+            int32_t seq = it2n_link_send(&l, &m, now);
+            if (seq < 0) {
+                fprintf(stderr, "instrument: send: %s\n", it2n_proto_strerror((int)seq));
+                return 2;
+            }
+            if (m.type == IT2N_MSG_PUT)
+                put_count[seq] = m.u.put.count;
+        }
+        if (step == 4 && it2n_link_pending(&l) == 0)
+            break;
+        if (hangup_after && acked >= hangup_after) {
+            close(master);
+            printf("instrument: hung up after %u ACKed entries\n", acked);
+            return 4;
+        }
+        struct pollfd p = { master, POLLIN, 0 };
+        uint32_t to = it2n_link_next_timeout(&l, now);
+        poll(&p, 1, to > 50 ? 50 : (int)to);
+        uint8_t buf[2048];
+        ssize_t n = read(master, buf, sizeof buf);
+        if (n > 0)
+            it2n_link_input(&l, buf, (size_t)n, now_ms());
+        it2n_link_poll(&l, now_ms());
+    }
+    if (failed)
+        return failed;
+    printf("instrument: %s streamed, %u entries ACKed, link: %u frames, %u retransmitted\n", csv, acked,
+           l.stats.tx_frames, l.stats.tx_retx);
+    return 0;
+}
