@@ -41,6 +41,7 @@ static void usage(FILE *f)
 
 typedef struct fd_state {
     int fd;
+    int err; /* errno of the last failure, 0 = end of stream */
 } fd_state;
 
 static int fd_write(it2n_ostream *s, const uint8_t *buf, size_t len)
@@ -68,8 +69,10 @@ static int fd_read(it2n_istream *s, uint8_t *buf, size_t len)
     ssize_t n = read(f->fd, buf, len);
     if (n < 0 && (errno == EAGAIN || errno == EINTR))
         return 0;
-    if (n <= 0)
+    if (n <= 0) {
+        f->err = n < 0 ? errno : 0;
         return -1; /* error or end of stream */
+    }
     return (int)n;
 }
 
@@ -295,7 +298,7 @@ int main(int argc, char **argv)
         return 2;
     }
 
-    fd_state ofd = {STDOUT_FILENO}, ifd = {STDIN_FILENO};
+    fd_state ofd = {STDOUT_FILENO, 0}, ifd = {STDIN_FILENO, 0};
     if (device != NULL) {
         ofd.fd = ifd.fd = open_device(device);
         if (ofd.fd < 0)
@@ -322,8 +325,12 @@ int main(int argc, char **argv)
     }
     if (st == SESSION_FAILED) {
         if (sess.fail_code == IT2N_PROTO_ERR_TIMEOUT || sess.fail_code == IT2N_PROTO_ERR_STREAM) {
-            fprintf(stderr, "it2n-instrument: %s (%s seq %u)\n", it2n_proto_strerror(sess.fail_code),
-                    it2n_msg_name(sess.fail_type) ? it2n_msg_name(sess.fail_type) : "-", sess.fail_seq);
+            if (sess.fail_code == IT2N_PROTO_ERR_STREAM)
+                fprintf(stderr, "it2n-instrument: reading %s: %s\n", device ? device : "stdin",
+                        ifd.err ? strerror(ifd.err) : "end of stream");
+            else
+                fprintf(stderr, "it2n-instrument: %s (%s seq %u)\n", it2n_proto_strerror(sess.fail_code),
+                        it2n_msg_name(sess.fail_type) ? it2n_msg_name(sess.fail_type) : "-", sess.fail_seq);
             return 3;
         }
         const it2n_msg_nack *k = &sess.nack;
