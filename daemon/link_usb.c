@@ -125,6 +125,24 @@ int link_usb_match(const struct conf_link *c, uint16_t vid, uint16_t pid)
     return c->vid == vid && c->pid == pid;
 }
 
+int link_usb_count(const struct conf_link *c)
+{
+    libusb_device **list;
+    int found = 0;
+    ssize_t n;
+    if (!ctx)
+        return -1;
+    n = libusb_get_device_list(ctx, &list);
+    for (ssize_t k = 0; k < n; k++) {
+        struct libusb_device_descriptor d;
+        if (libusb_get_device_descriptor(list[k], &d) == 0 && link_usb_match(c, d.idVendor, d.idProduct))
+            found++;
+    }
+    if (n >= 0)
+        libusb_free_device_list(list, 1);
+    return found;
+}
+
 static void fail(struct usb_link *u, const char *why)
 {
     if (u->dead)

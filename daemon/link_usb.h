@@ -37,4 +37,7 @@ void link_usb_close(struct usb_link *u);
  * checked by the caller). */
 int link_usb_match(const struct conf_link *c, uint16_t vid, uint16_t pid);
 
+/* Devices currently enumerated that match c's VID:PID, or -1. */
+int link_usb_count(const struct conf_link *c);
+
 #endif

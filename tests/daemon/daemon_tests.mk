@@ -33,13 +33,21 @@ $(SIM_PTY): tests/sim/ptybridge.c
 	@mkdir -p $(@D)
 	$(CC) $(HOST_CFLAGS) $< -o $@ -lutil
 
+# libusb link against umockdev-emulated devices (enumeration, hotplug).
+DT_USB := $(DTB)/test_usb_umockdev
+$(DT_USB): $(DT)/test_usb_umockdev.c daemon/link_usb.c daemon/loop.c daemon/log.c $(DAEMON_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(DAEMON_CFLAGS) $(shell pkg-config --cflags umockdev-1.0 2>/dev/null) $< daemon/link_usb.c \
+	  daemon/loop.c daemon/log.c -o $@ $(shell pkg-config --libs umockdev-1.0 libusb-1.0 2>/dev/null)
+
 DT_UNIT_BINS := $(DT_UNITS:%=$(DTB)/%) $(DT_UNITS:%=$(DTB)/san/%)
 
 .PHONY: daemon-unit daemon-regdoc daemon-e2e daemon-cppcheck daemon-systemd
 TEST_TARGETS += daemon-unit daemon-regdoc daemon-e2e daemon-cppcheck daemon-systemd
 
-daemon-unit: $(DT_UNIT_BINS)
+daemon-unit: $(DT_UNIT_BINS) $(DT_USB)
 	@set -e; for b in $(DT_UNIT_BINS); do echo "== $$b"; $$b; done
+	@echo "== $(DT_USB) (umockdev-wrapper)"; timeout 60 umockdev-wrapper $(DT_USB)
 
 # docs/registers.md must be exactly what the generator prints.
 daemon-regdoc: $(GEN_REGISTERS)
