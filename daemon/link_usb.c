@@ -21,7 +21,6 @@ struct usb_link {
     usb_rx_fn rx;
     usb_gone_fn gone;
     void *arg;
-    uint16_t vid, pid;
 };
 
 static libusb_context *ctx;
@@ -202,6 +201,37 @@ static int find_endpoints(libusb_device *dev, uint8_t *in, uint8_t *out)
     return *in && *out ? 0 : -1;
 }
 
+/* Wrap a claimed handle and start the bulk IN transfer; NULL on failure
+ * (the handle is then released and closed). */
+static struct usb_link *start(libusb_device_handle *h, uint8_t ein, uint8_t eout, usb_rx_fn rx, usb_gone_fn gone,
+                              void *arg)
+{
+    struct usb_link *u = calloc(1, sizeof *u);
+    struct libusb_transfer *t = libusb_alloc_transfer(0);
+    if (!u || !t) {
+        free(u);
+        if (t)
+            libusb_free_transfer(t);
+        libusb_release_interface(h, 0);
+        libusb_close(h);
+        return NULL;
+    }
+    u->h = h;
+    u->ep_in = ein;
+    u->ep_out = eout;
+    u->rx = rx;
+    u->gone = gone;
+    u->arg = arg;
+    u->in = t;
+    libusb_fill_bulk_transfer(t, h, ein, u->inbuf, IN_SIZE, in_done, u, 0);
+    if (libusb_submit_transfer(t)) {
+        link_usb_close(u);
+        return NULL;
+    }
+    u->in_busy = 1;
+    return u;
+}
+
 struct usb_link *link_usb_open(const struct conf_link *c, usb_rx_fn rx, usb_gone_fn gone, void *arg)
 {
     libusb_device **list;
@@ -242,29 +272,11 @@ struct usb_link *link_usb_open(const struct conf_link *c, usb_rx_fn rx, usb_gone
             libusb_close(h);
             continue;
         }
-        u = calloc(1, sizeof *u);
+        u = start(h, ein, eout, rx, gone, arg);
         if (!u) {
-            libusb_release_interface(h, 0);
-            libusb_close(h);
+            log_warn("link %s: usb %04x:%04x: bulk IN submit failed", c->name, d.idVendor, d.idProduct);
             break;
         }
-        u->h = h;
-        u->ep_in = ein;
-        u->ep_out = eout;
-        u->rx = rx;
-        u->gone = gone;
-        u->arg = arg;
-        u->vid = d.idVendor;
-        u->pid = d.idProduct;
-        u->in = libusb_alloc_transfer(0);
-        libusb_fill_bulk_transfer(u->in, h, ein, u->inbuf, IN_SIZE, in_done, u, 0);
-        if (!u->in || libusb_submit_transfer(u->in)) {
-            log_warn("link %s: usb bulk IN submit failed", c->name);
-            link_usb_close(u);
-            u = NULL;
-            break;
-        }
-        u->in_busy = 1;
         log_info("link %s: usb %04x:%04x serial '%s', endpoints in 0x%02x out 0x%02x", c->name, d.idVendor,
                  d.idProduct, serial, ein, eout);
     }
