@@ -33,7 +33,9 @@ read -r RTU_A RTU_B < "$T/pty"
 write_conf() { # extra lines on stdin
     {
         printf '[daemon]\nstate_dir = %s\nsnapshot_interval = 3600\nlink_backoff_max = 1\n' "$STATE"
-        printf '[modbus]\ntcp_listen = 127.0.0.1:%s\n' "$PORT"
+        printf '[modbus]\ntcp_listen = 127.0.0.1:%s\nbyte_timeout = 400\n' "$PORT"
+        python3 -c 'import socket; s=socket.socket(socket.AF_INET6); s.bind(("::1", 0))' 2>/dev/null \
+            && printf 'tcp_listen = [::1]:%s\n' "$PORT"
         printf '[rtu:bus]\ndevice = %s\nbaud = 19200\n' "$RTU_A"
         cat
     } > "$T/it2nd.conf"
@@ -87,10 +89,15 @@ models_conf | write_conf
 python3 "$ROOT/tests/daemon/notify_listen.py" "$T/notify.sock" "$T/notify.log" &
 NPID=$!
 for _ in $(seq 50); do [ -S "$T/notify.sock" ] && break; sleep 0.05; done
-NOTIFY_SOCKET=$T/notify.sock start "$IT2ND_SAN"
-sleep 0.2
+NOTIFY_SOCKET=$T/notify.sock WATCHDOG_USEC=200000 start "$IT2ND_SAN"
+sleep 0.3
 grep -q '^READY=1$' "$T/notify.log" && grep -q '^STATUS=.*models solved' "$T/notify.log" \
-    && ok "sd_notify READY=1 and STATUS= received (sanitizer build)" || fail "sd_notify: $(cat "$T/notify.log")"
+    && [ "$(grep -c '^WATCHDOG=1$' "$T/notify.log")" -ge 2 ] \
+    && ok "sd_notify READY=1, STATUS=, WATCHDOG=1 every WATCHDOG_USEC/2 (sanitizer build)" \
+    || fail "sd_notify: $(cat "$T/notify.log")"
+if python3 -c 'import socket; s=socket.socket(socket.AF_INET6); s.bind(("::1", 0))' 2>/dev/null; then
+    "$PLC" --tcp "::1:$PORT" read 0 2 >/dev/null && ok "Modbus TCP over IPv6 [::1]" || fail "IPv6 listener"
+else echo "e2e: skip: no IPv6 loopback here"; fi
 
 plc verify "$PAPER" 6 && ok "paper data: FC23 queries, grid, control nets match the core" || fail "verify paper"
 plc exceptions && ok "exception codes; rejected writes change nothing" || fail "exceptions"
@@ -107,7 +114,10 @@ python3 - "$PORT" <<'PY' &
 import socket, sys, time
 s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
 s.sendall(bytes([0, 1, 0, 0, 0, 6, 1, 3]))  # 8 of 12 bytes
-time.sleep(1.5)
+s.settimeout(3)
+t0 = time.time()
+closed = s.recv(16) == b""   # the daemon closes it after byte_timeout
+sys.exit(0 if closed and 0.3 < time.time() - t0 < 2.5 else 1)
 PY
 HALF=$!
 sleep 0.1
@@ -115,7 +125,24 @@ t0=$(date +%s%N)
 plc read 0 4 >/dev/null && t1=$(date +%s%N) && [ $(( (t1 - t0) / 1000000 )) -lt 500 ] \
     && ok "half-sent request on another connection does not block ($(( (t1 - t0) / 1000000 )) ms)" \
     || fail "head-of-line blocking"
-wait $HALF
+wait $HALF && ok "half-sent request closed after byte_timeout" || fail "byte timeout"
+
+# max_clients (32): the 33rd..40th connections are refused, the rest served.
+python3 - "$PORT" <<'PY' && ok "max_clients: 32 served, 8 refused" || fail "max_clients"
+import socket, struct, sys, time
+port = int(sys.argv[1])
+socks = [socket.create_connection(("127.0.0.1", port)) for _ in range(40)]
+time.sleep(0.2)
+served = 0
+for k, s in enumerate(socks):
+    s.settimeout(2)
+    try:
+        s.sendall(struct.pack(">HHHBBHH", k, 0, 6, 1, 3, 0, 1))
+        served += len(s.recv(64)) == 11
+    except OSError:
+        pass
+sys.exit(0 if served == 32 else 1)
+PY
 
 # Generated data sets from a PLC upload: z model, type-1 model.
 plc --unit 4 upload "$ROOT/examples/z_3x3.csv" && plc --unit 4 verify "$ROOT/examples/z_3x3.csv" 4 \
