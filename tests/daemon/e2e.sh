@@ -47,6 +47,7 @@ models_conf() {
     printf '[model:3]\nunit_id = 3\nn = 3\nm = 2\ntype1 = yes\n'
     printf '[model:4]\nunit_id = 4\nn = 2\nm = 2\nz = yes\n'
     printf '[model:5]\nunit_id = 5\nn = 3\nm = 3\n'
+    printf '[model:6]\nunit_id = 6\nn = 2\nm = 2\n'
     printf '[link:inst]\ntype = serial\ndevice = %s\nbaud = 115200\n' "$T/inst0"
 }
 instr() { timeout 60 "$INSTR" --link "$T/inst0" "$@"; }
@@ -150,6 +151,13 @@ plc --unit 4 upload "$ROOT/examples/z_3x3.csv" && plc --unit 4 verify "$ROOT/exa
 plc --unit 3 upload "$ROOT/examples/type1_4x3.csv" && plc --unit 3 verify "$ROOT/examples/type1_4x3.csv" 4 \
     && ok "type-1 model uploaded over Modbus and verified" || fail "type1 upload"
 
+# Generated data sets: degrees 5x4 uploaded by a PLC (reconfigures model 6),
+# 6x6 streamed by the instrument below.
+python3 "$ROOT/tests/daemon/gen_dataset.py" 5 4 11 2 > "$T/gen54.csv"
+python3 "$ROOT/tests/daemon/gen_dataset.py" 6 6 12 > "$T/gen66.csv"
+plc --unit 6 upload "$T/gen54.csv" >/dev/null && plc --unit 6 verify "$T/gen54.csv" 5 >/dev/null \
+    && ok "generated 5x4 data set: reconfigured, uploaded and verified over Modbus" || fail "generated 5x4"
+
 # mbpoll reads exactly as docs/registers.md shows.
 out=$(mbpoll -m tcp -a 1 -0 -r 0 -c 26 -t 3 -1 127.0.0.1 -p $PORT 2>&1)
 echo "$out" | grep -q '^\[1\]:[[:space:]]*2$' && echo "$out" | grep -q '^\[6\]:[[:space:]]*112$' \
@@ -170,6 +178,8 @@ instr --csv "$PAPER" --model 5 --garbage 15 --drop 15 --dup 15 --seed 7 \
     && plc --unit 5 verify "$PAPER" 4 >/dev/null \
     && ok "instrument with garbage/drops/duplicates streamed the paper data; Modbus matches the core" \
     || fail "instrument stream with faults"
+instr --csv "$T/gen66.csv" --model 6 --drop 10 --seed 3 >/dev/null && plc --unit 6 verify "$T/gen66.csv" 4 >/dev/null \
+    && ok "generated 6x6 data set streamed by the instrument (CONFIGURE to 6x6) and verified" || fail "generated 6x6 stream"
 # Interleaved: the instrument re-sends every point (REPLACE, incremental
 # updates) while a PLC polls the same model and another one.
 gen0=$(plc --unit 5 read 7 2 | awk '{print $1 * 65536 + $2}')
