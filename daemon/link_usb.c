@@ -18,6 +18,8 @@ struct usb_link {
     int in_busy;      /* IN transfer submitted, callback pending */
     int outs;         /* OUT transfers in flight                */
     int dead;
+    const char *why;  /* failure reason (static string) */
+    long gone_timer;
     usb_rx_fn rx;
     usb_gone_fn gone;
     void *arg;
@@ -142,12 +144,23 @@ int link_usb_count(const struct conf_link *c)
     return found;
 }
 
+/* Report the failure from the loop, not from inside libusb's event
+ * handling: the link then closes the device, which libusb does not allow
+ * from a transfer callback. */
+static void report_gone(void *arg)
+{
+    struct usb_link *u = arg;
+    u->gone_timer = 0;
+    u->gone(u->arg, u->why);
+}
+
 static void fail(struct usb_link *u, const char *why)
 {
     if (u->dead)
         return;
     u->dead = 1;
-    u->gone(u->arg, why);
+    u->why = why;
+    u->gone_timer = loop_add_timer(0, report_gone, u);
 }
 
 static void LIBUSB_CALL in_done(struct libusb_transfer *t)
@@ -316,6 +329,8 @@ void link_usb_close(struct usb_link *u)
     if (!u)
         return;
     u->dead = 1;
+    if (u->gone_timer)
+        loop_cancel_timer(u->gone_timer);
     if (u->in_busy)
         libusb_cancel_transfer(u->in);
     /* Bounded wait for the cancelled transfers' callbacks. */

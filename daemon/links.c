@@ -446,3 +446,11 @@ void links_stop(void)
     nlinks = 0;
     link_usb_exit();
 }
+
+int links_up(void)
+{
+    int up = 0;
+    for (int k = 0; k < nlinks; k++)
+        up += links[k].up;
+    return up;
+}

@@ -15,5 +15,7 @@ int links_reload(const struct conf *c);
 /* Send ACKs held for the WAL commit (commit_ok 0: NACK). */
 void links_release(int commit_ok);
 void links_stop(void);
+/* Links currently open (for STATUS= and tests). */
+int links_up(void);
 
 #endif

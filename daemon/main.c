@@ -135,8 +135,8 @@ static void send_status(void)
         solved += md->state == IT2N_RS_SOLVED;
     }
     snprintf(buf, sizeof buf,
-             "STATUS=%d/%d models solved, %d tcp clients, %u requests, %u points, %llu wal records",
-             solved, models_count(), mb_tcp_clients(), req, pts, (unsigned long long)st.records);
+             "STATUS=%d/%d models solved, %d tcp clients, %d links up, %u requests, %u points, %llu wal records",
+             solved, models_count(), mb_tcp_clients(), links_up(), req, pts, (unsigned long long)st.records);
     notify_send(buf);
 }
 

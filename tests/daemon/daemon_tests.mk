@@ -40,14 +40,21 @@ $(DT_USB): $(DT)/test_usb_umockdev.c daemon/link_usb.c daemon/loop.c daemon/log.
 	$(CC) $(DAEMON_CFLAGS) $(shell pkg-config --cflags umockdev-1.0 2>/dev/null) $< daemon/link_usb.c \
 	  daemon/loop.c daemon/log.c -o $@ $(shell pkg-config --libs umockdev-1.0 libusb-1.0 2>/dev/null)
 
+DT_USB_BULK := $(DTB)/test_usb_bulk
+$(DT_USB_BULK): $(DT)/test_usb_bulk.c $(DT_MODS) $(PROTO_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(DAEMON_CFLAGS) $(shell pkg-config --cflags umockdev-1.0 2>/dev/null) $< -o $@ $(DT_MODS) \
+	  $(PROTO_LIB) $(CORE_LIB) $(DAEMON_LIBS) $(shell pkg-config --libs umockdev-1.0 2>/dev/null) -lpthread
+
 DT_UNIT_BINS := $(DT_UNITS:%=$(DTB)/%) $(DT_UNITS:%=$(DTB)/san/%)
 
 .PHONY: daemon-unit daemon-regdoc daemon-e2e daemon-cppcheck daemon-systemd
 TEST_TARGETS += daemon-unit daemon-regdoc daemon-e2e daemon-cppcheck daemon-systemd
 
-daemon-unit: $(DT_UNIT_BINS) $(DT_USB)
+daemon-unit: $(DT_UNIT_BINS) $(DT_USB) $(DT_USB_BULK)
 	@set -e; for b in $(DT_UNIT_BINS); do echo "== $$b"; $$b; done
 	@echo "== $(DT_USB) (umockdev-wrapper)"; timeout 60 umockdev-wrapper $(DT_USB)
+	@echo "== $(DT_USB_BULK) (umockdev-wrapper)"; timeout 60 umockdev-wrapper $(DT_USB_BULK)
 
 # docs/registers.md must be exactly what the generator prints.
 daemon-regdoc: $(GEN_REGISTERS)

@@ -1,7 +1,7 @@
 /* test_usb_umockdev — the libusb link path against devices emulated by
  * umockdev (run under umockdev-wrapper): enumeration and VID:PID matching,
- * opening a matching device failing cleanly (umockdev has no usbdevfs
- * ioctls here, so claim/bulk transfers are NOT emulated), and hotplug
+ * opening a matching device failing cleanly (no usbdevfs ioctl handler
+ * here; test_usb_bulk.c has one and streams data), and hotplug
  * arrival reaching the daemon through its poll loop. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -96,7 +96,7 @@ int main(void)
     /* Matching device: umockdev provides no usbdevfs ioctls, so open or
      * claim fails; the link must report "not usable" and not crash. */
     struct usb_link *u = link_usb_open(&c, rx, gone, NULL);
-    printf("test_usb_umockdev: open of the emulated device %s (bulk transfers are not emulated)\n",
+    printf("test_usb_umockdev: open of the emulated device %s (no usbdevfs ioctls in this test; test_usb_bulk emulates them)\n",
            u ? "succeeded" : "refused cleanly");
     link_usb_close(u);
 
