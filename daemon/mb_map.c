@@ -8,6 +8,8 @@
 #include "it2n_regmap.h"
 
 _Static_assert(IT2N_DIM <= IT2N_REGMAP_DIM, "control-net stride of the map too small");
+_Static_assert(IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32 <= IT2N_REG_CTRL_END - IT2N_REG_CTRL,
+               "scratch buffer holds the largest block");
 _Static_assert(IT2N_FP_COUNT == IT2N_REGMAP_FP && IT2N_CH_COUNT == IT2N_REGMAP_CH,
                "map footprint/channel counts");
 
@@ -274,8 +276,24 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         if (models_grid(md, o->grid_rows, o->grid_cols) != IT2N_OK)
             return MBX_DEVICE_FAILURE;
         for (unsigned nd = 0; nd < nodes; nd++)
+            for (unsigned k = 0; k < 3; k++) {
+                sat = 0;
+                buf[nd * 3 + k] = (uint16_t)(int16_t)mbmap_scale(md->grid[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767,
+                                                                 32767, &sat);
+            }
+        return MBX_OK;
+    }
+    case IT2N_REG_GRID_F32: {
+        unsigned nodes = o->grid_rows * o->grid_cols;
+        if (to - b->start > nodes * 6u)
+            return MBX_ILLEGAL_ADDRESS;
+        if (md->state != IT2N_RS_SOLVED)
+            return MBX_BUSY;
+        if (models_grid(md, o->grid_rows, o->grid_cols) != IT2N_OK)
+            return MBX_DEVICE_FAILURE;
+        for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++)
-                buf[nd * 3 + k] = (uint16_t)md->grid[nd][k];
+                mbmap_put_f32(&buf[(nd * 3 + k) * 2], q24f(md->grid[nd][k]), o->word_order);
         return MBX_OK;
     }
     case IT2N_REG_CTRL: {
@@ -298,7 +316,7 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
 int mbmap_read(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
                unsigned count, uint16_t *out)
 {
-    static uint16_t buf[IT2N_REG_CTRL_END - IT2N_REG_CTRL];
+    static uint16_t buf[IT2N_REG_CTRL_END - IT2N_REG_CTRL]; /* the largest block */
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     int rc;
     if (!b)

@@ -11,7 +11,7 @@
 int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp)
 {
     memset(s, 0, sizeof *s);
-    s->map = modbus_mapping_new(0, 0, IT2N_REG_CTRL_END, IT2N_REG_CTRL_END);
+    s->map = modbus_mapping_new(0, 0, IT2N_REG_MAP_END, IT2N_REG_MAP_END);
     if (!s->map)
         return -1;
     s->ctx = ctx;
@@ -70,7 +70,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             return exception(s, md, req, MBX_ILLEGAL_VALUE);
         uint16_t *dst = fc == MODBUS_FC_READ_HOLDING_REGISTERS ? s->map->tab_registers
                                                                 : s->map->tab_input_registers;
-        if (addr + count > IT2N_REG_CTRL_END)
+        if (addr + count > IT2N_REG_MAP_END)
             return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
         rc = mbmap_read(md, &s->q, o, addr, count, dst + addr);
         break;

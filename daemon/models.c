@@ -322,21 +322,13 @@ struct grid_ctx {
     unsigned cols;
 };
 
-static int16_t memb16(it2n_val v)
-{
-    /* x10000, rounded half away from zero, saturated. */
-    int64_t s = v * 10000;
-    int64_t q = (s + (s >= 0 ? (IT2N_VAL_ONE / 2) : -(IT2N_VAL_ONE / 2))) / IT2N_VAL_ONE;
-    return (int16_t)(q > 32767 ? 32767 : q < -32767 ? -32767 : q);
-}
-
 static int grid_cb(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w, const it2n_point *pt)
 {
     struct grid_ctx *g = ctx;
     (void)u;
     (void)w;
     for (int k = 0; k < 3; k++)
-        g->md->grid[r * g->cols + c][k] = memb16(pt->v[IT2N_FP_D][IT2N_CH_T + k]);
+        g->md->grid[r * g->cols + c][k] = pt->v[IT2N_FP_D][IT2N_CH_T + k];
     return 0;
 }
 
@@ -346,12 +338,14 @@ int models_grid(struct model *md, unsigned rows, unsigned cols)
     int rc;
     if (md->state != IT2N_RS_SOLVED)
         return IT2N_ERR_STATE;
-    if (md->grid_valid && md->grid_gen == md->gen)
+    if (md->grid_valid && md->grid_gen == md->gen && md->grid_rows == rows && md->grid_cols == cols)
         return IT2N_OK;
     rc = it2n_sample(&md->mdl, rows, cols, grid_cb, &g);
     if (rc != IT2N_OK)
         return rc;
     md->grid_gen = md->gen;
+    md->grid_rows = rows;
+    md->grid_cols = cols;
     md->grid_valid = 1;
     return IT2N_OK;
 }

@@ -21,9 +21,11 @@ struct model {
     it2n_errinfo last_err;     /* code 0 = none                       */
     uint32_t points_rx, solves, requests, exceptions;
     uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I]; /* last upload */
-    /* Sample grid cache (D footprint T, I, F x10000), valid for grid_gen. */
-    int16_t grid[IT2N_REGMAP_GRID_MAX_NODES][3];
+    /* Sample grid cache (D footprint T, I, F, Q24), valid for grid_gen and
+     * the grid size it was computed for. */
+    it2n_val grid[IT2N_REGMAP_GRID_MAX_NODES][3];
     uint32_t grid_gen;
+    unsigned grid_rows, grid_cols;
     int grid_valid;
 };
 

@@ -114,6 +114,12 @@ static const it2n_regmap_field grid_fields[] = {
        "1024 + (r*cols + c)*3 + k. Only rows*cols nodes exist; reading past them answers 02."),
 };
 
+static const it2n_regmap_field grid_f32_fields[] = {
+    FN(IT2N_REG_GRID_F32, IT2N_REGMAP_GRID_MAX_NODES * 3u, 2u, IT2N_RT_F32, 1, "grid_f[r][c]", "1",
+       "T, I, F of footprint D at node (r, c) as float32 at 8192 + ((r*cols + c)*3 + k)*2. Only rows*cols "
+       "nodes exist; reading past them answers 02."),
+};
+
 static const it2n_regmap_field ctrl_fields[] = {
     FN(IT2N_REG_CTRL, IT2N_REGMAP_FP * IT2N_REGMAP_DIM * IT2N_REGMAP_DIM * IT2N_REGMAP_CH, 2u,
        IT2N_RT_F32, 1, "ctrl[fp][i][j][ch]", "coord / 1",
@@ -148,8 +154,12 @@ const it2n_regmap_block it2n_regmap_blocks[] = {
       "Precomputed sample grid (grid_rows x grid_cols, configured), refreshed on every generation. "
       "Answers 06 while the model is not solved.", grid_fields, NF(grid_fields) },
     { IT2N_REG_CTRL, IT2N_REG_CTRL_END, IT2N_RA_RO, 0u, "control_net",
-      "Solved control nets, float32. Answers 06 while the model is not solved.",
+      "Solved control nets, float32 only: control points of memberships are not bounded to [0, 1], so a "
+      "x10000 integer view would saturate. Answers 06 while the model is not solved.",
       ctrl_fields, NF(ctrl_fields) },
+    { IT2N_REG_GRID_F32, IT2N_REG_GRID_F32_END, IT2N_RA_RO, 0u, "sample_grid_f32",
+      "The sample grid again, float32 view (same nodes and refresh as sample_grid). "
+      "Answers 06 while the model is not solved.", grid_f32_fields, NF(grid_f32_fields) },
 };
 
 const size_t it2n_regmap_nblocks = NF(it2n_regmap_blocks);

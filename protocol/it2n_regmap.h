@@ -108,6 +108,13 @@
 #define IT2N_REG_CTRL_END \
     (IT2N_REG_CTRL + 2u * IT2N_REGMAP_FP * IT2N_REGMAP_DIM * IT2N_REGMAP_DIM * IT2N_REGMAP_CH)
 
+/* ---- Sample grid, float32 view: D footprint T, I, F per node ---- */
+#define IT2N_REG_GRID_F32 8192u
+#define IT2N_REG_GRID_F32_END (IT2N_REG_GRID_F32 + 6u * IT2N_REGMAP_GRID_MAX_NODES)
+
+/* One past the highest address of the map. */
+#define IT2N_REG_MAP_END IT2N_REG_GRID_F32_END
+
 /* Values of IT2N_REG_STATE. */
 enum it2n_regmap_state {
     IT2N_RS_EMPTY = 0,      /* no data point yet                       */

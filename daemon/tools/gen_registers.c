@@ -101,6 +101,8 @@ int main(void)
            "mbpoll -m tcp -a 1 -0 -r 0 -c 26 -t 3 -1 127.0.0.1 -p 1502\n"
            "# sample grid node (0,0): D footprint T, I, F x10000\n"
            "mbpoll -m tcp -a 1 -0 -r 1024 -c 3 -t 4 -1 127.0.0.1 -p 1502\n"
+           "# the same node as float32 ABCD\n"
+           "mbpoll -m tcp -a 1 -0 -r 8192 -c 3 -t 4:float -B -1 127.0.0.1 -p 1502\n"
            "# control point fp=LL, i=0, j=0, x as float32 ABCD\n"
            "mbpoll -m tcp -a 1 -0 -r 2048 -c 1 -t 4:float -B -1 127.0.0.1 -p 1502\n"
            "```\n\n"

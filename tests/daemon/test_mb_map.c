@@ -83,6 +83,8 @@ static void test_status(void **st)
     assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_STATUS_END, 1, r), MBX_ILLEGAL_ADDRESS);
     assert_int_equal(mbmap_read(md, &q, &opts, 20, 20, r), MBX_ILLEGAL_ADDRESS);
     assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_CTRL_END, 1, r), MBX_ILLEGAL_ADDRESS);
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_MAP_END, 1, r), MBX_ILLEGAL_ADDRESS);
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_GRID_F32 + 150, 1, r), MBX_ILLEGAL_ADDRESS); /* past 5x5 nodes */
 }
 
 static void test_query_uw(void **st)

@@ -193,6 +193,19 @@ static int cmd_verify(const char *csv, int steps)
                 CHECK(llabs(got - want) <= 1, "grid (%u,%u) k %d: %d vs %lld", r, c, k, got, want);
             }
         }
+    /* Float32 view of the same grid. */
+    static uint16_t gridf[6 * 256];
+    CHECK(read_regs(ctx, IT2N_REG_GRID_F32, (int)(rows * cols * 6), gridf) == 0, "grid f32 read");
+    for (unsigned r = 0; r < rows; r++)
+        for (unsigned c = 0; c < cols; c++) {
+            it2n_point pt;
+            it2n_eval(&m, (it2n_par)(((i128)r * IT2N_PAR_ONE) / (rows - 1)),
+                      (it2n_par)(((i128)c * IT2N_PAR_ONE) / (cols - 1)), &pt);
+            for (unsigned k = 0; k < 3; k++) {
+                float got = f32(&gridf[((r * cols + c) * 3 + k) * 2]), want = q24f(pt.v[IT2N_FP_D][3 + k]);
+                CHECK(fabsf(got - want) <= 1e-6f, "grid f32 (%u,%u) k %u: %.9g vs %.9g", r, c, k, got, want);
+            }
+        }
     /* Control nets, footprint by footprint. */
     static uint16_t net[IT2N_REG_CTRL_END - IT2N_REG_CTRL];
     CHECK(read_regs(ctx, IT2N_REG_CTRL, (int)(IT2N_REG_CTRL_END - IT2N_REG_CTRL), net) == 0, "ctrl read");
