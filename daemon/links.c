@@ -6,7 +6,9 @@
  *   GET_STATUS / QUERY / LOCATE   ACK, then the response frame
  * Data messages are ACKed only after the WAL commit (links_release); a
  * refused one is NACKed at once with the core's error detail and changed
- * nothing. SAMPLE and GET_NET are NACKed with IT2N_PROTO_ERR_TYPE. */
+ * nothing. SAMPLE and GET_NET are ACKed and answered by a run of
+ * SAMPLE_DATA / NET_ROW frames, produced as the send window frees; one such
+ * job per link at a time (another is NACKed BUSY). */
 #include "links.h"
 
 #include <errno.h>
@@ -36,6 +38,16 @@ struct link {
     unsigned backoff_ms;
     long retry_timer, poll_timer;
     uint32_t entries;         /* entries accepted, for logs   */
+    /* A multi-frame response (SAMPLE_DATA or NET_ROW run) still to send,
+     * produced lazily as the send window frees. */
+    struct {
+        int kind;             /* 0 none, IT2N_MSG_SAMPLE or IT2N_MSG_GET_NET */
+        uint16_t re, rows, cols;
+        uint8_t model, fp;
+        uint32_t next, total;
+    } job;
+    it2n_msg rsp;             /* a single response waiting for the window */
+    int has_rsp;
 };
 
 static struct link *links;
@@ -125,12 +137,103 @@ static int model_state(const struct model *md)
     }
 }
 
+/* Send what fits of the current SAMPLE / GET_NET job. */
+static void pump_job(struct link *l)
+{
+    if (l->has_rsp && l->up && it2n_link_can_send(&l->pl)) {
+        l->has_rsp = 0;
+        it2n_link_send(&l->pl, &l->rsp, now32());
+    }
+    while (!l->has_rsp && l->job.kind && l->up && it2n_link_can_send(&l->pl)) {
+        struct model *md = models_by_id(l->job.model);
+        it2n_msg m;
+        memset(&m, 0, sizeof m);
+        if (!md || md->state != IT2N_RS_SOLVED) {
+            log_info("link %s: model %u changed state; response cut short", l->cfg.name, l->job.model);
+            l->job.kind = 0;
+            return;
+        }
+        if (l->job.kind == IT2N_MSG_SAMPLE) {
+            it2n_msg_sample_data *d = &m.u.sample_data;
+            uint32_t left = l->job.total - l->job.next;
+            m.type = IT2N_MSG_SAMPLE_DATA;
+            d->re = l->job.re;
+            d->model = l->job.model;
+            d->fp = l->job.fp;
+            d->rows = l->job.rows;
+            d->cols = l->job.cols;
+            d->start = l->job.next;
+            d->count = (uint8_t)(left < IT2N_SAMPLE_MAX ? left : IT2N_SAMPLE_MAX);
+            for (unsigned k = 0; k < d->count; k++) {
+                uint32_t idx = d->start + k, r = idx / d->cols, c = idx % d->cols;
+                it2n_point pt;
+                it2n_par u = (it2n_par)(((uint64_t)r << IT2N_PAR_FRAC) / (d->rows - 1u));
+                it2n_par w = (it2n_par)(((uint64_t)c << IT2N_PAR_FRAC) / (d->cols - 1u));
+                if (it2n_eval(&md->mdl, u, w, &pt) != IT2N_OK) {
+                    l->job.kind = 0;
+                    return;
+                }
+                memcpy(d->v[k], pt.v[l->job.fp], sizeof d->v[k]);
+            }
+            l->job.next += d->count;
+        } else {
+            it2n_msg_net_row *d = &m.u.net_row;
+            m.type = IT2N_MSG_NET_ROW;
+            d->re = l->job.re;
+            d->model = l->job.model;
+            d->fp = l->job.fp;
+            d->n = md->mdl.data.n;
+            d->m = md->mdl.data.m;
+            d->row = (uint8_t)l->job.next;
+            for (unsigned j = 0; j <= d->m; j++)
+                memcpy(d->v[j], md->mdl.ctrl[d->row][j][l->job.fp], sizeof d->v[j]);
+            l->job.next++;
+        }
+        if (it2n_link_send(&l->pl, &m, now32()) < 0) {
+            l->job.kind = 0;
+            return;
+        }
+        if (l->job.next >= l->job.total)
+            l->job.kind = 0;
+    }
+}
+
+/* SAMPLE / GET_NET: check, ACK, start the job. */
+static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint8_t fp, uint16_t rows, uint16_t cols)
+{
+    struct model *md = models_by_id(model);
+    if (!md)
+        return IT2N_PROTO_ERR_MODEL;
+    if (md->state != IT2N_RS_SOLVED)
+        return IT2N_ERR_STATE;
+    if (!it2n_model_has_fp(&md->mdl, fp))
+        return IT2N_ERR_INVAL;
+    if (l->job.kind || l->has_rsp)
+        return IT2N_PROTO_ERR_BUSY; /* one response run at a time: retry */
+    if (kind == IT2N_MSG_SAMPLE && (uint32_t)rows * cols > 65536u)
+        return IT2N_ERR_RANGE; /* bound the work one request can cause */
+    it2n_link_complete(&l->pl, seq, 0, NULL);
+    l->job.kind = kind;
+    l->job.re = seq;
+    l->job.model = model;
+    l->job.fp = fp;
+    l->job.rows = rows;
+    l->job.cols = cols;
+    l->job.next = 0;
+    l->job.total = kind == IT2N_MSG_SAMPLE ? (uint32_t)rows * cols : md->mdl.data.n + 1u;
+    pump_job(l);
+    return IT2N_LINK_DEFER;
+}
+
 /* ACK now, then send a response. */
 static int respond(struct link *l, uint16_t seq, const it2n_msg *rsp)
 {
+    if (l->has_rsp)
+        return IT2N_PROTO_ERR_BUSY; /* NACK before any effect: the host retries */
     it2n_link_complete(&l->pl, seq, 0, NULL);
-    if (it2n_link_send(&l->pl, rsp, now32()) < 0)
-        log_info("link %s: response to seq %u dropped (window full)", l->cfg.name, seq);
+    l->rsp = *rsp;
+    l->has_rsp = 1;
+    pump_job(l);
     return IT2N_LINK_DEFER;
 }
 
@@ -278,6 +381,11 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         }
         return respond(l, seq, &rsp);
     }
+    case IT2N_MSG_SAMPLE:
+        return start_job(l, seq, IT2N_MSG_SAMPLE, msg->u.sample.model, msg->u.sample.fp, msg->u.sample.rows,
+                         msg->u.sample.cols);
+    case IT2N_MSG_GET_NET:
+        return start_job(l, seq, IT2N_MSG_GET_NET, msg->u.get_net.model, msg->u.get_net.fp, 0, 0);
     default:
         return IT2N_PROTO_ERR_TYPE;
     }
@@ -290,6 +398,7 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_
     if (code)
         log_debug("link %s: our %s (seq %u) not acknowledged: %s", l->cfg.name, it2n_msg_name(type), seq,
                   it2n_proto_strerror(code));
+    pump_job(l); /* a window slot may have freed */
 }
 
 static void feed(struct link *l, const uint8_t *buf, size_t n)
@@ -328,6 +437,7 @@ static void on_poll(void *arg)
 {
     struct link *l = arg;
     it2n_link_poll(&l->pl, now32());
+    pump_job(l);
     l->poll_timer = loop_add_timer(100, on_poll, l);
 }
 
@@ -362,6 +472,8 @@ static void link_open(void *arg)
     it2n_link_init(&l->pl, &cfg);
     l->up = 1;
     l->nheld = 0;
+    l->job.kind = 0;
+    l->has_rsp = 0;
     if (l->fd >= 0)
         loop_add_fd(l->fd, POLLIN, on_serial, l);
     l->poll_timer = loop_add_timer(100, on_poll, l);

@@ -174,9 +174,9 @@ echo "$out" | grep -q '^\[1024\]:[[:space:]]*4000$' && echo "$out" | grep -q '^\
     && ok "pymodbus client" || fail "pymodbus client"
 
 # ---- instrument links (pty, protocol/ framing) -------------------------------
-instr --csv "$PAPER" --model 5 --garbage 15 --drop 15 --dup 15 --seed 7 \
+instr --csv "$PAPER" --model 5 --garbage 15 --drop 15 --dup 15 --seed 7 --sample 3 12 9 --net 0 --query 0.25 0.75 \
     && plc --unit 5 verify "$PAPER" 4 >/dev/null \
-    && ok "instrument with garbage/drops/duplicates streamed the paper data; Modbus matches the core" \
+    && ok "instrument with garbage/drops/duplicates streamed the paper data; SAMPLE/GET_NET/QUERY over the link and Modbus match the core" \
     || fail "instrument stream with faults"
 instr --csv "$T/gen66.csv" --model 6 --drop 10 --seed 3 >/dev/null && plc --unit 6 verify "$T/gen66.csv" 4 >/dev/null \
     && ok "generated 6x6 data set streamed by the instrument (CONFIGURE to 6x6) and verified" || fail "generated 6x6 stream"

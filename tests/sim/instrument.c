@@ -13,6 +13,9 @@
  *   --dup      PCT of frames written twice (the receiver must apply once)
  *   --hangup-after N  close the pty once N entries are ACKed (exit 4)
  *   --ack-log  after every ACKed PUT, the total of ACKed entries (a line)
+ *   --sample FP ROWS COLS, --net FP, --query U W: after COMMIT, act as a
+ *              host and check the daemon's SAMPLE_DATA / NET_ROW /
+ *              QUERY_RESULT bit for bit against the core's own solve
  * Exit: 0 everything ACKed, 1 NACK, 2 usage/data, 3 timeout/I-O, 4 hang-up.
  */
 #include <errno.h>
@@ -95,11 +98,37 @@ static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
     return 0;
 }
 
+/* Host-side checks of the daemon's responses against a local solve. */
+static it2n_model local;
+static unsigned got_points, got_rows, got_results, mismatches;
+
 static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
 {
     (void)app;
     (void)seq;
-    (void)msg;
+    if (msg->type == IT2N_MSG_SAMPLE_DATA) {
+        const it2n_msg_sample_data *d = &msg->u.sample_data;
+        for (unsigned k = 0; k < d->count; k++) {
+            uint32_t idx = d->start + k, r = idx / d->cols, c = idx % d->cols;
+            it2n_point pt;
+            it2n_eval(&local, (it2n_par)(((uint64_t)r << IT2N_PAR_FRAC) / (d->rows - 1u)),
+                      (it2n_par)(((uint64_t)c << IT2N_PAR_FRAC) / (d->cols - 1u)), &pt);
+            mismatches += memcmp(pt.v[d->fp], d->v[k], sizeof d->v[k]) != 0;
+            got_points++;
+        }
+    } else if (msg->type == IT2N_MSG_NET_ROW) {
+        const it2n_msg_net_row *d = &msg->u.net_row;
+        for (unsigned j = 0; j <= d->m; j++)
+            mismatches += memcmp(local.ctrl[d->row][j][d->fp], d->v[j], sizeof d->v[j]) != 0;
+        got_rows++;
+    } else if (msg->type == IT2N_MSG_QUERY_RESULT) {
+        const it2n_msg_query_result *d = &msg->u.query_result;
+        it2n_point pt;
+        it2n_eval(&local, it2n_par_from_wire(d->u), it2n_par_from_wire(d->w), &pt);
+        mismatches += memcmp(pt.v, d->v, sizeof pt.v) != 0;
+        mismatches += memcmp(&pt.sum, &d->sum, sizeof pt.sum) != 0;
+        got_results++;
+    }
     return 0; /* the daemon's HELLO and responses: ACK */
 }
 
@@ -151,6 +180,9 @@ int main(int argc, char **argv)
 {
     const char *link_path = NULL, *csv = NULL;
     unsigned model = 1, batch = 4, replace = 0, hangup_after = 0, timeout_s = 30, configure = 1;
+    int sample_fp = -1, net_fp = -1, want_query = 0;
+    unsigned sample_rows = 0, sample_cols = 0;
+    it2n_par qu = 0, qw = 0;
     static it2n_dataset ds;
     static it2n_link l;
     it2n_ostream os = { os_write, NULL };
@@ -159,6 +191,20 @@ int main(int argc, char **argv)
         const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
         if (!strcmp(a, "--replace")) { replace = 1; continue; }
         if (!strcmp(a, "--no-configure")) { configure = 0; continue; }
+        if (!strcmp(a, "--sample") && k + 3 < argc) {
+            sample_fp = atoi(argv[k + 1]);
+            sample_rows = (unsigned)atoi(argv[k + 2]);
+            sample_cols = (unsigned)atoi(argv[k + 3]);
+            k += 3;
+            continue;
+        }
+        if (!strcmp(a, "--query") && k + 2 < argc) {
+            if (it2n_parse_par(argv[k + 1], strlen(argv[k + 1]), &qu) || it2n_parse_par(argv[k + 2], strlen(argv[k + 2]), &qw))
+                return 2;
+            want_query = 1;
+            k += 2;
+            continue;
+        }
         if (!v) { fprintf(stderr, "instrument: %s needs a value\n", a); return 2; }
         k++;
         if (!strcmp(a, "--link")) link_path = v;
@@ -172,11 +218,20 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--hangup-after")) hangup_after = (unsigned)atoi(v);
         else if (!strcmp(a, "--timeout")) timeout_s = (unsigned)atoi(v);
         else if (!strcmp(a, "--ack-log")) acklog = fopen(v, "w");
+        else if (!strcmp(a, "--net")) net_fp = atoi(v);
         else { fprintf(stderr, "instrument: unknown option %s\n", a); return 2; }
     }
     if (!link_path || !csv || batch < 1 || batch > IT2N_PUT_MAX)
         return 2;
     sim_load_csv(csv, 0, &ds);
+    {
+        it2n_errinfo e;
+        it2n_model_init(&local);
+        if (it2n_model_solve(&local, &ds, &e) != IT2N_OK && (sample_fp >= 0 || net_fp >= 0 || want_query)) {
+            fprintf(stderr, "instrument: local solve failed\n");
+            return 2;
+        }
+    }
     if (make_link(link_path)) {
         perror("instrument: pty");
         return 3;
@@ -198,6 +253,32 @@ int main(int argc, char **argv)
         if (now - start > timeout_s * 1000u) {
             fprintf(stderr, "instrument: timeout, %u entries ACKed\n", acked);
             return 3;
+        }
+        /* After the stream: the host requests, one at a time. */
+        /* Each request waits for the previous one's responses. */
+        int prev_done = (step <= 4 || got_points >= (sample_fp >= 0 ? sample_rows * sample_cols : 0)) &&
+                        (step <= 5 || got_rows >= (net_fp >= 0 ? ds.n + 1u : 0));
+        if (step >= 4 && step < 7 && it2n_link_pending(&l) == 0 && prev_done) {
+            memset(&m, 0, sizeof m);
+            if (step == 4 && sample_fp >= 0) {
+                m.type = IT2N_MSG_SAMPLE;
+                m.u.sample.model = (uint8_t)model;
+                m.u.sample.fp = (uint8_t)sample_fp;
+                m.u.sample.rows = (uint16_t)sample_rows;
+                m.u.sample.cols = (uint16_t)sample_cols;
+            } else if (step == 5 && net_fp >= 0) {
+                m.type = IT2N_MSG_GET_NET;
+                m.u.get_net.model = (uint8_t)model;
+                m.u.get_net.fp = (uint8_t)net_fp;
+            } else if (step == 6 && want_query) {
+                m.type = IT2N_MSG_QUERY;
+                m.u.query.model = (uint8_t)model;
+                m.u.query.u = it2n_par_to_wire(qu);
+                m.u.query.w = it2n_par_to_wire(qw);
+            }
+            step++;
+            if (m.type && it2n_link_send(&l, &m, now) < 0)
+                return 2;
         }
         while (step < 4 && it2n_link_can_send(&l)) {
             memset(&m, 0, sizeof m);
@@ -255,7 +336,9 @@ int main(int argc, char **argv)
             if (m.type == IT2N_MSG_PUT)
                 put_count[seq] = m.u.put.count;
         }
-        if (step == 4 && it2n_link_pending(&l) == 0)
+        if (step >= 7 && it2n_link_pending(&l) == 0 &&
+            got_points >= (sample_fp >= 0 ? sample_rows * sample_cols : 0) &&
+            got_rows >= (net_fp >= 0 ? ds.n + 1u : 0) && got_results >= (unsigned)want_query)
             break;
         if (hangup_after && acked >= hangup_after) {
             close(master);
@@ -275,5 +358,8 @@ int main(int argc, char **argv)
         return failed;
     printf("instrument: %s streamed, %u entries ACKed, link: %u frames, %u retransmitted\n", csv, acked,
            l.stats.tx_frames, l.stats.tx_retx);
-    return 0;
+    if (sample_fp >= 0 || net_fp >= 0 || want_query)
+        printf("instrument: host checks: %u sample points, %u net rows, %u query results, %u mismatches\n",
+               got_points, got_rows, got_results, mismatches);
+    return mismatches ? 1 : 0;
 }
