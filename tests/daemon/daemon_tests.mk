@@ -71,6 +71,6 @@ daemon-cppcheck:
 	  --suppress=missingIncludeSystem -D_GNU_SOURCE \
 	  -Ifirmware_core -Iprotocol -Idaemon daemon/ tests/sim/ tests/daemon/
 
-daemon-systemd:
+daemon-systemd: $(IT2ND)
 	@if command -v systemd-analyze >/dev/null; then \
 	  $(DT)/systemd_verify.sh $(IT2ND); else echo "systemd-analyze not available: skipped"; fi
