@@ -60,7 +60,10 @@ run: deps $(IT2ND) ## Build and start it2nd in the foreground on its built-in de
 .PHONY: install-daemon
 install-daemon: $(IT2ND)
 	install -D -m 0755 $(IT2ND) $(DESTDIR)$(PREFIX)/sbin/it2nd
-	install -D -m 0644 daemon/it2nd.service $(DESTDIR)$(PREFIX)/lib/systemd/system/it2nd.service
-	install -D -m 0644 daemon/it2nd@.service $(DESTDIR)$(PREFIX)/lib/systemd/system/it2nd@.service
+	@# The units name the binary by path: point them at this PREFIX.
+	for u in it2nd.service it2nd@.service; do \
+	  sed 's|/usr/local/sbin/it2nd|$(PREFIX)/sbin/it2nd|' daemon/$$u > $(BUILD)/$$u.tmp && \
+	  install -D -m 0644 $(BUILD)/$$u.tmp $(DESTDIR)$(PREFIX)/lib/systemd/system/$$u && rm -f $(BUILD)/$$u.tmp; \
+	done
 	install -D -m 0644 daemon/it2nd.conf.example $(DESTDIR)/etc/it2n/it2nd.conf.example
 	install -D -m 0644 daemon/it2nd.8 $(DESTDIR)$(PREFIX)/share/man/man8/it2nd.8
