@@ -559,6 +559,12 @@ void links_stop(void)
     link_usb_exit();
 }
 
+void links_event(const struct model *md, int old_state)
+{
+    (void)md;
+    (void)old_state;
+}
+
 int links_up(void)
 {
     int up = 0;

@@ -15,6 +15,11 @@ int links_reload(const struct conf *c);
 /* Send ACKs held for the WAL commit (commit_ok 0: NACK). */
 void links_release(int commit_ok);
 void links_stop(void);
+/* A model changed durably (after the group commit): queue one EVENT to
+ * every open link. Per link only the latest EVENT per model waits when the
+ * send window is full; never blocks. */
+struct model;
+void links_event(const struct model *md, int old_state);
 /* Links currently open (for STATUS= and tests). */
 int links_up(void);
 

@@ -29,6 +29,7 @@ static struct conf cfg;
 static const char *conf_path;
 static struct mb_opts mbo;
 static long snap_timer, wd_timer;
+static int snap_due;
 
 static void on_signal(int sig)
 {
@@ -108,14 +109,32 @@ static int setup_models(void)
     return 0;
 }
 
-/* Group commit: after every loop iteration, one fsync for everything
- * queued, then the held replies and ACKs go out. */
-static void commit_hook(void *arg)
+/* A model changed durably: tell the link peers (links.c coalesces). */
+static void on_model_changed(void *arg, const struct model *md, int old_state, uint32_t old_gen)
 {
     (void)arg;
-    if (!store_pending())
-        return;
-    int ok = store_commit() == 0;
+    (void)old_gen;
+    links_event(md, old_state);
+}
+
+/* End of a loop pass (a hook after every iteration): one write + fdatasync
+ * for everything queued (group commit). Only then are the models' changes
+ * real: on success they are announced and the held replies and ACKs go
+ * out; on failure every model touched in the pass is put back, so the
+ * exception 04 / NACK that follows means "nothing changed". A snapshot due
+ * is taken here, when memory equals what is on disk. */
+static void commit_hook(void *arg)
+{
+    int ok = 1;
+    (void)arg;
+    if (store_pending())
+        ok = store_commit() == 0;
+    models_pass_end(ok, on_model_changed, NULL);
+    if (ok && snap_due) {
+        snap_due = 0;
+        if (store_wal_bytes() > 0)
+            store_snapshot();
+    }
     mb_tcp_release(ok);
     mb_rtu_release(ok);
     links_release(ok);
@@ -143,8 +162,7 @@ static void send_status(void)
 static void on_snapshot(void *arg)
 {
     (void)arg;
-    if (store_wal_bytes() > 0)
-        store_snapshot();
+    snap_due = 1; /* taken by commit_hook, after this pass is durable */
     send_status();
     snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
 }

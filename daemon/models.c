@@ -8,6 +8,9 @@
 #include "paper_data.h"
 
 static struct model **table;
+/* Pass backups, parallel to table: the model as it was before the first
+ * change of the current loop pass (NULL: untouched). */
+static struct model **backup;
 static int nmodels, maxmodels;
 static model_journal_fn journal;
 static void *journal_arg;
@@ -16,8 +19,13 @@ static int replaying;
 int models_init(int max)
 {
     table = calloc((size_t)max, sizeof *table);
-    if (!table)
+    backup = calloc((size_t)max, sizeof *backup);
+    if (!table || !backup) {
+        free(table);
+        free(backup);
+        table = backup = NULL;
         return -1;
+    }
     maxmodels = max;
     nmodels = 0;
     return 0;
@@ -25,10 +33,13 @@ int models_init(int max)
 
 void models_free(void)
 {
-    for (int k = 0; k < nmodels; k++)
+    for (int k = 0; k < nmodels; k++) {
         free(table[k]);
+        free(backup[k]);
+    }
     free(table);
-    table = NULL;
+    free(backup);
+    table = backup = NULL;
     nmodels = maxmodels = 0;
 }
 
@@ -36,6 +47,58 @@ void models_set_journal(model_journal_fn fn, void *arg)
 {
     journal = fn;
     journal_arg = arg;
+}
+
+/* Copy-on-first-write: remember md as it was before the pass changed it.
+ * Replay and preload are not part of a pass (nothing to roll back). */
+static int touch(struct model *md)
+{
+    if (replaying)
+        return 0;
+    for (int k = 0; k < nmodels; k++) {
+        if (table[k] != md)
+            continue;
+        if (!backup[k]) {
+            backup[k] = malloc(sizeof *backup[k]);
+            if (!backup[k]) {
+                log_err("model %d: no memory for the pass backup; change refused", md->id);
+                return -1;
+            }
+            *backup[k] = *md;
+        }
+        return 0;
+    }
+    return 0;
+}
+
+int models_pass_dirty(void)
+{
+    for (int k = 0; k < nmodels; k++)
+        if (backup[k])
+            return 1;
+    return 0;
+}
+
+void models_pass_end(int ok, model_changed_fn fn, void *arg)
+{
+    for (int k = 0; k < nmodels; k++) {
+        struct model *md = table[k], *old = backup[k];
+        if (!old)
+            continue;
+        backup[k] = NULL;
+        if (ok) {
+            if (fn && (old->gen != md->gen || old->state != md->state))
+                fn(arg, md, old->state, old->gen);
+        } else {
+            /* Request counters count what happened; the rest goes back. */
+            uint32_t req = md->requests, exc = md->exceptions;
+            log_warn("model %d: change not durable; back to generation %u", md->id, old->gen);
+            *md = *old;
+            md->requests = req;
+            md->exceptions = exc;
+        }
+        free(old);
+    }
 }
 
 static int jlog(const struct model_rec *rec)
@@ -130,7 +193,7 @@ int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, i
     int rc = it2n_dataset_init(&ds, n, m, flags, err);
     if (rc != IT2N_OK)
         return rc;
-    if (jlog(&rec)) {
+    if (touch(md) || jlog(&rec)) {
         err->code = IT2N_ERR_STATE;
         return IT2N_ERR_STATE;
     }
@@ -146,7 +209,7 @@ int models_clear(struct model *md)
 {
     it2n_errinfo err;
     struct model_rec rec = { .op = MOP_CLEAR, .id = md->id };
-    if (jlog(&rec))
+    if (touch(md) || jlog(&rec))
         return IT2N_ERR_STATE;
     it2n_dataset_init(&md->ds, md->ds.n, md->ds.m, md->ds.flags, &err);
     it2n_model_init(&md->mdl);
@@ -172,6 +235,11 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         err->fp = (int8_t)fp;
         err->ch = -1;
         return IT2N_ERR_DUPLICATE;
+    }
+    if (touch(md)) {
+        memset(err, 0, sizeof *err);
+        err->code = IT2N_ERR_STATE;
+        return IT2N_ERR_STATE;
     }
     if (md->state == IT2N_RS_SOLVED) {
         /* Incremental: the core's update is atomic on error. Keep a copy
@@ -241,6 +309,10 @@ int models_commit(struct model *md, it2n_errinfo *err)
     if (it2n_dataset_missing(&md->ds) != 0) {
         err->code = IT2N_ERR_MISSING;
         return IT2N_ERR_MISSING;
+    }
+    if (touch(md)) {
+        err->code = IT2N_ERR_STATE;
+        return IT2N_ERR_STATE;
     }
     save = malloc(sizeof *save);
     if (!save) {

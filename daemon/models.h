@@ -70,6 +70,17 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
 int models_commit(struct model *md, it2n_errinfo *err);
 int models_clear(struct model *md);
 
+/* Loop passes. The first change of a model in a pass keeps a copy of it;
+ * at the end of the pass (after the group commit) models_pass_end() either
+ * drops the copies (ok, the changes are durable: fn, if not NULL, is called
+ * once per model whose state or generation moved, with the old values) or
+ * puts every touched model back as it was (the commit failed, so nothing
+ * acknowledged it). Request/exception counters are not rolled back. */
+typedef void (*model_changed_fn)(void *arg, const struct model *md, int old_state, uint32_t old_gen);
+void models_pass_end(int ok, model_changed_fn fn, void *arg);
+/* True when a model was changed in the current pass. */
+int models_pass_dirty(void);
+
 /* Apply a record (WAL replay): same as the operations, not journaled. */
 int models_apply(const struct model_rec *rec, it2n_errinfo *err);
 

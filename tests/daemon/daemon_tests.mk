@@ -46,6 +46,12 @@ $(DT_USB_BULK): $(DT)/test_usb_bulk.c $(DT_MODS) $(PROTO_LIB) $(CORE_LIB)
 	$(CC) $(DAEMON_CFLAGS) $(shell pkg-config --cflags umockdev-1.0 2>/dev/null) $< -o $@ $(DT_MODS) \
 	  $(PROTO_LIB) $(CORE_LIB) $(DAEMON_LIBS) $(shell pkg-config --libs umockdev-1.0 2>/dev/null) -lpthread
 
+# LD_PRELOAD shim making fsync/fdatasync fail on demand (e2e commit failures).
+DT_FAILSYNC := $(DTB)/failsync.so
+$(DT_FAILSYNC): $(DT)/failsync.c
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -fPIC -shared $< -o $@ -ldl
+
 DT_UNIT_BINS := $(DT_UNITS:%=$(DTB)/%) $(DT_UNITS:%=$(DTB)/san/%)
 
 .PHONY: daemon-unit daemon-regdoc daemon-e2e daemon-cppcheck daemon-systemd
@@ -62,8 +68,9 @@ daemon-regdoc: $(GEN_REGISTERS)
 	  { echo "docs/registers.md is stale: run 'make docs/registers.md'" >&2; exit 1; }
 	@echo "docs/registers.md is current"
 
-daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR)
+daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSYNC)
 	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) INSTR=$(SIM_INSTR) PTY=$(SIM_PTY) \
+	  FAILSYNC=$(DT_FAILSYNC) \
 	  timeout 300 $(DT)/e2e.sh
 
 daemon-cppcheck:

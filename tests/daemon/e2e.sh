@@ -241,7 +241,7 @@ plc --unit 2 upload "$PAPER" && plc --unit 2 verify "$PAPER" 3 >/dev/null \
 # kill -9 while an instrument streams: every ACKed entry survives.
 instr --csv "$PAPER" --model 5 --batch 2 --ack-log "$T/iacked" > /dev/null 2>&1 &
 IPID=$!
-for _ in $(seq 300); do [ "$(tail -n1 "$T/iacked" 2>/dev/null || echo 0)" -ge 30 ] && break; sleep 0.01; done
+for _ in $(seq 300); do [ "$(tail -n1 "$T/iacked" 2>/dev/null)" -ge 30 ] 2>/dev/null && break; sleep 0.01; done
 kill -9 "$PID"; wait "$PID" 2>/dev/null; PID=
 kill "$IPID" 2>/dev/null; wait "$IPID" 2>/dev/null
 iacked=$(tail -n1 "$T/iacked" 2>/dev/null || echo 0)
@@ -259,6 +259,42 @@ stop TERM && ok "SIGTERM: clean exit" || fail "SIGTERM exit status"
 start "$IT2ND"
 plc --unit 2 verify "$PAPER" 3 >/dev/null && plc --unit 4 verify "$ROOT/examples/z_3x3.csv" 3 >/dev/null \
     && ok "restart from snapshot" || fail "restart from snapshot"
+
+# ---- a failed group commit changes nothing ----------------------------------
+# failsync.so makes fsync/fdatasync fail with EIO while $T/failsync exists.
+gen() { plc --unit "${1:-1}" read 7 2 | awk '{print $1 * 65536 + $2}'; }
+UP_D00="0 0 3 65535 63836 0 1700 0 0"   # upload: i j fp, x -17.00, y 17.00, z 0
+stop TERM
+LD_PRELOAD=$FAILSYNC IT2N_FAILSYNC_FLAG=$T/failsync start "$IT2ND"
+out=$(plc write 40 $UP_D00 4500 7000 2000)
+g1=$(gen); v1=$(plc read 1024 1); g5=$(gen 5)
+[ "$out" = ok ] && [ "$v1" = 4500 ] && ok "write T(0,0,D) = 0.45 answered OK, served (generation $g1)" \
+    || fail "write before the disk failure: $out, grid $v1"
+touch "$T/failsync"
+out=$(plc write 40 $UP_D00 5500 7000 2000); rc=$?
+v2=$(plc read 1024 1); g2=$(gen); up=$(plc read 40 12 | awk '{print $10}')
+if [ $rc = 3 ] && [ "$out" = "exception 4" ] && [ "$v2" = 4500 ] && [ "$g2" = "$g1" ] && [ "$up" = 4500 ]; then
+    ok "fsync fails: exception 04, value, generation and upload echo unchanged"
+else fail "failed commit: rc $rc '$out', grid $v2 gen $g1 -> $g2, upload T $up"; fi
+grep -q "wal: write failed: Input/output error" "$T/daemon.log" && ok "failed commit logged" || fail "no log of the failed commit"
+instr --csv "$PAPER" --model 5 --no-configure --replace --batch 4 > "$T/nack.out" 2>&1; rc=$?
+g5b=$(gen 5)
+[ $rc = 1 ] && grep -q "PUT seq .* refused" "$T/nack.out" && [ "$g5b" = "$g5" ] \
+    && plc --unit 5 verify "$PAPER" 3 >/dev/null \
+    && ok "instrument PUT NACKed while fsync fails; model 5 unchanged (generation $g5)" \
+    || fail "instrument PUT on a failing disk: rc $rc gen $g5 -> $g5b: $(cat "$T/nack.out")"
+rm -f "$T/failsync"
+out=$(plc write 40 $UP_D00 6000 7000 2000)
+v3=$(plc read 1024 1); g3=$(gen)
+[ "$out" = ok ] && [ "$v3" = 6000 ] && [ "$g3" = $((g1 + 1)) ] \
+    && ok "disk back: write OK, served, generation $g3" || fail "after recovery: $out grid $v3 gen $g3"
+stop KILL
+start "$IT2ND"
+v4=$(plc read 1024 1); g4=$(gen); g5c=$(gen 5)
+[ "$v4" = 6000 ] && [ "$g4" = "$g3" ] && [ "$g5c" = "$g5" ] \
+    && ok "restart after kill -9: exactly the acknowledged state (T 0.6, generation $g4)" \
+    || fail "restart after failed commits: grid $v4 gen $g4 (want 6000 $g3), model 5 gen $g5c (want $g5)"
+out=$(plc write 40 0 0 3 65535 63836 0 1700 0 0 4000 7000 2000)   # paper value back
 
 # ---- corrupted files ----------------------------------------------------------
 plc --unit 2 upload "$ROOT/examples/paper_4x4.csv" >/dev/null   # WAL records after the snapshot

@@ -13,6 +13,7 @@
  *        concurrent N CSV     N connections with interleaved queries
  *        read ADDR COUNT      print registers (FC03)
  *        wait-gen GEN [MS]    wait until generation >= GEN
+ *        write ADDR V...      FC16; prints "ok" or "exception N"
  * Exit status 0 on success, 1 on a mismatch (printed), 2 on usage/I/O.
  */
 #include <errno.h>
@@ -417,6 +418,33 @@ static int cmd_read(int addr, int count)
     return 0;
 }
 
+/* FC16 write; exit 0 when answered OK, 3 (and the exception code) when
+ * the daemon answered with an exception, 2 on I/O errors. */
+static int cmd_write(int addr, char **v, int count)
+{
+    modbus_t *ctx = connect_ctx();
+    uint16_t r[123];
+    int rc;
+    if (count < 1 || count > 123)
+        return 2;
+    for (int k = 0; k < count; k++)
+        r[k] = (uint16_t)strtol(v[k], NULL, 0);
+    rc = modbus_write_registers(ctx, addr, count, r);
+    if (rc == count) {
+        printf("ok\n");
+        rc = 0;
+    } else if (errno > MODBUS_ENOBASE && errno < MODBUS_ENOBASE + 20) {
+        printf("exception %d\n", errno - MODBUS_ENOBASE);
+        rc = 3;
+    } else {
+        fprintf(stderr, "plc: write: %s\n", modbus_strerror(errno));
+        rc = 2;
+    }
+    modbus_close(ctx);
+    modbus_free(ctx);
+    return rc;
+}
+
 static int cmd_wait_gen(unsigned long gen, int ms)
 {
     for (int t = 0; t <= ms; t += 50) {
@@ -473,6 +501,8 @@ int main(int argc, char **argv)
         return cmd_concurrent(atoi(argv[k]), argv[k + 1]);
     if (!strcmp(cmd, "read") && k + 1 < argc)
         return cmd_read(atoi(argv[k]), atoi(argv[k + 1]));
+    if (!strcmp(cmd, "write") && k + 1 < argc)
+        return cmd_write(atoi(argv[k]), argv + k + 1, argc - k - 1);
     if (!strcmp(cmd, "wait-gen") && k < argc)
         return cmd_wait_gen(strtoul(argv[k], NULL, 0), k + 1 < argc ? atoi(argv[k + 1]) : 5000);
     fprintf(stderr, "plc: unknown command %s\n", cmd);
