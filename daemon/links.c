@@ -25,6 +25,9 @@
 #include "store.h"
 
 #define HELD_MAX 16
+/* EVENTs waiting for the send window: one per model at most (the latest),
+ * so a slow peer costs bounded memory and never stalls the loop. */
+#define EVQ_MAX 64
 
 struct link {
     struct conf_link cfg;
@@ -48,6 +51,10 @@ struct link {
     } job;
     it2n_msg rsp;             /* a single response waiting for the window */
     int has_rsp;
+    int peer;                 /* a HELLO came from the peer since the open */
+    it2n_msg_event evq[EVQ_MAX];
+    int nev;
+    uint32_t ev_sent, ev_merged;
 };
 
 static struct link *links;
@@ -120,7 +127,7 @@ static void send_hello(struct link *l)
     m.u.hello.version_max = IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
     m.u.hello.window = IT2N_PROTO_WINDOW;
-    m.u.hello.caps = IT2N_CAP_SERVER | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1;
+    m.u.hello.caps = IT2N_CAP_SERVER | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1 | IT2N_CAP_EVENTS;
     m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
     m.u.hello.max_models = (uint16_t)models_count();
     memcpy(m.u.hello.node, "it2nd", 5);
@@ -137,9 +144,25 @@ static int model_state(const struct model *md)
     }
 }
 
-/* Send what fits of the current SAMPLE / GET_NET job. */
+/* Send the queued EVENTs that fit the window, oldest first. */
+static void pump_events(struct link *l)
+{
+    while (l->nev && l->up && it2n_link_can_send(&l->pl)) {
+        it2n_msg m;
+        memset(&m, 0, sizeof m);
+        m.type = IT2N_MSG_EVENT;
+        m.u.event = l->evq[0];
+        memmove(l->evq, l->evq + 1, (size_t)(l->nev - 1) * sizeof l->evq[0]);
+        l->nev--;
+        if (it2n_link_send(&l->pl, &m, now32()) >= 0)
+            l->ev_sent++;
+    }
+}
+
+/* Send what fits of the current SAMPLE / GET_NET job (after the EVENTs). */
 static void pump_job(struct link *l)
 {
+    pump_events(l);
     if (l->has_rsp && l->up && it2n_link_can_send(&l->pl)) {
         l->has_rsp = 0;
         it2n_link_send(&l->pl, &l->rsp, now32());
@@ -282,6 +305,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
     switch (msg->type) {
     case IT2N_MSG_HELLO:
         log_info("link %s: HELLO from '%.16s'", l->cfg.name, msg->u.hello.node);
+        l->peer = 1;
         it2n_link_complete(&l->pl, seq, 0, NULL);
         send_hello(l);
         return IT2N_LINK_DEFER;
@@ -474,6 +498,8 @@ static void link_open(void *arg)
     l->nheld = 0;
     l->job.kind = 0;
     l->has_rsp = 0;
+    l->peer = 0;
+    l->nev = 0;
     if (l->fd >= 0)
         loop_add_fd(l->fd, POLLIN, on_serial, l);
     l->poll_timer = loop_add_timer(100, on_poll, l);
@@ -561,8 +587,41 @@ void links_stop(void)
 
 void links_event(const struct model *md, int old_state)
 {
-    (void)md;
-    (void)old_state;
+    it2n_msg_event ev;
+    memset(&ev, 0, sizeof ev);
+    ev.model = (uint8_t)md->id;
+    ev.generation = md->gen;
+    if (md->state == IT2N_RS_FAILED) {
+        ev.kind = IT2N_EV_ERROR;
+        ev.code = (int16_t)md->last_err.code;
+    } else if (md->last_op == MOP_CONFIG && md->state == IT2N_RS_EMPTY) {
+        ev.kind = IT2N_EV_CONFIGURED;
+    } else if (md->last_op == MOP_CLEAR && md->state == IT2N_RS_EMPTY) {
+        ev.kind = IT2N_EV_RESET;
+    } else if (md->state == IT2N_RS_SOLVED && (old_state != IT2N_RS_SOLVED || md->last_op == MOP_COMMIT)) {
+        ev.kind = IT2N_EV_SOLVED;
+    } else {
+        ev.kind = IT2N_EV_UPDATED;
+    }
+    for (int k = 0; k < nlinks; k++) {
+        struct link *l = &links[k];
+        int q;
+        if (!l->up || !l->peer)
+            continue;
+        /* Coalesce: a queued EVENT of this model is replaced in place. */
+        for (q = 0; q < l->nev && l->evq[q].model != ev.model; q++) {
+        }
+        if (q < l->nev) {
+            l->evq[q] = ev;
+            l->ev_merged++;
+        } else if (l->nev < EVQ_MAX) {
+            l->evq[l->nev++] = ev;
+        } else {
+            log_warn("link %s: EVENT queue full; model %u event dropped", l->cfg.name, ev.model);
+            continue;
+        }
+        pump_events(l);
+    }
 }
 
 int links_up(void)

@@ -202,6 +202,7 @@ int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, i
     md->state = IT2N_RS_EMPTY;
     md->grid_valid = 0;
     md->gen++;
+    md->last_op = MOP_CONFIG;
     return IT2N_OK;
 }
 
@@ -216,6 +217,7 @@ int models_clear(struct model *md)
     md->state = IT2N_RS_EMPTY;
     md->grid_valid = 0;
     md->gen++;
+    md->last_op = MOP_CLEAR;
     return IT2N_OK;
 }
 
@@ -263,6 +265,7 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         md->ds = md->mdl.data;
         md->gen++;
         md->points_rx++;
+        md->last_op = MOP_POINT;
         return IT2N_OK;
     }
 
@@ -296,6 +299,7 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
     if (md->state != IT2N_RS_SOLVED)
         md->state = IT2N_RS_INCOMPLETE;
     md->points_rx++;
+    md->last_op = MOP_POINT;
     return IT2N_OK;
 }
 
@@ -330,6 +334,8 @@ int models_commit(struct model *md, it2n_errinfo *err)
     }
     if (rc != IT2N_OK && md->state != IT2N_RS_SOLVED)
         md->state = IT2N_RS_FAILED;
+    if (rc == IT2N_OK)
+        md->last_op = MOP_COMMIT;
     free(save);
     return rc;
 }

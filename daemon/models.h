@@ -19,6 +19,7 @@ struct model {
     int state;                 /* enum it2n_regmap_state              */
     uint32_t gen;              /* bumped on every solve and update    */
     it2n_errinfo last_err;     /* code 0 = none                       */
+    int last_op;               /* enum model_op of the last change     */
     uint32_t points_rx, solves, requests, exceptions;
     uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I]; /* last upload */
     /* Sample grid cache (D footprint T, I, F, Q24), valid for grid_gen and

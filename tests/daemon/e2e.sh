@@ -16,6 +16,7 @@ cleanup() {
     [ -n "$PID" ] && kill -9 "$PID" 2>/dev/null
     [ -n "${NPID:-}" ] && kill "$NPID" 2>/dev/null
     [ -n "${BPID:-}" ] && kill "$BPID" 2>/dev/null
+    [ -n "${EPID:-}" ] && kill -CONT "$EPID" 2>/dev/null && kill "$EPID" 2>/dev/null
     if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "e2e: logs kept in $T" >&2; fi
 }
 fail() { echo "e2e: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
@@ -49,6 +50,7 @@ models_conf() {
     printf '[model:5]\nunit_id = 5\nn = 3\nm = 3\n'
     printf '[model:6]\nunit_id = 6\nn = 2\nm = 2\n'
     printf '[link:inst]\ntype = serial\ndevice = %s\nbaud = 115200\n' "$T/inst0"
+    printf '[link:ev]\ntype = serial\ndevice = %s\nbaud = 115200\n' "$T/ev0"
 }
 instr() { timeout 60 "$INSTR" --link "$T/inst0" "$@"; }
 
@@ -198,6 +200,47 @@ instr --csv "$PAPER" --model 5 >/dev/null && plc --unit 5 verify "$PAPER" 3 >/de
     && ok "link reopened after hang-up, stream completed" || fail "link reopen"
 grep -q "link inst: hang-up; reopening" "$T/daemon.log" && ok "hang-up logged, reopen with backoff" || fail "hang-up log"
 
+# ---- EVENTs to link peers ---------------------------------------------------
+# A passive peer on a second pty logs every EVENT ("model kind code gen").
+gen() { plc --unit "${1:-1}" read 7 2 | awk '{print $1 * 65536 + $2}'; }
+last_ev() { # model: the last EVENT line of that model
+    awk -v m="$1" '$1 == m' "$T/events" 2>/dev/null | tail -n1
+}
+wait_ev() { # model "kind code gen"
+    for _ in $(seq 100); do [ "$(last_ev "$1" | cut -d' ' -f2-)" = "$2" ] && return 0; sleep 0.05; done
+    return 1
+}
+: > "$T/events"
+"$INSTR" --link "$T/ev0" --events "$T/events" --timeout 120 > /dev/null 2>&1 &
+EPID=$!
+for _ in $(seq 100); do grep -q "link ev: HELLO from 'sim-peer'" "$T/daemon.log" && break; sleep 0.05; done
+instr --csv "$PAPER" --model 5 --no-configure --replace --batch 4 > /dev/null; ir=$?
+g5=$(gen 5)
+if [ $ir = 0 ] && wait_ev 5 "3 0 $g5" && awk '$1 == 5 && $2 == 2' "$T/events" | grep -q .; then
+    ok "peer got EVENTs for an instrument's PUTs (UPDATED) and COMMIT (SOLVED, generation $g5)"
+else fail "EVENTs for link PUTs: rc $ir, gen $g5, last: $(last_ev 5)"; fi
+n5=$(awk '$1 == 5' "$T/events" | wc -l)
+[ "$n5" -le 29 ] && ok "at most one EVENT per model and loop pass ($n5 for 28 PUTs + COMMIT)" \
+    || fail "EVENTs not coalesced: $n5"
+plc write 40 0 0 3 65535 63836 0 1700 0 0 4000 7000 2000 > /dev/null
+g1=$(gen)
+wait_ev 1 "2 0 $g1" && ok "peer got an EVENT for a PLC write over Modbus (model 1 UPDATED, generation $g1)" \
+    || fail "EVENT for a Modbus write: want '1 2 0 $g1', last '$(last_ev 1)'"
+# A peer that stops reading must not stall the loop; it gets the latest.
+kill -STOP $EPID
+t0=$(date +%s%N)
+for v in 4100 4200 4300 4400 4500 4600 4700 4800 4900 4000; do
+    plc write 40 0 0 3 65535 63836 0 1700 0 0 $v 7000 2000 > /dev/null || fail "write while the peer sleeps"
+done
+t1=$(date +%s%N)
+g1=$(gen)
+kill -CONT $EPID
+ms=$(( (t1 - t0) / 1000000 ))
+[ $ms -lt 2000 ] && ok "10 writes in $ms ms while the peer is stopped" || fail "stalled by a stopped peer: $ms ms"
+wait_ev 1 "2 0 $g1" && ok "stopped peer resumed and got the latest EVENT (generation $g1)" \
+    || fail "latest EVENT after resume: want '1 2 0 $g1', last '$(last_ev 1)'"
+kill $EPID 2>/dev/null; wait $EPID 2>/dev/null
+
 # ---- SIGHUP reload keeps live connections -----------------------------------
 python3 - "$PORT" "$PID" "$T" <<'PY' && ok "SIGHUP: word order changed, live connection kept" || fail "SIGHUP reload"
 import os, signal, socket, struct, sys, time
@@ -262,7 +305,6 @@ plc --unit 2 verify "$PAPER" 3 >/dev/null && plc --unit 4 verify "$ROOT/examples
 
 # ---- a failed group commit changes nothing ----------------------------------
 # failsync.so makes fsync/fdatasync fail with EIO while $T/failsync exists.
-gen() { plc --unit "${1:-1}" read 7 2 | awk '{print $1 * 65536 + $2}'; }
 UP_D00="0 0 3 65535 63836 0 1700 0 0"   # upload: i j fp, x -17.00, y 17.00, z 0
 stop TERM
 LD_PRELOAD=$FAILSYNC IT2N_FAILSYNC_FLAG=$T/failsync start "$IT2ND"

@@ -13,6 +13,9 @@
  *   --dup      PCT of frames written twice (the receiver must apply once)
  *   --hangup-after N  close the pty once N entries are ACKed (exit 4)
  *   --ack-log  after every ACKed PUT, the total of ACKed entries (a line)
+ *   --events FILE  act as a passive peer instead: HELLO (caps EVENTS), then
+ *              append every EVENT received to FILE as "model kind code
+ *              generation" (flushed per line) until --timeout (exit 0)
  *   --sample FP ROWS COLS, --net FP, --query U W: after COMMIT, act as a
  *              host and check the daemon's SAMPLE_DATA / NET_ROW /
  *              QUERY_RESULT bit for bit against the core's own solve
@@ -40,6 +43,7 @@ static size_t flen;
 static FILE *acklog;
 static unsigned acked, nack_code_seen;
 static uint8_t put_count[65536];
+static FILE *evlog;
 
 static uint32_t rnd(void)
 {
@@ -106,7 +110,11 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
 {
     (void)app;
     (void)seq;
-    if (msg->type == IT2N_MSG_SAMPLE_DATA) {
+    if (msg->type == IT2N_MSG_EVENT && evlog) {
+        fprintf(evlog, "%u %u %d %u\n", msg->u.event.model, msg->u.event.kind, msg->u.event.code,
+                (unsigned)msg->u.event.generation);
+        fflush(evlog);
+    } else if (msg->type == IT2N_MSG_SAMPLE_DATA) {
         const it2n_msg_sample_data *d = &msg->u.sample_data;
         for (unsigned k = 0; k < d->count; k++) {
             uint32_t idx = d->start + k, r = idx / d->cols, c = idx % d->cols;
@@ -219,11 +227,13 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--timeout")) timeout_s = (unsigned)atoi(v);
         else if (!strcmp(a, "--ack-log")) acklog = fopen(v, "w");
         else if (!strcmp(a, "--net")) net_fp = atoi(v);
+        else if (!strcmp(a, "--events")) evlog = fopen(v, "a");
         else { fprintf(stderr, "instrument: unknown option %s\n", a); return 2; }
     }
-    if (!link_path || !csv || batch < 1 || batch > IT2N_PUT_MAX)
+    if (!link_path || (!csv && !evlog) || batch < 1 || batch > IT2N_PUT_MAX)
         return 2;
-    sim_load_csv(csv, 0, &ds);
+    if (csv)
+        sim_load_csv(csv, 0, &ds);
     {
         it2n_errinfo e;
         it2n_model_init(&local);
@@ -250,6 +260,8 @@ int main(int argc, char **argv)
     while (!failed) {
         uint32_t now = now_ms();
         it2n_msg m;
+        if (now - start > timeout_s * 1000u && evlog)
+            return 0; /* passive peer: listened for the time given */
         if (now - start > timeout_s * 1000u) {
             fprintf(stderr, "instrument: timeout, %u entries ACKed\n", acked);
             return 3;
@@ -287,11 +299,11 @@ int main(int argc, char **argv)
                 m.u.hello.version_min = m.u.hello.version_max = IT2N_PROTO_VERSION;
                 m.u.hello.max_degree = IT2N_MAX_DEGREE;
                 m.u.hello.window = IT2N_PROTO_WINDOW;
-                m.u.hello.caps = IT2N_CAP_INSTRUMENT;
+                m.u.hello.caps = evlog ? IT2N_CAP_EVENTS : IT2N_CAP_INSTRUMENT;
                 m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
                 m.u.hello.max_models = 1;
-                memcpy(m.u.hello.node, "sim-instrument", 14);
-                step = 1;
+                memcpy(m.u.hello.node, evlog ? "sim-peer" : "sim-instrument", evlog ? 8 : 14);
+                step = evlog ? 100 : 1;
             } else if (step == 1) {
                 m.type = IT2N_MSG_CONFIGURE;
                 m.u.configure.model = (uint8_t)model;
@@ -336,7 +348,7 @@ int main(int argc, char **argv)
             if (m.type == IT2N_MSG_PUT)
                 put_count[seq] = m.u.put.count;
         }
-        if (step >= 7 && it2n_link_pending(&l) == 0 &&
+        if (step >= 7 && step < 100 && it2n_link_pending(&l) == 0 &&
             got_points >= (sample_fp >= 0 ? sample_rows * sample_cols : 0) &&
             got_rows >= (net_fp >= 0 ? ds.n + 1u : 0) && got_results >= (unsigned)want_query)
             break;
