@@ -2,6 +2,7 @@
 #include "conf.h"
 
 #include <ini.h>
+#include <pwd.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -125,6 +126,16 @@ static int key_daemon(struct parse *p, const char *name, const char *v)
     } else if (!strcmp(name, "link_backoff_max")) {
         if (parse_int(v, 1, 3600, &c->link_backoff_max))
             FAIL("expected seconds 1..3600");
+    } else if (!strcmp(name, "user")) {
+        /* Resolved now, so a typo is a config error with file:line rather
+         * than a failure after the sockets are open. */
+        const struct passwd *pw = getpwnam(v);
+        if (copy_str(c->user, sizeof c->user, v))
+            FAIL("name empty or too long");
+        if (!pw)
+            FAIL("unknown user '%s'", v);
+        c->uid = (unsigned)pw->pw_uid;
+        c->gid = (unsigned)pw->pw_gid;
     } else {
         FAIL("unknown key");
     }

@@ -67,6 +67,8 @@ struct conf {
     struct conf_link link[CONF_MAX_LINKS];
     int nlinks;
     int link_backoff_max;    /* s */
+    char user[CONF_NAME];    /* "" = keep the starting user          */
+    unsigned uid, gid;       /* resolved from user at load           */
 };
 
 /* Fill c with the built-in default (TCP 127.0.0.1:1502, model 1 on unit 1

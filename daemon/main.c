@@ -3,6 +3,8 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
+#include <grp.h>
+#include <pwd.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -140,6 +142,37 @@ static void commit_hook(void *arg)
     links_release(ok);
 }
 
+/* chrony style: everything that needs root (listeners, RTU ports, the
+ * state directory) is open; give the state directory to the user, take
+ * its groups (dialout for serial links opened later), then its gid and
+ * uid, and make sure root cannot come back. */
+static int drop_privileges(void)
+{
+    if (!cfg.user[0])
+        return 0;
+    if (geteuid() != 0) {
+        log_notice("user = %s: not running as root, nothing to drop", cfg.user);
+        return 0;
+    }
+    uid_t uid = (uid_t)cfg.uid;
+    gid_t gid = (gid_t)cfg.gid;
+    if (store_chown(cfg.uid, cfg.gid)) {
+        log_err("user %s: cannot chown %s: %s", cfg.user, cfg.state_dir, strerror(errno));
+        return -1;
+    }
+    if (initgroups(cfg.user, gid) || setgid(gid) || setuid(uid)) {
+        log_err("user %s: cannot switch to uid %u gid %u: %s", cfg.user, cfg.uid, cfg.gid, strerror(errno));
+        return -1;
+    }
+    if (uid != 0 && (setuid(0) == 0 || seteuid(0) == 0 || getuid() != uid || geteuid() != uid ||
+                     getgid() != gid || getegid() != gid)) {
+        log_err("user %s: root privileges could be regained; refusing to run", cfg.user);
+        return -1;
+    }
+    log_notice("running as user %s (uid %u, gid %u)", cfg.user, cfg.uid, cfg.gid);
+    return 0;
+}
+
 static void send_status(void)
 {
     char buf[256];
@@ -260,6 +293,8 @@ int main(int argc, char **argv)
         return 1;
     }
     links_start(&cfg);
+    if (drop_privileges())
+        return 1;
     snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
     if (notify_watchdog_ms())
         wd_timer = loop_add_timer(notify_watchdog_ms() / 2, on_watchdog, NULL);

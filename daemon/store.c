@@ -470,6 +470,17 @@ int store_open(const char *dir, int fsync_on)
     return 0;
 }
 
+int store_chown(unsigned uid, unsigned gid)
+{
+    static const char *const files[] = { "wal", "snapshot" };
+    if (fchown(dirfd_, (uid_t)uid, (gid_t)gid))
+        return -1;
+    for (size_t k = 0; k < sizeof files / sizeof files[0]; k++)
+        if (fchownat(dirfd_, files[k], (uid_t)uid, (gid_t)gid, AT_SYMLINK_NOFOLLOW) && errno != ENOENT)
+            return -1;
+    return 0;
+}
+
 void store_close(void)
 {
     store_commit();

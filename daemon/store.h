@@ -52,6 +52,10 @@ struct store_stats {
 };
 void store_get_stats(struct store_stats *st);
 
+/* Give the state directory and its files to uid:gid (before dropping
+ * root). Returns 0 or -1 (errno set). */
+int store_chown(unsigned uid, unsigned gid);
+
 void store_close(void);
 
 #endif

@@ -56,7 +56,7 @@ instr() { timeout 60 "$INSTR" --link "$T/inst0" "$@"; }
 
 start() { # binary
     local bin=${1:-$IT2ND}
-    "$bin" -c "$T/it2nd.conf" -f -v >> "$T/daemon.log" 2>&1 &
+    "$bin" -c "${CONF:-$T/it2nd.conf}" -f -v >> "$T/daemon.log" 2>&1 &
     PID=$!
     for _ in $(seq 100); do
         "$PLC" --tcp 127.0.0.1:$PORT read 0 1 >/dev/null 2>&1 && return 0
@@ -353,6 +353,40 @@ grep -q "snapshot: truncated or checksum mismatch" "$T/daemon.log" \
     && ok "corrupted snapshot reported, daemon serves (sanitizer build)" || fail "corrupt snapshot"
 plc verify "$PAPER" 3 >/dev/null && ok "preloaded model still correct after a bad snapshot" || fail "after bad snapshot"
 stop TERM || fail "sanitizer build exit status"
+
+# ---- privilege drop (user = nobody) ------------------------------------------
+if [ "$(id -u)" != 0 ]; then
+    echo "e2e: skip: privilege drop test needs root (running as uid $(id -u))"
+elif ! id nobody >/dev/null 2>&1; then
+    echo "e2e: skip: no user 'nobody' on this system"
+else
+    printf '[daemon]\nstate_dir = %s\nsnapshot_interval = 3600\nuser = nobody\n[modbus]\ntcp_listen = 127.0.0.1:%s\n[model:1]\nunit_id = 1\npreload = paper\n' \
+        "$T/state_nobody" "$PORT" > "$T/nobody.conf"
+    CONF=$T/nobody.conf start "$IT2ND_SAN"
+    nu=$(id -u nobody); ng=$(id -g nobody)
+    uids=$(awk '/^Uid:/ {print $2, $3, $4, $5}' /proc/$PID/status)
+    gids=$(awk '/^Gid:/ {print $2, $3, $4, $5}' /proc/$PID/status)
+    grps=$(awk '/^Groups:/ {$1 = ""; print}' /proc/$PID/status | xargs -n1 | sort -n | xargs)
+    want_grps=$(id -G nobody | xargs -n1 | sort -n | xargs)
+    [ "$uids" = "$nu $nu $nu $nu" ] && [ "$gids" = "$ng $ng $ng $ng" ] && [ "$grps" = "$want_grps" ] \
+        && grep -q "running as user nobody (uid $nu, gid $ng)" "$T/daemon.log" \
+        && ok "user = nobody: /proc Uid $uids, Gid $gids, groups '$grps' (sanitizer build)" \
+        || fail "privilege drop: Uid '$uids' Gid '$gids' Groups '$grps' (want $nu, $ng, '$want_grps')"
+    [ "$(stat -c %U "$T/state_nobody")" = nobody ] && ok "state directory given to nobody" \
+        || fail "state directory owner $(stat -c %U "$T/state_nobody")"
+    out=$(plc write 40 0 0 3 65535 63836 0 1700 0 0 4400 7000 2000)
+    [ "$out" = ok ] && plc read 0 1 >/dev/null && [ "$(plc read 1024 1)" = 4400 ] \
+        && ok "Modbus serves and accepts writes as nobody" || fail "Modbus as nobody: $out"
+    stop TERM && [ -s "$T/state_nobody/snapshot" ] && [ "$(stat -c %U "$T/state_nobody/snapshot")" = nobody ] \
+        && ok "SIGTERM as nobody: clean exit, fresh snapshot owned by nobody" \
+        || fail "snapshot as nobody: $(ls -l "$T/state_nobody" 2>&1)"
+    CONF=$T/nobody.conf start "$IT2ND"
+    [ "$(plc read 1024 1)" = 4400 ] && ok "restart from the snapshot written as nobody" || fail "restart as nobody"
+    stop TERM
+    printf '[daemon]\nuser = it2n-no-such-user\n' > "$T/nouser.conf"
+    "$IT2ND" -c "$T/nouser.conf" --check-config 2>&1 | grep -q "nouser.conf:2: \[daemon\] user: unknown user 'it2n-no-such-user'" \
+        && ok "unknown user: fatal config error with file:line" || fail "unknown user accepted"
+fi
 
 if [ "$FAILS" != 0 ]; then echo "e2e: $FAILS failure(s)"; tail -50 "$T/daemon.log"; exit 1; fi
 echo "e2e: all passed"

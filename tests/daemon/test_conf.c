@@ -85,6 +85,7 @@ static void test_errors(void **st)
         { "[link:x]\nusb = zz\n", 2, "[link:x] usb: expected VID:PID[:serial] in hex" },
         { "[bogus]\na = 1\n", 2, "[bogus] a: unknown section" },
         { "[modbus]\ntcp_listen = nocolon\n", 2, "[modbus] tcp_listen: expected host:port, [v6addr]:port or :port" },
+        { "[daemon]\n\nuser = it2n-no-such-user\n", 3, "[daemon] user: unknown user 'it2n-no-such-user'" },
     };
     for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
         conf_default(&before);
@@ -93,6 +94,10 @@ static void test_errors(void **st)
         assert_string_equal(err, want);
         assert_memory_equal(&c, &before, sizeof c); /* unchanged on error */
     }
+    /* user resolved at load */
+    assert_int_equal(load("[daemon]\nuser = root\n", &c, err, sizeof err), 0);
+    assert_string_equal(c.user, "root");
+    assert_int_equal(c.uid, 0);
     /* cross-key checks */
     assert_int_equal(load("[model:1]\nunit_id=3\n[model:2]\nunit_id=3\n", &c, err, sizeof err), -1);
     assert_non_null(strstr(err, "[model:2] unit_id: 3 already used by model 1"));
