@@ -1,0 +1,212 @@
+/* Fuzz target "conf": arbitrary text as the it2nd configuration file, read
+ * by conf_load (libinih + the daemon's key parsers and cross checks).
+ * Invariants (abort on violation):
+ *  - success: every field of the result is inside its documented limits
+ *    (counts, ranges, unique unit ids, terminated strings), as the rest of
+ *    the daemon assumes without checking again;
+ *  - failure: the struct is untouched and the message names the file and a
+ *    line "PATH:N: ..." with N a line of the file; when it names a key, that
+ *    key occurs on line N or above (libinih continuation lines repeat the
+ *    key of an earlier line).
+ * Two checks wait for a daemon change and run only with FUZZ_CONF_STRICT
+ * (make FZD_CONF_STRICT=1): cross-key (validation) errors name no line, and
+ * libinih (Debian: INI_STOP_ON_FIRST_ERROR 0) keeps calling the handler
+ * after an error, so the message pairs the first error's line with the last
+ * error's key and reason (corpus/conf/first_error_line.conf); and libinih
+ * splits lines longer than 199 characters, so line numbers drift and the
+ * tail of a long comment is parsed as a setting (corpus/conf/long_*).
+ * Built as a libFuzzer target (make fuzzd-fuzz) and, with fuzz_main.c, as a
+ * plain corpus run under make test. */
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "conf.h"
+#include "fake_env.h"
+#include "fuzz_tmp.h"
+#include "it2n.h"
+#include "it2n_regmap.h"
+
+int LLVMFuzzerInitialize(int *argc, char ***argv);
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+static char path[128];
+
+int LLVMFuzzerInitialize(int *argc, char ***argv)
+{
+    (void)argc;
+    (void)argv;
+    snprintf(path, sizeof path, "%s/it2nd.conf", fuzz_tmp());
+    return 0;
+}
+
+static int terminated(const char *s, size_t size)
+{
+    return memchr(s, 0, size) != NULL;
+}
+
+static void check_ok(const struct conf *c)
+{
+    fuzz_check(terminated(c->state_dir, sizeof c->state_dir) && c->state_dir[0], "state_dir");
+    fuzz_check(c->snapshot_interval >= 1 && c->snapshot_interval <= 86400, "snapshot_interval range");
+    fuzz_check(c->fsync == 0 || c->fsync == 1, "fsync bool");
+    fuzz_check(c->max_models >= 1 && c->max_models <= CONF_MAX_MODELS, "max_models range");
+    fuzz_check(c->nlisten >= 0 && c->nlisten <= CONF_MAX_LISTEN, "nlisten bound");
+    for (int k = 0; k < c->nlisten; k++) {
+        const struct conf_listen *l = &c->listen[k];
+        fuzz_check(terminated(l->host, sizeof l->host) && terminated(l->port, sizeof l->port), "listen strings");
+        long port = strtol(l->port, NULL, 10);
+        fuzz_check(port >= 0 && port <= 65535, "listen port range");
+    }
+    fuzz_check(c->max_clients >= 1 && c->max_clients <= 512, "max_clients range");
+    fuzz_check(c->idle_timeout >= 1 && c->idle_timeout <= 86400, "idle_timeout range");
+    fuzz_check(c->byte_timeout >= 10 && c->byte_timeout <= 60000, "byte_timeout range");
+    fuzz_check(c->word_order >= 0 && c->word_order <= 3, "word order");
+    fuzz_check(c->coord_scale >= 1 && c->coord_scale <= 10000, "coord_scale range");
+    fuzz_check(c->grid_rows >= 2 && c->grid_cols >= 2 &&
+                   c->grid_rows * c->grid_cols <= (int)IT2N_REGMAP_GRID_MAX_NODES, "grid size");
+    fuzz_check(c->nrtu >= 0 && c->nrtu <= CONF_MAX_RTU, "nrtu bound");
+    for (int k = 0; k < c->nrtu; k++) {
+        const struct conf_rtu *r = &c->rtu[k];
+        fuzz_check(terminated(r->name, sizeof r->name) && r->name[0], "rtu name");
+        fuzz_check(terminated(r->device, sizeof r->device) && r->device[0], "rtu device");
+        fuzz_check(r->baud >= 1200 && r->baud <= 4000000, "rtu baud");
+        fuzz_check(r->parity == 'N' || r->parity == 'E' || r->parity == 'O', "rtu parity");
+        fuzz_check(r->stop_bits == 1 || r->stop_bits == 2, "rtu stop bits");
+        for (int l = 0; l < k; l++)
+            fuzz_check(strcmp(c->rtu[l].name, r->name) != 0, "rtu names unique");
+    }
+    fuzz_check(c->nmodels >= 0 && c->nmodels <= c->max_models, "nmodels bound");
+    for (int k = 0; k < c->nmodels; k++) {
+        const struct conf_model *m = &c->model[k];
+        fuzz_check(m->id >= 0 && m->id <= 254, "model id range");
+        fuzz_check(m->unit >= 1 && m->unit <= 247, "unit id range");
+        fuzz_check(m->n >= 1 && m->n <= IT2N_MAX_DEGREE && m->m >= 1 && m->m <= IT2N_MAX_DEGREE, "degrees");
+        fuzz_check((m->flags & ~IT2N_F_ALL) == 0, "model flags");
+        fuzz_check(!m->preload || (m->n == 3 && m->m == 3 && !(m->flags & (IT2N_F_Z | IT2N_F_TYPE1))),
+                   "preload needs the paper's shape");
+        for (int l = 0; l < k; l++) {
+            fuzz_check(c->model[l].id != m->id, "model ids unique");
+            fuzz_check(c->model[l].unit != m->unit, "unit ids unique");
+        }
+    }
+    fuzz_check(c->nlinks >= 0 && c->nlinks <= CONF_MAX_LINKS, "nlinks bound");
+    for (int k = 0; k < c->nlinks; k++) {
+        const struct conf_link *l = &c->link[k];
+        fuzz_check(terminated(l->name, sizeof l->name) && l->name[0], "link name");
+        fuzz_check(terminated(l->device, sizeof l->device) && terminated(l->serial, sizeof l->serial),
+                   "link strings");
+        fuzz_check(l->type == CONF_LINK_SERIAL || l->type == CONF_LINK_USB, "link type");
+        fuzz_check(l->type != CONF_LINK_SERIAL || l->device[0], "serial link has a device");
+        fuzz_check(l->type != CONF_LINK_USB || l->vid || l->pid, "usb link has VID:PID");
+        fuzz_check(l->baud >= 1200 && l->baud <= 4000000, "link baud");
+        for (int m = 0; m < k; m++)
+            fuzz_check(strcmp(c->link[m].name, l->name) != 0, "link names unique");
+    }
+    fuzz_check(c->link_backoff_max >= 1 && c->link_backoff_max <= 3600, "link_backoff_max range");
+}
+
+/* Start of physical line n (1-based) of data, or NULL past the end. */
+#ifdef FUZZ_CONF_STRICT
+static const uint8_t *line_at(const uint8_t *data, size_t size, long n, size_t *len)
+{
+    size_t pos = 0;
+    for (long k = 1; k < n; k++) {
+        const uint8_t *nl = memchr(data + pos, '\n', size - pos);
+        if (!nl)
+            return NULL;
+        pos = (size_t)(nl - data) + 1;
+    }
+    if (pos >= size)
+        return NULL;
+    const uint8_t *nl = memchr(data + pos, '\n', size - pos);
+    *len = nl ? (size_t)(nl - (data + pos)) : size - pos;
+    return data + pos;
+}
+
+static int contains(const uint8_t *hay, size_t n, const char *needle)
+{
+    size_t k = strlen(needle);
+    for (size_t p = 0; k <= n && p + k <= n; p++)
+        if (memcmp(hay + p, needle, k) == 0)
+            return 1;
+    return 0;
+}
+
+/* Longest physical line of data. */
+static size_t longest_line(const uint8_t *data, size_t size)
+{
+    size_t best = 0, cur = 0;
+    for (size_t k = 0; k < size; k++) {
+        cur = data[k] == '\n' ? 0 : cur + 1;
+        if (cur > best)
+            best = cur;
+    }
+    return best;
+}
+#endif
+
+static void check_err(const uint8_t *data, size_t size, const char *err, size_t errsize)
+{
+    size_t plen = strlen(path);
+    fuzz_check(terminated(err, errsize) && err[0], "error message present");
+    fuzz_check(strncmp(err, path, plen) == 0 && err[plen] == ':', "error names the file");
+    const char *p = err + plen + 1;
+    char *end;
+    long line = strtol(p, &end, 10);
+    if (end == p || *end != ':') {
+        /* Cross-key check: "PATH: [section] key: reason", no line. */
+        fuzz_check(p[0] == ' ' && p[1] == '[', "error without a line is a validation error");
+#ifdef FUZZ_CONF_STRICT
+        fuzz_check(0, "error names a line");
+#endif
+        return;
+    }
+    fuzz_check(line >= 1, "error line number positive");
+#ifdef FUZZ_CONF_STRICT
+    size_t llen;
+    fuzz_check(line_at(data, size, line, &llen) != NULL, "error line is a line of the file");
+    /* "PATH:N: [section] key: reason": the key is on line N or above. */
+    const char *sec = end + 1;
+    if (sec[0] == ' ' && sec[1] == '[') {
+        const char *close = strstr(sec, "] ");
+        fuzz_check(close != NULL, "error: [section] key form");
+        const char *key = close + 2, *colon = strstr(key, ": ");
+        char k[64];
+        fuzz_check(colon != NULL && (size_t)(colon - key) < sizeof k, "error: key: reason form");
+        memcpy(k, key, (size_t)(colon - key));
+        k[colon - key] = 0;
+        const uint8_t *lp = line_at(data, size, line, &llen);
+        fuzz_check(k[0] && contains(data, (size_t)(lp - data) + llen, k), "error key occurs up to its line");
+    }
+#else
+    (void)data;
+    (void)size;
+#endif
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static struct conf c, before;
+    char err[512];
+    if (size > 64 * 1024)
+        return 0;
+    fuzz_write_file(path, data, size);
+    conf_default(&c);
+    before = c;
+    memset(err, 0, sizeof err);
+    if (conf_load(&c, path, err, sizeof err) == 0) {
+        check_ok(&c);
+#ifdef FUZZ_CONF_STRICT
+        /* libinih (INI_MAX_LINE 200) reads a longer line as several: the
+         * tail of a long comment would be taken as a setting. */
+        fuzz_check(longest_line(data, size) < 199, "no over-long line accepted");
+#endif
+    } else {
+        fuzz_note("conf_load error: %s", err);
+        fuzz_check(memcmp(&c, &before, sizeof c) == 0, "failed load leaves the config untouched");
+        check_err(data, size, err, sizeof err);
+    }
+    return 0;
+}
