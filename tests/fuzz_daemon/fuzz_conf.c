@@ -8,8 +8,8 @@
  *    line "PATH:N: ..." with N a line of the file; when it names a key, that
  *    key occurs on line N or above (libinih continuation lines repeat the
  *    key of an earlier line).
- * Two checks wait for a daemon change and run only with FUZZ_CONF_STRICT
- * (make FZD_CONF_STRICT=1): cross-key (validation) errors name no line, and
+ * Two checks wait for a daemon change and run only with FUZZ_STRICT
+ * (make FZD_STRICT=1): cross-key (validation) errors name no line, and
  * libinih (Debian: INI_STOP_ON_FIRST_ERROR 0) keeps calling the handler
  * after an error, so the message pairs the first error's line with the last
  * error's key and reason (corpus/conf/first_error_line.conf); and libinih
@@ -108,7 +108,7 @@ static void check_ok(const struct conf *c)
 }
 
 /* Start of physical line n (1-based) of data, or NULL past the end. */
-#ifdef FUZZ_CONF_STRICT
+#ifdef FUZZ_STRICT
 static const uint8_t *line_at(const uint8_t *data, size_t size, long n, size_t *len)
 {
     size_t pos = 0;
@@ -156,15 +156,16 @@ static void check_err(const uint8_t *data, size_t size, const char *err, size_t 
     char *end;
     long line = strtol(p, &end, 10);
     if (end == p || *end != ':') {
-        /* Cross-key check: "PATH: [section] key: reason", no line. */
+        /* Cross-key check: "PATH: [section] key: reason", no line (the
+         * file is written just before, so "cannot open" is a failure). */
         fuzz_check(p[0] == ' ' && p[1] == '[', "error without a line is a validation error");
-#ifdef FUZZ_CONF_STRICT
+#ifdef FUZZ_STRICT
         fuzz_check(0, "error names a line");
 #endif
         return;
     }
     fuzz_check(line >= 1, "error line number positive");
-#ifdef FUZZ_CONF_STRICT
+#ifdef FUZZ_STRICT
     size_t llen;
     fuzz_check(line_at(data, size, line, &llen) != NULL, "error line is a line of the file");
     /* "PATH:N: [section] key: reason": the key is on line N or above. */
@@ -198,7 +199,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     memset(err, 0, sizeof err);
     if (conf_load(&c, path, err, sizeof err) == 0) {
         check_ok(&c);
-#ifdef FUZZ_CONF_STRICT
+#ifdef FUZZ_STRICT
         /* libinih (INI_MAX_LINE 200) reads a longer line as several: the
          * tail of a long comment would be taken as a setting. */
         fuzz_check(longest_line(data, size) < 199, "no over-long line accepted");

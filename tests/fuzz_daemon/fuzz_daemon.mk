@@ -15,16 +15,16 @@ FZD_PKGS := $(shell pkg-config --cflags --libs libmodbus inih 2>/dev/null) -lm
 # models_pass_end() (group-commit rollback) is in daemon/models.h from the
 # daemon's rollback change on; drive it when it is there.
 FZD_DEFS := $(if $(shell grep -l models_pass_end daemon/models.h 2>/dev/null),-DFZD_HAVE_PASS)
-# FZD_CONF_STRICT=1: also require a line in every config error and the
+# FZD_STRICT=1: also require a line in every config error and the
 # right key for it (pending daemon/conf.c fixes, see docs/security.md).
-FZD_DEFS += $(if $(FZD_CONF_STRICT),-DFUZZ_CONF_STRICT)
+FZD_DEFS += $(if $(FZD_STRICT),-DFUZZ_STRICT)
 FZD_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(FZD) $(FZD_DEFS)
 FZD_HDR := $(wildcard $(FZD)/*.h daemon/*.h) $(CORE_HDR) $(wildcard protocol/*.h)
 FZD_COMMON := $(FZD)/fake_env.c
 FZD_MB := daemon/mb_req.c daemon/mb_map.c daemon/models.c $(FZD_PAPER)
 FZD_SRC_modbus := daemon/mb_tcp.c $(FZD_MB)
 FZD_SRC_rtu := daemon/mb_rtu.c $(FZD_MB)
-FZD_SRC_store := daemon/store.c daemon/models.c $(FZD_PAPER)
+FZD_SRC_store := daemon/store.c daemon/models.c $(wildcard daemon/snapshot.c) $(FZD_PAPER)
 FZD_SRC_conf := daemon/conf.c
 FZD_SECONDS ?= $(FUZZ_SECONDS)
 

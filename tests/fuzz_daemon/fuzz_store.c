@@ -1,0 +1,284 @@
+/* Fuzz target "store": arbitrary bytes as the WAL and snapshot files of the
+ * state directory, then store_open() recovery into a configured model
+ * table (model 1: the paper's data, solved; 2: type-1 2x2, empty; 3: chord
+ * with z, 3x2, one point).
+ *
+ * Input: byte 0 selects how the rest becomes files (so the fuzzer gets
+ * past the CRCs as well as attacking them):
+ *   0  rest = the WAL file verbatim, no snapshot
+ *   1  rest = WAL records the harness frames with valid length/CRC/seq:
+ *      [type | 0x80 corrupt CRC][payload length][payload...]...
+ *   2  a valid snapshot (written by store_snapshot at start-up) patched:
+ *      [count][offset u24, xor]... [fix CRC: bit 0], then framed records
+ *   3  rest = the snapshot file verbatim, no WAL
+ * Invariants: store_open succeeds; every model has a valid header; a
+ * SOLVED model's data passes it2n_dataset_check, equals the staging data,
+ * and its parameters, inverses and control nets are bit-identical to a
+ * fresh it2n_model_solve of it (never serve wrong data); recovering the
+ * same directory again gives the same models; the recovered models accept
+ * a COMMIT through the WAL. A snapshot whose CRC was re-computed after
+ * tampering is checked with FUZZ_STORE_STRICT only (see docs/security.md:
+ * the loader does not re-derive control nets from the data yet). */
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "fake_env.h"
+#include "fuzz_tmp.h"
+#include "it2n.h"
+#include "it2n_proto.h"
+#include "models.h"
+#include "store.h"
+
+int LLVMFuzzerInitialize(int *argc, char ***argv);
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+#define NMODELS 3
+static char dir[128], wal_path[160], snap_path[160];
+static uint8_t *snap_base;
+static size_t snap_len;
+static int snap_crc_fixable;
+
+struct saved {
+    int state;
+    uint32_t gen;
+    it2n_dataset ds;
+    it2n_model mdl;
+};
+static struct saved first[NMODELS];
+
+static void setup_models(void)
+{
+    static const it2n_val pt[IT2N_CH_COUNT] = { 0, 0, 0, IT2N_VAL_ONE / 2, IT2N_VAL_ONE / 4, IT2N_VAL_ONE / 8 };
+    it2n_errinfo err;
+    fuzz_check(models_init(8) == 0, "models_init");
+    struct model *a = models_add(1, 1, 3, 3, 0);
+    fuzz_check(a && models_preload_paper(a) == IT2N_OK && a->state == IT2N_RS_SOLVED, "paper model");
+    fuzz_check(models_add(2, 2, 2, 2, IT2N_F_TYPE1) != NULL, "model 2");
+    struct model *c = models_add(3, 3, 3, 2, IT2N_F_CHORD | IT2N_F_Z);
+    fuzz_check(c != NULL, "model 3");
+    models_set_journal(NULL, NULL);
+    fuzz_check(models_put(c, 0, 0, IT2N_FP_D, pt, false, &err) == IT2N_OK, "model 3 point");
+}
+
+static void clear_dir(void)
+{
+    static const char *const names[] = { "wal", "wal.tmp", "snapshot", "snapshot.tmp" };
+    char p[200];
+    for (size_t k = 0; k < sizeof names / sizeof names[0]; k++) {
+        snprintf(p, sizeof p, "%s/%s", dir, names[k]);
+        unlink(p);
+    }
+}
+
+static uint8_t *slurp(const char *p, size_t *len)
+{
+    FILE *f = fopen(p, "rb");
+    uint8_t *buf;
+    long n;
+    fuzz_check(f != NULL, "open baseline file");
+    fseek(f, 0, SEEK_END);
+    n = ftell(f);
+    rewind(f);
+    buf = malloc((size_t)n + 1);
+    fuzz_check(buf && fread(buf, 1, (size_t)n, f) == (size_t)n, "read baseline file");
+    fclose(f);
+    *len = (size_t)n;
+    return buf;
+}
+
+int LLVMFuzzerInitialize(int *argc, char ***argv)
+{
+    (void)argc;
+    (void)argv;
+    snprintf(dir, sizeof dir, "%s/state", fuzz_tmp());
+    snprintf(wal_path, sizeof wal_path, "%s/wal", dir);
+    snprintf(snap_path, sizeof snap_path, "%s/snapshot", dir);
+    /* The baseline snapshot comes from the daemon's own writer, so this
+     * harness follows format changes. */
+    clear_dir();
+    setup_models();
+    fuzz_check(store_open(dir, 0) == 0, "baseline store_open");
+    fuzz_check(store_snapshot() == 0, "baseline snapshot");
+    store_close();
+    models_free();
+    snap_base = slurp(snap_path, &snap_len);
+    snap_crc_fixable = snap_len > 4 && it2n_crc32c(snap_base, snap_len - 4) ==
+                                           ((uint32_t)snap_base[snap_len - 4] | (uint32_t)snap_base[snap_len - 3] << 8 |
+                                            (uint32_t)snap_base[snap_len - 2] << 16 | (uint32_t)snap_base[snap_len - 1] << 24);
+    return 0;
+}
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    for (int k = 0; k < 4; k++)
+        p[k] = (uint8_t)(v >> (8 * k));
+}
+
+/* Frame records from d (see the header comment) into a WAL file image. */
+static size_t frame_wal(const uint8_t *d, size_t n, uint8_t *out, size_t cap)
+{
+    size_t o = 16, pos = 0;
+    uint64_t seq = 1;
+    memset(out, 0, 16);
+    memcpy(out, "IT2NWAL", 8);
+    put32(out + 8, 1);
+    while (pos + 2 <= n) {
+        uint8_t t = d[pos], plen = d[pos + 1];
+        pos += 2;
+        if (plen > n - pos)
+            plen = (uint8_t)(n - pos);
+        if (o + 17 + plen > cap)
+            break;
+        put32(out + o, 9u + plen);
+        for (int k = 0; k < 8; k++)
+            out[o + 8 + (size_t)k] = (uint8_t)(seq >> (8 * k));
+        out[o + 16] = t & 0x7Fu;
+        memcpy(out + o + 17, d + pos, plen);
+        put32(out + o + 4, it2n_crc32c(out + o + 8, 9u + plen) ^ (t & 0x80u ? 1u : 0u));
+        o += 17 + plen;
+        pos += plen;
+        seq++;
+    }
+    return o;
+}
+
+static int strict_snapshot;
+
+static void check_models(void)
+{
+    static it2n_model fresh;
+    it2n_errinfo err;
+    fuzz_check(models_count() == NMODELS, "model table size");
+    for (int k = 0; k < NMODELS; k++) {
+        const struct model *md = models_at(k);
+        const it2n_model *m = &md->mdl;
+        fuzz_note("model %d state %d", md->id, md->state);
+        fuzz_check(md->ds.n >= 1 && md->ds.n <= IT2N_MAX_DEGREE && md->ds.m >= 1 && md->ds.m <= IT2N_MAX_DEGREE,
+                   "recovered degrees in range");
+        fuzz_check(md->state >= IT2N_RS_EMPTY && md->state <= IT2N_RS_FAILED, "recovered state in range");
+        if (md->state != IT2N_RS_SOLVED)
+            continue;
+        if (!strict_snapshot)
+            continue;
+        fuzz_check((md->ds.flags & ~IT2N_F_ALL) == 0, "recovered flags valid");
+        fuzz_check(m->solved == 1, "solved model marked solved");
+        fuzz_check(it2n_dataset_check(&m->data, &err) == IT2N_OK, "served data passes it2n_dataset_check");
+        fuzz_check(memcmp(&md->ds, &m->data, sizeof md->ds) == 0, "staging data equals the solved data");
+        it2n_model_init(&fresh);
+        fuzz_check(it2n_model_solve(&fresh, &m->data, &err) == IT2N_OK, "served data solves");
+        unsigned n = m->data.n, mm = m->data.m;
+        for (unsigned i = 0; i <= n; i++) {
+            fuzz_check(fresh.u[i] == m->u[i], "parameter u equals a fresh solve");
+            for (unsigned r = 0; r <= n; r++)
+                fuzz_check(fresh.ainv[i][r] == m->ainv[i][r], "(M^T)^-1 equals a fresh solve");
+        }
+        for (unsigned j = 0; j <= mm; j++) {
+            fuzz_check(fresh.w[j] == m->w[j], "parameter w equals a fresh solve");
+            for (unsigned r = 0; r <= mm; r++)
+                fuzz_check(fresh.binv[j][r] == m->binv[j][r], "N^-1 equals a fresh solve");
+        }
+        for (unsigned i = 0; i <= n; i++)
+            for (unsigned j = 0; j <= mm; j++)
+                for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                    if (!it2n_model_has_fp(m, fp))
+                        continue;
+                    for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                        fuzz_check(fresh.ctrl[i][j][fp][ch] == m->ctrl[i][j][fp][ch],
+                                   "control net equals a fresh solve");
+                        fuzz_check(fresh.ctrl_rem[i][j][fp][ch] == m->ctrl_rem[i][j][fp][ch],
+                                   "control net remainder equals a fresh solve");
+                    }
+                }
+    }
+}
+
+static void write_files(const uint8_t *data, size_t size)
+{
+    static uint8_t img[1 << 16];
+    static uint8_t *snap;
+    const uint8_t *d = data + 1;
+    size_t n = size - 1;
+    strict_snapshot = 1;
+    switch (data[0] & 3u) {
+    case 0:
+        fuzz_write_file(wal_path, d, n);
+        break;
+    case 1:
+        fuzz_write_file(wal_path, img, frame_wal(d, n, img, sizeof img));
+        break;
+    case 2: {
+        size_t pos = 0, count = n ? d[pos++] : 0;
+        int touched = 0;
+        if (!snap)
+            snap = malloc(snap_len);
+        fuzz_check(snap != NULL, "snapshot buffer");
+        memcpy(snap, snap_base, snap_len);
+        for (size_t k = 0; k < count && pos + 4 <= n; k++, pos += 4) {
+            size_t off = ((size_t)d[pos] | (size_t)d[pos + 1] << 8 | (size_t)d[pos + 2] << 16) % snap_len;
+            snap[off] ^= d[pos + 3];
+            touched |= d[pos + 3] != 0;
+        }
+        if (pos < n && (d[pos++] & 1u) && snap_crc_fixable) {
+            put32(snap + snap_len - 4, it2n_crc32c(snap, snap_len - 4));
+#ifdef FUZZ_STORE_LAX_SNAPSHOT
+            strict_snapshot = !touched;
+#endif
+        }
+        fuzz_write_file(snap_path, snap, snap_len);
+        fuzz_write_file(wal_path, img, frame_wal(d + pos, n - pos, img, sizeof img));
+        break;
+    }
+    default:
+        fuzz_write_file(snap_path, d, n);
+        break;
+    }
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    it2n_errinfo err;
+    if (size < 1 || size > 60000)
+        return 0;
+    clear_dir();
+    write_files(data, size);
+
+    /* First recovery. */
+    setup_models();
+    fuzz_check(store_open(dir, 0) == 0, "store_open recovers any file contents");
+    check_models();
+    for (int k = 0; k < NMODELS; k++) {
+        const struct model *md = models_at(k);
+        first[k].state = md->state;
+        first[k].gen = md->gen;
+        first[k].ds = md->ds;
+        first[k].mdl = md->mdl;
+    }
+    store_close();
+    models_free();
+
+    /* Second recovery of what the first one left: the same models. */
+    setup_models();
+    fuzz_check(store_open(dir, 0) == 0, "store_open again");
+    for (int k = 0; k < NMODELS; k++) {
+        const struct model *md = models_at(k);
+        fuzz_note("model %d: state %d/%d gen %u/%u", md->id, first[k].state, md->state, first[k].gen, md->gen);
+        fuzz_check(first[k].state == md->state && first[k].gen == md->gen &&
+                       memcmp(&first[k].ds, &md->ds, sizeof md->ds) == 0 &&
+                       memcmp(&first[k].mdl, &md->mdl, sizeof md->mdl) == 0,
+                   "recovering twice gives the same models");
+    }
+    /* The recovered table keeps working: COMMIT each complete model
+     * through the WAL (a failing solve is an answer, not a crash). */
+    models_set_journal(store_append, NULL);
+    for (int k = 0; k < NMODELS; k++)
+        (void)models_commit(models_at(k), &err);
+    fuzz_check(store_commit() == 0, "WAL append after recovery");
+    models_set_journal(NULL, NULL);
+    store_close();
+    models_free();
+    (void)fake_log_errors();
+    return 0;
+}
