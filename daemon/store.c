@@ -3,11 +3,10 @@
  * WAL file "wal":  header "IT2NWAL\0" u32 version(1) u32 0, then records
  *   u32 len (of seq..payload), u32 crc32c (of seq..payload), u64 seq,
  *   u8 type, payload. All little-endian.
- * Snapshot "snapshot": header "IT2NSNP\0" u32 version(1) u32 layout
- *   (sizeof of the raw structs, so a binary with other core limits rejects
- *   it), u64 seq of the last WAL record included, u32 nmodels, then per
- *   model its id, state, counters and the raw it2n_dataset and it2n_model,
- *   then u32 crc32c of everything before it.
+ * Snapshot "snapshot": version 2 is the portable format of snapshot.c.
+ *   Version 1 (raw struct dump tagged with the struct layout, written by
+ *   it2nd 0.1) is still read when the layout matches this build, so an
+ *   upgrade keeps its state; it is never written.
  * Records with seq <= the snapshot's seq are skipped on replay (a crash
  * between snapshot rename and WAL reset leaves them behind). */
 #include "store.h"
@@ -22,10 +21,10 @@
 
 #include "it2n_proto.h"
 #include "log.h"
+#include "snapshot.h"
 
 #define WAL_MAGIC "IT2NWAL"
-#define SNAP_MAGIC "IT2NSNP"
-#define FORMAT_VERSION 1u
+#define FORMAT_VERSION 1u  /* WAL; and the legacy snapshot */
 #define WAL_HDR 16u
 #define REC_HDR 17u        /* len, crc, seq, type */
 #define REC_MAX 128u
@@ -253,34 +252,14 @@ struct snap_model {
 
 int store_snapshot(void)
 {
-    int n = models_count();
-    size_t size = 32 + (size_t)n * sizeof(struct snap_model) + 4;
-    uint8_t *buf = calloc(1, size);
+    size_t size = 0;
+    uint8_t *buf = NULL;
     int fd, rc = -1;
-    if (!buf)
-        return -1;
     if (store_commit())
         goto out;
-    memcpy(buf, SNAP_MAGIC, 8);
-    put32(buf + 8, FORMAT_VERSION);
-    put32(buf + 12, layout_tag());
-    put64(buf + 16, seq);
-    put32(buf + 24, (uint32_t)n);
-    for (int k = 0; k < n; k++) {
-        const struct model *md = models_at(k);
-        struct snap_model sm;
-        memset(&sm, 0, sizeof sm);
-        sm.id = md->id;
-        sm.state = md->state;
-        sm.gen = md->gen;
-        sm.points_rx = md->points_rx;
-        sm.solves = md->solves;
-        memcpy(sm.upload, md->upload, sizeof sm.upload);
-        sm.ds = md->ds;
-        sm.mdl = md->mdl;
-        memcpy(buf + 32 + (size_t)k * sizeof sm, &sm, sizeof sm);
-    }
-    put32(buf + size - 4, it2n_crc32c(buf, size - 4));
+    buf = snap_encode(seq, &size);
+    if (!buf)
+        goto out;
     fd = openat(dirfd_, "snapshot.tmp", O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
     if (fd < 0)
         goto out;
@@ -340,6 +319,11 @@ static uint64_t load_snapshot(void)
         log_err("snapshot: not a snapshot (%zu bytes); ignored, state before the WAL is lost", len);
         goto out;
     }
+    if (get32(buf + 8) == SNAP_VERSION) {
+        if (snap_decode(buf, len, &sseq))
+            sseq = 0;
+        goto out;
+    }
     if (get32(buf + 8) != FORMAT_VERSION || get32(buf + 12) != layout_tag()) {
         log_err("snapshot: version %u / layout %08x not supported; ignored", get32(buf + 8),
                 get32(buf + 12));
@@ -380,7 +364,8 @@ static uint64_t load_snapshot(void)
         md->mdl = sm.mdl;
         md->grid_valid = 0;
     }
-    log_info("snapshot: %u model(s) loaded, seq %llu", n, (unsigned long long)sseq);
+    log_notice("snapshot: legacy version 1, %u model(s) loaded, seq %llu; the next one is written as version %u", n,
+               (unsigned long long)sseq, SNAP_VERSION);
 out:
     free(buf);
     return sseq;

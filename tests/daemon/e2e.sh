@@ -211,6 +211,7 @@ wait_ev() { # model "kind code gen"
     return 1
 }
 : > "$T/events"
+rm -f "$T/inst0"   # every instrument run so far has ended
 "$INSTR" --link "$T/ev0" --events "$T/events" --timeout 120 > /dev/null 2>&1 &
 EPID=$!
 for _ in $(seq 100); do grep -q "link ev: HELLO from 'sim-peer'" "$T/daemon.log" && break; sleep 0.05; done

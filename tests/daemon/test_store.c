@@ -1,7 +1,9 @@
 /* test_store — WAL and snapshot: replay after "crash" (no snapshot),
  * group commit, truncated and corrupted records dropped with everything
  * before them kept, snapshot + WAL, records already in a snapshot skipped,
- * corrupted snapshot ignored. */
+ * corrupted snapshot ignored; the portable snapshot format (version 2)
+ * byte for byte, a snapshot from a build with another IT2N_MAX_DEGREE, one
+ * whose records do not add up, and the legacy version 1. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -14,7 +16,9 @@
 
 #include <cmocka.h>
 
+#include "it2n_proto.h"
 #include "models.h"
+#include "snapshot.h"
 #include "store.h"
 
 static char dir[64];
@@ -187,11 +191,261 @@ static void test_snapshot(void **st)
     store_close();
 }
 
+/* A little-endian writer for hand-made snapshot files (an independent
+ * implementation of the layout documented in docs/daemon.md). */
+struct wbuf {
+    uint8_t b[4096];
+    size_t n;
+};
+
+static void w8(struct wbuf *w, unsigned v)
+{
+    w->b[w->n++] = (uint8_t)v;
+}
+
+static void wle(struct wbuf *w, uint64_t v, int bytes)
+{
+    for (int k = 0; k < bytes; k++)
+        w8(w, (unsigned)(v >> (8 * k)) & 0xFFu);
+}
+
+static void wfile(const char *name, struct wbuf *w, int with_crc)
+{
+    char p[128];
+    if (with_crc)
+        wle(w, it2n_crc32c(w->b, w->n), 4);
+    path(p, sizeof p, name);
+    FILE *f = fopen(p, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(w->b, 1, w->n, f), w->n);
+    fclose(f);
+}
+
+static void whdr(struct wbuf *w, uint64_t seq, uint32_t models)
+{
+    w->n = 0;
+    memcpy(w->b, "IT2NSNP", 8);
+    w->n = 8;
+    wle(w, 2, 4);
+    wle(w, 0, 4);
+    wle(w, seq, 8);
+    wle(w, models, 4);
+    wle(w, 0, 4);
+}
+
+static void wmodel(struct wbuf *w, unsigned id, unsigned n, unsigned m, unsigned flags, unsigned state,
+                   unsigned points, uint32_t gen, uint32_t rx, uint32_t solves)
+{
+    wle(w, id, 2);
+    w8(w, n);
+    w8(w, m);
+    w8(w, flags);
+    w8(w, state);
+    wle(w, points, 2);
+    wle(w, gen, 4);
+    wle(w, rx, 4);
+    wle(w, solves, 4);
+    for (int k = 0; k < 12; k++)
+        wle(w, (unsigned)k, 2);
+}
+
+/* Point (i, j) of the type-1 test model: footprint D only. */
+static void wpoint(struct wbuf *w, unsigned i, unsigned j, int x, int y, int t)
+{
+    w8(w, i);
+    w8(w, j);
+    w8(w, 1u << IT2N_FP_D);
+    wle(w, (uint64_t)((it2n_val)x * IT2N_VAL_ONE), 8);
+    wle(w, (uint64_t)((it2n_val)y * IT2N_VAL_ONE), 8);
+    wle(w, 0, 8);
+    wle(w, (uint64_t)((it2n_val)t * IT2N_VAL_ONE / 10), 8);
+    wle(w, 0, 8);
+    wle(w, 0, 8);
+}
+
+static void test_snapshot_format(void **st)
+{
+    struct wbuf w;
+    char p[128];
+    (void)st;
+    struct model *md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    models_clear(md);
+    put(md, 0, 0, 0, 0, 1);
+    put(md, 0, 1, 0, 10, 2);
+    put(md, 1, 0, 10, 0, 3);
+    put(md, 1, 1, 10, 10, 4);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    md->upload[0] = 0;
+    for (int k = 1; k < 12; k++)
+        md->upload[k] = (uint16_t)k;
+    assert_int_equal(store_snapshot(), 0);
+    uint32_t gen = md->gen;
+    it2n_model want = md->mdl;
+    store_close();
+
+    /* Byte for byte what the documented layout says (seq 5: the clear and
+     * the four points). */
+    whdr(&w, 5, 1);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_SOLVED, 4, gen, md->points_rx, md->solves);
+    wpoint(&w, 0, 0, 0, 0, 1);
+    wpoint(&w, 0, 1, 0, 10, 2);
+    wpoint(&w, 1, 0, 10, 0, 3);
+    wpoint(&w, 1, 1, 10, 10, 4);
+    wle(&w, it2n_crc32c(w.b, w.n), 4);
+    assert_int_equal(fsize("snapshot"), (long)w.n);
+    {
+        uint8_t got[4096];
+        path(p, sizeof p, "snapshot");
+        FILE *f = fopen(p, "rb");
+        assert_non_null(f);
+        assert_int_equal(fread(got, 1, sizeof got, f), w.n);
+        fclose(f);
+        assert_memory_equal(got, w.b, w.n);
+    }
+
+    /* Loaded and re-solved: the same control nets and generation. */
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->gen, gen);
+    assert_int_equal(md->upload[11], 11);
+    assert_memory_equal(md->mdl.ctrl, want.ctrl, sizeof want.ctrl);
+    store_close();
+}
+
+static void test_snapshot_foreign(void **st)
+{
+    struct wbuf w;
+    (void)st;
+    /* Written by a build with a larger IT2N_MAX_DEGREE: model 1 fits and
+     * loads, model 2 (degree IT2N_MAX_DEGREE + 1) is dropped, model 9 is
+     * not configured here. */
+    whdr(&w, 0, 3);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_SOLVED, 4, 42, 4, 1);
+    wpoint(&w, 0, 0, 0, 0, 1);
+    wpoint(&w, 0, 1, 0, 10, 2);
+    wpoint(&w, 1, 0, 10, 0, 3);
+    wpoint(&w, 1, 1, 10, 10, 4);
+    wmodel(&w, 2, IT2N_MAX_DEGREE + 1, 1, IT2N_F_TYPE1, IT2N_RS_INCOMPLETE, 1, 5, 1, 0);
+    wpoint(&w, IT2N_MAX_DEGREE + 1, 0, 0, 0, 1);
+    wmodel(&w, 9, 1, 1, 0, IT2N_RS_EMPTY, 0, 3, 0, 0);
+    mkdir(dir, 0750);
+    wfile("snapshot", &w, 1);
+    {
+        char p[128];
+        path(p, sizeof p, "wal");
+        unlink(p);
+    }
+    struct model *md = fresh();
+    struct model *md2 = models_add(2, 2, 2, 2, 0);
+    assert_non_null(md2);
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->gen, 42);
+    assert_int_equal(models_present(md), 4);
+    it2n_model direct;
+    it2n_errinfo err;
+    it2n_model_init(&direct);
+    assert_int_equal(it2n_model_solve(&direct, &md->ds, &err), IT2N_OK);
+    assert_memory_equal(md->mdl.ctrl, direct.ctrl, sizeof direct.ctrl);
+    assert_int_equal(md2->state, IT2N_RS_EMPTY);  /* dropped: its configuration */
+    assert_int_equal(md2->ds.n, 2);
+    store_close();
+
+    /* A value out of range (T = 1.1) with a valid CRC: that model is
+     * dropped, never served. */
+    whdr(&w, 0, 1);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_SOLVED, 4, 42, 4, 1);
+    wpoint(&w, 0, 0, 0, 0, 11);
+    wpoint(&w, 0, 1, 0, 10, 2);
+    wpoint(&w, 1, 0, 10, 0, 3);
+    wpoint(&w, 1, 1, 10, 10, 4);
+    wfile("snapshot", &w, 1);
+    cut("wal", 16);
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(md->state, IT2N_RS_EMPTY);
+    store_close();
+
+    /* Records that do not add up (one model announced, two written), valid
+     * CRC: the whole file is ignored. */
+    whdr(&w, 0, 1);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_EMPTY, 0, 8, 0, 0);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_EMPTY, 0, 9, 0, 0);
+    wfile("snapshot", &w, 1);
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(md->gen, 0);
+    store_close();
+}
+
+/* The legacy version 1 snapshot (raw structs, it2nd 0.1) still loads when
+ * the layout matches this build. */
+struct v1_model {
+    int32_t id, state;
+    uint32_t gen, points_rx, solves;
+    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
+    it2n_dataset ds;
+    it2n_model mdl;
+};
+
+static void test_snapshot_v1(void **st)
+{
+    static struct v1_model sm;
+    static uint8_t buf[32 + sizeof(struct v1_model) + 4];
+    char p[128];
+    (void)st;
+    struct model *md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    models_clear(md);
+    put(md, 0, 0, 0, 0, 1);
+    put(md, 0, 1, 0, 10, 2);
+    put(md, 1, 0, 10, 0, 3);
+    put(md, 1, 1, 10, 10, 4);
+    memset(&sm, 0, sizeof sm);
+    sm.id = 1;
+    sm.state = md->state;
+    sm.gen = 77;
+    sm.ds = md->ds;
+    sm.mdl = md->mdl;
+    store_close();
+    memset(buf, 0, sizeof buf);
+    memcpy(buf, "IT2NSNP", 8);
+    uint32_t v = 1, layout = (uint32_t)(sizeof(it2n_dataset) ^ (sizeof(it2n_model) << 12)) ^
+                             (uint32_t)IT2N_MAX_DEGREE << 28, n = 1;
+    for (int k = 0; k < 4; k++) {
+        buf[8 + k] = (uint8_t)(v >> (8 * k));
+        buf[12 + k] = (uint8_t)(layout >> (8 * k));
+        buf[24 + k] = (uint8_t)(n >> (8 * k));
+    }
+    memcpy(buf + 32, &sm, sizeof sm);
+    uint32_t crc = it2n_crc32c(buf, sizeof buf - 4);
+    for (int k = 0; k < 4; k++)
+        buf[sizeof buf - 4 + k] = (uint8_t)(crc >> (8 * k));
+    path(p, sizeof p, "snapshot");
+    FILE *f = fopen(p, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(buf, 1, sizeof buf, f), sizeof buf);
+    fclose(f);
+    cut("wal", 16);
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->gen, 77);
+    assert_int_equal(store_snapshot(), 0); /* rewritten as version 2 */
+    store_close();
+    assert_int_equal(fsize("snapshot"), 32 + 44 + 4 * 51 + 4);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_wal_replay),
         cmocka_unit_test(test_snapshot),
+        cmocka_unit_test(test_snapshot_format),
+        cmocka_unit_test(test_snapshot_foreign),
+        cmocka_unit_test(test_snapshot_v1),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -25,6 +25,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -164,6 +165,32 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_
     failed = code == IT2N_PROTO_ERR_TIMEOUT ? 3 : 1;
 }
 
+/* The symlink goes away with the process, as a USB serial device does on
+ * unplug: a stale link would point at a pts number the kernel hands to the
+ * next pty, and the daemon would open someone else's line. */
+static const char *link_name;
+static char pty_name[128];
+
+/* Only our own link: a newer instrument may have replaced it already.
+ * (readlink and unlink are async-signal-safe.) */
+static void unlink_link(void)
+{
+    char target[sizeof pty_name];
+    ssize_t n = link_name ? readlink(link_name, target, sizeof target - 1) : -1;
+    if (n > 0) {
+        target[n] = 0;
+        if (!strcmp(target, pty_name))
+            unlink(link_name);
+    }
+}
+
+static void on_term(int sig)
+{
+    (void)sig;
+    unlink_link();
+    _exit(0);
+}
+
 static int make_link(const char *path)
 {
     char name[128], tmp[512];
@@ -179,6 +206,11 @@ static int make_link(const char *path)
     unlink(tmp);
     if (symlink(name, tmp) || rename(tmp, path))
         return -1;
+    link_name = path;
+    snprintf(pty_name, sizeof pty_name, "%s", name);
+    atexit(unlink_link);
+    signal(SIGTERM, on_term);
+    signal(SIGINT, on_term);
     /* slave stays open: the master then never reports a hang-up while the
      * daemon is between opens. */
     return 0;

@@ -1,0 +1,256 @@
+/* snapshot.c — see snapshot.h.
+ *
+ * File: header (32 bytes)
+ *   0 "IT2NSNP\0", 8 u32 version (2), 12 u32 0, 16 u64 seq, 24 u32 models,
+ *   28 u32 0
+ * per model (44 bytes, then its points)
+ *   0 u16 id, 2 u8 n, 3 u8 m, 4 u8 flags, 5 u8 state, 6 u16 points,
+ *   8 u32 generation, 12 u32 points_rx, 16 u32 solves, 20 12 x u16 upload
+ * per grid point holding at least one footprint
+ *   0 u8 i, 1 u8 j, 2 u8 mask (bit fp), then for each fp in mask, in
+ *   order, 6 x i64 (x, y, z, T, I, F) Q24
+ * trailer: u32 CRC-32C of everything before it. All little-endian. */
+#include "snapshot.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "it2n_proto.h"
+#include "log.h"
+#include "models.h"
+
+#define MODEL_HDR 44u
+#define UPLOAD_WORDS (IT2N_REG_UPLOAD_END - IT2N_REG_UP_I)
+#define FP_BYTES (8u * IT2N_CH_COUNT)
+
+_Static_assert(UPLOAD_WORDS == 12, "snapshot model header holds 12 upload registers");
+_Static_assert(IT2N_FP_COUNT <= 8, "footprint mask is one byte");
+
+static void put16(uint8_t *p, unsigned v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+}
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    for (int k = 0; k < 4; k++)
+        p[k] = (uint8_t)(v >> (8 * k));
+}
+
+static void put64(uint8_t *p, uint64_t v)
+{
+    for (int k = 0; k < 8; k++)
+        p[k] = (uint8_t)(v >> (8 * k));
+}
+
+static unsigned get16(const uint8_t *p)
+{
+    return (unsigned)p[0] | (unsigned)p[1] << 8;
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static uint64_t get64(const uint8_t *p)
+{
+    return (uint64_t)get32(p) | (uint64_t)get32(p + 4) << 32;
+}
+
+static unsigned popcount8(unsigned v)
+{
+    unsigned c = 0;
+    for (; v; v &= v - 1)
+        c++;
+    return c;
+}
+
+uint8_t *snap_encode(uint64_t seq, size_t *len)
+{
+    size_t size = SNAP_HDR + 4, off;
+    int n = models_count();
+    uint8_t *buf;
+    for (int k = 0; k < n; k++) {
+        const struct model *md = models_at(k);
+        size += MODEL_HDR;
+        for (unsigned i = 0; i <= md->ds.n; i++)
+            for (unsigned j = 0; j <= md->ds.m; j++)
+                if (md->ds.present[i][j])
+                    size += 3 + FP_BYTES * popcount8(md->ds.present[i][j]);
+    }
+    buf = calloc(1, size);
+    if (!buf)
+        return NULL;
+    memcpy(buf, SNAP_MAGIC, 8);
+    put32(buf + 8, SNAP_VERSION);
+    put64(buf + 16, seq);
+    put32(buf + 24, (uint32_t)n);
+    off = SNAP_HDR;
+    for (int k = 0; k < n; k++) {
+        const struct model *md = models_at(k);
+        uint8_t *h = buf + off;
+        unsigned points = 0;
+        off += MODEL_HDR;
+        for (unsigned i = 0; i <= md->ds.n; i++)
+            for (unsigned j = 0; j <= md->ds.m; j++) {
+                unsigned mask = md->ds.present[i][j];
+                if (!mask)
+                    continue;
+                points++;
+                buf[off++] = (uint8_t)i;
+                buf[off++] = (uint8_t)j;
+                buf[off++] = (uint8_t)mask;
+                for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
+                    if (mask & (1u << fp))
+                        for (unsigned c = 0; c < IT2N_CH_COUNT; c++, off += 8)
+                            put64(buf + off, (uint64_t)md->ds.values[i][j][fp][c]);
+            }
+        put16(h, (unsigned)md->id);
+        h[2] = md->ds.n;
+        h[3] = md->ds.m;
+        h[4] = md->ds.flags;
+        h[5] = (uint8_t)md->state;
+        put16(h + 6, points);
+        put32(h + 8, md->gen);
+        put32(h + 12, md->points_rx);
+        put32(h + 16, md->solves);
+        for (unsigned w = 0; w < UPLOAD_WORDS; w++)
+            put16(h + 20 + 2 * w, md->upload[w]);
+    }
+    put32(buf + off, it2n_crc32c(buf, off));
+    *len = off + 4;
+    return buf;
+}
+
+/* Walk the model records without using them: every length must add up. */
+static int check_structure(const uint8_t *buf, size_t len, uint32_t nmodels)
+{
+    size_t off = SNAP_HDR, end = len - 4;
+    for (uint32_t k = 0; k < nmodels; k++) {
+        if (end - off < MODEL_HDR)
+            return -1;
+        unsigned points = get16(buf + off + 6);
+        off += MODEL_HDR;
+        for (unsigned p = 0; p < points; p++) {
+            if (end - off < 3 || (buf[off + 2] & ~((1u << IT2N_FP_COUNT) - 1u)) || !buf[off + 2])
+                return -1;
+            size_t body = FP_BYTES * popcount8(buf[off + 2]);
+            off += 3;
+            if (end - off < body)
+                return -1;
+            off += body;
+        }
+    }
+    return off == end ? 0 : -1;
+}
+
+/* Rebuild one model from its record at buf (structure already checked).
+ * Returns the record's length. */
+static size_t load_model(const uint8_t *buf)
+{
+    unsigned id = get16(buf), n = buf[2], m = buf[3], flags = buf[4], state = buf[5];
+    unsigned points = get16(buf + 6);
+    const uint8_t *p = buf + MODEL_HDR;
+    size_t rlen = MODEL_HDR;
+    struct model *md = models_by_id((int)id);
+    it2n_dataset *ds = NULL;
+    it2n_model *mdl = NULL;
+    it2n_errinfo err;
+    int rc = IT2N_OK;
+    const char *why = NULL;
+
+    memset(&err, 0, sizeof err);
+    err.i = err.j = -1;
+    err.fp = -1;
+    for (unsigned k = 0; k < points; k++)
+        rlen += 3 + FP_BYTES * popcount8(buf[rlen + 2]);
+    if (!md) {
+        log_warn("snapshot: model %u no longer configured; dropped", id);
+        return rlen;
+    }
+    if (n > IT2N_MAX_DEGREE || m > IT2N_MAX_DEGREE) {
+        log_err("snapshot: model %u is %ux%u, beyond this build's IT2N_MAX_DEGREE %d; dropped", id, n, m,
+                IT2N_MAX_DEGREE);
+        return rlen;
+    }
+    if (state > IT2N_RS_FAILED) { /* IT2N_RS_EMPTY is 0 */
+        log_err("snapshot: model %u has unknown state %u; dropped", id, state);
+        return rlen;
+    }
+    ds = malloc(sizeof *ds);
+    mdl = malloc(sizeof *mdl);
+    if (!ds || !mdl) {
+        why = "no memory";
+        goto out;
+    }
+    rc = it2n_dataset_init(ds, n, m, flags, &err);
+    for (unsigned k = 0; k < points && rc == IT2N_OK; k++) {
+        unsigned i = p[0], j = p[1], mask = p[2];
+        p += 3;
+        for (unsigned fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
+            it2n_val v[IT2N_CH_COUNT];
+            if (!(mask & (1u << fp)))
+                continue;
+            for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
+                v[c] = (it2n_val)get64(p);
+            rc = it2n_dataset_put(ds, i, j, fp, v, false, &err);
+        }
+    }
+    if (rc != IT2N_OK) {
+        why = it2n_strerror(rc);
+        goto out;
+    }
+    it2n_model_init(mdl);
+    if (state == IT2N_RS_SOLVED) {
+        /* The control nets are derived: solve again (bit-identical to the
+         * incremental updates that produced them). */
+        rc = it2n_model_solve(mdl, ds, &err);
+        if (rc != IT2N_OK) {
+            why = it2n_strerror(rc);
+            goto out;
+        }
+    } else if (state == IT2N_RS_EMPTY && points) {
+        why = "points in an empty model";
+        goto out;
+    }
+    md->ds = *ds;
+    md->mdl = *mdl;
+    md->state = (int)state;
+    md->gen = get32(buf + 8);
+    md->points_rx = get32(buf + 12);
+    md->solves = get32(buf + 16);
+    for (unsigned w = 0; w < UPLOAD_WORDS; w++)
+        md->upload[w] = (uint16_t)get16(buf + 20 + 2 * w);
+    md->grid_valid = 0;
+out:
+    if (why)
+        log_err("snapshot: model %u does not validate (%s at i %d j %d fp %d); dropped, it starts from its "
+                "configuration", id, why, err.i, err.j, err.fp);
+    free(ds);
+    free(mdl);
+    return rlen;
+}
+
+int snap_decode(const uint8_t *buf, size_t len, uint64_t *seq)
+{
+    uint32_t n;
+    size_t off = SNAP_HDR;
+    if (len < SNAP_HDR + 4 || memcmp(buf, SNAP_MAGIC, 8) || get32(buf + 8) != SNAP_VERSION)
+        return -1;
+    if (get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
+        log_err("snapshot: truncated or checksum mismatch (%zu bytes); ignored, state before the WAL is lost", len);
+        return -1;
+    }
+    n = get32(buf + 24);
+    if (check_structure(buf, len, n)) {
+        log_err("snapshot: records do not add up to the file length; ignored");
+        return -1;
+    }
+    for (uint32_t k = 0; k < n; k++)
+        off += load_model(buf + off);
+    *seq = get64(buf + 16);
+    log_info("snapshot: version %u, %u model(s), seq %llu", SNAP_VERSION, n, (unsigned long long)*seq);
+    return 0;
+}

@@ -1,0 +1,28 @@
+/* snapshot — the portable snapshot format (version 2): every model's
+ * configuration, state, counters and the data points present, values as
+ * little-endian int64 Q24, CRC-32C protected. The control nets are derived
+ * state and are re-solved on load, so a snapshot written by a build with
+ * another IT2N_MAX_DEGREE (or another struct layout) loads as long as its
+ * models fit. The byte layout is documented in docs/daemon.md. */
+#ifndef IT2ND_SNAPSHOT_H
+#define IT2ND_SNAPSHOT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define SNAP_MAGIC "IT2NSNP"   /* 8 bytes with the NUL */
+#define SNAP_VERSION 2u
+#define SNAP_HDR 32u
+
+/* Encode every model of the table, covering the WAL up to seq. Returns a
+ * malloc'd buffer (caller frees) and its length, or NULL (no memory). */
+uint8_t *snap_encode(uint64_t seq, size_t *len);
+
+/* Decode a version 2 file into the model table. The whole file is checked
+ * first (length, CRC-32C, structure): on failure -1 and nothing changed.
+ * Then each model is rebuilt and re-solved on its own; one that does not fit
+ * this build or this configuration, or does not validate, is dropped with a
+ * log line and the others load. Returns 0 and the covered WAL seq. */
+int snap_decode(const uint8_t *buf, size_t len, uint64_t *seq);
+
+#endif
