@@ -11,14 +11,17 @@
  *   2  a valid snapshot (written by store_snapshot at start-up) patched:
  *      [count][offset u24, xor]... [fix CRC: bit 0], then framed records
  *   3  rest = the snapshot file verbatim, no WAL
+ *   4  a legacy version 1 snapshot (raw struct dump of it2nd 0.1, built
+ *      here from the configured models) patched as in 2, then records
+ *   5..7 as 1..3
  * Invariants: store_open succeeds; every model has a valid header; a
  * SOLVED model's data passes it2n_dataset_check, equals the staging data,
  * and its parameters, inverses and control nets are bit-identical to a
  * fresh it2n_model_solve of it (never serve wrong data); recovering the
  * same directory again gives the same models; the recovered models accept
- * a COMMIT through the WAL. A snapshot whose CRC was re-computed after
- * tampering is checked with FUZZ_STORE_STRICT only (see docs/security.md:
- * the loader does not re-derive control nets from the data yet). */
+ * a COMMIT through the WAL. A version 1 snapshot whose CRC was re-computed
+ * after tampering is checked with FUZZ_STRICT only: the legacy loader takes
+ * the stored control nets as they are (docs/security.md). */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -49,8 +52,22 @@ struct saved {
 };
 static struct saved first[NMODELS];
 
+static struct model *configured[NMODELS]; /* the table as configured, copied in */
+
 static void setup_models(void)
 {
+    if (configured[0]) {
+        /* Same as below without re-solving the paper model each time. */
+        fuzz_check(models_init(8) == 0, "models_init");
+        for (int k = 0; k < NMODELS; k++) {
+            const struct model *c = configured[k];
+            struct model *md = models_add(c->id, c->unit, c->ds.n, c->ds.m, c->ds.flags);
+            fuzz_check(md != NULL, "models_add");
+            *md = *c;
+        }
+        models_set_journal(NULL, NULL);
+        return;
+    }
     static const it2n_val pt[IT2N_CH_COUNT] = { 0, 0, 0, IT2N_VAL_ONE / 2, IT2N_VAL_ONE / 4, IT2N_VAL_ONE / 8 };
     it2n_errinfo err;
     fuzz_check(models_init(8) == 0, "models_init");
@@ -105,6 +122,13 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     store_close();
     models_free();
     snap_base = slurp(snap_path, &snap_len);
+    setup_models();
+    for (int k = 0; k < NMODELS; k++) {
+        configured[k] = malloc(sizeof *configured[k]);
+        fuzz_check(configured[k] != NULL, "malloc");
+        *configured[k] = *models_at(k);
+    }
+    models_free();
     snap_crc_fixable = snap_len > 4 && it2n_crc32c(snap_base, snap_len - 4) ==
                                            ((uint32_t)snap_base[snap_len - 4] | (uint32_t)snap_base[snap_len - 3] << 8 |
                                             (uint32_t)snap_base[snap_len - 2] << 16 | (uint32_t)snap_base[snap_len - 1] << 24);
@@ -146,6 +170,44 @@ static size_t frame_wal(const uint8_t *d, size_t n, uint8_t *out, size_t cap)
 }
 
 static int strict_snapshot;
+
+/* Legacy version 1 snapshot: header, raw records, CRC-32C (frozen format,
+ * see daemon/store.c). */
+struct snap_model_v1 {
+    int32_t id, state;
+    uint32_t gen, points_rx, solves;
+    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
+    it2n_dataset ds;
+    it2n_model mdl;
+};
+
+static uint8_t *build_v1(size_t *len)
+{
+    size_t n = 32 + NMODELS * sizeof(struct snap_model_v1) + 4;
+    uint8_t *b = calloc(1, n);
+    fuzz_check(b != NULL, "v1 buffer");
+    memcpy(b, "IT2NSNP", 8);
+    put32(b + 8, 1);
+    put32(b + 12, (uint32_t)(sizeof(it2n_dataset) ^ (sizeof(it2n_model) << 12)) ^ (uint32_t)IT2N_MAX_DEGREE << 28);
+    put32(b + 24, NMODELS);
+    for (int k = 0; k < NMODELS; k++) {
+        static struct snap_model_v1 sm;
+        const struct model *md = configured[k];
+        memset(&sm, 0, sizeof sm);
+        sm.id = md->id;
+        sm.state = md->state;
+        sm.gen = md->gen;
+        sm.points_rx = md->points_rx;
+        sm.solves = md->solves;
+        memcpy(sm.upload, md->upload, sizeof sm.upload);
+        sm.ds = md->ds;
+        sm.mdl = md->mdl;
+        memcpy(b + 32 + (size_t)k * sizeof sm, &sm, sizeof sm);
+    }
+    put32(b + n - 4, it2n_crc32c(b, n - 4));
+    *len = n;
+    return b;
+}
 
 static void check_models(void)
 {
@@ -198,36 +260,46 @@ static void check_models(void)
 static void write_files(const uint8_t *data, size_t size)
 {
     static uint8_t img[1 << 16];
-    static uint8_t *snap;
+    static uint8_t *snap, *v1;
+    static size_t v1_len;
     const uint8_t *d = data + 1;
     size_t n = size - 1;
+    unsigned mode = data[0] & 7u;
     strict_snapshot = 1;
-    switch (data[0] & 3u) {
+    if (!v1)
+        v1 = build_v1(&v1_len);
+    if (mode > 4)
+        mode -= 4;
+    switch (mode) {
     case 0:
         fuzz_write_file(wal_path, d, n);
         break;
     case 1:
         fuzz_write_file(wal_path, img, frame_wal(d, n, img, sizeof img));
         break;
-    case 2: {
-        size_t pos = 0, count = n ? d[pos++] : 0;
+    case 2:
+    case 4: {
+        const uint8_t *base = mode == 2 ? snap_base : v1;
+        size_t pos = 0, count = n ? d[pos++] : 0, slen = mode == 2 ? snap_len : v1_len;
         int touched = 0;
-        if (!snap)
-            snap = malloc(snap_len);
+        free(snap);
+        snap = malloc(slen);
         fuzz_check(snap != NULL, "snapshot buffer");
-        memcpy(snap, snap_base, snap_len);
+        memcpy(snap, base, slen);
         for (size_t k = 0; k < count && pos + 4 <= n; k++, pos += 4) {
-            size_t off = ((size_t)d[pos] | (size_t)d[pos + 1] << 8 | (size_t)d[pos + 2] << 16) % snap_len;
+            size_t off = ((size_t)d[pos] | (size_t)d[pos + 1] << 8 | (size_t)d[pos + 2] << 16) % slen;
             snap[off] ^= d[pos + 3];
             touched |= d[pos + 3] != 0;
         }
-        if (pos < n && (d[pos++] & 1u) && snap_crc_fixable) {
-            put32(snap + snap_len - 4, it2n_crc32c(snap, snap_len - 4));
-#ifdef FUZZ_STORE_LAX_SNAPSHOT
-            strict_snapshot = !touched;
+        if (pos < n && (d[pos++] & 1u) && (mode == 4 || snap_crc_fixable)) {
+            put32(snap + slen - 4, it2n_crc32c(snap, slen - 4));
+#ifndef FUZZ_STRICT
+            if (mode == 4)
+                strict_snapshot = !touched;
 #endif
         }
-        fuzz_write_file(snap_path, snap, snap_len);
+        (void)touched;
+        fuzz_write_file(snap_path, snap, slen);
         fuzz_write_file(wal_path, img, frame_wal(d + pos, n - pos, img, sizeof img));
         break;
     }
