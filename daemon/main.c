@@ -87,27 +87,35 @@ static int load_conf(struct conf *c)
     return 0;
 }
 
-static int setup_models(void)
+static int add_model(const struct conf_model *m)
 {
-    if (models_init(cfg.max_models))
+    struct model *md = models_add(m->id, m->unit, (unsigned)m->n, (unsigned)m->m, m->flags);
+    if (!md) {
+        log_err("model %d: cannot create", m->id);
         return -1;
-    for (int k = 0; k < cfg.nmodels; k++) {
-        const struct conf_model *m = &cfg.model[k];
-        struct model *md = models_add(m->id, m->unit, (unsigned)m->n, (unsigned)m->m, m->flags);
-        if (!md) {
-            log_err("model %d: cannot create", m->id);
+    }
+    if (m->preload) {
+        int rc = models_preload_paper(md);
+        if (rc != IT2N_OK) {
+            log_err("model %d: paper data set does not load: %s", m->id, it2n_strerror(rc));
+            models_remove(md);
             return -1;
         }
-        if (m->preload) {
-            int rc = models_preload_paper(md);
-            if (rc != IT2N_OK) {
-                log_err("model %d: paper data set does not load: %s", m->id, it2n_strerror(rc));
-                return -1;
-            }
-        }
-        log_info("model %d on unit %d: %ux%u, flags %u, %s", m->id, m->unit, m->n, m->m, m->flags,
-                 m->preload ? "paper data preloaded" : "empty");
     }
+    log_info("model %d on unit %d: %dx%d, flags %u, %s", m->id, m->unit, m->n, m->m, m->flags,
+             m->preload ? "paper data preloaded" : "empty");
+    return 0;
+}
+
+static int setup_models(void)
+{
+    /* Room for the most a reload may configure; max_models is checked by
+     * the configuration. */
+    if (models_init(CONF_MAX_MODELS))
+        return -1;
+    for (int k = 0; k < cfg.nmodels; k++)
+        if (add_model(&cfg.model[k]))
+            return -1;
     return 0;
 }
 
@@ -207,9 +215,68 @@ static void on_watchdog(void *arg)
     wd_timer = loop_add_timer(notify_watchdog_ms() / 2, on_watchdog, NULL);
 }
 
+static const struct conf_model *conf_model_by_id(const struct conf *c, int id)
+{
+    for (int k = 0; k < c->nmodels; k++)
+        if (c->model[k].id == id)
+            return &c->model[k];
+    return NULL;
+}
+
+/* Apply [model:] changes of a reload to the live table (no pass in
+ * progress): removed models go (their data are discarded: a snapshot right
+ * after makes sure no WAL record of theirs is left to replay at restart),
+ * unit ids re-map, a changed degree/flags is a journaled CONFIGURE (points
+ * cleared), new models appear (preloaded if asked). */
+static void reload_models(const struct conf *nc)
+{
+    int removed = 0;
+    for (int k = models_count() - 1; k >= 0; k--) {
+        struct model *md = models_at(k);
+        if (!conf_model_by_id(nc, md->id)) {
+            log_notice("reload: model %d (unit %d) removed; its data are discarded", md->id, md->unit);
+            models_remove(md);
+            removed++;
+        }
+    }
+    /* All kept models take their new unit at once: swaps never collide. */
+    for (int k = 0; k < models_count(); k++) {
+        struct model *md = models_at(k);
+        const struct conf_model *m = conf_model_by_id(nc, md->id);
+        if (m->unit != md->unit) {
+            log_notice("reload: model %d moves from unit %d to unit %d", md->id, md->unit, m->unit);
+            md->unit = m->unit;
+        }
+    }
+    for (int k = 0; k < models_count(); k++) {
+        struct model *md = models_at(k);
+        const struct conf_model *m = conf_model_by_id(nc, md->id);
+        const struct conf_model *old = conf_model_by_id(&cfg, md->id);
+        it2n_errinfo err;
+        /* Only a change of the configuration file reconfigures: a model a
+         * link or PLC reconfigured keeps its data while its section stays. */
+        if (!old || (old->n == m->n && old->m == m->m && old->flags == m->flags))
+            continue;
+        if (models_configure(md, (unsigned)m->n, (unsigned)m->m, m->flags, &err) == IT2N_OK)
+            log_notice("reload: model %d reconfigured to %dx%d, flags %u: points cleared (journaled CONFIGURE)",
+                       md->id, m->n, m->m, m->flags);
+        else
+            log_err("reload: model %d cannot be reconfigured: %s", md->id, it2n_strerror(err.code));
+    }
+    for (int k = 0; k < nc->nmodels; k++)
+        if (!models_by_id(nc->model[k].id)) {
+            log_notice("reload: model %d added on unit %d", nc->model[k].id, nc->model[k].unit);
+            add_model(&nc->model[k]);
+        }
+    commit_hook(NULL); /* the CONFIGUREs: durable, announced, or rolled back */
+    if (removed && store_snapshot())
+        log_err("reload: snapshot after removing models failed; their WAL records are skipped at restart");
+}
+
 static void reload(void)
 {
     struct conf nc;
+    int k;
     log_notice("reloading configuration");
     notify_send("RELOADING=1");
     if (load_conf(&nc)) {
@@ -217,13 +284,27 @@ static void reload(void)
         notify_send("READY=1");
         return;
     }
-    /* Models and the state directory need a restart; say so. */
-    if (nc.nmodels != cfg.nmodels || memcmp(nc.model, cfg.model, sizeof nc.model) ||
-        strcmp(nc.state_dir, cfg.state_dir))
-        log_warn("reload: model or state_dir changes take effect at restart");
-    memcpy(nc.model, cfg.model, sizeof nc.model);
-    nc.nmodels = cfg.nmodels;
-    snprintf(nc.state_dir, sizeof nc.state_dir, "%s", cfg.state_dir);
+    /* Finish the pass in progress first (replies released during the last
+     * commit may have started another): models are only added or removed
+     * when nothing refers to them. */
+    for (k = 0; k < 1000 && (store_pending() || models_pass_dirty()); k++)
+        commit_hook(NULL);
+    if (store_pending() || models_pass_dirty()) {
+        log_warn("reload postponed: writes in progress");
+        sig_reload = 1;
+        return;
+    }
+    if (strcmp(nc.state_dir, cfg.state_dir)) {
+        log_warn("reload: state_dir change (%s -> %s) takes effect at restart", cfg.state_dir, nc.state_dir);
+        snprintf(nc.state_dir, sizeof nc.state_dir, "%s", cfg.state_dir);
+    }
+    if (strcmp(nc.user, cfg.user)) {
+        log_warn("reload: user change takes effect at restart");
+        memcpy(nc.user, cfg.user, sizeof nc.user);
+        nc.uid = cfg.uid;
+        nc.gid = cfg.gid;
+    }
+    reload_models(&nc);
     cfg = nc;
     fill_opts();
     mb_tcp_reload(&cfg, &mbo);
@@ -232,7 +313,7 @@ static void reload(void)
     loop_cancel_timer(snap_timer);
     snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
     notify_send("READY=1");
-    log_notice("configuration reloaded");
+    log_notice("configuration reloaded (%d models)", models_count());
 }
 
 int main(int argc, char **argv)

@@ -95,7 +95,7 @@ static int query_result(struct model *md, struct mb_query *q)
         return MBX_BUSY;
     if (q->kind == 0)
         return MBX_OK;
-    if (q->valid && q->model_id == md->id && q->gen == md->gen)
+    if (q->valid && q->model_inst == md->instance && q->gen == md->gen)
         return MBX_OK;
     memset(&q->pt, 0, sizeof q->pt);
     q->locfail = 0;
@@ -148,7 +148,7 @@ static int query_result(struct model *md, struct mb_query *q)
         }
     }
     q->valid = 1;
-    q->model_id = md->id;
+    q->model_inst = md->instance;
     q->gen = md->gen;
     return MBX_OK;
 }

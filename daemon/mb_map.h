@@ -33,8 +33,10 @@ struct mb_query {
     int kind;            /* 0 none, 1 (u, w), 2 (x, y) */
     it2n_par u, w;
     it2n_val x, y;
-    /* Cached result, valid when valid && model gen == gen && model id. */
-    int valid, model_id;
+    /* Cached result, valid when valid && the same model instance (not
+     * just id: a model removed and added again by a reload) && gen. */
+    int valid;
+    uint32_t model_inst;
     uint32_t gen;
     it2n_point pt;
     uint16_t locfail;

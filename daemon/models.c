@@ -12,6 +12,7 @@ static struct model **table;
  * change of the current loop pass (NULL: untouched). */
 static struct model **backup;
 static int nmodels, maxmodels;
+static uint32_t instances;
 static model_journal_fn journal;
 static void *journal_arg;
 static int replaying;
@@ -119,6 +120,7 @@ struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flag
         return NULL;
     md->id = id;
     md->unit = unit;
+    md->instance = ++instances;
     if (it2n_dataset_init(&md->ds, n, m, flags, &err) != IT2N_OK) {
         free(md);
         return NULL;
@@ -127,6 +129,23 @@ struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flag
     md->state = IT2N_RS_EMPTY;
     table[nmodels++] = md;
     return md;
+}
+
+void models_remove(struct model *md)
+{
+    for (int k = 0; k < nmodels; k++) {
+        if (table[k] != md)
+            continue;
+        free(backup[k]); /* NULL outside a pass */
+        free(md);
+        for (int r = k + 1; r < nmodels; r++) {
+            table[r - 1] = table[r];
+            backup[r - 1] = backup[r];
+        }
+        nmodels--;
+        table[nmodels] = backup[nmodels] = NULL;
+        return;
+    }
 }
 
 struct model *models_by_id(int id)

@@ -14,6 +14,7 @@
 
 struct model {
     int id, unit;
+    uint32_t instance;         /* unique per models_add (cache keys)  */
     it2n_dataset ds;           /* current data (staging and solved)   */
     it2n_model mdl;            /* valid when state == IT2N_RS_SOLVED  */
     int state;                 /* enum it2n_regmap_state              */
@@ -53,6 +54,9 @@ void models_set_journal(model_journal_fn fn, void *arg);
 
 /* Add a model (id unique, unit unique). Returns it, or NULL. */
 struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flags);
+/* Remove a model from the table and free it (reload). Must not be called
+ * with a pass in progress (models_pass_dirty()). */
+void models_remove(struct model *md);
 struct model *models_by_id(int id);
 struct model *models_by_unit(int unit);
 int models_count(void);

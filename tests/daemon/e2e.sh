@@ -355,6 +355,65 @@ grep -q "snapshot: truncated or checksum mismatch" "$T/daemon.log" \
 plc verify "$PAPER" 3 >/dev/null && ok "preloaded model still correct after a bad snapshot" || fail "after bad snapshot"
 stop TERM || fail "sanitizer build exit status"
 
+# ---- SIGHUP applies model changes, the TCP connection stays open ---------------
+# Remove model 6, add model 7 (paper preload), move model 3 from unit 3 to
+# unit 13, reconfigure model 4 from 2x2 (z) to 3x3 (z).
+start "$IT2ND_SAN"
+# (the corrupted snapshot above lost model 3's data: upload it again)
+plc --unit 3 upload "$ROOT/examples/type1_4x3.csv" >/dev/null || fail "type-1 upload before the model reload"
+# A WAL record of model 6, which the reload removes.
+[ "$(plc --unit 6 write 40 0 0 3 65535 63836 0 1700 0 0 4000 7000 2000)" = ok ] || fail "write to model 6"
+python3 - "$PORT" "$PID" "$T" <<'PY' && ok "SIGHUP on one open connection: model 7 added, model 6 removed, model 3 on unit 13, model 4 reconfigured 3x3" || fail "SIGHUP model changes"
+import os, signal, socket, struct, sys, time
+port, pid, tdir = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+s = socket.create_connection(("127.0.0.1", port))
+s.settimeout(3)
+tid = 0
+def read(unit, addr, n):
+    global tid
+    tid += 1
+    s.sendall(struct.pack(">HHHBBHH", tid, 0, 6, unit, 3, addr, n))
+    hdr = s.recv(9)
+    if hdr[7] & 0x80:
+        return ("exc", hdr[8])
+    body = b""
+    while len(body) < hdr[8]:
+        body += s.recv(hdr[8] - len(body))
+    return struct.unpack(">%dH" % n, body)
+assert read(3, 1, 1) == (2,), read(3, 1, 1)          # type-1 model solved on unit 3
+assert read(6, 1, 1) != ("exc", 0x0B)
+assert read(7, 1, 1) == ("exc", 0x0B)                # no model on unit 7 yet
+assert read(4, 32, 3) == (2, 2, 1), read(4, 32, 3)
+c = open(tdir + "/it2nd.conf").read()
+c = c.replace("[model:6]\nunit_id = 6\nn = 2\nm = 2\n", "[model:7]\nunit_id = 7\npreload = paper\n")
+c = c.replace("[model:3]\nunit_id = 3\n", "[model:3]\nunit_id = 13\n")
+c = c.replace("[model:4]\nunit_id = 4\nn = 2\nm = 2\n", "[model:4]\nunit_id = 4\nn = 3\nm = 3\n")
+open(tdir + "/it2nd.conf", "w").write(c)
+os.kill(pid, signal.SIGHUP)
+for _ in range(60):
+    time.sleep(0.05)
+    if read(7, 1, 1) == (2,):
+        break
+assert read(7, 1, 1) == (2,), "model 7 not added"
+assert read(6, 1, 1) == ("exc", 0x0B), "model 6 not removed"
+assert read(3, 1, 1) == ("exc", 0x0B), "unit 3 still mapped"
+assert read(13, 1, 1) == (2,), "model 3 not on unit 13"
+assert read(4, 32, 3) == (3, 3, 1) and read(4, 1, 1) == (0,), "model 4 not reconfigured"
+PY
+plc --unit 13 verify "$ROOT/examples/type1_4x3.csv" 3 >/dev/null && plc --unit 7 verify "$PAPER" 3 >/dev/null \
+    && ok "after the reload: unit 13 serves model 3's data, unit 7 the paper data" || fail "data after the model reload"
+grep -q "reload: model 4 reconfigured to 3x3, flags 1: points cleared (journaled CONFIGURE)" "$T/daemon.log" \
+    && grep -q "reload: model 6 (unit 6) removed; its data are discarded" "$T/daemon.log" \
+    && ok "reconfigure and removal logged" || fail "reload log lines"
+stop KILL   # no snapshot at exit: only the one the reload took
+start "$IT2ND"
+plc --unit 13 verify "$ROOT/examples/type1_4x3.csv" 3 >/dev/null && plc --unit 7 verify "$PAPER" 3 >/dev/null \
+    && [ "$(plc --unit 4 read 32 2)" = "3 3" ] && ! plc --unit 6 read 0 1 >/dev/null 2>&1 \
+    && [ "$(sed -n '/reload: model 6/,$p' "$T/daemon.log" | grep -c "model 6.*\(no longer\|dropped\)")" = 0 ] \
+    && ok "kill -9 and restart after the reload: same models, no record of model 6 left to replay" \
+    || fail "restart after the model reload"
+stop TERM
+
 # ---- privilege drop (user = nobody) ------------------------------------------
 if [ "$(id -u)" != 0 ]; then
     echo "e2e: skip: privilege drop test needs root (running as uid $(id -u))"
