@@ -191,6 +191,58 @@ static void test_snapshot(void **st)
     store_close();
 }
 
+/* Loop passes: a failed commit puts every touched model back, a good one
+ * reports each changed model once. */
+static int changed_calls, changed_old_state;
+static uint32_t changed_old_gen;
+
+static void on_changed(void *arg, const struct model *md, int old_state, uint32_t old_gen)
+{
+    (void)arg;
+    (void)md;
+    changed_calls++;
+    changed_old_state = old_state;
+    changed_old_gen = old_gen;
+}
+
+static void test_pass_rollback(void **st)
+{
+    (void)st;
+    struct model *md = fresh();
+    models_set_journal(NULL, NULL);
+    put(md, 0, 0, 0, 0, 1);
+    put(md, 0, 1, 0, 10, 2);
+    put(md, 1, 0, 10, 0, 3);
+    put(md, 1, 1, 10, 10, 4);
+    models_pass_end(1, on_changed, NULL);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(changed_calls, 1);   /* four puts, one pass: one call */
+    assert_int_equal(changed_old_state, IT2N_RS_EMPTY);
+    assert_false(models_pass_dirty());
+    it2n_model keep = md->mdl;
+    uint32_t gen = md->gen;
+    unsigned rx = md->points_rx;
+
+    put(md, 1, 1, 10, 10, 9);              /* update ... */
+    models_clear(md);                       /* ... and clear, same pass */
+    md->requests = 5;
+    assert_true(models_pass_dirty());
+    models_pass_end(0, on_changed, NULL);   /* the commit failed */
+    assert_int_equal(changed_calls, 1);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->gen, gen);
+    assert_int_equal(md->points_rx, rx);
+    assert_memory_equal(md->mdl.ctrl, keep.ctrl, sizeof keep.ctrl);
+    assert_int_equal(md->requests, 5);      /* counters of what happened stay */
+    assert_false(models_pass_dirty());
+
+    put(md, 1, 1, 10, 10, 9);
+    models_pass_end(1, on_changed, NULL);
+    assert_int_equal(changed_calls, 2);
+    assert_int_equal(changed_old_gen, gen);
+    assert_int_equal(md->gen, gen + 1);
+}
+
 /* A little-endian writer for hand-made snapshot files (an independent
  * implementation of the layout documented in docs/daemon.md). */
 struct wbuf {
@@ -443,6 +495,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_wal_replay),
         cmocka_unit_test(test_snapshot),
+        cmocka_unit_test(test_pass_rollback),
         cmocka_unit_test(test_snapshot_format),
         cmocka_unit_test(test_snapshot_foreign),
         cmocka_unit_test(test_snapshot_v1),
