@@ -123,6 +123,13 @@ static void on_port(void *arg, int fd, short revents)
         port_fail(p, "hang-up or error");
         return;
     }
+    if (p->len == sizeof p->buf) {
+        /* A full buffer without a silence holds no request (noise, another
+         * slave babbling): drop it and resync, rather than read 0 bytes and
+         * take that for end of file. */
+        log_debug("rtu %s: %zu bytes without a frame; dropped", p->cfg.name, p->len);
+        p->len = 0;
+    }
     r = read(fd, p->buf + p->len, sizeof p->buf - p->len);
     if (r <= 0) {
         if (r < 0 && (errno == EAGAIN || errno == EINTR))

@@ -304,6 +304,36 @@ static uint8_t *read_file(const char *name, size_t *len)
     return buf;
 }
 
+/* Version 1: the data set of a raw record, re-put and (solve) re-solved
+ * into md. On error md is unchanged. */
+static int v1_rebuild(struct model *md, const it2n_dataset *src, int solve, it2n_errinfo *err)
+{
+    it2n_dataset *ds = malloc(sizeof *ds);
+    it2n_model *mdl = malloc(sizeof *mdl);
+    int rc = IT2N_ERR_STATE;
+    memset(err, 0, sizeof *err);
+    err->code = rc;
+    if (ds && mdl)
+        rc = it2n_dataset_init(ds, src->n, src->m, src->flags, err);
+    for (unsigned i = 0; rc == IT2N_OK && i <= ds->n; i++)
+        for (unsigned j = 0; rc == IT2N_OK && j <= ds->m; j++)
+            for (unsigned fp = 0; rc == IT2N_OK && fp < IT2N_FP_COUNT; fp++)
+                if (src->present[i][j] & (1u << fp))
+                    rc = it2n_dataset_put(ds, i, j, fp, src->values[i][j][fp], false, err);
+    if (rc == IT2N_OK) {
+        it2n_model_init(mdl);
+        if (solve)
+            rc = it2n_model_solve(mdl, ds, err);
+    }
+    if (rc == IT2N_OK) {
+        md->ds = *ds;
+        md->mdl = *mdl;
+    }
+    free(ds);
+    free(mdl);
+    return rc;
+}
+
 /* Load the snapshot into the models. Returns the seq it covers (0 none). */
 static uint64_t load_snapshot(void)
 {
@@ -345,14 +375,12 @@ static uint64_t load_snapshot(void)
             log_warn("snapshot: model %d no longer configured; dropped", sm.id);
             continue;
         }
-        /* Never serve a model that does not validate. */
-        if (sm.state == IT2N_RS_SOLVED && (it2n_dataset_check(&sm.mdl.data, &err) != IT2N_OK || !sm.mdl.solved)) {
+        /* Never trust stored derived state: rebuild the data set entry by
+         * entry through the core's checks and solve it again, as version 2
+         * does (the stored control nets are ignored). */
+        if (sm.state < IT2N_RS_EMPTY || sm.state > IT2N_RS_FAILED ||
+            v1_rebuild(md, &sm.ds, sm.state == IT2N_RS_SOLVED, &err) != IT2N_OK) {
             log_err("snapshot: model %d fails validation (%s); dropped", sm.id, it2n_strerror(err.code));
-            continue;
-        }
-        if (sm.state < IT2N_RS_EMPTY || sm.state > IT2N_RS_FAILED || sm.ds.n < 1 || sm.ds.n > IT2N_MAX_DEGREE ||
-            sm.ds.m < 1 || sm.ds.m > IT2N_MAX_DEGREE) {
-            log_err("snapshot: model %d has a bad header; dropped", sm.id);
             continue;
         }
         md->state = sm.state;
@@ -360,8 +388,6 @@ static uint64_t load_snapshot(void)
         md->points_rx = sm.points_rx;
         md->solves = sm.solves;
         memcpy(md->upload, sm.upload, sizeof md->upload);
-        md->ds = sm.ds;
-        md->mdl = sm.mdl;
         md->grid_valid = 0;
     }
     log_notice("snapshot: legacy version 1, %u model(s) loaded, seq %llu; the next one is written as version %u", n,
