@@ -49,6 +49,7 @@ $(BUILD)/fuzz/fuzzd_$(1): $(FZD)/fuzz_$(1).c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD
 fuzzd-fuzz-$(1): $(BUILD)/fuzz/fuzzd_$(1)
 	@rm -rf $(BUILD)/fuzz/fuzzd_$(1)_corpus; mkdir -p $(BUILD)/fuzz/fuzzd_$(1)_corpus
 	$(BUILD)/fuzz/fuzzd_$(1) -max_total_time=$(FZD_SECONDS) -timeout=10 -print_final_stats=1 \
+	  -artifact_prefix=$(BUILD)/fuzz/fuzzd_$(1)- \
 	  -max_len=$(if $(filter store,$(1)),16384,4096) $(BUILD)/fuzz/fuzzd_$(1)_corpus $(FZD)/corpus/$(1)
 endef
 $(foreach t,$(FZD_TARGETS),$(eval $(call FZD_RULES,$(t))))
