@@ -11,12 +11,30 @@
 #include "it2n.h"
 #include "it2n_regmap.h"
 
+/* Where a section's settings came from, for cross-key errors. */
+struct origin {
+    int first_line;           /* its first key */
+    char first_key[CONF_NAME];
+    int unit_line, preload_line;
+};
+
 struct parse {
     struct conf c;
     int listen_set;      /* first tcp_listen replaces the default */
     int models_set;      /* first [model:N] replaces the default */
     char err[256];
-    char sec[64], key[64];  /* where the last error was raised */
+    char sec[64], key[64];  /* where the first error was raised */
+    int err_line, syntax;
+    /* Lines are counted here (the reader), not by libinih, so a message
+     * always names the physical line. */
+    FILE *f;
+    char *lbuf;
+    size_t lcap;
+    int line, bad_line, maxline;
+    const char *bad_why;
+    int max_models_line, grid_line;
+    char grid_key[CONF_NAME];
+    struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS];
 };
 
 static int parse_int(const char *v, long lo, long hi, int *out)
@@ -106,7 +124,19 @@ static int parse_usb(const char *v, struct conf_link *l)
     return v[used] ? -1 : 0;
 }
 
-#define FAIL(...) do { snprintf(p->err, sizeof p->err, __VA_ARGS__); return 0; } while (0)
+#define FAIL(...) do { snprintf(p->err, sizeof p->err, __VA_ARGS__); p->err_line = p->line; return 0; } while (0)
+
+static void note(struct parse *p, struct origin *o, const char *name)
+{
+    if (!o->first_line) {
+        o->first_line = p->line;
+        snprintf(o->first_key, sizeof o->first_key, "%s", name);
+    }
+    if (!strcmp(name, "unit_id"))
+        o->unit_line = p->line;
+    else if (!strcmp(name, "preload"))
+        o->preload_line = p->line;
+}
 
 static int key_daemon(struct parse *p, const char *name, const char *v)
 {
@@ -274,12 +304,26 @@ static int handler(void *user, const char *section, const char *name, const char
     struct conf *c = &p->c;
     if (!name)  /* section start without keys (INI_CALL_HANDLER_ON_NEW_SECTION) */
         return 1;
+    if (p->err[0])  /* libinih goes on after an error: keep the first */
+        return 1;
+    if (!name[0]) {  /* " = value": libinih passes an empty name */
+        p->syntax = 1;
+        FAIL("key name missing before '='");
+    }
     snprintf(p->sec, sizeof p->sec, "%s", section);
     snprintf(p->key, sizeof p->key, "%s", name);
-    if (!strcmp(section, "daemon"))
+    if (!strcmp(section, "daemon")) {
+        if (!strcmp(name, "max_models"))
+            p->max_models_line = p->line;
         return key_daemon(p, name, value);
-    if (!strcmp(section, "modbus"))
+    }
+    if (!strcmp(section, "modbus")) {
+        if (!strcmp(name, "grid_rows") || !strcmp(name, "grid_cols")) {
+            p->grid_line = p->line;
+            snprintf(p->grid_key, sizeof p->grid_key, "%s", name);
+        }
         return key_modbus(p, name, value);
+    }
     if (!strncmp(section, "rtu:", 4) && section[4]) {
         int k;
         for (k = 0; k < c->nrtu; k++)
@@ -296,6 +340,7 @@ static int handler(void *user, const char *section, const char *name, const char
             c->rtu[k].stop_bits = 1;
             c->nrtu++;
         }
+        note(p, &p->rtu[k], name);
         return key_rtu(p, &c->rtu[k], name, value);
     }
     if (!strncmp(section, "model:", 6)) {
@@ -319,6 +364,7 @@ static int handler(void *user, const char *section, const char *name, const char
             c->model[k].m = 3;
             c->nmodels++;
         }
+        note(p, &p->model[k], name);
         return key_model(p, &c->model[k], name, value);
     }
     if (!strncmp(section, "link:", 5) && section[5]) {
@@ -335,6 +381,7 @@ static int handler(void *user, const char *section, const char *name, const char
             c->link[k].baud = 115200;
             c->nlinks++;
         }
+        note(p, &p->link[k], name);
         return key_link(p, &c->link[k], name, value);
     }
     FAIL("unknown section");
@@ -366,82 +413,137 @@ void conf_default(struct conf *c)
     c->link_backoff_max = 30;
 }
 
-/* Cross-key checks, done after the whole file is read. */
-static int validate(const struct conf *c, char *err, size_t errsize)
+/* Cross-key checks, done after the whole file is read. Each error names
+ * the line of a key involved (or, for a missing key, the section's first
+ * key): *line and *key are set, err gets "[section] key: reason". */
+#define VFAIL(l, sec, k, ...) do { \
+        *line = (l); \
+        snprintf(key, keysize, "%s", (k)); \
+        snprintf(sect, sectsize, "%s", (sec)); \
+        snprintf(err, errsize, __VA_ARGS__); \
+        return -1; \
+    } while (0)
+
+static int validate(const struct parse *p, int *line, char *sect, size_t sectsize, char *key, size_t keysize,
+                    char *err, size_t errsize)
 {
+    const struct conf *c = &p->c;
+    char sec[64];
     if (c->nmodels > c->max_models) {
-        snprintf(err, errsize, "[daemon] max_models: %d models configured, limit %d", c->nmodels,
-                 c->max_models);
-        return -1;
+        const struct origin *o = &p->model[c->max_models];
+        snprintf(sec, sizeof sec, "model:%d", c->model[c->max_models].id);
+        if (p->max_models_line)
+            VFAIL(p->max_models_line > o->first_line ? p->max_models_line : o->first_line, "daemon", "max_models",
+                  "%d models configured, limit %d", c->nmodels, c->max_models);
+        VFAIL(o->first_line, sec, o->first_key, "model %d of at most max_models = %d (the default; set max_models in [daemon])",
+              c->max_models + 1, c->max_models);
     }
-    if (c->grid_rows * c->grid_cols > (int)IT2N_REGMAP_GRID_MAX_NODES) {
-        snprintf(err, errsize, "[modbus] grid_rows x grid_cols exceeds %u nodes",
-                 IT2N_REGMAP_GRID_MAX_NODES);
-        return -1;
-    }
+    if (c->grid_rows * c->grid_cols > (int)IT2N_REGMAP_GRID_MAX_NODES)
+        VFAIL(p->grid_line, "modbus", p->grid_key, "grid_rows x grid_cols = %d x %d exceeds %u nodes", c->grid_rows,
+              c->grid_cols, IT2N_REGMAP_GRID_MAX_NODES);
     for (int k = 0; k < c->nmodels; k++) {
         const struct conf_model *m = &c->model[k];
-        if (m->unit < 1) {
-            snprintf(err, errsize, "[model:%d] unit_id: required for model ids 0 and above 247", m->id);
-            return -1;
-        }
+        const struct origin *o = &p->model[k];
+        snprintf(sec, sizeof sec, "model:%d", m->id);
+        if (m->unit < 1)
+            VFAIL(o->first_line, sec, o->first_key, "unit_id is required for model ids 0 and above 247");
         for (int l = 0; l < k; l++)
             if (c->model[l].unit == m->unit) {
-                snprintf(err, errsize, "[model:%d] unit_id: %d already used by model %d", m->id,
-                         m->unit, c->model[l].id);
-                return -1;
+                if (o->unit_line)
+                    VFAIL(o->unit_line, sec, "unit_id", "%d already used by model %d", m->unit, c->model[l].id);
+                VFAIL(p->model[l].unit_line ? p->model[l].unit_line : o->first_line, sec,
+                      p->model[l].unit_line ? "unit_id" : o->first_key, "unit id %d (the model id) already used by model %d",
+                      m->unit, c->model[l].id);
             }
-        if (m->preload && (m->n != 3 || m->m != 3 || (m->flags & (IT2N_F_Z | IT2N_F_TYPE1)))) {
-            snprintf(err, errsize,
-                     "[model:%d] preload: the paper data set needs n = m = 3, no z, not type1", m->id);
-            return -1;
-        }
+        if (m->preload && (m->n != 3 || m->m != 3 || (m->flags & (IT2N_F_Z | IT2N_F_TYPE1))))
+            VFAIL(o->preload_line ? o->preload_line : o->first_line, sec, o->preload_line ? "preload" : o->first_key,
+                  "the paper data set needs n = m = 3, no z, not type1");
     }
     for (int k = 0; k < c->nrtu; k++)
         if (!c->rtu[k].device[0]) {
-            snprintf(err, errsize, "[rtu:%s] device: required", c->rtu[k].name);
-            return -1;
+            snprintf(sec, sizeof sec, "rtu:%s", c->rtu[k].name);
+            VFAIL(p->rtu[k].first_line, sec, p->rtu[k].first_key, "device is required in this section");
         }
     for (int k = 0; k < c->nlinks; k++) {
         const struct conf_link *l = &c->link[k];
-        if (l->type == CONF_LINK_SERIAL && !l->device[0]) {
-            snprintf(err, errsize, "[link:%s] device: required for type serial", l->name);
-            return -1;
-        }
-        if (l->type == CONF_LINK_USB && !l->vid && !l->pid) {
-            snprintf(err, errsize, "[link:%s] usb: required for type usb", l->name);
-            return -1;
-        }
+        snprintf(sec, sizeof sec, "link:%s", l->name);
+        if (l->type == CONF_LINK_SERIAL && !l->device[0])
+            VFAIL(p->link[k].first_line, sec, p->link[k].first_key, "device is required for type serial");
+        if (l->type == CONF_LINK_USB && !l->vid && !l->pid)
+            VFAIL(p->link[k].first_line, sec, p->link[k].first_key, "usb is required for type usb");
     }
     return 0;
+}
+
+/* libinih reader: one physical line per call, counted; a line that does
+ * not fit libinih's buffer (it would be split and its tail parsed as a new
+ * line) or holds a NUL byte stops the parse and is reported. */
+static char *reader(char *str, int num, void *stream)
+{
+    struct parse *p = stream;
+    ssize_t n;
+    if (p->bad_line)
+        return NULL;
+    n = getline(&p->lbuf, &p->lcap, p->f);
+    if (n < 0)
+        return NULL;
+    p->line++;
+    p->maxline = num - 2; /* room for the newline and the NUL */
+    if (memchr(p->lbuf, 0, (size_t)n)) {
+        p->bad_line = p->line;
+        p->bad_why = "NUL byte in the line";
+        return NULL;
+    }
+    if (n - (p->lbuf[n - 1] == '\n') > num - 2) {
+        p->bad_line = p->line;
+        p->bad_why = "line too long";
+        return NULL;
+    }
+    memcpy(str, p->lbuf, (size_t)n + 1);
+    return str;
 }
 
 int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
 {
     struct parse *p = calloc(1, sizeof *p);
-    int rc;
+    int rc, vline = 0;
     if (!p) {
         snprintf(err, errsize, "%s: out of memory", path);
         return -1;
     }
     p->c = *c;
-    /* libinih stops at the first handler failure and returns its line. */
-    rc = ini_parse(path, handler, p);
-    if (rc == -1) {
+    p->f = fopen(path, "r");
+    if (!p->f) {
         snprintf(err, errsize, "%s: cannot open", path);
-    } else if (rc == -2) {
+        free(p);
+        return -1;
+    }
+    rc = ini_parse_stream(reader, p, handler, p);
+    if (rc == -2) {
         snprintf(err, errsize, "%s: out of memory", path);
-    } else if (rc > 0) {
-        if (p->err[0])
-            snprintf(err, errsize, "%s:%d: [%s] %s: %s", path, rc, p->sec, p->key, p->err);
+    } else if (p->err[0] && (rc <= 0 || p->err_line <= rc)) {
+        /* The first error in the file: ours (a key) before any syntax error. */
+        if (p->syntax)
+            snprintf(err, errsize, "%s:%d: syntax error: %s", path, p->err_line, p->err);
         else
-            snprintf(err, errsize, "%s:%d: syntax error", path, rc);
-    } else if (validate(&p->c, p->err, sizeof p->err)) {
-        snprintf(err, errsize, "%s: %s", path, p->err);
+            snprintf(err, errsize, "%s:%d: [%s] %s: %s", path, p->err_line, p->sec, p->key, p->err);
+        rc = 1;
+    } else if (rc > 0) {
+        snprintf(err, errsize, "%s:%d: syntax error", path, rc);
+    } else if (p->bad_line) {
+        snprintf(err, errsize, "%s:%d: %s (at most %d characters)", path, p->bad_line, p->bad_why, p->maxline);
+        rc = 1;
+    } else if (validate(p, &vline, p->sec, sizeof p->sec, p->key, sizeof p->key, p->err, sizeof p->err)) {
+        if (vline)
+            snprintf(err, errsize, "%s:%d: [%s] %s: %s", path, vline, p->sec, p->key, p->err);
+        else
+            snprintf(err, errsize, "%s: [%s] %s: %s", path, p->sec, p->key, p->err);
         rc = 1;
     } else {
         *c = p->c;
     }
+    fclose(p->f);
+    free(p->lbuf);
     free(p);
     return rc == 0 ? 0 : -1;
 }

@@ -94,15 +94,38 @@ static void test_errors(void **st)
         assert_string_equal(err, want);
         assert_memory_equal(&c, &before, sizeof c); /* unchanged on error */
     }
+    /* The first error is the one reported (libinih reads on after it). */
+    assert_int_equal(load("[dAemon]\nstate_dir = /x\nfsync = yes\n", &c, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:2: [dAemon] state_dir: unknown section", path);
+    assert_string_equal(err, want);
+    /* A line longer than libinih's buffer is refused, not split (its tail
+     * would be parsed as a setting), and the line number is the file's. */
+    {
+        char text[600];
+        int n = snprintf(text, sizeof text, "[modbus]\n; ");
+        memset(text + n, 'x', 300);
+        snprintf(text + n + 300, sizeof text - (size_t)n - 300, "max_clients = 1\nidle_timeout = 5\n");
+        assert_int_equal(load(text, &c, err, sizeof err), -1);
+        snprintf(want, sizeof want, "%s:2: line too long (at most 198 characters)", path);
+        assert_string_equal(err, want);
+    }
     /* user resolved at load */
     assert_int_equal(load("[daemon]\nuser = root\n", &c, err, sizeof err), 0);
     assert_string_equal(c.user, "root");
     assert_int_equal(c.uid, 0);
     /* cross-key checks */
     assert_int_equal(load("[model:1]\nunit_id=3\n[model:2]\nunit_id=3\n", &c, err, sizeof err), -1);
-    assert_non_null(strstr(err, "[model:2] unit_id: 3 already used by model 1"));
+    snprintf(want, sizeof want, "%s:4: [model:2] unit_id: 3 already used by model 1", path);
+    assert_string_equal(err, want);
     assert_int_equal(load("[model:1]\nn=2\npreload=paper\n", &c, err, sizeof err), -1);
-    assert_non_null(strstr(err, "preload"));
+    snprintf(want, sizeof want, "%s:3: [model:1] preload: the paper data set needs n = m = 3, no z, not type1", path);
+    assert_string_equal(err, want);
+    assert_int_equal(load("[daemon]\nmax_models = 1\n[model:1]\nn=2\n[model:2]\nn=2\n", &c, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:6: [daemon] max_models: 2 models configured, limit 1", path);
+    assert_string_equal(err, want);
+    assert_int_equal(load("[rtu:a]\nbaud = 9600\n", &c, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:2: [rtu:a] baud: device is required in this section", path);
+    assert_string_equal(err, want);
 }
 
 int main(void)
