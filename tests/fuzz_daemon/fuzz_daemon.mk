@@ -1,6 +1,7 @@
 # tests/fuzz_daemon: fuzzers for every parser of untrusted input in it2nd —
 # Modbus TCP (MBAP framing + request handling), Modbus RTU framing, the WAL
-# and snapshot files (store_open recovery) and the INI config (conf_load).
+# and snapshot files (store_open recovery), the INI config (conf_load) and
+# the instrument links' message handling (links.c).
 # The daemon's own sources are compiled here with the harness; loop.c and
 # log.c are replaced by tests/fuzz_daemon/fake_env.c (fake clock, handlers
 # called by hand). Each target builds three ways:
@@ -9,7 +10,7 @@
 #   $(BUILD)/fuzz/fuzzd_X  clang libFuzzer+ASan+UBSan         make fuzz
 FZD := tests/fuzz_daemon
 FZD_B := $(BUILD)/tests/fuzz_daemon
-FZD_TARGETS := modbus rtu store conf
+FZD_TARGETS := modbus rtu store conf links
 FZD_PAPER := $(BUILD)/daemon/paper_data.c
 FZD_PKGS := $(shell pkg-config --cflags --libs libmodbus inih 2>/dev/null) -lm
 # models_pass_end() (group-commit rollback) is in daemon/models.h from the
@@ -26,24 +27,27 @@ FZD_SRC_modbus := daemon/mb_tcp.c $(FZD_MB)
 FZD_SRC_rtu := daemon/mb_rtu.c $(FZD_MB)
 FZD_SRC_store := daemon/store.c daemon/models.c $(wildcard daemon/snapshot.c) $(FZD_PAPER)
 FZD_SRC_conf := daemon/conf.c
+FZD_SRC_links := daemon/links.c daemon/link_serial.c daemon/models.c daemon/store.c $(wildcard daemon/snapshot.c) $(FZD_PAPER)
 FZD_SECONDS ?= $(FUZZ_SECONDS)
+# links: the harness takes the daemon's write()s to the link (fuzz_links.c).
+FZD_LD_links := -Wl,--wrap=write
 
 define FZD_RULES
 $(FZD_B)/fuzz_$(1): $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD_HDR) $(PROTO_LIB) $(CORE_LIB)
 	@mkdir -p $$(@D)
 	$(CC) $(FZD_CFLAGS) -o $$@ $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) \
-	  $(FZD_SRC_$(1)) $(PROTO_LIB) $(CORE_LIB) $(FZD_PKGS)
+	  $(FZD_SRC_$(1)) $(PROTO_LIB) $(CORE_LIB) $(FZD_PKGS) $(FZD_LD_$(1))
 
 $(FZD_B)/san/fuzz_$(1): $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD_HDR) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
 	@mkdir -p $$(@D)
 	$(CC) $(FZD_CFLAGS) $(SAN_FLAGS) -o $$@ $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) \
-	  $(FZD_SRC_$(1)) $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(FZD_PKGS)
+	  $(FZD_SRC_$(1)) $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(FZD_PKGS) $(FZD_LD_$(1))
 
 $(BUILD)/fuzz/fuzzd_$(1): $(FZD)/fuzz_$(1).c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD_HDR) $(CORE_SRC) $(PROTO_SRC)
 	@mkdir -p $$(@D)
 	clang -std=c11 -D_GNU_SOURCE -O1 -g -fsanitize=fuzzer,address,undefined \
 	  -Ifirmware_core -Iprotocol -Idaemon -I$(FZD) $(FZD_DEFS) -o $$@ $(FZD)/fuzz_$(1).c \
-	  $(FZD_COMMON) $(FZD_SRC_$(1)) $(CORE_SRC) $(PROTO_SRC) $(FZD_PKGS)
+	  $(FZD_COMMON) $(FZD_SRC_$(1)) $(CORE_SRC) $(PROTO_SRC) $(FZD_PKGS) $(FZD_LD_$(1))
 
 .PHONY: fuzzd-fuzz-$(1)
 fuzzd-fuzz-$(1): $(BUILD)/fuzz/fuzzd_$(1)

@@ -29,6 +29,7 @@
 #include <unistd.h>
 
 #include "fake_env.h"
+#include "fuzz_model_check.h"
 #include "fuzz_tmp.h"
 #include "it2n.h"
 #include "it2n_proto.h"
@@ -211,49 +212,12 @@ static uint8_t *build_v1(size_t *len)
 
 static void check_models(void)
 {
-    static it2n_model fresh;
-    it2n_errinfo err;
     fuzz_check(models_count() == NMODELS, "model table size");
     for (int k = 0; k < NMODELS; k++) {
         const struct model *md = models_at(k);
-        const it2n_model *m = &md->mdl;
-        fuzz_note("model %d state %d", md->id, md->state);
-        fuzz_check(md->ds.n >= 1 && md->ds.n <= IT2N_MAX_DEGREE && md->ds.m >= 1 && md->ds.m <= IT2N_MAX_DEGREE,
-                   "recovered degrees in range");
-        fuzz_check(md->state >= IT2N_RS_EMPTY && md->state <= IT2N_RS_FAILED, "recovered state in range");
-        if (md->state != IT2N_RS_SOLVED)
+        if (md->state == IT2N_RS_SOLVED && !strict_snapshot)
             continue;
-        if (!strict_snapshot)
-            continue;
-        fuzz_check((md->ds.flags & ~IT2N_F_ALL) == 0, "recovered flags valid");
-        fuzz_check(m->solved == 1, "solved model marked solved");
-        fuzz_check(it2n_dataset_check(&m->data, &err) == IT2N_OK, "served data passes it2n_dataset_check");
-        fuzz_check(memcmp(&md->ds, &m->data, sizeof md->ds) == 0, "staging data equals the solved data");
-        it2n_model_init(&fresh);
-        fuzz_check(it2n_model_solve(&fresh, &m->data, &err) == IT2N_OK, "served data solves");
-        unsigned n = m->data.n, mm = m->data.m;
-        for (unsigned i = 0; i <= n; i++) {
-            fuzz_check(fresh.u[i] == m->u[i], "parameter u equals a fresh solve");
-            for (unsigned r = 0; r <= n; r++)
-                fuzz_check(fresh.ainv[i][r] == m->ainv[i][r], "(M^T)^-1 equals a fresh solve");
-        }
-        for (unsigned j = 0; j <= mm; j++) {
-            fuzz_check(fresh.w[j] == m->w[j], "parameter w equals a fresh solve");
-            for (unsigned r = 0; r <= mm; r++)
-                fuzz_check(fresh.binv[j][r] == m->binv[j][r], "N^-1 equals a fresh solve");
-        }
-        for (unsigned i = 0; i <= n; i++)
-            for (unsigned j = 0; j <= mm; j++)
-                for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                    if (!it2n_model_has_fp(m, fp))
-                        continue;
-                    for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                        fuzz_check(fresh.ctrl[i][j][fp][ch] == m->ctrl[i][j][fp][ch],
-                                   "control net equals a fresh solve");
-                        fuzz_check(fresh.ctrl_rem[i][j][fp][ch] == m->ctrl_rem[i][j][fp][ch],
-                                   "control net remainder equals a fresh solve");
-                    }
-                }
+        fuzz_check_model(md);
     }
 }
 
