@@ -16,8 +16,8 @@ FZD_PKGS := $(shell pkg-config --cflags --libs libmodbus inih 2>/dev/null) -lm
 # models_pass_end() (group-commit rollback) is in daemon/models.h from the
 # daemon's rollback change on; drive it when it is there.
 FZD_DEFS := $(if $(shell grep -l models_pass_end daemon/models.h 2>/dev/null),-DFZD_HAVE_PASS)
-# FZD_STRICT=1: also require a line in every config error and the
-# right key for it (pending daemon/conf.c fixes, see docs/security.md).
+# FZD_STRICT=1: also check what pending daemon fixes must make true
+# (docs/security.md, "Open findings").
 FZD_DEFS += $(if $(FZD_STRICT),-DFUZZ_STRICT)
 FZD_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(FZD) $(FZD_DEFS)
 FZD_HDR := $(wildcard $(FZD)/*.h daemon/*.h) $(CORE_HDR) $(wildcard protocol/*.h)
