@@ -227,6 +227,13 @@ plc write 40 0 0 3 65535 63836 0 1700 0 0 4000 7000 2000 > /dev/null
 g1=$(gen)
 wait_ev 1 "2 0 $g1" && ok "peer got an EVENT for a PLC write over Modbus (model 1 UPDATED, generation $g1)" \
     || fail "EVENT for a Modbus write: want '1 2 0 $g1', last '$(last_ev 1)'"
+# Kinds: a Modbus CLEAR command is RESET, a new configuration CONFIGURED.
+plc --unit 6 write 35 2 > /dev/null; g6=$(gen 6)
+wait_ev 6 "4 0 $g6" && ok "EVENT RESET for a CLEAR command (model 6, generation $g6)" \
+    || fail "EVENT RESET: want '6 4 0 $g6', last '$(last_ev 6)'"
+plc --unit 6 write 32 2 2 0 > /dev/null; g6=$(gen 6)
+wait_ev 6 "1 0 $g6" && ok "EVENT CONFIGURED for a new configuration over Modbus (generation $g6)" \
+    || fail "EVENT CONFIGURED: want '6 1 0 $g6', last '$(last_ev 6)'"
 # A peer that stops reading must not stall the loop; it gets the latest.
 kill -STOP $EPID
 t0=$(date +%s%N)
