@@ -19,9 +19,8 @@
  * and its parameters, inverses and control nets are bit-identical to a
  * fresh it2n_model_solve of it (never serve wrong data); recovering the
  * same directory again gives the same models; the recovered models accept
- * a COMMIT through the WAL. A version 1 snapshot whose CRC was re-computed
- * after tampering is checked with FUZZ_STRICT only: the legacy loader takes
- * the stored control nets as they are (docs/security.md). */
+ * a COMMIT through the WAL. (Found here and fixed: the legacy version 1
+ * loader served stored control nets; corpus/store/v1_tampered_ctrl.) */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -170,7 +169,6 @@ static size_t frame_wal(const uint8_t *d, size_t n, uint8_t *out, size_t cap)
     return o;
 }
 
-static int strict_snapshot;
 
 /* Legacy version 1 snapshot: header, raw records, CRC-32C (frozen format,
  * see daemon/store.c). */
@@ -215,8 +213,6 @@ static void check_models(void)
     fuzz_check(models_count() == NMODELS, "model table size");
     for (int k = 0; k < NMODELS; k++) {
         const struct model *md = models_at(k);
-        if (md->state == IT2N_RS_SOLVED && !strict_snapshot)
-            continue;
         fuzz_check_model(md);
     }
 }
@@ -229,7 +225,6 @@ static void write_files(const uint8_t *data, size_t size)
     const uint8_t *d = data + 1;
     size_t n = size - 1;
     unsigned mode = data[0] & 7u;
-    strict_snapshot = 1;
     if (!v1)
         v1 = build_v1(&v1_len);
     if (mode > 4)
@@ -245,7 +240,6 @@ static void write_files(const uint8_t *data, size_t size)
     case 4: {
         const uint8_t *base = mode == 2 ? snap_base : v1;
         size_t pos = 0, count = n ? d[pos++] : 0, slen = mode == 2 ? snap_len : v1_len;
-        int touched = 0;
         free(snap);
         snap = malloc(slen);
         fuzz_check(snap != NULL, "snapshot buffer");
@@ -253,16 +247,10 @@ static void write_files(const uint8_t *data, size_t size)
         for (size_t k = 0; k < count && pos + 4 <= n; k++, pos += 4) {
             size_t off = ((size_t)d[pos] | (size_t)d[pos + 1] << 8 | (size_t)d[pos + 2] << 16) % slen;
             snap[off] ^= d[pos + 3];
-            touched |= d[pos + 3] != 0;
         }
         if (pos < n && (d[pos++] & 1u) && (mode == 4 || snap_crc_fixable)) {
             put32(snap + slen - 4, it2n_crc32c(snap, slen - 4));
-#ifndef FUZZ_STRICT
-            if (mode == 4)
-                strict_snapshot = !touched;
-#endif
         }
-        (void)touched;
         fuzz_write_file(snap_path, snap, slen);
         fuzz_write_file(wal_path, img, frame_wal(d + pos, n - pos, img, sizeof img));
         break;
