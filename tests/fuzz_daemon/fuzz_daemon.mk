@@ -13,9 +13,7 @@ FZD_B := $(BUILD)/tests/fuzz_daemon
 FZD_TARGETS := modbus rtu store conf links
 FZD_PAPER := $(BUILD)/daemon/paper_data.c
 FZD_PKGS := $(shell pkg-config --cflags --libs libmodbus inih 2>/dev/null) -lm
-# models_pass_end() (group-commit rollback) is in daemon/models.h from the
-# daemon's rollback change on; drive it when it is there.
-FZD_DEFS := $(if $(shell grep -l models_pass_end daemon/models.h 2>/dev/null),-DFZD_HAVE_PASS)
+FZD_DEFS :=
 # FZD_STRICT=1: also check what pending daemon fixes must make true
 # (docs/security.md, "Open findings").
 FZD_DEFS += $(if $(FZD_STRICT),-DFUZZ_STRICT)

@@ -104,21 +104,17 @@ static int journal(void *arg, const struct model_rec *rec)
     return journal_fails ? -1 : 0;
 }
 
-#ifdef FZD_HAVE_PASS
 static void changed(void *arg, const struct model *md, int old_state, uint32_t old_gen)
 {
     (void)arg;
     (void)old_gen;
     links_event(md, old_state);
 }
-#endif
 
 static void commit_pass(void)
 {
     int ok = !commit_fails;
-#ifdef FZD_HAVE_PASS
     models_pass_end(ok, changed, NULL);
-#endif
     links_release(ok);
 }
 

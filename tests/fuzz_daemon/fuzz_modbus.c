@@ -65,11 +65,7 @@ static int journal(void *arg, const struct model_rec *rec)
 
 static void end_pass(int ok)
 {
-#ifdef FZD_HAVE_PASS
     models_pass_end(ok, NULL, NULL);
-#else
-    (void)ok;
-#endif
 }
 
 static void nonblock(int fd)

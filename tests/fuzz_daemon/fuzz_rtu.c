@@ -56,11 +56,7 @@ static int journal(void *arg, const struct model_rec *rec)
 
 static void end_pass(int ok)
 {
-#ifdef FZD_HAVE_PASS
     models_pass_end(ok, NULL, NULL);
-#else
-    (void)ok;
-#endif
 }
 
 static uint16_t crc16(const uint8_t *p, size_t n)
