@@ -43,6 +43,16 @@
 #error "IT2N_MAX_DEGREE must be within 1..15"
 #endif
 
+/* The overflow-free solve bound (docs/numerics.md) assumes |coordinate| <
+ * 2^23 in Q24; larger limits would let control points leave int64. */
+#if IT2N_COORD_LIMIT < 1 || IT2N_COORD_LIMIT > 8388607
+#error "IT2N_COORD_LIMIT must be within 1..8388607"
+#endif
+
+#if IT2N_LOCATE_GRID < 1 || IT2N_LOCATE_GRID > 64 || IT2N_LOCATE_MAX_ITER < 1
+#error "IT2N_LOCATE_GRID must be within 1..64 and IT2N_LOCATE_MAX_ITER >= 1"
+#endif
+
 /* ---- Fixed-point formats ------------------------------------------------ */
 
 /* it2n_val: coordinates, memberships, control points, results, derivatives.

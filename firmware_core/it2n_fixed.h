@@ -23,6 +23,13 @@ typedef struct it2n_i128 {
     uint64_t hi;
 } it2n_i128;
 
+/* C99 static assertion: a negative array size fails the build. */
+#define IT2N_STATIC_ASSERT(cond, name) typedef char it2n_sa_##name[(cond) ? 1 : -1]
+
+IT2N_STATIC_ASSERT(sizeof(it2n_i128) == 16, i128_is_two_words);
+IT2N_STATIC_ASSERT(sizeof(int64_t) == 8 && (int64_t)-1 == ~(int64_t)0,
+                   twos_complement_int64);
+
 /* Zero. */
 static inline it2n_i128 it2n_i128_zero(void)
 {
