@@ -26,10 +26,25 @@ void mb_session_free(struct mb_session *s)
     s->map = NULL;
 }
 
+/* Answer req with exception `code`. libmodbus builds the reply function as
+ * request function + 0x80 in a byte, so a request function >= 0x80 (no
+ * Modbus function has the top bit) would come back as a normal-looking
+ * reply (0x83 -> 03 01). Such a request is answered with its function
+ * unchanged (top bit already set, so it reads as an exception) by handing
+ * libmodbus a copy with bit 7 cleared; header and transaction id are the
+ * request's. */
 static int exception(struct mb_session *s, struct model *md, const uint8_t *req, int code)
 {
+    int hl = modbus_get_header_length(s->ctx);
     if (md)
         md->exceptions++;
+    if (req[hl] & 0x80u) {
+        uint8_t copy[MODBUS_TCP_MAX_ADU_LENGTH > MODBUS_RTU_MAX_ADU_LENGTH ? MODBUS_TCP_MAX_ADU_LENGTH
+                                                                         : MODBUS_RTU_MAX_ADU_LENGTH];
+        memcpy(copy, req, (size_t)hl + 1u);
+        copy[hl] = (uint8_t)(req[hl] & 0x7Fu);
+        return modbus_reply_exception(s->ctx, copy, (unsigned)code) < 0 ? -1 : 0;
+    }
     return modbus_reply_exception(s->ctx, req, (unsigned)code) < 0 ? -1 : 0;
 }
 

@@ -143,24 +143,19 @@ static int check_reply(const uint8_t *req, size_t reqlen, const uint8_t *rep, si
     fuzz_check(rep[0] == req[0] && rep[1] == req[1], "reply echoes the transaction id");
     fuzz_check(rep[2] == 0 && rep[3] == 0, "reply protocol id 0");
     fuzz_check(rep[6] == req[6], "reply echoes the unit id");
-#ifndef FUZZ_STRICT
-    /* Known daemon issue: function codes 0x80..0xFF (reserved for
-     * exception replies) are answered through modbus_reply_exception(),
-     * which adds 0x80 in a byte: the reply to 0x83 reads as a normal 0x03
-     * reply with byte count 1. Pin that until mb_req answers them itself. */
-    if (fc & 0x80u) {
-        fuzz_check(replen == 9 && rep[7] == ((fc + 0x80u) & 0xFFu) &&
-                       (rep[8] == MBX_ILLEGAL_FUNCTION || rep[8] == MBX_GATEWAY_TARGET),
-                   "reply to a function code >= 0x80");
-        return 1;
-    }
-#endif
-    if (rep[7] == (fc | 0x80u) && rep[7] != fc) {
+    if (rep[7] & 0x80u) {
+        /* An exception: the request's function with bit 7 set. A request
+         * function >= 0x80 (none exists) comes back unchanged with 01 (or
+         * 0B for an unknown unit), never as (fc + 0x80) & 0xFF, which read
+         * as a normal reply (security finding 6). */
         unsigned code = rep[8];
+        fuzz_check(rep[7] == (fc | 0x80u), "exception reply: the request function with bit 7 set");
         fuzz_check(replen == 9, "exception reply is 9 bytes");
         fuzz_check(code == MBX_ILLEGAL_FUNCTION || code == MBX_ILLEGAL_ADDRESS || code == MBX_ILLEGAL_VALUE ||
                        code == MBX_DEVICE_FAILURE || code == MBX_BUSY || code == MBX_GATEWAY_TARGET,
                    "exception code is one the daemon defines");
+        fuzz_check(!(fc & 0x80u) || code == MBX_ILLEGAL_FUNCTION || code == MBX_GATEWAY_TARGET,
+                   "a function code >= 0x80 gets exception 01 (0B: unknown unit)");
         return 1;
     }
     fuzz_check(rep[7] == fc, "reply function code echoes the request");
