@@ -28,6 +28,11 @@
 /* EVENTs waiting for the send window: one per model at most (the latest),
  * so a slow peer costs bounded memory and never stalls the loop. */
 #define EVQ_MAX 64
+/* Serial output queue: whole encoded frames waiting for the tty. Room for
+ * the send window plus answers and a retransmission round; a frame that
+ * does not fit is dropped whole (never a part of one), and new reliable
+ * messages wait (links_can_send) until a frame's worth is free. */
+#define OUTQ_SIZE (6u * IT2N_FRAME_MAX_WIRE)
 
 struct link {
     struct conf_link cfg;
@@ -55,6 +60,16 @@ struct link {
     it2n_msg_event evq[EVQ_MAX];
     int nev;
     uint32_t ev_sent, ev_merged;
+    /* Output: the frame being encoded (it2n_frame_write hands it over in
+     * blocks, delimiter last), then the queue of whole frames for the tty,
+     * written from out[out_off] up to out_len, the rest on POLLOUT. */
+    uint8_t stage[IT2N_FRAME_MAX_WIRE];
+    size_t nstage;
+    int stage_bad;            /* frame longer than the stage: dropped */
+    uint8_t out[OUTQ_SIZE];
+    size_t out_off, out_len;
+    int pollout;              /* POLLOUT armed on fd */
+    struct links_out_stats st;
 };
 
 static struct link *links;
@@ -68,25 +83,97 @@ static uint32_t now32(void)
 
 static void link_open(void *arg);
 
-/* Output stream: non-blocking; a frame that does not fit is dropped (the
- * contract allows it: reliable frames are retransmitted). */
+static size_t out_room(const struct link *l)
+{
+    return OUTQ_SIZE - (l->out_len - l->out_off);
+}
+
+/* Write queued frames until the queue is empty or the tty is full; POLLOUT
+ * is armed while anything is left. Never blocks. 0, or -1 on an I/O error
+ * (the caller takes the link down). */
+static int out_flush(struct link *l)
+{
+    while (l->out_off < l->out_len) {
+        ssize_t n = write(l->fd, l->out + l->out_off, l->out_len - l->out_off);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            if (!l->pollout) {
+                l->pollout = 1;
+                l->st.blocked++;
+                loop_mod_fd(l->fd, POLLIN | POLLOUT);
+            }
+            return 0;
+        }
+        if (n <= 0)
+            return -1;
+        l->out_off += (size_t)n;
+    }
+    l->out_off = l->out_len = 0;
+    if (l->pollout) {
+        l->pollout = 0;
+        loop_mod_fd(l->fd, POLLIN);
+    }
+    return 0;
+}
+
+/* A whole frame is in the stage: hand it to USB in one transfer, or queue
+ * it for the tty (dropped whole when the queue is full: a reliable frame
+ * is retransmitted, a lost ACK is answered again on the retransmission). */
+static int frame_out(struct link *l)
+{
+    size_t n = l->nstage;
+    int bad = l->stage_bad;
+    l->nstage = 0;
+    l->stage_bad = 0;
+    if (bad) {
+        l->st.dropped++;
+        return 0;
+    }
+    l->st.frames++;
+    if (l->cfg.type == CONF_LINK_USB)
+        return link_usb_write(l->usb, l->stage, n);
+    if (out_room(l) < n) {
+        l->st.dropped++;
+        log_debug("link %s: output queue full; %zu-byte frame dropped", l->cfg.name, n);
+        return 0;
+    }
+    if (OUTQ_SIZE - l->out_len < n) { /* compact: free room is at the front */
+        memmove(l->out, l->out + l->out_off, l->out_len - l->out_off);
+        l->out_len -= l->out_off;
+        l->out_off = 0;
+    }
+    memcpy(l->out + l->out_len, l->stage, n);
+    l->out_len += n;
+    return l->pollout ? 0 : out_flush(l);
+}
+
+/* Output stream (contract in it2n_stream.h): it2n_frame_write hands over
+ * one frame as COBS blocks, which never contain 0x00, then the delimiter
+ * 0x00. Blocks are collected in the stage and the frame goes out whole, so
+ * a full tty never cuts a frame (security finding 7). */
 static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
 {
     struct link *l = s->state;
     if (!l->up)
         return -1;
-    if (l->cfg.type == CONF_LINK_USB)
-        return link_usb_write(l->usb, buf, len);
-    while (len) {
-        ssize_t n = write(l->fd, buf, len);
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n <= 0)
-            return errno == EAGAIN ? 0 : -1;
-        buf += n;
-        len -= (size_t)n;
-    }
-    return 0;
+    if (len > sizeof l->stage - l->nstage)
+        l->stage_bad = 1;
+    else
+        memcpy(l->stage + l->nstage, buf, len);
+    if (!l->stage_bad)
+        l->nstage += len;
+    if (buf[len - 1] != 0)
+        return 0;
+    return frame_out(l);
+}
+
+/* A new reliable message may go out: window slot free and room in the
+ * output queue for a frame of any size. Otherwise the caller waits (the
+ * job or EVENT stays queued; a request answers BUSY). */
+static int can_send(const struct link *l)
+{
+    return l->up && it2n_link_can_send(&l->pl) && out_room(l) >= IT2N_FRAME_MAX_WIRE;
 }
 
 static void link_down(struct link *l, const char *why)
@@ -147,7 +234,7 @@ static int model_state(const struct model *md)
 /* Send the queued EVENTs that fit the window, oldest first. */
 static void pump_events(struct link *l)
 {
-    while (l->nev && l->up && it2n_link_can_send(&l->pl)) {
+    while (l->nev && can_send(l)) {
         it2n_msg m;
         memset(&m, 0, sizeof m);
         m.type = IT2N_MSG_EVENT;
@@ -163,11 +250,11 @@ static void pump_events(struct link *l)
 static void pump_job(struct link *l)
 {
     pump_events(l);
-    if (l->has_rsp && l->up && it2n_link_can_send(&l->pl)) {
+    if (l->has_rsp && can_send(l)) {
         l->has_rsp = 0;
         it2n_link_send(&l->pl, &l->rsp, now32());
     }
-    while (!l->has_rsp && l->job.kind && l->up && it2n_link_can_send(&l->pl)) {
+    while (!l->has_rsp && l->job.kind && can_send(l)) {
         struct model *md = models_by_id(l->job.model);
         it2n_msg m;
         memset(&m, 0, sizeof m);
@@ -436,7 +523,17 @@ static void on_serial(void *arg, int fd, short revents)
 {
     struct link *l = arg;
     uint8_t buf[4096];
-    ssize_t n = read(fd, buf, sizeof buf);
+    ssize_t n;
+    if (revents & POLLOUT) {
+        if (out_flush(l) < 0) {
+            link_down(l, strerror(errno));
+            return;
+        }
+        pump_job(l); /* queue room may have freed */
+        if (!(revents & (POLLIN | POLLHUP | POLLERR)))
+            return;
+    }
+    n = read(fd, buf, sizeof buf);
     if (n > 0) {
         feed(l, buf, (size_t)n);
         return;
@@ -495,6 +592,10 @@ static void link_open(void *arg)
     cfg.first_seq = (uint16_t)loop_now_ms();
     it2n_link_init(&l->pl, &cfg);
     l->up = 1;
+    l->nstage = 0;
+    l->stage_bad = 0;
+    l->out_off = l->out_len = 0;
+    l->pollout = 0;
     l->nheld = 0;
     l->job.kind = 0;
     l->has_rsp = 0;
@@ -622,6 +723,14 @@ void links_event(const struct model *md, int old_state)
         }
         pump_events(l);
     }
+}
+
+int links_out_stats(int k, struct links_out_stats *st)
+{
+    if (k < 0 || k >= nlinks)
+        return -1;
+    *st = links[k].st;
+    return 0;
 }
 
 int links_up(void)

@@ -20,6 +20,13 @@ void links_stop(void);
  * send window is full; never blocks. */
 struct model;
 void links_event(const struct model *md, int old_state);
+/* Output counters of link k (in configuration order): frames handed to
+ * the device, frames dropped whole because the output queue was full, and
+ * times the tty was full (POLLOUT armed). 0, or -1 for no such link. */
+struct links_out_stats {
+    uint32_t frames, dropped, blocked;
+};
+int links_out_stats(int k, struct links_out_stats *st);
 /* Links currently open (for STATUS= and tests). */
 int links_up(void);
 
