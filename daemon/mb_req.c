@@ -2,6 +2,7 @@
 #include "mb_req.h"
 
 #include <errno.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "it2n_regmap.h"
@@ -53,6 +54,44 @@ static unsigned u16at(const uint8_t *p)
     return (unsigned)p[0] << 8 | p[1];
 }
 
+/* A write request (06, 16, and 23 with its read half: rcount > 0) is all
+ * or nothing. When it ends in an exception after something was changed
+ * and journaled (FC 23 whose read half fails, e.g. results of a model the
+ * write just reconfigured: 06; a configuration write whose CLEAR fails
+ * after the new degrees were applied), the model, this connection's query
+ * state and the WAL records queued since the start go back, and the
+ * exception is answered at once: it means "nothing changed" (security
+ * finding 8). A write refused before any change keeps its own report
+ * (last_error). */
+static int write_req(struct mb_session *s, struct model *md, const struct mb_opts *o, unsigned waddr,
+                     unsigned wcount, const uint16_t *vals, unsigned raddr, unsigned rcount, int *persisted)
+{
+    struct model *save = malloc(sizeof *save);
+    struct mb_query q = s->q;
+    struct store_mark mark = store_mark();
+    int rc;
+    *persisted = 0;
+    if (!save) {
+        log_err("unit %d: no memory for a write request; refused", md->unit);
+        return MBX_DEVICE_FAILURE;
+    }
+    *save = *md;
+    rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, persisted);
+    if (rc == MBX_OK && rcount > 0)
+        rc = mbmap_read(md, &s->q, o, raddr, rcount, s->map->tab_registers + raddr);
+    if (rc != MBX_OK && *persisted) {
+        uint32_t req = md->requests, exc = md->exceptions;
+        *md = *save;
+        md->requests = req;
+        md->exceptions = exc;
+        s->q = q;
+        store_rollback(mark);
+        *persisted = 0;
+    }
+    free(save);
+    return rc;
+}
+
 int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struct mb_opts *o)
 {
     int hl = modbus_get_header_length(s->ctx);
@@ -94,7 +133,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         if (plen != 5)
             return exception(s, md, req, MBX_ILLEGAL_VALUE);
         vals[0] = (uint16_t)u16at(pdu + 3);
-        rc = mbmap_write(md, &s->q, o, u16at(pdu + 1), 1, vals, &persisted);
+        rc = write_req(s, md, o, u16at(pdu + 1), 1, vals, 0, 0, &persisted);
         break;
     }
     case MODBUS_FC_WRITE_MULTIPLE_REGISTERS: {
@@ -105,7 +144,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             return exception(s, md, req, MBX_ILLEGAL_VALUE);
         for (unsigned k = 0; k < count; k++)
             vals[k] = (uint16_t)u16at(pdu + 6 + 2 * k);
-        rc = mbmap_write(md, &s->q, o, addr, count, vals, &persisted);
+        rc = write_req(s, md, o, addr, count, vals, 0, 0, &persisted);
         break;
     }
     case MODBUS_FC_WRITE_AND_READ_REGISTERS: {
@@ -121,9 +160,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < wcount; k++)
             vals[k] = (uint16_t)u16at(pdu + 10 + 2 * k);
-        rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, &persisted);
-        if (rc == MBX_OK)
-            rc = mbmap_read(md, &s->q, o, raddr, rcount, s->map->tab_registers + raddr);
+        rc = write_req(s, md, o, waddr, wcount, vals, raddr, rcount, &persisted);
         /* modbus_reply stores the written values into the scratch map
          * before reading, so an overlapping read echoes what was written. */
         break;
@@ -132,8 +169,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         return exception(s, md, req, MBX_ILLEGAL_FUNCTION);
     }
     if (persisted) {
-        /* Held until the WAL commit; an exception after a persisted write
-         * (FC23 read failing) is also held so the order stays. */
+        /* Held until the WAL commit. */
         memcpy(s->held, req, (size_t)len);
         s->held_len = len;
         s->held_exc = rc;

@@ -40,7 +40,9 @@ int main(void)
            "(PDU) addresses; the reference columns give the 1-based 3xxxx (input register,\n"
            "FC 04) and 4xxxx (holding register, FC 03/06/16/23) notation of the same\n"
            "register. Every register can be read with FC 03 and with FC 04; writable blocks\n"
-           "take FC 06, 16 and 23 (FC 23 = write, then read, in one transaction).\n\n");
+           "take FC 06, 16 and 23 (FC 23 = write, then read, in one transaction, all or\n"
+           "nothing: when the read half fails, the write half is undone and the exception\n"
+           "means that nothing changed).\n\n");
     printf("## Conventions\n\n"
            "- **u32 / i32**: two registers, high word first (the lower address holds bits 31..16).\n"
            "- **f32**: IEEE-754 single precision in two registers. Word order is configured in\n"

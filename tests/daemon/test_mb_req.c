@@ -1,0 +1,168 @@
+/* test_mb_req — Modbus requests against a model table with a real WAL:
+ * FC 23 is all or nothing (security finding 8). A write-then-read whose
+ * write half reconfigures the paper model and whose read half then asks for
+ * results (06: not solved) must answer exception 06 at once (not held for
+ * a commit), leave the model as it was, queue no WAL record, and a restart
+ * must recover the model unchanged. The same configuration written by
+ * FC 16 does change it (the write half alone is valid), and a valid FC 23
+ * is answered normally. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <modbus.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "mb_map.h"
+#include "mb_req.h"
+#include "models.h"
+#include "store.h"
+
+static char dir[64];
+static int sp[2];
+static struct mb_session sess;
+static struct mb_opts opts = { 0, 100, 5, 5 };
+static uint16_t tid;
+
+static struct model *open_table(void)
+{
+    assert_int_equal(models_init(4), 0);
+    struct model *md = models_add(1, 1, 3, 3, 0);
+    assert_non_null(md);
+    assert_int_equal(models_preload_paper(md), IT2N_OK);
+    models_set_journal(store_append, NULL);
+    assert_int_equal(store_open(dir, 0), 0);
+    return models_by_id(1);
+}
+
+static int setup(void **st)
+{
+    (void)st;
+    snprintf(dir, sizeof dir, "/tmp/it2n-test-mbreq-XXXXXX");
+    assert_non_null(mkdtemp(dir));
+    open_table();
+    assert_int_equal(socketpair(AF_UNIX, SOCK_STREAM, 0, sp), 0);
+    assert_int_equal(fcntl(sp[1], F_SETFL, O_NONBLOCK), 0);
+    modbus_t *ctx = modbus_new_tcp_pi(NULL, "502");
+    assert_non_null(ctx);
+    assert_int_equal(mb_session_init(&sess, ctx, 1), 0);
+    modbus_set_socket(ctx, sp[0]);
+    return 0;
+}
+
+static int teardown(void **st)
+{
+    char cmd[128];
+    (void)st;
+    modbus_t *ctx = sess.ctx;
+    mb_session_free(&sess);
+    modbus_free(ctx);
+    close(sp[0]);
+    close(sp[1]);
+    store_close();
+    models_free();
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    assert_int_equal(system(cmd), 0);
+    return 0;
+}
+
+/* Build an MBAP ADU for unit 1 around pdu. */
+static int adu(uint8_t *out, const uint8_t *pdu, int plen)
+{
+    tid++;
+    out[0] = (uint8_t)(tid >> 8);
+    out[1] = (uint8_t)tid;
+    out[2] = out[3] = 0;
+    out[4] = 0;
+    out[5] = (uint8_t)(plen + 1);
+    out[6] = 1;
+    memcpy(out + 7, pdu, (size_t)plen);
+    return 7 + plen;
+}
+
+/* One request as the daemon runs it (group commit for a held reply);
+ * returns the reply length, reply in rep. held says whether it waited. */
+static int run(const uint8_t *pdu, int plen, uint8_t *rep, int *held)
+{
+    uint8_t req[300];
+    int len = adu(req, pdu, plen);
+    int rc = mb_req_handle(&sess, req, len, &opts);
+    assert_true(rc == 0 || rc == 1);
+    *held = rc == 1;
+    int ok = !store_pending() || store_commit() == 0;
+    models_pass_end(ok, NULL, NULL);
+    if (rc == 1)
+        assert_int_equal(mb_req_release(&sess, ok), 0);
+    ssize_t n = read(sp[1], rep, 300);
+    assert_true(n >= 9);
+    assert_int_equal(rep[0], req[0]);
+    assert_int_equal(rep[1], req[1]);
+    return (int)n;
+}
+
+static void test_fc23_all_or_nothing(void **st)
+{
+    uint8_t rep[300];
+    int held, n;
+    (void)st;
+    struct model *md = models_by_id(1);
+    uint32_t gen = md->gen;
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+
+    /* FC 23: read 9 result registers of footprint LL, write n = m = 2. */
+    static const uint8_t bad[] = { 0x17, 0x01, 0x00, 0x00, 0x09, 0x00, IT2N_REG_CFG_N, 0x00, 0x02, 0x04,
+                                   0x00, 0x02, 0x00, 0x02 };
+    n = run(bad, sizeof bad, rep, &held);
+    assert_int_equal(n, 9);
+    assert_int_equal(rep[7], 0x97);
+    assert_int_equal(rep[8], MBX_BUSY);
+    assert_false(held); /* nothing to wait for: nothing changed */
+    md = models_by_id(1);
+    assert_int_equal(md->ds.n, 3);
+    assert_int_equal(md->ds.m, 3);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->gen, gen);
+    assert_int_equal(store_pending(), 0);
+
+    /* Restart: the WAL holds no trace of it. */
+    store_close();
+    models_free();
+    md = open_table();
+    assert_int_equal(md->ds.n, 3);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+
+    /* A valid FC 23: write u, w (query block), read the results. */
+    static const uint8_t good[] = { 0x17, 0x01, 0x00, 0x00, 0x09, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04,
+                                    0x13, 0x88, 0x13, 0x88 };
+    n = run(good, sizeof good, rep, &held);
+    assert_int_equal(rep[7], 0x17);
+    assert_int_equal(n, 9 + 18);
+    assert_false(held);
+
+    /* The write half alone is valid: FC 16 reconfigures (held, then
+     * answered after the commit). */
+    static const uint8_t cfg[] = { 0x10, 0x00, IT2N_REG_CFG_N, 0x00, 0x02, 0x04, 0x00, 0x02, 0x00, 0x02 };
+    n = run(cfg, sizeof cfg, rep, &held);
+    assert_int_equal(n, 12);
+    assert_int_equal(rep[7], 0x10);
+    assert_true(held);
+    md = models_by_id(1);
+    assert_int_equal(md->ds.n, 2);
+    assert_int_equal(md->state, IT2N_RS_EMPTY);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_fc23_all_or_nothing, setup, teardown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
