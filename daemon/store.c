@@ -35,6 +35,7 @@ static uint8_t *qbuf;
 static size_t qlen, qcap;
 static int qrecs;
 static struct store_stats stats;
+static char state_dir[256]; /* for messages */
 
 static void put32(uint8_t *p, uint32_t v)
 {
@@ -283,22 +284,44 @@ out:
     return rc;
 }
 
-static uint8_t *read_file(const char *name, size_t *len)
+/* The snapshot is read whole; it holds at most CONF_MAX_MODELS models of
+ * bounded size, far below this limit, so a larger file is not ours. */
+#define SNAP_FILE_MAX ((off_t)64 << 20)
+
+/* Read a whole file. NULL with errno ENOENT when it does not exist, EFBIG
+ * over max, or the I/O error; the caller decides (and logs) what follows. */
+static uint8_t *read_file(const char *name, off_t max, size_t *len)
 {
     int fd = openat(dirfd_, name, O_RDONLY | O_CLOEXEC);
-    struct stat st;
+    struct stat st = { 0 };
     uint8_t *buf;
+    size_t got = 0;
     if (fd < 0)
         return NULL;
-    if (fstat(fd, &st) || st.st_size > (off_t)64 << 20) {
+    if (fstat(fd, &st) || st.st_size > max) {
+        int e = errno;
+        if (st.st_size > max)
+            e = EFBIG;
         close(fd);
+        errno = e;
         return NULL;
     }
     buf = malloc((size_t)st.st_size + 1);
-    if (buf && read(fd, buf, (size_t)st.st_size) != st.st_size) {
-        free(buf);
-        buf = NULL;
+    while (buf && got < (size_t)st.st_size) {
+        ssize_t n = read(fd, buf + got, (size_t)st.st_size - got);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            int e = n == 0 ? EIO : errno; /* shrank under us: treat as an error */
+            free(buf);
+            buf = NULL;
+            errno = e;
+            break;
+        }
+        got += (size_t)n;
     }
+    if (!buf && errno == 0)
+        errno = ENOMEM;
     close(fd);
     *len = (size_t)st.st_size;
     return buf;
@@ -334,16 +357,27 @@ static int v1_rebuild(struct model *md, const it2n_dataset *src, int solve, it2n
     return rc;
 }
 
-/* Load the snapshot into the models. Returns the seq it covers (0 none). */
-static uint64_t load_snapshot(void)
+/* Load the snapshot into the models; *seqp = the seq it covers (0 none).
+ * A snapshot whose contents do not validate is ignored (logged); one that
+ * cannot be read at all (I/O error, over the size limit) returns -1: the
+ * daemon must not start and later overwrite it with less. */
+static int load_snapshot(uint64_t *seqp)
 {
     size_t len = 0;
-    uint8_t *buf = read_file("snapshot", &len);
+    uint8_t *buf = read_file("snapshot", SNAP_FILE_MAX, &len);
     uint64_t sseq = 0;
+    *seqp = 0;
     if (!buf) {
-        if (errno != ENOENT)
-            log_err("snapshot: cannot read: %s", strerror(errno));
-        return 0;
+        if (errno == ENOENT)
+            return 0;
+        if (errno == EFBIG)
+            log_err("snapshot: %s/snapshot is larger than the limit of %lld bytes (not a snapshot of this "
+                    "daemon?); refusing to start, file left as it is",
+                    state_dir, (long long)SNAP_FILE_MAX);
+        else
+            log_err("snapshot: cannot read %s/snapshot: %s; refusing to start, file left as it is", state_dir,
+                    strerror(errno));
+        return -1;
     }
     if (len < 36 || memcmp(buf, SNAP_MAGIC, 8)) {
         log_err("snapshot: not a snapshot (%zu bytes); ignored, state before the WAL is lost", len);
@@ -394,68 +428,129 @@ static uint64_t load_snapshot(void)
                (unsigned long long)sseq, SNAP_VERSION);
 out:
     free(buf);
-    return sseq;
+    *seqp = sseq;
+    return 0;
 }
 
-/* Replay the WAL after sseq; returns the valid length of the file. */
-static size_t replay_wal(uint64_t sseq, size_t *total)
+/* Replay the WAL after sseq, streaming: a buffer of WAL_CHUNK bytes that
+ * always holds a whole record when the file has one, so memory is bounded
+ * and there is no limit on the file size (security finding 9). *good = the
+ * length of the valid prefix (0: no usable WAL, create one), *total = the
+ * file size. Returns -1 when the file exists but cannot be read: the daemon
+ * then refuses to start and the file stays as it is. */
+#define WAL_CHUNK ((size_t)64 << 10)
+#define REC_WIRE_MAX (8u + 9u + REC_MAX) /* len, crc, then seq..payload */
+
+static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
 {
-    size_t len = 0, off = WAL_HDR;
-    uint8_t *buf = read_file("wal", &len);
-    unsigned applied = 0, skipped = 0, failed = 0;
-    *total = len;
-    if (!buf)
-        return 0;
-    if (len < WAL_HDR || memcmp(buf, WAL_MAGIC, 8) || get32(buf + 8) != FORMAT_VERSION) {
-        log_err("wal: bad header (%zu bytes); whole log dropped", len);
-        free(buf);
-        stats.dropped += len;
-        return 0;
+    int fd = openat(dirfd_, "wal", O_RDONLY | O_CLOEXEC);
+    struct stat st;
+    uint8_t *buf = NULL;
+    size_t have = 0, pos = 0;   /* bytes in buf; next record at buf[pos] */
+    uint64_t base = 0;          /* file offset of buf[0] */
+    unsigned long long applied = 0, skipped = 0, failed = 0;
+    int eof = 0, rc = -1;
+    *good = *total = 0;
+    if (fd < 0) {
+        if (errno == ENOENT)
+            return 0;
+        log_err("wal: cannot open %s/wal: %s; refusing to start, file left as it is", state_dir, strerror(errno));
+        return -1;
     }
+    if (fstat(fd, &st) || !(buf = malloc(WAL_CHUNK))) {
+        log_err("wal: cannot read %s/wal: %s; refusing to start, file left as it is", state_dir, strerror(errno));
+        goto out;
+    }
+    *total = (uint64_t)st.st_size;
     seq = sseq;
-    while (off + REC_HDR <= len) {
-        uint32_t rlen = get32(buf + off);
+    for (;;) {
+        /* Refill so that a whole record is in the buffer unless at EOF. */
+        if (!eof && have - pos < REC_WIRE_MAX) {
+            memmove(buf, buf + pos, have - pos);
+            base += pos;
+            have -= pos;
+            pos = 0;
+            while (!eof && have < WAL_CHUNK) {
+                ssize_t n = read(fd, buf + have, WAL_CHUNK - have);
+                if (n < 0 && errno == EINTR)
+                    continue;
+                if (n < 0) {
+                    log_err("wal: read error in %s/wal at offset %llu: %s; refusing to start, file left as it is",
+                            state_dir, (unsigned long long)(base + have), strerror(errno));
+                    goto out;
+                }
+                if (n == 0)
+                    eof = 1;
+                have += (size_t)n;
+            }
+        }
+        uint64_t off = base + pos;
+        if (off == 0) {
+            if (have < WAL_HDR || memcmp(buf, WAL_MAGIC, 8) || get32(buf + 8) != FORMAT_VERSION) {
+                log_err("wal: bad header (%llu bytes); whole log dropped", (unsigned long long)*total);
+                stats.dropped += *total;
+                rc = 0;
+                goto out;
+            }
+            pos = WAL_HDR;
+            continue;
+        }
+        if (have - pos < REC_HDR) {
+            if (have > pos)
+                log_err("wal: truncated record at offset %llu; %llu byte(s) dropped", (unsigned long long)off,
+                        (unsigned long long)(*total - off));
+            break;
+        }
+        const uint8_t *r = buf + pos;
+        uint32_t rlen = get32(r);
         struct model_rec rec;
         it2n_errinfo err;
-        if (rlen < 9 || rlen > 9 + REC_MAX || off + 8 + rlen > len) {
-            log_err("wal: truncated record at offset %zu; %zu byte(s) dropped", off, len - off);
+        if (rlen < 9 || rlen > 9 + REC_MAX || 8u + rlen > have - pos) {
+            log_err("wal: truncated record at offset %llu; %llu byte(s) dropped", (unsigned long long)off,
+                    (unsigned long long)(*total - off));
             break;
         }
-        if (get32(buf + off + 4) != it2n_crc32c(buf + off + 8, rlen)) {
-            log_err("wal: checksum mismatch at offset %zu; %zu byte(s) dropped", off, len - off);
+        if (get32(r + 4) != it2n_crc32c(r + 8, rlen)) {
+            log_err("wal: checksum mismatch at offset %llu; %llu byte(s) dropped", (unsigned long long)off,
+                    (unsigned long long)(*total - off));
             break;
         }
-        uint64_t rseq = get64(buf + off + 8);
-        if (decode_payload(buf[off + 16], buf + off + REC_HDR, rlen - 9, &rec)) {
-            log_err("wal: undecodable record at offset %zu; %zu byte(s) dropped", off, len - off);
+        uint64_t rseq = get64(r + 8);
+        if (decode_payload(r[16], r + REC_HDR, rlen - 9, &rec)) {
+            log_err("wal: undecodable record at offset %llu; %llu byte(s) dropped", (unsigned long long)off,
+                    (unsigned long long)(*total - off));
             break;
         }
-        off += 8 + rlen;
+        pos += 8u + rlen;
         if (rseq <= sseq) {
             skipped++;
             continue;
         }
         if (models_apply(&rec, &err) != IT2N_OK) {
-            log_warn("wal: record %llu (model %d, op %d) no longer applies: %s",
-                     (unsigned long long)rseq, rec.id, rec.op, it2n_strerror(err.code));
+            log_warn("wal: record %llu (model %d, op %d) no longer applies: %s", (unsigned long long)rseq, rec.id,
+                     rec.op, it2n_strerror(err.code));
             failed++;
         } else {
             applied++;
         }
         seq = rseq;
     }
-    if (off < len && off + REC_HDR > len)
-        log_err("wal: truncated record at offset %zu; %zu byte(s) dropped", off, len - off);
-    log_info("wal: %u record(s) replayed, %u already in the snapshot, %u failed", applied, skipped, failed);
-    stats.dropped += len - off;
+    *good = base + pos;
+    log_info("wal: %llu record(s) replayed, %llu already in the snapshot, %llu failed (%llu bytes)", applied,
+             skipped, failed, (unsigned long long)*good);
+    stats.dropped += *total - *good;
+    rc = 0;
+out:
     free(buf);
-    return off;
+    close(fd);
+    return rc;
 }
 
 int store_open(const char *dir, int fsync_on)
 {
-    size_t good, total = 0;
+    uint64_t good, total;
     do_fsync = fsync_on;
+    snprintf(state_dir, sizeof state_dir, "%s", dir);
     if (mkdir(dir, 0750) && errno != EEXIST) {
         log_err("state directory %s: %s", dir, strerror(errno));
         return -1;
@@ -465,8 +560,11 @@ int store_open(const char *dir, int fsync_on)
         log_err("state directory %s: %s", dir, strerror(errno));
         return -1;
     }
-    seq = load_snapshot();
-    good = replay_wal(seq, &total);
+    if (load_snapshot(&seq) || replay_wal(seq, &good, &total)) {
+        close(dirfd_);
+        dirfd_ = -1;
+        return -1;
+    }
     if (good >= WAL_HDR) {
         walfd = openat(dirfd_, "wal", O_WRONLY | O_APPEND | O_CLOEXEC);
         if (walfd < 0 || (good < total && ftruncate(walfd, (off_t)good))) {

@@ -490,6 +490,140 @@ static void test_snapshot_v1(void **st)
     assert_int_equal(fsize("snapshot"), 32 + 44 + 4 * 51 + 4);
 }
 
+/* Start from an empty state directory. */
+static void wipe(void)
+{
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    assert_int_equal(system(cmd), 0);
+}
+
+static uint8_t *slurp(const char *name, long *len)
+{
+    char p[128];
+    path(p, sizeof p, name);
+    FILE *f = fopen(p, "rb");
+    assert_non_null(f);
+    *len = fsize(name);
+    uint8_t *buf = malloc((size_t)*len);
+    assert_non_null(buf);
+    assert_int_equal(fread(buf, 1, (size_t)*len, f), (size_t)*len);
+    fclose(f);
+    return buf;
+}
+
+/* A WAL far over the old 64 MiB read limit (security finding 9): it used
+ * to be refused without a log line and replaced by an empty one. Built
+ * quickly: after a snapshot at seq 3, a crash before the WAL reset leaves
+ * the records 1..3 behind (skipped on replay, but read and checked); here
+ * they are repeated for > 64 MiB, then the record 4 that completes the
+ * model. Replay must read to the end, apply record 4 and cut nothing. */
+static void test_wal_large(void **st)
+{
+    long hlen, tlen;
+    (void)st;
+    wipe();
+    struct model *md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    put(md, 0, 0, 0, 0, 1);
+    put(md, 0, 1, 0, 10, 2);
+    put(md, 1, 0, 10, 0, 3);
+    assert_int_equal(store_commit(), 0);
+    uint8_t *head = slurp("wal", &hlen); /* header + records 1..3 */
+    assert_int_equal(store_snapshot(), 0);
+    put(md, 1, 1, 10, 10, 4);
+    assert_int_equal(store_commit(), 0);
+    it2n_model solved = md->mdl;
+    uint8_t *tail = slurp("wal", &tlen); /* header + record 4 */
+    store_close();
+
+    char p[128];
+    path(p, sizeof p, "wal");
+    FILE *f = fopen(p, "wb");
+    assert_non_null(f);
+    size_t rec3 = (size_t)hlen - 16, block = rec3 * 4096;
+    uint8_t *big = malloc(block);
+    assert_non_null(big);
+    for (size_t k = 0; k < 4096; k++)
+        memcpy(big + k * rec3, head + 16, rec3);
+    assert_int_equal(fwrite(head, 1, 16, f), 16);
+    long total = 16;
+    while (total <= (64L << 20) + 4096) {
+        assert_int_equal(fwrite(big, 1, block, f), block);
+        total += (long)block;
+    }
+    assert_int_equal(fwrite(tail + 16, 1, (size_t)tlen - 16, f), (size_t)tlen - 16);
+    total += tlen - 16;
+    assert_int_equal(fclose(f), 0);
+    free(big);
+    free(head);
+    free(tail);
+
+    struct store_stats before, after;
+    store_get_stats(&before);
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    store_get_stats(&after);
+    assert_int_equal(after.dropped, before.dropped); /* nothing cut */
+    assert_int_equal(fsize("wal"), total);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(models_present(md), 4);
+    assert_memory_equal(md->mdl.ctrl, solved.ctrl, sizeof solved.ctrl);
+    /* And the log keeps going: record 5 appends after the big file. */
+    put(md, 1, 1, 10, 10, 5);
+    assert_int_equal(store_commit(), 0);
+    assert_true(fsize("wal") > total);
+    store_close();
+}
+
+/* A WAL or snapshot that exists but cannot be read: store_open refuses
+ * (the daemon does not start) and leaves the file alone, instead of
+ * starting empty and overwriting it later. */
+static void test_unreadable(void **st)
+{
+    char p[128];
+    (void)st;
+    wipe();
+    struct model *md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    put(md, 0, 0, 0, 0, 1);
+    assert_int_equal(store_commit(), 0);
+    store_close();
+    long len = fsize("wal");
+
+    /* A directory where the WAL should be: read() fails (EISDIR). */
+    path(p, sizeof p, "wal");
+    char q[160];
+    snprintf(q, sizeof q, "%s.keep", p);
+    assert_int_equal(rename(p, q), 0);
+    assert_int_equal(mkdir(p, 0700), 0);
+    fresh();
+    assert_int_equal(store_open(dir, 0), -1);
+    struct stat sb;
+    assert_int_equal(stat(p, &sb), 0);
+    assert_true(S_ISDIR(sb.st_mode));
+    assert_int_equal(rmdir(p), 0);
+    assert_int_equal(rename(q, p), 0);
+
+    /* A snapshot over the size limit (sparse): refused, left as it is. */
+    path(p, sizeof p, "snapshot");
+    FILE *f = fopen(p, "wb");
+    assert_non_null(f);
+    fclose(f);
+    assert_int_equal(truncate(p, (65L << 20)), 0);
+    fresh();
+    assert_int_equal(store_open(dir, 0), -1);
+    assert_int_equal(fsize("snapshot"), 65L << 20);
+    assert_int_equal(fsize("wal"), len);
+    assert_int_equal(unlink(p), 0);
+
+    /* Both back to normal: the record is still there. */
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(models_present(md), 1);
+    store_close();
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -499,6 +633,8 @@ int main(void)
         cmocka_unit_test(test_snapshot_format),
         cmocka_unit_test(test_snapshot_foreign),
         cmocka_unit_test(test_snapshot_v1),
+        cmocka_unit_test(test_wal_large),
+        cmocka_unit_test(test_unreadable),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
