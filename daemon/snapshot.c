@@ -17,6 +17,7 @@
 
 #include "it2n_proto.h"
 #include "log.h"
+#include "le_bytes.h"
 #include "models.h"
 
 #define MODEL_HDR 44u
@@ -25,39 +26,6 @@
 
 _Static_assert(UPLOAD_WORDS == 12, "snapshot model header holds 12 upload registers");
 _Static_assert(IT2N_FP_COUNT <= 8, "footprint mask is one byte");
-
-static void put16(uint8_t *p, unsigned v)
-{
-    p[0] = (uint8_t)v;
-    p[1] = (uint8_t)(v >> 8);
-}
-
-static void put32(uint8_t *p, uint32_t v)
-{
-    for (int k = 0; k < 4; k++)
-        p[k] = (uint8_t)(v >> (8 * k));
-}
-
-static void put64(uint8_t *p, uint64_t v)
-{
-    for (int k = 0; k < 8; k++)
-        p[k] = (uint8_t)(v >> (8 * k));
-}
-
-static unsigned get16(const uint8_t *p)
-{
-    return (unsigned)p[0] | (unsigned)p[1] << 8;
-}
-
-static uint32_t get32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static uint64_t get64(const uint8_t *p)
-{
-    return (uint64_t)get32(p) | (uint64_t)get32(p + 4) << 32;
-}
 
 static unsigned popcount8(unsigned v)
 {

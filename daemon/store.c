@@ -20,6 +20,7 @@
 #include <unistd.h>
 
 #include "it2n_proto.h"
+#include "le_bytes.h"
 #include "log.h"
 #include "snapshot.h"
 
@@ -36,28 +37,6 @@ static size_t qlen, qcap;
 static int qrecs;
 static struct store_stats stats;
 static char state_dir[256]; /* for messages */
-
-static void put32(uint8_t *p, uint32_t v)
-{
-    for (int k = 0; k < 4; k++)
-        p[k] = (uint8_t)(v >> (8 * k));
-}
-
-static void put64(uint8_t *p, uint64_t v)
-{
-    for (int k = 0; k < 8; k++)
-        p[k] = (uint8_t)(v >> (8 * k));
-}
-
-static uint32_t get32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static uint64_t get64(const uint8_t *p)
-{
-    return (uint64_t)get32(p) | (uint64_t)get32(p + 4) << 32;
-}
 
 static uint32_t layout_tag(void)
 {
