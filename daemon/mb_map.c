@@ -164,6 +164,22 @@ static it2n_val sum_value(const it2n_summary *s, unsigned idx)
     }
 }
 
+/* Grid values the x10000 view clamps (the saturation flag of the scaled
+ * sample grid); 0 while the model is not solved. */
+static uint16_t grid_saturated(struct model *md, const struct mb_opts *o)
+{
+    unsigned nodes = o->grid_rows * o->grid_cols, count = 0;
+    if (md->state != IT2N_RS_SOLVED || models_grid(md, o->grid_rows, o->grid_cols) != IT2N_OK)
+        return 0;
+    for (unsigned nd = 0; nd < nodes; nd++)
+        for (unsigned k = 0; k < 3; k++) {
+            int sat = 0;
+            (void)mbmap_scale(md->grid[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+            count += sat != 0;
+        }
+    return (uint16_t)(count > 65535u ? 65535u : count);
+}
+
 /* Fill registers [start, end) of one block into buf (indexed from start). */
 static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts *o,
                       const it2n_regmap_block *b, uint16_t *buf, unsigned from, unsigned to)
@@ -195,6 +211,7 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         r[IT2N_REG_GRID_ROWS] = (uint16_t)o->grid_rows;
         r[IT2N_REG_GRID_COLS] = (uint16_t)o->grid_cols;
         r[IT2N_REG_MODEL_ID] = (uint16_t)md->id;
+        r[IT2N_REG_GRID_SAT] = grid_saturated(md, o);
         return MBX_OK;
     }
     case IT2N_REG_CFG_N:

@@ -40,6 +40,10 @@ static const it2n_regmap_field status_fields[] = {
     F1(IT2N_REG_GRID_ROWS, IT2N_RT_U16, 1, "grid_rows", "-", "Rows of the sample grid block."),
     F1(IT2N_REG_GRID_COLS, IT2N_RT_U16, 1, "grid_cols", "-", "Columns of the sample grid block."),
     F1(IT2N_REG_MODEL_ID, IT2N_RT_U16, 1, "model_id", "-", "Model id on the serial links."),
+    F1(IT2N_REG_GRID_SAT, IT2N_RT_U16, 1, "grid_saturated", "count",
+       "Sample-grid values outside +-3.2767 that the x10000 sample_grid view clamps to +-32767 "
+       "(interpolants may overshoot between data points); 0 when none or not solved. "
+       "sample_grid_f32 has the raw values."),
 };
 
 static const it2n_regmap_field config_fields[] = {

@@ -50,7 +50,8 @@
 #define IT2N_REG_GRID_ROWS 23u
 #define IT2N_REG_GRID_COLS 24u
 #define IT2N_REG_MODEL_ID 25u
-#define IT2N_REG_STATUS_END 26u
+#define IT2N_REG_GRID_SAT 26u    /* grid values the x10000 view clamps */
+#define IT2N_REG_STATUS_END 27u
 
 /* ---- Model configuration (read/write) ---- */
 #define IT2N_REG_CFG_N 32u

@@ -165,6 +165,55 @@ static void test_incomplete_is_busy(void **st)
     assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_GRID + 72, 3, r), MBX_OK);
 }
 
+/* Interpolants overshoot between data points: the x10000 grid view clamps
+ * those values, and status grid_saturated counts exactly the clamped ones
+ * (checked against the raw float32 view of the same grid). */
+static void test_grid_saturation_flag(void **st)
+{
+    /* A 7x7 checkerboard oscillates far outside [0, 1] at u, w = k/14. */
+    struct model *m3 = models_add(3, 3, 7, 7, IT2N_F_TYPE1);
+    const struct mb_opts g15 = { IT2N_WO_ABCD, 100, 15, 15 };
+    static uint16_t grid[15 * 15 * 3], gf[15 * 15 * 6];
+    uint16_t r[IT2N_REG_STATUS_END];
+    it2n_errinfo err;
+    struct mb_query q;
+    unsigned clamped = 0, raw_out = 0;
+    (void)st;
+    assert_non_null(m3);
+    for (unsigned i = 0; i <= 7; i++)
+        for (unsigned j = 0; j <= 7; j++) {
+            it2n_val v[IT2N_CH_COUNT] = { (it2n_val)i * IT2N_VAL_ONE, (it2n_val)j * IT2N_VAL_ONE, 0,
+                                          ((i + j) % 2) ? IT2N_VAL_ONE : 0, IT2N_VAL_ONE / 2,
+                                          IT2N_VAL_ONE / 2 };
+            assert_int_equal(models_put(m3, i, j, IT2N_FP_D, v, false, &err), IT2N_OK);
+        }
+    if (m3->state != IT2N_RS_SOLVED)
+        assert_int_equal(models_commit(m3, &err), IT2N_OK);
+    memset(&q, 0, sizeof q);
+    assert_int_equal(mbmap_read(m3, &q, &g15, 0, IT2N_REG_STATUS_END, r), MBX_OK);
+    /* FC 03 reads at most 125 registers: fetch both views in chunks. */
+    for (unsigned k = 0; k < 675; k += 120)
+        assert_int_equal(mbmap_read(m3, &q, &g15, IT2N_REG_GRID + k, k + 120 <= 675 ? 120 : 675 - k, grid + k),
+                         MBX_OK);
+    for (unsigned k = 0; k < 1350; k += 120)
+        assert_int_equal(
+            mbmap_read(m3, &q, &g15, IT2N_REG_GRID_F32 + k, k + 120 <= 1350 ? 120 : 1350 - k, gf + k), MBX_OK);
+    for (unsigned k = 0; k < 675; k++) {
+        int16_t v = (int16_t)grid[k];
+        uint32_t bits = (uint32_t)gf[2 * k] << 16 | gf[2 * k + 1];
+        float f;
+        memcpy(&f, &bits, sizeof f);
+        clamped += v == 32767 || v == -32767;
+        raw_out += f > 3.2767f || f < -3.2767f;
+    }
+    assert_true(raw_out > 0);
+    assert_int_equal(clamped, raw_out);
+    assert_int_equal(r[IT2N_REG_GRID_SAT], raw_out);
+    /* The paper model stays within range. */
+    assert_int_equal(mbmap_read(md, &q, &opts, 0, IT2N_REG_STATUS_END, r), MBX_OK);
+    assert_int_equal(r[IT2N_REG_GRID_SAT], 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -174,6 +223,7 @@ int main(void)
         cmocka_unit_test(test_query_uw),
         cmocka_unit_test(test_rejected_writes_change_nothing),
         cmocka_unit_test(test_incomplete_is_busy),
+        cmocka_unit_test(test_grid_saturation_flag),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
