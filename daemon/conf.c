@@ -18,6 +18,16 @@ struct origin {
     int unit_line, preload_line;
 };
 
+/* Where an [rtu:] section's RS-485 options are, for the checks between
+ * them (an option without rs485 = yes, a kernel option with libmodbus RTS). */
+struct rs485_origin {
+    int opt_line;             /* the first rs485_* key */
+    char opt_key[CONF_NAME];
+    int rts_line, delay_us_line;
+    int kernel_line;          /* the first kernel-only key */
+    char kernel_key[CONF_NAME];
+};
+
 struct parse {
     struct conf c;
     int listen_set;      /* first tcp_listen replaces the default */
@@ -35,6 +45,7 @@ struct parse {
     int max_models_line, grid_line;
     char grid_key[CONF_NAME];
     struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS];
+    struct rs485_origin rs485[CONF_MAX_RTU];
 };
 
 static int parse_int(const char *v, long lo, long hi, int *out)
@@ -138,6 +149,24 @@ static void note(struct parse *p, struct origin *o, const char *name)
         o->preload_line = p->line;
 }
 
+static void note_rs485(const struct parse *p, struct rs485_origin *o, const char *name)
+{
+    if (strncmp(name, "rs485_", 6))
+        return;
+    if (!o->opt_line) {
+        o->opt_line = p->line;
+        snprintf(o->opt_key, sizeof o->opt_key, "%s", name);
+    }
+    if (!strcmp(name, "rs485_rts"))
+        o->rts_line = p->line;
+    else if (!strcmp(name, "rs485_rts_delay_us"))
+        o->delay_us_line = p->line;
+    else if (strcmp(name, "rs485_strict") && !o->kernel_line) {
+        o->kernel_line = p->line;
+        snprintf(o->kernel_key, sizeof o->kernel_key, "%s", name);
+    }
+}
+
 static int key_daemon(struct parse *p, const char *name, const char *v)
 {
     struct conf *c = &p->c;
@@ -236,6 +265,35 @@ static int key_rtu(struct parse *p, struct conf_rtu *r, const char *name, const 
             FAIL("expected 1 or 2");
     } else if (!strcmp(name, "rs485")) {
         if (parse_bool(v, &r->rs485))
+            FAIL("expected yes or no");
+    } else if (!strcmp(name, "rs485_rts")) {
+        if (!strcasecmp(v, "none"))
+            r->rts = CONF_RTS_NONE;
+        else if (!strcasecmp(v, "up"))
+            r->rts = CONF_RTS_UP;
+        else if (!strcasecmp(v, "down"))
+            r->rts = CONF_RTS_DOWN;
+        else
+            FAIL("expected none, up or down");
+    } else if (!strcmp(name, "rs485_rts_delay_us")) {
+        if (parse_int(v, 0, CONF_RTS_DELAY_US_MAX, &r->rts_delay_us))
+            FAIL("expected microseconds 0..%d", CONF_RTS_DELAY_US_MAX);
+    } else if (!strcmp(name, "rs485_rts_on_send")) {
+        if (!strcasecmp(v, "high"))
+            r->rts_on_send = 1;
+        else if (!strcasecmp(v, "low"))
+            r->rts_on_send = 0;
+        else
+            FAIL("expected high or low");
+    } else if (!strcmp(name, "rs485_delay_before_send_ms") || !strcmp(name, "rs485_delay_after_send_ms")) {
+        int *d = !strcmp(name, "rs485_delay_before_send_ms") ? &r->delay_before_ms : &r->delay_after_ms;
+        if (parse_int(v, 0, CONF_RS485_DELAY_MS_MAX, d))
+            FAIL("expected milliseconds 0..%d (the kernel's limit)", CONF_RS485_DELAY_MS_MAX);
+    } else if (!strcmp(name, "rs485_termination")) {
+        if (parse_bool(v, &r->termination))
+            FAIL("expected yes or no");
+    } else if (!strcmp(name, "rs485_strict")) {
+        if (parse_bool(v, &r->strict))
             FAIL("expected yes or no");
     } else {
         FAIL("unknown key");
@@ -338,9 +396,15 @@ static int handler(void *user, const char *section, const char *name, const char
             c->rtu[k].baud = 19200;
             c->rtu[k].parity = 'E';
             c->rtu[k].stop_bits = 1;
+            c->rtu[k].rts_delay_us = -1;
+            c->rtu[k].rts_on_send = -1;
+            c->rtu[k].delay_before_ms = -1;
+            c->rtu[k].delay_after_ms = -1;
+            c->rtu[k].termination = -1;
             c->nrtu++;
         }
         note(p, &p->rtu[k], name);
+        note_rs485(p, &p->rs485[k], name);
         return key_rtu(p, &c->rtu[k], name, value);
     }
     if (!strncmp(section, "model:", 6)) {
@@ -459,11 +523,21 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
             VFAIL(o->preload_line ? o->preload_line : o->first_line, sec, o->preload_line ? "preload" : o->first_key,
                   "the paper data set needs n = m = 3, no z, not type1");
     }
-    for (int k = 0; k < c->nrtu; k++)
-        if (!c->rtu[k].device[0]) {
-            snprintf(sec, sizeof sec, "rtu:%s", c->rtu[k].name);
+    for (int k = 0; k < c->nrtu; k++) {
+        const struct conf_rtu *r = &c->rtu[k];
+        const struct rs485_origin *o = &p->rs485[k];
+        snprintf(sec, sizeof sec, "rtu:%s", r->name);
+        if (!r->device[0])
             VFAIL(p->rtu[k].first_line, sec, p->rtu[k].first_key, "device is required in this section");
-        }
+        if (!r->rs485 && o->opt_line)
+            VFAIL(o->opt_line, sec, o->opt_key, "needs rs485 = yes in this section");
+        if (r->rts == CONF_RTS_NONE && o->delay_us_line)
+            VFAIL(o->delay_us_line, sec, "rs485_rts_delay_us", "needs rs485_rts = up or down (libmodbus switching RTS)");
+        if (r->rts != CONF_RTS_NONE && o->kernel_line)
+            VFAIL(o->kernel_line, sec, o->kernel_key,
+                  "a kernel RS-485 option, but rs485_rts = %s (line %d) has libmodbus switch RTS instead; "
+                  "use one or the other", r->rts == CONF_RTS_UP ? "up" : "down", o->rts_line);
+    }
     for (int k = 0; k < c->nlinks; k++) {
         const struct conf_link *l = &c->link[k];
         snprintf(sec, sizeof sec, "link:%s", l->name);

@@ -25,8 +25,25 @@ struct conf_rtu {
     int baud;
     char parity;      /* 'N', 'E', 'O' */
     int stop_bits;    /* 1 or 2 */
-    int rs485;        /* 1: TIOCSRS485 RS-485 mode */
+    int rs485;        /* 1: RS-485 (see rts for who switches the line) */
+    /* RS-485 options, only with rs485 = 1; -1 = leave as the driver or
+     * libmodbus has it. Two exclusive ways to switch the transceiver:
+     * rts = CONF_RTS_NONE: the kernel driver does (TIOCSRS485), tuned by
+     * the rs485_* kernel fields; UP/DOWN: libmodbus raises/lowers RTS
+     * around each reply (modbus_rtu_set_rts), rts_delay_us around it. */
+    int rts;              /* enum conf_rts */
+    int rts_delay_us;     /* -1 or 0..CONF_RTS_DELAY_US_MAX */
+    int rts_on_send;      /* kernel: -1, 0 (RTS low while sending), 1 (high) */
+    int delay_before_ms;  /* kernel: -1 or 0..CONF_RS485_DELAY_MS_MAX */
+    int delay_after_ms;   /* kernel: -1 or 0..CONF_RS485_DELAY_MS_MAX */
+    int termination;      /* kernel: -1, 0, 1 (SER_RS485_TERMINATE_BUS) */
+    int strict;           /* 1: a device refusing any of it is not served */
 };
+
+/* Values of libmodbus' MODBUS_RTU_RTS_* (checked in mb_rtu.c). */
+enum conf_rts { CONF_RTS_NONE = 0, CONF_RTS_UP = 1, CONF_RTS_DOWN = 2 };
+#define CONF_RTS_DELAY_US_MAX 100000   /* the loop sleeps it twice a reply */
+#define CONF_RS485_DELAY_MS_MAX 100    /* the kernel's RS485_MAX_RTS_DELAY */
 
 struct conf_model {
     int id;           /* 0..254, model id on the serial links */

@@ -11,7 +11,10 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <linux/serial.h>
+#include <stdio.h>
 #include <string.h>
+#include <sys/ioctl.h>
 #include <unistd.h>
 
 #include "log.h"
@@ -30,6 +33,10 @@ struct rtu_port {
     long retry_timer;
     unsigned backoff_ms;
 };
+
+_Static_assert(CONF_RTS_NONE == MODBUS_RTU_RTS_NONE && CONF_RTS_UP == MODBUS_RTU_RTS_UP &&
+                   CONF_RTS_DOWN == MODBUS_RTU_RTS_DOWN,
+               "conf_rts values are libmodbus' MODBUS_RTU_RTS_*");
 
 static struct rtu_port ports[CONF_MAX_RTU];
 static int nports;
@@ -161,6 +168,120 @@ static void sweep(void *arg)
     sweep_timer = loop_add_timer(10, sweep, NULL);
 }
 
+/* Kernel RS-485: the driver switches the transceiver. Enabled through
+ * libmodbus, then the options set on the same descriptor and read back:
+ * drivers clamp delays and drop flags they cannot do without an error.
+ * On a refusal returns -1 with what was refused in why; *on says whether
+ * the port is in RS-485 mode all the same (with the driver's settings). */
+static int rs485_kernel(const struct rtu_port *p, int *on, char *why, size_t size)
+{
+    const struct conf_rtu *c = &p->cfg;
+    struct serial_rs485 want, got;
+    int fd = modbus_get_socket(p->ctx);
+    size_t n = 0;
+    *on = 0;
+    if (modbus_rtu_set_serial_mode(p->ctx, MODBUS_RTU_RS485)) {
+        snprintf(why, size, "RS-485 mode (rs485 = yes, TIOCSRS485): %s", strerror(errno));
+        return -1;
+    }
+    *on = 1;
+    if (c->rts_on_send < 0 && c->delay_before_ms < 0 && c->delay_after_ms < 0 && c->termination < 0)
+        return 0;
+    memset(&want, 0, sizeof want);
+    if (ioctl(fd, TIOCGRS485, &want)) {
+        snprintf(why, size, "reading the RS-485 settings (TIOCGRS485): %s", strerror(errno));
+        return -1;
+    }
+    if (c->rts_on_send >= 0) {
+        want.flags &= ~(__u32)(SER_RS485_RTS_ON_SEND | SER_RS485_RTS_AFTER_SEND);
+        want.flags |= c->rts_on_send ? SER_RS485_RTS_ON_SEND : SER_RS485_RTS_AFTER_SEND;
+    }
+    if (c->termination >= 0)
+        want.flags = c->termination ? want.flags | SER_RS485_TERMINATE_BUS : want.flags & ~(__u32)SER_RS485_TERMINATE_BUS;
+    if (c->delay_before_ms >= 0)
+        want.delay_rts_before_send = (__u32)c->delay_before_ms;
+    if (c->delay_after_ms >= 0)
+        want.delay_rts_after_send = (__u32)c->delay_after_ms;
+    got = want;
+    if (ioctl(fd, TIOCSRS485, &got) || ioctl(fd, TIOCGRS485, &got)) {
+        snprintf(why, size, "the RS-485 options (TIOCSRS485): %s", strerror(errno));
+        return -1;
+    }
+    why[0] = 0;
+#define DIFF(cond, ...) do { \
+        if ((cond) && n < size) \
+            n += (size_t)snprintf(why + n, size - n, __VA_ARGS__); \
+    } while (0)
+    DIFF(c->rts_on_send >= 0 && !(got.flags & SER_RS485_RTS_ON_SEND) != !c->rts_on_send,
+         "%srs485_rts_on_send = %s (the driver keeps it %s)", n ? ", " : "", c->rts_on_send ? "high" : "low",
+         got.flags & SER_RS485_RTS_ON_SEND ? "high" : "low");
+    DIFF(c->termination >= 0 && !(got.flags & SER_RS485_TERMINATE_BUS) != !c->termination,
+         "%srs485_termination = %s (not supported by the driver)", n ? ", " : "", c->termination ? "yes" : "no");
+    DIFF(c->delay_before_ms >= 0 && got.delay_rts_before_send != want.delay_rts_before_send,
+         "%srs485_delay_before_send_ms = %d (the driver uses %u)", n ? ", " : "", c->delay_before_ms,
+         (unsigned)got.delay_rts_before_send);
+    DIFF(c->delay_after_ms >= 0 && got.delay_rts_after_send != want.delay_rts_after_send,
+         "%srs485_delay_after_send_ms = %d (the driver uses %u)", n ? ", " : "", c->delay_after_ms,
+         (unsigned)got.delay_rts_after_send);
+#undef DIFF
+    return n ? -1 : 0;
+}
+
+/* RTS switched by libmodbus around each reply. libmodbus ignores the
+ * modem-control ioctl's result, so whether the device has an RTS line
+ * (a pty has none) is asked here first. */
+static int rs485_libmodbus_rts(const struct rtu_port *p, char *why, size_t size)
+{
+    const struct conf_rtu *c = &p->cfg;
+    const char *mode = c->rts == CONF_RTS_UP ? "up" : "down";
+    int bits;
+    if (ioctl(modbus_get_socket(p->ctx), TIOCMGET, &bits)) {
+        snprintf(why, size, "RTS control (rs485_rts = %s, TIOCMGET): %s", mode, strerror(errno));
+        return -1;
+    }
+    if (modbus_rtu_set_rts(p->ctx, c->rts) ||
+        (c->rts_delay_us >= 0 && modbus_rtu_set_rts_delay(p->ctx, c->rts_delay_us))) {
+        snprintf(why, size, "RTS control (rs485_rts = %s, rs485_rts_delay_us): %s", mode, modbus_strerror(errno));
+        modbus_rtu_set_rts(p->ctx, MODBUS_RTU_RTS_NONE);
+        return -1;
+    }
+    return 0;
+}
+
+/* RS-485 set-up of a freshly connected port. Returns -1 if the port must
+ * not be served (rs485_strict and something refused); mode gets what the
+ * port does, for the log. */
+static int rs485_setup(struct rtu_port *p, char *mode, size_t size)
+{
+    const struct conf_rtu *c = &p->cfg;
+    char why[320];
+    int rc, on = 0;
+    if (!c->rs485) {
+        snprintf(mode, size, "RS-232");
+        return 0;
+    }
+    if (c->rts == CONF_RTS_NONE)
+        rc = rs485_kernel(p, &on, why, sizeof why);
+    else
+        rc = rs485_libmodbus_rts(p, why, sizeof why);
+    if (!rc) {
+        if (c->rts == CONF_RTS_NONE)
+            snprintf(mode, size, "RS-485 (kernel)");
+        else
+            snprintf(mode, size, "RS-485 (RTS %s by libmodbus, %d us delay)", c->rts == CONF_RTS_UP ? "up" : "down",
+                     modbus_rtu_get_rts_delay(p->ctx));
+        return 0;
+    }
+    if (c->strict) {
+        log_err("rtu %s: %s refuses %s; not served (rs485_strict = yes)", c->name, c->device, why);
+        return -1;
+    }
+    log_warn("rtu %s: %s refuses %s; serving in %s (rs485_strict = yes would refuse the port)", c->name,
+             c->device, why, on ? "RS-485 mode with the driver's settings" : "RS-232 mode");
+    snprintf(mode, size, on ? "RS-485 (kernel, driver's settings)" : "RS-232 (RS-485 refused)");
+    return 0;
+}
+
 static void port_open(void *arg)
 {
     struct rtu_port *p = arg;
@@ -176,9 +297,14 @@ static void port_open(void *arg)
         port_fail(p, modbus_strerror(errno));
         return;
     }
-    if (p->cfg.rs485 && modbus_rtu_set_serial_mode(p->ctx, MODBUS_RTU_RS485))
-        log_warn("rtu %s: RS-485 mode not supported by %s: %s", p->cfg.name, p->cfg.device,
-                 modbus_strerror(errno));
+    char mode[96];
+    if (rs485_setup(p, mode, sizeof mode)) {
+        modbus_close(p->ctx);
+        modbus_free(p->ctx);
+        p->ctx = NULL;
+        port_fail(p, "RS-485 set-up refused");
+        return;
+    }
     if (mb_session_init(&p->s, p->ctx, 0)) {
         modbus_close(p->ctx);
         modbus_free(p->ctx);
@@ -193,8 +319,8 @@ static void port_open(void *arg)
     p->gap_ms = t35 < 20 ? 20 : t35;
     p->len = 0;
     loop_add_fd(p->fd, POLLIN, on_port, p);
-    log_notice("modbus rtu %s on %s, %d %c%d", p->cfg.name, p->cfg.device, p->cfg.baud, p->cfg.parity,
-               p->cfg.stop_bits);
+    log_notice("modbus rtu %s on %s, %d %c%d, %s", p->cfg.name, p->cfg.device, p->cfg.baud, p->cfg.parity,
+               p->cfg.stop_bits, mode);
 }
 
 static void close_port(struct rtu_port *p)

@@ -16,6 +16,7 @@ cleanup() {
     [ -n "$PID" ] && kill -9 "$PID" 2>/dev/null
     [ -n "${NPID:-}" ] && kill "$NPID" 2>/dev/null
     [ -n "${BPID:-}" ] && kill "$BPID" 2>/dev/null
+    [ -n "${BPID485:-}" ] && kill "$BPID485" 2>/dev/null
     [ -n "${EPID:-}" ] && kill -CONT "$EPID" 2>/dev/null && kill "$EPID" 2>/dev/null
     if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "e2e: logs kept in $T" >&2; fi
 }
@@ -420,6 +421,55 @@ plc --unit 13 verify "$ROOT/examples/type1_4x3.csv" 3 >/dev/null && plc --unit 7
     && ok "kill -9 and restart after the reload: same models, no record of model 6 left to replay" \
     || fail "restart after the model reload"
 stop TERM
+
+# ---- RS-485 options on a pty (no RS-485 mode, no RTS line) ------------------
+# The device refuses: a warning naming device and option, RS-232 served; with
+# rs485_strict = yes the port is not served (TCP goes on). Reloaded by SIGHUP.
+"$PTY" > "$T/pty485" &
+BPID485=$!
+for _ in $(seq 50); do [ -s "$T/pty485" ] && break; sleep 0.02; done
+read -r RS_A RS_B < "$T/pty485"
+rs485_conf() { # [rtu:rs] RS-485 lines on stdin
+    {
+        printf '[daemon]\nstate_dir = %s\nsnapshot_interval = 3600\n' "$T/state485"
+        printf '[modbus]\ntcp_listen = 127.0.0.1:%s\n[model:1]\nunit_id = 1\npreload = paper\n' "$PORT"
+        printf '[rtu:rs]\ndevice = %s\nbaud = 19200\nrs485 = yes\n' "$RS_A"
+        cat
+    } > "$T/rs485.conf"
+}
+log_wait() { # grep -E pattern: up to 5 s for it in the daemon log
+    for _ in $(seq 100); do grep -qE "$1" "$T/daemon.log" && return 0; sleep 0.05; done
+    return 1
+}
+mbpoll_rs() { mbpoll -m rtu -a 1 -0 -r 0 -c 8 -t 3 -b 19200 -P even -o 0.5 -1 "$RS_B" 2>&1; }
+printf 'rs485_rts_on_send = low\nrs485_delay_before_send_ms = 1\nrs485_delay_after_send_ms = 2\n' | rs485_conf
+"$IT2ND" -c "$T/rs485.conf" --check-config >/dev/null || fail "rs485.conf does not validate"
+CONF=$T/rs485.conf start "$IT2ND_SAN"
+log_wait "rtu rs: $RS_A refuses RS-485 mode \(rs485 = yes, TIOCSRS485\): .*; serving in RS-232 mode" \
+    && log_wait "modbus rtu rs on $RS_A, 19200 E1, RS-232 \(RS-485 refused\)" \
+    && ok "rs485 = yes + kernel options on a pty: warning names device and option" \
+    || fail "no RS-485 refusal warning"
+out=$(mbpoll_rs)
+echo "$out" | grep -q '^\[1\]:[[:space:]]*2$' && "$PLC" --rtu "$RS_B" verify "$PAPER" 3 \
+    && ok "RS-485 refused: RTU still served in RS-232 mode (mbpoll, PLC)" || fail "RTU after RS-485 refusal: $(echo "$out" | tail -3)"
+printf 'rs485_rts = up\nrs485_rts_delay_us = 500\n' | rs485_conf
+kill -HUP "$PID"
+log_wait "rtu rs: $RS_A refuses RTS control \(rs485_rts = up, TIOCMGET\): .*; serving in RS-232 mode" \
+    && out=$(mbpoll_rs) && echo "$out" | grep -q '^\[1\]:[[:space:]]*2$' \
+    && ok "SIGHUP to rs485_rts = up: no RTS line on a pty, warned, RTU still served" \
+    || fail "rs485_rts on a pty: $(echo "$out" | tail -3)"
+printf 'rs485_strict = yes\n' | rs485_conf
+kill -HUP "$PID"
+log_wait "rtu rs: $RS_A refuses RS-485 mode .*; not served \(rs485_strict = yes\)" \
+    && log_wait "rtu rs \($RS_A\): RS-485 set-up refused; reopening" \
+    && ! mbpoll_rs | grep -q '^\[1\]:' && [ "$(plc read 1024 1)" != "" ] \
+    && ok "rs485_strict = yes: port refused (retried with backoff), TCP still served" \
+    || fail "rs485_strict"
+stop TERM || fail "exit status after the RS-485 tests (sanitizer build)"
+kill "$BPID485" 2>/dev/null; wait "$BPID485" 2>/dev/null; BPID485=
+printf '[rtu:a]\ndevice = /dev/null\nrs485_rts = up\n' > "$T/bad.conf"
+"$IT2ND" -c "$T/bad.conf" --check-config 2>&1 | grep -q "bad.conf:3: \[rtu:a\] rs485_rts: needs rs485 = yes in this section" \
+    && ok "RS-485 option without rs485 = yes: file:line error" || fail "rs485_rts without rs485 accepted"
 
 # ---- privilege drop (user = nobody) ------------------------------------------
 if [ "$(id -u)" != 0 ]; then

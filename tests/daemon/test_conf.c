@@ -128,12 +128,92 @@ static void test_errors(void **st)
     assert_string_equal(err, want);
 }
 
+/* RS-485 options: defaults, both ways of switching the transceiver, and
+ * the checks between them with the line of the key at fault. */
+static void test_rs485(void **st)
+{
+    struct conf c, before;
+    char err[320], want[320];
+    (void)st;
+    assert_int_equal(load("[rtu:a]\ndevice=/dev/ttyS1\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.rtu[0].rs485, 0);
+    assert_int_equal(c.rtu[0].rts, CONF_RTS_NONE);
+    assert_int_equal(c.rtu[0].rts_delay_us, -1);
+    assert_int_equal(c.rtu[0].rts_on_send, -1);
+    assert_int_equal(c.rtu[0].delay_before_ms, -1);
+    assert_int_equal(c.rtu[0].delay_after_ms, -1);
+    assert_int_equal(c.rtu[0].termination, -1);
+    assert_int_equal(c.rtu[0].strict, 0);
+    assert_int_equal(load("[rtu:k]\ndevice=/dev/ttyS1\nrs485=yes\nrs485_rts_on_send=low\n"
+                          "rs485_delay_before_send_ms=0\nrs485_delay_after_send_ms=100\nrs485_termination=yes\n"
+                          "rs485_strict=yes\n"
+                          "[rtu:u]\ndevice=/dev/ttyUSB0\nrs485=yes\nrs485_rts=DOWN\nrs485_rts_delay_us=250\n",
+                          &c, err, sizeof err), 0);
+    assert_int_equal(c.nrtu, 2);
+    assert_int_equal(c.rtu[0].rs485, 1);
+    assert_int_equal(c.rtu[0].rts, CONF_RTS_NONE);
+    assert_int_equal(c.rtu[0].rts_on_send, 0);
+    assert_int_equal(c.rtu[0].delay_before_ms, 0);
+    assert_int_equal(c.rtu[0].delay_after_ms, 100);
+    assert_int_equal(c.rtu[0].termination, 1);
+    assert_int_equal(c.rtu[0].strict, 1);
+    assert_int_equal(c.rtu[1].rts, CONF_RTS_DOWN);
+    assert_int_equal(c.rtu[1].rts_delay_us, 250);
+    assert_int_equal(c.rtu[1].rts_on_send, -1);
+    assert_int_equal(c.rtu[1].strict, 0);
+    static const struct {
+        const char *text;
+        int line;
+        const char *tail;
+    } t[] = {
+        /* bad values */
+        { "[rtu:a]\ndevice=/d\nrs485=yes\nrs485_rts=high\n", 4, "[rtu:a] rs485_rts: expected none, up or down" },
+        { "[rtu:a]\nrs485=yes\nrs485_rts=up\nrs485_rts_delay_us=100001\n", 4,
+          "[rtu:a] rs485_rts_delay_us: expected microseconds 0..100000" },
+        { "[rtu:a]\nrs485_rts_delay_us=-1\n", 2, "[rtu:a] rs485_rts_delay_us: expected microseconds 0..100000" },
+        { "[rtu:a]\nrs485_delay_before_send_ms=101\n", 2,
+          "[rtu:a] rs485_delay_before_send_ms: expected milliseconds 0..100 (the kernel's limit)" },
+        { "[rtu:a]\nrs485_delay_after_send_ms=x\n", 2,
+          "[rtu:a] rs485_delay_after_send_ms: expected milliseconds 0..100 (the kernel's limit)" },
+        { "[rtu:a]\nrs485_rts_on_send=yes\n", 2, "[rtu:a] rs485_rts_on_send: expected high or low" },
+        { "[rtu:a]\nrs485_termination=2\n", 2, "[rtu:a] rs485_termination: expected yes or no" },
+        { "[rtu:a]\nrs485_strict=maybe\n", 2, "[rtu:a] rs485_strict: expected yes or no" },
+        { "[rtu:a]\nrs485_foo=1\n", 2, "[rtu:a] rs485_foo: unknown key" },
+        /* options without rs485 = yes: the first option's line */
+        { "[rtu:a]\ndevice=/d\n\nrs485_rts=up\nrs485_rts_delay_us=10\n", 4,
+          "[rtu:a] rs485_rts: needs rs485 = yes in this section" },
+        { "[rtu:a]\ndevice=/d\nrs485_strict=yes\n", 3, "[rtu:a] rs485_strict: needs rs485 = yes in this section" },
+        { "[rtu:a]\ndevice=/d\nrs485=yes\nrs485_delay_after_send_ms=1\nrs485=no\n", 4,
+          "[rtu:a] rs485_delay_after_send_ms: needs rs485 = yes in this section" },
+        /* an RTS delay without libmodbus switching RTS */
+        { "[rtu:a]\ndevice=/d\nrs485=yes\nrs485_rts_delay_us=10\n", 4,
+          "[rtu:a] rs485_rts_delay_us: needs rs485_rts = up or down (libmodbus switching RTS)" },
+        { "[rtu:a]\ndevice=/d\nrs485=yes\nrs485_rts=none\nrs485_rts_delay_us=10\n", 5,
+          "[rtu:a] rs485_rts_delay_us: needs rs485_rts = up or down (libmodbus switching RTS)" },
+        /* kernel options and libmodbus RTS are exclusive */
+        { "[rtu:a]\ndevice=/d\nrs485=yes\nrs485_rts=up\nrs485_strict=yes\nrs485_delay_before_send_ms=5\n", 6,
+          "[rtu:a] rs485_delay_before_send_ms: a kernel RS-485 option, but rs485_rts = up (line 4) has libmodbus "
+          "switch RTS instead; use one or the other" },
+        { "[rtu:a]\ndevice=/d\nrs485=yes\nrs485_termination=no\nrs485_rts=down\n", 4,
+          "[rtu:a] rs485_termination: a kernel RS-485 option, but rs485_rts = down (line 5) has libmodbus "
+          "switch RTS instead; use one or the other" },
+    };
+    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
+        conf_default(&before);
+        assert_int_equal(load(t[k].text, &c, err, sizeof err), -1);
+        snprintf(want, sizeof want, "%s:%d: %s", path, t[k].line, t[k].tail);
+        assert_string_equal(err, want);
+        assert_memory_equal(&c, &before, sizeof c); /* unchanged on error */
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_default),
         cmocka_unit_test(test_full),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_rs485),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
