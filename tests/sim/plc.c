@@ -489,8 +489,14 @@ int main(int argc, char **argv)
     if (k >= argc)
         return 2;
     const char *cmd = argv[k++];
-    if (!strcmp(cmd, "verify") && k < argc)
-        return cmd_verify(argv[k], k + 1 < argc ? atoi(argv[k + 1]) : 5);
+    if (!strcmp(cmd, "verify") && k < argc) {
+        int steps = k + 1 < argc ? atoi(argv[k + 1]) : 5;
+        if (steps < 2 || steps > 100) { /* parameters are a/(steps-1) */
+            fprintf(stderr, "plc: verify STEPS must be within 2..100\n");
+            return 2;
+        }
+        return cmd_verify(argv[k], steps);
+    }
     if (!strcmp(cmd, "upload") && k < argc)
         return cmd_upload(argv[k], k + 1 < argc && !strcmp(argv[k + 1], "commit"), NULL);
     if (!strcmp(cmd, "stream") && k + 1 < argc)
