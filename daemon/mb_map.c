@@ -164,12 +164,25 @@ static it2n_val sum_value(const it2n_summary *s, unsigned idx)
     }
 }
 
+/* A sample-grid read of `span` registers (regs_per_node per node) can be
+ * answered: inside the configured nodes, model solved, grid cache current. */
+static int grid_ready(struct model *md, const struct mb_opts *o, unsigned span, unsigned regs_per_node)
+{
+    if (span > o->grid_rows * o->grid_cols * regs_per_node)
+        return MBX_ILLEGAL_ADDRESS;
+    if (md->state != IT2N_RS_SOLVED)
+        return MBX_BUSY;
+    if (models_grid(md, o->grid_rows, o->grid_cols) != IT2N_OK)
+        return MBX_DEVICE_FAILURE;
+    return MBX_OK;
+}
+
 /* Grid values the x10000 view clamps (the saturation flag of the scaled
  * sample grid); 0 while the model is not solved. */
 static uint16_t grid_saturated(struct model *md, const struct mb_opts *o)
 {
     unsigned nodes = o->grid_rows * o->grid_cols, count = 0;
-    if (md->state != IT2N_RS_SOLVED || models_grid(md, o->grid_rows, o->grid_cols) != IT2N_OK)
+    if (grid_ready(md, o, 0, 1u) != MBX_OK)
         return 0;
     for (unsigned nd = 0; nd < nodes; nd++)
         for (unsigned k = 0; k < 3; k++) {
@@ -286,12 +299,9 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         return MBX_OK;
     case IT2N_REG_GRID: {
         unsigned nodes = o->grid_rows * o->grid_cols;
-        if (to - b->start > nodes * 3u)
-            return MBX_ILLEGAL_ADDRESS;
-        if (md->state != IT2N_RS_SOLVED)
-            return MBX_BUSY;
-        if (models_grid(md, o->grid_rows, o->grid_cols) != IT2N_OK)
-            return MBX_DEVICE_FAILURE;
+        int ready = grid_ready(md, o, to - b->start, 3u);
+        if (ready != MBX_OK)
+            return ready;
         for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++) {
                 sat = 0;
@@ -302,12 +312,9 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
     }
     case IT2N_REG_GRID_F32: {
         unsigned nodes = o->grid_rows * o->grid_cols;
-        if (to - b->start > nodes * 6u)
-            return MBX_ILLEGAL_ADDRESS;
-        if (md->state != IT2N_RS_SOLVED)
-            return MBX_BUSY;
-        if (models_grid(md, o->grid_rows, o->grid_cols) != IT2N_OK)
-            return MBX_DEVICE_FAILURE;
+        int ready = grid_ready(md, o, to - b->start, 6u);
+        if (ready != MBX_OK)
+            return ready;
         for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++)
                 mbmap_put_f32(&buf[(nd * 3 + k) * 2], q24f(md->grid[nd][k]), o->word_order);
