@@ -14,7 +14,7 @@ $(BUILD)/host/firmware_core/%.o: firmware_core/%.c $(CORE_HDR)
 
 $(BUILD)/san/firmware_core/%.o: firmware_core/%.c $(CORE_HDR)
 	@mkdir -p $(@D)
-	$(CC) $(CORE_CFLAGS) $(SAN_FLAGS) -c $< -o $@
+	$(CC) $(CORE_CFLAGS) $(SAN_FLAGS) '-DIT2N_ASSERT(c)=((c) ? (void)0 : __builtin_trap())' -c $< -o $@
 
 $(CORE_LIB): $(CORE_OBJ)
 	@rm -f $@; ar rcs $@ $^

@@ -39,6 +39,13 @@
 #define IT2N_LOCATE_GRID 8
 #endif
 
+/* Check of an internal invariant (a core bug, never bad input: bad input
+ * gets an IT2N_ERR_* code). Off by default; the sanitizer test build traps.
+ * Define as e.g. ((c) ? (void)0 : my_fault_handler()) on a target. */
+#ifndef IT2N_ASSERT
+#define IT2N_ASSERT(c) ((void)0)
+#endif
+
 #if IT2N_MAX_DEGREE < 1 || IT2N_MAX_DEGREE > 15
 #error "IT2N_MAX_DEGREE must be within 1..15"
 #endif

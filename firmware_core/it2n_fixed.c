@@ -3,6 +3,8 @@
  */
 #include "it2n_fixed.h"
 
+#include "it2n.h"
+
 /* Unsigned 64 x 64 -> 128 from four 32 x 32 -> 64 products. */
 static it2n_i128 umul64(uint64_t a, uint64_t b)
 {
@@ -89,7 +91,9 @@ bool it2n_i128_round(it2n_i128 a, unsigned shift, int64_t *out)
 int64_t it2n_i128_round_fit(it2n_i128 a, unsigned shift)
 {
     int64_t r;
-    if (!it2n_i128_round(a, shift, &r)) {
+    bool ok = it2n_i128_round(a, shift, &r);
+    IT2N_ASSERT(ok); /* callers proved the result fits */
+    if (!ok) {
         r = it2n_i128_neg_p(a) ? INT64_MIN : INT64_MAX;
     }
     return r;

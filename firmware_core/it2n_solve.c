@@ -351,7 +351,8 @@ static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
     for (a = 0; a <= n; a++) {
         for (b = 0; b <= m; b++) {
             if (!weights(su.inv, sw.inv, n, m, a, b, wt)) {
-                continue; /* ruled out by the bound pass above */
+                IT2N_ASSERT(false); /* ruled out by the bound pass above */
+                continue;
             }
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 if (!(mask & (1u << fp))) {
@@ -368,8 +369,10 @@ static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
                                          ds->values[i][j][fp][ch]);
                         }
                     }
-                    (void)split_sum(s, &mdl->ctrl[a][b][fp][ch],
-                                    &mdl->ctrl_rem[a][b][fp][ch]);
+                    if (!split_sum(s, &mdl->ctrl[a][b][fp][ch],
+                                   &mdl->ctrl_rem[a][b][fp][ch])) {
+                        IT2N_ASSERT(false); /* the bound pass proved it fits */
+                    }
                 }
             }
         }
@@ -487,7 +490,9 @@ int it2n_model_update(it2n_model *mdl, unsigned i, unsigned j, unsigned fp,
         return it2n__fail(err, IT2N_ERR_OVERFLOW, (int)i, (int)j, (int)fp, -1,
                           0, 0, 0);
     }
-    (void)update_pass(mdl, i, j, fp, delta, true);
+    if (!update_pass(mdl, i, j, fp, delta, true)) {
+        IT2N_ASSERT(false); /* same arithmetic as the dry run that passed */
+    }
     memcpy(mdl->data.values[i][j][fp], pt[fp], sizeof(pt[fp]));
     mdl->generation++;
     return IT2N_OK;
