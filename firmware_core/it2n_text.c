@@ -192,7 +192,10 @@ static bool text_exceeds(const text_dec *d, uint64_t limit)
     return d->ipart > limit || (d->ipart == limit && d->frac_nonzero);
 }
 
-int it2n_parse_val(const char *s, size_t len, it2n_val *out)
+/* Parse into raw / 2^frac, |value| <= limit; negatives only if allowed
+ * (a negative zero is zero). Shared by values (Q24) and parameters (Q32). */
+static int text_parse(const char *s, size_t len, unsigned frac, uint64_t limit,
+                      bool allow_neg, int64_t *out)
 {
     text_dec d;
     uint64_t mag;
@@ -205,34 +208,24 @@ int it2n_parse_val(const char *s, size_t len, it2n_val *out)
     if (rc != IT2N_OK) {
         return rc;
     }
-    if (text_exceeds(&d, (uint64_t)IT2N_COORD_LIMIT)) {
+    if (text_exceeds(&d, limit) ||
+        (!allow_neg && d.neg && (d.ipart != 0u || d.frac_nonzero))) {
         return IT2N_ERR_RANGE;
     }
-    mag = (d.ipart << IT2N_VAL_FRAC) + round_fraction(&d, IT2N_VAL_FRAC);
-    *out = d.neg ? -(it2n_val)mag : (it2n_val)mag;
+    mag = (d.ipart << frac) + round_fraction(&d, frac);
+    *out = d.neg ? -(int64_t)mag : (int64_t)mag;
     return IT2N_OK;
+}
+
+int it2n_parse_val(const char *s, size_t len, it2n_val *out)
+{
+    return text_parse(s, len, IT2N_VAL_FRAC, (uint64_t)IT2N_COORD_LIMIT, true,
+                      out);
 }
 
 int it2n_parse_par(const char *s, size_t len, it2n_par *out)
 {
-    text_dec d;
-    uint64_t mag;
-    int rc;
-
-    if (out == NULL) {
-        return IT2N_ERR_INVAL;
-    }
-    rc = text_scan(s, len, &d);
-    if (rc != IT2N_OK) {
-        return rc;
-    }
-    if (text_exceeds(&d, 1u) ||
-        (d.neg && (d.ipart != 0u || d.frac_nonzero))) {
-        return IT2N_ERR_RANGE;
-    }
-    mag = (d.ipart << IT2N_PAR_FRAC) + round_fraction(&d, IT2N_PAR_FRAC);
-    *out = (it2n_par)mag;
-    return IT2N_OK;
+    return text_parse(s, len, IT2N_PAR_FRAC, 1u, false, out);
 }
 
 /* Format raw / 2^bits with `decimals` digits, rounded half away from zero. */
