@@ -122,10 +122,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     int master, slave;
     (void)argc;
     (void)argv;
-    fuzz_check(models_init(4) == 0, "models_init");
-    struct model *a = models_add(1, 1, 3, 3, 0);
-    fuzz_check(a && models_preload_paper(a) == IT2N_OK && a->state == IT2N_RS_SOLVED, "paper model");
-    fuzz_check(models_add(2, 2, 2, 2, IT2N_F_TYPE1) != NULL, "model 2");
+    fuzz_standard_models(4);
     for (int k = 0; k < NMODELS; k++)
         pristine[k] = *models_at(k);
     models_set_journal(journal, NULL);

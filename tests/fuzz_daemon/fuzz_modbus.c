@@ -38,6 +38,7 @@
 #include "mb_req.h"
 #include "mb_tcp.h"
 #include "models.h"
+#include "fuzz_model_check.h"
 
 int LLVMFuzzerInitialize(int *argc, char ***argv);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -77,10 +78,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
     (void)argc;
     (void)argv;
-    fuzz_check(models_init(4) == 0, "models_init");
-    struct model *a = models_add(1, 1, 3, 3, 0);
-    fuzz_check(a && models_preload_paper(a) == IT2N_OK && a->state == IT2N_RS_SOLVED, "paper model");
-    fuzz_check(models_add(2, 2, 2, 2, IT2N_F_TYPE1) != NULL, "model 2");
+    fuzz_standard_models(4);
     for (int k = 0; k < NUNITS; k++)
         pristine[k] = *models_at(k);
     models_set_journal(journal, NULL);

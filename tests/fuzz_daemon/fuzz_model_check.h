@@ -12,7 +12,7 @@
 #include "it2n_regmap.h"
 #include "models.h"
 
-static void fuzz_check_model(const struct model *md)
+static inline void fuzz_check_model(const struct model *md)
 {
     static it2n_model fresh;
     const it2n_model *m = &md->mdl;
@@ -51,6 +51,17 @@ static void fuzz_check_model(const struct model *md)
                                "control net remainder equals a fresh solve");
                 }
             }
+}
+
+/* The model table every model-changing fuzzer starts from: room for `max`
+ * models, model 1 on unit 1 solved from the paper data, model 2 on unit 2 an
+ * empty 2x2 type-1 model. */
+static inline void fuzz_standard_models(int max)
+{
+    fuzz_check(models_init(max) == 0, "models_init");
+    struct model *a = models_add(1, 1, 3, 3, 0);
+    fuzz_check(a && models_preload_paper(a) == IT2N_OK && a->state == IT2N_RS_SOLVED, "paper model");
+    fuzz_check(models_add(2, 2, 2, 2, IT2N_F_TYPE1) != NULL, "model 2");
 }
 
 #endif

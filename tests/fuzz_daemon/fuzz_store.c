@@ -70,10 +70,7 @@ static void setup_models(void)
     }
     static const it2n_val pt[IT2N_CH_COUNT] = { 0, 0, 0, IT2N_VAL_ONE / 2, IT2N_VAL_ONE / 4, IT2N_VAL_ONE / 8 };
     it2n_errinfo err;
-    fuzz_check(models_init(8) == 0, "models_init");
-    struct model *a = models_add(1, 1, 3, 3, 0);
-    fuzz_check(a && models_preload_paper(a) == IT2N_OK && a->state == IT2N_RS_SOLVED, "paper model");
-    fuzz_check(models_add(2, 2, 2, 2, IT2N_F_TYPE1) != NULL, "model 2");
+    fuzz_standard_models(8);
     struct model *c = models_add(3, 3, 3, 2, IT2N_F_CHORD | IT2N_F_Z);
     fuzz_check(c != NULL, "model 3");
     models_set_journal(NULL, NULL);
