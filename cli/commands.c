@@ -96,7 +96,7 @@ static void put_par(it2n_par p, unsigned decimals)
 
 static bool has_z(void)
 {
-    return (g_mdl.data.flags & IT2N_F_Z) != 0u;
+    return (g_ds.flags & IT2N_F_Z) != 0u;
 }
 
 /* ",x,y[,z],T,I,F" from a channel vector. */
@@ -128,7 +128,7 @@ static int finish_output(void)
 
 static int cmd_check(const cli_opts *o)
 {
-    const it2n_dataset *d = &g_mdl.data;
+    const it2n_dataset *d = &g_ds;
     bool t1 = (d->flags & IT2N_F_TYPE1) != 0u;
     printf("%s: ok: %ux%u grid (n=%u, m=%u), %s, coordinates %s, %s "
            "parameters\n",
@@ -143,14 +143,19 @@ static int cmd_solve(const cli_opts *o)
 {
     unsigned i, j, fp;
     put_header("i,j,footprint", "");
-    for (i = 0; i <= g_mdl.data.n; i++) {
-        for (j = 0; j <= g_mdl.data.m; j++) {
+    for (i = 0; i <= g_ds.n; i++) {
+        for (j = 0; j <= g_ds.m; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 if (!it2n_model_has_fp(&g_mdl, fp)) {
                     continue;
                 }
                 printf("%u,%u,%s", i, j, it2n_fp_name(fp));
-                put_channels(g_mdl.ctrl[i][j][fp], o->decimals);
+                it2n_val v[IT2N_CH_COUNT];
+                unsigned ch;
+                for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                    v[ch] = it2n_model_ctrl(&g_mdl, i, j, fp, ch);
+                }
+                put_channels(v, o->decimals);
                 putchar('\n');
             }
         }
@@ -240,7 +245,7 @@ static int cmd_eval(const cli_opts *o)
     size_t k;
     put_header("u,w,footprint", ",out_of_range");
     for (k = 0; k < o->nat; k++) {
-        int rc = it2n_eval(&g_mdl, o->at[k].a, o->at[k].b, &pt);
+        int rc = it2n_eval(&g_mdl, o->at[k].a, o->at[k].b, &pt, NULL);
         if (rc != IT2N_OK) {
             return core_fail("eval", rc);
         }
@@ -262,7 +267,7 @@ static int cmd_sample(const cli_opts *o)
 {
     int rc;
     put_header("u,w,footprint", ",out_of_range");
-    rc = it2n_sample(&g_mdl, o->rows, o->cols, sample_row, (void *)o);
+    rc = it2n_sample(&g_mdl, o->rows, o->cols, sample_row, (void *)o, NULL);
     if (rc < 0) {
         return core_fail("sample", rc);
     }
@@ -276,7 +281,7 @@ static int cmd_deriv(const cli_opts *o)
     unsigned fp;
     put_header("u,w,footprint,wrt", "");
     for (k = 0; k < o->nat; k++) {
-        int rc = it2n_deriv(&g_mdl, o->at[k].a, o->at[k].b, &du, &dw);
+        int rc = it2n_deriv(&g_mdl, o->at[k].a, o->at[k].b, &du, &dw, NULL);
         if (rc != IT2N_OK) {
             return core_fail("deriv", rc);
         }
@@ -306,7 +311,7 @@ static int cmd_locate(const cli_opts *o)
     unsigned fp;
     printf("x,y,footprint,u,w%s,T,I,F,status\n", has_z() ? ",z" : "");
     for (k = 0; k < o->nat; k++) {
-        int rc = it2n_locate(&g_mdl, o->at[k].a, o->at[k].b, &res);
+        int rc = it2n_locate(&g_mdl, o->at[k].a, o->at[k].b, &res, NULL);
         if (rc != IT2N_OK) {
             return core_fail("locate", rc);
         }

@@ -14,7 +14,16 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* ---- Compile-time options (override with -D) ---------------------------- */
+/* ---- Compile-time options ------------------------------------------------ */
+
+/* Set every option in one place: build with -DIT2N_CONFIG=my_it2n_config.h
+ * (a header on the include path that #defines the options below); options
+ * it leaves out keep their defaults. -D flags work as well. */
+#ifdef IT2N_CONFIG
+#define IT2N_STRINGIZE_(x) #x
+#define IT2N_STRINGIZE(x) IT2N_STRINGIZE_(x)
+#include IT2N_STRINGIZE(IT2N_CONFIG)
+#endif
 
 /* Largest polynomial degree in either direction (grid up to (D+1)x(D+1)).
  * Memory grows with (D+1)^2; 7 is the documented default. */
@@ -161,19 +170,20 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err);
 
 /* ---- Model -------------------------------------------------------------- */
 
-/* A solved model: data, parameters, inverse collocation matrices (for the
- * O(n*m) update) and control nets ctrl[i][j][fp][ch] in Q24. ctrl_rem keeps
- * the 32 bits each control point's rounding dropped, so a chain of
- * incremental updates stays bit-identical to a full re-solve. */
+/* A solved model: the control nets of every footprint and channel in block
+ * floating point. Control point (i, j) of footprint fp, channel ch is
+ * net[fp][ch][i * (m + 1) + j] * 2^-frac[fp][ch]: one exponent per net,
+ * chosen at solve time so that its largest point uses the full 32 bits
+ * (relative precision 2^-31 of the net's range, whatever its magnitude).
+ * The data set is not part of the model (keep it next to it; the update
+ * needs both). Read control points with it2n_model_ctrl(). */
 typedef struct it2n_model {
-    it2n_dataset data;
-    it2n_par u[IT2N_DIM], w[IT2N_DIM];          /* collocation params  */
-    it2n_par ainv[IT2N_DIM][IT2N_DIM];          /* (M^T)^-1, Q32       */
-    it2n_par binv[IT2N_DIM][IT2N_DIM];          /* N^-1, Q32           */
-    it2n_val ctrl[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
-    int32_t ctrl_rem[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
-    uint32_t generation;                        /* bumped on change    */
-    uint8_t solved;                             /* 1 once solved       */
+    uint8_t n, m;        /* degrees                               */
+    uint8_t flags;       /* IT2N_F_* of the data set solved       */
+    uint8_t solved;      /* 1 once solved                         */
+    uint32_t generation; /* bumped on every change                */
+    int8_t frac[IT2N_FP_COUNT][IT2N_CH_COUNT];
+    int32_t net[IT2N_FP_COUNT][IT2N_CH_COUNT][IT2N_DIM * IT2N_DIM];
 } it2n_model;
 
 /* Mark a model empty (unsolved). Always succeeds. */
@@ -181,24 +191,44 @@ void it2n_model_init(it2n_model *mdl);
 
 /*
  * Validate ds and solve every control net, P = (M^T)^-1 F N^-1. Atomic: on
- * any error mdl is unchanged. Bumps mdl->generation on success.
+ * any error mdl is unchanged. Bumps mdl->generation on success. Uniform
+ * parameters use exact inverse tables built into the library; chord-length
+ * parameters invert at run time in 62-bit soft floating point.
  */
 int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
                      it2n_errinfo *err);
 
 /*
- * Replace one footprint of one data point in a solved model. Uniform
- * parameterisation: O(n*m) per channel, bit-identical to a full re-solve
- * (also after any number of updates).
- * Chord-length: parameters depend on the data, so a full re-solve. Atomic.
+ * Replace one footprint of one data point: ds (the data set mdl was solved
+ * from) and mdl change together. Only the nets of that footprint are solved
+ * again (all footprints for a chord-length model when footprint D moves,
+ * since its parameters follow D), by the same arithmetic as
+ * it2n_model_solve, so the result is bit-identical to a full re-solve.
+ * Atomic: on any error neither ds nor mdl changes.
  */
-int it2n_model_update(it2n_model *mdl, unsigned i, unsigned j, unsigned fp,
+int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                      unsigned j, unsigned fp,
                       const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err);
+
+/*
+ * Control point (i, j) of footprint fp, channel ch in Q24, rounded to
+ * nearest; 0 outside the model's degrees or footprints.
+ */
+it2n_val it2n_model_ctrl(const it2n_model *mdl, unsigned i, unsigned j,
+                         unsigned fp, unsigned ch);
+
+/*
+ * Collocation parameters of a data set (as the solve uses them): u[0..n],
+ * w[0..m] in Q32. Uniform k/n, or chord-length from footprint D (which the
+ * data set must then hold in full). Returns IT2N_OK or an error.
+ */
+int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM],
+                it2n_par w[IT2N_DIM], it2n_errinfo *err);
 
 /* Footprints a model carries: IT2N_FP_D only for type-1, else all seven. */
 static inline bool it2n_model_has_fp(const it2n_model *mdl, unsigned fp)
 {
-    return (mdl->data.flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D
+    return (mdl->flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D
                                             : fp < IT2N_FP_COUNT;
 }
 
@@ -220,16 +250,20 @@ typedef struct it2n_point {
 
 /*
  * Evaluate every footprint surface at (u, w), Q32, within [0, 1] inclusive.
- * Returns IT2N_OK, IT2N_ERR_STATE (unsolved) or IT2N_ERR_RANGE.
+ * Returns IT2N_OK, IT2N_ERR_INVAL, IT2N_ERR_STATE (unsolved) or
+ * IT2N_ERR_RANGE (err->value is the offending parameter in Q24, ch 0 for u,
+ * 1 for w). err may be NULL.
  */
-int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out);
+int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out,
+              it2n_errinfo *err);
 
 /*
  * Partial derivatives dS/du (du) and dS/dw (dw) of every surface at (u, w).
- * Only the v arrays are filled.
+ * Only the v arrays are filled. Errors as it2n_eval, plus IT2N_ERR_OVERFLOW
+ * (fp, ch say which derivative does not fit Q39.24).
  */
 int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
-               it2n_point *dw);
+               it2n_point *dw, it2n_errinfo *err);
 
 /* Sink for it2n_sample: called once per grid node, row-major. Return
  * non-zero to stop early (that value is returned by it2n_sample). */
@@ -238,11 +272,13 @@ typedef int (*it2n_sample_cb)(void *ctx, unsigned r, unsigned c, it2n_par u,
 
 /*
  * Evaluate on a uniform rows x cols parameter grid (each >= 2, <= 65535),
- * u = r/(rows-1), w = c/(cols-1), reusing row basis work. Returns IT2N_OK,
- * an error, or the callback's non-zero stop value.
+ * u = r/(rows-1), w = c/(cols-1). Every node is bit-identical to it2n_eval
+ * at the same (u, w). Returns IT2N_OK, an error (err filled; IT2N_ERR_RANGE
+ * names rows (i) or cols (j) and the limits), or the callback's non-zero
+ * stop value.
  */
 int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
-                it2n_sample_cb cb, void *ctx);
+                it2n_sample_cb cb, void *ctx, it2n_errinfo *err);
 
 /* ---- Locate ------------------------------------------------------------- */
 
@@ -266,10 +302,11 @@ typedef struct it2n_locate_result {
 /*
  * For each footprint find (u, w) with (x(u,w), y(u,w)) = (x, y): Newton from
  * the best node of a coarse grid, with step halving as the safe fallback.
- * x, y beyond +-IT2N_COORD_LIMIT give IT2N_ERR_RANGE.
+ * x, y beyond +-IT2N_COORD_LIMIT give IT2N_ERR_RANGE (ch 0 or 1 names
+ * which, lo/hi the limit). err may be NULL.
  */
 int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
-                it2n_locate_result *out);
+                it2n_locate_result *out, it2n_errinfo *err);
 
 /* ---- Text conversion (no stdio; exact decimal rounding) ----------------- */
 

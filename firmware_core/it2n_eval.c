@@ -1,107 +1,119 @@
 /*
- * Evaluating the surfaces: Bernstein basis, tensor-product evaluation in two
- * stages (along u, then along w), derivatives and grid sampling.
+ * Evaluating the surfaces: Bernstein basis, tensor weights, derivatives and
+ * grid sampling.
  *
- * it2n_eval and it2n_sample share the same two stages, so a sampled node is
- * bit-identical to an evaluation at the same (u, w).
+ * At (u, w) the tensor weights W[i][j] = B_i(u) B_j(w) (Q30, one rounding
+ * each) are shared by every footprint and channel; each surface value is
+ * then one dot product of W with a net's int32 mantissas (32 x 32 -> 64
+ * multiply-accumulates: SMLAL on ARMv7-M, four MULS on ARMv6-M), rounded
+ * once to Q24. it2n_sample calls the same code per node, so a sampled node
+ * is bit-identical to it2n_eval at the same (u, w).
  */
 #include <string.h>
 
 #include "it2n_internal.h"
 
-void it2n__basis(unsigned deg, it2n_par t, it2n_par b[IT2N_DIM])
+#define Q30_ONE ((int32_t)1 << 30)
+#define Q30_HALF ((int64_t)1 << 29)
+
+int64_t it2n__shift_round(int64_t v, int s)
 {
-    it2n_par s = IT2N_PAR_ONE - t;
+    if (s <= 0) {
+        return (int64_t)((uint64_t)v << (unsigned)-s);
+    }
+    if (s >= 63) {
+        return 0; /* |v| < 2^62 < 2^(s-1): rounds to zero */
+    }
+    return (v + ((int64_t)1 << (s - 1))) >> s;
+}
+
+void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
+{
+    int32_t t30 = (int32_t)((t + 2) >> 2), s30 = Q30_ONE - t30;
     unsigned k, i;
-    b[0] = IT2N_PAR_ONE;
+    b[0] = Q30_ONE;
     for (k = 1; k <= deg; k++) {
-        /* b_k^k = t * b_{k-1}^{k-1}; b_i^k = s b_i^{k-1} + t b_{i-1}^{k-1} */
-        b[k] = it2n_i128_round_fit(it2n_mul64(t, b[k - 1u]), IT2N_PAR_FRAC);
+        /* b_k^k = t b_{k-1}^{k-1}; b_i^k = s b_i^{k-1} + t b_{i-1}^{k-1} */
+        b[k] = (int32_t)((it2n_smul32(t30, b[k - 1u]) + Q30_HALF) >> 30);
         for (i = k - 1u; i >= 1u; i--) {
-            it2n_i128 acc = it2n_mac(it2n_mul64(s, b[i]), t, b[i - 1u]);
-            b[i] = it2n_i128_round_fit(acc, IT2N_PAR_FRAC);
+            int64_t acc = it2n_smul32(s30, b[i]) + it2n_smul32(t30, b[i - 1u]);
+            b[i] = (int32_t)((acc + Q30_HALF) >> 30);
         }
-        b[0] = it2n_i128_round_fit(it2n_mul64(s, b[0]), IT2N_PAR_FRAC);
+        b[0] = (int32_t)((it2n_smul32(s30, b[0]) + Q30_HALF) >> 30);
     }
 }
 
-/* Derivative weights: d/dt sum_i c_i B_i^deg(t) = sum_i c_i db[i], with
- * db[i] = deg (B_{i-1}^{deg-1}(t) - B_i^{deg-1}(t)). |db[i]| <= deg. */
-static void dbasis(unsigned deg, it2n_par t, it2n_par db[IT2N_DIM])
+/* Derivative basis in Q26: d/dt sum_i c_i B_i^deg(t) = sum_i c_i db[i], with
+ * db[i] = deg (B_{i-1}^{deg-1}(t) - B_i^{deg-1}(t)), |db[i]| <= deg < 2^4. */
+static void dbasis26(unsigned deg, it2n_par t, int32_t db[IT2N_DIM])
 {
-    it2n_par b[IT2N_DIM];
+    int32_t b[IT2N_DIM];
     unsigned i;
-    it2n__basis(deg - 1u, t, b);
+    it2n__basis30(deg - 1u, t, b);
     for (i = 0; i <= deg; i++) {
-        it2n_par lo = i >= 1u ? b[i - 1u] : 0;
-        it2n_par hi = i < deg ? b[i] : 0;
-        db[i] = (lo - hi) * (int64_t)deg;
+        int32_t lo = i >= 1u ? b[i - 1u] : 0;
+        int32_t hi = i < deg ? b[i] : 0;
+        db[i] = (int32_t)(((int64_t)(lo - hi) * (int32_t)deg + 8) >> 4);
     }
 }
 
-/* Stage along u with arbitrary (signed) weights; false on overflow. */
-static bool stage_u_checked(const it2n_val *net, unsigned nb,
-                            const it2n_par bu[IT2N_DIM], unsigned cols,
-                            unsigned fpmask, it2n_val *q)
+/* W[i * cols + j] = round(a[i] * c[j] / 2^30). */
+static void tensor(const int32_t *a, unsigned rows, const int32_t *c,
+                   unsigned cols, int32_t *wt)
 {
-    unsigned i, j, fp, ch;
-    for (j = 0; j < cols; j++) {
-        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-            it2n_val *qo = &q[IT2N_Q_AT(j, fp, 0u)];
-            if (!(fpmask & (1u << fp))) {
-                memset(qo, 0, IT2N_CH_COUNT * sizeof(*qo));
+    unsigned i, j;
+    for (i = 0; i < rows; i++) {
+        for (j = 0; j < cols; j++) {
+            wt[i * cols + j] = (int32_t)((it2n_smul32(a[i], c[j]) + Q30_HALF) >> 30);
+        }
+    }
+}
+
+/* sum_k wt[k] * net[k]: |wt| sums to about 2^30 (2^30 * 2 deg for Q26
+ * derivative weights), |net| < 2^31, so the sum stays below 2^62. */
+static int64_t dot(const int32_t *wt, const int32_t *net, unsigned count)
+{
+    int64_t acc = 0;
+    unsigned k;
+    for (k = 0; k < count; k++) {
+        acc += it2n_smul32(wt[k], net[k]);
+    }
+    return acc;
+}
+
+/*
+ * One weight set applied to every net in fpmask: out[fp][ch] =
+ * round(dot * 2^-(wfrac + frac - 24)). Returns false (and names fp, ch in
+ * *bad) if a result does not fit Q39.24 (derivatives only: values are
+ * convex combinations of the net).
+ */
+static bool apply(const it2n_model *mdl, unsigned fpmask, const int32_t *wt,
+                  int wfrac, it2n_val *out, unsigned *bad)
+{
+    unsigned count = (mdl->n + 1u) * (mdl->m + 1u), fp, ch;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            it2n_val *o = &out[fp * IT2N_CH_COUNT + ch];
+            int64_t acc;
+            int s;
+            *o = 0;
+            if (!(fpmask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
                 continue;
             }
-            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                it2n_i128 s = it2n_i128_zero();
-                for (i = 0; i <= nb; i++) {
-                    s = it2n_mac(s, bu[i], net[IT2N_NET_AT(i, j, fp, ch)]);
-                }
-                if (!it2n_i128_round(s, IT2N_PAR_FRAC, &qo[ch])) {
+            acc = dot(wt, mdl->net[fp][ch], count);
+            s = wfrac + mdl->frac[fp][ch] - IT2N_VAL_FRAC;
+            if (s < 0) {
+                /* Only nets near 2^39 get here: check the left shift. */
+                int64_t lim = INT64_MAX >> (unsigned)-s;
+                if (acc > lim || acc < -lim) {
+                    *bad = fp * IT2N_CH_COUNT + ch;
                     return false;
                 }
             }
+            *o = it2n__shift_round(acc, s);
         }
     }
     return true;
-}
-
-void it2n__stage_u(const it2n_val *net, unsigned nb,
-                   const it2n_par bu[IT2N_DIM], unsigned cols, unsigned fpmask,
-                   it2n_val *q)
-{
-    /* Convex weights: the result lies within the inputs' range. */
-    (void)stage_u_checked(net, nb, bu, cols, fpmask, q);
-}
-
-static bool stage_w_checked(const it2n_val *q, unsigned mb,
-                            const it2n_par bw[IT2N_DIM], unsigned fpmask,
-                            it2n_val *out)
-{
-    unsigned j, fp, ch;
-    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        it2n_val *o = &out[fp * IT2N_CH_COUNT];
-        if (!(fpmask & (1u << fp))) {
-            memset(o, 0, IT2N_CH_COUNT * sizeof(*o));
-            continue;
-        }
-        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            it2n_i128 s = it2n_i128_zero();
-            for (j = 0; j <= mb; j++) {
-                s = it2n_mac(s, bw[j], q[IT2N_Q_AT(j, fp, ch)]);
-            }
-            if (!it2n_i128_round(s, IT2N_PAR_FRAC, &o[ch])) {
-                return false;
-            }
-        }
-    }
-    return true;
-}
-
-void it2n__stage_w(const it2n_val *q, unsigned mb,
-                   const it2n_par bw[IT2N_DIM], unsigned fpmask, it2n_val *out)
-{
-    (void)stage_w_checked(q, mb, bw, fpmask, out);
 }
 
 void it2n__summarise(const it2n_model *mdl, it2n_point *out)
@@ -109,7 +121,7 @@ void it2n__summarise(const it2n_model *mdl, it2n_point *out)
     static const unsigned char upper[3] = {IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR};
     static const unsigned char lower[3] = {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL};
     unsigned k, f, fp;
-    bool type1 = (mdl->data.flags & IT2N_F_TYPE1) != 0u;
+    bool type1 = (mdl->flags & IT2N_F_TYPE1) != 0u;
     out->out_of_range = 0u;
     for (k = 0; k < 3u; k++) {
         unsigned ch = IT2N_CH_T + k;
@@ -132,73 +144,102 @@ void it2n__summarise(const it2n_model *mdl, it2n_point *out)
     }
 }
 
-static bool par_ok(it2n_par t)
+/* Common argument checks of the evaluation entry points. */
+static int check_args(const it2n_model *mdl, it2n_par u, it2n_par w,
+                      it2n_errinfo *err)
 {
-    return t >= 0 && t <= IT2N_PAR_ONE;
+    if (!mdl->solved) {
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (!it2n__par_ok(u) || !it2n__par_ok(w)) {
+        it2n_par bad = it2n__par_ok(u) ? w : u;
+        /* value in Q24 (parameters are Q32; saturate far-off values) */
+        it2n_val v = bad > ((int64_t)1 << 60) ? INT64_MAX >> 8
+                   : bad < -((int64_t)1 << 60) ? INT64_MIN >> 8 : bad >> 8;
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1,
+                          it2n__par_ok(u) ? 1 : 0, v, 0, IT2N_VAL_ONE);
+    }
+    return IT2N_OK;
 }
 
-int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out)
+/* Values of every footprint at (u, w) into out->v (no summary). */
+static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w,
+                        it2n_val *v)
 {
-    it2n_par bu[IT2N_DIM], bw[IT2N_DIM];
-    it2n_val q[IT2N_Q_SIZE];
-    unsigned mask;
+    int32_t bu[IT2N_DIM], bw[IT2N_DIM], wt[IT2N_DIM * IT2N_DIM];
+    unsigned bad;
+    it2n__basis30(mdl->n, u, bu);
+    it2n__basis30(mdl->m, w, bw);
+    tensor(bu, mdl->n + 1u, bw, mdl->m + 1u, wt);
+    if (!apply(mdl, it2n__fp_mask(mdl->flags), wt, 30, v, &bad)) {
+        IT2N_ASSERT(false); /* convex weights: values are within the net */
+    }
+}
+
+int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out,
+              it2n_errinfo *err)
+{
+    int rc;
     if (mdl == NULL || out == NULL) {
-        return IT2N_ERR_INVAL;
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (!mdl->solved) {
-        return IT2N_ERR_STATE;
+    rc = check_args(mdl, u, w, err);
+    if (rc != IT2N_OK) {
+        return rc;
     }
-    if (!par_ok(u) || !par_ok(w)) {
-        return IT2N_ERR_RANGE;
-    }
-    mask = it2n__fp_mask(mdl->data.flags);
-    it2n__basis(mdl->data.n, u, bu);
-    it2n__basis(mdl->data.m, w, bw);
-    it2n__stage_u(&mdl->ctrl[0][0][0][0], mdl->data.n, bu, mdl->data.m + 1u, mask, q);
-    it2n__stage_w(q, mdl->data.m, bw, mask, &out->v[0][0]);
+    eval_values(mdl, u, w, &out->v[0][0]);
     it2n__summarise(mdl, out);
     return IT2N_OK;
 }
 
 int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
-                    it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw)
+                    it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw,
+                    it2n_errinfo *err)
 {
-    it2n_par bu[IT2N_DIM], bw[IT2N_DIM], dbu[IT2N_DIM], dbw[IT2N_DIM];
-    it2n_val q[IT2N_Q_SIZE];
-    unsigned n = mdl->data.n, m = mdl->data.m;
-    const it2n_val *net = &mdl->ctrl[0][0][0][0];
-    it2n__basis(n, u, bu);
-    it2n__basis(m, w, bw);
-    dbasis(n, u, dbu);
-    dbasis(m, w, dbw);
-    it2n__stage_u(net, n, bu, m + 1u, fpmask, q);
+    int32_t bu[IT2N_DIM], bw[IT2N_DIM], d[IT2N_DIM];
+    int32_t wt[IT2N_DIM * IT2N_DIM];
+    unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u, bad = 0u;
+    it2n__basis30(mdl->n, u, bu);
+    it2n__basis30(mdl->m, w, bw);
     if (v != NULL) {
-        it2n__stage_w(q, m, bw, fpmask, v);
+        tensor(bu, n1, bw, m1, wt);
+        (void)apply(mdl, fpmask, wt, 30, v, &bad);
     }
-    if (!stage_w_checked(q, m, dbw, fpmask, dw) ||
-        !stage_u_checked(net, n, dbu, m + 1u, fpmask, q) ||
-        !stage_w_checked(q, m, bw, fpmask, du)) {
-        return IT2N_ERR_OVERFLOW;
+    if (du != NULL) {
+        dbasis26(mdl->n, u, d);
+        tensor(d, n1, bw, m1, wt);
+        if (!apply(mdl, fpmask, wt, 26, du, &bad)) {
+            goto overflow;
+        }
+    }
+    if (dw != NULL) {
+        dbasis26(mdl->m, w, d);
+        tensor(bu, n1, d, m1, wt);
+        if (!apply(mdl, fpmask, wt, 26, dw, &bad)) {
+            goto overflow;
+        }
     }
     return IT2N_OK;
+overflow:
+    return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)(bad / IT2N_CH_COUNT),
+                      (int)(bad % IT2N_CH_COUNT), 0, 0, 0);
 }
 
 int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
-               it2n_point *dw)
+               it2n_point *dw, it2n_errinfo *err)
 {
+    int rc;
     if (mdl == NULL || du == NULL || dw == NULL) {
-        return IT2N_ERR_INVAL;
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (!mdl->solved) {
-        return IT2N_ERR_STATE;
-    }
-    if (!par_ok(u) || !par_ok(w)) {
-        return IT2N_ERR_RANGE;
+    rc = check_args(mdl, u, w, err);
+    if (rc != IT2N_OK) {
+        return rc;
     }
     memset(du, 0, sizeof(*du));
     memset(dw, 0, sizeof(*dw));
-    return it2n__eval_full(mdl, it2n__fp_mask(mdl->data.flags), u, w, NULL,
-                           &du->v[0][0], &dw->v[0][0]);
+    return it2n__eval_full(mdl, it2n__fp_mask(mdl->flags), u, w, NULL,
+                           &du->v[0][0], &dw->v[0][0], err);
 }
 
 /* Grid parameter k / (count - 1) in Q32. */
@@ -209,32 +250,31 @@ static it2n_par grid_par(unsigned k, unsigned count)
 }
 
 int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
-                it2n_sample_cb cb, void *ctx)
+                it2n_sample_cb cb, void *ctx, it2n_errinfo *err)
 {
-    it2n_par bu[IT2N_DIM], bw[IT2N_DIM];
-    it2n_val q[IT2N_Q_SIZE];
     it2n_point pt;
-    unsigned r, c, mask;
+    unsigned r, c;
     if (mdl == NULL || cb == NULL) {
-        return IT2N_ERR_INVAL;
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     if (!mdl->solved) {
-        return IT2N_ERR_STATE;
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (rows < 2u || cols < 2u || rows > 65535u || cols > 65535u) {
-        return IT2N_ERR_RANGE;
+    if (rows < 2u || rows > 65535u) {
+        return it2n__fail(err, IT2N_ERR_RANGE, (int)(rows > 32767u ? 32767u : rows),
+                          -1, -1, -1, (it2n_val)rows, 2, 65535);
     }
-    mask = it2n__fp_mask(mdl->data.flags);
+    if (cols < 2u || cols > 65535u) {
+        return it2n__fail(err, IT2N_ERR_RANGE, -1,
+                          (int)(cols > 32767u ? 32767u : cols), -1, -1,
+                          (it2n_val)cols, 2, 65535);
+    }
     for (r = 0; r < rows; r++) {
         it2n_par u = grid_par(r, rows);
-        /* The u stage is done once per row and reused for every column. */
-        it2n__basis(mdl->data.n, u, bu);
-        it2n__stage_u(&mdl->ctrl[0][0][0][0], mdl->data.n, bu, mdl->data.m + 1u, mask, q);
         for (c = 0; c < cols; c++) {
             it2n_par w = grid_par(c, cols);
             int stop;
-            it2n__basis(mdl->data.m, w, bw);
-            it2n__stage_w(q, mdl->data.m, bw, mask, &pt.v[0][0]);
+            eval_values(mdl, u, w, &pt.v[0][0]);
             it2n__summarise(mdl, &pt);
             stop = cb(ctx, r, c, u, w, &pt);
             if (stop != 0) {

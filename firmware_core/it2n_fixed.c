@@ -9,8 +9,10 @@
 static it2n_i128 umul64(uint64_t a, uint64_t b)
 {
     const uint64_t m32 = 0xFFFFFFFFu;
-    uint64_t a0 = a & m32, a1 = a >> 32, b0 = b & m32, b1 = b >> 32;
-    uint64_t p00 = a0 * b0, p01 = a0 * b1, p10 = a1 * b0, p11 = a1 * b1;
+    uint32_t a0 = (uint32_t)a, a1 = (uint32_t)(a >> 32);
+    uint32_t b0 = (uint32_t)b, b1 = (uint32_t)(b >> 32);
+    uint64_t p00 = it2n_umul32(a0, b0), p01 = it2n_umul32(a0, b1);
+    uint64_t p10 = it2n_umul32(a1, b0), p11 = it2n_umul32(a1, b1);
     uint64_t mid = (p00 >> 32) + (p01 & m32) + (p10 & m32);
     it2n_i128 r;
     r.lo = (mid << 32) | (p00 & m32);
@@ -24,10 +26,18 @@ static uint64_t uabs64(int64_t v)
     return v < 0 ? (uint64_t)(-(v + 1)) + 1u : (uint64_t)v;
 }
 
-it2n_i128 it2n_mul64(int64_t a, int64_t b)
+unsigned it2n_bitlen64(uint64_t v)
 {
-    it2n_i128 r = umul64(uabs64(a), uabs64(b));
-    return ((a < 0) != (b < 0)) ? it2n_i128_neg(r) : r;
+    unsigned k = 0;
+    if (v >> 32) {
+        v >>= 32;
+        k = 32u;
+    }
+    while (v != 0u) { /* at most 32 steps */
+        v >>= 1;
+        k++;
+    }
+    return k;
 }
 
 /* Logical right shift of a 128-bit pattern, 0 < s < 128. */

@@ -13,9 +13,60 @@
 
 #if defined(__GNUC__)
 #define IT2N_WUR __attribute__((warn_unused_result))
+#define IT2N_INLINE static inline __attribute__((always_inline))
 #else
 #define IT2N_WUR
+#define IT2N_INLINE static inline
 #endif
+
+/* ARMv6-M (Cortex-M0/M0+) and ARMv8-M Baseline have only MULS (32x32->32):
+ * a 64-bit product there is built inline from 16-bit halves instead of the
+ * generic libgcc helper (__aeabi_lmul, ~10x slower). */
+#if defined(__ARM_ARCH_6M__) || defined(__ARM_ARCH_8M_BASE__)
+#define IT2N_MUL_HALVES 1
+#else
+#define IT2N_MUL_HALVES 0
+#endif
+
+/* Hosts with a native 128-bit type use it for the exact solve products. The
+ * arithmetic is exact either way, so results are bit-identical. */
+#if defined(__SIZEOF_INT128__) && !defined(IT2N_NO_INT128)
+#define IT2N_HAVE_INT128 1
+__extension__ typedef __int128 it2n__s128;
+__extension__ typedef unsigned __int128 it2n__u128;
+#else
+#define IT2N_HAVE_INT128 0
+#endif
+
+/* Unsigned 32 x 32 -> 64. */
+IT2N_INLINE uint64_t it2n_umul32(uint32_t a, uint32_t b)
+{
+#if IT2N_MUL_HALVES
+    uint32_t al = a & 0xFFFFu, ah = a >> 16, bl = b & 0xFFFFu, bh = b >> 16;
+    uint32_t ll = al * bl, lh = al * bh, hl = ah * bl, hh = ah * bh;
+    uint32_t mid = lh + hl;
+    uint32_t lo = ll + (mid << 16);
+    uint32_t hi = hh + (mid >> 16) + (mid < lh ? 0x10000u : 0u) + (lo < ll ? 1u : 0u);
+    return ((uint64_t)hi << 32) | lo;
+#else
+    return (uint64_t)a * b;
+#endif
+}
+
+/* Signed 32 x 32 -> 64 (one SMULL on ARMv7-M). */
+IT2N_INLINE int64_t it2n_smul32(int32_t a, int32_t b)
+{
+#if IT2N_MUL_HALVES
+    uint64_t p = it2n_umul32((uint32_t)a, (uint32_t)b);
+    uint32_t hi = (uint32_t)(p >> 32);
+    /* two's complement correction of the unsigned product's high word */
+    hi -= a < 0 ? (uint32_t)b : 0u;
+    hi -= b < 0 ? (uint32_t)a : 0u;
+    return (int64_t)(((uint64_t)hi << 32) | (uint32_t)p);
+#else
+    return (int64_t)a * b;
+#endif
+}
 
 /* Two's complement 128-bit integer: value = hi * 2^64 + lo, hi signed. */
 typedef struct it2n_i128 {
@@ -29,6 +80,9 @@ typedef struct it2n_i128 {
 IT2N_STATIC_ASSERT(sizeof(it2n_i128) == 16, i128_is_two_words);
 IT2N_STATIC_ASSERT(sizeof(int64_t) == 8 && (int64_t)-1 == ~(int64_t)0,
                    twos_complement_int64);
+/* >> of a negative value is arithmetic (GCC, Clang, IAR, armcc all do so). */
+IT2N_STATIC_ASSERT(((int64_t)-5 >> 1) == -3 && ((int32_t)-5 >> 1) == -3,
+                   arithmetic_right_shift);
 
 /* Zero. */
 static inline it2n_i128 it2n_i128_zero(void)
@@ -76,14 +130,48 @@ static inline bool it2n_i128_neg_p(it2n_i128 a)
     return (a.hi >> 63) != 0u;
 }
 
-/* Exact signed product a * b. */
-it2n_i128 it2n_mul64(int64_t a, int64_t b);
+/* Exact signed product a * b, from four 32 x 32 -> 64 products. */
+IT2N_INLINE it2n_i128 it2n_mul64(int64_t a, int64_t b)
+{
+    it2n_i128 r;
+#if IT2N_HAVE_INT128
+    it2n__u128 p = (it2n__u128)((it2n__s128)a * b);
+    r.lo = (uint64_t)p;
+    r.hi = (uint64_t)(p >> 64);
+#else
+    uint64_t ua = (uint64_t)a, ub = (uint64_t)b;
+    uint32_t a0 = (uint32_t)ua, a1 = (uint32_t)(ua >> 32);
+    uint32_t b0 = (uint32_t)ub, b1 = (uint32_t)(ub >> 32);
+    uint64_t p00 = it2n_umul32(a0, b0), p01 = it2n_umul32(a0, b1);
+    uint64_t p10 = it2n_umul32(a1, b0), p11 = it2n_umul32(a1, b1);
+    uint64_t mid = (p00 >> 32) + (uint32_t)p01 + (uint32_t)p10;
+    r.lo = (mid << 32) | (uint32_t)p00;
+    r.hi = p11 + (p01 >> 32) + (p10 >> 32) + (mid >> 32);
+    /* unsigned product -> signed: subtract the other operand where one is
+     * negative (mod 2^128, only the high word changes) */
+    r.hi -= a < 0 ? ub : 0u;
+    r.hi -= b < 0 ? ua : 0u;
+#endif
+    return r;
+}
 
 /* acc + a * b */
-static inline it2n_i128 it2n_mac(it2n_i128 acc, int64_t a, int64_t b)
+IT2N_INLINE it2n_i128 it2n_mac(it2n_i128 acc, int64_t a, int64_t b)
 {
     return it2n_i128_add(acc, it2n_mul64(a, b));
 }
+
+/* *acc += a * b in place (no struct return: cheaper at -Os). */
+IT2N_INLINE void it2n_mac128(it2n_i128 *acc, int64_t a, int64_t b)
+{
+    it2n_i128 p = it2n_mul64(a, b);
+    uint64_t lo = acc->lo + p.lo;
+    acc->hi += p.hi + (lo < p.lo ? 1u : 0u);
+    acc->lo = lo;
+}
+
+/* Number of significant bits of v (0 for 0). */
+unsigned it2n_bitlen64(uint64_t v);
 
 /*
  * round(a / 2^shift) to nearest (ties toward +inf), 1 <= shift <= 126.

@@ -11,9 +11,33 @@
 int it2n__fail(it2n_errinfo *err, int code, int i, int j, int fp, int ch,
                it2n_val value, it2n_val lo, it2n_val hi);
 
-/* Bernstein basis of degree deg at t (Q32, within [0,1]) into b[0..deg],
- * Q32, by the de Casteljau recurrence (every value in [0, 1]). */
-void it2n__basis(unsigned deg, it2n_par t, it2n_par b[IT2N_DIM]);
+/* Bernstein basis of degree deg at t (Q32, within [0, 1]) into b[0..deg] in
+ * Q30 (1.0 = 2^30) by the de Casteljau recurrence, one rounding per step. */
+void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM]);
+
+/* round(v / 2^s) to nearest (ties toward +inf) for s >= 1; v * 2^-s for
+ * s <= 0 (the caller has proved it fits). */
+int64_t it2n__shift_round(int64_t v, int s);
+
+/* Inverse collocation matrix of one direction in fixed point:
+ * C[r][k] = c[r * (deg + 1) + k] * 2^-frac, every row's absolute sum
+ * below 2^61. */
+typedef struct it2n__uinv {
+    const int64_t *c;
+    int frac;
+} it2n__uinv;
+
+/* The uniform tables, degree d at index d - 1 (it2n_uniform_inv.c). */
+extern const it2n__uinv it2n__uniform_inv[IT2N_MAX_DEGREE];
+
+/*
+ * Invert the collocation matrix M[r][c] = B_c^deg(t_r) in 62-bit soft
+ * floating point (Gauss-Jordan, partial pivoting) and round the inverse to
+ * out[] as above, *frac its scale. IT2N_ERR_SINGULAR or IT2N_ERR_OVERFLOW.
+ */
+int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
+                 int64_t out[IT2N_DIM * IT2N_DIM], int *frac,
+                 it2n_errinfo *err) IT2N_WUR;
 
 /* Validate one footprint's values for a data set with `flags`. */
 int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
@@ -43,30 +67,18 @@ static inline unsigned it2n__fp_mask(unsigned flags)
     return (flags & IT2N_F_TYPE1) ? (1u << IT2N_FP_D) : 0x7Fu;
 }
 
-/* Flat indexing of a control net (it2n_model.ctrl) and of a stage-1 row. */
-#define IT2N_NET_AT(i, j, fp, ch) \
-    ((((i) * IT2N_DIM + (j)) * IT2N_FP_COUNT + (fp)) * IT2N_CH_COUNT + (ch))
-#define IT2N_Q_AT(j, fp, ch) (((j) * IT2N_FP_COUNT + (fp)) * IT2N_CH_COUNT + (ch))
-#define IT2N_Q_SIZE (IT2N_DIM * IT2N_FP_COUNT * IT2N_CH_COUNT)
+/* Parameter within [0, 1] (Q32). */
+static inline bool it2n__par_ok(it2n_par t)
+{
+    return t >= 0 && t <= IT2N_PAR_ONE;
+}
 
-/*
- * Stage 1 of tensor evaluation along u: q[j][fp][ch] =
- * round(sum_i bu[i] * net[i][j][fp][ch]) for i = 0..nb, j < cols. Values stay
- * in Q24 and are convex combinations, so they cannot overflow.
- */
-void it2n__stage_u(const it2n_val *net, unsigned nb,
-                   const it2n_par bu[IT2N_DIM], unsigned cols, unsigned fpmask,
-                   it2n_val *q);
-
-/* Stage 2 along w: out[fp][ch] = round(sum_j bw[j] * q[j][fp][ch]). */
-void it2n__stage_w(const it2n_val *q, unsigned mb,
-                   const it2n_par bw[IT2N_DIM], unsigned fpmask, it2n_val *out);
-
-/* Values (v, may be NULL), dS/du and dS/dw of the footprints in fpmask at
- * (u, w), flat [fp][ch] arrays. IT2N_ERR_OVERFLOW if a derivative does not
- * fit. */
+/* Values (v, may be NULL), dS/du and dS/dw (may be NULL) of the footprints
+ * in fpmask at (u, w), flat [fp][ch] arrays. IT2N_ERR_OVERFLOW (err says
+ * which fp, ch) if a derivative does not fit Q39.24. */
 int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
-                    it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw);
+                    it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw,
+                    it2n_errinfo *err);
 
 /* Fill out->sum and out->out_of_range from out->v. */
 void it2n__summarise(const it2n_model *mdl, it2n_point *out);

@@ -34,7 +34,7 @@ static bool probe(const it2n_model *mdl, unsigned fp, it2n_par u, it2n_par w,
     st->u = u;
     st->w = w;
     if (it2n__eval_full(mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0],
-                        &st->dw[0][0]) != IT2N_OK) {
+                        &st->dw[0][0], NULL) != IT2N_OK) {
         return false;
     }
     /* Surface points lie in the control net's hull (< 2^62): no overflow. */
@@ -131,10 +131,10 @@ static int64_t tolerance(const it2n_model *mdl, unsigned fp)
 {
     int64_t big = 0;
     unsigned a, b, ch;
-    for (a = 0; a <= mdl->data.n; a++) {
-        for (b = 0; b <= mdl->data.m; b++) {
+    for (a = 0; a <= mdl->n; a++) {
+        for (b = 0; b <= mdl->m; b++) {
             for (ch = IT2N_CH_X; ch <= IT2N_CH_Y; ch++) {
-                int64_t v = abs64(mdl->ctrl[a][b][fp][ch]);
+                int64_t v = abs64(it2n_model_ctrl(mdl, a, b, fp, ch));
                 big = v > big ? v : big;
             }
         }
@@ -215,17 +215,22 @@ static void locate_fp(const it2n_model *mdl, unsigned fp, it2n_val x,
 }
 
 int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
-                it2n_locate_result *out)
+                it2n_locate_result *out, it2n_errinfo *err)
 {
     unsigned fp;
     if (mdl == NULL || out == NULL) {
-        return IT2N_ERR_INVAL;
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     if (!mdl->solved) {
-        return IT2N_ERR_STATE;
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (x < -COORD_MAX || x > COORD_MAX || y < -COORD_MAX || y > COORD_MAX) {
-        return IT2N_ERR_RANGE;
+    if (x < -COORD_MAX || x > COORD_MAX) {
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, IT2N_CH_X, x,
+                          -COORD_MAX, COORD_MAX);
+    }
+    if (y < -COORD_MAX || y > COORD_MAX) {
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, IT2N_CH_Y, y,
+                          -COORD_MAX, COORD_MAX);
     }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if (it2n_model_has_fp(mdl, fp)) {

@@ -1,26 +1,36 @@
 /*
  * Solving the control nets: P = (M^T)^-1 F N^-1 for every footprint and
- * channel, and the O(n*m) incremental update of one data point.
+ * channel, and the incremental update of one data point.
  *
- * With A[i][a] = B_a^n(u_i) and C[j][b] = B_b^m(w_j) the data satisfy
- * F = A P C^T, so P[a][b] = sum_ij Ainv[a][i] * Cinv[b][j] * F[i][j]. The
- * product Ainv[a][i] * Cinv[b][j] is rounded once to Q32 (the weight W), and
- * each control point is one exact 128-bit sum of W * F rounded once. The
- * update adds round(W * delta) for the changed point, so it differs from a
- * full re-solve by at most 1 LSB.
+ * The data satisfy F = M P N^T (M[k][i] = B_i^n(u_k), N[l][j] = B_j^m(w_l)),
+ * so with C_n = M^-1 and C_m = N^-1 (fixed point: exact tables for uniform
+ * parameters, it2n__invert for chord-length ones):
+ *   stage 1  G[k][j] = sum_l F[k][l] C_m[j][l]      ((n+1)(m+1)^2 products)
+ *   stage 2  P[i][j] = sum_k C_n[i][k] G[k][j]      ((n+1)^2(m+1) products)
+ * Each sum is exact in 128 bits and rounded once to 62 bits; the net is then
+ * stored as int32 mantissas with one exponent so that its largest point
+ * uses the full width. A net depends only on its own channel's data and
+ * the two inverses, so the update re-solves just the nets that changed and
+ * stays bit-identical to a full solve.
  */
 #include <string.h>
 
 #include "it2n_internal.h"
 
+/* Control points must stay below 2^39 so that every surface value, a
+ * convex combination of them, fits Q39.24. */
+#define NET_LIMIT_BITS 39
+
 /* Pivots below 2^-24 mean the parameters (nearly) coincide. */
 #define PIVOT_MIN ((int64_t)1 << (IT2N_PAR_FRAC - 24))
 
-/* Inverse collocation matrix and parameters of one direction. */
-typedef struct dir_solution {
-    it2n_par t[IT2N_DIM];
-    it2n_par inv[IT2N_DIM][IT2N_DIM];
-} dir_solution;
+/* The inverse of one direction: c[r * (deg+1) + k] * 2^-frac, cs_bits the
+ * bit length of its largest row absolute sum. */
+typedef struct dir_inv {
+    const int64_t *c;
+    int frac;
+    unsigned cs_bits;
+} dir_inv;
 
 void it2n_model_init(it2n_model *mdl)
 {
@@ -106,280 +116,260 @@ static int params_chord(const it2n_dataset *ds, unsigned dir,
     return IT2N_OK;
 }
 
-/* x * y in Q32 with overflow check. */
-static bool q32_mul(int64_t x, int64_t y, int64_t *out)
+int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM],
+                it2n_par w[IT2N_DIM], it2n_errinfo *err)
 {
-    return it2n_mul_shift(x, y, IT2N_PAR_FRAC, out);
+    int rc;
+    if (ds == NULL || u == NULL || w == NULL || ds->n < 1u ||
+        ds->n > IT2N_MAX_DEGREE || ds->m < 1u || ds->m > IT2N_MAX_DEGREE) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    memset(u, 0, sizeof(it2n_par) * IT2N_DIM);
+    memset(w, 0, sizeof(it2n_par) * IT2N_DIM);
+    if (!(ds->flags & IT2N_F_CHORD)) {
+        params_uniform(ds->n, u);
+        params_uniform(ds->m, w);
+        return IT2N_OK;
+    }
+    rc = params_chord(ds, 0u, u, err);
+    return rc != IT2N_OK ? rc : params_chord(ds, 1u, w, err);
+}
+
+/* Bit length of the largest row absolute sum (< 2^61 by construction). */
+static unsigned rowsum_bits(const int64_t *c, unsigned deg)
+{
+    unsigned n = deg + 1u, l, j;
+    uint64_t best = 0u;
+    for (l = 0; l < n; l++) {
+        uint64_t s = 0u;
+        for (j = 0; j < n; j++) {
+            int64_t v = c[l * n + j];
+            s += (uint64_t)(v < 0 ? -v : v);
+        }
+        best = s > best ? s : best;
+    }
+    return it2n_bitlen64(best);
+}
+
+static void dir_uniform(unsigned deg, dir_inv *d)
+{
+    d->c = it2n__uniform_inv[deg - 1u].c;
+    d->frac = it2n__uniform_inv[deg - 1u].frac;
+    d->cs_bits = rowsum_bits(d->c, deg);
+}
+
+/* Largest |F| of one channel and its bit length. */
+static unsigned data_bits(const it2n_dataset *ds, unsigned fp, unsigned ch)
+{
+    uint64_t big = 0u;
+    unsigned k, l;
+    for (k = 0; k <= ds->n; k++) {
+        for (l = 0; l <= ds->m; l++) {
+            int64_t v = ds->values[k][l][fp][ch];
+            uint64_t a = (uint64_t)(v < 0 ? -v : v);
+            big = a > big ? a : big;
+        }
+    }
+    return it2n_bitlen64(big);
 }
 
 /*
- * Invert the (deg+1)^2 collocation matrix A[r][c] = B_c(t_r) by Gauss-Jordan
- * with partial pivoting in Q32, then one Newton-Schulz refinement step
- * X += X (I - A X) with the residual held in Q64, which recovers the bits the
- * elimination rounded away.
+ * Control points are below max|F| * rowsum(C_n) * rowsum(C_m); require that
+ * bound (in bits) to stay under 2^NET_LIMIT_BITS for every net of the
+ * footprints in fpmask. Returns IT2N_OK or IT2N_ERR_OVERFLOW naming fp, ch.
  */
-static int invert(unsigned deg, const it2n_par t[IT2N_DIM],
-                  it2n_par inv[IT2N_DIM][IT2N_DIM], it2n_errinfo *err)
+static int check_bound(const it2n_dataset *ds, unsigned fpmask,
+                       const dir_inv *du, const dir_inv *dw, it2n_errinfo *err)
 {
-    int64_t a[IT2N_DIM][IT2N_DIM], w[IT2N_DIM][2 * IT2N_DIM];
-    unsigned n = deg + 1u, r, c, k;
-    for (r = 0; r < n; r++) {
-        it2n__basis(deg, t[r], a[r]);
-        for (c = 0; c < 2u * n; c++) {
-            w[r][c] = c < n ? a[r][c] : (c - n == r ? IT2N_PAR_ONE : 0);
-        }
-    }
-    for (c = 0; c < n; c++) {
-        unsigned piv = c;
-        int64_t p;
-        for (r = c + 1u; r < n; r++) {
-            int64_t x = w[r][c] < 0 ? -w[r][c] : w[r][c];
-            int64_t y = w[piv][c] < 0 ? -w[piv][c] : w[piv][c];
-            if (x > y) {
-                piv = r;
-            }
-        }
-        p = w[piv][c];
-        if (p < PIVOT_MIN && p > -PIVOT_MIN) {
-            return it2n__fail(err, IT2N_ERR_SINGULAR, -1, -1, -1, -1, p, 0, 0);
-        }
-        if (piv != c) {
-            for (k = 0; k < 2u * n; k++) {
-                int64_t tmp = w[c][k];
-                w[c][k] = w[piv][k];
-                w[piv][k] = tmp;
-            }
-        }
-        for (k = 0; k < 2u * n; k++) {
-            if (!it2n_i128_div(it2n_i128_shl(w[c][k], IT2N_PAR_FRAC),
-                               it2n_i128_from(p), &w[c][k])) {
-                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, -1, -1, 0, 0,
-                                  0);
-            }
-        }
-        for (r = 0; r < n; r++) {
-            int64_t f = w[r][c];
-            if (r == c || f == 0) {
+    unsigned fp, ch;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT && (fpmask & (1u << fp)); ch++) {
+            unsigned eb;
+            int bits;
+            if (!it2n__ch_used(ds->flags, ch)) {
                 continue;
             }
-            for (k = 0; k < 2u * n; k++) {
-                int64_t prod;
-                if (!q32_mul(f, w[c][k], &prod) ||
-                    !it2n_sub_ok(w[r][k], prod, &w[r][k])) {
-                    return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, -1, -1,
-                                      0, 0, 0);
-                }
+            eb = data_bits(ds, fp, ch);
+            bits = (int)(eb + du->cs_bits + dw->cs_bits) - IT2N_VAL_FRAC -
+                   du->frac - dw->frac;
+            if (eb != 0u && bits > NET_LIMIT_BITS) {
+                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp,
+                                  (int)ch, (it2n_val)bits, 0, NET_LIMIT_BITS);
             }
-        }
-    }
-    /* Refinement: R = I - A X in Q64, X' = X + X R. */
-    {
-        int64_t res[IT2N_DIM][IT2N_DIM];
-        for (r = 0; r < n; r++) {
-            for (c = 0; c < n; c++) {
-                it2n_i128 s = it2n_i128_zero();
-                for (k = 0; k < n; k++) {
-                    s = it2n_mac(s, a[r][k], w[k][n + c]);
-                }
-                if (r == c) {
-                    it2n_i128 one = {0u, 1u}; /* 2^64 */
-                    s = it2n_i128_sub(one, s);
-                } else {
-                    s = it2n_i128_neg(s);
-                }
-                /* Residual is tiny; if it does not fit, keep X as is. */
-                if (s.hi != 0u && s.hi != UINT64_MAX) {
-                    goto done;
-                }
-                if (!it2n_i128_round(s, 1u, &res[r][c])) {
-                    goto done; /* res in Q63 */
-                }
-            }
-        }
-        for (r = 0; r < n; r++) {
-            int64_t row[IT2N_DIM];
-            for (c = 0; c < n; c++) {
-                it2n_i128 s = it2n_i128_zero();
-                int64_t corr;
-                for (k = 0; k < n; k++) {
-                    s = it2n_mac(s, w[r][n + k], res[k][c]);
-                }
-                if (!it2n_i128_round(s, 63u, &corr) ||
-                    !it2n_add_ok(w[r][n + c], corr, &row[c])) {
-                    goto done;
-                }
-            }
-            for (c = 0; c < n; c++) {
-                w[r][n + c] = row[c];
-            }
-        }
-    }
-done:
-    for (r = 0; r < n; r++) {
-        for (c = 0; c < n; c++) {
-            inv[r][c] = w[r][n + c];
         }
     }
     return IT2N_OK;
 }
 
-/*
- * Split an exact Q56 sum s into its Q24 rounding p = round(s / 2^32) and the
- * remainder r = s - p * 2^32 in [-2^31, 2^31). False if p does not fit.
- */
-static bool split_sum(it2n_i128 s, int64_t *p, int32_t *r)
+/* round(a / 2^s) of a 128-bit sum known to fit 64 bits after the shift. */
+static int64_t round128(it2n_i128 a, unsigned s)
 {
-    int64_t q;
-    it2n_i128 rem;
-    if (!it2n_i128_round(s, IT2N_PAR_FRAC, &q)) {
-        return false;
+    int64_t r;
+    if (s == 0u) {
+        r = (int64_t)a.lo;
+        IT2N_ASSERT(a.hi == (a.lo >> 63 ? UINT64_MAX : 0u));
+        return r;
     }
-    rem = it2n_i128_sub(s, it2n_i128_shl(q, IT2N_PAR_FRAC));
-    *p = q;
-    /* rem lies in [-2^31, 2^31): rebuild it from its low word portably. */
-    *r = (int32_t)((rem.lo >> 63) ? -(int64_t)(~rem.lo) - 1
-                                  : (int64_t)rem.lo);
-    return true;
+    if (!it2n_i128_round(a, s, &r)) {
+        IT2N_ASSERT(false); /* the shifts were chosen from the bounds */
+        r = 0;
+    }
+    return r;
 }
 
-/* W = round(ainv[a][i] * binv[b][j]), Q32, for all data points (i, j). */
-static bool weights(it2n_par ainv[IT2N_DIM][IT2N_DIM],
-                    it2n_par binv[IT2N_DIM][IT2N_DIM], unsigned n,
-                    unsigned m, unsigned a, unsigned b,
-                    int64_t wt[IT2N_DIM][IT2N_DIM])
+/*
+ * Solve one net (fp, ch) of ds into net[] (int32 mantissas, compact
+ * (n+1)(m+1)) and *frac. Cannot fail once check_bound passed.
+ */
+static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
+                      const dir_inv *du, const dir_inv *dw, int32_t *net,
+                      int8_t *frac)
 {
-    unsigned i, j;
-    for (i = 0; i <= n; i++) {
-        for (j = 0; j <= m; j++) {
-            if (!q32_mul(ainv[a][i], binv[b][j], &wt[i][j])) {
-                return false;
+    int64_t p64[IT2N_DIM * IT2N_DIM], g[IT2N_DIM];
+    unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, i, j, k, l, count = n1 * m1;
+    unsigned eb = data_bits(ds, fp, ch), sg, sp = du->cs_bits, eh;
+    uint64_t big = 0u;
+    int s, f;
+    if (eb == 0u) {
+        memset(net, 0, count * sizeof(*net));
+        *frac = 0;
+        return;
+    }
+    /* G < max|F| 2^cs_bits(C_m): shift it below 2^62. P's 128-bit sum of
+     * C_n (row sums < 2^cs) times G (< 2^62) shifts by cs bits. */
+    sg = eb + dw->cs_bits > 62u ? eb + dw->cs_bits - 62u : 0u;
+    for (j = 0; j < m1; j++) {
+        for (k = 0; k < n1; k++) {
+            it2n_i128 acc = it2n_i128_zero();
+            for (l = 0; l < m1; l++) {
+                it2n_mac128(&acc, ds->values[k][l][fp][ch], dw->c[j * m1 + l]);
+            }
+            g[k] = round128(acc, sg);
+        }
+        for (i = 0; i < n1; i++) {
+            it2n_i128 acc = it2n_i128_zero();
+            int64_t v;
+            for (k = 0; k < n1; k++) {
+                it2n_mac128(&acc, du->c[i * n1 + k], g[k]);
+            }
+            v = round128(acc, sp);
+            p64[i * m1 + j] = v;
+            v = v < 0 ? -v : v;
+            big = (uint64_t)v > big ? (uint64_t)v : big;
+        }
+    }
+    /* Normalise: the largest mantissa in [2^30, 2^31). */
+    eh = it2n_bitlen64(big);
+    s = (int)eh - 31;
+    if (s > 0 && it2n__shift_round((int64_t)big, s) > INT32_MAX) {
+        s++;
+    }
+    /* value = p64 * 2^(sg + sp - 24 - frac_n - frac_m) */
+    f = IT2N_VAL_FRAC + du->frac + dw->frac - (int)sg - (int)sp - s;
+    if (f > 127) { /* a net of values below 2^-96: keep the exponent */
+        s += f - 127;
+        f = 127;
+    }
+    for (k = 0; k < count; k++) {
+        net[k] = (int32_t)it2n__shift_round(p64[k], s);
+    }
+    *frac = (int8_t)f;
+}
+
+/* Solve the nets of the footprints in fpmask into mdl (after the checks). */
+static void solve_nets(it2n_model *mdl, const it2n_dataset *ds,
+                       unsigned fpmask, const dir_inv *du, const dir_inv *dw)
+{
+    unsigned fp, ch;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if (!(fpmask & (1u << fp))) {
+            continue;
+        }
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            if (it2n__ch_used(ds->flags, ch)) {
+                solve_net(ds, fp, ch, du, dw, mdl->net[fp][ch],
+                          &mdl->frac[fp][ch]);
             }
         }
     }
-    return true;
-}
-
-static int solve_dir(const it2n_dataset *ds, unsigned dir, dir_solution *out,
-                     it2n_errinfo *err)
-{
-    unsigned deg = dir ? ds->m : ds->n;
-    int rc;
-    if (ds->flags & IT2N_F_CHORD) {
-        rc = params_chord(ds, dir, out->t, err);
-        if (rc != IT2N_OK) {
-            return rc;
-        }
-    } else {
-        params_uniform(deg, out->t);
-    }
-    return invert(deg, out->t, out->inv, err);
 }
 
 /*
- * Solve every control net of ds into mdl. Every failure is detected before
- * mdl is written: the worst-case bound sum |W| * max|F| of each control
- * point is checked first, so the final accumulation cannot overflow.
+ * Inverses, bound check, then (commit point) the nets of fpmask. With
+ * fpmask = every footprint the whole model is rewritten.
  */
 static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
-                      it2n_errinfo *err)
+                      unsigned fpmask, bool full, it2n_errinfo *err);
+
+/* Commit point: clear what a full solve does not write (unused footprints
+ * and channels, entries beyond the degrees) so the model bytes are a
+ * function of the data alone, then solve. */
+static void commit(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask,
+                   bool full, const dir_inv *du, const dir_inv *dw)
 {
-    dir_solution su, sw;
-    int64_t wt[IT2N_DIM][IT2N_DIM];
-    it2n_val maxabs[IT2N_CH_COUNT];
-    unsigned a, b, i, j, fp, ch, n = ds->n, m = ds->m;
-    unsigned mask = it2n__fp_mask(ds->flags);
-    int rc;
-    /* Entries beyond the degree stay zero: the model bytes are a function
-     * of the data alone. */
-    memset(&su, 0, sizeof(su));
-    memset(&sw, 0, sizeof(sw));
-    rc = solve_dir(ds, 0u, &su, err);
+    if (full) {
+        memset(mdl->net, 0, sizeof(mdl->net));
+        memset(mdl->frac, 0, sizeof(mdl->frac));
+    }
+    solve_nets(mdl, ds, fpmask, du, dw);
+}
+
+/* Chord-length inverses need buffers; uniform ones are tables. Separate
+ * frames keep the uniform solve's stack small. */
+static int solve_chord(it2n_model *mdl, const it2n_dataset *ds,
+                       unsigned fpmask, bool full, it2n_errinfo *err)
+{
+    int64_t cu[IT2N_DIM * IT2N_DIM], cw[IT2N_DIM * IT2N_DIM];
+    it2n_par u[IT2N_DIM], w[IT2N_DIM];
+    dir_inv du, dw;
+    int rc = it2n_params(ds, u, w, err);
     if (rc == IT2N_OK) {
-        rc = solve_dir(ds, 1u, &sw, err);
+        rc = it2n__invert(ds->n, u, cu, &du.frac, err);
+    }
+    if (rc == IT2N_OK) {
+        rc = it2n__invert(ds->m, w, cw, &dw.frac, err);
     }
     if (rc != IT2N_OK) {
         return rc;
     }
-    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        maxabs[ch] = 0;
-        for (i = 0; i <= n && it2n__ch_used(ds->flags, ch); i++) {
-            for (j = 0; j <= m; j++) {
-                for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                    it2n_val v = ds->values[i][j][fp][ch];
-                    v = v < 0 ? -v : v;
-                    if ((mask & (1u << fp)) && v > maxabs[ch]) {
-                        maxabs[ch] = v;
-                    }
-                }
-            }
-        }
+    du.c = cu;
+    dw.c = cw;
+    du.cs_bits = rowsum_bits(cu, ds->n);
+    dw.cs_bits = rowsum_bits(cw, ds->m);
+    rc = check_bound(ds, fpmask, &du, &dw, err);
+    if (rc != IT2N_OK) {
+        return rc;
     }
-    for (a = 0; a <= n; a++) {
-        for (b = 0; b <= m; b++) {
-            int64_t wsum = 0, bound;
-            if (!weights(su.inv, sw.inv, n, m, a, b, wt)) {
-                return it2n__fail(err, IT2N_ERR_OVERFLOW, (int)a, (int)b, -1,
-                                  -1, 0, 0, 0);
-            }
-            for (i = 0; i <= n; i++) {
-                for (j = 0; j <= m; j++) {
-                    int64_t x = wt[i][j] < 0 ? -wt[i][j] : wt[i][j];
-                    if (!it2n_add_ok(wsum, x, &wsum)) {
-                        return it2n__fail(err, IT2N_ERR_OVERFLOW, (int)a,
-                                          (int)b, -1, -1, 0, 0, 0);
-                    }
-                }
-            }
-            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                if (!q32_mul(wsum, maxabs[ch], &bound)) {
-                    return it2n__fail(err, IT2N_ERR_OVERFLOW, (int)a, (int)b,
-                                      -1, (int)ch, maxabs[ch], 0, 0);
-                }
-            }
-        }
+    commit(mdl, ds, fpmask, full, &du, &dw);
+    return IT2N_OK;
+}
+
+static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
+                      unsigned fpmask, bool full, it2n_errinfo *err)
+{
+    dir_inv du, dw;
+    int rc;
+    if (ds->flags & IT2N_F_CHORD) {
+        return solve_chord(mdl, ds, fpmask, full, err);
     }
-    /* Commit point: nothing below can fail. */
-    if (&mdl->data != ds) {
-        mdl->data = *ds;
+    dir_uniform(ds->n, &du);
+    dir_uniform(ds->m, &dw);
+    rc = check_bound(ds, fpmask, &du, &dw, err);
+    if (rc != IT2N_OK) {
+        return rc;
     }
-    memcpy(mdl->u, su.t, sizeof(mdl->u));
-    memcpy(mdl->w, sw.t, sizeof(mdl->w));
-    memcpy(mdl->ainv, su.inv, sizeof(mdl->ainv));
-    memcpy(mdl->binv, sw.inv, sizeof(mdl->binv));
-    memset(mdl->ctrl, 0, sizeof(mdl->ctrl));
-    memset(mdl->ctrl_rem, 0, sizeof(mdl->ctrl_rem));
-    for (a = 0; a <= n; a++) {
-        for (b = 0; b <= m; b++) {
-            if (!weights(su.inv, sw.inv, n, m, a, b, wt)) {
-                IT2N_ASSERT(false); /* ruled out by the bound pass above */
-                continue;
-            }
-            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                if (!(mask & (1u << fp))) {
-                    continue;
-                }
-                for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                    it2n_i128 s = it2n_i128_zero();
-                    if (!it2n__ch_used(ds->flags, ch)) {
-                        continue; /* unused z: ignore whatever it holds */
-                    }
-                    for (i = 0; i <= n; i++) {
-                        for (j = 0; j <= m; j++) {
-                            s = it2n_mac(s, wt[i][j],
-                                         ds->values[i][j][fp][ch]);
-                        }
-                    }
-                    if (!split_sum(s, &mdl->ctrl[a][b][fp][ch],
-                                   &mdl->ctrl_rem[a][b][fp][ch])) {
-                        IT2N_ASSERT(false); /* the bound pass proved it fits */
-                    }
-                }
-            }
-        }
-    }
+    commit(mdl, ds, fpmask, full, &du, &dw);
+    return IT2N_OK;
+}
+
+/* Everything a full solve writes besides the nets. */
+static void model_header(it2n_model *mdl, const it2n_dataset *ds)
+{
+    mdl->n = ds->n;
+    mdl->m = ds->m;
+    mdl->flags = ds->flags;
     mdl->solved = 1u;
     mdl->generation++;
-    return IT2N_OK;
 }
 
 int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
@@ -393,69 +383,35 @@ int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
     if (rc != IT2N_OK) {
         return rc;
     }
-    return solve_core(mdl, ds, err);
-}
-
-/*
- * Apply (store) or dry-run the incremental change delta[ch] at (i, j, fp):
- * the exact sum behind each control point, ctrl * 2^32 + ctrl_rem, gains
- * W * delta with the same W the solve used, so the result is bit-identical
- * to a full re-solve.
- */
-static bool update_pass(it2n_model *mdl, unsigned i, unsigned j, unsigned fp,
-                        const int64_t delta[IT2N_CH_COUNT], bool store)
-{
-    unsigned a, b, ch, n = mdl->data.n, m = mdl->data.m;
-    for (a = 0; a <= n; a++) {
-        for (b = 0; b <= m; b++) {
-            int64_t w;
-            if (!q32_mul(mdl->ainv[a][i], mdl->binv[b][j], &w)) {
-                return false;
-            }
-            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                it2n_i128 s;
-                int64_t p;
-                int32_t r;
-                if (delta[ch] == 0) {
-                    continue;
-                }
-                s = it2n_i128_add(
-                    it2n_i128_shl(mdl->ctrl[a][b][fp][ch], IT2N_PAR_FRAC),
-                    it2n_i128_from(mdl->ctrl_rem[a][b][fp][ch]));
-                s = it2n_mac(s, w, delta[ch]);
-                if (!split_sum(s, &p, &r)) {
-                    return false;
-                }
-                if (store) {
-                    mdl->ctrl[a][b][fp][ch] = p;
-                    mdl->ctrl_rem[a][b][fp][ch] = r;
-                }
-            }
-        }
+    rc = solve_core(mdl, ds, it2n__fp_mask(ds->flags), true, err);
+    if (rc != IT2N_OK) {
+        return rc;
     }
-    return true;
+    model_header(mdl, ds);
+    return IT2N_OK;
 }
 
-int it2n_model_update(it2n_model *mdl, unsigned i, unsigned j, unsigned fp,
+int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                      unsigned j, unsigned fp,
                       const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
 {
-    it2n_val pt[IT2N_FP_COUNT][IT2N_CH_COUNT];
-    int64_t delta[IT2N_CH_COUNT];
-    unsigned ch, flags;
+    it2n_val pt[IT2N_FP_COUNT][IT2N_CH_COUNT], old[IT2N_CH_COUNT];
+    unsigned ch, flags, mask;
     int rc;
-    if (mdl == NULL || vals == NULL) {
+    if (mdl == NULL || ds == NULL || vals == NULL) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (!mdl->solved) {
+    if (!mdl->solved || mdl->n != ds->n || mdl->m != ds->m ||
+        mdl->flags != ds->flags) {
+        /* not solved, or not solved from this data set */
         return it2n__fail(err, IT2N_ERR_STATE, (int)i, (int)j, (int)fp, -1, 0,
                           0, 0);
     }
-    flags = mdl->data.flags;
-    if (i > mdl->data.n || j > mdl->data.m) {
+    flags = ds->flags;
+    if (i > ds->n || j > ds->m) {
         return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, -1, -1,
-                          (it2n_val)(i > mdl->data.n ? i : j), 0,
-                          (it2n_val)(i > mdl->data.n ? mdl->data.n
-                                                     : mdl->data.m));
+                          (it2n_val)(i > ds->n ? i : j), 0,
+                          (it2n_val)(i > ds->n ? ds->n : ds->m));
     }
     if (fp >= IT2N_FP_COUNT || ((1u << fp) & it2n__fp_mask(flags)) == 0u) {
         return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
@@ -465,35 +421,38 @@ int it2n_model_update(it2n_model *mdl, unsigned i, unsigned j, unsigned fp,
     if (rc != IT2N_OK) {
         return rc;
     }
-    memcpy(pt, mdl->data.values[i][j], sizeof(pt));
+    memcpy(pt, ds->values[i][j], sizeof(pt));
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
         pt[fp][ch] = it2n__ch_used(flags, ch) ? vals[ch] : 0;
-        delta[ch] = pt[fp][ch] - mdl->data.values[i][j][fp][ch];
     }
     rc = it2n__check_nesting(flags, i, j, &pt[0][0], err);
     if (rc != IT2N_OK) {
         return rc;
     }
-    if (flags & IT2N_F_CHORD) {
-        /* Parameters move with the data: full re-solve in place, restoring
-         * the old point if it fails. */
-        it2n_val old[IT2N_CH_COUNT];
-        memcpy(old, mdl->data.values[i][j][fp], sizeof(old));
-        memcpy(mdl->data.values[i][j][fp], pt[fp], sizeof(old));
-        rc = solve_core(mdl, &mdl->data, err);
-        if (rc != IT2N_OK) {
-            memcpy(mdl->data.values[i][j][fp], old, sizeof(old));
-        }
+    /* Chord-length parameters follow footprint D: every net moves. */
+    mask = ((flags & IT2N_F_CHORD) && fp == IT2N_FP_D) ? it2n__fp_mask(flags)
+                                                       : 1u << fp;
+    memcpy(old, ds->values[i][j][fp], sizeof(old));
+    memcpy(ds->values[i][j][fp], pt[fp], sizeof(old));
+    rc = solve_core(mdl, ds, mask, false, err);
+    if (rc != IT2N_OK) {
+        memcpy(ds->values[i][j][fp], old, sizeof(old));
         return rc;
     }
-    if (!update_pass(mdl, i, j, fp, delta, false)) {
-        return it2n__fail(err, IT2N_ERR_OVERFLOW, (int)i, (int)j, (int)fp, -1,
-                          0, 0, 0);
-    }
-    if (!update_pass(mdl, i, j, fp, delta, true)) {
-        IT2N_ASSERT(false); /* same arithmetic as the dry run that passed */
-    }
-    memcpy(mdl->data.values[i][j][fp], pt[fp], sizeof(pt[fp]));
+    ds->present[i][j] = (uint8_t)(ds->present[i][j] | (1u << fp));
     mdl->generation++;
     return IT2N_OK;
+}
+
+it2n_val it2n_model_ctrl(const it2n_model *mdl, unsigned i, unsigned j,
+                         unsigned fp, unsigned ch)
+{
+    if (mdl == NULL || !mdl->solved || i > mdl->n || j > mdl->m ||
+        fp >= IT2N_FP_COUNT || ch >= IT2N_CH_COUNT ||
+        !it2n_model_has_fp(mdl, fp)) {
+        return 0;
+    }
+    /* frac >= -8 (nets below 2^39): the left shift cannot overflow */
+    return it2n__shift_round(mdl->net[fp][ch][i * (mdl->m + 1u) + j],
+                             mdl->frac[fp][ch] - IT2N_VAL_FRAC);
 }
