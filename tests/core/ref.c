@@ -119,6 +119,11 @@ int ref_solve(ref_model *r, unsigned chord_fp)
         for (unsigned k = 0; k <= r->m; k++)
             r->w[k] = (long double)k / (long double)r->m;
     }
+    return ref_solve_params(r);
+}
+
+int ref_solve_params(ref_model *r)
+{
     long double mm[REF_D][REF_D], nn[REF_D][REF_D];
     long double mi[REF_D][REF_D], ni[REF_D][REF_D];
     for (unsigned k = 0; k <= r->n; k++)

@@ -38,6 +38,9 @@ int ref_chord_params(const ref_model *r, unsigned fp, long double u[REF_D],
  */
 int ref_solve(ref_model *r, unsigned chord_fp);
 
+/* Solve every control net with the parameters already in r->u, r->w. */
+int ref_solve_params(ref_model *r);
+
 /* Every footprint/channel at (u, w). */
 void ref_eval(const ref_model *r, long double u, long double w,
               long double out[REF_FP][REF_CH]);

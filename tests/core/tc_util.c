@@ -188,6 +188,33 @@ void tc_model(const tc_case *c, it2n_model *mdl)
                  err.fp, err.ch);
 }
 
+void tc_model_ds(const tc_case *c, it2n_model *mdl, it2n_dataset *ds)
+{
+    it2n_errinfo err;
+    tc_dataset(c, ds);
+    it2n_model_init(mdl);
+    int rc = it2n_model_solve(mdl, ds, &err);
+    if (rc != IT2N_OK)
+        fail_msg("solve %ux%u flags %u -> %d (%s)", c->n, c->m, c->flags, rc,
+                 it2n_strerror(rc));
+}
+
+bool tc_nets_equal(const it2n_model *a, const it2n_model *b)
+{
+    return a->n == b->n && a->m == b->m && a->flags == b->flags &&
+           a->solved == b->solved &&
+           memcmp(a->frac, b->frac, sizeof a->frac) == 0 &&
+           memcmp(a->net, b->net, sizeof a->net) == 0;
+}
+
+void tc_params(const tc_case *c, it2n_par u[IT2N_DIM], it2n_par w[IT2N_DIM])
+{
+    static it2n_dataset ds;
+    it2n_errinfo err;
+    tc_dataset(c, &ds);
+    assert_int_equal(it2n_params(&ds, u, w, &err), IT2N_OK);
+}
+
 void tc_ref(const tc_case *c, ref_model *r)
 {
     memset(r, 0, sizeof *r);

@@ -52,6 +52,12 @@ long double tc_maxabs(const tc_case *c);
 void tc_dataset(const tc_case *c, it2n_dataset *ds);
 /* Build and solve the core model (asserts success). */
 void tc_model(const tc_case *c, it2n_model *mdl);
+/* Build the data set into *ds and solve *mdl from it (asserts success). */
+void tc_model_ds(const tc_case *c, it2n_model *mdl, it2n_dataset *ds);
+/* Every byte of two models but the generation counter is equal. */
+bool tc_nets_equal(const it2n_model *a, const it2n_model *b);
+/* The core's collocation parameters for the case (it2n_params). */
+void tc_params(const tc_case *c, it2n_par u[IT2N_DIM], it2n_par w[IT2N_DIM]);
 /* Build and solve the reference model (chord params from footprint D). */
 void tc_ref(const tc_case *c, ref_model *r);
 

@@ -62,9 +62,9 @@ static void acc_point(const tc_case *c, const it2n_model *mdl,
     long double maxabs = tc_maxabs(c);
     long double tcd = tc_tol_coord(c->n, c->m, maxabs);
 
-    int rc = it2n_eval(mdl, uq, wq, &pt);
+    int rc = it2n_eval(mdl, uq, wq, &pt, NULL);
     if (rc != IT2N_OK) {
-        acc_fail(st, "%s: it2n_eval(u=%.6Lf, w=%.6Lf) -> %d", label, ue, we, rc);
+        acc_fail(st, "%s: it2n_eval(u=%.6Lf, w=%.6Lf, NULL) -> %d", label, ue, we, rc);
         return;
     }
     ref_eval(r, ue, we, ref);
@@ -100,10 +100,10 @@ static void acc_point(const tc_case *c, const it2n_model *mdl,
 
             /* Convex hull of this channel's control net (exact maths; the
              * fixed-point sum may round by a couple of LSB). */
-            it2n_val lo = mdl->ctrl[0][0][fp][ch], hi = lo;
+            it2n_val lo = it2n_model_ctrl(mdl, 0, 0, fp, ch), hi = lo;
             for (unsigned i = 0; i <= c->n; i++)
                 for (unsigned j = 0; j <= c->m; j++) {
-                    it2n_val p = mdl->ctrl[i][j][fp][ch];
+                    it2n_val p = it2n_model_ctrl(mdl, i, j, fp, ch);
                     lo = p < lo ? p : lo;
                     hi = p > hi ? p : hi;
                 }
@@ -157,24 +157,26 @@ static void acc_point(const tc_case *c, const it2n_model *mdl,
 static void acc_nodes(const tc_case *c, const it2n_model *mdl,
                       const ref_model *r, acc_stats *st, const char *label)
 {
+    it2n_par mu[REF_D], mw[REF_D];
+    tc_params(c, mu, mw);
     long double tm = tc_tol_memb(c->n, c->m);
     long double tcd = tc_tol_coord(c->n, c->m, tc_maxabs(c));
     for (unsigned i = 0; i <= c->n; i++) {
-        long double e = fabsl(tc_ldp(mdl->u[i]) - r->u[i]);
+        long double e = fabsl(tc_ldp(mu[i]) - r->u[i]);
         if (e > 1e-6L)
             acc_fail(st, "%s %ux%u: u[%u] = %.9Lf, reference %.9Lf", label,
-                     c->n, c->m, i, tc_ldp(mdl->u[i]), r->u[i]);
+                     c->n, c->m, i, tc_ldp(mu[i]), r->u[i]);
     }
     for (unsigned j = 0; j <= c->m; j++) {
-        long double e = fabsl(tc_ldp(mdl->w[j]) - r->w[j]);
+        long double e = fabsl(tc_ldp(mw[j]) - r->w[j]);
         if (e > 1e-6L)
             acc_fail(st, "%s %ux%u: w[%u] = %.9Lf, reference %.9Lf", label,
-                     c->n, c->m, j, tc_ldp(mdl->w[j]), r->w[j]);
+                     c->n, c->m, j, tc_ldp(mw[j]), r->w[j]);
     }
     for (unsigned i = 0; i <= c->n; i++)
         for (unsigned j = 0; j <= c->m; j++) {
             it2n_point pt;
-            int rc = it2n_eval(mdl, mdl->u[i], mdl->w[j], &pt);
+            int rc = it2n_eval(mdl, mu[i], mw[j], &pt, NULL);
             if (rc != IT2N_OK) {
                 acc_fail(st, "%s: eval at node (%u,%u) -> %d", label, i, j, rc);
                 continue;
@@ -196,13 +198,13 @@ static void acc_nodes(const tc_case *c, const it2n_model *mdl,
                                  it2n_fp_name(fp), it2n_ch_name(ch),
                                  tc_ld(pt.v[fp][ch]), want, e);
                     if (corner) {
-                        e = fabsl(tc_ld(mdl->ctrl[i][j][fp][ch]) - want);
+                        e = fabsl(tc_ld(it2n_model_ctrl(mdl, i, j, fp, ch)) - want);
                         if (!(e <= tol))
                             acc_fail(st, "%s %ux%u: corner control P[%u][%u] "
                                      "%s.%s = %.9Lf, data %.6Lf", label, c->n,
                                      c->m, i, j, it2n_fp_name(fp),
                                      it2n_ch_name(ch),
-                                     tc_ld(mdl->ctrl[i][j][fp][ch]), want);
+                                     tc_ld(it2n_model_ctrl(mdl, i, j, fp, ch)), want);
                     }
                 }
             }
@@ -242,6 +244,93 @@ static void acc_case(const tc_case *c, acc_stats *st, uint64_t seed,
         }
         acc_point(c, &mdl, &r, ue, we, uq, wq, st, label);
     }
+}
+
+/*
+ * Control nets against the exact solution of the data the core was given
+ * (Q24 values, the core's own parameters): every control point within
+ * 1e-6 * max|control point of its net| + 1e-7 (issue 7). Returns the worst
+ * err / tolerance ratio.
+ */
+static long double net_case(const tc_case *c, const char *label,
+                            long double *worst_rel)
+{
+    static it2n_model mdl;
+    static ref_model r;
+    it2n_par u[REF_D], w[REF_D];
+    long double ratio = 0.0L;
+    tc_model(c, &mdl);
+    tc_params(c, u, w);
+    memset(&r, 0, sizeof r);
+    r.n = c->n;
+    r.m = c->m;
+    r.flags = c->flags;
+    for (unsigned i = 0; i <= c->n; i++)
+        for (unsigned j = 0; j <= c->m; j++)
+            for (unsigned fp = 0; fp < REF_FP; fp++)
+                for (unsigned ch = 0; ch < REF_CH; ch++)
+                    r.data[i][j][fp][ch] = tc_ld(c->q[i][j][fp][ch]);
+    for (unsigned k = 0; k <= c->n; k++)
+        r.u[k] = tc_ldp(u[k]);
+    for (unsigned k = 0; k <= c->m; k++)
+        r.w[k] = tc_ldp(w[k]);
+    assert_int_equal(ref_solve_params(&r), 0);
+    for (unsigned fp = 0; fp < REF_FP; fp++) {
+        if (!tc_has_fp(c, fp))
+            continue;
+        for (unsigned ch = 0; ch < REF_CH; ch++) {
+            if (!n_channels_checked(c, ch))
+                continue;
+            long double big = 0.0L;
+            for (unsigned i = 0; i <= c->n; i++)
+                for (unsigned j = 0; j <= c->m; j++)
+                    big = fmaxl(big, fabsl(r.ctrl[i][j][fp][ch]));
+            long double tol = 1e-6L * big + 1e-7L;
+            for (unsigned i = 0; i <= c->n; i++)
+                for (unsigned j = 0; j <= c->m; j++) {
+                    long double got = tc_ld(it2n_model_ctrl(&mdl, i, j, fp, ch));
+                    long double e = fabsl(got - r.ctrl[i][j][fp][ch]);
+                    if (e / tol > ratio)
+                        ratio = e / tol;
+                    if (big > 0.0L && e / big > *worst_rel)
+                        *worst_rel = e / big;
+                    if (!(e <= tol))
+                        fail_msg("%s %ux%u flags %u: P[%u][%u] %s.%s = %.9Lf, exact "
+                                 "%.9Lf (err %.3Le > tol %.3Le, net max %.3Le)",
+                                 label, c->n, c->m, c->flags, i, j,
+                                 it2n_fp_name(fp), it2n_ch_name(ch), got,
+                                 r.ctrl[i][j][fp][ch], e, tol, big);
+                }
+        }
+    }
+    return ratio;
+}
+
+static void test_control_nets(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static const unsigned flagsets[] = {0u, IT2N_F_Z, IT2N_F_CHORD,
+                                        IT2N_F_CHORD | IT2N_F_Z, IT2N_F_TYPE1};
+    static const long double scales[] = {10.0L, 5000.0L};
+    long double worst = 0.0L, worst_rel = 0.0L;
+    unsigned cases = 0;
+    for (unsigned f = 0; f < sizeof flagsets / sizeof flagsets[0]; f++)
+        for (unsigned sc = 0; sc < 2; sc++)
+            for (unsigned n = 1; n <= 7 && n <= IT2N_MAX_DEGREE; n++)
+                for (unsigned m = 1; m <= 7 && m <= IT2N_MAX_DEGREE; m++) {
+                    tc_smooth(&c, n, m, flagsets[f], scales[sc], n * 31u + m + f);
+                    worst = fmaxl(worst, net_case(&c, "nets", &worst_rel));
+                    cases++;
+                }
+    if (IT2N_MAX_DEGREE >= 7) {
+        tc_extreme(&c);
+        worst = fmaxl(worst, net_case(&c, "nets extreme", &worst_rel));
+        cases++;
+    }
+    printf("  [accuracy] control nets: %u models, worst err %.3Le of the net's "
+           "max|P|, %.3Lf of the tolerance 1e-6 max|P| + 1e-7\n",
+           cases, worst_rel, worst);
 }
 
 static void acc_report(const char *what, const acc_stats *st)
@@ -369,8 +458,8 @@ static void affine_case(const tc_case *c0, acc_stats *st)
         it2n_par uq, wq;
         long double ue = tc_rand_par(&s, &uq), we = tc_rand_par(&s, &wq);
         it2n_point p0, p1;
-        assert_int_equal(it2n_eval(&m0, uq, wq, &p0), IT2N_OK);
-        assert_int_equal(it2n_eval(&m1, uq, wq, &p1), IT2N_OK);
+        assert_int_equal(it2n_eval(&m0, uq, wq, &p0, NULL), IT2N_OK);
+        assert_int_equal(it2n_eval(&m1, uq, wq, &p1, NULL), IT2N_OK);
         for (unsigned fp = 0; fp < REF_FP; fp++) {
             if (!tc_has_fp(c0, fp))
                 continue;
@@ -470,6 +559,7 @@ int main(void)
         cmocka_unit_test(test_sweep_type1),
         cmocka_unit_test(test_sweep_chord),
         cmocka_unit_test(test_affine),
+        cmocka_unit_test(test_control_nets),
         cmocka_unit_test(test_extreme_coordinates),
         cmocka_unit_test(test_print_summary),
     };

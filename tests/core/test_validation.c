@@ -322,6 +322,7 @@ static void test_update_atomic(void **state)
     (void)state;
     static tc_case c;
     static it2n_model mdl, copy;
+    static it2n_dataset ds, dscopy;
     it2n_errinfo err;
     it2n_val v[IT2N_CH_COUNT];
     int rc;
@@ -330,64 +331,70 @@ static void test_update_atomic(void **state)
     it2n_model_init(&mdl);
     copy = mdl;
     vals_ok(v);
-    assert_int_equal(it2n_model_update(&mdl, 0, 0, IT2N_FP_D, v, &err),
+    assert_int_equal(it2n_model_update(&mdl, &ds, 0, 0, IT2N_FP_D, v, &err),
                      IT2N_ERR_STATE);
     assert_int_equal(err.code, IT2N_ERR_STATE);
     assert_memory_equal(&mdl, &copy, sizeof mdl);
+        assert_memory_equal(&ds, &dscopy, sizeof ds);
 
     for (unsigned variant = 0; variant < 3; variant++) {
         unsigned flags = variant == 0 ? 0u : variant == 1 ? IT2N_F_CHORD | IT2N_F_Z
                                                           : IT2N_F_TYPE1;
         tc_smooth(&c, 4, 3, flags, 10.0L, 7);
-        tc_model(&c, &mdl);
+        tc_model_ds(&c, &mdl, &ds);
         copy = mdl;
+        dscopy = ds;
         unsigned fp = (flags & IT2N_F_TYPE1) ? IT2N_FP_D : IT2N_FP_L;
 
         /* membership out of range */
         memcpy(v, c.q[2][1][fp], sizeof v);
         v[IT2N_CH_F] = ONE + 1;
         memset(&err, 0, sizeof err);
-        rc = it2n_model_update(&mdl, 2, 1, fp, v, &err);
+        rc = it2n_model_update(&mdl, &ds, 2, 1, fp, v, &err);
         assert_int_equal(rc, IT2N_ERR_RANGE);
         expect_err(&err, IT2N_ERR_RANGE, 2, 1, (int)fp, IT2N_CH_F);
         assert_memory_equal(&mdl, &copy, sizeof mdl);
+        assert_memory_equal(&ds, &dscopy, sizeof ds);
 
         /* coordinate beyond the limit */
         memcpy(v, c.q[2][1][fp], sizeof v);
         v[IT2N_CH_Y] = -LIM - 1;
-        rc = it2n_model_update(&mdl, 2, 1, fp, v, &err);
+        rc = it2n_model_update(&mdl, &ds, 2, 1, fp, v, &err);
         assert_int_equal(rc, IT2N_ERR_RANGE);
         expect_err(&err, IT2N_ERR_RANGE, 2, 1, (int)fp, IT2N_CH_Y);
         assert_memory_equal(&mdl, &copy, sizeof mdl);
+        assert_memory_equal(&ds, &dscopy, sizeof ds);
 
         /* bad index / footprint */
         memcpy(v, c.q[2][1][fp], sizeof v);
-        assert_int_equal(it2n_model_update(&mdl, 5, 1, fp, v, &err), IT2N_ERR_INVAL);
-        assert_int_equal(it2n_model_update(&mdl, 1, 4, fp, v, &err), IT2N_ERR_INVAL);
-        assert_int_equal(it2n_model_update(&mdl, 1, 1, IT2N_FP_COUNT, v, &err),
+        assert_int_equal(it2n_model_update(&mdl, &ds, 5, 1, fp, v, &err), IT2N_ERR_INVAL);
+        assert_int_equal(it2n_model_update(&mdl, &ds, 1, 4, fp, v, &err), IT2N_ERR_INVAL);
+        assert_int_equal(it2n_model_update(&mdl, &ds, 1, 1, IT2N_FP_COUNT, v, &err),
                          IT2N_ERR_INVAL);
         if (flags & IT2N_F_TYPE1)
-            assert_int_equal(it2n_model_update(&mdl, 1, 1, IT2N_FP_RR, v, &err),
+            assert_int_equal(it2n_model_update(&mdl, &ds, 1, 1, IT2N_FP_RR, v, &err),
                              IT2N_ERR_INVAL);
         assert_memory_equal(&mdl, &copy, sizeof mdl);
+        assert_memory_equal(&ds, &dscopy, sizeof ds);
 
         /* nesting broken by the new value */
         if (!(flags & IT2N_F_TYPE1)) {
             memcpy(v, c.q[2][1][fp], sizeof v);
             v[IT2N_CH_X] = c.q[2][1][IT2N_FP_D][IT2N_CH_X] + 1; /* L > D */
             memset(&err, 0, sizeof err);
-            rc = it2n_model_update(&mdl, 2, 1, fp, v, &err);
+            rc = it2n_model_update(&mdl, &ds, 2, 1, fp, v, &err);
             assert_int_equal(rc, IT2N_ERR_ORDER);
             assert_int_equal(err.code, IT2N_ERR_ORDER);
             assert_int_equal(err.i, 2);
             assert_int_equal(err.j, 1);
             assert_int_equal(err.ch, IT2N_CH_X);
             assert_memory_equal(&mdl, &copy, sizeof mdl);
+        assert_memory_equal(&ds, &dscopy, sizeof ds);
         }
         /* a good update does change it (the copy is meaningful) */
         memcpy(v, c.q[2][1][fp], sizeof v);
         v[IT2N_CH_T] = ONE / 3;
-        assert_int_equal(it2n_model_update(&mdl, 2, 1, fp, v, &err), IT2N_OK);
+        assert_int_equal(it2n_model_update(&mdl, &ds, 2, 1, fp, v, &err), IT2N_OK);
         assert_memory_not_equal(&mdl, &copy, sizeof mdl);
     }
 }
@@ -431,6 +438,7 @@ static void test_update_chord_degenerate_atomic(void **state)
     (void)state;
     static tc_case c;
     static it2n_model mdl, copy;
+    static it2n_dataset ds, dscopy;
     it2n_errinfo err;
     tc_init(&c, 1, 1, IT2N_F_CHORD);
     for (unsigned i = 0; i <= 1; i++)
@@ -443,19 +451,21 @@ static void test_update_chord_degenerate_atomic(void **state)
                 tc_set(&c, i, j, fp, IT2N_CH_I, 0.5L);
                 tc_set(&c, i, j, fp, IT2N_CH_F, 0.5L);
             }
-    tc_model(&c, &mdl);
+    tc_model_ds(&c, &mdl, &ds);
     copy = mdl;
+    dscopy = ds;
     it2n_val v[IT2N_CH_COUNT];
     memcpy(v, c.q[1][0][IT2N_FP_D], sizeof v);
     v[IT2N_CH_Y] = c.q[0][0][IT2N_FP_D][IT2N_CH_Y]; /* D(1,0) onto D(0,0) */
     memset(&err, 0, sizeof err);
-    assert_int_equal(it2n_model_update(&mdl, 1, 0, IT2N_FP_D, v, &err),
+    assert_int_equal(it2n_model_update(&mdl, &ds, 1, 0, IT2N_FP_D, v, &err),
                      IT2N_ERR_DEGENERATE);
     assert_int_equal(err.code, IT2N_ERR_DEGENERATE);
     assert_memory_equal(&mdl, &copy, sizeof mdl);
+    assert_memory_equal(&ds, &dscopy, sizeof ds);
     /* evaluation still works on the old model */
     it2n_point pt;
-    assert_int_equal(it2n_eval(&mdl, IT2N_PAR_ONE, 0, &pt), IT2N_OK);
+    assert_int_equal(it2n_eval(&mdl, IT2N_PAR_ONE, 0, &pt, NULL), IT2N_OK);
     assert_true(pt.v[IT2N_FP_D][IT2N_CH_Y] == c.q[1][0][IT2N_FP_D][IT2N_CH_Y]);
 }
 
@@ -520,7 +530,7 @@ static void test_hand_filled_dataset(void **state)
         if (rc != IT2N_OK)
             fail_msg("solve with junk z -> %d", rc);
         it2n_point pt;
-        assert_int_equal(it2n_eval(&mdl, IT2N_PAR_ONE, IT2N_PAR_ONE / 3, &pt), IT2N_OK);
+        assert_int_equal(it2n_eval(&mdl, IT2N_PAR_ONE, IT2N_PAR_ONE / 3, &pt, NULL), IT2N_OK);
         for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
             if (pt.v[fp][IT2N_CH_Z] != 0)
                 fail_msg("unused z %lld in the data gave a z surface (%s z = %lld)",
