@@ -279,7 +279,7 @@ static void pump_job(struct link *l)
                 it2n_point pt;
                 it2n_par u = (it2n_par)(((uint64_t)r << IT2N_PAR_FRAC) / (d->rows - 1u));
                 it2n_par w = (it2n_par)(((uint64_t)c << IT2N_PAR_FRAC) / (d->cols - 1u));
-                if (it2n_eval(&md->mdl, u, w, &pt) != IT2N_OK) {
+                if (it2n_eval(&md->mdl, u, w, &pt, NULL) != IT2N_OK) {
                     l->job.kind = 0;
                     return;
                 }
@@ -292,11 +292,12 @@ static void pump_job(struct link *l)
             d->re = l->job.re;
             d->model = l->job.model;
             d->fp = l->job.fp;
-            d->n = md->mdl.data.n;
-            d->m = md->mdl.data.m;
+            d->n = md->mdl.n;
+            d->m = md->mdl.m;
             d->row = (uint8_t)l->job.next;
             for (unsigned j = 0; j <= d->m; j++)
-                memcpy(d->v[j], md->mdl.ctrl[d->row][j][l->job.fp], sizeof d->v[j]);
+                for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++)
+                    d->v[j][ch] = it2n_model_ctrl(&md->mdl, d->row, j, l->job.fp, ch);
             l->job.next++;
         }
         if (it2n_link_send(&l->pl, &m, now32()) < 0) {
@@ -330,7 +331,7 @@ static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint
     l->job.rows = rows;
     l->job.cols = cols;
     l->job.next = 0;
-    l->job.total = kind == IT2N_MSG_SAMPLE ? (uint32_t)rows * cols : md->mdl.data.n + 1u;
+    l->job.total = kind == IT2N_MSG_SAMPLE ? (uint32_t)rows * cols : md->mdl.n + 1u;
     pump_job(l);
     return IT2N_LINK_DEFER;
 }
@@ -454,7 +455,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
             return IT2N_PROTO_ERR_MODEL;
         if (md->state != IT2N_RS_SOLVED)
             return IT2N_ERR_STATE;
-        rc = it2n_eval(&md->mdl, it2n_par_from_wire(msg->u.query.u), it2n_par_from_wire(msg->u.query.w), &pt);
+        rc = it2n_eval(&md->mdl, it2n_par_from_wire(msg->u.query.u), it2n_par_from_wire(msg->u.query.w), &pt, NULL);
         if (rc)
             return rc;
         rsp.type = IT2N_MSG_QUERY_RESULT;
@@ -474,7 +475,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
             return IT2N_PROTO_ERR_MODEL;
         if (md->state != IT2N_RS_SOLVED)
             return IT2N_ERR_STATE;
-        rc = it2n_locate(&md->mdl, msg->u.locate.x, msg->u.locate.y, &lr);
+        rc = it2n_locate(&md->mdl, msg->u.locate.x, msg->u.locate.y, &lr, NULL);
         if (rc)
             return rc;
         rsp.type = IT2N_MSG_LOCATE_RESULT;

@@ -100,11 +100,11 @@ static int query_result(struct model *md, struct mb_query *q)
     memset(&q->pt, 0, sizeof q->pt);
     q->locfail = 0;
     if (q->kind == 1) {
-        if (it2n_eval(&md->mdl, q->u, q->w, &q->pt) != IT2N_OK)
+        if (it2n_eval(&md->mdl, q->u, q->w, &q->pt, NULL) != IT2N_OK)
             return MBX_DEVICE_FAILURE;
     } else {
         it2n_locate_result lr;
-        if (it2n_locate(&md->mdl, q->x, q->y, &lr) != IT2N_OK)
+        if (it2n_locate(&md->mdl, q->x, q->y, &lr, NULL) != IT2N_OK)
             return MBX_DEVICE_FAILURE;
         it2n_val mn[4][3], mx[4][3];
         static const int up[3] = { IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR };
@@ -327,8 +327,8 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         unsigned first = (from - b->start) / 2, last = (to - b->start + 1) / 2;
         for (unsigned e = first; e < last; e++) {
             unsigned ch = e % 6, j = (e / 6) % 8, i = (e / 48) % 8, fp = e / 384;
-            if (i <= md->mdl.data.n && j <= md->mdl.data.m && it2n_model_has_fp(&md->mdl, fp))
-                mbmap_put_f32(&buf[e * 2], q24f(md->mdl.ctrl[i][j][fp][ch]), o->word_order);
+            if (i <= md->mdl.n && j <= md->mdl.m && it2n_model_has_fp(&md->mdl, fp))
+                mbmap_put_f32(&buf[e * 2], q24f(it2n_model_ctrl(&md->mdl, i, j, fp, ch)), o->word_order);
         }
         return MBX_OK;
     }

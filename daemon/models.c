@@ -263,17 +263,20 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         return IT2N_ERR_STATE;
     }
     if (md->state == IT2N_RS_SOLVED) {
-        /* Incremental: the core's update is atomic on error. Keep a copy
-         * only to undo a journal failure. */
-        it2n_model *save = malloc(sizeof *save);
+        /* Incremental: the core's update changes md->ds and md->mdl
+         * together and is atomic on error. Keep a copy of both only to
+         * undo a journal failure. */
+        struct { it2n_model mdl; it2n_dataset ds; } *save = malloc(sizeof *save);
         if (!save) {
             err->code = IT2N_ERR_STATE;
             return IT2N_ERR_STATE;
         }
-        *save = md->mdl;
-        rc = it2n_model_update(&md->mdl, i, j, fp, vals, err);
+        save->mdl = md->mdl;
+        save->ds = md->ds;
+        rc = it2n_model_update(&md->mdl, &md->ds, i, j, fp, vals, err);
         if (rc == IT2N_OK && jlog(&rec)) {
-            md->mdl = *save;
+            md->mdl = save->mdl;
+            md->ds = save->ds;
             err->code = rc = IT2N_ERR_STATE;
         }
         free(save);
@@ -281,7 +284,6 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
             set_err(md, err);
             return rc;
         }
-        md->ds = md->mdl.data;
         md->gen++;
         md->points_rx++;
         md->last_op = MOP_POINT;
@@ -437,7 +439,7 @@ int models_grid(struct model *md, unsigned rows, unsigned cols)
         return IT2N_ERR_STATE;
     if (md->grid_valid && md->grid_gen == md->gen && md->grid_rows == rows && md->grid_cols == cols)
         return IT2N_OK;
-    rc = it2n_sample(&md->mdl, rows, cols, grid_cb, &g);
+    rc = it2n_sample(&md->mdl, rows, cols, grid_cb, &g, NULL);
     if (rc != IT2N_OK)
         return rc;
     md->grid_gen = md->gen;

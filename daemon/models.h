@@ -1,9 +1,10 @@
 /* models — the model table: per model id a staging data set and a solved
  * it2n_model. Points PUT before the model is complete go to the data set;
  * completion or COMMIT solves with it2n_model_solve; PUTs into a solved
- * model use it2n_model_update (O(n*m)). Every accepted change is reported
- * to the journal hook (the WAL) before the caller acknowledges it; a
- * rejected change leaves the model exactly as it was. */
+ * model use it2n_model_update (data set and model change together). Every
+ * accepted change is reported to the journal hook (the WAL) before the
+ * caller acknowledges it; a rejected change leaves the model exactly as it
+ * was. */
 #ifndef IT2ND_MODELS_H
 #define IT2ND_MODELS_H
 

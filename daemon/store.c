@@ -5,8 +5,9 @@
  *   u8 type, payload. All little-endian.
  * Snapshot "snapshot": version 2 is the portable format of snapshot.c.
  *   Version 1 (raw struct dump tagged with the struct layout, written by
- *   it2nd 0.1) is still read when the layout matches this build, so an
- *   upgrade keeps its state; it is never written.
+ *   it2nd 0.1; layout frozen in store.h) is still read when the layout
+ *   matches this build's IT2N_MAX_DEGREE, so an upgrade keeps its state;
+ *   it is never written.
  * Records with seq <= the snapshot's seq are skipped on replay (a crash
  * between snapshot rename and WAL reset leaves them behind). */
 #include "store.h"
@@ -37,11 +38,6 @@ static size_t qlen, qcap;
 static int qrecs;
 static struct store_stats stats;
 static char state_dir[256]; /* for messages */
-
-static uint32_t layout_tag(void)
-{
-    return (uint32_t)(sizeof(it2n_dataset) ^ (sizeof(it2n_model) << 12)) ^ (uint32_t)IT2N_MAX_DEGREE << 28;
-}
 
 /* Serialise a record payload; returns its length. */
 static size_t encode_payload(const struct model_rec *r, uint8_t *p)
@@ -222,14 +218,6 @@ static int wal_reset(void)
     return walfd < 0 ? -1 : 0;
 }
 
-struct snap_model {
-    int32_t id, state;
-    uint32_t gen, points_rx, solves;
-    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
-    it2n_dataset ds;
-    it2n_model mdl;
-};
-
 int store_snapshot(void)
 {
     size_t size = 0;
@@ -367,20 +355,20 @@ static int load_snapshot(uint64_t *seqp)
             sseq = 0;
         goto out;
     }
-    if (get32(buf + 8) != FORMAT_VERSION || get32(buf + 12) != layout_tag()) {
+    if (get32(buf + 8) != FORMAT_VERSION || get32(buf + 12) != store_v1_layout_tag()) {
         log_err("snapshot: version %u / layout %08x not supported; ignored", get32(buf + 8),
                 get32(buf + 12));
         goto out;
     }
     uint32_t n = get32(buf + 24);
-    if (len != 32 + (size_t)n * sizeof(struct snap_model) + 4 ||
+    if (len != 32 + (size_t)n * sizeof(struct store_v1_snap_model) + 4 ||
         get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
         log_err("snapshot: truncated or checksum mismatch (%zu bytes); ignored, state before the WAL is lost", len);
         goto out;
     }
     sseq = get64(buf + 16);
     for (uint32_t k = 0; k < n; k++) {
-        struct snap_model sm;
+        struct store_v1_snap_model sm;
         it2n_errinfo err;
         memcpy(&sm, buf + 32 + (size_t)k * sizeof sm, sizeof sm);
         struct model *md = models_by_id(sm.id);

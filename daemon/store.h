@@ -58,4 +58,34 @@ int store_chown(unsigned uid, unsigned gid);
 
 void store_close(void);
 
+/* Legacy version 1 snapshot (it2nd 0.1, read only): a raw dump of
+ * struct store_v1_snap_model per model, tagged with store_v1_layout_tag().
+ * The model inside is the core v1 it2n_model, frozen here (the core's own
+ * type has changed since), so such files keep loading after an upgrade.
+ * Only ds is used; the stored control nets are ignored (solved again). */
+struct store_v1_it2n_model {
+    it2n_dataset data;
+    it2n_par u[IT2N_DIM], w[IT2N_DIM];
+    it2n_par ainv[IT2N_DIM][IT2N_DIM];
+    it2n_par binv[IT2N_DIM][IT2N_DIM];
+    it2n_val ctrl[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
+    int32_t ctrl_rem[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
+    uint32_t generation;
+    uint8_t solved;
+};
+
+struct store_v1_snap_model {
+    int32_t id, state;
+    uint32_t gen, points_rx, solves;
+    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
+    it2n_dataset ds;
+    struct store_v1_it2n_model mdl;
+};
+
+static inline uint32_t store_v1_layout_tag(void)
+{
+    return (uint32_t)(sizeof(it2n_dataset) ^ (sizeof(struct store_v1_it2n_model) << 12)) ^
+           (uint32_t)IT2N_MAX_DEGREE << 28;
+}
+
 #endif

@@ -80,7 +80,7 @@ static int peer_rx(void *app, uint16_t seq, const it2n_msg *msg)
         it2n_point pt;
         it2n_par u = (it2n_par)(((uint64_t)r << IT2N_PAR_FRAC) / (ROWS - 1u));
         it2n_par w = (it2n_par)(((uint64_t)c << IT2N_PAR_FRAC) / (COLS - 1u));
-        if (idx >= ROWS * COLS || it2n_eval(&md->mdl, u, w, &pt) != IT2N_OK ||
+        if (idx >= ROWS * COLS || it2n_eval(&md->mdl, u, w, &pt, NULL) != IT2N_OK ||
             memcmp(d->v[k], pt.v[IT2N_FP_D], sizeof d->v[k]) != 0) {
             bad_nodes++;
             continue;

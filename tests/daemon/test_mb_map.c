@@ -98,7 +98,7 @@ static void test_query_uw(void **st)
     assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_U16, 2, in, &persisted), MBX_OK);
     assert_int_equal(persisted, 0);
     assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_RES_F32, 108, r), MBX_OK);
-    assert_int_equal(it2n_eval(&md->mdl, IT2N_PAR_ONE / 4, IT2N_PAR_ONE / 2, &pt), IT2N_OK);
+    assert_int_equal(it2n_eval(&md->mdl, IT2N_PAR_ONE / 4, IT2N_PAR_ONE / 2, &pt, NULL), IT2N_OK);
     for (int fp = 0; fp < 7; fp++)
         for (int ch = 0; ch < 6; ch++)
             assert_true(mbmap_get_f32(&r[(fp * 6 + ch) * 2], IT2N_WO_ABCD) ==
