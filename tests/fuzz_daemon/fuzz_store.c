@@ -15,11 +15,11 @@
  *      here from the configured models) patched as in 2, then records
  *   5..7 as 1..3
  * Invariants: store_open succeeds; every model has a valid header; a
- * SOLVED model's data passes it2n_dataset_check, equals the staging data,
- * and its parameters, inverses and control nets are bit-identical to a
- * fresh it2n_model_solve of it (never serve wrong data); recovering the
- * same directory again gives the same models; the recovered models accept
- * a COMMIT through the WAL. (Found here and fixed: the legacy version 1
+ * SOLVED model's data set passes it2n_dataset_check, the model's degrees
+ * and flags are the data set's, and its control nets (exponents and
+ * mantissas) are bit-identical to a fresh it2n_model_solve of it (never
+ * serve wrong data); recovering the same directory again gives the same
+ * models; the recovered models accept a COMMIT through the WAL. (Found here and fixed: the legacy version 1
  * loader served stored control nets; corpus/store/v1_tampered_ctrl.) */
 #include <stdint.h>
 #include <stdio.h>
@@ -167,27 +167,21 @@ static size_t frame_wal(const uint8_t *d, size_t n, uint8_t *out, size_t cap)
 }
 
 
-/* Legacy version 1 snapshot: header, raw records, CRC-32C (frozen format,
- * see daemon/store.c). */
-struct snap_model_v1 {
-    int32_t id, state;
-    uint32_t gen, points_rx, solves;
-    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
-    it2n_dataset ds;
-    it2n_model mdl;
-};
-
+/* Legacy version 1 snapshot: header, raw records, CRC-32C (frozen format
+ * and core v1 model layout, see daemon/store.h). The model part holds what
+ * it2nd 0.1 wrote there (data, control nets in Q24, solved); the loader
+ * must ignore it and solve the data again. */
 static uint8_t *build_v1(size_t *len)
 {
-    size_t n = 32 + NMODELS * sizeof(struct snap_model_v1) + 4;
+    size_t n = 32 + NMODELS * sizeof(struct store_v1_snap_model) + 4;
     uint8_t *b = calloc(1, n);
     fuzz_check(b != NULL, "v1 buffer");
     memcpy(b, "IT2NSNP", 8);
     put32(b + 8, 1);
-    put32(b + 12, (uint32_t)(sizeof(it2n_dataset) ^ (sizeof(it2n_model) << 12)) ^ (uint32_t)IT2N_MAX_DEGREE << 28);
+    put32(b + 12, store_v1_layout_tag());
     put32(b + 24, NMODELS);
     for (int k = 0; k < NMODELS; k++) {
-        static struct snap_model_v1 sm;
+        static struct store_v1_snap_model sm;
         const struct model *md = configured[k];
         memset(&sm, 0, sizeof sm);
         sm.id = md->id;
@@ -197,7 +191,14 @@ static uint8_t *build_v1(size_t *len)
         sm.solves = md->solves;
         memcpy(sm.upload, md->upload, sizeof sm.upload);
         sm.ds = md->ds;
-        sm.mdl = md->mdl;
+        sm.mdl.data = md->ds;
+        sm.mdl.generation = md->mdl.generation;
+        sm.mdl.solved = md->mdl.solved;
+        for (unsigned i = 0; i < IT2N_DIM; i++)
+            for (unsigned j = 0; j < IT2N_DIM; j++)
+                for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
+                    for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++)
+                        sm.mdl.ctrl[i][j][fp][ch] = it2n_model_ctrl(&md->mdl, i, j, fp, ch);
         memcpy(b + 32 + (size_t)k * sizeof sm, &sm, sizeof sm);
     }
     put32(b + n - 4, it2n_crc32c(b, n - 4));

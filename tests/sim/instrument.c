@@ -121,19 +121,20 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
             uint32_t idx = d->start + k, r = idx / d->cols, c = idx % d->cols;
             it2n_point pt;
             it2n_eval(&local, (it2n_par)(((uint64_t)r << IT2N_PAR_FRAC) / (d->rows - 1u)),
-                      (it2n_par)(((uint64_t)c << IT2N_PAR_FRAC) / (d->cols - 1u)), &pt);
+                      (it2n_par)(((uint64_t)c << IT2N_PAR_FRAC) / (d->cols - 1u)), &pt, NULL);
             mismatches += memcmp(pt.v[d->fp], d->v[k], sizeof d->v[k]) != 0;
             got_points++;
         }
     } else if (msg->type == IT2N_MSG_NET_ROW) {
         const it2n_msg_net_row *d = &msg->u.net_row;
         for (unsigned j = 0; j <= d->m; j++)
-            mismatches += memcmp(local.ctrl[d->row][j][d->fp], d->v[j], sizeof d->v[j]) != 0;
+            for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++)
+                mismatches += it2n_model_ctrl(&local, d->row, j, d->fp, ch) != d->v[j][ch];
         got_rows++;
     } else if (msg->type == IT2N_MSG_QUERY_RESULT) {
         const it2n_msg_query_result *d = &msg->u.query_result;
         it2n_point pt;
-        it2n_eval(&local, it2n_par_from_wire(d->u), it2n_par_from_wire(d->w), &pt);
+        it2n_eval(&local, it2n_par_from_wire(d->u), it2n_par_from_wire(d->w), &pt, NULL);
         mismatches += memcmp(pt.v, d->v, sizeof pt.v) != 0;
         mismatches += memcmp(&pt.sum, &d->sum, sizeof pt.sum) != 0;
         got_results++;

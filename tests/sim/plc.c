@@ -161,7 +161,7 @@ static int cmd_verify(const char *csv, int steps)
     solve_local(csv, &m);
     CHECK(read_regs(ctx, 0, IT2N_REG_STATUS_END, st) == 0, "status: %s", modbus_strerror(errno));
     CHECK(st[IT2N_REG_STATE] == IT2N_RS_SOLVED, "state %u", st[IT2N_REG_STATE]);
-    CHECK(st[IT2N_REG_N] == m.data.n && st[IT2N_REG_M] == m.data.m, "degrees");
+    CHECK(st[IT2N_REG_N] == m.n && st[IT2N_REG_M] == m.m, "degrees");
     order = st[IT2N_REG_WORD_ORDER];
     scale = st[IT2N_REG_COORD_SCALE];
     for (int a = 0; a < steps; a++)
@@ -171,7 +171,7 @@ static int cmd_verify(const char *csv, int steps)
             it2n_par u = (it2n_par)(((i128)u4 * IT2N_PAR_ONE + 5000) / 10000);
             it2n_par w = (it2n_par)(((i128)w4 * IT2N_PAR_ONE + 5000) / 10000);
             char what[64];
-            it2n_eval(&m, u, w, &pt);
+            it2n_eval(&m, u, w, &pt, NULL);
             query_uw(ctx, u4, w4, rf, rs);
             snprintf(what, sizeof what, "(u,w)=(%u,%u)e-4", u4, w4);
             check_point(rf, rs, &pt, &m, what);
@@ -186,11 +186,12 @@ static int cmd_verify(const char *csv, int steps)
             it2n_point pt;
             it2n_par u = (it2n_par)(((i128)r * IT2N_PAR_ONE) / (rows - 1));
             it2n_par w = (it2n_par)(((i128)c * IT2N_PAR_ONE) / (cols - 1));
-            it2n_eval(&m, u, w, &pt);
+            it2n_eval(&m, u, w, &pt, NULL);
             for (int k = 0; k < 3; k++) {
                 long long want = scaled(pt.v[IT2N_FP_D][3 + k], 10000, 32767);
                 int16_t got = (int16_t)grid[(r * cols + c) * 3 + (unsigned)k];
-                /* it2n_sample reuses row work: allow 1 LSB of Q24 -> 0 or 1 count. */
+                /* 1 count of slack (it2n_sample once reused row work; it is now
+                 * bit-identical to it2n_eval). */
                 CHECK(llabs(got - want) <= 1, "grid (%u,%u) k %d: %d vs %lld", r, c, k, got, want);
             }
         }
@@ -201,7 +202,7 @@ static int cmd_verify(const char *csv, int steps)
         for (unsigned c = 0; c < cols; c++) {
             it2n_point pt;
             it2n_eval(&m, (it2n_par)(((i128)r * IT2N_PAR_ONE) / (rows - 1)),
-                      (it2n_par)(((i128)c * IT2N_PAR_ONE) / (cols - 1)), &pt);
+                      (it2n_par)(((i128)c * IT2N_PAR_ONE) / (cols - 1)), &pt, NULL);
             for (unsigned k = 0; k < 3; k++) {
                 float got = f32(&gridf[((r * cols + c) * 3 + k) * 2]), want = q24f(pt.v[IT2N_FP_D][3 + k]);
                 CHECK(fabsf(got - want) <= 1e-6f, "grid f32 (%u,%u) k %u: %.9g vs %.9g", r, c, k, got, want);
@@ -211,13 +212,13 @@ static int cmd_verify(const char *csv, int steps)
     static uint16_t net[IT2N_REG_CTRL_END - IT2N_REG_CTRL];
     CHECK(read_regs(ctx, IT2N_REG_CTRL, (int)(IT2N_REG_CTRL_END - IT2N_REG_CTRL), net) == 0, "ctrl read");
     for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
-        for (unsigned i = 0; i <= m.data.n; i++)
-            for (unsigned j = 0; j <= m.data.m; j++)
+        for (unsigned i = 0; i <= m.n; i++)
+            for (unsigned j = 0; j <= m.m; j++)
                 for (unsigned ch = 0; ch < 6; ch++) {
                     if (!it2n_model_has_fp(&m, fp))
                         continue;
                     float got = f32(&net[((((fp * 8 + i) * 8 + j) * 6) + ch) * 2]);
-                    CHECK(got == q24f(m.ctrl[i][j][fp][ch]), "ctrl fp %u (%u,%u) ch %u", fp, i, j, ch);
+                    CHECK(got == q24f(it2n_model_ctrl(&m, i, j, fp, ch)), "ctrl fp %u (%u,%u) ch %u", fp, i, j, ch);
                 }
     modbus_close(ctx);
     modbus_free(ctx);
@@ -390,7 +391,7 @@ static int cmd_concurrent(int n, const char *csv)
             CHECK(read_regs(ctx[k], IT2N_REG_RES_F32, IT2N_REG_SUM_F32 + 24 - IT2N_REG_RES_F32, rf) == 0, "read");
             CHECK(read_regs(ctx[k], IT2N_REG_RES_SCALED, IT2N_REG_RESULTS_END - IT2N_REG_RES_SCALED, rs) == 0, "read");
             it2n_eval(&m, (it2n_par)(((i128)u4 * IT2N_PAR_ONE + 5000) / 10000),
-                      (it2n_par)(((i128)w4 * IT2N_PAR_ONE + 5000) / 10000), &pt);
+                      (it2n_par)(((i128)w4 * IT2N_PAR_ONE + 5000) / 10000), &pt, NULL);
             snprintf(what, sizeof what, "conn %d round %d", k, round);
             check_point(rf, rs, &pt, &m, what);
         }
