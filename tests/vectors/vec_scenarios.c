@@ -54,7 +54,7 @@ static uint64_t hash_point_v(uint64_t h, const it2n_model *mdl,
             continue;
         }
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            if (ch == IT2N_CH_Z && !(mdl->data.flags & IT2N_F_Z)) {
+            if (ch == IT2N_CH_Z && !(mdl->flags & IT2N_F_Z)) {
                 continue;
             }
             h = hash_i64(h, v[fp][ch]);
@@ -63,16 +63,56 @@ static uint64_t hash_point_v(uint64_t h, const it2n_model *mdl,
     return h;
 }
 
+/* The control nets exactly as stored: per footprint and channel the model
+ * carries, the exponent, then the (n+1)(m+1) mantissas. */
 static uint64_t hash_ctrl(const it2n_model *mdl)
 {
     uint64_t h = VEC_FNV_INIT;
-    unsigned i, j;
-    for (i = 0; i <= mdl->data.n; i++) {
-        for (j = 0; j <= mdl->data.m; j++) {
-            h = hash_point_v(h, mdl, mdl->ctrl[i][j]);
+    unsigned fp, ch, k, count = (mdl->n + 1u) * (mdl->m + 1u);
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if (!it2n_model_has_fp(mdl, fp)) {
+            continue;
+        }
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            if (ch == IT2N_CH_Z && !(mdl->flags & IT2N_F_Z)) {
+                continue;
+            }
+            h = hash_i64(h, mdl->frac[fp][ch]);
+            for (k = 0; k < count; k++) {
+                h = hash_i64(h, mdl->net[fp][ch][k]);
+            }
         }
     }
     return h;
+}
+
+/* The same nets read through it2n_model_ctrl (Q24, rounded). */
+static uint64_t hash_ctrl_q24(const it2n_model *mdl)
+{
+    uint64_t h = VEC_FNV_INIT;
+    unsigned i, j, fp, ch;
+    for (i = 0; i <= mdl->n; i++) {
+        for (j = 0; j <= mdl->m; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (!it2n_model_has_fp(mdl, fp)) {
+                    continue;
+                }
+                for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                    if (ch == IT2N_CH_Z && !(mdl->flags & IT2N_F_Z)) {
+                        continue;
+                    }
+                    h = hash_i64(h, it2n_model_ctrl(mdl, i, j, fp, ch));
+                }
+            }
+        }
+    }
+    return h;
+}
+
+/* 1 when two data sets are byte-identical, else 0. */
+static int64_t same_data(const it2n_dataset *a, const it2n_dataset *b)
+{
+    return memcmp(a, b, sizeof *a) == 0;
 }
 
 static int64_t as_i64(uint64_t h)
@@ -86,6 +126,19 @@ static int64_t as_i64(uint64_t h)
 }
 
 /* ---- Recording helpers ---------------------------------------------- */
+
+/* Where an error of eval/deriv/sample/locate was reported (rc < 0). */
+static void out_errinfo(const vec_out *o, int rc, const it2n_errinfo *e)
+{
+    if (rc < 0) {
+        out(o, "errinfo.code", e->code);
+        out(o, "errinfo.i", e->i);
+        out(o, "errinfo.j", e->j);
+        out(o, "errinfo.fp", e->fp);
+        out(o, "errinfo.ch", e->ch);
+        out(o, "errinfo.value", e->value);
+    }
+}
 
 static void out_err(const vec_out *o, int rc, const it2n_errinfo *e)
 {
@@ -110,7 +163,7 @@ static void out_point(const vec_out *o, const it2n_model *mdl,
             continue;
         }
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            if (ch == IT2N_CH_Z && !(mdl->data.flags & IT2N_F_Z)) {
+            if (ch == IT2N_CH_Z && !(mdl->flags & IT2N_F_Z)) {
                 continue;
             }
             out(o, "point.v", p->v[fp][ch]);
@@ -119,7 +172,7 @@ static void out_point(const vec_out *o, const it2n_model *mdl,
     if (!full) {
         return;
     }
-    if (!(mdl->data.flags & IT2N_F_TYPE1)) {
+    if (!(mdl->flags & IT2N_F_TYPE1)) {
         for (k = 0; k < 3u; k++) {
             out(o, "sum.upper_min", p->sum.upper_min[k]);
             out(o, "sum.upper_max", p->sum.upper_max[k]);
@@ -135,8 +188,10 @@ static void eval_at(it2n_vec_work *wk, const vec_out *o, const it2n_model *mdl,
 {
     int rc;
     memset(&wk->pt, 0, sizeof wk->pt);
-    rc = it2n_eval(mdl, u, w, &wk->pt);
+    memset(&wk->err, 0, sizeof wk->err);
+    rc = it2n_eval(mdl, u, w, &wk->pt, &wk->err);
     out(o, "eval.rc", rc);
+    out_errinfo(o, rc, &wk->err);
     if (rc == IT2N_OK) {
         out_point(o, mdl, &wk->pt, true);
     }
@@ -148,8 +203,10 @@ static void deriv_at(it2n_vec_work *wk, const vec_out *o,
     int rc;
     memset(&wk->du, 0, sizeof wk->du);
     memset(&wk->dw, 0, sizeof wk->dw);
-    rc = it2n_deriv(mdl, u, w, &wk->du, &wk->dw);
+    memset(&wk->err, 0, sizeof wk->err);
+    rc = it2n_deriv(mdl, u, w, &wk->du, &wk->dw, &wk->err);
     out(o, "deriv.rc", rc);
+    out_errinfo(o, rc, &wk->err);
     if (rc == IT2N_OK) {
         out_point(o, mdl, &wk->du, false);
         out_point(o, mdl, &wk->dw, false);
@@ -162,8 +219,10 @@ static void locate_at(it2n_vec_work *wk, const vec_out *o,
     unsigned fp, ch;
     int rc;
     memset(&wk->loc, 0, sizeof wk->loc);
-    rc = it2n_locate(mdl, x, y, &wk->loc);
+    memset(&wk->err, 0, sizeof wk->err);
+    rc = it2n_locate(mdl, x, y, &wk->loc, &wk->err);
     out(o, "locate.rc", rc);
+    out_errinfo(o, rc, &wk->err);
     if (rc != IT2N_OK) {
         return;
     }
@@ -180,7 +239,7 @@ static void locate_at(it2n_vec_work *wk, const vec_out *o,
         out(o, "locate.w", r->w);
         out(o, "locate.residual", r->residual);
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            if (ch == IT2N_CH_Z && !(mdl->data.flags & IT2N_F_Z)) {
+            if (ch == IT2N_CH_Z && !(mdl->flags & IT2N_F_Z)) {
                 continue;
             }
             out(o, "locate.v", r->v[ch]);
@@ -210,8 +269,9 @@ static int sample_cb(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w,
     return (s->stop_after != 0u && s->count >= s->stop_after) ? 7 : 0;
 }
 
-static void sample_grid(const vec_out *o, const it2n_model *mdl,
-                        unsigned rows, unsigned cols, uint32_t stop_after)
+static void sample_grid(it2n_vec_work *wk, const vec_out *o,
+                        const it2n_model *mdl, unsigned rows, unsigned cols,
+                        uint32_t stop_after)
 {
     sample_state s;
     int rc;
@@ -219,8 +279,10 @@ static void sample_grid(const vec_out *o, const it2n_model *mdl,
     s.hash = VEC_FNV_INIT;
     s.count = 0;
     s.stop_after = stop_after;
-    rc = it2n_sample(mdl, rows, cols, sample_cb, &s);
+    memset(&wk->err, 0, sizeof wk->err);
+    rc = it2n_sample(mdl, rows, cols, sample_cb, &s, &wk->err);
     out(o, "sample.rc", rc);
+    out_errinfo(o, rc, &wk->err);
     out(o, "sample.count", s.count);
     out(o, "sample.hash", as_i64(s.hash));
 }
@@ -335,13 +397,15 @@ static void scen_paper(it2n_vec_work *wk, const vec_out *o)
     if (rc != IT2N_OK) {
         return;
     }
-    /* The paper model's control nets in full. */
+    /* The paper model's control nets in full: as stored, then in Q24. */
+    out(o, "paper.net_hash", as_i64(hash_ctrl(&wk->a)));
     for (i = 0; i <= 3u; i++) {
         for (j = 0; j <= 3u; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
                     if (ch != IT2N_CH_Z) {
-                        out(o, "paper.ctrl", wk->a.ctrl[i][j][fp][ch]);
+                        out(o, "paper.ctrl",
+                            it2n_model_ctrl(&wk->a, i, j, fp, ch));
                     }
                 }
             }
@@ -368,14 +432,15 @@ static void scen_paper(it2n_vec_work *wk, const vec_out *o)
     locate_at(wk, o, &wk->a, Q24(3) + IT2N_VAL_ONE / 3, Q24(-2) - IT2N_VAL_ONE / 7);
     locate_at(wk, o, &wk->a, Q24(100), Q24(100));
 
-    sample_grid(o, &wk->a, 5, 4, 0);
-    sample_grid(o, &wk->a, 2, 2, 0);
-    sample_grid(o, &wk->a, 3, 3, 4); /* callback stops early */
-    sample_grid(o, &wk->a, 1, 3, 0); /* rows < 2: rejected */
+    sample_grid(wk, o, &wk->a, 5, 4, 0);
+    sample_grid(wk, o, &wk->a, 2, 2, 0);
+    sample_grid(wk, o, &wk->a, 3, 3, 4); /* callback stops early */
+    sample_grid(wk, o, &wk->a, 1, 3, 0); /* rows < 2: rejected */
 }
 
 /* Incremental update against a full re-solve on the paper model (left in
- * wk->a by scen_paper). */
+ * wk->a, its data set in wk->ds, by scen_paper). The update changes the
+ * model and its data set (wk->b, wk->ds2) together. */
 static void scen_update(it2n_vec_work *wk, const vec_out *o)
 {
     it2n_val v[IT2N_CH_COUNT];
@@ -389,31 +454,35 @@ static void scen_update(it2n_vec_work *wk, const vec_out *o)
         return;
     }
     wk->b = wk->a;
+    wk->ds2 = wk->ds;
     /* (1, 2, L): memberships change, x moves within its neighbours. */
     memcpy(v, wk->ds.values[1][2][IT2N_FP_L], sizeof v);
     v[IT2N_CH_X] += IT2N_VAL_ONE / 2;
     v[IT2N_CH_T] = IT2N_VAL_ONE / 8;
     v[IT2N_CH_I] = IT2N_VAL_ONE - 1;
     v[IT2N_CH_F] = 0;
-    rc = it2n_model_update(&wk->b, 1, 2, IT2N_FP_L, v, &wk->err);
+    rc = it2n_model_update(&wk->b, &wk->ds2, 1, 2, IT2N_FP_L, v, &wk->err);
     out_err(o, rc, &wk->err);
     out(o, "update.ctrl_hash", as_i64(hash_ctrl(&wk->b)));
+    out(o, "update.ctrl_q24_hash", as_i64(hash_ctrl_q24(&wk->b)));
     eval_at(wk, o, &wk->b, par(1, 2), par(1, 2));
     eval_at(wk, o, &wk->b, par(1, 3), par(2, 3));
 
-    /* The same change as a full re-solve: within 1 LSB of the update. */
-    wk->ds2 = wk->ds;
-    rc = it2n_dataset_put(&wk->ds2, 1, 2, IT2N_FP_L, v, true, &wk->err);
+    /* The same change as a full re-solve: the same data set and the same
+     * nets, bit for bit. */
+    rc = it2n_dataset_put(&wk->ds, 1, 2, IT2N_FP_L, v, true, &wk->err);
     out_err(o, rc, &wk->err);
+    out(o, "update.data_vs_put", same_data(&wk->ds, &wk->ds2));
     it2n_model_init(&wk->a);
-    rc = it2n_model_solve(&wk->a, &wk->ds2, &wk->err);
+    rc = it2n_model_solve(&wk->a, &wk->ds, &wk->err);
     out_err(o, rc, &wk->err);
     out(o, "update.resolve_hash", as_i64(hash_ctrl(&wk->a)));
     for (i = 0; i <= 3u; i++) {
         for (j = 0; j <= 3u; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                    it2n_val d = wk->a.ctrl[i][j][fp][ch] - wk->b.ctrl[i][j][fp][ch];
+                    it2n_val d = it2n_model_ctrl(&wk->a, i, j, fp, ch) -
+                                 it2n_model_ctrl(&wk->b, i, j, fp, ch);
                     d = d < 0 ? -d : d;
                     maxdiff = d > maxdiff ? d : maxdiff;
                 }
@@ -422,20 +491,23 @@ static void scen_update(it2n_vec_work *wk, const vec_out *o)
     }
     out(o, "update.max_lsb_vs_resolve", maxdiff);
 
-    /* Rejected updates change nothing. */
+    /* Rejected updates change nothing (model nor data set). */
     before = hash_ctrl(&wk->b);
     v[IT2N_CH_T] = IT2N_VAL_ONE + 1;
-    rc = it2n_model_update(&wk->b, 1, 2, IT2N_FP_L, v, &wk->err);
+    rc = it2n_model_update(&wk->b, &wk->ds2, 1, 2, IT2N_FP_L, v, &wk->err);
     out_err(o, rc, &wk->err);
     out(o, "update.unchanged", hash_ctrl(&wk->b) == before);
+    out(o, "update.data_unchanged", same_data(&wk->ds, &wk->ds2));
     v[IT2N_CH_T] = 0;
     v[IT2N_CH_X] = Q24(50); /* beyond R of the same point: not nested */
-    rc = it2n_model_update(&wk->b, 1, 2, IT2N_FP_L, v, &wk->err);
+    rc = it2n_model_update(&wk->b, &wk->ds2, 1, 2, IT2N_FP_L, v, &wk->err);
     out_err(o, rc, &wk->err);
     out(o, "update.unchanged", hash_ctrl(&wk->b) == before);
-    rc = it2n_model_update(&wk->b, 4, 0, IT2N_FP_L, v, &wk->err);
+    out(o, "update.data_unchanged", same_data(&wk->ds, &wk->ds2));
+    rc = it2n_model_update(&wk->b, &wk->ds2, 4, 0, IT2N_FP_L, v, &wk->err);
     out_err(o, rc, &wk->err);
     out(o, "update.unchanged", hash_ctrl(&wk->b) == before);
+    out(o, "update.data_unchanged", same_data(&wk->ds, &wk->ds2));
 }
 
 /* Generated models: solve, evaluate, differentiate, sample. */
@@ -459,11 +531,13 @@ static void scen_generated(it2n_vec_work *wk, const vec_out *o, unsigned n,
     }
     if (flags & IT2N_F_CHORD) {
         unsigned k;
+        rc = it2n_params(&wk->ds, wk->u, wk->w, &wk->err);
+        out_err(o, rc, &wk->err);
         for (k = 0; k <= n; k++) {
-            out(o, "chord.u", wk->a.u[k]);
+            out(o, "chord.u", wk->u[k]);
         }
         for (k = 0; k <= m; k++) {
-            out(o, "chord.w", wk->a.w[k]);
+            out(o, "chord.w", wk->w[k]);
         }
     }
     out(o, "gen.ctrl_hash", as_i64(hash_ctrl(&wk->a)));
@@ -472,25 +546,35 @@ static void scen_generated(it2n_vec_work *wk, const vec_out *o, unsigned n,
     eval_at(wk, o, &wk->a, par(2, 7), par(5, 9));
     deriv_at(wk, o, &wk->a, par(3, 8), par(1, 3));
     locate_at(wk, o, &wk->a, Q24(5 * (int)n), Q24(5 * (int)m));
-    sample_grid(o, &wk->a, 4, 3, 0);
+    sample_grid(wk, o, &wk->a, 4, 3, 0);
 }
 
-/* Chord-length update: parameters depend on the data, so a full re-solve. */
+/* Chord-length update (the model of the previous scenario, wk->a, solved
+ * from wk->ds): parameters follow footprint D, so every net moves; the
+ * result must equal a full re-solve of the changed data. */
 static void scen_chord_update(it2n_vec_work *wk, const vec_out *o)
 {
     it2n_val v[IT2N_CH_COUNT];
     int rc;
-    if (!wk->a.solved || !(wk->a.data.flags & IT2N_F_CHORD)) {
+    if (!wk->a.solved || !(wk->a.flags & IT2N_F_CHORD)) {
         out(o, "chord_update.skipped", 1);
         return;
     }
-    memcpy(v, wk->a.data.values[1][1][IT2N_FP_D], sizeof v);
+    memcpy(v, wk->ds.values[1][1][IT2N_FP_D], sizeof v);
     v[IT2N_CH_X] += IT2N_VAL_ONE / 4;
     v[IT2N_CH_T] = IT2N_VAL_ONE / 2;
-    rc = it2n_model_update(&wk->a, 1, 1, IT2N_FP_D, v, &wk->err);
+    rc = it2n_model_update(&wk->a, &wk->ds, 1, 1, IT2N_FP_D, v, &wk->err);
     out_err(o, rc, &wk->err);
     out(o, "chord_update.ctrl_hash", as_i64(hash_ctrl(&wk->a)));
-    out(o, "chord_update.u1", wk->a.u[1]);
+    rc = it2n_params(&wk->ds, wk->u, wk->w, &wk->err);
+    out_err(o, rc, &wk->err);
+    out(o, "chord_update.u1", wk->u[1]);
+    it2n_model_init(&wk->b);
+    rc = it2n_model_solve(&wk->b, &wk->ds, &wk->err);
+    out_err(o, rc, &wk->err);
+    out(o, "chord_update.resolve_same",
+        memcmp(wk->a.net, wk->b.net, sizeof wk->a.net) == 0 &&
+            memcmp(wk->a.frac, wk->b.frac, sizeof wk->a.frac) == 0);
 }
 
 /* Bad input: clear error reports, nothing changed. */

@@ -21,13 +21,15 @@
  */
 typedef void (*it2n_vec_put)(void *state, const char *tag, int64_t value);
 
-/* Working memory for one run. Large (about 2.5 model structs): callers keep
- * it in static storage (.bss), never on a small embedded stack. */
+/* Working memory for one run. Large (two data sets and two models, about
+ * 68 KB at IT2N_MAX_DEGREE 7): callers keep it in static storage (.bss),
+ * never on a small embedded stack. */
 typedef struct it2n_vec_work {
     it2n_dataset ds, ds2;
     it2n_model a, b;
     it2n_point pt, du, dw;
     it2n_locate_result loc;
+    it2n_par u[IT2N_DIM], w[IT2N_DIM];
     it2n_errinfo err;
 } it2n_vec_work;
 
