@@ -1,13 +1,14 @@
 /*
- * Evaluating the surfaces: Bernstein basis, tensor weights, derivatives and
- * grid sampling.
+ * Evaluating the surfaces: Bernstein basis, tensor-product sums,
+ * derivatives and grid sampling.
  *
- * At (u, w) the tensor weights W[i][j] = B_i(u) B_j(w) (Q30, one rounding
- * each) are shared by every footprint and channel; each surface value is
- * then one dot product of W with a net's int32 mantissas (32 x 32 -> 64
- * multiply-accumulates: SMLAL on ARMv7-M, four MULS on ARMv6-M), rounded
- * once to Q24. it2n_sample calls the same code per node, so a sampled node
- * is bit-identical to it2n_eval at the same (u, w).
+ * At (u, w) the basis values B_i(u), B_j(w) (Q30) are shared by every
+ * footprint and channel. Each surface value is two short stages over a
+ * net's int32 mantissas, q_j = sum_i B_i(u) P_ij (rounded to the net's
+ * mantissa scale) and sum_j B_j(w) q_j (rounded once to Q24), all 32 x 32 ->
+ * 64 multiply-accumulates (SMLAL on ARMv7-M, four MULS on ARMv6-M) with a
+ * few dozen bytes of stack. it2n_sample calls the same code per node, so a
+ * sampled node is bit-identical to it2n_eval at the same (u, w).
  */
 #include <string.h>
 
@@ -57,60 +58,65 @@ static void dbasis26(unsigned deg, it2n_par t, int32_t db[IT2N_DIM])
     }
 }
 
-/* W[i * cols + j] = round(a[i] * c[j] / 2^30). */
-static void tensor(const int32_t *a, unsigned rows, const int32_t *c,
-                   unsigned cols, int32_t *wt)
-{
-    unsigned i, j;
-    for (i = 0; i < rows; i++) {
-        for (j = 0; j < cols; j++) {
-            wt[i * cols + j] = (int32_t)((it2n_smul32(a[i], c[j]) + Q30_HALF) >> 30);
-        }
-    }
-}
-
-/* sum_k wt[k] * net[k]: |wt| sums to about 2^30 (2^30 * 2 deg for Q26
- * derivative weights), |net| < 2^31, so the sum stays below 2^62. */
-static int64_t dot(const int32_t *wt, const int32_t *net, unsigned count)
+/*
+ * One surface value: sum_j cw[j] sum_i cu[i] net[i (m+1) + j]. cu, cw are
+ * Q30 basis values or Q26 derivative weights (|cu| sums to at most 2^30
+ * times 2 deg). Stage 1 rounds to the mantissa scale (saturating: a convex
+ * combination exceeds int32 by at most the basis rounding), or half of it
+ * for derivative weights (up to 2 deg times the net), stage 2 to Q24. False
+ * if the result does not fit Q39.24 (derivatives of nets near 2^39 only).
+ */
+static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
+                    const int32_t *cu, int ufrac, const int32_t *cw, int wfrac,
+                    it2n_val *out)
 {
     int64_t acc = 0;
-    unsigned k;
-    for (k = 0; k < count; k++) {
-        acc += it2n_smul32(wt[k], net[k]);
+    unsigned i, j;
+    int s, s1 = ufrac < 30 ? 31 : 30;
+    for (j = 0; j < m1; j++) {
+        int64_t q = 0;
+        for (i = 0; i < n1; i++) {
+            q += it2n_smul32(cu[i], net[i * m1 + j]);
+        }
+        /* constant shifts: no run-time 64-bit shift helper on ARMv6-M */
+        q = s1 == 30 ? (q + ((int64_t)1 << 29)) >> 30 : (q + ((int64_t)1 << 30)) >> 31;
+        q = q > INT32_MAX ? INT32_MAX : (q < -INT32_MAX ? -INT32_MAX : q);
+        acc += it2n_smul32(cw[j], (int32_t)q);
     }
-    return acc;
+    s = ufrac - s1 + wfrac + frac - IT2N_VAL_FRAC;
+    if (s < 0) {
+        /* Only nets near 2^39 get here: check the left shift. */
+        int64_t lim = INT64_MAX >> (unsigned)-s;
+        if (acc > lim || acc < -lim) {
+            return false;
+        }
+    }
+    *out = it2n__shift_round(acc, s);
+    return true;
 }
 
 /*
- * One weight set applied to every net in fpmask: out[fp][ch] =
- * round(dot * 2^-(wfrac + frac - 24)). Returns false (and names fp, ch in
- * *bad) if a result does not fit Q39.24 (derivatives only: values are
- * convex combinations of the net).
+ * One pair of weight vectors applied to every net in fpmask into
+ * out[fp][ch]. Returns false (and names fp, ch in *bad) if a result does not
+ * fit Q39.24.
  */
-static bool apply(const it2n_model *mdl, unsigned fpmask, const int32_t *wt,
-                  int wfrac, it2n_val *out, unsigned *bad)
+static bool apply(const it2n_model *mdl, unsigned fpmask, const int32_t *cu,
+                  int ufrac, const int32_t *cw, int wfrac, it2n_val *out,
+                  unsigned *bad)
 {
-    unsigned count = (mdl->n + 1u) * (mdl->m + 1u), fp, ch;
+    unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u, fp, ch;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
             it2n_val *o = &out[fp * IT2N_CH_COUNT + ch];
-            int64_t acc;
-            int s;
             *o = 0;
             if (!(fpmask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
                 continue;
             }
-            acc = dot(wt, mdl->net[fp][ch], count);
-            s = wfrac + mdl->frac[fp][ch] - IT2N_VAL_FRAC;
-            if (s < 0) {
-                /* Only nets near 2^39 get here: check the left shift. */
-                int64_t lim = INT64_MAX >> (unsigned)-s;
-                if (acc > lim || acc < -lim) {
-                    *bad = fp * IT2N_CH_COUNT + ch;
-                    return false;
-                }
+            if (!surface(mdl->net[fp][ch], mdl->frac[fp][ch], n1, m1, cu,
+                         ufrac, cw, wfrac, o)) {
+                *bad = fp * IT2N_CH_COUNT + ch;
+                return false;
             }
-            *o = it2n__shift_round(acc, s);
         }
     }
     return true;
@@ -162,16 +168,15 @@ static int check_args(const it2n_model *mdl, it2n_par u, it2n_par w,
     return IT2N_OK;
 }
 
-/* Values of every footprint at (u, w) into out->v (no summary). */
+/* Values of every footprint at (u, w) into v (no summary). */
 static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w,
                         it2n_val *v)
 {
-    int32_t bu[IT2N_DIM], bw[IT2N_DIM], wt[IT2N_DIM * IT2N_DIM];
+    int32_t bu[IT2N_DIM], bw[IT2N_DIM];
     unsigned bad;
     it2n__basis30(mdl->n, u, bu);
     it2n__basis30(mdl->m, w, bw);
-    tensor(bu, mdl->n + 1u, bw, mdl->m + 1u, wt);
-    if (!apply(mdl, it2n__fp_mask(mdl->flags), wt, 30, v, &bad)) {
+    if (!apply(mdl, it2n__fp_mask(mdl->flags), bu, 30, bw, 30, v, &bad)) {
         IT2N_ASSERT(false); /* convex weights: values are within the net */
     }
 }
@@ -197,25 +202,21 @@ int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
                     it2n_errinfo *err)
 {
     int32_t bu[IT2N_DIM], bw[IT2N_DIM], d[IT2N_DIM];
-    int32_t wt[IT2N_DIM * IT2N_DIM];
-    unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u, bad = 0u;
+    unsigned bad = 0u;
     it2n__basis30(mdl->n, u, bu);
     it2n__basis30(mdl->m, w, bw);
     if (v != NULL) {
-        tensor(bu, n1, bw, m1, wt);
-        (void)apply(mdl, fpmask, wt, 30, v, &bad);
+        (void)apply(mdl, fpmask, bu, 30, bw, 30, v, &bad);
     }
     if (du != NULL) {
         dbasis26(mdl->n, u, d);
-        tensor(d, n1, bw, m1, wt);
-        if (!apply(mdl, fpmask, wt, 26, du, &bad)) {
+        if (!apply(mdl, fpmask, d, 26, bw, 30, du, &bad)) {
             goto overflow;
         }
     }
     if (dw != NULL) {
         dbasis26(mdl->m, w, d);
-        tensor(bu, n1, d, m1, wt);
-        if (!apply(mdl, fpmask, wt, 26, dw, &bad)) {
+        if (!apply(mdl, fpmask, bu, 30, d, 26, dw, &bad)) {
             goto overflow;
         }
     }

@@ -53,6 +53,18 @@ IT2N_INLINE uint64_t it2n_umul32(uint32_t a, uint32_t b)
 #endif
 }
 
+/* Signed 32 x unsigned 32 -> 64 (b < 2^31 in every caller). */
+IT2N_INLINE int64_t it2n_mul32su(int32_t a, uint32_t b)
+{
+#if IT2N_MUL_HALVES
+    uint64_t p = it2n_umul32((uint32_t)a, b);
+    uint32_t hi = (uint32_t)(p >> 32) - (a < 0 ? b : 0u);
+    return (int64_t)(((uint64_t)hi << 32) | (uint32_t)p);
+#else
+    return (int64_t)a * (int64_t)b;
+#endif
+}
+
 /* Signed 32 x 32 -> 64 (one SMULL on ARMv7-M). */
 IT2N_INLINE int64_t it2n_smul32(int32_t a, int32_t b)
 {

@@ -20,10 +20,11 @@ void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM]);
 int64_t it2n__shift_round(int64_t v, int s);
 
 /* Inverse collocation matrix of one direction in fixed point:
- * C[r][k] = c[r * (deg + 1) + k] * 2^-frac, every row's absolute sum
- * below 2^61. */
+ * C[r][k] = (hi[r * (deg + 1) + k] * 2^24 + lo[...]) * 2^-frac, hi signed,
+ * 0 <= lo < 2^24, every row's absolute sum below 2^55. Split in 32-bit
+ * halves so the solve multiplies 32 x 32 -> 64 only. */
 typedef struct it2n__uinv {
-    const int64_t *c;
+    const int32_t *hi, *lo;
     int frac;
 } it2n__uinv;
 
@@ -32,11 +33,13 @@ extern const it2n__uinv it2n__uniform_inv[IT2N_MAX_DEGREE];
 
 /*
  * Invert the collocation matrix M[r][c] = B_c^deg(t_r) in 62-bit soft
- * floating point (Gauss-Jordan, partial pivoting) and round the inverse to
- * out[] as above, *frac its scale. IT2N_ERR_SINGULAR or IT2N_ERR_OVERFLOW.
+ * floating point (Gauss-Jordan, partial pivoting) and round the inverse into
+ * hi[], lo[] as above, *frac its scale. IT2N_ERR_SINGULAR or
+ * IT2N_ERR_OVERFLOW.
  */
 int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
-                 int64_t out[IT2N_DIM * IT2N_DIM], int *frac,
+                 int32_t hi[IT2N_DIM * IT2N_DIM],
+                 int32_t lo[IT2N_DIM * IT2N_DIM], int *frac,
                  it2n_errinfo *err) IT2N_WUR;
 
 /* Validate one footprint's values for a data set with `flags`. */

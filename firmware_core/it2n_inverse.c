@@ -129,7 +129,8 @@ static void basis_xf(unsigned deg, it2n_par t, xf b[IT2N_DIM])
 }
 
 int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
-                 int64_t out[IT2N_DIM * IT2N_DIM], int *frac,
+                 int32_t hi[IT2N_DIM * IT2N_DIM],
+                 int32_t lo[IT2N_DIM * IT2N_DIM], int *frac,
                  it2n_errinfo *err)
 {
     xf a[IT2N_DIM][IT2N_DIM], rowmax;
@@ -186,8 +187,8 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
             }
         }
     }
-    /* Scale: largest row absolute sum < 2^(62 + e), so 2^(-2 - e) keeps
-     * every rounded row sum below 2^61. */
+    /* Scale: largest row absolute sum < 2^(62 + e), so 2^(-8 - e) keeps
+     * every rounded row sum below 2^55. */
     rowmax = xf_norm(0, 0);
     for (r = 0; r < n; r++) {
         xf s = xf_norm(0, 0);
@@ -198,15 +199,17 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
             rowmax = s;
         }
     }
-    *frac = -2 - rowmax.e;
+    *frac = -8 - rowmax.e;
     if (*frac < 0 || *frac > 61) {
         return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, -1, -1, 0, 0, 0);
     }
     for (r = 0; r < n; r++) {
         for (c = 0; c < n; c++) {
             /* an entry's exponent is at most rowmax.e, so this is a right
-             * shift by 2 or more */
-            out[r * n + c] = it2n__shift_round(a[r][c].m, -(a[r][c].e + *frac));
+             * shift by 8 or more */
+            int64_t q = it2n__shift_round(a[r][c].m, -(a[r][c].e + *frac));
+            hi[r * n + c] = (int32_t)(q >> 24);
+            lo[r * n + c] = (int32_t)(q & 0xFFFFFF);
         }
     }
     return IT2N_OK;

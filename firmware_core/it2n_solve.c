@@ -3,15 +3,19 @@
  * channel, and the incremental update of one data point.
  *
  * The data satisfy F = M P N^T (M[k][i] = B_i^n(u_k), N[l][j] = B_j^m(w_l)),
- * so with C_n = M^-1 and C_m = N^-1 (fixed point: exact tables for uniform
- * parameters, it2n__invert for chord-length ones):
+ * so with C_n = M^-1 and C_m = N^-1 (fixed point, rows summing below 2^55:
+ * exact tables for uniform parameters, it2n__invert for chord-length ones):
  *   stage 1  G[k][j] = sum_l F[k][l] C_m[j][l]      ((n+1)(m+1)^2 products)
  *   stage 2  P[i][j] = sum_k C_n[i][k] G[k][j]      ((n+1)^2(m+1) products)
- * Each sum is exact in 128 bits and rounded once to 62 bits; the net is then
- * stored as int32 mantissas with one exponent so that its largest point
- * uses the full width. A net depends only on its own channel's data and
- * the two inverses, so the update re-solves just the nets that changed and
- * stays bit-identical to a full solve.
+ * Every product is split into 32 x 32 -> 64 multiplies of the operands'
+ * halves (C = hi 2^24 + lo, G = hi 2^31 + lo, large data likewise), summed
+ * in int64 accumulators and recombined with constant shifts: one rounding
+ * per G and per P (to 2^-58 of its bound), no 64 x 64 product and no
+ * run-time shift. The net is then stored as int32 mantissas with
+ * one exponent chosen so that its largest point uses the full width.
+ * A net depends only on its own channel's data and the two inverses, so the
+ * update re-solves just the nets that changed and stays bit-identical to a
+ * full solve.
  */
 #include <string.h>
 
@@ -24,10 +28,10 @@
 /* Pivots below 2^-24 mean the parameters (nearly) coincide. */
 #define PIVOT_MIN ((int64_t)1 << (IT2N_PAR_FRAC - 24))
 
-/* The inverse of one direction: c[r * (deg+1) + k] * 2^-frac, cs_bits the
- * bit length of its largest row absolute sum. */
+/* The inverse of one direction (see it2n__uinv), cs_bits the bit length
+ * of its largest row absolute sum. */
 typedef struct dir_inv {
-    const int64_t *c;
+    const int32_t *hi, *lo;
     int frac;
     unsigned cs_bits;
 } dir_inv;
@@ -135,15 +139,15 @@ int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM],
     return rc != IT2N_OK ? rc : params_chord(ds, 1u, w, err);
 }
 
-/* Bit length of the largest row absolute sum (< 2^61 by construction). */
-static unsigned rowsum_bits(const int64_t *c, unsigned deg)
+/* Bit length of the largest row absolute sum (< 2^55 by construction). */
+static unsigned rowsum_bits(const int32_t *hi, const int32_t *lo, unsigned deg)
 {
-    unsigned n = deg + 1u, l, j;
+    unsigned n = deg + 1u, r, k;
     uint64_t best = 0u;
-    for (l = 0; l < n; l++) {
+    for (r = 0; r < n; r++) {
         uint64_t s = 0u;
-        for (j = 0; j < n; j++) {
-            int64_t v = c[l * n + j];
+        for (k = 0; k < n; k++) {
+            int64_t v = (int64_t)hi[r * n + k] * 16777216 + lo[r * n + k];
             s += (uint64_t)(v < 0 ? -v : v);
         }
         best = s > best ? s : best;
@@ -153,9 +157,10 @@ static unsigned rowsum_bits(const int64_t *c, unsigned deg)
 
 static void dir_uniform(unsigned deg, dir_inv *d)
 {
-    d->c = it2n__uniform_inv[deg - 1u].c;
+    d->hi = it2n__uniform_inv[deg - 1u].hi;
+    d->lo = it2n__uniform_inv[deg - 1u].lo;
     d->frac = it2n__uniform_inv[deg - 1u].frac;
-    d->cs_bits = rowsum_bits(d->c, deg);
+    d->cs_bits = rowsum_bits(d->hi, d->lo, deg);
 }
 
 /* Largest |F| of one channel and its bit length. */
@@ -201,20 +206,85 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
     return IT2N_OK;
 }
 
-/* round(a / 2^s) of a 128-bit sum known to fit 64 bits after the shift. */
-static int64_t round128(it2n_i128 a, unsigned s)
+/* Data at or above 2^30 (coordinates of magnitude 64 and more) take the
+ * wide stage-1 path. */
+#define SMALL_DATA_BITS 30
+
+/*
+ * Stage 1 for column j: g[k] = sum_l F[k][l] C_m[j][l], rounded. Small data
+ * (|F| < 2^30): F * (hi 2^24 + lo), g = S / 2^24 (frac of C_m). Wide data
+ * (|F| < 2^47): F = fh 2^30 + fl as well, g = S / 2^42 (frac of C_m - 18).
+ * Bounds (row sums of C below 2^55, so sum |hi| < 2^31 + 16, lo < 2^24):
+ * every int64 partial sum stays below 2^62 and |g| < 2^62.
+ */
+static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
+                   const dir_inv *dw, unsigned j, bool wide, int64_t *g)
 {
-    int64_t r;
-    if (s == 0u) {
-        r = (int64_t)a.lo;
-        IT2N_ASSERT(a.hi == (a.lo >> 63 ? UINT64_MAX : 0u));
-        return r;
+    unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, k, l;
+    const int32_t *hi = &dw->hi[j * m1], *lo = &dw->lo[j * m1];
+    for (k = 0; k < n1; k++) {
+        const it2n_val *f = &ds->values[k][0][fp][ch];
+        int64_t a1 = 0, a2 = 0, a3 = 0, a4 = 0;
+        if (!wide) {
+            /* one accumulator per loop: no register spills on ARMv6-M */
+            for (l = 0; l < m1; l++) {
+                a1 += it2n_smul32((int32_t)f[l * IT2N_FP_COUNT * IT2N_CH_COUNT], hi[l]);
+            }
+            for (l = 0; l < m1; l++) {
+                a2 += it2n_mul32su((int32_t)f[l * IT2N_FP_COUNT * IT2N_CH_COUNT],
+                                   (uint32_t)lo[l]);
+            }
+            g[k] = a1 + ((a2 + ((int64_t)1 << 23)) >> 24);
+            continue;
+        }
+        for (l = 0; l < m1; l++) {
+            int64_t x = f[l * IT2N_FP_COUNT * IT2N_CH_COUNT];
+            int32_t xh = (int32_t)(x >> 30), xl = (int32_t)(x & 0x3FFFFFFF);
+            a1 += it2n_smul32(xh, hi[l]); /* < 2^17 2^31        */
+            a2 += it2n_smul32(xh, lo[l]); /* < 16 2^17 2^24     */
+            a3 += it2n_smul32(xl, hi[l]); /* < 2^30 (2^31 + 16) */
+            a4 += it2n_smul32(xl, lo[l]); /* < 16 2^30 2^24     */
+        }
+        /* S = a1 2^54 + a2 2^30 + a3 2^24 + a4; g = S / 2^42 */
+        a3 += a4 >> 24;
+        a3 += a2 * 64;
+        g[k] = a1 * 4096 + ((a3 + ((int64_t)1 << 17)) >> 18);
     }
-    if (!it2n_i128_round(a, s, &r)) {
-        IT2N_ASSERT(false); /* the shifts were chosen from the bounds */
-        r = 0;
+}
+
+/*
+ * Stage 2 for column j: p[i] = sum_k C_n[i][k] g[k] / 2^55 with C_n = hi
+ * 2^24 + lo and g = gh 2^31 + gl: three int64 partial sums below 2^62. The
+ * fourth, sum lo gl < 2^59, is below 16 units of p and dropped (p is kept to
+ * 2^-58 of its bound and rounded to 31 bits afterwards).
+ */
+static void stage2(const dir_inv *du, unsigned n1, const int64_t *g,
+                   int64_t *p, unsigned stride)
+{
+    int32_t gh[IT2N_DIM], gl[IT2N_DIM];
+    unsigned i, k;
+    for (k = 0; k < n1; k++) {
+        gh[k] = (int32_t)(g[k] >> 31);
+        gl[k] = (int32_t)(g[k] & 0x7FFFFFFF);
     }
-    return r;
+    for (i = 0; i < n1; i++) {
+        const int32_t *hi = &du->hi[i * n1], *lo = &du->lo[i * n1];
+        int64_t a = 0, b = 0, c = 0;
+        /* one accumulator per loop: no register spills on ARMv6-M */
+        for (k = 0; k < n1; k++) {
+            a += it2n_smul32(hi[k], gh[k]);
+        }
+        for (k = 0; k < n1; k++) {
+            b += it2n_mul32su(gh[k], (uint32_t)lo[k]);
+        }
+        for (k = 0; k < n1; k++) {
+            c += it2n_mul32su(hi[k], (uint32_t)gl[k]);
+        }
+        /* S = a 2^55 + b 2^31 + c 2^24; p = S / 2^55 (floor inside, one
+         * rounding at the end) */
+        b += c >> 7;
+        p[i * stride] = a + ((b + ((int64_t)1 << 23)) >> 24);
+    }
 }
 
 /*
@@ -226,8 +296,9 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
                       int8_t *frac)
 {
     int64_t p64[IT2N_DIM * IT2N_DIM], g[IT2N_DIM];
-    unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, i, j, k, l, count = n1 * m1;
-    unsigned eb = data_bits(ds, fp, ch), sg, sp = du->cs_bits, eh;
+    unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, j, k, count = n1 * m1;
+    unsigned eb = data_bits(ds, fp, ch), eh;
+    bool wide = eb > SMALL_DATA_BITS;
     uint64_t big = 0u;
     int s, f;
     if (eb == 0u) {
@@ -235,28 +306,13 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
         *frac = 0;
         return;
     }
-    /* G < max|F| 2^cs_bits(C_m): shift it below 2^62. P's 128-bit sum of
-     * C_n (row sums < 2^cs) times G (< 2^62) shifts by cs bits. */
-    sg = eb + dw->cs_bits > 62u ? eb + dw->cs_bits - 62u : 0u;
     for (j = 0; j < m1; j++) {
-        for (k = 0; k < n1; k++) {
-            it2n_i128 acc = it2n_i128_zero();
-            for (l = 0; l < m1; l++) {
-                it2n_mac128(&acc, ds->values[k][l][fp][ch], dw->c[j * m1 + l]);
-            }
-            g[k] = round128(acc, sg);
-        }
-        for (i = 0; i < n1; i++) {
-            it2n_i128 acc = it2n_i128_zero();
-            int64_t v;
-            for (k = 0; k < n1; k++) {
-                it2n_mac128(&acc, du->c[i * n1 + k], g[k]);
-            }
-            v = round128(acc, sp);
-            p64[i * m1 + j] = v;
-            v = v < 0 ? -v : v;
-            big = (uint64_t)v > big ? (uint64_t)v : big;
-        }
+        stage1(ds, fp, ch, dw, j, wide, g);
+        stage2(du, n1, g, &p64[j], m1);
+    }
+    for (k = 0; k < count; k++) {
+        int64_t v = p64[k] < 0 ? -p64[k] : p64[k];
+        big = (uint64_t)v > big ? (uint64_t)v : big;
     }
     /* Normalise: the largest mantissa in [2^30, 2^31). */
     eh = it2n_bitlen64(big);
@@ -264,8 +320,9 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
     if (s > 0 && it2n__shift_round((int64_t)big, s) > INT32_MAX) {
         s++;
     }
-    /* value = p64 * 2^(sg + sp - 24 - frac_n - frac_m) */
-    f = IT2N_VAL_FRAC + du->frac + dw->frac - (int)sg - (int)sp - s;
+    /* g has frac_m fractional bits (wide: frac_m - 18), p64 frac_n +
+     * frac_g - 55, the mantissas s fewer. */
+    f = du->frac + dw->frac - 55 - (wide ? 18 : 0) - s;
     if (f > 127) { /* a net of values below 2^-96: keep the exponent */
         s += f - 127;
         f = 127;
@@ -319,23 +376,26 @@ static void commit(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask,
 static int solve_chord(it2n_model *mdl, const it2n_dataset *ds,
                        unsigned fpmask, bool full, it2n_errinfo *err)
 {
-    int64_t cu[IT2N_DIM * IT2N_DIM], cw[IT2N_DIM * IT2N_DIM];
+    int32_t uh[IT2N_DIM * IT2N_DIM], ul[IT2N_DIM * IT2N_DIM];
+    int32_t wh[IT2N_DIM * IT2N_DIM], wl[IT2N_DIM * IT2N_DIM];
     it2n_par u[IT2N_DIM], w[IT2N_DIM];
     dir_inv du, dw;
     int rc = it2n_params(ds, u, w, err);
     if (rc == IT2N_OK) {
-        rc = it2n__invert(ds->n, u, cu, &du.frac, err);
+        rc = it2n__invert(ds->n, u, uh, ul, &du.frac, err);
     }
     if (rc == IT2N_OK) {
-        rc = it2n__invert(ds->m, w, cw, &dw.frac, err);
+        rc = it2n__invert(ds->m, w, wh, wl, &dw.frac, err);
     }
     if (rc != IT2N_OK) {
         return rc;
     }
-    du.c = cu;
-    dw.c = cw;
-    du.cs_bits = rowsum_bits(cu, ds->n);
-    dw.cs_bits = rowsum_bits(cw, ds->m);
+    du.hi = uh;
+    du.lo = ul;
+    dw.hi = wh;
+    dw.lo = wl;
+    du.cs_bits = rowsum_bits(uh, ul, ds->n);
+    dw.cs_bits = rowsum_bits(wh, wl, ds->m);
     rc = check_bound(ds, fpmask, &du, &dw, err);
     if (rc != IT2N_OK) {
         return rc;

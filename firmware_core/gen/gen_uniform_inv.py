@@ -3,10 +3,11 @@
 uniform Bernstein collocation matrices M_d[k][i] = B_i^d(k/d), d = 1..15,
 rounded once to 64-bit fixed point.
 
-Each table C_d = M_d^-1 is computed in exact rational arithmetic and stored
-as round(C_d * 2^frac_d) (ties away from zero), with frac_d chosen so that
-every row's absolute sum stays below 2^61: the solve's 128-bit sums of
-(data < 2^48) x (entry) then cannot overflow. `make test` regenerates the
+Each table C_d = M_d^-1 is computed in exact rational arithmetic, rounded
+once to q = round(C_d * 2^frac_d) (ties away from zero) with frac_d chosen so
+that every row's absolute sum stays below 2^55, and stored split as
+q = hi * 2^24 + lo (hi signed, 0 <= lo < 2^24): the solve multiplies 32-bit
+halves only (see it2n_solve.c for the bounds). `make test` regenerates the
 file and fails if the committed copy differs.
 """
 import sys
@@ -48,8 +49,8 @@ def main():
         " *",
         " * Inverses C_d = M_d^-1 of the uniform Bernstein collocation matrices",
         " * M_d[k][i] = B_i^d(k/d), exact rationals rounded once to",
-        " * round(C_d * 2^frac) (row-major, C_d[l][j] at l*(d+1)+j). Every",
-        " * row's absolute sum is below 2^61.",
+        " * q = round(C_d * 2^frac) (row-major, C_d[r][k] at r*(d+1)+k), every",
+        " * row's absolute sum below 2^55, stored as q = hi * 2^24 + lo.",
         " */",
         '#include "it2n_internal.h"',
         "",
@@ -59,17 +60,16 @@ def main():
         c = inverse(d)
         n = d + 1
         rowsum = max(sum(abs(c[l][j]) for j in range(n)) for l in range(n))
-        frac = 61 - int(rowsum).bit_length()
+        frac = 54 - int(rowsum).bit_length()
         q = [rnd(c[l][j] * 2 ** frac) for l in range(n) for j in range(n)]
-        assert max(sum(abs(q[l * n + j]) for j in range(n)) for l in range(n)) < 2 ** 61
+        assert max(sum(abs(q[l * n + j]) for j in range(n)) for l in range(n)) < 2 ** 55
         guard = "#if IT2N_MAX_DEGREE >= %d" % d
         out.append(guard)
-        out.append("static const int64_t inv%d[%d] = {" % (d, n * n))
-        for l in range(n):
-            row = ", ".join(("-INT64_C(%d)" % -v) if v < 0 else ("INT64_C(%d)" % v)
-                            for v in q[l * n:(l + 1) * n])
-            out.append("    " + row + ",")
-        out.append("};")
+        for part, vals in (("hi", [v >> 24 for v in q]), ("lo", [v & 0xFFFFFF for v in q])):
+            out.append("static const int32_t inv%d_%s[%d] = {" % (d, part, n * n))
+            for l in range(n):
+                out.append("    " + ", ".join("%d" % v for v in vals[l * n:(l + 1) * n]) + ",")
+            out.append("};")
         out.append("#endif")
         entries.append((d, frac))
     out.append("")
@@ -77,7 +77,7 @@ def main():
     for d, frac in entries:
         if d > 1:
             out.append("#if IT2N_MAX_DEGREE >= %d" % d)
-        out.append("    {inv%d, %d}," % (d, frac))
+        out.append("    {inv%d_hi, inv%d_lo, %d}," % (d, d, frac))
         if d > 1:
             out.append("#endif")
     out.append("};")
