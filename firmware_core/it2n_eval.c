@@ -42,6 +42,18 @@ void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
         }
         b[0] = (int32_t)((it2n_smul32(s30, b[0]) + Q30_HALF) >> 30);
     }
+    /* Exact partition of unity: the largest value takes the rounding
+     * residue (a few LSB), so sum_i b[i] = 2^30 exactly. Constant data give
+     * constant surfaces, and a stage-1 sum never leaves the net's range. */
+    {
+        int32_t sum = 0;
+        unsigned big = 0u;
+        for (i = 0; i <= deg; i++) {
+            sum += b[i];
+            big = b[i] > b[big] ? i : big;
+        }
+        b[big] += Q30_ONE - sum;
+    }
 }
 
 /* Derivative basis in Q26: d/dt sum_i c_i B_i^deg(t) = sum_i c_i db[i], with
@@ -61,10 +73,11 @@ static void dbasis26(unsigned deg, it2n_par t, int32_t db[IT2N_DIM])
 /*
  * One surface value: sum_j cw[j] sum_i cu[i] net[i (m+1) + j]. cu, cw are
  * Q30 basis values or Q26 derivative weights (|cu| sums to at most 2^30
- * times 2 deg). Stage 1 rounds to the mantissa scale (saturating: a convex
- * combination exceeds int32 by at most the basis rounding), or half of it
- * for derivative weights (up to 2 deg times the net), stage 2 to Q24. False
- * if the result does not fit Q39.24 (derivatives of nets near 2^39 only).
+ * times 2 deg). Stage 1 rounds to the mantissa scale (a convex combination:
+ * the basis sums to 2^30 exactly, so it stays within the net's int32 range),
+ * or half of it for derivative weights (up to 2 deg times the net), stage 2
+ * to Q24. False if the result does not fit Q39.24 (derivatives of nets near
+ * 2^39 only).
  */
 static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
                     const int32_t *cu, int ufrac, const int32_t *cw, int wfrac,
@@ -80,7 +93,6 @@ static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
         }
         /* constant shifts: no run-time 64-bit shift helper on ARMv6-M */
         q = s1 == 30 ? (q + ((int64_t)1 << 29)) >> 30 : (q + ((int64_t)1 << 30)) >> 31;
-        q = q > INT32_MAX ? INT32_MAX : (q < -INT32_MAX ? -INT32_MAX : q);
         acc += it2n_smul32(cw[j], (int32_t)q);
     }
     s = ufrac - s1 + wfrac + frac - IT2N_VAL_FRAC;
