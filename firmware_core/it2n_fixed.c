@@ -40,6 +40,24 @@ unsigned it2n_bitlen64(uint64_t v)
     return k;
 }
 
+it2n_i128 it2n_mul64(int64_t a, int64_t b)
+{
+    it2n_i128 r;
+#if IT2N_HAVE_INT128
+    it2n__u128 p = (it2n__u128)((it2n__s128)a * b);
+    r.lo = (uint64_t)p;
+    r.hi = (uint64_t)(p >> 64);
+#else
+    uint64_t ua = (uint64_t)a, ub = (uint64_t)b;
+    r = umul64(ua, ub);
+    /* unsigned product -> signed: subtract the other operand where one is
+     * negative (mod 2^128, only the high word changes) */
+    r.hi -= a < 0 ? ub : 0u;
+    r.hi -= b < 0 ? ua : 0u;
+#endif
+    return r;
+}
+
 /* Logical right shift of a 128-bit pattern, 0 < s < 128. */
 static it2n_i128 ushr(it2n_i128 a, unsigned s)
 {

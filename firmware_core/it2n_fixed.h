@@ -142,30 +142,10 @@ static inline bool it2n_i128_neg_p(it2n_i128 a)
     return (a.hi >> 63) != 0u;
 }
 
-/* Exact signed product a * b, from four 32 x 32 -> 64 products. */
-IT2N_INLINE it2n_i128 it2n_mul64(int64_t a, int64_t b)
-{
-    it2n_i128 r;
-#if IT2N_HAVE_INT128
-    it2n__u128 p = (it2n__u128)((it2n__s128)a * b);
-    r.lo = (uint64_t)p;
-    r.hi = (uint64_t)(p >> 64);
-#else
-    uint64_t ua = (uint64_t)a, ub = (uint64_t)b;
-    uint32_t a0 = (uint32_t)ua, a1 = (uint32_t)(ua >> 32);
-    uint32_t b0 = (uint32_t)ub, b1 = (uint32_t)(ub >> 32);
-    uint64_t p00 = it2n_umul32(a0, b0), p01 = it2n_umul32(a0, b1);
-    uint64_t p10 = it2n_umul32(a1, b0), p11 = it2n_umul32(a1, b1);
-    uint64_t mid = (p00 >> 32) + (uint32_t)p01 + (uint32_t)p10;
-    r.lo = (mid << 32) | (uint32_t)p00;
-    r.hi = p11 + (p01 >> 32) + (p10 >> 32) + (mid >> 32);
-    /* unsigned product -> signed: subtract the other operand where one is
-     * negative (mod 2^128, only the high word changes) */
-    r.hi -= a < 0 ? ub : 0u;
-    r.hi -= b < 0 ? ua : 0u;
-#endif
-    return r;
-}
+/* Exact signed product a * b, from four 32 x 32 -> 64 products (out of
+ * line: used by locate, chord parameters and the soft float, never in the
+ * per-point loops). */
+it2n_i128 it2n_mul64(int64_t a, int64_t b);
 
 /* acc + a * b */
 IT2N_INLINE it2n_i128 it2n_mac(it2n_i128 acc, int64_t a, int64_t b)
