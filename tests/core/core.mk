@@ -37,3 +37,16 @@ tests-core-san: $(TC_SAN_BIN)
 	@rc=0; for t in $(TC_SAN_BIN); do echo "== $$t"; \
 	  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 $$t || rc=1; \
 	done; exit $$rc
+
+# IT2N_CONFIG: the core and a check program built with one config header.
+TC_CONFIG_BIN := $(BUILD)/tests/core/test_config
+$(TC_CONFIG_BIN): $(TC_DIR)/test_config.c $(TC_DIR)/config/it2n_test_config.h $(CORE_SRC) $(CORE_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(CORE_CFLAGS) -DIT2N_CONFIG=it2n_test_config.h -I$(TC_DIR)/config \
+	  $(TC_DIR)/test_config.c $(CORE_SRC) -o $@
+
+.PHONY: tests-core-config
+tests-core-config: $(TC_CONFIG_BIN)
+	@$<
+
+TEST_TARGETS += tests-core-config

@@ -599,6 +599,63 @@ static void test_eval_param_range_and_state(void **state)
     assert_true(llabs(pt.v[IT2N_FP_D][IT2N_CH_T] - tc_q24("0.7")) <= 2);
 }
 
+/* Every evaluation entry point reports what, where and which limit in
+ * it2n_errinfo (issue 7), and a NULL err is allowed. */
+static int never_cb(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w,
+                    const it2n_point *pt)
+{
+    (void)ctx; (void)r; (void)c; (void)u; (void)w; (void)pt;
+    return 0;
+}
+
+static void test_errinfo_eval_family(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static it2n_model mdl;
+    it2n_point pt, du, dw;
+    it2n_locate_result res;
+    it2n_errinfo err;
+    it2n_model_init(&mdl);
+    memset(&err, 0x55, sizeof err);
+    assert_int_equal(it2n_eval(&mdl, 0, 0, &pt, &err), IT2N_ERR_STATE);
+    assert_int_equal(err.code, IT2N_ERR_STATE);
+    assert_int_equal(it2n_locate(&mdl, 0, 0, &res, &err), IT2N_ERR_STATE);
+    assert_int_equal(err.code, IT2N_ERR_STATE);
+    assert_int_equal(it2n_sample(&mdl, 3, 3, never_cb, NULL, &err), IT2N_ERR_STATE);
+    assert_int_equal(err.code, IT2N_ERR_STATE);
+    assert_int_equal(it2n_eval(NULL, 0, 0, &pt, &err), IT2N_ERR_INVAL);
+    assert_int_equal(err.code, IT2N_ERR_INVAL);
+    tc_paper(&c);
+    tc_model(&c, &mdl);
+    /* u out of range: channel 0 names u, value in Q24, range [0, 1] */
+    assert_int_equal(it2n_eval(&mdl, IT2N_PAR_ONE + 256, 0, &pt, &err), IT2N_ERR_RANGE);
+    assert_int_equal(err.code, IT2N_ERR_RANGE);
+    assert_int_equal(err.ch, 0);
+    assert_true(err.value == IT2N_VAL_ONE + 1);
+    assert_true(err.lo == 0 && err.hi == IT2N_VAL_ONE);
+    /* w out of range: channel 1 */
+    assert_int_equal(it2n_deriv(&mdl, 0, -256, &du, &dw, &err), IT2N_ERR_RANGE);
+    assert_int_equal(err.ch, 1);
+    assert_true(err.value == -1);
+    /* far-off parameters saturate instead of wrapping */
+    assert_int_equal(it2n_eval(&mdl, INT64_MIN, 0, &pt, &err), IT2N_ERR_RANGE);
+    assert_true(err.value < 0);
+    /* sample sizes: rows in i, cols in j, limits 2..65535 */
+    assert_int_equal(it2n_sample(&mdl, 1, 5, never_cb, NULL, &err), IT2N_ERR_RANGE);
+    assert_true(err.i == 1 && err.j == -1 && err.value == 1 && err.lo == 2 && err.hi == 65535);
+    assert_int_equal(it2n_sample(&mdl, 5, 70000, never_cb, NULL, &err), IT2N_ERR_RANGE);
+    assert_true(err.i == -1 && err.value == 70000 && err.hi == 65535);
+    /* locate: which coordinate, and the limit */
+    it2n_val lim = (it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC;
+    assert_int_equal(it2n_locate(&mdl, 0, lim + 1, &res, &err), IT2N_ERR_RANGE);
+    assert_true(err.ch == IT2N_CH_Y && err.value == lim + 1 && err.lo == -lim && err.hi == lim);
+    assert_int_equal(it2n_locate(&mdl, -lim - 1, 0, &res, &err), IT2N_ERR_RANGE);
+    assert_true(err.ch == IT2N_CH_X);
+    /* NULL err is fine */
+    assert_int_equal(it2n_eval(&mdl, -1, 0, &pt, NULL), IT2N_ERR_RANGE);
+}
+
 static void test_generation(void **state)
 {
     (void)state;
@@ -796,6 +853,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_eval_param_range_and_state),
+        cmocka_unit_test(test_errinfo_eval_family),
         cmocka_unit_test(test_derivatives),
         cmocka_unit_test(test_sample),
         cmocka_unit_test(test_update_vs_resolve),
