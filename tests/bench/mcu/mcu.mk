@@ -138,6 +138,10 @@ bench-mcu: $(BMCU_ALL)
 	$(BMCU_PY) $(BMCU_DIR)/perfdoc.py bench/results.json docs/performance.md
 
 BENCH_TARGETS += bench-mcu
+# Under `make -j bench`, time x86-64 only after the other benchmarks finish.
+ifneq ($(filter bench,$(MAKECMDGOALS)),)
+bench-mcu: | $(filter-out bench-mcu,$(BENCH_TARGETS))
+endif
 
 # Smoke (make test): the images run a few points, the host checks the
 # baselines; results.py --smoke fails on a counter off by > 1 %, baselines
