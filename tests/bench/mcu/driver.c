@@ -60,6 +60,22 @@ static void th_float_solve(void)
     (void)blf_solve(&f_mdl, th_n, th_m, (const blf_data *)&f_data);
 }
 
+/* Stack of the call `caller` makes (see stack_probe.h); prints the figure
+ * and, as key + "_exact", whether that call was found (else the figure
+ * counts from fn's call). */
+static void probe(const char *set, const char *key, void (*fn)(void), uintptr_t caller)
+{
+    int exact;
+    uint32_t used = bc_stack_probe(fn, caller, &exact);
+    bc_result(set, key, used);
+    bc_puts("R ");
+    bc_puts(set);
+    bc_puts(key);
+    bc_puts("_exact ");
+    bc_put_u64((uint64_t)exact);
+    bc_puts("\n");
+}
+
 static void load_baselines(const bench_set *s)
 {
     unsigned r, c;
@@ -245,11 +261,11 @@ static int run_set(const bench_set *s, unsigned npts, unsigned reps)
     th_wd = 43690.0 / 65536.0;
     th_n = s->n;
     th_m = s->m;
-    bc_result(s->name, ".it2n.eval_stack", bc_stack_probe(th_it2n_query));
-    bc_result(s->name, ".it2n.solve_stack", bc_stack_probe(th_it2n_solve));
-    bc_result(s->name, ".float.eval_stack", bc_stack_probe(th_float_query));
-    bc_result(s->name, ".double.eval_stack", bc_stack_probe(th_double_query));
-    bc_result(s->name, ".float.solve_stack", bc_stack_probe(th_float_solve));
+    probe(s->name, ".it2n.eval_stack", th_it2n_query, (uintptr_t)bc_query);
+    probe(s->name, ".it2n.solve_stack", th_it2n_solve, (uintptr_t)bc_solve);
+    probe(s->name, ".float.eval_stack", th_float_query, (uintptr_t)th_float_query);
+    probe(s->name, ".double.eval_stack", th_double_query, (uintptr_t)th_double_query);
+    probe(s->name, ".float.solve_stack", th_float_solve, (uintptr_t)th_float_solve);
     return 0;
 }
 

@@ -8,7 +8,11 @@ usage: perfdoc.py JSON MD            write MD
 """
 import difflib
 import json
+import os
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from results import validate  # noqa: E402
 
 HEAD = """# Performance
 
@@ -107,6 +111,11 @@ def main():
         sys.exit(__doc__)
     with open(args[0], encoding="utf-8") as f:
         rows = json.load(f)
+    bad = validate(rows) if isinstance(rows, list) else ["not a JSON array"]
+    if bad:
+        for b in bad:
+            print(f"perfdoc.py: {args[0]}: {b}", file=sys.stderr)
+        return 1
     text = render(rows)
     if not check:
         with open(args[1], "w", encoding="utf-8") as f:
