@@ -29,26 +29,26 @@ products), on the paper's 4×4 data set and a smooth 7×7 one.
 
 **Method.** The Cortex-M figures are executed instructions: the images
 (`tests/bench/mcu/driver.c`) run on `qemu-system-arm -icount shift=0`, so
-virtual time advances exactly 1 ns per instruction, and read the CMSDK timer 0
-of the mps2 boards (25 MHz, one tick per 40 instructions) before and after
-each operation; a query is timed over several repetitions per point (4 in a
-full run) and reported as min/median/max over the query points. Each image
-first validates the counter in the same run: an assembly loop of 4
-instructions per iteration is timed at 1 000 and 1 001 000 iterations and the
-difference must be 4 000 000 instructions within 1 % (the "counter check"
-rows), else the run fails. ARMv6-M code (`-mcpu=cortex-m0plus -Os`, the core
-with `make cross`'s flags) runs on `mps2-an385`, ARMv7E-M+FPU code
-(`-mcpu=cortex-m4 -mfloat-abi=hard -mfpu=fpv4-sp-d16 -O2`, core -O2 too) on
-`mps2-an386`. Stacks are painted and measured from the call, on the M0+
-image. x86-64 (`-O2`): minimum over several timed runs, and callgrind
-instructions of 32 queries. Struct sizes come from `tests/qemu/sizes.c`,
-flash from the map of a `--gc-sections` link that references only
-`it2n_model_solve`, `it2n_eval` and `it2n_locate`. Accuracy is measured on
-the host against the long-double reference of `tests/core/ref.c` (exact
-decimal inputs), on a 33×33 grid plus the query points. Reading a row: with a
-baseline, the target applies to the ratio value/baseline; without one, it is
-a limit on the value; rows without a target are information. All figures
-come from one run.
+virtual time advances exactly 1 ns per instruction, and read the CMSDK
+timer 0 of the mps2 boards (25 MHz: one tick per 40 instructions) before and
+after each operation. A query is timed over a few calls per point (the
+"repetitions" rows) and reported as min/median/max over the query points.
+Each image first validates the counter in the same run: an assembly loop of
+4 instructions per iteration is timed at 1 000 and 1 001 000 iterations, and
+the difference must be 4 000 000 instructions within 1 % (the "counter
+check" rows), else the run fails. ARMv6-M code (`-mcpu=cortex-m0plus -Os`,
+the core with `make cross`'s flags) runs on `mps2-an385`, ARMv7E-M+FPU code
+(`-mcpu=cortex-m4 -mfloat-abi=hard -mfpu=fpv4-sp-d16 -O2`, the core -O2
+too) on `mps2-an386`. Stacks are painted on the M0+ image and counted from
+the call (the slot of the callee's saved return address). x86-64 (`-O2`):
+the minimum over several interleaved timed runs, and callgrind instructions
+per query. Struct sizes come from `tests/qemu/sizes.c`; flash from the map
+of a `--gc-sections` link that references only `it2n_model_solve`,
+`it2n_eval` and `it2n_locate`. Accuracy is measured on the host against the
+long-double reference of `tests/core/ref.c` (exact decimal inputs) on a grid
+of parameters plus the query points. Reading a row: with a baseline, the
+target applies to the ratio value/baseline; without one, it is a limit on the
+value; rows without a target are information. All figures come from one run.
 """
 
 

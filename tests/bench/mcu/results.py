@@ -195,9 +195,10 @@ def main():
     for s, sname in SETS:
         t.add(f"x86-64 one full query, {sname}: it2n vs double (time, min of runs)", "ns",
               host.get(f"{s}.x86.it2n_ns"), host.get(f"{s}.x86.double_ns"), target=2.0)
-        cg_i, cg_d = host.get(f"{s}.cg.it2n"), host.get(f"{s}.cg.double")
-        t.add(f"x86-64 one full query, {sname}: it2n vs double (callgrind instructions)", "instructions",
-              None if cg_i is None else cg_i / 32.0, None if cg_d is None else cg_d / 32.0, target=2.0)
+        cg_i, cg_d, npts = host.get(f"{s}.cg.it2n"), host.get(f"{s}.cg.double"), host.get("host.points")
+        t.add(f"x86-64 one full query, {sname}: it2n vs double (callgrind instructions, mean of {npts} points)",
+              "instructions", None if None in (cg_i, npts) else cg_i / npts,
+              None if None in (cg_d, npts) else cg_d / npts, target=2.0)
     for c, lim, cname in (("d3", 6144, "IT2N_MAX_DEGREE=3"), ("d7", 24576, "IT2N_MAX_DEGREE=7 (default)")):
         mo, ds = host.get(f"sizes.{c}.model"), host.get(f"sizes.{c}.dataset")
         if mo is not None and ds is not None:
@@ -241,6 +242,8 @@ def main():
                     problems.append(f"{sname}: {src}: {impl} baseline disagrees with it2n ({dm:.3g}, {dc:.3g})")
 
     # ---- information: every count ----------------------------------------------
+    for tg, tname in TARGETS:
+        t.add(f"{tname} image: query repetitions per timer reading", "calls", img[tg].get("reps"))
     for tg, tname in TARGETS:
         for s, sname in SETS:
             for impl in IMPLS:
