@@ -34,3 +34,4 @@ bench-smoke: $(BENCH_B)/bench_core
 	$< --smoke
 
 TEST_TARGETS += bench-smoke
+include tests/bench/mcu/mcu.mk
