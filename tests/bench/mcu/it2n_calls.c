@@ -34,7 +34,7 @@ int bc_solve(void)
 
 int bc_query(int64_t u_q32, int64_t w_q32)
 {
-    return it2n_eval(&bc_mdl, u_q32, w_q32, &bc_pt);
+    return it2n_eval(&bc_mdl, u_q32, w_q32, &bc_pt, NULL);
 }
 
 int64_t bc_value(unsigned fp, unsigned ch)
@@ -58,5 +58,5 @@ int64_t bc_summary(unsigned which, unsigned k)
 
 int64_t bc_ctrl(unsigned i, unsigned j, unsigned fp, unsigned ch)
 {
-    return bc_mdl.ctrl[i][j][fp][bc_ch[ch]];
+    return it2n_model_ctrl(&bc_mdl, i, j, fp, bc_ch[ch]);
 }

@@ -214,7 +214,8 @@ def main():
             t.add(f"accuracy, {sname}: it2n eval worst error, coordinates (max |c| = {maxc:g})", "abs",
                   host.get(f"{s}.it2n.err_coord"),
                   limit=float(f"{(1e-4 + (1e-5 if deg <= 3 else 1e-4) * maxc):.6g}"))
-        t.add(f"accuracy, {sname}: it2n control nets, worst error / (1e-6·max|P| + 1e-7) per channel",
+        t.add(f"accuracy, {sname}: it2n control nets vs the exact solution of its Q24 data, "
+              f"worst error / (1e-6·max|P| + 1e-7) per channel",
               "of allowed", host.get(f"{s}.it2n.ctrl_goal_ratio"), limit=1.0)
 
     # ---- bit identity ---------------------------------------------------------
@@ -281,8 +282,10 @@ def main():
                              ("ctrl_err_memb", "control nets worst error, memberships"),
                              ("ctrl_err_coord", "control nets worst error, coordinates")):
                 t.add(f"accuracy, {sname}: {impl} {kname}", "abs", host.get(f"{s}.{impl}.{k}"))
-        for k, kname in (("ctrl_err_memb", "control nets worst error, memberships"),
-                         ("ctrl_err_coord", "control nets worst error, coordinates")):
+        for k, kname in (("ctrl_err_memb", "control nets worst error vs its Q24 data, memberships"),
+                         ("ctrl_err_coord", "control nets worst error vs its Q24 data, coordinates"),
+                         ("ctrl_err_memb_vs_decimal", "control nets worst error vs the decimal data, memberships"),
+                         ("ctrl_err_coord_vs_decimal", "control nets worst error vs the decimal data, coordinates")):
             t.add(f"accuracy, {sname}: it2n {kname}", "abs", host.get(f"{s}.it2n.{k}"))
 
     problems += [f"figure missing from the logs: {n}" for n in t.missing]
