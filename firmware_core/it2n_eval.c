@@ -30,29 +30,31 @@ int64_t it2n__shift_round(int64_t v, int s)
 
 void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
 {
-    int32_t t30 = (int32_t)((t + 2) >> 2), s30 = Q30_ONE - t30;
-    unsigned k, i;
-    b[0] = Q30_ONE;
+    /* every value is in [0, 2^30]: unsigned products, no sign handling */
+    uint32_t t30 = (uint32_t)((t + 2) >> 2), s30 = (uint32_t)Q30_ONE - t30;
+    uint32_t v[IT2N_DIM];
+    uint32_t sum = 0u;
+    unsigned k, i, big = 0u;
+    v[0] = (uint32_t)Q30_ONE;
     for (k = 1; k <= deg; k++) {
         /* b_k^k = t b_{k-1}^{k-1}; b_i^k = s b_i^{k-1} + t b_{i-1}^{k-1} */
-        b[k] = (int32_t)((it2n_smul32(t30, b[k - 1u]) + Q30_HALF) >> 30);
+        v[k] = (uint32_t)((it2n_umul32(t30, v[k - 1u]) + (1u << 29)) >> 30);
         for (i = k - 1u; i >= 1u; i--) {
-            int64_t acc = it2n_smul32(s30, b[i]) + it2n_smul32(t30, b[i - 1u]);
-            b[i] = (int32_t)((acc + Q30_HALF) >> 30);
+            uint64_t acc = it2n_umul32(s30, v[i]) + it2n_umul32(t30, v[i - 1u]);
+            v[i] = (uint32_t)((acc + (1u << 29)) >> 30);
         }
-        b[0] = (int32_t)((it2n_smul32(s30, b[0]) + Q30_HALF) >> 30);
+        v[0] = (uint32_t)((it2n_umul32(s30, v[0]) + (1u << 29)) >> 30);
     }
     /* Exact partition of unity: the largest value takes the rounding
      * residue (a few LSB), so sum_i b[i] = 2^30 exactly. Constant data give
      * constant surfaces, and a stage-1 sum never leaves the net's range. */
-    {
-        int32_t sum = 0;
-        unsigned big = 0u;
-        for (i = 0; i <= deg; i++) {
-            sum += b[i];
-            big = b[i] > b[big] ? i : big;
-        }
-        b[big] += Q30_ONE - sum;
+    for (i = 0; i <= deg; i++) {
+        sum += v[i];
+        big = v[i] > v[big] ? i : big;
+    }
+    v[big] += (uint32_t)Q30_ONE - sum;
+    for (i = 0; i <= deg; i++) {
+        b[i] = (int32_t)v[i];
     }
 }
 

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "it2n_internal.h"
+#include "it2n_xf.h"
 
 #define COORD_MAX ((it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC)
 
@@ -63,54 +64,22 @@ static int64_t shr(int64_t v, unsigned s)
 }
 
 /*
- * Newton step (du, dw) in Q32 solving J d = -r; false if J is singular.
- * J and r are scaled together (the step is invariant) so every product fits.
+ * Newton step (du, dw) in Q32 solving J d = -r by Cramer's rule in the soft
+ * float (range without scaling tricks); false if J is singular.
  */
 static bool newton_step(const loc_state *st, unsigned fp, int64_t *su,
                         int64_t *sw)
 {
-    int64_t e[6];
-    unsigned k, top = 0u, sh;
-    it2n_i128 det, nu, nw;
-    e[0] = st->du[fp][IT2N_CH_X];
-    e[1] = st->dw[fp][IT2N_CH_X];
-    e[2] = st->du[fp][IT2N_CH_Y];
-    e[3] = st->dw[fp][IT2N_CH_Y];
-    e[4] = st->rx;
-    e[5] = st->ry;
-    for (k = 0; k < 6u; k++) {
-        unsigned b = bitlen((uint64_t)abs64(e[k]));
-        top = b > top ? b : top;
-    }
-    sh = top > 40u ? top - 40u : 0u;
-    for (k = 0; k < 6u; k++) {
-        e[k] = shr(e[k], sh);
-    }
-    det = it2n_i128_sub(it2n_mul64(e[0], e[3]), it2n_mul64(e[1], e[2]));
-    if (det.lo == 0u && det.hi == 0u) {
+    xf xu = xf_norm(st->du[fp][IT2N_CH_X], 0), xw = xf_norm(st->dw[fp][IT2N_CH_X], 0);
+    xf yu = xf_norm(st->du[fp][IT2N_CH_Y], 0), yw = xf_norm(st->dw[fp][IT2N_CH_Y], 0);
+    xf rx = xf_norm(st->rx, 0), ry = xf_norm(st->ry, 0);
+    xf det = xf_add(xf_mul(xu, yw), xf_neg(xf_mul(xw, yu)));
+    if (det.m == 0) {
         return false;
     }
-    /* du = -(Yw rx - Xw ry) / det, dw = -(Xu ry - Yu rx) / det */
-    nu = it2n_i128_sub(it2n_mul64(e[3], e[4]), it2n_mul64(e[1], e[5]));
-    nw = it2n_i128_sub(it2n_mul64(e[0], e[5]), it2n_mul64(e[2], e[4]));
-    /* nu, nw < 2^81; times 2^32 < 2^113 fits. */
-    {
-        it2n_i128 nus = it2n_i128_zero(), nws = it2n_i128_zero();
-        unsigned b;
-        for (b = 0; b < 32u; b++) { /* shift left 32 by doubling */
-            nu = it2n_i128_add(nu, nu);
-            nw = it2n_i128_add(nw, nw);
-        }
-        nus = it2n_i128_neg(nu);
-        nws = it2n_i128_neg(nw);
-        if (!it2n_i128_div(nus, det, su) || !it2n_i128_div(nws, det, sw)) {
-            /* Step beyond 2^31 units of parameter: clamp below. */
-            *su = it2n_i128_neg_p(nus) != it2n_i128_neg_p(det) ? -IT2N_PAR_ONE
-                                                               : IT2N_PAR_ONE;
-            *sw = it2n_i128_neg_p(nws) != it2n_i128_neg_p(det) ? -IT2N_PAR_ONE
-                                                               : IT2N_PAR_ONE;
-        }
-    }
+    /* du = -(yw rx - xw ry) / det, dw = -(xu ry - yu rx) / det */
+    *su = xf_to_q32(xf_div(xf_add(xf_mul(xw, ry), xf_neg(xf_mul(yw, rx))), det));
+    *sw = xf_to_q32(xf_div(xf_add(xf_mul(yu, rx), xf_neg(xf_mul(xu, ry))), det));
     return true;
 }
 

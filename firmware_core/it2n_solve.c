@@ -213,7 +213,7 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
 /*
  * Stage 1 for column j: g[k] = sum_l F[k][l] C_m[j][l], rounded. Small data
  * (|F| < 2^30): F * (hi 2^24 + lo), g = S / 2^24 (frac of C_m). Wide data
- * (|F| < 2^47): F = fh 2^30 + fl as well, g = S / 2^42 (frac of C_m - 18).
+ * (|F| < 2^47): exact 128-bit S, g = S / 2^42 (frac of C_m - 18).
  * Bounds (row sums of C below 2^55, so sum |hi| < 2^31 + 16, lo < 2^24):
  * every int64 partial sum stays below 2^62 and |g| < 2^62.
  */
@@ -224,7 +224,7 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
     const int32_t *hi = &dw->hi[j * m1], *lo = &dw->lo[j * m1];
     for (k = 0; k < n1; k++) {
         const it2n_val *f = &ds->values[k][0][fp][ch];
-        int64_t a1 = 0, a2 = 0, a3 = 0, a4 = 0;
+        int64_t a1 = 0, a2 = 0;
         if (!wide) {
             /* one accumulator per loop: no register spills on ARMv6-M */
             for (l = 0; l < m1; l++) {
@@ -237,18 +237,18 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
             g[k] = a1 + ((a2 + ((int64_t)1 << 23)) >> 24);
             continue;
         }
-        for (l = 0; l < m1; l++) {
-            int64_t x = f[l * IT2N_FP_COUNT * IT2N_CH_COUNT];
-            int32_t xh = (int32_t)(x >> 30), xl = (int32_t)(x & 0x3FFFFFFF);
-            a1 += it2n_smul32(xh, hi[l]); /* < 2^17 2^31        */
-            a2 += it2n_smul32(xh, lo[l]); /* < 16 2^17 2^24     */
-            a3 += it2n_smul32(xl, hi[l]); /* < 2^30 (2^31 + 16) */
-            a4 += it2n_smul32(xl, lo[l]); /* < 16 2^30 2^24     */
+        {
+            /* rare path (coordinates of 64 and more): one exact 128-bit sum,
+             * out-of-line products keep the code small */
+            it2n_i128 acc = it2n_i128_zero();
+            for (l = 0; l < m1; l++) {
+                int64_t c = (int64_t)hi[l] * 16777216 + lo[l];
+                it2n_mac128(&acc, f[l * IT2N_FP_COUNT * IT2N_CH_COUNT], c);
+            }
+            if (!it2n_i128_round(acc, 42u, &g[k])) {
+                IT2N_ASSERT(false); /* |S| < 2^47 2^55: g < 2^60 */
+            }
         }
-        /* S = a1 2^54 + a2 2^30 + a3 2^24 + a4; g = S / 2^42 */
-        a3 += a4 >> 24;
-        a3 += a2 * 64;
-        g[k] = a1 * 4096 + ((a3 + ((int64_t)1 << 17)) >> 18);
     }
 }
 
