@@ -361,9 +361,9 @@ int it2n_csv_finish(it2n_csv *p, it2n_dataset *ds, it2n_csv_error *err)
         for (j = 0; rc == IT2N_OK && j <= p->max_j; j++) {
             for (fp = 0; rc == IT2N_OK && fp < IT2N_FP_COUNT; fp++) {
                 if (p->lines[i][j][fp] != 0u) {
-                    rc = it2n_dataset_put(&out, i, j, fp,
-                                          p->scratch.values[i][j][fp], false,
-                                          &info);
+                    it2n_val v[IT2N_CH_COUNT];
+                    it2n_dataset_get(&p->scratch, i, j, fp, v);
+                    rc = it2n_dataset_put(&out, i, j, fp, v, false, &info);
                 }
             }
         }

@@ -73,7 +73,7 @@ uint8_t *snap_encode(uint64_t seq, size_t *len)
                 for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
                     if (mask & (1u << fp))
                         for (unsigned c = 0; c < IT2N_CH_COUNT; c++, off += 8)
-                            put64(buf + off, (uint64_t)md->ds.values[i][j][fp][c]);
+                            put64(buf + off, (uint64_t)it2n_dataset_value(&md->ds, i, j, fp, c));
             }
         put16(h, (unsigned)md->id);
         h[2] = md->ds.n;

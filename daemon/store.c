@@ -296,7 +296,8 @@ static uint8_t *read_file(const char *name, off_t max, size_t *len)
 
 /* Version 1: the data set of a raw record, re-put and (solve) re-solved
  * into md. On error md is unchanged. */
-static int v1_rebuild(struct model *md, const it2n_dataset *src, int solve, it2n_errinfo *err)
+static int v1_rebuild(struct model *md, const struct store_v1_it2n_dataset *src, int solve,
+                      it2n_errinfo *err)
 {
     it2n_dataset *ds = malloc(sizeof *ds);
     it2n_model *mdl = malloc(sizeof *mdl);

@@ -13,6 +13,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "models.h"
 
@@ -62,9 +63,17 @@ void store_close(void);
  * struct store_v1_snap_model per model, tagged with store_v1_layout_tag().
  * The model inside is the core v1 it2n_model, frozen here (the core's own
  * type has changed since), so such files keep loading after an upgrade.
- * Only ds is used; the stored control nets are ignored (solved again). */
+ * Only ds is used; the stored control nets are ignored (solved again).
+ * The core v1 data set layout, frozen likewise: */
+struct store_v1_it2n_dataset {
+    uint8_t n, m;
+    uint8_t flags;
+    uint8_t present[IT2N_DIM][IT2N_DIM];
+    it2n_val values[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
+};
+
 struct store_v1_it2n_model {
-    it2n_dataset data;
+    struct store_v1_it2n_dataset data;
     it2n_par u[IT2N_DIM], w[IT2N_DIM];
     it2n_par ainv[IT2N_DIM][IT2N_DIM];
     it2n_par binv[IT2N_DIM][IT2N_DIM];
@@ -78,13 +87,28 @@ struct store_v1_snap_model {
     int32_t id, state;
     uint32_t gen, points_rx, solves;
     uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
-    it2n_dataset ds;
+    struct store_v1_it2n_dataset ds;
     struct store_v1_it2n_model mdl;
 };
 
+/* A data set in the frozen v1 layout (tests write legacy snapshots). */
+static inline void store_v1_dataset_from(struct store_v1_it2n_dataset *d,
+                                         const it2n_dataset *ds)
+{
+    memset(d, 0, sizeof *d);
+    d->n = ds->n;
+    d->m = ds->m;
+    d->flags = ds->flags;
+    memcpy(d->present, ds->present, sizeof d->present);
+    for (unsigned i = 0; i < IT2N_DIM; i++)
+        for (unsigned j = 0; j < IT2N_DIM; j++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
+                it2n_dataset_get(ds, i, j, fp, d->values[i][j][fp]);
+}
+
 static inline uint32_t store_v1_layout_tag(void)
 {
-    return (uint32_t)(sizeof(it2n_dataset) ^ (sizeof(struct store_v1_it2n_model) << 12)) ^
+    return (uint32_t)(sizeof(struct store_v1_it2n_dataset) ^ (sizeof(struct store_v1_it2n_model) << 12)) ^
            (uint32_t)IT2N_MAX_DEGREE << 28;
 }
 

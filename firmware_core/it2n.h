@@ -132,14 +132,37 @@ typedef struct it2n_errinfo {
 #define IT2N_F_CHORD 0x04u      /* chord-length params instead of uniform */
 #define IT2N_F_ALL (IT2N_F_Z | IT2N_F_TYPE1 | IT2N_F_CHORD)
 
-/* Grid data being assembled. values[i][j][fp][ch] in Q24; present[i][j] is a
- * bit mask of footprints given. Unused z channels are zero. */
+/* Grid data being assembled. present[i][j] is a bit mask of the footprints
+ * given. Values are Q24 stored compactly (read them with it2n_dataset_get or
+ * it2n_dataset_value): a coordinate (|x| < 2^47) as its low 32 bits in
+ * coord_lo and high 16 bits in coord_hi, a membership (in [0, 2^24]) in
+ * memb. Unused z channels are zero. 30 bytes per grid point and footprint
+ * instead of 48. */
 typedef struct it2n_dataset {
+    uint32_t coord_lo[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][3]; /* x, y, z */
+    uint32_t memb[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][3];     /* T, I, F */
+    int16_t coord_hi[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][3];
     uint8_t n, m;   /* degrees: grid is (n+1) x (m+1) */
     uint8_t flags;  /* IT2N_F_*                       */
     uint8_t present[IT2N_DIM][IT2N_DIM];
-    it2n_val values[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][IT2N_CH_COUNT];
 } it2n_dataset;
+
+/* Channel ch of footprint fp at grid point (i, j), Q24 (no bounds checks:
+ * i, j < IT2N_DIM, fp < IT2N_FP_COUNT, ch < IT2N_CH_COUNT). */
+static inline it2n_val it2n_dataset_value(const it2n_dataset *ds, unsigned i,
+                                          unsigned j, unsigned fp,
+                                          unsigned ch)
+{
+    if (ch >= 3u) {
+        return (it2n_val)ds->memb[i][j][fp][ch - 3u];
+    }
+    return (it2n_val)((uint64_t)(int64_t)ds->coord_hi[i][j][fp][ch] * 4294967296u |
+                      ds->coord_lo[i][j][fp][ch]);
+}
+
+/* All channels of footprint fp at (i, j) into vals (Q24). */
+void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j,
+                      unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
 
 /*
  * Start an empty data set of degrees n x m (1..IT2N_MAX_DEGREE each) with

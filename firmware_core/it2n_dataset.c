@@ -62,7 +62,6 @@ int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
                      it2n_errinfo *err)
 {
     int rc;
-    unsigned ch;
     if (ds == NULL || vals == NULL) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
@@ -83,11 +82,34 @@ int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
         return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp,
                           -1, 0, 0, 0);
     }
-    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        ds->values[i][j][fp][ch] = it2n__ch_used(ds->flags, ch) ? vals[ch] : 0;
-    }
+    it2n__dataset_store(ds, i, j, fp, vals);
     ds->present[i][j] = (uint8_t)(ds->present[i][j] | (1u << fp));
     return IT2N_OK;
+}
+
+void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
+                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT])
+{
+    unsigned ch;
+    for (ch = 0; ch < 3u; ch++) {
+        /* checked: |coordinate| < 2^47, membership in [0, 2^24] */
+        uint64_t v = it2n__ch_used(ds->flags, ch) ? (uint64_t)vals[ch] : 0u;
+        ds->coord_lo[i][j][fp][ch] = (uint32_t)v;
+        ds->coord_hi[i][j][fp][ch] = (int16_t)((int64_t)vals[ch] >> 32);
+        if (!it2n__ch_used(ds->flags, ch)) {
+            ds->coord_hi[i][j][fp][ch] = 0;
+        }
+        ds->memb[i][j][fp][ch] = (uint32_t)vals[3u + ch];
+    }
+}
+
+void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j,
+                      unsigned fp, it2n_val vals[IT2N_CH_COUNT])
+{
+    unsigned ch;
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        vals[ch] = it2n_dataset_value(ds, i, j, fp, ch);
+    }
 }
 
 unsigned it2n_dataset_missing(const it2n_dataset *ds)
@@ -127,6 +149,7 @@ int it2n__check_nesting(unsigned flags, unsigned i, unsigned j,
 
 int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
 {
+    it2n_val pt[IT2N_FP_COUNT][IT2N_CH_COUNT];
     unsigned i, j, fp, mask;
     int rc;
     if (ds == NULL || ds->n < 1u || ds->n > IT2N_MAX_DEGREE || ds->m < 1u ||
@@ -145,13 +168,13 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
                                       (int)fp, -1, 0, 0, 0);
                 }
                 /* Re-check ranges: the struct may have been filled by hand. */
-                rc = it2n__check_vals(ds->flags, i, j, fp,
-                                      ds->values[i][j][fp], err);
+                it2n_dataset_get(ds, i, j, fp, pt[fp]);
+                rc = it2n__check_vals(ds->flags, i, j, fp, pt[fp], err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }
             }
-            rc = it2n__check_nesting(ds->flags, i, j, &ds->values[i][j][0][0], err);
+            rc = it2n__check_nesting(ds->flags, i, j, &pt[0][0], err);
             if (rc != IT2N_OK) {
                 return rc;
             }

@@ -42,6 +42,10 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
                  int32_t lo[IT2N_DIM * IT2N_DIM], int *frac,
                  it2n_errinfo *err) IT2N_WUR;
 
+/* Store checked values (vals[ch] in range) into the compact layout. */
+void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
+                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT]);
+
 /* Validate one footprint's values for a data set with `flags`. */
 int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
                      const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)

@@ -58,8 +58,8 @@ static int64_t chord(const it2n_dataset *ds, unsigned i0, unsigned j0,
     unsigned ch;
     for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
         /* |difference| < 2^49 raw, square < 2^98: exact in 128 bits. */
-        int64_t d = ds->values[i1][j1][IT2N_FP_D][ch] -
-                    ds->values[i0][j0][IT2N_FP_D][ch];
+        int64_t d = it2n_dataset_value(ds, i1, j1, IT2N_FP_D, ch) -
+                    it2n_dataset_value(ds, i0, j0, IT2N_FP_D, ch);
         sq = it2n_mac(sq, d, d);
     }
     return (int64_t)it2n_i128_isqrt(sq);
@@ -170,7 +170,7 @@ static unsigned data_bits(const it2n_dataset *ds, unsigned fp, unsigned ch)
     unsigned k, l;
     for (k = 0; k <= ds->n; k++) {
         for (l = 0; l <= ds->m; l++) {
-            int64_t v = ds->values[k][l][fp][ch];
+            int64_t v = it2n_dataset_value(ds, k, l, fp, ch);
             uint64_t a = (uint64_t)(v < 0 ? -v : v);
             big = a > big ? a : big;
         }
@@ -223,16 +223,18 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
     unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, k, l;
     const int32_t *hi = &dw->hi[j * m1], *lo = &dw->lo[j * m1];
     for (k = 0; k < n1; k++) {
-        const it2n_val *f = &ds->values[k][0][fp][ch];
         int64_t a1 = 0, a2 = 0;
         if (!wide) {
             /* one accumulator per loop: no register spills on ARMv6-M */
+            int32_t f[IT2N_DIM];
             for (l = 0; l < m1; l++) {
-                a1 += it2n_smul32((int32_t)f[l * IT2N_FP_COUNT * IT2N_CH_COUNT], hi[l]);
+                f[l] = (int32_t)it2n_dataset_value(ds, k, l, fp, ch);
             }
             for (l = 0; l < m1; l++) {
-                a2 += it2n_mul32su((int32_t)f[l * IT2N_FP_COUNT * IT2N_CH_COUNT],
-                                   (uint32_t)lo[l]);
+                a1 += it2n_smul32(f[l], hi[l]);
+            }
+            for (l = 0; l < m1; l++) {
+                a2 += it2n_mul32su(f[l], (uint32_t)lo[l]);
             }
             g[k] = a1 + ((a2 + ((int64_t)1 << 23)) >> 24);
             continue;
@@ -243,7 +245,7 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
             it2n_i128 acc = it2n_i128_zero();
             for (l = 0; l < m1; l++) {
                 int64_t c = (int64_t)hi[l] * 16777216 + lo[l];
-                it2n_mac128(&acc, f[l * IT2N_FP_COUNT * IT2N_CH_COUNT], c);
+                it2n_mac128(&acc, it2n_dataset_value(ds, k, l, fp, ch), c);
             }
             if (!it2n_i128_round(acc, 42u, &g[k])) {
                 IT2N_ASSERT(false); /* |S| < 2^47 2^55: g < 2^60 */
@@ -481,7 +483,9 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     if (rc != IT2N_OK) {
         return rc;
     }
-    memcpy(pt, ds->values[i][j], sizeof(pt));
+    for (ch = 0; ch < IT2N_FP_COUNT; ch++) {
+        it2n_dataset_get(ds, i, j, ch, pt[ch]);
+    }
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
         pt[fp][ch] = it2n__ch_used(flags, ch) ? vals[ch] : 0;
     }
@@ -492,11 +496,11 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     /* Chord-length parameters follow footprint D: every net moves. */
     mask = ((flags & IT2N_F_CHORD) && fp == IT2N_FP_D) ? it2n__fp_mask(flags)
                                                        : 1u << fp;
-    memcpy(old, ds->values[i][j][fp], sizeof(old));
-    memcpy(ds->values[i][j][fp], pt[fp], sizeof(old));
+    it2n_dataset_get(ds, i, j, fp, old);
+    it2n__dataset_store(ds, i, j, fp, pt[fp]);
     rc = solve_core(mdl, ds, mask, false, err);
     if (rc != IT2N_OK) {
-        memcpy(ds->values[i][j][fp], old, sizeof(old));
+        it2n__dataset_store(ds, i, j, fp, old);
         return rc;
     }
     ds->present[i][j] = (uint8_t)(ds->present[i][j] | (1u << fp));

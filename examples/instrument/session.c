@@ -61,7 +61,7 @@ static bool next_put(session *s, it2n_msg *m)
             e->i = (uint8_t)s->i;
             e->j = (uint8_t)s->j;
             e->fp = (uint8_t)s->fp;
-            memcpy(e->vals, s->ds->values[s->i][s->j][s->fp], sizeof e->vals);
+            it2n_dataset_get(s->ds, s->i, s->j, s->fp, e->vals);
         }
         if (++s->fp == IT2N_FP_COUNT) {
             s->fp = 0;

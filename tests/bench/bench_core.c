@@ -72,7 +72,7 @@ static void change(const it2n_dataset *ds, unsigned k, unsigned *i, unsigned *j,
     *i = k % (ds->n + 1u);
     *j = (k / (ds->n + 1u)) % (ds->m + 1u);
     *fp = k % IT2N_FP_COUNT;
-    memcpy(v, ds->values[*i][*j][*fp], sizeof(it2n_val) * IT2N_CH_COUNT);
+    it2n_dataset_get(ds, *i, *j, *fp, v);
     v[IT2N_CH_T] = (it2n_val)((k * 2654435761u) % (uint32_t)IT2N_VAL_ONE);
 }
 

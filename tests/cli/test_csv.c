@@ -99,9 +99,9 @@ static void test_ok_layouts(void **state)
     assert_int_equal(g_ds.n, 2);
     assert_int_equal(g_ds.m, 1);
     assert_int_equal(g_ds.flags, 0);
-    assert_true(g_ds.values[2][1][IT2N_FP_RR][IT2N_CH_X] ==
+    assert_true(it2n_dataset_value(&g_ds, 2, 1, IT2N_FP_RR, IT2N_CH_X) ==
                 26 * IT2N_VAL_ONE);
-    assert_true(g_ds.values[2][1][IT2N_FP_RR][IT2N_CH_T] == IT2N_VAL_ONE / 2);
+    assert_true(it2n_dataset_value(&g_ds, 2, 1, IT2N_FP_RR, IT2N_CH_T) == IT2N_VAL_ONE / 2);
     assert_int_equal(it2n_dataset_missing(&g_ds), 0);
     /* Line table: (1,0,L) is row 2 + (1*2+0)*7 + 2 = 18. */
     {
@@ -118,7 +118,7 @@ static void test_ok_layouts(void **state)
 
     assert_int_equal(parse(gen(1, 1, false, true), 4096, &e), IT2N_OK);
     assert_int_equal(g_ds.flags, IT2N_F_Z);
-    assert_true(g_ds.values[1][1][IT2N_FP_D][IT2N_CH_Z] ==
+    assert_true(it2n_dataset_value(&g_ds, 1, 1, IT2N_FP_D, IT2N_CH_Z) ==
                 3 * IT2N_VAL_ONE / 2);
 
     /* --chord is passed through. */
@@ -150,9 +150,9 @@ static void test_ok_syntax(void **state)
         it2n_dataset first;
         assert_int_equal(parse(text, chunk, &e), IT2N_OK);
         assert_int_equal(g_ds.flags, IT2N_F_TYPE1);
-        assert_true(g_ds.values[1][0][IT2N_FP_D][IT2N_CH_F] ==
+        assert_true(it2n_dataset_value(&g_ds, 1, 0, IT2N_FP_D, IT2N_CH_F) ==
                     IT2N_VAL_ONE / 2);
-        assert_true(g_ds.values[1][1][IT2N_FP_D][IT2N_CH_X] ==
+        assert_true(it2n_dataset_value(&g_ds, 1, 1, IT2N_FP_D, IT2N_CH_X) ==
                     3 * IT2N_VAL_ONE);
         if (chunk == 1) {
             memcpy(&first, &g_ds, sizeof(first));

@@ -169,8 +169,8 @@ static void test_put_coordinate_limit(void **state)
     v[IT2N_CH_Z] = INT64_MAX;
     assert_int_equal(it2n_dataset_put(&ds, 1, 1, IT2N_FP_D, v, false, &err),
                      IT2N_OK);
-    assert_true(ds.values[1][1][IT2N_FP_D][IT2N_CH_Z] == 0);
-    assert_true(ds.values[1][1][IT2N_FP_D][IT2N_CH_X] == v[IT2N_CH_X]);
+    assert_true(it2n_dataset_value(&ds, 1, 1, IT2N_FP_D, IT2N_CH_Z) == 0);
+    assert_true(it2n_dataset_value(&ds, 1, 1, IT2N_FP_D, IT2N_CH_X) == v[IT2N_CH_X]);
 }
 
 static void test_put_index_and_duplicate(void **state)
@@ -194,10 +194,10 @@ static void test_put_index_and_duplicate(void **state)
     assert_int_equal(it2n_dataset_put(&ds, 2, 1, IT2N_FP_R, v2, false, &err),
                      IT2N_ERR_DUPLICATE);
     expect_err(&err, IT2N_ERR_DUPLICATE, 2, 1, IT2N_FP_R, -1);
-    assert_true(ds.values[2][1][IT2N_FP_R][IT2N_CH_T] == v[IT2N_CH_T]);
+    assert_true(it2n_dataset_value(&ds, 2, 1, IT2N_FP_R, IT2N_CH_T) == v[IT2N_CH_T]);
     /* replace = true overwrites */
     assert_int_equal(it2n_dataset_put(&ds, 2, 1, IT2N_FP_R, v2, true, &err), IT2N_OK);
-    assert_true(ds.values[2][1][IT2N_FP_R][IT2N_CH_T] == v2[IT2N_CH_T]);
+    assert_true(it2n_dataset_value(&ds, 2, 1, IT2N_FP_R, IT2N_CH_T) == v2[IT2N_CH_T]);
     assert_int_equal(it2n_dataset_missing(&ds), 4u * 3u * 7u - 1u);
 }
 
@@ -487,7 +487,7 @@ static void test_hand_filled_dataset(void **state)
     copy = mdl;
 
     bad = ds;
-    bad.values[1][2][IT2N_FP_RL][IT2N_CH_T] = tc_q24("1.2");
+    bad.memb[1][2][IT2N_FP_RL][IT2N_CH_T - 3] = (uint32_t)tc_q24("1.2");
     memset(&err, 0, sizeof err);
     assert_int_equal(it2n_dataset_check(&bad, &err), IT2N_ERR_RANGE);
     expect_err(&err, IT2N_ERR_RANGE, 1, 2, IT2N_FP_RL, IT2N_CH_T);
@@ -496,7 +496,8 @@ static void test_hand_filled_dataset(void **state)
     assert_memory_equal(&mdl, &copy, sizeof mdl);
 
     bad = ds;
-    bad.values[0][3][IT2N_FP_LL][IT2N_CH_X] = INT64_MIN;
+    bad.coord_hi[0][3][IT2N_FP_LL][IT2N_CH_X] = INT16_MIN; /* -2^47 */
+    bad.coord_lo[0][3][IT2N_FP_LL][IT2N_CH_X] = 0;
     assert_int_equal(it2n_dataset_check(&bad, &err), IT2N_ERR_RANGE);
     expect_err(&err, IT2N_ERR_RANGE, 0, 3, IT2N_FP_LL, IT2N_CH_X);
     assert_int_equal(it2n_model_solve(&mdl, &bad, &err), IT2N_ERR_RANGE);
@@ -518,10 +519,13 @@ static void test_hand_filled_dataset(void **state)
 
     /* z of a model without IT2N_F_Z is documented as zero; garbage there must
      * be refused or ignored, never turned into a z surface or an overflow. */
-    static const it2n_val junk[] = {INT64_MIN, INT64_MAX, 5 * ONE};
+    static const int16_t junk_hi[] = {INT16_MIN, INT16_MAX, 0};
+    static const uint32_t junk_lo[] = {0u, UINT32_MAX, 5u << 24};
     for (unsigned k = 0; k < 3; k++) {
         bad = ds;
-        bad.values[2][1][IT2N_FP_D][IT2N_CH_Z] = junk[k];
+        bad.coord_hi[2][1][IT2N_FP_D][IT2N_CH_Z] = junk_hi[k];
+        bad.coord_lo[2][1][IT2N_FP_D][IT2N_CH_Z] = junk_lo[k];
+        it2n_val junk_k = it2n_dataset_value(&bad, 2, 1, IT2N_FP_D, IT2N_CH_Z);
         int rc = it2n_model_solve(&mdl, &bad, &err);
         if (rc < 0) {
             assert_memory_equal(&mdl, &copy, sizeof mdl);
@@ -534,7 +538,7 @@ static void test_hand_filled_dataset(void **state)
         for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
             if (pt.v[fp][IT2N_CH_Z] != 0)
                 fail_msg("unused z %lld in the data gave a z surface (%s z = %lld)",
-                         (long long)junk[k], it2n_fp_name(fp),
+                         (long long)junk_k, it2n_fp_name(fp),
                          (long long)pt.v[fp][IT2N_CH_Z]);
         tc_model(&c, &mdl);
     }

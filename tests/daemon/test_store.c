@@ -463,8 +463,8 @@ static void test_snapshot_v1(void **st)
     sm.id = 1;
     sm.state = md->state;
     sm.gen = 77;
-    sm.ds = md->ds;
-    sm.mdl.data = md->ds; /* what 0.1 stored; the reader ignores it */
+    store_v1_dataset_from(&sm.ds, &md->ds);
+    sm.mdl.data = sm.ds; /* what 0.1 stored; the reader ignores it */
     sm.mdl.solved = 1;
     store_close();
     memset(buf, 0, sizeof buf);

@@ -190,8 +190,8 @@ static uint8_t *build_v1(size_t *len)
         sm.points_rx = md->points_rx;
         sm.solves = md->solves;
         memcpy(sm.upload, md->upload, sizeof sm.upload);
-        sm.ds = md->ds;
-        sm.mdl.data = md->ds;
+        store_v1_dataset_from(&sm.ds, &md->ds);
+        sm.mdl.data = sm.ds;
         sm.mdl.generation = md->mdl.generation;
         sm.mdl.solved = md->mdl.solved;
         for (unsigned i = 0; i < IT2N_DIM; i++)

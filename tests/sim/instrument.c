@@ -354,7 +354,7 @@ int main(int argc, char **argv)
                         e->i = (uint8_t)i;
                         e->j = (uint8_t)j;
                         e->fp = (uint8_t)fp;
-                        memcpy(e->vals, ds.values[i][j][fp], sizeof e->vals);
+                        it2n_dataset_get(&ds, i, j, fp, e->vals);
                     }
                     if (++fp == IT2N_FP_COUNT) {
                         fp = 0;

@@ -257,9 +257,9 @@ static int cmd_upload(const char *csv, int commit, const char *logpath)
                 r[1] = (uint16_t)j;
                 r[2] = (uint16_t)fp;
                 for (int c = 0; c < 3; c++)
-                    put_i32(&r[3 + 2 * c], (int32_t)scaled(ds.values[i][j][fp][c], scale, INT32_MAX));
+                    put_i32(&r[3 + 2 * c], (int32_t)scaled(it2n_dataset_value(&ds, i, j, fp, c), scale, INT32_MAX));
                 for (int k = 0; k < 3; k++)
-                    r[9 + k] = (uint16_t)scaled(ds.values[i][j][fp][3 + k], 10000, 10000);
+                    r[9 + k] = (uint16_t)scaled(it2n_dataset_value(&ds, i, j, fp, 3 + k), 10000, 10000);
                 int rc = modbus_write_registers(ctx, IT2N_REG_UP_I, 12, r);
                 if (log && rc != 12) { /* daemon killed under us: stop */
                     fclose(log);

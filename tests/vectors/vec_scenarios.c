@@ -456,7 +456,7 @@ static void scen_update(it2n_vec_work *wk, const vec_out *o)
     wk->b = wk->a;
     wk->ds2 = wk->ds;
     /* (1, 2, L): memberships change, x moves within its neighbours. */
-    memcpy(v, wk->ds.values[1][2][IT2N_FP_L], sizeof v);
+    it2n_dataset_get(&wk->ds, 1, 2, IT2N_FP_L, v);
     v[IT2N_CH_X] += IT2N_VAL_ONE / 2;
     v[IT2N_CH_T] = IT2N_VAL_ONE / 8;
     v[IT2N_CH_I] = IT2N_VAL_ONE - 1;
@@ -560,7 +560,7 @@ static void scen_chord_update(it2n_vec_work *wk, const vec_out *o)
         out(o, "chord_update.skipped", 1);
         return;
     }
-    memcpy(v, wk->ds.values[1][1][IT2N_FP_D], sizeof v);
+    it2n_dataset_get(&wk->ds, 1, 1, IT2N_FP_D, v);
     v[IT2N_CH_X] += IT2N_VAL_ONE / 4;
     v[IT2N_CH_T] = IT2N_VAL_ONE / 2;
     rc = it2n_model_update(&wk->a, &wk->ds, 1, 1, IT2N_FP_D, v, &wk->err);
@@ -630,8 +630,8 @@ static void scen_errors(it2n_vec_work *wk, const vec_out *o)
     /* Nesting broken on y at (1, 1): LR above L. */
     rc = make_grid(&wk->ds, 2, 2, 0, 99u, &wk->err);
     out_err(o, rc, &wk->err);
-    memcpy(v, wk->ds.values[1][1][IT2N_FP_LR], sizeof v);
-    v[IT2N_CH_Y] = wk->ds.values[1][1][IT2N_FP_L][IT2N_CH_Y] + 1;
+    it2n_dataset_get(&wk->ds, 1, 1, IT2N_FP_LR, v);
+    v[IT2N_CH_Y] = it2n_dataset_value(&wk->ds, 1, 1, IT2N_FP_L, IT2N_CH_Y) + 1;
     rc = it2n_dataset_put(&wk->ds, 1, 1, IT2N_FP_LR, v, true, &wk->err);
     out_err(o, rc, &wk->err);
     rc = it2n_dataset_check(&wk->ds, &wk->err);
