@@ -82,7 +82,7 @@ static void check_put(void *state, const char *tag, int64_t value)
 
 int it2n_core_vectors_run(void (*log)(const char *))
 {
-    static it2n_vec_work work; /* ~67 KB: static, never on the stack */
+    static it2n_vec_work work; /* ~50 KB: static, never on the stack */
     vec_check c;
     char line[120];
     char *p;

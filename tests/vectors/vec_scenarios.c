@@ -109,10 +109,28 @@ static uint64_t hash_ctrl_q24(const it2n_model *mdl)
     return h;
 }
 
-/* 1 when two data sets are byte-identical, else 0. */
+/* 1 when two data sets hold the same degrees, flags, entries and values
+ * (compared through the core's accessor, not the storage bytes), else 0. */
 static int64_t same_data(const it2n_dataset *a, const it2n_dataset *b)
 {
-    return memcmp(a, b, sizeof *a) == 0;
+    unsigned i, j, fp, ch;
+    if (a->n != b->n || a->m != b->m || a->flags != b->flags ||
+        memcmp(a->present, b->present, sizeof a->present) != 0) {
+        return 0;
+    }
+    for (i = 0; i < IT2N_DIM; i++) {
+        for (j = 0; j < IT2N_DIM; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                    if (it2n_dataset_value(a, i, j, fp, ch) !=
+                        it2n_dataset_value(b, i, j, fp, ch)) {
+                        return 0;
+                    }
+                }
+            }
+        }
+    }
+    return 1;
 }
 
 static int64_t as_i64(uint64_t h)

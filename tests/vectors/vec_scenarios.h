@@ -22,7 +22,7 @@
 typedef void (*it2n_vec_put)(void *state, const char *tag, int64_t value);
 
 /* Working memory for one run. Large (two data sets and two models, about
- * 68 KB at IT2N_MAX_DEGREE 7): callers keep it in static storage (.bss),
+ * 50 KB at IT2N_MAX_DEGREE 7): callers keep it in static storage (.bss),
  * never on a small embedded stack. */
 typedef struct it2n_vec_work {
     it2n_dataset ds, ds2;
