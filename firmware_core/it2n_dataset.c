@@ -157,6 +157,7 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     mask = it2n__fp_mask(ds->flags);
+    memset(pt, 0, sizeof(pt)); /* type-1 leaves footprints other than D */
     for (i = 0; i <= ds->n; i++) {
         for (j = 0; j <= ds->m; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
