@@ -22,10 +22,14 @@ int64_t it2n__shift_round(int64_t v, int s);
 /* Inverse collocation matrix of one direction in fixed point:
  * C[r][k] = (hi[r * (deg + 1) + k] * 2^24 + lo[...]) * 2^-frac, hi signed,
  * 0 <= lo < 2^24, every row's absolute sum below 2^55. Split in 32-bit
- * halves so the solve multiplies 32 x 32 -> 64 only. */
+ * halves so the solve multiplies 32 x 32 -> 64 only. Low degrees also have
+ * a one-word table w (C = w * 2^-wfrac, row sums below 2^31) for the short
+ * solve path; w is NULL otherwise. */
 typedef struct it2n__uinv {
     const int32_t *hi, *lo;
     int frac;
+    const int32_t *w;
+    int wfrac;
 } it2n__uinv;
 
 /* The uniform tables, degree d at index d - 1 (it2n_uniform_inv.c). */

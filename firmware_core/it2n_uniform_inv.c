@@ -4,7 +4,9 @@
  * Inverses C_d = M_d^-1 of the uniform Bernstein collocation matrices
  * M_d[k][i] = B_i^d(k/d), exact rationals rounded once to
  * q = round(C_d * 2^frac) (row-major, C_d[r][k] at r*(d+1)+k), every
- * row's absolute sum below 2^55, stored as q = hi * 2^24 + lo.
+ * row's absolute sum below 2^55, stored as q = hi * 2^24 + lo; for
+ * degrees up to 3 also in one word, row sums below 2^31 (the short
+ * solve path).
  */
 #include "it2n_internal.h"
 
@@ -17,6 +19,10 @@ static const int32_t inv1_lo[4] = {
     0, 0,
     0, 0,
 };
+static const int32_t inv1_w[4] = {
+    536870912, 0,
+    0, 536870912,
+};
 #endif
 #if IT2N_MAX_DEGREE >= 2
 static const int32_t inv2_hi[9] = {
@@ -28,6 +34,11 @@ static const int32_t inv2_lo[9] = {
     0, 0, 0,
     0, 0, 0,
     0, 0, 0,
+};
+static const int32_t inv2_w[9] = {
+    268435456, 0, 0,
+    -134217728, 536870912, -134217728,
+    0, 0, 268435456,
 };
 #endif
 #if IT2N_MAX_DEGREE >= 3
@@ -42,6 +53,12 @@ static const int32_t inv3_lo[16] = {
     5592405, 0, 0, 11184811,
     11184811, 0, 0, 5592405,
     0, 0, 0, 0,
+};
+static const int32_t inv3_w[16] = {
+    134217728, 0, 0, 0,
+    -111848107, 402653184, -201326592, 44739243,
+    44739243, -201326592, 402653184, -111848107,
+    0, 0, 0, 134217728,
 };
 #endif
 #if IT2N_MAX_DEGREE >= 4
@@ -370,47 +387,47 @@ static const int32_t inv15_lo[256] = {
 #endif
 
 const it2n__uinv it2n__uniform_inv[IT2N_MAX_DEGREE] = {
-    {inv1_hi, inv1_lo, 53},
+    {inv1_hi, inv1_lo, 53, inv1_w, 29},
 #if IT2N_MAX_DEGREE >= 2
-    {inv2_hi, inv2_lo, 52},
+    {inv2_hi, inv2_lo, 52, inv2_w, 28},
 #endif
 #if IT2N_MAX_DEGREE >= 3
-    {inv3_hi, inv3_lo, 51},
+    {inv3_hi, inv3_lo, 51, inv3_w, 27},
 #endif
 #if IT2N_MAX_DEGREE >= 4
-    {inv4_hi, inv4_lo, 50},
+    {inv4_hi, inv4_lo, 50, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 5
-    {inv5_hi, inv5_lo, 48},
+    {inv5_hi, inv5_lo, 48, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 6
-    {inv6_hi, inv6_lo, 47},
+    {inv6_hi, inv6_lo, 47, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 7
-    {inv7_hi, inv7_lo, 46},
+    {inv7_hi, inv7_lo, 46, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 8
-    {inv8_hi, inv8_lo, 44},
+    {inv8_hi, inv8_lo, 44, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 9
-    {inv9_hi, inv9_lo, 43},
+    {inv9_hi, inv9_lo, 43, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 10
-    {inv10_hi, inv10_lo, 42},
+    {inv10_hi, inv10_lo, 42, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 11
-    {inv11_hi, inv11_lo, 40},
+    {inv11_hi, inv11_lo, 40, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 12
-    {inv12_hi, inv12_lo, 39},
+    {inv12_hi, inv12_lo, 39, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 13
-    {inv13_hi, inv13_lo, 38},
+    {inv13_hi, inv13_lo, 38, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 14
-    {inv14_hi, inv14_lo, 36},
+    {inv14_hi, inv14_lo, 36, NULL, 0},
 #endif
 #if IT2N_MAX_DEGREE >= 15
-    {inv15_hi, inv15_lo, 35},
+    {inv15_hi, inv15_lo, 35, NULL, 0},
 #endif
 };

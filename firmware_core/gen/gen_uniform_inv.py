@@ -15,6 +15,9 @@ from fractions import Fraction as Fr
 from math import comb
 
 MAX_DEG = 15
+# Degrees whose inverse also gets a one-word table (see it2n_solve.c: the
+# short path; its rounding stays below 2e-7 of the data at these degrees).
+SHORT_MAX_DEG = 3
 
 
 def inverse(d):
@@ -50,7 +53,9 @@ def main():
         " * Inverses C_d = M_d^-1 of the uniform Bernstein collocation matrices",
         " * M_d[k][i] = B_i^d(k/d), exact rationals rounded once to",
         " * q = round(C_d * 2^frac) (row-major, C_d[r][k] at r*(d+1)+k), every",
-        " * row's absolute sum below 2^55, stored as q = hi * 2^24 + lo.",
+        " * row's absolute sum below 2^55, stored as q = hi * 2^24 + lo; for",
+        " * degrees up to %d also in one word, row sums below 2^31 (the short" % SHORT_MAX_DEG,
+        " * solve path).",
         " */",
         '#include "it2n_internal.h"',
         "",
@@ -70,14 +75,26 @@ def main():
             for l in range(n):
                 out.append("    " + ", ".join("%d" % v for v in vals[l * n:(l + 1) * n]) + ",")
             out.append("};")
+        wfrac = None
+        if d <= SHORT_MAX_DEG:
+            wfrac = 30 - int(rowsum).bit_length()
+            qw = [rnd(c[l][j] * 2 ** wfrac) for l in range(n) for j in range(n)]
+            assert max(sum(abs(qw[l * n + j]) for j in range(n)) for l in range(n)) < 2 ** 31
+            out.append("static const int32_t inv%d_w[%d] = {" % (d, n * n))
+            for l in range(n):
+                out.append("    " + ", ".join("%d" % v for v in qw[l * n:(l + 1) * n]) + ",")
+            out.append("};")
         out.append("#endif")
-        entries.append((d, frac))
+        entries.append((d, frac, wfrac))
     out.append("")
     out.append("const it2n__uinv it2n__uniform_inv[IT2N_MAX_DEGREE] = {")
-    for d, frac in entries:
+    for d, frac, wfrac in entries:
         if d > 1:
             out.append("#if IT2N_MAX_DEGREE >= %d" % d)
-        out.append("    {inv%d_hi, inv%d_lo, %d}," % (d, d, frac))
+        if wfrac is None:
+            out.append("    {inv%d_hi, inv%d_lo, %d, NULL, 0}," % (d, d, frac))
+        else:
+            out.append("    {inv%d_hi, inv%d_lo, %d, inv%d_w, %d}," % (d, d, frac, d, wfrac))
         if d > 1:
             out.append("#endif")
     out.append("};")
