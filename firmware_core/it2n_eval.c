@@ -261,7 +261,7 @@ int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
 static it2n_par grid_par(unsigned k, unsigned count)
 {
     uint64_t d = count - 1u;
-    return (it2n_par)((((uint64_t)k << IT2N_PAR_FRAC) + d / 2u) / d);
+    return (it2n_par)it2n__udiv64_32(((uint64_t)k << IT2N_PAR_FRAC) + d / 2u, (uint32_t)d);
 }
 
 int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,

@@ -26,6 +26,21 @@ static uint64_t uabs64(int64_t v)
     return v < 0 ? (uint64_t)(-(v + 1)) + 1u : (uint64_t)v;
 }
 
+uint64_t it2n__udiv64_32(uint64_t n, uint32_t d)
+{
+    uint64_t q = 0u, r = 0u;
+    unsigned k;
+    for (k = 64u; k-- > 0u;) {
+        r = (r << 1) | ((n >> k) & 1u);
+        q <<= 1;
+        if (r >= d) {
+            r -= d;
+            q |= 1u;
+        }
+    }
+    return q;
+}
+
 unsigned it2n_bitlen64(uint64_t v)
 {
     unsigned k = 0;

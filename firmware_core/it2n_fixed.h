@@ -162,6 +162,16 @@ IT2N_INLINE void it2n_mac128(it2n_i128 *acc, int64_t a, int64_t b)
     acc->lo = lo;
 }
 
+/* floor(n / d) for d != 0, by 64 shift-subtract steps: no 64-bit division
+ * helper from libgcc on parts without a divider (used outside hot loops). */
+uint64_t it2n__udiv64_32(uint64_t n, uint32_t d);
+
+/* round(k 2^32 / d), k <= d (uniform parameters). */
+static inline uint64_t it2n__udiv_round(unsigned k, unsigned d)
+{
+    return it2n__udiv64_32(((uint64_t)k << 32) + d / 2u, d);
+}
+
 /* Number of significant bits of v (0 for 0). */
 unsigned it2n_bitlen64(uint64_t v);
 

@@ -14,17 +14,27 @@
 /* Bernstein basis of degree deg at Q32 parameter t, by de Casteljau. */
 static void basis_xf(unsigned deg, it2n_par t, xf b[IT2N_DIM])
 {
-    xf tx = xf_norm(t, -IT2N_PAR_FRAC);
-    xf sx = xf_norm(IT2N_PAR_ONE - t, -IT2N_PAR_FRAC);
+    xf tx, sx, p, q;
     unsigned k, i;
-    b[0] = xf_norm(1, 0);
+    xf_set(&tx, t, -IT2N_PAR_FRAC);
+    xf_set(&sx, IT2N_PAR_ONE - t, -IT2N_PAR_FRAC);
+    xf_set(&b[0], 1, 0);
     for (k = 1; k <= deg; k++) {
-        b[k] = xf_mul(tx, b[k - 1u]);
+        xf_mul(&b[k], &tx, &b[k - 1u]);
         for (i = k - 1u; i >= 1u; i--) {
-            b[i] = xf_add(xf_mul(sx, b[i]), xf_mul(tx, b[i - 1u]));
+            xf_mul(&p, &sx, &b[i]);
+            xf_mul(&q, &tx, &b[i - 1u]);
+            xf_add(&b[i], &p, &q);
         }
-        b[0] = xf_mul(sx, b[0]);
+        xf_mul(&b[0], &sx, &b[0]);
     }
+}
+
+static void swap_xf(xf *a, xf *b)
+{
+    xf t = *a;
+    *a = *b;
+    *b = t;
 }
 
 int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
@@ -32,11 +42,11 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
                  int32_t lo[IT2N_DIM * IT2N_DIM], int *frac,
                  it2n_errinfo *err)
 {
-    xf a[IT2N_DIM][IT2N_DIM], rowmax;
+    xf a[IT2N_DIM][IT2N_DIM], rowmax, tiny, p, f, s;
     unsigned char perm[IT2N_DIM];
     unsigned n = deg + 1u, r, c, k;
     /* Pivots below 2^-24: the parameters (nearly) coincide. */
-    const xf tiny = xf_norm(1, -24);
+    xf_set(&tiny, 1, -24);
     for (r = 0; r < n; r++) {
         basis_xf(deg, t[r], a[r]);
     }
@@ -44,57 +54,51 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
      * undone on the columns at the end). */
     for (k = 0; k < n; k++) {
         unsigned piv = k;
-        xf p;
         for (r = k + 1u; r < n; r++) {
-            if (xf_abs_lt(a[piv][k], a[r][k])) {
+            if (xf_abs_lt(&a[piv][k], &a[r][k])) {
                 piv = r;
             }
         }
         perm[k] = (unsigned char)piv;
-        if (xf_abs_lt(a[piv][k], tiny)) {
+        if (xf_abs_lt(&a[piv][k], &tiny)) {
             return it2n__fail(err, IT2N_ERR_SINGULAR, -1, -1, -1, -1, 0, 0, 0);
         }
-        if (piv != k) {
-            for (c = 0; c < n; c++) {
-                xf tmp = a[k][c];
-                a[k][c] = a[piv][c];
-                a[piv][c] = tmp;
-            }
+        for (c = 0; c < n && piv != k; c++) {
+            swap_xf(&a[k][c], &a[piv][c]);
         }
         p = a[k][k];
-        a[k][k] = xf_norm(1, 0);
+        xf_set(&a[k][k], 1, 0);
         for (c = 0; c < n; c++) {
-            a[k][c] = xf_div(a[k][c], p);
+            xf_div(&a[k][c], &a[k][c], &p);
         }
         for (r = 0; r < n; r++) {
-            xf f = a[r][k];
+            f = a[r][k];
             if (r == k || f.m == 0) {
                 continue;
             }
-            a[r][k] = xf_norm(0, 0);
+            xf_set(&a[r][k], 0, 0);
             for (c = 0; c < n; c++) {
-                a[r][c] = xf_add(a[r][c], xf_neg(xf_mul(f, a[k][c])));
+                xf_mul(&s, &f, &a[k][c]);
+                xf_sub(&a[r][c], &a[r][c], &s);
             }
         }
     }
     for (k = n; k-- > 0u;) {
-        if (perm[k] != k) {
-            for (r = 0; r < n; r++) {
-                xf tmp = a[r][k];
-                a[r][k] = a[r][perm[k]];
-                a[r][perm[k]] = tmp;
-            }
+        for (r = 0; r < n && perm[k] != k; r++) {
+            swap_xf(&a[r][k], &a[r][perm[k]]);
         }
     }
     /* Scale: largest row absolute sum < 2^(62 + e), so 2^(-8 - e) keeps
      * every rounded row sum below 2^55. */
-    rowmax = xf_norm(0, 0);
+    xf_set(&rowmax, 0, 0);
     for (r = 0; r < n; r++) {
-        xf s = xf_norm(0, 0);
+        xf_set(&s, 0, 0);
         for (c = 0; c < n; c++) {
-            s = xf_add(s, xf_abs(a[r][c]));
+            xf e = a[r][c];
+            e.m = e.m < 0 ? -e.m : e.m;
+            xf_add(&s, &s, &e);
         }
-        if (xf_abs_lt(rowmax, s)) {
+        if (xf_abs_lt(&rowmax, &s)) {
             rowmax = s;
         }
     }

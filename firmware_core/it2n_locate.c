@@ -70,16 +70,30 @@ static int64_t shr(int64_t v, unsigned s)
 static bool newton_step(const loc_state *st, unsigned fp, int64_t *su,
                         int64_t *sw)
 {
-    xf xu = xf_norm(st->du[fp][IT2N_CH_X], 0), xw = xf_norm(st->dw[fp][IT2N_CH_X], 0);
-    xf yu = xf_norm(st->du[fp][IT2N_CH_Y], 0), yw = xf_norm(st->dw[fp][IT2N_CH_Y], 0);
-    xf rx = xf_norm(st->rx, 0), ry = xf_norm(st->ry, 0);
-    xf det = xf_add(xf_mul(xu, yw), xf_neg(xf_mul(xw, yu)));
+    xf xu, xw, yu, yw, rx, ry, det, p, q;
+    xf_set(&xu, st->du[fp][IT2N_CH_X], 0);
+    xf_set(&xw, st->dw[fp][IT2N_CH_X], 0);
+    xf_set(&yu, st->du[fp][IT2N_CH_Y], 0);
+    xf_set(&yw, st->dw[fp][IT2N_CH_Y], 0);
+    xf_set(&rx, st->rx, 0);
+    xf_set(&ry, st->ry, 0);
+    xf_mul(&p, &xu, &yw);
+    xf_mul(&q, &xw, &yu);
+    xf_sub(&det, &p, &q);
     if (det.m == 0) {
         return false;
     }
-    /* du = -(yw rx - xw ry) / det, dw = -(xu ry - yu rx) / det */
-    *su = xf_to_q32(xf_div(xf_add(xf_mul(xw, ry), xf_neg(xf_mul(yw, rx))), det));
-    *sw = xf_to_q32(xf_div(xf_add(xf_mul(yu, rx), xf_neg(xf_mul(xu, ry))), det));
+    /* du = (xw ry - yw rx) / det, dw = (yu rx - xu ry) / det */
+    xf_mul(&p, &xw, &ry);
+    xf_mul(&q, &yw, &rx);
+    xf_sub(&p, &p, &q);
+    xf_div(&p, &p, &det);
+    *su = xf_to_q32(&p);
+    xf_mul(&p, &yu, &rx);
+    xf_mul(&q, &xu, &ry);
+    xf_sub(&p, &p, &q);
+    xf_div(&p, &p, &det);
+    *sw = xf_to_q32(&p);
     return true;
 }
 

@@ -47,8 +47,7 @@ static void params_uniform(unsigned deg, it2n_par t[IT2N_DIM])
 {
     unsigned k;
     for (k = 0; k <= deg; k++) {
-        uint64_t num = ((uint64_t)k << IT2N_PAR_FRAC) + deg / 2u;
-        t[k] = (it2n_par)(num / deg);
+        t[k] = (it2n_par)it2n__udiv_round(k, deg);
     }
 }
 
@@ -107,7 +106,7 @@ static int params_chord(const it2n_dataset *ds, unsigned dir,
     t[0] = 0;
     t[deg] = IT2N_PAR_ONE;
     for (k = 1; k < deg; k++) {
-        t[k] = (it2n_par)((acc[k] + used / 2u) / used);
+        t[k] = (it2n_par)it2n__udiv64_32(acc[k] + used / 2u, used);
     }
     for (k = 1; k <= deg; k++) {
         if (t[k] - t[k - 1u] < PIVOT_MIN) {
@@ -149,7 +148,7 @@ static unsigned rowsum_bits(const int32_t *hi, const int32_t *lo, unsigned deg)
     for (r = 0; r < n; r++) {
         uint64_t s = 0u;
         for (k = 0; k < n; k++) {
-            int64_t v = (int64_t)hi[r * n + k] * 16777216 + lo[r * n + k];
+            int64_t v = (int64_t)(((uint64_t)(int64_t)hi[r * n + k] << 24) + (uint32_t)lo[r * n + k]);
             s += (uint64_t)(v < 0 ? -v : v);
         }
         best = s > best ? s : best;
@@ -248,7 +247,7 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
              * out-of-line products keep the code small */
             it2n_i128 acc = it2n_i128_zero();
             for (l = 0; l < m1; l++) {
-                int64_t c = (int64_t)hi[l] * 16777216 + lo[l];
+                int64_t c = (int64_t)(((uint64_t)(int64_t)hi[l] << 24) + (uint32_t)lo[l]);
                 it2n_mac128(&acc, it2n_dataset_value(ds, k, l, fp, ch), c);
             }
             if (!it2n_i128_round(acc, 42u, &g[k])) {
@@ -326,7 +325,7 @@ static void short_column(const it2n_dataset *ds, unsigned fp, unsigned ch,
         for (k = 0; k < n1; k++) {
             b += it2n_mul32su(wn[k], (uint32_t)gl[k]);
         }
-        p[i * stride] = a * 2 + ((b + ((int64_t)1 << 29)) >> 30);
+        p[i * stride] = a + a + ((b + ((int64_t)1 << 29)) >> 30);
     }
 }
 
