@@ -38,6 +38,13 @@
 #define IT2N_COORD_LIMIT 8388607
 #endif
 
+/* Chord-length parameterisation (IT2N_F_CHORD). 0 leaves out its run-time
+ * inverse and parameter code (about 2 KB of Cortex-M0+ flash); data sets
+ * asking for it are then refused with IT2N_ERR_INVAL. */
+#ifndef IT2N_CHORD
+#define IT2N_CHORD 1
+#endif
+
 /* Newton iterations per footprint in it2n_locate before giving up. */
 #ifndef IT2N_LOCATE_MAX_ITER
 #define IT2N_LOCATE_MAX_ITER 40
@@ -130,7 +137,8 @@ typedef struct it2n_errinfo {
 #define IT2N_F_Z 0x01u          /* coordinates carry z                   */
 #define IT2N_F_TYPE1 0x02u      /* only footprint D (type-1 neutrosophic) */
 #define IT2N_F_CHORD 0x04u      /* chord-length params instead of uniform */
-#define IT2N_F_ALL (IT2N_F_Z | IT2N_F_TYPE1 | IT2N_F_CHORD)
+/* Flags this build accepts. */
+#define IT2N_F_ALL (IT2N_F_Z | IT2N_F_TYPE1 | (IT2N_CHORD ? IT2N_F_CHORD : 0u))
 
 /* Grid data being assembled. present[i][j] is a bit mask of the footprints
  * given. Values are Q24 stored compactly (read them with it2n_dataset_get or

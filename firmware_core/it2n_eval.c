@@ -88,6 +88,8 @@ static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
     int64_t acc = 0;
     unsigned i, j;
     int s, s1 = ufrac < 30 ? 31 : 30;
+#if IT2N_MUL_HALVES
+    /* ARMv6-M: one accumulator at a time (8 low registers) */
     for (j = 0; j < m1; j++) {
         int64_t q = 0;
         for (i = 0; i < n1; i++) {
@@ -97,6 +99,27 @@ static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
         q = s1 == 30 ? (q + ((int64_t)1 << 29)) >> 30 : (q + ((int64_t)1 << 30)) >> 31;
         acc += it2n_smul32(cw[j], (int32_t)q);
     }
+#else
+    /* Wider cores: rows of the net in order, m1 independent accumulators
+     * (instruction-level parallelism, vectorisable). Integer sums are
+     * exact, so the result is bit-identical to the loop above. */
+    int64_t q[IT2N_DIM];
+    for (j = 0; j < m1; j++) {
+        q[j] = 0;
+    }
+    for (i = 0; i < n1; i++) {
+        const int32_t *row = &net[i * m1];
+        int32_t c = cu[i];
+        for (j = 0; j < m1; j++) {
+            q[j] += it2n_smul32(c, row[j]);
+        }
+    }
+    for (j = 0; j < m1; j++) {
+        int64_t r = s1 == 30 ? (q[j] + ((int64_t)1 << 29)) >> 30
+                             : (q[j] + ((int64_t)1 << 30)) >> 31;
+        acc += it2n_smul32(cw[j], (int32_t)r);
+    }
+#endif
     s = ufrac - s1 + wfrac + frac - IT2N_VAL_FRAC;
     if (s < 0) {
         /* Only nets near 2^39 get here: check the left shift. */

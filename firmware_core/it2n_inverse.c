@@ -11,6 +11,8 @@
 #include "it2n_internal.h"
 #include "it2n_xf.h"
 
+#if IT2N_CHORD
+
 /* Bernstein basis of degree deg at Q32 parameter t, by de Casteljau. */
 static void basis_xf(unsigned deg, it2n_par t, xf b[IT2N_DIM])
 {
@@ -117,3 +119,7 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
     }
     return IT2N_OK;
 }
+#else
+/* ISO C wants at least one declaration in a translation unit. */
+typedef int it2n__no_chord_inverse;
+#endif /* IT2N_CHORD */

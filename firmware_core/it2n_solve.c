@@ -51,6 +51,7 @@ static void params_uniform(unsigned deg, it2n_par t[IT2N_DIM])
     }
 }
 
+#if IT2N_CHORD
 /* Distance between two D footprints, Q24. */
 static int64_t chord(const it2n_dataset *ds, unsigned i0, unsigned j0,
                      unsigned i1, unsigned j1)
@@ -121,6 +122,8 @@ static int params_chord(const it2n_dataset *ds, unsigned dir,
     return IT2N_OK;
 }
 
+#endif /* IT2N_CHORD */
+
 int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM],
                 it2n_par w[IT2N_DIM], it2n_errinfo *err)
 {
@@ -136,8 +139,14 @@ int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM],
         params_uniform(ds->m, w);
         return IT2N_OK;
     }
+#if IT2N_CHORD
     rc = params_chord(ds, 0u, u, err);
     return rc != IT2N_OK ? rc : params_chord(ds, 1u, w, err);
+#else
+    (void)rc;
+    return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)ds->flags,
+                      0, IT2N_F_ALL);
+#endif
 }
 
 /* Bit length of the largest row absolute sum (< 2^55 by construction). */
@@ -419,6 +428,7 @@ static void commit(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask,
     solve_nets(mdl, ds, fpmask, du, dw);
 }
 
+#if IT2N_CHORD
 /* Chord-length inverses need buffers; uniform ones are tables. Separate
  * frames keep the uniform solve's stack small. */
 static int solve_chord(it2n_model *mdl, const it2n_dataset *ds,
@@ -454,14 +464,18 @@ static int solve_chord(it2n_model *mdl, const it2n_dataset *ds,
     return IT2N_OK;
 }
 
+#endif /* IT2N_CHORD */
+
 static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
                       unsigned fpmask, bool full, it2n_errinfo *err)
 {
     dir_inv du, dw;
     int rc;
+#if IT2N_CHORD
     if (ds->flags & IT2N_F_CHORD) {
         return solve_chord(mdl, ds, fpmask, full, err);
     }
+#endif
     dir_uniform(ds->n, &du);
     dir_uniform(ds->m, &dw);
     rc = check_bound(ds, fpmask, &du, &dw, err);

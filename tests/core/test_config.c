@@ -11,6 +11,7 @@
 typedef char check_degree[IT2N_MAX_DEGREE == 3 && IT2N_DIM == 4 ? 1 : -1];
 typedef char check_limit[IT2N_COORD_LIMIT == 1000 ? 1 : -1];
 typedef char check_grid[IT2N_LOCATE_GRID == 4 && IT2N_LOCATE_MAX_ITER == 20 ? 1 : -1];
+typedef char check_chord[IT2N_CHORD == 0 && (IT2N_F_ALL & IT2N_F_CHORD) == 0 ? 1 : -1];
 
 static it2n_dataset ds;
 static it2n_model mdl;
@@ -24,6 +25,12 @@ int main(void)
     rc = it2n_dataset_init(&ds, 4, 1, IT2N_F_TYPE1, &err);
     if (rc != IT2N_ERR_INVAL || err.hi != 3) {
         printf("FAIL: degree 4 accepted or wrong limit (rc %d, hi %lld)\n", rc, (long long)err.hi);
+        fails++;
+    }
+    /* chord-length parameters are not built in: refused, naming the flags */
+    rc = it2n_dataset_init(&ds, 1, 1, IT2N_F_CHORD, &err);
+    if (rc != IT2N_ERR_INVAL || err.hi != (it2n_val)IT2N_F_ALL) {
+        printf("FAIL: IT2N_F_CHORD accepted without IT2N_CHORD (rc %d)\n", rc);
         fails++;
     }
     /* the coordinate limit of the config, not the default */
@@ -57,7 +64,7 @@ int main(void)
         fails++;
     }
     printf("%s: IT2N_CONFIG options applied (MAX_DEGREE 3, COORD_LIMIT 1000, "
-           "LOCATE_GRID 4, sizeof(it2n_model) %zu)\n", fails ? "FAIL" : "PASS",
+           "LOCATE_GRID 4, CHORD 0, sizeof(it2n_model) %zu)\n", fails ? "FAIL" : "PASS",
            sizeof(it2n_model));
     return fails != 0;
 }

@@ -30,10 +30,14 @@ BMCU_IMG_SRC := $(addprefix $(BMCU_DIR)/,driver.c entry.c counter.c stack_probe.
 BMCU_CPU_m0p := -mcpu=cortex-m0plus -mthumb
 BMCU_CPU_m4f := -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16
 BMCU_CPU_m0p_d3 := $(BMCU_CPU_m0p)
+BMCU_CPU_m0p_d3u := $(BMCU_CPU_m0p)
 BMCU_OPT_m0p := -Os
 BMCU_OPT_m4f := -O2
 BMCU_OPT_m0p_d3 := -Os
+BMCU_OPT_m0p_d3u := -Os
 BMCU_DEF_m0p_d3 := -DIT2N_MAX_DEGREE=3
+# the same without chord-length parameters (IT2N_CHORD=0)
+BMCU_DEF_m0p_d3u := -DIT2N_MAX_DEGREE=3 -DIT2N_CHORD=0
 BMCU_MACHINE_m0p := mps2-an385
 BMCU_MACHINE_m4f := mps2-an386
 # The core exactly as make cross builds it (CROSS_CFLAGS), at this target's
@@ -59,7 +63,7 @@ $(BMCU_B)/$(1)/bench/datasets.o: $(BMCU_B)/datasets.c $$(BMCU_HDR)
 	@mkdir -p $$(@D)
 	arm-none-eabi-gcc $(BMCU_CPU_$(1)) $(BMCU_OPT_$(1)) $$(BMCU_CFLAGS) -c $$< -o $$@
 endef
-$(foreach t,m0p m4f m0p_d3,$(eval $(call BMCU_TARGET_RULES,$(t))))
+$(foreach t,m0p m4f m0p_d3 m0p_d3u,$(eval $(call BMCU_TARGET_RULES,$(t))))
 
 BMCU_IMG_OBJ = $(patsubst $(BMCU_DIR)/%.c,$(BMCU_B)/$(1)/bench/%.o,$(patsubst tests/qemu/%.c,$(BMCU_B)/$(1)/qemu/%.o,$(BMCU_IMG_SRC))) \
                $(BMCU_B)/$(1)/bench/datasets.o $(BMCU_CORE_SRC:%.c=$(BMCU_B)/$(1)/%.o)
@@ -81,6 +85,10 @@ BMCU_RUN = timeout --kill-after=5 $(BMCU_TIMEOUT) qemu-system-arm -M $(BMCU_MACH
 
 # ---- flash: solve + eval + locate, M0+, IT2N_MAX_DEGREE=3 --------------------
 $(BMCU_B)/m0p_d3/flash.elf: $(BMCU_B)/m0p_d3/bench/flash_entry.o $(BMCU_CORE_SRC:%.c=$(BMCU_B)/m0p_d3/%.o)
+	arm-none-eabi-gcc $(BMCU_CPU_m0p) -nostdlib -Wl,--gc-sections -Wl,-e,bc_flash_entry \
+	  -Wl,-Map=$(@:.elf=.map) -o $@ $^ -lc -lgcc
+
+$(BMCU_B)/m0p_d3u/flash.elf: $(BMCU_B)/m0p_d3u/bench/flash_entry.o $(BMCU_CORE_SRC:%.c=$(BMCU_B)/m0p_d3u/%.o)
 	arm-none-eabi-gcc $(BMCU_CPU_m0p) -nostdlib -Wl,--gc-sections -Wl,-e,bc_flash_entry \
 	  -Wl,-Map=$(@:.elf=.map) -o $@ $^ -lc -lgcc
 
@@ -118,6 +126,7 @@ BMCU_CG = valgrind --tool=callgrind --toggle-collect=cg_queries --callgrind-out-
 
 # ---- the benchmark -----------------------------------------------------------
 BMCU_ALL := $(BMCU_B)/m0p/bench.elf $(BMCU_B)/m4f/bench.elf $(BMCU_B)/m0p_d3/flash.elf \
+            $(BMCU_B)/m0p_d3u/flash.elf \
             $(BMCU_B)/host/bench_host $(BMCU_B)/sizes.txt
 
 .PHONY: bench-mcu bench-mcu-smoke
@@ -134,7 +143,7 @@ bench-mcu: $(BMCU_ALL)
 	@mkdir -p bench
 	$(BMCU_PY) $(BMCU_DIR)/results.py --mode $(BMCU_MODE) --m0p $(BMCU_B)/m0p.log --m4f $(BMCU_B)/m4f.log \
 	  --host $(BMCU_B)/host.log $(BMCU_B)/x86.log $(BMCU_B)/cg.log $(BMCU_B)/sizes.txt \
-	  --flash-map $(BMCU_B)/m0p_d3/flash.map --out bench/results.json
+	  --flash-map $(BMCU_B)/m0p_d3/flash.map --flash-map-uniform $(BMCU_B)/m0p_d3u/flash.map --out bench/results.json
 	$(BMCU_PY) $(BMCU_DIR)/perfdoc.py bench/results.json docs/performance.md
 
 BENCH_TARGETS += bench-mcu
@@ -155,7 +164,7 @@ bench-mcu-smoke: $(BMCU_ALL)
 	@$(BMCU_B)/host/bench_host check smoke > $(BMCU_B)/smoke/host.log || { cat $(BMCU_B)/smoke/host.log; exit 1; }
 	@$(BMCU_PY) $(BMCU_DIR)/results.py --smoke --mode smoke --m0p $(BMCU_B)/smoke/m0p.log \
 	  --m4f $(BMCU_B)/smoke/m4f.log --host $(BMCU_B)/smoke/host.log $(BMCU_B)/sizes.txt \
-	  --flash-map $(BMCU_B)/m0p_d3/flash.map --out $(BMCU_B)/smoke/results.json
+	  --flash-map $(BMCU_B)/m0p_d3/flash.map --flash-map-uniform $(BMCU_B)/m0p_d3u/flash.map --out $(BMCU_B)/smoke/results.json
 	@$(BMCU_PY) $(BMCU_DIR)/perfdoc.py --check bench/results.json docs/performance.md
 
 TEST_TARGETS += bench-mcu-smoke

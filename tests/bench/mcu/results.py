@@ -142,6 +142,7 @@ def main():
     ap.add_argument("--m4f", required=True)
     ap.add_argument("--host", nargs="+", required=True)
     ap.add_argument("--flash-map", required=True)
+    ap.add_argument("--flash-map-uniform", required=True)
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
 
@@ -205,6 +206,9 @@ def main():
             t.add(f"RAM: sizeof(it2n_model) + sizeof(it2n_dataset), {cname}", "bytes", mo + ds, limit=lim)
     core, total = flash_from_map(a.flash_map)
     t.add("M0+ core flash (text+rodata) of solve + eval + locate, IT2N_MAX_DEGREE=3", "bytes", core, limit=12288)
+    core_u, _ = flash_from_map(a.flash_map_uniform)
+    t.add("M0+ core flash (text+rodata) of solve + eval + locate, IT2N_MAX_DEGREE=3, "
+          "IT2N_CHORD=0 (uniform parameters only)", "bytes", core_u, limit=12288)
     for s, sname in SETS:
         deg = 3 if s == "paper4" else 7
         maxc = host.get(f"{s}.max_abs_coord")
