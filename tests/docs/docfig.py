@@ -32,9 +32,37 @@ def grep(cmd, prefix):
                    for l in run(cmd).splitlines(keepends=True) if l.lstrip().startswith(prefix))
 
 
+_SIZE = []
+
+
+def make_size():
+    if not _SIZE:
+        _SIZE.append(run("make -s --no-print-directory size"))
+    return _SIZE[0]
+
+
+def size_section(first, last=None, keep=None):
+    """Lines of `make size` from the one starting with `first` up to (not
+    including) the next one starting with `last`, optionally filtered."""
+    out, on = [], False
+    for line in make_size().splitlines(keepends=True):
+        if line.startswith(first):
+            on = True
+        elif on and last is not None and line.startswith(last):
+            on = False
+        if on and (keep is None or re.search(keep, line)):
+            out.append(line)
+    return "".join(out).strip("\n") + "\n"
+
+
+STACK_KEEP = (r"^Worst-case|^  function|it2n_(model_solve|model_update|eval|deriv|sample|"
+              r"locate|dataset_check|link_pump|proto_selftest) ")
+
 # name -> function returning the block's text
 FIGURES = {
-    "make-size": lambda: run("make -s --no-print-directory size"),
+    "size-flash": lambda: size_section("== Flash", "Worst-case"),
+    "size-stack": lambda: size_section("Worst-case", "== sizeof", STACK_KEEP),
+    "size-structs": lambda: size_section("== sizeof"),
     "accuracy": lambda: grep(f"{BUILD}/tests/core/test_accuracy", "[accuracy]"),
     "operations": lambda: grep(f"{BUILD}/tests/core/test_operations", "[operations]"),
 }
