@@ -13,7 +13,8 @@ void it2n_cross_entry(void);
 /* Casts between function pointer types are fine: nothing calls through. */
 static const volatile it2n_any_fn it2n_api[] = {
     (it2n_any_fn)it2n_dataset_init, (it2n_any_fn)it2n_dataset_put,
-    (it2n_any_fn)it2n_dataset_missing, (it2n_any_fn)it2n_dataset_check,
+    (it2n_any_fn)it2n_dataset_get, (it2n_any_fn)it2n_dataset_missing,
+    (it2n_any_fn)it2n_dataset_check,
     (it2n_any_fn)it2n_model_init, (it2n_any_fn)it2n_model_solve,
     (it2n_any_fn)it2n_model_update, (it2n_any_fn)it2n_model_ctrl,
     (it2n_any_fn)it2n_params, (it2n_any_fn)it2n_eval,
