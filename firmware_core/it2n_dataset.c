@@ -127,17 +127,45 @@ unsigned it2n_dataset_missing(const it2n_dataset *ds)
     return missing;
 }
 
-int it2n__check_nesting(unsigned flags, unsigned i, unsigned j,
-                        const it2n_val *pt, it2n_errinfo *err)
+int it2n__check_nesting_point(const it2n_dataset *ds, unsigned i, unsigned j,
+                              unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                              it2n_errinfo *err)
+{
+    unsigned ch;
+    if (ds->flags & IT2N_F_TYPE1) {
+        return IT2N_OK;
+    }
+    /* in the order a full check reports: fp against fp - 1, then fp + 1
+     * against fp (the rest of the chain is unchanged) */
+    for (ch = 0; ch < it2n__ncoord(ds->flags) && fp > 0u; ch++) {
+        it2n_val prev = it2n_dataset_value(ds, i, j, fp - 1u, ch);
+        if (vals[ch] < prev) {
+            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp,
+                              (int)ch, vals[ch], prev, vals[ch]);
+        }
+    }
+    for (ch = 0; ch < it2n__ncoord(ds->flags) && fp + 1u < IT2N_FP_COUNT; ch++) {
+        it2n_val next = it2n_dataset_value(ds, i, j, fp + 1u, ch);
+        if (next < vals[ch]) {
+            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
+                              (int)fp + 1, (int)ch, next, vals[ch], next);
+        }
+    }
+    return IT2N_OK;
+}
+
+/* Nesting of the stored footprints of (i, j), read straight from ds. */
+static int check_nesting_ds(const it2n_dataset *ds, unsigned i, unsigned j,
+                            it2n_errinfo *err)
 {
     unsigned ch, fp;
-    if (flags & IT2N_F_TYPE1) {
+    if (ds->flags & IT2N_F_TYPE1) {
         return IT2N_OK;
     }
     for (fp = 1; fp < IT2N_FP_COUNT; fp++) {
-        for (ch = 0; ch < it2n__ncoord(flags); ch++) {
-            it2n_val prev = pt[(fp - 1u) * IT2N_CH_COUNT + ch];
-            it2n_val v = pt[fp * IT2N_CH_COUNT + ch];
+        for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
+            it2n_val prev = it2n_dataset_value(ds, i, j, fp - 1u, ch);
+            it2n_val v = it2n_dataset_value(ds, i, j, fp, ch);
             if (v < prev) {
                 return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
                                   (int)fp, (int)ch, v, prev, v);
@@ -149,7 +177,7 @@ int it2n__check_nesting(unsigned flags, unsigned i, unsigned j,
 
 int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
 {
-    it2n_val pt[IT2N_FP_COUNT][IT2N_CH_COUNT];
+    it2n_val vals[IT2N_CH_COUNT];
     unsigned i, j, fp, mask;
     int rc;
     if (ds == NULL || ds->n < 1u || ds->n > IT2N_MAX_DEGREE || ds->m < 1u ||
@@ -157,7 +185,6 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     mask = it2n__fp_mask(ds->flags);
-    memset(pt, 0, sizeof(pt)); /* type-1 leaves footprints other than D */
     for (i = 0; i <= ds->n; i++) {
         for (j = 0; j <= ds->m; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
@@ -169,13 +196,13 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
                                       (int)fp, -1, 0, 0, 0);
                 }
                 /* Re-check ranges: the struct may have been filled by hand. */
-                it2n_dataset_get(ds, i, j, fp, pt[fp]);
-                rc = it2n__check_vals(ds->flags, i, j, fp, pt[fp], err);
+                it2n_dataset_get(ds, i, j, fp, vals);
+                rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }
             }
-            rc = it2n__check_nesting(ds->flags, i, j, &pt[0][0], err);
+            rc = check_nesting_ds(ds, i, j, err);
             if (rc != IT2N_OK) {
                 return rc;
             }

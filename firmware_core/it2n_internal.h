@@ -55,10 +55,12 @@ int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
                      const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
     IT2N_WUR;
 
-/* Check the nesting LL <= ... <= RR of one grid point's footprints on every
- * coordinate axis (no-op for type-1). */
-int it2n__check_nesting(unsigned flags, unsigned i, unsigned j,
-                        const it2n_val *pt, it2n_errinfo *err) IT2N_WUR;
+/* Check that vals (the new values of footprint fp at (i, j)) nest with the
+ * stored footprints fp - 1 and fp + 1 on every coordinate axis (no-op for
+ * type-1). Reports as a full check would. */
+int it2n__check_nesting_point(const it2n_dataset *ds, unsigned i, unsigned j,
+                              unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                              it2n_errinfo *err) IT2N_WUR;
 
 /* Number of coordinate channels in use (2 or 3). */
 static inline unsigned it2n__ncoord(unsigned flags)

@@ -519,7 +519,7 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
                       unsigned j, unsigned fp,
                       const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
 {
-    it2n_val pt[IT2N_FP_COUNT][IT2N_CH_COUNT], old[IT2N_CH_COUNT];
+    it2n_val nv[IT2N_CH_COUNT], old[IT2N_CH_COUNT];
     unsigned ch, flags, mask;
     int rc;
     if (mdl == NULL || ds == NULL || vals == NULL) {
@@ -545,13 +545,10 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     if (rc != IT2N_OK) {
         return rc;
     }
-    for (ch = 0; ch < IT2N_FP_COUNT; ch++) {
-        it2n_dataset_get(ds, i, j, ch, pt[ch]);
-    }
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        pt[fp][ch] = it2n__ch_used(flags, ch) ? vals[ch] : 0;
+        nv[ch] = it2n__ch_used(flags, ch) ? vals[ch] : 0;
     }
-    rc = it2n__check_nesting(flags, i, j, &pt[0][0], err);
+    rc = it2n__check_nesting_point(ds, i, j, fp, nv, err);
     if (rc != IT2N_OK) {
         return rc;
     }
@@ -559,7 +556,7 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     mask = ((flags & IT2N_F_CHORD) && fp == IT2N_FP_D) ? it2n__fp_mask(flags)
                                                        : 1u << fp;
     it2n_dataset_get(ds, i, j, fp, old);
-    it2n__dataset_store(ds, i, j, fp, pt[fp]);
+    it2n__dataset_store(ds, i, j, fp, nv);
     rc = solve_core(mdl, ds, mask, false, err);
     if (rc != IT2N_OK) {
         it2n__dataset_store(ds, i, j, fp, old);

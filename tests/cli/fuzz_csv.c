@@ -74,7 +74,7 @@ static void fuzz_csv(const uint8_t *data, size_t size)
     it2n_model_init(&g_mdl);
     if (it2n_model_solve(&g_mdl, &g_da, &info) == IT2N_OK) {
         it2n_point pt;
-        REQUIRE(it2n_eval(&g_mdl, IT2N_PAR_ONE / 2, IT2N_PAR_ONE / 3, &pt) ==
+        REQUIRE(it2n_eval(&g_mdl, IT2N_PAR_ONE / 2, IT2N_PAR_ONE / 3, &pt, NULL) ==
                 IT2N_OK);
     } else {
         REQUIRE(info.code < 0);
