@@ -106,9 +106,13 @@ void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
 void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j,
                       unsigned fp, it2n_val vals[IT2N_CH_COUNT])
 {
-    unsigned ch;
-    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        vals[ch] = it2n_dataset_value(ds, i, j, fp, ch);
+    unsigned k;
+    /* two loops, each within its own array's bounds */
+    for (k = 0; k < 3u; k++) {
+        vals[k] = it2n_dataset_value(ds, i, j, fp, k);
+    }
+    for (k = 0; k < 3u; k++) {
+        vals[3u + k] = (it2n_val)ds->memb[i][j][fp][k];
     }
 }
 
@@ -177,7 +181,7 @@ static int check_nesting_ds(const it2n_dataset *ds, unsigned i, unsigned j,
 
 int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
 {
-    it2n_val vals[IT2N_CH_COUNT];
+    it2n_val vals[IT2N_CH_COUNT] = {0, 0, 0, 0, 0, 0};
     unsigned i, j, fp, mask;
     int rc;
     if (ds == NULL || ds->n < 1u || ds->n > IT2N_MAX_DEGREE || ds->m < 1u ||
