@@ -102,5 +102,100 @@ grep -q "it2nd.conf:1: cannot read: Is a directory" "$LOG" && grep -q "it2nd.con
 rm -rf "$T/it2nd.conf"; cp "$T/it2nd.conf.good" "$T/it2nd.conf"
 stop TERM || fail "exit status after the reload tests"
 
+# ---- one daemon per state directory (item 2) ---------------------------------
+fingerprint() { # the state files: name, size, inode, mtime, checksum
+    for f in "$STATE"/wal "$STATE"/snapshot; do
+        [ -e "$f" ] && echo "$(stat -c '%n %s %i %Y.%y' "$f") $(sha256sum < "$f")"
+    done
+}
+start
+plc write 40 $UP_D00 4100 7000 2000 >/dev/null
+fp0=$(fingerprint)
+PORT2=$(free_port)
+write_conf "$T/second.conf" "$STATE" "$PORT2" < /dev/null
+msg=$(timeout 10 "$IT2ND" -c "$T/second.conf" -f 2>&1); rc=$?
+[ $rc = 1 ] && echo "$msg" | grep -q "state directory $STATE is in use by another it2nd (pid $PID, lock $STATE/lock); not starting" \
+    && ok "second daemon on the same state_dir (other port): exit 1, clear message" || fail "second daemon: rc $rc: $msg"
+echo "$msg" | grep -q "wal\|snapshot\|replayed" && fail "second daemon read the state: $msg"
+# Without -f and without a syslog socket the message still reaches stderr
+# (issue 8 item 11); same port this time: the lock is taken first.
+msg=$(timeout 10 "$IT2ND" -c "$T/it2nd.conf" 2>&1); rc=$?
+[ $rc = 1 ] && echo "$msg" | grep -q "is in use by another it2nd (pid $PID" \
+    && ok "second daemon on the same port, detached (no -f): exit 1, message on stderr" \
+    || fail "detached second daemon: rc $rc: '$msg'"
+[ "$(fingerprint)" = "$fp0" ] && ok "state files untouched by the refused daemons (size, inode, mtime, checksum)" \
+    || fail "state changed: $fp0 / $(fingerprint)"
+out=$(plc write 40 $UP_D00 4200 7000 2000)
+stop KILL
+start
+[ "$out" = ok ] && [ "$(plc read 1024 1)" = 4200 ] && ok "first daemon kept serving; its write survives kill -9" \
+    || fail "after the refused second daemon: $out, T $(plc read 1024 1)"
+stop TERM
+
+# ---- an I/O error at each call site of the durability path (item 1) ----------
+# failio.so fails one call while $FLAG exists. For each site: writes on one
+# connection before, during and after the fault (dur_writer.py records each
+# answer), then kill -9 and a restart without the shim: the restarted daemon
+# must hold exactly the acknowledged writes (T of the last one, generation
+# + the number acknowledged) and no temporary file may be left.
+# Kinds: "degrade" = the state would not be provably durable, so writes are
+# refused (04) until a checkpoint succeeds; "keep" = the WAL stays durable,
+# writes go on (only the snapshot fails and is retried).
+fault_case() { # name call path skip errno kind
+    local name=$1 call=$2 path=$3 skip=$4 errno=$5 kind=$6
+    local dir=$T/fault-$name flag=$T/flag-$name acks=$T/acks-$name
+    rm -rf "$dir"; : > "$acks"
+    printf '[daemon]\nstate_dir = %s\nsnapshot_interval = 1\n[modbus]\ntcp_listen = 127.0.0.1:%s\n[model:1]\nunit_id = 1\npreload = paper\n' \
+        "$dir" "$PORT" > "$T/fault.conf"
+    CONF=$T/fault.conf PRELOAD=$FAILIO IT2N_FAILIO_FLAG=$flag IT2N_FAILIO_CALL=$call IT2N_FAILIO_PATH=$path \
+        IT2N_FAILIO_SKIP=$skip IT2N_FAILIO_ERRNO=$errno start
+    local g0; g0=$(gen)
+    python3 "$ROOT/tests/daemon/dur_writer.py" "$PORT" 0.3 1000 "$acks" || fail "$name: writer before the fault"
+    : > "$flag"
+    python3 "$ROOT/tests/daemon/dur_writer.py" "$PORT" 2.2 2000 "$acks" || fail "$name: writer during the fault"
+    local hits; hits=$(grep -c . "$flag")
+    rm -f "$flag"
+    python3 "$ROOT/tests/daemon/dur_writer.py" "$PORT" 0 3000 "$acks" --until-ok || fail "$name: writer after the fault"
+    python3 "$ROOT/tests/daemon/dur_writer.py" "$PORT" 0.1 4000 "$acks" || fail "$name: writer after recovery"
+    stop KILL
+    local nok nexc last
+    nok=$(grep -c ' ok$' "$acks"); nexc=$(grep -c ' exc 4$' "$acks"); last=$(grep ' ok$' "$acks" | tail -n1 | cut -d' ' -f1)
+    local during_exc; during_exc=$(awk '$1 >= 2000 && $1 < 3000 && $3 == 4' "$acks" | wc -l)
+    CONF=$T/fault.conf PRELOAD= start
+    local g1 v1; g1=$(gen); v1=$(plc read 1024 1)
+    stop TERM
+    local tmp; tmp=$(ls "$dir" | grep -c '\.tmp$')
+    local why=""
+    [ "$hits" -ge 1 ] || why="$why; the call site was never reached"
+    [ "$g1" = $((g0 + nok)) ] || why="$why; generation $g1, want $g0 + $nok acknowledged"
+    [ "$v1" = "$last" ] || why="$why; T $v1, want the last acknowledged $last"
+    [ "$tmp" = 0 ] || why="$why; temporary files left: $(ls "$dir")"
+    [ "$(grep -c ' exc [^4]' "$acks")" = 0 ] || why="$why; exceptions other than 04"
+    if [ "$kind" = degrade ]; then
+        [ "$during_exc" -ge 1 ] || why="$why; no write refused while degraded"
+        grep -q "store degraded" "$LOG" || why="$why; no 'store degraded' log line"
+    else
+        [ "$nexc" = 0 ] || why="$why; $nexc write(s) refused though the WAL was durable"
+    fi
+    if [ -z "$why" ]; then
+        ok "fault $name ($call ${path:-any} skip $skip errno $errno): $hits failure(s), $nok acknowledged, $nexc refused; restart holds exactly the acknowledged state"
+    else fail "fault $name:$why"; tail -5 "$LOG" >&2; fi
+}
+EIO=5; ENOSPC=28
+SD=$(basename "$T")/fault-
+fault_case wal-write            write           /wal          0 $ENOSPC degrade
+fault_case wal-fdatasync        fdatasync       /wal          0 $EIO    degrade
+fault_case wal-write-truncate   write,ftruncate /wal          0 $EIO    degrade
+fault_case snap-open            openat          snapshot.tmp  0 $ENOSPC keep
+fault_case snap-write           write           /snapshot.tmp 0 $ENOSPC keep
+fault_case snap-fsync           fsync           /snapshot.tmp 0 $EIO    keep
+fault_case snap-rename          renameat        snapshot.tmp  0 $EIO    keep
+fault_case snap-dirsync         fsync           /fault-snap-dirsync 0 $EIO keep
+fault_case walnew-open          openat          wal.tmp       0 $ENOSPC keep
+fault_case walnew-write         write           /wal.tmp      0 $ENOSPC keep
+fault_case walnew-fsync         fsync           /wal.tmp      0 $EIO    keep
+fault_case walnew-rename        renameat        wal.tmp       0 $EIO    keep
+fault_case walnew-dirsync       fsync           /fault-walnew-dirsync 1 $EIO degrade
+
 if [ "$FAILS" != 0 ]; then echo "durability: $FAILS failure(s)"; tail -40 "$LOG"; exit 1; fi
 echo "durability: all passed"

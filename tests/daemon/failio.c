@@ -2,7 +2,8 @@
  * the durability path on demand, as a dying or full disk would.
  *
  *   IT2N_FAILIO_FLAG   file: calls fail only while it exists
- *   IT2N_FAILIO_CALL   write, fsync, fdatasync, ftruncate, openat, renameat
+ *   IT2N_FAILIO_CALL   write, fsync, fdatasync, ftruncate, openat, renameat,
+ *                      or several separated by commas (write,ftruncate)
  *   IT2N_FAILIO_PATH   suffix of the path the call is about: for fd calls
  *                      the fd's path (/proc/self/fd), for openat the name,
  *                      for renameat the old or the new name ("" = any)
@@ -39,6 +40,15 @@ static int suffix(const char *s, const char *suf)
     return a >= b && !strcmp(s + a - b, suf);
 }
 
+static int in_list(const char *list, const char *call)
+{
+    size_t n = strlen(call);
+    for (const char *p = list; (p = strstr(p, call)) != NULL; p += n)
+        if ((p == list || p[-1] == ',') && (p[n] == 0 || p[n] == ','))
+            return 1;
+    return 0;
+}
+
 /* Should this call fail? name: the path it is about (NULL: use fd). */
 static int fail_now(const char *call, int fd, const char *name, const char *name2)
 {
@@ -47,7 +57,7 @@ static int fail_now(const char *call, int fd, const char *name, const char *name
     const char *err = getenv("IT2N_FAILIO_ERRNO");
     char link[64], buf[4096];
     int saved = errno;
-    if (!flag || !want || strcmp(want, call) || access(flag, F_OK) != 0) {
+    if (!flag || !want || !in_list(want, call) || access(flag, F_OK) != 0) {
         errno = saved;
         return 0;
     }
