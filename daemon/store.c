@@ -772,6 +772,13 @@ int store_open(const char *dir, int fsync_on)
         close_all();
         return -1;
     }
+    /* Temporary files of a checkpoint a crash interrupted: never renamed
+     * into place, so never part of the state (not evidence). */
+    for (int k = 0; k < 2; k++) {
+        const char *tmp = k ? "wal.tmp" : "snapshot.tmp";
+        if (unlinkat(dirfd_, tmp, 0) == 0)
+            log_notice("removed %s/%s left by an interrupted checkpoint", dir, tmp);
+    }
     if (good >= WAL_HDR) {
         walfd = openat(dirfd_, "wal", O_WRONLY | O_APPEND | O_CLOEXEC);
         if (walfd < 0 || (good < total && ftruncate(walfd, (off_t)good))) {
