@@ -330,7 +330,7 @@ else fail "failed commit: rc $rc '$out', grid $v2 gen $g1 -> $g2, upload T $up";
 grep -q "wal: write failed: Input/output error" "$T/daemon.log" && ok "failed commit logged" || fail "no log of the failed commit"
 instr --csv "$PAPER" --model 5 --no-configure --replace --batch 4 > "$T/nack.out" 2>&1; rc=$?
 g5b=$(gen 5)
-[ $rc = 1 ] && grep -q "PUT seq .* refused" "$T/nack.out" && [ "$g5b" = "$g5" ] \
+[ $rc = 1 ] && grep -qE "PUT seq .* refused: -20[02] " "$T/nack.out" && [ "$g5b" = "$g5" ] \
     && plc --unit 5 verify "$PAPER" 3 >/dev/null \
     && ok "instrument PUT NACKed while fsync fails; model 5 unchanged (generation $g5)" \
     || fail "instrument PUT on a failing disk: rc $rc gen $g5 -> $g5b: $(cat "$T/nack.out")"
