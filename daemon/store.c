@@ -440,6 +440,58 @@ static int keep_damaged(const char *name, const char *why)
     return -1;
 }
 
+/* Before the WAL is cut after its last good record, keep the bytes cut
+ * off as NAME.cut-<UTC time> (fsynced): a torn last commit after a crash,
+ * or records behind a damaged one that an operator may still want. Not a
+ * reason to refuse the start (unlike .damaged-), but if they cannot be
+ * kept the WAL is not cut and the start refused. Returns 0 or -1. */
+static int keep_tail(uint64_t good, uint64_t total)
+{
+    char name[64], stamp[32];
+    time_t now = time(NULL);
+    struct tm tm;
+    uint8_t buf[4096];
+    int in, out, n = 0, rc = -1;
+    gmtime_r(&now, &tm);
+    strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
+    snprintf(name, sizeof name, "wal.cut-%s", stamp);
+    while (faccessat(dirfd_, name, F_OK, AT_SYMLINK_NOFOLLOW) == 0 && n < 100)
+        snprintf(name, sizeof name, "wal.cut-%s-%d", stamp, ++n);
+    in = openat(dirfd_, "wal", O_RDONLY | O_CLOEXEC);
+    out = openat(dirfd_, name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
+    if (in >= 0 && out >= 0) {
+        uint64_t off = good;
+        rc = 0;
+        while (rc == 0 && off < total) {
+            size_t want = total - off < sizeof buf ? (size_t)(total - off) : sizeof buf;
+            ssize_t got = pread(in, buf, want, (off_t)off);
+            if (got < 0 && errno == EINTR)
+                continue;
+            if (got <= 0 || write_all(out, buf, (size_t)got))
+                rc = -1;
+            else
+                off += (uint64_t)got;
+        }
+        if (rc == 0 && ((do_fsync && fsync(out)) || sync_dir()))
+            rc = -1;
+    }
+    int e = errno;
+    if (in >= 0)
+        close(in);
+    if (out >= 0)
+        close(out);
+    if (rc) {
+        if (out >= 0)
+            unlinkat(dirfd_, name, 0);
+        log_err("wal: cannot keep the %llu byte(s) to cut off in %s/%s: %s; refusing to start, WAL left as it is",
+                (unsigned long long)(total - good), state_dir, name, strerror(e));
+        return -1;
+    }
+    log_notice("wal: the %llu byte(s) cut off after offset %llu are kept in %s/%s", (unsigned long long)(total - good),
+               (unsigned long long)good, state_dir, name);
+    return 0;
+}
+
 /* Version 1: the data set of a raw record, re-put and (solve) re-solved
  * into md. On error md is unchanged. */
 static int v1_rebuild(struct model *md, const it2n_dataset *src, int solve, it2n_errinfo *err)
@@ -780,6 +832,10 @@ int store_open(const char *dir, int fsync_on)
             log_notice("removed %s/%s left by an interrupted checkpoint", dir, tmp);
     }
     if (good >= WAL_HDR) {
+        if (good < total && keep_tail(good, total)) {
+            close_all();
+            return -1;
+        }
         walfd = openat(dirfd_, "wal", O_WRONLY | O_APPEND | O_CLOEXEC);
         if (walfd < 0 || (good < total && ftruncate(walfd, (off_t)good))) {
             log_err("wal: cannot reopen: %s", strerror(errno));

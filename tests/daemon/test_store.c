@@ -84,15 +84,13 @@ static void flip(const char *name, long off)
 static uint8_t *slurp(const char *name, long *len);
 static void wipe(void);
 
-/* The name of the file kept aside for `name` (exactly one). */
-static void kept(const char *name, char *out, size_t size)
+/* The name of the one file whose name starts with prefix. */
+static void kept_as(const char *prefix, char *out, size_t size)
 {
     DIR *d = opendir(dir);
     const struct dirent *e;
-    char prefix[64];
     int found = 0;
     assert_non_null(d);
-    snprintf(prefix, sizeof prefix, "%s.damaged-", name);
     while ((e = readdir(d)) != NULL)
         if (!strncmp(e->d_name, prefix, strlen(prefix))) {
             size_t n = strlen(e->d_name);
@@ -102,6 +100,14 @@ static void kept(const char *name, char *out, size_t size)
         }
     closedir(d);
     assert_int_equal(found, 1);
+}
+
+/* The name of the file kept aside for `name` (exactly one). */
+static void kept(const char *name, char *out, size_t size)
+{
+    char prefix[64];
+    snprintf(prefix, sizeof prefix, "%s.damaged-", name);
+    kept_as(prefix, out, size);
 }
 
 /* The file kept aside for name has len bytes; remove it (the operator's
@@ -155,14 +161,29 @@ static void test_wal_replay(void **st)
     assert_memory_equal(md->mdl.ctrl, solved.ctrl, sizeof solved.ctrl);
     store_close();
 
-    /* A torn last record: the three before it survive. */
-    long len = fsize("wal");
+    /* A torn last record: the three before it survive; the bytes cut off
+     * are kept in wal.cut-<time>, byte for byte. */
+    long len = fsize("wal"), tlen;
     cut("wal", len - 5);
+    uint8_t *torn = slurp("wal", &tlen);
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
     assert_int_equal(md->state, IT2N_RS_INCOMPLETE);
     assert_int_equal(models_present(md), 3);
-    assert_int_equal(fsize("wal"), len - 5 - (len - 16) / 4 + 5); /* truncated at the last good record */
+    long good = len - 5 - (len - 16) / 4 + 5;
+    assert_int_equal(fsize("wal"), good); /* truncated at the last good record */
+    {
+        char name[64], p[160];
+        long klen;
+        kept_as("wal.cut-", name, sizeof name);
+        uint8_t *cutb = slurp(name, &klen);
+        assert_int_equal(klen, tlen - good);
+        assert_memory_equal(cutb, torn + good, (size_t)klen);
+        free(cutb);
+        path(p, sizeof p, name);
+        assert_int_equal(unlink(p), 0);
+    }
+    free(torn);
     store_close();
 
     /* A corrupted byte in the second record: only the first survives. */

@@ -92,11 +92,11 @@ static void clear_dir(void)
         snprintf(p, sizeof p, "%s/%s", dir, names[k]);
         unlink(p);
     }
-    /* Files kept aside by a refused start. */
+    /* Files kept aside by a refused start, and WAL tails kept when cut. */
     if ((d = opendir(dir)) != NULL) {
         const struct dirent *e;
         while ((e = readdir(d)) != NULL)
-            if (strstr(e->d_name, ".damaged-")) {
+            if (strstr(e->d_name, ".damaged-") || strstr(e->d_name, ".cut-")) {
                 snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
                 unlink(p);
             }
