@@ -1,6 +1,7 @@
 /* conf.c — see conf.h. */
 #include "conf.h"
 
+#include <errno.h>
 #include <ini.h>
 #include <pwd.h>
 #include <stdio.h>
@@ -42,6 +43,13 @@ struct parse {
     size_t lcap;
     int line, bad_line, maxline;
     const char *bad_why;
+    int read_errno;           /* the file could not be read (not EOF)  */
+    /* The section being read: its header line and name, and whether a key
+     * of it was seen (an empty section is an error: its keys are missing). */
+    int sec_line, sec_keys;
+    char sec_name[64];
+    int empty_line;           /* first empty section's header line     */
+    char empty_name[64];
     int max_models_line, grid_line;
     char grid_key[CONF_NAME];
     struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS];
@@ -370,6 +378,7 @@ static int handler(void *user, const char *section, const char *name, const char
     }
     snprintf(p->sec, sizeof p->sec, "%s", section);
     snprintf(p->key, sizeof p->key, "%s", name);
+    p->sec_keys++;
     if (!strcmp(section, "daemon")) {
         if (!strcmp(name, "max_models"))
             p->max_models_line = p->line;
@@ -549,6 +558,30 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
     return 0;
 }
 
+/* The section read so far ends (a new header or the end of the file):
+ * remember it if no key was given in it. */
+static void section_end(struct parse *p)
+{
+    if (p->sec_line && !p->sec_keys && !p->empty_line) {
+        p->empty_line = p->sec_line;
+        snprintf(p->empty_name, sizeof p->empty_name, "%s", p->sec_name);
+    }
+}
+
+/* A "[name]" header line (as libinih sees one: leading blanks allowed). */
+static void section_start(struct parse *p, const char *l)
+{
+    const char *close;
+    while (*l == ' ' || *l == '\t' || *l == '\r')
+        l++;
+    if (*l != '[' || !(close = strchr(l, ']')))
+        return;
+    section_end(p);
+    p->sec_line = p->line;
+    p->sec_keys = 0;
+    snprintf(p->sec_name, sizeof p->sec_name, "%.*s", (int)(close - l - 1), l + 1);
+}
+
 /* libinih reader: one physical line per call, counted; a line that does
  * not fit libinih's buffer (it would be split and its tail parsed as a new
  * line) or holds a NUL byte stops the parse and is reported. */
@@ -556,12 +589,21 @@ static char *reader(char *str, int num, void *stream)
 {
     struct parse *p = stream;
     ssize_t n;
-    if (p->bad_line)
+    if (p->bad_line || p->read_errno)
         return NULL;
+    errno = 0;
     n = getline(&p->lbuf, &p->lcap, p->f);
-    if (n < 0)
+    if (n < 0) {
+        /* A read error (EISDIR for a directory, EIO) is not the end of the
+         * file: an unreadable configuration must not parse as an empty one. */
+        if (ferror(p->f))
+            p->read_errno = errno ? errno : EIO;
+        else
+            section_end(p);
         return NULL;
+    }
     p->line++;
+    section_start(p, p->lbuf);
     p->maxline = num - 2; /* room for the newline and the NUL */
     if (memchr(p->lbuf, 0, (size_t)n)) {
         p->bad_line = p->line;
@@ -577,6 +619,19 @@ static char *reader(char *str, int num, void *stream)
     return str;
 }
 
+/* What an empty section of this kind lacks, for the error message. */
+static const char *section_needs(const char *name)
+{
+    if (!strncmp(name, "model:", 6))
+        return "a model needs at least one of unit_id, n, m, z, type1, chord, preload; "
+               "without any the section would be ignored";
+    if (!strncmp(name, "rtu:", 4))
+        return "device is required";
+    if (!strncmp(name, "link:", 5))
+        return "type and device (serial) or usb (usb) are required";
+    return "a section with no keys has no effect; remove it or add keys";
+}
+
 int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
 {
     struct parse *p = calloc(1, sizeof *p);
@@ -588,13 +643,21 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
     p->c = *c;
     p->f = fopen(path, "r");
     if (!p->f) {
-        snprintf(err, errsize, "%s: cannot open", path);
+        snprintf(err, errsize, "%s: cannot open: %s", path, strerror(errno));
         free(p);
         return -1;
     }
     rc = ini_parse_stream(reader, p, handler, p);
-    if (rc == -2) {
+    if (p->read_errno) {
+        snprintf(err, errsize, "%s:%d: cannot read: %s", path, p->line + 1, strerror(p->read_errno));
+        rc = 1;
+    } else if (rc == -2) {
         snprintf(err, errsize, "%s: out of memory", path);
+    } else if (p->empty_line && (!p->err[0] || p->empty_line < p->err_line) && (rc <= 0 || p->empty_line < rc) &&
+               (!p->bad_line || p->empty_line < p->bad_line)) {
+        snprintf(err, errsize, "%s:%d: [%s]: empty section: its required keys are missing (%s)", path,
+                 p->empty_line, p->empty_name, section_needs(p->empty_name));
+        rc = 1;
     } else if (p->err[0] && (rc <= 0 || p->err_line <= rc)) {
         /* The first error in the file: ours (a key) before any syntax error. */
         if (p->syntax)

@@ -19,6 +19,7 @@
 #include "it2n_link.h"
 #include "link_serial.h"
 #include "link_usb.h"
+#include "errs.h"
 #include "log.h"
 #include "loop.h"
 #include "models.h"
@@ -350,7 +351,7 @@ static int respond(struct link *l, uint16_t seq, const it2n_msg *rsp)
 
 static int refuse(struct link *l, uint16_t seq, int code, const it2n_errinfo *err)
 {
-    log_info("link %s: seq %u refused: %s", l->cfg.name, seq, it2n_strerror(code));
+    log_info("link %s: seq %u refused: %s", l->cfg.name, seq, it2nd_strerror(code));
     it2n_link_complete(&l->pl, seq, code, err);
     return IT2N_LINK_DEFER;
 }
@@ -362,7 +363,7 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
     it2n_errinfo err;
     int rc = IT2N_OK;
     if (!save)
-        return IT2N_ERR_STATE;
+        return IT2ND_ERR_NOMEM;
     *save = *md;
     for (unsigned k = 0; k < p->count && rc == IT2N_OK; k++)
         rc = models_put(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals, (p->flags & IT2N_PUT_REPLACE) != 0, &err);
@@ -424,8 +425,8 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         for (int k = 0; k < models_count(); k++) {
             struct model *m = models_at(k);
             if (msg->u.model.model == IT2N_MODEL_ALL || m->id == msg->u.model.model) {
-                if (models_clear(m))
-                    return IT2N_ERR_STATE;
+                if ((rc = models_clear(m)) != 0)
+                    return rc;
                 md = m;
             }
         }
@@ -661,7 +662,7 @@ void links_release(int commit_ok)
     for (int k = 0; k < nlinks; k++) {
         struct link *l = &links[k];
         for (int h = 0; h < l->nheld; h++)
-            it2n_link_complete(&l->pl, l->held[h], commit_ok ? 0 : IT2N_ERR_STATE, NULL);
+            it2n_link_complete(&l->pl, l->held[h], commit_ok ? 0 : IT2ND_ERR_IO, NULL);
         l->nheld = 0;
     }
 }

@@ -1,6 +1,6 @@
 /* log — leveled logging: stderr with <N> sd-daemon prefixes under systemd
  * (JOURNAL_STREAM or INVOCATION_ID set) or in the foreground, syslog when
- * detached. */
+ * detached — or stderr when there is no syslog socket to talk to. */
 #ifndef IT2ND_LOG_H
 #define IT2ND_LOG_H
 
@@ -10,6 +10,11 @@
  * prefixes; otherwise syslog with ident "it2nd". verbosity raises the level
  * from LOG_NOTICE (0) to LOG_INFO (1) and LOG_DEBUG (2+). */
 void log_open(int foreground, int verbosity);
+
+/* Start-up is over (the daemon is ready): from now on errors go only to
+ * the chosen sink. Until then, with syslog as the sink, errors are also
+ * printed on stderr, so whoever started the daemon sees why it stopped. */
+void log_started(void);
 
 /* Current maximum priority that is printed. */
 int log_level(void);

@@ -30,8 +30,8 @@ static int sig_pipe[2] = { -1, -1 };
 static struct conf cfg;
 static const char *conf_path;
 static struct mb_opts mbo;
-static long snap_timer, wd_timer;
-static int snap_due;
+static long snap_timer, wd_timer, recover_timer;
+static int snap_due, recover_due;
 
 static void on_signal(int sig)
 {
@@ -127,6 +127,14 @@ static void on_model_changed(void *arg, const struct model *md, int old_state, u
     links_event(md, old_state);
 }
 
+/* The store is degraded (an I/O error): try a checkpoint every second. */
+static void on_recover(void *arg)
+{
+    (void)arg;
+    recover_timer = 0;
+    recover_due = 1; /* taken by commit_hook, when memory equals what was acknowledged */
+}
+
 /* End of a loop pass (a hook after every iteration): one write + fdatasync
  * for everything queued (group commit). Only then are the models' changes
  * real: on success they are announced and the held replies and ACKs go
@@ -145,6 +153,15 @@ static void commit_hook(void *arg)
         if (store_wal_bytes() > 0)
             store_snapshot();
     }
+    /* Degraded (a failed commit, an unsynced WAL rename): no write is
+     * accepted until a checkpoint of memory (= what was acknowledged: every
+     * refused change was put back) succeeds. */
+    if (ok && recover_due && store_degraded()) {
+        recover_due = 0;
+        store_snapshot();
+    }
+    if (store_degraded() && !recover_timer)
+        recover_timer = loop_add_timer(1000, on_recover, NULL);
     mb_tcp_release(ok);
     mb_rtu_release(ok);
     links_release(ok);
@@ -382,6 +399,7 @@ int main(int argc, char **argv)
     notify_send("READY=1");
     send_status();
     log_notice("it2nd %s ready (%d models)", IT2ND_VERSION, models_count());
+    log_started();
 
     while (!sig_stop) {
         if (sig_reload) {
@@ -399,9 +417,17 @@ int main(int argc, char **argv)
     links_stop();
     mb_rtu_stop();
     mb_tcp_stop();
-    store_snapshot();
+    /* A clean stop that cannot write its snapshot says so in the exit
+     * status (no temporary file is left; what was acknowledged is still in
+     * the last snapshot and the WAL). */
+    int rc = 0;
+    if (store_snapshot()) {
+        log_err("stopping: the final snapshot could not be written; exit status 1 (the acknowledged state is in "
+                "%s: the last snapshot and the WAL)", cfg.state_dir);
+        rc = 1;
+    }
     store_close();
     models_free();
     loop_free();
-    return 0;
+    return rc;
 }

@@ -366,6 +366,31 @@ static int map_core_err(int code)
     }
 }
 
+/* A refused write says why in the model's last_error (status register 9,
+ * with i, j, fp): exc is the exception answered, code the it2n code. */
+static int refused(struct model *md, int exc, int code, int i, int j, int fp)
+{
+    memset(&md->last_err, 0, sizeof md->last_err);
+    md->last_err.code = code;
+    md->last_err.i = (int16_t)i;
+    md->last_err.j = (int16_t)j;
+    md->last_err.fp = (int8_t)fp;
+    md->last_err.ch = -1;
+    return exc;
+}
+
+/* A model operation failed with err: that is the report. */
+static int refused_err(struct model *md, const it2n_errinfo *err)
+{
+    md->last_err = *err;
+    return map_core_err(err->code);
+}
+
+void mbmap_refused(struct model *md, int exc)
+{
+    refused(md, exc, exc == MBX_BUSY ? IT2N_ERR_STATE : IT2N_ERR_INVAL, -1, -1, -1);
+}
+
 static int write_config(struct model *md, unsigned addr, unsigned count, const uint16_t *v,
                         int *persisted)
 {
@@ -385,25 +410,25 @@ static int write_config(struct model *md, unsigned addr, unsigned count, const u
     }
     if (n < 1 || n > IT2N_MAX_DEGREE || m < 1 || m > IT2N_MAX_DEGREE || (flags & ~IT2N_F_ALL) ||
         cmd > IT2N_CMD_CLEAR)
-        return MBX_ILLEGAL_VALUE;
+        return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
     if (cmd == IT2N_CMD_COMMIT && (n != md->ds.n || m != md->ds.m || flags != md->ds.flags))
-        return MBX_BUSY; /* a fresh configuration has no points to commit */
+        return refused(md, MBX_BUSY, IT2N_ERR_MISSING, -1, -1, -1); /* a fresh configuration has no points */
     if (cmd == IT2N_CMD_COMMIT && it2n_dataset_missing(&md->ds) != 0)
-        return MBX_BUSY;
+        return refused(md, MBX_BUSY, IT2N_ERR_MISSING, -1, -1, -1);
     if (n != md->ds.n || m != md->ds.m || flags != md->ds.flags) {
         rc = models_configure(md, n, m, flags, &err);
         if (rc)
-            return map_core_err(rc);
+            return refused_err(md, &err);
         *persisted = 1;
     }
     if (cmd == IT2N_CMD_CLEAR) {
-        if (models_clear(md))
-            return MBX_DEVICE_FAILURE;
+        if ((rc = models_clear(md)) != 0)
+            return refused(md, MBX_DEVICE_FAILURE, rc, -1, -1, -1);
         *persisted = 1;
     } else if (cmd == IT2N_CMD_COMMIT) {
         rc = models_commit(md, &err);
         if (rc)
-            return map_core_err(rc);
+            return refused_err(md, &err);
         *persisted = 1;
     }
     return MBX_OK;
@@ -416,23 +441,30 @@ static int write_upload(struct model *md, const struct mb_opts *o, unsigned addr
     it2n_errinfo err;
     int rc;
     if (addr != IT2N_REG_UP_I || count != IT2N_REG_UPLOAD_END - IT2N_REG_UP_I)
-        return MBX_ILLEGAL_VALUE;
+        return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
 #define UP(a) v[(a) - IT2N_REG_UP_I]
     unsigned i = UP(IT2N_REG_UP_I), j = UP(IT2N_REG_UP_J), fp = UP(IT2N_REG_UP_FP);
     if (i > md->ds.n || j > md->ds.m || fp >= IT2N_FP_COUNT)
-        return MBX_ILLEGAL_VALUE;
+        return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, i > 0x7FFF ? -1 : (int)i, j > 0x7FFF ? -1 : (int)j,
+                       fp >= IT2N_FP_COUNT ? -1 : (int)fp);
     for (unsigned c = 0; c < 3; c++)
         vals[c] = from_scaled((int32_t)get_u32(&UP(IT2N_REG_UP_X + 2 * c)), o->coord_scale);
     for (unsigned k = 0; k < 3; k++) {
         unsigned t = UP(IT2N_REG_UP_T + k);
-        if (t > IT2N_REGMAP_MEMB_SCALE)
+        if (t > IT2N_REGMAP_MEMB_SCALE) {
+            refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp);
+            md->last_err.ch = (int8_t)(IT2N_CH_T + k);
+            md->last_err.value = from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
+            md->last_err.lo = 0;
+            md->last_err.hi = IT2N_VAL_ONE;
             return MBX_ILLEGAL_VALUE;
+        }
         vals[IT2N_CH_T + k] = from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
     }
 #undef UP
     rc = models_put(md, i, j, fp, vals, true, &err);
     if (rc)
-        return map_core_err(rc);
+        return refused_err(md, &err);
     memcpy(md->upload, v, sizeof md->upload);
     *persisted = 1;
     return MBX_OK;
@@ -520,15 +552,17 @@ int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, u
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     *persisted = 0;
     if (!b || b->access != IT2N_RA_RW)
-        return MBX_ILLEGAL_ADDRESS;
+        return refused(md, MBX_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
     switch (b->start) {
     case IT2N_REG_CFG_N:
         return write_config(md, addr, count, vals, persisted);
     case IT2N_REG_UP_I:
         return write_upload(md, o, addr, count, vals, persisted);
-    case IT2N_REG_Q_U16:
-        return write_query(md, q, o, addr, count, vals);
+    case IT2N_REG_Q_U16: {
+        int rc = write_query(md, q, o, addr, count, vals);
+        return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MBX_OK;
+    }
     default:
-        return MBX_ILLEGAL_ADDRESS;
+        return refused(md, MBX_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
     }
 }

@@ -56,9 +56,14 @@ int mbmap_read(struct model *md, struct mb_query *q, const struct mb_opts *o, un
                unsigned count, uint16_t *out);
 
 /* Write count registers. Validates fully first; on any exception nothing
- * changed. *persisted set to 1 when the model changed (the reply must wait
- * for the WAL commit). */
+ * changed but the model's last_error, which says why (an it2n code, or
+ * the daemon's, errs.h). *persisted set to 1 when the model changed (the
+ * reply must wait for the WAL commit). */
 int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
                 unsigned count, const uint16_t *vals, int *persisted);
+
+/* A write request refused before mbmap_write (malformed PDU: exception
+ * exc): set the model's last_error accordingly. */
+void mbmap_refused(struct model *md, int exc);
 
 #endif

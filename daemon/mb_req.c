@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "it2n_regmap.h"
+#include "errs.h"
 #include "log.h"
 #include "store.h"
 
@@ -49,6 +50,13 @@ static int exception(struct mb_session *s, struct model *md, const uint8_t *req,
     return modbus_reply_exception(s->ctx, req, (unsigned)code) < 0 ? -1 : 0;
 }
 
+/* A write request refused before it reached the map: last_error too. */
+static int refuse_write(struct mb_session *s, struct model *md, const uint8_t *req, int code)
+{
+    mbmap_refused(md, code);
+    return exception(s, md, req, code);
+}
+
 static unsigned u16at(const uint8_t *p)
 {
     return (unsigned)p[0] << 8 | p[1];
@@ -73,6 +81,9 @@ static int write_req(struct mb_session *s, struct model *md, const struct mb_opt
     *persisted = 0;
     if (!save) {
         log_err("unit %d: no memory for a write request; refused", md->unit);
+        md->last_err.code = IT2ND_ERR_NOMEM;
+        md->last_err.i = md->last_err.j = -1;
+        md->last_err.fp = md->last_err.ch = -1;
         return MBX_DEVICE_FAILURE;
     }
     *save = *md;
@@ -81,9 +92,13 @@ static int write_req(struct mb_session *s, struct model *md, const struct mb_opt
         rc = mbmap_read(md, &s->q, o, raddr, rcount, s->map->tab_registers + raddr);
     if (rc != MBX_OK && *persisted) {
         uint32_t req = md->requests, exc = md->exceptions;
+        it2n_errinfo why = md->last_err;
         *md = *save;
         md->requests = req;
         md->exceptions = exc;
+        md->last_err = why;
+        if (rc == MBX_BUSY && !why.code) /* the read half: results of a model no longer solved */
+            mbmap_refused(md, rc);
         s->q = q;
         store_rollback(mark);
         *persisted = 0;
@@ -131,17 +146,17 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
     }
     case MODBUS_FC_WRITE_SINGLE_REGISTER: {
         if (plen != 5)
-            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         vals[0] = (uint16_t)u16at(pdu + 3);
         rc = write_req(s, md, o, u16at(pdu + 1), 1, vals, 0, 0, &persisted);
         break;
     }
     case MODBUS_FC_WRITE_MULTIPLE_REGISTERS: {
         if (plen < 6)
-            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         unsigned addr = u16at(pdu + 1), count = u16at(pdu + 3), bytes = pdu[5];
         if (count < 1 || count > MODBUS_MAX_WRITE_REGISTERS || bytes != count * 2 || plen != 6 + (int)bytes)
-            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         for (unsigned k = 0; k < count; k++)
             vals[k] = (uint16_t)u16at(pdu + 6 + 2 * k);
         rc = write_req(s, md, o, addr, count, vals, 0, 0, &persisted);
@@ -149,15 +164,15 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
     }
     case MODBUS_FC_WRITE_AND_READ_REGISTERS: {
         if (plen < 10)
-            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         unsigned raddr = u16at(pdu + 1), rcount = u16at(pdu + 3);
         unsigned waddr = u16at(pdu + 5), wcount = u16at(pdu + 7), bytes = pdu[9];
         if (rcount < 1 || rcount > MODBUS_MAX_WR_READ_REGISTERS || wcount < 1 ||
             wcount > MODBUS_MAX_WR_WRITE_REGISTERS || bytes != wcount * 2 || plen != 10 + (int)bytes)
-            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         /* Check the read range before writing, so a bad read changes nothing. */
         if (!it2n_regmap_find(raddr, rcount))
-            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
+            return refuse_write(s, md, req, MBX_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < wcount; k++)
             vals[k] = (uint16_t)u16at(pdu + 10 + 2 * k);
         rc = write_req(s, md, o, waddr, wcount, vals, raddr, rcount, &persisted);

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "errs.h"
 #include "log.h"
 #include "paper_data.h"
 
@@ -48,6 +49,18 @@ void models_set_journal(model_journal_fn fn, void *arg)
 {
     journal = fn;
     journal_arg = arg;
+}
+
+/* A change refused for a daemon reason (errs.h): err says so, without a
+ * point, and so does the model's last_error. */
+static int refuse(struct model *md, it2n_errinfo *err, int code)
+{
+    memset(err, 0, sizeof *err);
+    err->code = code;
+    err->i = err->j = -1;
+    err->fp = err->ch = -1;
+    md->last_err = *err;
+    return code;
 }
 
 /* Copy-on-first-write: remember md as it was before the pass changed it.
@@ -97,17 +110,23 @@ void models_pass_end(int ok, model_changed_fn fn, void *arg)
             *md = *old;
             md->requests = req;
             md->exceptions = exc;
+            refuse(md, &md->last_err, IT2ND_ERR_IO);
         }
         free(old);
     }
 }
 
+/* 0, or the journal's negative error code (IT2ND_ERR_*: the WAL cannot
+ * take the record; the change is refused). */
 static int jlog(const struct model_rec *rec)
 {
+    int rc;
     if (replaying || !journal)
         return 0;
-    return journal(journal_arg, rec);
+    rc = journal(journal_arg, rec);
+    return rc < 0 ? rc : rc ? IT2ND_ERR_IO : 0;
 }
+
 
 struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flags)
 {
@@ -212,10 +231,10 @@ int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, i
     int rc = it2n_dataset_init(&ds, n, m, flags, err);
     if (rc != IT2N_OK)
         return rc;
-    if (touch(md) || jlog(&rec)) {
-        err->code = IT2N_ERR_STATE;
-        return IT2N_ERR_STATE;
-    }
+    if (touch(md))
+        return refuse(md, err, IT2ND_ERR_NOMEM);
+    if ((rc = jlog(&rec)) != 0)
+        return refuse(md, err, rc);
     md->ds = ds;
     it2n_model_init(&md->mdl);
     md->state = IT2N_RS_EMPTY;
@@ -229,8 +248,11 @@ int models_clear(struct model *md)
 {
     it2n_errinfo err;
     struct model_rec rec = { .op = MOP_CLEAR, .id = md->id };
-    if (touch(md) || jlog(&rec))
-        return IT2N_ERR_STATE;
+    int rc;
+    if (touch(md))
+        return refuse(md, &err, IT2ND_ERR_NOMEM);
+    if ((rc = jlog(&rec)) != 0)
+        return refuse(md, &err, rc);
     it2n_dataset_init(&md->ds, md->ds.n, md->ds.m, md->ds.flags, &err);
     it2n_model_init(&md->mdl);
     md->state = IT2N_RS_EMPTY;
@@ -257,27 +279,24 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         err->ch = -1;
         return IT2N_ERR_DUPLICATE;
     }
-    if (touch(md)) {
-        memset(err, 0, sizeof *err);
-        err->code = IT2N_ERR_STATE;
-        return IT2N_ERR_STATE;
-    }
+    if (touch(md))
+        return refuse(md, err, IT2ND_ERR_NOMEM);
     if (md->state == IT2N_RS_SOLVED) {
         /* Incremental: the core's update changes md->ds and md->mdl
          * together and is atomic on error. Keep a copy of both only to
          * undo a journal failure. */
         struct { it2n_model mdl; it2n_dataset ds; } *save = malloc(sizeof *save);
-        if (!save) {
-            err->code = IT2N_ERR_STATE;
-            return IT2N_ERR_STATE;
-        }
+        int jrc;
+        if (!save)
+            return refuse(md, err, IT2ND_ERR_NOMEM);
         save->mdl = md->mdl;
         save->ds = md->ds;
         rc = it2n_model_update(&md->mdl, &md->ds, i, j, fp, vals, err);
-        if (rc == IT2N_OK && jlog(&rec)) {
+        if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0) {
             md->mdl = save->mdl;
             md->ds = save->ds;
-            err->code = rc = IT2N_ERR_STATE;
+            free(save);
+            return refuse(md, err, jrc);
         }
         free(save);
         if (rc != IT2N_OK) {
@@ -291,19 +310,17 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
     }
 
     it2n_dataset *save = malloc(sizeof *save);
-    if (!save) {
-        err->code = IT2N_ERR_STATE;
-        return IT2N_ERR_STATE;
-    }
+    int jrc = 0;
+    if (!save)
+        return refuse(md, err, IT2ND_ERR_NOMEM);
     *save = md->ds;
     int prev_state = md->state;
     uint32_t prev_gen = md->gen, prev_solves = md->solves;
     rc = it2n_dataset_put(&md->ds, i, j, fp, vals, true, err);
     if (rc == IT2N_OK && it2n_dataset_missing(&md->ds) == 0)
         rc = solve(md, err);  /* completion solves; a failure rejects the point */
-    if (rc == IT2N_OK && jlog(&rec)) {
-        err->code = rc = IT2N_ERR_STATE;
-    }
+    if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0)
+        rc = jrc;
     if (rc != IT2N_OK) {
         md->ds = *save;
         if (md->state == IT2N_RS_SOLVED) { /* solve ran, journal failed */
@@ -313,6 +330,8 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
             md->solves = prev_solves;
         }
         free(save);
+        if (jrc)
+            return refuse(md, err, jrc);
         set_err(md, err);
         return rc;
     }
@@ -335,23 +354,22 @@ int models_commit(struct model *md, it2n_errinfo *err)
         err->code = IT2N_ERR_MISSING;
         return IT2N_ERR_MISSING;
     }
-    if (touch(md)) {
-        err->code = IT2N_ERR_STATE;
-        return IT2N_ERR_STATE;
-    }
+    if (touch(md))
+        return refuse(md, err, IT2ND_ERR_NOMEM);
     save = malloc(sizeof *save);
-    if (!save) {
-        err->code = IT2N_ERR_STATE;
-        return IT2N_ERR_STATE;
-    }
+    if (!save)
+        return refuse(md, err, IT2ND_ERR_NOMEM);
     *save = md->mdl;
     rc = solve(md, err);
-    if (rc == IT2N_OK && jlog(&rec)) {
+    if (rc == IT2N_OK && (rc = jlog(&rec)) != 0) {
+        /* Not journaled: the model is as before (not FAILED: the solve
+         * worked, the disk did not). */
         md->mdl = *save;
         md->state = state;
         md->gen = gen;
         md->solves = solves;
-        err->code = rc = IT2N_ERR_STATE;
+        free(save);
+        return refuse(md, err, rc);
     }
     if (rc != IT2N_OK && md->state != IT2N_RS_SOLVED)
         md->state = IT2N_RS_FAILED;

@@ -44,8 +44,9 @@ struct model_rec {
     bool replace;                      /* MOP_POINT  */
 };
 
-/* Called for every accepted change; non-zero return rejects it (e.g. the
- * WAL cannot be written), in which case the model is rolled back. */
+/* Called for every accepted change; a non-zero return (a negative
+ * IT2ND_ERR_* code, errs.h) rejects it (e.g. the WAL cannot take it), in
+ * which case the model is rolled back and its last_error set to the code. */
 typedef int (*model_journal_fn)(void *arg, const struct model_rec *rec);
 
 /* Create the table with room for max models. Returns 0 or -1. */
@@ -68,7 +69,10 @@ struct model *models_at(int k);
 int models_preload_paper(struct model *md);
 
 /* Operations. Return IT2N_OK or a negative it2n error code; err filled. A
- * journal failure returns IT2N_ERR_STATE with nothing changed. */
+ * journal or memory failure returns the daemon's code (IT2ND_ERR_IO,
+ * IT2ND_ERR_DEGRADED, IT2ND_ERR_NOMEM; errs.h) with nothing changed and
+ * last_error set. After a failed group commit models_pass_end(0) sets
+ * last_error to IT2ND_ERR_IO on every model it puts back. */
 int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err);
 /* replace false: an entry already present fails with IT2N_ERR_DUPLICATE. */
 int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,

@@ -115,8 +115,8 @@ static int check_structure(const uint8_t *buf, size_t len, uint32_t nmodels)
 }
 
 /* Rebuild one model from its record at buf (structure already checked).
- * Returns the record's length. */
-static size_t load_model(const uint8_t *buf)
+ * Returns the record's length; *rc = 0, SNAP_BAD_MODEL or SNAP_NOMEM. */
+static size_t load_model(const uint8_t *buf, int *result)
 {
     unsigned id = get16(buf), n = buf[2], m = buf[3], flags = buf[4], state = buf[5];
     unsigned points = get16(buf + 6);
@@ -132,6 +132,7 @@ static size_t load_model(const uint8_t *buf)
     memset(&err, 0, sizeof err);
     err.i = err.j = -1;
     err.fp = -1;
+    *result = 0;
     for (unsigned k = 0; k < points; k++)
         rlen += 3 + FP_BYTES * popcount8(buf[rlen + 2]);
     if (!md) {
@@ -144,13 +145,15 @@ static size_t load_model(const uint8_t *buf)
         return rlen;
     }
     if (state > IT2N_RS_FAILED) { /* IT2N_RS_EMPTY is 0 */
-        log_err("snapshot: model %u has unknown state %u; dropped", id, state);
+        log_err("snapshot: model %u has unknown state %u", id, state);
+        *result = SNAP_BAD_MODEL;
         return rlen;
     }
     ds = malloc(sizeof *ds);
     mdl = malloc(sizeof *mdl);
     if (!ds || !mdl) {
-        why = "no memory";
+        log_err("snapshot: model %u: no memory to rebuild it", id);
+        *result = SNAP_NOMEM;
         goto out;
     }
     rc = it2n_dataset_init(ds, n, m, flags, &err);
@@ -193,9 +196,10 @@ static size_t load_model(const uint8_t *buf)
         md->upload[w] = (uint16_t)get16(buf + 20 + 2 * w);
     md->grid_valid = 0;
 out:
-    if (why)
-        log_err("snapshot: model %u does not validate (%s at i %d j %d fp %d); dropped, it starts from its "
-                "configuration", id, why, err.i, err.j, err.fp);
+    if (why) {
+        log_err("snapshot: model %u does not validate (%s at i %d j %d fp %d)", id, why, err.i, err.j, err.fp);
+        *result = SNAP_BAD_MODEL;
+    }
     free(ds);
     free(mdl);
     return rlen;
@@ -206,18 +210,22 @@ int snap_decode(const uint8_t *buf, size_t len, uint64_t *seq)
     uint32_t n;
     size_t off = SNAP_HDR;
     if (len < SNAP_HDR + 4 || memcmp(buf, SNAP_MAGIC, 8) || get32(buf + 8) != SNAP_VERSION)
-        return -1;
+        return SNAP_BAD;
     if (get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
-        log_err("snapshot: truncated or checksum mismatch (%zu bytes); ignored, state before the WAL is lost", len);
-        return -1;
+        log_err("snapshot: truncated or checksum mismatch (%zu bytes)", len);
+        return SNAP_BAD;
     }
     n = get32(buf + 24);
     if (check_structure(buf, len, n)) {
-        log_err("snapshot: records do not add up to the file length; ignored");
-        return -1;
+        log_err("snapshot: records do not add up to the file length");
+        return SNAP_BAD;
     }
-    for (uint32_t k = 0; k < n; k++)
-        off += load_model(buf + off);
+    for (uint32_t k = 0; k < n; k++) {
+        int rc;
+        off += load_model(buf + off, &rc);
+        if (rc)
+            return rc;
+    }
     *seq = get64(buf + 16);
     log_info("snapshot: version %u, %u model(s), seq %llu", SNAP_VERSION, n, (unsigned long long)*seq);
     return 0;

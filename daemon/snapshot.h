@@ -18,11 +18,18 @@
  * malloc'd buffer (caller frees) and its length, or NULL (no memory). */
 uint8_t *snap_encode(uint64_t seq, size_t *len);
 
+/* snap_decode results. */
+#define SNAP_BAD (-1)       /* length, CRC-32C or structure: the file is damaged */
+#define SNAP_BAD_MODEL (-2) /* a model record does not validate: damaged too     */
+#define SNAP_NOMEM (-3)
+
 /* Decode a version 2 file into the model table. The whole file is checked
- * first (length, CRC-32C, structure): on failure -1 and nothing changed.
- * Then each model is rebuilt and re-solved on its own; one that does not fit
- * this build or this configuration, or does not validate, is dropped with a
- * log line and the others load. Returns 0 and the covered WAL seq. */
+ * first (length, CRC-32C, structure): on failure SNAP_BAD and nothing
+ * changed. Then each model is rebuilt and re-solved on its own; one that is
+ * no longer configured or beyond this build's IT2N_MAX_DEGREE is dropped
+ * with a log line (a configuration choice); one that does not validate
+ * gives SNAP_BAD_MODEL (the caller refuses to start, so what was loaded
+ * before it does not matter). Returns 0 and the covered WAL seq. */
 int snap_decode(const uint8_t *buf, size_t len, uint64_t *seq);
 
 #endif

@@ -12,13 +12,18 @@
  * between snapshot rename and WAL reset leaves them behind). */
 #include "store.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
+
+#include "errs.h"
 
 #include "it2n_proto.h"
 #include "le_bytes.h"
@@ -31,8 +36,15 @@
 #define REC_HDR 17u        /* len, crc, seq, type */
 #define REC_MAX 128u
 
-static int dirfd_ = -1, walfd = -1, do_fsync = 1;
-static uint64_t seq, wal_bytes;
+static int dirfd_ = -1, walfd = -1, lockfd = -1, do_fsync = 1;
+/* seq: the last record queued; dseq: the last one durable (a failed commit
+ * goes back to it, so the WAL never has a hole in its sequence). */
+static uint64_t seq, dseq, wal_bytes;
+/* Degraded: an I/O error left the WAL in a state that is not provably
+ * durable (a failed commit, a WAL renamed into place whose directory entry
+ * could not be synced). Every write is refused until a checkpoint (snapshot
+ * + new WAL, everything synced) succeeds. */
+static int degraded;
 static uint8_t *qbuf;
 static size_t qlen, qcap;
 static int qrecs;
@@ -104,8 +116,10 @@ int store_append(void *arg, const struct model_rec *rec)
     uint8_t rbuf[REC_HDR + REC_MAX];
     size_t plen;
     (void)arg;
+    if (degraded)
+        return IT2ND_ERR_DEGRADED;
     if (walfd < 0)
-        return -1;
+        return IT2ND_ERR_IO;
     plen = encode_payload(rec, rbuf + REC_HDR);
     put64(rbuf + 8, seq + 1);
     rbuf[16] = (uint8_t)rec->op;
@@ -114,8 +128,10 @@ int store_append(void *arg, const struct model_rec *rec)
     if (qlen + REC_HDR + plen > qcap) {
         size_t cap = qcap ? qcap * 2 : 4096;
         uint8_t *p = realloc(qbuf, cap);
-        if (!p)
-            return -1;
+        if (!p) {
+            log_err("wal: no memory to queue a record; change refused");
+            return IT2ND_ERR_NOMEM;
+        }
         qbuf = p;
         qcap = cap;
     }
@@ -159,23 +175,49 @@ static int write_all(int fd, const uint8_t *p, size_t len)
     return 0;
 }
 
+static void set_degraded(const char *what, int e)
+{
+    if (!degraded)
+        log_err("store degraded: %s: %s; every write is refused (exception 04 / NACK, last_error %d) until a "
+                "checkpoint (snapshot + new WAL) succeeds; retried every second",
+                what, strerror(e), IT2ND_ERR_DEGRADED);
+    degraded = 1;
+}
+
+int store_degraded(void)
+{
+    return degraded;
+}
+
 int store_commit(void)
 {
     int rc = 0;
     if (!qrecs)
         return 0;
-    off_t before = lseek(walfd, 0, SEEK_END);
-    if (write_all(walfd, qbuf, qlen) || (do_fsync && fdatasync(walfd))) {
-        log_err("wal: write failed: %s; %d record(s) not acknowledged", strerror(errno), qrecs);
-        /* Cut off a partial write so later records stay readable. */
-        if (before >= 0 && ftruncate(walfd, before) != 0)
-            log_err("wal: truncate failed: %s", strerror(errno));
+    if (degraded || walfd < 0) {
         rc = -1;
     } else {
-        wal_bytes += qlen;
-        stats.records += (uint64_t)qrecs;
-        stats.commits++;
+        off_t before = lseek(walfd, 0, SEEK_END);
+        if (before < 0 || write_all(walfd, qbuf, qlen) || (do_fsync && fdatasync(walfd))) {
+            int e = errno;
+            log_err("wal: write failed: %s; %d record(s) not acknowledged", strerror(e), qrecs);
+            /* Cut off a partial write. Whether or not that works, the file
+             * is no longer trusted (after a failed fdatasync the kernel may
+             * have dropped pages it reported written): the next records go
+             * to a new WAL, after a checkpoint. */
+            if (before >= 0 && ftruncate(walfd, before) != 0)
+                log_err("wal: truncate failed: %s", strerror(errno));
+            set_degraded("WAL write/fdatasync failed", e);
+            rc = -1;
+        } else {
+            wal_bytes += qlen;
+            stats.records += (uint64_t)qrecs;
+            stats.commits++;
+            dseq = seq;
+        }
     }
+    if (rc)
+        seq = dseq; /* the refused records never were */
     qlen = 0;
     qrecs = 0;
     return rc;
@@ -196,57 +238,120 @@ static int sync_dir(void)
     return do_fsync ? fsync(dirfd_) : 0;
 }
 
-/* Create an empty WAL atomically (tmp + fsync + rename). */
+/* Remove a temporary file after a failure (errno kept). */
+static void drop_tmp(const char *name)
+{
+    int e = errno;
+    if (unlinkat(dirfd_, name, 0) && errno != ENOENT)
+        log_err("cannot remove %s/%s: %s", state_dir, name, strerror(errno));
+    errno = e;
+}
+
+/* Create an empty WAL atomically (tmp + fsync + rename + fsync of the
+ * directory) and append to it from now on. Before the rename a failure
+ * changes nothing (the old WAL stays in use, the temporary file is
+ * removed). After it, the new file is the WAL whatever happens next (the
+ * old one is unlinked: appending to it would lose every record, issue 8
+ * item 1); if the directory cannot be synced, the rename may not survive a
+ * crash, so the store is degraded until a checkpoint succeeds. */
 static int wal_reset(void)
 {
     uint8_t h[WAL_HDR] = { 0 };
-    int fd = openat(dirfd_, "wal.tmp", O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
+    int fd = openat(dirfd_, "wal.tmp", O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_CLOEXEC, 0640);
     if (fd < 0)
         return -1;
     memcpy(h, WAL_MAGIC, 8);
     put32(h + 8, FORMAT_VERSION);
-    if (write_all(fd, h, sizeof h) || (do_fsync && fsync(fd)) ||
-        renameat(dirfd_, "wal.tmp", dirfd_, "wal") || sync_dir()) {
+    if (write_all(fd, h, sizeof h) || (do_fsync && fsync(fd)) || renameat(dirfd_, "wal.tmp", dirfd_, "wal")) {
+        int e = errno;
         close(fd);
+        drop_tmp("wal.tmp");
+        errno = e;
         return -1;
     }
-    close(fd);
     if (walfd >= 0)
         close(walfd);
-    walfd = openat(dirfd_, "wal", O_WRONLY | O_APPEND | O_CLOEXEC);
+    walfd = fd;
     wal_bytes = 0;
-    return walfd < 0 ? -1 : 0;
+    if (sync_dir()) {
+        int e = errno;
+        set_degraded("fsync of the state directory after a new WAL was renamed into place", e);
+        errno = e;
+        return -1;
+    }
+    return 0;
 }
 
+/* A checkpoint: snapshot.tmp written and fsynced, renamed over snapshot,
+ * directory fsynced, then a new empty WAL (wal_reset). Every failure
+ * leaves the state durable: before the snapshot rename nothing changed
+ * (snapshot.tmp is removed); if the directory cannot be synced after it,
+ * the WAL is NOT reset (the old WAL, still in use and synced, holds every
+ * record, so either snapshot plus it replays to the same state). A success
+ * clears the degraded state: memory, which equals what was acknowledged,
+ * is then on disk in fresh files. */
 int store_snapshot(void)
 {
     size_t size = 0;
     uint8_t *buf = NULL;
-    int fd, rc = -1;
+    int fd = -1, rc = -1;
+    const char *step = "commit";
+    if (dirfd_ < 0) {
+        errno = EBADF;
+        goto out;
+    }
     if (store_commit())
         goto out;
+    step = "encode";
     buf = snap_encode(seq, &size);
-    if (!buf)
+    if (!buf) {
+        errno = ENOMEM;
         goto out;
+    }
+    step = "open snapshot.tmp";
     fd = openat(dirfd_, "snapshot.tmp", O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
     if (fd < 0)
         goto out;
-    if (write_all(fd, buf, size) || (do_fsync && fsync(fd))) {
-        close(fd);
-        goto out;
+    step = "write snapshot.tmp";
+    if (write_all(fd, buf, size))
+        goto out_tmp;
+    step = "fsync snapshot.tmp";
+    if (do_fsync && fsync(fd))
+        goto out_tmp;
+    step = "close snapshot.tmp";
+    if (close(fd)) {
+        fd = -1;
+        goto out_tmp;
     }
-    close(fd);
-    if (renameat(dirfd_, "snapshot.tmp", dirfd_, "snapshot") || sync_dir())
+    fd = -1;
+    step = "rename snapshot.tmp";
+    if (renameat(dirfd_, "snapshot.tmp", dirfd_, "snapshot"))
+        goto out_tmp;
+    step = "fsync the state directory after the snapshot rename (WAL kept)";
+    if (sync_dir())
         goto out;
     /* The snapshot now holds everything: start an empty WAL. A crash
      * before this leaves old records, skipped by seq on replay. */
+    step = "new WAL";
     if (wal_reset())
         goto out;
     stats.snapshots++;
+    if (degraded)
+        log_notice("store: checkpoint written (snapshot seq %llu, new WAL); writes accepted again",
+                   (unsigned long long)seq);
+    degraded = 0;
     rc = 0;
+    goto out;
+out_tmp:
+    if (fd >= 0) {
+        int e = errno;
+        close(fd);
+        errno = e;
+    }
+    drop_tmp("snapshot.tmp");
 out:
     if (rc)
-        log_err("snapshot failed: %s", strerror(errno));
+        log_err("snapshot failed (%s): %s", step, strerror(errno));
     free(buf);
     return rc;
 }
@@ -292,6 +397,87 @@ static uint8_t *read_file(const char *name, off_t max, size_t *len)
     close(fd);
     *len = (size_t)st.st_size;
     return buf;
+}
+
+/* Keep a damaged file as evidence: rename it to NAME.damaged-<UTC time>
+ * (-N appended if taken) and sync the directory. The daemon then refuses
+ * to start, and keeps refusing while such a file is in the state directory
+ * (store_open): an operator decides what to do (docs/daemon.md, "Recovery
+ * after damage"). Returns -1 always (the caller's return value). */
+static int keep_damaged(const char *name, const char *why)
+{
+    char aside[96], stamp[32];
+    time_t now = time(NULL);
+    struct tm tm;
+    int n = 0;
+    gmtime_r(&now, &tm);
+    strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
+    snprintf(aside, sizeof aside, "%s.damaged-%s", name, stamp);
+    while (faccessat(dirfd_, aside, F_OK, AT_SYMLINK_NOFOLLOW) == 0 && n < 100)
+        snprintf(aside, sizeof aside, "%s.damaged-%s-%d", name, stamp, ++n);
+    if (renameat(dirfd_, name, dirfd_, aside)) {
+        log_err("%s/%s is damaged (%s) and cannot be renamed aside: %s; refusing to start, file left as it is",
+                state_dir, name, why, strerror(errno));
+        return -1;
+    }
+    if (sync_dir())
+        log_err("fsync of %s after renaming %s aside: %s", state_dir, name, strerror(errno));
+    log_err("%s/%s is damaged (%s): kept as %s/%s; refusing to start: serving without it would serve a state that "
+            "never existed. Recovery: docs/daemon.md, \"Recovery after damage\"",
+            state_dir, name, why, state_dir, aside);
+    return -1;
+}
+
+/* Before the WAL is cut after its last good record, keep the bytes cut
+ * off as NAME.cut-<UTC time> (fsynced): a torn last commit after a crash,
+ * or records behind a damaged one that an operator may still want. Not a
+ * reason to refuse the start (unlike .damaged-), but if they cannot be
+ * kept the WAL is not cut and the start refused. Returns 0 or -1. */
+static int keep_tail(uint64_t good, uint64_t total)
+{
+    char name[64], stamp[32];
+    time_t now = time(NULL);
+    struct tm tm;
+    uint8_t buf[4096];
+    int in, out, n = 0, rc = -1;
+    gmtime_r(&now, &tm);
+    strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
+    snprintf(name, sizeof name, "wal.cut-%s", stamp);
+    while (faccessat(dirfd_, name, F_OK, AT_SYMLINK_NOFOLLOW) == 0 && n < 100)
+        snprintf(name, sizeof name, "wal.cut-%s-%d", stamp, ++n);
+    in = openat(dirfd_, "wal", O_RDONLY | O_CLOEXEC);
+    out = openat(dirfd_, name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
+    if (in >= 0 && out >= 0) {
+        uint64_t off = good;
+        rc = 0;
+        while (rc == 0 && off < total) {
+            size_t want = total - off < sizeof buf ? (size_t)(total - off) : sizeof buf;
+            ssize_t got = pread(in, buf, want, (off_t)off);
+            if (got < 0 && errno == EINTR)
+                continue;
+            if (got <= 0 || write_all(out, buf, (size_t)got))
+                rc = -1;
+            else
+                off += (uint64_t)got;
+        }
+        if (rc == 0 && ((do_fsync && fsync(out)) || sync_dir()))
+            rc = -1;
+    }
+    int e = errno;
+    if (in >= 0)
+        close(in);
+    if (out >= 0)
+        close(out);
+    if (rc) {
+        if (out >= 0)
+            unlinkat(dirfd_, name, 0);
+        log_err("wal: cannot keep the %llu byte(s) to cut off in %s/%s: %s; refusing to start, WAL left as it is",
+                (unsigned long long)(total - good), state_dir, name, strerror(e));
+        return -1;
+    }
+    log_notice("wal: the %llu byte(s) cut off after offset %llu are kept in %s/%s", (unsigned long long)(total - good),
+               (unsigned long long)good, state_dir, name);
+    return 0;
 }
 
 /* Version 1: the data set of a raw record, re-put and (solve) re-solved
@@ -348,24 +534,36 @@ static int load_snapshot(uint64_t *seqp)
         return -1;
     }
     if (len < 36 || memcmp(buf, SNAP_MAGIC, 8)) {
-        log_err("snapshot: not a snapshot (%zu bytes); ignored, state before the WAL is lost", len);
-        goto out;
+        log_err("snapshot: not a snapshot (%zu bytes)", len);
+        free(buf);
+        return keep_damaged("snapshot", "not a snapshot");
     }
     if (get32(buf + 8) == SNAP_VERSION) {
-        if (snap_decode(buf, len, &sseq))
-            sseq = 0;
-        goto out;
+        int drc = snap_decode(buf, len, &sseq);
+        free(buf);
+        if (drc == SNAP_NOMEM) {
+            log_err("snapshot: out of memory while loading %s/snapshot; refusing to start, file left as it is",
+                    state_dir);
+            return -1;
+        }
+        if (drc)
+            return keep_damaged("snapshot", drc == SNAP_BAD_MODEL ? "a model record does not validate"
+                                                                  : "checksum or structure");
+        *seqp = sseq;
+        return 0;
     }
     if (get32(buf + 8) != FORMAT_VERSION || get32(buf + 12) != store_v1_layout_tag()) {
-        log_err("snapshot: version %u / layout %08x not supported; ignored", get32(buf + 8),
-                get32(buf + 12));
-        goto out;
+        log_err("snapshot: %s/snapshot is version %u / layout %08x, which this build cannot read; refusing to "
+                "start, file left as it is", state_dir, get32(buf + 8), get32(buf + 12));
+        free(buf);
+        return -1;
     }
     uint32_t n = get32(buf + 24);
     if (len != 32 + (size_t)n * sizeof(struct store_v1_snap_model) + 4 ||
         get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
-        log_err("snapshot: truncated or checksum mismatch (%zu bytes); ignored, state before the WAL is lost", len);
-        goto out;
+        log_err("snapshot: truncated or checksum mismatch (%zu bytes)", len);
+        free(buf);
+        return keep_damaged("snapshot", "truncated or checksum mismatch");
     }
     sseq = get64(buf + 16);
     for (uint32_t k = 0; k < n; k++) {
@@ -382,8 +580,9 @@ static int load_snapshot(uint64_t *seqp)
          * does (the stored control nets are ignored). */
         if (sm.state < IT2N_RS_EMPTY || sm.state > IT2N_RS_FAILED ||
             v1_rebuild(md, &sm.ds, sm.state == IT2N_RS_SOLVED, &err) != IT2N_OK) {
-            log_err("snapshot: model %d fails validation (%s); dropped", sm.id, it2n_strerror(err.code));
-            continue;
+            log_err("snapshot: model %d fails validation (%s)", sm.id, it2n_strerror(err.code));
+            free(buf);
+            return keep_damaged("snapshot", "a model record does not validate");
         }
         md->state = sm.state;
         md->gen = sm.gen;
@@ -394,7 +593,6 @@ static int load_snapshot(uint64_t *seqp)
     }
     log_notice("snapshot: legacy version 1, %u model(s) loaded, seq %llu; the next one is written as version %u", n,
                (unsigned long long)sseq, SNAP_VERSION);
-out:
     free(buf);
     *seqp = sseq;
     return 0;
@@ -417,7 +615,7 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
     size_t have = 0, pos = 0;   /* bytes in buf; next record at buf[pos] */
     uint64_t base = 0;          /* file offset of buf[0] */
     unsigned long long applied = 0, skipped = 0, failed = 0;
-    int eof = 0, rc = -1;
+    int eof = 0, rc = -1, damaged = 0;
     *good = *total = 0;
     if (fd < 0) {
         if (errno == ENOENT)
@@ -455,9 +653,10 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
         uint64_t off = base + pos;
         if (off == 0) {
             if (have < WAL_HDR || memcmp(buf, WAL_MAGIC, 8) || get32(buf + 8) != FORMAT_VERSION) {
-                log_err("wal: bad header (%llu bytes); whole log dropped", (unsigned long long)*total);
-                stats.dropped += *total;
-                rc = 0;
+                /* Never dropped and overwritten (issue 8 item 4): its
+                 * records may be intact behind a flipped header byte. */
+                log_err("wal: bad header (%llu bytes)", (unsigned long long)*total);
+                damaged = 1;
                 goto out;
             }
             pos = WAL_HDR;
@@ -494,6 +693,16 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
             skipped++;
             continue;
         }
+        if (rseq != seq + 1 && seq == sseq) {
+            /* The first record after the snapshot must follow it: a hole
+             * means the state it builds on is missing (a snapshot deleted,
+             * or an older one restored under a newer WAL). */
+            log_err("wal: first record after the snapshot (seq %llu) is seq %llu: records %llu..%llu are missing "
+                    "(snapshot deleted or replaced?); refusing to start, files left as they are",
+                    (unsigned long long)sseq, (unsigned long long)rseq, (unsigned long long)sseq + 1,
+                    (unsigned long long)rseq - 1);
+            goto out;
+        }
         if (models_apply(&rec, &err) != IT2N_OK) {
             log_warn("wal: record %llu (model %d, op %d) no longer applies: %s", (unsigned long long)rseq, rec.id,
                      rec.op, it2n_strerror(err.code));
@@ -511,13 +720,85 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
 out:
     free(buf);
     close(fd);
+    if (damaged)
+        return keep_damaged("wal", "bad header");
     return rc;
+}
+
+/* The state directory belongs to one daemon: an exclusive flock on
+ * state_dir/lock, taken before anything else in it is read or written and
+ * held until exit (the kernel drops it when the process dies, kill -9
+ * included). A second daemon exits here, having touched nothing. */
+static int take_lock(void)
+{
+    char pid[32] = "";
+    lockfd = openat(dirfd_, "lock", O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0640);
+    if (lockfd < 0) {
+        log_err("state directory %s: cannot open the lock file %s/lock: %s", state_dir, state_dir, strerror(errno));
+        return -1;
+    }
+    if (flock(lockfd, LOCK_EX | LOCK_NB)) {
+        int e = errno;
+        ssize_t n = pread(lockfd, pid, sizeof pid - 1, 0);
+        pid[n > 0 ? n : 0] = 0;
+        pid[strcspn(pid, "\n")] = 0;
+        if (e == EWOULDBLOCK)
+            log_err("state directory %s is in use by another it2nd (pid %s, lock %s/lock); not starting, nothing "
+                    "read or written", state_dir, pid[0] ? pid : "unknown", state_dir);
+        else
+            log_err("state directory %s: cannot lock %s/lock: %s", state_dir, state_dir, strerror(e));
+        close(lockfd);
+        lockfd = -1;
+        return -1;
+    }
+    int len = snprintf(pid, sizeof pid, "%ld\n", (long)getpid());
+    if (ftruncate(lockfd, 0) || pwrite(lockfd, pid, (size_t)len, 0) != len)
+        log_warn("state directory %s: cannot write the pid into %s/lock: %s", state_dir, state_dir, strerror(errno));
+    return 0;
+}
+
+/* A damaged file kept by an earlier start (keep_damaged) is still in the
+ * state directory: refuse until an operator has dealt with it. */
+static int damaged_present(void)
+{
+    int fd = openat(dirfd_, ".", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    DIR *d = fd >= 0 ? fdopendir(fd) : NULL;
+    const struct dirent *e;
+    int found = 0;
+    if (!d) {
+        if (fd >= 0)
+            close(fd);
+        log_err("state directory %s: cannot list: %s", state_dir, strerror(errno));
+        return 1;
+    }
+    while ((e = readdir(d)) != NULL)
+        if (strstr(e->d_name, ".damaged-")) {
+            log_err("state directory %s holds %s/%s, a damaged file kept by an earlier start; not starting until "
+                    "an operator has dealt with it (docs/daemon.md, \"Recovery after damage\")",
+                    state_dir, state_dir, e->d_name);
+            found = 1;
+        }
+    closedir(d);
+    return found;
+}
+
+static void close_all(void)
+{
+    if (walfd >= 0)
+        close(walfd);
+    if (dirfd_ >= 0)
+        close(dirfd_);
+    if (lockfd >= 0)
+        close(lockfd); /* releases the lock */
+    walfd = dirfd_ = lockfd = -1;
 }
 
 int store_open(const char *dir, int fsync_on)
 {
     uint64_t good, total;
     do_fsync = fsync_on;
+    degraded = 0;
+    seq = dseq = 0;
     snprintf(state_dir, sizeof state_dir, "%s", dir);
     if (mkdir(dir, 0750) && errno != EEXIST) {
         log_err("state directory %s: %s", dir, strerror(errno));
@@ -528,28 +809,41 @@ int store_open(const char *dir, int fsync_on)
         log_err("state directory %s: %s", dir, strerror(errno));
         return -1;
     }
-    if (load_snapshot(&seq) || replay_wal(seq, &good, &total)) {
-        close(dirfd_);
-        dirfd_ = -1;
+    if (take_lock() || damaged_present() || load_snapshot(&seq) || replay_wal(seq, &good, &total)) {
+        close_all();
         return -1;
     }
+    /* Temporary files of a checkpoint a crash interrupted: never renamed
+     * into place, so never part of the state (not evidence). */
+    for (int k = 0; k < 2; k++) {
+        const char *tmp = k ? "wal.tmp" : "snapshot.tmp";
+        if (unlinkat(dirfd_, tmp, 0) == 0)
+            log_notice("removed %s/%s left by an interrupted checkpoint", dir, tmp);
+    }
     if (good >= WAL_HDR) {
+        if (good < total && keep_tail(good, total)) {
+            close_all();
+            return -1;
+        }
         walfd = openat(dirfd_, "wal", O_WRONLY | O_APPEND | O_CLOEXEC);
         if (walfd < 0 || (good < total && ftruncate(walfd, (off_t)good))) {
             log_err("wal: cannot reopen: %s", strerror(errno));
+            close_all();
             return -1;
         }
         wal_bytes = good - WAL_HDR;
     } else if (wal_reset()) {
         log_err("wal: cannot create in %s: %s", dir, strerror(errno));
+        close_all();
         return -1;
     }
+    dseq = seq;
     return 0;
 }
 
 int store_chown(unsigned uid, unsigned gid)
 {
-    static const char *const files[] = { "wal", "snapshot" };
+    static const char *const files[] = { "wal", "snapshot", "lock" };
     if (fchown(dirfd_, (uid_t)uid, (gid_t)gid))
         return -1;
     for (size_t k = 0; k < sizeof files / sizeof files[0]; k++)
@@ -561,11 +855,7 @@ int store_chown(unsigned uid, unsigned gid)
 void store_close(void)
 {
     store_commit();
-    if (walfd >= 0)
-        close(walfd);
-    if (dirfd_ >= 0)
-        close(dirfd_);
-    walfd = dirfd_ = -1;
+    close_all();
     free(qbuf);
     qbuf = NULL;
     qlen = qcap = 0;

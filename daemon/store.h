@@ -17,17 +17,27 @@
 
 #include "models.h"
 
-/* Open (create) dir, recover snapshot + WAL into the model table (models
- * must already be configured). fsync 0 skips fdatasync (tests only).
- * Returns 0, or -1 if the directory cannot be used. */
+/* Open (create) dir, take its lock (flock on dir/lock, held until
+ * store_close; another daemon holding it: -1 before anything is read),
+ * recover snapshot + WAL into the model table (models must already be
+ * configured). A damaged WAL header or snapshot is renamed aside to
+ * NAME.damaged-<UTC time> and -1 returned; while such a file is in dir,
+ * -1 too. fsync 0 skips fdatasync (tests only). Returns 0, or -1 (logged)
+ * if the directory cannot be used. */
 int store_open(const char *dir, int fsync);
 
-/* Queue one record (model journal hook). Returns 0 or -1. */
+/* Queue one record (model journal hook). Returns 0, or IT2ND_ERR_DEGRADED,
+ * IT2ND_ERR_IO or IT2ND_ERR_NOMEM (errs.h): the change is refused. */
 int store_append(void *arg, const struct model_rec *rec);
 
 /* Write and fdatasync queued records. Returns 0, or -1 (the queued
- * records are then lost and must not be acknowledged). */
+ * records are then lost and must not be acknowledged; the store is
+ * degraded). */
 int store_commit(void);
+
+/* True after an I/O error left the WAL not provably durable: every write
+ * is refused until store_snapshot() (a checkpoint) succeeds. */
+int store_degraded(void);
 
 /* Records queued and not yet committed. */
 int store_pending(void);
@@ -41,7 +51,9 @@ struct store_mark {
 struct store_mark store_mark(void);
 void store_rollback(struct store_mark m);
 
-/* Write a snapshot of all models, then start an empty WAL. 0 or -1. */
+/* Write a snapshot of all models, then start an empty WAL (a checkpoint;
+ * clears the degraded state). 0 or -1 (logged; no temporary file left,
+ * the state on disk still durable). */
 int store_snapshot(void);
 
 /* Bytes in the WAL since the last snapshot. */

@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -207,6 +208,64 @@ static void test_rs485(void **st)
     }
 }
 
+/* A configuration that cannot be read is an error, never an empty file
+ * (issue 8: "-c DIR" passed --check-config and a reload replaced the
+ * running models with the built-in default); an empty section is an error
+ * with its header's line (an empty [model:5] was ignored: unit 5 answered
+ * nothing while the default model was served). Nothing changes on error. */
+static void test_unreadable_and_empty(void **st)
+{
+    struct conf c, before;
+    char err[512], want[512], dir[64];
+    (void)st;
+    snprintf(dir, sizeof dir, "/tmp/it2nd-test-conf-dir.%d", (int)getpid());
+    assert_int_equal(mkdir(dir, 0700), 0);
+    conf_default(&c);
+    before = c;
+    assert_int_equal(conf_load(&c, dir, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:1: cannot read: Is a directory", dir);
+    assert_string_equal(err, want);
+    assert_memory_equal(&c, &before, sizeof c);
+    assert_int_equal(rmdir(dir), 0);
+    assert_int_equal(conf_load(&c, dir, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s: cannot open: No such file or directory", dir);
+    assert_string_equal(err, want);
+    assert_memory_equal(&c, &before, sizeof c);
+
+    static const struct {
+        const char *text;
+        int line;
+        const char *tail;
+    } t[] = {
+        { "[model:5]\n", 1, "[model:5]: empty section: its required keys are missing (a model needs at least one of "
+                             "unit_id, n, m, z, type1, chord, preload; without any the section would be ignored)" },
+        { "[daemon]\nfsync = no\n\n[rtu:a]\n; device = /dev/ttyS0\n[model:2]\nn = 2\n", 4,
+          "[rtu:a]: empty section: its required keys are missing (device is required)" },
+        { "[model:1]\nn = 2\n[link:x]\n", 3,
+          "[link:x]: empty section: its required keys are missing (type and device (serial) or usb (usb) are required)" },
+        { "[daemon]\n[modbus]\nmax_clients = 4\n", 1,
+          "[daemon]: empty section: its required keys are missing (a section with no keys has no effect; remove it "
+          "or add keys)" },
+        /* the first error in the file wins */
+        { "[modbus]\nmax_clients = 0\n[model:5]\n", 2, "[modbus] max_clients: expected 1..512" },
+        { "[model:5]\n[modbus]\nmax_clients = 0\n", 1, "[model:5]: empty section: its required keys are missing (a "
+          "model needs at least one of unit_id, n, m, z, type1, chord, preload; without any the section would be "
+          "ignored)" },
+    };
+    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
+        conf_default(&before);
+        assert_int_equal(load(t[k].text, &c, err, sizeof err), -1);
+        snprintf(want, sizeof want, "%s:%d: %s", path, t[k].line, t[k].tail);
+        assert_string_equal(err, want);
+        assert_memory_equal(&c, &before, sizeof c);
+    }
+    /* A section given twice with keys in the first is fine only if the
+     * second has keys too; [model:5] with one key is a model on unit 5. */
+    assert_int_equal(load("[model:5]\nn = 3\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.nmodels, 1);
+    assert_int_equal(c.model[0].unit, 5);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -214,6 +273,7 @@ int main(void)
         cmocka_unit_test(test_full),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_rs485),
+        cmocka_unit_test(test_unreadable_and_empty),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

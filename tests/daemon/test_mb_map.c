@@ -9,6 +9,7 @@
 
 #include <cmocka.h>
 
+#include "errs.h"
 #include "it2n_regmap.h"
 #include "mb_map.h"
 #include "models.h"
@@ -214,6 +215,85 @@ static void test_grid_saturation_flag(void **st)
     assert_int_equal(r[IT2N_REG_GRID_SAT], 0);
 }
 
+/* Every refused write says why in last_error (issue 8 item 11: an upload
+ * refused with 03 for T = 1.2 left it 0), and a disk failure is the
+ * daemon's code, not the core's IT2N_ERR_STATE ("model not in state"). */
+static int journal_fails(void *arg, const struct model_rec *rec)
+{
+    (void)arg;
+    (void)rec;
+    return IT2ND_ERR_DEGRADED;
+}
+
+static void status_err(int16_t *code, int16_t *i, int16_t *j, int16_t *fp)
+{
+    struct mb_query q;
+    uint16_t r[IT2N_REG_STATUS_END];
+    memset(&q, 0, sizeof q);
+    assert_int_equal(mbmap_read(md, &q, &opts, 0, IT2N_REG_STATUS_END, r), MBX_OK);
+    *code = (int16_t)r[IT2N_REG_LAST_ERR];
+    *i = (int16_t)r[IT2N_REG_ERR_I];
+    *j = (int16_t)r[IT2N_REG_ERR_J];
+    *fp = (int16_t)r[IT2N_REG_ERR_FP];
+}
+
+static void test_refused_writes_set_last_error(void **st)
+{
+    struct mb_query q;
+    int persisted;
+    int16_t code, i, j, fp;
+    uint32_t gen = md->gen;
+    (void)st;
+    memset(&q, 0, sizeof q);
+    memset(&md->last_err, 0, sizeof md->last_err);
+    /* T = 1.2 at (1, 2, D): 03, last_error RANGE at the point */
+    uint16_t up[12] = { 1, 2, IT2N_FP_D, 0, 1000, 0, 0, 0, 0, 12000, 5000, 5000 };
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_UP_I, 12, up, &persisted), MBX_ILLEGAL_VALUE);
+    status_err(&code, &i, &j, &fp);
+    assert_int_equal(code, IT2N_ERR_RANGE);
+    assert_int_equal(i, 1);
+    assert_int_equal(j, 2);
+    assert_int_equal(fp, IT2N_FP_D);
+    assert_int_equal(md->last_err.ch, IT2N_CH_T);
+    /* index beyond the degree: INVAL */
+    up[0] = 9;
+    up[9] = 5000;
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_UP_I, 12, up, &persisted), MBX_ILLEGAL_VALUE);
+    status_err(&code, &i, &j, &fp);
+    assert_int_equal(code, IT2N_ERR_INVAL);
+    assert_int_equal(i, 9);
+    /* a bad configuration and a query parameter beyond 1 */
+    uint16_t cfg[3] = { 0, 3, 0 }, uw[2] = { 10001, 0 };
+    memset(&md->last_err, 0, sizeof md->last_err);
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_CFG_N, 3, cfg, &persisted), MBX_ILLEGAL_VALUE);
+    status_err(&code, &i, &j, &fp);
+    assert_int_equal(code, IT2N_ERR_INVAL);
+    memset(&md->last_err, 0, sizeof md->last_err);
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_U16, 2, uw, &persisted), MBX_ILLEGAL_VALUE);
+    status_err(&code, &i, &j, &fp);
+    assert_int_equal(code, IT2N_ERR_RANGE);
+    memset(&md->last_err, 0, sizeof md->last_err);
+    mbmap_refused(md, MBX_ILLEGAL_VALUE); /* a malformed write PDU (mb_req) */
+    assert_int_equal(md->last_err.code, IT2N_ERR_INVAL);
+    /* The WAL refuses (degraded store): 04, the daemon's code, nothing changed. */
+    models_set_journal(journal_fails, NULL);
+    uint16_t recfg[3] = { 2, 2, 0 };
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_CFG_N, 3, recfg, &persisted), MBX_DEVICE_FAILURE);
+    assert_int_equal(persisted, 0);
+    status_err(&code, &i, &j, &fp);
+    assert_int_equal(code, IT2ND_ERR_DEGRADED);
+    assert_int_equal(i, -1);
+    assert_int_equal(md->ds.n, 3);
+    uint16_t clear[4] = { md->ds.n, md->ds.m, md->ds.flags, IT2N_CMD_CLEAR };
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_CFG_N, 4, clear, &persisted), MBX_DEVICE_FAILURE);
+    assert_int_equal(md->last_err.code, IT2ND_ERR_DEGRADED);
+    models_set_journal(NULL, NULL);
+    models_pass_end(1, NULL, NULL);
+    assert_int_equal(md->gen, gen);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    memset(&md->last_err, 0, sizeof md->last_err);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -224,6 +304,7 @@ int main(void)
         cmocka_unit_test(test_rejected_writes_change_nothing),
         cmocka_unit_test(test_incomplete_is_busy),
         cmocka_unit_test(test_grid_saturation_flag),
+        cmocka_unit_test(test_refused_writes_set_last_error),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

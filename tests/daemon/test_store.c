@@ -11,7 +11,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dirent.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -56,7 +58,11 @@ static void assert_same_nets(const it2n_model *a, const it2n_model *b)
 
 static void path(char *buf, size_t size, const char *name)
 {
-    snprintf(buf, size, "%s/%s", dir, name);
+    size_t a = strlen(dir), b = strlen(name);
+    assert_true(a + 1 + b < size);
+    memcpy(buf, dir, a);
+    buf[a] = '/';
+    memcpy(buf + a + 1, name, b + 1);
 }
 
 static long fsize(const char *name)
@@ -84,6 +90,46 @@ static void flip(const char *name, long off)
     fseek(f, off, SEEK_SET);
     fputc(c ^ 0x55, f);
     fclose(f);
+}
+
+static uint8_t *slurp(const char *name, long *len);
+static void wipe(void);
+
+/* The name of the one file whose name starts with prefix. */
+static void kept_as(const char *prefix, char *out, size_t size)
+{
+    DIR *d = opendir(dir);
+    const struct dirent *e;
+    int found = 0;
+    assert_non_null(d);
+    while ((e = readdir(d)) != NULL)
+        if (!strncmp(e->d_name, prefix, strlen(prefix))) {
+            size_t n = strlen(e->d_name);
+            assert_true(n < size);
+            memcpy(out, e->d_name, n + 1);
+            found++;
+        }
+    closedir(d);
+    assert_int_equal(found, 1);
+}
+
+/* The name of the file kept aside for `name` (exactly one). */
+static void kept(const char *name, char *out, size_t size)
+{
+    char prefix[64];
+    snprintf(prefix, sizeof prefix, "%s.damaged-", name);
+    kept_as(prefix, out, size);
+}
+
+/* The file kept aside for name has len bytes; remove it (the operator's
+ * "accept the loss"). */
+static void unkeep(const char *name, long len)
+{
+    char k[64], p[160];
+    kept(name, k, sizeof k);
+    assert_int_equal(fsize(k), len);
+    path(p, sizeof p, k);
+    assert_int_equal(unlink(p), 0);
 }
 
 static int setup(void **st)
@@ -126,14 +172,29 @@ static void test_wal_replay(void **st)
     assert_same_nets(&md->mdl, &solved);
     store_close();
 
-    /* A torn last record: the three before it survive. */
-    long len = fsize("wal");
+    /* A torn last record: the three before it survive; the bytes cut off
+     * are kept in wal.cut-<time>, byte for byte. */
+    long len = fsize("wal"), tlen;
     cut("wal", len - 5);
+    uint8_t *torn = slurp("wal", &tlen);
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
     assert_int_equal(md->state, IT2N_RS_INCOMPLETE);
     assert_int_equal(models_present(md), 3);
-    assert_int_equal(fsize("wal"), len - 5 - (len - 16) / 4 + 5); /* truncated at the last good record */
+    long good = len - 5 - (len - 16) / 4 + 5;
+    assert_int_equal(fsize("wal"), good); /* truncated at the last good record */
+    {
+        char name[64], p[160];
+        long klen;
+        kept_as("wal.cut-", name, sizeof name);
+        uint8_t *cutb = slurp(name, &klen);
+        assert_int_equal(klen, tlen - good);
+        assert_memory_equal(cutb, torn + good, (size_t)klen);
+        free(cutb);
+        path(p, sizeof p, name);
+        assert_int_equal(unlink(p), 0);
+    }
+    free(torn);
     store_close();
 
     /* A corrupted byte in the second record: only the first survives. */
@@ -184,21 +245,90 @@ static void test_snapshot(void **st)
     assert_int_equal(md->gen, gen - 1);  /* snapshot state; the later update was in the replaced WAL */
     store_close();
 
-    /* Corrupted snapshot: ignored; the old WAL still holds every record
-     * since the start, so replay rebuilds the model from them. */
-    flip("snapshot", fsize("snapshot") / 2);
+    /* Corrupted snapshot (issue 8 item 5): kept aside as
+     * snapshot.damaged-<UTC time>, byte for byte, and store_open refuses:
+     * the WAL replayed onto the configuration would be a state that never
+     * existed. It keeps refusing while the kept file is in the directory. */
+    long slen = fsize("snapshot"), wlen = fsize("wal");
+    flip("snapshot", slen / 2);
+    uint8_t *want_snap = slurp("snapshot", &slen);
+    fresh();
+    assert_int_equal(store_open(dir, 0), -1);
+    assert_int_equal(fsize("snapshot"), -1);
+    assert_int_equal(fsize("wal"), wlen);
+    char name[128];
+    kept("snapshot", name, sizeof name);
+    long klen;
+    uint8_t *got = slurp(name, &klen);
+    assert_int_equal(klen, slen);
+    assert_memory_equal(got, want_snap, (size_t)slen);
+    free(got);
+    free(want_snap);
+    fresh();
+    assert_int_equal(store_open(dir, 0), -1);   /* still there: still refused */
+    assert_int_equal(fsize("wal"), wlen);
+
+    /* The operator moves the kept file away, accepting the loss: this WAL
+     * starts at record 1, so replaying it alone is a real state. */
+    char p[160];
+    path(p, sizeof p, name);
+    assert_int_equal(unlink(p), 0);
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
     assert_int_equal(md->state, IT2N_RS_SOLVED);
     assert_int_equal(models_present(md), 4);
+    /* A WAL that continues a snapshot which is gone: refused, files left. */
+    assert_int_equal(store_snapshot(), 0);
+    put(md, 1, 1, 10, 10, 6);
+    assert_int_equal(store_commit(), 0);
     store_close();
-
-    /* Corrupted snapshot and an empty WAL: the model starts from its
-     * configuration (empty), never from unvalidated data. */
+    path(p, sizeof p, "snapshot");
+    assert_int_equal(unlink(p), 0);
+    wlen = fsize("wal");
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), -1);
+    assert_int_equal(fsize("wal"), wlen);
+    assert_int_equal(md->state, IT2N_RS_EMPTY);
     cut("wal", 16);
+}
+
+/* A damaged WAL header (issue 8 item 4): the WAL is kept aside byte for
+ * byte (its records may be intact) and the start refused, never replaced
+ * by an empty WAL; with the header repaired every record replays. */
+static void test_wal_header(void **st)
+{
+    char p[160], q[160], name[128];
+    long len, klen;
+    (void)st;
+    wipe();
+    struct model *md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    put(md, 0, 0, 0, 0, 1);
+    put(md, 0, 1, 0, 10, 2);
+    assert_int_equal(store_commit(), 0);
+    store_close();
+    flip("wal", 3);
+    uint8_t *want = slurp("wal", &len);
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), -1);
+    assert_int_equal(fsize("wal"), -1);
+    kept("wal", name, sizeof name);
+    uint8_t *got = slurp(name, &klen);
+    assert_int_equal(klen, len);
+    assert_memory_equal(got, want, (size_t)len);
+    free(got);
+    free(want);
+    fresh();
+    assert_int_equal(store_open(dir, 0), -1);   /* refused while the kept file is there */
+    assert_int_equal(fsize("wal"), -1);
+    /* Recovery: header repaired, file back under its name. */
+    path(p, sizeof p, name);
+    path(q, sizeof q, "wal");
+    assert_int_equal(rename(p, q), 0);
+    flip("wal", 3);
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_EMPTY);
+    assert_int_equal(models_present(md), 2);
     store_close();
 }
 
@@ -331,6 +461,7 @@ static void test_snapshot_format(void **st)
     struct wbuf w;
     char p[128];
     (void)st;
+    wipe();
     struct model *md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
     models_clear(md);
@@ -416,8 +547,9 @@ static void test_snapshot_foreign(void **st)
     assert_int_equal(md2->ds.n, 2);
     store_close();
 
-    /* A value out of range (T = 1.1) with a valid CRC: that model is
-     * dropped, never served. */
+    /* A value out of range (T = 1.1) with a valid CRC: the snapshot is
+     * damaged (kept aside, start refused); the model is never served from
+     * it, nor rebuilt from its configuration + WAL as if nothing was lost. */
     whdr(&w, 0, 1);
     wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_SOLVED, 4, 42, 4, 1);
     wpoint(&w, 0, 0, 0, 0, 11);
@@ -427,20 +559,21 @@ static void test_snapshot_foreign(void **st)
     wfile("snapshot", &w, 1);
     cut("wal", 16);
     md = fresh();
-    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(store_open(dir, 0), -1);
     assert_int_equal(md->state, IT2N_RS_EMPTY);
-    store_close();
+    assert_int_equal(fsize("snapshot"), -1);
+    unkeep("snapshot", (long)w.n);
 
     /* Records that do not add up (one model announced, two written), valid
-     * CRC: the whole file is ignored. */
+     * CRC: damaged too. */
     whdr(&w, 0, 1);
     wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_EMPTY, 0, 8, 0, 0);
     wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_EMPTY, 0, 9, 0, 0);
     wfile("snapshot", &w, 1);
     md = fresh();
-    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(store_open(dir, 0), -1);
     assert_int_equal(md->gen, 0);
-    store_close();
+    unkeep("snapshot", (long)w.n);
 }
 
 /* The legacy version 1 snapshot (raw structs, it2nd 0.1, with the core v1
@@ -628,17 +761,58 @@ static void test_unreadable(void **st)
     store_close();
 }
 
+/* The state directory's lock (issue 8 item 2): while one store has it
+ * open, another process's store_open fails before reading or writing
+ * anything (the WAL keeps its size and mtime); after store_close it works. */
+static int open_in_child(void)
+{
+    pid_t pid = fork();
+    int status = 0;
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        fresh();
+        _exit(store_open(dir, 0) == 0 ? 0 : 3);
+    }
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    assert_true(WIFEXITED(status));
+    return WEXITSTATUS(status);
+}
+
+static void test_lock(void **st)
+{
+    char p[160];
+    struct stat a, b;
+    (void)st;
+    wipe();
+    struct model *md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    put(md, 0, 0, 0, 0, 1);
+    assert_int_equal(store_commit(), 0);
+    path(p, sizeof p, "wal");
+    assert_int_equal(stat(p, &a), 0);
+    usleep(20000);
+    assert_int_equal(open_in_child(), 3);
+    assert_int_equal(stat(p, &b), 0);
+    assert_int_equal(a.st_size, b.st_size);
+    assert_true(a.st_mtim.tv_sec == b.st_mtim.tv_sec && a.st_mtim.tv_nsec == b.st_mtim.tv_nsec);
+    assert_true(a.st_ino == b.st_ino);
+    store_close();
+    assert_int_equal(open_in_child(), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_wal_replay),
         cmocka_unit_test(test_snapshot),
+        cmocka_unit_test(test_wal_header),
         cmocka_unit_test(test_pass_rollback),
         cmocka_unit_test(test_snapshot_format),
         cmocka_unit_test(test_snapshot_foreign),
         cmocka_unit_test(test_snapshot_v1),
         cmocka_unit_test(test_wal_large),
         cmocka_unit_test(test_unreadable),
+        cmocka_unit_test(test_lock),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

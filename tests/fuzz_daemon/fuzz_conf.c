@@ -162,7 +162,17 @@ static void check_err(const uint8_t *data, size_t size, const char *err, size_t 
     fuzz_check(line_at(data, size, line, &llen) != NULL, "error line is a line of the file");
     /* "PATH:N: [section] key: reason": the key is on line N or above. */
     const char *sec = end + 1;
-    if (sec[0] == ' ' && sec[1] == '[') {
+    if (sec[0] == ' ' && sec[1] == '[' && strstr(sec, "]: empty section: ") &&
+        (!strstr(sec, "] ") || strstr(sec, "]: empty section: ") < strstr(sec, "] "))) {
+        /* "PATH:N: [name]: empty section: ...": line N is that header. */
+        const char *close = strstr(sec, "]: empty section: ");
+        char hdr[80];
+        fuzz_check((size_t)(close - sec) < sizeof hdr - 2, "empty section name length");
+        memcpy(hdr, sec + 1, (size_t)(close - sec));
+        hdr[close - sec] = 0;
+        const uint8_t *lp = line_at(data, size, line, &llen);
+        fuzz_check(contains(lp, llen, hdr), "an empty section's error names its header line");
+    } else if (sec[0] == ' ' && sec[1] == '[') {
         const char *close = strstr(sec, "] ");
         fuzz_check(close != NULL, "error: [section] key form");
         const char *key = close + 2, *colon = strstr(key, ": ");

@@ -14,13 +14,19 @@
  *   4  a legacy version 1 snapshot (raw struct dump of it2nd 0.1, built
  *      here from the configured models) patched as in 2, then records
  *   5..7 as 1..3
- * Invariants: store_open succeeds; every model has a valid header; a
- * SOLVED model's data set passes it2n_dataset_check, the model's degrees
- * and flags are the data set's, and its control nets (exponents and
- * mantissas) are bit-identical to a fresh it2n_model_solve of it (never
- * serve wrong data); recovering the same directory again gives the same
- * models; the recovered models accept a COMMIT through the WAL. (Found here and fixed: the legacy version 1
+ * Invariants: store_open succeeds, or refuses (a damaged WAL header or
+ * snapshot, kept aside as NAME.damaged-<time>; a WAL that does not
+ * continue the snapshot; a snapshot this build cannot read) keeping every
+ * byte of both files, under their names or the kept ones, and refuses
+ * again at the next start (issue 8 items 4, 5); when it succeeds: every
+ * model has a valid header; a SOLVED model's data set passes
+ * it2n_dataset_check, the model's degrees and flags are the data set's, and
+ * its control nets (exponents and mantissas) are bit-identical to a fresh
+ * it2n_model_solve of it (never serve wrong data); recovering the same
+ * directory again gives the same models; the recovered models accept a
+ * COMMIT through the WAL. (Found here and fixed: the legacy version 1
  * loader served stored control nets; corpus/store/v1_tampered_ctrl.) */
+#include <dirent.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -80,11 +86,69 @@ static void setup_models(void)
 static void clear_dir(void)
 {
     static const char *const names[] = { "wal", "wal.tmp", "snapshot", "snapshot.tmp" };
-    char p[200];
+    char p[400];
+    DIR *d;
     for (size_t k = 0; k < sizeof names / sizeof names[0]; k++) {
         snprintf(p, sizeof p, "%s/%s", dir, names[k]);
         unlink(p);
     }
+    /* Files kept aside by a refused start, and WAL tails kept when cut. */
+    if ((d = opendir(dir)) != NULL) {
+        const struct dirent *e;
+        while ((e = readdir(d)) != NULL)
+            if (strstr(e->d_name, ".damaged-") || strstr(e->d_name, ".cut-")) {
+                snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+                unlink(p);
+            }
+        closedir(d);
+    }
+}
+
+/* A file's bytes, or NULL when it does not exist. */
+static uint8_t *read_opt(const char *p, size_t *len)
+{
+    FILE *f = fopen(p, "rb");
+    uint8_t *buf;
+    long n;
+    *len = 0;
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    n = ftell(f);
+    rewind(f);
+    buf = malloc((size_t)n + 1);
+    fuzz_check(buf && fread(buf, 1, (size_t)n, f) == (size_t)n, "read a state file");
+    fclose(f);
+    *len = (size_t)n;
+    return buf;
+}
+
+/* The bytes given as NAME are still there: under NAME or a kept name. */
+static int kept_intact(const char *name, const uint8_t *want, size_t len)
+{
+    char p[400], prefix[32];
+    size_t glen;
+    int found = 0;
+    DIR *d;
+    if (!want)
+        return 1;
+    snprintf(p, sizeof p, "%s/%s", dir, name);
+    uint8_t *got = read_opt(p, &glen);
+    found = got && glen == len && memcmp(got, want, len) == 0;
+    free(got);
+    snprintf(prefix, sizeof prefix, "%s.damaged-", name);
+    if (!found && (d = opendir(dir)) != NULL) {
+        const struct dirent *e;
+        while (!found && (e = readdir(d)) != NULL)
+            if (!strncmp(e->d_name, prefix, strlen(prefix))) {
+                snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+                got = read_opt(p, &glen);
+                found = got && glen == len && memcmp(got, want, len) == 0;
+                free(got);
+            }
+        closedir(d);
+    }
+    return found;
 }
 
 static uint8_t *slurp(const char *p, size_t *len)
@@ -266,10 +330,29 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     clear_dir();
     write_files(data, size);
+    size_t wlen, slen;
+    uint8_t *wal0 = read_opt(wal_path, &wlen), *snap0 = read_opt(snap_path, &slen);
 
     /* First recovery. */
     setup_models();
-    fuzz_check(store_open(dir, 0) == 0, "store_open recovers any file contents");
+    if (store_open(dir, 0) != 0) {
+        /* Refused: nothing of what it was given may be lost, and the next
+         * start must refuse too (never start empty over the evidence). */
+        fuzz_check(kept_intact("wal", wal0, wlen) && kept_intact("snapshot", snap0, slen),
+                   "a refused start keeps every byte of the WAL and the snapshot");
+        models_free();
+        setup_models();
+        fuzz_check(store_open(dir, 0) != 0, "a refused start refuses again");
+        fuzz_check(kept_intact("wal", wal0, wlen) && kept_intact("snapshot", snap0, slen),
+                   "a second refused start keeps every byte too");
+        models_free();
+        free(wal0);
+        free(snap0);
+        (void)fake_log_errors();
+        return 0;
+    }
+    free(wal0);
+    free(snap0);
     check_models();
     for (int k = 0; k < NMODELS; k++) {
         const struct model *md = models_at(k);
