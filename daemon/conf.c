@@ -263,6 +263,11 @@ static int key_rtu(struct parse *p, struct conf_rtu *r, const char *name, const 
     } else if (!strcmp(name, "stop_bits")) {
         if (parse_int(v, 1, 2, &r->stop_bits))
             FAIL("expected 1 or 2");
+    } else if (!strcmp(name, "t35_us")) {
+        if (!strcasecmp(v, "auto"))
+            r->t35_us = 0;
+        else if (parse_int(v, 500, 1000000, &r->t35_us))
+            FAIL("expected auto or microseconds 500..1000000");
     } else if (!strcmp(name, "rs485")) {
         if (parse_bool(v, &r->rs485))
             FAIL("expected yes or no");

@@ -54,8 +54,8 @@ $(DT_FAILSYNC): $(DT)/failsync.c
 
 DT_UNIT_BINS := $(DT_UNITS:%=$(DTB)/%) $(DT_UNITS:%=$(DTB)/san/%)
 
-.PHONY: daemon-unit daemon-regdoc daemon-e2e daemon-cppcheck daemon-systemd
-TEST_TARGETS += daemon-unit daemon-regdoc daemon-e2e daemon-cppcheck daemon-systemd
+.PHONY: daemon-unit daemon-regdoc daemon-e2e daemon-conn daemon-cppcheck daemon-systemd
+TEST_TARGETS += daemon-unit daemon-regdoc daemon-e2e daemon-conn daemon-cppcheck daemon-systemd
 
 daemon-unit: $(DT_UNIT_BINS) $(DT_USB) $(DT_USB_BULK)
 	@set -e; for b in $(DT_UNIT_BINS); do echo "== $$b"; $$b; done
@@ -72,6 +72,14 @@ daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSY
 	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) INSTR=$(SIM_INSTR) PTY=$(SIM_PTY) \
 	  FAILSYNC=$(DT_FAILSYNC) \
 	  timeout 300 $(DT)/e2e.sh
+
+# Connection slots, RTU inter-frame silence, access control: the real
+# daemon on loopback TCP and ptys (tests/daemon/conn_test.py, ~30 s); its
+# figures go to bench/daemon_conn.json. DT_CONN=... runs a subset.
+DT_CONN ?= rtu
+daemon-conn: $(IT2ND)
+	timeout 300 /usr/bin/python3 $(DT)/conn_test.py --it2nd $(IT2ND) --quick --only $(DT_CONN) \
+	  --out bench/daemon_conn.json
 
 daemon-cppcheck:
 	cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \
