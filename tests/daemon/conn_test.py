@@ -598,6 +598,207 @@ def test_rtu(args):
         slow.close()
 
 
+# ---- access control -------------------------------------------------------------
+
+UP_D00 = [0, 0, 3, 65535, 63836, 0, 1700, 0, 0, 4000, 7000, 2000]  # paper point (0,0,D), as uploaded
+
+
+def has_ipv6():
+    try:
+        s = socket.socket(socket.AF_INET6)
+        s.bind(("::1", 0))
+        s.close()
+        return True
+    except OSError:
+        return False
+
+
+def refused_at_once(port, src=None, host="127.0.0.1"):
+    """Connect and send a request: True when the daemon closes the
+    connection without answering."""
+    try:
+        s = connect(port, host=host, src=src)
+    except OSError:
+        return True
+    try:
+        s.sendall(mbap(1, 1, struct.pack(">BHH", 4, 0, 2)))
+        s.settimeout(2)
+        return s.recv(64) == b""
+    except OSError:
+        return True
+    finally:
+        s.close()
+
+
+def mbpoll(port, unit, addr, values=(), count=1):
+    cmd = ["mbpoll", "-m", "tcp", "-a", str(unit), "-0", "-r", str(addr), "-t", "4", "-1", "-o", "2",
+           "-p", str(port)]
+    if not values:
+        cmd[-2:-2] = ["-c", str(count)]
+    cmd += ["127.0.0.1"] + [str(v) for v in values]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=20)
+    return r.returncode, r.stdout + r.stderr
+
+
+def pymodbus_query(port, unit, u, w):
+    """FC 23: write (u, w) x10000 to 64..65, read the D footprint's scaled
+    T, I, F (256 + 3*9 + 6) in one transaction; the values or None."""
+    import logging
+    from pymodbus.client import ModbusTcpClient
+    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+    c = ModbusTcpClient("127.0.0.1", port=port, timeout=3, retries=0)
+    try:
+        if not c.connect():
+            return None
+        r = c.readwrite_registers(read_address=256 + 3 * 9 + 6, read_count=3, write_address=64,
+                                  write_registers=[u, w], **unit_kw(c.readwrite_registers, unit))
+        return None if r.isError() else list(r.registers)
+    except Exception:
+        return None
+    finally:
+        c.close()
+
+
+def generation(s, unit):
+    r = read_regs(s, unit, 7, 2, fc=3)
+    return r[0] << 16 | r[1]
+
+
+def acl_conf(args, p, v6, eng_allow="allow = 127.0.0.2\nallow = 127.0.1.0/24, ::1\n", plc_ro="yes"):
+    text = ("[daemon]\nstate_dir = %s/state_acl\nsnapshot_interval = 3600\nfsync = no\n"
+            "[listen:eng]\naddress = 127.0.0.1:%d\n%s"
+            "[listen:plc]\naddress = 127.0.0.1:%d\nread_only = %s\n" % (args.tmp, p[0], eng_allow, p[1], plc_ro))
+    if v6:
+        text += ("[listen:v6]\naddress = [::1]:%d\nallow = ::1/128\n"
+                 "[listen:v6other]\naddress = [::1]:%d\nallow = fe80::/10\n" % (p[2], p[3]))
+    return text + ("[model:1]\nunit_id = 1\npreload = paper\n"
+                   "[model:2]\nunit_id = 2\npreload = paper\nwrite_protect = yes\n")
+
+
+def test_acl(args):
+    v6 = has_ipv6()
+    p = [free_port() for _ in range(4)]
+    d = Daemon(args.it2nd, args.tmp, "acl")
+    try:
+        d.start(acl_conf(args, p, v6), "ready")
+        # Allow-lists: addresses and prefixes, IPv4 and IPv6.
+        s = connect(p[0], src="127.0.0.2")
+        check(read_regs(s, 1, 0, 2) == (1, 2) and write_regs(s, 1, 40, UP_D00) == "ok",
+              "listener eng: 127.0.0.2 (allow-listed address) reads and writes")
+        s.close()
+        s = connect(p[0], src="127.0.1.7")
+        check(read_regs(s, 1, 0, 2) == (1, 2), "listener eng: 127.0.1.7 inside allow 127.0.1.0/24 served")
+        s.close()
+        check(refused_at_once(p[0], src="127.0.0.3") and refused_at_once(p[0], src="127.0.2.1"),
+              "listener eng: 127.0.0.3 and 127.0.2.1 (not listed) closed without an answer")
+        check(d.wait_log("refused: not in the allow-list of listener eng 127.0.0.1:%d" % p[0]),
+              "refusal logged with the listener's name")
+        if v6:
+            s = connect(p[2], host="::1")
+            check(read_regs(s, 1, 0, 2) == (1, 2) and refused_at_once(p[3], host="::1"),
+                  "IPv6: ::1 served by allow ::1/128, refused by allow fe80::/10")
+            s.close()
+        else:
+            print("conn: skip: no IPv6 loopback here")
+
+        # Read-only listener: reads and queries work, model changes do not.
+        rc, out = mbpoll(p[1], 1, 0, count=2)
+        ok_read = rc == 0 and "[1]: \t2" in out.replace(" ", " ") or (rc == 0 and "[1]:" in out)
+        s = connect(p[1])
+        g0 = generation(s, 1)
+        rc, out = mbpoll(p[1], 1, 40, UP_D00[:9] + [4500, 7000, 2000])
+        refused = rc != 0 and "Illegal data address" in out
+        r06 = tcp_request(s, 1, struct.pack(">BHH", 6, 35, 2))          # CLEAR command
+        r23 = tcp_request(s, 1, struct.pack(">BHHHHB", 23, 0, 2, 32, 3, 6) + struct.pack(">3H", 2, 2, 0))
+        q = pymodbus_query(p[1], 1, 5000, 5000)
+        g1 = generation(s, 1)
+        check(ok_read and refused and r06 == ("exc", 2) and r23 == ("exc", 2) and q == [6738, 4645, 1617]
+              and g1 == g0 and read_regs(s, 1, 1, 1) == (2,),
+              "read-only listener: mbpoll reads; mbpoll upload (FC16), CLEAR (FC06) and a configuration "
+              "by FC23 get exception 02; a pymodbus FC23 query answers [6738, 4645, 1617]; generation %d unchanged"
+              % g0, "read %s refused %s 06 %r 23 %r query %r gen %d->%d: %s" % (ok_read, refused, r06, r23, q, g0, g1,
+                                                                              out[-200:]))
+        check(d.wait_log("write to unit 1 registers 40..51 refused: read-only listener"),
+              "refused write logged (first per connection at notice level)")
+
+        # Per-unit write protection: unit 2 refuses model changes on every
+        # listener, queries still work; unit 1 on the same connection writes.
+        s2 = connect(p[0], src="127.0.0.2")
+        g2 = generation(s2, 2)
+        w2 = write_regs(s2, 2, 40, UP_D00)
+        wq = write_regs(s2, 2, 64, [2500, 7500])
+        w1 = write_regs(s2, 1, 40, UP_D00)
+        check(w2 == ("exc", 2) and wq == "ok" and w1 == "ok" and generation(s2, 2) == g2,
+              "write_protect unit 2: upload refused (02), query registers writable; unit 1 writable",
+              "%r %r %r" % (w2, wq, w1))
+
+        # Reload: the allow-list and read_only apply to live connections.
+        s3 = connect(p[0], src="127.0.0.2")
+        read_regs(s3, 1, 0, 2)
+        d.write(acl_conf(args, p, v6, eng_allow="allow = 127.0.0.3\n", plc_ro="no"))
+        d.hup()
+        d.wait_log("configuration reloaded")
+        time.sleep(0.2)
+        gone = closed_by_peer(s3, 2.0)
+        w = write_regs(s, 1, 40, UP_D00)
+        check(gone and w == "ok" and not refused_at_once(p[0], src="127.0.0.3"),
+              "SIGHUP: a live connection no longer allow-listed is closed, a read-only listener made writable "
+              "accepts the live connection's write, the newly listed address is served", "%s %r" % (gone, w))
+        for x in (s, s2, s3):
+            x.close()
+        check("running as root: set user = NAME" in d.logtext() if os.geteuid() == 0 else True,
+              "started as root without user =: warning logged")
+    finally:
+        rc = d.stop()
+        check(rc == 0, "daemon (acl) exits 0", "rc %s" % rc)
+
+    # No warning when the privileges are dropped (user = nobody), as root
+    # (or as root inside a user namespace when the test runs unprivileged).
+    prefix = [] if os.geteuid() == 0 else ["unshare", "-r"]
+    if prefix and subprocess.run(prefix + ["true"]).returncode != 0:
+        print("conn: skip: root-warning check needs root or unprivileged user namespaces")
+    else:
+        port = free_port()
+        d = Daemon(args.it2nd, args.tmp, "root")
+        base = ("[daemon]\nstate_dir = %s/state_root\nsnapshot_interval = 3600\nfsync = no\n"
+                "[modbus]\ntcp_listen = 127.0.0.1:%d\n" % (args.tmp, port))
+        d.start(base, "ready", prefix=prefix)
+        d.stop()
+        warned = "running as root: set user = NAME" in d.logtext()
+        ok_nobody = True
+        if os.geteuid() == 0:
+            d2 = Daemon(args.it2nd, args.tmp, "nobody")
+            d2.start(base.replace("[modbus]", "user = nobody\n[modbus]"), "ready")
+            d2.stop()
+            ok_nobody = "running as root" not in d2.logtext() and "running as user nobody" in d2.logtext()
+        check(warned and ok_nobody, "as root without user =: warning; with user = nobody: none")
+
+    # Configuration errors name file:line.
+    bad = [
+        ("[listen:a]\naddress = 127.0.0.1:1\nallow = 10.0.0.1/8\n", "3: [listen:a] allow: '10.0.0.1/8': host bits set beyond /8"),
+        ("[listen:a]\naddress = 127.0.0.1:1\nallow = 10.0.0.0/33\n", "3: [listen:a] allow: '10.0.0.0/33': prefix length must be 0..32"),
+        ("[listen:a]\naddress = 127.0.0.1:1\nallow = plc.example\n", "3: [listen:a] allow: 'plc.example': not a numeric IPv4 or IPv6 address"),
+        ("[listen:a]\nread_only = yes\n", "2: [listen:a] read_only: address is required in this section"),
+        ("[listen:a]\naddress = 127.0.0.1:1\nread_only = maybe\n", "3: [listen:a] read_only: expected yes or no"),
+        ("[modbus]\ntcp_listen = 127.0.0.1:1\n[listen:b]\naddress = 127.0.0.1:1\n", "4: [listen:b] address: 127.0.0.1:1 is already a listener address"),
+        ("[model:1]\nwrite_protect = 2\n", "2: [model:1] write_protect: expected yes or no"),
+        ("[modbus]\nevict_idle = -1\n", "2: [modbus] evict_idle: expected milliseconds 0..86400000"),
+        ("[modbus]\ntcp_keepalive = 9999\n", "2: [modbus] tcp_keepalive: expected seconds 0..7200 (0: off)"),
+        ("[rtu:a]\ndevice = /dev/null\nt35_us = 10\n", "3: [rtu:a] t35_us: expected auto or microseconds 500..1000000"),
+    ]
+    n = 0
+    for text, want in bad:
+        path = os.path.join(args.tmp, "bad.conf")
+        with open(path, "w") as f:
+            f.write(text)
+        r = subprocess.run([args.it2nd, "-c", path, "--check-config"], capture_output=True, text=True)
+        if r.returncode != 0 and (path + ":" + want) in r.stderr:
+            n += 1
+        else:
+            fail("config error: want %r, got %r" % (want, r.stderr.strip()))
+    check(n == len(bad), "%d bad access-control / slot / RTU keys refused with file:line" % n)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--it2nd", required=True)

@@ -76,7 +76,7 @@ daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSY
 # Connection slots, RTU inter-frame silence, access control: the real
 # daemon on loopback TCP and ptys (tests/daemon/conn_test.py, ~30 s); its
 # figures go to bench/daemon_conn.json. DT_CONN=... runs a subset.
-DT_CONN ?= rtu
+DT_CONN ?= slots,rtu,acl
 daemon-conn: $(IT2ND)
 	timeout 300 /usr/bin/python3 $(DT)/conn_test.py --it2nd $(IT2ND) --quick --only $(DT_CONN) \
 	  --out bench/daemon_conn.json
