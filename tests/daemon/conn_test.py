@@ -823,7 +823,11 @@ def main():
             except (OSError, ValueError):
                 pass
             old.update(FIGS)
-            old["written_by"] = "tests/daemon/conn_test.py"
+            old["written_by"] = "tests/daemon/conn_test.py" + (" --quick" if args.quick else "")
+            old["conditions"] = {"utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                                 "loadavg_1min": round(os.getloadavg()[0], 2), "cpus": os.cpu_count(),
+                                 "note": "loopback TCP and ptys; lockout = connect to first reply of a "
+                                         "new pymodbus client while max_clients (32) connections are held"}
             os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
             with open(args.out, "w") as f:
                 json.dump(old, f, indent=2, sort_keys=True)
