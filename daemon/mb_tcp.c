@@ -78,12 +78,19 @@ static void listen_key(const struct conf_listen *l, char *out, size_t size)
              strchr(l->host, ':') ? "]" : "", l->port);
 }
 
-static void admit(void *arg);
+static void admit(void);
+
+static void on_admit_timer(void *arg)
+{
+    (void)arg;
+    admit_timer = 0;
+    admit();
+}
 
 static void schedule_admit(void)
 {
     if (!admit_timer && nwait)
-        admit_timer = loop_add_timer(0, admit, NULL);
+        admit_timer = loop_add_timer(0, on_admit_timer, NULL);
 }
 
 static void conn_close(struct conn *c, const char *why)
@@ -197,10 +204,8 @@ static struct conn *idlest(uint64_t now_us)
  * oldest first: a free slot, else the slot of the connection idle longest
  * (at least evict_idle). A newcomer must send a request before it can take
  * anyone's slot, so connection attempts alone never disturb a client. */
-static void admit(void *arg)
+static void admit(void)
 {
-    (void)arg;
-    admit_timer = 0;
     while (nwait) {
         uint64_t now = loop_now_ms();
         struct conn *c, *w = NULL;
@@ -354,7 +359,7 @@ static void sweep(void *arg)
         } else if (!c->waiting && !c->s.held_len && now - c->last_rx > (uint64_t)idle_ms)
             conn_close(c, "idle timeout");
     }
-    admit(NULL);
+    admit();
     sweep_timer = loop_add_timer(100, sweep, NULL);
 }
 
@@ -481,12 +486,12 @@ int mb_tcp_reload(const struct conf *c, const struct mb_opts *o)
         /* Same sockets, new policies (the accept handlers point here). */
         for (int k = 0; k < nlisten; k++)
             listen_addr[k] = c->listen[k];
-        admit(NULL);
+        admit();
         return 0;
     }
     log_notice("tcp: listen addresses changed; reopening listeners (connections kept)");
     close_listeners();
-    admit(NULL);
+    admit();
     return open_listeners(c);
 }
 
