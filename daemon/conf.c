@@ -303,6 +303,9 @@ static int key_rtu(struct parse *p, struct conf_rtu *r, const char *name, const 
     } else if (!strcmp(name, "stop_bits")) {
         if (parse_int(v, 1, 2, &r->stop_bits))
             FAIL("expected 1 or 2");
+    } else if (!strcmp(name, "read_only")) {
+        if (parse_bool(v, &r->read_only))
+            FAIL("expected yes or no");
     } else if (!strcmp(name, "t35_us")) {
         if (!strcasecmp(v, "auto"))
             r->t35_us = 0;

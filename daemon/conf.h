@@ -33,6 +33,7 @@ struct conf_rtu {
     char parity;      /* 'N', 'E', 'O' */
     int stop_bits;    /* 1 or 2 */
     int t35_us;       /* inter-frame silence, 0 = the spec's t3.5 for the baud rate */
+    int read_only;    /* 1: no Modbus write may change a model through this port */
     int rs485;        /* 1: RS-485 (see rts for who switches the line) */
     /* RS-485 options, only with rs485 = 1; -1 = leave as the driver or
      * libmodbus has it. Two exclusive ways to switch the transceiver:

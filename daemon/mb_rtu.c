@@ -408,14 +408,16 @@ static void port_open(void *arg)
         port_fail(p, "out of memory");
         return;
     }
+    p->s.read_only = p->cfg.read_only;
+    snprintf(p->s.who, sizeof p->s.who, "rtu %s (%.100s)", p->cfg.name, p->cfg.device);
     p->fd = modbus_get_socket(p->ctx);
     fcntl(p->fd, F_SETFL, fcntl(p->fd, F_GETFL) | O_NONBLOCK);
     p->gap_us = t35_us(&p->cfg);
     p->len = 0;
     p->checked = 0;
     loop_add_fd(p->fd, POLLIN, on_port, p);
-    log_notice("modbus rtu %s on %s, %d %c%d, %s, t3.5 %u us", p->cfg.name, p->cfg.device, p->cfg.baud,
-               p->cfg.parity, p->cfg.stop_bits, mode, p->gap_us);
+    log_notice("modbus rtu %s on %s, %d %c%d, %s, t3.5 %u us%s", p->cfg.name, p->cfg.device, p->cfg.baud,
+               p->cfg.parity, p->cfg.stop_bits, mode, p->gap_us, p->cfg.read_only ? ", read-only" : "");
 }
 
 static void close_port(struct rtu_port *p)

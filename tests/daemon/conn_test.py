@@ -537,7 +537,7 @@ def test_rtu(args):
     conf = ("[daemon]\nstate_dir = %s/state_rtu\nsnapshot_interval = 3600\nfsync = no\n"
             "[modbus]\ntcp_listen = none\n[model:1]\nunit_id = 1\npreload = paper\n"
             "[rtu:fast]\ndevice = %s\nbaud = 115200\nparity = none\n"
-            "[rtu:slow]\ndevice = %s\nbaud = 9600\n" % (args.tmp, fast.path, slow.path))
+            "[rtu:slow]\ndevice = %s\nbaud = 9600\nread_only = yes\n" % (args.tmp, fast.path, slow.path))
     try:
         d.start(conf, "modbus rtu slow")
         time.sleep(0.2)
@@ -591,6 +591,16 @@ def test_rtu(args):
             FIGS["rtu_%s_silence_reply_ms" % name] = {
                 "t35_ms": round(t35 * 1e3, 3), "min": round(lat[0] * 1e3, 3) if lat else None,
                 "median": round(med * 1e3, 3), "max": round(lat[-1] * 1e3, 3) if lat else None}
+        # A read-only port: an upload gets exception 02, query writes work;
+        # the same upload on the other port is accepted.
+        up = rtu([1, 16, 0, 40, 0, 12, 24] + [b for v in UP_D00 for b in (v >> 8, v & 0xFF)])
+        q = rtu([1, 6, 0, 64, 0x13, 0x88])
+        got_ro, _ = slow.ask([up], [], 5)
+        got_q, _ = slow.ask([q], [], 8)
+        got_rw, _ = fast.ask([up], [], 8)
+        check(got_ro == rtu([1, 0x90, 2]) and got_q == q and got_rw == rtu([1, 16, 0, 40, 0, 12]),
+              "[rtu:] read_only = yes: upload refused with exception 02, query write echoed; "
+              "the read-write port takes the upload", "%s %s %s" % (got_ro.hex(), got_q.hex(), got_rw.hex()))
     finally:
         rc = d.stop()
         check(rc == 0, "daemon (rtu) exits 0", "rc %s" % rc)
@@ -785,6 +795,7 @@ def test_acl(args):
         ("[modbus]\nevict_idle = -1\n", "2: [modbus] evict_idle: expected milliseconds 0..86400000"),
         ("[modbus]\ntcp_keepalive = 9999\n", "2: [modbus] tcp_keepalive: expected seconds 0..7200 (0: off)"),
         ("[rtu:a]\ndevice = /dev/null\nt35_us = 10\n", "3: [rtu:a] t35_us: expected auto or microseconds 500..1000000"),
+        ("[rtu:a]\ndevice = /dev/null\nread_only = 3\n", "3: [rtu:a] read_only: expected yes or no"),
     ]
     n = 0
     for text, want in bad:
