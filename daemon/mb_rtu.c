@@ -219,7 +219,7 @@ static void on_port(void *arg, int fd, short revents)
          * slave babbling): drop it and resync, rather than read 0 bytes and
          * take that for end of file. */
         log_debug("rtu %s: %zu bytes without a frame; dropped", p->cfg.name, p->len);
-        p->len = 0;
+        drop(p, p->len);
     }
     r = read(fd, p->buf + p->len, sizeof p->buf - p->len);
     if (r <= 0) {
