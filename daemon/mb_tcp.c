@@ -200,21 +200,23 @@ static struct conn *idlest(uint64_t now_us)
     return best;
 }
 
-/* Give slots to waiting connections that have sent a complete request,
- * oldest first: a free slot, else the slot of the connection idle longest
- * (at least evict_idle). A newcomer must send a request before it can take
- * anyone's slot, so connection attempts alone never disturb a client. */
+/* Give slots to waiting connections, oldest first: a free slot to the
+ * oldest; when none is free, the slot of the connection idle longest (at
+ * least evict_idle) to the oldest that has sent a complete request. A
+ * newcomer must send a request before it can take anyone's slot, so
+ * connection attempts alone never disturb a client. */
 static void admit(void)
 {
     while (nwait) {
         uint64_t now = loop_now_ms();
+        int free_slot = nconns < max_clients;
         struct conn *c, *w = NULL;
         for (c = conns; c; c = c->next)
-            if (c->waiting && has_request(c) && (!w || c->accepted < w->accepted))
+            if (c->waiting && (free_slot || has_request(c)) && (!w || c->accepted < w->accepted))
                 w = c;
         if (!w)
             return;
-        if (nconns >= max_clients) {
+        if (!free_slot) {
             uint64_t now_us = loop_now_us();
             struct conn *v = idlest(now_us);
             if (!v)
@@ -326,7 +328,9 @@ static void on_accept(void *arg, int lfd, short revents)
         snprintf(c->laddr, sizeof c->laddr, "%s", lk);
         snprintf(c->peer, sizeof c->peer, "%s:%s", host, serv);
         snprintf(c->s.who, sizeof c->s.who, "tcp %s (listener %s)", c->peer, lk);
-        c->waiting = nconns >= max_clients;
+        /* Behind connections already waiting, even if a slot just freed:
+         * admit() hands slots out oldest first. */
+        c->waiting = nconns >= max_clients || nwait > 0;
         c->next = conns;
         conns = c;
         loop_add_fd(fd, POLLIN, on_conn, c);
