@@ -483,8 +483,8 @@ class Line:
                 t_end = time.monotonic() + gaps[k - 1]
                 while time.monotonic() < t_end:  # busy-wait: sleep() may oversleep by ms
                     pass
+            t0 = time.monotonic()
             os.write(self.master, f)
-        t0 = time.monotonic()
         got = b""
         while len(got) < want_len:
             left = t0 + timeout - time.monotonic()
@@ -498,8 +498,8 @@ class Line:
         """Write frames at once; the seconds until the bytes `want` have
         arrived (anything before them is skipped), or None."""
         import select
+        t0 = time.monotonic()  # before the write: the daemon may run before write() returns
         os.write(self.master, b"".join(frames))
-        t0 = time.monotonic()
         got = b""
         while want not in got:
             left = t0 + timeout - time.monotonic()
