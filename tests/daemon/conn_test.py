@@ -2,7 +2,7 @@
 """conn_test.py -- connection slots, RTU inter-frame silence and access
 control, tested against the real it2nd process (loopback and ptys only).
 
-  conn_test.py --it2nd BIN [--out JSON] [--only slots,rtu,acl] [--long]
+  conn_test.py --it2nd BIN [--out JSON] [--only slots,emfile,rtu,acl] [--quick]
 
 Every daemon this script starts is stopped before it exits; figures go to
 the JSON file (--out, merged into what is there). Exit status 0 when every
@@ -66,11 +66,17 @@ class Daemon:
         with open(self.conf, "w") as f:
             f.write(text)
 
-    def start(self, text, ready, prefix=()):
+    def start(self, text, ready, prefix=(), nofile=None):
         self.write(text)
         logf = open(self.log, "a")
+        limit = None
+        if nofile:
+            import resource
+
+            def limit():
+                resource.setrlimit(resource.RLIMIT_NOFILE, (nofile, nofile))
         self.proc = subprocess.Popen(list(prefix) + [self.binary, "-c", self.conf, "-f", "-v"],
-                                     stdout=logf, stderr=subprocess.STDOUT)
+                                     stdout=logf, stderr=subprocess.STDOUT, preexec_fn=limit)
         logf.close()
         deadline = time.time() + 10
         while time.time() < deadline:
@@ -343,6 +349,51 @@ def test_slots(args):
     finally:
         rc = d.stop()
         check(rc == 0, "daemon (slots) exits 0", "rc %s" % rc)
+
+
+def cpu_seconds(pid):
+    with open("/proc/%d/stat" % pid) as f:
+        fld = f.read().rsplit(")", 1)[1].split()
+    return (int(fld[11]) + int(fld[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def test_emfile(args):
+    """Out of descriptors (RLIMIT_NOFILE 32 < max_clients): the daemon
+    neither spins on accept() nor stops serving, and accepts again once
+    descriptors are free."""
+    port = free_port()
+    d = Daemon(args.it2nd, args.tmp, "emfile")
+    conf = ("[daemon]\nstate_dir = %s/state_emfile\nsnapshot_interval = 3600\nfsync = no\n"
+            "[modbus]\ntcp_listen = 127.0.0.1:%d\n[model:1]\nunit_id = 1\npreload = paper\n" % (args.tmp, port))
+    d.start(conf, "ready", nofile=32)
+    try:
+        first = connect(port)
+        read_regs(first, 1, 0, 2)
+        socks = []
+        for _ in range(40):
+            try:
+                socks.append(connect(port, timeout=1))
+            except OSError:
+                break
+        time.sleep(0.3)
+        c0 = cpu_seconds(d.proc.pid)
+        time.sleep(1.0)
+        cpu = cpu_seconds(d.proc.pid) - c0
+        served = read_regs(first, 1, 0, 2) == (1, 2)
+        logged = d.wait_log("tcp accept: Too many open files; listeners paused for 100 ms", 2)
+        for x in socks:
+            x.close()
+        time.sleep(0.5)
+        later = pymodbus_read(port)
+        check(cpu < 0.3 and served and logged and later is not None,
+              "out of descriptors: %.2f s CPU in 1 s (no accept() spin), connected client served, "
+              "EMFILE logged, a new client served once descriptors are free" % cpu,
+              "cpu %.2f served %s logged %s later %r" % (cpu, served, logged, later))
+        FIGS["emfile_cpu_s_per_s"] = round(cpu, 3)
+        first.close()
+    finally:
+        rc = d.stop()
+        check(rc == 0, "daemon (emfile) exits 0", "rc %s" % rc)
 
 
 def flood(port):
@@ -834,13 +885,13 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--it2nd", required=True)
     ap.add_argument("--out")
-    ap.add_argument("--only", default="slots,rtu,acl")
+    ap.add_argument("--only", default="slots,emfile,rtu,acl")
     ap.add_argument("--quick", action="store_true", help="fewer rounds (make test)")
     args = ap.parse_args()
     args.tmp = tempfile.mkdtemp(prefix="it2nd-conn.")
     only = args.only.split(",")
     try:
-        for name in ("slots", "rtu", "acl"):
+        for name in ("slots", "emfile", "rtu", "acl"):
             if name in only:
                 fn = globals().get("test_" + name)
                 if fn:

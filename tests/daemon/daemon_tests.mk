@@ -77,7 +77,7 @@ daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSY
 # daemon on loopback TCP and ptys (tests/daemon/conn_test.py, ~30 s); its
 # figures go to bench/daemon_conn.json. DT_CONN=... runs a subset.
 # The access-control part runs on the sanitizer build too.
-DT_CONN ?= slots,rtu,acl
+DT_CONN ?= slots,emfile,rtu,acl
 daemon-conn: $(IT2ND) $(IT2ND_SAN)
 	timeout 300 /usr/bin/python3 $(DT)/conn_test.py --it2nd $(IT2ND) --quick --only $(DT_CONN) \
 	  --out bench/daemon_conn.json
