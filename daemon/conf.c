@@ -267,6 +267,8 @@ static int key_listen(struct parse *p, int k, const char *name, const char *v)
     } else if (!strcmp(name, "allow")) {
         char buf[256], *tok, *save = NULL, why[160];
         snprintf(buf, sizeof buf, "%s", v);
+        if (!v[strspn(v, ", \t")]) /* "allow =" must not read as "everyone" */
+            FAIL("expected IPv4/IPv6 addresses or prefixes");
         for (tok = strtok_r(buf, ", \t", &save); tok; tok = strtok_r(NULL, ", \t", &save)) {
             if (l->nallow == CONF_MAX_ALLOW)
                 FAIL("more than %d allow entries in this section", CONF_MAX_ALLOW);

@@ -860,6 +860,7 @@ def test_acl(args):
         ("[listen:a]\naddress = 127.0.0.1:1\nallow = 10.0.0.0/33\n", "3: [listen:a] allow: '10.0.0.0/33': prefix length must be 0..32"),
         ("[listen:a]\naddress = 127.0.0.1:1\nallow = plc.example\n", "3: [listen:a] allow: 'plc.example': not a numeric IPv4 or IPv6 address"),
         ("[listen:a]\nread_only = yes\n", "2: [listen:a] read_only: address is required in this section"),
+        ("[listen:a]\naddress = 127.0.0.1:1\nallow =\n", "3: [listen:a] allow: expected IPv4/IPv6 addresses or prefixes"),
         ("[listen:a]\naddress = 127.0.0.1:1\nread_only = maybe\n", "3: [listen:a] read_only: expected yes or no"),
         ("[modbus]\ntcp_listen = 127.0.0.1:1\n[listen:b]\naddress = 127.0.0.1:1\n", "4: [listen:b] address: 127.0.0.1:1 is already a listener address"),
         ("[model:1]\nwrite_protect = 2\n", "2: [model:1] write_protect: expected yes or no"),
