@@ -9,6 +9,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "acl.h"
 #include "it2n.h"
 #include "it2n_regmap.h"
 
@@ -52,7 +53,8 @@ struct parse {
     char empty_name[64];
     int max_models_line, grid_line;
     char grid_key[CONF_NAME];
-    struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS];
+    struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS], listen[CONF_MAX_LISTEN];
+    int listen_addr_line[CONF_MAX_LISTEN]; /* 0: the listener has no address yet */
     struct rs485_origin rs485[CONF_MAX_RTU];
 };
 
@@ -221,8 +223,10 @@ static int key_modbus(struct parse *p, const char *name, const char *v)
             return 1;
         if (c->nlisten == CONF_MAX_LISTEN)
             FAIL("more than %d listen addresses", CONF_MAX_LISTEN);
+        memset(&c->listen[c->nlisten], 0, sizeof c->listen[c->nlisten]);
         if (parse_listen(v, &c->listen[c->nlisten]))
             FAIL("expected host:port, [v6addr]:port or :port");
+        p->listen_addr_line[c->nlisten] = p->line;
         c->nlisten++;
     } else if (!strcmp(name, "max_clients")) {
         if (parse_int(v, 1, 512, &c->max_clients))
@@ -233,6 +237,12 @@ static int key_modbus(struct parse *p, const char *name, const char *v)
     } else if (!strcmp(name, "byte_timeout")) {
         if (parse_int(v, 10, 60000, &c->byte_timeout))
             FAIL("expected milliseconds 10..60000");
+    } else if (!strcmp(name, "tcp_keepalive")) {
+        if (parse_int(v, 0, 7200, &c->tcp_keepalive))
+            FAIL("expected seconds 0..7200 (0: off)");
+    } else if (!strcmp(name, "evict_idle")) {
+        if (parse_int(v, 0, 86400000, &c->evict_idle))
+            FAIL("expected milliseconds 0..86400000");
     } else if (!strcmp(name, "float_word_order")) {
         if (parse_order(v, &c->word_order))
             FAIL("expected ABCD, CDAB, BADC or DCBA");
@@ -245,6 +255,38 @@ static int key_modbus(struct parse *p, const char *name, const char *v)
     } else if (!strcmp(name, "grid_cols")) {
         if (parse_int(v, 2, 16, &c->grid_cols))
             FAIL("expected 2..16");
+    } else {
+        FAIL("unknown key");
+    }
+    return 1;
+}
+
+/* [listen:NAME]: one TCP listener with its access policy. */
+static int key_listen(struct parse *p, int k, const char *name, const char *v)
+{
+    struct conf_listen *l = &p->c.listen[k];
+    if (!strcmp(name, "address")) {
+        char nm[CONF_NAME];
+        memcpy(nm, l->name, sizeof nm);
+        if (parse_listen(v, l))
+            FAIL("expected host:port, [v6addr]:port or :port");
+        memcpy(l->name, nm, sizeof nm);
+        p->listen_addr_line[k] = p->line;
+    } else if (!strcmp(name, "allow")) {
+        char buf[256], *tok, *save = NULL, why[160];
+        snprintf(buf, sizeof buf, "%s", v);
+        if (!v[strspn(v, ", \t")]) /* "allow =" must not read as "everyone" */
+            FAIL("expected IPv4/IPv6 addresses or prefixes");
+        for (tok = strtok_r(buf, ", \t", &save); tok; tok = strtok_r(NULL, ", \t", &save)) {
+            if (l->nallow == CONF_MAX_ALLOW)
+                FAIL("more than %d allow entries in this section", CONF_MAX_ALLOW);
+            if (conf_parse_prefix(tok, &l->allow[l->nallow], why, sizeof why))
+                FAIL("%s", why);
+            l->nallow++;
+        }
+    } else if (!strcmp(name, "read_only")) {
+        if (parse_bool(v, &l->read_only))
+            FAIL("expected yes or no");
     } else {
         FAIL("unknown key");
     }
@@ -271,6 +313,14 @@ static int key_rtu(struct parse *p, struct conf_rtu *r, const char *name, const 
     } else if (!strcmp(name, "stop_bits")) {
         if (parse_int(v, 1, 2, &r->stop_bits))
             FAIL("expected 1 or 2");
+    } else if (!strcmp(name, "read_only")) {
+        if (parse_bool(v, &r->read_only))
+            FAIL("expected yes or no");
+    } else if (!strcmp(name, "t35_us")) {
+        if (!strcasecmp(v, "auto"))
+            r->t35_us = 0;
+        else if (parse_int(v, 500, 1000000, &r->t35_us))
+            FAIL("expected auto or microseconds 500..1000000");
     } else if (!strcmp(name, "rs485")) {
         if (parse_bool(v, &r->rs485))
             FAIL("expected yes or no");
@@ -326,6 +376,9 @@ static int key_model(struct parse *p, struct conf_model *m, const char *name, co
         if (parse_bool(v, &b))
             FAIL("expected yes or no");
         m->flags = b ? (m->flags | bit) : (m->flags & ~bit);
+    } else if (!strcmp(name, "write_protect")) {
+        if (parse_bool(v, &m->write_protect))
+            FAIL("expected yes or no");
     } else if (!strcmp(name, "preload")) {
         if (!strcmp(v, "paper"))
             m->preload = 1;
@@ -390,6 +443,28 @@ static int handler(void *user, const char *section, const char *name, const char
             snprintf(p->grid_key, sizeof p->grid_key, "%s", name);
         }
         return key_modbus(p, name, value);
+    }
+    if (!strncmp(section, "listen:", 7) && section[7]) {
+        int k;
+        if (!p->listen_set) {
+            c->nlisten = 0;
+            p->listen_set = 1;
+        }
+        for (k = 0; k < c->nlisten; k++)
+            if (!strcmp(c->listen[k].name, section + 7))
+                break;
+        if (k == c->nlisten) {
+            if (k == CONF_MAX_LISTEN)
+                FAIL("more than %d listen addresses", CONF_MAX_LISTEN);
+            memset(&c->listen[k], 0, sizeof c->listen[k]);
+            if (copy_str(c->listen[k].name, sizeof c->listen[k].name, section + 7))
+                FAIL("section name too long");
+            p->listen_addr_line[k] = 0;
+            memset(&p->listen[k], 0, sizeof p->listen[k]);
+            c->nlisten++;
+        }
+        note(p, &p->listen[k], name);
+        return key_listen(p, k, name, value);
     }
     if (!strncmp(section, "rtu:", 4) && section[4]) {
         int k;
@@ -473,6 +548,8 @@ void conf_default(struct conf *c)
     c->max_clients = 32;
     c->idle_timeout = 300;
     c->byte_timeout = 500;
+    c->tcp_keepalive = 60;
+    c->evict_idle = 500;
     c->word_order = IT2N_WO_ABCD;
     c->coord_scale = 100;
     c->grid_rows = 5;
@@ -532,6 +609,23 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
             VFAIL(o->preload_line ? o->preload_line : o->first_line, sec, o->preload_line ? "preload" : o->first_key,
                   "the paper data set needs n = m = 3, no z, not type1");
     }
+    for (int k = 0; k < c->nlisten; k++) {
+        const struct conf_listen *l = &c->listen[k];
+        if (!l->name[0])
+            continue;
+        snprintf(sec, sizeof sec, "listen:%s", l->name);
+        if (!p->listen_addr_line[k])
+            VFAIL(p->listen[k].first_line, sec, p->listen[k].first_key, "address is required in this section");
+    }
+    for (int k = 0; k < c->nlisten; k++)
+        for (int j = 0; j < k; j++)
+            if (!strcmp(c->listen[k].host, c->listen[j].host) && !strcmp(c->listen[k].port, c->listen[j].port)) {
+                snprintf(sec, sizeof sec, "%s%s", c->listen[k].name[0] ? "listen:" : "modbus",
+                         c->listen[k].name);
+                VFAIL(p->listen_addr_line[k], sec, c->listen[k].name[0] ? "address" : "tcp_listen",
+                      "%s%s%s:%s is already a listener address", strchr(c->listen[k].host, ':') ? "[" : "",
+                      c->listen[k].host, strchr(c->listen[k].host, ':') ? "]" : "", c->listen[k].port);
+            }
     for (int k = 0; k < c->nrtu; k++) {
         const struct conf_rtu *r = &c->rtu[k];
         const struct rs485_origin *o = &p->rs485[k];

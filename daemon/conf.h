@@ -13,10 +13,17 @@
 #define CONF_MAX_LINKS 16
 #define CONF_NAME 32
 #define CONF_PATH 256
+#define CONF_MAX_ALLOW 32
+
+#include "acl.h"
 
 struct conf_listen {
+    char name[CONF_NAME];    /* [listen:NAME]; "" for a tcp_listen line */
     char host[64];
     char port[8];
+    int read_only;           /* 1: no Modbus write may change a model */
+    int nallow;              /* 0: every client address */
+    struct conf_prefix allow[CONF_MAX_ALLOW];
 };
 
 struct conf_rtu {
@@ -25,6 +32,8 @@ struct conf_rtu {
     int baud;
     char parity;      /* 'N', 'E', 'O' */
     int stop_bits;    /* 1 or 2 */
+    int t35_us;       /* inter-frame silence, 0 = the spec's t3.5 for the baud rate */
+    int read_only;    /* 1: no Modbus write may change a model through this port */
     int rs485;        /* 1: RS-485 (see rts for who switches the line) */
     /* RS-485 options, only with rs485 = 1; -1 = leave as the driver or
      * libmodbus has it. Two exclusive ways to switch the transceiver:
@@ -51,6 +60,7 @@ struct conf_model {
     int n, m;
     unsigned flags;   /* IT2N_F_* */
     int preload;      /* 1: the paper's 4x4 example data set */
+    int write_protect; /* 1: no Modbus write may change it (links may) */
 };
 
 enum conf_link_type { CONF_LINK_SERIAL = 0, CONF_LINK_USB = 1 };
@@ -74,6 +84,8 @@ struct conf {
     int max_clients;
     int idle_timeout;        /* s */
     int byte_timeout;        /* ms */
+    int tcp_keepalive;       /* s idle before keepalive probes, 0 off */
+    int evict_idle;          /* ms without a request before a slot may be taken */
     int word_order;          /* enum it2n_regmap_order */
     int coord_scale;
     int grid_rows, grid_cols;

@@ -16,7 +16,7 @@ struct fd_ent {
 
 struct timer_ent {
     long id;
-    uint64_t due;
+    uint64_t due;   /* µs on CLOCK_MONOTONIC */
     loop_timer_cb cb;
     void *arg;
 };
@@ -35,11 +35,16 @@ static size_t nhooks;
 static long next_timer_id = 1;
 static int woken;
 
-uint64_t loop_now_ms(void)
+uint64_t loop_now_us(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+uint64_t loop_now_ms(void)
+{
+    return loop_now_us() / 1000u;
 }
 
 int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg)
@@ -77,6 +82,11 @@ void loop_del_fd(int fd)
 
 long loop_add_timer(uint64_t delay_ms, loop_timer_cb cb, void *arg)
 {
+    return loop_add_timer_us(delay_ms * 1000u, cb, arg);
+}
+
+long loop_add_timer_us(uint64_t delay_us, loop_timer_cb cb, void *arg)
+{
     if (ntimers == captimers) {
         size_t cap = captimers ? captimers * 2 : 16;
         struct timer_ent *p = realloc(timers, cap * sizeof *p);
@@ -86,7 +96,7 @@ long loop_add_timer(uint64_t delay_ms, loop_timer_cb cb, void *arg)
         captimers = cap;
     }
     timers[ntimers].id = next_timer_id++;
-    timers[ntimers].due = loop_now_ms() + delay_ms;
+    timers[ntimers].due = loop_now_us() + delay_us;
     timers[ntimers].cb = cb;
     timers[ntimers].arg = arg;
     return timers[ntimers++].id;
@@ -127,7 +137,7 @@ static void compact_fds(void)
 
 static void run_timers(void)
 {
-    uint64_t now = loop_now_ms();
+    uint64_t now = loop_now_us();
     /* Restart the scan after each callback: it may add or cancel timers. */
     for (;;) {
         size_t k;
@@ -146,12 +156,15 @@ int loop_run_once(int max_wait_ms)
 {
     struct pollfd pfd[1024];
     size_t n = nfds < 1024 ? nfds : 1024;
-    int timeout = max_wait_ms;
-    uint64_t now = loop_now_ms();
+    /* µs: timers are kept to the microsecond (the RTU inter-frame silence
+     * is 1.75 ms above 19200 Bd), so wait with ppoll, not poll. */
+    int64_t timeout = max_wait_ms < 0 ? -1 : (int64_t)max_wait_ms * 1000;
+    uint64_t now = loop_now_us();
+    struct timespec ts;
 
     for (size_t k = 0; k < ntimers; k++) {
         int64_t d = (int64_t)(timers[k].due - now);
-        int dd = d < 0 ? 0 : d > 60000 ? 60000 : (int)d;
+        int64_t dd = d < 0 ? 0 : d > 60000000 ? 60000000 : d;
         if (timeout < 0 || dd < timeout)
             timeout = dd;
     }
@@ -159,12 +172,14 @@ int loop_run_once(int max_wait_ms)
         timeout = 0;
         woken = 0;
     }
+    ts.tv_sec = (time_t)(timeout / 1000000);
+    ts.tv_nsec = (long)(timeout % 1000000) * 1000;
     for (size_t k = 0; k < n; k++) {
         pfd[k].fd = fds[k].fd;
         pfd[k].events = fds[k].events;
         pfd[k].revents = 0;
     }
-    int rc = poll(pfd, n, timeout);
+    int rc = ppoll(pfd, n, timeout < 0 ? NULL : &ts, NULL);
     if (rc < 0 && errno != EINTR)
         return -1;
     for (size_t k = 0; rc > 0 && k < n; k++) {

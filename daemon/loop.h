@@ -11,8 +11,9 @@ typedef void (*loop_fd_cb)(void *arg, int fd, short revents);
 typedef void (*loop_timer_cb)(void *arg);
 typedef void (*loop_hook_cb)(void *arg);
 
-/* Milliseconds on CLOCK_MONOTONIC. */
+/* Milliseconds / microseconds on CLOCK_MONOTONIC. */
 uint64_t loop_now_ms(void);
+uint64_t loop_now_us(void);
 
 /* Watch fd for `events` (POLLIN/POLLOUT). One handler per fd; 0 or -1. */
 int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg);
@@ -23,6 +24,8 @@ void loop_del_fd(int fd);
 
 /* Call cb(arg) once, delay_ms from now. Returns a timer id (> 0) or -1. */
 long loop_add_timer(uint64_t delay_ms, loop_timer_cb cb, void *arg);
+/* The same with a delay in microseconds (timers are kept to the µs). */
+long loop_add_timer_us(uint64_t delay_us, loop_timer_cb cb, void *arg);
 /* Cancel a pending timer; unknown ids are ignored. */
 void loop_cancel_timer(long id);
 

@@ -74,6 +74,10 @@ static void fill_opts(void)
     mbo.coord_scale = cfg.coord_scale;
     mbo.grid_rows = (unsigned)cfg.grid_rows;
     mbo.grid_cols = (unsigned)cfg.grid_cols;
+    memset(mbo.write_protect, 0, sizeof mbo.write_protect);
+    for (int k = 0; k < cfg.nmodels; k++)
+        if (cfg.model[k].write_protect)
+            mbo.write_protect[cfg.model[k].unit / 8] |= (uint8_t)(1u << (cfg.model[k].unit % 8));
 }
 
 static int load_conf(struct conf *c)
@@ -173,8 +177,12 @@ static void commit_hook(void *arg)
  * uid, and make sure root cannot come back. */
 static int drop_privileges(void)
 {
-    if (!cfg.user[0])
+    if (!cfg.user[0]) {
+        if (geteuid() == 0)
+            log_warn("running as root: set user = NAME in [daemon] to drop root once the listeners and "
+                     "ports are open (not needed under the systemd unit, which uses DynamicUser=)");
         return 0;
+    }
     if (geteuid() != 0) {
         log_notice("user = %s: not running as root, nothing to drop", cfg.user);
         return 0;

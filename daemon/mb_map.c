@@ -546,6 +546,12 @@ static int write_query(struct model *md, struct mb_query *q, const struct mb_opt
     return MBX_OK;
 }
 
+int mbmap_write_changes_model(unsigned addr, unsigned count)
+{
+    const it2n_regmap_block *b = it2n_regmap_find(addr, count);
+    return b && b->access == IT2N_RA_RW && b->start != IT2N_REG_Q_U16;
+}
+
 int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
                 unsigned count, const uint16_t *vals, int *persisted)
 {

@@ -25,7 +25,14 @@ struct mb_opts {
     int word_order;      /* enum it2n_regmap_order */
     int32_t coord_scale; /* coordinates: register = value * scale */
     unsigned grid_rows, grid_cols;
+    /* Bit u set: unit u is write-protected ([model:] write_protect): no
+     * Modbus write may change its model (query registers stay writable). */
+    uint8_t write_protect[32];
 };
+
+/* Does a write of count registers at addr change the model (configuration
+ * or upload block), as opposed to the per-connection query registers? */
+int mbmap_write_changes_model(unsigned addr, unsigned count);
 
 /* Per-connection query state. Zero-initialise. */
 struct mb_query {

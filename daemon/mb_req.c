@@ -107,6 +107,25 @@ static int write_req(struct mb_session *s, struct model *md, const struct mb_opt
     return rc;
 }
 
+/* Access control: a write that would change the model (configuration or
+ * upload block) through a read-only listener, or to a write-protected
+ * unit, is refused with exception 02 (to this client the block is
+ * read-only) before anything is looked at. Query registers stay writable:
+ * querying is reading. The first refusal per session is logged at notice
+ * level, the rest at debug. */
+static int write_denied(struct mb_session *s, int unit, const struct mb_opts *o, unsigned addr, unsigned count)
+{
+    int prot = (o->write_protect[unit / 8] >> (unit % 8)) & 1;
+    if ((!s->read_only && !prot) || !mbmap_write_changes_model(addr, count))
+        return 0;
+    int first = s->refused++ == 0;
+    log_msg(first ? LOG_NOTICE : LOG_DEBUG, "%s: write to unit %d registers %u..%u refused: %s%s",
+            s->who[0] ? s->who : "modbus", unit, addr, addr + count - 1,
+            prot ? "unit is write-protected (write_protect)" : "read-only listener",
+            first ? " (further refusals on this connection logged at debug level)" : "");
+    return 1;
+}
+
 int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struct mb_opts *o)
 {
     int hl = modbus_get_header_length(s->ctx);
@@ -148,6 +167,8 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         if (plen != 5)
             return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         vals[0] = (uint16_t)u16at(pdu + 3);
+        if (write_denied(s, unit, o, u16at(pdu + 1), 1))
+            return refuse_write(s, md, req, MBX_ILLEGAL_ADDRESS);
         rc = write_req(s, md, o, u16at(pdu + 1), 1, vals, 0, 0, &persisted);
         break;
     }
@@ -157,6 +178,8 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         unsigned addr = u16at(pdu + 1), count = u16at(pdu + 3), bytes = pdu[5];
         if (count < 1 || count > MODBUS_MAX_WRITE_REGISTERS || bytes != count * 2 || plen != 6 + (int)bytes)
             return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
+        if (write_denied(s, unit, o, addr, count))
+            return refuse_write(s, md, req, MBX_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < count; k++)
             vals[k] = (uint16_t)u16at(pdu + 6 + 2 * k);
         rc = write_req(s, md, o, addr, count, vals, 0, 0, &persisted);
@@ -171,7 +194,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             wcount > MODBUS_MAX_WR_WRITE_REGISTERS || bytes != wcount * 2 || plen != 10 + (int)bytes)
             return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         /* Check the read range before writing, so a bad read changes nothing. */
-        if (!it2n_regmap_find(raddr, rcount))
+        if (!it2n_regmap_find(raddr, rcount) || write_denied(s, unit, o, waddr, wcount))
             return refuse_write(s, md, req, MBX_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < wcount; k++)
             vals[k] = (uint16_t)u16at(pdu + 10 + 2 * k);

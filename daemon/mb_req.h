@@ -15,6 +15,9 @@ struct mb_session {
     modbus_t *ctx;              /* one per connection / serial port */
     modbus_mapping_t *map;      /* scratch registers for modbus_reply */
     int is_tcp;
+    int read_only;              /* the listener is read-only */
+    unsigned refused;           /* writes refused by access control */
+    char who[160];              /* peer, for the log */
     struct mb_query q;          /* per-connection query state */
     uint8_t held[MODBUS_TCP_MAX_ADU_LENGTH];
     int held_len;               /* > 0: reply waits for the commit */

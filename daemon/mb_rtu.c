@@ -3,10 +3,20 @@
  * libmodbus' modbus_receive() blocks until a frame is complete, which would
  * stall the loop; instead bytes are read non-blocking and a request frame
  * is complete when its length (known from the function code: 8 bytes for
- * 03/04/06, 9 + n for 16, 13 + n for 23) has arrived. A frame that never
- * completes, or has an unknown function code, is settled by the inter-frame
- * silence (t3.5, at least 20 ms for scheduling jitter). CRC errors drop the
- * frame silently, as the RTU specification requires. */
+ * 03/04/06, 9 + n for 16, 13 + n for 23) has arrived with a valid CRC; it
+ * is answered at once. A frame that never completes, or has an unknown
+ * function code, is settled by the inter-frame silence t3.5 of the Modbus
+ * serial line specification (3.5 character times, 1750 us above 19200 Bd),
+ * timed to the microsecond by a one-shot loop timer re-armed at every
+ * read. Bytes already waiting when the loop wakes are read before timers
+ * run, so a loop held up by other work never splits a frame.
+ *
+ * On a shared bus other slaves' replies arrive too. Bytes that cannot start
+ * a request (a length-complete candidate whose CRC fails: a CRC error or
+ * another device's frame) are dropped one at a time, and a complete request
+ * with a valid CRC further on in the buffer (a silence the reads did not
+ * see) ends whatever came before it. CRC errors are never answered, as the
+ * RTU specification requires. */
 #include "mb_rtu.h"
 
 #include <errno.h>
@@ -28,8 +38,10 @@ struct rtu_port {
     struct mb_session s;
     uint8_t buf[MODBUS_RTU_MAX_ADU_LENGTH];
     size_t len;
-    uint64_t last_rx;
-    unsigned gap_ms;
+    size_t checked;         /* candidates ending at or before this were checked */
+    uint64_t last_rx;       /* us */
+    unsigned gap_us;        /* t3.5 */
+    long silence_timer;
     long retry_timer;
     unsigned backoff_ms;
 };
@@ -41,17 +53,38 @@ _Static_assert(CONF_RTS_NONE == MODBUS_RTU_RTS_NONE && CONF_RTS_UP == MODBUS_RTU
 static struct rtu_port ports[CONF_MAX_RTU];
 static int nports;
 static struct mb_opts opts;
-static long sweep_timer;
+static uint16_t crc_table[256];
 
 static uint16_t crc16(const uint8_t *p, size_t n)
 {
     uint16_t crc = 0xFFFF;
-    while (n--) {
-        crc ^= *p++;
-        for (int k = 0; k < 8; k++)
-            crc = (uint16_t)((crc & 1) ? (crc >> 1) ^ 0xA001 : crc >> 1);
-    }
+    if (!crc_table[1])
+        for (unsigned b = 0; b < 256; b++) {
+            uint16_t c = (uint16_t)b;
+            for (int k = 0; k < 8; k++)
+                c = (uint16_t)((c & 1) ? (c >> 1) ^ 0xA001 : c >> 1);
+            crc_table[b] = c;
+        }
+    while (n--)
+        crc = (uint16_t)(crc >> 8 ^ crc_table[(crc ^ *p++) & 0xFF]);
     return crc;
+}
+
+static int crc_ok(const uint8_t *b, size_t n)
+{
+    return n >= 4 && (b[n - 2] | b[n - 1] << 8) == crc16(b, n - 2);
+}
+
+/* t3.5: 3.5 character times (start + 8 data + parity + stop bits) up to
+ * 19200 Bd, 1750 us above (Modbus over serial line V1.02, 2.5.1.1). */
+static unsigned t35_us(const struct conf_rtu *c)
+{
+    unsigned bits = 1u + 8u + (c->parity != 'N') + (unsigned)c->stop_bits;
+    if (c->t35_us > 0)
+        return (unsigned)c->t35_us;
+    if (c->baud > 19200)
+        return 1750;
+    return (unsigned)((3500000ull * bits + (unsigned)c->baud - 1) / (unsigned)c->baud);
 }
 
 /* Expected request length from what we have, 0 if not yet known, -1 if
@@ -72,9 +105,11 @@ static void drop(struct rtu_port *p, size_t n)
 {
     memmove(p->buf, p->buf + n, p->len - n);
     p->len -= n;
+    p->checked = p->checked > n ? p->checked - n : 0;
 }
 
 static void port_open(void *arg);
+static void arm_silence(struct rtu_port *p);
 
 static void port_fail(struct rtu_port *p, const char *why)
 {
@@ -89,14 +124,17 @@ static void port_fail(struct rtu_port *p, const char *why)
     p->ctx = NULL;
     p->fd = -1;
     p->len = 0;
+    p->checked = 0;
+    if (p->silence_timer)
+        loop_cancel_timer(p->silence_timer);
+    p->silence_timer = 0;
     p->retry_timer = loop_add_timer(p->backoff_ms, port_open, p);
     p->backoff_ms = p->backoff_ms * 2 > 30000 ? 30000 : p->backoff_ms * 2;
 }
 
 static int handle_frame(struct rtu_port *p, size_t n)
 {
-    uint16_t crc = crc16(p->buf, n - 2);
-    if (n < 4 || (p->buf[n - 2] | p->buf[n - 1] << 8) != crc) {
+    if (!crc_ok(p->buf, n)) {
         log_debug("rtu %s: CRC error, %zu byte(s) dropped", p->cfg.name, n);
         drop(p, n);
         return 0;
@@ -108,18 +146,64 @@ static int handle_frame(struct rtu_port *p, size_t n)
     return rc;
 }
 
+/* Offset (> 0) of a complete request with a valid CRC in the buffer, or 0.
+ * Each candidate is checked once, when its last byte has arrived. */
+static size_t scan(const struct rtu_port *p)
+{
+    for (size_t i = 1; i + 8 <= p->len; i++) {
+        long w = expected_len(p->buf + i, p->len - i);
+        if (w <= 0 || i + (size_t)w > p->len || i + (size_t)w <= p->checked)
+            continue;
+        if (crc_ok(p->buf + i, (size_t)w))
+            return i;
+    }
+    return 0;
+}
+
+/* The bytes before offset n are a frame of their own (a silence ended it):
+ * one with a function the daemon does not frame by length is handled
+ * (exception 01 if it is for us), anything else is dropped. */
+static int settle(struct rtu_port *p, size_t n)
+{
+    if (n >= 4 && expected_len(p->buf, n) < 0 && crc_ok(p->buf, n))
+        return handle_frame(p, n);
+    log_debug("rtu %s: %zu byte(s) without a request dropped", p->cfg.name, n);
+    drop(p, n);
+    return 0;
+}
+
 static void process(struct rtu_port *p)
 {
     while (p->len && !p->s.held_len && p->ctx) {
         long want = expected_len(p->buf, p->len);
-        if (want == 0 || want < 0 || (size_t)want > p->len) {
-            if (want > (long)sizeof p->buf) /* cannot be a request: resync */
-                p->len = 0;
-            return;
+        if (want > 0 && (size_t)want <= p->len) {
+            if (crc_ok(p->buf, (size_t)want)) {
+                if (handle_frame(p, (size_t)want) < 0)
+                    return;
+                continue;
+            }
+            /* Not the start of a request (CRC error, another device's
+             * frame): look from the next byte on. */
+            drop(p, 1);
+            continue;
         }
-        if (handle_frame(p, (size_t)want) < 0)
-            return;
+        if (want > (long)sizeof p->buf) {
+            drop(p, 1);
+            continue;
+        }
+        size_t at = scan(p);
+        if (at) {
+            if (settle(p, at) < 0)
+                return;
+            continue;
+        }
+        if (p->len == sizeof p->buf) { /* full, and no request in it */
+            drop(p, 1);
+            continue;
+        }
+        break;
     }
+    p->checked = p->len;
 }
 
 static void on_port(void *arg, int fd, short revents)
@@ -135,7 +219,7 @@ static void on_port(void *arg, int fd, short revents)
          * slave babbling): drop it and resync, rather than read 0 bytes and
          * take that for end of file. */
         log_debug("rtu %s: %zu bytes without a frame; dropped", p->cfg.name, p->len);
-        p->len = 0;
+        drop(p, p->len);
     }
     r = read(fd, p->buf + p->len, sizeof p->buf - p->len);
     if (r <= 0) {
@@ -145,27 +229,39 @@ static void on_port(void *arg, int fd, short revents)
         return;
     }
     p->len += (size_t)r;
-    p->last_rx = loop_now_ms();
+    p->last_rx = loop_now_us();
     p->backoff_ms = 500;
     process(p);
+    arm_silence(p);
 }
 
-/* Silence: an incomplete frame is dropped; a frame with an unknown
- * function code is complete and answered (exception 01 if it is ours). */
-static void sweep(void *arg)
+/* t3.5 after the last byte: the frame in the buffer is over. An incomplete
+ * one is dropped; one with a function the daemon does not frame by length
+ * is complete and answered (exception 01 if it is ours). */
+static void on_silence(void *arg)
 {
-    uint64_t now = loop_now_ms();
-    (void)arg;
-    for (int k = 0; k < nports; k++) {
-        struct rtu_port *p = &ports[k];
-        if (!p->ctx || !p->len || p->s.held_len || now - p->last_rx < p->gap_ms)
-            continue;
-        if (expected_len(p->buf, p->len) < 0 && p->len >= 4)
-            handle_frame(p, p->len);
-        else
-            p->len = 0;
+    struct rtu_port *p = arg;
+    p->silence_timer = 0;
+    if (!p->ctx || !p->len)
+        return;
+    if (p->s.held_len) { /* answered after the commit; look again then */
+        arm_silence(p);
+        return;
     }
-    sweep_timer = loop_add_timer(10, sweep, NULL);
+    settle(p, p->len);
+    process(p);
+    arm_silence(p);
+}
+
+static void arm_silence(struct rtu_port *p)
+{
+    if (p->silence_timer)
+        loop_cancel_timer(p->silence_timer);
+    p->silence_timer = 0;
+    if (p->ctx && p->len) {
+        uint64_t now = loop_now_us(), due = p->last_rx + p->gap_us;
+        p->silence_timer = loop_add_timer_us(due > now ? due - now : 0, on_silence, p);
+    }
 }
 
 /* Kernel RS-485: the driver switches the transceiver. Enabled through
@@ -312,21 +408,24 @@ static void port_open(void *arg)
         port_fail(p, "out of memory");
         return;
     }
+    p->s.read_only = p->cfg.read_only;
+    snprintf(p->s.who, sizeof p->s.who, "rtu %s (%.100s)", p->cfg.name, p->cfg.device);
     p->fd = modbus_get_socket(p->ctx);
     fcntl(p->fd, F_SETFL, fcntl(p->fd, F_GETFL) | O_NONBLOCK);
-    /* t3.5 = 3.5 characters of 11 bits, floor 20 ms (scheduling jitter). */
-    unsigned t35 = (unsigned)(38500 / p->cfg.baud) + 1;
-    p->gap_ms = t35 < 20 ? 20 : t35;
+    p->gap_us = t35_us(&p->cfg);
     p->len = 0;
+    p->checked = 0;
     loop_add_fd(p->fd, POLLIN, on_port, p);
-    log_notice("modbus rtu %s on %s, %d %c%d, %s", p->cfg.name, p->cfg.device, p->cfg.baud, p->cfg.parity,
-               p->cfg.stop_bits, mode);
+    log_notice("modbus rtu %s on %s, %d %c%d, %s, t3.5 %u us%s", p->cfg.name, p->cfg.device, p->cfg.baud,
+               p->cfg.parity, p->cfg.stop_bits, mode, p->gap_us, p->cfg.read_only ? ", read-only" : "");
 }
 
 static void close_port(struct rtu_port *p)
 {
     if (p->retry_timer)
         loop_cancel_timer(p->retry_timer);
+    if (p->silence_timer)
+        loop_cancel_timer(p->silence_timer);
     if (p->ctx) {
         loop_del_fd(p->fd);
         modbus_close(p->ctx);
@@ -354,8 +453,6 @@ int mb_rtu_start(const struct conf *c, const struct mb_opts *o)
     opts = *o;
     nports = 0;
     open_all(c);
-    if (c->nrtu)
-        sweep_timer = loop_add_timer(10, sweep, NULL);
     return 0;
 }
 
@@ -372,8 +469,6 @@ int mb_rtu_reload(const struct conf *c, const struct mb_opts *o)
         close_port(&ports[k]);
     nports = 0;
     open_all(c);
-    if (c->nrtu && !sweep_timer)
-        sweep_timer = loop_add_timer(10, sweep, NULL);
     return 0;
 }
 
@@ -388,6 +483,7 @@ void mb_rtu_release(int commit_ok)
             continue;
         }
         process(p);
+        arm_silence(p);
         if (p->s.held_len)
             loop_wake();
     }
@@ -398,7 +494,4 @@ void mb_rtu_stop(void)
     for (int k = 0; k < nports; k++)
         close_port(&ports[k]);
     nports = 0;
-    if (sweep_timer)
-        loop_cancel_timer(sweep_timer);
-    sweep_timer = 0;
 }

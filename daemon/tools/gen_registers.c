@@ -57,7 +57,7 @@ int main(void)
     printf("## Exceptions\n\n"
            "| Code | When |\n|---|---|\n"
            "| 01 | Function code other than 03, 04, 06, 16, 23. A request function 80..FF (no Modbus function has bit 7 set) is answered with that function unchanged and 01, so the reply still reads as an exception |\n"
-           "| 02 | Address range leaves the map, spans two blocks, or a write hits a read-only block |\n"
+           "| 02 | Address range leaves the map, spans two blocks, or a write hits a read-only block; also a write to the configuration or upload block through a read-only listener or RTU port, or of a write-protected unit (docs/daemon.md, Access control) |\n"
            "| 03 | Bad count, or a bad value: membership outside [0, 1], parameter outside [0, 1], bad degree, flags, footprint or index, half of a 32-bit value, partial upload |\n"
            "| 04 | A solve (commit, completion, update) failed; see `last_error` |\n"
            "| 06 | The model is incomplete or not solved (results, grid, control net, commit) |\n"

@@ -60,8 +60,8 @@ $(DT_FAILIO): $(DT)/failio.c
 
 DT_UNIT_BINS := $(DT_UNITS:%=$(DTB)/%) $(DT_UNITS:%=$(DTB)/san/%)
 
-.PHONY: daemon-unit daemon-regdoc daemon-e2e daemon-durability daemon-cppcheck daemon-systemd
-TEST_TARGETS += daemon-unit daemon-regdoc daemon-e2e daemon-durability daemon-cppcheck daemon-systemd
+.PHONY: daemon-unit daemon-regdoc daemon-e2e daemon-durability daemon-conn daemon-cppcheck daemon-systemd
+TEST_TARGETS += daemon-unit daemon-regdoc daemon-e2e daemon-durability daemon-conn daemon-cppcheck daemon-systemd
 
 daemon-unit: $(DT_UNIT_BINS) $(DT_USB) $(DT_USB_BULK)
 	@set -e; for b in $(DT_UNIT_BINS); do echo "== $$b"; $$b; done
@@ -85,6 +85,16 @@ daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSY
 daemon-durability: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_INSTR) $(DT_FAILIO)
 	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) INSTR=$(SIM_INSTR) FAILIO=$(DT_FAILIO) \
 	  timeout 300 $(DT)/e2e_durability.sh
+
+# Connection slots, RTU inter-frame silence, access control: the real
+# daemon on loopback TCP and ptys (tests/daemon/conn_test.py, ~30 s); its
+# figures go to bench/daemon_conn.json. DT_CONN=... runs a subset.
+# The access-control part runs on the sanitizer build too.
+DT_CONN ?= slots,emfile,rtu,acl
+daemon-conn: $(IT2ND) $(IT2ND_SAN)
+	timeout 300 /usr/bin/python3 $(DT)/conn_test.py --it2nd $(IT2ND) --quick --only $(DT_CONN) \
+	  --out bench/daemon_conn.json
+	timeout 300 /usr/bin/python3 $(DT)/conn_test.py --it2nd $(IT2ND_SAN) --quick --only acl
 
 daemon-cppcheck:
 	cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \

@@ -15,3 +15,26 @@ if ! out=$(cd "$T" && systemd-analyze verify --man=no it2nd.service it2nd@ttyUSB
     echo "$out"; echo "systemd-analyze verify: FAIL"; exit 1
 fi
 echo "systemd-analyze verify: units clean"
+
+# The template is as hardened as the main unit: every [Service] setting of
+# it2nd.service but the instance-specific ones is in it2nd@.service too.
+service() { sed -n '/^\[Service\]/,/^\[/p' "$1" | grep -E '^[A-Za-z]+=' | grep -vE '^(ExecStart|StateDirectory|WorkingDirectory)='; }
+missing=$(comm -23 <(service "$ROOT/daemon/it2nd.service" | sort) <(service "$ROOT/daemon/it2nd@.service" | sort))
+if [ -n "$missing" ]; then
+    echo "it2nd@.service lacks settings of it2nd.service:"; echo "$missing"; exit 1
+fi
+echo "it2nd@.service has every hardening setting of it2nd.service"
+
+# Exposure (systemd-analyze security, offline): at most 2.5 for both.
+if ! systemd-analyze security --help 2>/dev/null | grep -q -- '--offline'; then
+    echo "systemd-analyze security --offline not available (systemd < 250): exposure not measured"
+    exit 0
+fi
+for u in it2nd.service it2nd@ttyUSB0.service; do
+    line=$(cd "$T" && systemd-analyze security --offline=yes --no-pager "$u" 2>&1 | grep 'Overall exposure level')
+    level=$(echo "$line" | sed -n 's/.*: \([0-9.]*\) .*/\1/p')
+    if [ -z "$level" ] || ! awk -v l="$level" 'BEGIN { exit !(l <= 2.5) }'; then
+        echo "systemd-analyze security $u: '${line:-no result}' (want <= 2.5)"; exit 1
+    fi
+    echo "systemd-analyze security $u: exposure $level (<= 2.5)"
+done

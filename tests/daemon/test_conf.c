@@ -11,6 +11,10 @@
 
 #include <cmocka.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
 #include "conf.h"
 #include "it2n.h"
 
@@ -266,6 +270,80 @@ static void test_unreadable_and_empty(void **st)
     assert_int_equal(c.model[0].unit, 5);
 }
 
+static int allowed6(const struct conf_listen *l, const char *a)
+{
+    struct sockaddr_in6 sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sin6_family = AF_INET6;
+    assert_int_equal(inet_pton(AF_INET6, a, &sa.sin6_addr), 1);
+    return conf_allowed(l, (const struct sockaddr *)&sa);
+}
+
+static int allowed4(const struct conf_listen *l, const char *a)
+{
+    struct sockaddr_in sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sin_family = AF_INET;
+    assert_int_equal(inet_pton(AF_INET, a, &sa.sin_addr), 1);
+    return conf_allowed(l, (const struct sockaddr *)&sa);
+}
+
+/* [listen:NAME] sections, allow-lists (IPv4, IPv6, prefixes not on a byte
+ * boundary, IPv4-mapped IPv6 clients of a dual-stack listener), defaults
+ * of the slot keys, write_protect. */
+static void test_listen_acl(void **st)
+{
+    struct conf c;
+    char err[256];
+    (void)st;
+    conf_default(&c);
+    assert_int_equal(c.tcp_keepalive, 60);
+    assert_int_equal(c.evict_idle, 500);
+    assert_int_equal(load("[listen:plc]\naddress = :502\nallow = 10.1.0.0/16, 192.168.7.128/25\nallow = fd00::/8\n"
+                          "read_only = yes\n[listen:eng]\naddress = [::1]:1502\nallow = ::1\n"
+                          "[modbus]\ntcp_listen = 127.0.0.1:1503\n[model:2]\nwrite_protect = yes\n",
+                          &c, err, sizeof err), 0);
+    assert_int_equal(c.nlisten, 3);
+    const struct conf_listen *plc = &c.listen[0], *eng = &c.listen[1], *plain = &c.listen[2];
+    assert_string_equal(plc->name, "plc");
+    assert_string_equal(plc->host, "");
+    assert_string_equal(plc->port, "502");
+    assert_int_equal(plc->read_only, 1);
+    assert_int_equal(plc->nallow, 3);
+    assert_string_equal(eng->host, "::1");
+    assert_int_equal(eng->read_only, 0);
+    assert_string_equal(plain->name, "");
+    assert_int_equal(plain->nallow, 0);
+    assert_int_equal(c.model[0].write_protect, 1);
+
+    assert_true(allowed4(plc, "10.1.255.3"));
+    assert_false(allowed4(plc, "10.2.0.1"));
+    assert_true(allowed4(plc, "192.168.7.200"));
+    assert_false(allowed4(plc, "192.168.7.127"));
+    assert_true(allowed6(plc, "::ffff:10.1.2.3"));    /* IPv4 client of a dual-stack socket */
+    assert_false(allowed6(plc, "::ffff:10.3.2.3"));
+    assert_true(allowed6(plc, "fd12:3456::1"));
+    assert_false(allowed6(plc, "fe80::1"));
+    assert_false(allowed6(plc, "::a01:203"));         /* IPv4-compatible is not IPv4 */
+    assert_true(allowed6(eng, "::1"));
+    assert_false(allowed6(eng, "::2"));
+    assert_false(allowed4(eng, "127.0.0.1"));
+    assert_true(allowed4(plain, "203.0.113.9"));    /* no allow entries: everyone */
+    assert_true(allowed6(plain, "2001:db8::1"));
+
+    struct conf_prefix p;
+    char why[160];
+    assert_int_equal(conf_parse_prefix("0.0.0.0/0", &p, why, sizeof why), 0);
+    assert_int_equal(conf_parse_prefix("[2001:db8::]/32", &p, why, sizeof why), 0);
+    assert_int_equal(p.family, 6);
+    assert_int_equal(p.bits, 32);
+    assert_int_equal(conf_parse_prefix("10.0.0.1/31", &p, why, sizeof why), -1);
+    assert_int_equal(conf_parse_prefix("2001:db8::/129", &p, why, sizeof why), -1);
+    assert_int_equal(conf_parse_prefix("10.0.0.0/", &p, why, sizeof why), -1);
+    assert_int_equal(conf_parse_prefix("10.0.0.0/8x", &p, why, sizeof why), -1);
+    assert_int_equal(conf_parse_prefix("", &p, why, sizeof why), -1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -274,6 +352,7 @@ int main(void)
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_rs485),
         cmocka_unit_test(test_unreadable_and_empty),
+        cmocka_unit_test(test_listen_acl),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

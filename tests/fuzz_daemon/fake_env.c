@@ -24,7 +24,7 @@ static int last_fd = -1;
 static struct fake_timer timers[FAKE_TIMERS];
 static size_t ntimers;
 static long next_id = 1;
-static uint64_t now_ms = 1000000;
+static uint64_t now_us = 1000000000; /* the fake clock, µs */
 static unsigned log_errors;
 static char log_last[1024];
 static char note[1024];
@@ -51,7 +51,12 @@ void fuzz_check(int ok, const char *what)
 
 uint64_t loop_now_ms(void)
 {
-    return now_ms;
+    return now_us / 1000u;
+}
+
+uint64_t loop_now_us(void)
+{
+    return now_us;
 }
 
 int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg)
@@ -88,10 +93,15 @@ void loop_del_fd(int fd)
 
 long loop_add_timer(uint64_t delay_ms, loop_timer_cb cb, void *arg)
 {
+    return loop_add_timer_us(delay_ms * 1000u, cb, arg);
+}
+
+long loop_add_timer_us(uint64_t delay_us, loop_timer_cb cb, void *arg)
+{
     if (ntimers == FAKE_TIMERS)
         return -1;
     timers[ntimers].id = next_id;
-    timers[ntimers].due = now_ms + delay_ms;
+    timers[ntimers].due = now_us + delay_us;
     timers[ntimers].cb = cb;
     timers[ntimers].arg = arg;
     ntimers++;
@@ -159,14 +169,19 @@ int fake_fd_dispatch(int fd, short revents)
 
 void fake_advance(uint64_t ms)
 {
-    now_ms += ms;
+    fake_advance_us(ms * 1000u);
+}
+
+void fake_advance_us(uint64_t us)
+{
+    now_us += us;
     /* Timers re-arm themselves: run only those due now, each at most once
      * per call (a bounded loop even if a callback adds a 0 ms timer). */
     long limit = next_id;
     for (;;) {
         size_t k;
         for (k = 0; k < ntimers; k++)
-            if (timers[k].due <= now_ms && timers[k].id < limit)
+            if (timers[k].due <= now_us && timers[k].id < limit)
                 break;
         if (k == ntimers)
             return;

@@ -31,6 +31,8 @@ int fake_fd_dispatch_as(int watched, int actual, short revents);
 
 /* Advance the fake clock by ms and run the timers that fell due. */
 void fake_advance(uint64_t ms);
+/* The same in microseconds. */
+void fake_advance_us(uint64_t us);
 /* Pending timers. */
 size_t fake_timers(void);
 

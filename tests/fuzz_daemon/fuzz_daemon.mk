@@ -21,10 +21,10 @@ FZD_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(FZD) $(FZD_DEFS)
 FZD_HDR := $(wildcard $(FZD)/*.h daemon/*.h) $(CORE_HDR) $(wildcard protocol/*.h)
 FZD_COMMON := $(FZD)/fake_env.c
 FZD_MB := daemon/mb_req.c daemon/mb_map.c daemon/models.c daemon/store.c daemon/snapshot.c daemon/errs.c $(FZD_PAPER)
-FZD_SRC_modbus := daemon/mb_tcp.c $(FZD_MB)
+FZD_SRC_modbus := daemon/mb_tcp.c daemon/acl.c $(FZD_MB)
 FZD_SRC_rtu := daemon/mb_rtu.c $(FZD_MB)
 FZD_SRC_store := daemon/store.c daemon/models.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
-FZD_SRC_conf := daemon/conf.c
+FZD_SRC_conf := daemon/conf.c daemon/acl.c
 FZD_SRC_links := daemon/links.c daemon/link_serial.c daemon/models.c daemon/store.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
 FZD_SECONDS ?= $(FUZZ_SECONDS)
 # links: the harness takes the daemon's write()s to the link (fuzz_links.c).

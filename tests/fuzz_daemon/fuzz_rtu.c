@@ -18,7 +18,8 @@
  * valid request gets its exact reply); the port stays open (found here and
  * fixed: more than 256 bytes without a silence filled the frame buffer and
  * the next read(fd, buf, 0) returned 0, taken for end of file, closing the
- * port for 500 ms; corpus/rtu/noise_long). */
+ * port for 500 ms; corpus/rtu/noise_long); a function framed by silence is
+ * answered exactly t3.5 (to the µs of the fake clock) after its last byte. */
 #include <errno.h>
 #include <fcntl.h>
 #include <pty.h>
@@ -43,7 +44,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 #define NUNITS 2
 static struct model pristine[NUNITS];
-static struct mb_opts opts = { 0, 100, 5, 5 };
+static struct mb_opts opts = { 0, 100, 5, 5, { 0 } };
 static struct conf rtu_conf;
 static int pty_master = -1;
 static int journal_fails, commit_fails;
@@ -229,6 +230,24 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fuzz_check(an == 9 && ans[0] == 1 && ans[1] == 3 && ans[2] == 4 && crc_ok(ans, 9), "in sync after a silence");
         struct model *md = models_by_unit(1);
         fuzz_check(ans[3] == 0 && ans[4] == md->ds.n && ans[5] == 0 && ans[6] == md->ds.m, "probe reads n, m");
+
+        /* The silence is t3.5 of the Modbus serial line spec, to the µs
+         * (19200 Bd 8N1: 3.5 x 10 bits = 1823 us): a function framed only
+         * by silence (17) is answered after exactly that, not before. */
+        uint8_t fn17[4] = { 1, 17, 0, 0 };
+        crc = crc16(fn17, 2);
+        fn17[2] = (uint8_t)crc;
+        fn17[3] = (uint8_t)(crc >> 8);
+        fuzz_check(write(line, fn17, 4) == 4, "fn17 write");
+        fuzz_check(pump(port), "port open after fn17");
+        fake_advance_us(1822);
+        pump(port);
+        fuzz_check(drain(line, ans, sizeof ans) == 0, "nothing answered before t3.5 (1823 us)");
+        fake_advance_us(1);
+        pump(port);
+        an = drain(line, ans, sizeof ans);
+        fuzz_check(an == 5 && ans[0] == 1 && ans[1] == 0x91 && ans[2] == MBX_ILLEGAL_FUNCTION && crc_ok(ans, 5),
+                   "exception 01 at t3.5 after a function framed by silence");
     }
     unsigned replies = check_replies(rep, got);
     if (getenv("IT2N_FUZZ_VERBOSE"))
