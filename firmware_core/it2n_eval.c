@@ -17,17 +17,6 @@
 #define Q30_ONE ((int32_t)1 << 30)
 #define Q30_HALF ((int64_t)1 << 29)
 
-int64_t it2n__shift_round(int64_t v, int s)
-{
-    if (s <= 0) {
-        return (int64_t)((uint64_t)v << (unsigned)-s);
-    }
-    if (s >= 63) {
-        return 0; /* |v| < 2^62 < 2^(s-1): rounds to zero */
-    }
-    return (v + ((int64_t)1 << (s - 1))) >> s;
-}
-
 void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
 {
     /* every value is in [0, 2^30]: unsigned products, no sign handling */
@@ -81,45 +70,35 @@ static void dbasis26(unsigned deg, it2n_par t, int32_t db[IT2N_DIM])
  * to Q24. False if the result does not fit Q39.24 (derivatives of nets near
  * 2^39 only).
  */
+/* The two stages with a stage-1 shift s1 known at compile time (inlined
+ * at each call with a constant: no run-time 64-bit shift on ARMv6-M). One
+ * accumulator at a time: no spills on ARMv6-M's 8 low registers. */
+IT2N_INLINE int64_t two_stages(const int32_t *net, unsigned n1, unsigned m1,
+                               const int32_t *cu, const int32_t *cw,
+                               const int s1)
+{
+    int64_t acc = 0;
+    unsigned i, j;
+    for (j = 0; j < m1; j++) {
+        const int32_t *p = net + j;
+        int64_t q = 0;
+        for (i = 0; i < n1; i++, p += m1) {
+            q += it2n_smul32(cu[i], *p);
+        }
+        q = (q + ((int64_t)1 << (s1 - 1))) >> s1;
+        acc += it2n_smul32(cw[j], (int32_t)q);
+    }
+    return acc;
+}
+
 static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
                     const int32_t *cu, int ufrac, const int32_t *cw, int wfrac,
                     it2n_val *out)
 {
-    int64_t acc = 0;
-    unsigned i, j;
+    int64_t acc;
     int s, s1 = ufrac < 30 ? 31 : 30;
-#if IT2N_MUL_HALVES
-    /* ARMv6-M: one accumulator at a time (8 low registers) */
-    for (j = 0; j < m1; j++) {
-        int64_t q = 0;
-        for (i = 0; i < n1; i++) {
-            q += it2n_smul32(cu[i], net[i * m1 + j]);
-        }
-        /* constant shifts: no run-time 64-bit shift helper on ARMv6-M */
-        q = s1 == 30 ? (q + ((int64_t)1 << 29)) >> 30 : (q + ((int64_t)1 << 30)) >> 31;
-        acc += it2n_smul32(cw[j], (int32_t)q);
-    }
-#else
-    /* Wider cores: rows of the net in order, m1 independent accumulators
-     * (instruction-level parallelism, vectorisable). Integer sums are
-     * exact, so the result is bit-identical to the loop above. */
-    int64_t q[IT2N_DIM];
-    for (j = 0; j < m1; j++) {
-        q[j] = 0;
-    }
-    for (i = 0; i < n1; i++) {
-        const int32_t *row = &net[i * m1];
-        int32_t c = cu[i];
-        for (j = 0; j < m1; j++) {
-            q[j] += it2n_smul32(c, row[j]);
-        }
-    }
-    for (j = 0; j < m1; j++) {
-        int64_t r = s1 == 30 ? (q[j] + ((int64_t)1 << 29)) >> 30
-                             : (q[j] + ((int64_t)1 << 30)) >> 31;
-        acc += it2n_smul32(cw[j], (int32_t)r);
-    }
-#endif
+    acc = s1 == 30 ? two_stages(net, n1, m1, cu, cw, 30)
+                   : two_stages(net, n1, m1, cu, cw, 31);
     s = ufrac - s1 + wfrac + frac - IT2N_VAL_FRAC;
     if (s < 0) {
         /* Only nets near 2^39 get here: check the left shift. */

@@ -16,8 +16,17 @@ int it2n__fail(it2n_errinfo *err, int code, int i, int j, int fp, int ch,
 void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM]);
 
 /* round(v / 2^s) to nearest (ties toward +inf) for s >= 1; v * 2^-s for
- * s <= 0 (the caller has proved it fits). */
-int64_t it2n__shift_round(int64_t v, int s);
+ * s <= 0 (the caller has proved it fits). |v| < 2^62. */
+static inline int64_t it2n__shift_round(int64_t v, int s)
+{
+    if (s <= 0) {
+        return (int64_t)((uint64_t)v << (unsigned)-s);
+    }
+    if (s >= 63) {
+        return 0; /* |v| < 2^62 < 2^(s-1): rounds to zero */
+    }
+    return (v + ((int64_t)1 << (s - 1))) >> s;
+}
 
 /* Inverse collocation matrix of one direction in fixed point:
  * C[r][k] = (hi[r * (deg + 1) + k] * 2^24 + lo[...]) * 2^-frac, hi signed,
