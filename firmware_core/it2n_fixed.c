@@ -5,6 +5,10 @@
 
 #include "it2n.h"
 
+/* the one out-of-line copy of it2n__shift_round (ARMv6-M) */
+#define IT2N__SHIFT_ROUND_HERE
+#include "it2n_internal.h"
+
 /* Unsigned 64 x 64 -> 128 from four 32 x 32 -> 64 products. */
 static it2n_i128 umul64(uint64_t a, uint64_t b)
 {

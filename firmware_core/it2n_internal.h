@@ -16,8 +16,16 @@ int it2n__fail(it2n_errinfo *err, int code, int i, int j, int fp, int ch,
 void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM]);
 
 /* round(v / 2^s) to nearest (ties toward +inf) for s >= 1; v * 2^-s for
- * s <= 0 (the caller has proved it fits). |v| < 2^62. */
-static inline int64_t it2n__shift_round(int64_t v, int s)
+ * s <= 0 (the caller has proved it fits). |v| < 2^62. Inline where a
+ * 64-bit shift is an instruction or two; one copy on ARMv6-M (flash). */
+#if IT2N_MUL_HALVES
+int64_t it2n__shift_round(int64_t v, int s);
+#define IT2N__SHIFT_ROUND_DEF int64_t it2n__shift_round(int64_t v, int s)
+#else
+#define IT2N__SHIFT_ROUND_DEF static inline int64_t it2n__shift_round(int64_t v, int s)
+#endif
+#if !IT2N_MUL_HALVES || defined(IT2N__SHIFT_ROUND_HERE)
+IT2N__SHIFT_ROUND_DEF
 {
     if (s <= 0) {
         return (int64_t)((uint64_t)v << (unsigned)-s);
@@ -27,6 +35,7 @@ static inline int64_t it2n__shift_round(int64_t v, int s)
     }
     return (v + ((int64_t)1 << (s - 1))) >> s;
 }
+#endif
 
 /* Inverse collocation matrix of one direction in fixed point:
  * C[r][k] = (hi[r * (deg + 1) + k] * 2^24 + lo[...]) * 2^-frac, hi signed,
