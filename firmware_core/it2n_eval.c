@@ -57,7 +57,7 @@ static void dbasis26(unsigned deg, it2n_par t, int32_t db[IT2N_DIM])
     for (i = 0; i <= deg; i++) {
         int32_t lo = i >= 1u ? b[i - 1u] : 0;
         int32_t hi = i < deg ? b[i] : 0;
-        db[i] = (int32_t)(((int64_t)(lo - hi) * (int32_t)deg + 8) >> 4);
+        db[i] = (int32_t)((it2n_smul32(lo - hi, (int32_t)deg) + 8) >> 4);
     }
 }
 
@@ -130,7 +130,7 @@ static bool apply(const it2n_model *mdl, unsigned fpmask, const int32_t *cu,
             }
             if (!surface(mdl->net[fp][ch], mdl->frac[fp][ch], n1, m1, cu,
                          ufrac, cw, wfrac, o)) {
-                *bad = fp * IT2N_CH_COUNT + ch;
+                *bad = fp << 4 | ch; /* no division needed to split it */
                 return false;
             }
         }
@@ -238,8 +238,8 @@ int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
     }
     return IT2N_OK;
 overflow:
-    return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)(bad / IT2N_CH_COUNT),
-                      (int)(bad % IT2N_CH_COUNT), 0, 0, 0);
+    return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)(bad >> 4),
+                      (int)(bad & 15u), 0, 0, 0);
 }
 
 int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
