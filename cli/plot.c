@@ -271,9 +271,11 @@ static int script_surfaces(const cli_opts *o, const it2n_model *mdl,
                 fprintf(g, "title '%s %s'", memb_short[k], cls_name[cl]);
                 cls_seen[cl] = true;
             }
+            /* Nets half transparent (#AARRGGBB) so the surfaces stay
+             * readable through them. */
             fprintf(g, ", \\\n  '%s' index %u using 1:2:%u with linespoints "
-                       "lc rgb '%s' dt 1 lw 0.6 pt 7 ps 0.5 ",
-                    t->path[1], a, 3u + k, colour[k][cl]);
+                       "lc rgb '#80%s' dt 1 lw 0.6 pt 7 ps 0.5 ",
+                    t->path[1], a, 3u + k, colour[k][cl] + 1);
             if (a == 0u) {
                 fprintf(g, "title '%s control nets'", memb_short[k]);
             } else {
