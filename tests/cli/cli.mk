@@ -44,9 +44,10 @@ cli-test-plot: $(CLI_BIN) $(CLI_SAN_BIN)
 	/usr/bin/python3 tests/cli/plot_export.py $(CLI_SAN_BIN)
 
 # The it2n command blocks marked `<!-- run: it2n -->` in README.md and
-# docs/cli.md, run as written with build/host on PATH.
+# docs/cli.md and the EXAMPLES of it2n(1), run as written with build/host
+# first on PATH.
 cli-test-docs: $(CLI_BIN)
-	/usr/bin/python3 tests/cli/doc_cmds.py $(CLI_BIN) README.md docs/cli.md
+	/usr/bin/python3 tests/cli/doc_cmds.py $(CLI_BIN) README.md docs/cli.md cli/it2n.1
 
 cli-cppcheck:
 	cppcheck --std=c11 --enable=warning,portability,performance \

@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
 """Run the it2n command blocks of the docs as written.
 
-Usage: doc_cmds.py BIN FILE.md ...
+Usage: doc_cmds.py BIN FILE.md|PAGE.1 ...
 
-A fenced ```sh block right after a line `<!-- run: it2n -->` is run with
+In Markdown, a fenced ```sh block right after a line `<!-- run: it2n -->`;
+in a man page, the .nf/.fi block of .SH EXAMPLES (with \\- read as -). Each
+block is run with
 bash -e -o pipefail in a scratch directory that holds the repository's
 examples/ (and an empty docs/img/), with BIN's directory first on PATH, so
 `it2n ...` is the binary under test. Any failing command fails the test.
@@ -18,7 +20,19 @@ BIN = os.path.abspath(sys.argv[1])
 MARK = "<!-- run: it2n -->"
 
 
+def man_examples(path):
+    lines = open(path).read().split("\n")
+    start = lines.index(".SH EXAMPLES")
+    nf = lines.index(".nf", start)
+    fi = lines.index(".fi", nf)
+    yield nf + 2, "\n".join(ln.replace("\\-", "-")
+                            for ln in lines[nf + 1:fi])
+
+
 def blocks(path):
+    if path.endswith(".1"):
+        yield from man_examples(path)
+        return
     lines = open(path).read().split("\n")
     for k, ln in enumerate(lines):
         if ln.strip() != MARK:
@@ -61,7 +75,7 @@ def main():
     if total == 0:
         print("FAIL: no marked blocks found", file=sys.stderr)
         return 1
-    print(f"cli docs: {total - bad}/{total} marked command blocks ran")
+    print(f"cli docs: {total - bad}/{total} command blocks ran")
     return 1 if bad else 0
 
 
