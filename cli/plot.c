@@ -255,14 +255,18 @@ static int script_surfaces(const cli_opts *o, const it2n_model *mdl,
             "set key outside right top vertical spacing 1.1 box\n"
             "set border 4095 lc rgb '#808080'\n",
             o->membership < 0 ? "membership" : memb_long[k0]);
-    fputs("splot \\\n", g);
+    fputs("surf = ", g);
+    put_quoted(g, t->path[0]);
+    fputs("\nnets = ", g);
+    put_quoted(g, t->path[1]);
+    fputs("\nsplot \\\n", g);
     for (k = k0; k < k1; k++) {
         bool cls_seen[CLS_COUNT] = {false, false, false, false};
         for (a = 0; a < nfp; a++) {
             unsigned cl = fp_class(fps[a]);
-            fprintf(g, "%s  '%s' index %u using 1:2:%u with lines lc rgb '%s' "
+            fprintf(g, "%s  surf index %u using 1:2:%u with lines lc rgb '%s' "
                        "dt %s lw %s ",
-                    first ? "" : ", \\\n", t->path[0], a, 3u + k,
+                    first ? "" : ", \\\n", a, 3u + k,
                     colour[k][cl], cls_dash[cl], cls_width[cl]);
             first = false;
             if (cls_seen[cl]) {
@@ -273,9 +277,9 @@ static int script_surfaces(const cli_opts *o, const it2n_model *mdl,
             }
             /* Nets half transparent (#AARRGGBB) so the surfaces stay
              * readable through them. */
-            fprintf(g, ", \\\n  '%s' index %u using 1:2:%u with linespoints "
+            fprintf(g, ", \\\n  nets index %u using 1:2:%u with linespoints "
                        "lc rgb '#80%s' dt 1 lw 0.6 pt 7 ps 0.5 ",
-                    t->path[1], a, 3u + k, colour[k][cl] + 1);
+                    a, 3u + k, colour[k][cl] + 1);
             if (a == 0u) {
                 fprintf(g, "title '%s control nets'", memb_short[k]);
             } else {
@@ -438,12 +442,14 @@ static int script_interval(const cli_opts *o, const it2n_model *mdl,
     put_val(g, ymin, o->decimals);
     fputc(':', g);
     put_val(g, ymax, o->decimals);
+    fputs("]\nband = ", g);
+    put_quoted(g, t->path[0]);
     fprintf(g,
-            "]\nset title 'upper band: max - min of %s over LL, D, RR'\n"
-            "splot '%s' using 1:2:3 with pm3d\n"
+            "\nset title 'upper band: max - min of %s over LL, D, RR'\n"
+            "splot band using 1:2:3 with pm3d\n"
             "set title 'lower band: max - min of %s over LR, D, RL'\n"
-            "splot '%s' using 1:2:4 with pm3d\nunset multiplot\n",
-            memb_short[k], t->path[0], memb_short[k], t->path[0]);
+            "splot band using 1:2:4 with pm3d\nunset multiplot\n",
+            memb_short[k], memb_short[k]);
     return tmp_close(g);
 }
 

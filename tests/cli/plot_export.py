@@ -155,6 +155,20 @@ def test_plot(tmp):
             check_png(out, w, h, f"plot {args}")
         else:
             check_svg(out, w, h, f"plot {args}")
+    # Quotes in the output name and in TMPDIR reach gnuplot intact.
+    odd = os.path.join(tmp, "it's here")
+    os.mkdir(odd)
+    out = os.path.join(odd, "a 'b'.png")
+    rc, _, se = run("plot", PAPER, "-o", out,
+                    env=dict(os.environ, TMPDIR=odd))
+    check(rc == 0 and os.listdir(odd) == ["a 'b'.png"],
+          f"quotes in names: {rc} {se!r} {os.listdir(odd)}")
+    check_png(out, 900, 700, "quotes in names")
+    rc, _, se = run("plot", PAPER, "--interval", "-o", out,
+                    env=dict(os.environ, TMPDIR=odd))
+    check(rc == 0 and os.listdir(odd) == ["a 'b'.png"],
+          f"interval, quotes in names: {rc} {se!r}")
+    check_png(out, 900, 700, "interval, quotes in names")
     out = os.path.join(tmp, "type1.png")
     rc, _, se = run("plot", "examples/type1_4x3.csv", "-o", out)
     check(rc == 0, f"type-1 plot: {se!r}")
