@@ -34,9 +34,56 @@ typedef struct cli_opts {
     unsigned rows, cols;  /* sample --grid                    */
     cli_at *at;           /* --at list (malloc'd)             */
     size_t nat;
+    unsigned fpmask;      /* --footprint: bit per IT2N_FP_*, 0 = all */
+    int membership;       /* plot/export: 0..2 = T,I,F; -1 = all     */
+    bool interval;        /* plot --interval: band heat map   */
+    const char *output;   /* plot/export -o FILE (NULL: stdout) */
+    int format;           /* export --format: CLI_FMT_*       */
+    unsigned width, height; /* plot --size WxH (pixels)       */
 } cli_opts;
+
+/* export --format */
+enum { CLI_FMT_VTK = 0, CLI_FMT_OBJ, CLI_FMT_CSV };
+
+/* Largest --grid side for plot and export (they hold the samples). */
+#define CLI_GRID_MAX_MESH 1001u
 
 /* Run the subcommand in o; returns an exit status. */
 int cli_run(const cli_opts *o);
+
+/* True if footprint fp is selected by --footprint (and in the model). */
+bool cli_fp_selected(const cli_opts *o, const it2n_model *mdl, unsigned fp);
+
+/* Exact decimal text of a Q24 value into buf (at least 48 bytes). */
+void cli_fmt_val(char *buf, size_t size, it2n_val v, unsigned decimals);
+
+/*
+ * Samples of every footprint surface on an R x C grid, held in memory for
+ * plot and export: v[((r * cols + c) * IT2N_FP_COUNT + fp) * IT2N_CH_COUNT
+ * + ch], u[r], w[c].
+ */
+typedef struct cli_mesh {
+    unsigned rows, cols;
+    it2n_val *v;
+    it2n_par *u, *w;
+} cli_mesh;
+
+/* Fill mesh from it2n_sample; returns an exit status (message printed). */
+int cli_mesh_sample(cli_mesh *mesh, const it2n_model *mdl, unsigned rows,
+                    unsigned cols);
+void cli_mesh_free(cli_mesh *mesh);
+
+static inline it2n_val cli_mesh_at(const cli_mesh *m, unsigned r, unsigned c,
+                                   unsigned fp, unsigned ch)
+{
+    return m->v[(((size_t)r * m->cols + c) * IT2N_FP_COUNT + fp) *
+                    IT2N_CH_COUNT + ch];
+}
+
+/* it2n plot and it2n export (plot.c, export.c); the model is solved. */
+int cli_plot(const cli_opts *o, const it2n_model *mdl,
+             const it2n_dataset *ds);
+int cli_export(const cli_opts *o, const it2n_model *mdl,
+               const it2n_dataset *ds);
 
 #endif /* IT2N_CLI_H */

@@ -36,3 +36,14 @@ install-cli: $(CLI_BIN)
 demo: $(CLI_BIN) ## Print the paper model's memberships at a few parameters
 	$(CLI_BIN) eval examples/paper_4x4.csv --summary \
 	  --at 0,0 --at 0.25,0.75 --at 0.5,0.5 --at 1,1
+
+# The README's pictures of the paper example, drawn by `it2n plot` (gnuplot).
+# tests/cli: cli-test-plot checks the committed files are still valid images
+# of this size (bytes vary with the gnuplot and cairo versions).
+CLI_FIGURES := docs/img/paper_T.png docs/img/paper_band_T.png
+.PHONY: figures
+figures: $(CLI_BIN) ## Regenerate docs/img/*.png (the paper example drawn by it2n plot)
+	@mkdir -p docs/img
+	$(CLI_BIN) plot examples/paper_4x4.csv --membership T -o docs/img/paper_T.png
+	$(CLI_BIN) plot examples/paper_4x4.csv --interval --membership T \
+	  -o docs/img/paper_band_T.png

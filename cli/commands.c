@@ -74,6 +74,20 @@ static int load(const cli_opts *o)
     return CLI_EXIT_OK;
 }
 
+bool cli_fp_selected(const cli_opts *o, const it2n_model *mdl, unsigned fp)
+{
+    return it2n_model_has_fp(mdl, fp) &&
+           (o->fpmask == 0u || (o->fpmask & (1u << fp)) != 0u);
+}
+
+void cli_fmt_val(char *buf, size_t size, it2n_val v, unsigned decimals)
+{
+    if (it2n_format_val(buf, size, v, decimals) < 0 && size > 1u) {
+        buf[0] = '?'; /* cannot happen: 48 bytes fit any int64 */
+        buf[1] = '\0';
+    }
+}
+
 static void put_val(it2n_val v, unsigned decimals)
 {
     char buf[48];
@@ -214,7 +228,7 @@ static void put_point(it2n_par u, it2n_par w, const it2n_point *pt,
 {
     unsigned fp;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        if (!it2n_model_has_fp(&g_mdl, fp)) {
+        if (!cli_fp_selected(o, &g_mdl, fp)) {
             continue;
         }
         put_par(u, o->decimals);
@@ -339,11 +353,76 @@ static int cmd_locate(const cli_opts *o)
     return finish_output();
 }
 
+typedef struct mesh_ctx {
+    cli_mesh *mesh;
+} mesh_ctx;
+
+static int mesh_row(void *ctx, unsigned r, unsigned c, it2n_par u,
+                    it2n_par w, const it2n_point *pt)
+{
+    cli_mesh *m = ((mesh_ctx *)ctx)->mesh;
+    memcpy(&m->v[((size_t)r * m->cols + c) * IT2N_FP_COUNT * IT2N_CH_COUNT],
+           pt->v, sizeof(pt->v));
+    m->u[r] = u;
+    m->w[c] = w;
+    return 0;
+}
+
+int cli_mesh_sample(cli_mesh *mesh, const it2n_model *mdl, unsigned rows,
+                    unsigned cols)
+{
+    size_t nodes = (size_t)rows * cols;
+    mesh_ctx ctx;
+    int rc;
+    mesh->rows = rows;
+    mesh->cols = cols;
+    mesh->v = malloc(nodes * IT2N_FP_COUNT * IT2N_CH_COUNT * sizeof(it2n_val));
+    mesh->u = malloc(rows * sizeof(it2n_par));
+    mesh->w = malloc(cols * sizeof(it2n_par));
+    if (mesh->v == NULL || mesh->u == NULL || mesh->w == NULL) {
+        cli_mesh_free(mesh);
+        fprintf(stderr, "it2n: out of memory for a %ux%u grid\n", rows, cols);
+        return CLI_EXIT_DATA;
+    }
+    ctx.mesh = mesh;
+    rc = it2n_sample(mdl, rows, cols, mesh_row, &ctx, NULL);
+    if (rc != IT2N_OK) {
+        cli_mesh_free(mesh);
+        return core_fail("sample", rc);
+    }
+    return CLI_EXIT_OK;
+}
+
+void cli_mesh_free(cli_mesh *mesh)
+{
+    free(mesh->v);
+    free(mesh->u);
+    free(mesh->w);
+    mesh->v = NULL;
+    mesh->u = mesh->w = NULL;
+}
+
 int cli_run(const cli_opts *o)
 {
+    unsigned fp;
     int rc = load(o);
     if (rc != CLI_EXIT_OK) {
         return rc;
+    }
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if ((o->fpmask & (1u << fp)) && !it2n_model_has_fp(&g_mdl, fp)) {
+            fprintf(stderr,
+                    "%s: --footprint %s: not in this type-1 model (footprint "
+                    "D only)\n",
+                    display_name(o), it2n_fp_name(fp));
+            return CLI_EXIT_DATA;
+        }
+    }
+    if (strcmp(o->cmd, "plot") == 0) {
+        return cli_plot(o, &g_mdl, &g_ds);
+    }
+    if (strcmp(o->cmd, "export") == 0) {
+        return cli_export(o, &g_mdl, &g_ds);
     }
     if (strcmp(o->cmd, "check") == 0) {
         return cmd_check(o);

@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 typedef struct cli_cmd {
     const char *name;
@@ -21,7 +22,16 @@ typedef struct cli_cmd {
 #define CLI_O_AT_UW 0x01u
 #define CLI_O_AT_XY 0x02u
 #define CLI_O_SUMMARY 0x04u
-#define CLI_O_GRID 0x08u
+#define CLI_O_GRID 0x08u     /* --grid required                  */
+#define CLI_O_GRID_OPT 0x10u /* --grid optional (default 21x21)  */
+#define CLI_O_FP 0x20u       /* --footprint                      */
+#define CLI_O_OUT 0x40u      /* -o FILE                          */
+#define CLI_O_MEMB 0x80u     /* --membership                     */
+#define CLI_O_PLOT 0x100u    /* --interval, --size               */
+#define CLI_O_FORMAT 0x200u  /* --format                         */
+
+#define CLI_MEMB_UNSET (-2)
+#define CLI_GRID_DEFAULT 21u
 
 static const char common_help[] =
     "Common options:\n"
@@ -52,12 +62,15 @@ static const cli_cmd cmds[] = {
      "               LL,D,RR) and lower_min, lower_max (over LR,D,RL) with\n"
      "               empty coordinates and the T,I,F bounds\n",
      CLI_O_AT_UW | CLI_O_SUMMARY},
-    {"sample", "--grid RxC [--summary]",
+    {"sample", "--grid RxC [--summary] [--footprint FP[,FP...]]",
      "evaluate on a uniform RxC parameter grid",
      "Like eval on u = r/(R-1), w = c/(C-1), row-major; R, C in 2..65535.\n"
-     "  --grid RxC   grid size\n"
-     "  --summary    interval summary rows as in eval\n",
-     CLI_O_GRID | CLI_O_SUMMARY},
+     "  --grid RxC        grid size\n"
+     "  --summary         interval summary rows as in eval (always over all\n"
+     "                    footprints)\n"
+     "  --footprint LIST  only these footprints (LL,LR,L,D,R,RL,RR; comma-\n"
+     "                    separated, repeatable; default all)\n",
+     CLI_O_GRID | CLI_O_SUMMARY | CLI_O_FP},
     {"locate", "--at X,Y [--at X,Y ...]",
      "find each footprint's (u,w) through a location (x,y)",
      "For each footprint find (u,w) whose surface passes through (x,y) and\n"
@@ -71,6 +84,47 @@ static const cli_cmd cmds[] = {
      "Header u,w,footprint,wrt,x,y[,z],T,I,F.\n"
      "  --at U,W     parameters, repeatable\n",
      CLI_O_AT_UW},
+    {"plot",
+     "-o FILE.png|FILE.svg [--membership T|I|F|all] [--interval]\n"
+     "       [--grid RxC] [--footprint LIST] [--size WxH]",
+     "draw the surfaces and control nets with gnuplot",
+     "Render every footprint surface (x, y, membership) with its control net\n"
+     "through gnuplot (PNG with pngcairo or SVG, from the file name).\n"
+     "Truth is green, indeterminacy blue, falsity red; upper footprints\n"
+     "(LL, RR) solid, lower (LR, RL) dashed, inner (L, R) dotted, type-1 D\n"
+     "thick; control nets as points joined by thin lines.\n"
+     "  -o, --output FILE   FILE.png or FILE.svg (required)\n"
+     "  --membership M      T, I, F or all (all three together; default)\n"
+     "  --interval          heat maps over (x,y) of the upper band (max-min\n"
+     "                      of M over LL,D,RR) and lower band (LR,D,RL), each\n"
+     "                      footprint located through (x,y); M is T, I or F\n"
+     "                      (default T); needs a type-2 model\n"
+     "  --grid RxC          samples per surface, or (x,y) cells of the heat\n"
+     "                      map; 2..1001 each (default 21x21)\n"
+     "  --footprint LIST    only these footprints (default all)\n"
+     "  --size WxH          image size in pixels, 200..8000 (default 900x700)\n"
+     "gnuplot must be on PATH (Debian: gnuplot-nox), or named by the\n"
+     "IT2N_GNUPLOT environment variable.\n",
+     CLI_O_GRID_OPT | CLI_O_FP | CLI_O_OUT | CLI_O_MEMB | CLI_O_PLOT},
+    {"export",
+     "--format vtk|obj|csv [-o FILE] [--grid RxC] [--membership T|I|F|all]\n"
+     "       [--footprint LIST]",
+     "write the sampled surfaces as meshes (VTK, OBJ, CSV)",
+     "Sample every footprint surface on an RxC grid and write one mesh per\n"
+     "footprint and membership, vertices (x, y, membership), quads between\n"
+     "neighbouring samples, objects in footprint order then T, I, F.\n"
+     "  --format vtk   VTK legacy ASCII POLYDATA (ParaView): point data\n"
+     "                 membership, u, w[, z]; cell data footprint (0..6 =\n"
+     "                 LL..RR) and membership (0..2 = T,I,F)\n"
+     "  --format obj   Wavefront OBJ (MeshLab): 'o FP_M' and 'g FP_M' per\n"
+     "                 object, e.g. o D_T\n"
+     "  --format csv   one row per vertex: object,footprint,membership,r,c,\n"
+     "                 u,w,x,y[,z],value\n"
+     "  -o, --output FILE   write to FILE (default standard output)\n"
+     "  --grid RxC          2..1001 each (default 21x21)\n"
+     "  --membership M      T, I, F or all (default all)\n"
+     "  --footprint LIST    only these footprints (default all)\n",
+     CLI_O_GRID_OPT | CLI_O_FP | CLI_O_OUT | CLI_O_MEMB | CLI_O_FORMAT},
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
 
@@ -170,6 +224,23 @@ static bool parse_grid(const char *s, unsigned *r, unsigned *c)
     return true;
 }
 
+/* "D", "LL,RR", ... -> bits of IT2N_FP_* (or'ed into *mask). */
+static bool parse_fps(const char *s, unsigned *mask)
+{
+    for (;;) {
+        size_t len = strcspn(s, ",");
+        int fp = it2n_fp_from_name(s, len);
+        if (len == 0u || fp < 0) {
+            return false;
+        }
+        *mask |= 1u << (unsigned)fp;
+        if (s[len] == '\0') {
+            return true;
+        }
+        s += len + 1u;
+    }
+}
+
 int main(int argc, char **argv)
 {
     static const struct option longopts[] = {
@@ -180,14 +251,24 @@ int main(int argc, char **argv)
         {"decimals", required_argument, NULL, 'd'},
         {"help", no_argument, NULL, 'h'},
         {"version", no_argument, NULL, 'V'},
+        {"footprint", required_argument, NULL, 'f'},
+        {"output", required_argument, NULL, 'o'},
+        {"membership", required_argument, NULL, 'm'},
+        {"interval", no_argument, NULL, 'i'},
+        {"format", required_argument, NULL, 'F'},
+        {"size", required_argument, NULL, 'S'},
         {NULL, 0, NULL, 0}};
     cli_opts o;
     const cli_cmd *c;
-    bool grid = false;
+    bool grid = false, fmt = false;
     int opt, rc;
 
     memset(&o, 0, sizeof(o));
     o.decimals = 6;
+    o.membership = CLI_MEMB_UNSET;
+    o.format = -1;
+    o.width = 900u;
+    o.height = 700u;
     if (argc < 2) {
         usage_all(stderr);
         return CLI_EXIT_USAGE;
@@ -215,7 +296,7 @@ int main(int argc, char **argv)
     /* getopt_long permutes, so options may come before or after DATA. */
     optind = 2;
     opterr = 0;
-    while ((opt = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+    while ((opt = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
         const char *why = NULL;
         char *end;
         unsigned long d;
@@ -249,8 +330,95 @@ int main(int argc, char **argv)
             }
             o.summary = true;
             break;
+        case 'f':
+            if (!(c->opts & CLI_O_FP)) {
+                free(o.at);
+                return usage_error(c->name, "--footprint does not apply to %s",
+                                   c->name);
+            }
+            if (!parse_fps(optarg, &o.fpmask)) {
+                free(o.at);
+                return usage_error(c->name,
+                                   "--footprint '%s': expected names from "
+                                   "LL,LR,L,D,R,RL,RR separated by commas",
+                                   optarg);
+            }
+            break;
+        case 'o':
+            if (!(c->opts & CLI_O_OUT)) {
+                free(o.at);
+                return usage_error(c->name, "-o does not apply to %s",
+                                   c->name);
+            }
+            o.output = optarg;
+            break;
+        case 'm':
+            if (!(c->opts & CLI_O_MEMB)) {
+                free(o.at);
+                return usage_error(c->name,
+                                   "--membership does not apply to %s",
+                                   c->name);
+            }
+            if (strcmp(optarg, "T") == 0) {
+                o.membership = 0;
+            } else if (strcmp(optarg, "I") == 0) {
+                o.membership = 1;
+            } else if (strcmp(optarg, "F") == 0) {
+                o.membership = 2;
+            } else if (strcmp(optarg, "all") == 0) {
+                o.membership = -1;
+            } else {
+                free(o.at);
+                return usage_error(c->name,
+                                   "--membership '%s': expected T, I, F or all",
+                                   optarg);
+            }
+            break;
+        case 'i':
+            if (!(c->opts & CLI_O_PLOT)) {
+                free(o.at);
+                return usage_error(c->name, "--interval does not apply to %s",
+                                   c->name);
+            }
+            o.interval = true;
+            break;
+        case 'S':
+            if (!(c->opts & CLI_O_PLOT)) {
+                free(o.at);
+                return usage_error(c->name, "--size does not apply to %s",
+                                   c->name);
+            }
+            if (!parse_grid(optarg, &o.width, &o.height) || o.width < 200u ||
+                o.height < 200u || o.width > 8000u || o.height > 8000u) {
+                free(o.at);
+                return usage_error(c->name,
+                                   "--size '%s': expected WxH with W, H in "
+                                   "200..8000",
+                                   optarg);
+            }
+            break;
+        case 'F':
+            if (!(c->opts & CLI_O_FORMAT)) {
+                free(o.at);
+                return usage_error(c->name, "--format does not apply to %s",
+                                   c->name);
+            }
+            if (strcmp(optarg, "vtk") == 0) {
+                o.format = CLI_FMT_VTK;
+            } else if (strcmp(optarg, "obj") == 0) {
+                o.format = CLI_FMT_OBJ;
+            } else if (strcmp(optarg, "csv") == 0) {
+                o.format = CLI_FMT_CSV;
+            } else {
+                free(o.at);
+                return usage_error(c->name,
+                                   "--format '%s': expected vtk, obj or csv",
+                                   optarg);
+            }
+            fmt = true;
+            break;
         case 'g':
-            if (!(c->opts & CLI_O_GRID)) {
+            if (!(c->opts & (CLI_O_GRID | CLI_O_GRID_OPT))) {
                 free(o.at);
                 return usage_error(c->name, "--grid does not apply to %s",
                                    c->name);
@@ -260,6 +428,13 @@ int main(int argc, char **argv)
                 return usage_error(c->name,
                                    "--grid '%s': expected RxC with R, C in "
                                    "2..65535",
+                                   optarg);
+            }
+            if ((c->opts & CLI_O_GRID_OPT) && (o.rows > CLI_GRID_MAX_MESH ||
+                                               o.cols > CLI_GRID_MAX_MESH)) {
+                free(o.at);
+                return usage_error(c->name,
+                                   "--grid '%s': at most 1001x1001 here",
                                    optarg);
             }
             grid = true;
@@ -312,6 +487,46 @@ int main(int argc, char **argv)
     if ((c->opts & CLI_O_GRID) && !grid) {
         free(o.at);
         return usage_error(c->name, "%s needs --grid RxC", c->name);
+    }
+    if ((c->opts & CLI_O_GRID_OPT) && !grid) {
+        o.rows = o.cols = CLI_GRID_DEFAULT;
+    }
+    if ((c->opts & CLI_O_FORMAT) && !fmt) {
+        free(o.at);
+        return usage_error(c->name, "%s needs --format vtk|obj|csv", c->name);
+    }
+    if (c->opts & CLI_O_PLOT) {
+        const char *dot = o.output ? strrchr(o.output, '.') : NULL;
+        if (o.output == NULL) {
+            free(o.at);
+            return usage_error(c->name, "%s needs -o FILE.png or -o FILE.svg",
+                               c->name);
+        }
+        if (dot == NULL || (strcasecmp(dot, ".png") != 0 &&
+                            strcasecmp(dot, ".svg") != 0)) {
+            free(o.at);
+            return usage_error(c->name,
+                               "-o '%s': the name must end in .png or .svg",
+                               o.output);
+        }
+        if (o.interval && o.membership == -1) {
+            free(o.at);
+            return usage_error(c->name, "%s",
+                               "--interval needs one membership: "
+                               "--membership T, I or F");
+        }
+        if (o.interval && o.fpmask != 0u) {
+            free(o.at);
+            return usage_error(c->name, "%s",
+                               "--interval uses LL, LR, D, RL, RR: "
+                               "no --footprint");
+        }
+        if (o.membership == CLI_MEMB_UNSET) {
+            o.membership = o.interval ? 0 : -1;
+        }
+    }
+    if (o.membership == CLI_MEMB_UNSET) {
+        o.membership = -1;
     }
     rc = cli_run(&o);
     free(o.at);

@@ -18,8 +18,10 @@ CLI_T_UNITS := test_text test_csv
 CLI_T_BINS := $(addprefix $(CLI_T)/,$(CLI_T_UNITS)) \
               $(addprefix $(CLI_T)/san/,$(CLI_T_UNITS) fuzz_csv)
 
-.PHONY: cli-test-unit cli-test-corpus cli-test-e2e cli-cppcheck cli-fuzz
-TEST_TARGETS += cli-test-unit cli-test-corpus cli-test-e2e cli-cppcheck
+.PHONY: cli-test-unit cli-test-corpus cli-test-e2e cli-cppcheck cli-fuzz \
+        cli-test-plot cli-test-docs
+TEST_TARGETS += cli-test-unit cli-test-corpus cli-test-e2e cli-cppcheck \
+                cli-test-plot cli-test-docs
 FUZZ_TARGETS += cli-fuzz
 
 cli-test-unit: $(CLI_T_BINS)
@@ -33,6 +35,19 @@ cli-test-corpus: $(CLI_T)/san/fuzz_csv
 cli-test-e2e: $(CLI_BIN) $(CLI_SAN_BIN)
 	python3 tests/cli/e2e.py $(CLI_BIN)
 	python3 tests/cli/e2e.py $(CLI_SAN_BIN)
+
+# plot (gnuplot PNG/SVG checked as images), export (meshes parsed back and
+# compared with sample), sample --footprint; also the committed figures.
+cli-test-plot: $(CLI_BIN) $(CLI_SAN_BIN)
+	/usr/bin/python3 tests/cli/plot_export.py $(CLI_BIN) \
+	  $(addprefix --figure ,$(CLI_FIGURES))
+	/usr/bin/python3 tests/cli/plot_export.py $(CLI_SAN_BIN)
+
+# The it2n command blocks marked `<!-- run: it2n -->` in README.md and
+# docs/cli.md and the EXAMPLES of it2n(1), run as written with build/host
+# first on PATH.
+cli-test-docs: $(CLI_BIN)
+	/usr/bin/python3 tests/cli/doc_cmds.py $(CLI_BIN) README.md docs/cli.md cli/it2n.1
 
 cli-cppcheck:
 	cppcheck --std=c11 --enable=warning,portability,performance \

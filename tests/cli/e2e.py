@@ -183,7 +183,8 @@ def main():
     # -- help, version, usage errors (exit 1) --
     rc, out, err = run("--help")
     check(rc == 0 and "Usage: it2n COMMAND" in out, "--help")
-    for cmd in ["check", "solve", "eval", "sample", "locate", "deriv"]:
+    for cmd in ["check", "solve", "eval", "sample", "locate", "deriv", "plot",
+                "export"]:
         rc, out, _ = run(cmd, "--help")
         check(rc == 0 and out.startswith(f"Usage: it2n {cmd} DATA.csv"),
               f"{cmd} --help")
