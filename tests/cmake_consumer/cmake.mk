@@ -18,5 +18,6 @@ cmake-consumer: $(BUILD)/host/it2n ## Build an out-of-tree find_package(it2n) pr
 
 dropin-check: ## Check the Zephyr module, PlatformIO manifest and docs/firmware.md quotes
 	@/usr/bin/python3 tests/cmake_consumer/check_dropin.py
+	@tests/cmake_consumer/zephyr_stub.sh $(CC) -std=c99 -O2 $(CORE_WARN)
 
 TEST_TARGETS += cmake-consumer dropin-check
