@@ -4,7 +4,8 @@
 the sources the Makefile builds (firmware_core/*.c, protocol/*.c), the
 Kconfig options are the #ifndef options of firmware_core/it2n.h with the
 same defaults and ranges, and zephyr/CMakeLists.txt passes each one on.
-Also: docs/firmware.md quotes its example files verbatim.
+Also: docs/firmware.md quotes its example files verbatim and its options
+table matches it2n.h.
 
 usage: check_dropin.py   (from the repository root; exit 1 on any mismatch)
 """
@@ -223,12 +224,27 @@ def check_doc_quotes():
     print(f"check_dropin: docs/firmware.md: {n} quoted file(s) verbatim")
 
 
+def check_doc_options():
+    """The options table of docs/firmware.md: every it2n.h option, its default."""
+    hdr = header_options()
+    rows = dict(re.findall(r"^\| `(IT2N_[A-Z0-9_]+)` \| `?([^|`]+?)`? \|", read("docs/firmware.md"), re.M))
+    for name in sorted(set(hdr) - set(rows)):
+        err(f"docs/firmware.md: option {name} missing from the options table")
+    for name in sorted(set(rows) - set(hdr)):
+        err(f"docs/firmware.md: options table lists {name}, not an option of it2n.h")
+    for name in sorted(set(rows) & set(hdr)):
+        if rows[name] != hdr[name][0]:
+            err(f"docs/firmware.md: {name} default {rows[name]}, it2n.h says {hdr[name][0]}")
+    print(f"check_dropin: docs/firmware.md: options table = it2n.h ({len(rows)} options, defaults)")
+
+
 def main():
     check_kconfig()
     check_zephyr()
     check_pio()
     if exists("docs/firmware.md"):
         check_doc_quotes()
+        check_doc_options()
     else:
         err("docs/firmware.md missing")
     for e in errors:

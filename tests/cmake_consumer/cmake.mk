@@ -9,7 +9,8 @@
 #                   sources = the Makefile's, Kconfig = it2n.h's options (and
 #                   the Kconfig-generated IT2N_CONFIG header builds the core
 #                   with them); docs/firmware.md quotes its example verbatim
-# See docs/firmware.md.
+# See docs/firmware.md. (The plain-Makefile example is Makefile.firmware, not
+# *.mk: tests/tests.mk includes every tests/*/*.mk.)
 DEB_PACKAGES += cmake
 
 .PHONY: cmake-consumer dropin-check

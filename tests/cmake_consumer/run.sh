@@ -10,7 +10,7 @@
 #               consumer is a freestanding image (-nostdlib, own vector table)
 #               that must link with no undefined symbol and no heap or
 #               floating-point symbol (arm-none-eabi-nm); the same image
-#               with pkg-config and from source with plain.mk.
+#               with pkg-config and from source with Makefile.firmware.
 # Also: the libraries hold exactly firmware_core/*.c and protocol/*.c, a
 # host package is refused by a cross build, and the symbol check rejects an
 # image that uses double.
@@ -121,10 +121,10 @@ quiet arm-none-eabi-gcc -mcpu=cortex-m0plus -mthumb -std=c99 -Os -ffreestanding 
 msg=$(check_image "$work/consumer-m0p-pc.elf" "M0+ image (pkg-config)") || fail "$msg"
 say "Cortex-M0+ image (pkg-config it2n-protocol): linked freestanding, no heap/float symbols"
 
-# From source in a plain Makefile (docs/firmware.md quotes plain.mk).
-quiet make -s -j2 -f "$src/plain.mk" IT2N="$root" APP="$src" OUT="$work/plain"
+# From source in a plain Makefile (docs/firmware.md quotes Makefile.firmware).
+quiet make -s -j2 -f "$src/Makefile.firmware" IT2N="$root" APP="$src" OUT="$work/plain"
 msg=$(check_image "$work/plain/firmware.elf" "M0+ image (plain Makefile)") || fail "$msg"
-say "Cortex-M0+ image (plain Makefile from source, plain.mk): linked freestanding, no heap/float symbols"
+say "Cortex-M0+ image (plain Makefile from source, Makefile.firmware): linked freestanding, no heap/float symbols"
 
 # The check must catch a double (soft-float helpers) in an otherwise clean image.
 printf '%s\n' '#include "paper_model.h"' 'volatile double consumer_bad_d;' \
