@@ -79,6 +79,11 @@ quiet cmake -S "$src" -B "$work/consumer-host" -DCMAKE_PREFIX_PATH="$work/host" 
 quiet cmake --build "$work/consumer-host"
 check_host_output "$work/consumer-host/consumer" "host consumer (find_package)"
 
+# ---- host consumer: it2n's source tree with add_subdirectory ------------------
+quiet cmake -S "$src" -B "$work/consumer-subdir" -DCONSUMER_IT2N_SOURCE="$root" -DCMAKE_BUILD_TYPE=Release
+quiet cmake --build "$work/consumer-subdir" -j2
+check_host_output "$work/consumer-subdir/consumer" "host consumer (add_subdirectory)"
+
 # ---- host consumer: pkg-config ---------------------------------------------------
 export PKG_CONFIG_PATH="$work/host/lib/pkgconfig"
 quiet gcc -std=c99 -O2 -Wall -Wextra -Wpedantic -Wconversion -Werror \
