@@ -235,7 +235,17 @@ def check_doc_options():
     for name in sorted(set(rows) & set(hdr)):
         if rows[name] != hdr[name][0]:
             err(f"docs/firmware.md: {name} default {rows[name]}, it2n.h says {hdr[name][0]}")
-    print(f"check_dropin: docs/firmware.md: options table = it2n.h ({len(rows)} options, defaults)")
+    # Ranges quoted in the meaning column: "(lo..hi)" or "(≥ lo)".
+    for name, meaning in re.findall(r"^\| `(IT2N_[A-Z0-9_]+)` \| [^|]+ \| (.*)\|$", read("docs/firmware.md"), re.M):
+        if name not in hdr:
+            continue
+        _, lo, hi = hdr[name]
+        m = re.search(r"\((\d+)\.\.(\d+)\)|\(≥ (\d+)\)", meaning)
+        doc = (None, None) if not m else \
+            (int(m.group(1)), int(m.group(2))) if m.group(1) else (int(m.group(3)), None)
+        if doc != (lo, hi):
+            err(f"docs/firmware.md: {name} range {doc}, it2n.h says {(lo, hi)}")
+    print(f"check_dropin: docs/firmware.md: options table = it2n.h ({len(rows)} options, defaults, ranges)")
 
 
 def main():

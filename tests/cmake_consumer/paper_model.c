@@ -48,7 +48,7 @@ int paper_model_solve(it2n_errinfo *err)
 int paper_model_eval(it2n_par u, it2n_par w, it2n_val out[IT2N_CH_COUNT],
                      it2n_errinfo *err)
 {
-    it2n_point pt; /* all seven footprints: about 0.5 KB of stack */
+    it2n_point pt; /* every footprint; sizeof: docs/portability.md */
     int rc = it2n_eval(&mdl, u, w, &pt, err);
     if (rc == IT2N_OK) {
         for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++) {
