@@ -153,4 +153,10 @@ if cmake -S "$src" -B "$work/consumer-wrong" -DCMAKE_PREFIX_PATH="$work/m0p" >"$
 fi
 grep -q 'Generic/arm' "$log" || { cat "$log" >&2; fail "the refusal does not name the package's target"; }
 say "a host build refuses the Cortex-M0+ package (built for Generic/arm)"
+
+# A Cortex-M4 build finds the Cortex-M0+ package but is warned.
+quiet cmake -S "$src" -B "$work/consumer-m4" --toolchain "$tc" -DIT2N_ARM_CPU=cortex-m4 \
+  -DCMAKE_PREFIX_PATH="$work/m0p"
+tr -s '\n ' '  ' <"$log" | grep -q "built with '-mcpu=cortex-m0plus', this build has '-mcpu=cortex-m4'" || { cat "$log" >&2; fail "no warning for a package of another CPU"; }
+say "a Cortex-M4 build is warned that the package is for -mcpu=cortex-m0plus"
 say "ok"
