@@ -2,6 +2,7 @@
  * library start-up, no stdio) with a two-word vector table and a reset
  * handler that solves the paper model and leaves the results in RAM.
  * Linked, not run: make test checks its symbols (no heap, no float). */
+#include <stddef.h>
 #include <stdint.h>
 
 #include "it2n.h"
@@ -17,7 +18,8 @@ volatile int32_t consumer_status;
 volatile int64_t consumer_tif[3];
 volatile uint32_t consumer_crc;
 
-extern uint32_t consumer_stack_top, consumer_bss_start, consumer_bss_end;
+/* From m0p.ld. */
+extern uint32_t consumer_stack_top[], consumer_bss_start[], consumer_bss_end[];
 void consumer_reset(void);
 
 struct consumer_vectors {
@@ -25,15 +27,16 @@ struct consumer_vectors {
     void (*reset)(void);
 };
 __attribute__((section(".vectors"), used))
-const struct consumer_vectors consumer_vector_table = {&consumer_stack_top, consumer_reset};
+const struct consumer_vectors consumer_vector_table = {consumer_stack_top, consumer_reset};
 
 void consumer_reset(void)
 {
     it2n_errinfo err;
     it2n_val v[IT2N_CH_COUNT];
     int rc;
-    for (uint32_t *p = &consumer_bss_start; p < &consumer_bss_end; p++) {
-        *p = 0;
+    size_t bss_words = (size_t)((uintptr_t)consumer_bss_end - (uintptr_t)consumer_bss_start) / 4u;
+    for (size_t k = 0; k < bss_words; k++) {
+        consumer_bss_start[k] = 0; /* no C start-up: clear .bss here */
     }
     consumer_crc = it2n_crc32c((const uint8_t *)"123456789", 9);
     rc = paper_model_solve(&err);

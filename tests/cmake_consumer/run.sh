@@ -53,7 +53,7 @@ done
 
 # Same sources as the Makefile: one object per firmware_core/*.c, protocol/*.c.
 objs() { ar t "$1" | sed -E 's/\.(o|obj)$//' | sort; }
-srcs() { ls "$root/$1"/*.c | xargs -n1 basename | sort; }
+srcs() { for f in "$root/$1"/*.c; do basename "$f"; done | sort; }
 for a in host m0p; do
   diff <(objs "$work/$a/lib/libit2n.a") <(srcs firmware_core) >/dev/null ||
     fail "$a libit2n.a does not hold exactly firmware_core/*.c"
@@ -100,7 +100,7 @@ check_image() {
   undef=$(arm-none-eabi-nm -u "$1")
   [ -z "$undef" ] || { echo "$undef" >&2; echo "$2: undefined symbols"; return 1; }
   bad=$(arm-none-eabi-nm "$1" | awk '{print $NF}' | grep -E "$heap_re|$float_re" || true)
-  [ -z "$bad" ] || { echo "$2: heap/float symbols linked in:" $bad; return 1; }
+  [ -z "$bad" ] || { echo "$2: heap/float symbols linked in:" "${bad//$'\n'/ }"; return 1; }
   for s in consumer_reset it2n_model_solve it2n_eval it2n_crc32c; do
     arm-none-eabi-nm "$1" | grep -q " T $s\$" || { echo "$2: $s not linked"; return 1; }
   done
