@@ -270,7 +270,9 @@ int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
                 it2n_sample_cb cb, void *ctx, it2n_errinfo *err)
 {
     it2n_point pt;
-    unsigned r, c;
+    int32_t bu[IT2N_DIM], bw[IT2N_DIM];
+    int32_t q[IT2N_FP_COUNT][IT2N_CH_COUNT][IT2N_DIM];
+    unsigned r, c, mask, n1, m1;
     if (mdl == NULL || cb == NULL) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
@@ -286,12 +288,45 @@ int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
                           (int)(cols > 32767u ? 32767u : cols), -1, -1,
                           (it2n_val)cols, 2, 65535);
     }
+    n1 = mdl->n + 1u;
+    m1 = mdl->m + 1u;
+    mask = it2n__fp_mask(mdl->flags);
     for (r = 0; r < rows; r++) {
         it2n_par u = grid_par(r, rows);
+        unsigned fp, ch, i, j;
+        /* Stage 1 depends on u only: once per row for every net, exactly as
+         * it2n_eval computes it, so every node stays bit-identical. */
+        it2n__basis30(n1 - 1u, u, bu);
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                const int32_t *net = mdl->net[fp][ch];
+                for (j = 0; j < m1; j++) {
+                    int64_t acc = 0;
+                    for (i = 0; i < n1; i++) {
+                        acc += it2n_smul32(bu[i], net[i * m1 + j]);
+                    }
+                    q[fp][ch][j] = (int32_t)((acc + ((int64_t)1 << 29)) >> 30);
+                }
+            }
+        }
         for (c = 0; c < cols; c++) {
             it2n_par w = grid_par(c, cols);
             int stop;
-            eval_values(mdl, u, w, &pt.v[0][0]);
+            it2n__basis30(m1 - 1u, w, bw);
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                    int64_t acc = 0;
+                    if (!(mask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
+                        pt.v[fp][ch] = 0;
+                        continue;
+                    }
+                    for (j = 0; j < m1; j++) {
+                        acc += it2n_smul32(bw[j], q[fp][ch][j]);
+                    }
+                    /* a convex combination of the net: fits Q39.24 */
+                    pt.v[fp][ch] = it2n__shift_round(acc, 30 + mdl->frac[fp][ch] - IT2N_VAL_FRAC);
+                }
+            }
             it2n__summarise(mdl, &pt);
             stop = cb(ctx, r, c, u, w, &pt);
             if (stop != 0) {
