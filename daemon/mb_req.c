@@ -160,7 +160,9 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
                                                                 : s->map->tab_input_registers;
         if (addr + count > IT2N_REG_MAP_END)
             return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
-        rc = mbmap_read(md, &s->q, o, addr, count, dst + addr);
+        /* Readers see the last durable state (models_view), never a
+         * change whose batch is still being written. */
+        rc = mbmap_read(models_view(md), &s->q, o, addr, count, dst + addr);
         break;
     }
     case MODBUS_FC_WRITE_SINGLE_REGISTER: {
@@ -212,6 +214,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         s->held_len = len;
         s->held_exc = rc;
         s->held_model = md;
+        s->held_batch = store_batch();
         return 1;
     }
     if (rc != MBX_OK)
