@@ -72,7 +72,9 @@ struct job {
     const char *step, *degrade_what;
 };
 static struct job job;
-static int job_state = J_IDLE;
+static int job_state = J_IDLE; /* under wmu while the thread runs */
+static int job_busy;             /* loop thread only: a job submitted, not reaped */
+static int wal_ok;               /* loop thread only: walfd is open */
 static uint64_t batches;     /* batch ids handed out (the gathered one is batches + 1) */
 static pthread_t writer;
 static int writer_on, writer_stop, evfd = -1;
@@ -148,7 +150,7 @@ int store_append(void *arg, const struct model_rec *rec)
     (void)arg;
     if (degraded)
         return IT2ND_ERR_DEGRADED;
-    if (walfd < 0)
+    if (!wal_ok)
         return IT2ND_ERR_IO;
     plen = encode_payload(rec, rbuf + REC_HDR);
     put64(rbuf + 8, seq + 1);
@@ -321,6 +323,7 @@ static void stop_writer(void)
 
 static void queue_job(void)
 {
+    job_busy = 1;
     if (!writer_on) {
         run_job(&job);
         job_state = J_DONE;
@@ -334,7 +337,7 @@ static void queue_job(void)
 
 int store_busy(void)
 {
-    return job_state != J_IDLE;
+    return job_busy;
 }
 
 uint64_t store_batch(void)
@@ -362,9 +365,9 @@ static void drop_queue(void)
 
 int store_submit(uint64_t *batch)
 {
-    if (job_state != J_IDLE || !qrecs)
+    if (job_busy || !qrecs)
         return 0;
-    if (degraded || walfd < 0) {
+    if (degraded || !wal_ok) {
         log_err("wal: store degraded; %d record(s) not acknowledged", qrecs);
         drop_queue();
         return -1;
@@ -394,7 +397,7 @@ static int submit_checkpoint(int durable_view)
 {
     size_t size = 0;
     uint8_t *buf;
-    if (job_state != J_IDLE)
+    if (job_busy)
         return 0;
     if (dirfd_ < 0) {
         log_err("snapshot failed (commit): %s", strerror(EBADF));
@@ -435,13 +438,16 @@ int store_reap(struct store_done *d)
         }
         pthread_mutex_lock(&wmu);
         done = job_state == J_DONE;
+        if (done)
+            job_state = J_IDLE;
         pthread_mutex_unlock(&wmu);
     } else {
         done = job_state == J_DONE;
+        job_state = J_IDLE;
     }
     if (!done)
         return 0;
-    job_state = J_IDLE;
+    job_busy = 0;
     d->kind = job.kind == JOB_COMMIT ? STORE_DONE_COMMIT : STORE_DONE_CHECKPOINT;
     d->batch = job.batch;
     d->ok = job.rc == 0;
@@ -1065,6 +1071,7 @@ static void close_all(void)
     if (lockfd >= 0)
         close(lockfd); /* releases the lock */
     walfd = dirfd_ = lockfd = -1;
+    wal_ok = 0;
 }
 
 int store_open(const char *dir, int fsync_on)
@@ -1117,6 +1124,7 @@ int store_open(const char *dir, int fsync_on)
         wal_bytes = 0;
     }
     dseq = seq;
+    wal_ok = 1;
     return 0;
 }
 
@@ -1142,4 +1150,5 @@ void store_close(void)
     qlen = qcap = 0;
     job.len = job.cap = 0;
     job_state = J_IDLE;
+    job_busy = 0;
 }
