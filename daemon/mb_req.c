@@ -88,8 +88,12 @@ static int write_req(struct mb_session *s, struct model *md, const struct mb_opt
     }
     *save = *md;
     rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, persisted);
+    /* The read half of FC 23: a query (nothing persisted) reads like FC 04,
+     * the last durable state; a write reads the model it just changed (its
+     * reply waits for that change to be durable). */
     if (rc == MBX_OK && rcount > 0)
-        rc = mbmap_read(md, &s->q, o, raddr, rcount, s->map->tab_registers + raddr);
+        rc = mbmap_read(*persisted ? md : models_view(md), &s->q, o, raddr, rcount,
+                        s->map->tab_registers + raddr);
     if (rc != MBX_OK && *persisted) {
         uint32_t req = md->requests, exc = md->exceptions;
         it2n_errinfo why = md->last_err;
