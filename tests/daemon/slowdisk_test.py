@@ -24,8 +24,14 @@ came after at least one delayed fdatasync. Then kill -9 while the writer is
 still writing, restart without the shim: T is the last acknowledged value
 or the one write in flight at the kill, and the generation moved by exactly
 the acknowledged writes (+1 for that one), as e2e_durability.sh checks.
-A baseline run without the delay is measured for comparison. Figures go to
---out (JSON). Exit status 0 when every check passed.
+A baseline run without the delay is measured for comparison (and SIGTERM
+given while its writers write must exit 0). Last, slow and failing: fdatasync
+delayed 200 ms and failing with EIO for 1.5 s (failio.so's flag file) under
+the two writers: every refusal is exception 04, a failed batch takes the one
+gathered behind it along, writes are accepted again within 5 s of the disk
+coming back (recovery checkpoint), and after kill -9 the restart holds
+exactly the acknowledged writes. Figures go to --out (JSON). Exit status 0
+when every check passed.
 """
 import argparse
 import json
@@ -118,6 +124,7 @@ class Writer(threading.Thread):
                     self.ack_ms.append(dt)
                 else:
                     self.refused.append((self.value, r))
+                    time.sleep(0.01)  # refused at once: do not spin
                 self.value = self.value % 9999 + 1
         except (OSError, ConnectionError, ValueError) as e:
             self.errors.append(str(e))
@@ -176,7 +183,7 @@ def run_load(args, tmp, name, delay_ms, seconds, kill):
     state = os.path.join(tmp, name + "-state")
     d = Daemon(args.it2nd, tmp, name)
     env_prefix = ["env", "LD_PRELOAD=" + args.failio, "IT2N_FAILIO_DELAY_MS=%d" % delay_ms]
-    d.start(conf(state, port, 2), "ready", prefix=env_prefix)
+    d.start(conf(state, port, 2), " ready (", prefix=env_prefix)
     s = connect(port)
     g0 = generation(s)
     s.close()
@@ -203,6 +210,76 @@ def run_load(args, tmp, name, delay_ms, seconds, kill):
         w.stop = True
         w.join(15)
     return d, port, state, g0, ws, rd
+
+
+def run_fault(args, tmp, figs):
+    """Slow and failing: fdatasync delayed and, for a while, failing with EIO
+    (failio.so's flag file) while two clients write. A failed batch takes
+    the batch gathered behind it along (both refused with 04, store
+    degraded, recovery checkpoint once the disk is back); kill -9 at the
+    end and the replay check: exactly the acknowledged writes."""
+    port = free_port()
+    state = os.path.join(tmp, "fault-state")
+    flag = os.path.join(tmp, "fault-flag")
+    d = Daemon(args.it2nd, tmp, "fault")
+    d.start(conf(state, port, 3600), " ready (",
+            prefix=["env", "LD_PRELOAD=" + args.failio, "IT2N_FAILIO_DELAY_MS=200",
+                    "IT2N_FAILIO_FLAG=" + flag, "IT2N_FAILIO_CALL=fdatasync", "IT2N_FAILIO_PATH=/wal"])
+    s = connect(port)
+    g0 = generation(s)
+    s.close()
+    ws = [Writer(port, k, 1) for k in range(len(POINTS))]
+    for w in ws:
+        w.start()
+    time.sleep(1.5)
+    n_before = sum(len(w.acked) for w in ws)
+    open(flag, "w").close()
+    time.sleep(1.5)
+    os.unlink(flag)
+    t_back = time.time()
+    n_at_back = sum(len(w.acked) for w in ws)
+    while time.time() - t_back < 10 and sum(len(w.acked) for w in ws) < n_at_back + 4:
+        time.sleep(0.05)
+    recovered_s = time.time() - t_back
+    time.sleep(0.5)
+    d.proc.send_signal(signal.SIGKILL)
+    d.proc.wait()
+    d.proc = None
+    for w in ws:
+        w.stop = True
+        w.join(15)
+    log = d.logtext()
+    refused = [r for w in ws for r in w.refused]
+    acked = [a for w in ws for a in w.acked]
+    d2 = Daemon(args.it2nd, tmp, "fault-replay")
+    d2.start(conf(state, port, 3600), " ready (")
+    s = connect(port)
+    g1 = generation(s)
+    after = [read_regs(s, 1, reg, 1)[0] for _, _, reg in POINTS]
+    s.close()
+    d2.stop()
+    good, extra = True, 0
+    for w, t in zip(ws, after):
+        last = w.acked[-1] if w.acked else None
+        if t != last and t == w.sent:
+            extra += 1
+        elif t != last:
+            good = False
+    good = good and g1 - g0 == len(acked) + extra
+    with_gathered = log.count("(with the ones gathered meanwhile)")
+    figs["slow_and_failing"] = {
+        "delay_ms": 200, "fail_s": 1.5, "acked": len(acked), "acked_before_fault": n_before,
+        "refused": len(refused), "failed_batches_with_a_gathered_one": with_gathered,
+        "writes_accepted_again_after_s": round(recovered_s, 2), "generations_moved": g1 - g0,
+    }
+    check(refused and all(r[1] == ("exc", 4) for r in refused),
+          "slow + failing fdatasync: %d writes refused, all with exception 04 (%d failed batch(es) took a "
+          "gathered batch along)" % (len(refused), with_gathered), "%r" % refused[:3])
+    check("store degraded" in log and "writes accepted again" in log and recovered_s < 5,
+          "degraded, then a checkpoint once the disk is back: writes accepted again after %.1f s" % recovered_s)
+    check(good, "kill -9 + restart: exactly the acknowledged writes (T %s, last acknowledged %s; generation +%d for "
+          "%d acknowledged + %d in flight found durable)"
+          % (after, [w.acked[-1] if w.acked else None for w in ws], g1 - g0, len(acked), extra))
 
 
 def main():
@@ -275,7 +352,7 @@ def main():
 
     # kill -9 happened with the writers mid-write: restart without the shim.
     d2 = Daemon(args.it2nd, tmp, "replay")
-    d2.start(conf(state, port, 3600), "ready")
+    d2.start(conf(state, port, 3600), " ready (")
     s = connect(port)
     g1 = generation(s)
     after = [read_regs(s, 1, reg, 1)[0] for _, _, reg in POINTS]
@@ -295,6 +372,8 @@ def main():
     check(good, "kill -9 during writes + restart: every acknowledged write survived "
           "(T %s, last acknowledged %s, in flight %s; generation +%d for %d acknowledged + %d in flight found durable)"
           % (after, [r["last_acked"] for r in rep], [w.sent for w in ws], g1 - g0, len(acked), extra))
+
+    run_fault(args, tmp, figs)
 
     if args.out:
         old = {}
