@@ -139,6 +139,10 @@ static void put_back(struct model *md, const struct model *old)
     *md = *old;
     md->requests = req;
     md->exceptions = exc;
+    /* A new instance: results cached for the undone change (keyed on
+     * instance and generation, mb_map) must not be served for a later
+     * change that reaches the same generation number. */
+    md->instance = ++instances;
     memset(&md->last_err, 0, sizeof md->last_err);
     md->last_err.code = IT2ND_ERR_IO;
     md->last_err.i = md->last_err.j = -1;

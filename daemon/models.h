@@ -15,7 +15,7 @@
 
 struct model {
     int id, unit;
-    uint32_t instance;         /* unique per models_add (cache keys)  */
+    uint32_t instance;         /* unique per models_add and rollback (cache keys) */
     it2n_dataset ds;           /* current data (staging and solved)   */
     it2n_model mdl;            /* valid when state == IT2N_RS_SOLVED  */
     int state;                 /* enum it2n_regmap_state              */
