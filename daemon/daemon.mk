@@ -2,7 +2,7 @@
 # Exports IT2ND (host build) and IT2ND_SAN (ASan+UBSan build).
 DAEMON_PKGS := libmodbus inih libusb-1.0
 DAEMON_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(BUILD)/daemon $(shell pkg-config --cflags $(DAEMON_PKGS) 2>/dev/null)
-DAEMON_LIBS := $(shell pkg-config --libs $(DAEMON_PKGS) 2>/dev/null) -lm
+DAEMON_LIBS := $(shell pkg-config --libs $(DAEMON_PKGS) 2>/dev/null) -lm -pthread
 DAEMON_SRC := $(wildcard daemon/*.c)
 DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) protocol/it2n_regmap.h $(wildcard protocol/it2n_proto.h)
 DAEMON_GEN := $(BUILD)/daemon/paper_data.c

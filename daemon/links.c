@@ -43,6 +43,7 @@ struct link {
     it2n_link pl;
     it2n_ostream os;
     uint16_t held[HELD_MAX];  /* seqs whose ACK waits for the commit */
+    uint64_t held_batch[HELD_MAX]; /* the WAL batch each waits for */
     int nheld;
     unsigned backoff_ms;
     long retry_timer, poll_timer;
@@ -202,8 +203,10 @@ static void link_down(struct link *l, const char *why)
 
 static void hold(struct link *l, uint16_t seq)
 {
-    if (l->nheld < HELD_MAX)
+    if (l->nheld < HELD_MAX) {
+        l->held_batch[l->nheld] = store_batch();
         l->held[l->nheld++] = seq;
+    }
 }
 
 static void send_hello(struct link *l)
@@ -257,6 +260,8 @@ static void pump_job(struct link *l)
     }
     while (!l->has_rsp && l->job.kind && can_send(l)) {
         struct model *md = models_by_id(l->job.model);
+        if (md)
+            md = models_view(md);
         it2n_msg m;
         memset(&m, 0, sizeof m);
         if (!md || md->state != IT2N_RS_SOLVED) {
@@ -316,6 +321,7 @@ static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint
     struct model *md = models_by_id(model);
     if (!md)
         return IT2N_PROTO_ERR_MODEL;
+    md = models_view(md);
     if (md->state != IT2N_RS_SOLVED)
         return IT2N_ERR_STATE;
     if (!it2n_model_has_fp(&md->mdl, fp))
@@ -438,6 +444,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         md = models_by_id(msg->u.model.model);
         if (!md)
             return IT2N_PROTO_ERR_MODEL;
+        md = models_view(md); /* readers: the last durable state */
         rsp.type = IT2N_MSG_STATUS;
         rsp.u.status.re = seq;
         rsp.u.status.model = (uint8_t)md->id;
@@ -454,6 +461,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         md = models_by_id(msg->u.query.model);
         if (!md)
             return IT2N_PROTO_ERR_MODEL;
+        md = models_view(md); /* readers: the last durable state */
         if (md->state != IT2N_RS_SOLVED)
             return IT2N_ERR_STATE;
         rc = it2n_eval(&md->mdl, it2n_par_from_wire(msg->u.query.u), it2n_par_from_wire(msg->u.query.w), &pt, NULL);
@@ -474,6 +482,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         md = models_by_id(msg->u.locate.model);
         if (!md)
             return IT2N_PROTO_ERR_MODEL;
+        md = models_view(md); /* readers: the last durable state */
         if (md->state != IT2N_RS_SOLVED)
             return IT2N_ERR_STATE;
         rc = it2n_locate(&md->mdl, msg->u.locate.x, msg->u.locate.y, &lr, NULL);
@@ -659,11 +668,23 @@ int links_reload(const struct conf *c)
 
 void links_release(int commit_ok)
 {
+    links_release_upto(UINT64_MAX, commit_ok);
+}
+
+void links_release_upto(uint64_t batch, int commit_ok)
+{
     for (int k = 0; k < nlinks; k++) {
         struct link *l = &links[k];
-        for (int h = 0; h < l->nheld; h++)
+        int keep = 0;
+        for (int h = 0; h < l->nheld; h++) {
+            if (l->held_batch[h] > batch) {
+                l->held_batch[keep] = l->held_batch[h];
+                l->held[keep++] = l->held[h];
+                continue;
+            }
             it2n_link_complete(&l->pl, l->held[h], commit_ok ? 0 : IT2ND_ERR_IO, NULL);
-        l->nheld = 0;
+        }
+        l->nheld = keep;
     }
 }
 

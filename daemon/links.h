@@ -14,6 +14,8 @@ int links_start(const struct conf *c);
 int links_reload(const struct conf *c);
 /* Send ACKs held for the WAL commit (commit_ok 0: NACK). */
 void links_release(int commit_ok);
+/* The same for the ACKs waiting for WAL batches up to `batch`. */
+void links_release_upto(uint64_t batch, int commit_ok);
 void links_stop(void);
 /* A model changed durably (after the group commit): queue one EVENT to
  * every open link. Per link only the latest EVENT per model waits when the

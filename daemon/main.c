@@ -139,36 +139,110 @@ static void on_recover(void *arg)
     recover_due = 1; /* taken by commit_hook, when memory equals what was acknowledged */
 }
 
-/* End of a loop pass (a hook after every iteration): one write + fdatasync
- * for everything queued (group commit). Only then are the models' changes
- * real: on success they are announced and the held replies and ACKs go
- * out; on failure every model touched in the pass is put back, so the
- * exception 04 / NACK that follows means "nothing changed". A snapshot due
- * is taken here, when memory equals what is on disk. */
-static void commit_hook(void *arg)
+static void release_upto(uint64_t batch, int ok)
 {
-    int ok = 1;
-    (void)arg;
-    if (store_pending())
-        ok = store_commit() == 0;
-    models_pass_end(ok, on_model_changed, NULL);
-    if (ok && snap_due) {
-        snap_due = 0;
-        if (store_wal_bytes() > 0)
-            store_snapshot();
-    }
-    /* Degraded (a failed commit, an unsynced WAL rename): no write is
-     * accepted until a checkpoint of memory (= what was acknowledged: every
-     * refused change was put back) succeeds. */
-    if (ok && recover_due && store_degraded()) {
-        recover_due = 0;
-        store_snapshot();
-    }
+    mb_tcp_release_upto(batch, ok);
+    mb_rtu_release_upto(batch, ok);
+    links_release_upto(batch, ok);
+}
+
+static void arm_recover(void)
+{
     if (store_degraded() && !recover_timer)
         recover_timer = loop_add_timer(1000, on_recover, NULL);
-    mb_tcp_release(ok);
-    mb_rtu_release(ok);
-    links_release(ok);
+}
+
+/* Hand the next job to the writer thread when it is idle (the hook after
+ * every loop pass, and after every job done): a checkpoint when one is
+ * due, else every WAL record gathered since the last hand-off as one
+ * batch (group commit: one write + one fdatasync on the writer thread).
+ * The loop goes on serving meanwhile; the batch's replies and ACKs wait
+ * for it (on_writer_done). */
+static void kick(void)
+{
+    if (store_busy())
+        return;
+    if (store_pending() && store_degraded()) {
+        /* Refused without I/O: put back, answer 04 / NACK. */
+        store_submit(NULL);
+        models_pass_end(0, NULL, NULL);
+        release_upto(UINT64_MAX, 0);
+    }
+    if (snap_due) {
+        snap_due = 0;
+        if (store_wal_bytes() > 0 && store_submit_checkpoint() > 0)
+            return;
+    }
+    /* Degraded (a failed commit, an unsynced WAL rename): no write is
+     * accepted until a checkpoint of the durable state succeeds. */
+    if (recover_due && store_degraded()) {
+        recover_due = 0;
+        if (store_submit_checkpoint() > 0)
+            return;
+    }
+    if (store_pending()) {
+        models_batch_submit();
+        if (store_submit(NULL) > 0)
+            return;
+        /* cannot happen (idle, not degraded); fail safe */
+        models_batch_done(0, NULL, NULL);
+        release_upto(UINT64_MAX, 0);
+    } else if (models_pass_dirty()) {
+        /* Changes refused or undone in the pass: nothing to write. */
+        models_pass_end(1, on_model_changed, NULL);
+    }
+    arm_recover();
+}
+
+/* A job is done. A commit: its changes are durable, announced, and its
+ * replies and ACKs go out; or it failed, and every model touched by it or
+ * by the batch gathered since is put back (their records are dropped, the
+ * store is degraded), so the exception 04 / NACK that follows means
+ * "nothing changed". */
+static void on_done(const struct store_done *d)
+{
+    if (d->kind == STORE_DONE_COMMIT) {
+        if (d->us > 100000)
+            log_debug("wal: group commit took %llu ms", (unsigned long long)(d->us / 1000));
+        models_batch_done(d->ok, on_model_changed, NULL);
+        release_upto(d->ok ? d->batch : UINT64_MAX, d->ok);
+    }
+    arm_recover();
+}
+
+static void on_writer(void *arg, int fd, short revents)
+{
+    struct store_done d;
+    (void)arg;
+    (void)fd;
+    (void)revents;
+    if (store_reap(&d))
+        on_done(&d);
+    kick();
+}
+
+static void commit_hook(void *arg)
+{
+    (void)arg;
+    kick();
+}
+
+/* Synchronously: everything in flight and gathered made durable and
+ * answered (reload, shutdown; the loop waits for the disk here only). */
+static void drain(void)
+{
+    struct store_done d;
+    for (int k = 0; k < 1000; k++) {
+        if (store_busy()) {
+            store_wait();
+            if (store_reap(&d))
+                on_done(&d);
+            continue;
+        }
+        if (!store_pending() && !models_pass_dirty())
+            return;
+        kick();
+    }
 }
 
 /* chrony style: everything that needs root (listeners, RTU ports, the
@@ -293,7 +367,7 @@ static void reload_models(const struct conf *nc)
             log_notice("reload: model %d added on unit %d", nc->model[k].id, nc->model[k].unit);
             add_model(&nc->model[k]);
         }
-    commit_hook(NULL); /* the CONFIGUREs: durable, announced, or rolled back */
+    drain(); /* the CONFIGUREs: durable, announced, or rolled back */
     if (removed && store_snapshot())
         log_err("reload: snapshot after removing models failed; their WAL records are skipped at restart");
 }
@@ -301,7 +375,6 @@ static void reload_models(const struct conf *nc)
 static void reload(void)
 {
     struct conf nc;
-    int k;
     log_notice("reloading configuration");
     notify_send("RELOADING=1");
     if (load_conf(&nc)) {
@@ -312,9 +385,8 @@ static void reload(void)
     /* Finish the pass in progress first (replies released during the last
      * commit may have started another): models are only added or removed
      * when nothing refers to them. */
-    for (k = 0; k < 1000 && (store_pending() || models_pass_dirty()); k++)
-        commit_hook(NULL);
-    if (store_pending() || models_pass_dirty()) {
+    drain();
+    if (store_busy() || store_pending() || models_pass_dirty()) {
         log_warn("reload postponed: writes in progress");
         sig_reload = 1;
         return;
@@ -393,6 +465,11 @@ int main(int argc, char **argv)
     if (store_open(cfg.state_dir, cfg.fsync))
         return 1;
     models_set_journal(store_append, NULL);
+    int wfd = store_start_writer();
+    if (wfd < 0 || loop_add_fd(wfd, POLLIN, on_writer, NULL)) {
+        log_err("cannot start the writer thread: %s", strerror(errno));
+        return 1;
+    }
     loop_add_hook(commit_hook, NULL);
     if (mb_tcp_start(&cfg, &mbo) || mb_rtu_start(&cfg, &mbo)) {
         log_err("no Modbus endpoint could be opened");
@@ -421,7 +498,7 @@ int main(int argc, char **argv)
     }
     notify_send("STOPPING=1");
     log_notice("stopping: flushing state");
-    commit_hook(NULL);
+    drain();
     links_stop();
     mb_rtu_stop();
     mb_tcp_stop();

@@ -88,8 +88,12 @@ static int write_req(struct mb_session *s, struct model *md, const struct mb_opt
     }
     *save = *md;
     rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, persisted);
+    /* The read half of FC 23: a query (nothing persisted) reads like FC 04,
+     * the last durable state; a write reads the model it just changed (its
+     * reply waits for that change to be durable). */
     if (rc == MBX_OK && rcount > 0)
-        rc = mbmap_read(md, &s->q, o, raddr, rcount, s->map->tab_registers + raddr);
+        rc = mbmap_read(*persisted ? md : models_view(md), &s->q, o, raddr, rcount,
+                        s->map->tab_registers + raddr);
     if (rc != MBX_OK && *persisted) {
         uint32_t req = md->requests, exc = md->exceptions;
         it2n_errinfo why = md->last_err;
@@ -160,7 +164,9 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
                                                                 : s->map->tab_input_registers;
         if (addr + count > IT2N_REG_MAP_END)
             return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
-        rc = mbmap_read(md, &s->q, o, addr, count, dst + addr);
+        /* Readers see the last durable state (models_view), never a
+         * change whose batch is still being written. */
+        rc = mbmap_read(models_view(md), &s->q, o, addr, count, dst + addr);
         break;
     }
     case MODBUS_FC_WRITE_SINGLE_REGISTER: {
@@ -212,6 +218,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         s->held_len = len;
         s->held_exc = rc;
         s->held_model = md;
+        s->held_batch = store_batch();
         return 1;
     }
     if (rc != MBX_OK)

@@ -23,6 +23,7 @@ struct mb_session {
     int held_len;               /* > 0: reply waits for the commit */
     int held_exc;               /* exception to send instead, or 0 */
     struct model *held_model;
+    uint64_t held_batch;        /* the WAL batch its reply waits for */
 };
 
 /* Create the scratch mapping and attach ctx. Returns 0 or -1. */

@@ -474,9 +474,14 @@ int mb_rtu_reload(const struct conf *c, const struct mb_opts *o)
 
 void mb_rtu_release(int commit_ok)
 {
+    mb_rtu_release_upto(UINT64_MAX, commit_ok);
+}
+
+void mb_rtu_release_upto(uint64_t batch, int commit_ok)
+{
     for (int k = 0; k < nports; k++) {
         struct rtu_port *p = &ports[k];
-        if (!p->ctx || !p->s.held_len)
+        if (!p->ctx || !p->s.held_len || p->s.held_batch > batch)
             continue;
         if (mb_req_release(&p->s, commit_ok) < 0) {
             port_fail(p, "write failed");

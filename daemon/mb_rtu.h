@@ -11,6 +11,8 @@
 int mb_rtu_start(const struct conf *c, const struct mb_opts *o);
 int mb_rtu_reload(const struct conf *c, const struct mb_opts *o);
 void mb_rtu_release(int commit_ok);
+/* The same for the replies waiting for WAL batches up to `batch`. */
+void mb_rtu_release_upto(uint64_t batch, int commit_ok);
 void mb_rtu_stop(void);
 
 #endif

@@ -501,10 +501,15 @@ int mb_tcp_reload(const struct conf *c, const struct mb_opts *o)
 
 void mb_tcp_release(int commit_ok)
 {
+    mb_tcp_release_upto(UINT64_MAX, commit_ok);
+}
+
+void mb_tcp_release_upto(uint64_t batch, int commit_ok)
+{
     struct conn *c = conns, *next;
     for (; c; c = next) {
         next = c->next;
-        if (!c->s.held_len)
+        if (!c->s.held_len || c->s.held_batch > batch)
             continue;
         if (mb_req_release(&c->s, commit_ok) < 0) {
             conn_close(c, "send failed");

@@ -19,6 +19,8 @@ int mb_tcp_reload(const struct conf *c, const struct mb_opts *o);
 
 /* Answer requests held for the WAL commit (commit_ok 0: exception 04). */
 void mb_tcp_release(int commit_ok);
+/* The same for the replies waiting for WAL batches up to `batch`. */
+void mb_tcp_release_upto(uint64_t batch, int commit_ok);
 
 /* Number of open client connections. */
 int mb_tcp_clients(void);

@@ -9,9 +9,13 @@
 #include "paper_data.h"
 
 static struct model **table;
-/* Pass backups, parallel to table: the model as it was before the first
- * change of the current loop pass (NULL: untouched). */
-static struct model **backup;
+/* Batch backups, parallel to table (models.h, "Batches"). backup: the
+ * model as it was before the first change of the batch being gathered
+ * (the current loop passes; NULL: untouched). inflight: the model as it was
+ * before the first change of the batch the writer thread is making durable
+ * (NULL: not in it). The oldest of the two is the last durable state, the
+ * one readers see (models_view). */
+static struct model **backup, **inflight;
 static int nmodels, maxmodels;
 static uint32_t instances;
 static model_journal_fn journal;
@@ -22,10 +26,12 @@ int models_init(int max)
 {
     table = calloc((size_t)max, sizeof *table);
     backup = calloc((size_t)max, sizeof *backup);
-    if (!table || !backup) {
+    inflight = calloc((size_t)max, sizeof *inflight);
+    if (!table || !backup || !inflight) {
         free(table);
         free(backup);
-        table = backup = NULL;
+        free(inflight);
+        table = backup = inflight = NULL;
         return -1;
     }
     maxmodels = max;
@@ -38,10 +44,12 @@ void models_free(void)
     for (int k = 0; k < nmodels; k++) {
         free(table[k]);
         free(backup[k]);
+        free(inflight[k]);
     }
     free(table);
     free(backup);
-    table = backup = NULL;
+    free(inflight);
+    table = backup = inflight = NULL;
     nmodels = maxmodels = 0;
 }
 
@@ -88,32 +96,87 @@ static int touch(struct model *md)
 int models_pass_dirty(void)
 {
     for (int k = 0; k < nmodels; k++)
-        if (backup[k])
+        if (backup[k] || inflight[k])
             return 1;
     return 0;
 }
 
-void models_pass_end(int ok, model_changed_fn fn, void *arg)
+struct model *models_view(struct model *md)
 {
     for (int k = 0; k < nmodels; k++) {
-        struct model *md = table[k], *old = backup[k];
-        if (!old)
+        if (table[k] != md)
             continue;
+        struct model *v = inflight[k] ? inflight[k] : backup[k];
+        if (!v)
+            return md;
+        /* Counters and the last refusal are live, not transactional. */
+        v->requests = md->requests;
+        v->exceptions = md->exceptions;
+        v->last_err = md->last_err;
+        v->unit = md->unit;
+        return v;
+    }
+    return md;
+}
+
+void models_batch_submit(void)
+{
+    for (int k = 0; k < nmodels; k++) {
+        /* A model in both: its durable state is the older copy. */
+        if (!inflight[k])
+            inflight[k] = backup[k];
+        else
+            free(backup[k]);
         backup[k] = NULL;
+    }
+}
+
+/* Put md back as old (keeping the request counters), last_error: I/O. */
+static void put_back(struct model *md, const struct model *old)
+{
+    uint32_t req = md->requests, exc = md->exceptions;
+    log_warn("model %d: change not durable; back to generation %u", md->id, old->gen);
+    *md = *old;
+    md->requests = req;
+    md->exceptions = exc;
+    /* A new instance: results cached for the undone change (keyed on
+     * instance and generation, mb_map) must not be served for a later
+     * change that reaches the same generation number. */
+    md->instance = ++instances;
+    memset(&md->last_err, 0, sizeof md->last_err);
+    md->last_err.code = IT2ND_ERR_IO;
+    md->last_err.i = md->last_err.j = -1;
+    md->last_err.fp = md->last_err.ch = -1;
+}
+
+void models_batch_done(int ok, model_changed_fn fn, void *arg)
+{
+    for (int k = 0; k < nmodels; k++) {
+        struct model *md = table[k], *old = inflight[k];
         if (ok) {
-            if (fn && (old->gen != md->gen || old->state != md->state))
-                fn(arg, md, old->state, old->gen);
+            if (!old)
+                continue;
+            /* The state after the batch: before the next one's changes. */
+            const struct model *now = backup[k] ? backup[k] : md;
+            if (fn && (old->gen != now->gen || old->state != now->state))
+                fn(arg, now, old->state, old->gen);
         } else {
-            /* Request counters count what happened; the rest goes back. */
-            uint32_t req = md->requests, exc = md->exceptions;
-            log_warn("model %d: change not durable; back to generation %u", md->id, old->gen);
-            *md = *old;
-            md->requests = req;
-            md->exceptions = exc;
-            refuse(md, &md->last_err, IT2ND_ERR_IO);
+            /* The gathered batch builds on the failed one: both go. */
+            const struct model *to = old ? old : backup[k];
+            if (to)
+                put_back(md, to);
+            free(backup[k]);
+            backup[k] = NULL;
         }
         free(old);
+        inflight[k] = NULL;
     }
+}
+
+void models_pass_end(int ok, model_changed_fn fn, void *arg)
+{
+    models_batch_submit();
+    models_batch_done(ok, fn, arg);
 }
 
 /* 0, or the journal's negative error code (IT2ND_ERR_*: the WAL cannot
@@ -156,13 +219,15 @@ void models_remove(struct model *md)
         if (table[k] != md)
             continue;
         free(backup[k]); /* NULL outside a pass */
+        free(inflight[k]);
         free(md);
         for (int r = k + 1; r < nmodels; r++) {
             table[r - 1] = table[r];
             backup[r - 1] = backup[r];
+            inflight[r - 1] = inflight[r];
         }
         nmodels--;
-        table[nmodels] = backup[nmodels] = NULL;
+        table[nmodels] = backup[nmodels] = inflight[nmodels] = NULL;
         return;
     }
 }

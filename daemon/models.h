@@ -15,7 +15,7 @@
 
 struct model {
     int id, unit;
-    uint32_t instance;         /* unique per models_add (cache keys)  */
+    uint32_t instance;         /* unique per models_add and rollback (cache keys) */
     it2n_dataset ds;           /* current data (staging and solved)   */
     it2n_model mdl;            /* valid when state == IT2N_RS_SOLVED  */
     int state;                 /* enum it2n_regmap_state              */
@@ -88,8 +88,30 @@ int models_clear(struct model *md);
  * acknowledged it). Request/exception counters are not rolled back. */
 typedef void (*model_changed_fn)(void *arg, const struct model *md, int old_state, uint32_t old_gen);
 void models_pass_end(int ok, model_changed_fn fn, void *arg);
-/* True when a model was changed in the current pass. */
+/* True when a model was changed in the current pass (or is in a batch
+ * being made durable). */
 int models_pass_dirty(void);
+
+/* Batches (the writer thread, docs/daemon.md "The writer thread"). The
+ * changes of the loop passes since the last hand-off form the gathered
+ * batch; models_batch_submit() makes it the in-flight batch when its WAL
+ * records go to the writer thread (at most one in flight); after the
+ * writer's fdatasync models_batch_done() either drops the in-flight copies
+ * (ok: fn called per model whose state or generation moved with the batch,
+ * with the state right after it) or, on failure, puts every model of the
+ * in-flight and of the gathered batch back to its last durable state
+ * (last_error IT2ND_ERR_IO): the gathered batch built on the failed one,
+ * and its records are dropped with it. models_pass_end(ok) is submit +
+ * done at once (no batch in flight: the synchronous paths).
+ *
+ * Readers see the last durable state: models_view(md) is md as it was
+ * before the oldest batch that changed it and is not yet durable (md
+ * itself when none); only its request/exception counters, last_error and
+ * unit are live. Writes apply to md itself. The view is valid until the
+ * next models_* call that may end a batch. */
+void models_batch_submit(void);
+void models_batch_done(int ok, model_changed_fn fn, void *arg);
+struct model *models_view(struct model *md);
 
 /* Apply a record (WAL replay): same as the operations, not journaled. */
 int models_apply(const struct model_rec *rec, it2n_errinfo *err);

@@ -35,13 +35,15 @@ static unsigned popcount8(unsigned v)
     return c;
 }
 
-uint8_t *snap_encode(uint64_t seq, size_t *len)
+/* durable_view: encode models_view() of each model (the last durable
+ * state, while a batch is gathered or in flight), else the models. */
+uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
 {
     size_t size = SNAP_HDR + 4, off;
     int n = models_count();
     uint8_t *buf;
     for (int k = 0; k < n; k++) {
-        const struct model *md = models_at(k);
+        const struct model *md = durable_view ? models_view(models_at(k)) : models_at(k);
         size += MODEL_HDR;
         for (unsigned i = 0; i <= md->ds.n; i++)
             for (unsigned j = 0; j <= md->ds.m; j++)
@@ -57,7 +59,7 @@ uint8_t *snap_encode(uint64_t seq, size_t *len)
     put32(buf + 24, (uint32_t)n);
     off = SNAP_HDR;
     for (int k = 0; k < n; k++) {
-        const struct model *md = models_at(k);
+        const struct model *md = durable_view ? models_view(models_at(k)) : models_at(k);
         uint8_t *h = buf + off;
         unsigned points = 0;
         off += MODEL_HDR;

@@ -16,7 +16,7 @@
 
 /* Encode every model of the table, covering the WAL up to seq. Returns a
  * malloc'd buffer (caller frees) and its length, or NULL (no memory). */
-uint8_t *snap_encode(uint64_t seq, size_t *len);
+uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view);
 
 /* snap_decode results. */
 #define SNAP_BAD (-1)       /* length, CRC-32C or structure: the file is damaged */

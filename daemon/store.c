@@ -15,9 +15,13 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/eventfd.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -49,6 +53,34 @@ static uint8_t *qbuf;
 static size_t qlen, qcap;
 static int qrecs;
 static struct store_stats stats;
+
+/* The writer thread (store.h). One job at a time; the loop thread owns
+ * everything above except walfd, which the job in flight owns (the loop
+ * never touches it while one is). The job reports, the loop thread logs
+ * and updates the store's state (store_reap). */
+enum { JOB_COMMIT = 1, JOB_CHECKPOINT = 2 };
+enum { J_IDLE, J_QUEUED, J_DONE };
+struct job {
+    int kind;
+    uint8_t *buf;            /* commit: the records; checkpoint: the snapshot */
+    size_t len, cap;
+    int recs;
+    uint64_t last_seq;       /* commit: seq of its last record; checkpoint: the snapshot's seq */
+    uint64_t batch;
+    /* results */
+    int rc, err, new_wal, degrade;
+    const char *step, *degrade_what;
+};
+static struct job job;
+static int job_state = J_IDLE; /* under wmu while the thread runs */
+static int job_busy;             /* loop thread only: a job submitted, not reaped */
+static int wal_ok;               /* loop thread only: walfd is open */
+static uint64_t batches;     /* batch ids handed out (the gathered one is batches + 1) */
+static pthread_t writer;
+static int writer_on, writer_stop, evfd = -1;
+static pthread_mutex_t wmu = PTHREAD_MUTEX_INITIALIZER;
+static pthread_cond_t wcv = PTHREAD_COND_INITIALIZER, dcv = PTHREAD_COND_INITIALIZER;
+static uint64_t delayed_us;  /* last job's duration, for the log */
 static char state_dir[256]; /* for messages */
 
 /* Serialise a record payload; returns its length. */
@@ -118,7 +150,7 @@ int store_append(void *arg, const struct model_rec *rec)
     (void)arg;
     if (degraded)
         return IT2ND_ERR_DEGRADED;
-    if (walfd < 0)
+    if (!wal_ok)
         return IT2ND_ERR_IO;
     plen = encode_payload(rec, rbuf + REC_HDR);
     put64(rbuf + 8, seq + 1);
@@ -189,38 +221,290 @@ int store_degraded(void)
     return degraded;
 }
 
-int store_commit(void)
+/* Writer side (the thread, or inline without one): the commit's I/O. */
+static void run_commit(struct job *j)
 {
-    int rc = 0;
-    if (!qrecs)
-        return 0;
-    if (degraded || walfd < 0) {
-        rc = -1;
-    } else {
-        off_t before = lseek(walfd, 0, SEEK_END);
-        if (before < 0 || write_all(walfd, qbuf, qlen) || (do_fsync && fdatasync(walfd))) {
-            int e = errno;
-            log_err("wal: write failed: %s; %d record(s) not acknowledged", strerror(e), qrecs);
-            /* Cut off a partial write. Whether or not that works, the file
-             * is no longer trusted (after a failed fdatasync the kernel may
-             * have dropped pages it reported written): the next records go
-             * to a new WAL, after a checkpoint. */
-            if (before >= 0 && ftruncate(walfd, before) != 0)
-                log_err("wal: truncate failed: %s", strerror(errno));
-            set_degraded("WAL write/fdatasync failed", e);
-            rc = -1;
-        } else {
-            wal_bytes += qlen;
-            stats.records += (uint64_t)qrecs;
-            stats.commits++;
-            dseq = seq;
+    off_t before = lseek(walfd, 0, SEEK_END);
+    j->rc = 0;
+    if (before < 0 || write_all(walfd, j->buf, j->len) || (do_fsync && fdatasync(walfd))) {
+        j->err = errno;
+        j->rc = -1;
+        j->step = "WAL write/fdatasync failed";
+        /* Cut off a partial write. Whether or not that works, the file is
+         * no longer trusted (after a failed fdatasync the kernel may have
+         * dropped pages it reported written): the next records go to a
+         * new WAL, after a checkpoint. */
+        if (before >= 0 && ftruncate(walfd, before) != 0)
+            j->degrade_what = "truncate failed";
+        j->degrade = 1;
+    }
+}
+
+static void run_checkpoint(struct job *j);
+
+static void run_job(struct job *j)
+{
+    uint64_t t0 = 0;
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    t0 = (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+    j->rc = j->err = j->new_wal = j->degrade = 0;
+    j->step = j->degrade_what = NULL;
+    if (j->kind == JOB_COMMIT)
+        run_commit(j);
+    else
+        run_checkpoint(j);
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    delayed_us = (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u - t0;
+}
+
+static void *writer_main(void *arg)
+{
+    (void)arg;
+    pthread_mutex_lock(&wmu);
+    for (;;) {
+        while (job_state != J_QUEUED && !writer_stop)
+            pthread_cond_wait(&wcv, &wmu);
+        if (job_state != J_QUEUED)
+            break;
+        pthread_mutex_unlock(&wmu);
+        run_job(&job);
+        pthread_mutex_lock(&wmu);
+        job_state = J_DONE;
+        pthread_cond_broadcast(&dcv);
+        uint64_t one = 1;
+        if (evfd >= 0 && write(evfd, &one, sizeof one) < 0) {
+            /* the counter cannot overflow here; the loop reaps anyway */
         }
     }
-    if (rc)
-        seq = dseq; /* the refused records never were */
+    pthread_mutex_unlock(&wmu);
+    return NULL;
+}
+
+int store_start_writer(void)
+{
+    if (writer_on)
+        return evfd;
+    evfd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    if (evfd < 0)
+        return -1;
+    writer_stop = 0;
+    /* Signals go to the loop thread only: the writer starts with all
+     * blocked. */
+    sigset_t all, old;
+    sigfillset(&all);
+    pthread_sigmask(SIG_SETMASK, &all, &old);
+    int rc = pthread_create(&writer, NULL, writer_main, NULL);
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    if (rc) {
+        close(evfd);
+        evfd = -1;
+        return -1;
+    }
+    writer_on = 1;
+    return evfd;
+}
+
+static void stop_writer(void)
+{
+    if (!writer_on)
+        return;
+    pthread_mutex_lock(&wmu);
+    while (job_state == J_QUEUED)
+        pthread_cond_wait(&dcv, &wmu);
+    writer_stop = 1;
+    pthread_cond_broadcast(&wcv);
+    pthread_mutex_unlock(&wmu);
+    pthread_join(writer, NULL);
+    writer_on = 0;
+    close(evfd);
+    evfd = -1;
+}
+
+static void queue_job(void)
+{
+    job_busy = 1;
+    if (!writer_on) {
+        run_job(&job);
+        job_state = J_DONE;
+        return;
+    }
+    pthread_mutex_lock(&wmu);
+    job_state = J_QUEUED;
+    pthread_cond_broadcast(&wcv);
+    pthread_mutex_unlock(&wmu);
+}
+
+int store_busy(void)
+{
+    return job_busy;
+}
+
+uint64_t store_batch(void)
+{
+    return batches + 1;
+}
+
+void store_wait(void)
+{
+    if (!writer_on)
+        return;
+    pthread_mutex_lock(&wmu);
+    while (job_state == J_QUEUED)
+        pthread_cond_wait(&dcv, &wmu);
+    pthread_mutex_unlock(&wmu);
+}
+
+/* Records refused: the gathered ones never were. */
+static void drop_queue(void)
+{
+    seq = dseq;
     qlen = 0;
     qrecs = 0;
-    return rc;
+}
+
+int store_submit(uint64_t *batch)
+{
+    if (job_busy || !qrecs)
+        return 0;
+    if (degraded || !wal_ok) {
+        log_err("wal: store degraded; %d record(s) not acknowledged", qrecs);
+        drop_queue();
+        return -1;
+    }
+    /* Swap buffers: the job takes the queue, the loop gathers into the
+     * job's old buffer. */
+    uint8_t *b = job.buf;
+    size_t c = job.cap;
+    job.kind = JOB_COMMIT;
+    job.buf = qbuf;
+    job.cap = qcap;
+    job.len = qlen;
+    job.recs = qrecs;
+    job.last_seq = seq;
+    job.batch = ++batches;
+    qbuf = b;
+    qcap = c;
+    qlen = 0;
+    qrecs = 0;
+    if (batch)
+        *batch = job.batch;
+    queue_job();
+    return 1;
+}
+
+static int submit_checkpoint(int durable_view)
+{
+    size_t size = 0;
+    uint8_t *buf;
+    if (job_busy)
+        return 0;
+    if (dirfd_ < 0) {
+        log_err("snapshot failed (commit): %s", strerror(EBADF));
+        return -1;
+    }
+    /* The durable state: the views (models.h) at dseq. Records gathered
+     * meanwhile (seq > dseq) go to the new WAL after it. */
+    buf = snap_encode(dseq, &size, durable_view);
+    if (!buf) {
+        log_err("snapshot failed (encode): %s", strerror(ENOMEM));
+        return -1;
+    }
+    free(job.buf);
+    job.kind = JOB_CHECKPOINT;
+    job.buf = buf;
+    job.len = size;
+    job.cap = size;
+    job.recs = 0;
+    job.last_seq = dseq;
+    job.batch = 0;
+    queue_job();
+    return 1;
+}
+
+int store_submit_checkpoint(void)
+{
+    return submit_checkpoint(1);
+}
+
+int store_reap(struct store_done *d)
+{
+    int done;
+    memset(d, 0, sizeof *d);
+    if (writer_on) {
+        uint64_t cnt;
+        if (evfd >= 0 && read(evfd, &cnt, sizeof cnt) < 0) {
+            /* EAGAIN: nothing signalled (yet) */
+        }
+        pthread_mutex_lock(&wmu);
+        done = job_state == J_DONE;
+        if (done)
+            job_state = J_IDLE;
+        pthread_mutex_unlock(&wmu);
+    } else {
+        done = job_state == J_DONE;
+        job_state = J_IDLE;
+    }
+    if (!done)
+        return 0;
+    job_busy = 0;
+    d->kind = job.kind == JOB_COMMIT ? STORE_DONE_COMMIT : STORE_DONE_CHECKPOINT;
+    d->batch = job.batch;
+    d->ok = job.rc == 0;
+    d->us = delayed_us;
+    if (job.kind == JOB_COMMIT) {
+        if (job.rc) {
+            log_err("wal: write failed: %s; %d record(s) not acknowledged%s", strerror(job.err), job.recs + qrecs,
+                    qrecs ? " (with the ones gathered meanwhile)" : "");
+            if (job.degrade_what)
+                log_err("wal: truncate failed");
+            set_degraded(job.step, job.err);
+            drop_queue();
+        } else {
+            wal_bytes += job.len;
+            stats.records += (uint64_t)job.recs;
+            stats.commits++;
+            dseq = job.last_seq;
+        }
+        job.len = 0;
+    } else {
+        if (job.new_wal)
+            wal_bytes = 0;
+        if (job.degrade)
+            set_degraded(job.degrade_what, job.err);
+        if (job.rc) {
+            log_err("snapshot failed (%s): %s", job.step, strerror(job.err));
+        } else {
+            stats.snapshots++;
+            if (degraded)
+                log_notice("store: checkpoint written (snapshot seq %llu, new WAL); writes accepted again",
+                           (unsigned long long)job.last_seq);
+            degraded = 0;
+        }
+        free(job.buf);
+        job.buf = NULL;
+        job.len = job.cap = 0;
+    }
+    return 1;
+}
+
+/* Synchronous: whatever is in flight finishes (its result is applied to
+ * the store only: callers with replies waiting use store_reap), then the
+ * queue is written and fdatasynced. */
+int store_commit(void)
+{
+    struct store_done d;
+    int rc;
+    store_wait();
+    store_reap(&d);
+    if (!qrecs)
+        return 0;
+    rc = store_submit(NULL);
+    if (rc < 0)
+        return -1;
+    store_wait();
+    store_reap(&d);
+    return d.ok ? 0 : -1;
 }
 
 uint64_t store_wal_bytes(void)
@@ -254,7 +538,7 @@ static void drop_tmp(const char *name)
  * old one is unlinked: appending to it would lose every record, issue 8
  * item 1); if the directory cannot be synced, the rename may not survive a
  * crash, so the store is degraded until a checkpoint succeeds. */
-static int wal_reset(void)
+static int wal_reset(struct job *j)
 {
     uint8_t h[WAL_HDR] = { 0 };
     int fd = openat(dirfd_, "wal.tmp", O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_CLOEXEC, 0640);
@@ -272,10 +556,12 @@ static int wal_reset(void)
     if (walfd >= 0)
         close(walfd);
     walfd = fd;
-    wal_bytes = 0;
+    j->new_wal = 1;
     if (sync_dir()) {
         int e = errno;
-        set_degraded("fsync of the state directory after a new WAL was renamed into place", e);
+        j->degrade = 1;
+        j->degrade_what = "fsync of the state directory after a new WAL was renamed into place";
+        j->err = e;
         errno = e;
         return -1;
     }
@@ -290,58 +576,39 @@ static int wal_reset(void)
  * record, so either snapshot plus it replays to the same state). A success
  * clears the degraded state: memory, which equals what was acknowledged,
  * is then on disk in fresh files. */
-int store_snapshot(void)
+static void run_checkpoint(struct job *j)
 {
-    size_t size = 0;
-    uint8_t *buf = NULL;
-    int fd = -1, rc = -1;
-    const char *step = "commit";
-    if (dirfd_ < 0) {
-        errno = EBADF;
-        goto out;
-    }
-    if (store_commit())
-        goto out;
-    step = "encode";
-    buf = snap_encode(seq, &size);
-    if (!buf) {
-        errno = ENOMEM;
-        goto out;
-    }
-    step = "open snapshot.tmp";
+    int fd = -1;
+    j->rc = -1;
+    j->step = "open snapshot.tmp";
     fd = openat(dirfd_, "snapshot.tmp", O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
     if (fd < 0)
         goto out;
-    step = "write snapshot.tmp";
-    if (write_all(fd, buf, size))
+    j->step = "write snapshot.tmp";
+    if (write_all(fd, j->buf, j->len))
         goto out_tmp;
-    step = "fsync snapshot.tmp";
+    j->step = "fsync snapshot.tmp";
     if (do_fsync && fsync(fd))
         goto out_tmp;
-    step = "close snapshot.tmp";
+    j->step = "close snapshot.tmp";
     if (close(fd)) {
         fd = -1;
         goto out_tmp;
     }
     fd = -1;
-    step = "rename snapshot.tmp";
+    j->step = "rename snapshot.tmp";
     if (renameat(dirfd_, "snapshot.tmp", dirfd_, "snapshot"))
         goto out_tmp;
-    step = "fsync the state directory after the snapshot rename (WAL kept)";
+    j->step = "fsync the state directory after the snapshot rename (WAL kept)";
     if (sync_dir())
         goto out;
     /* The snapshot now holds everything: start an empty WAL. A crash
      * before this leaves old records, skipped by seq on replay. */
-    step = "new WAL";
-    if (wal_reset())
+    j->step = "new WAL";
+    if (wal_reset(j))
         goto out;
-    stats.snapshots++;
-    if (degraded)
-        log_notice("store: checkpoint written (snapshot seq %llu, new WAL); writes accepted again",
-                   (unsigned long long)seq);
-    degraded = 0;
-    rc = 0;
-    goto out;
+    j->rc = 0;
+    return;
 out_tmp:
     if (fd >= 0) {
         int e = errno;
@@ -350,10 +617,23 @@ out_tmp:
     }
     drop_tmp("snapshot.tmp");
 out:
-    if (rc)
-        log_err("snapshot failed (%s): %s", step, strerror(errno));
-    free(buf);
-    return rc;
+    if (!j->err)
+        j->err = errno;
+}
+
+int store_snapshot(void)
+{
+    struct store_done d;
+    if (store_commit()) {
+        log_err("snapshot failed (commit): %s", strerror(EIO));
+        return -1;
+    }
+    /* Everything queued is durable now: memory is the durable state. */
+    if (submit_checkpoint(0) < 0)
+        return -1;
+    store_wait();
+    store_reap(&d);
+    return d.ok ? 0 : -1;
 }
 
 /* The snapshot is read whole; it holds at most CONF_MAX_MODELS models of
@@ -791,6 +1071,7 @@ static void close_all(void)
     if (lockfd >= 0)
         close(lockfd); /* releases the lock */
     walfd = dirfd_ = lockfd = -1;
+    wal_ok = 0;
 }
 
 int store_open(const char *dir, int fsync_on)
@@ -832,12 +1113,18 @@ int store_open(const char *dir, int fsync_on)
             return -1;
         }
         wal_bytes = good - WAL_HDR;
-    } else if (wal_reset()) {
-        log_err("wal: cannot create in %s: %s", dir, strerror(errno));
-        close_all();
-        return -1;
+    } else {
+        struct job j0;
+        memset(&j0, 0, sizeof j0);
+        if (wal_reset(&j0)) {
+            log_err("wal: cannot create in %s: %s", dir, strerror(errno));
+            close_all();
+            return -1;
+        }
+        wal_bytes = 0;
     }
     dseq = seq;
+    wal_ok = 1;
     return 0;
 }
 
@@ -855,8 +1142,13 @@ int store_chown(unsigned uid, unsigned gid)
 void store_close(void)
 {
     store_commit();
+    stop_writer();
     close_all();
     free(qbuf);
-    qbuf = NULL;
+    free(job.buf);
+    qbuf = job.buf = NULL;
     qlen = qcap = 0;
+    job.len = job.cap = 0;
+    job_state = J_IDLE;
+    job_busy = 0;
 }

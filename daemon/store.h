@@ -30,10 +30,46 @@ int store_open(const char *dir, int fsync);
  * IT2ND_ERR_IO or IT2ND_ERR_NOMEM (errs.h): the change is refused. */
 int store_append(void *arg, const struct model_rec *rec);
 
-/* Write and fdatasync queued records. Returns 0, or -1 (the queued
- * records are then lost and must not be acknowledged; the store is
- * degraded). */
+/* Write and fdatasync queued records, synchronously (waits for the job in
+ * flight first). Returns 0, or -1 (the queued records are then lost and
+ * must not be acknowledged; the store is degraded). */
 int store_commit(void);
+
+/* The writer thread (docs/daemon.md, "The writer thread"): the WAL
+ * appends, fdatasyncs and checkpoints run on it, one job at a time, so
+ * the serving loop never waits for the disk. Without it (unit tests) jobs
+ * run inline in the submitting call.
+ *
+ * store_start_writer: start the thread; returns an eventfd, readable when
+ * a job is done (register it in the loop and call store_reap), or -1.
+ * store_submit: hand every record queued since the last submit to the
+ * writer as one job (group commit: one write + one fdatasync). Returns 1
+ * (submitted; *batch = its id), 0 (nothing queued, or a job in flight:
+ * the records wait for the next submit), -1 (store degraded: the queued
+ * records are dropped, nothing may be acknowledged).
+ * store_batch: the id the records queued now will have when submitted
+ * (held replies are tagged with it and released when it is reaped).
+ * store_submit_checkpoint: a checkpoint job (snapshot of the durable
+ * state, i.e. of models_view() of every model, at the last durable seq,
+ * then a new WAL); 1, 0 (busy) or -1 (logged).
+ * store_reap: the job done, if any (1; *d filled), else 0. Applies its
+ * result to the store (durable seq, degraded state, logs).
+ * store_wait: block until the job in flight is done (synchronous paths:
+ * reload, shutdown). */
+struct store_done {
+    int kind;          /* STORE_DONE_COMMIT or STORE_DONE_CHECKPOINT */
+    int ok;
+    uint64_t batch;    /* commit: the batch id */
+    uint64_t us;       /* how long the job's I/O took */
+};
+enum { STORE_DONE_COMMIT = 1, STORE_DONE_CHECKPOINT = 2 };
+int store_start_writer(void);
+int store_submit(uint64_t *batch);
+uint64_t store_batch(void);
+int store_submit_checkpoint(void);
+int store_reap(struct store_done *d);
+int store_busy(void);
+void store_wait(void);
 
 /* True after an I/O error left the WAL not provably durable: every write
  * is refused until store_snapshot() (a checkpoint) succeeds. */

@@ -11,7 +11,11 @@
  *   IT2N_FAILIO_ERRNO  errno to fail with (default EIO)
  *
  * Every failed call is counted in the file $IT2N_FAILIO_FLAG (one line per
- * failure), so a test can tell that its call site was reached. */
+ * failure), so a test can tell that its call site was reached.
+ *
+ * Slow-disk mode (independent of the above, no flag file needed):
+ *   IT2N_FAILIO_DELAY_MS    every fsync and fdatasync first sleeps this long
+ *   IT2N_FAILIO_DELAY_CALL  only these calls (default "fsync,fdatasync") */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
 #endif
@@ -23,6 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/types.h>
+#include <time.h>
 #include <unistd.h>
 
 static int skipped;
@@ -98,6 +103,22 @@ static int fail_now(const char *call, int fd, const char *name, const char *name
     return 1;
 }
 
+/* Slow-disk mode: sleep before the call (then do it). */
+static void delay(const char *call)
+{
+    const char *ms = getenv("IT2N_FAILIO_DELAY_MS"), *calls = getenv("IT2N_FAILIO_DELAY_CALL");
+    int saved = errno;
+    if (!ms || atoi(ms) <= 0 || (calls && *calls && !in_list(calls, call))) {
+        errno = saved;
+        return;
+    }
+    long n = atol(ms);
+    struct timespec ts = { n / 1000, (n % 1000) * 1000000L };
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
+    }
+    errno = saved;
+}
+
 /* dlsym returns an object pointer; copy it into a function pointer. */
 #define REAL(type, name) \
     type real; \
@@ -114,6 +135,7 @@ ssize_t write(int fd, const void *buf, size_t len)
 int fsync(int fd)
 {
     REAL(fd_fn, fsync);
+    delay("fsync");
     if (fail_now("fsync", fd, NULL, NULL))
         return -1;
     return real(fd);
@@ -122,6 +144,7 @@ int fsync(int fd)
 int fdatasync(int fd)
 {
     REAL(fd_fn, fdatasync);
+    delay("fdatasync");
     if (fail_now("fdatasync", fd, NULL, NULL))
         return -1;
     return real(fd);

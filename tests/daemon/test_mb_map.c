@@ -294,6 +294,45 @@ static void test_refused_writes_set_last_error(void **st)
     memset(&md->last_err, 0, sizeof md->last_err);
 }
 
+/* A connection's cached query result is keyed on the model instance and
+ * generation. A change that is rolled back (its batch failed) and another
+ * change that then reaches the same generation number must not be served
+ * from the cache of the first: a rollback gives the model a new instance. */
+static void test_query_cache_after_rollback(void **st)
+{
+    struct mb_query q, fresh;
+    uint16_t uw[2] = { 5000, 5000 }, a[2], b[2], c[2];
+    const unsigned res_t = IT2N_REG_RES_F32 + (IT2N_FP_D * IT2N_CH_COUNT + IT2N_CH_T) * 2;
+    it2n_val v[IT2N_CH_COUNT], orig[IT2N_CH_COUNT];
+    it2n_errinfo err;
+    int persisted;
+    (void)st;
+    memset(&q, 0, sizeof q);
+    memset(&fresh, 0, sizeof fresh);
+    uint32_t gen = md->gen;
+    assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_U16, 2, uw, &persisted), MBX_OK);
+    assert_int_equal(mbmap_write(md, &fresh, &opts, IT2N_REG_Q_U16, 2, uw, &persisted), MBX_OK);
+    it2n_dataset_get(&md->ds, 1, 1, IT2N_FP_D, orig);
+    memcpy(v, orig, sizeof v);
+    v[IT2N_CH_T] += IT2N_VAL_ONE / 10;
+    assert_int_equal(models_put(md, 1, 1, IT2N_FP_D, v, true, &err), IT2N_OK);
+    assert_int_equal(md->gen, gen + 1);
+    assert_int_equal(mbmap_read(md, &q, &opts, res_t, 2, a), MBX_OK); /* cached at gen + 1 */
+    models_pass_end(0, NULL, NULL);                                    /* the batch failed */
+    assert_int_equal(md->gen, gen);
+    v[IT2N_CH_T] = orig[IT2N_CH_T] - IT2N_VAL_ONE / 10;
+    assert_int_equal(models_put(md, 1, 1, IT2N_FP_D, v, true, &err), IT2N_OK);
+    assert_int_equal(md->gen, gen + 1);                                /* same number, other data */
+    assert_int_equal(mbmap_read(md, &q, &opts, res_t, 2, b), MBX_OK);
+    assert_int_equal(mbmap_read(md, &fresh, &opts, res_t, 2, c), MBX_OK);
+    assert_memory_equal(b, c, sizeof b);
+    assert_memory_not_equal(a, b, sizeof a);
+    /* Back to the paper data for the tests after this one. */
+    assert_int_equal(models_put(md, 1, 1, IT2N_FP_D, orig, true, &err), IT2N_OK);
+    models_pass_end(1, NULL, NULL);
+    memset(&md->last_err, 0, sizeof md->last_err);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -305,6 +344,7 @@ int main(void)
         cmocka_unit_test(test_incomplete_is_busy),
         cmocka_unit_test(test_grid_saturation_flag),
         cmocka_unit_test(test_refused_writes_set_last_error),
+        cmocka_unit_test(test_query_cache_after_rollback),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

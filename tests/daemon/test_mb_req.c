@@ -159,10 +159,88 @@ static void test_fc23_all_or_nothing(void **st)
     assert_int_equal(md->state, IT2N_RS_EMPTY);
 }
 
+/* Readers see the last durable state (docs/daemon.md, "The writer
+ * thread"): while an upload's reply is held for its commit, FC 04 on
+ * another connection and an FC 23 query (write q_u, q_w; read the query
+ * status) still see the old generation; once the batch is durable and the
+ * reply released, both see the new one. */
+static int ask(struct mb_session *s, int fd, const uint8_t *pdu, int plen, uint8_t *rep)
+{
+    uint8_t req[300];
+    int len = adu(req, pdu, plen);
+    assert_int_equal(mb_req_handle(s, req, len, &opts), 0); /* answered at once */
+    ssize_t n = read(fd, rep, 300);
+    assert_true(n >= 9);
+    assert_int_equal(rep[7] & 0x80, 0);
+    return (int)n;
+}
+
+static uint32_t gen_fc04(struct mb_session *s, int fd)
+{
+    static const uint8_t pdu[] = { 4, 0, 7, 0, 2 };
+    uint8_t rep[300];
+    ask(s, fd, pdu, sizeof pdu, rep);
+    return (uint32_t)rep[9] << 24 | (uint32_t)rep[10] << 16 | (uint32_t)rep[11] << 8 | rep[12];
+}
+
+static uint32_t gen_fc23(struct mb_session *s, int fd)
+{
+    /* read 80..82 (kind, generation), write q_u = q_w = 0.5 */
+    static const uint8_t pdu[] = { 23, 0, 80, 0, 3, 0, 64, 0, 2, 4, 0x13, 0x88, 0x13, 0x88 };
+    uint8_t rep[300];
+    ask(s, fd, pdu, sizeof pdu, rep);
+    assert_int_equal(rep[10], 1); /* kind (u, w) */
+    return (uint32_t)rep[11] << 24 | (uint32_t)rep[12] << 16 | (uint32_t)rep[13] << 8 | rep[14];
+}
+
+static void test_readers_see_durable(void **st)
+{
+    uint8_t req[300], rep[300];
+    struct mb_session rd;
+    int rsp[2];
+    (void)st;
+    struct model *md = models_by_id(1);
+    uint32_t gen = md->gen;
+    assert_int_equal(socketpair(AF_UNIX, SOCK_STREAM, 0, rsp), 0);
+    modbus_t *ctx = modbus_new_tcp_pi(NULL, "502");
+    assert_non_null(ctx);
+    assert_int_equal(mb_session_init(&rd, ctx, 1), 0);
+    modbus_set_socket(ctx, rsp[0]);
+
+    /* FC 16: upload D(0,0) with T = 0.41 (paper: 0.40). */
+    static const uint8_t up[] = { 16, 0, 40, 0, 12, 24, 0, 0, 0, 0, 0, 3, 0xFF, 0xFF, 0xF9, 0x5C,
+                                  0, 0, 0x06, 0xA4, 0, 0, 0, 0, 0x10, 0x04, 0x1B, 0x58, 0x07, 0xD0 };
+    int len = adu(req, up, sizeof up);
+    assert_int_equal(mb_req_handle(&sess, req, len, &opts), 1); /* held */
+    assert_int_equal(md->gen, gen + 1);                          /* applied ... */
+    assert_int_equal(gen_fc04(&rd, rsp[1]), gen);               /* ... not shown */
+    assert_int_equal(gen_fc23(&rd, rsp[1]), gen);
+
+    /* The batch is made durable, the reply released: now shown. */
+    models_batch_submit();
+    uint64_t b = 0;
+    assert_int_equal(store_submit(&b), 1);
+    struct store_done d;
+    assert_int_equal(store_reap(&d), 1);
+    assert_true(d.ok);
+    models_batch_done(1, NULL, NULL);
+    assert_int_equal(mb_req_release(&sess, 1), 0);
+    assert_true(read(sp[1], rep, 300) >= 12);
+    assert_int_equal(rep[7], 16);
+    assert_int_equal(gen_fc04(&rd, rsp[1]), gen + 1);
+    assert_int_equal(gen_fc23(&rd, rsp[1]), gen + 1);
+
+    mb_session_free(&rd);
+    modbus_free(ctx);
+    close(rsp[0]);
+    close(rsp[1]);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_fc23_all_or_nothing, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_readers_see_durable, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
