@@ -1,0 +1,60 @@
+/*
+ * Start-up of the emulated instrument firmware (qemu mps2-an385): vector
+ * table with SysTick and the UART0 receive interrupt, reset handler (copy
+ * .data, zero .bss, run main, exit through semihosting with its status).
+ * Memory layout: tests/qemu/mps2_an385.ld.
+ */
+#include <stdint.h>
+#include <string.h>
+
+#include "semihost.h"
+
+extern uint32_t __data_load[], __data_start[], __data_end[];
+extern uint32_t __bss_start[], __bss_end[];
+extern uint32_t __stack_top[];
+
+int main(void);
+void fw_reset_handler(void);
+void fw_fault_handler(void);
+void fw_uart0_rx_isr(void);
+void fw_systick_isr(void);
+
+void fw_reset_handler(void)
+{
+    size_t data_len = (size_t)((uintptr_t)__data_end - (uintptr_t)__data_start);
+    size_t bss_len = (size_t)((uintptr_t)__bss_end - (uintptr_t)__bss_start);
+    memcpy(__data_start, __data_load, data_len);
+    memset(__bss_start, 0, bss_len);
+    it2n_sh_exit(main());
+}
+
+void fw_fault_handler(void)
+{
+    it2n_sh_write0("FAIL: firmware fault or unexpected exception\n");
+    it2n_sh_exit(3);
+}
+
+typedef void (*fw_vector)(void);
+
+/* Exceptions 0..15, then external IRQ 0 (UART0 RX) .. 15. */
+__attribute__((section(".vectors"), used))
+const fw_vector fw_vector_table[32] = {
+    (fw_vector)(uintptr_t)__stack_top,
+    fw_reset_handler,
+    fw_fault_handler, /* NMI        */
+    fw_fault_handler, /* HardFault  */
+    fw_fault_handler, /* MemManage  */
+    fw_fault_handler, /* BusFault   */
+    fw_fault_handler, /* UsageFault */
+    0, 0, 0, 0,
+    fw_fault_handler, /* SVCall     */
+    fw_fault_handler, /* DebugMon   */
+    0,
+    fw_fault_handler, /* PendSV     */
+    fw_systick_isr,   /* SysTick    */
+    fw_uart0_rx_isr,  /* IRQ 0: UART0 receive */
+    fw_fault_handler, fw_fault_handler, fw_fault_handler, fw_fault_handler,
+    fw_fault_handler, fw_fault_handler, fw_fault_handler, fw_fault_handler,
+    fw_fault_handler, fw_fault_handler, fw_fault_handler, fw_fault_handler,
+    fw_fault_handler, fw_fault_handler, fw_fault_handler,
+};
