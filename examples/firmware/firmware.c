@@ -223,6 +223,59 @@ static int query(uint32_t wu, uint32_t ww)
     return q_have ? 0 : IT2N_PROTO_ERR_TIMEOUT;
 }
 
+/* Start a new sequence (SYN) on the link and say HELLO again: what a peer
+ * does when the other end lost its state (a reopened port NACKs with
+ * NOSYNC, or answers never come). */
+static unsigned resyncs;
+
+static int resync(void)
+{
+    it2n_link_cfg cfg = sess.link.cfg;
+    it2n_msg m;
+    uint32_t t0 = board_now_ms();
+    resyncs++;
+    cfg.first_seq = (uint16_t)(sess.link.tx_next + 1000u);
+    if (it2n_link_init(&sess.link, &cfg) != IT2N_OK)
+        return -1;
+    sess.state = SESSION_RUNNING;
+    sess.fail_code = 0;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_HELLO;
+    m.u.hello.version_min = IT2N_PROTO_VERSION;
+    m.u.hello.version_max = IT2N_PROTO_VERSION;
+    m.u.hello.max_degree = IT2N_MAX_DEGREE;
+    m.u.hello.window = IT2N_PROTO_WINDOW;
+    m.u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z;
+    m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
+    m.u.hello.max_models = 1;
+    memcpy(m.u.hello.node, "it2n-firmware", 13);
+    if (it2n_link_send(&sess.link, &m, t0) < 0)
+        return -1;
+    while (it2n_link_pending(&sess.link) != 0u && sess.state == SESSION_RUNNING &&
+           board_now_ms() - t0 < FW_QUERY_WAIT_MS) {
+        (void)it2n_link_pump(&sess.link, board_now_ms());
+        (void)it2n_link_poll(&sess.link, board_now_ms());
+        board_idle();
+    }
+    return it2n_link_pending(&sess.link) == 0u && sess.state == SESSION_RUNNING ? 0 : -1;
+}
+
+/* QUERY, resynchronising the link and asking again when it fails. */
+static int query_retry(uint32_t wu, uint32_t ww)
+{
+    unsigned attempt;
+    int r = query(wu, ww);
+    for (attempt = 0; r != 0 && attempt < 3u; attempt++) {
+        put_str("QUERY failed (");
+        put_i64(r);
+        put_str("): resynchronising the link");
+        flush_line();
+        if (resync() == 0)
+            r = query(wu, ww);
+    }
+    return r;
+}
+
 int main(void)
 {
     it2n_errinfo err;
@@ -282,7 +335,7 @@ int main(void)
             fail("local eval (wire)", r);
             return 1;
         }
-        r = query(wu, ww);
+        r = query_retry(wu, ww);
         if (r != 0) {
             fail("QUERY", r);
             return 1;
@@ -306,6 +359,8 @@ int main(void)
     put_u64(FW_NPOINTS);
     put_str(" retx ");
     put_u64(sess.link.stats.tx_retx);
+    put_str(" resyncs ");
+    put_u64(resyncs);
     flush_line();
     if (mismatches != 0u)
         return 1;

@@ -30,7 +30,7 @@ fail() { echo "fw-e2e: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
 ok() { echo "fw-e2e: ok: $*"; }
 free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 
-# run NAME DROP_PERMILLE: one firmware run against a fresh daemon.
+# run NAME DROP_PPM (bytes dropped per million, each direction): one firmware run against a fresh daemon.
 run() {
     local name=$1 drop=$2 d=$T/$1 port pty dev
     mkdir -p "$d/state"
@@ -69,8 +69,8 @@ run() {
     done
     kill -0 "$DPID" 2>/dev/null || { fail "$name: it2nd did not start"; cat "$d/daemon.log" >&2; stop_pids; return; }
     sleep 0.2
-    python3 -c 'import socket,sys; s=socket.socket(socket.AF_UNIX); s.connect(sys.argv[1]); s.sendall(b"cont\n")' \
-        "$d/mon.sock" || { fail "$name: qemu monitor"; stop_pids; return; }
+    python3 "$ROOT/tests/firmware/qemu_cont.py" "$d/mon.sock" \
+        || { fail "$name: qemu monitor: cont not confirmed"; stop_pids; return; }
     local t=0 rc
     while kill -0 "$QPID" 2>/dev/null && [ $t -lt $((LIMIT * 10)) ]; do sleep 0.1; t=$((t + 1)); done
     if kill -0 "$QPID" 2>/dev/null; then
@@ -91,7 +91,7 @@ run() {
 }
 
 run direct 0
-[ "${FW_LOSSY:-1}" != 0 ] && run lossy 20
+[ "${FW_LOSSY:-1}" != 0 ] && run lossy 500
 
 if [ "$FAILS" = 0 ]; then
     mkdir -p "$ROOT/bench"
@@ -103,13 +103,13 @@ sizes = json.loads(subprocess.run([sys.executable, os.path.join(os.path.dirname(
 bsd = subprocess.run(["arm-none-eabi-size", "-A", elf], check=True, capture_output=True, text=True).stdout
 sec = {l.split()[0]: int(l.split()[1]) for l in bsd.splitlines() if l.startswith(".")}
 runs = {}
-for name, drop in (("direct", 0), ("lossy", 20)):
+for name, drop in (("direct", 0), ("lossy", 500)):
     log = os.path.join(t, name, "qemu.log")
     if not os.path.exists(log):
         continue
     m = re.search(r"^UPLOAD committed ms (\d+) puts (\d+) entries (\d+) retx (\d+)", open(log).read(), re.M)
     if m:
-        runs[name] = {"byte_drop_permille": drop, "upload_ms": int(m.group(1)), "put_frames": int(m.group(2)),
+        runs[name] = {"byte_drop_ppm": drop, "upload_ms": int(m.group(1)), "put_frames": int(m.group(2)),
                       "entries": int(m.group(3)), "retransmissions": int(m.group(4))}
 res = {"target": "qemu mps2-an385, Cortex-M3, arm-none-eabi-gcc -Os",
        "image": {"flash_bytes": sec.get(".text", 0) + sec.get(".ARM.exidx", 0) + sec.get(".data", 0),

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """Byte-dropping relay between qemu's UART pty and a new pty for it2nd.
-Each byte, in either direction, is dropped with probability DROP/1000
+Each byte, in either direction, is dropped with probability DROP/1000000
 (seeded, reproducible). Writes the new pty's path to OUTFILE.
-usage: lossy_relay.py QEMU_PTY OUTFILE DROP_PERMILLE SEED"""
+usage: lossy_relay.py QEMU_PTY OUTFILE DROP_PPM SEED"""
 import os
 import random
 import select
@@ -30,7 +30,7 @@ while True:
             continue
         if not data:
             continue
-        keep = bytes(b for b in data if rng.randrange(1000) >= drop)
+        keep = bytes(b for b in data if rng.randrange(1000000) >= drop)
         dropped[fd] += len(data) - len(keep)
         passed[fd] += len(keep)
         if keep:
