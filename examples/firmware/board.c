@@ -37,8 +37,12 @@ void fw_systick_isr(void)
     ticks = ticks + 1u;
 }
 
-void fw_uart0_rx_isr(void)
+static void rx_drain(void)
 {
+    /* Clear the interrupt first: a byte that lands while the data register
+     * is being drained raises it again instead of being stranded with
+     * RXFULL set and no interrupt pending (the UART holds one byte). */
+    UART_INTCLR = UART_INT_RX;
     while (UART_STATE & UART_STATE_RXFULL) {
         uint8_t b = (uint8_t)UART_DATA;
         uint32_t h = rx_head;
@@ -49,7 +53,11 @@ void fw_uart0_rx_isr(void)
             rx_overruns = rx_overruns + 1u;
         }
     }
-    UART_INTCLR = UART_INT_RX;
+}
+
+void fw_uart0_rx_isr(void)
+{
+    rx_drain();
 }
 
 void board_init(void)
@@ -77,6 +85,12 @@ size_t uart_read(uint8_t *buf, size_t len)
 {
     size_t n = 0;
     uint32_t t = rx_tail;
+    if (t == rx_head && (UART_STATE & UART_STATE_RXFULL)) {
+        /* Belt and braces: a byte waiting without its interrupt. */
+        __asm__ volatile("cpsid i" ::: "memory");
+        rx_drain();
+        __asm__ volatile("cpsie i" ::: "memory");
+    }
     while (n < len && t != rx_head) {
         buf[n++] = rx_ring[t & (FW_RX_RING - 1u)];
         t++;
