@@ -11,7 +11,7 @@
 
 extern uint32_t __data_load[], __data_start[], __data_end[];
 extern uint32_t __bss_start[], __bss_end[];
-extern uint32_t __stack_top[];
+extern uint32_t __stack_bottom[], __stack_top[];
 
 int main(void);
 void fw_reset_handler(void);
@@ -19,13 +19,50 @@ void fw_fault_handler(void);
 void fw_uart0_rx_isr(void);
 void fw_systick_isr(void);
 
+#define STACK_PAINT 0x57acc0deu
+
+/* Paint the stack below the current frame, read the high-water mark back
+ * after main (worst case of this run, interrupts included). */
+static void paint_stack(void)
+{
+    volatile uint32_t here = 0;
+    uint32_t *p = __stack_bottom;
+    uint32_t *end = (uint32_t *)(uintptr_t)(((uintptr_t)&here - 64u) & ~(uintptr_t)3u);
+    while (p < end)
+        *p++ = STACK_PAINT;
+    (void)here;
+}
+
+static void print_stack_used(void)
+{
+    const uint32_t *p = __stack_bottom;
+    char buf[12];
+    unsigned n = sizeof buf - 1u;
+    uint32_t v;
+    while (p < __stack_top && *p == STACK_PAINT)
+        p++;
+    v = (uint32_t)((uintptr_t)__stack_top - (uintptr_t)p);
+    buf[n] = '\0';
+    do {
+        buf[--n] = (char)('0' + (char)(v % 10u));
+        v /= 10u;
+    } while (v != 0u && n > 0u);
+    it2n_sh_write0("STACK high-water bytes ");
+    it2n_sh_write0(&buf[n]);
+    it2n_sh_write0("\n");
+}
+
 void fw_reset_handler(void)
 {
+    int rc;
     size_t data_len = (size_t)((uintptr_t)__data_end - (uintptr_t)__data_start);
     size_t bss_len = (size_t)((uintptr_t)__bss_end - (uintptr_t)__bss_start);
     memcpy(__data_start, __data_load, data_len);
     memset(__bss_start, 0, bss_len);
-    it2n_sh_exit(main());
+    paint_stack();
+    rc = main();
+    print_stack_used();
+    it2n_sh_exit(rc);
 }
 
 void fw_fault_handler(void)

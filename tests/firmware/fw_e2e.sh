@@ -80,7 +80,7 @@ run() {
     if [ $rc -ne 0 ] || ! grep -q '^PASS firmware' "$d/qemu.log" || grep -q '^FAIL' "$d/qemu.log"; then
         fail "$name: firmware exit status $rc"; cat "$d/qemu.log" >&2; stop_pids; return
     fi
-    grep -E '^(UPLOAD|QUERY)' "$d/qemu.log"
+    grep -E '^(UPLOAD|QUERY|STACK)' "$d/qemu.log"
     ok "$name: upload committed, every QUERY_RESULT bit-identical to the firmware's evaluation"
     if /usr/bin/python3 "$ROOT/tests/firmware/fw_check.py" "$port" "$d/qemu.log" 1; then
         ok "$name: Modbus float32 results bit-identical to the firmware's own evaluations"
@@ -108,8 +108,9 @@ for name, drop in (("direct", 0), ("lossy", 500)):
     if not os.path.exists(log):
         continue
     m = re.search(r"^UPLOAD committed ms (\d+) puts (\d+) entries (\d+) retx (\d+)", open(log).read(), re.M)
+    st = re.search(r"^STACK high-water bytes (\d+)", open(log).read(), re.M)
     if m:
-        runs[name] = {"byte_drop_ppm": drop, "upload_ms": int(m.group(1)), "put_frames": int(m.group(2)),
+        runs[name] = {"stack_high_water_bytes": int(st.group(1)) if st else None, "byte_drop_ppm": drop, "upload_ms": int(m.group(1)), "put_frames": int(m.group(2)),
                       "entries": int(m.group(3)), "retransmissions": int(m.group(4))}
 res = {"target": "qemu mps2-an385, Cortex-M3, arm-none-eabi-gcc -Os",
        "image": {"flash_bytes": sec.get(".text", 0) + sec.get(".ARM.exidx", 0) + sec.get(".data", 0),
