@@ -26,22 +26,24 @@ void fw_systick_isr(void);
 static void paint_stack(void)
 {
     volatile uint32_t here = 0;
-    uint32_t *p = __stack_bottom;
-    uint32_t *end = (uint32_t *)(uintptr_t)(((uintptr_t)&here - 64u) & ~(uintptr_t)3u);
-    while (p < end)
-        *p++ = STACK_PAINT;
+    uintptr_t lo = (uintptr_t)__stack_bottom;
+    uintptr_t hi = ((uintptr_t)&here - 64u) & ~(uintptr_t)3u;
+    size_t k, words = hi > lo ? (size_t)((hi - lo) / 4u) : 0u;
+    for (k = 0; k < words; k++)
+        __stack_bottom[k] = STACK_PAINT;
     (void)here;
 }
 
 static void print_stack_used(void)
 {
-    const uint32_t *p = __stack_bottom;
+    size_t size = (size_t)((uintptr_t)__stack_top - (uintptr_t)__stack_bottom);
+    size_t k = 0, words = size / 4u;
     char buf[12];
     unsigned n = sizeof buf - 1u;
     uint32_t v;
-    while (p < __stack_top && *p == STACK_PAINT)
-        p++;
-    v = (uint32_t)((uintptr_t)__stack_top - (uintptr_t)p);
+    while (k < words && __stack_bottom[k] == STACK_PAINT)
+        k++;
+    v = (uint32_t)(size - k * 4u);
     buf[n] = '\0';
     do {
         buf[--n] = (char)('0' + (char)(v % 10u));

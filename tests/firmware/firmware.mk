@@ -2,7 +2,7 @@
 # mps2-an385 (Cortex-M3), its UART0 on a pty that a real it2nd serves as a
 # [link:]; Modbus results must equal the firmware's own evaluations.
 #   make fw-image   build the firmware image (ELF + map)
-#   make fw-e2e     the end-to-end test (writes bench/firmware.json)
+#   make fw-e2e     the end-to-end test, in make test (writes bench/firmware.json)
 FW_B := $(BUILD)/fw-m3
 FW_CPU := -mcpu=cortex-m3 -mthumb
 FW_SRC := $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) \
@@ -23,7 +23,12 @@ $(FW_ELF): $(FW_OBJ) tests/qemu/mps2_an385.ld
 	arm-none-eabi-gcc $(FW_CPU) -nostdlib -T tests/qemu/mps2_an385.ld -Wl,--gc-sections \
 	  -Wl,-e,fw_reset_handler -Wl,-Map=$(FW_B)/it2n-firmware.map -o $@ $(FW_OBJ) -lc -lgcc
 
-.PHONY: fw-image fw-e2e
+.PHONY: fw-image fw-e2e fw-cppcheck
+TEST_TARGETS += fw-e2e fw-cppcheck
+
+fw-cppcheck:
+	cppcheck --std=c99 $(CPPCHECK_FLAGS) -Iexamples/instrument -Iexamples/firmware -Itests/qemu examples/firmware
+	shellcheck tests/firmware/fw_e2e.sh
 fw-image: $(FW_ELF)
 
 fw-e2e: $(FW_ELF) $(IT2ND)

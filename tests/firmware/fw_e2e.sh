@@ -10,7 +10,7 @@
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 T=$(mktemp -d /tmp/it2n-fw.XXXXXX)
-QPID= DPID= RPID=
+QPID='' DPID='' RPID=''
 FAILS=0
 LIMIT=${FW_TIMEOUT:-120}
 trap cleanup EXIT
@@ -20,7 +20,7 @@ stop_pids() {
     for p in $QPID $DPID $RPID; do
         kill "$p" 2>/dev/null && wait "$p" 2>/dev/null
     done
-    QPID= DPID= RPID=
+    QPID='' DPID='' RPID=''
 }
 cleanup() {
     stop_pids
@@ -124,4 +124,5 @@ open(out, "a").write("\n")
 PY
     echo "fw-e2e: figures in bench/firmware.json"
 fi
-[ "$FAILS" = 0 ] && echo "fw-e2e: passed" || { echo "fw-e2e: $FAILS failure(s)" >&2; exit 1; }
+if [ "$FAILS" != 0 ]; then echo "fw-e2e: $FAILS failure(s)" >&2; exit 1; fi
+echo "fw-e2e: passed"
