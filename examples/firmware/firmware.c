@@ -268,7 +268,22 @@ static int query_retry(uint32_t wu, uint32_t ww)
     for (attempt = 0; r != 0 && attempt < 3u; attempt++) {
         put_str("QUERY failed (");
         put_i64(r);
-        put_str("): resynchronising the link");
+        put_str("): resynchronising the link; stats rx_delivered ");
+        put_u64(sess.link.stats.rx_delivered);
+        put_str(" rx_dup ");
+        put_u64(sess.link.stats.rx_dup);
+        put_str(" rx_ahead ");
+        put_u64(sess.link.stats.rx_ahead);
+        put_str(" rx_nosync ");
+        put_u64(sess.link.stats.rx_nosync);
+        put_str(" rx_bad_msg ");
+        put_u64(sess.link.stats.rx_bad_msg);
+        put_str(" tx_timeouts ");
+        put_u64(sess.link.stats.tx_timeouts);
+        put_str(" tx_nacked ");
+        put_u64(sess.link.stats.tx_nacked);
+        put_str(" q_acked ");
+        put_u64(it2n_link_pending(&sess.link) == 0u);
         flush_line();
         if (resync() == 0)
             r = query(wu, ww);

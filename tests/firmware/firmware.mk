@@ -28,7 +28,6 @@ TEST_TARGETS += fw-e2e fw-cppcheck
 
 fw-cppcheck:
 	cppcheck --std=c99 $(CPPCHECK_FLAGS) -Iexamples/instrument -Iexamples/firmware -Itests/qemu examples/firmware
-	shellcheck tests/firmware/fw_e2e.sh
 fw-image: $(FW_ELF)
 
 fw-e2e: $(FW_ELF) $(IT2ND)

@@ -24,7 +24,7 @@ stop_pids() {
 }
 cleanup() {
     stop_pids
-    if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "fw-e2e: logs kept in $T" >&2; fi
+    if [ "$FAILS" = 0 ] && [ -z "${FW_KEEP:-}" ]; then rm -rf "$T"; else echo "fw-e2e: logs kept in $T" >&2; fi
 }
 fail() { echo "fw-e2e: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
 ok() { echo "fw-e2e: ok: $*"; }
