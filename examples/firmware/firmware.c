@@ -282,6 +282,17 @@ static int query_retry(uint32_t wu, uint32_t ww)
         put_u64(sess.link.stats.tx_timeouts);
         put_str(" tx_nacked ");
         put_u64(sess.link.stats.tx_nacked);
+        put_str(" frames ok ");
+        put_u64(sess.link.dec.stats.ok);
+        put_str(" crc ");
+        put_u64(sess.link.dec.stats.crc);
+        put_str(" cobs ");
+        put_u64(sess.link.dec.stats.cobs);
+        put_str(" other ");
+        put_u64((uint64_t)sess.link.dec.stats.shortf + sess.link.dec.stats.oversize +
+                sess.link.dec.stats.length + sess.link.dec.stats.version);
+        put_str(" rx_acks ");
+        put_u64(sess.link.stats.rx_acks);
         put_str(" q_acked ");
         put_u64(it2n_link_pending(&sess.link) == 0u);
         flush_line();
