@@ -2,7 +2,8 @@
 # mps2-an385 (Cortex-M3), its UART0 on a pty that a real it2nd serves as a
 # [link:]; Modbus results must equal the firmware's own evaluations.
 #   make fw-image   build the firmware image (ELF + map)
-#   make fw-e2e     the end-to-end test, in make test (writes bench/firmware.json)
+#   make fw-e2e     the end-to-end test, in make test (figures under build/)
+#   make bench-firmware  the same, writing the committed bench/firmware.json
 FW_B := $(BUILD)/fw-m3
 FW_CPU := -mcpu=cortex-m3 -mthumb
 FW_SRC := $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) \
@@ -31,5 +32,11 @@ fw-cppcheck:
 fw-image: $(FW_ELF)
 
 fw-e2e: $(FW_ELF) $(IT2ND)
-	IT2ND=$(IT2ND) FW_ELF=$(FW_ELF) FW_MAP=$(FW_B)/it2n-firmware.map \
+	IT2ND=$(IT2ND) FW_ELF=$(FW_ELF) FW_MAP=$(FW_B)/it2n-firmware.map FW_OUT=$(abspath $(BUILD))/firmware.json \
 	  tests/firmware/fw_e2e.sh
+
+.PHONY: bench-firmware
+bench-firmware: $(FW_ELF) $(IT2ND)
+	IT2ND=$(IT2ND) FW_ELF=$(FW_ELF) FW_MAP=$(FW_B)/it2n-firmware.map FW_OUT=$(CURDIR)/bench/firmware.json \
+	  tests/firmware/fw_e2e.sh
+BENCH_TARGETS += bench-firmware

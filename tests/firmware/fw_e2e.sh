@@ -94,8 +94,9 @@ run direct 0
 [ "${FW_LOSSY:-1}" != 0 ] && run lossy 500
 
 if [ "$FAILS" = 0 ]; then
-    mkdir -p "$ROOT/bench"
-    python3 - "$FW_MAP" "$FW_ELF" "$T" "$ROOT/bench/firmware.json" <<'PY'
+    FW_OUT=${FW_OUT:-$ROOT/build/firmware.json}
+    mkdir -p "$(dirname "$FW_OUT")"
+    python3 - "$FW_MAP" "$FW_ELF" "$T" "$FW_OUT" <<'PY'
 import json, re, subprocess, sys, os
 mp, elf, t, out = sys.argv[1:5]
 sizes = json.loads(subprocess.run([sys.executable, os.path.join(os.path.dirname(out), "..",
@@ -122,7 +123,7 @@ res = {"target": "qemu mps2-an385, Cortex-M3, arm-none-eabi-gcc -Os",
 json.dump(res, open(out, "w"), indent=2, sort_keys=True)
 open(out, "a").write("\n")
 PY
-    echo "fw-e2e: figures in bench/firmware.json"
+    echo "fw-e2e: figures in $FW_OUT"
 fi
 if [ "$FAILS" != 0 ]; then echo "fw-e2e: $FAILS failure(s)" >&2; exit 1; fi
 echo "fw-e2e: passed"
