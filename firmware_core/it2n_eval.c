@@ -17,6 +17,16 @@
 #define Q30_ONE ((int32_t)1 << 30)
 #define Q30_HALF ((int64_t)1 << 29)
 
+/* The basis recurrence's product: one copy of the multiply on ARMv6-M (a
+ * handful of calls per evaluation, flash matters more there). */
+#if IT2N_MUL_HALVES
+__attribute__((noinline))
+#endif
+static uint64_t q30mul(uint32_t a, uint32_t b)
+{
+    return it2n_umul32(a, b);
+}
+
 void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
 {
     /* every value is in [0, 2^30]: unsigned products, no sign handling */
@@ -27,12 +37,12 @@ void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
     v[0] = (uint32_t)Q30_ONE;
     for (k = 1; k <= deg; k++) {
         /* b_k^k = t b_{k-1}^{k-1}; b_i^k = s b_i^{k-1} + t b_{i-1}^{k-1} */
-        v[k] = (uint32_t)((it2n_umul32(t30, v[k - 1u]) + (1u << 29)) >> 30);
+        v[k] = (uint32_t)((q30mul(t30, v[k - 1u]) + (1u << 29)) >> 30);
         for (i = k - 1u; i >= 1u; i--) {
-            uint64_t acc = it2n_umul32(s30, v[i]) + it2n_umul32(t30, v[i - 1u]);
+            uint64_t acc = q30mul(s30, v[i]) + q30mul(t30, v[i - 1u]);
             v[i] = (uint32_t)((acc + (1u << 29)) >> 30);
         }
-        v[0] = (uint32_t)((it2n_umul32(s30, v[0]) + (1u << 29)) >> 30);
+        v[0] = (uint32_t)((q30mul(s30, v[0]) + (1u << 29)) >> 30);
     }
     /* Exact partition of unity: the largest value takes the rounding
      * residue (a few LSB), so sum_i b[i] = 2^30 exactly. Constant data give
@@ -91,14 +101,40 @@ IT2N_INLINE int64_t two_stages(const int32_t *net, unsigned n1, unsigned m1,
     return acc;
 }
 
+#if IT2N_MUL_HALVES
+/* ARMv6-M: one copy for both shifts (flash); the shift by a run-time count
+ * costs a few instructions per column. Same sums, same results. */
+__attribute__((noinline)) static int64_t two_stages_any(const int32_t *net, unsigned n1,
+                                                        unsigned m1, const int32_t *cu,
+                                                        const int32_t *cw, int s1)
+{
+    int64_t acc = 0;
+    unsigned i, j;
+    for (j = 0; j < m1; j++) {
+        const int32_t *p = net + j;
+        int64_t q = 0;
+        for (i = 0; i < n1; i++, p += m1) {
+            q += it2n_smul32(cu[i], *p);
+        }
+        q = (q + ((int64_t)1 << (s1 - 1))) >> s1;
+        acc += it2n_smul32(cw[j], (int32_t)q);
+    }
+    return acc;
+}
+#endif
+
 static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
                     const int32_t *cu, int ufrac, const int32_t *cw, int wfrac,
                     it2n_val *out)
 {
     int64_t acc;
     int s, s1 = ufrac < 30 ? 31 : 30;
+#if IT2N_MUL_HALVES
+    acc = two_stages_any(net, n1, m1, cu, cw, s1);
+#else
     acc = s1 == 30 ? two_stages(net, n1, m1, cu, cw, 30)
                    : two_stages(net, n1, m1, cu, cw, 31);
+#endif
     s = ufrac - s1 + wfrac + frac - IT2N_VAL_FRAC;
     if (s < 0) {
         /* Only nets near 2^39 get here: check the left shift. */

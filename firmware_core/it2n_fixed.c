@@ -45,6 +45,25 @@ uint64_t it2n__udiv64_32(uint64_t n, uint32_t d)
     return q;
 }
 
+uint64_t it2n__div_round(uint64_t num, uint64_t den, unsigned bits)
+{
+    uint64_t q = 0u, r = num;
+    unsigned k;
+    if (r >= den) { /* num < 2 den: one integer bit */
+        r -= den;
+        q = 1u;
+    }
+    for (k = 0; k < bits; k++) { /* r < den < 2^62: 2r fits */
+        r <<= 1;
+        q <<= 1;
+        if (r >= den) {
+            r -= den;
+            q |= 1u;
+        }
+    }
+    return q + (r << 1 >= den ? 1u : 0u); /* half away from zero */
+}
+
 unsigned it2n_bitlen64(uint64_t v)
 {
     unsigned k = 0;

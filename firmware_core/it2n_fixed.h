@@ -166,6 +166,11 @@ IT2N_INLINE void it2n_mac128(it2n_i128 *acc, int64_t a, int64_t b)
  * helper from libgcc on parts without a divider (used outside hot loops). */
 uint64_t it2n__udiv64_32(uint64_t n, uint32_t d);
 
+/* round(num 2^bits / den) for den < 2^62 and num < 2 den: bits + 1
+ * shift-subtract steps in 64-bit words (the soft float's division and the
+ * chord parameters; no 128-bit division). */
+uint64_t it2n__div_round(uint64_t num, uint64_t den, unsigned bits);
+
 /* round(k 2^32 / d), k <= d (uniform parameters). */
 static inline uint64_t it2n__udiv_round(unsigned k, unsigned d)
 {

@@ -113,14 +113,22 @@ static bool on_boundary(const loc_state *st)
 static int64_t tolerance(const it2n_model *mdl, unsigned fp)
 {
     int64_t big = 0;
-    unsigned a, b, ch;
-    for (a = 0; a <= mdl->n; a++) {
-        for (b = 0; b <= mdl->m; b++) {
-            for (ch = IT2N_CH_X; ch <= IT2N_CH_Y; ch++) {
-                int64_t v = abs64(it2n_model_ctrl(mdl, a, b, fp, ch));
-                big = v > big ? v : big;
-            }
+    unsigned k, ch, count = (mdl->n + 1u) * (mdl->m + 1u);
+    for (ch = IT2N_CH_X; ch <= IT2N_CH_Y; ch++) {
+        /* rounding is monotone: the largest |Q24 control point| comes from
+         * the largest and the smallest mantissa */
+        int32_t lo = 0, hi = 0;
+        int s = mdl->frac[fp][ch] - IT2N_VAL_FRAC;
+        int64_t a, b;
+        for (k = 0; k < count; k++) {
+            int32_t v = mdl->net[fp][ch][k];
+            lo = v < lo ? v : lo;
+            hi = v > hi ? v : hi;
         }
+        a = it2n__shift_round(hi, s);
+        b = -it2n__shift_round(lo, s);
+        big = a > big ? a : big;
+        big = b > big ? b : big;
     }
     return 16 + (big >> 20);
 }

@@ -91,12 +91,8 @@ static int params_chord(const it2n_dataset *ds, unsigned dir,
         used++;
         for (k = 1; k < deg; k++) {
             int64_t r;
-            cum += d[k];
-            if (!it2n_i128_div(it2n_i128_shl(cum, IT2N_PAR_FRAC),
-                               it2n_i128_from(total), &r)) {
-                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, IT2N_FP_D,
-                                  -1, 0, 0, 0);
-            }
+            cum += d[k]; /* cum <= total < 2^54 */
+            r = (int64_t)it2n__div_round((uint64_t)cum, (uint64_t)total, IT2N_PAR_FRAC);
             acc[k] += (uint64_t)r;
         }
     }

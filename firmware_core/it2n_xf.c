@@ -75,10 +75,12 @@ void xf_sub(xf *r, const xf *a, const xf *b)
 void xf_div(xf *r, const xf *a, const xf *b)
 {
     int64_t q = 0;
-    /* |a.m| 2^62 / |b.m| lies in (2^61, 2^63) */
-    if (a->m != 0 &&
-        !it2n_i128_div(it2n_i128_shl(a->m, 62u), it2n_i128_from(b->m), &q)) {
-        IT2N_ASSERT(false);
+    if (a->m != 0) {
+        /* |a.m|, |b.m| in [2^61, 2^62): |a.m| 2^62 / |b.m| in (2^61, 2^63) */
+        uint64_t am = (uint64_t)(a->m < 0 ? -a->m : a->m);
+        uint64_t bm = (uint64_t)(b->m < 0 ? -b->m : b->m);
+        q = (int64_t)it2n__div_round(am, bm, 62u);
+        q = (a->m < 0) != (b->m < 0) ? -q : q;
     }
     xf_set(r, q, a->e - b->e - 62);
 }
