@@ -80,33 +80,18 @@ static void dbasis26(unsigned deg, it2n_par t, int32_t db[IT2N_DIM])
  * to Q24. False if the result does not fit Q39.24 (derivatives of nets near
  * 2^39 only).
  */
-/* The two stages with a stage-1 shift s1 known at compile time (inlined
- * at each call with a constant: no run-time 64-bit shift on ARMv6-M). One
- * accumulator at a time: no spills on ARMv6-M's 8 low registers. */
-IT2N_INLINE int64_t two_stages(const int32_t *net, unsigned n1, unsigned m1,
-                               const int32_t *cu, const int32_t *cw,
-                               const int s1)
-{
-    int64_t acc = 0;
-    unsigned i, j;
-    for (j = 0; j < m1; j++) {
-        const int32_t *p = net + j;
-        int64_t q = 0;
-        for (i = 0; i < n1; i++, p += m1) {
-            q += it2n_smul32(cu[i], *p);
-        }
-        q = (q + ((int64_t)1 << (s1 - 1))) >> s1;
-        acc += it2n_smul32(cw[j], (int32_t)q);
-    }
-    return acc;
-}
-
+/* The two stages with stage-1 shift s1. Wide cores inline it at each call
+ * with a constant shift; ARMv6-M keeps one copy for both shifts (flash; a
+ * run-time shift costs a few instructions per column). One accumulator at
+ * a time: no spills on ARMv6-M's 8 low registers. */
 #if IT2N_MUL_HALVES
-/* ARMv6-M: one copy for both shifts (flash); the shift by a run-time count
- * costs a few instructions per column. Same sums, same results. */
-__attribute__((noinline)) static int64_t two_stages_any(const int32_t *net, unsigned n1,
-                                                        unsigned m1, const int32_t *cu,
-                                                        const int32_t *cw, int s1)
+#define TWO_STAGES_LINKAGE __attribute__((noinline)) static
+#else
+#define TWO_STAGES_LINKAGE IT2N_INLINE
+#endif
+TWO_STAGES_LINKAGE int64_t two_stages(const int32_t *net, unsigned n1, unsigned m1,
+                                      const int32_t *cu, const int32_t *cw,
+                                      const int s1)
 {
     int64_t acc = 0;
     unsigned i, j;
@@ -121,7 +106,6 @@ __attribute__((noinline)) static int64_t two_stages_any(const int32_t *net, unsi
     }
     return acc;
 }
-#endif
 
 static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
                     const int32_t *cu, int ufrac, const int32_t *cw, int wfrac,
@@ -129,12 +113,8 @@ static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
 {
     int64_t acc;
     int s, s1 = ufrac < 30 ? 31 : 30;
-#if IT2N_MUL_HALVES
-    acc = two_stages_any(net, n1, m1, cu, cw, s1);
-#else
     acc = s1 == 30 ? two_stages(net, n1, m1, cu, cw, 30)
                    : two_stages(net, n1, m1, cu, cw, 31);
-#endif
     s = ufrac - s1 + wfrac + frac - IT2N_VAL_FRAC;
     if (s < 0) {
         /* Only nets near 2^39 get here: check the left shift. */
