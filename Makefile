@@ -46,7 +46,8 @@ test: deps ## Build and run every test (unit, reference, sanitizers, emulated Co
 	@$(MAKE) --no-print-directory $(TEST_TARGETS)
 	@echo "== all tests passed =="
 
-bench: $(BENCH_TARGETS) ## Run benchmarks (prints ratios measured in one run)
+bench: $(BENCH_TARGETS) ## Run benchmarks (ratios from one run) into bench/*.json, bench/results.json, docs/performance.md
+	@$(MAKE) --no-print-directory bench-collect
 
 fuzz: $(FUZZ_TARGETS) ## Run fuzzers for FUZZ_SECONDS each (default 60)
 

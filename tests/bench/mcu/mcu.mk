@@ -7,7 +7,7 @@
 #   host (x86-64 -O2): time per query, callgrind instructions, accuracy
 #   against tests/core/ref.c, baselines checked against it2n;
 #   struct sizes (IT2N_MAX_DEGREE 3 and 7), core flash of solve+eval+locate.
-# bench-mcu writes bench/results.json and docs/performance.md
+# bench-mcu writes bench/mcu.json, then bench/results.json and docs/performance.md (bench-collect)
 # (BENCH_QUICK=1: fewer points and repetitions); bench-mcu-smoke (make test)
 # checks the harness works and docs/performance.md matches the JSON, and
 # asserts no timing.
@@ -143,8 +143,8 @@ bench-mcu: $(BMCU_ALL)
 	@mkdir -p bench
 	$(BMCU_PY) $(BMCU_DIR)/results.py --mode $(BMCU_MODE) --m0p $(BMCU_B)/m0p.log --m4f $(BMCU_B)/m4f.log \
 	  --host $(BMCU_B)/host.log $(BMCU_B)/x86.log $(BMCU_B)/cg.log $(BMCU_B)/sizes.txt \
-	  --flash-map $(BMCU_B)/m0p_d3/flash.map --flash-map-uniform $(BMCU_B)/m0p_d3u/flash.map --out bench/results.json
-	$(BMCU_PY) $(BMCU_DIR)/perfdoc.py bench/results.json docs/performance.md
+	  --flash-map $(BMCU_B)/m0p_d3/flash.map --flash-map-uniform $(BMCU_B)/m0p_d3u/flash.map --out bench/mcu.json
+	@$(MAKE) --no-print-directory bench-collect
 
 BENCH_TARGETS += bench-mcu
 # Under `make -j bench`, time x86-64 only after the other benchmarks finish.
@@ -155,8 +155,8 @@ endif
 # Smoke (make test): the images run a few points, the host checks the
 # baselines; results.py --smoke fails on a counter off by > 1 %, baselines
 # that disagree with it2n, results differing between targets, or malformed
-# JSON, never on a ratio or a time; perfdoc.py --check compares the committed
-# docs/performance.md with the committed bench/results.json.
+# JSON, never on a ratio or a time (bench-results-check compares the
+# committed bench/results.json and docs/performance.md with bench/*.json).
 bench-mcu-smoke: $(BMCU_ALL)
 	@mkdir -p $(BMCU_B)/smoke
 	@$(call BMCU_RUN,m0p,smoke,$(BMCU_B)/smoke/m0p.log)
@@ -165,6 +165,5 @@ bench-mcu-smoke: $(BMCU_ALL)
 	@$(BMCU_PY) $(BMCU_DIR)/results.py --smoke --mode smoke --m0p $(BMCU_B)/smoke/m0p.log \
 	  --m4f $(BMCU_B)/smoke/m4f.log --host $(BMCU_B)/smoke/host.log $(BMCU_B)/sizes.txt \
 	  --flash-map $(BMCU_B)/m0p_d3/flash.map --flash-map-uniform $(BMCU_B)/m0p_d3u/flash.map --out $(BMCU_B)/smoke/results.json
-	@$(BMCU_PY) $(BMCU_DIR)/perfdoc.py --check bench/results.json docs/performance.md
 
 TEST_TARGETS += bench-mcu-smoke

@@ -53,6 +53,14 @@ to 4.4·10⁴ — a property of the input format, not of the solve (the error
 against the decimal data is listed too). Reading a row: with a baseline, the
 target applies to the ratio value/baseline; without one, it is a limit on the
 value; rows without a target are information. All figures come from one run.
+
+**Where the rows come from.** The "bench" column names the file
+`bench/<bench>.json` that a benchmark target of `make bench` wrote (`mcu`:
+the figures above; the others: the daemon, the protocol, the firmware and
+the soak, each described by its target in `make help` and its own JSON,
+which keeps the conditions and raw samples). `tests/bench/collect.py`
+merges their rows into `bench/results.json`; `make test` checks that the
+merged file and this page match the committed files.
 """
 
 
@@ -83,7 +91,8 @@ def row(r):
         target = f"≤ {num(r['target'], unit)}" + ("" if unit in ("abs", "bool") else f" {unit}")
     met = "—" if r["met"] is None else ("yes" if r["met"] else "**no**")
     name = r["name"].replace("|", "\\|")
-    return f"| {name} | {value} | {baseline} | {ratio} | {target} | {met} |\n"
+    src = r.get("source", "")
+    return f"| {src} | {name} | {value} | {baseline} | {ratio} | {target} | {met} |\n"
 
 
 # Why a target is not met, by a substring of its name. Every unmet target
@@ -107,7 +116,10 @@ REASONS = {
 }
 
 
-def reason(name):
+def reason(r):
+    if r.get("why"):
+        return r["why"]
+    name = r["name"]
     for key, text in REASONS.items():
         if key in name:
             return text
@@ -119,7 +131,8 @@ def render(rows):
     targets = [r for r in rows if r["target"] is not None]
     rest = [r for r in rows if r["target"] is None]
     unmet = [r for r in targets if r["met"] is False]
-    hdr = "| figure | value | baseline | ratio | target | met |\n|---|---:|---:|---:|---:|:---:|\n"
+    hdr = ("| bench | figure | value | baseline | ratio | target | met |\n"
+           "|---|---|---:|---:|---:|---:|:---:|\n")
     out.append(f"\n## Targets ({len(targets) - len(unmet)} of {len(targets)} met)\n\n")
     out.append(hdr)
     out += [row(r) for r in targets]
@@ -128,7 +141,7 @@ def render(rows):
         for r in unmet:
             got = (f"{r['ratio']:.3g}× vs ≤ {r['target']:g}×" if r["baseline"] is not None
                    else f"{num(r['value'], r['unit'])} vs ≤ {num(r['target'], r['unit'])}")
-            why = reason(r["name"])
+            why = reason(r)
             out.append(f"* {r['name']} ({got}): {why}\n")
     out.append("\n## All other figures\n\n")
     out.append(hdr)
@@ -145,7 +158,10 @@ def main():
         sys.exit(__doc__)
     with open(args[0], encoding="utf-8") as f:
         rows = json.load(f)
-    bad = validate(rows) if isinstance(rows, list) else ["not a JSON array"]
+    # Rows carry "source" (the bench/<source>.json they came from, see
+    # tests/bench/collect.py) and, when unmet, maybe "why".
+    bad = (validate([{k: v for k, v in r.items() if k not in ("source", "why")} for r in rows])
+           if isinstance(rows, list) else ["not a JSON array"])
     if bad:
         for b in bad:
             print(f"perfdoc.py: {args[0]}: {b}", file=sys.stderr)

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Collect the benchmark's logs into bench/results.json (issue 7's figures).
+"""Collect the benchmark's logs into bench/mcu.json (issue 7's figures; merged into bench/results.json by tests/bench/collect.py).
 
 usage: results.py [--smoke] --mode MODE --m0p LOG --m4f LOG --host LOG [LOG...]
                   --flash-map MAP --out JSON
