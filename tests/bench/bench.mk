@@ -35,3 +35,4 @@ bench-smoke: $(BENCH_B)/bench_core
 
 TEST_TARGETS += bench-smoke
 include tests/bench/mcu/mcu.mk
+include tests/bench/proto/proto.mk
