@@ -90,10 +90,11 @@ typedef struct req {
     int32_t seq;         /* of the latest copy */
     uint64_t progress;   /* us of the ACK or the last new response */
     uint32_t want, got;  /* responses (points / results) */
+    int busy_counted;    /* a BUSY refusal of this copy was counted */
 } req;
 
 static req cur;
-static unsigned rereq_timeout, rereq_busy, rereq_lost, refused, mismatches, dup_diff;
+static unsigned busy_retries, rereq_timeout, rereq_busy, rereq_lost, refused, mismatches, dup_diff;
 static unsigned ack_entries, put_entries_in_flight[65536];
 static uint64_t digest = 0xcbf29ce484222325ULL;
 static uint8_t *sample_seen;
@@ -173,15 +174,18 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_
         ack_entries += put_entries_in_flight[seq];
     if (cur.state == R_SENT && seq == (uint16_t)cur.seq) {
         if (code == 0) {
+            cur.busy_counted = 0;
             cur.state = R_ACKED;
             cur.progress = now_us();
         } else if (code == IT2N_PROTO_ERR_BUSY || code == IT2N_PROTO_ERR_TIMEOUT) {
             /* refused while the daemon was busy, or delivery unknown: ask again */
             cur.state = R_RESEND;
-            if (code == IT2N_PROTO_ERR_BUSY)
+            busy_retries += code == IT2N_PROTO_ERR_BUSY;
+            if (code == IT2N_PROTO_ERR_BUSY && !cur.busy_counted) /* once until accepted */
                 rereq_busy++;
-            else
+            else if (code != IT2N_PROTO_ERR_BUSY)
                 rereq_lost++;
+            cur.busy_counted = code == IT2N_PROTO_ERR_BUSY;
         } else {
             fprintf(stderr, "proto_session: %s refused: %d (%s)", it2n_msg_name(type), code,
                     it2n_proto_strerror(code));
@@ -481,7 +485,7 @@ out:;
            "\"ingest_rounds\": %u, \"put_s\": %.6f, \"entries_per_s\": %.1f, \"entries_acked\": %u, "
            "\"digest\": \"%016llx\", \"mismatches\": %u, \"duplicate_points_differing\": %u, \"refused\": %u, "
            "\"host_rerequests\": %u, \"rerequests_stalled\": %u, \"rerequests_busy\": %u, "
-           "\"rerequests_lost\": %u, \"link\": {\"tx_frames\": %u, \"tx_retx\": %u, \"tx_timeouts\": %u, "
+           "\"rerequests_lost\": %u, \"busy_retries\": %u, \"link\": {\"tx_frames\": %u, \"tx_retx\": %u, \"tx_timeouts\": %u, "
            "\"rx_delivered\": %u, \"rx_dup\": %u, \"rx_ahead\": %u, \"rx_nosync\": %u}}\n",
            rc == 0 ? "true" : "false", rc, wall, t_upload ? (double)(t_upload - t0) / 1e6 : 0.0,
            t_queries ? (double)(t_queries - t_upload) / 1e6 : 0.0,
@@ -490,7 +494,7 @@ out:;
            t_put1 > t_put0 ? (double)ack_entries / ((double)(t_put1 - t_put0) / 1e6) : 0.0, ack_entries,
            (unsigned long long)digest, mismatches, dup_diff, refused,
            rereq_timeout + rereq_busy + rereq_lost, rereq_timeout, rereq_busy, rereq_lost,
-           lk.stats.tx_frames, lk.stats.tx_retx, lk.stats.tx_timeouts, lk.stats.rx_delivered,
+           busy_retries, lk.stats.tx_frames, lk.stats.tx_retx, lk.stats.tx_timeouts, lk.stats.rx_delivered,
            lk.stats.rx_dup, lk.stats.rx_ahead, lk.stats.rx_nosync);
     return rc;
 }
