@@ -17,7 +17,7 @@ FW_CFLAGS := -ffreestanding -std=c99 -Os -g $(CORE_WARN) -ffunction-sections -fd
 FW_OBJ := $(FW_SRC:%.c=$(FW_B)/%.o)
 FW_ELF := $(FW_B)/it2n-firmware.elf
 
-$(FW_B)/%.o: %.c $(FW_HDR)
+$(FW_B)/%.o: %.c $(FW_HDR) tests/firmware/firmware.mk
 	@mkdir -p $(@D)
 	arm-none-eabi-gcc $(FW_CPU) $(FW_CFLAGS) -c $< -o $@
 
