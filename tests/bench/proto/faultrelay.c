@@ -134,17 +134,21 @@ static void frame_done(dir *d)
         put(d, f, n);
         return;
     }
-    if (chance(d, p_drop)) {
+    /* Every decision is drawn for every frame, in a fixed order, so the
+     * fault pattern per frame index does not depend on timing. */
+    int drop = chance(d, p_drop), corrupt = chance(d, p_corrupt);
+    size_t pos = (size_t)(rnd(d) % (n - 1)); /* never the delimiter */
+    unsigned bit = (unsigned)(rnd(d) % 8);
+    int dup = chance(d, p_dup), reorder = chance(d, p_reorder);
+    if (drop) {
         d->dropped++;
         return;
     }
-    if (chance(d, p_corrupt)) {
-        size_t k = (size_t)(rnd(d) % (n - 1)); /* never the delimiter */
-        f[k] ^= (uint8_t)(1u << (rnd(d) % 8));
+    if (corrupt) {
+        f[pos] ^= (uint8_t)(1u << bit);
         d->corrupted++;
     }
-    int dup = chance(d, p_dup);
-    if (!d->hlen && chance(d, p_reorder)) {
+    if (reorder && !d->hlen) {
         memcpy(d->held, f, n);
         d->hlen = n;
         d->held_at = now_ns();
