@@ -50,3 +50,4 @@ bench-results-check:
 	@/usr/bin/python3 tests/bench/mcu/perfdoc.py --check bench/results.json docs/performance.md
 
 TEST_TARGETS += bench-results-check
+include tests/bench/proto/proto.mk

@@ -2,8 +2,9 @@
 """bench/results.json: every benchmark's headline figures in one list.
 
 Each benchmark writes its own bench/<name>.json. Its headline figures are
-rows {name, unit, value, baseline, ratio, target, met} (the schema of
-tests/bench/mcu/results.py): the file is either a JSON array of rows
+rows {name, unit, value, baseline, ratio, target, met[, sense]} (the
+schema of tests/bench/mcu/results.py: "sense": ">=" marks a target that is
+a lower bound, such as a throughput ratio): the file is either a JSON array of rows
 (bench/mcu.json) or an object with a "rows" array (and anything else the
 benchmark wants to keep: conditions, raw samples). Two early benchmarks
 write no rows; ADAPTERS derives theirs from the figures they do write.
@@ -104,10 +105,13 @@ def collect(bench_dir):
         if not isinstance(part, list):
             bad.append(f"{path}: rows is not a list")
             continue
+        # Key order as KEYS (+ "sense"), whatever order the writer used.
+        part = [{k: r[k] for k in KEYS + ["sense"] if k in r} if isinstance(r, dict) and set(r) <= set(KEYS + ["sense"])
+                else r for r in part]
         bad += [f"{path}: {b}" for b in validate(part)]
         why = data.get("reasons", {}) if isinstance(data, dict) else {}
         for r in part:
-            if isinstance(r, dict) and list(r.keys()) == KEYS:
+            if isinstance(r, dict) and list(r.keys()) in (KEYS, KEYS + ["sense"]):
                 r = dict(r, source=stem)
                 if r["met"] is False and r["name"] in why:
                     r["why"] = why[r["name"]]

@@ -58,6 +58,33 @@ def size_section(first, last=None, keep=None):
 STACK_KEEP = (r"^Worst-case|^  function|it2n_(model_solve|model_update|eval|deriv|sample|"
               r"locate|dataset_check|link_pump|proto_selftest) ")
 
+def firmware_figures():
+    """The instrument firmware's figures, from the committed bench/firmware.json
+    (written by `make bench-firmware`)."""
+    import json
+    with open(os.path.join(ROOT, "bench", "firmware.json"), encoding="utf-8") as f:
+        fw = json.load(f)
+    img, parts, st = fw["image"], fw["parts_from_map"], fw["stack"]
+    runs = fw["upload_over_emulated_uart"]
+    out = ["%s (bench/firmware.json)" % fw["target"],
+           "  whole image: flash %d bytes, static RAM %d bytes (stack reserved: %d)"
+           % (img["flash_bytes"], img["static_ram_bytes"], img["stack_reserved_bytes"]),
+           "  %-14s %8s %8s" % ("part", "flash", "RAM")]
+    for name in ("core", "protocol", "driver", "application", "libc+libgcc"):
+        if name in parts:
+            out.append("  %-14s %8d %8d" % (name, parts[name]["flash"], parts[name]["ram"]))
+    hw = max((r.get("stack_high_water_bytes") or 0) for r in runs.values()) if runs else 0
+    out.append("  stack: worst case %d bytes (static bound: main %d + interrupt %d), high-water %d bytes (measured)"
+               % (st["worst_case_bytes"], st["main_bytes"], st["interrupt_bytes"], hw))
+    for name in ("direct", "lossy"):
+        if name in runs:
+            r = runs[name]
+            out.append("  upload %-6s %5d ms, %d entries in %d PUT frames, %d retransmissions (byte drop %d ppm)"
+                       % (name, r["upload_ms"], r["entries"], r["put_frames"], r["retransmissions"],
+                          r["byte_drop_ppm"]))
+    return "\n".join(out) + "\n"
+
+
 # name -> function returning the block's text
 FIGURES = {
     "size-flash": lambda: size_section("== Flash", "Worst-case"),
@@ -65,6 +92,9 @@ FIGURES = {
     "size-structs": lambda: size_section("== sizeof"),
     "accuracy": lambda: grep(f"{BUILD}/tests/core/test_accuracy", "[accuracy]"),
     "operations": lambda: grep(f"{BUILD}/tests/core/test_operations", "[operations]"),
+    "fw-figures": firmware_figures,
+    "fw-budget": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py"),
+    "fw-timing": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py --timing"),
 }
 
 BLOCK = re.compile(r"(<!-- fig:([a-z0-9-]+) -->\n)(.*?)(<!-- /fig:\2 -->)", re.S)

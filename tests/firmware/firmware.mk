@@ -12,11 +12,12 @@ FW_SRC := $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) \
 FW_HDR := $(wildcard firmware_core/*.h protocol/*.h protocol/*.inc examples/firmware/*.h) \
           examples/instrument/synth.h examples/instrument/session.h tests/qemu/semihost.h
 FW_CFLAGS := -ffreestanding -std=c99 -Os -g $(CORE_WARN) -ffunction-sections -fdata-sections \
+             -fstack-usage -fcallgraph-info=su \
              -Ifirmware_core -Iprotocol -Iexamples/instrument -Iexamples/firmware -Itests/qemu
 FW_OBJ := $(FW_SRC:%.c=$(FW_B)/%.o)
 FW_ELF := $(FW_B)/it2n-firmware.elf
 
-$(FW_B)/%.o: %.c $(FW_HDR)
+$(FW_B)/%.o: %.c $(FW_HDR) tests/firmware/firmware.mk
 	@mkdir -p $(@D)
 	arm-none-eabi-gcc $(FW_CPU) $(FW_CFLAGS) -c $< -o $@
 

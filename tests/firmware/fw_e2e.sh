@@ -96,9 +96,9 @@ run direct 0
 if [ "$FAILS" = 0 ]; then
     FW_OUT=${FW_OUT:-$ROOT/build/firmware.json}
     mkdir -p "$(dirname "$FW_OUT")"
-    python3 - "$FW_MAP" "$FW_ELF" "$T" "$FW_OUT" <<'PY'
-import json, re, subprocess, sys, os
-mp, elf, t, out = sys.argv[1:5]
+    python3 - "$FW_MAP" "$FW_ELF" "$T" "$FW_OUT" "$ROOT" <<'PY' || fail "figures: sizes, stack bound or high-water check"
+import glob, json, re, subprocess, sys, os
+mp, elf, t, out, root = sys.argv[1:6]
 sizes = json.loads(subprocess.run([sys.executable, os.path.join(os.path.dirname(out), "..",
                    "tests", "firmware", "fw_sizes.py"), mp], check=True, capture_output=True, text=True).stdout)
 bsd = subprocess.run(["arm-none-eabi-size", "-A", elf], check=True, capture_output=True, text=True).stdout
@@ -120,10 +120,39 @@ res = {"target": "qemu mps2-an385, Cortex-M3, arm-none-eabi-gcc -Os",
        "parts_from_map": sizes["parts"],
        "upload_over_emulated_uart": runs,
        "note": "upload_ms is SysTick time from the first HELLO to the COMMIT's ACK over a qemu pty (no baud-rate pacing)"}
+cis = sorted(glob.glob(os.path.join(os.path.dirname(elf), "**", "*.ci"), recursive=True))
+st = json.loads(subprocess.run([sys.executable, os.path.join(root, "tests", "firmware", "fw_stack.py"), elf] + cis,
+                               check=True, capture_output=True, text=True).stdout)
+res["stack"] = {"worst_case_bytes": st["worst_case_bytes"], "method": st["method"],
+                "main_bytes": st["main_bytes"], "interrupt_bytes": st["interrupt_bytes"],
+                "deepest_chain": st["main_chain"]}
+hw = [r["stack_high_water_bytes"] for r in runs.values() if r.get("stack_high_water_bytes")]
+if hw and max(hw) > st["worst_case_bytes"]:
+    sys.exit("fw-e2e: measured stack high-water %d above the static worst case %d: the analysis misses a path"
+             % (max(hw), st["worst_case_bytes"]))
+def info(name, unit, value, baseline=None):
+    return {"name": name, "unit": unit, "value": value, "baseline": baseline,
+            "ratio": round(value / baseline, 4) if baseline else None, "target": None, "met": None}
+P = res["parts_from_map"]
+rows = [info("firmware image flash (qemu mps2-an385, Cortex-M3, -Os)", "bytes", res["image"]["flash_bytes"]),
+        info("firmware image static RAM (data+bss)", "bytes", res["image"]["static_ram_bytes"])]
+for part in ("core", "protocol", "driver", "application"):
+    if part in P:
+        rows.append(info("firmware flash: %s" % part, "bytes", P[part]["flash"]))
+        rows.append(info("firmware static RAM: %s" % part, "bytes", P[part]["ram"]))
+rows.append(info("firmware worst-case stack (static call-graph bound)", "bytes", st["worst_case_bytes"]))
+if hw:
+    rows.append(info("firmware stack high-water (painted, measured)", "bytes", max(hw), st["worst_case_bytes"]))
+if "direct" in runs:
+    rows.append(info("firmware upload over the emulated UART (HELLO..COMMIT ACK)", "ms", runs["direct"]["upload_ms"]))
+    if "lossy" in runs:
+        rows.append(info("firmware upload, 500 ppm byte drop vs direct", "ms", runs["lossy"]["upload_ms"],
+                         runs["direct"]["upload_ms"]))
+res["rows"] = rows
 json.dump(res, open(out, "w"), indent=2, sort_keys=True)
 open(out, "a").write("\n")
 PY
-    echo "fw-e2e: figures in $FW_OUT"
+    [ "$FAILS" = 0 ] && echo "fw-e2e: figures in $FW_OUT"
 fi
 if [ "$FAILS" != 0 ]; then echo "fw-e2e: $FAILS failure(s)" >&2; exit 1; fi
 echo "fw-e2e: passed"

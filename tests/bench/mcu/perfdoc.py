@@ -78,6 +78,7 @@ def num(v, unit):
 
 def row(r):
     unit = r["unit"]
+    rel = "≥" if r.get("sense") == ">=" else "≤"
     value = num(r["value"], unit)
     if unit not in ("abs", "bool"):
         value += f" {unit}"
@@ -86,9 +87,9 @@ def row(r):
     if r["target"] is None:
         target = "—"
     elif r["baseline"] is not None:
-        target = f"≤ {r['target']:g}×"
+        target = f"{rel} {r['target']:g}×"
     else:
-        target = f"≤ {num(r['target'], unit)}" + ("" if unit in ("abs", "bool") else f" {unit}")
+        target = f"{rel} {num(r['target'], unit)}" + ("" if unit in ("abs", "bool") else f" {unit}")
     met = "—" if r["met"] is None else ("yes" if r["met"] else "**no**")
     name = r["name"].replace("|", "\\|")
     src = r.get("source", "")
@@ -139,8 +140,9 @@ def render(rows):
     if unmet:
         out.append("\n### Not met, and why\n\n")
         for r in unmet:
-            got = (f"{r['ratio']:.3g}× vs ≤ {r['target']:g}×" if r["baseline"] is not None
-                   else f"{num(r['value'], r['unit'])} vs ≤ {num(r['target'], r['unit'])}")
+            rel = "≥" if r.get("sense") == ">=" else "≤"
+            got = (f"{r['ratio']:.3g}× vs {rel} {r['target']:g}×" if r["baseline"] is not None
+                   else f"{num(r['value'], r['unit'])} vs {rel} {num(r['target'], r['unit'])}")
             why = reason(r)
             out.append(f"* {r['name']} ({got}): {why}\n")
     out.append("\n## All other figures\n\n")

@@ -1,0 +1,265 @@
+#!/usr/bin/python3
+"""Protocol benchmark over a paced, faulty serial line (issue 11).
+
+Each run starts a fresh it2nd (private state directory, Modbus off) whose
+[link:bench] is side A of tests/bench/proto/faultrelay, and proto_session
+(the host session: HELLO, CONFIGURE, PUT all, COMMIT, QUERYs, SAMPLE) on
+side B. The relay paces both directions at the baud rate and injects drop,
+duplicate, reorder and corrupt faults per frame, each at the given rate, in
+each direction, with fixed seeds. Every run's results are checked bit for
+bit by proto_session against its own solve, and their digest must equal
+the clean run's.
+
+usage: bench_proto.py --out FILE [--smoke] [--keep]
+  full (make bench-proto): degree 7x7 with z (448 entries), 16 QUERYs,
+       SAMPLE 33x33 at 921600 Bd; clean x3, 1 % x3 seeds, 10 % x3 seeds
+       (ratios of medians); durable ingest over an unpaced pty with fsync
+       on and off (3 runs each, medians). Writes FILE with a "rows" list.
+  --smoke (make test): degree 3x3, 4 QUERYs, SAMPLE 9x9, clean and 10 %
+       faults (2 seeds) at 921600 Bd, a short ingest; asserts completion and
+       equal digests, never a time. Writes FILE (under build/).
+"""
+import json
+import os
+import shutil
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+BUILD = os.environ.get("BUILD", os.path.join(ROOT, "build"))
+IT2ND = os.environ.get("IT2ND", os.path.join(BUILD, "host", "it2nd"))
+RELAY = os.environ.get("FAULTRELAY", os.path.join(BUILD, "bench", "proto", "faultrelay"))
+SESSION = os.environ.get("PROTO_SESSION", os.path.join(BUILD, "bench", "proto", "proto_session"))
+BAUD = 921600
+
+
+class Run:
+    """One relay + daemon + session, stopped by PID."""
+
+    def __init__(self, tmp, name, baud, fault_pct, seed, fsync=True):
+        self.d = os.path.join(tmp, name)
+        os.makedirs(os.path.join(self.d, "state"))
+        self.procs = []
+        self.baud, self.fault, self.seed, self.fsync = baud, fault_pct, seed, fsync
+
+    def start(self):
+        a, b = os.path.join(self.d, "link-a"), os.path.join(self.d, "link-b")
+        f = str(self.fault)
+        self.relay = subprocess.Popen(
+            [RELAY, "--a", a, "--b", b, "--baud", str(self.baud), "--drop", f, "--dup", f,
+             "--reorder", f, "--corrupt", f, "--seed", str(self.seed),
+             "--stats", os.path.join(self.d, "relay.json")],
+            stdout=subprocess.PIPE, stderr=open(os.path.join(self.d, "relay.log"), "w"), text=True)
+        self.procs.append(self.relay)
+        self.relay.stdout.readline()  # slave names: both links exist now
+        conf = os.path.join(self.d, "it2nd.conf")
+        with open(conf, "w") as c:
+            c.write("[daemon]\nstate_dir = %s\nlink_backoff_max = 1\nfsync = %s\n"
+                    "[modbus]\ntcp_listen = none\n[model:1]\nn = 3\nm = 3\n"
+                    "[link:bench]\ntype = serial\ndevice = %s\nbaud = %d\n"
+                    % (os.path.join(self.d, "state"), "yes" if self.fsync else "no", a,
+                       self.baud or 115200))
+        self.daemon = subprocess.Popen([IT2ND, "-c", conf, "-f", "-v"],
+                                       stdout=open(os.path.join(self.d, "daemon.log"), "w"),
+                                       stderr=subprocess.STDOUT)
+        self.procs.append(self.daemon)
+        log = os.path.join(self.d, "daemon.log")
+        for _ in range(200):  # until the link is open
+            if self.daemon.poll() is not None:
+                raise SystemExit("bench_proto: it2nd exited:\n" + open(log).read())
+            if "bench" in open(log).read() and "open" in open(log).read():
+                break
+            time.sleep(0.025)
+        time.sleep(0.1)
+        return b
+
+    def session(self, args, timeout):
+        b = self.start()
+        p = subprocess.run([SESSION, "--device", b, "--timeout", str(timeout)] + args,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           timeout=timeout + 30)
+        cpu = None
+        try:  # the daemon's CPU time (user + system) so far, start-up included
+            f = open("/proc/%d/stat" % self.daemon.pid).read().rsplit(")", 1)[1].split()
+            cpu = (int(f[11]) + int(f[12])) / os.sysconf("SC_CLK_TCK")
+        except (OSError, ValueError, IndexError):
+            pass
+        self.stop()
+        open(os.path.join(self.d, "session.err"), "w").write(p.stderr)
+        try:
+            res = json.loads(p.stdout)
+        except ValueError:
+            raise SystemExit("bench_proto: session printed no result (exit %d): %s%s"
+                             % (p.returncode, p.stdout, p.stderr))
+        res["exit"] = p.returncode
+        res["daemon_cpu_s"] = cpu
+        try:
+            res["relay"] = json.load(open(os.path.join(self.d, "relay.json")))
+        except (OSError, ValueError):
+            res["relay"] = None
+        res["fault_pct"], res["seed"], res["baud"] = self.fault, self.seed, self.baud
+        return res
+
+    def stop(self):
+        for p in reversed(self.procs):
+            if p.poll() is None:
+                p.send_signal(signal.SIGTERM)
+                try:
+                    p.wait(10)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
+        self.procs = []
+
+
+# Why a target can be missed, by a substring of the row's name: what the
+# bench's own logs show about where the time goes.
+REASONS = {
+    "faults per direction vs clean":
+        "each lost frame costs a retransmission timeout (RTO) while the frames "
+        "behind it wait in the window; see the runs' retransmission counts in "
+        "bench/proto_loss.json",
+    "host re-requests":
+        "a response run the daemon gave up on, or a request refused while busy, "
+        "is sent again by the host",
+    "durable ingest":
+        "ingest is paced by one round trip per window of PUT frames (four frames "
+        "of the negotiated payload) rather than by the CPU or fdatasync; the daemon's "
+        "CPU time per entry is in bench/proto_loss.json",
+}
+
+
+def row(name, unit, value, baseline, target, better="lower"):
+    ratio = value / baseline if baseline else None
+    met = None
+    if target is not None:
+        met = (ratio if baseline else value) <= target if better == "lower" else \
+              (ratio if baseline else value) >= target
+    return {"name": name, "unit": unit, "value": value, "baseline": baseline,
+            "ratio": round(ratio, 4) if ratio is not None else None, "target": target, "met": met}
+
+
+def main():
+    args = sys.argv[1:]
+    out = args[args.index("--out") + 1]
+    smoke = "--smoke" in args
+    tmp = tempfile.mkdtemp(prefix="it2n-protobench.")
+    failures = []
+    if smoke:
+        sess = ["--degree", "3x3", "--queries", "4", "--sample", "9"]
+        # seeds whose fault streams hold every kind within the first 16 frames
+        # of each direction (the small session has about 30 per direction)
+        plan = [("clean", 0, 1), ("f10-s44", 10, 44), ("f10-s49", 10, 49)]
+        ingest_rounds, ingest_reps = 5, 1
+        limit = 120
+    else:
+        sess = ["--degree", "7x7", "--queries", "16", "--sample", "33"]
+        plan = [("clean-1", 0, 1), ("clean-2", 0, 2), ("clean-3", 0, 3),
+                ("f1-s1", 1, 1), ("f1-s2", 1, 2), ("f1-s3", 1, 3),
+                ("f10-s1", 10, 1), ("f10-s2", 10, 2), ("f10-s3", 10, 3)]
+        ingest_rounds, ingest_reps = 40, 3
+        limit = 600
+    runs = {}
+    for name, pct, seed in plan:
+        r = Run(tmp, name, BAUD, pct, seed).session(sess, limit)
+        runs[name] = r
+        print("bench-proto: %-8s faults %4s%%  wall %7.3f s  host re-requests %d  retx %d  exit %d  digest %s"
+              % (name, pct, r["wall_s"], r["host_rerequests"], r["link"]["tx_retx"], r["exit"], r["digest"]),
+              flush=True)
+        rel = r["relay"] or {}
+        if pct >= 5 and not all(rel.get(d, {}).get(k, 0) > 0 for d in ("a_to_b", "b_to_a")
+                           for k in ("dropped", "duplicated", "reordered", "corrupted")):
+            failures.append("%s: the relay did not inject every fault in both directions: %s" % (name, rel))
+        if 0 < pct < 5 and not sum(rel.get(d, {}).get(k, 0) for d in ("a_to_b", "b_to_a")
+                                   for k in ("dropped", "duplicated", "reordered", "corrupted")):
+            failures.append("%s: the relay injected no fault: %s" % (name, rel))
+        if not pct and any(rel.get(d, {}).get("bytes_in") != rel.get(d, {}).get("bytes_out")
+                           for d in ("a_to_b", "b_to_a")):
+            failures.append("%s: the clean relay lost or added bytes: %s" % (name, rel))
+        if rel:
+            # share of the wall time the busier line was sending (pacing sanity: <= 1)
+            r["line_busy"] = round(max(rel[d]["bytes_out"] for d in ("a_to_b", "b_to_a")) * 10.0 / BAUD
+                                   / r["wall_s"], 3) if r["wall_s"] else None
+            if r["line_busy"] and r["line_busy"] > 1.02:
+                failures.append("%s: more bytes than the line can carry at %d Bd: pacing broken" % (name, BAUD))
+        if r["exit"] != 0 or not r["ok"]:
+            failures.append("%s: session failed (exit %d, mismatches %d, refused %d); logs in %s"
+                            % (name, r["exit"], r["mismatches"], r["refused"], os.path.join(tmp, name)))
+    clean = [r for n, r in runs.items() if n.startswith("clean")]
+    ref = clean[0]["digest"]
+    for n, r in runs.items():
+        if r["digest"] != ref:
+            failures.append("%s: results differ from the clean run (digest %s, clean %s)" % (n, r["digest"], ref))
+    ingest = {}
+    for k in range(ingest_reps):  # interleaved, so both see the same machine load
+        for fs in (True, False):
+            name = "ingest-fsync-%s-%d" % ("on" if fs else "off", k + 1)
+            r = Run(tmp, name, 0, 0, 1, fsync=fs).session(
+                ["--degree", "7x7", "--ingest", str(ingest_rounds)], limit)
+            ingest[name] = r
+            print("bench-proto: %s  %d entries in %.3f s: %.0f entries/s, daemon CPU %s s, exit %d"
+                  % (name, r["entries_acked"], r["put_s"], r["entries_per_s"], r["daemon_cpu_s"], r["exit"]),
+                  flush=True)
+            if r["exit"] != 0 or r["entries_acked"] != r["entries"]:
+                failures.append("%s: ingest failed (exit %d, %d of %d entries ACKed)"
+                                % (name, r["exit"], r["entries_acked"], r["entries"]))
+
+    def med(prefix, key):
+        return statistics.median(r[key] for n, r in runs.items() if n.startswith(prefix))
+
+    res = {"what": "it2nd link session over a pty relay paced at %d Bd (10 bits/byte), frame faults "
+                   "(drop, duplicate, reorder, corrupt, each at the rate, each direction, fixed seeds)" % BAUD,
+           "session": {"degree": runs[plan[0][0]]["degree"], "entries": runs[plan[0][0]]["entries"],
+                       "queries": runs[plan[0][0]]["queries"], "sample": runs[plan[0][0]]["sample"],
+                       "z": True, "host_rto_ms": 150, "host_rerequest_after_ms": 3000},
+           "ingest_conditions": "relay unpaced (baud 0) and fault-free, degree 7x7 with z (448 entries), the grid "
+                                "PUT %d times with REPLACE, 19 entries per PUT, window 4; entries/s from the first "
+                                "PUT to the last PUT's ACK (ACK after the WAL's fdatasync when fsync = yes); state "
+                                "directory under %s; median of %d runs each, interleaved"
+                                % (ingest_rounds, tempfile.gettempdir(), ingest_reps),
+           "loadavg_at_end": os.getloadavg(), "cpus": os.cpu_count(),
+           "runs": runs, "ingest": ingest, "smoke": smoke}
+    if not smoke:
+        c, f1, f10 = med("clean", "wall_s"), med("f1-", "wall_s"), med("f10-", "wall_s")
+        rr = sum(r["host_rerequests"] for n, r in runs.items() if n.startswith("f"))
+        on = statistics.median(r["entries_per_s"] for n, r in ingest.items() if "-on-" in n)
+        off = statistics.median(r["entries_per_s"] for n, r in ingest.items() if "-off-" in n)
+        res["rows"] = [
+            row("proto session, 10 % faults per direction vs clean, 921600 Bd (wall time)", "s", round(f10, 3),
+                round(c, 3), 3.0),
+            row("proto session, 1 % faults per direction vs clean, 921600 Bd (wall time)", "s", round(f1, 3),
+                round(c, 3), 1.3),
+            {"name": "proto session host re-requests, 1 % and 10 % faults (6 runs)", "unit": "requests",
+             "value": rr, "baseline": None, "ratio": None, "target": 0, "met": rr == 0},
+            {"name": "durable ingest over a pty, fsync on (PUT entries/s, 7x7 grid, REPLACE)", "unit": "entries/s",
+             "value": round(on), "baseline": None, "ratio": None, "target": 20000, "met": on >= 20000,
+             "sense": ">="},
+            row("durable ingest over a pty, fsync off vs on (PUT entries/s)", "entries/s",
+                round(off), round(on), None),
+        ]
+        # An unmet target says why (tests/bench/collect.py passes this on to
+        # docs/performance.md, which refuses an unexplained miss).
+        res["reasons"] = {r["name"]: REASONS[k] for r in res["rows"] if r["met"] is False
+                          for k in REASONS if k in r["name"]}
+    res["failures"] = failures
+    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
+    with open(out, "w") as f:
+        json.dump(res, f, indent=2, sort_keys=True)
+        f.write("\n")
+    print("bench-proto: results in %s" % out)
+    if failures:
+        for x in failures:
+            print("bench-proto: FAIL: " + x, file=sys.stderr)
+        print("bench-proto: logs kept in " + tmp, file=sys.stderr)
+        return 1
+    if "--keep" not in args:
+        shutil.rmtree(tmp)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
