@@ -216,6 +216,10 @@ class Timeline:
                     return True
         return False
 
+    def near(self, t):
+        with self.lock:
+            return [(round(a, 2), b and round(b, 2), d) for a, b, d in self.faults if abs(a - t) < 10]
+
     def in_degrade(self, t):
         with self.lock:
             for a, b, deg in self.faults:
@@ -341,7 +345,8 @@ class Writer(threading.Thread):
             if code == 4 and le in (-200, -202, None) and (TL.in_degrade(t) or TL.in_degrade(now())):
                 ST.inc("refused_04_while_degraded")
             else:
-                ST.unexp(self.who, "%s refused with exception %d, last_error %s (no fault window)" % (op[0], code, le))
+                ST.unexp(self.who, "%s sent at %.2f refused with exception %d, last_error %s at %.2f; fault windows "
+                         "(on, off, degrades) near: %s" % (op[0], t, code, le, now(), TL.near(t)))
             ST.inc("writes_refused")
             time.sleep(0.02)  # refused at once: do not spin
             return False
@@ -788,6 +793,8 @@ def main():
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--out")
     ap.add_argument("--keep", action="store_true", help="keep the temporary directory")
+    ap.add_argument("--rss-tol-kib", type=int, default=RSS_TOL_KIB,
+                    help="RSS growth tolerance (a sanitizer build's allocator quarantine grows by design)")
     args = ap.parse_args()
     seed = args.seed if args.seed is not None else int(time.time()) & 0xFFFFFF
     rnd = random.Random(seed)
@@ -809,13 +816,16 @@ def main():
         path = f[2].replace("STATE", os.path.basename(state))
         env = ["env", "LD_PRELOAD=" + args.failio, "IT2N_FAILIO_FLAG=" + flag, "IT2N_FAILIO_CALL=" + f[1],
                "IT2N_FAILIO_PATH=" + path, "IT2N_FAILIO_SKIP=%d" % f[3], "IT2N_FAILIO_ERRNO=%d" % f[4]]
+        # Every third incarnation on a slow disk too: fsync/fdatasync 20 ms.
+        delay = 20 if inc[0] % 3 == 0 else 0
+        env.append("IT2N_FAILIO_DELAY_MS=%d" % delay)
         d = Daemon(args.it2nd, tmp, "soak-%d" % inc[0])
         d.start(conf_text(state, port, tmp, idle[0]), " ready (", prefix=env)
-        cur.update(d=d, fault=f, pid=d.proc.pid, samples=[], t_start=now())
+        cur.update(d=d, fault=f, pid=d.proc.pid, samples=[], t_start=now(), delay=delay)
         return d
 
     start()
-    say("incarnation 1 (fault site %s)" % cur["fault"][0])
+    say("incarnation 1 (fault site %s, fsync delay %d ms)" % (cur["fault"][0], cur["delay"]))
     threads = [Writer(port, u, rnd.randrange(1 << 30), None) for u in range(1, WRITERS + 1)]
     threads += [Reader(port, k, rnd.randrange(1 << 30)) for k in range(READERS)]
     links = [Link(port, u, rnd.randrange(1 << 30), args, tmp) for u in LINKS]
@@ -855,9 +865,11 @@ def main():
             hups += 1
             t_next_hup = t + rnd.uniform(2, 5)
         if fault_off_at is None and t >= t_next_fault:
-            open(flag, "w").close()
+            # The window opens before the flag exists (a client may see the
+            # refusal before this thread runs again) and closes after it is gone.
             with TL.lock:
-                TL.faults.append([t, None, cur["fault"][5]])
+                TL.faults.append([now(), None, cur["fault"][5]])
+            open(flag, "w").close()
             faults += 1
             fault_off_at = t + rnd.uniform(0.5, 2.0)
         elif fault_off_at is not None and t >= fault_off_at:
@@ -882,12 +894,13 @@ def main():
                     TL.faults[-1][1] = now()
                 fault_off_at = None
                 t_next_fault = now() + rnd.uniform(3, 10)
-            incarnations.append(dict(fault=cur["fault"][0], samples=cur["samples"]))
+            incarnations.append(dict(fault=cur["fault"][0], samples=cur["samples"], delay=cur["delay"]))
             time.sleep(rnd.uniform(0, 0.3))
             start()
             with TL.lock:
                 TL.restarts[-1][1] = now()
-            say("kill -9 #%d; incarnation %d up (fault site %s)" % (kills, inc[0], cur["fault"][0]))
+            say("kill -9 #%d; incarnation %d up (fault site %s, fsync delay %d ms)"
+                % (kills, inc[0], cur["fault"][0], cur["delay"]))
             t_next_kill = now() + rnd.uniform(6, 20)
         time.sleep(0.05)
 
@@ -904,15 +917,19 @@ def main():
         lk.join(40)
         if lk.is_alive():
             fail("%s did not finish its session" % lk.who)
-    incarnations.append(dict(fault=cur["fault"][0], samples=cur["samples"], last=True))
+    incarnations.append(dict(fault=cur["fault"][0], samples=cur["samples"], delay=cur["delay"], last=True))
     d = cur["d"]
     log_text = "".join(Daemon(args.it2nd, tmp, "soak-%d" % k).logtext() for k in range(1, inc[0] + 1))
 
     # ---- the final state, kill -9, restart, replay ----
     before = dump(port, "soaked")
-    d.proc.send_signal(signal.SIGKILL)
-    d.proc.wait()
-    d2 = Daemon(args.it2nd, tmp, "after-kill")
+    # A clean stop of the long-lived last incarnation (exit status 0: its
+    # final snapshot written; on a sanitizer build no leak reported), a
+    # restart, and the same state (kill -9 and restarts were mid-run).
+    rc = d.stop()
+    if rc != 0:
+        fail("soaked daemon: SIGTERM exit status %s: %s" % (rc, d.logtext()[-1500:]))
+    d2 = Daemon(args.it2nd, tmp, "after-stop")
     d2.start(conf_text(state, port, tmp, idle[0]), " ready (")
     after = dump(port, "restarted")
     rc = d2.stop()
@@ -929,33 +946,54 @@ def main():
     for e in rerr:
         fail("replay: " + e)
     # The oracle can fail: the same replay of one model without one of its
-    # acknowledged operations (the last upload that no later clear or
-    # configuration wiped) must differ from the soaked daemon's state.
-    sens = None
+    # acknowledged operations (its last upload), and of a solved model with
+    # one upload that is in its final data changed by 1e-4 in T, must each
+    # differ from the soaked daemon's state (the second in the data: nets,
+    # grids, queries, not only the counters of the status block).
+    sens = {}
     cand = [u for u in range(1, WRITERS + 1) if any(op[0] == "up" for op, _ in LOGS[u].ops)]
+    solved = [u for u in cand if after[u]["status"][1] == 2]
+    cases = []
     if cand:
         u = rnd.choice(cand)
         ops = list(LOGS[u].ops)
         k = max(i for i, (op, _) in enumerate(ops) if op[0] == "up")
         del ops[k]
-        ref2 = Daemon(args.it2nd, tmp, "reference-minus-one")
-        ref2.start(conf_text(os.path.join(tmp, "ref2-state"), ref_port, tmp, idle[0], links=False, fsync=False),
-                   " ready (")
+        cases.append(("drop", u, k, ops))
+    if solved:
+        u = rnd.choice(solved)
+        ops = list(LOGS[u].ops)
+        start_k = max([i for i, (op, _) in enumerate(ops) if op[0] == "cfg" or op == ("cmd", 2)] + [-1])
+        k = None
+        for i in range(len(ops) - 1, start_k, -1):
+            op = ops[i][0]
+            if op[0] == "up":
+                k = i
+                break
+        if k is not None:
+            regs = list(ops[k][0][1])
+            regs[9] = regs[9] + 1 if regs[9] < 10000 else regs[9] - 1
+            ops[k] = (("up", tuple(regs)), None)
+            cases.append(("change", u, k, ops))
+    for kind, u, k, ops in cases:
+        ref2 = Daemon(args.it2nd, tmp, "reference-%s" % kind)
+        ref2.start(conf_text(os.path.join(tmp, "ref-%s-state" % kind), ref_port, tmp, idle[0], links=False,
+                             fsync=False), " ready (")
         replay(ref_port, units=[u], logs={u: ops}, check_keys=False)
-        d_minus = diff(after, dump(ref_port, "reference-1", units=[u]), units=[u])
+        d_minus = diff(after, dump(ref_port, "reference-" + kind, units=[u]), units=[u])
         ref2.stop()
-        sens = {"unit": u, "dropped_op_index": k, "of": len(LOGS[u].ops), "differences_found": len(d_minus),
-                "first": d_minus[:2]}
-        if not d_minus:
-            fail("sensitivity: replaying unit %d without its operation %d gave the same state: the comparison "
-                 "cannot see a lost operation" % (u, k))
+        data = [x for x in d_minus if " status " not in x]
+        sens[kind] = {"unit": u, "op_index": k, "of": len(LOGS[u].ops), "differences": len(d_minus),
+                      "in_data": len(data), "first": d_minus[:3]}
+        if not d_minus or (kind == "change" and not data):
+            fail("sensitivity (%s): replaying unit %d with operation %d %s gave the same state: the comparison "
+                 "would not see it" % (kind, u, k, "dropped" if kind == "drop" else "changed"))
         else:
-            say("sensitivity: unit %d replayed without acknowledged operation %d of %d: %d difference(s), e.g. %s"
-                % (u, k, len(LOGS[u].ops), len(d_minus), d_minus[0]))
-    for e in lost_kill:
-        fail("final kill -9 + restart: " + e)
-    for e in lost_ref:
-        fail("soaked vs replayed: " + e)
+            say("sensitivity: unit %d replayed with acknowledged operation %d of %d %s: %d difference(s), e.g. %s"
+                % (u, k, len(LOGS[u].ops), "dropped" if kind == "drop" else "changed by 1e-4 in T",
+                   len(d_minus), (data or d_minus)[0]))
+    if "change" not in sens:
+        say("sensitivity: no writer model solved at the end: the data check was not run")
 
     # ---- RSS and fds ----
     last = incarnations[-1]["samples"]
@@ -966,9 +1004,9 @@ def main():
         w = min(10, len(warm) // 3)
         rss_growth = statistics.median(s[1] for s in warm[-w:]) - statistics.median(s[1] for s in warm[:w])
         fd_growth = statistics.median(s[2] for s in warm[-w:]) - statistics.median(s[2] for s in warm[:w])
-        if rss_growth > RSS_TOL_KIB:
+        if rss_growth > args.rss_tol_kib:
             fail("RSS grew by %d KiB over %.0f s (tolerance %d KiB)" % (rss_growth, warm[-1][0] - warm[0][0],
-                                                                         RSS_TOL_KIB))
+                                                                         args.rss_tol_kib))
         if fd_growth > FD_TOL:
             fail("fd count grew by %d (tolerance %d)" % (fd_growth, FD_TOL))
     else:
@@ -977,7 +1015,8 @@ def main():
     for k, inc_ in enumerate(incarnations):
         sm = inc_["samples"]
         if sm:
-            per_inc.append({"incarnation": k + 1, "fault_site": inc_["fault"], "seconds": round(sm[-1][0], 1),
+            per_inc.append({"incarnation": k + 1, "fault_site": inc_["fault"], "fsync_delay_ms": inc_["delay"],
+                            "seconds": round(sm[-1][0], 1),
                             "rss_kib_first": sm[0][1], "rss_kib_max": max(s[1] for s in sm),
                             "rss_kib_last": sm[-1][1], "fds_first": sm[0][2], "fds_max": max(s[2] for s in sm),
                             "fds_last": sm[-1][2]})
@@ -996,7 +1035,7 @@ def main():
         "snapshot_failures_logged": log_text.count("snapshot failed"),
         "reloads_logged": log_text.count("reload"),
         "rss_growth_kib": rss_growth, "fd_growth": fd_growth,
-        "rss_tolerance_kib": RSS_TOL_KIB, "fd_tolerance": FD_TOL,
+        "rss_tolerance_kib": args.rss_tol_kib, "it2nd": args.it2nd, "fd_tolerance": FD_TOL,
         "incarnations": per_inc, "failures": FAILS[:50], "sensitivity_check": sens,
     }
 
@@ -1006,8 +1045,8 @@ def main():
     rows = [
         row("soak lost acknowledged operations", "operations", lost, 0, lost == 0),
         row("soak unexpected failed requests", "requests", unexpected, 0, unexpected == 0),
-        row("soak daemon RSS growth after warm-up", "KiB", rss_growth, RSS_TOL_KIB,
-            rss_growth is not None and rss_growth <= RSS_TOL_KIB),
+        row("soak daemon RSS growth after warm-up", "KiB", rss_growth, args.rss_tol_kib,
+            rss_growth is not None and rss_growth <= args.rss_tol_kib),
         row("soak daemon fd growth after warm-up", "fds", fd_growth, FD_TOL,
             fd_growth is not None and fd_growth <= FD_TOL),
         row("soak acknowledged operations replayed", "operations", ops, None, None),
