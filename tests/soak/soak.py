@@ -703,7 +703,9 @@ def dump(port, who, units=UNITS):
         for a in range(2048, 7424, 125):
             net.extend(c.read(u, a, min(125, 7424 - a)))
         d["net"] = net
-        d["query"] = [c.rw(u, 64, [qu, qw], 128, 108) for qu, qw in QUERIES]
+        d["query"] = []
+        for qu, qw in QUERIES:
+            d["query"].extend(c.rw(u, 64, [qu, qw], 128, 108))
         out[u] = d
     c.close()
     return out
