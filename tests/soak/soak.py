@@ -560,6 +560,67 @@ def csv_text(pts, rnd, vals):
     return "\n".join(out) + "\n"
 
 
+class PtyWatch(threading.Thread):
+    """Other it2nd processes on this machine that hold one of our links'
+    ptys open. A daemon whose link device is a stale symlink to /dev/pts/N
+    opens whatever pty the kernel numbers N next -- possibly an instrument
+    of this soak, whose frames it then answers (NACK -113, unknown model).
+    Seen holders are recorded per pty: such a session's failure is the
+    environment's, reported apart, not the soaked daemon's."""
+
+    def __init__(self, tmp, mine):
+        super().__init__(daemon=True)
+        self.tmp, self.mine = tmp, mine     # mine(): pids of this soak
+        self.seen = {}                      # "/dev/pts/N" -> {(pid, cmdline)}
+        self.lock = threading.Lock()
+
+    def scan(self):
+        ptys = set()
+        for u in LINKS:
+            try:
+                ptys.add(os.readlink(os.path.join(self.tmp, "link%d" % u)))
+            except OSError:
+                pass
+        if not ptys:
+            return
+        mine = self.mine()
+        for pid in os.listdir("/proc"):
+            if not pid.isdigit() or int(pid) in mine:
+                continue
+            try:
+                with open("/proc/%s/comm" % pid) as f:
+                    if not f.read().startswith("it2nd"):
+                        continue
+                fds = os.listdir("/proc/%s/fd" % pid)
+            except OSError:
+                continue
+            for fd in fds:
+                try:
+                    tgt = os.readlink("/proc/%s/fd/%s" % (pid, fd))
+                except OSError:
+                    continue
+                if tgt in ptys:
+                    try:
+                        with open("/proc/%s/cmdline" % pid) as f:
+                            cmd = f.read().replace("\0", " ").strip()
+                    except OSError:
+                        cmd = "?"
+                    with self.lock:
+                        self.seen.setdefault(tgt, set()).add((int(pid), cmd))
+
+    def holders(self, pty):
+        with self.lock:
+            return sorted(self.seen.get(pty, ()))
+
+    def run(self):
+        while not STOP.is_set():
+            self.scan()
+            time.sleep(0.25)
+
+
+WATCH = None
+
+
 class Link(threading.Thread):
     """Instrument sessions one after another on the pty link of model
     `unit`; each session resolved from the status block before the next."""
@@ -609,7 +670,15 @@ class Link(threading.Thread):
             t = now()
             self.killed = False
             self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            pty = None
+            for _ in range(40):     # the instrument's pty, for PtyWatch
+                try:
+                    pty = os.readlink(os.path.join(self.tmp, "link%d" % self.unit))
+                    break
+                except OSError:
+                    time.sleep(0.01)
             out, err = self.proc.communicate()
+            foreign = WATCH.holders(pty) if WATCH and pty else []
             rc = self.proc.returncode
             self.sessions += 1
             acked = 0
@@ -628,14 +697,17 @@ class Link(threading.Thread):
                     ST.inc("instrument_sessions_nacked_while_degraded")
                 elif TL.in_restart(now()):
                     ST.inc("instrument_sessions_failed_in_restart_window")
-                elif self.args.allow_known_link_nack and rc == 1 and "refused: -113" in err:
-                    # Reported finding (docs/daemon.md, Soak): a configured
-                    # model refused as unknown on a link, rarely.
-                    ST.inc("instrument_sessions_nack_113_known")
-                    ST.known.append({"t": round(t, 2), "cmd": cmd, "rc": rc, "stderr": err[-4000:]})
+                elif foreign:
+                    # Another it2nd on this machine opened this session's
+                    # pty (PtyWatch): the environment's failure, not ours.
+                    ST.inc("instrument_sessions_disturbed_by_a_foreign_it2nd")
+                    ST.known.append({"t": round(t, 2), "cmd": cmd, "rc": rc, "stderr": err[-2000:], "pty": pty,
+                                     "foreign_holders": [list(h) for h in foreign]})
+                    print("soak: %s: session failed while another it2nd held its pty %s: %r (not counted as the "
+                          "daemon's failure)" % (self.who, pty, foreign), file=sys.stderr, flush=True)
                 else:
                     ST.unexp(self.who, "session exit %d: %s" % (rc, (err or out).strip()[-300:]))
-                    ST.known.append({"t": round(t, 2), "cmd": cmd, "rc": rc, "stderr": err[-4000:],
+                    ST.known.append({"t": round(t, 2), "cmd": cmd, "rc": rc, "stderr": err[-4000:], "pty": pty,
                                      "unexpected": True})
                     keep = os.path.join(self.tmp, "failed-session-%d-%d.csv" % (self.unit, self.sessions))
                     subprocess.call(["cp", csv, keep])
@@ -818,9 +890,6 @@ def main():
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--out")
     ap.add_argument("--keep", action="store_true", help="keep the temporary directory")
-    ap.add_argument("--allow-known-link-nack", action="store_true",
-                    help="count an instrument session refused with -113 (unknown model id) for its configured "
-                         "model apart instead of failing (an open finding, docs/daemon.md)")
     ap.add_argument("--rss-tol-kib", type=int, default=RSS_TOL_KIB,
                     help="RSS growth tolerance (a sanitizer build's allocator quarantine grows by design)")
     args = ap.parse_args()
@@ -857,6 +926,9 @@ def main():
     threads = [Writer(port, u, rnd.randrange(1 << 30), None) for u in range(1, WRITERS + 1)]
     threads += [Reader(port, k, rnd.randrange(1 << 30)) for k in range(READERS)]
     links = [Link(port, u, rnd.randrange(1 << 30), args, tmp) for u in LINKS]
+    global WATCH
+    WATCH = PtyWatch(tmp, lambda: {os.getpid(), cur["pid"]} | {lk.proc.pid for lk in links if lk.proc})
+    WATCH.start()
     for t in threads + links:
         t.start()
 
