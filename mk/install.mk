@@ -1,0 +1,75 @@
+# mk/install.mk: where `make install` puts things (GNU-style names, each
+# overridable on the command line) and the install rules that belong to no
+# single directory: the libraries, headers and pkg-config files, the example
+# instrument, the examples and the bash completions. cli/cli.mk and
+# daemon/daemon.mk install their programs, man pages, units and it2nd.conf
+# with these directories. The Debian package (debian/rules, `make deb`) is
+# `make install DESTDIR=debian/tmp PREFIX=/usr LIBDIR=/usr/lib/<triplet>`.
+# Layout and the reasons: docs/packaging.md.
+BINDIR      ?= $(PREFIX)/bin
+SBINDIR     ?= $(PREFIX)/sbin
+LIBDIR      ?= $(PREFIX)/lib
+INCLUDEDIR  ?= $(PREFIX)/include
+DATADIR     ?= $(PREFIX)/share
+MANDIR      ?= $(DATADIR)/man
+DOCDIR      ?= $(DATADIR)/doc/it2n
+EXAMPLESDIR ?= $(DOCDIR)/examples
+PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
+# bash-completion also looks in ../share/bash-completion/completions next to
+# the program it completes, so this works for any PREFIX whose bin is on PATH.
+BASHCOMPDIR ?= $(DATADIR)/bash-completion/completions
+# Not under PREFIX: the configuration stays in /etc, and the units go where
+# systemd looks for them (/opt/it2n/lib/systemd/system would never be
+# found); the paths inside the units are rewritten to PREFIX and SYSCONFDIR.
+SYSCONFDIR  ?= /etc
+ifeq ($(origin UNITDIR),undefined)
+UNITDIR := $(or $(shell pkg-config --variable=systemdsystemunitdir systemd 2>/dev/null),/lib/systemd/system)
+endif
+
+# The version of the CLI (cli/cli.h) is the version of the libraries
+# (CMakeLists.txt reads it from there too).
+IT2N_VERSION := $(shell sed -n 's/^\#define IT2N_CLI_VERSION "\([0-9.]*\)".*/\1/p' cli/cli.h)
+
+# What the libraries' users include: as CMakeLists.txt installs it.
+INSTALL_HEADERS := firmware_core/it2n.h $(wildcard protocol/*.h)
+# pkg-config files from CMake's templates (cmake/*.pc.in), absolute paths.
+INSTALL_PC := $(BUILD)/pkgconfig/it2n.pc $(BUILD)/pkgconfig/it2n-protocol.pc
+IT2N_INSTRUMENT := $(BUILD)/host/it2n-instrument
+
+INSTALL_TARGETS += install-lib install-instrument install-examples install-completion
+
+# ${prefix}/lib rather than /usr/lib where the directory is under PREFIX.
+pc_rel = $(patsubst $(PREFIX)/%,$${prefix}/%,$(1))
+$(BUILD)/pkgconfig/%.pc: cmake/%.pc.in cli/cli.h FORCE_PC
+	@mkdir -p $(@D)
+	@sed -e 's|@IT2N_PC_PREFIX@|$(PREFIX)|' -e 's|@IT2N_PC_LIBDIR@|$(call pc_rel,$(LIBDIR))|' \
+	  -e 's|@IT2N_PC_INCLUDEDIR@|$(call pc_rel,$(INCLUDEDIR))|' -e 's|@IT2N_PC_CFLAGS@||' \
+	  -e 's|@PROJECT_VERSION@|$(IT2N_VERSION)|' $< > $@.tmp && mv $@.tmp $@
+# Rebuilt every time: the paths depend on the command line, not on files.
+.PHONY: FORCE_PC
+FORCE_PC:
+
+.PHONY: install-lib install-instrument install-examples install-completion
+install-lib: $(CORE_LIB) $(PROTO_LIB) $(INSTALL_PC)
+	install -d $(DESTDIR)$(LIBDIR) $(DESTDIR)$(INCLUDEDIR)/it2n $(DESTDIR)$(PKGCONFIGDIR)
+	install -m 0644 $(CORE_LIB) $(PROTO_LIB) $(DESTDIR)$(LIBDIR)/
+	install -m 0644 $(INSTALL_HEADERS) $(DESTDIR)$(INCLUDEDIR)/it2n/
+	install -m 0644 $(INSTALL_PC) $(DESTDIR)$(PKGCONFIGDIR)/
+
+install-instrument: $(IT2N_INSTRUMENT)
+	install -D -m 0755 $(IT2N_INSTRUMENT) $(DESTDIR)$(BINDIR)/it2n-instrument
+	install -D -m 0644 examples/instrument/it2n-instrument.1 $(DESTDIR)$(MANDIR)/man1/it2n-instrument.1
+
+# The data sets the man pages and docs use, and the firmware/instrument
+# sources (they build against libit2n-dev).
+INSTALL_EXAMPLES := $(wildcard examples/*.csv) $(wildcard examples/firmware/*.[ch]) \
+  $(wildcard examples/instrument/*.[ch]) examples/instrument/README.md
+install-examples:
+	@set -e; for f in $(INSTALL_EXAMPLES); do \
+	  echo "install -D -m 0644 $$f $(DESTDIR)$(EXAMPLESDIR)/$${f#examples/}"; \
+	  install -D -m 0644 $$f $(DESTDIR)$(EXAMPLESDIR)/$${f#examples/}; done
+
+# One file per program, named after it (bash-completion loads it on demand).
+install-completion:
+	install -d $(DESTDIR)$(BASHCOMPDIR)
+	install -m 0644 $(wildcard completions/*) $(DESTDIR)$(BASHCOMPDIR)/
