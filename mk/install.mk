@@ -69,7 +69,25 @@ install-examples:
 	  echo "install -D -m 0644 $$f $(DESTDIR)$(EXAMPLESDIR)/$${f#examples/}"; \
 	  install -D -m 0644 $$f $(DESTDIR)$(EXAMPLESDIR)/$${f#examples/}; done
 
-# One file per program, named after it (bash-completion loads it on demand).
+# One file per program, named after it (bash-completion loads it on demand);
+# it2nctl's when this tree builds it2nctl (CTL_BIN, cli/cli.mk).
+INSTALL_COMPLETIONS := completions/it2n completions/it2nd completions/it2n-instrument \
+  $(if $(CTL_BIN),completions/it2nctl)
 install-completion:
 	install -d $(DESTDIR)$(BASHCOMPDIR)
-	install -m 0644 $(wildcard completions/*) $(DESTDIR)$(BASHCOMPDIR)/
+	install -m 0644 $(INSTALL_COMPLETIONS) $(DESTDIR)$(BASHCOMPDIR)/
+
+# ---- Debian package -----------------------------------------------------------
+# `make deb` builds it2n_VERSION_ARCH.deb and libit2n-dev_VERSION_ARCH.deb
+# with debhelper (debian/) from a copy of the tree, into $(DEB_OUT).
+# Its own Debian packages are installed by `make deb` (not by `make deps`:
+# `make test` does not need them).
+DEB_OUT ?= $(BUILD)/deb
+DEB_TOOL_PACKAGES := debhelper dpkg-dev fakeroot lintian pkg-config libinih-dev \
+  libmodbus-dev libusb-1.0-0-dev systemd
+.PHONY: deb deb-deps
+deb-deps:
+	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(DEB_TOOL_PACKAGES)"
+
+deb: deb-deps ## Build the Debian packages it2n and libit2n-dev into build/deb/ (docs/packaging.md)
+	@mk/deb.sh $(DEB_OUT)

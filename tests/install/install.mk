@@ -10,15 +10,31 @@
 # docs/packaging.md describes the layout and the package.
 DEB_PACKAGES += bash-completion
 
-# Every program that has a completion file, with its binary and man page.
+# Every program that has a completion file, with its binary and man page
+# (it2nctl: "it2nctl=" = not built by this tree, its completion is skipped).
 COMPLETION_PROGS := it2n=$(CLI_BIN):cli/it2n.1 it2nd=$(IT2ND):daemon/it2nd.8 \
-  it2n-instrument=$(BUILD)/host/it2n-instrument:examples/instrument/it2n-instrument.1
+  it2n-instrument=$(BUILD)/host/it2n-instrument:examples/instrument/it2n-instrument.1 \
+  it2nctl=$(if $(CTL_BIN),$(CTL_BIN):cli/it2nctl.1)
 
 .PHONY: test-install test-completion
 test-install: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB)
 	@MAKE="$(MAKE)" CC="$(CC)" tests/install/test_install.sh
 
-test-completion: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument ## Check the bash completions and man pages against each program's --help
+test-completion: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CTL_BIN) ## Check the bash completions and man pages against each program's --help
 	@/usr/bin/python3 tests/install/test_completion.py completions $(COMPLETION_PROGS)
 
 TEST_TARGETS += test-install test-completion
+
+.PHONY: deb-smoke deb-check
+deb-smoke: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB)
+	@d=$$(mktemp -d); trap 'rm -rf $$d' EXIT; \
+	u=$$(pkg-config --variable=systemdsystemunitdir systemd 2>/dev/null); u=$${u:-/lib/systemd/system}; \
+	$(MAKE) --no-print-directory -s install DESTDIR=$$d PREFIX=/usr \
+	  LIBDIR=/usr/lib/$$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -print-multiarch) \
+	  UNITDIR=$$u >$$d.log 2>&1 || { cat $$d.log >&2; rm -f $$d.log; exit 1; }; rm -f $$d.log; \
+	/usr/bin/python3 tests/install/deb_smoke.py $$d $$u
+
+deb-check: deb ## Build the Debian packages and check them (dpkg-deb -I/-c, unpacked programs, lintian; docs/packaging.md)
+	@MAKE="$(MAKE)" CC="$(CC)" tests/install/deb_check.sh $(DEB_OUT)
+
+TEST_TARGETS += deb-smoke
