@@ -29,9 +29,9 @@ $(CLI_SAN_BIN): $(CLI_SAN_OBJ) $(CORE_SAN_LIB)
 
 .PHONY: install-cli demo
 install-cli: $(CLI_BIN)
-	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(MANDIR)/man1
-	install -m 0755 $(CLI_BIN) $(DESTDIR)$(BINDIR)/it2n
-	install -m 0644 cli/it2n.1 $(DESTDIR)$(MANDIR)/man1/it2n.1
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/man/man1
+	install -m 0755 $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/it2n
+	install -m 0644 cli/it2n.1 $(DESTDIR)$(PREFIX)/share/man/man1/it2n.1
 
 demo: $(CLI_BIN) ## Print the paper model's memberships at a few parameters
 	$(CLI_BIN) eval examples/paper_4x4.csv --summary \
