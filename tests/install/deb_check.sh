@@ -159,4 +159,4 @@ if ! diff -u <(block) "$w/tags" >"$w/ldiff"; then
   cat "$w/ldiff" >&2
   fail "lintian's warnings and notes differ from $doc (- documented, + lintian); make deb-check DEB_CHECK_UPDATE=1 rewrites the list"
 fi
-say "lintian $(lintian --version | awk '{print $2}') -I --pedantic: 0 errors, $nw warnings, $ni notes, as listed in $doc (full output: $out/lintian.txt)"
+say "lintian $(lintian --version | awk '{print $2}') -I --pedantic: errors 0, warnings $nw, notes $ni, as listed in $doc (full output: $out/lintian.txt)"
