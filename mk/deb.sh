@@ -3,7 +3,8 @@
 # (tracked and untracked, not ignored; or all but build/ outside git) are
 # copied to OUT/src/it2n-VERSION, dpkg-buildpackage -us -uc -b runs there,
 # and the .deb, .ddeb, .changes and .buildinfo files land in OUT (the log in
-# OUT/build.log). Nothing is written into the working tree.
+# OUT/build.log), with the source package (.dsc, .tar.xz; dpkg-source -b on
+# the pristine copy) for lintian. Nothing is written into the working tree.
 # usage: mk/deb.sh OUT   (from the repository root)
 set -euo pipefail
 out=$1
@@ -19,11 +20,14 @@ else
   tar -cf - --exclude=./build --exclude=./.git . | tar -xf - -C "$src"
 fi
 echo "deb: building it2n $ver in $src (log: $out/build.log)"
-if ! (cd "$src" && dpkg-buildpackage -us -uc -b -J"${JOBS:-2}") >"$out/build.log" 2>&1; then
+# The source package first, from the pristine copy (for lintian: it checks
+# debian/ itself), then the binary packages.
+if ! (cd "$out/src" && dpkg-source -b "it2n-$ver") >"$out/build.log" 2>&1 ||
+   ! (cd "$src" && dpkg-buildpackage -us -uc -b -J"${JOBS:-2}") >>"$out/build.log" 2>&1; then
   tail -n 40 "$out/build.log" >&2
   echo "deb: dpkg-buildpackage failed (full log: $out/build.log)" >&2
   exit 1
 fi
-mv "$out"/src/*.deb "$out"/src/*.changes "$out"/src/*.buildinfo "$out"/
+mv "$out"/src/*.deb "$out"/src/*.changes "$out"/src/*.buildinfo "$out"/src/*.dsc "$out"/src/*.tar.* "$out"/
 mv "$out"/src/*.ddeb "$out"/ 2>/dev/null || true
 for f in "$out"/*.deb; do echo "deb: $f ($(du -k "$f" | cut -f1) KiB)"; done

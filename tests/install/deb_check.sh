@@ -16,7 +16,8 @@
 #   - unpacked: it2n checks the example the man page names, it2nd accepts
 #     its conffile, a program built with pkg-config against libit2n-dev
 #     prints what the packaged it2n prints;
-#   - lintian (-I --pedantic) on the .changes: no error, and the warnings
+#   - lintian (-I --pedantic) on the .changes and the source package (.dsc):
+#     no error, and the warnings
 #     and notes are exactly those listed in docs/packaging.md (the block
 #     between the lintian markers; DEB_CHECK_UPDATE=1 rewrites it).
 # usage: deb_check.sh DEB_OUT   (from the repository root; MAKE may name make)
@@ -129,7 +130,9 @@ diff -u "$w/want.csv" "$w/got.csv" >&2 || fail "the libit2n-dev consumer differs
 say "unpacked: it2n check $(echo $ex | tr '\n' ' ')ok, it2nd accepts /etc/it2n/it2nd.conf, pkg-config consumer of libit2n-dev = it2n eval"
 
 # ---- lintian ------------------------------------------------------------------
-lintian -I --pedantic --tag-display-limit 0 "$changes" >"$out/lintian.txt" 2>"$w/lintian.err" || true
+dsc=$out/it2n_$ver.dsc
+[ -s "$dsc" ] || fail "$dsc missing (make deb)"
+lintian -I --pedantic --tag-display-limit 0 "$changes" "$dsc" >"$out/lintian.txt" 2>"$w/lintian.err" || true
 if grep -vE '^(running with root privileges is not recommended!|A future release.*)$' "$w/lintian.err" | grep -q .; then
   cat "$w/lintian.err" >&2; fail "lintian did not run cleanly"
 fi

@@ -76,6 +76,11 @@ grep -q '^state_dir = /var/lib/it2n$' "$conf" || fail "it2nd.conf: state_dir is 
 grep -q '^StateDirectory=it2n$' "$r$unitdir/it2nd.service" || fail "it2nd.service: StateDirectory is not it2n"
 "$r$P/sbin/it2nd" -c "$conf" --check-config >"$d/check" 2>&1 ||
   { cat "$d/check" >&2; fail "installed it2nd refuses the installed it2nd.conf"; }
+# what docs/packaging.md says it serves: the built-in default
+grep -q "(1 listen, 0 rtu, 1 models, 0 links)" "$d/check" || fail "it2nd.conf: $(cat "$d/check")"
+for l in 'tcp_listen = 127.0.0.1:1502' '\[model:1\]' 'unit_id = 1' 'preload = paper'; do
+  grep -q "^$l\$" "$conf" || fail "it2nd.conf lacks '$l'"
+done
 echo "; the operator's change" >>"$conf"
 cp "$conf" "$d/conf.mine"
 $MAKE --no-print-directory -s install DESTDIR="$d/root" PREFIX=$P >"$log" 2>&1 ||
