@@ -8,7 +8,9 @@
 #                    `make deb`, checks them with dpkg-deb and lintian
 #   deb-smoke        (in make test) debian/ agrees with make install and cli.h
 # docs/packaging.md describes the layout and the package.
-DEB_PACKAGES += bash-completion
+# bash-completion (test-completion), dpkg-dev (dpkg-parsechangelog,
+# dpkg-architecture: deb-smoke), man-db (man page warnings: test-install).
+DEB_PACKAGES += bash-completion dpkg-dev man-db
 
 # Every program that has a completion file, with its binary and man page
 # (it2nctl: "it2nctl=" = not built by this tree, its completion is skipped).
