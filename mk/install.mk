@@ -1,9 +1,10 @@
 # mk/install.mk: where `make install` puts things (GNU-style names, each
 # overridable on the command line) and the install rules that belong to no
 # single directory: the libraries, headers and pkg-config files, the example
-# instrument, the examples and the bash completions. cli/cli.mk and
-# daemon/daemon.mk install their programs, man pages, units and it2nd.conf
-# with these directories. The Debian package (debian/rules, `make deb`) is
+# instrument, the examples and the bash completions. daemon/daemon.mk
+# installs it2nd, its units and it2nd.conf with these directories; cli/cli.mk
+# installs the CLI's programs and man pages under PREFIX/bin, PREFIX/share/man
+# (what BINDIR and MANDIR default to). The Debian package (debian/rules, `make deb`) is
 # `make install DESTDIR=debian/tmp PREFIX=/usr LIBDIR=/usr/lib/<triplet>`.
 # Layout and the reasons: docs/packaging.md.
 BINDIR      ?= $(PREFIX)/bin
@@ -15,8 +16,8 @@ MANDIR      ?= $(DATADIR)/man
 DOCDIR      ?= $(DATADIR)/doc/it2n
 EXAMPLESDIR ?= $(DOCDIR)/examples
 PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
-# bash-completion also looks in ../share/bash-completion/completions next to
-# the program it completes, so this works for any PREFIX whose bin is on PATH.
+# bash-completion finds it through XDG_DATA_DIRS (/usr/local/share:/usr/share
+# by default; bash-completion >= 2.12 also looks next to the program).
 BASHCOMPDIR ?= $(DATADIR)/bash-completion/completions
 # Not under PREFIX: the configuration stays in /etc, and the units go where
 # systemd looks for them (/opt/it2n/lib/systemd/system would never be
@@ -32,7 +33,7 @@ IT2N_VERSION := $(shell sed -n 's/^\#define IT2N_CLI_VERSION "\([0-9.]*\)".*/\1/
 
 # What the libraries' users include: as CMakeLists.txt installs it.
 INSTALL_HEADERS := firmware_core/it2n.h $(wildcard protocol/*.h)
-# pkg-config files from CMake's templates (cmake/*.pc.in), absolute paths.
+# pkg-config files from CMake's templates (cmake/*.pc.in) with this PREFIX.
 INSTALL_PC := $(BUILD)/pkgconfig/it2n.pc $(BUILD)/pkgconfig/it2n-protocol.pc
 IT2N_INSTRUMENT := $(BUILD)/host/it2n-instrument
 

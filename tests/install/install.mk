@@ -4,7 +4,7 @@
 #                    kept on reinstall, a pkg-config consumer, completions
 #   test-completion  the bash completions (completions/) and the man pages
 #                    agree with each program's --help
-#   deb-check        (not in make test: about a minute) builds the .debs with
+#   deb-check        (not in make test: minutes) builds the .debs with
 #                    `make deb`, checks them with dpkg-deb and lintian
 #   deb-smoke        (in make test) debian/ agrees with make install and cli.h
 # docs/packaging.md describes the layout and the package.
