@@ -37,6 +37,7 @@ include cli/cli.mk
 include tests/tests.mk
 -include mk/cross.mk
 include mk/lint.mk
+include mk/install.mk
 
 .PHONY: all run test bench fuzz cross size install clean deps help
 
@@ -51,7 +52,7 @@ bench: $(BENCH_TARGETS) ## Run benchmarks (ratios from one run) into bench/*.jso
 
 fuzz: $(FUZZ_TARGETS) ## Run fuzzers for FUZZ_SECONDS each (default 60)
 
-install: $(INSTALL_TARGETS) ## Install binaries, unit, config, man pages (PREFIX, DESTDIR)
+install: $(INSTALL_TARGETS) ## Install programs, units, it2nd.conf, man pages, examples, completions, libit2n.a, headers, it2n.pc (PREFIX, DESTDIR; docs/packaging.md)
 
 clean: ## Remove build output
 	rm -rf $(BUILD)

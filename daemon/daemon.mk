@@ -59,11 +59,25 @@ run: deps $(IT2ND) ## Build and start it2nd in the foreground on its built-in de
 
 .PHONY: install-daemon
 install-daemon: $(IT2ND)
-	install -D -m 0755 $(IT2ND) $(DESTDIR)$(PREFIX)/sbin/it2nd
-	@# The units name the binary by path: point them at this PREFIX.
+	install -D -m 0755 $(IT2ND) $(DESTDIR)$(SBINDIR)/it2nd
+	@# The units name the binary and the configuration by path: point them at
+	@# SBINDIR and SYSCONFDIR. UNITDIR is where systemd looks (mk/install.mk).
 	for u in it2nd.service it2nd@.service; do \
-	  sed 's|/usr/local/sbin/it2nd|$(PREFIX)/sbin/it2nd|' daemon/$$u > $(BUILD)/$$u.tmp && \
-	  install -D -m 0644 $(BUILD)/$$u.tmp $(DESTDIR)$(PREFIX)/lib/systemd/system/$$u && rm -f $(BUILD)/$$u.tmp; \
+	  sed -e 's|/usr/local/sbin/it2nd|$(SBINDIR)/it2nd|' -e 's|/etc/it2n/|$(SYSCONFDIR)/it2n/|' \
+	    daemon/$$u > $(BUILD)/$$u.tmp && \
+	  install -D -m 0644 $(BUILD)/$$u.tmp $(DESTDIR)$(UNITDIR)/$$u && rm -f $(BUILD)/$$u.tmp; \
 	done
-	install -D -m 0644 daemon/it2nd.conf.example $(DESTDIR)/etc/it2n/it2nd.conf.example
-	install -D -m 0644 daemon/it2nd.8 $(DESTDIR)$(PREFIX)/share/man/man8/it2nd.8
+	install -D -m 0644 daemon/it2nd.conf.example $(DESTDIR)$(SYSCONFDIR)/it2n/it2nd.conf.example
+	@# it2nd.conf (read by the unit): the example with the unit's state
+	@# directory; an existing one is the operator's and is kept.
+	if [ -e $(DESTDIR)$(SYSCONFDIR)/it2n/it2nd.conf ]; then \
+	  echo "install-daemon: keeping the existing $(DESTDIR)$(SYSCONFDIR)/it2n/it2nd.conf"; \
+	else \
+	  sed -e 's|^state_dir = \./state$$|state_dir = /var/lib/it2n|' \
+	    -e '1a ; Installed from it2nd.conf.example with state_dir = /var/lib/it2n (the unit'"'"'s StateDirectory).' \
+	    daemon/it2nd.conf.example \
+	    > $(BUILD)/it2nd.conf.tmp && \
+	  install -D -m 0644 $(BUILD)/it2nd.conf.tmp $(DESTDIR)$(SYSCONFDIR)/it2n/it2nd.conf && \
+	  rm -f $(BUILD)/it2nd.conf.tmp; \
+	fi
+	install -D -m 0644 daemon/it2nd.8 $(DESTDIR)$(MANDIR)/man8/it2nd.8

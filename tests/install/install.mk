@@ -1,18 +1,42 @@
-# make install into a scratch DESTDIR with a non-default PREFIX: every file
-# lands where the docs say, and the units point at the installed binary.
-.PHONY: test-install
-test-install:
-	@d=$$(mktemp -d); trap 'rm -rf $$d' EXIT; \
-	$(MAKE) --no-print-directory -s install DESTDIR=$$d PREFIX=/opt/it2n >/dev/null && \
-	for f in opt/it2n/bin/it2n opt/it2n/sbin/it2nd opt/it2n/share/man/man1/it2n.1 \
-	         opt/it2n/share/man/man8/it2nd.8 etc/it2n/it2nd.conf.example \
-	         opt/it2n/lib/systemd/system/it2nd.service opt/it2n/lib/systemd/system/it2nd@.service; do \
-	  test -s $$d/$$f || { echo "test-install: missing $$f" >&2; exit 1; }; \
-	done && \
-	grep -q '^ExecStart=/opt/it2n/sbin/it2nd ' $$d/opt/it2n/lib/systemd/system/it2nd.service && \
-	grep -q '^ExecStart=/opt/it2n/sbin/it2nd ' $$d/opt/it2n/lib/systemd/system/it2nd@.service || \
-	  { echo "test-install: units do not point at PREFIX/sbin/it2nd" >&2; exit 1; }; \
-	$$d/opt/it2n/bin/it2n --version >/dev/null && $$d/opt/it2n/sbin/it2nd --version >/dev/null && \
-	echo "test-install: ok (PREFIX=/opt/it2n, DESTDIR=scratch)"
+# tests/install/: what `make install` and the Debian package deliver.
+#   test-install     make install into a scratch DESTDIR with PREFIX=/opt/it2n:
+#                    the full layout, units where systemd looks, it2nd.conf
+#                    kept on reinstall, a pkg-config consumer, completions
+#   test-completion  the bash completions (completions/) and the man pages
+#                    agree with each program's --help
+#   deb-check        (not in make test: minutes) builds the .debs with
+#                    `make deb`, checks them with dpkg-deb and lintian
+#   deb-smoke        (in make test) debian/ agrees with make install and cli.h
+# docs/packaging.md describes the layout and the package.
+# bash-completion (test-completion), dpkg-dev (dpkg-parsechangelog,
+# dpkg-architecture: deb-smoke), man-db (man page warnings: test-install).
+DEB_PACKAGES += bash-completion dpkg-dev man-db
 
-TEST_TARGETS += test-install
+# Every program that has a completion file, with its binary and man page
+# (it2nctl: "it2nctl=" = not built by this tree, its completion is skipped).
+COMPLETION_PROGS := it2n=$(CLI_BIN):cli/it2n.1 it2nd=$(IT2ND):daemon/it2nd.8 \
+  it2n-instrument=$(BUILD)/host/it2n-instrument:examples/instrument/it2n-instrument.1 \
+  it2nctl=$(if $(CTL_BIN),$(CTL_BIN):cli/it2nctl.1)
+
+.PHONY: test-install test-completion
+test-install: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB)
+	@MAKE="$(MAKE)" CC="$(CC)" tests/install/test_install.sh
+
+test-completion: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CTL_BIN) ## Check the bash completions and man pages against each program's --help
+	@/usr/bin/python3 tests/install/test_completion.py completions $(COMPLETION_PROGS)
+
+TEST_TARGETS += test-install test-completion
+
+.PHONY: deb-smoke deb-check
+deb-smoke: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB)
+	@d=$$(mktemp -d); trap 'rm -rf $$d' EXIT; \
+	u=$$(pkg-config --variable=systemdsystemunitdir systemd 2>/dev/null); u=$${u:-/lib/systemd/system}; \
+	$(MAKE) --no-print-directory -s install DESTDIR=$$d PREFIX=/usr \
+	  LIBDIR=/usr/lib/$$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -print-multiarch) \
+	  UNITDIR=$$u >$$d.log 2>&1 || { cat $$d.log >&2; rm -f $$d.log; exit 1; }; rm -f $$d.log; \
+	/usr/bin/python3 tests/install/deb_smoke.py $$d $$u
+
+deb-check: deb ## Build the Debian packages and check them (dpkg-deb -I/-c, unpacked programs, lintian; docs/packaging.md)
+	@MAKE="$(MAKE)" CC="$(CC)" tests/install/deb_check.sh $(DEB_OUT)
+
+TEST_TARGETS += deb-smoke
