@@ -83,6 +83,12 @@ install: $(INSTALL_TARGETS) ## Install binaries, unit, config, man pages (PREFIX
 clean: ## Remove build output
 	rm -rf $(BUILD)
 
-help: ## List targets
+help: ## List targets, then every test suite, benchmark and fuzzer by name
 	@grep -hE '^[a-z][a-z_-]*:.*## ' $(MAKEFILE_LIST) | sort -u | \
-	  awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
+	  awk -F':.*## ' '{printf "  %-16s %s\n", $$1, $$2}'
+	@echo "Test suites (make test runs them in turn; each is also a target):"
+	@echo "$(TEST_TARGETS)" | fmt -w 76 | sed 's/^/  /'
+	@echo "Benchmarks (make bench runs them all):"
+	@echo "$(BENCH_TARGETS)" | fmt -w 76 | sed 's/^/  /'
+	@echo "Fuzzers (make fuzz runs them all):"
+	@echo "$(FUZZ_TARGETS)" | fmt -w 76 | sed 's/^/  /'

@@ -98,9 +98,12 @@ int main(void)
         printf("\n");
     }
     printf("## Examples (mbpoll, default daemon on 127.0.0.1:1502)\n\n"
+           "<!-- snippet: daemon -->\n"
            "```sh\n"
-           "# status block, 26 registers from address 0 (-0: 0-based references)\n"
-           "mbpoll -m tcp -a 1 -0 -r 0 -c 26 -t 3 -1 127.0.0.1 -p 1502\n"
+           "# status block, %u registers from address 0 (-0: 0-based references)\n"
+           "mbpoll -m tcp -a 1 -0 -r 0 -c %u -t 3 -1 127.0.0.1 -p 1502\n",
+           IT2N_REG_STATUS_END, IT2N_REG_STATUS_END);
+    printf(
            "# sample grid node (0,0): D footprint T, I, F x10000\n"
            "mbpoll -m tcp -a 1 -0 -r 1024 -c 3 -t 4 -1 127.0.0.1 -p 1502\n"
            "# the same node as float32 ABCD\n"
