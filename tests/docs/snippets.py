@@ -29,8 +29,9 @@ The marking rule (docs/README "Documentation checks" repeats it):
   block with a main() is compiled with -Wall -Wextra -Werror against
   libit2n.a (and libit2n_proto.a), run, and must exit 0; any other C block
   must compile as a translation unit.
-* Every `make TARGET` a document names (in a code span or a sh block) must be
-  listed by `make help`.
+* Every `make TARGET` a document names (in a code span or a sh block), and
+  every `name` in a table column headed "make ...", must be listed by
+  `make help`.
 A block that fails prints FILE:LINE, the command's output and exit status.
 """
 import glob
@@ -262,6 +263,24 @@ def make_names(path, blocks):
     return found
 
 
+def table_targets(path):
+    """(line, name) for every `name` in a table column headed `make ...`
+    (e.g. "make test target")."""
+    found, col = [], None
+    for n, ln in enumerate(open(path, encoding="utf-8").read().split("\n"), 1):
+        if not ln.startswith("|"):
+            col = None
+            continue
+        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        if col is None:
+            col = next((k for k, c in enumerate(cells)
+                        if c.lower().startswith("make ")), -1)
+            continue
+        if 0 <= col < len(cells) and not set(cells[col]) <= set("-: "):
+            found += [(n, t) for t in re.findall(r"`([a-z][\w-]*)`", cells[col])]
+    return found
+
+
 def main(argv):
     listing = "--list" in argv
     files = [a for a in argv if not a.startswith("--")] or \
@@ -271,7 +290,7 @@ def main(argv):
     targets = help_targets()
     for path in files:
         blocks = parse(path)
-        for line, t in make_names(path, blocks):
+        for line, t in make_names(path, blocks) + table_targets(path):
             if t not in targets:
                 failures.append(f"{os.path.relpath(path, ROOT)}:{line}: "
                                 f"`make {t}`: not listed by `make help`")
