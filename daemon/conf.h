@@ -21,6 +21,7 @@ struct conf_listen {
     char name[CONF_NAME];    /* [listen:NAME]; "" for a tcp_listen line */
     char host[64];
     char port[8];
+    int line;                /* config line of the address, 0 built-in */
     int read_only;           /* 1: no Modbus write may change a model */
     int nallow;              /* 0: every client address */
     struct conf_prefix allow[CONF_MAX_ALLOW];
@@ -108,5 +109,12 @@ void conf_default(struct conf *c);
  * "file:line: [section] key: reason" into err. c is only written on
  * success. */
 int conf_load(struct conf *c, const char *path, char *err, size_t errsize);
+
+/* Resolve every listener's host as the listener will (getaddrinfo, passive,
+ * numeric port), so a misspelt host name fails --check-config, start and
+ * reload with "file:line: [section] key: cannot resolve host 'H': reason"
+ * instead of at bind time. Kept out of conf_load so parsing (and its
+ * fuzzer) never waits for DNS. Returns 0 or -1 with err written. */
+int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t errsize);
 
 #endif
