@@ -53,7 +53,7 @@ struct parse {
     char sec_name[64];
     int empty_line;           /* first empty section's header line     */
     char empty_name[64];
-    int max_models_line, grid_line;
+    int max_models_line, grid_line, default_model_line;
     char grid_key[CONF_NAME];
     struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS], listen[CONF_MAX_LISTEN];
     int listen_addr_line[CONF_MAX_LISTEN]; /* 0: the listener has no address yet */
@@ -283,6 +283,19 @@ static int key_modbus(struct parse *p, const char *name, const char *v)
     } else if (!strcmp(name, "float_word_order")) {
         if (parse_order(v, &c->word_order))
             FAIL("expected ABCD, CDAB, BADC or DCBA");
+    } else if (!strcmp(name, "int32_word_order")) {
+        if (!strcasecmp(v, "float"))
+            c->int32_word_order = -1;
+        else if (parse_order(v, &c->int32_word_order))
+            FAIL("expected float (as float_word_order), ABCD, CDAB, BADC or DCBA");
+    } else if (!strcmp(name, "default_model")) {
+        if (!strcasecmp(v, "auto"))
+            c->default_model = CONF_DEFAULT_AUTO;
+        else if (!strcasecmp(v, "none"))
+            c->default_model = CONF_DEFAULT_NONE;
+        else if (parse_int(v, 0, 254, &c->default_model))
+            FAIL("expected auto, none or a model id 0..254");
+        p->default_model_line = p->line;
     } else if (!strcmp(name, "coord_scale")) {
         if (parse_int(v, 1, 10000, &c->coord_scale))
             FAIL("expected 1..10000");
@@ -597,6 +610,8 @@ void conf_default(struct conf *c)
     c->tcp_keepalive = 60;
     c->evict_idle = 500;
     c->word_order = IT2N_WO_ABCD;
+    c->int32_word_order = -1;
+    c->default_model = CONF_DEFAULT_AUTO;
     c->coord_scale = 100;
     c->grid_rows = 5;
     c->grid_cols = 5;
@@ -625,6 +640,13 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
 {
     const struct conf *c = &p->c;
     char sec[64];
+    if (c->default_model >= 0) {
+        int k = 0;
+        while (k < c->nmodels && c->model[k].id != c->default_model)
+            k++;
+        if (k == c->nmodels)
+            VFAIL(p->default_model_line, "modbus", "default_model", "no [model:%d] is configured", c->default_model);
+    }
     if (c->nmodels > c->max_models) {
         const struct origin *o = &p->model[c->max_models];
         snprintf(sec, sizeof sec, "model:%d", c->model[c->max_models].id);
@@ -770,6 +792,16 @@ static const char *section_needs(const char *name)
     if (!strncmp(name, "link:", 5))
         return "type and device (serial) or usb (usb) are required";
     return "a section with no keys has no effect; remove it or add keys";
+}
+
+int conf_default_unit(const struct conf *c)
+{
+    if (c->default_model == CONF_DEFAULT_NONE || (c->default_model == CONF_DEFAULT_AUTO && c->nmodels != 1))
+        return 0;
+    for (int k = 0; k < c->nmodels; k++)
+        if (c->default_model == CONF_DEFAULT_AUTO || c->model[k].id == c->default_model)
+            return c->model[k].unit;
+    return 0;
 }
 
 int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t errsize)

@@ -88,6 +88,8 @@ struct conf {
     int tcp_keepalive;       /* s idle before keepalive probes, 0 off */
     int evict_idle;          /* ms without a request before a slot may be taken */
     int word_order;          /* enum it2n_regmap_order */
+    int int32_word_order;    /* of u32/i32 registers; -1: as word_order */
+    int default_model;       /* TCP units 0, 255: model id, or CONF_DEFAULT_* */
     int coord_scale;
     int grid_rows, grid_cols;
     struct conf_rtu rtu[CONF_MAX_RTU];
@@ -100,6 +102,13 @@ struct conf {
     char user[CONF_NAME];    /* "" = keep the starting user          */
     unsigned uid, gid;       /* resolved from user at load           */
 };
+
+#define CONF_DEFAULT_AUTO (-1) /* the only model, when exactly one is configured */
+#define CONF_DEFAULT_NONE (-2) /* units 0 and 255 answer exception 0B */
+
+/* The unit that Modbus TCP unit ids 0 and 255 reach under c's
+ * default_model, or 0 for none. */
+int conf_default_unit(const struct conf *c);
 
 /* Fill c with the built-in default (TCP 127.0.0.1:1502, model 1 on unit 1
  * preloaded with the paper data set, state in ./state). */

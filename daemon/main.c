@@ -71,6 +71,8 @@ static void usage(FILE *f)
 static void fill_opts(void)
 {
     mbo.word_order = cfg.word_order;
+    mbo.int32_order = cfg.int32_word_order < 0 ? cfg.word_order : cfg.int32_word_order;
+    mbo.default_unit = conf_default_unit(&cfg);
     mbo.coord_scale = cfg.coord_scale;
     mbo.grid_rows = (unsigned)cfg.grid_rows;
     mbo.grid_cols = (unsigned)cfg.grid_cols;

@@ -50,7 +50,7 @@ static void test_scale(void **st)
 }
 
 static struct model *md;
-static const struct mb_opts opts = { IT2N_WO_ABCD, 100, 5, 5, { 0 } };
+static const struct mb_opts opts = { IT2N_WO_ABCD, 100, 5, 5, { 0 }, IT2N_WO_ABCD, 0 };
 
 static int setup(void **st)
 {
@@ -173,7 +173,7 @@ static void test_grid_saturation_flag(void **st)
 {
     /* A 7x7 checkerboard oscillates far outside [0, 1] at u, w = k/14. */
     struct model *m3 = models_add(3, 3, 7, 7, IT2N_F_TYPE1);
-    const struct mb_opts g15 = { IT2N_WO_ABCD, 100, 15, 15, { 0 } };
+    const struct mb_opts g15 = { IT2N_WO_ABCD, 100, 15, 15, { 0 }, IT2N_WO_ABCD, 0 };
     static uint16_t grid[15 * 15 * 3], gf[15 * 15 * 6];
     uint16_t r[IT2N_REG_STATUS_END];
     it2n_errinfo err;
