@@ -22,6 +22,10 @@ The marking rule (docs/README "Documentation checks" repeats it):
     <!-- snippet: output -->       (any fence) the exact stdout of the checked
                                    block just before it.
     <!-- run: it2n -->             same as no marker (the CLI's own marker).
+    <!-- run: TOOL -->             (another TOOL, e.g. it2nctl) run by that
+                                   tool's own documentation test, which
+                                   needs its own set-up (a daemon on 1502);
+                                   listed here as delegated.
     <!-- file:PATH -->             a quote of PATH: must equal the file.
 * Without a marker: sh/bash runs with `bash -e -o pipefail` in a scratch
   directory holding the repository's examples/ (and an empty docs/img/), with
@@ -286,7 +290,7 @@ def main(argv):
     files = [a for a in argv if not a.startswith("--")] or \
         [os.path.join(ROOT, "README.md")] + \
         sorted(glob.glob(os.path.join(ROOT, "docs", "*.md")))
-    failures, counts = [], {"run": 0, "skip": 0, "quote": 0}
+    failures, counts = [], {"run": 0, "skip": 0, "quote": 0, "delegated": 0}
     targets = help_targets()
     for path in files:
         blocks = parse(path)
@@ -303,6 +307,11 @@ def main(argv):
                                     f"{b.marker[5:]}")
                 continue
             if b.lang not in CHECKED:
+                continue
+            if b.marker.startswith("run: ") and b.marker != "run: it2n":
+                counts["delegated"] += 1
+                if listing:
+                    print(f"{b.where()}: {b.lang}: delegated ({b.marker})")
                 continue
             if b.marker.startswith("snippet: skip"):
                 if not b.marker[len("snippet: skip"):].strip():
@@ -330,8 +339,8 @@ def main(argv):
     for f in failures:
         print("FAIL: " + f, file=sys.stderr)
     print(f"docs snippets: {counts['run']} checked, {counts['quote']} quotes, "
-          f"{counts['skip']} skipped (with reasons), {len(failures)} failures "
-          f"in {len(files)} files")
+          f"{counts['delegated']} run by their tool's test, {counts['skip']} "
+          f"skipped (with reasons), {len(failures)} failures in {len(files)} files")
     return 1 if failures else 0
 
 
