@@ -236,8 +236,12 @@ def check_block(b, daemon):
 
 
 def help_targets():
+    # A fresh make: not the one running us (its command-line variables,
+    # e.g. TEST_TARGETS=..., would change what help lists).
+    e = {k: v for k, v in os.environ.items()
+         if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL", "MAKEOVERRIDES")}
     p = subprocess.run(["make", "-s", "--no-print-directory", "help"],
-                       cwd=ROOT, capture_output=True, text=True)
+                       cwd=ROOT, capture_output=True, text=True, env=e)
     names = set()
     for ln in p.stdout.splitlines():
         names.update(w.rstrip(":,") for w in ln.split())
