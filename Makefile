@@ -43,9 +43,37 @@ include mk/install.mk
 
 all: $(ALL_TARGETS) ## Build the core, protocol, CLI and daemon
 
-test: deps ## Build and run every test (unit, reference, sanitizers, emulated Cortex-M3, end-to-end)
-	@$(MAKE) --no-print-directory $(TEST_TARGETS)
-	@echo "== all tests passed =="
+# `make test` runs each TEST_TARGETS entry in turn as its own sub-make
+# (builds inside a suite still use -jN) with its output in
+# $(BUILD)/logs/SUITE.log, and prints one line per suite: name, ok/FAIL,
+# seconds. A failing suite's log is printed in full; V=1 prints every log
+# as it runs. It stops at the first failure unless make runs with -k.
+V ?= 0
+test: deps ## Build and run every test, one line per suite (V=1: full output; logs in build/logs/)
+	@mkdir -p $(BUILD)/logs; failed=""; t0=$$(date +%s%N); \
+	keep=$(if $(findstring k,$(firstword -$(MAKEFLAGS))),1,0); \
+	for t in $(TEST_TARGETS); do \
+	  log=$(BUILD)/logs/$$t.log; s=$$(date +%s%N); \
+	  if [ "$(V)" = 1 ]; then \
+	    echo "== $$t"; \
+	    $(MAKE) --no-print-directory $$t 2>&1 | tee $$log; rc=$${PIPESTATUS[0]}; \
+	  else \
+	    $(MAKE) --no-print-directory $$t > $$log 2>&1; rc=$$?; \
+	  fi; \
+	  ds=$$(( ($$(date +%s%N) - s) / 100000000 )); secs=$$((ds / 10)).$$((ds % 10)); \
+	  if [ $$rc = 0 ]; then \
+	    printf '  %-26s ok   %6.1f s\n' $$t $$secs; \
+	  else \
+	    [ "$(V)" = 1 ] || { echo "---- $$log"; cat $$log; echo "----"; }; \
+	    printf '  %-26s FAIL %6.1f s  (log: %s)\n' $$t $$secs $$log; \
+	    failed="$$failed $$t"; [ $$keep = 1 ] || break; \
+	  fi; \
+	done; \
+	secs=$$(( ($$(date +%s%N) - t0) / 1000000000 )); \
+	if [ -n "$$failed" ]; then \
+	  printf '== FAILED:%s (%.0f s) ==\n' "$$failed" $$secs; exit 1; \
+	fi; \
+	printf '== all tests passed (%.0f s) ==\n' $$secs
 
 bench: $(BENCH_TARGETS) ## Run benchmarks (ratios from one run) into bench/*.json, bench/results.json, docs/performance.md
 	@$(MAKE) --no-print-directory bench-collect
@@ -57,6 +85,12 @@ install: $(INSTALL_TARGETS) ## Install programs, units, it2nd.conf, man pages, e
 clean: ## Remove build output
 	rm -rf $(BUILD)
 
-help: ## List targets
+help: ## List targets, then every test suite, benchmark and fuzzer by name
 	@grep -hE '^[a-z][a-z_-]*:.*## ' $(MAKEFILE_LIST) | sort -u | \
-	  awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
+	  awk -F':.*## ' '{printf "  %-16s %s\n", $$1, $$2}'
+	@echo "Test suites (make test runs them in turn; each is also a target):"
+	@echo "$(TEST_TARGETS)" | fmt -w 76 | sed 's/^/  /'
+	@echo "Benchmarks (make bench runs them all):"
+	@echo "$(BENCH_TARGETS)" | fmt -w 76 | sed 's/^/  /'
+	@echo "Fuzzers (make fuzz runs them all):"
+	@echo "$(FUZZ_TARGETS)" | fmt -w 76 | sed 's/^/  /'

@@ -29,7 +29,7 @@ typedef struct cli_opts {
     const char *cmd;      /* subcommand name                  */
     const char *path;     /* DATA.csv, "-" for stdin          */
     unsigned flags;       /* extra IT2N_F_* (CHORD)           */
-    unsigned decimals;    /* 6..9                             */
+    unsigned decimals;    /* 0..9 (parameters: at least 6)    */
     bool summary;         /* eval/sample: interval summary    */
     unsigned rows, cols;  /* sample --grid                    */
     cli_at *at;           /* --at list (malloc'd)             */
@@ -47,6 +47,7 @@ enum { CLI_FMT_VTK = 0, CLI_FMT_OBJ, CLI_FMT_CSV };
 
 /* Largest --grid side for plot and export (they hold the samples). */
 #define CLI_GRID_MAX_MESH 1001u
+#define CLI_PAR_DECIMALS 6u /* digits of u, w whatever --decimals says */
 
 /* Run the subcommand in o; returns an exit status. */
 int cli_run(const cli_opts *o);

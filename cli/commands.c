@@ -98,9 +98,14 @@ static void put_val(it2n_val v, unsigned decimals)
     fputs(buf, stdout);
 }
 
+/* Parameters keep at least CLI_PAR_DECIMALS digits: --decimals below that
+ * shortens values, never the (u, w) a row is about. */
 static void put_par(it2n_par p, unsigned decimals)
 {
     char buf[48];
+    if (decimals < CLI_PAR_DECIMALS) {
+        decimals = CLI_PAR_DECIMALS;
+    }
     if (it2n_format_par(buf, sizeof(buf), p, decimals) < 0) {
         fputs("?", stdout);
         return;

@@ -77,7 +77,25 @@ static csv_field trim(const char *s, size_t len)
     return f;
 }
 
-/* Split on ','; returns the field count (CSV_MAX_FIELDS + 1 if more). */
+/* A field wrapped whole in double quotes (as spreadsheets export every
+ * field) is unwrapped; none of ours can hold a ',' or '"', so a quote
+ * anywhere else is refused rather than guessed at. False on a bad quote. */
+static bool unquote(csv_field *f)
+{
+    size_t k;
+    if (f->len >= 2u && f->s[0] == '"' && f->s[f->len - 1u] == '"') {
+        *f = trim(f->s + 1, f->len - 2u);
+    }
+    for (k = 0; k < f->len; k++) {
+        if (f->s[k] == '"') {
+            return false;
+        }
+    }
+    return true;
+}
+
+/* Split on ','; returns the field count (CSV_MAX_FIELDS + 1 if more), or
+ * -(k + 1) when field k is badly quoted (out[k] is that field). */
 static int split(const char *s, size_t len, csv_field *out)
 {
     int n = 0;
@@ -87,11 +105,22 @@ static int split(const char *s, size_t len, csv_field *out)
             if (n == CSV_MAX_FIELDS) {
                 return CSV_MAX_FIELDS + 1;
             }
-            out[n++] = trim(s + start, k - start);
+            out[n] = trim(s + start, k - start);
+            if (!unquote(&out[n])) {
+                out[n] = trim(s + start, k - start);
+                return -(n + 1);
+            }
+            n++;
             start = k + 1u;
         }
     }
     return n;
+}
+
+/* A bad quote from split(): record it against field -n. */
+static int fail_quote(it2n_csv *p, int n, const csv_field *f)
+{
+    return fail(p, IT2N_CSV_ERR_QUOTE, -n, &f[-n - 1]);
 }
 
 static bool field_is(const csv_field *f, const char *name)
@@ -110,6 +139,19 @@ static int parse_header(it2n_csv *p, const char *s, size_t len)
     int n = split(s, len, f), k;
     csv_field whole;
 
+    if (n < 0) {
+        return fail_quote(p, n, f);
+    }
+    if (n == 1) {
+        /* One field: a spreadsheet's ';' (or tab) separated export. */
+        for (k = 0; (size_t)k < len; k++) {
+            if (s[k] == ';' || s[k] == '\t') {
+                fail(p, IT2N_CSV_ERR_SEPARATOR, 0, NULL);
+                p->err.got = s[k];
+                return p->error;
+            }
+        }
+    }
     if (n == 8) {
         want = xy;
     } else if (n == 9) {
@@ -166,6 +208,9 @@ static int parse_row(it2n_csv *p, const char *s, size_t len)
     it2n_val vals[IT2N_CH_COUNT];
     it2n_errinfo info;
 
+    if (n < 0) {
+        return fail_quote(p, n, f);
+    }
     if (n != want) {
         fail(p, IT2N_CSV_ERR_FIELDS, 0, NULL);
         p->err.got = n > CSV_MAX_FIELDS ? CSV_MAX_FIELDS + 1 : n;
@@ -472,6 +517,17 @@ int it2n_csv_message(const it2n_csv_error *e, const char *name, char *buf,
                         "%s: every row has %c=0: need 2 to %d grid points "
                         "per direction (degree 1..%d)",
                         pre, e->got, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE);
+    case IT2N_CSV_ERR_QUOTE:
+        return snprintf(buf, size,
+                        "%s: field %d: bad quoting '%s' (a field may be "
+                        "wrapped whole in \"...\", but never holds '\"' or ',')",
+                        pre, e->field, e->text);
+    case IT2N_CSV_ERR_SEPARATOR:
+        return snprintf(buf, size,
+                        "%s: fields separated by %s, not ',' (save the CSV "
+                        "with ',' as separator and '.' as decimal point; "
+                        "expected '%s')",
+                        pre, e->got == ';' ? "';'" : "tabs", hdr_xy);
     case IT2N_CSV_ERR_BINARY:
         return snprintf(buf, size, "%s: control byte 0x%02x in line", pre,
                         (unsigned)e->got);

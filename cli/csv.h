@@ -39,7 +39,9 @@ enum it2n_csv_error_code {
     IT2N_CSV_ERR_LONG = -106,     /* line longer than IT2N_CSV_LINE_MAX   */
     IT2N_CSV_ERR_EMPTY = -107,    /* no data rows                         */
     IT2N_CSV_ERR_DEGREE = -108,   /* max i or max j is 0 (degree < 1)     */
-    IT2N_CSV_ERR_BINARY = -109    /* NUL or other control byte in a line  */
+    IT2N_CSV_ERR_BINARY = -109,   /* NUL or other control byte in a line  */
+    IT2N_CSV_ERR_QUOTE = -110,    /* a "quoted" field with '"' or ',' in it */
+    IT2N_CSV_ERR_SEPARATOR = -111 /* header separated by ';' or tab, not ',' */
 };
 
 /* What went wrong and where. line is 1-based, 0 when no row is to blame. */

@@ -34,7 +34,9 @@ static void put(exp_ctx *x, it2n_val v)
 static void put_par(exp_ctx *x, it2n_par p)
 {
     char buf[48];
-    if (it2n_format_par(buf, sizeof(buf), p, x->o->decimals) < 0) {
+    unsigned d = x->o->decimals;
+    if (it2n_format_par(buf, sizeof(buf), p,
+                        d < CLI_PAR_DECIMALS ? CLI_PAR_DECIMALS : d) < 0) {
         buf[0] = '?';
         buf[1] = '\0';
     }

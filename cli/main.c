@@ -36,7 +36,7 @@ typedef struct cli_cmd {
 static const char common_help[] =
     "Common options:\n"
     "  --chord         chord-length parameters instead of uniform i/n, j/m\n"
-    "  --decimals N    digits after the point, 6..9 (default 6)\n"
+    "  --decimals N    digits after the point, 0..9 (default 6)\n"
     "  -h, --help      this help\n"
     "DATA.csv is '-' for standard input. Exit status: 0 ok, 1 usage error,\n"
     "2 data error (message on stderr as FILE:LINE: ...).\n";
@@ -314,10 +314,9 @@ int main(int argc, char **argv)
             break;
         case 'd':
             d = strtoul(optarg, &end, 10);
-            if (*optarg < '0' || *optarg > '9' || *end != '\0' || d < 6 ||
-                d > 9) {
+            if (*optarg < '0' || *optarg > '9' || *end != '\0' || d > 9) {
                 free(o.at);
-                return usage_error(c->name, "--decimals '%s': expected 6..9",
+                return usage_error(c->name, "--decimals '%s': expected 0..9",
                                    optarg);
             }
             o.decimals = (unsigned)d;

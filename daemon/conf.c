@@ -2,6 +2,8 @@
 #include "conf.h"
 
 #include <errno.h>
+#include <netdb.h>
+#include <sys/socket.h>
 #include <ini.h>
 #include <pwd.h>
 #include <stdio.h>
@@ -51,12 +53,41 @@ struct parse {
     char sec_name[64];
     int empty_line;           /* first empty section's header line     */
     char empty_name[64];
-    int max_models_line, grid_line;
+    int max_models_line, grid_line, default_model_line;
     char grid_key[CONF_NAME];
     struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS], listen[CONF_MAX_LISTEN];
     int listen_addr_line[CONF_MAX_LISTEN]; /* 0: the listener has no address yet */
     struct rs485_origin rs485[CONF_MAX_RTU];
+    /* Every (section, key) set so far, for duplicate keys (heap, freed
+     * with the parse). */
+    struct seen_key { char sec[64], key[64]; int line; } *seen;
+    int nseen, cap_seen;
 };
+
+/* A key given twice in one section (or in two sections of the same name)
+ * would silently take the last value: an error naming the first line.
+ * tcp_listen and allow add up and may repeat. Returns that first line. */
+static int duplicate_key(struct parse *p, const char *section, const char *name)
+{
+    if ((!strcmp(section, "modbus") && !strcmp(name, "tcp_listen")) ||
+        (!strncmp(section, "listen:", 7) && !strcmp(name, "allow")))
+        return 0;
+    for (int k = 0; k < p->nseen; k++)
+        if (!strcmp(p->seen[k].sec, section) && !strcmp(p->seen[k].key, name))
+            return p->seen[k].line;
+    if (p->nseen == p->cap_seen) {
+        int cap = p->cap_seen ? 2 * p->cap_seen : 64;
+        struct seen_key *s = realloc(p->seen, (size_t)cap * sizeof *s);
+        if (!s)
+            return 0;  /* no memory: the check is skipped, nothing breaks */
+        p->seen = s;
+        p->cap_seen = cap;
+    }
+    snprintf(p->seen[p->nseen].sec, sizeof p->seen[p->nseen].sec, "%s", section);
+    snprintf(p->seen[p->nseen].key, sizeof p->seen[p->nseen].key, "%s", name);
+    p->seen[p->nseen++].line = p->line;
+    return 0;
+}
 
 static int parse_int(const char *v, long lo, long hi, int *out)
 {
@@ -116,6 +147,8 @@ static int parse_listen(const char *v, struct conf_listen *l)
     int port;
     if (parse_int(colon + 1, 0, 65535, &port))
         return -1;
+    if (port == 0)
+        return -2;  /* the kernel would pick a port no client knows */
     snprintf(l->port, sizeof l->port, "%d", port);
     return 0;
 }
@@ -224,8 +257,12 @@ static int key_modbus(struct parse *p, const char *name, const char *v)
         if (c->nlisten == CONF_MAX_LISTEN)
             FAIL("more than %d listen addresses", CONF_MAX_LISTEN);
         memset(&c->listen[c->nlisten], 0, sizeof c->listen[c->nlisten]);
-        if (parse_listen(v, &c->listen[c->nlisten]))
+        int rc = parse_listen(v, &c->listen[c->nlisten]);
+        if (rc == -2)
+            FAIL("port 0: expected a port 1..65535 (0 would be a random port no client knows)");
+        if (rc)
             FAIL("expected host:port, [v6addr]:port or :port");
+        c->listen[c->nlisten].line = p->line;
         p->listen_addr_line[c->nlisten] = p->line;
         c->nlisten++;
     } else if (!strcmp(name, "max_clients")) {
@@ -246,6 +283,19 @@ static int key_modbus(struct parse *p, const char *name, const char *v)
     } else if (!strcmp(name, "float_word_order")) {
         if (parse_order(v, &c->word_order))
             FAIL("expected ABCD, CDAB, BADC or DCBA");
+    } else if (!strcmp(name, "int32_word_order")) {
+        if (!strcasecmp(v, "float"))
+            c->int32_word_order = -1;
+        else if (parse_order(v, &c->int32_word_order))
+            FAIL("expected float (as float_word_order), ABCD, CDAB, BADC or DCBA");
+    } else if (!strcmp(name, "default_model")) {
+        if (!strcasecmp(v, "auto"))
+            c->default_model = CONF_DEFAULT_AUTO;
+        else if (!strcasecmp(v, "none"))
+            c->default_model = CONF_DEFAULT_NONE;
+        else if (parse_int(v, 0, 254, &c->default_model))
+            FAIL("expected auto, none or a model id 0..254");
+        p->default_model_line = p->line;
     } else if (!strcmp(name, "coord_scale")) {
         if (parse_int(v, 1, 10000, &c->coord_scale))
             FAIL("expected 1..10000");
@@ -268,9 +318,13 @@ static int key_listen(struct parse *p, int k, const char *name, const char *v)
     if (!strcmp(name, "address")) {
         char nm[CONF_NAME];
         memcpy(nm, l->name, sizeof nm);
-        if (parse_listen(v, l))
+        int rc = parse_listen(v, l);
+        if (rc == -2)
+            FAIL("port 0: expected a port 1..65535 (0 would be a random port no client knows)");
+        if (rc)
             FAIL("expected host:port, [v6addr]:port or :port");
         memcpy(l->name, nm, sizeof nm);
+        l->line = p->line;
         p->listen_addr_line[k] = p->line;
     } else if (!strcmp(name, "allow")) {
         char buf[256], *tok, *save = NULL, why[160];
@@ -432,6 +486,11 @@ static int handler(void *user, const char *section, const char *name, const char
     snprintf(p->sec, sizeof p->sec, "%s", section);
     snprintf(p->key, sizeof p->key, "%s", name);
     p->sec_keys++;
+    {
+        int first = duplicate_key(p, section, name);
+        if (first)
+            FAIL("duplicate key (first set on line %d)", first);
+    }
     if (!strcmp(section, "daemon")) {
         if (!strcmp(name, "max_models"))
             p->max_models_line = p->line;
@@ -551,6 +610,8 @@ void conf_default(struct conf *c)
     c->tcp_keepalive = 60;
     c->evict_idle = 500;
     c->word_order = IT2N_WO_ABCD;
+    c->int32_word_order = -1;
+    c->default_model = CONF_DEFAULT_AUTO;
     c->coord_scale = 100;
     c->grid_rows = 5;
     c->grid_cols = 5;
@@ -579,6 +640,13 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
 {
     const struct conf *c = &p->c;
     char sec[64];
+    if (c->default_model >= 0) {
+        int k = 0;
+        while (k < c->nmodels && c->model[k].id != c->default_model)
+            k++;
+        if (k == c->nmodels)
+            VFAIL(p->default_model_line, "modbus", "default_model", "no [model:%d] is configured", c->default_model);
+    }
     if (c->nmodels > c->max_models) {
         const struct origin *o = &p->model[c->max_models];
         snprintf(sec, sizeof sec, "model:%d", c->model[c->max_models].id);
@@ -726,6 +794,41 @@ static const char *section_needs(const char *name)
     return "a section with no keys has no effect; remove it or add keys";
 }
 
+int conf_default_unit(const struct conf *c)
+{
+    if (c->default_model == CONF_DEFAULT_NONE || (c->default_model == CONF_DEFAULT_AUTO && c->nmodels != 1))
+        return 0;
+    for (int k = 0; k < c->nmodels; k++)
+        if (c->default_model == CONF_DEFAULT_AUTO || c->model[k].id == c->default_model)
+            return c->model[k].unit;
+    return 0;
+}
+
+int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t errsize)
+{
+    for (int k = 0; k < c->nlisten; k++) {
+        const struct conf_listen *l = &c->listen[k];
+        struct addrinfo hints, *res = NULL;
+        int rc;
+        if (!l->host[0])
+            continue;
+        memset(&hints, 0, sizeof hints);
+        hints.ai_family = AF_UNSPEC;
+        hints.ai_socktype = SOCK_STREAM;
+        hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
+        rc = getaddrinfo(l->host, l->port, &hints, &res);
+        if (res)
+            freeaddrinfo(res);
+        if (rc) {
+            snprintf(err, errsize, "%s:%d: [%s%s] %s: cannot resolve host '%s': %s", path ? path : "built-in",
+                     l->line, l->name[0] ? "listen:" : "modbus", l->name, l->name[0] ? "address" : "tcp_listen",
+                     l->host, rc == EAI_SYSTEM ? strerror(errno) : gai_strerror(rc));
+            return -1;
+        }
+    }
+    return 0;
+}
+
 int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
 {
     struct parse *p = calloc(1, sizeof *p);
@@ -775,6 +878,7 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
     }
     fclose(p->f);
     free(p->lbuf);
+    free(p->seen);
     free(p);
     return rc == 0 ? 0 : -1;
 }

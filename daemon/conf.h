@@ -21,6 +21,7 @@ struct conf_listen {
     char name[CONF_NAME];    /* [listen:NAME]; "" for a tcp_listen line */
     char host[64];
     char port[8];
+    int line;                /* config line of the address, 0 built-in */
     int read_only;           /* 1: no Modbus write may change a model */
     int nallow;              /* 0: every client address */
     struct conf_prefix allow[CONF_MAX_ALLOW];
@@ -87,6 +88,8 @@ struct conf {
     int tcp_keepalive;       /* s idle before keepalive probes, 0 off */
     int evict_idle;          /* ms without a request before a slot may be taken */
     int word_order;          /* enum it2n_regmap_order */
+    int int32_word_order;    /* of u32/i32 registers; -1: as word_order */
+    int default_model;       /* TCP units 0, 255: model id, or CONF_DEFAULT_* */
     int coord_scale;
     int grid_rows, grid_cols;
     struct conf_rtu rtu[CONF_MAX_RTU];
@@ -100,6 +103,13 @@ struct conf {
     unsigned uid, gid;       /* resolved from user at load           */
 };
 
+#define CONF_DEFAULT_AUTO (-1) /* the only model, when exactly one is configured */
+#define CONF_DEFAULT_NONE (-2) /* units 0 and 255 answer exception 0B */
+
+/* The unit that Modbus TCP unit ids 0 and 255 reach under c's
+ * default_model, or 0 for none. */
+int conf_default_unit(const struct conf *c);
+
 /* Fill c with the built-in default (TCP 127.0.0.1:1502, model 1 on unit 1
  * preloaded with the paper data set, state in ./state). */
 void conf_default(struct conf *c);
@@ -108,5 +118,12 @@ void conf_default(struct conf *c);
  * "file:line: [section] key: reason" into err. c is only written on
  * success. */
 int conf_load(struct conf *c, const char *path, char *err, size_t errsize);
+
+/* Resolve every listener's host as the listener will (getaddrinfo, passive,
+ * numeric port), so a misspelt host name fails --check-config, start and
+ * reload with "file:line: [section] key: cannot resolve host 'H': reason"
+ * instead of at bind time. Kept out of conf_load so parsing (and its
+ * fuzzer) never waits for DNS. Returns 0 or -1 with err written. */
+int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t errsize);
 
 #endif

@@ -50,7 +50,7 @@ $(GEN_REGISTERS): daemon/tools/gen_registers.c protocol/it2n_regmap.c protocol/i
 docs/registers.md: $(GEN_REGISTERS)
 	$(GEN_REGISTERS) > $@.tmp && mv $@.tmp $@
 
-run: deps $(IT2ND) ## Build and start it2nd in the foreground on its built-in default
+run: deps all ## Build everything and start it2nd in the foreground on its built-in default
 	@echo "it2nd: Modbus TCP on 127.0.0.1:1502, model 1 on unit 1 (paper data), state in ./state"
 	@echo "query it from another shell, e.g. the status block and the D-footprint sample grid:"
 	@echo "  mbpoll -m tcp -a 1 -0 -r 0 -c 10 -t 3 -1 127.0.0.1 -p 1502"

@@ -405,6 +405,8 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         send_hello(l);
         return IT2N_LINK_DEFER;
     case IT2N_MSG_CONFIGURE:
+        log_info("link %s: CONFIGURE model %u: %ux%u, flags %u", l->cfg.name, msg->u.configure.model,
+                 msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags);
         md = models_by_id(msg->u.configure.model);
         if (!md)
             return IT2N_PROTO_ERR_MODEL;
@@ -414,11 +416,16 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         hold(l, seq);
         return IT2N_LINK_DEFER;
     case IT2N_MSG_PUT:
+        log_info("link %s: PUT model %u: %u point(s) from (i=%u,j=%u,%s)%s", l->cfg.name, msg->u.put.model,
+                 msg->u.put.count, msg->u.put.count ? msg->u.put.e[0].i : 0u, msg->u.put.count ? msg->u.put.e[0].j : 0u,
+                 msg->u.put.count && it2n_fp_name(msg->u.put.e[0].fp) ? it2n_fp_name(msg->u.put.e[0].fp) : "-",
+                 (msg->u.put.flags & IT2N_PUT_REPLACE) ? ", replace" : "");
         md = models_by_id(msg->u.put.model);
         if (!md)
             return IT2N_PROTO_ERR_MODEL;
         return do_put(l, seq, md, &msg->u.put);
     case IT2N_MSG_COMMIT:
+        log_info("link %s: COMMIT model %u", l->cfg.name, msg->u.model.model);
         md = models_by_id(msg->u.model.model);
         if (!md)
             return IT2N_PROTO_ERR_MODEL;

@@ -71,6 +71,8 @@ static void usage(FILE *f)
 static void fill_opts(void)
 {
     mbo.word_order = cfg.word_order;
+    mbo.int32_order = cfg.int32_word_order < 0 ? cfg.word_order : cfg.int32_word_order;
+    mbo.default_unit = conf_default_unit(&cfg);
     mbo.coord_scale = cfg.coord_scale;
     mbo.grid_rows = (unsigned)cfg.grid_rows;
     mbo.grid_cols = (unsigned)cfg.grid_cols;
@@ -84,14 +86,27 @@ static int load_conf(struct conf *c)
 {
     char err[512];
     conf_default(c);
-    if (conf_path && conf_load(c, conf_path, err, sizeof err)) {
+    if ((conf_path && conf_load(c, conf_path, err, sizeof err)) ||
+        conf_check_hosts(c, conf_path, err, sizeof err)) {
         log_err("%s", err);
         return -1;
     }
     return 0;
 }
 
-static int add_model(const struct conf_model *m)
+/* One line per model with its actual state (after the WAL replay at
+ * start, so a restored model never shows up as "empty" first). */
+static void log_model(const struct model *md, const char *why)
+{
+    static const char *const st[] = { "empty", "incomplete", "solved", "solve failed" };
+    unsigned need = (unsigned)(md->ds.n + 1u) * (md->ds.m + 1u) * ((md->ds.flags & IT2N_F_TYPE1) ? 1u : 7u);
+    unsigned missing = (unsigned)it2n_dataset_missing(&md->ds);
+    log_info("model %d on unit %d: %ux%u, flags %u, %s, %u/%u points, generation %u%s", md->id, md->unit,
+             (unsigned)md->ds.n, (unsigned)md->ds.m, (unsigned)md->ds.flags,
+             md->state >= 0 && md->state <= 3 ? st[md->state] : "?", need - missing, need, (unsigned)md->gen, why);
+}
+
+static int add_model(const struct conf_model *m, int at_start)
 {
     struct model *md = models_add(m->id, m->unit, (unsigned)m->n, (unsigned)m->m, m->flags);
     if (!md) {
@@ -106,8 +121,8 @@ static int add_model(const struct conf_model *m)
             return -1;
         }
     }
-    log_info("model %d on unit %d: %dx%d, flags %u, %s", m->id, m->unit, m->n, m->m, m->flags,
-             m->preload ? "paper data preloaded" : "empty");
+    if (!at_start)  /* at start: logged once the WAL is replayed */
+        log_model(md, m->preload ? " (paper data preloaded)" : "");
     return 0;
 }
 
@@ -118,7 +133,7 @@ static int setup_models(void)
     if (models_init(CONF_MAX_MODELS))
         return -1;
     for (int k = 0; k < cfg.nmodels; k++)
-        if (add_model(&cfg.model[k]))
+        if (add_model(&cfg.model[k], 1))
             return -1;
     return 0;
 }
@@ -127,7 +142,12 @@ static int setup_models(void)
 static void on_model_changed(void *arg, const struct model *md, int old_state, uint32_t old_gen)
 {
     (void)arg;
-    (void)old_gen;
+    if (md->gen != old_gen && md->state == IT2N_RS_SOLVED)
+        log_info("model %d: solved, generation %u", md->id, (unsigned)md->gen);
+    else if (md->state != old_state && md->state == IT2N_RS_FAILED)
+        log_info("model %d: solve failed: %s", md->id, it2n_strerror(md->last_err.code));
+    else if (md->state != old_state)
+        log_info("model %d: %s", md->id, md->state == IT2N_RS_EMPTY ? "cleared" : "points missing");
     links_event(md, old_state);
 }
 
@@ -365,7 +385,7 @@ static void reload_models(const struct conf *nc)
     for (int k = 0; k < nc->nmodels; k++)
         if (!models_by_id(nc->model[k].id)) {
             log_notice("reload: model %d added on unit %d", nc->model[k].id, nc->model[k].unit);
-            add_model(&nc->model[k]);
+            add_model(&nc->model[k], 0);
         }
     drain(); /* the CONFIGUREs: durable, announced, or rolled back */
     if (removed && store_snapshot())
@@ -464,6 +484,8 @@ int main(int argc, char **argv)
         return 1;
     if (store_open(cfg.state_dir, cfg.fsync))
         return 1;
+    for (int k = 0; k < models_count(); k++)
+        log_model(models_at(k), "");
     models_set_journal(store_append, NULL);
     int wfd = store_start_writer();
     if (wfd < 0 || loop_add_fd(wfd, POLLIN, on_writer, NULL)) {

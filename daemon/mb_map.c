@@ -18,10 +18,9 @@ __extension__ typedef __int128 i128;
 
 #define QIDX(a) ((a) - IT2N_REG_Q_U16)
 
-void mbmap_put_f32(uint16_t out[2], float f, int word_order)
+/* A 32-bit value into two registers in one of the four orders. */
+static void put32(uint16_t out[2], uint32_t b, int word_order)
 {
-    uint32_t b;
-    memcpy(&b, &f, sizeof b);
     uint16_t hi = (uint16_t)(b >> 16), lo = (uint16_t)b;
     uint16_t shi = (uint16_t)((hi >> 8) | (hi << 8)), slo = (uint16_t)((lo >> 8) | (lo << 8));
     switch (word_order) {
@@ -32,7 +31,7 @@ void mbmap_put_f32(uint16_t out[2], float f, int word_order)
     }
 }
 
-float mbmap_get_f32(const uint16_t in[2], int word_order)
+static uint32_t get32(const uint16_t in[2], int word_order)
 {
     uint16_t hi, lo;
     switch (word_order) {
@@ -41,7 +40,19 @@ float mbmap_get_f32(const uint16_t in[2], int word_order)
     case IT2N_WO_DCBA: hi = (uint16_t)((in[1] >> 8) | (in[1] << 8)); lo = (uint16_t)((in[0] >> 8) | (in[0] << 8)); break;
     default: hi = in[0]; lo = in[1]; break;
     }
-    uint32_t b = ((uint32_t)hi << 16) | lo;
+    return ((uint32_t)hi << 16) | lo;
+}
+
+void mbmap_put_f32(uint16_t out[2], float f, int word_order)
+{
+    uint32_t b;
+    memcpy(&b, &f, sizeof b);
+    put32(out, b, word_order);
+}
+
+float mbmap_get_f32(const uint16_t in[2], int word_order)
+{
+    uint32_t b = get32(in, word_order);
     float f;
     memcpy(&f, &b, sizeof f);
     return f;
@@ -70,16 +81,10 @@ int64_t mbmap_scale(it2n_val v, int64_t scale, int64_t lo, int64_t hi, int *sat)
     return (int64_t)q;
 }
 
-static void put_u32(uint16_t *out, uint32_t v)
-{
-    out[0] = (uint16_t)(v >> 16);
-    out[1] = (uint16_t)v;
-}
-
-static uint32_t get_u32(const uint16_t *in)
-{
-    return ((uint32_t)in[0] << 16) | in[1];
-}
+/* u32/i32 registers follow int32_word_order ([modbus]; by default the
+ * float order, so a CDAB PLC sees CDAB everywhere). */
+#define put_u32(out, v) put32((out), (v), o->int32_order)
+#define get_u32(in) get32((in), o->int32_order)
 
 /* Scaled integer (register = value * scale) to Q24, exact rounding. */
 static it2n_val from_scaled(int64_t raw, int64_t scale)
@@ -225,6 +230,7 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         r[IT2N_REG_GRID_COLS] = (uint16_t)o->grid_cols;
         r[IT2N_REG_MODEL_ID] = (uint16_t)md->id;
         r[IT2N_REG_GRID_SAT] = grid_saturated(md, o);
+        r[IT2N_REG_INT32_ORDER] = (uint16_t)o->int32_order;
         return MBX_OK;
     }
     case IT2N_REG_CFG_N:
@@ -485,6 +491,27 @@ static int par_from_f32(float f, it2n_par *out)
     return 0;
 }
 
+/* The two views of a query input say the same: after a write of q_u the
+ * float q_u_f reads the new u and vice versa (likewise w, and x, y in
+ * scaled and float form), each rounded from the value in use. */
+static void sync_views(struct mb_query *q, const struct mb_opts *o)
+{
+    int sat = 0;
+    if (q->kind == 1) {
+        q->regs[QIDX(IT2N_REG_Q_U16)] = (uint16_t)(((i128)q->u * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) / IT2N_PAR_ONE);
+        q->regs[QIDX(IT2N_REG_Q_W16)] = (uint16_t)(((i128)q->w * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) / IT2N_PAR_ONE);
+        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE), o->word_order);
+        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE), o->word_order);
+    } else if (q->kind == 2) {
+        put_u32(&q->regs[QIDX(IT2N_REG_Q_XS)],
+                (uint32_t)(int32_t)mbmap_scale(q->x, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
+        put_u32(&q->regs[QIDX(IT2N_REG_Q_YS)],
+                (uint32_t)(int32_t)mbmap_scale(q->y, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
+        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_XF)], q24f(q->x), o->word_order);
+        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_YF)], q24f(q->y), o->word_order);
+    }
+}
+
 static int write_query(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
                        unsigned count, const uint16_t *v)
 {
@@ -541,6 +568,7 @@ static int write_query(struct model *md, struct mb_query *q, const struct mb_opt
         nq.kind = 2;
     }
 #undef IN
+    sync_views(&nq, o);
     nq.valid = 0;
     *q = nq;
     return MBX_OK;

@@ -28,6 +28,10 @@ struct mb_opts {
     /* Bit u set: unit u is write-protected ([model:] write_protect): no
      * Modbus write may change its model (query registers stay writable). */
     uint8_t write_protect[32];
+    int int32_order;     /* enum it2n_regmap_order of u32/i32 registers */
+    /* Modbus TCP unit ids 0 and 255 ("this server", the Modbus TCP spec's
+     * 0xFF) reach the model on this unit; 0 = they answer 0B. */
+    int default_unit;
 };
 
 /* Does a write of count registers at addr change the model (configuration

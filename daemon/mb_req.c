@@ -145,6 +145,12 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
     unit = req[hl - 1];
     fc = pdu[0];
     md = models_by_unit(unit);
+    /* Modbus TCP addresses the server itself with unit 0xFF (and many
+     * clients send 0): the default model answers ([modbus] default_model). */
+    if (!md && s->is_tcp && (unit == 0 || unit == 0xFF) && o->default_unit > 0) {
+        md = models_by_unit(o->default_unit);
+        unit = o->default_unit; /* its write protection applies */
+    }
     if (!md) {
         /* RTU: another slave on the bus (or broadcast) — stay silent. */
         if (!s->is_tcp)

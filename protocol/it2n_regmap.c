@@ -44,6 +44,9 @@ static const it2n_regmap_field status_fields[] = {
        "Sample-grid values outside +-3.2767 that the x10000 sample_grid view clamps to +-32767 "
        "(interpolants may overshoot between data points); 0 when none or not solved. "
        "sample_grid_f32 has the raw values."),
+    F1(IT2N_REG_INT32_ORDER, IT2N_RT_U16, 1, "int32_word_order", "-",
+       "Word and byte order of every u32/i32 register, coded as float_word_order "
+       "([modbus] int32_word_order; by default the same as float_word_order, so a PLC sees one order)."),
 };
 
 static const it2n_regmap_field config_fields[] = {
@@ -143,7 +146,8 @@ const it2n_regmap_block it2n_regmap_blocks[] = {
       "updates the model like a point from a link.", upload_fields, NF(upload_fields) },
     { IT2N_REG_Q_U16, IT2N_REG_QUERY_END, IT2N_RA_RW, 1u, "query",
       "Per-connection query inputs. Writing u and/or w (either view) evaluates at (u, w); writing x "
-      "and/or y locates (x, y) on every footprint. 32-bit values must be written whole; one write may "
+      "and/or y locates (x, y) on every footprint. Both views of an input then read the value in use "
+      "(after q_u_f = 0.123456, q_u reads 1235). 32-bit values must be written whole; one write may "
       "not mix (u, w) with (x, y). Use FC23 to write and read the result in one transaction.",
       query_fields, NF(query_fields) },
     { IT2N_REG_Q_KIND, IT2N_REG_QSTATUS_END, IT2N_RA_RO, 1u, "query_status",

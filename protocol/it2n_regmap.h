@@ -51,7 +51,8 @@
 #define IT2N_REG_GRID_COLS 24u
 #define IT2N_REG_MODEL_ID 25u
 #define IT2N_REG_GRID_SAT 26u    /* grid values the x10000 view clamps */
-#define IT2N_REG_STATUS_END 27u
+#define IT2N_REG_INT32_ORDER 27u /* word order of u32/i32 registers */
+#define IT2N_REG_STATUS_END 28u
 
 /* ---- Model configuration (read/write) ---- */
 #define IT2N_REG_CFG_N 32u
@@ -140,8 +141,8 @@ enum it2n_regmap_order {
 enum it2n_regmap_type {
     IT2N_RT_U16 = 0,
     IT2N_RT_I16,
-    IT2N_RT_U32,   /* two registers, high word first */
-    IT2N_RT_I32,   /* two registers, high word first */
+    IT2N_RT_U32,   /* two registers, int32_word_order (default: as float) */
+    IT2N_RT_I32,   /* two registers, int32_word_order (default: as float) */
     IT2N_RT_F32    /* two registers, configured word order */
 };
 

@@ -70,7 +70,7 @@ proto-cppcheck:
 
 # Regenerate protocol/vectors/*.hex and protocol/it2n_vectors.inc from the
 # message table (only after an intended wire change; review the diff).
-proto-vectors: $(PROTO_TB)/gen_vectors
+proto-vectors: $(PROTO_TB)/gen_vectors ## Regenerate protocol/vectors/ after an intended wire change
 	$(PROTO_TB)/gen_vectors protocol/vectors protocol/it2n_vectors.inc $(PROTO_T)/corpus
 	python3 $(PROTO_T)/check_vectors.py --update-doc protocol/vectors
 

@@ -24,7 +24,7 @@ static const char *order_text(unsigned type)
     if (type == IT2N_RT_F32)
         return "configured (float_word_order)";
     if (type == IT2N_RT_U32 || type == IT2N_RT_I32)
-        return "high word first";
+        return "configured (int32_word_order)";
     return "-";
 }
 
@@ -36,7 +36,10 @@ int main(void)
            "(map version %u). Do not edit: run `make docs/registers.md`. -->\n\n",
            IT2N_REGMAP_VERSION);
     printf("Each model is served on its own Modbus unit id (slave address); the default\n"
-           "configuration serves model 1 on unit 1. Addresses below are 0-based protocol\n"
+           "configuration serves model 1 on unit 1. On Modbus TCP, unit ids 0 and 255 (the\n"
+           "Modbus TCP spec's \"this server\", many clients' default) reach the default model:\n"
+           "`[modbus] default_model`, by default the only model of a single-model daemon\n"
+           "(docs/daemon.md); otherwise they answer 0B. Addresses below are 0-based protocol\n"
            "(PDU) addresses; the reference columns give the 1-based 3xxxx (input register,\n"
            "FC 04) and 4xxxx (holding register, FC 03/06/16/23) notation of the same\n"
            "register. Every register can be read with FC 03 and with FC 04; writable blocks\n"
@@ -44,11 +47,16 @@ int main(void)
            "nothing: when the read half fails, the write half is undone and the exception\n"
            "means that nothing changed).\n\n");
     printf("## Conventions\n\n"
-           "- **u32 / i32**: two registers, high word first (the lower address holds bits 31..16).\n"
            "- **f32**: IEEE-754 single precision in two registers. Word order is configured in\n"
            "  `[modbus] float_word_order` and readable in `float_word_order` (status): ABCD\n"
            "  (default; A = most significant byte, first register = AB), CDAB, BADC or DCBA.\n"
            "  mbpoll reads ABCD with `-B`, CDAB without it.\n"
+           "- **u32 / i32**: two registers in the order of `[modbus] int32_word_order`, by\n"
+           "  default the same as `float_word_order` (so a CDAB PLC sees CDAB everywhere; with\n"
+           "  the default ABCD the lower address holds bits 31..16), readable in\n"
+           "  `int32_word_order` (status, coded like `float_word_order`).\n"
+           "- **Query inputs** have two views each (q_u and q_u_f, ..., q_y and q_y_f): after a\n"
+           "  write of either, both read the value in use (the other one rounded from it).\n"
            "- **Scaled integers**: memberships (T, I, F, u, w) are x10000 (`÷10000`); coordinates\n"
            "  are multiplied by `coord_scale` (config `[modbus] coord_scale`, default 100).\n"
            "  A value that does not fit is clamped and flagged in the saturation registers.\n"
@@ -61,7 +69,7 @@ int main(void)
            "| 03 | Bad count, or a bad value: membership outside [0, 1], parameter outside [0, 1], bad degree, flags, footprint or index, half of a 32-bit value, partial upload |\n"
            "| 04 | A solve (commit, completion, update) failed; see `last_error` |\n"
            "| 06 | The model is incomplete or not solved (results, grid, control net, commit) |\n"
-           "| 0B | No model on this unit id (TCP only) |\n\n"
+           "| 0B | No model on this unit id (TCP only; units 0 and 255 reach the default model if there is one) |\n\n"
            "A rejected request changes nothing.\n\n");
     printf("## Blocks\n\n| Block | Addresses | 3xxxx | 4xxxx | Access | Function codes | Per connection |\n"
            "|---|---|---|---|---|---|---|\n");
@@ -98,9 +106,12 @@ int main(void)
         printf("\n");
     }
     printf("## Examples (mbpoll, default daemon on 127.0.0.1:1502)\n\n"
+           "<!-- snippet: daemon -->\n"
            "```sh\n"
-           "# status block, 26 registers from address 0 (-0: 0-based references)\n"
-           "mbpoll -m tcp -a 1 -0 -r 0 -c 26 -t 3 -1 127.0.0.1 -p 1502\n"
+           "# status block, %u registers from address 0 (-0: 0-based references)\n"
+           "mbpoll -m tcp -a 1 -0 -r 0 -c %u -t 3 -1 127.0.0.1 -p 1502\n",
+           IT2N_REG_STATUS_END, IT2N_REG_STATUS_END);
+    printf(
            "# sample grid node (0,0): D footprint T, I, F x10000\n"
            "mbpoll -m tcp -a 1 -0 -r 1024 -c 3 -t 4 -1 127.0.0.1 -p 1502\n"
            "# the same node as float32 ABCD\n"

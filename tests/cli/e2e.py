@@ -199,8 +199,8 @@ def main():
         (["eval", paper, "--at", "0.5"],
          "--at '0.5': expected two numbers separated by a comma"),
         (["eval", paper, "--at", "a,b"], "--at 'a,b': not a decimal number"),
-        (["eval", paper, "--at", "0,0", "--decimals", "5"],
-         "--decimals '5': expected 6..9"),
+        (["eval", paper, "--at", "0,0", "--decimals", "10"],
+         "--decimals '10': expected 0..9"),
         (["sample", paper, "--grid", "1x3"], "--grid '1x3': expected RxC"),
         (["sample", paper], "sample needs --grid RxC"),
         (["solve", paper, "--summary"], "--summary does not apply to solve"),
@@ -290,6 +290,28 @@ def main():
     worst = compare_eval(ref, out, "paper eval --decimals 9")
     print(f"cli e2e: paper eval worst membership error {worst:.2e} "
           f"(limit {TOL_MEMB:.0e})")
+
+    # --decimals 0..5: every value is its exact Q24 value (recovered from
+    # the 9-decimal output: Q24 steps are 6e-8 apart) rounded to nearest,
+    # ties away from zero, no "-0"; u, w keep 6 decimals.
+    _, r9 = rows(out)
+    q24 = [[round(Fr(x) * 2**24) for x in r[3:8]] for r in r9]
+    for d in range(0, 6):
+        rc, outd, err = run(*args, "--decimals", str(d))
+        check(rc == 0 and err == "", f"eval --decimals {d}: rc {rc} {err!r}")
+        _, rd = rows(outd)
+        check(len(rd) == len(r9), f"eval --decimals {d}: row count")
+        bad = 0
+        for r, ks in zip(rd, q24):
+            bad += any(len(x.split(".")[1]) != 6 for x in r[0:2])
+            for x, k in zip(r[3:8], ks):
+                v = Fr(k, 2**24) * 10**d
+                n = int(abs(v) + Fr(1, 2)) * (1 if v >= 0 else -1)
+                want = f"{'-' if n < 0 else ''}{abs(n) // 10**d}" + \
+                    (f".{abs(n) % 10**d:0{d}d}" if d else "")
+                bad += x != want          # never "-0.00"
+        check(bad == 0, f"eval --decimals {d}: {bad} values not rounded "
+              "exactly (or u, w not at 6 decimals)")
 
     # Interpolation: every data point is reproduced.
     args = ["eval", paper, "--decimals", "9"]

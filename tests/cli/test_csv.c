@@ -185,6 +185,58 @@ static void test_err_header(void **state)
            "'i,j,footprint,x,y,T,I,F' or 'i,j,footprint,x,y,z,T,I,F')");
 }
 
+/* Spreadsheet exports: every field quoted is read as unquoted; a quote
+ * inside a field, or a ';'/tab separated file, gets its own message. */
+static void test_quotes_and_separators(void **state)
+{
+    it2n_csv_error e;
+    it2n_dataset plain;
+    char quoted[TEXT_MAX];
+    size_t k, o = 0;
+    (void)state;
+    assert_int_equal(parse(gen(2, 1, false, true), 4096, &e), IT2N_OK);
+    plain = g_ds;
+    /* Wrap every field of gen()'s text in quotes (with spaces inside). */
+    quoted[o++] = '"';
+    for (k = 0; g_text[k] != '\0'; k++) {
+        char c = g_text[k];
+        if (c == ',') {
+            memcpy(quoted + o, "\" ,\" ", 4);
+            o += 4;
+        } else if (c == '\n') {
+            memcpy(quoted + o, "\"\n\"", 3);
+            o += 3;
+        } else {
+            quoted[o++] = c;
+        }
+    }
+    o -= 1; /* drop the '"' opened after the last line end */
+    quoted[o] = '\0';
+    assert_int_equal(parse(quoted, 7, &e), IT2N_OK);
+    assert_memory_equal(&g_ds, &plain, sizeof(plain));
+
+    expect("i,j,footprint,x,y,T,I,F\n0,0,\"D,1\",0,0,0,0,0\n",
+           IT2N_CSV_ERR_QUOTE, 2,
+           "f.csv:2: field 3: bad quoting '\"D' (a field may be wrapped whole "
+           "in \"...\", but never holds '\"' or ',')");
+    expect("i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0.5,\"0\"\"5\",0\n",
+           IT2N_CSV_ERR_QUOTE, 2,
+           "f.csv:2: field 7: bad quoting '\"0\"\"5\"' (a field may be wrapped "
+           "whole in \"...\", but never holds '\"' or ',')");
+    expect("\"i\",\"j,footprint,x,y,T,I,F\n", IT2N_CSV_ERR_QUOTE, 1,
+           "f.csv:1: field 2: bad quoting '\"j' (a field may be wrapped whole "
+           "in \"...\", but never holds '\"' or ',')");
+    expect("i;j;footprint;x;y;T;I;F\n0;0;D;0;0;0,5;0,5;0,5\n",
+           IT2N_CSV_ERR_SEPARATOR, 1,
+           "f.csv:1: fields separated by ';', not ',' (save the CSV with ',' "
+           "as separator and '.' as decimal point; expected "
+           "'i,j,footprint,x,y,T,I,F')");
+    expect("i\tj\tfootprint\tx\ty\tT\tI\tF\n", IT2N_CSV_ERR_SEPARATOR, 1,
+           "f.csv:1: fields separated by tabs, not ',' (save the CSV with ',' "
+           "as separator and '.' as decimal point; expected "
+           "'i,j,footprint,x,y,T,I,F')");
+}
+
 static void test_err_rows(void **state)
 {
     (void)state;
@@ -352,6 +404,7 @@ int main(void)
         cmocka_unit_test(test_ok_layouts),
         cmocka_unit_test(test_ok_syntax),
         cmocka_unit_test(test_err_header),
+        cmocka_unit_test(test_quotes_and_separators),
         cmocka_unit_test(test_err_rows),
         cmocka_unit_test(test_err_lines),
         cmocka_unit_test(test_err_values),

@@ -275,13 +275,16 @@ def read(addr, n, tid=[0]):
     return struct.unpack(">%dH" % n, body)
 assert read(21, 1) == (0,)
 conf = open(tdir + "/it2nd.conf").read()
-open(tdir + "/it2nd.conf", "w").write(conf.replace("[modbus]\n", "[modbus]\nfloat_word_order = CDAB\n"))
+# Floats CDAB, integers kept high word first (the rest of this script reads
+# generations that way; int32 following CDAB, the default, is interop-test's).
+open(tdir + "/it2nd.conf", "w").write(conf.replace("[modbus]\n", "[modbus]\nfloat_word_order = CDAB\nint32_word_order = ABCD\n"))
 os.kill(pid, signal.SIGHUP)
 for _ in range(40):
     time.sleep(0.05)
     if read(21, 1) == (1,):
         break
 assert read(21, 1) == (1,), "word order not reloaded"
+assert read(27, 1) == (0,), "int32_word_order not reloaded"
 PY
 plc verify "$PAPER" 3 >/dev/null && ok "CDAB word order verified after reload" || fail "verify CDAB"
 

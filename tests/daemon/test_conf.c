@@ -91,6 +91,16 @@ static void test_errors(void **st)
         { "[bogus]\na = 1\n", 2, "[bogus] a: unknown section" },
         { "[modbus]\ntcp_listen = nocolon\n", 2, "[modbus] tcp_listen: expected host:port, [v6addr]:port or :port" },
         { "[daemon]\n\nuser = it2n-no-such-user\n", 3, "[daemon] user: unknown user 'it2n-no-such-user'" },
+        { "[modbus]\ntcp_listen = 127.0.0.1:0\n", 2,
+          "[modbus] tcp_listen: port 0: expected a port 1..65535 (0 would be a random port no client knows)" },
+        { "[listen:a]\naddress = [::1]:0\n", 2,
+          "[listen:a] address: port 0: expected a port 1..65535 (0 would be a random port no client knows)" },
+        { "[modbus]\ncoord_scale = 100\nmax_clients = 4\ncoord_scale = 10\n", 4,
+          "[modbus] coord_scale: duplicate key (first set on line 2)" },
+        { "[model:1]\nunit_id = 1\n[daemon]\nfsync = no\n[model:1]\nn = 2\nunit_id = 2\n", 7,
+          "[model:1] unit_id: duplicate key (first set on line 2)" },
+        { "[listen:a]\naddress = 127.0.0.1:1502\nread_only = yes\nread_only = no\n", 4,
+          "[listen:a] read_only: duplicate key (first set on line 3)" },
     };
     for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
         conf_default(&before);
@@ -131,6 +141,32 @@ static void test_errors(void **st)
     assert_int_equal(load("[rtu:a]\nbaud = 9600\n", &c, err, sizeof err), -1);
     snprintf(want, sizeof want, "%s:2: [rtu:a] baud: device is required in this section", path);
     assert_string_equal(err, want);
+}
+
+/* Repeatable keys still repeat; host names are resolved by
+ * conf_check_hosts (not by conf_load), naming the address's line. */
+static void test_repeat_and_hosts(void **st)
+{
+    struct conf c;
+    char err[256], want[256];
+    (void)st;
+    assert_int_equal(load("[modbus]\ntcp_listen = 127.0.0.1:1502\ntcp_listen = [::1]:1502\n"
+                          "[listen:a]\naddress = localhost:1503\nallow = 127.0.0.1\nallow = ::1\n",
+                          &c, err, sizeof err), 0);
+    assert_int_equal(c.nlisten, 3);
+    assert_int_equal(c.listen[2].nallow, 2);
+    assert_int_equal(conf_check_hosts(&c, path, err, sizeof err), 0);
+    conf_default(&c);
+    assert_int_equal(conf_check_hosts(&c, NULL, err, sizeof err), 0);
+    /* .invalid never resolves (RFC 6761), with or without a resolver. */
+    assert_int_equal(load("[modbus]\nmax_clients = 4\n\ntcp_listen = plc.invalid:1502\n", &c, err, sizeof err), 0);
+    assert_int_equal(conf_check_hosts(&c, path, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:4: [modbus] tcp_listen: cannot resolve host 'plc.invalid': ", path);
+    assert_memory_equal(err, want, strlen(want));
+    assert_int_equal(load("[listen:plc]\naddress = no-such-host.invalid:1502\n", &c, err, sizeof err), 0);
+    assert_int_equal(conf_check_hosts(&c, path, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:2: [listen:plc] address: cannot resolve host 'no-such-host.invalid': ", path);
+    assert_memory_equal(err, want, strlen(want));
 }
 
 /* RS-485 options: defaults, both ways of switching the transceiver, and
@@ -188,8 +224,9 @@ static void test_rs485(void **st)
         { "[rtu:a]\ndevice=/d\n\nrs485_rts=up\nrs485_rts_delay_us=10\n", 4,
           "[rtu:a] rs485_rts: needs rs485 = yes in this section" },
         { "[rtu:a]\ndevice=/d\nrs485_strict=yes\n", 3, "[rtu:a] rs485_strict: needs rs485 = yes in this section" },
-        { "[rtu:a]\ndevice=/d\nrs485=yes\nrs485_delay_after_send_ms=1\nrs485=no\n", 4,
-          "[rtu:a] rs485_delay_after_send_ms: needs rs485 = yes in this section" },
+        /* rs485 turned off again later: a duplicate key, refused as such. */
+        { "[rtu:a]\ndevice=/d\nrs485=yes\nrs485_delay_after_send_ms=1\nrs485=no\n", 5,
+          "[rtu:a] rs485: duplicate key (first set on line 3)" },
         /* an RTS delay without libmodbus switching RTS */
         { "[rtu:a]\ndevice=/d\nrs485=yes\nrs485_rts_delay_us=10\n", 4,
           "[rtu:a] rs485_rts_delay_us: needs rs485_rts = up or down (libmodbus switching RTS)" },
@@ -350,6 +387,7 @@ int main(void)
         cmocka_unit_test(test_default),
         cmocka_unit_test(test_full),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_repeat_and_hosts),
         cmocka_unit_test(test_rs485),
         cmocka_unit_test(test_unreadable_and_empty),
         cmocka_unit_test(test_listen_acl),

@@ -50,7 +50,7 @@ static void test_scale(void **st)
 }
 
 static struct model *md;
-static const struct mb_opts opts = { IT2N_WO_ABCD, 100, 5, 5, { 0 } };
+static const struct mb_opts opts = { IT2N_WO_ABCD, 100, 5, 5, { 0 }, IT2N_WO_ABCD, 0 };
 
 static int setup(void **st)
 {
@@ -109,6 +109,53 @@ static void test_query_uw(void **st)
     int sat = 0;
     assert_int_equal((int16_t)r[3 * 9 + 6], mbmap_scale(pt.v[3][3], 10000, -32767, 32767, &sat));
     assert_int_equal(r[IT2N_REG_SAT - IT2N_REG_RES_SCALED + 3], 0);
+}
+
+/* Two registers to 32 bits: ABCD, CDAB, BADC, DCBA (as a PLC decodes). */
+static uint32_t reg32(const uint16_t *r, int order)
+{
+    uint16_t a = r[0], b = r[1];
+    if (order == IT2N_WO_BADC || order == IT2N_WO_DCBA) {
+        a = (uint16_t)(a >> 8 | a << 8);
+        b = (uint16_t)(b >> 8 | b << 8);
+    }
+    return order == IT2N_WO_CDAB || order == IT2N_WO_DCBA ? (uint32_t)b << 16 | a : (uint32_t)a << 16 | b;
+}
+
+/* The two views of each query input agree after a write of either, and
+ * u32/i32 registers follow int32_order, in each of the four orders. */
+static void test_query_views_and_int32_order(void **st)
+{
+    (void)st;
+    for (int wo = 0; wo < 4; wo++) {
+        const struct mb_opts o = { wo, 100, 5, 5, { 0 }, (wo + 1) % 4, 0 };
+        struct mb_query q;
+        uint16_t in[2], r[IT2N_REG_QUERY_END - IT2N_REG_Q_U16], s[IT2N_REG_STATUS_END];
+        int persisted;
+        memset(&q, 0, sizeof q);
+        /* q_u_f = 0.123456: q_u reads 1235, q_u_f the float as written */
+        mbmap_put_f32(in, 0.123456f, wo);
+        assert_int_equal(mbmap_write(md, &q, &o, IT2N_REG_Q_UF, 2, in, &persisted), MBX_OK);
+        assert_int_equal(mbmap_read(md, &q, &o, IT2N_REG_Q_U16, 14, r), MBX_OK);
+        assert_int_equal(r[0], 1235);
+        assert_true(mbmap_get_f32(&r[IT2N_REG_Q_UF - IT2N_REG_Q_U16], wo) == 0.123456f);
+        /* q_w = 7500: q_w_f reads 0.75, u unchanged */
+        in[0] = 7500;
+        assert_int_equal(mbmap_write(md, &q, &o, IT2N_REG_Q_W16, 1, in, &persisted), MBX_OK);
+        assert_int_equal(mbmap_read(md, &q, &o, IT2N_REG_Q_U16, 14, r), MBX_OK);
+        assert_true(mbmap_get_f32(&r[IT2N_REG_Q_WF - IT2N_REG_Q_U16], wo) == 0.75f);
+        assert_int_equal(r[0], 1235);
+        /* q_x_f = -17.5: q_x reads -1750 as i32 in int32_order */
+        mbmap_put_f32(in, -17.5f, wo);
+        assert_int_equal(mbmap_write(md, &q, &o, IT2N_REG_Q_XF, 2, in, &persisted), MBX_OK);
+        assert_int_equal(mbmap_read(md, &q, &o, IT2N_REG_Q_U16, 14, r), MBX_OK);
+        assert_int_equal((int32_t)reg32(&r[IT2N_REG_Q_XS - IT2N_REG_Q_U16], o.int32_order), -1750);
+        /* generation (u32) in int32_order, the order said in status 27 */
+        assert_int_equal(mbmap_read(md, &q, &o, 0, IT2N_REG_STATUS_END, s), MBX_OK);
+        assert_int_equal(s[IT2N_REG_WORD_ORDER], wo);
+        assert_int_equal(s[IT2N_REG_INT32_ORDER], (wo + 1) % 4);
+        assert_int_equal(reg32(&s[IT2N_REG_GENERATION], o.int32_order), md->gen);
+    }
 }
 
 static void test_rejected_writes_change_nothing(void **st)
@@ -173,7 +220,7 @@ static void test_grid_saturation_flag(void **st)
 {
     /* A 7x7 checkerboard oscillates far outside [0, 1] at u, w = k/14. */
     struct model *m3 = models_add(3, 3, 7, 7, IT2N_F_TYPE1);
-    const struct mb_opts g15 = { IT2N_WO_ABCD, 100, 15, 15, { 0 } };
+    const struct mb_opts g15 = { IT2N_WO_ABCD, 100, 15, 15, { 0 }, IT2N_WO_ABCD, 0 };
     static uint16_t grid[15 * 15 * 3], gf[15 * 15 * 6];
     uint16_t r[IT2N_REG_STATUS_END];
     it2n_errinfo err;
@@ -340,6 +387,7 @@ int main(void)
         cmocka_unit_test(test_scale),
         cmocka_unit_test(test_status),
         cmocka_unit_test(test_query_uw),
+        cmocka_unit_test(test_query_views_and_int32_order),
         cmocka_unit_test(test_rejected_writes_change_nothing),
         cmocka_unit_test(test_incomplete_is_busy),
         cmocka_unit_test(test_grid_saturation_flag),

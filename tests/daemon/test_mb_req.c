@@ -29,7 +29,7 @@
 static char dir[64];
 static int sp[2];
 static struct mb_session sess;
-static struct mb_opts opts = { 0, 100, 5, 5, { 0 } };
+static struct mb_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
 static uint16_t tid;
 
 static struct model *open_table(void)

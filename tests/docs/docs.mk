@@ -11,3 +11,12 @@ docs-check: $(DOCFIG_DEPS)
 	@BUILD=$(BUILD) /usr/bin/python3 tests/docs/docfig.py --check
 
 TEST_TARGETS += docs-check
+
+# Every sh/c/python block of README.md and docs/*.md run or compiled as
+# written, and every `make TARGET` the docs name listed by `make help`
+# (snippets.py: the marking rule; README "Documentation checks").
+.PHONY: docs-snippets
+docs-snippets: all
+	@BUILD=$(BUILD) /usr/bin/python3 tests/docs/snippets.py
+
+TEST_TARGETS += docs-snippets

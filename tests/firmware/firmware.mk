@@ -30,7 +30,7 @@ TEST_TARGETS += fw-e2e fw-cppcheck
 
 fw-cppcheck:
 	cppcheck --std=c99 $(CPPCHECK_FLAGS) -Iexamples/instrument -Iexamples/firmware -Itests/qemu examples/firmware
-fw-image: $(FW_ELF)
+fw-image: $(FW_ELF) ## Build only the emulated instrument firmware (build/fw-m3/it2n-firmware.elf)
 
 fw-e2e: $(FW_ELF) $(IT2ND)
 	IT2ND=$(IT2ND) FW_ELF=$(FW_ELF) FW_MAP=$(FW_B)/it2n-firmware.map FW_OUT=$(abspath $(BUILD))/firmware.json \

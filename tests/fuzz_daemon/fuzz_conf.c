@@ -55,12 +55,21 @@ static void check_ok(const struct conf *c)
         const struct conf_listen *l = &c->listen[k];
         fuzz_check(terminated(l->host, sizeof l->host) && terminated(l->port, sizeof l->port), "listen strings");
         long port = strtol(l->port, NULL, 10);
-        fuzz_check(port >= 0 && port <= 65535, "listen port range");
+        fuzz_check(port >= 1 && port <= 65535, "listen port range (0 refused)");
     }
     fuzz_check(c->max_clients >= 1 && c->max_clients <= 512, "max_clients range");
     fuzz_check(c->idle_timeout >= 1 && c->idle_timeout <= 86400, "idle_timeout range");
     fuzz_check(c->byte_timeout >= 10 && c->byte_timeout <= 60000, "byte_timeout range");
     fuzz_check(c->word_order >= 0 && c->word_order <= 3, "word order");
+    fuzz_check(c->int32_word_order >= -1 && c->int32_word_order <= 3, "int32 word order");
+    if (c->default_model >= 0) {  /* a model id must name a configured model */
+        int found = 0;
+        for (int k = 0; k < c->nmodels; k++)
+            found |= c->model[k].id == c->default_model;
+        fuzz_check(found, "default_model names a configured model");
+    } else {
+        fuzz_check(c->default_model == CONF_DEFAULT_AUTO || c->default_model == CONF_DEFAULT_NONE, "default_model");
+    }
     fuzz_check(c->coord_scale >= 1 && c->coord_scale <= 10000, "coord_scale range");
     fuzz_check(c->grid_rows >= 2 && c->grid_cols >= 2 &&
                    c->grid_rows * c->grid_cols <= (int)IT2N_REGMAP_GRID_MAX_NODES, "grid size");

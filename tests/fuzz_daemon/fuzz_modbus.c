@@ -47,7 +47,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 #define NUNITS 2
 
 static struct model pristine[NUNITS];
-static struct mb_opts opts = { 0, 100, 5, 5, { 0 } };
+static struct mb_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
 static struct mb_session sess;
 static int pair[2];            /* pass A: [0] daemon side, [1] harness side */
 static int tcp_listener = -1;  /* the fd mb_tcp registered its accept handler on */

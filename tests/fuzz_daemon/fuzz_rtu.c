@@ -44,7 +44,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 #define NUNITS 2
 static struct model pristine[NUNITS];
-static struct mb_opts opts = { 0, 100, 5, 5, { 0 } };
+static struct mb_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
 static struct conf rtu_conf;
 static int pty_master = -1;
 static int journal_fails, commit_fails;

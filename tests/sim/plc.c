@@ -33,7 +33,7 @@
 __extension__ typedef __int128 i128;
 
 static const char *tcp_host, *tcp_port = "1502", *rtu_dev;
-static int unit = 1, order = 0, scale = 100, failures;
+static int unit = 1, order = 0, order32 = 0, scale = 100, failures;
 
 #define CHECK(cond, ...)                                                  \
     do {                                                                  \
@@ -55,6 +55,31 @@ static modbus_t *connect_ctx(void)
     }
     modbus_set_response_timeout(ctx, 3, 0);
     return ctx;
+}
+
+/* Two registers to 32 bits in one of the four orders, and back. */
+static uint32_t get32(const uint16_t *r, int ord)
+{
+    uint16_t hi, lo;
+    switch (ord) {
+    case 1: hi = r[1]; lo = r[0]; break;
+    case 2: hi = (uint16_t)(r[0] >> 8 | r[0] << 8); lo = (uint16_t)(r[1] >> 8 | r[1] << 8); break;
+    case 3: hi = (uint16_t)(r[1] >> 8 | r[1] << 8); lo = (uint16_t)(r[0] >> 8 | r[0] << 8); break;
+    default: hi = r[0]; lo = r[1]; break;
+    }
+    return (uint32_t)hi << 16 | lo;
+}
+
+static void set32(uint16_t *r, uint32_t v, int ord)
+{
+    uint16_t hi = (uint16_t)(v >> 16), lo = (uint16_t)v;
+    uint16_t shi = (uint16_t)(hi >> 8 | hi << 8), slo = (uint16_t)(lo >> 8 | lo << 8);
+    switch (ord) {
+    case 1: r[0] = lo; r[1] = hi; break;
+    case 2: r[0] = shi; r[1] = slo; break;
+    case 3: r[0] = slo; r[1] = shi; break;
+    default: r[0] = hi; r[1] = lo; break;
+    }
 }
 
 static float f32(const uint16_t *r)
@@ -109,7 +134,7 @@ static void check_point(const uint16_t *rf, const uint16_t *rs, const it2n_point
         }
         const uint16_t *r = &rs[fp * 9];
         for (unsigned ch = 0; ch < 3; ch++) {
-            int32_t got = (int32_t)((uint32_t)r[ch * 2] << 16 | r[ch * 2 + 1]);
+            int32_t got = (int32_t)get32(&r[ch * 2], order32);
             CHECK(got == scaled(pt->v[fp][ch], scale, INT32_MAX), "%s scaled fp %u ch %u: %d", what, fp, ch, got);
         }
         for (unsigned k = 0; k < 3; k++) {
@@ -163,6 +188,7 @@ static int cmd_verify(const char *csv, int steps)
     CHECK(st[IT2N_REG_STATE] == IT2N_RS_SOLVED, "state %u", st[IT2N_REG_STATE]);
     CHECK(st[IT2N_REG_N] == m.n && st[IT2N_REG_M] == m.m, "degrees");
     order = st[IT2N_REG_WORD_ORDER];
+    order32 = st[IT2N_REG_INT32_ORDER];
     scale = st[IT2N_REG_COORD_SCALE];
     for (int a = 0; a < steps; a++)
         for (int b = 0; b < steps; b++) {
@@ -227,10 +253,10 @@ static int cmd_verify(const char *csv, int steps)
     return failures ? 1 : 0;
 }
 
+/* i32 in the order the daemon says it uses (status int32_word_order). */
 static void put_i32(uint16_t *r, int32_t v)
 {
-    r[0] = (uint16_t)((uint32_t)v >> 16);
-    r[1] = (uint16_t)v;
+    set32(r, (uint32_t)v, order32);
 }
 
 static int cmd_upload(const char *csv, int commit, const char *logpath)
@@ -243,6 +269,7 @@ static int cmd_upload(const char *csv, int commit, const char *logpath)
     sim_load_csv(csv, 0, &ds);
     CHECK(read_regs(ctx, 0, IT2N_REG_STATUS_END, st) == 0, "status");
     scale = st[IT2N_REG_COORD_SCALE];
+    order32 = st[IT2N_REG_INT32_ORDER];
     cfg[0] = ds.n;
     cfg[1] = ds.m;
     cfg[2] = ds.flags;
@@ -281,7 +308,7 @@ static int cmd_upload(const char *csv, int commit, const char *logpath)
     if (log)
         fclose(log);
     printf("plc: upload %s: %d points, state %u, generation %u\n", csv, sent, st[IT2N_REG_STATE],
-           (unsigned)st[IT2N_REG_GENERATION] << 16 | st[IT2N_REG_GENERATION + 1]);
+           (unsigned)get32(&st[IT2N_REG_GENERATION], order32));
     modbus_close(ctx);
     modbus_free(ctx);
     return failures ? 1 : 0;
@@ -317,7 +344,7 @@ static int cmd_exceptions(void)
         uint8_t pdu[32];
         int len, code;
     } t[] = {
-        { "read gap 27", { 3, 0, 27, 0, 1 }, 5, 2 },
+        { "read gap after status", { 3, 0, IT2N_REG_STATUS_END, 0, 1 }, 5, 2 },
         { "read past end", { 3, 0x1D, 0x00, 0, 1 }, 5, 2 },
         { "read spans blocks", { 3, 0, 24, 0, 10 }, 5, 2 },
         { "FC04 count 0", { 4, 0, 0, 0, 0 }, 5, 3 },
@@ -337,7 +364,7 @@ static int cmd_exceptions(void)
         { "upload i > n", { 16, 0, 40, 0, 12, 24, 0, 9, 0, 0, 0, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
                             0, 0, 0, 0, 0, 0 }, 30, 3 },
         { "FC16 byte count wrong", { 16, 0, 64, 0, 1, 4, 0, 1, 0, 1 }, 10, 3 },
-        { "FC23 read outside map", { 23, 0, 27, 0, 1, 0, 64, 0, 1, 2, 0, 1 }, 12, 2 },
+        { "FC23 read outside map", { 23, 0, IT2N_REG_STATUS_END, 0, 1, 0, 64, 0, 1, 2, 0, 1 }, 12, 2 },
     };
     for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
         int code = raw(ctx, t[k].pdu, t[k].len);
@@ -450,11 +477,12 @@ static int cmd_wait_gen(unsigned long gen, int ms)
 {
     for (int t = 0; t <= ms; t += 50) {
         modbus_t *ctx = connect_ctx();
-        uint16_t r[2];
-        int ok = modbus_read_registers(ctx, IT2N_REG_GENERATION, 2, r) == 2;
+        uint16_t r[IT2N_REG_STATUS_END];
+        int ok = modbus_read_registers(ctx, 0, IT2N_REG_STATUS_END, r) == IT2N_REG_STATUS_END;
+        order32 = ok ? r[IT2N_REG_INT32_ORDER] : 0;
         modbus_close(ctx);
         modbus_free(ctx);
-        if (ok && ((unsigned long)r[0] << 16 | r[1]) >= gen)
+        if (ok && get32(&r[IT2N_REG_GENERATION], order32) >= gen)
             return 0;
         usleep(50000);
     }

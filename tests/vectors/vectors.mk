@@ -45,7 +45,7 @@ vectors-current: $(VEC_B)/gen_vectors
 	  exit 1; }
 	@echo "vectors-current: $(VEC_DIR)/core_vectors.h matches the core"
 
-vectors-regen: $(VEC_B)/gen_vectors
+vectors-regen: $(VEC_B)/gen_vectors ## Regenerate tests/vectors/core_vectors.h after an intended core change
 	$< examples/paper_4x4.csv $(VEC_DIR)/core_vectors.h
 
 TEST_TARGETS += vectors-host vectors-san vectors-current
