@@ -465,6 +465,7 @@ int main(int argc, char **argv)
     if (store_open(cfg.state_dir, cfg.fsync))
         return 1;
     models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
     int wfd = store_start_writer();
     if (wfd < 0 || loop_add_fd(wfd, POLLIN, on_writer, NULL)) {
         log_err("cannot start the writer thread: %s", strerror(errno));

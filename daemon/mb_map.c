@@ -5,6 +5,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "errs.h"
 #include "it2n_regmap.h"
 
 _Static_assert(IT2N_DIM <= IT2N_REGMAP_DIM, "control-net stride of the map too small");
@@ -49,7 +50,8 @@ float mbmap_get_f32(const uint16_t in[2], int word_order)
 
 static float q24f(it2n_val v)
 {
-    return (float)((double)v / (double)IT2N_VAL_ONE);
+    /* v * 2^-24: exactly v / 2^24 (a power of two), without a division */
+    return (float)((double)v * (1.0 / (double)IT2N_VAL_ONE));
 }
 
 int64_t mbmap_scale(it2n_val v, int64_t scale, int64_t lo, int64_t hi, int *sat)
@@ -465,8 +467,9 @@ static int write_upload(struct model *md, const struct mb_opts *o, unsigned addr
     rc = models_put(md, i, j, fp, vals, true, &err);
     if (rc)
         return refused_err(md, &err);
-    memcpy(md->upload, v, sizeof md->upload);
-    *persisted = 1;
+    *persisted = 1; /* a failure below: the caller's transaction undoes the point */
+    if (models_set_upload(md, v))
+        return refused(md, MBX_DEVICE_FAILURE, IT2ND_ERR_NOMEM, -1, -1, -1);
     return MBX_OK;
 }
 

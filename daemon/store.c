@@ -192,6 +192,19 @@ void store_rollback(struct store_mark m)
     seq = m.seq;
 }
 
+struct model_jmark store_jmark(void)
+{
+    struct model_jmark m = { qlen, qrecs, seq };
+    return m;
+}
+
+void store_jrewind(struct model_jmark m)
+{
+    qlen = m.len;
+    qrecs = m.recs;
+    seq = m.seq;
+}
+
 static int write_all(int fd, const uint8_t *p, size_t len)
 {
     while (len) {

@@ -39,6 +39,7 @@ static struct model *open_table(void)
     assert_non_null(md);
     assert_int_equal(models_preload_paper(md), IT2N_OK);
     models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
     assert_int_equal(store_open(dir, 0), 0);
     return models_by_id(1);
 }

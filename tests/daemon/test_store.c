@@ -34,6 +34,7 @@ static struct model *fresh(void)
     struct model *md = models_add(1, 1, 1, 1, IT2N_F_TYPE1);
     assert_non_null(md);
     models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
     return md;
 }
 

@@ -378,6 +378,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     /* The recovered table keeps working: COMMIT each complete model
      * through the WAL (a failing solve is an answer, not a crash). */
     models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
     for (int k = 0; k < NMODELS; k++)
         (void)models_commit(models_at(k), &err);
     fuzz_check(store_commit() == 0, "WAL append after recovery");
