@@ -290,7 +290,7 @@ static void send_status(void)
     for (int k = 0; k < models_count(); k++) {
         const struct model *md = models_at(k);
         pts += md->points_rx;
-        req += md->requests;
+        req += md->mb.requests;
         solved += md->state == IT2N_RS_SOLVED;
     }
     snprintf(buf, sizeof buf,

@@ -39,7 +39,7 @@ static int exception(struct mb_session *s, struct model *md, const uint8_t *req,
 {
     int hl = modbus_get_header_length(s->ctx);
     if (md)
-        md->exceptions++;
+        md->mb.exceptions++;
     if (req[hl] & 0x80u) {
         uint8_t copy[MODBUS_TCP_MAX_ADU_LENGTH > MODBUS_RTU_MAX_ADU_LENGTH ? MODBUS_TCP_MAX_ADU_LENGTH
                                                                          : MODBUS_RTU_MAX_ADU_LENGTH];
@@ -151,7 +151,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             return 0;
         return exception(s, NULL, req, MBX_GATEWAY_TARGET);
     }
-    md->requests++;
+    md->mb.requests++;
     switch (fc) {
     case MODBUS_FC_READ_HOLDING_REGISTERS:
     case MODBUS_FC_READ_INPUT_REGISTERS: {

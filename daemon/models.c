@@ -197,8 +197,8 @@ static void rollback_to(size_t from, int new_instance)
     for (int k = 0; k < nmodels; k++) {
         struct slot *s = &slots[k];
         s->touched = touched_since(table[k], from);
-        s->req = table[k]->requests;
-        s->exc = table[k]->exceptions;
+        s->req = table[k]->mb.requests;
+        s->exc = table[k]->mb.exceptions;
         s->le = table[k]->last_err;
     }
     undo_range(from, NULL, NULL);
@@ -209,8 +209,8 @@ static void rollback_to(size_t from, int new_instance)
         struct model *md = table[k];
         if (!s->touched)
             continue;
-        md->requests = s->req;
-        md->exceptions = s->exc;
+        md->mb.requests = s->req;
+        md->mb.exceptions = s->exc;
         md->last_err = s->le;
         /* A batch put back gets a new instance: results cached for the
          * undone change (keyed on instance and generation, mb_map) must
@@ -273,8 +273,8 @@ struct model *models_view(struct model *md)
         s->view_ok = 1;
     }
     /* Counters and the last refusal are live, not transactional. */
-    v->requests = md->requests;
-    v->exceptions = md->exceptions;
+    v->mb.requests = md->mb.requests;
+    v->mb.exceptions = md->mb.exceptions;
     v->last_err = md->last_err;
     v->unit = md->unit;
     return v;
@@ -663,9 +663,9 @@ int models_commit(struct model *md, it2n_errinfo *err)
 
 int models_set_upload(struct model *md, const uint16_t regs[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I])
 {
-    if (save(md, md->upload, sizeof md->upload))
+    if (save(md, md->mb.upload, sizeof md->mb.upload))
         return IT2ND_ERR_NOMEM;
-    memcpy(md->upload, regs, sizeof md->upload);
+    memcpy(md->mb.upload, regs, sizeof md->mb.upload);
     return 0;
 }
 
@@ -726,39 +726,4 @@ int models_preload_paper(struct model *md)
     ulen = mark;
     md->points_rx = 0;
     return rc;
-}
-
-struct grid_ctx {
-    struct model *md;
-    unsigned cols;
-};
-
-static int grid_cb(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w, const it2n_point *pt)
-{
-    struct grid_ctx *g = ctx;
-    (void)u;
-    (void)w;
-    for (int k = 0; k < 3; k++)
-        g->md->grid[r * g->cols + c][k] = pt->v[IT2N_FP_D][IT2N_CH_T + k];
-    return 0;
-}
-
-int models_grid(struct model *md, unsigned rows, unsigned cols)
-{
-    struct grid_ctx g = { md, cols };
-    int rc;
-    if (md->state != IT2N_RS_SOLVED)
-        return IT2N_ERR_STATE;
-    if (md->grid_valid && md->grid_inst == md->instance && md->grid_gen == md->gen && md->grid_rows == rows &&
-        md->grid_cols == cols)
-        return IT2N_OK;
-    rc = it2n_sample(&md->mdl, rows, cols, grid_cb, &g, NULL);
-    if (rc != IT2N_OK)
-        return rc;
-    md->grid_inst = md->instance;
-    md->grid_gen = md->gen;
-    md->grid_rows = rows;
-    md->grid_cols = cols;
-    md->grid_valid = 1;
-    return IT2N_OK;
 }

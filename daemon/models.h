@@ -22,27 +22,29 @@
 #include "it2n.h"
 #include "it2n_regmap.h"
 
+/* The Modbus side of a model (daemon/mb_req.c, mb_map.c; the links use
+ * none of it): the request/exception counters of the status block (live,
+ * never rolled back) and the upload block as last written (registers
+ * 40..51, kept in snapshots). The sample grid cache is mb_map.c's own. */
+struct model_modbus {
+    uint32_t requests, exceptions;
+    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
+};
+
 struct model {
     /* The header: every scalar of the model (an operation records it
      * whole in the undo log, MODEL_HDR_BYTES). */
     int id, unit;
-    uint32_t instance;         /* unique per models_add and rollback (cache keys) */
+    uint32_t instance;         /* unique per models_add and batch rollback (cache keys) */
     int state;                 /* enum it2n_regmap_state              */
     uint32_t gen;              /* bumped on every solve and update    */
     it2n_errinfo last_err;     /* code 0 = none                       */
     int last_op;               /* enum model_op of the last change     */
-    uint32_t points_rx, solves, requests, exceptions;
-    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I]; /* last upload */
+    uint32_t points_rx, solves;
+    struct model_modbus mb;
     /* The data. */
     it2n_dataset ds;           /* current data (staging and solved)   */
     it2n_model mdl;            /* valid when state == IT2N_RS_SOLVED  */
-    /* Not part of the model's state (never in the undo log): the sample
-     * grid cache (D footprint T, I, F, Q24), valid for grid_inst,
-     * grid_gen and the grid size it was computed for. */
-    it2n_val grid[IT2N_REGMAP_GRID_MAX_NODES][3];
-    uint32_t grid_inst, grid_gen;
-    unsigned grid_rows, grid_cols;
-    int grid_valid;
 };
 
 #define MODEL_HDR_BYTES offsetof(struct model, ds)
@@ -178,9 +180,5 @@ int models_apply(const struct model_rec *rec, it2n_errinfo *err);
 /* Entries present / required of the current configuration. */
 unsigned models_present(const struct model *md);
 unsigned models_required(const struct model *md);
-
-/* Refresh the sample grid cache if the generation moved. Returns 0 or an
- * it2n error code. */
-int models_grid(struct model *md, unsigned rows, unsigned cols);
 
 #endif

@@ -881,8 +881,7 @@ static int load_snapshot(uint64_t *seqp)
         md->gen = sm.gen;
         md->points_rx = sm.points_rx;
         md->solves = sm.solves;
-        memcpy(md->upload, sm.upload, sizeof md->upload);
-        md->grid_valid = 0;
+        memcpy(md->mb.upload, sm.upload, sizeof md->mb.upload);
     }
     log_notice("snapshot: legacy version 1, %u model(s) loaded, seq %llu; the next one is written as version %u", n,
                (unsigned long long)sseq, SNAP_VERSION);

@@ -86,10 +86,10 @@ static void assert_same(const struct model *md, const unsigned char *before)
     static unsigned char now[sizeof(struct model)];
     memcpy(now, md, sizeof now);
     memcpy(now + offsetof(struct model, last_err), before + offsetof(struct model, last_err), sizeof md->last_err);
-    memcpy(now + offsetof(struct model, requests), before + offsetof(struct model, requests),
-           sizeof md->requests);
-    memcpy(now + offsetof(struct model, exceptions), before + offsetof(struct model, exceptions),
-           sizeof md->exceptions);
+    memcpy(now + offsetof(struct model, mb.requests), before + offsetof(struct model, mb.requests),
+           sizeof md->mb.requests);
+    memcpy(now + offsetof(struct model, mb.exceptions), before + offsetof(struct model, mb.exceptions),
+           sizeof md->mb.exceptions);
     for (size_t k = 0; k < sizeof now; k++)
         if (now[k] != before[k])
             fail_msg("model differs at byte %zu of %zu (ds at %zu, mdl at %zu)", k, sizeof now,

@@ -253,7 +253,7 @@ static uint8_t *build_v1(size_t *len)
         sm.gen = md->gen;
         sm.points_rx = md->points_rx;
         sm.solves = md->solves;
-        memcpy(sm.upload, md->upload, sizeof sm.upload);
+        memcpy(sm.upload, md->mb.upload, sizeof sm.upload);
         store_v1_dataset_from(&sm.ds, &md->ds);
         sm.mdl.data = sm.ds;
         sm.mdl.generation = md->mdl.generation;
