@@ -109,8 +109,8 @@ def main():
     ap.add_argument("--bare", required=True)
     ap.add_argument("--load", required=True)
     ap.add_argument("--conns", default="1,8,32")
-    ap.add_argument("--seconds", type=float, default=3.0)
-    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--seconds", type=float, default=1.5)
+    ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--smoke", action="store_true")
     ap.add_argument("--out")
     a = ap.parse_args()
@@ -122,22 +122,30 @@ def main():
     bare = Bare(a.bare)
     recv = None if a.smoke else Bare(a.bare, "receive")
     d = It2nd(a.it2nd, tmp, free_port(23100, 23900), max(conns))
-    results, slow = {}, {}
+    results, slow, spread = {}, {}, {}
     try:
         for n in conns:
             rb, ri, rr, cb, ci, nb, ni = [], [], [], [], [], 0, 0
-            for _ in range(a.rounds):
-                rate, req, cpu = load(a.load, bare.port, n, a.seconds, "pattern", bare.p.pid)
-                rb.append(rate)
-                nb += req
-                cb.append(cpu / max(req, 1) * 1e6)
-                rate, req, cpu = load(a.load, d.port, n, a.seconds, "model", d.p.pid)
-                ri.append(rate)
-                ni += req
-                ci.append(cpu / max(req, 1) * 1e6)
+            pairs = []
+            for r in range(a.rounds):
+                # Back to back, the order alternating: the machine's load
+                # drifts, both sides see the same drift.
+                for side in (("bare", "it2nd") if r % 2 == 0 else ("it2nd", "bare")):
+                    if side == "bare":
+                        rate, req, cpu = load(a.load, bare.port, n, a.seconds, "pattern", bare.p.pid)
+                        rb.append(rate)
+                        nb += req
+                        cb.append(cpu / max(req, 1) * 1e6)
+                    else:
+                        rate, req, cpu = load(a.load, d.port, n, a.seconds, "model", d.p.pid)
+                        ri.append(rate)
+                        ni += req
+                        ci.append(cpu / max(req, 1) * 1e6)
+                pairs.append(round(ri[-1] / rb[-1], 3))
                 if recv:
                     rate, req, cpu = load(a.load, recv.port, n, a.seconds, "pattern", recv.p.pid)
                     rr.append(rate)
+            spread[n] = pairs
             results[n] = (statistics.median(ri), statistics.median(rb), statistics.median(ci),
                           statistics.median(cb), ni, nb)
             if rr:
@@ -181,9 +189,13 @@ def main():
                  "modbus_reply, the same poll loop and framing as it2nd: one recv, every complete ADU; "
                  "informational rows: the same server reading with modbus_receive) answering FC 23 of the same sizes; same load generator "
                  "(tests/fc23/fc23_load.c: N threads, one connection each, every answer checked), "
-                 "%g s per run, %d alternating rounds, median rate per side; client and servers share "
-                 "the machine's cores" % (a.seconds, a.rounds)),
+                 "%g s per run, %d rounds (bare and it2nd back to back, order alternating), median "
+                 "rate per side, ratio = median it2nd / median bare; round_ratios: each round's "
+                 "it2nd / bare; client and servers share the machine's cores, other jobs too "
+                 "(load_average)" % (a.seconds, a.rounds)),
         "cpus": os.cpu_count(),
+        "load_average": os.getloadavg()[0],
+        "round_ratios": {str(n): spread[n] for n in conns},
         "rows": rows,
     }
     if a.out:
