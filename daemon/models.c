@@ -212,11 +212,11 @@ static void rollback_to(size_t from, int new_instance)
         md->mb.requests = s->req;
         md->mb.exceptions = s->exc;
         md->last_err = s->le;
-        /* A batch put back gets a new instance: results cached for the
-         * undone change (keyed on instance and generation, mb_map) must
-         * not be served for a later change that reaches the same
-         * generation number. (A transaction's changes were seen by no
-         * other reader: the model is restored bit for bit.) */
+        /* A new instance: results cached for the undone change (keyed on
+         * instance and generation, mb_map) must not be served for a later
+         * change that reaches the same generation number. (An operation
+         * undoing itself, op_undo, restores the instance too: nothing
+         * could see its change.) */
         if (new_instance)
             md->instance = ++instances;
         s->view_ok = 0;
@@ -246,7 +246,7 @@ void models_txn_rollback(struct model_txn *t)
         return;
     t->active = 0;
     if (t->undo < ulen)
-        rollback_to(t->undo, 0);
+        rollback_to(t->undo, 1);
     if (jrewind_fn)
         jrewind_fn(t->jmark);
 }

@@ -103,8 +103,9 @@ int models_clear(struct model *md);
  * the journal queue (models_set_journal_marks); models_txn_rollback() puts
  * every model the operations since the mark changed back bit for bit,
  * except the live request/exception counters and last_error (the report
- * of the refusal, kept as it is), gives those models a new instance (a
- * cached query result of the undone change is never served again) and
+ * of the refusal, kept as it is), gives each of them a new instance (a
+ * result cached for the undone change, keyed on instance and generation,
+ * is never served for a later change reaching the same generation) and
  * drops the journal records queued since the mark;
  * models_txn_commit() keeps the changes (they stay in the batch being
  * gathered, undoable until the batch is durable). One transaction at a

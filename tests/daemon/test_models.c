@@ -7,7 +7,8 @@
  * "Bit for bit" below: the whole struct model compared with memcmp against
  * a byte copy taken before, with only the fields that are documented as
  * live (last_error: the report of the refusal; the request/exception
- * counters) copied over first. */
+ * counters) copied over first, and, after a transaction or batch rollback,
+ * the new instance number (checked to be new). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -227,7 +228,14 @@ static void test_txn_rollback_at_each_step(void **state)
             assert_int_equal(rc, IT2ND_ERR_IO);
             assert_int_equal(done, k);
             assert_int_equal(queued, 3 + k - 1);
+            uint32_t inst = md->instance, oinst = other->instance;
             models_txn_rollback(&t);
+            if (k > 1) /* changes undone: a new instance, caches of them die */
+                assert_int_not_equal(md->instance, inst);
+            else /* the first write refused itself: nothing to undo */
+                assert_int_equal(md->instance, inst);
+            assert_int_equal(other->instance, oinst);  /* untouched: unchanged */
+            memcpy(b + offsetof(struct model, instance), &md->instance, sizeof md->instance);
             assert_same(md, b);
             assert_same(other, bo);
             assert_int_equal(queued, 3);
@@ -273,6 +281,7 @@ static void test_txn_rollback_keeps_batch(void **state)
     assert_int_equal(models_put(md, 3, 3, IT2N_FP_LR, v, true, &err), IT2N_OK);
     assert_int_equal(models_configure(md, 2, 2, 0, &err), IT2N_OK);
     models_txn_rollback(&t);
+    memcpy(mid + offsetof(struct model, instance), &md->instance, sizeof md->instance);
     assert_same(md, mid);
     assert_int_equal(models_undo_bytes(), undo);
     assert_true(models_pass_dirty());
