@@ -124,6 +124,9 @@ def main():
     d = It2nd(a.it2nd, tmp, free_port(23100, 23900), max(conns))
     results, slow, spread = {}, {}, {}
     try:
+        # Warm-up, not counted: first connections, page faults, caches.
+        load(a.load, bare.port, 8, 1.0, "pattern", bare.p.pid)
+        load(a.load, d.port, 8, 1.0, "model", d.p.pid)
         for n in conns:
             rb, ri, rr, cb, ci, nb, ni = [], [], [], [], [], 0, 0
             pairs = []
@@ -189,7 +192,7 @@ def main():
                  "modbus_reply, the same poll loop and framing as it2nd: one recv, every complete ADU; "
                  "informational rows: the same server reading with modbus_receive) answering FC 23 of the same sizes; same load generator "
                  "(tests/fc23/fc23_load.c: N threads, one connection each, every answer checked), "
-                 "%g s per run, %d rounds (bare and it2nd back to back, order alternating), median "
+                 "1 s warm-up of each server, then %g s per run, %d rounds (bare and it2nd back to back, order alternating), median "
                  "rate per side, ratio = median it2nd / median bare; round_ratios: each round's "
                  "it2nd / bare; client and servers share the machine's cores, other jobs too "
                  "(load_average)" % (a.seconds, a.rounds)),
