@@ -4,7 +4,7 @@ DAEMON_PKGS := libmodbus inih libusb-1.0
 DAEMON_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(BUILD)/daemon $(shell pkg-config --cflags $(DAEMON_PKGS) 2>/dev/null)
 DAEMON_LIBS := $(shell pkg-config --libs $(DAEMON_PKGS) 2>/dev/null) -lm -pthread
 DAEMON_SRC := $(wildcard daemon/*.c)
-DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) protocol/it2n_regmap.h $(wildcard protocol/it2n_proto.h)
+DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) $(wildcard protocol/it2n_proto.h)
 DAEMON_GEN := $(BUILD)/daemon/paper_data.c
 DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/host/%.o) $(BUILD)/host/daemon/paper_data.o
 DAEMON_SAN_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/san/%.o) $(BUILD)/san/daemon/paper_data.o
@@ -42,10 +42,10 @@ $(IT2ND): $(DAEMON_OBJ) $(PROTO_LIB) $(CORE_LIB)
 $(IT2ND_SAN): $(DAEMON_SAN_OBJ) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
 	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) $(DAEMON_SAN_OBJ) -o $@ $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(DAEMON_LIBS)
 
-# docs/registers.md is generated from protocol/it2n_regmap.c.
-$(GEN_REGISTERS): daemon/tools/gen_registers.c protocol/it2n_regmap.c protocol/it2n_regmap.h
+# docs/registers.md is generated from daemon/it2n_regmap.c.
+$(GEN_REGISTERS): daemon/tools/gen_registers.c daemon/it2n_regmap.c daemon/it2n_regmap.h
 	@mkdir -p $(@D)
-	$(CC) $(HOST_CFLAGS) daemon/tools/gen_registers.c protocol/it2n_regmap.c -o $@
+	$(CC) $(HOST_CFLAGS) -Idaemon daemon/tools/gen_registers.c daemon/it2n_regmap.c -o $@
 
 docs/registers.md: $(GEN_REGISTERS)
 	$(GEN_REGISTERS) > $@.tmp && mv $@.tmp $@

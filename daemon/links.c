@@ -364,25 +364,20 @@ static int refuse(struct link *l, uint16_t seq, int code, const it2n_errinfo *er
 
 static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg_put *p)
 {
-    struct model *save = malloc(sizeof *save);
-    struct store_mark mark = store_mark();
+    struct model_txn t;
     it2n_errinfo err;
     int rc = IT2N_OK;
-    if (!save)
-        return IT2ND_ERR_NOMEM;
-    *save = *md;
+    models_txn_begin(&t);
     for (unsigned k = 0; k < p->count && rc == IT2N_OK; k++)
         rc = models_put(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals, (p->flags & IT2N_PUT_REPLACE) != 0, &err);
     if (rc != IT2N_OK) {
         /* All or nothing: the model and the WAL queue go back. */
         it2n_errinfo keep = md->last_err;
-        *md = *save;
+        models_txn_rollback(&t);
         md->last_err = keep;
-        store_rollback(mark);
-        free(save);
         return refuse(l, seq, rc, &err);
     }
-    free(save);
+    models_txn_commit(&t);
     l->entries += p->count;
     hold(l, seq);
     return IT2N_LINK_DEFER;

@@ -310,7 +310,7 @@ static void send_status(void)
     for (int k = 0; k < models_count(); k++) {
         const struct model *md = models_at(k);
         pts += md->points_rx;
-        req += md->requests;
+        req += md->mb.requests;
         solved += md->state == IT2N_RS_SOLVED;
     }
     snprintf(buf, sizeof buf,
@@ -487,6 +487,7 @@ int main(int argc, char **argv)
     for (int k = 0; k < models_count(); k++)
         log_model(models_at(k), "");
     models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
     int wfd = store_start_writer();
     if (wfd < 0 || loop_add_fd(wfd, POLLIN, on_writer, NULL)) {
         log_err("cannot start the writer thread: %s", strerror(errno));

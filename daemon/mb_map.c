@@ -3,8 +3,10 @@
 #include "mb_map.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
+#include "errs.h"
 #include "it2n_regmap.h"
 
 _Static_assert(IT2N_DIM <= IT2N_REGMAP_DIM, "control-net stride of the map too small");
@@ -60,7 +62,8 @@ float mbmap_get_f32(const uint16_t in[2], int word_order)
 
 static float q24f(it2n_val v)
 {
-    return (float)((double)v / (double)IT2N_VAL_ONE);
+    /* v * 2^-24: exactly v / 2^24 (a power of two), without a division */
+    return (float)((double)v * (1.0 / (double)IT2N_VAL_ONE));
 }
 
 int64_t mbmap_scale(it2n_val v, int64_t scale, int64_t lo, int64_t hi, int *sat)
@@ -169,15 +172,71 @@ static it2n_val sum_value(const it2n_summary *s, unsigned idx)
     }
 }
 
+/* The sample grid cache (D footprint T, I, F in Q24 per node), the Modbus
+ * side's own: one entry per model id, valid for the model instance and
+ * generation and the grid size it was computed for (a model put back
+ * after a failed batch has a new instance, so a grid of the undone change
+ * is never served). Grown on demand; a model removed leaves an entry no
+ * later model instance can match. */
+struct grid_cache {
+    int id, valid;
+    uint32_t inst, gen;
+    unsigned rows, cols;
+    it2n_val v[IT2N_REGMAP_GRID_MAX_NODES][3];
+};
+static struct grid_cache *grids;
+static int ngrids;
+
+static int grid_cb(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w, const it2n_point *pt)
+{
+    struct grid_cache *g = ctx;
+    (void)u;
+    (void)w;
+    for (int k = 0; k < 3; k++)
+        g->v[r * g->cols + c][k] = pt->v[IT2N_FP_D][IT2N_CH_T + k];
+    return 0;
+}
+
+/* md's grid, computed if the cache does not hold it; NULL on failure. */
+static const struct grid_cache *grid_of(const struct model *md, unsigned rows, unsigned cols)
+{
+    struct grid_cache *g = NULL;
+    for (int k = 0; k < ngrids && !g; k++)
+        if (grids[k].id == md->id)
+            g = &grids[k];
+    if (!g) {
+        struct grid_cache *n = realloc(grids, (size_t)(ngrids + 1) * sizeof *grids);
+        if (!n)
+            return NULL;
+        grids = n;
+        g = &grids[ngrids++];
+        g->id = md->id;
+        g->valid = 0;
+    }
+    if (g->valid && g->inst == md->instance && g->gen == md->gen && g->rows == rows && g->cols == cols)
+        return g;
+    g->valid = 0;
+    g->rows = rows;
+    g->cols = cols;
+    if (rows * cols > IT2N_REGMAP_GRID_MAX_NODES || it2n_sample(&md->mdl, rows, cols, grid_cb, g, NULL) != IT2N_OK)
+        return NULL;
+    g->inst = md->instance;
+    g->gen = md->gen;
+    g->valid = 1;
+    return g;
+}
+
 /* A sample-grid read of `span` registers (regs_per_node per node) can be
- * answered: inside the configured nodes, model solved, grid cache current. */
-static int grid_ready(struct model *md, const struct mb_opts *o, unsigned span, unsigned regs_per_node)
+ * answered: inside the configured nodes, model solved, grid cache current
+ * (*g set). */
+static int grid_ready(struct model *md, const struct mb_opts *o, unsigned span, unsigned regs_per_node,
+                      const struct grid_cache **g)
 {
     if (span > o->grid_rows * o->grid_cols * regs_per_node)
         return MBX_ILLEGAL_ADDRESS;
     if (md->state != IT2N_RS_SOLVED)
         return MBX_BUSY;
-    if (models_grid(md, o->grid_rows, o->grid_cols) != IT2N_OK)
+    if (!(*g = grid_of(md, o->grid_rows, o->grid_cols)))
         return MBX_DEVICE_FAILURE;
     return MBX_OK;
 }
@@ -187,12 +246,13 @@ static int grid_ready(struct model *md, const struct mb_opts *o, unsigned span, 
 static uint16_t grid_saturated(struct model *md, const struct mb_opts *o)
 {
     unsigned nodes = o->grid_rows * o->grid_cols, count = 0;
-    if (grid_ready(md, o, 0, 1u) != MBX_OK)
+    const struct grid_cache *g;
+    if (grid_ready(md, o, 0, 1u, &g) != MBX_OK)
         return 0;
     for (unsigned nd = 0; nd < nodes; nd++)
         for (unsigned k = 0; k < 3; k++) {
             int sat = 0;
-            (void)mbmap_scale(md->grid[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+            (void)mbmap_scale(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
             count += sat != 0;
         }
     return (uint16_t)(count > 65535u ? 65535u : count);
@@ -222,8 +282,8 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         r[IT2N_REG_ERR_FP] = (uint16_t)(md->last_err.code ? md->last_err.fp : -1);
         put_u32(&r[IT2N_REG_POINTS_RX], md->points_rx);
         put_u32(&r[IT2N_REG_SOLVES], md->solves);
-        put_u32(&r[IT2N_REG_REQUESTS], md->requests);
-        put_u32(&r[IT2N_REG_EXCEPTIONS], md->exceptions);
+        put_u32(&r[IT2N_REG_REQUESTS], md->mb.requests);
+        put_u32(&r[IT2N_REG_EXCEPTIONS], md->mb.exceptions);
         r[IT2N_REG_WORD_ORDER] = (uint16_t)o->word_order;
         r[IT2N_REG_COORD_SCALE] = (uint16_t)o->coord_scale;
         r[IT2N_REG_GRID_ROWS] = (uint16_t)o->grid_rows;
@@ -240,7 +300,7 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         buf[3] = 0;
         return MBX_OK;
     case IT2N_REG_UP_I:
-        memcpy(buf, md->upload, sizeof md->upload);
+        memcpy(buf, md->mb.upload, sizeof md->mb.upload);
         return MBX_OK;
     case IT2N_REG_Q_U16:
         memcpy(buf, q->regs, sizeof q->regs);
@@ -305,25 +365,27 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         return MBX_OK;
     case IT2N_REG_GRID: {
         unsigned nodes = o->grid_rows * o->grid_cols;
-        int ready = grid_ready(md, o, to - b->start, 3u);
+        const struct grid_cache *g;
+        int ready = grid_ready(md, o, to - b->start, 3u, &g);
         if (ready != MBX_OK)
             return ready;
         for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++) {
                 sat = 0;
-                buf[nd * 3 + k] = (uint16_t)(int16_t)mbmap_scale(md->grid[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767,
+                buf[nd * 3 + k] = (uint16_t)(int16_t)mbmap_scale(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767,
                                                                  32767, &sat);
             }
         return MBX_OK;
     }
     case IT2N_REG_GRID_F32: {
         unsigned nodes = o->grid_rows * o->grid_cols;
-        int ready = grid_ready(md, o, to - b->start, 6u);
+        const struct grid_cache *g;
+        int ready = grid_ready(md, o, to - b->start, 6u, &g);
         if (ready != MBX_OK)
             return ready;
         for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++)
-                mbmap_put_f32(&buf[(nd * 3 + k) * 2], q24f(md->grid[nd][k]), o->word_order);
+                mbmap_put_f32(&buf[(nd * 3 + k) * 2], q24f(g->v[nd][k]), o->word_order);
         return MBX_OK;
     }
     case IT2N_REG_CTRL: {
@@ -471,8 +533,9 @@ static int write_upload(struct model *md, const struct mb_opts *o, unsigned addr
     rc = models_put(md, i, j, fp, vals, true, &err);
     if (rc)
         return refused_err(md, &err);
-    memcpy(md->upload, v, sizeof md->upload);
-    *persisted = 1;
+    *persisted = 1; /* a failure below: the caller's transaction undoes the point */
+    if (models_set_upload(md, v))
+        return refused(md, MBX_DEVICE_FAILURE, IT2ND_ERR_NOMEM, -1, -1, -1);
     return MBX_OK;
 }
 

@@ -1,4 +1,4 @@
-/* mb_map — serving the register map (protocol/it2n_regmap.h) for one model:
+/* mb_map — serving the register map (daemon/it2n_regmap.h) for one model:
  * reads fill registers from the model and the connection's query; writes
  * are validated completely before anything changes. Returns Modbus
  * exception codes so the transports only frame. No I/O here. */

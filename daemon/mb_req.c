@@ -39,7 +39,7 @@ static int exception(struct mb_session *s, struct model *md, const uint8_t *req,
 {
     int hl = modbus_get_header_length(s->ctx);
     if (md)
-        md->exceptions++;
+        md->mb.exceptions++;
     if (req[hl] & 0x80u) {
         uint8_t copy[MODBUS_TCP_MAX_ADU_LENGTH > MODBUS_RTU_MAX_ADU_LENGTH ? MODBUS_TCP_MAX_ADU_LENGTH
                                                                          : MODBUS_RTU_MAX_ADU_LENGTH];
@@ -63,7 +63,8 @@ static unsigned u16at(const uint8_t *p)
 }
 
 /* A write request (06, 16, and 23 with its read half: rcount > 0) is all
- * or nothing. When it ends in an exception after something was changed
+ * or nothing (a models.c transaction: an undo log of what it changes, no
+ * copy of the model). When it ends in an exception after something was changed
  * and journaled (FC 23 whose read half fails, e.g. results of a model the
  * write just reconfigured: 06; a configuration write whose CLEAR fails
  * after the new degrees were applied), the model, this connection's query
@@ -74,40 +75,39 @@ static unsigned u16at(const uint8_t *p)
 static int write_req(struct mb_session *s, struct model *md, const struct mb_opts *o, unsigned waddr,
                      unsigned wcount, const uint16_t *vals, unsigned raddr, unsigned rcount, int *persisted)
 {
-    struct model *save = malloc(sizeof *save);
-    struct mb_query q = s->q;
-    struct store_mark mark = store_mark();
     int rc;
     *persisted = 0;
-    if (!save) {
-        log_err("unit %d: no memory for a write request; refused", md->unit);
-        md->last_err.code = IT2ND_ERR_NOMEM;
-        md->last_err.i = md->last_err.j = -1;
-        md->last_err.fp = md->last_err.ch = -1;
-        return MBX_DEVICE_FAILURE;
+    if (!mbmap_write_changes_model(waddr, wcount)) {
+        /* Query registers: per connection, the model is not touched (no
+         * transaction, no copy). write_query validates completely before
+         * it changes s->q, so an exception leaves s->q as it was. The read
+         * half reads like FC 04: the last durable state. */
+        rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, persisted);
+        if (rc == MBX_OK && rcount > 0)
+            rc = mbmap_read(models_view(md), &s->q, o, raddr, rcount, s->map->tab_registers + raddr);
+        return rc;
     }
-    *save = *md;
+    struct mb_query q = s->q;
+    struct model_txn t;
+    models_txn_begin(&t);
     rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, persisted);
-    /* The read half of FC 23: a query (nothing persisted) reads like FC 04,
-     * the last durable state; a write reads the model it just changed (its
-     * reply waits for that change to be durable). */
+    /* The read half of FC 23: a write reads the model it just changed
+     * (its reply waits for that change to be durable); a write that
+     * changed nothing reads like FC 04, the last durable state. */
     if (rc == MBX_OK && rcount > 0)
         rc = mbmap_read(*persisted ? md : models_view(md), &s->q, o, raddr, rcount,
                         s->map->tab_registers + raddr);
     if (rc != MBX_OK && *persisted) {
-        uint32_t req = md->requests, exc = md->exceptions;
         it2n_errinfo why = md->last_err;
-        *md = *save;
-        md->requests = req;
-        md->exceptions = exc;
+        models_txn_rollback(&t); /* the model and the WAL records queued since begin */
         md->last_err = why;
         if (rc == MBX_BUSY && !why.code) /* the read half: results of a model no longer solved */
             mbmap_refused(md, rc);
         s->q = q;
-        store_rollback(mark);
         *persisted = 0;
+    } else {
+        models_txn_commit(&t);
     }
-    free(save);
     return rc;
 }
 
@@ -157,7 +157,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             return 0;
         return exception(s, NULL, req, MBX_GATEWAY_TARGET);
     }
-    md->requests++;
+    md->mb.requests++;
     switch (fc) {
     case MODBUS_FC_READ_HOLDING_REGISTERS:
     case MODBUS_FC_READ_INPUT_REGISTERS: {

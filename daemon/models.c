@@ -9,33 +9,62 @@
 #include "paper_data.h"
 
 static struct model **table;
-/* Batch backups, parallel to table (models.h, "Batches"). backup: the
- * model as it was before the first change of the batch being gathered
- * (the current loop passes; NULL: untouched). inflight: the model as it was
- * before the first change of the batch the writer thread is making durable
- * (NULL: not in it). The oldest of the two is the last durable state, the
- * one readers see (models_view). */
-static struct model **backup, **inflight;
+/* Per model (parallel to table): the batch bookkeeping and the readers'
+ * view (models.h, "Batches"). in_flight / in_gathered: the model has undo
+ * records in the batch the writer is making durable / in the batch being
+ * gathered; hdr_flight / hdr_gathered: its header at the start of that
+ * batch (the old state and generation for the change callback, the header
+ * the callback sees). view: md as of the last durable state, built on
+ * demand from md and the undo log (view_ok), kept until a batch ends. */
+struct slot {
+    int in_flight, in_gathered;
+    unsigned char hdr_flight[MODEL_HDR_BYTES], hdr_gathered[MODEL_HDR_BYTES];
+    struct model *view;
+    int view_ok;
+    /* rollback_to: the live fields kept across an undo */
+    int touched;
+    uint32_t req, exc;
+    it2n_errinfo le;
+};
+static struct slot *slots;
 static int nmodels, maxmodels;
 static uint32_t instances;
 static model_journal_fn journal;
 static void *journal_arg;
+static model_jmark_fn jmark_fn;
+static model_jrewind_fn jrewind_fn;
 static int replaying;
+static struct model *scratch; /* header-only copy for the change callback */
+
+/* The undo log: records {model, offset, length, old bytes}, appended as
+ * operations overwrite model bytes, oldest first. Records [0, flight_end)
+ * belong to the batch in flight, the rest to the batch being gathered. */
+struct undo_rec {
+    struct model *md;
+    uint32_t off, len;
+};
+/* Record, old bytes, padding to 8, then the record's size (u64). */
+#define UREC_SIZE(len) (((sizeof(struct undo_rec) + (len) + 7u) & ~(size_t)7u) + sizeof(uint64_t))
+static unsigned char *ulog;
+static size_t ulen, ucap, flight_end;
 
 int models_init(int max)
 {
     table = calloc((size_t)max, sizeof *table);
-    backup = calloc((size_t)max, sizeof *backup);
-    inflight = calloc((size_t)max, sizeof *inflight);
-    if (!table || !backup || !inflight) {
+    slots = calloc((size_t)max, sizeof *slots);
+    scratch = calloc(1, sizeof *scratch);
+    if (!table || !slots || !scratch) {
         free(table);
-        free(backup);
-        free(inflight);
-        table = backup = inflight = NULL;
+        free(slots);
+        free(scratch);
+        table = NULL;
+        slots = NULL;
+        scratch = NULL;
         return -1;
     }
     maxmodels = max;
     nmodels = 0;
+    ulen = flight_end = 0;
     return 0;
 }
 
@@ -43,13 +72,17 @@ void models_free(void)
 {
     for (int k = 0; k < nmodels; k++) {
         free(table[k]);
-        free(backup[k]);
-        free(inflight[k]);
+        free(slots[k].view);
     }
     free(table);
-    free(backup);
-    free(inflight);
-    table = backup = inflight = NULL;
+    free(slots);
+    free(scratch);
+    free(ulog);
+    table = NULL;
+    slots = NULL;
+    scratch = NULL;
+    ulog = NULL;
+    ulen = ucap = flight_end = 0;
     nmodels = maxmodels = 0;
 }
 
@@ -57,6 +90,25 @@ void models_set_journal(model_journal_fn fn, void *arg)
 {
     journal = fn;
     journal_arg = arg;
+}
+
+void models_set_journal_marks(model_jmark_fn mark, model_jrewind_fn rewind)
+{
+    jmark_fn = mark;
+    jrewind_fn = rewind;
+}
+
+size_t models_undo_bytes(void)
+{
+    return ulen;
+}
+
+static struct slot *slot_of(const struct model *md)
+{
+    for (int k = 0; k < nmodels; k++)
+        if (table[k] == md)
+            return &slots[k];
+    return NULL;
 }
 
 /* A change refused for a daemon reason (errs.h): err says so, without a
@@ -71,106 +123,229 @@ static int refuse(struct model *md, it2n_errinfo *err, int code)
     return code;
 }
 
-/* Copy-on-first-write: remember md as it was before the pass changed it.
- * Replay and preload are not part of a pass (nothing to roll back). */
-static int touch(struct model *md)
+/* Record the len bytes at p (inside *md) before they are overwritten.
+ * The first record of a model in the gathered batch also notes its
+ * header then. Replay and preload record too (a failed operation undoes
+ * itself), and drop their records when done. 0, or -1: no memory. */
+static int save(struct model *md, const void *p, size_t len)
 {
-    if (replaying)
-        return 0;
-    for (int k = 0; k < nmodels; k++) {
-        if (table[k] != md)
-            continue;
-        if (!backup[k]) {
-            backup[k] = malloc(sizeof *backup[k]);
-            if (!backup[k]) {
-                log_err("model %d: no memory for the pass backup; change refused", md->id);
-                return -1;
-            }
-            *backup[k] = *md;
+    size_t need = UREC_SIZE(len);
+    if (ulen + need > ucap) {
+        size_t cap = ucap ? ucap : 16384;
+        while (cap < ulen + need)
+            cap *= 2;
+        unsigned char *n = realloc(ulog, cap);
+        if (!n) {
+            log_err("model %d: no memory for the undo log; change refused", md->id);
+            return -1;
         }
-        return 0;
+        ulog = n;
+        ucap = cap;
+    }
+    struct slot *s = replaying ? NULL : slot_of(md);
+    if (s && !s->in_gathered) {
+        memcpy(s->hdr_gathered, md, MODEL_HDR_BYTES);
+        s->in_gathered = 1;
+    }
+    struct undo_rec r = { md, (uint32_t)((const unsigned char *)p - (const unsigned char *)md), (uint32_t)len };
+    uint64_t size = need;
+    memcpy(ulog + ulen, &r, sizeof r);
+    memcpy(ulog + ulen + sizeof r, p, len);
+    memcpy(ulog + ulen + need - sizeof size, &size, sizeof size);
+    ulen += need;
+    return 0;
+}
+
+/* Apply the undo records [from, ulen) in reverse (each record ends with
+ * its own size, so the log is walked backwards), onto their models
+ * (target NULL; the records are then forgotten) or, for model `only`'s
+ * records only, onto target. */
+static void undo_range(size_t from, const struct model *only, struct model *target)
+{
+    size_t pos = ulen;
+    while (pos > from) {
+        uint64_t size;
+        struct undo_rec r;
+        memcpy(&size, ulog + pos - sizeof size, sizeof size);
+        pos -= (size_t)size;
+        memcpy(&r, ulog + pos, sizeof r);
+        if (!only || r.md == only)
+            memcpy((unsigned char *)(target ? target : r.md) + r.off, ulog + pos + sizeof r, r.len);
+    }
+    if (!target)
+        ulen = from;
+}
+
+/* Does model md have undo records at or after pos? */
+static int touched_since(const struct model *md, size_t pos)
+{
+    while (pos < ulen) {
+        struct undo_rec r;
+        memcpy(&r, ulog + pos, sizeof r);
+        if (r.md == md)
+            return 1;
+        pos += UREC_SIZE(r.len);
     }
     return 0;
+}
+
+/* Undo [from, ulen) on the models, keeping their live fields (counters,
+ * last_error); each model put back gets a new instance. Models left with
+ * no record in the gathered batch are no longer marked as in it. */
+static void rollback_to(size_t from, int new_instance)
+{
+    for (int k = 0; k < nmodels; k++) {
+        struct slot *s = &slots[k];
+        s->touched = touched_since(table[k], from);
+        s->req = table[k]->mb.requests;
+        s->exc = table[k]->mb.exceptions;
+        s->le = table[k]->last_err;
+    }
+    undo_range(from, NULL, NULL);
+    if (flight_end > ulen)
+        flight_end = ulen;
+    for (int k = 0; k < nmodels; k++) {
+        struct slot *s = &slots[k];
+        struct model *md = table[k];
+        if (!s->touched)
+            continue;
+        md->mb.requests = s->req;
+        md->mb.exceptions = s->exc;
+        md->last_err = s->le;
+        /* A new instance: results cached for the undone change (keyed on
+         * instance and generation, mb_map) must not be served for a later
+         * change that reaches the same generation number. (An operation
+         * undoing itself, op_undo, restores the instance too: nothing
+         * could see its change.) */
+        if (new_instance)
+            md->instance = ++instances;
+        s->view_ok = 0;
+        if (s->in_gathered && !touched_since(md, flight_end))
+            s->in_gathered = 0;
+    }
+}
+
+void models_txn_begin(struct model_txn *t)
+{
+    t->undo = ulen;
+    t->active = 1;
+    if (jmark_fn)
+        t->jmark = jmark_fn();
+    else
+        memset(&t->jmark, 0, sizeof t->jmark);
+}
+
+void models_txn_commit(struct model_txn *t)
+{
+    t->active = 0;
+}
+
+void models_txn_rollback(struct model_txn *t)
+{
+    if (!t->active)
+        return;
+    t->active = 0;
+    if (t->undo < ulen)
+        rollback_to(t->undo, 1);
+    if (jrewind_fn)
+        jrewind_fn(t->jmark);
 }
 
 int models_pass_dirty(void)
 {
     for (int k = 0; k < nmodels; k++)
-        if (backup[k] || inflight[k])
+        if (slots[k].in_flight || slots[k].in_gathered)
             return 1;
     return 0;
 }
 
 struct model *models_view(struct model *md)
 {
-    for (int k = 0; k < nmodels; k++) {
-        if (table[k] != md)
-            continue;
-        struct model *v = inflight[k] ? inflight[k] : backup[k];
-        if (!v)
-            return md;
-        /* Counters and the last refusal are live, not transactional. */
-        v->requests = md->requests;
-        v->exceptions = md->exceptions;
-        v->last_err = md->last_err;
-        v->unit = md->unit;
-        return v;
+    struct slot *s = slot_of(md);
+    if (!s || (!s->in_flight && !s->in_gathered))
+        return md;
+    struct model *v = s->view;
+    if (!s->view_ok) {
+        /* md, then every record of it undone, newest first: md as it was
+         * before the oldest batch not yet durable. */
+        memcpy(v, md, sizeof *v);
+        undo_range(0, md, v);
+        s->view_ok = 1;
     }
-    return md;
+    /* Counters and the last refusal are live, not transactional. */
+    v->mb.requests = md->mb.requests;
+    v->mb.exceptions = md->mb.exceptions;
+    v->last_err = md->last_err;
+    v->unit = md->unit;
+    return v;
 }
 
 void models_batch_submit(void)
 {
+    /* A model in both batches: its durable state is the older header. */
     for (int k = 0; k < nmodels; k++) {
-        /* A model in both: its durable state is the older copy. */
-        if (!inflight[k])
-            inflight[k] = backup[k];
-        else
-            free(backup[k]);
-        backup[k] = NULL;
+        struct slot *s = &slots[k];
+        if (s->in_gathered && !s->in_flight)
+            memcpy(s->hdr_flight, s->hdr_gathered, MODEL_HDR_BYTES);
+        s->in_flight |= s->in_gathered;
+        s->in_gathered = 0;
     }
-}
-
-/* Put md back as old (keeping the request counters), last_error: I/O. */
-static void put_back(struct model *md, const struct model *old)
-{
-    uint32_t req = md->requests, exc = md->exceptions;
-    log_warn("model %d: change not durable; back to generation %u", md->id, old->gen);
-    *md = *old;
-    md->requests = req;
-    md->exceptions = exc;
-    /* A new instance: results cached for the undone change (keyed on
-     * instance and generation, mb_map) must not be served for a later
-     * change that reaches the same generation number. */
-    md->instance = ++instances;
-    memset(&md->last_err, 0, sizeof md->last_err);
-    md->last_err.code = IT2ND_ERR_IO;
-    md->last_err.i = md->last_err.j = -1;
-    md->last_err.fp = md->last_err.ch = -1;
+    flight_end = ulen;
 }
 
 void models_batch_done(int ok, model_changed_fn fn, void *arg)
 {
-    for (int k = 0; k < nmodels; k++) {
-        struct model *md = table[k], *old = inflight[k];
-        if (ok) {
-            if (!old)
+    if (!ok) {
+        /* The gathered batch builds on the failed one: both go. */
+        for (int k = 0; k < nmodels; k++) {
+            struct slot *s = &slots[k];
+            if (!s->in_flight && !s->in_gathered)
                 continue;
-            /* The state after the batch: before the next one's changes. */
-            const struct model *now = backup[k] ? backup[k] : md;
-            if (fn && (old->gen != now->gen || old->state != now->state))
-                fn(arg, now, old->state, old->gen);
-        } else {
-            /* The gathered batch builds on the failed one: both go. */
-            const struct model *to = old ? old : backup[k];
-            if (to)
-                put_back(md, to);
-            free(backup[k]);
-            backup[k] = NULL;
+            uint32_t old_gen;
+            memcpy(&old_gen, (s->in_flight ? s->hdr_flight : s->hdr_gathered) + offsetof(struct model, gen),
+                   sizeof old_gen);
+            log_warn("model %d: change not durable; back to generation %u", table[k]->id, old_gen);
         }
-        free(old);
-        inflight[k] = NULL;
+        rollback_to(0, 1);
+        for (int k = 0; k < nmodels; k++) {
+            struct slot *s = &slots[k];
+            if (s->in_flight || s->in_gathered) {
+                struct model *md = table[k];
+                memset(&md->last_err, 0, sizeof md->last_err);
+                md->last_err.code = IT2ND_ERR_IO;
+                md->last_err.i = md->last_err.j = -1;
+                md->last_err.fp = md->last_err.ch = -1;
+            }
+            s->in_flight = s->in_gathered = 0;
+            s->view_ok = 0;
+        }
+        ulen = flight_end = 0;
+        return;
     }
+    for (int k = 0; k < nmodels; k++) {
+        struct slot *s = &slots[k];
+        if (!s->in_flight)
+            continue;
+        int old_state;
+        uint32_t old_gen;
+        memcpy(&old_state, s->hdr_flight + offsetof(struct model, state), sizeof old_state);
+        memcpy(&old_gen, s->hdr_flight + offsetof(struct model, gen), sizeof old_gen);
+        /* The state after the batch: before the next one's changes. */
+        const struct model *now = table[k];
+        if (s->in_gathered) {
+            memcpy(scratch, s->hdr_gathered, MODEL_HDR_BYTES);
+            now = scratch;
+        }
+        s->in_flight = 0;
+        s->view_ok = 0;
+        if (fn && (old_gen != now->gen || old_state != now->state))
+            fn(arg, now, old_state, old_gen);
+    }
+    /* The in-flight records are no longer needed: the gathered ones move
+     * to the front. */
+    memmove(ulog, ulog + flight_end, ulen - flight_end);
+    ulen -= flight_end;
+    flight_end = 0;
 }
 
 void models_pass_end(int ok, model_changed_fn fn, void *arg)
@@ -193,22 +368,29 @@ static int jlog(const struct model_rec *rec)
 
 struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flags)
 {
-    struct model *md;
+    struct model *md, *view;
     it2n_errinfo err;
     if (nmodels == maxmodels || models_by_id(id) || models_by_unit(unit))
         return NULL;
     md = calloc(1, sizeof *md);
-    if (!md)
+    view = malloc(sizeof *view); /* the readers' view buffer: models_view cannot fail */
+    if (!md || !view) {
+        free(md);
+        free(view);
         return NULL;
+    }
     md->id = id;
     md->unit = unit;
     md->instance = ++instances;
     if (it2n_dataset_init(&md->ds, n, m, flags, &err) != IT2N_OK) {
         free(md);
+        free(view);
         return NULL;
     }
     it2n_model_init(&md->mdl);
     md->state = IT2N_RS_EMPTY;
+    memset(&slots[nmodels], 0, sizeof slots[nmodels]);
+    slots[nmodels].view = view;
     table[nmodels++] = md;
     return md;
 }
@@ -218,16 +400,15 @@ void models_remove(struct model *md)
     for (int k = 0; k < nmodels; k++) {
         if (table[k] != md)
             continue;
-        free(backup[k]); /* NULL outside a pass */
-        free(inflight[k]);
+        free(slots[k].view);
         free(md);
         for (int r = k + 1; r < nmodels; r++) {
             table[r - 1] = table[r];
-            backup[r - 1] = backup[r];
-            inflight[r - 1] = inflight[r];
+            slots[r - 1] = slots[r];
         }
         nmodels--;
-        table[nmodels] = backup[nmodels] = inflight[nmodels] = NULL;
+        table[nmodels] = NULL;
+        memset(&slots[nmodels], 0, sizeof slots[nmodels]);
         return;
     }
 }
@@ -274,6 +455,39 @@ static void set_err(struct model *md, const it2n_errinfo *err)
     md->last_err = *err;
 }
 
+/* An operation that failed after recording (and maybe changing) undoes
+ * itself: md exactly as before it, bit for bit. */
+static void op_undo(struct model *md, size_t mark)
+{
+    struct slot *s = slot_of(md);
+    undo_range(mark, NULL, NULL);
+    if (flight_end > ulen)
+        flight_end = ulen;
+    if (s && s->in_gathered && !touched_since(md, flight_end))
+        s->in_gathered = 0;
+}
+
+/* The bytes of data point (i, j, fp) in md->ds. */
+static int save_point(struct model *md, unsigned i, unsigned j, unsigned fp)
+{
+    return save(md, md->ds.coord_lo[i][j][fp], sizeof md->ds.coord_lo[i][j][fp]) ||
+           save(md, md->ds.memb[i][j][fp], sizeof md->ds.memb[i][j][fp]) ||
+           save(md, md->ds.coord_hi[i][j][fp], sizeof md->ds.coord_hi[i][j][fp]) ||
+           save(md, &md->ds.present[i][j], sizeof md->ds.present[i][j]);
+}
+
+/* What it2n_model_update(.., fp, ..) rewrites: the model's header fields
+ * and the nets (mantissas and exponents) of footprint fp, or of every
+ * footprint when chord-length parameters follow footprint D (it2n.h). */
+static int save_update(struct model *md, unsigned fp)
+{
+    if ((md->ds.flags & IT2N_F_CHORD) && fp == IT2N_FP_D)
+        return save(md, &md->mdl, sizeof md->mdl);
+    return save(md, &md->mdl, offsetof(it2n_model, frac)) ||
+           save(md, md->mdl.frac[fp], sizeof md->mdl.frac[fp]) ||
+           save(md, md->mdl.net[fp], sizeof md->mdl.net[fp]);
+}
+
 /* Solve md->ds into md->mdl. On failure md->mdl is unchanged. */
 static int solve(struct model *md, it2n_errinfo *err)
 {
@@ -289,21 +503,31 @@ static int solve(struct model *md, it2n_errinfo *err)
     return IT2N_OK;
 }
 
+/* Configure and clear rewrite the whole data set and net. */
+static int save_all(struct model *md)
+{
+    return save(md, md, MODEL_HDR_BYTES) || save(md, &md->ds, sizeof md->ds) || save(md, &md->mdl, sizeof md->mdl);
+}
+
 int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err)
 {
     it2n_dataset ds;
     struct model_rec rec = { .op = MOP_CONFIG, .id = md->id, .n = n, .m = m, .flags = flags };
+    size_t mark = ulen;
     int rc = it2n_dataset_init(&ds, n, m, flags, err);
     if (rc != IT2N_OK)
         return rc;
-    if (touch(md))
+    if (save_all(md)) {
+        op_undo(md, mark);
         return refuse(md, err, IT2ND_ERR_NOMEM);
-    if ((rc = jlog(&rec)) != 0)
+    }
+    if ((rc = jlog(&rec)) != 0) {
+        op_undo(md, mark);
         return refuse(md, err, rc);
+    }
     md->ds = ds;
     it2n_model_init(&md->mdl);
     md->state = IT2N_RS_EMPTY;
-    md->grid_valid = 0;
     md->gen++;
     md->last_op = MOP_CONFIG;
     return IT2N_OK;
@@ -313,15 +537,19 @@ int models_clear(struct model *md)
 {
     it2n_errinfo err;
     struct model_rec rec = { .op = MOP_CLEAR, .id = md->id };
+    size_t mark = ulen;
     int rc;
-    if (touch(md))
+    if (save_all(md)) {
+        op_undo(md, mark);
         return refuse(md, &err, IT2ND_ERR_NOMEM);
-    if ((rc = jlog(&rec)) != 0)
+    }
+    if ((rc = jlog(&rec)) != 0) {
+        op_undo(md, mark);
         return refuse(md, &err, rc);
+    }
     it2n_dataset_init(&md->ds, md->ds.n, md->ds.m, md->ds.flags, &err);
     it2n_model_init(&md->mdl);
     md->state = IT2N_RS_EMPTY;
-    md->grid_valid = 0;
     md->gen++;
     md->last_op = MOP_CLEAR;
     return IT2N_OK;
@@ -331,11 +559,22 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
                const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err)
 {
     struct model_rec rec = { .op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp, .replace = replace };
-    int rc;
+    size_t mark = ulen;
+    int rc, jrc = 0;
     memcpy(rec.vals, vals, sizeof rec.vals);
 
-    if (!replace && i <= md->ds.n && j <= md->ds.m && fp < IT2N_FP_COUNT &&
-        (md->ds.present[i][j] & (1u << fp))) {
+    if (i > md->ds.n || j > md->ds.m || fp >= IT2N_FP_COUNT) {
+        /* Refused by the core before anything is looked at. */
+        rc = md->state == IT2N_RS_SOLVED ? it2n_model_update(&md->mdl, &md->ds, i, j, fp, vals, err)
+                                         : it2n_dataset_put(&md->ds, i, j, fp, vals, true, err);
+        if (rc == IT2N_OK) { /* cannot happen: the core checks the indices */
+            memset(err, 0, sizeof *err);
+            err->code = rc = IT2N_ERR_INVAL;
+        }
+        set_err(md, err);
+        return rc;
+    }
+    if (!replace && (md->ds.present[i][j] & (1u << fp))) {
         memset(err, 0, sizeof *err);
         err->code = IT2N_ERR_DUPLICATE;
         err->i = (int16_t)i;
@@ -344,27 +583,22 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         err->ch = -1;
         return IT2N_ERR_DUPLICATE;
     }
-    if (touch(md))
+    if (save(md, md, MODEL_HDR_BYTES) || save_point(md, i, j, fp) ||
+        (md->state == IT2N_RS_SOLVED && save_update(md, fp))) {
+        op_undo(md, mark);
         return refuse(md, err, IT2ND_ERR_NOMEM);
+    }
     if (md->state == IT2N_RS_SOLVED) {
         /* Incremental: the core's update changes md->ds and md->mdl
-         * together and is atomic on error. Keep a copy of both only to
-         * undo a journal failure. */
-        struct { it2n_model mdl; it2n_dataset ds; } *save = malloc(sizeof *save);
-        int jrc;
-        if (!save)
-            return refuse(md, err, IT2ND_ERR_NOMEM);
-        save->mdl = md->mdl;
-        save->ds = md->ds;
+         * together and is atomic on error; the undo records undo a
+         * journal failure. */
         rc = it2n_model_update(&md->mdl, &md->ds, i, j, fp, vals, err);
-        if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0) {
-            md->mdl = save->mdl;
-            md->ds = save->ds;
-            free(save);
-            return refuse(md, err, jrc);
-        }
-        free(save);
+        if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0)
+            rc = jrc;
         if (rc != IT2N_OK) {
+            op_undo(md, mark);
+            if (jrc)
+                return refuse(md, err, jrc);
             set_err(md, err);
             return rc;
         }
@@ -374,33 +608,24 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         return IT2N_OK;
     }
 
-    it2n_dataset *save = malloc(sizeof *save);
-    int jrc = 0;
-    if (!save)
-        return refuse(md, err, IT2ND_ERR_NOMEM);
-    *save = md->ds;
-    int prev_state = md->state;
-    uint32_t prev_gen = md->gen, prev_solves = md->solves;
     rc = it2n_dataset_put(&md->ds, i, j, fp, vals, true, err);
-    if (rc == IT2N_OK && it2n_dataset_missing(&md->ds) == 0)
-        rc = solve(md, err);  /* completion solves; a failure rejects the point */
+    if (rc == IT2N_OK && it2n_dataset_missing(&md->ds) == 0) {
+        /* completion solves; a failure rejects the point */
+        if (save(md, &md->mdl, sizeof md->mdl)) {
+            op_undo(md, mark);
+            return refuse(md, err, IT2ND_ERR_NOMEM);
+        }
+        rc = solve(md, err);
+    }
     if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0)
         rc = jrc;
     if (rc != IT2N_OK) {
-        md->ds = *save;
-        if (md->state == IT2N_RS_SOLVED) { /* solve ran, journal failed */
-            it2n_model_init(&md->mdl);
-            md->state = prev_state;
-            md->gen = prev_gen;
-            md->solves = prev_solves;
-        }
-        free(save);
+        op_undo(md, mark);
         if (jrc)
             return refuse(md, err, jrc);
         set_err(md, err);
         return rc;
     }
-    free(save);
     if (md->state != IT2N_RS_SOLVED)
         md->state = IT2N_RS_INCOMPLETE;
     md->points_rx++;
@@ -411,37 +636,37 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
 int models_commit(struct model *md, it2n_errinfo *err)
 {
     struct model_rec rec = { .op = MOP_COMMIT, .id = md->id };
-    it2n_model *save;
-    int rc, state = md->state;
-    uint32_t gen = md->gen, solves = md->solves;
+    size_t mark = ulen;
+    int rc;
     memset(err, 0, sizeof *err);
     if (it2n_dataset_missing(&md->ds) != 0) {
         err->code = IT2N_ERR_MISSING;
         return IT2N_ERR_MISSING;
     }
-    if (touch(md))
+    if (save(md, md, MODEL_HDR_BYTES) || save(md, &md->mdl, sizeof md->mdl)) {
+        op_undo(md, mark);
         return refuse(md, err, IT2ND_ERR_NOMEM);
-    save = malloc(sizeof *save);
-    if (!save)
-        return refuse(md, err, IT2ND_ERR_NOMEM);
-    *save = md->mdl;
+    }
     rc = solve(md, err);
     if (rc == IT2N_OK && (rc = jlog(&rec)) != 0) {
         /* Not journaled: the model is as before (not FAILED: the solve
          * worked, the disk did not). */
-        md->mdl = *save;
-        md->state = state;
-        md->gen = gen;
-        md->solves = solves;
-        free(save);
+        op_undo(md, mark);
         return refuse(md, err, rc);
     }
     if (rc != IT2N_OK && md->state != IT2N_RS_SOLVED)
         md->state = IT2N_RS_FAILED;
     if (rc == IT2N_OK)
         md->last_op = MOP_COMMIT;
-    free(save);
     return rc;
+}
+
+int models_set_upload(struct model *md, const uint16_t regs[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I])
+{
+    if (save(md, md->mb.upload, sizeof md->mb.upload))
+        return IT2ND_ERR_NOMEM;
+    memcpy(md->mb.upload, regs, sizeof md->mb.upload);
+    return 0;
 }
 
 int models_apply(const struct model_rec *rec, it2n_errinfo *err)
@@ -453,6 +678,7 @@ int models_apply(const struct model_rec *rec, it2n_errinfo *err)
         err->code = IT2N_ERR_INVAL;
         return IT2N_ERR_INVAL;
     }
+    size_t mark = ulen;
     replaying = 1;
     switch (rec->op) {
     case MOP_CONFIG:
@@ -472,6 +698,7 @@ int models_apply(const struct model_rec *rec, it2n_errinfo *err)
         break;
     }
     replaying = 0;
+    ulen = mark; /* nothing to roll back: drop the records */
     return rc;
 }
 
@@ -479,6 +706,7 @@ int models_preload_paper(struct model *md)
 {
     it2n_errinfo err;
     int rc = IT2N_OK;
+    size_t mark = ulen;
     replaying = 1; /* configuration, not journaled */
     for (size_t k = 0; k < paper_nrows && rc == IT2N_OK; k++) {
         const struct paper_row *r = &paper_rows[k];
@@ -495,39 +723,7 @@ int models_preload_paper(struct model *md)
             rc = models_put(md, r->i, r->j, (unsigned)fp, v, false, &err);
     }
     replaying = 0;
+    ulen = mark;
     md->points_rx = 0;
     return rc;
-}
-
-struct grid_ctx {
-    struct model *md;
-    unsigned cols;
-};
-
-static int grid_cb(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w, const it2n_point *pt)
-{
-    struct grid_ctx *g = ctx;
-    (void)u;
-    (void)w;
-    for (int k = 0; k < 3; k++)
-        g->md->grid[r * g->cols + c][k] = pt->v[IT2N_FP_D][IT2N_CH_T + k];
-    return 0;
-}
-
-int models_grid(struct model *md, unsigned rows, unsigned cols)
-{
-    struct grid_ctx g = { md, cols };
-    int rc;
-    if (md->state != IT2N_RS_SOLVED)
-        return IT2N_ERR_STATE;
-    if (md->grid_valid && md->grid_gen == md->gen && md->grid_rows == rows && md->grid_cols == cols)
-        return IT2N_OK;
-    rc = it2n_sample(&md->mdl, rows, cols, grid_cb, &g, NULL);
-    if (rc != IT2N_OK)
-        return rc;
-    md->grid_gen = md->gen;
-    md->grid_rows = rows;
-    md->grid_cols = cols;
-    md->grid_valid = 1;
-    return IT2N_OK;
 }

@@ -4,33 +4,50 @@
  * model use it2n_model_update (data set and model change together). Every
  * accepted change is reported to the journal hook (the WAL) before the
  * caller acknowledges it; a rejected change leaves the model exactly as it
- * was. */
+ * was.
+ *
+ * Undo log, not copies: an operation records in an undo log the bytes it
+ * is about to overwrite (the model's header; for a data point the point
+ * and the nets of the footprints the core re-solves; the whole data set
+ * or net only where the operation rewrites it: configure, clear, a
+ * solve). Rolling back (a failed operation, a transaction, a batch whose
+ * commit failed) copies them back in reverse order, so the model is
+ * restored bit for bit. No operation copies the whole model. */
 #ifndef IT2ND_MODELS_H
 #define IT2ND_MODELS_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "it2n.h"
 #include "it2n_regmap.h"
 
+/* The Modbus side of a model (daemon/mb_req.c, mb_map.c; the links use
+ * none of it): the request/exception counters of the status block (live,
+ * never rolled back) and the upload block as last written (registers
+ * 40..51, kept in snapshots). The sample grid cache is mb_map.c's own. */
+struct model_modbus {
+    uint32_t requests, exceptions;
+    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
+};
+
 struct model {
+    /* The header: every scalar of the model (an operation records it
+     * whole in the undo log, MODEL_HDR_BYTES). */
     int id, unit;
-    uint32_t instance;         /* unique per models_add and rollback (cache keys) */
-    it2n_dataset ds;           /* current data (staging and solved)   */
-    it2n_model mdl;            /* valid when state == IT2N_RS_SOLVED  */
+    uint32_t instance;         /* unique per models_add and batch rollback (cache keys) */
     int state;                 /* enum it2n_regmap_state              */
     uint32_t gen;              /* bumped on every solve and update    */
     it2n_errinfo last_err;     /* code 0 = none                       */
     int last_op;               /* enum model_op of the last change     */
-    uint32_t points_rx, solves, requests, exceptions;
-    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I]; /* last upload */
-    /* Sample grid cache (D footprint T, I, F, Q24), valid for grid_gen and
-     * the grid size it was computed for. */
-    it2n_val grid[IT2N_REGMAP_GRID_MAX_NODES][3];
-    uint32_t grid_gen;
-    unsigned grid_rows, grid_cols;
-    int grid_valid;
+    uint32_t points_rx, solves;
+    struct model_modbus mb;
+    /* The data. */
+    it2n_dataset ds;           /* current data (staging and solved)   */
+    it2n_model mdl;            /* valid when state == IT2N_RS_SOLVED  */
 };
+
+#define MODEL_HDR_BYTES offsetof(struct model, ds)
 
 /* Journal record kinds (also the WAL record types). */
 enum model_op { MOP_CONFIG = 1, MOP_POINT = 2, MOP_COMMIT = 3, MOP_CLEAR = 4 };
@@ -80,12 +97,55 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
 int models_commit(struct model *md, it2n_errinfo *err);
 int models_clear(struct model *md);
 
-/* Loop passes. The first change of a model in a pass keeps a copy of it;
- * at the end of the pass (after the group commit) models_pass_end() either
- * drops the copies (ok, the changes are durable: fn, if not NULL, is called
+/* Transactions (begin / commit / rollback): a group of operations that is
+ * all or nothing, such as a Modbus write request with its read half or a
+ * link PUT of several points. models_txn_begin() marks the undo log and
+ * the journal queue (models_set_journal_marks); models_txn_rollback() puts
+ * every model the operations since the mark changed back bit for bit,
+ * except the live request/exception counters and last_error (the report
+ * of the refusal, kept as it is), gives each of them a new instance (a
+ * result cached for the undone change, keyed on instance and generation,
+ * is never served for a later change reaching the same generation) and
+ * drops the journal records queued since the mark;
+ * models_txn_commit() keeps the changes (they stay in the batch being
+ * gathered, undoable until the batch is durable). One transaction at a
+ * time; not nested. Returns nothing: neither can fail. */
+struct model_jmark {
+    size_t len;
+    int recs;
+    uint64_t seq;
+};
+struct model_txn {
+    size_t undo;               /* undo log length at begin */
+    struct model_jmark jmark;  /* journal queue position at begin */
+    int active;
+};
+void models_txn_begin(struct model_txn *t);
+void models_txn_commit(struct model_txn *t);
+void models_txn_rollback(struct model_txn *t);
+
+/* Journal queue positions for transactions (store_jmark/store_jrewind);
+ * NULL: rollback leaves the journal queue alone. */
+typedef struct model_jmark (*model_jmark_fn)(void);
+typedef void (*model_jrewind_fn)(struct model_jmark m);
+void models_set_journal_marks(model_jmark_fn mark, model_jrewind_fn rewind);
+
+/* The last upload block (Modbus registers 40..51) of md, recorded in the
+ * undo log like every change. 0, or IT2ND_ERR_NOMEM (nothing changed). */
+int models_set_upload(struct model *md, const uint16_t regs[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I]);
+
+/* Bytes held by the undo log now (tests, statistics). */
+size_t models_undo_bytes(void);
+
+/* Loop passes. The changes of a pass are in the undo log; at the end of
+ * the pass (after the group commit) models_pass_end() either drops their
+ * undo records (ok, the changes are durable: fn, if not NULL, is called
  * once per model whose state or generation moved, with the old values) or
  * puts every touched model back as it was (the commit failed, so nothing
- * acknowledged it). Request/exception counters are not rolled back. */
+ * acknowledged it). Request/exception counters are not rolled back. fn
+ * may look at the model's header fields only (id, state, gen, last_op,
+ * last_err, counters): when a later batch has already changed the model,
+ * it is given a header-only copy as of the end of the batch. */
 typedef void (*model_changed_fn)(void *arg, const struct model *md, int old_state, uint32_t old_gen);
 void models_pass_end(int ok, model_changed_fn fn, void *arg);
 /* True when a model was changed in the current pass (or is in a batch
@@ -107,8 +167,10 @@ int models_pass_dirty(void);
  * Readers see the last durable state: models_view(md) is md as it was
  * before the oldest batch that changed it and is not yet durable (md
  * itself when none); only its request/exception counters, last_error and
- * unit are live. Writes apply to md itself. The view is valid until the
- * next models_* call that may end a batch. */
+ * unit are live. Writes apply to md itself. The view is built from md and
+ * the undo log when first asked for (into a buffer kept per model: no
+ * allocation, cannot fail) and kept until a batch ends or a rollback; it
+ * is valid until the next models_* call that may end a batch. */
 void models_batch_submit(void);
 void models_batch_done(int ok, model_changed_fn fn, void *arg);
 struct model *models_view(struct model *md);
@@ -119,9 +181,5 @@ int models_apply(const struct model_rec *rec, it2n_errinfo *err);
 /* Entries present / required of the current configuration. */
 unsigned models_present(const struct model *md);
 unsigned models_required(const struct model *md);
-
-/* Refresh the sample grid cache if the generation moved. Returns 0 or an
- * it2n error code. */
-int models_grid(struct model *md, unsigned rows, unsigned cols);
 
 #endif

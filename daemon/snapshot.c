@@ -87,7 +87,7 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
         put32(h + 12, md->points_rx);
         put32(h + 16, md->solves);
         for (unsigned w = 0; w < UPLOAD_WORDS; w++)
-            put16(h + 20 + 2 * w, md->upload[w]);
+            put16(h + 20 + 2 * w, md->mb.upload[w]);
     }
     put32(buf + off, it2n_crc32c(buf, off));
     *len = off + 4;
@@ -195,8 +195,7 @@ static size_t load_model(const uint8_t *buf, int *result)
     md->points_rx = get32(buf + 12);
     md->solves = get32(buf + 16);
     for (unsigned w = 0; w < UPLOAD_WORDS; w++)
-        md->upload[w] = (uint16_t)get16(buf + 20 + 2 * w);
-    md->grid_valid = 0;
+        md->mb.upload[w] = (uint16_t)get16(buf + 20 + 2 * w);
 out:
     if (why) {
         log_err("snapshot: model %u does not validate (%s at i %d j %d fp %d)", id, why, err.i, err.j, err.fp);

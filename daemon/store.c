@@ -192,6 +192,19 @@ void store_rollback(struct store_mark m)
     seq = m.seq;
 }
 
+struct model_jmark store_jmark(void)
+{
+    struct model_jmark m = { qlen, qrecs, seq };
+    return m;
+}
+
+void store_jrewind(struct model_jmark m)
+{
+    qlen = m.len;
+    qrecs = m.recs;
+    seq = m.seq;
+}
+
 static int write_all(int fd, const uint8_t *p, size_t len)
 {
     while (len) {
@@ -868,8 +881,7 @@ static int load_snapshot(uint64_t *seqp)
         md->gen = sm.gen;
         md->points_rx = sm.points_rx;
         md->solves = sm.solves;
-        memcpy(md->upload, sm.upload, sizeof md->upload);
-        md->grid_valid = 0;
+        memcpy(md->mb.upload, sm.upload, sizeof md->mb.upload);
     }
     log_notice("snapshot: legacy version 1, %u model(s) loaded, seq %llu; the next one is written as version %u", n,
                (unsigned long long)sseq, SNAP_VERSION);

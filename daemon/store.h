@@ -86,6 +86,9 @@ struct store_mark {
 };
 struct store_mark store_mark(void);
 void store_rollback(struct store_mark m);
+/* The same for models.c transactions (models_set_journal_marks). */
+struct model_jmark store_jmark(void);
+void store_jrewind(struct model_jmark m);
 
 /* Write a snapshot of all models, then start an empty WAL (a checkpoint;
  * clears the degraded state). 0 or -1 (logged; no temporary file left,

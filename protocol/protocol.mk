@@ -1,5 +1,6 @@
-# protocol/: serial framing protocol (portable C99, same rules as the core)
-# and, owned by the daemon work, the Modbus register map (it2n_regmap.*).
+# protocol/: serial framing protocol (portable C99, same rules as the core):
+# what an instrument needs. (The Modbus register map is the daemon's:
+# daemon/it2n_regmap.*.)
 # Exports PROTO_SRC, PROTO_LIB, PROTO_SAN_LIB for the daemon and cross build.
 # Tests, fuzzer and the example instrument live here too (one fragment).
 PROTO_SRC := $(wildcard protocol/*.c)

@@ -39,6 +39,7 @@ static struct model *open_table(void)
     assert_non_null(md);
     assert_int_equal(models_preload_paper(md), IT2N_OK);
     models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
     assert_int_equal(store_open(dir, 0), 0);
     return models_by_id(1);
 }
@@ -236,11 +237,67 @@ static void test_readers_see_durable(void **st)
     close(rsp[1]);
 }
 
+
+/* An FC 23 query (write q_u16, q_w16; read the 108 result registers) is
+ * not a model change: no transaction, nothing recorded in the undo log,
+ * the model's bytes untouched but its request counter, never held; and
+ * while a change of the model waits in a batch it answers from the last
+ * durable state (as FC 04), not from the pending change. */
+static void test_fc23_query_touches_nothing(void **st)
+{
+    (void)st;
+    struct model *md = models_by_id(1);
+    it2n_errinfo err;
+    it2n_val v[IT2N_CH_COUNT];
+    /* A pending change of footprint LL (gathered, not durable). */
+    it2n_dataset_get(&md->ds, 1, 1, IT2N_FP_LL, v);
+    v[IT2N_CH_T] += IT2N_VAL_ONE / 10;
+    assert_int_equal(models_put(md, 1, 1, IT2N_FP_LL, v, true, &err), IT2N_OK);
+    struct model *dur = models_view(md);
+    assert_ptr_not_equal(dur, md);
+    static struct model before;
+    memcpy(&before, md, sizeof before);
+    size_t undo = models_undo_bytes();
+    int pending = store_pending();
+
+    /* u = 0.45, w = 0.55 */
+    static const uint8_t q[] = { 0x17, 0x00, 128, 0x00, 108, 0x00, 64, 0x00, 0x02, 0x04,
+                                 0x11, 0x94, 0x15, 0x7C };
+    uint8_t req[64], rep[300];
+    int len = adu(req, q, sizeof q);
+    assert_int_equal(mb_req_handle(&sess, req, len, &opts), 0); /* answered now */
+    ssize_t n = read(sp[1], rep, sizeof rep);
+    assert_int_equal(n, 9 + 2 * 108);
+    assert_int_equal(rep[7], 0x17);
+
+    before.mb.requests = md->mb.requests;
+    assert_memory_equal(&before, md, sizeof before);
+    assert_int_equal(models_undo_bytes(), undo);
+    assert_int_equal(store_pending(), pending);
+
+    /* The answer: the durable state's values, not the pending change's. */
+    it2n_point pd, pm;
+    it2n_par u = (it2n_par)(((uint64_t)4500 * (uint64_t)IT2N_PAR_ONE + 5000) / 10000);
+    it2n_par w = (it2n_par)(((uint64_t)5500 * (uint64_t)IT2N_PAR_ONE + 5000) / 10000);
+    assert_int_equal(it2n_eval(&models_view(md)->mdl, u, w, &pd, NULL), IT2N_OK);
+    assert_int_equal(it2n_eval(&md->mdl, u, w, &pm, NULL), IT2N_OK);
+    unsigned k = IT2N_FP_LL * IT2N_CH_COUNT + IT2N_CH_T; /* LL's T, float32 ABCD */
+    uint32_t bits = (uint32_t)rep[9 + 4 * k] << 24 | (uint32_t)rep[10 + 4 * k] << 16 |
+                    (uint32_t)rep[11 + 4 * k] << 8 | rep[12 + 4 * k];
+    float f, fd = (float)((double)pd.v[IT2N_FP_LL][IT2N_CH_T] / (double)IT2N_VAL_ONE);
+    float fm = (float)((double)pm.v[IT2N_FP_LL][IT2N_CH_T] / (double)IT2N_VAL_ONE);
+    memcpy(&f, &bits, sizeof f);
+    assert_true(fd != fm);
+    assert_true(f == fd);
+    models_pass_end(1, NULL, NULL);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_fc23_all_or_nothing, setup, teardown),
         cmocka_unit_test_setup_teardown(test_readers_see_durable, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_fc23_query_touches_nothing, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -34,6 +34,7 @@ static struct model *fresh(void)
     struct model *md = models_add(1, 1, 1, 1, IT2N_F_TYPE1);
     assert_non_null(md);
     models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
     return md;
 }
 
@@ -368,7 +369,7 @@ static void test_pass_rollback(void **st)
 
     put(md, 1, 1, 10, 10, 9);              /* update ... */
     models_clear(md);                       /* ... and clear, same pass */
-    md->requests = 5;
+    md->mb.requests = 5;
     assert_true(models_pass_dirty());
     models_pass_end(0, on_changed, NULL);   /* the commit failed */
     assert_int_equal(changed_calls, 1);
@@ -376,7 +377,7 @@ static void test_pass_rollback(void **st)
     assert_int_equal(md->gen, gen);
     assert_int_equal(md->points_rx, rx);
     assert_same_nets(&md->mdl, &keep);
-    assert_int_equal(md->requests, 5);      /* counters of what happened stay */
+    assert_int_equal(md->mb.requests, 5);      /* counters of what happened stay */
     assert_false(models_pass_dirty());
 
     put(md, 1, 1, 10, 10, 9);
@@ -422,8 +423,8 @@ static void test_batches(void **st)
     put(md, 1, 1, 10, 10, 6);               /* batch 2, gathered meanwhile */
     assert_int_equal(store_batch(), nb + 1);
     assert_int_equal(models_view(md)->gen, g0);
-    md->requests = 7;
-    assert_int_equal(models_view(md)->requests, 7); /* counters are live */
+    md->mb.requests = 7;
+    assert_int_equal(models_view(md)->mb.requests, 7); /* counters are live */
 
     changed_calls = 0;
     assert_int_equal(store_reap(&d), 1);
@@ -604,9 +605,9 @@ static void test_snapshot_format(void **st)
     put(md, 1, 0, 10, 0, 3);
     put(md, 1, 1, 10, 10, 4);
     assert_int_equal(md->state, IT2N_RS_SOLVED);
-    md->upload[0] = 0;
+    md->mb.upload[0] = 0;
     for (int k = 1; k < 12; k++)
-        md->upload[k] = (uint16_t)k;
+        md->mb.upload[k] = (uint16_t)k;
     assert_int_equal(store_snapshot(), 0);
     uint32_t gen = md->gen;
     it2n_model want = md->mdl;
@@ -637,7 +638,7 @@ static void test_snapshot_format(void **st)
     assert_int_equal(store_open(dir, 0), 0);
     assert_int_equal(md->state, IT2N_RS_SOLVED);
     assert_int_equal(md->gen, gen);
-    assert_int_equal(md->upload[11], 11);
+    assert_int_equal(md->mb.upload[11], 11);
     assert_same_nets(&md->mdl, &want);
     store_close();
 }

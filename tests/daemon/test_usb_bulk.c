@@ -274,6 +274,7 @@ int main(void)
     struct model *md = models_add(1, 1, 1, 1, IT2N_F_TYPE1);
     CHECK(store_open(dir, 0) == 0, "store");
     models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
     loop_add_hook(commit_hook, NULL);
     struct conf c;
     conf_default(&c);

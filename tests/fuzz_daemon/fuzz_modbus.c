@@ -128,7 +128,7 @@ static int same_model(const struct model *a, const struct model *b)
     return a->id == b->id && a->unit == b->unit && a->state == b->state && a->gen == b->gen &&
            a->points_rx == b->points_rx && a->solves == b->solves &&
            memcmp(&a->ds, &b->ds, sizeof a->ds) == 0 && memcmp(&a->mdl, &b->mdl, sizeof a->mdl) == 0 &&
-           memcmp(a->upload, b->upload, sizeof a->upload) == 0;
+           memcmp(a->mb.upload, b->mb.upload, sizeof a->mb.upload) == 0;
 }
 
 /* Check one reply ADU against its request. Returns 1 for an exception. */

@@ -253,7 +253,7 @@ static uint8_t *build_v1(size_t *len)
         sm.gen = md->gen;
         sm.points_rx = md->points_rx;
         sm.solves = md->solves;
-        memcpy(sm.upload, md->upload, sizeof sm.upload);
+        memcpy(sm.upload, md->mb.upload, sizeof sm.upload);
         store_v1_dataset_from(&sm.ds, &md->ds);
         sm.mdl.data = sm.ds;
         sm.mdl.generation = md->mdl.generation;
@@ -378,6 +378,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     /* The recovered table keeps working: COMMIT each complete model
      * through the WAL (a failing solve is an answer, not a crash). */
     models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
     for (int k = 0; k < NMODELS; k++)
         (void)models_commit(models_at(k), &err);
     fuzz_check(store_commit() == 0, "WAL append after recovery");

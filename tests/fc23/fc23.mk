@@ -1,0 +1,29 @@
+# tests/fc23/: the FC 23 benchmark (issue 8 item 9). it2nd's full query
+# (write q_u, q_w; read the 108 result registers) against a bare libmodbus
+# server answering FC 23 of the same sizes, same client load, one run.
+# `make bench-fc23` writes bench/fc23.json (ratios at 1, 8, 32 connections,
+# target 0.9); `bench-fc23-smoke` (make test, ~3 s) checks every answer
+# under 8 concurrent connections, never a time.
+FC23_B := $(BUILD)/tests/fc23
+FC23_LOAD := $(FC23_B)/fc23_load
+FC23_BARE := $(FC23_B)/fc23_bare
+
+$(FC23_LOAD): tests/fc23/fc23_load.c $(BUILD)/host/daemon/paper_data.o $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(DAEMON_CFLAGS) $< $(BUILD)/host/daemon/paper_data.o -o $@ $(CORE_LIB) $(DAEMON_LIBS)
+
+$(FC23_BARE): tests/fc23/fc23_bare.c
+	@mkdir -p $(@D)
+	$(CC) $(DAEMON_CFLAGS) $< -o $@ $(DAEMON_LIBS)
+
+FC23_ARGS = --it2nd $(IT2ND) --bare $(FC23_BARE) --load $(FC23_LOAD)
+
+.PHONY: bench-fc23 bench-fc23-smoke
+bench-fc23: $(IT2ND) $(FC23_LOAD) $(FC23_BARE) ## FC 23 query vs bare libmodbus at 1/8/32 connections (bench/fc23.json)
+	timeout 600 /usr/bin/python3 tests/fc23/fc23_bench.py $(FC23_ARGS) --out bench/fc23.json
+
+bench-fc23-smoke: $(IT2ND) $(FC23_LOAD) $(FC23_BARE)
+	timeout 120 /usr/bin/python3 tests/fc23/fc23_bench.py $(FC23_ARGS) --smoke --out $(BUILD)/fc23_smoke.json
+
+BENCH_TARGETS += bench-fc23
+TEST_TARGETS += bench-fc23-smoke

@@ -1,0 +1,214 @@
+#!/usr/bin/python3
+"""FC 23 benchmark (issue 8 item 9): it2nd's full query against a bare
+libmodbus server answering FC 23 of the same sizes, in one run.
+
+For each connection count (1, 8, 32 by default) the same load generator
+(fc23_load: N threads, one libmodbus TCP connection each, fixed duration,
+every answer checked) runs against the bare server (fc23_bare) and against
+it2nd (paper model on unit 1), alternately for --rounds rounds; the figure
+per side is the median of its rounds' rates, the ratio it2nd / bare.
+
+--smoke: a couple of seconds, in make test: checks that every answer is
+correct under concurrency (8 connections), never a time; writes under
+build/ only.
+"""
+import argparse
+import json
+import os
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+TARGET = 0.9
+
+
+def free_port(lo, hi):
+    for p in range(lo, hi):
+        s = socket.socket()
+        try:
+            s.bind(("127.0.0.1", p))
+            return p
+        except OSError:
+            pass
+        finally:
+            s.close()
+    raise SystemExit("fc23: no free port in %d..%d" % (lo, hi))
+
+
+def cpu_seconds(pid):
+    with open("/proc/%d/stat" % pid) as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+class Bare:
+    def __init__(self, exe, mode="framed"):
+        self.p = subprocess.Popen([exe, "0", mode], stdout=subprocess.PIPE, text=True)
+        line = self.p.stdout.readline().split()
+        if len(line) != 2 or line[0] != "port":
+            raise SystemExit("fc23: bare server did not start")
+        self.port = int(line[1])
+
+    def stop(self):
+        self.p.send_signal(signal.SIGTERM)
+        self.p.wait(10)
+
+
+class It2nd:
+    def __init__(self, exe, tmp, port, conns):
+        self.state = os.path.join(tmp, "state")
+        os.makedirs(self.state, exist_ok=True)
+        self.conf = os.path.join(tmp, "it2nd.conf")
+        with open(self.conf, "w") as f:
+            f.write("[daemon]\nstate_dir = %s\nsnapshot_interval = 3600\n"
+                    "[modbus]\ntcp_listen = 127.0.0.1:%d\nmax_clients = %d\n"
+                    "[model:1]\nunit_id = 1\npreload = paper\n" % (self.state, port, max(conns, 32) + 8))
+        self.log = open(os.path.join(tmp, "it2nd.log"), "w")
+        self.p = subprocess.Popen([exe, "-c", self.conf, "--foreground"], stdout=self.log,
+                                  stderr=subprocess.STDOUT)
+        self.port = port
+        for _ in range(100):
+            try:
+                socket.create_connection(("127.0.0.1", port), 0.2).close()
+                return
+            except OSError:
+                if self.p.poll() is not None:
+                    break
+                time.sleep(0.05)
+        raise SystemExit("fc23: it2nd did not start (log %s)" % self.log.name)
+
+    def stop(self):
+        self.p.send_signal(signal.SIGTERM)
+        rc = self.p.wait(20)
+        self.log.close()
+        if rc != 0:
+            raise SystemExit("fc23: it2nd exited %d" % rc)
+
+
+def load(exe, port, conns, seconds, expect, pid):
+    c0 = cpu_seconds(pid)
+    r = subprocess.run([exe, "--port", str(port), "--conns", str(conns), "--seconds", str(seconds),
+                        "--expect", expect], capture_output=True, text=True, timeout=seconds + 60)
+    cpu = cpu_seconds(pid) - c0
+    out = r.stdout.split()
+    if r.returncode != 0 or len(out) < 10:
+        sys.stderr.write(r.stderr)
+        raise SystemExit("fc23: load against port %d (%s, %d connections) failed: %s"
+                         % (port, expect, conns, r.stdout.strip()))
+    d = dict(zip(out[0::2], out[1::2]))
+    return float(d["rate"]), int(d["requests"]), cpu
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--it2nd", required=True)
+    ap.add_argument("--bare", required=True)
+    ap.add_argument("--load", required=True)
+    ap.add_argument("--conns", default="1,8,32")
+    ap.add_argument("--seconds", type=float, default=1.5)
+    ap.add_argument("--rounds", type=int, default=9)
+    ap.add_argument("--smoke", action="store_true")
+    ap.add_argument("--out")
+    a = ap.parse_args()
+    conns = [int(c) for c in a.conns.split(",")]
+    if a.smoke:
+        conns, a.seconds, a.rounds = [8], 1.0, 1
+
+    tmp = tempfile.mkdtemp(prefix="fc23.", dir=os.environ.get("TMPDIR"))
+    bare = Bare(a.bare)
+    recv = None if a.smoke else Bare(a.bare, "receive")
+    d = It2nd(a.it2nd, tmp, free_port(23100, 23900), max(conns))
+    results, slow, spread = {}, {}, {}
+    try:
+        # Warm-up, not counted: first connections, page faults, caches.
+        load(a.load, bare.port, 8, 1.0, "pattern", bare.p.pid)
+        load(a.load, d.port, 8, 1.0, "model", d.p.pid)
+        for n in conns:
+            rb, ri, rr, cb, ci, nb, ni = [], [], [], [], [], 0, 0
+            pairs = []
+            for r in range(a.rounds):
+                # Back to back, the order alternating: the machine's load
+                # drifts, both sides see the same drift.
+                for side in (("bare", "it2nd") if r % 2 == 0 else ("it2nd", "bare")):
+                    if side == "bare":
+                        rate, req, cpu = load(a.load, bare.port, n, a.seconds, "pattern", bare.p.pid)
+                        rb.append(rate)
+                        nb += req
+                        cb.append(cpu / max(req, 1) * 1e6)
+                    else:
+                        rate, req, cpu = load(a.load, d.port, n, a.seconds, "model", d.p.pid)
+                        ri.append(rate)
+                        ni += req
+                        ci.append(cpu / max(req, 1) * 1e6)
+                pairs.append(round(ri[-1] / rb[-1], 3))
+                if recv:
+                    rate, req, cpu = load(a.load, recv.port, n, a.seconds, "pattern", recv.p.pid)
+                    rr.append(rate)
+            spread[n] = pairs
+            results[n] = (statistics.median(ri), statistics.median(rb), statistics.median(ci),
+                          statistics.median(cb), ni, nb)
+            if rr:
+                slow[n] = statistics.median(rr)
+            print("fc23: %2d connection(s): it2nd %8.0f req/s (%.1f us CPU/req), bare libmodbus %8.0f req/s "
+                  "(%.1f us CPU/req), ratio %.2f; %d + %d answers checked%s"
+                  % (n, results[n][0], results[n][2], results[n][1], results[n][3],
+                     results[n][0] / results[n][1], ni, nb,
+                     "; bare with modbus_receive %.0f req/s" % slow[n] if n in slow else ""), flush=True)
+    finally:
+        bare.stop()
+        if recv:
+            recv.stop()
+        d.stop()
+
+    if a.smoke:
+        print("fc23 smoke: every FC 23 answer correct under %d concurrent connections (no timing checked)"
+              % conns[0])
+    rows = []
+    for n in conns:
+        it, bb, ci, cb, _, _ = results[n]
+        ratio = it / bb
+        rows.append({"name": "FC23 full query, %d connection(s): it2nd vs bare libmodbus (req/s)" % n,
+                     "unit": "req/s", "value": round(it, 1), "baseline": round(bb, 1),
+                     "ratio": round(ratio, 3), "target": TARGET, "met": ratio >= TARGET})
+    for n in conns:
+        it, bb, ci, cb, _, _ = results[n]
+        rows.append({"name": "FC23 server CPU per request, %d connection(s): it2nd vs bare libmodbus (us)" % n,
+                     "unit": "us", "value": round(ci, 2), "baseline": round(cb, 2),
+                     "ratio": round(ci / cb, 3) if cb else None, "target": None, "met": None})
+    for n in conns:
+        if n in slow:
+            rows.append({"name": "FC23 full query, %d connection(s): it2nd vs bare libmodbus using "
+                                 "modbus_receive (req/s)" % n,
+                         "unit": "req/s", "value": round(results[n][0], 1), "baseline": round(slow[n], 1),
+                         "ratio": round(results[n][0] / slow[n], 3), "target": None, "met": None})
+    doc = {
+        "bench": "fc23",
+        "note": ("FC 23 (write q_u, q_w at 64; read the 108 result registers at 128) against it2nd "
+                 "(host build, paper model, fsync on) and a bare libmodbus server (modbus_mapping + "
+                 "modbus_reply, the same poll loop and framing as it2nd: one recv, every complete ADU; "
+                 "informational rows: the same server reading with modbus_receive) answering FC 23 of the same sizes; same load generator "
+                 "(tests/fc23/fc23_load.c: N threads, one connection each, every answer checked), "
+                 "1 s warm-up of each server, then %g s per run, %d rounds (bare and it2nd back to back, order alternating), median "
+                 "rate per side, ratio = median it2nd / median bare; round_ratios: each round's "
+                 "it2nd / bare; client and servers share the machine's cores, other jobs too "
+                 "(load_average)" % (a.seconds, a.rounds)),
+        "cpus": os.cpu_count(),
+        "load_average": os.getloadavg()[0],
+        "round_ratios": {str(n): spread[n] for n in conns},
+        "rows": rows,
+    }
+    if a.out:
+        os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)
+        with open(a.out, "w") as f:
+            json.dump(doc, f, indent=2)
+            f.write("\n")
+        print("fc23: wrote %s" % a.out)
+    subprocess.run(["rm", "-rf", tmp])
+
+
+if __name__ == "__main__":
+    main()
