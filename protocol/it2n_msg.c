@@ -495,7 +495,8 @@ const char *it2n_proto_strerror(int code)
     case IT2N_PROTO_ERR_STREAM: return "stream I/O error";
     case IT2N_PROTO_ERR_MODEL: return "unknown model id";
     case IT2N_PROTO_ERR_SEQ: return "sequence number not awaiting an ACK";
-    case IT2N_PROTO_ERR_NOSPACE: return "buffer too small";
+    case IT2N_PROTO_ERR_NOSPACE: return "too large for the buffer or the peer's max_payload";
+    case IT2N_PROTO_ERR_DOWN: return "link declared down: frame dropped";
     default: return code >= IT2N_ERR_NOCONV && code <= 0 ? "core error" : "unknown error";
     }
 }
