@@ -239,12 +239,16 @@ int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
 int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
                     it2n_proto_errinfo *err);
 
+/* Session id carried by the SYN golden vector (00_hello). */
+#define IT2N_VECTOR_SESSION 0x1D2C3B4Au
+
 /* Number of golden vectors (one per message type). */
 #define IT2N_VECTOR_COUNT 18u
 
 /*
  * Golden vector k (0..IT2N_VECTOR_COUNT-1): fills the frame header and the
- * message whose encoding is protocol/vectors/<NN>_<name>.hex and returns
+ * message whose encoding is protocol/vectors/<NN>_<name>.hex (a SYN frame's
+ * payload is IT2N_VECTOR_SESSION, u32 little-endian, then the message) and returns
  * the name ("hello"), or NULL when k is out of range. Code, not a table, so
  * flash holds a few hundred bytes instead of 18 message structs.
  */

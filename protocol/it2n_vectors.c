@@ -30,8 +30,8 @@ static void fill(unsigned k, it2n_msg *m)
     switch (k) {
     case 0:
         m->type = IT2N_MSG_HELLO;
-        m->u.hello.version_min = 1;
-        m->u.hello.version_max = 1;
+        m->u.hello.version_min = IT2N_PROTO_VERSION_MIN;
+        m->u.hello.version_max = IT2N_PROTO_VERSION;
         m->u.hello.max_degree = 7;
         m->u.hello.window = 4;
         m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_TYPE1;
@@ -129,9 +129,16 @@ static void fill(unsigned k, it2n_msg *m)
         m->u.query_result.model = 2;
         m->u.query_result.u = IT2N_WIRE_PAR_ONE / 2u;
         m->u.query_result.w = IT2N_WIRE_PAR_ONE;
-        m->u.query_result.out_of_range = 0x00000010u;
         for (a = 0; a < IT2N_FP_COUNT; a++)
             vals(m->u.query_result.v[a], IT2N_CH_COUNT, 100u + 6u * a);
+        /* bit fp*3+k: membership k of footprint fp outside [0, 1], as the
+         * values say (the v1.0 vector had a bit its values contradicted) */
+        for (a = 0; a < IT2N_FP_COUNT; a++)
+            for (b = 0; b < 3u; b++) {
+                it2n_val x = m->u.query_result.v[a][IT2N_CH_T + b];
+                if (x < 0 || x > IT2N_VAL_ONE)
+                    m->u.query_result.out_of_range |= 1u << (3u * a + b);
+            }
         vals(m->u.query_result.sum.upper_min, 3, 200);
         vals(m->u.query_result.sum.upper_max, 3, 203);
         vals(m->u.query_result.sum.lower_min, 3, 206);

@@ -37,11 +37,15 @@ def main(vdir):
         assert wire[-1] == 0 and 0 not in wire[:-1], f"{f}: delimiter"
         raw = cobs_decode(wire[:-1])
         ver, typ, flags, _res, seq, ln = struct.unpack_from("<BBBBHH", raw)
-        assert ver == 1, f"{f}: version {ver}"
+        assert ver == 2, f"{f}: version {ver} (v1.1 is wire version 2)"
         assert ln == len(raw) - 12, f"{f}: length {ln} vs {len(raw) - 12}"
         (crc,) = struct.unpack_from("<I", raw, len(raw) - 4)
         assert crc == crc32c(raw[:-4]), f"{f}: CRC"
         p = raw[8:-4]
+        if flags & 2:  # SYN: u32 session id, then the message
+            (sess,) = struct.unpack_from("<I", p)
+            assert sess == 0x1D2C3B4A, f"{f}: session id {sess:#x}"
+            p = p[4:]
         want = SIZES[typ]
         if typ == 0x03:
             want = 4 + 52 * p[2]
@@ -52,6 +56,13 @@ def main(vdir):
         assert len(p) == want, f"{f}: payload {len(p)} != {want}"
         rel = typ not in (0x20, 0x21)
         assert bool(flags & 1) == rel, f"{f}: REL flag"
+        if typ == 0x45:  # out_of_range bits agree with the memberships
+            oor = struct.unpack_from("<I", p, 11)[0]
+            for fp in range(7):
+                for k in range(3):
+                    (v,) = struct.unpack_from("<q", p, 15 + 48 * fp + 8 * (3 + k))
+                    bit = (oor >> (3 * fp + k)) & 1
+                    assert bit == (v < 0 or v > 1 << 24), f"{f}: out_of_range bit {3 * fp + k}"
         seen.add(typ)
     assert seen == set(SIZES), "a message type has no vector"
     doc = os.path.join(os.path.dirname(vdir.rstrip("/")), "..", "docs", "protocol.md")
@@ -63,7 +74,7 @@ def main(vdir):
     print(f"check_vectors: {len(files)} vectors OK")
 
 APPX = "## Appendix A: golden vectors"
-APPX_END = "0x0100 + NN; HELLO also SYN; ACK and NACK have flags 0 and seq 0.\n"
+APPX_END = "ACK and NACK have flags 0 and seq 0.\n"
 
 def update_doc(vdir, doc):
     """Rewrite Appendix A of docs/protocol.md from the vector files."""
