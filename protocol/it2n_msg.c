@@ -157,9 +157,14 @@ static void c_hello(cur *c, it2n_msg_hello *h)
                             h->version_min <= h->version_max),
          off, h->version_min, h->version_max);
     c_u8(c, &h->max_degree);
+    off = c->pos;
     c_u8(c, &h->window);
+    need(c, c->err != 0 || h->window >= 1u, off, h->window, 1);
     c_u32(c, &h->caps);
+    off = c->pos;
     c_u16(c, &h->max_payload);
+    need(c, c->err != 0 || h->max_payload >= IT2N_HELLO_MIN_PAYLOAD, off,
+         h->max_payload, IT2N_HELLO_MIN_PAYLOAD);
     c_u16(c, &h->max_models);
     (void)io(c, (uint8_t *)h->node, sizeof h->node);
 }
@@ -224,8 +229,8 @@ static void c_event(cur *c, it2n_msg_event *e)
     off = c->pos;
     c_u8(c, &e->kind);
     need(c, c->err != 0 || (e->kind >= IT2N_EV_CONFIGURED &&
-                            e->kind <= IT2N_EV_ERROR),
-         off, e->kind, IT2N_EV_ERROR);
+                            e->kind <= IT2N_EV_LOST),
+         off, e->kind, IT2N_EV_LOST);
     c_i16(c, &e->code);
     c_u32(c, &e->generation);
 }

@@ -73,13 +73,17 @@ uint32_t it2n_par_to_wire(it2n_par p);
 /* Q2.30 wire -> Q32 it2n_par (exact: shift by 2). */
 it2n_par it2n_par_from_wire(uint32_t w);
 
+/* Smallest max_payload a HELLO may announce (an ACK/NACK, a SAMPLE_DATA
+ * of one point and every request fit). */
+#define IT2N_HELLO_MIN_PAYLOAD 64u
+
 typedef struct it2n_msg_hello {
     uint8_t version_min, version_max; /* protocol versions spoken      */
     uint8_t max_degree;               /* IT2N_MAX_DEGREE of the sender */
-    uint8_t window;                   /* IT2N_PROTO_WINDOW             */
+    uint8_t window;                   /* IT2N_PROTO_WINDOW, >= 1       */
     uint32_t caps;                    /* IT2N_CAP_*                    */
-    uint16_t max_payload;             /* IT2N_PROTO_MAX_PAYLOAD        */
-    uint16_t max_models;              /* models the sender can hold    */
+    uint16_t max_payload;             /* IT2N_PROTO_MAX_PAYLOAD, >= 64 */
+    uint16_t max_models;              /* model ids the sender serves   */
     char node[16];                    /* name, NUL-padded, not terminated if 16 long */
 } it2n_msg_hello;
 
@@ -123,7 +127,11 @@ typedef struct it2n_msg_get_net {
 /* EVENT kinds. */
 enum it2n_event_kind {
     IT2N_EV_CONFIGURED = 1, IT2N_EV_UPDATED = 2, IT2N_EV_SOLVED = 3,
-    IT2N_EV_RESET = 4, IT2N_EV_ERROR = 5
+    IT2N_EV_RESET = 4, IT2N_EV_ERROR = 5,
+    /* v1.1: the sender declared the link down and dropped frames it could
+     * not deliver: model 0xFF, code IT2N_PROTO_ERR_DOWN, generation = the
+     * number of reliable frames dropped. */
+    IT2N_EV_LOST = 6
 };
 
 typedef struct it2n_msg_event {
