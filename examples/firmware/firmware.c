@@ -167,6 +167,15 @@ static void fail(const char *what, int64_t code)
     flush_line();
 }
 
+/* A session id no earlier session of this board used: on hardware, a
+ * boot counter in flash or the TRNG; here the board's unique id (none on
+ * the emulated board: its clock at start) mixed with the attempt. */
+static uint32_t fw_session_id(unsigned attempt)
+{
+    uint32_t x = board_now_ms() * 2654435761u ^ 0x1F2E3D4Cu;
+    return x + attempt * 0x9E3779B9u;
+}
+
 /* Upload with session.c; a failed session (peer absent, retries
  * exhausted) starts over with a fresh SYN, up to three times. */
 static int upload(void)
@@ -176,7 +185,8 @@ static int upload(void)
         int st;
         int r = session_init(&sess, &ds, FW_MODEL, &out_stream, &in_stream,
                              FW_RTO_MS, (uint8_t)FW_TRIES, false,
-                             (uint16_t)(attempt * 1000u));
+                             (uint16_t)(attempt * 1000u + board_now_ms()),
+                             fw_session_id(attempt));
         if (r != IT2N_OK) {
             fail("session_init", r);
             return r;
@@ -241,7 +251,7 @@ static int resync(void)
     sess.fail_code = 0;
     memset(&m, 0, sizeof m);
     m.type = IT2N_MSG_HELLO;
-    m.u.hello.version_min = IT2N_PROTO_VERSION;
+    m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
     m.u.hello.version_max = IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
     m.u.hello.window = IT2N_PROTO_WINDOW;
