@@ -501,6 +501,8 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
             /* Every entry already stored as sent: success, no effect. ACK
              * once what is stored is durable. */
             l->entries_idem += p->count;
+            log_info("link %s: PUT seq %u: all %u entries already stored with these values (a re-sent PUT): "
+                     "success, no effect", l->cfg.name, seq, p->count);
             if (store_degraded())
                 return refuse(l, seq, IT2ND_ERR_IO, NULL);
             if (store_pending())
@@ -511,6 +513,9 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
                 return 0;
             return IT2N_LINK_DEFER;
         }
+        if (fresh.count < p->count)
+            log_info("link %s: PUT seq %u: %u of %u entries already stored with these values (a re-sent PUT): "
+                     "no effect", l->cfg.name, seq, p->count - fresh.count, p->count);
         l->entries_idem += (uint32_t)(p->count - fresh.count);
         p = &fresh;
     }
@@ -811,7 +816,9 @@ static void on_poll(void *arg)
                  "when it speaks again)", l->cfg.name, l->cfg.peer_timeout_ms, n + more);
     }
     pump_job(l);
-    l->poll_timer = loop_add_timer(100, on_poll, l);
+    /* next: when a retransmission is due (the RTO may be short), else 100 ms */
+    uint32_t next = it2n_link_next_timeout(&l->pl, now32());
+    l->poll_timer = loop_add_timer(next < 5 ? 5 : next > 100 ? 100 : (int)next, on_poll, l);
 }
 
 static void link_open(void *arg)

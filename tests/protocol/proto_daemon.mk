@@ -1,0 +1,21 @@
+# Protocol v1.1 against the real daemon over a pty (issue 11): sessions
+# that cannot collide, exactly once across kill -9, a lossy line with 0
+# host re-requests (tests/protocol/daemon_link.c). Included after
+# daemon/daemon.mk (tests/tests.mk), so $(IT2ND) is known here.
+PROTO_DL := $(BUILD)/tests/protocol/daemon_link
+$(PROTO_DL): tests/protocol/daemon_link.c examples/instrument/synth.c examples/instrument/synth.h $(PROTO_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -Iexamples/instrument tests/protocol/daemon_link.c examples/instrument/synth.c \
+	  -o $@ $(PROTO_LIB) $(CORE_LIB) -lutil
+
+PROTO_DL_ARGS ?= sessions 200 kill 5 lossy 10
+.PHONY: proto-daemon proto-daemon-long
+TEST_TARGETS += proto-daemon
+## proto-daemon: protocol v1.1 against it2nd over a pty (200 sessions, 5 kill -9, 10% faults)
+proto-daemon: $(PROTO_DL) $(IT2ND) $(IT2ND_SAN)
+	timeout 300 $(PROTO_DL) $(IT2ND) $(PROTO_DL_ARGS)
+	timeout 300 $(PROTO_DL) $(IT2ND_SAN) sessions 20 kill 2 lossy 10
+
+## proto-daemon-long: the issue's 1 000 back-to-back sessions and 20 kill -9s
+proto-daemon-long: $(PROTO_DL) $(IT2ND)
+	timeout 1200 $(PROTO_DL) $(IT2ND) sessions 1000 kill 20 lossy 10 lossy 1
