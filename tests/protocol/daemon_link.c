@@ -553,7 +553,7 @@ static void kills(unsigned k)
                 sent++;
                 m.u.put.count = 0;
                 /* every few PUTs: kill -9 with frames in flight, restart */
-                if (killed < k && sent % (64 / k + 1) == 3 && it2n_link_pending(&P.l) > 0) {
+                if (killed < k && killed * 60u < k * sent && it2n_link_pending(&P.l) > 0) {
                     pump(&P, rnd() % 3); /* some delivered, some ACKs unread */
                     daemon_kill(SIGKILL);
                     killed++;
