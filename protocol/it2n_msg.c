@@ -422,6 +422,35 @@ int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
     return (int)c.pos;
 }
 
+/* The payload length a message of `type` must have, from its fixed size
+ * or its count field (0 when the bytes at hand do not say). */
+static size_t expected_len(uint8_t type, const uint8_t *p, size_t len)
+{
+    switch (type) {
+    case IT2N_MSG_HELLO: return 28u;
+    case IT2N_MSG_CONFIGURE: return 4u;
+    case IT2N_MSG_PUT: return len >= 3u ? IT2N_PUT_HDR + IT2N_PUT_ENTRY * (size_t)p[2] : 0u;
+    case IT2N_MSG_COMMIT:
+    case IT2N_MSG_GET_STATUS:
+    case IT2N_MSG_RESET: return 1u;
+    case IT2N_MSG_QUERY: return 9u;
+    case IT2N_MSG_LOCATE: return 17u;
+    case IT2N_MSG_SAMPLE: return 6u;
+    case IT2N_MSG_GET_NET: return 2u;
+    case IT2N_MSG_EVENT: return 8u;
+    case IT2N_MSG_ACK: return 2u;
+    case IT2N_MSG_NACK: return 34u;
+    case IT2N_MSG_QUERY_RESULT: return 447u;
+    case IT2N_MSG_LOCATE_RESULT: return 474u;
+    case IT2N_MSG_SAMPLE_DATA:
+        return len >= 13u ? IT2N_SAMPLE_HDR + IT2N_SAMPLE_POINT * (size_t)p[12] : 0u;
+    case IT2N_MSG_NET_ROW:
+        return len >= 6u ? IT2N_NET_ROW_HDR + IT2N_SAMPLE_POINT * ((size_t)p[5] + 1u) : 0u;
+    case IT2N_MSG_STATUS: return 15u;
+    default: return 0u;
+    }
+}
+
 int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
                     it2n_proto_errinfo *err)
 {
@@ -436,6 +465,13 @@ int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
     codec(&c, msg);
     if (c.err == 0 && c.pos != len)
         fail(&c, IT2N_PROTO_ERR_PAYLOAD, c.pos, (int64_t)len, (int64_t)c.pos);
+    if (c.err == IT2N_PROTO_ERR_PAYLOAD && err != NULL) {
+        /* value = length received, hi = the length the type requires */
+        size_t want = expected_len(type, p, len);
+        err->value = (int64_t)len;
+        if (want != 0u)
+            err->limit = (int64_t)want;
+    }
     if (c.err != 0)
         return c.err;
     if (err != NULL)
