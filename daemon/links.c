@@ -81,6 +81,7 @@ struct link {
     uint32_t lost;            /* frames dropped when declared down, to report */
     uint32_t rto_ms;
     int peer;                 /* a HELLO came from the peer since the open */
+    uint32_t hello_session;   /* ... in this peer session (EVENTs go to it) */
     it2n_msg_event evq[EVQ_MAX];
     int nev;
     uint32_t ev_sent, ev_merged;
@@ -657,6 +658,7 @@ static int on_hello(struct link *l, uint16_t seq, const it2n_msg_hello *h)
              (unsigned)l->pl.peer_session, h->window, h->max_payload);
     it2n_link_set_peer(&l->pl, h->window, h->max_payload);
     l->peer = 1;
+    l->hello_session = l->pl.peer_session;
     it2n_link_complete(&l->pl, seq, 0, NULL);
     send_hello(l);
     return IT2N_LINK_DEFER;
@@ -1007,8 +1009,8 @@ void links_event(const struct model *md, int old_state)
     for (int k = 0; k < nlinks; k++) {
         struct link *l = &links[k];
         int q;
-        if (!l->up || !l->peer)
-            continue;
+        if (!l->up || !l->peer || l->pl.peer_session != l->hello_session)
+            continue; /* EVENTs only to a peer session that said HELLO */
         /* Coalesce: a queued EVENT of this model is replaced in place. */
         for (q = 0; q < l->nev && l->evq[q].model != ev.model; q++) {
         }

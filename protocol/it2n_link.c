@@ -460,8 +460,13 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
          * else starts a new sequence (a restarted peer has a new id). */
         if (!l->rx_synced || sess != l->peer_session ||
             hist_find(l, fh->seq) == NULL) {
-            if (!l->rx_synced || sess != l->peer_session)
+            if (!l->rx_synced || sess != l->peer_session) {
+                /* a new peer session: its limits are unknown until its
+                 * HELLO (delivered next, if this frame is one) */
                 l->stats.rx_sessions++;
+                l->peer_window = W;
+                l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
+            }
             l->rx_synced = 1;
             l->peer_session = sess;
             l->rx_next = fh->seq;

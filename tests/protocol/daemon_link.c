@@ -143,7 +143,7 @@ static void setup(const char *extra)
     fprintf(f, "[model:1]\nunit_id = 1\nn = 1\nm = 1\ntype1 = yes\n");
     fprintf(f, "[model:2]\nunit_id = 2\nn = 7\nm = 7\n");
     fprintf(f, "[model:3]\nunit_id = 3\nn = 3\nm = 3\n");
-    fprintf(f, "[link:inst]\ntype = serial\ndevice = %s\nbaud = 921600\n%s", link_path, extra);
+    fprintf(f, "[link:inst]\ntype = serial\ndevice = %s\nbaud = 921600\n%s\n", link_path, extra);
     fclose(f);
     {
         char sd[300];
@@ -175,7 +175,27 @@ typedef struct peer {
     unsigned results, mismatches, points, events, hellos;
     int32_t want_re;
     uint8_t seen[33 * 33];
+    /* spec checks: a trace of what arrived, in order ('A' ACK of ours,
+     * 'N' NACK, 'E' EVENT, 'H' HELLO, 'S' SAMPLE_DATA, 'T' STATUS,
+     * 'Q' QUERY_RESULT), the daemon's HELLO, the last EVENT, deferred
+     * answers (to count the daemon's frames in flight) */
+    char trace[4096];
+    unsigned ntrace;
+    it2n_msg_hello dh;
+    it2n_msg_event ev;
+    it2n_msg_status status;
+    unsigned max_count;
+    int defer;
+    uint16_t dseq[16];
+    uint32_t dat[16];
+    unsigned nd, max_unanswered;
 } peer;
+
+static void trace(peer *p, char c)
+{
+    if (p->ntrace + 1 < sizeof p->trace)
+        p->trace[p->ntrace++] = c;
+}
 
 static peer P;
 
@@ -259,18 +279,35 @@ static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
 static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
 {
     peer *p = app;
-    (void)seq;
+    int ret = 0;
+    if (p->defer && p->nd < 16) {
+        /* answer later: what the daemon sends meanwhile is in flight */
+        p->dseq[p->nd] = seq;
+        p->dat[p->nd++] = now_ms() + 20;
+        if (p->nd > p->max_unanswered)
+            p->max_unanswered = p->nd;
+        ret = IT2N_LINK_DEFER;
+    }
     switch (m->type) {
+    case IT2N_MSG_STATUS:
+        trace(p, 'T');
+        p->status = m->u.status;
+        break;
     case IT2N_MSG_HELLO:
+        trace(p, 'H');
+        p->dh = m->u.hello;
         p->hellos++;
         it2n_link_set_peer(&p->l, m->u.hello.window, m->u.hello.max_payload);
         break;
     case IT2N_MSG_EVENT:
+        trace(p, 'E');
+        p->ev = m->u.event;
         p->events++;
         break;
     case IT2N_MSG_QUERY_RESULT: {
         const it2n_msg_query_result *d = &m->u.query_result;
         it2n_point pt;
+        trace(p, 'Q');
         it2n_eval(p->ref, it2n_par_from_wire(d->u), it2n_par_from_wire(d->w), &pt, NULL);
         p->mismatches += memcmp(pt.v, d->v, sizeof pt.v) != 0;
         p->results += d->re == (uint16_t)p->want_re || p->want_re < 0;
@@ -278,6 +315,9 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
     }
     case IT2N_MSG_SAMPLE_DATA: {
         const it2n_msg_sample_data *d = &m->u.sample_data;
+        trace(p, 'S');
+        if (d->count > p->max_count)
+            p->max_count = d->count;
         for (unsigned k = 0; k < d->count; k++) {
             uint32_t idx = d->start + k, r = idx / d->cols, c = idx % d->cols;
             it2n_point pt;
@@ -292,13 +332,14 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
     default:
         break;
     }
-    return 0;
+    return ret;
 }
 
 static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *n)
 {
     peer *p = app;
     (void)seq;
+    trace(p, code == 0 ? 'A' : 'N');
     if (code == 0) {
         p->acked++;
         return;
@@ -359,6 +400,15 @@ static void pump(peer *p, int wait_ms)
         }
     }
     release_held(p, 0);
+    for (unsigned k = 0; k < p->nd;) { /* deferred answers come due */
+        if ((int32_t)(now_ms() - p->dat[k]) >= 0) {
+            it2n_link_complete(&p->l, p->dseq[k], 0, NULL);
+            p->dseq[k] = p->dseq[p->nd - 1];
+            p->dat[k] = p->dat[--p->nd];
+        } else {
+            k++;
+        }
+    }
     it2n_link_poll(&p->l, now_ms());
 }
 
@@ -647,6 +697,266 @@ static void lossy(unsigned pct)
         CHECK(P.l.stats.tx_retx > 0 && P.l.stats.rx_dup + P.l.stats.rx_buffered > 0, "faults not exercised");
 }
 
+/* Send m and wait for its answer; returns the code (0 ACK). */
+static int request(peer *p, const it2n_msg *m)
+{
+    unsigned before = p->acked + p->nacked;
+    if (send_msg(p, m, 5000) < 0)
+        return 1;
+    for (uint32_t t0 = now_ms(); p->acked + p->nacked == before && now_ms() - t0 < 5000;)
+        pump(p, 2);
+    if (p->acked + p->nacked == before)
+        return 2;
+    return p->nacked && p->acked + p->nacked > before && p->trace[p->ntrace - 1] == 'N' ? p->last_code : 0;
+}
+
+static void settle(peer *p, unsigned ms)
+{
+    for (uint32_t t0 = now_ms(); now_ms() - t0 < ms;)
+        pump(p, 2);
+}
+
+static it2n_msg put1(uint8_t model, uint8_t i, uint8_t j, uint8_t fp, it2n_val z)
+{
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_PUT;
+    m.u.put.model = model;
+    m.u.put.count = 1;
+    m.u.put.e[0].i = i;
+    m.u.put.e[0].j = j;
+    m.u.put.e[0].fp = fp;
+    m.u.put.e[0].vals[IT2N_CH_X] = (it2n_val)i << 24;
+    m.u.put.e[0].vals[IT2N_CH_Y] = (it2n_val)j << 24;
+    m.u.put.e[0].vals[IT2N_CH_Z] = z;
+    m.u.put.e[0].vals[IT2N_CH_T] = 1 << 23;
+    return m;
+}
+
+/* Issue 11 item 5 (and 4): the gaps the issue lists, each driven on the
+ * wire against the daemon. Needs the daemon's default RTO (no rto_ms) and
+ * peer_timeout_ms = 600 in the link section. */
+static void spec(unsigned unused)
+{
+    static it2n_dataset ds;
+    static it2n_model ref;
+    it2n_errinfo e;
+    int r;
+    (void)unused;
+    CHECK(synth_dataset(&ds, 3, 3, 0, 9, &e) == IT2N_OK, "synth");
+    it2n_model_init(&ref);
+    CHECK(it2n_model_solve(&ref, &ds, &e) == IT2N_OK, "local solve");
+
+    /* No common version: NACK VERSION, value = our highest, lo..hi = the
+     * daemon's versions. */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    it2n_msg h = hello();
+    h.u.hello.version_min = h.u.hello.version_max = 1;
+    r = request(&P, &h);
+    CHECK(r == IT2N_PROTO_ERR_VERSION && P.last_nack.value == 1 && P.last_nack.lo == IT2N_PROTO_VERSION_MIN &&
+              P.last_nack.hi == IT2N_PROTO_VERSION,
+          "HELLO without a common version: %d value %lld lo %lld hi %lld", r, (long long)P.last_nack.value,
+          (long long)P.last_nack.lo, (long long)P.last_nack.hi);
+    CHECK(P.hellos == 0, "a refused HELLO got the daemon's HELLO");
+
+    /* HELLO is optional: a session without it is served (no EVENTs). */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_CONFIGURE;
+    m.u.configure.model = 1;
+    m.u.configure.n = m.u.configure.m = 1;
+    m.u.configure.flags = IT2N_F_TYPE1;
+    CHECK(request(&P, &m) == 0, "CONFIGURE without HELLO");
+    settle(&P, 100);
+    CHECK(P.events == 0, "EVENT to a peer that said no HELLO");
+
+    /* HELLO answered by ACK, then the daemon's HELLO (type 0x01, not
+     * 0x41), whose max_models is the number of model ids it serves. */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    h = hello();
+    h.u.hello.caps |= IT2N_CAP_EVENTS;
+    CHECK(request(&P, &h) == 0, "HELLO");
+    settle(&P, 100);
+    CHECK(P.hellos == 1 && P.trace[0] == 'A' && P.trace[1] == 'H', "HELLO answer: trace %.*s", (int)P.ntrace,
+          P.trace);
+    CHECK(P.dh.max_models == 3 && P.dh.version_min == IT2N_PROTO_VERSION_MIN &&
+              P.dh.version_max == IT2N_PROTO_VERSION && (P.dh.caps & IT2N_CAP_SERVER),
+          "daemon HELLO: max_models %u versions %u..%u", P.dh.max_models, P.dh.version_min, P.dh.version_max);
+
+    /* CONFIGURE: its ACK comes before the CONFIGURED EVENT. */
+    P.ntrace = 0;
+    m.u.configure.model = 1;
+    CHECK(request(&P, &m) == 0, "CONFIGURE");
+    settle(&P, 100);
+    CHECK(P.ntrace >= 2 && P.trace[0] == 'A' && P.trace[1] == 'E' && P.ev.kind == IT2N_EV_CONFIGURED,
+          "CONFIGURE ACK then EVENT CONFIGURED: trace %.*s kind %u", (int)P.ntrace, P.trace, P.ev.kind);
+
+    /* NACK details. Unknown model: MODEL, value = the id. */
+    m.u.configure.model = 9;
+    r = request(&P, &m);
+    CHECK(r == IT2N_PROTO_ERR_MODEL && P.last_nack.value == 9, "unknown model: %d value %lld", r,
+          (long long)P.last_nack.value);
+    /* type-1 model, footprint LL: INVAL, value 0, lo..hi = 3..3 (D only) */
+    it2n_msg pm = put1(1, 0, 0, IT2N_FP_LL, 0);
+    r = request(&P, &pm);
+    CHECK(r == IT2N_ERR_INVAL && P.last_nack.value == 0 && P.last_nack.lo == IT2N_FP_D &&
+              P.last_nack.hi == IT2N_FP_D && P.last_nack.fp == IT2N_FP_LL,
+          "type-1 fp LL: %d value %lld lo %lld hi %lld", r, (long long)P.last_nack.value,
+          (long long)P.last_nack.lo, (long long)P.last_nack.hi);
+    /* i > n: INVAL with the entry's fp (not -1), value i, hi n */
+    pm = put1(1, 5, 0, IT2N_FP_D, 0);
+    r = request(&P, &pm);
+    CHECK(r == IT2N_ERR_INVAL && P.last_nack.i == 5 && P.last_nack.fp == IT2N_FP_D && P.last_nack.value == 5 &&
+              P.last_nack.hi == 1,
+          "i > n: %d i %d fp %d value %lld hi %lld", r, P.last_nack.i, P.last_nack.fp,
+          (long long)P.last_nack.value, (long long)P.last_nack.hi);
+    /* z for a model without z: RANGE on channel z, never dropped */
+    pm = put1(1, 0, 0, IT2N_FP_D, 5 << 24);
+    r = request(&P, &pm);
+    CHECK(r == IT2N_ERR_RANGE && P.last_nack.ch == IT2N_CH_Z && P.last_nack.value == 5 << 24,
+          "z on a model without z: %d ch %d", r, P.last_nack.ch);
+    /* COMMIT of an incomplete model: MISSING with ch -1 */
+    pm = put1(1, 0, 0, IT2N_FP_D, 0);
+    CHECK(request(&P, &pm) == 0, "PUT (0,0)");
+    /* the same entry again, no REPLACE: idempotent success */
+    CHECK(request(&P, &pm) == 0, "identical PUT again");
+    pm.u.put.e[0].vals[IT2N_CH_T] = 1 << 22;
+    r = request(&P, &pm);
+    CHECK(r == IT2N_ERR_DUPLICATE, "different value at a stored entry: %d (want DUPLICATE)", r);
+    it2n_msg cm = model_msg(IT2N_MSG_COMMIT, 1);
+    r = request(&P, &cm);
+    CHECK(r == IT2N_ERR_MISSING && P.last_nack.ch == -1 && P.last_nack.fp >= 0, "MISSING: %d ch %d fp %d", r,
+          P.last_nack.ch, P.last_nack.fp);
+
+    /* RESET: points gone, configuration (degrees, flags) kept, EMPTY */
+    it2n_msg rs = model_msg(IT2N_MSG_RESET, 1);
+    CHECK(request(&P, &rs) == 0, "RESET");
+    it2n_msg gs = model_msg(IT2N_MSG_GET_STATUS, 1);
+    CHECK(request(&P, &gs) == 0, "GET_STATUS");
+    settle(&P, 100);
+    CHECK(P.status.state == IT2N_MS_EMPTY && P.status.n == 1 && P.status.m == 1 &&
+              P.status.flags == IT2N_F_TYPE1 && P.status.missing == 4,
+          "after RESET: state %u n %u m %u flags %u missing %u", P.status.state, P.status.n, P.status.m,
+          P.status.flags, P.status.missing);
+
+    /* SAMPLE above 65 536 nodes: RANGE, value = nodes asked, hi = limit */
+    unsigned nk0 = P.nacked;
+    upload(&P, 3, &ds, 19, 5000);
+    CHECK(drain(&P, 10000) == 0 && P.nacked == nk0, "upload model 3 (%u NACKs)", P.nacked - nk0);
+    it2n_msg sm;
+    memset(&sm, 0, sizeof sm);
+    sm.type = IT2N_MSG_SAMPLE;
+    sm.u.sample.model = 3;
+    sm.u.sample.fp = IT2N_FP_D;
+    sm.u.sample.rows = 257;
+    sm.u.sample.cols = 256;
+    r = request(&P, &sm);
+    CHECK(r == IT2N_ERR_RANGE && P.last_nack.value == 257 * 256 && P.last_nack.hi == 65536,
+          "SAMPLE 257x256: %d value %lld hi %lld", r, (long long)P.last_nack.value, (long long)P.last_nack.hi);
+
+    /* Requests during a response run wait for it: never BUSY; the STATUS
+     * comes after the last SAMPLE_DATA. */
+    settle(&P, 50);
+    P.ntrace = 0;
+    unsigned nacked = P.nacked;
+    sm.u.sample.rows = sm.u.sample.cols = 33;
+    CHECK(send_msg(&P, &sm, 2000) >= 0, "SAMPLE");
+    CHECK(send_msg(&P, &gs, 2000) >= 0, "GET_STATUS");
+    it2n_msg q;
+    memset(&q, 0, sizeof q);
+    q.type = IT2N_MSG_QUERY;
+    q.u.query.model = 3;
+    CHECK(send_msg(&P, &q, 2000) >= 0, "QUERY");
+    drain(&P, 10000);
+    settle(&P, 300);
+    {
+        const char *t = memchr(P.trace, 'T', P.ntrace), *lastS = NULL;
+        for (unsigned k = 0; k < P.ntrace; k++)
+            if (P.trace[k] == 'S')
+                lastS = P.trace + k;
+        CHECK(P.nacked == nacked && t && lastS && t > lastS && memchr(P.trace, 'Q', P.ntrace),
+              "requests during a SAMPLE run: %u NACKs, trace %.*s", P.nacked - nacked, (int)P.ntrace, P.trace);
+    }
+
+    /* Negotiated limits: window 1, max_payload 64 — SAMPLE_DATA of one
+     * point and one frame in flight; QUERY_RESULT (447) refused NOSPACE. */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    h = hello();
+    h.u.hello.window = 1;
+    h.u.hello.max_payload = 64;
+    CHECK(request(&P, &h) == 0, "HELLO window 1");
+    r = request(&P, &q);
+    CHECK(r == IT2N_PROTO_ERR_NOSPACE && P.last_nack.value == 447 && P.last_nack.hi == 64,
+          "QUERY to a 64-byte peer: %d value %lld hi %lld", r, (long long)P.last_nack.value,
+          (long long)P.last_nack.hi);
+    settle(&P, 100);
+    memset(P.seen, 0, sizeof P.seen);
+    P.points = 0;
+    P.defer = 1;
+    sm.u.sample.rows = sm.u.sample.cols = 8;
+    CHECK(send_msg(&P, &sm, 2000) >= 0, "SAMPLE 8x8");
+    for (uint32_t t0 = now_ms(); P.points < 64 && now_ms() - t0 < 20000;)
+        pump(&P, 2);
+    P.defer = 0;
+    settle(&P, 100);
+    printf("spec: window 1 / max_payload 64 peer: %u points, at most %u per SAMPLE_DATA, at most %u "
+           "unanswered daemon frames\n", P.points, P.max_count, P.max_unanswered);
+    CHECK(P.points == 64 && P.max_count == 1 && P.max_unanswered == 1, "limits: %u points, count %u, in flight %u",
+          P.points, P.max_count, P.max_unanswered);
+    /* the same with window 4: more in flight (the check can fail) */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    h = hello();
+    CHECK(request(&P, &h) == 0, "HELLO window 4");
+    settle(&P, 50);
+    P.defer = 1;
+    CHECK(send_msg(&P, &sm, 2000) >= 0, "SAMPLE 8x8");
+    for (uint32_t t0 = now_ms(); P.points < 64 && now_ms() - t0 < 20000;)
+        pump(&P, 2);
+    P.defer = 0;
+    settle(&P, 100);
+    CHECK(P.max_count == 21 && P.max_unanswered > 1, "window 4: count %u, in flight %u", P.max_count,
+          P.max_unanswered);
+
+    /* RTO from the baud rate (921 600: 50 + 5 x 1042 x 10 / 921.6 = 107
+     * ms): the daemon's first retransmission of an unanswered frame comes
+     * no sooner; then, silent past peer_timeout_ms, the link is declared
+     * down and the next word from the peer brings EVENT LOST. */
+    settle(&P, 100);
+    P.defer = 1;
+    P.nd = 0;
+    unsigned rx_before = P.l.stats.rx_dup;
+    uint32_t t0 = now_ms();
+    CHECK(send_msg(&P, &gs, 2000) >= 0, "GET_STATUS");
+    /* hold every answer: the STATUS frame stays unanswered */
+    uint32_t first_retx = 0;
+    while (now_ms() - t0 < 1500) {
+        for (unsigned k = 0; k < P.nd; k++)
+            P.dat[k] = now_ms() + 100000;
+        pump(&P, 2);
+        if (!first_retx && P.l.stats.rx_dup > rx_before)
+            first_retx = now_ms() - t0;
+    }
+    P.nd = 0;
+    P.defer = 0;
+    printf("spec: daemon's first retransmission after %u ms (default RTO at 921600 baud: %u ms)\n", first_retx,
+           50u + (5u * 1042u * 10u * 1000u + 921599u) / 921600u);
+    CHECK(first_retx >= 100 && first_retx < 1000, "first retransmission after %u ms", first_retx);
+    P.events = 0;
+    P.ev.kind = 0;
+    CHECK(request(&P, &gs) == 0, "GET_STATUS after the link was declared down");
+    settle(&P, 300);
+    CHECK(P.ev.kind == IT2N_EV_LOST && P.ev.model == 0xFF && P.ev.code == IT2N_PROTO_ERR_DOWN &&
+              P.ev.generation >= 1,
+          "EVENT LOST: kind %u model %u code %d frames %u", P.ev.kind, P.ev.model, P.ev.code,
+          (unsigned)P.ev.generation);
+    printf("spec: %d checks failed\n", failures);
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 4 || (argc - 2) % 2) {
@@ -666,6 +976,8 @@ int main(int argc, char **argv)
             kills(v);
         else if (!strcmp(argv[k], "lossy"))
             lossy(v);
+        else if (!strcmp(argv[k], "spec"))
+            spec(v);
         else {
             fprintf(stderr, "unknown scenario %s\n", argv[k]);
             return 2;

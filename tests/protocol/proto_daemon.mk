@@ -11,9 +11,10 @@ $(PROTO_DL): tests/protocol/daemon_link.c examples/instrument/synth.c examples/i
 PROTO_DL_ARGS ?= sessions 200 kill 5 lossy 10
 .PHONY: proto-daemon proto-daemon-long
 TEST_TARGETS += proto-daemon
-## proto-daemon: protocol v1.1 against it2nd over a pty (200 sessions, 5 kill -9, 10% faults)
+## proto-daemon: protocol v1.1 against it2nd over a pty (200 sessions, 5 kill -9, 10% faults, spec gaps)
 proto-daemon: $(PROTO_DL) $(IT2ND) $(IT2ND_SAN)
 	timeout 300 $(PROTO_DL) $(IT2ND) $(PROTO_DL_ARGS)
+	LINK_EXTRA='peer_timeout_ms = 600' timeout 300 $(PROTO_DL) $(IT2ND) spec 1
 	timeout 300 $(PROTO_DL) $(IT2ND_SAN) sessions 20 kill 2 lossy 10
 
 ## proto-daemon-long: the issue's 1 000 back-to-back sessions and 20 kill -9s
