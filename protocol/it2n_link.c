@@ -148,6 +148,7 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
         l->stats.tx_retx++;
     else
         s->first = now;
+    s->last = now;
     l->stats.tx_frames++;
     /* A stream error only loses this transmission; the timer retries. */
     (void)it2n_frame_write(l->cfg.out, &h, p, h.len);
@@ -162,7 +163,8 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
     unsigned k;
     int len;
 
-    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK)
+    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK ||
+        msg->type == IT2N_MSG_GAP)
         return IT2N_PROTO_ERR_TYPE; /* link-internal, never reliable */
     if (!it2n_link_can_send(l))
         return IT2N_PROTO_ERR_BUSY;
@@ -214,6 +216,23 @@ unsigned it2n_link_drop_tx(it2n_link *l)
     return n;
 }
 
+/* GAP from the receiver: it holds frames after `seq` but not seq itself,
+ * so seq (or its every copy) was lost: send it again now rather than at
+ * its timeout, unless it went out less than a quarter RTO ago (the copy
+ * may still be on its way). */
+static void on_gap(it2n_link *l, uint16_t seq, uint32_t now)
+{
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *s = &l->slot[k];
+        if (s->used && s->seq == seq && l->tx_synced &&
+            (uint32_t)(now - s->last) >= (l->cfg.rto_ms + 3u) / 4u) {
+            l->stats.tx_fast_retx++;
+            transmit(l, s, now);
+        }
+    }
+}
+
 static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
 {
     uint16_t seq = m->type == IT2N_MSG_ACK ? m->u.ack.seq : m->u.nack.seq;
@@ -229,8 +248,20 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
     }
     l->stats.rx_acks++;
     if (m->type == IT2N_MSG_ACK) {
+        uint16_t age = (uint16_t)(l->tx_next - seq);
         l->stats.tx_acked++;
         finish(l, s, IT2N_OK, NULL);
+        /* Frames are delivered in order: an older frame still unanswered
+         * was delivered too, and its answer was lost (or is deferred, then
+         * the copy is ignored): send it again now, not at its timeout. */
+        for (k = 0; k < W; k++) {
+            it2n_link_slot *o = &l->slot[k];
+            if (o->used && l->tx_synced && (uint16_t)(l->tx_next - o->seq) > age &&
+                (uint32_t)(now - o->last) >= (l->cfg.rto_ms + 3u) / 4u) {
+                l->stats.tx_fast_retx++;
+                transmit(l, o, now);
+            }
+        }
     } else if (m->u.nack.code == IT2N_PROTO_ERR_NOSYNC) {
         /* Peer lost its state (restart): resend the oldest frame with SYN,
          * the others follow once it is accepted. */
@@ -509,6 +540,24 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
             b->len = (uint16_t)len;
             memcpy(b->payload, p, len);
             l->stats.rx_buffered++;
+            if (ahead > 0u && !(l->rxbuf[l->rx_next % W].used &&
+                                l->rxbuf[l->rx_next % W].seq == l->rx_next)) {
+                /* a gap: tell the sender which frame we miss */
+                it2n_msg g;
+                uint8_t gb[2];
+                it2n_frame_hdr gh;
+                g.type = IT2N_MSG_GAP;
+                g.u.gap.seq = l->rx_next;
+                if (it2n_msg_pack(&g, gb, sizeof gb, NULL) == 2) {
+                    gh.version = IT2N_PROTO_VERSION;
+                    gh.type = IT2N_MSG_GAP;
+                    gh.flags = 0;
+                    gh.seq = 0;
+                    gh.len = 2;
+                    (void)it2n_frame_write(l->cfg.out, &gh, gb, 2u);
+                    l->stats.tx_gaps++;
+                }
+            }
         }
         return;
     }
@@ -548,12 +597,15 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
     }
     if (r != 1)
         return; /* damaged: counted by the decoder, sender retransmits */
-    if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK) {
+    if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK ||
+        fh->type == IT2N_MSG_GAP) {
         it2n_msg m;
-        if (it2n_msg_unpack(fh->type, p, fh->len, &m, NULL) == IT2N_OK)
-            on_answer(l, &m, now);
-        else
+        if (it2n_msg_unpack(fh->type, p, fh->len, &m, NULL) != IT2N_OK)
             l->stats.rx_bad_msg++;
+        else if (m.type == IT2N_MSG_GAP)
+            on_gap(l, m.u.gap.seq, now);
+        else
+            on_answer(l, &m, now);
         return;
     }
     if (!(fh->flags & IT2N_FLAG_REL)) {

@@ -77,6 +77,8 @@ typedef struct it2n_link_stats {
     uint32_t rx_buffered;   /* frames kept ahead of a gap          */
     uint32_t rx_sessions;   /* new peer sessions seen              */
     uint32_t tx_dropped;    /* frames dropped by it2n_link_drop_tx */
+    uint32_t tx_gaps;       /* GAPs sent (we hold frames past a gap) */
+    uint32_t tx_fast_retx;  /* retransmissions on a peer's GAP      */
 } it2n_link_stats;
 
 /* One sender slot: a reliable frame in flight. The message starts at
@@ -85,7 +87,7 @@ typedef struct it2n_link_stats {
 typedef struct it2n_link_slot {
     uint8_t used, tries, type, flags;
     uint16_t seq, len;
-    uint32_t deadline, first;
+    uint32_t deadline, first, last; /* next try, first and last sent */
     uint8_t buf[IT2N_FRAME_MAX_LEN];
 } it2n_link_slot;
 

@@ -28,6 +28,7 @@ enum it2n_msg_type {
     IT2N_MSG_EVENT = 0x10,      /* model changed (daemon -> subscribers)  */
     IT2N_MSG_ACK = 0x20,        /* reliable frame accepted (and durable)  */
     IT2N_MSG_NACK = 0x21,       /* reliable frame refused, with reason    */
+    IT2N_MSG_GAP = 0x22,        /* v1.1: receiver misses a frame, holds later ones */
     IT2N_MSG_QUERY_RESULT = 0x45,
     IT2N_MSG_LOCATE_RESULT = 0x46,
     IT2N_MSG_SAMPLE_DATA = 0x47,
@@ -218,6 +219,7 @@ typedef struct it2n_msg {
         it2n_msg_get_net get_net;
         it2n_msg_event event;
         it2n_msg_ack ack;
+        it2n_msg_ack gap; /* GAP: seq = the frame missing */
         it2n_msg_nack nack;
         it2n_msg_query_result query_result;
         it2n_msg_locate_result locate_result;
@@ -251,7 +253,7 @@ int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
 #define IT2N_VECTOR_SESSION 0x1D2C3B4Au
 
 /* Number of golden vectors (one per message type). */
-#define IT2N_VECTOR_COUNT 18u
+#define IT2N_VECTOR_COUNT 19u
 
 /*
  * Golden vector k (0..IT2N_VECTOR_COUNT-1): fills the frame header and the

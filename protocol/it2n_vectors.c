@@ -107,6 +107,10 @@ static void fill(unsigned k, it2n_msg *m)
         m->u.event.code = 0;
         m->u.event.generation = 0x01020304u;
         break;
+    case 18:
+        m->type = IT2N_MSG_GAP;
+        m->u.gap.seq = 0x0103;
+        break;
     case 11:
         m->type = IT2N_MSG_ACK;
         m->u.ack.seq = 0x0102;
@@ -202,7 +206,8 @@ const char *it2n_proto_vector(unsigned k, it2n_frame_hdr *hdr, it2n_msg *msg)
     static const char *const names[IT2N_VECTOR_COUNT] = {
         "hello", "configure", "put", "commit", "query", "locate", "sample",
         "get_net", "get_status", "reset", "event", "ack", "nack",
-        "query_result", "locate_result", "sample_data", "net_row", "status"};
+        "query_result", "locate_result", "sample_data", "net_row", "status",
+        "gap"};
 
     if (k >= IT2N_VECTOR_COUNT)
         return NULL;
@@ -210,7 +215,8 @@ const char *it2n_proto_vector(unsigned k, it2n_frame_hdr *hdr, it2n_msg *msg)
     fill(k, msg);
     hdr->version = IT2N_PROTO_VERSION;
     hdr->type = msg->type;
-    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK) {
+    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK ||
+        msg->type == IT2N_MSG_GAP) {
         hdr->flags = 0;
         hdr->seq = 0;
     } else {

@@ -25,7 +25,7 @@ def cobs_decode(enc):
 # Fixed payload sizes from docs/protocol.md (None: variable, checked below).
 SIZES = {0x01: 28, 0x02: 4, 0x03: None, 0x04: 1, 0x05: 9, 0x06: 17, 0x07: 6,
          0x08: 2, 0x09: 1, 0x0A: 1, 0x10: 8, 0x20: 2, 0x21: 34, 0x45: 447,
-         0x46: 474, 0x47: None, 0x48: None, 0x49: 15}
+         0x46: 474, 0x47: None, 0x48: None, 0x49: 15, 0x22: 2}
 
 def main(vdir):
     files = sorted(glob.glob(os.path.join(vdir, "*.hex")))
@@ -54,7 +54,7 @@ def main(vdir):
         elif typ == 0x48:
             want = 7 + 48 * (p[5] + 1)
         assert len(p) == want, f"{f}: payload {len(p)} != {want}"
-        rel = typ not in (0x20, 0x21)
+        rel = typ not in (0x20, 0x21, 0x22)
         assert bool(flags & 1) == rel, f"{f}: REL flag"
         if typ == 0x45:  # out_of_range bits agree with the memberships
             oor = struct.unpack_from("<I", p, 11)[0]
@@ -74,7 +74,7 @@ def main(vdir):
     print(f"check_vectors: {len(files)} vectors OK")
 
 APPX = "## Appendix A: golden vectors"
-APPX_END = "ACK and NACK have flags 0 and seq 0.\n"
+APPX_END = "ACK, NACK and GAP have flags 0 and seq 0.\n"
 
 def update_doc(vdir, doc):
     """Rewrite Appendix A of docs/protocol.md from the vector files."""
