@@ -71,6 +71,11 @@ def main(vdir):
         for f in files:
             body = "".join(l for l in open(f) if not l.startswith("#"))
             assert body in text, f"docs/protocol.md Appendix A is stale for {f}"
+        # the worked example of section 3 is vector 03_commit
+        commit = [f for f in files if f.endswith("03_commit.hex")][0]
+        want = " ".join("".join(l for l in open(commit) if not l.startswith("#")).split())
+        wl = [l for l in text.splitlines() if l.startswith("wire:  ")]
+        assert wl and wl[0][7:].strip() == want, "docs/protocol.md section 3 worked example is stale"
     print(f"check_vectors: {len(files)} vectors OK")
 
 APPX = "## Appendix A: golden vectors"

@@ -922,7 +922,7 @@ static void spec(unsigned unused)
     CHECK(P.max_count == 21 && P.max_unanswered > 1, "window 4: count %u, in flight %u", P.max_count,
           P.max_unanswered);
 
-    /* RTO from the baud rate (921 600: 50 + 5 x 1042 x 10 / 921.6 = 107
+    /* RTO from the baud rate (921 600: 50 + 5 x 1046 x 10 / 921.6 = 107
      * ms): the daemon's first retransmission of an unanswered frame comes
      * no sooner; then, silent past peer_timeout_ms, the link is declared
      * down and the next word from the peer brings EVENT LOST. */
@@ -944,7 +944,7 @@ static void spec(unsigned unused)
     P.nd = 0;
     P.defer = 0;
     printf("spec: daemon's first retransmission after %u ms (default RTO at 921600 baud: %u ms)\n", first_retx,
-           50u + (5u * 1042u * 10u * 1000u + 921599u) / 921600u);
+           50u + (5u * 1046u * 10u * 1000u + 921599u) / 921600u);
     CHECK(first_retx >= 100 && first_retx < 1000, "first retransmission after %u ms", first_retx);
     P.events = 0;
     P.ev.kind = 0;
