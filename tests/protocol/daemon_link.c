@@ -957,6 +957,77 @@ static void spec(unsigned unused)
     printf("spec: %d checks failed\n", failures);
 }
 
+/* ---- the worked example of docs/instrument.md ------------------------ */
+#ifdef DOC_EXAMPLE
+#include "it2n_inst.h"
+int upload_and_query(it2n_val *t_centre, it2n_msg_nack *why);
+int board_uart_write(const uint8_t *buf, size_t len);
+int board_uart_read(uint8_t *buf, size_t len);
+uint32_t board_millis(void);
+uint32_t board_boot_count(void);
+
+int board_uart_write(const uint8_t *buf, size_t len)
+{
+    raw_write(buf, len);
+    return 0;
+}
+
+int board_uart_read(uint8_t *buf, size_t len)
+{
+    ssize_t n = read(master, buf, len);
+    return n > 0 ? (int)n : 0;
+}
+
+uint32_t board_millis(void)
+{
+    return now_ms();
+}
+
+uint32_t board_boot_count(void)
+{
+    return rnd();
+}
+
+/* The example as a firmware would run it, twice (two boots: the second
+ * session's id differs, the same points again are no DUPLICATE because
+ * CONFIGURE clears them), each result checked against the core. */
+static void doc(unsigned runs)
+{
+    static it2n_dataset ds;
+    static it2n_model ref;
+    it2n_errinfo e;
+    it2n_point pt;
+    it2n_dataset_init(&ds, 1, 1, IT2N_F_TYPE1, NULL);
+    for (unsigned i = 0; i <= 1; i++)
+        for (unsigned j = 0; j <= 1; j++) {
+            it2n_val v[IT2N_CH_COUNT] = {(it2n_val)(10 * i) * IT2N_VAL_ONE, (it2n_val)(10 * j) * IT2N_VAL_ONE, 0,
+                                         IT2N_VAL_ONE / 2 + (it2n_val)i * (IT2N_VAL_ONE / 4), IT2N_VAL_ONE / 8,
+                                         IT2N_VAL_ONE / 4 - (it2n_val)j * (IT2N_VAL_ONE / 8)};
+            it2n_dataset_put(&ds, i, j, IT2N_FP_D, v, false, &e);
+        }
+    it2n_model_init(&ref);
+    CHECK(it2n_model_solve(&ref, &ds, &e) == IT2N_OK, "local solve");
+    it2n_eval(&ref, it2n_par_from_wire(IT2N_WIRE_PAR_ONE / 2), it2n_par_from_wire(IT2N_WIRE_PAR_ONE / 2), &pt, NULL);
+    for (unsigned k = 0; k < runs; k++) {
+        it2n_val t = -1;
+        it2n_msg_nack why;
+        memset(&why, 0, sizeof why);
+        int r = upload_and_query(&t, &why);
+        printf("doc example (docs/instrument.md) run %u: %d, T(0.5, 0.5) = %.7f (core: %.7f)\n", k + 1, r,
+               (double)t / 16777216.0, (double)pt.v[IT2N_FP_D][IT2N_CH_T] / 16777216.0);
+        CHECK(r == 0 && t == pt.v[IT2N_FP_D][IT2N_CH_T], "doc example: %d (NACK code %d at %d,%d)", r, why.code,
+              why.i, why.j);
+    }
+}
+#else
+static void doc(unsigned runs)
+{
+    (void)runs;
+    fprintf(stderr, "daemon_link: built without the docs/instrument.md example\n");
+    failures++;
+}
+#endif
+
 int main(int argc, char **argv)
 {
     if (argc < 4 || (argc - 2) % 2) {
@@ -978,6 +1049,8 @@ int main(int argc, char **argv)
             lossy(v);
         else if (!strcmp(argv[k], "spec"))
             spec(v);
+        else if (!strcmp(argv[k], "doc"))
+            doc(v);
         else {
             fprintf(stderr, "unknown scenario %s\n", argv[k]);
             return 2;

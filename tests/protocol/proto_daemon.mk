@@ -3,10 +3,20 @@
 # host re-requests (tests/protocol/daemon_link.c). Included after
 # daemon/daemon.mk (tests/tests.mk), so $(IT2ND) is known here.
 PROTO_DL := $(BUILD)/tests/protocol/daemon_link
-$(PROTO_DL): tests/protocol/daemon_link.c examples/instrument/synth.c examples/instrument/synth.h $(PROTO_LIB) $(CORE_LIB)
+# The worked example of docs/instrument.md, extracted verbatim, compiled
+# with the core's warnings (it is firmware code) and run by scenario `doc`.
+PROTO_DOC_EX := $(BUILD)/tests/protocol/instrument_example.c
+$(PROTO_DOC_EX): docs/instrument.md
 	@mkdir -p $(@D)
-	$(CC) $(HOST_CFLAGS) -Iexamples/instrument tests/protocol/daemon_link.c examples/instrument/synth.c \
-	  -o $@ $(PROTO_LIB) $(CORE_LIB) -lutil
+	awk '/<!-- example:begin -->/{on=1;next} /<!-- example:end -->/{on=0} on && !/^```/' $< > $@
+	@test -s $@ || { echo "docs/instrument.md: no example block" >&2; exit 1; }
+$(BUILD)/tests/protocol/instrument_example.o: $(PROTO_DOC_EX) $(PROTO_HDR)
+	$(CC) $(CORE_CFLAGS) -c $< -o $@
+$(PROTO_DL): tests/protocol/daemon_link.c examples/instrument/synth.c examples/instrument/synth.h \
+  $(BUILD)/tests/protocol/instrument_example.o $(PROTO_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -DDOC_EXAMPLE -Iexamples/instrument tests/protocol/daemon_link.c examples/instrument/synth.c \
+	  $(BUILD)/tests/protocol/instrument_example.o -o $@ $(PROTO_LIB) $(CORE_LIB) -lutil
 
 PROTO_DL_ARGS ?= sessions 200 kill 5 lossy 10
 .PHONY: proto-daemon proto-daemon-long
@@ -14,7 +24,7 @@ TEST_TARGETS += proto-daemon
 ## proto-daemon: protocol v1.1 against it2nd over a pty (200 sessions, 5 kill -9, 10% faults, spec gaps)
 proto-daemon: $(PROTO_DL) $(IT2ND) $(IT2ND_SAN)
 	timeout 300 $(PROTO_DL) $(IT2ND) $(PROTO_DL_ARGS)
-	LINK_EXTRA='peer_timeout_ms = 600' timeout 300 $(PROTO_DL) $(IT2ND) spec 1
+	LINK_EXTRA='peer_timeout_ms = 600' timeout 300 $(PROTO_DL) $(IT2ND) spec 1 doc 2
 	timeout 300 $(PROTO_DL) $(IT2ND_SAN) sessions 20 kill 2 lossy 10
 
 ## proto-daemon-long: the issue's 1 000 back-to-back sessions and 20 kill -9s
