@@ -138,6 +138,23 @@ static int32_t send(it2n_inst *ctx, const it2n_msg *m)
     return it2n_link_send(&ctx->link, m, now(ctx));
 }
 
+/* ctx->msg is free once the batch is flushed: the scratch message for
+ * everything else (no 1 KiB it2n_msg on the stack). */
+static it2n_msg *scratch(it2n_inst *ctx, uint8_t type)
+{
+    memset(&ctx->msg, 0, sizeof ctx->msg);
+    ctx->msg.type = type;
+    return &ctx->msg;
+}
+
+/* Send the scratch message; it is free again afterwards. */
+static int32_t send_scratch(it2n_inst *ctx)
+{
+    int32_t r = send(ctx, &ctx->msg);
+    ctx->msg.type = 0;
+    return r;
+}
+
 static void hello(it2n_inst *ctx, it2n_msg *m)
 {
     size_t k;
@@ -179,10 +196,8 @@ static int start(it2n_inst *ctx, uint16_t first_seq)
     ctx->peer_hello = 0;
     ctx->q_seq = -1;
     ctx->q_have = 0;
-    ctx->msg.type = 0;
     hello(ctx, &ctx->msg);
-    r = send(ctx, &ctx->msg);
-    ctx->msg.type = 0;
+    r = send_scratch(ctx);
     if (r < 0)
         return (int)r;
     if (ctx->cfg.read != NULL)
@@ -268,30 +283,28 @@ int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
 int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,
                         uint8_t flags)
 {
-    it2n_msg c;
+    it2n_msg *c;
     int32_t r = it2n_inst_flush(ctx);
     if (r != 0)
         return (int)r;
-    memset(&c, 0, sizeof c);
-    c.type = IT2N_MSG_CONFIGURE;
-    c.u.configure.model = model;
-    c.u.configure.n = n;
-    c.u.configure.m = m;
-    c.u.configure.flags = flags;
-    r = send(ctx, &c);
+    c = scratch(ctx, IT2N_MSG_CONFIGURE);
+    c->u.configure.model = model;
+    c->u.configure.n = n;
+    c->u.configure.m = m;
+    c->u.configure.flags = flags;
+    r = send_scratch(ctx);
     return r < 0 ? (int)r : IT2N_OK;
 }
 
 int it2n_inst_commit(it2n_inst *ctx, uint8_t model)
 {
-    it2n_msg c;
+    it2n_msg *c;
     int32_t r = it2n_inst_flush(ctx);
     if (r != 0)
         return (int)r;
-    memset(&c, 0, sizeof c);
-    c.type = IT2N_MSG_COMMIT;
-    c.u.model.model = model;
-    r = send(ctx, &c);
+    c = scratch(ctx, IT2N_MSG_COMMIT);
+    c->u.model.model = model;
+    r = send_scratch(ctx);
     return r < 0 ? (int)r : IT2N_OK;
 }
 
@@ -309,15 +322,16 @@ int it2n_inst_sync(it2n_inst *ctx)
 int it2n_inst_query(it2n_inst *ctx, uint8_t model, uint32_t u, uint32_t w,
                     it2n_msg_query_result *out)
 {
-    it2n_msg q;
+    it2n_msg *q;
     int32_t seq;
-    int r;
-    memset(&q, 0, sizeof q);
-    q.type = IT2N_MSG_QUERY;
-    q.u.query.model = model;
-    q.u.query.u = u;
-    q.u.query.w = w;
-    seq = send(ctx, &q);
+    int r = it2n_inst_flush(ctx);
+    if (r != 0)
+        return r;
+    q = scratch(ctx, IT2N_MSG_QUERY);
+    q->u.query.model = model;
+    q->u.query.u = u;
+    q->u.query.w = w;
+    seq = send_scratch(ctx);
     if (seq < 0)
         return (int)seq;
     ctx->q_seq = seq;

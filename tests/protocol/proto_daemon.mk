@@ -30,3 +30,16 @@ proto-daemon: $(PROTO_DL) $(IT2ND) $(IT2ND_SAN)
 ## proto-daemon-long: the issue's 1 000 back-to-back sessions and 20 kill -9s
 proto-daemon-long: $(PROTO_DL) $(IT2ND)
 	timeout 1200 $(PROTO_DL) $(IT2ND) sessions 1000 kill 20 lossy 10 lossy 1
+
+# Cortex-M0+ size of the instrument API (the docs/instrument.md example and
+# what it links): the figure in docs/instrument.md is checked here; the
+# bench rows go to build/ in make test, to bench/ with bench-inst-size.
+.PHONY: proto-inst-size bench-inst-size
+TEST_TARGETS += proto-inst-size
+proto-inst-size: $(PROTO_DOC_EX)
+	tests/protocol/inst_size.sh $(PROTO_DOC_EX) $(BUILD)/inst-size --json $(BUILD)/instrument_api.json \
+	  --check docs/instrument.md
+BENCH_TARGETS += bench-inst-size
+## bench-inst-size: flash/RAM of the instrument API on Cortex-M0+ (bench/instrument_api.json)
+bench-inst-size: $(PROTO_DOC_EX)
+	tests/protocol/inst_size.sh $(PROTO_DOC_EX) $(BUILD)/inst-size --json bench/instrument_api.json
