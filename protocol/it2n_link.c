@@ -375,8 +375,10 @@ static it2n_link_hist *hist_find(it2n_link *l, uint16_t seq)
 
 static void drain(it2n_link *l);
 
-int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
-                       const it2n_errinfo *detail)
+/* Record and send the answer to seq (no delivery of kept frames here, so
+ * drain -> deliver -> answer has no cycle). */
+static int answer(it2n_link *l, uint16_t seq, int code,
+                  const it2n_errinfo *detail)
 {
     it2n_link_hist *h = hist_find(l, seq);
     if (h == NULL || h->state != H_WAITING)
@@ -393,8 +395,16 @@ int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
     }
     h->state = H_ANSWERED;
     send_answer(l, &h->answer);
-    drain(l); /* a frame kept behind this answer may go on now */
     return IT2N_OK;
+}
+
+int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
+                       const it2n_errinfo *detail)
+{
+    int r = answer(l, seq, code, detail);
+    if (r == IT2N_OK)
+        drain(l); /* a frame kept behind this answer may go on now */
+    return r;
 }
 
 /* Can rx_next be delivered now? Not while the application still owes an
@@ -438,7 +448,7 @@ static void deliver(it2n_link *l, uint16_t seq, uint8_t type,
     r = l->cfg.on_rx(l->cfg.app, seq, &m);
     l->draining = was;
     if (r != IT2N_LINK_DEFER)
-        (void)it2n_link_complete(l, seq, r, NULL);
+        (void)answer(l, seq, r, NULL);
 }
 
 /* Deliver kept frames that are now in order. Not re-entered: callbacks
