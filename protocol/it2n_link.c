@@ -120,8 +120,9 @@ uint32_t it2n_link_stalled_ms(const it2n_link *l, uint32_t now)
 static uint32_t rto_for(const it2n_link *l, unsigned tries)
 {
     uint32_t rto = l->cfg.rto_ms;
-    /* Exponential backoff: rto, 2 rto, 4 rto ... up to rto_max_ms. */
-    while (tries > 1u && rto < l->cfg.rto_max_ms) {
+    /* Exponential backoff from the second retransmission on: rto, rto,
+     * 2 rto, 4 rto ... up to rto_max_ms (one loss is not an outage). */
+    while (tries > 2u && rto < l->cfg.rto_max_ms) {
         rto = rto > l->cfg.rto_max_ms / 2u ? l->cfg.rto_max_ms : 2u * rto;
         tries--;
     }
@@ -216,20 +217,29 @@ unsigned it2n_link_drop_tx(it2n_link *l)
     return n;
 }
 
-/* GAP from the receiver: it holds frames after `seq` but not seq itself,
- * so seq (or its every copy) was lost: send it again now rather than at
- * its timeout, unless it went out less than a quarter RTO ago (the copy
- * may still be on its way). */
-static void on_gap(it2n_link *l, uint16_t seq, uint32_t now)
+static it2n_link_slot *slot_of(it2n_link *l, uint16_t seq)
 {
     unsigned k;
-    for (k = 0; k < W; k++) {
-        it2n_link_slot *s = &l->slot[k];
-        if (s->used && s->seq == seq && l->tx_synced &&
-            (uint32_t)(now - s->last) >= (l->cfg.rto_ms + 3u) / 4u) {
-            l->stats.tx_fast_retx++;
-            transmit(l, s, now);
-        }
+    for (k = 0; k < W; k++)
+        if (l->slot[k].used && l->slot[k].seq == seq)
+            return &l->slot[k];
+    return NULL;
+}
+
+/* GAP from the receiver: it just kept frame `have` but misses `seq`. If
+ * our last copy of seq left no later than the copy of `have` it got (a
+ * line keeps order), that copy was lost: send it again now rather than at
+ * its timeout. A copy sent after `have` may still be on its way: wait. If
+ * `have` is no longer in flight, a quarter RTO since the last copy. */
+static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint32_t now)
+{
+    it2n_link_slot *s = slot_of(l, seq), *h = slot_of(l, have);
+    if (s == NULL || !l->tx_synced || h == s)
+        return;
+    if (h != NULL ? (int32_t)(h->last - s->last) >= 0
+                  : (uint32_t)(now - s->last) >= (l->cfg.rto_ms + 3u) / 4u) {
+        l->stats.tx_fast_retx++;
+        transmit(l, s, now);
     }
 }
 
@@ -249,15 +259,17 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
     l->stats.rx_acks++;
     if (m->type == IT2N_MSG_ACK) {
         uint16_t age = (uint16_t)(l->tx_next - seq);
+        uint32_t acked_last = s->last;
         l->stats.tx_acked++;
         finish(l, s, IT2N_OK, NULL);
         /* Frames are delivered in order: an older frame still unanswered
-         * was delivered too, and its answer was lost (or is deferred, then
-         * the copy is ignored): send it again now, not at its timeout. */
+         * whose last copy left no later than the acknowledged one's was
+         * delivered too, and its answer was lost (or is deferred, then the
+         * copy is ignored): send it again now, not at its timeout. */
         for (k = 0; k < W; k++) {
             it2n_link_slot *o = &l->slot[k];
             if (o->used && l->tx_synced && (uint16_t)(l->tx_next - o->seq) > age &&
-                (uint32_t)(now - o->last) >= (l->cfg.rto_ms + 3u) / 4u) {
+                (int32_t)(acked_last - o->last) >= 0) {
                 l->stats.tx_fast_retx++;
                 transmit(l, o, now);
             }
@@ -554,17 +566,18 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
                                 l->rxbuf[l->rx_next % W].seq == l->rx_next)) {
                 /* a gap: tell the sender which frame we miss */
                 it2n_msg g;
-                uint8_t gb[2];
+                uint8_t gb[4];
                 it2n_frame_hdr gh;
                 g.type = IT2N_MSG_GAP;
                 g.u.gap.seq = l->rx_next;
-                if (it2n_msg_pack(&g, gb, sizeof gb, NULL) == 2) {
+                g.u.gap.have = fh->seq;
+                if (it2n_msg_pack(&g, gb, sizeof gb, NULL) == 4) {
                     gh.version = IT2N_PROTO_VERSION;
                     gh.type = IT2N_MSG_GAP;
                     gh.flags = 0;
                     gh.seq = 0;
-                    gh.len = 2;
-                    (void)it2n_frame_write(l->cfg.out, &gh, gb, 2u);
+                    gh.len = 4;
+                    (void)it2n_frame_write(l->cfg.out, &gh, gb, 4u);
                     l->stats.tx_gaps++;
                 }
             }
@@ -613,7 +626,7 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
         if (it2n_msg_unpack(fh->type, p, fh->len, &m, NULL) != IT2N_OK)
             l->stats.rx_bad_msg++;
         else if (m.type == IT2N_MSG_GAP)
-            on_gap(l, m.u.gap.seq, now);
+            on_gap(l, m.u.gap.seq, m.u.gap.have, now);
         else
             on_answer(l, &m, now);
         return;

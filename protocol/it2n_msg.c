@@ -391,7 +391,10 @@ static void codec(cur *c, it2n_msg *m)
         break;
     case IT2N_MSG_EVENT: c_event(c, &m->u.event); break;
     case IT2N_MSG_ACK: c_u16(c, &m->u.ack.seq); break;
-    case IT2N_MSG_GAP: c_u16(c, &m->u.gap.seq); break;
+    case IT2N_MSG_GAP:
+        c_u16(c, &m->u.gap.seq);
+        c_u16(c, &m->u.gap.have);
+        break;
     case IT2N_MSG_NACK: c_nack(c, &m->u.nack); break;
     case IT2N_MSG_QUERY_RESULT: c_query_result(c, &m->u.query_result); break;
     case IT2N_MSG_LOCATE_RESULT: c_locate_result(c, &m->u.locate_result); break;
@@ -439,8 +442,8 @@ static size_t expected_len(uint8_t type, const uint8_t *p, size_t len)
     case IT2N_MSG_SAMPLE: return 6u;
     case IT2N_MSG_GET_NET: return 2u;
     case IT2N_MSG_EVENT: return 8u;
-    case IT2N_MSG_ACK:
-    case IT2N_MSG_GAP: return 2u;
+    case IT2N_MSG_ACK: return 2u;
+    case IT2N_MSG_GAP: return 4u;
     case IT2N_MSG_NACK: return 34u;
     case IT2N_MSG_QUERY_RESULT: return 447u;
     case IT2N_MSG_LOCATE_RESULT: return 474u;

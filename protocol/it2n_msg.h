@@ -145,6 +145,12 @@ typedef struct it2n_msg_ack {
     uint16_t seq; /* sequence number acknowledged */
 } it2n_msg_ack;
 
+/* GAP (v1.1, unreliable): the receiver misses `seq` and has just kept
+ * `have`, a later frame. */
+typedef struct it2n_msg_gap {
+    uint16_t seq, have;
+} it2n_msg_gap;
+
 typedef struct it2n_msg_nack {
     uint16_t seq;  /* sequence number refused                       */
     int16_t code;  /* enum it2n_error or enum it2n_proto_error      */
@@ -219,7 +225,7 @@ typedef struct it2n_msg {
         it2n_msg_get_net get_net;
         it2n_msg_event event;
         it2n_msg_ack ack;
-        it2n_msg_ack gap; /* GAP: seq = the frame missing */
+        it2n_msg_gap gap;
         it2n_msg_nack nack;
         it2n_msg_query_result query_result;
         it2n_msg_locate_result locate_result;

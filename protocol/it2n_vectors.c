@@ -110,6 +110,7 @@ static void fill(unsigned k, it2n_msg *m)
     case 18:
         m->type = IT2N_MSG_GAP;
         m->u.gap.seq = 0x0103;
+        m->u.gap.have = 0x0105;
         break;
     case 11:
         m->type = IT2N_MSG_ACK;

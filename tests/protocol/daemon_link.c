@@ -664,6 +664,7 @@ static void lossy(unsigned pct)
     send_msg(&P, &h, 5000);
     upload(&P, 3, &ds, 19, 20000);
     CHECK(drain(&P, 30000) == 0, "upload not acknowledged");
+    uint32_t t_up = now_ms();
     for (unsigned k = 0; k < 16; k++) {
         it2n_msg q;
         memset(&q, 0, sizeof q);
@@ -684,6 +685,9 @@ static void lossy(unsigned pct)
     uint32_t t1 = now_ms();
     while ((P.results < 16 || P.points < 33 * 33) && now_ms() - t1 < 60000)
         pump(&P, 2);
+    if (getenv("DL_DEBUG"))
+        fprintf(stderr, "  upload %u ms, requests sent %u ms, responses %u ms; host: gaps %u fast %u\n",
+                t_up - t0, t1 - t_up, now_ms() - t1, P.l.stats.tx_gaps, P.l.stats.tx_fast_retx);
     drain(&P, 10000);
     release_held(&P, 1);
     printf("lossy %u%%: session (HELLO, 1 CONFIGURE + 9 PUT + COMMIT, 16 QUERY, SAMPLE 33x33) in %u ms, "
