@@ -827,6 +827,21 @@ static void spec(unsigned unused)
     CHECK(request(&P, &pm) == 0, "PUT (0,0)");
     /* the same entry again, no REPLACE: idempotent success */
     CHECK(request(&P, &pm) == 0, "identical PUT again");
+    /* ... also from a restarted instrument (a new session re-sending a PUT
+     * whose delivery it does not know), with no generation change */
+    {
+        it2n_msg gs1 = model_msg(IT2N_MSG_GET_STATUS, 1);
+        CHECK(request(&P, &gs1) == 0, "GET_STATUS");
+        settle(&P, 50);
+        uint32_t gen0 = P.status.generation;
+        peer_init(&P, (uint16_t)(P.l.tx_next - 1u), rnd(), 0, 100);
+        P.ref = &ref;
+        CHECK(request(&P, &pm) == 0, "identical PUT from a new session");
+        CHECK(request(&P, &gs1) == 0, "GET_STATUS");
+        settle(&P, 50);
+        CHECK(P.status.generation == gen0, "re-sent PUT changed the generation %u -> %u", gen0,
+              P.status.generation);
+    }
     pm.u.put.e[0].vals[IT2N_CH_T] = 1 << 22;
     r = request(&P, &pm);
     CHECK(r == IT2N_ERR_DUPLICATE, "different value at a stored entry: %d (want DUPLICATE)", r);
