@@ -21,14 +21,12 @@ $(PROTO_DL): tests/protocol/daemon_link.c examples/instrument/synth.c examples/i
 PROTO_DL_ARGS ?= sessions 200 kill 5 lossy 10
 .PHONY: proto-daemon proto-daemon-long
 TEST_TARGETS += proto-daemon
-## proto-daemon: protocol v1.1 against it2nd over a pty (200 sessions, 5 kill -9, 10% faults, spec gaps)
-proto-daemon: $(PROTO_DL) $(IT2ND) $(IT2ND_SAN)
+proto-daemon: $(PROTO_DL) $(IT2ND) $(IT2ND_SAN) ## Protocol v1.1 against it2nd over a pty (sessions, kill -9, 10% faults, spec, doc example)
 	timeout 300 $(PROTO_DL) $(IT2ND) $(PROTO_DL_ARGS)
 	LINK_EXTRA='peer_timeout_ms = 600' timeout 300 $(PROTO_DL) $(IT2ND) spec 1 doc 2
 	timeout 300 $(PROTO_DL) $(IT2ND_SAN) sessions 20 kill 2 lossy 10
 
-## proto-daemon-long: the issue's 1 000 back-to-back sessions and 20 kill -9s
-proto-daemon-long: $(PROTO_DL) $(IT2ND)
+proto-daemon-long: $(PROTO_DL) $(IT2ND) ## 1000 back-to-back sessions, 20 kill -9s, 10% and 1% faults against it2nd
 	timeout 1200 $(PROTO_DL) $(IT2ND) sessions 1000 kill 20 lossy 10 lossy 1
 
 # Cortex-M0+ size of the instrument API (the docs/instrument.md example and
@@ -40,6 +38,5 @@ proto-inst-size: $(PROTO_DOC_EX)
 	tests/protocol/inst_size.sh $(PROTO_DOC_EX) $(BUILD)/inst-size --json $(BUILD)/instrument_api.json \
 	  --check docs/instrument.md
 BENCH_TARGETS += bench-inst-size
-## bench-inst-size: flash/RAM of the instrument API on Cortex-M0+ (bench/instrument_api.json)
-bench-inst-size: $(PROTO_DOC_EX)
+bench-inst-size: $(PROTO_DOC_EX) ## Instrument API flash/RAM on Cortex-M0+ (bench/instrument_api.json)
 	tests/protocol/inst_size.sh $(PROTO_DOC_EX) $(BUILD)/inst-size --json bench/instrument_api.json
