@@ -511,6 +511,15 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         /* A SYN frame is a retransmission only if it belongs to the
          * current peer session and its number is in the history; anything
          * else starts a new sequence (a restarted peer has a new id). */
+        if (l->rx_synced && sess == l->peer_session &&
+            hist_find(l, fh->seq) == NULL &&
+            (uint16_t)(l->rx_next - fh->seq) - 1u < 0x7FFFu) {
+            /* This session's SYN from behind `next` and out of the
+             * history: a stale copy (a sender never restarts a sequence
+             * behind what it sent); not a new sequence. */
+            l->stats.rx_ahead++;
+            return;
+        }
         if (!l->rx_synced || sess != l->peer_session ||
             hist_find(l, fh->seq) == NULL) {
             if (!l->rx_synced || sess != l->peer_session) {

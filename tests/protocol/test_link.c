@@ -478,6 +478,31 @@ static void test_peer_limits(void **st)
     assert_int_equal(A->l.peer_window, IT2N_PROTO_WINDOW);
 }
 
+/* A late copy of this session's SYN frame, arriving after the sequence
+ * moved past the history, is stale: not a new sequence, not delivered. */
+static void test_stale_syn_copy(void **st)
+{
+    (void)st;
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    mem_out syn = A->out; /* keep a copy of the SYN frame */
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    for (int k = 0; k < 3 * IT2N_PROTO_WINDOW; k++) {
+        it2n_link_send(&A->l, &m, 1);
+        xfer(A, B, 1, 0);
+        xfer(B, A, 1, 0);
+    }
+    unsigned n = B->nrx;
+    B->out.len = 0;
+    assert_int_equal(it2n_link_input(&B->l, syn.buf, syn.len, 2), IT2N_OK);
+    assert_int_equal(B->nrx, n);           /* not delivered again */
+    assert_int_equal(frames_in(B), 0);
+    it2n_link_send(&A->l, &m, 3);           /* the sequence goes on */
+    xfer(A, B, 3, 0);
+    assert_int_equal(B->nrx, n + 1);
+}
+
 /* A SYN frame without the session id is refused, not delivered. */
 static void test_syn_without_session(void **st)
 {
@@ -600,6 +625,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_backoff_until_dropped, setup, teardown),
         cmocka_unit_test_setup_teardown(test_peer_limits, setup, teardown),
         cmocka_unit_test_setup_teardown(test_syn_without_session, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_stale_syn_copy, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
 }
