@@ -859,7 +859,7 @@ static void link_open(void *arg)
             rnd[0] = (uint32_t)loop_now_ms() ^ ((uint32_t)getpid() << 16);
             rnd[1] = rnd[0] * 2654435761u;
         }
-        cfg.session = rnd[0];
+        cfg.session = rnd[0] ? rnd[0] : 1u; /* 0 means "no id" */
         cfg.first_seq = (uint16_t)rnd[1];
     }
     it2n_link_init(&l->pl, &cfg);

@@ -511,7 +511,7 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         /* A SYN frame is a retransmission only if it belongs to the
          * current peer session and its number is in the history; anything
          * else starts a new sequence (a restarted peer has a new id). */
-        if (l->rx_synced && sess == l->peer_session &&
+        if (l->rx_synced && sess == l->peer_session && sess != 0u &&
             hist_find(l, fh->seq) == NULL &&
             (uint16_t)(l->rx_next - fh->seq) - 1u < 0x7FFFu) {
             /* This session's SYN from behind `next` and out of the
@@ -520,7 +520,10 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
             l->stats.rx_ahead++;
             return;
         }
-        if (!l->rx_synced || sess != l->peer_session ||
+        /* Session id 0 is "no id": every SYN frame of it starts a new
+         * sequence (never mistaken for an old session's frame; a SYN copy
+         * whose ACK was lost is delivered again — it travels alone). */
+        if (!l->rx_synced || sess != l->peer_session || sess == 0u ||
             hist_find(l, fh->seq) == NULL) {
             if (!l->rx_synced || sess != l->peer_session) {
                 /* a new peer session: its limits are unknown until its

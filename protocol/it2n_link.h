@@ -66,7 +66,10 @@ typedef struct it2n_link_cfg {
      * compile and get 0 = defaults). */
     uint32_t session;       /* this session's id: must differ from
                                every earlier session of this sender
-                               (random, or a persisted boot counter) */
+                               (random, or a persisted boot counter);
+                               0 = none: then a retransmitted SYN frame
+                               may be delivered twice (docs/protocol.md
+                               4.3 rule 1)                           */
     uint32_t rto_max_ms;    /* backoff cap; 0 = 8 x rto_ms          */
 } it2n_link_cfg;
 

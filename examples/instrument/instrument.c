@@ -313,7 +313,7 @@ int main(int argc, char **argv)
     if (getrandom(rnd, sizeof rnd, GRND_NONBLOCK) != (ssize_t)sizeof rnd)
         rnd[0] ^= (uint32_t)time(NULL);
     if (session_init(&sess, &ds, (uint8_t)model, &os, &is, (uint32_t)rto, (uint8_t)tries,
-                     device == NULL, (uint16_t)rnd[1], rnd[0]) != IT2N_OK)
+                     device == NULL, (uint16_t)rnd[1], rnd[0] ? rnd[0] : 1u) != IT2N_OK)
         return 2;
     int st;
     for (;;) {

@@ -554,9 +554,8 @@ static void test_seq_wraps(void **st)
  * receiver's duplicate history (the last W numbers it answered). Every
  * message of every session must be delivered exactly once and ACKed: a SYN
  * frame of a new session is never taken for a retransmission. */
-static void test_sessions_never_collide(void **st)
+static void sessions_run(int with_id)
 {
-    (void)st;
     uint64_t rng = 11;
     unsigned lost = 0, refused = 0, delivered = 0;
     uint16_t last = 7; /* last sequence number B answered */
@@ -575,7 +574,8 @@ static void test_sessions_never_collide(void **st)
         c.max_tries = 5;
         c.first_seq = first;
 #ifndef IT2N_V10
-        c.session = (uint32_t)rng_next(&rng); /* a restarted peer's new id */
+        /* a restarted peer's new id (or none: 0) */
+        c.session = with_id ? (uint32_t)(rng_next(&rng) | 1u) : 0u;
 #endif
         assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
         unsigned nmsg = 1 + rng_below(&rng, 3);
@@ -603,9 +603,45 @@ static void test_sessions_never_collide(void **st)
         if (A->ndone != nmsg)
             lost += nmsg - A->ndone;
     }
-    printf("1000 sessions: %u delivered, %u lost, %u refused\n", delivered, lost, refused);
+    printf("1000 sessions%s: %u delivered, %u lost, %u refused\n", with_id ? "" : " (session id 0)", delivered,
+           lost, refused);
     assert_int_equal(lost, 0);
     assert_int_equal(refused, 0);
+}
+
+static void test_sessions_never_collide(void **st)
+{
+    (void)st;
+    sessions_run(1);
+}
+
+/* A peer that sets no session id (0) is never mistaken for its previous
+ * session either; the price: a SYN frame whose ACK was lost is delivered
+ * again on its retransmission. */
+static void test_sessions_without_id(void **st)
+{
+    (void)st;
+    sessions_run(0);
+    ep_init(A, 300, 5);
+    A->l.cfg.session = 0;
+    it2n_msg m = cfg_msg(4);
+    unsigned n = B->nrx;
+    it2n_link_send(&A->l, &m, 0);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 1); /* ACK lost */
+    it2n_link_poll(&A->l, 100);
+    xfer(A, B, 100, 0);
+    assert_int_equal(B->nrx, n + 2);
+    xfer(B, A, 101, 0);
+    assert_int_equal(A->ndone, 1);
+    /* with an id, the same loss is answered from the history instead */
+    ep_init(A, 300, 5);
+    it2n_link_send(&A->l, &m, 200);
+    xfer(A, B, 200, 0);
+    xfer(B, A, 200, 1);
+    it2n_link_poll(&A->l, 300);
+    xfer(A, B, 300, 0);
+    assert_int_equal(B->nrx, n + 3);
 }
 
 int main(void)
@@ -621,6 +657,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_version_mismatch_is_answered, setup, teardown),
         cmocka_unit_test_setup_teardown(test_seq_wraps, setup, teardown),
         cmocka_unit_test_setup_teardown(test_sessions_never_collide, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_sessions_without_id, setup, teardown),
         cmocka_unit_test_setup_teardown(test_reorder_buffer, setup, teardown),
         cmocka_unit_test_setup_teardown(test_backoff_until_dropped, setup, teardown),
         cmocka_unit_test_setup_teardown(test_peer_limits, setup, teardown),
