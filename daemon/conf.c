@@ -464,6 +464,12 @@ static int key_link(struct parse *p, struct conf_link *l, const char *name, cons
     } else if (!strcmp(name, "usb")) {
         if (parse_usb(v, l))
             FAIL("expected VID:PID[:serial] in hex");
+    } else if (!strcmp(name, "rto_ms")) {
+        if (parse_int(v, 1, 60000, &l->rto_ms))
+            FAIL("expected 1..60000 (ms)");
+    } else if (!strcmp(name, "peer_timeout_ms")) {
+        if (parse_int(v, 100, 3600000, &l->peer_timeout_ms))
+            FAIL("expected 100..3600000 (ms)");
     } else {
         FAIL("unknown key");
     }
@@ -586,6 +592,7 @@ static int handler(void *user, const char *section, const char *name, const char
             if (copy_str(c->link[k].name, sizeof c->link[k].name, section + 5))
                 FAIL("section name too long");
             c->link[k].baud = 115200;
+            c->link[k].peer_timeout_ms = 30000;
             c->nlinks++;
         }
         note(p, &p->link[k], name);

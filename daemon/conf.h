@@ -73,6 +73,8 @@ struct conf_link {
     int baud;
     uint16_t vid, pid;       /* usb */
     char serial[64];         /* usb, optional */
+    int rto_ms;              /* first retransmission timeout; 0 = from baud */
+    int peer_timeout_ms;     /* unanswered this long: link declared down */
 };
 
 struct conf {

@@ -4,7 +4,7 @@ DAEMON_PKGS := libmodbus inih libusb-1.0
 DAEMON_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(BUILD)/daemon $(shell pkg-config --cflags $(DAEMON_PKGS) 2>/dev/null)
 DAEMON_LIBS := $(shell pkg-config --libs $(DAEMON_PKGS) 2>/dev/null) -lm -pthread
 DAEMON_SRC := $(wildcard daemon/*.c)
-DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) $(wildcard protocol/it2n_proto.h)
+DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) $(wildcard protocol/it2n_*.h)
 DAEMON_GEN := $(BUILD)/daemon/paper_data.c
 DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/host/%.o) $(BUILD)/host/daemon/paper_data.o
 DAEMON_SAN_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/san/%.o) $(BUILD)/san/daemon/paper_data.o

@@ -1,18 +1,28 @@
-/* links.c — see links.h. The protocol application of the daemon side:
- *   HELLO       ACK, answered with the daemon's own HELLO
+/* links.c — see links.h. The protocol application of the daemon side
+ * (protocol v1.1, docs/protocol.md):
+ *   HELLO       version check (NACK VERSION without a common version), the
+ *               peer's window and max_payload applied, ACK, then the
+ *               daemon's own HELLO (type HELLO)
  *   CONFIGURE   (re)start collecting the model (clears its points)
- *   PUT         all entries or none; REPLACE flag honoured
+ *   PUT         all entries or none; REPLACE flag honoured; an entry equal
+ *               to the stored one is an idempotent success (exactly once
+ *               across restarts)
  *   COMMIT      solve; RESET clear (0xFF: every model)
  *   GET_STATUS / QUERY / LOCATE   ACK, then the response frame
  * Data messages are ACKed only after the WAL commit (links_release); a
  * refused one is NACKed at once with the core's error detail and changed
  * nothing. SAMPLE and GET_NET are ACKed and answered by a run of
- * SAMPLE_DATA / NET_ROW frames, produced as the send window frees; one such
- * job per link at a time (another is NACKed BUSY). */
+ * SAMPLE_DATA / NET_ROW frames, produced as the send window frees. One
+ * response (run) at a time; requests arriving meanwhile wait unanswered in
+ * a queue (at most the peer's window) and are served in order after it —
+ * never NACKed BUSY. Our frames are retransmitted with backoff until the
+ * peer answers or the link is declared down (peer_timeout_ms); then they
+ * are dropped and the peer, when it speaks again, gets EVENT LOST. */
 #include "links.h"
 
 #include <errno.h>
 #include <stdlib.h>
+#include <sys/random.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -34,6 +44,8 @@
  * does not fit is dropped whole (never a part of one), and new reliable
  * messages wait (links_can_send) until a frame's worth is free. */
 #define OUTQ_SIZE (6u * IT2N_FRAME_MAX_WIRE)
+/* Most nodes one SAMPLE may ask for (protocol.md 5.8). */
+#define IT2N_SAMPLE_NODES_MAX 65536u
 
 struct link {
     struct conf_link cfg;
@@ -48,6 +60,7 @@ struct link {
     unsigned backoff_ms;
     long retry_timer, poll_timer;
     uint32_t entries;         /* entries accepted, for logs   */
+    uint32_t entries_idem;    /* entries re-sent as stored: no effect */
     /* A multi-frame response (SAMPLE_DATA or NET_ROW run) still to send,
      * produced lazily as the send window frees. */
     struct {
@@ -58,7 +71,17 @@ struct link {
     } job;
     it2n_msg rsp;             /* a single response waiting for the window */
     int has_rsp;
+    /* Requests waiting for the response (run) before them: unanswered,
+     * so the peer's window bounds the queue. */
+    struct {
+        uint16_t seq;
+        it2n_msg req;
+    } rq[IT2N_PROTO_WINDOW];
+    int nrq;
+    uint32_t lost;            /* frames dropped when declared down, to report */
+    uint32_t rto_ms;
     int peer;                 /* a HELLO came from the peer since the open */
+    uint32_t hello_session;   /* ... in this peer session (EVENTs go to it) */
     it2n_msg_event evq[EVQ_MAX];
     int nev;
     uint32_t ev_sent, ev_merged;
@@ -201,10 +224,11 @@ static void link_down(struct link *l, const char *why)
     l->backoff_ms = l->backoff_ms * 2 > (unsigned)backoff_max_ms ? (unsigned)backoff_max_ms : l->backoff_ms * 2;
 }
 
-static void hold(struct link *l, uint16_t seq)
+/* ACK seq once WAL batch `batch` is durable (links_release_upto). */
+static void hold(struct link *l, uint16_t seq, uint64_t batch)
 {
     if (l->nheld < HELD_MAX) {
-        l->held_batch[l->nheld] = store_batch();
+        l->held_batch[l->nheld] = batch;
         l->held[l->nheld++] = seq;
     }
 }
@@ -214,13 +238,13 @@ static void send_hello(struct link *l)
     it2n_msg m;
     memset(&m, 0, sizeof m);
     m.type = IT2N_MSG_HELLO;
-    m.u.hello.version_min = IT2N_PROTO_VERSION;
+    m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
     m.u.hello.version_max = IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
     m.u.hello.window = IT2N_PROTO_WINDOW;
     m.u.hello.caps = IT2N_CAP_SERVER | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1 | IT2N_CAP_EVENTS;
     m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
-    m.u.hello.max_models = (uint16_t)models_count();
+    m.u.hello.max_models = (uint16_t)models_count(); /* ids served (configured) */
     memcpy(m.u.hello.node, "it2nd", 5);
     it2n_link_send(&l->pl, &m, now32());
 }
@@ -234,6 +258,16 @@ static int model_state(const struct model *md)
     default: return IT2N_MS_EMPTY;
     }
 }
+
+/* SAMPLE_DATA points per frame: as many as the peer's max_payload takes. */
+static uint32_t sample_per_frame(const struct link *l)
+{
+    uint32_t k = (it2n_link_max_payload(&l->pl) - IT2N_SAMPLE_HDR) / IT2N_SAMPLE_POINT;
+    return k < IT2N_SAMPLE_MAX ? k : IT2N_SAMPLE_MAX;
+}
+
+static void serve_queue(struct link *l);
+static void pump_rsp(struct link *l);
 
 /* Send the queued EVENTs that fit the window, oldest first. */
 static void pump_events(struct link *l)
@@ -250,10 +284,17 @@ static void pump_events(struct link *l)
     }
 }
 
-/* Send what fits of the current SAMPLE / GET_NET job (after the EVENTs). */
+/* Send what fits of the current SAMPLE / GET_NET job (after the EVENTs),
+ * then start the next queued request once the response is out. */
 static void pump_job(struct link *l)
 {
     pump_events(l);
+    pump_rsp(l);
+    serve_queue(l);
+}
+
+static void pump_rsp(struct link *l)
+{
     if (l->has_rsp && can_send(l)) {
         l->has_rsp = 0;
         it2n_link_send(&l->pl, &l->rsp, now32());
@@ -279,7 +320,7 @@ static void pump_job(struct link *l)
             d->rows = l->job.rows;
             d->cols = l->job.cols;
             d->start = l->job.next;
-            d->count = (uint8_t)(left < IT2N_SAMPLE_MAX ? left : IT2N_SAMPLE_MAX);
+            d->count = (uint8_t)(left < sample_per_frame(l) ? left : sample_per_frame(l));
             for (unsigned k = 0; k < d->count; k++) {
                 uint32_t idx = d->start + k, r = idx / d->cols, c = idx % d->cols;
                 it2n_point pt;
@@ -315,21 +356,63 @@ static void pump_job(struct link *l)
     }
 }
 
+/* NACK with detail now; the callback's answer is then DEFER. */
+static int refuse(struct link *l, uint16_t seq, int code, const it2n_errinfo *err)
+{
+    log_info("link %s: seq %u refused: %s", l->cfg.name, seq, it2nd_strerror(code));
+    it2n_link_complete(&l->pl, seq, code, err);
+    return IT2N_LINK_DEFER;
+}
+
+static it2n_errinfo detail(int code, int64_t value, int64_t lo, int64_t hi)
+{
+    it2n_errinfo e;
+    memset(&e, 0, sizeof e);
+    e.code = code;
+    e.i = e.j = -1;
+    e.fp = e.ch = -1;
+    e.value = value;
+    e.lo = lo;
+    e.hi = hi;
+    return e;
+}
+
+/* Unknown model id: NACK MODEL, value = the id asked for. */
+static int refuse_model(struct link *l, uint16_t seq, unsigned id)
+{
+    it2n_errinfo e = detail(IT2N_PROTO_ERR_MODEL, id, 0, IT2N_MODEL_ALL - 1);
+    return refuse(l, seq, IT2N_PROTO_ERR_MODEL, &e);
+}
+
+/* A response of `size` bytes the peer announced it cannot take. */
+static int too_big(struct link *l, uint16_t seq, size_t size)
+{
+    it2n_errinfo e = detail(IT2N_PROTO_ERR_NOSPACE, (int64_t)size, 0, it2n_link_max_payload(&l->pl));
+    return refuse(l, seq, IT2N_PROTO_ERR_NOSPACE, &e);
+}
+
 /* SAMPLE / GET_NET: check, ACK, start the job. */
 static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint8_t fp, uint16_t rows, uint16_t cols)
 {
     struct model *md = models_by_id(model);
     if (!md)
-        return IT2N_PROTO_ERR_MODEL;
+        return refuse_model(l, seq, model);
     md = models_view(md);
     if (md->state != IT2N_RS_SOLVED)
         return IT2N_ERR_STATE;
-    if (!it2n_model_has_fp(&md->mdl, fp))
-        return IT2N_ERR_INVAL;
-    if (l->job.kind || l->has_rsp)
-        return IT2N_PROTO_ERR_BUSY; /* one response run at a time: retry */
-    if (kind == IT2N_MSG_SAMPLE && (uint32_t)rows * cols > 65536u)
-        return IT2N_ERR_RANGE; /* bound the work one request can cause */
+    if (!it2n_model_has_fp(&md->mdl, fp)) {
+        it2n_errinfo e = detail(IT2N_ERR_INVAL, fp, IT2N_FP_D, IT2N_FP_D);
+        e.fp = (int8_t)fp;
+        return refuse(l, seq, IT2N_ERR_INVAL, &e); /* type-1: only D */
+    }
+    if (kind == IT2N_MSG_SAMPLE && (uint32_t)rows * cols > IT2N_SAMPLE_NODES_MAX) {
+        /* bound the work one request can cause: value = nodes asked for */
+        it2n_errinfo e = detail(IT2N_ERR_RANGE, (int64_t)rows * cols, 4, IT2N_SAMPLE_NODES_MAX);
+        return refuse(l, seq, IT2N_ERR_RANGE, &e);
+    }
+    if (kind == IT2N_MSG_GET_NET &&
+        IT2N_NET_ROW_HDR + IT2N_SAMPLE_POINT * (md->mdl.m + 1u) > it2n_link_max_payload(&l->pl))
+        return too_big(l, seq, IT2N_NET_ROW_HDR + IT2N_SAMPLE_POINT * (md->mdl.m + 1u));
     it2n_link_complete(&l->pl, seq, 0, NULL);
     l->job.kind = kind;
     l->job.re = seq;
@@ -339,34 +422,103 @@ static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint
     l->job.cols = cols;
     l->job.next = 0;
     l->job.total = kind == IT2N_MSG_SAMPLE ? (uint32_t)rows * cols : md->mdl.n + 1u;
-    pump_job(l);
     return IT2N_LINK_DEFER;
 }
 
 /* ACK now, then send a response. */
-static int respond(struct link *l, uint16_t seq, const it2n_msg *rsp)
+static int respond(struct link *l, uint16_t seq, const it2n_msg *rsp, size_t size)
 {
-    if (l->has_rsp)
-        return IT2N_PROTO_ERR_BUSY; /* NACK before any effect: the host retries */
+    if (size > it2n_link_max_payload(&l->pl))
+        return too_big(l, seq, size);
     it2n_link_complete(&l->pl, seq, 0, NULL);
     l->rsp = *rsp;
     l->has_rsp = 1;
-    pump_job(l);
     return IT2N_LINK_DEFER;
 }
 
-static int refuse(struct link *l, uint16_t seq, int code, const it2n_errinfo *err)
+/* PUT entries not already stored with exactly these values: an entry equal
+ * to the stored one has had its effect (a re-sent PUT whose ACK was lost,
+ * e.g. across a restart of either side) and is skipped. */
+static void put_fresh(const struct model *md, const it2n_msg_put *p, it2n_msg_put *out)
 {
-    log_info("link %s: seq %u refused: %s", l->cfg.name, seq, it2nd_strerror(code));
-    it2n_link_complete(&l->pl, seq, code, err);
-    return IT2N_LINK_DEFER;
+    *out = *p;
+    out->count = 0;
+    for (unsigned k = 0; k < p->count; k++) {
+        const it2n_put_entry *e = &p->e[k];
+        it2n_val have[IT2N_CH_COUNT];
+        if (e->i <= md->ds.n && e->j <= md->ds.m && (md->ds.present[e->i][e->j] & (1u << e->fp))) {
+            it2n_dataset_get(&md->ds, e->i, e->j, e->fp, have);
+            if (!(md->ds.flags & IT2N_F_Z))
+                have[IT2N_CH_Z] = e->vals[IT2N_CH_Z]; /* z of a model without z: see do_put */
+            if (!memcmp(have, e->vals, sizeof have))
+                continue;
+        }
+        out->e[out->count++] = *e;
+    }
 }
 
 static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg_put *p)
 {
     struct model_txn t;
     it2n_errinfo err;
+    it2n_msg_put fresh;
     int rc = IT2N_OK;
+    if (p->flags & ~IT2N_PUT_REPLACE) { /* unknown flag bits: refused (protocol.md 5.4) */
+        it2n_errinfo e = detail(IT2N_PROTO_ERR_FIELD, p->flags, 1, IT2N_PUT_REPLACE);
+        return refuse(l, seq, IT2N_PROTO_ERR_FIELD, &e);
+    }
+    for (unsigned k = 0; k < p->count; k++) {
+        const it2n_put_entry *e = &p->e[k];
+        if (!(md->ds.flags & IT2N_F_Z) && e->vals[IT2N_CH_Z] != 0) {
+            /* z given for a model without z: refused, never dropped */
+            it2n_errinfo ez = detail(IT2N_ERR_RANGE, e->vals[IT2N_CH_Z], 0, 0);
+            ez.i = e->i;
+            ez.j = e->j;
+            ez.fp = (int8_t)e->fp;
+            ez.ch = IT2N_CH_Z;
+            return refuse(l, seq, IT2N_ERR_RANGE, &ez);
+        }
+        if ((md->ds.flags & IT2N_F_TYPE1) && e->fp != IT2N_FP_D) {
+            /* type-1 model: footprint D (3) only; lo..hi = 3..3 */
+            it2n_errinfo et = detail(IT2N_ERR_INVAL, e->fp, IT2N_FP_D, IT2N_FP_D);
+            et.i = e->i;
+            et.j = e->j;
+            et.fp = (int8_t)e->fp;
+            return refuse(l, seq, IT2N_ERR_INVAL, &et);
+        }
+        if (e->i > md->ds.n || e->j > md->ds.m) {
+            it2n_errinfo ei = detail(IT2N_ERR_INVAL, e->i > md->ds.n ? e->i : e->j, 0,
+                                     e->i > md->ds.n ? md->ds.n : md->ds.m);
+            ei.i = e->i;
+            ei.j = e->j;
+            ei.fp = (int8_t)e->fp;
+            return refuse(l, seq, IT2N_ERR_INVAL, &ei);
+        }
+    }
+    if (!(p->flags & IT2N_PUT_REPLACE)) {
+        put_fresh(md, p, &fresh);
+        if (fresh.count == 0) {
+            /* Every entry already stored as sent: success, no effect. ACK
+             * once what is stored is durable. */
+            l->entries_idem += p->count;
+            log_info("link %s: PUT seq %u: all %u entries already stored with these values (a re-sent PUT): "
+                     "success, no effect", l->cfg.name, seq, p->count);
+            if (store_degraded())
+                return refuse(l, seq, IT2ND_ERR_IO, NULL);
+            if (store_pending())
+                hold(l, seq, store_batch());
+            else if (store_busy())
+                hold(l, seq, store_batch() - 1);
+            else
+                return 0;
+            return IT2N_LINK_DEFER;
+        }
+        if (fresh.count < p->count)
+            log_info("link %s: PUT seq %u: %u of %u entries already stored with these values (a re-sent PUT): "
+                     "no effect", l->cfg.name, seq, p->count - fresh.count, p->count);
+        l->entries_idem += (uint32_t)(p->count - fresh.count);
+        p = &fresh;
+    }
     models_txn_begin(&t);
     for (unsigned k = 0; k < p->count && rc == IT2N_OK; k++)
         rc = models_put(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals, (p->flags & IT2N_PUT_REPLACE) != 0, &err);
@@ -375,77 +527,29 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
         it2n_errinfo keep = md->last_err;
         models_txn_rollback(&t);
         md->last_err = keep;
+        if (rc == IT2N_ERR_MISSING)
+            err.ch = -1;
         return refuse(l, seq, rc, &err);
     }
     models_txn_commit(&t);
     l->entries += p->count;
-    hold(l, seq);
+    hold(l, seq, store_batch());
     return IT2N_LINK_DEFER;
 }
 
-static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
+/* A query-type request (GET_STATUS, QUERY, LOCATE, SAMPLE, GET_NET):
+ * answered now (ACK + response, or NACK). Returns as on_rx does. */
+static int serve(struct link *l, uint16_t seq, const it2n_msg *msg)
 {
-    struct link *l = app;
     struct model *md = NULL;
-    it2n_errinfo err;
     it2n_msg rsp;
     int rc;
-    memset(&err, 0, sizeof err);
     memset(&rsp, 0, sizeof rsp);
     switch (msg->type) {
-    case IT2N_MSG_HELLO:
-        log_info("link %s: HELLO from '%.16s'", l->cfg.name, msg->u.hello.node);
-        l->peer = 1;
-        it2n_link_complete(&l->pl, seq, 0, NULL);
-        send_hello(l);
-        return IT2N_LINK_DEFER;
-    case IT2N_MSG_CONFIGURE:
-        log_info("link %s: CONFIGURE model %u: %ux%u, flags %u", l->cfg.name, msg->u.configure.model,
-                 msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags);
-        md = models_by_id(msg->u.configure.model);
-        if (!md)
-            return IT2N_PROTO_ERR_MODEL;
-        rc = models_configure(md, msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags, &err);
-        if (rc)
-            return refuse(l, seq, rc, &err);
-        hold(l, seq);
-        return IT2N_LINK_DEFER;
-    case IT2N_MSG_PUT:
-        log_info("link %s: PUT model %u: %u point(s) from (i=%u,j=%u,%s)%s", l->cfg.name, msg->u.put.model,
-                 msg->u.put.count, msg->u.put.count ? msg->u.put.e[0].i : 0u, msg->u.put.count ? msg->u.put.e[0].j : 0u,
-                 msg->u.put.count && it2n_fp_name(msg->u.put.e[0].fp) ? it2n_fp_name(msg->u.put.e[0].fp) : "-",
-                 (msg->u.put.flags & IT2N_PUT_REPLACE) ? ", replace" : "");
-        md = models_by_id(msg->u.put.model);
-        if (!md)
-            return IT2N_PROTO_ERR_MODEL;
-        return do_put(l, seq, md, &msg->u.put);
-    case IT2N_MSG_COMMIT:
-        log_info("link %s: COMMIT model %u", l->cfg.name, msg->u.model.model);
-        md = models_by_id(msg->u.model.model);
-        if (!md)
-            return IT2N_PROTO_ERR_MODEL;
-        rc = models_commit(md, &err);
-        if (rc)
-            return refuse(l, seq, rc, &err);
-        hold(l, seq);
-        return IT2N_LINK_DEFER;
-    case IT2N_MSG_RESET:
-        for (int k = 0; k < models_count(); k++) {
-            struct model *m = models_at(k);
-            if (msg->u.model.model == IT2N_MODEL_ALL || m->id == msg->u.model.model) {
-                if ((rc = models_clear(m)) != 0)
-                    return rc;
-                md = m;
-            }
-        }
-        if (!md)
-            return IT2N_PROTO_ERR_MODEL;
-        hold(l, seq);
-        return IT2N_LINK_DEFER;
     case IT2N_MSG_GET_STATUS:
         md = models_by_id(msg->u.model.model);
         if (!md)
-            return IT2N_PROTO_ERR_MODEL;
+            return refuse_model(l, seq, msg->u.model.model);
         md = models_view(md); /* readers: the last durable state */
         rsp.type = IT2N_MSG_STATUS;
         rsp.u.status.re = seq;
@@ -457,15 +561,17 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         rsp.u.status.missing = (uint16_t)it2n_dataset_missing(&md->ds);
         rsp.u.status.generation = md->gen;
         rsp.u.status.last_error = (int16_t)md->last_err.code;
-        return respond(l, seq, &rsp);
+        return respond(l, seq, &rsp, 15);
     case IT2N_MSG_QUERY: {
         it2n_point pt;
         md = models_by_id(msg->u.query.model);
         if (!md)
-            return IT2N_PROTO_ERR_MODEL;
+            return refuse_model(l, seq, msg->u.query.model);
         md = models_view(md); /* readers: the last durable state */
         if (md->state != IT2N_RS_SOLVED)
             return IT2N_ERR_STATE;
+        if (447 > it2n_link_max_payload(&l->pl))
+            return too_big(l, seq, 447);
         rc = it2n_eval(&md->mdl, it2n_par_from_wire(msg->u.query.u), it2n_par_from_wire(msg->u.query.w), &pt, NULL);
         if (rc)
             return rc;
@@ -477,16 +583,18 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         rsp.u.query_result.out_of_range = pt.out_of_range;
         memcpy(rsp.u.query_result.v, pt.v, sizeof pt.v);
         rsp.u.query_result.sum = pt.sum;
-        return respond(l, seq, &rsp);
+        return respond(l, seq, &rsp, 447);
     }
     case IT2N_MSG_LOCATE: {
         it2n_locate_result lr;
         md = models_by_id(msg->u.locate.model);
         if (!md)
-            return IT2N_PROTO_ERR_MODEL;
+            return refuse_model(l, seq, msg->u.locate.model);
         md = models_view(md); /* readers: the last durable state */
         if (md->state != IT2N_RS_SOLVED)
             return IT2N_ERR_STATE;
+        if (474 > it2n_link_max_payload(&l->pl))
+            return too_big(l, seq, 474);
         rc = it2n_locate(&md->mdl, msg->u.locate.x, msg->u.locate.y, &lr, NULL);
         if (rc)
             return rc;
@@ -503,13 +611,136 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
             w->residual = lr.fp[fp].residual;
             memcpy(w->v, lr.fp[fp].v, sizeof w->v);
         }
-        return respond(l, seq, &rsp);
+        return respond(l, seq, &rsp, 474);
     }
     case IT2N_MSG_SAMPLE:
         return start_job(l, seq, IT2N_MSG_SAMPLE, msg->u.sample.model, msg->u.sample.fp, msg->u.sample.rows,
                          msg->u.sample.cols);
-    case IT2N_MSG_GET_NET:
+    default: /* IT2N_MSG_GET_NET */
         return start_job(l, seq, IT2N_MSG_GET_NET, msg->u.get_net.model, msg->u.get_net.fp, 0, 0);
+    }
+}
+
+/* Queued requests, in order, once no response is in progress. */
+static void serve_queue(struct link *l)
+{
+    while (l->nrq && !l->job.kind && !l->has_rsp) {
+        uint16_t seq = l->rq[0].seq;
+        it2n_msg req = l->rq[0].req;
+        int r;
+        memmove(l->rq, l->rq + 1, (size_t)(l->nrq - 1) * sizeof l->rq[0]);
+        l->nrq--;
+        r = serve(l, seq, &req);
+        if (r != IT2N_LINK_DEFER)
+            it2n_link_complete(&l->pl, seq, r, NULL);
+        pump_events(l);
+        pump_rsp(l);
+    }
+}
+
+/* HELLO: a common version, the peer's limits, ACK, our HELLO. */
+static int on_hello(struct link *l, uint16_t seq, const it2n_msg_hello *h)
+{
+    if (h->version_max < IT2N_PROTO_VERSION_MIN || h->version_min > IT2N_PROTO_VERSION) {
+        it2n_errinfo e = detail(IT2N_PROTO_ERR_VERSION, h->version_max, IT2N_PROTO_VERSION_MIN, IT2N_PROTO_VERSION);
+        log_warn("link %s: peer '%.16s' speaks protocol versions %u..%u, this daemon %u..%u: refused",
+                 l->cfg.name, h->node, h->version_min, h->version_max, IT2N_PROTO_VERSION_MIN, IT2N_PROTO_VERSION);
+        return refuse(l, seq, IT2N_PROTO_ERR_VERSION, &e);
+    }
+    log_info("link %s: HELLO from '%.16s' (session %08x, window %u, max_payload %u)", l->cfg.name, h->node,
+             (unsigned)l->pl.peer_session, h->window, h->max_payload);
+    it2n_link_set_peer(&l->pl, h->window, h->max_payload);
+    l->peer = 1;
+    l->hello_session = l->pl.peer_session;
+    it2n_link_complete(&l->pl, seq, 0, NULL);
+    send_hello(l);
+    return IT2N_LINK_DEFER;
+}
+
+static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
+{
+    struct link *l = app;
+    struct model *md = NULL;
+    it2n_errinfo err;
+    int rc;
+    memset(&err, 0, sizeof err);
+    if (l->lost && l->nev < EVQ_MAX) {
+        /* The peer is back after we declared the link down: tell it. */
+        it2n_msg_event *ev = &l->evq[l->nev++];
+        memset(ev, 0, sizeof *ev);
+        ev->model = IT2N_MODEL_ALL;
+        ev->kind = IT2N_EV_LOST;
+        ev->code = IT2N_PROTO_ERR_DOWN;
+        ev->generation = l->lost;
+        l->lost = 0;
+    }
+    switch (msg->type) {
+    case IT2N_MSG_HELLO:
+        return on_hello(l, seq, &msg->u.hello);
+    case IT2N_MSG_CONFIGURE:
+        log_info("link %s: CONFIGURE model %u: %ux%u, flags %u", l->cfg.name, msg->u.configure.model,
+                 msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags);
+        md = models_by_id(msg->u.configure.model);
+        if (!md)
+            return refuse_model(l, seq, msg->u.configure.model);
+        rc = models_configure(md, msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags, &err);
+        if (rc)
+            return refuse(l, seq, rc, &err);
+        hold(l, seq, store_batch());
+        return IT2N_LINK_DEFER;
+    case IT2N_MSG_PUT:
+        log_info("link %s: PUT model %u: %u point(s) from (i=%u,j=%u,%s)%s", l->cfg.name, msg->u.put.model,
+                 msg->u.put.count, msg->u.put.count ? msg->u.put.e[0].i : 0u, msg->u.put.count ? msg->u.put.e[0].j : 0u,
+                 msg->u.put.count && it2n_fp_name(msg->u.put.e[0].fp) ? it2n_fp_name(msg->u.put.e[0].fp) : "-",
+                 (msg->u.put.flags & IT2N_PUT_REPLACE) ? ", replace" : "");
+        md = models_by_id(msg->u.put.model);
+        if (!md)
+            return refuse_model(l, seq, msg->u.put.model);
+        return do_put(l, seq, md, &msg->u.put);
+    case IT2N_MSG_COMMIT:
+        log_info("link %s: COMMIT model %u", l->cfg.name, msg->u.model.model);
+        md = models_by_id(msg->u.model.model);
+        if (!md)
+            return refuse_model(l, seq, msg->u.model.model);
+        rc = models_commit(md, &err);
+        if (rc) {
+            if (rc == IT2N_ERR_MISSING)
+                err.ch = -1;
+            return refuse(l, seq, rc, &err);
+        }
+        hold(l, seq, store_batch());
+        return IT2N_LINK_DEFER;
+    case IT2N_MSG_RESET:
+        for (int k = 0; k < models_count(); k++) {
+            struct model *m = models_at(k);
+            if (msg->u.model.model == IT2N_MODEL_ALL || m->id == msg->u.model.model) {
+                if ((rc = models_clear(m)) != 0)
+                    return rc;
+                md = m;
+            }
+        }
+        if (!md)
+            return refuse_model(l, seq, msg->u.model.model);
+        hold(l, seq, store_batch());
+        return IT2N_LINK_DEFER;
+    case IT2N_MSG_GET_STATUS:
+    case IT2N_MSG_QUERY:
+    case IT2N_MSG_LOCATE:
+    case IT2N_MSG_SAMPLE:
+    case IT2N_MSG_GET_NET:
+        if (l->job.kind || l->has_rsp || l->nrq) {
+            /* After the response in progress: unanswered until then, so
+             * the peer's window bounds the queue (never BUSY). */
+            if (l->nrq == IT2N_PROTO_WINDOW)
+                return IT2N_PROTO_ERR_BUSY; /* a peer ignoring the window */
+            l->rq[l->nrq].seq = seq;
+            l->rq[l->nrq].req = *msg;
+            l->nrq++;
+            return IT2N_LINK_DEFER;
+        }
+        rc = serve(l, seq, msg);
+        pump_job(l);
+        return rc;
     default:
         return IT2N_PROTO_ERR_TYPE;
     }
@@ -570,9 +801,26 @@ static void usb_gone(void *arg, const char *why)
 static void on_poll(void *arg)
 {
     struct link *l = arg;
-    it2n_link_poll(&l->pl, now32());
+    uint32_t now = now32();
+    it2n_link_poll(&l->pl, now);
+    if (l->cfg.peer_timeout_ms > 0 && it2n_link_stalled_ms(&l->pl, now) > (uint32_t)l->cfg.peer_timeout_ms) {
+        /* The peer has not answered for peer_timeout_ms: declared down.
+         * What we could not deliver is dropped and counted; the peer is
+         * told (EVENT LOST) when it speaks again. */
+        unsigned n = it2n_link_drop_tx(&l->pl);
+        unsigned more = (unsigned)l->nev + (l->has_rsp ? 1u : 0u) + (l->job.kind ? 1u : 0u);
+        l->lost += n + more;
+        l->nev = 0;
+        l->has_rsp = 0;
+        l->job.kind = 0;
+        l->nrq = 0; /* unanswered requests: the peer resends them */
+        log_warn("link %s: peer silent for %d ms: declared down, %u frame(s) dropped (EVENT LOST follows "
+                 "when it speaks again)", l->cfg.name, l->cfg.peer_timeout_ms, n + more);
+    }
     pump_job(l);
-    l->poll_timer = loop_add_timer(100, on_poll, l);
+    /* next: when a retransmission is due (the RTO may be short), else 100 ms */
+    uint32_t next = it2n_link_next_timeout(&l->pl, now32());
+    l->poll_timer = loop_add_timer(next < 5 ? 5 : next > 100 ? 100 : (int)next, on_poll, l);
 }
 
 static void link_open(void *arg)
@@ -600,10 +848,22 @@ static void link_open(void *arg)
     cfg.on_rx = on_rx;
     cfg.on_done = on_done;
     cfg.app = l;
-    cfg.rto_ms = 300;
-    cfg.max_tries = 5;
-    cfg.first_seq = (uint16_t)loop_now_ms();
+    cfg.rto_ms = links_rto_ms(&l->cfg);
+    cfg.rto_max_ms = 8 * cfg.rto_ms;
+    cfg.max_tries = 0; /* never abandoned: retried until declared down */
+    /* A new session id and first sequence number on every open, so that
+     * a peer never takes our frames for a previous session's. */
+    {
+        uint32_t rnd[2] = {0, 0};
+        if (getrandom(rnd, sizeof rnd, GRND_NONBLOCK) != (ssize_t)sizeof rnd) {
+            rnd[0] = (uint32_t)loop_now_ms() ^ ((uint32_t)getpid() << 16);
+            rnd[1] = rnd[0] * 2654435761u;
+        }
+        cfg.session = rnd[0] ? rnd[0] : 1u; /* 0 means "no id" */
+        cfg.first_seq = (uint16_t)rnd[1];
+    }
     it2n_link_init(&l->pl, &cfg);
+    l->rto_ms = cfg.rto_ms;
     l->up = 1;
     l->nstage = 0;
     l->stage_bad = 0;
@@ -612,12 +872,27 @@ static void link_open(void *arg)
     l->nheld = 0;
     l->job.kind = 0;
     l->has_rsp = 0;
+    l->nrq = 0;
     l->peer = 0;
     l->nev = 0;
     if (l->fd >= 0)
         loop_add_fd(l->fd, POLLIN, on_serial, l);
     l->poll_timer = loop_add_timer(100, on_poll, l);
     log_notice("link %s: open (%s)", l->cfg.name, l->cfg.type == CONF_LINK_SERIAL ? l->cfg.device : "usb");
+}
+
+/* The first retransmission timeout of a link: rto_ms, or derived from the
+ * baud rate: the time (W + 1) maximum frames take on the line (our frame
+ * may queue behind W others, then the answer) plus 50 ms for the peer;
+ * 100 ms on USB. */
+uint32_t links_rto_ms(const struct conf_link *c)
+{
+    if (c->rto_ms > 0)
+        return (uint32_t)c->rto_ms;
+    if (c->type == CONF_LINK_USB || c->baud <= 0)
+        return 100;
+    return 50u + (uint32_t)(((uint64_t)(IT2N_PROTO_WINDOW + 1) * IT2N_FRAME_MAX_WIRE * 10u * 1000u +
+                             (uint64_t)c->baud - 1u) / (uint64_t)c->baud);
 }
 
 /* Hotplug arrival: retry waiting USB links now instead of after backoff. */
@@ -687,6 +962,8 @@ void links_release_upto(uint64_t batch, int commit_ok)
             it2n_link_complete(&l->pl, l->held[h], commit_ok ? 0 : IT2ND_ERR_IO, NULL);
         }
         l->nheld = keep;
+        if (l->up)
+            pump_job(l); /* EVENTs of this commit go out after its ACKs */
     }
 }
 
@@ -732,8 +1009,8 @@ void links_event(const struct model *md, int old_state)
     for (int k = 0; k < nlinks; k++) {
         struct link *l = &links[k];
         int q;
-        if (!l->up || !l->peer)
-            continue;
+        if (!l->up || !l->peer || l->pl.peer_session != l->hello_session)
+            continue; /* EVENTs only to a peer session that said HELLO */
         /* Coalesce: a queued EVENT of this model is replaced in place. */
         for (q = 0; q < l->nev && l->evq[q].model != ev.model; q++) {
         }
@@ -746,7 +1023,8 @@ void links_event(const struct model *md, int old_state)
             log_warn("link %s: EVENT queue full; model %u event dropped", l->cfg.name, ev.model);
             continue;
         }
-        pump_events(l);
+        if (!l->nheld)
+            pump_events(l); /* else after the ACKs (links_release_upto) */
     }
 }
 

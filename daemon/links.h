@@ -6,6 +6,8 @@
 #ifndef IT2ND_LINKS_H
 #define IT2ND_LINKS_H
 
+#include <stdint.h>
+
 #include "conf.h"
 
 /* Open every configured link (failures retry with backoff). */
@@ -31,5 +33,8 @@ struct links_out_stats {
 int links_out_stats(int k, struct links_out_stats *st);
 /* Links currently open (for STATUS= and tests). */
 int links_up(void);
+/* First retransmission timeout of a link (ms): its rto_ms key, else
+ * derived from the baud rate (docs/daemon.md "Links"). */
+uint32_t links_rto_ms(const struct conf_link *c);
 
 #endif

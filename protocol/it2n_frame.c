@@ -76,7 +76,7 @@ int it2n_frame_write(it2n_ostream *os, const it2n_frame_hdr *hdr,
     static const uint8_t delim = 0u;
     cobs_out co;
 
-    if (len > IT2N_PROTO_MAX_PAYLOAD || hdr->len != len)
+    if (len > IT2N_FRAME_MAX_LEN || hdr->len != len)
         return IT2N_PROTO_ERR_OVERSIZE;
     put_hdr(h, hdr);
     put_crc(c, frame_crc(h, payload, len));

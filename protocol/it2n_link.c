@@ -13,22 +13,58 @@
 #define H_ANSWERED 2u
 
 #define W IT2N_PROTO_WINDOW
+#define SESS IT2N_FRAME_SESSION_SIZE
 
 static bool due(uint32_t now, uint32_t deadline)
 {
     return (uint32_t)(now - deadline) < 0x80000000u;
 }
 
+static void put_u32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)(v & 0xFFu);
+    p[1] = (uint8_t)((v >> 8) & 0xFFu);
+    p[2] = (uint8_t)((v >> 16) & 0xFFu);
+    p[3] = (uint8_t)(v >> 24);
+}
+
+static uint32_t get_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
+           ((uint32_t)p[3] << 24);
+}
+
 int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
 {
     if (cfg == NULL || cfg->out == NULL || cfg->out->write == NULL ||
-        cfg->on_rx == NULL || cfg->rto_ms == 0u || cfg->max_tries == 0u)
+        cfg->on_rx == NULL || cfg->rto_ms == 0u)
         return IT2N_ERR_INVAL;
     memset(l, 0, sizeof *l);
     l->cfg = *cfg;
+    if (l->cfg.rto_max_ms < l->cfg.rto_ms)
+        l->cfg.rto_max_ms = l->cfg.rto_ms > UINT32_MAX / 8u
+                                ? UINT32_MAX
+                                : 8u * l->cfg.rto_ms;
     l->tx_next = cfg->first_seq;
+    l->peer_window = W;
+    l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
     it2n_frame_decoder_init(&l->dec);
     return IT2N_OK;
+}
+
+void it2n_link_set_peer(it2n_link *l, uint8_t window, uint16_t max_payload)
+{
+    if (window > 0u)
+        l->peer_window = window < W ? window : (uint8_t)W;
+    if (max_payload > 0u)
+        l->peer_max_payload = max_payload < IT2N_PROTO_MAX_PAYLOAD
+                                  ? max_payload
+                                  : (uint16_t)IT2N_PROTO_MAX_PAYLOAD;
+}
+
+uint16_t it2n_link_max_payload(const it2n_link *l)
+{
+    return l->peer_max_payload;
 }
 
 /* ---- sender ------------------------------------------------------------- */
@@ -67,29 +103,59 @@ bool it2n_link_can_send(const it2n_link *l)
     if (old == NULL)
         return true;
     /* Until the peer accepted our SYN frame, it travels alone; otherwise
-     * the span of sequence numbers in flight stays below the window so the
-     * receiver's duplicate history always covers every retransmission. */
+     * the span of sequence numbers in flight stays below the window (ours
+     * and the peer's) so the receiver's history covers every
+     * retransmission and its reorder buffer every frame ahead. */
     if (!l->tx_synced)
         return false;
-    return (uint16_t)(l->tx_next - old->seq) < W;
+    return (uint16_t)(l->tx_next - old->seq) < l->peer_window;
+}
+
+uint32_t it2n_link_stalled_ms(const it2n_link *l, uint32_t now)
+{
+    const it2n_link_slot *old = oldest_of(l);
+    return old == NULL ? 0u : now - old->first;
+}
+
+static uint32_t rto_for(const it2n_link *l, unsigned tries)
+{
+    uint32_t rto = l->cfg.rto_ms;
+    /* Exponential backoff from the second retransmission on: rto, rto,
+     * 2 rto, 4 rto ... up to rto_max_ms (one loss is not an outage). */
+    while (tries > 2u && rto < l->cfg.rto_max_ms) {
+        rto = rto > l->cfg.rto_max_ms / 2u ? l->cfg.rto_max_ms : 2u * rto;
+        tries--;
+    }
+    return rto;
 }
 
 static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
 {
     it2n_frame_hdr h;
+    const uint8_t *p = s->buf + SESS;
     h.version = IT2N_PROTO_VERSION;
     h.type = s->type;
     h.flags = (uint8_t)(IT2N_FLAG_REL | s->flags |
                         (s->tries > 0u ? IT2N_FLAG_RETX : 0u));
     h.seq = s->seq;
     h.len = s->len;
+    if (s->flags & IT2N_FLAG_SYN) {
+        /* v1.1: a SYN frame's payload starts with our session id. */
+        put_u32(s->buf, l->cfg.session);
+        p = s->buf;
+        h.len = (uint16_t)(s->len + SESS);
+    }
     if (s->tries > 0u)
         l->stats.tx_retx++;
+    else
+        s->first = now;
+    s->last = now;
     l->stats.tx_frames++;
     /* A stream error only loses this transmission; the timer retries. */
-    (void)it2n_frame_write(l->cfg.out, &h, s->payload, s->len);
-    s->tries++;
-    s->deadline = now + l->cfg.rto_ms;
+    (void)it2n_frame_write(l->cfg.out, &h, p, h.len);
+    if (s->tries < 255u)
+        s->tries++;
+    s->deadline = now + rto_for(l, s->tries);
 }
 
 int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
@@ -98,7 +164,8 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
     unsigned k;
     int len;
 
-    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK)
+    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK ||
+        msg->type == IT2N_MSG_GAP)
         return IT2N_PROTO_ERR_TYPE; /* link-internal, never reliable */
     if (!it2n_link_can_send(l))
         return IT2N_PROTO_ERR_BUSY;
@@ -107,9 +174,11 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
             s = &l->slot[k];
     if (s == NULL)
         return IT2N_PROTO_ERR_BUSY;
-    len = it2n_msg_pack(msg, s->payload, sizeof s->payload, NULL);
+    len = it2n_msg_pack(msg, s->buf + SESS, IT2N_PROTO_MAX_PAYLOAD, NULL);
     if (len < 0)
         return len;
+    if (len > (int)l->peer_max_payload)
+        return IT2N_PROTO_ERR_NOSPACE; /* the peer could not take it */
     s->used = 1;
     s->tries = 0;
     s->type = msg->type;
@@ -132,6 +201,48 @@ static void finish(it2n_link *l, it2n_link_slot *s, int code,
         l->cfg.on_done(l->cfg.app, seq, type, code, nack);
 }
 
+unsigned it2n_link_drop_tx(it2n_link *l)
+{
+    unsigned k, n = 0;
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *s = &l->slot[k];
+        if (!s->used)
+            continue;
+        s->flags = 0; /* dropped, not accepted: no implied sync */
+        finish(l, s, IT2N_PROTO_ERR_DOWN, NULL);
+        n++;
+    }
+    l->stats.tx_dropped += n;
+    l->tx_synced = 0;
+    return n;
+}
+
+static it2n_link_slot *slot_of(it2n_link *l, uint16_t seq)
+{
+    unsigned k;
+    for (k = 0; k < W; k++)
+        if (l->slot[k].used && l->slot[k].seq == seq)
+            return &l->slot[k];
+    return NULL;
+}
+
+/* GAP from the receiver: it just kept frame `have` but misses `seq`. If
+ * our last copy of seq left no later than the copy of `have` it got (a
+ * line keeps order), that copy was lost: send it again now rather than at
+ * its timeout. A copy sent after `have` may still be on its way: wait. If
+ * `have` is no longer in flight, a quarter RTO since the last copy. */
+static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint32_t now)
+{
+    it2n_link_slot *s = slot_of(l, seq), *h = slot_of(l, have);
+    if (s == NULL || !l->tx_synced || h == s)
+        return;
+    if (h != NULL ? (int32_t)(h->last - s->last) >= 0
+                  : (uint32_t)(now - s->last) >= (l->cfg.rto_ms + 3u) / 4u) {
+        l->stats.tx_fast_retx++;
+        transmit(l, s, now);
+    }
+}
+
 static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
 {
     uint16_t seq = m->type == IT2N_MSG_ACK ? m->u.ack.seq : m->u.nack.seq;
@@ -147,8 +258,22 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
     }
     l->stats.rx_acks++;
     if (m->type == IT2N_MSG_ACK) {
+        uint16_t age = (uint16_t)(l->tx_next - seq);
+        uint32_t acked_last = s->last;
         l->stats.tx_acked++;
         finish(l, s, IT2N_OK, NULL);
+        /* Frames are delivered in order: an older frame still unanswered
+         * whose last copy left no later than the acknowledged one's was
+         * delivered too, and its answer was lost (or is deferred, then the
+         * copy is ignored): send it again now, not at its timeout. */
+        for (k = 0; k < W; k++) {
+            it2n_link_slot *o = &l->slot[k];
+            if (o->used && l->tx_synced && (uint16_t)(l->tx_next - o->seq) > age &&
+                (int32_t)(acked_last - o->last) >= 0) {
+                l->stats.tx_fast_retx++;
+                transmit(l, o, now);
+            }
+        }
     } else if (m->u.nack.code == IT2N_PROTO_ERR_NOSYNC) {
         /* Peer lost its state (restart): resend the oldest frame with SYN,
          * the others follow once it is accepted. */
@@ -172,10 +297,11 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
         it2n_link_slot *s = &l->slot[k];
         if (!s->used || !due(now, s->deadline))
             continue;
-        if (s->tries >= l->cfg.max_tries) {
+        if (l->cfg.max_tries != 0u && s->tries >= l->cfg.max_tries) {
             /* Lost for good: report it and resync the rest, so the
              * receiver does not wait for this sequence number forever. */
             l->stats.tx_timeouts++;
+            s->flags = 0;
             finish(l, s, IT2N_PROTO_ERR_TIMEOUT, NULL);
             l->tx_synced = 0;
             continue;
@@ -183,7 +309,7 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
         if (!l->tx_synced) {
             it2n_link_slot *old = oldest_slot(l);
             if (old != s) {
-                s->deadline = now + l->cfg.rto_ms; /* wait for the SYN */
+                s->deadline = now + rto_for(l, s->tries); /* wait for SYN */
                 continue;
             }
             s->flags |= IT2N_FLAG_SYN;
@@ -211,7 +337,9 @@ uint32_t it2n_link_next_timeout(const it2n_link *l, uint32_t now)
 
 /* ---- receiver ----------------------------------------------------------- */
 
-static void send_answer(it2n_link *l, const it2n_msg_nack *a)
+/* Send ACK/NACK a, framed with version `ver` (ours, or an older peer's so
+ * that it can read the refusal: ACK and NACK never change layout). */
+static void send_answer_v(it2n_link *l, const it2n_msg_nack *a, uint8_t ver)
 {
     it2n_msg m;
     uint8_t buf[64];
@@ -229,12 +357,17 @@ static void send_answer(it2n_link *l, const it2n_msg_nack *a)
     len = it2n_msg_pack(&m, buf, sizeof buf, NULL);
     if (len < 0)
         return;
-    h.version = IT2N_PROTO_VERSION;
+    h.version = ver;
     h.type = m.type;
     h.flags = 0;
     h.seq = 0;
     h.len = (uint16_t)len;
     (void)it2n_frame_write(l->cfg.out, &h, buf, (size_t)len);
+}
+
+static void send_answer(it2n_link *l, const it2n_msg_nack *a)
+{
+    send_answer_v(l, a, IT2N_PROTO_VERSION);
 }
 
 static void nack_plain(it2n_msg_nack *a, uint16_t seq, int code)
@@ -252,8 +385,12 @@ static it2n_link_hist *hist_find(it2n_link *l, uint16_t seq)
     return h->state != H_EMPTY && h->seq == seq ? h : NULL;
 }
 
-int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
-                       const it2n_errinfo *detail)
+static void drain(it2n_link *l);
+
+/* Record and send the answer to seq (no delivery of kept frames here, so
+ * drain -> deliver -> answer has no cycle). */
+static int answer(it2n_link *l, uint16_t seq, int code,
+                  const it2n_errinfo *detail)
 {
     it2n_link_hist *h = hist_find(l, seq);
     if (h == NULL || h->state != H_WAITING)
@@ -273,26 +410,41 @@ int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
     return IT2N_OK;
 }
 
-static void deliver(it2n_link *l, const it2n_frame_hdr *fh, const uint8_t *p)
+int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
+                       const it2n_errinfo *detail)
 {
-    it2n_link_hist *h = &l->hist[fh->seq % W];
+    int r = answer(l, seq, code, detail);
+    if (r == IT2N_OK)
+        drain(l); /* a frame kept behind this answer may go on now */
+    return r;
+}
+
+/* Can rx_next be delivered now? Not while the application still owes an
+ * answer to the frame W before it (same history entry). */
+static bool can_deliver(const it2n_link *l, uint16_t seq)
+{
+    return l->hist[seq % W].state != H_WAITING;
+}
+
+/* Deliver frame seq = rx_next (message body p, len bytes). */
+static void deliver(it2n_link *l, uint16_t seq, uint8_t type,
+                    const uint8_t *p, size_t len)
+{
+    it2n_link_hist *h = &l->hist[seq % W];
     it2n_proto_errinfo info;
     it2n_msg m;
+    uint8_t was;
     int r;
 
-    if (h->state == H_WAITING) { /* the app still owes seq - W an answer */
-        l->stats.rx_ahead++;
-        return;
-    }
-    h->seq = fh->seq;
+    h->seq = seq;
     h->state = H_WAITING;
-    l->rx_next = (uint16_t)(fh->seq + 1u);
-    r = it2n_msg_unpack(fh->type, p, fh->len, &m, &info);
+    l->rx_next = (uint16_t)(seq + 1u);
+    r = it2n_msg_unpack(type, p, len, &m, &info);
     if (r < 0) {
         /* Malformed message: answered by the link, never delivered. The
          * detail says where: lo = payload offset, value found, hi = limit. */
         l->stats.rx_bad_msg++;
-        nack_plain(&h->answer, fh->seq, r);
+        nack_plain(&h->answer, seq, r);
         h->answer.lo = info.offset;
         h->answer.value = info.value;
         h->answer.hi = info.limit;
@@ -301,9 +453,37 @@ static void deliver(it2n_link *l, const it2n_frame_hdr *fh, const uint8_t *p)
         return;
     }
     l->stats.rx_delivered++;
-    r = l->cfg.on_rx(l->cfg.app, fh->seq, &m);
+    /* No delivery from inside the callback (an answer given there must not
+     * run the next frame's callback before this one returns). */
+    was = l->draining;
+    l->draining = 1;
+    r = l->cfg.on_rx(l->cfg.app, seq, &m);
+    l->draining = was;
     if (r != IT2N_LINK_DEFER)
-        (void)it2n_link_complete(l, fh->seq, r, NULL);
+        (void)answer(l, seq, r, NULL);
+}
+
+/* Deliver kept frames that are now in order. Not re-entered: callbacks
+ * that answer at once come back through it2n_link_complete. */
+static void drain(it2n_link *l)
+{
+#if IT2N_PROTO_RX_REORDER
+    unsigned guard;
+    if (l->draining)
+        return;
+    l->draining = 1;
+    for (guard = 0; guard < W; guard++) {
+        it2n_link_rxbuf *b = &l->rxbuf[l->rx_next % W];
+        if (!b->used || b->seq != l->rx_next || !can_deliver(l, b->seq))
+            break;
+        b->used = 0;
+        deliver(l, b->seq, b->type, b->payload, b->len);
+        l->draining = 1;
+    }
+    l->draining = 0;
+#else
+    (void)l;
+#endif
 }
 
 static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
@@ -311,13 +491,58 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
 {
     it2n_link_hist *h;
     it2n_msg_nack a;
+    size_t len = fh->len;
+    uint16_t ahead;
 
     if (fh->flags & IT2N_FLAG_SYN) {
-        if (!l->rx_synced || hist_find(l, fh->seq) == NULL) {
-            /* New sequence (peer started or resynced): forget the old. */
+        uint32_t sess;
+        if (len < SESS) { /* no session id: cannot start a sequence */
+            l->stats.rx_bad_msg++;
+            nack_plain(&a, fh->seq, IT2N_PROTO_ERR_PAYLOAD);
+            a.value = (int64_t)len;
+            a.lo = 0;
+            a.hi = SESS;
+            send_answer(l, &a);
+            return;
+        }
+        sess = get_u32(p);
+        p += SESS;
+        len -= SESS;
+        /* A SYN frame is a retransmission only if it belongs to the
+         * current peer session and its number is in the history; anything
+         * else starts a new sequence (a restarted peer has a new id). */
+        if (l->rx_synced && sess == l->peer_session && sess != 0u &&
+            hist_find(l, fh->seq) == NULL &&
+            (uint16_t)(l->rx_next - fh->seq) - 1u < 0x7FFFu) {
+            /* This session's SYN from behind `next` and out of the
+             * history: a stale copy (a sender never restarts a sequence
+             * behind what it sent); not a new sequence. */
+            l->stats.rx_ahead++;
+            return;
+        }
+        /* Session id 0 is "no id": every SYN frame of it starts a new
+         * sequence (never mistaken for an old session's frame; a SYN copy
+         * whose ACK was lost is delivered again — it travels alone). */
+        if (!l->rx_synced || sess != l->peer_session || sess == 0u ||
+            hist_find(l, fh->seq) == NULL) {
+            if (!l->rx_synced || sess != l->peer_session) {
+                /* a new peer session: its limits are unknown until its
+                 * HELLO (delivered next, if this frame is one) */
+                l->stats.rx_sessions++;
+                l->peer_window = W;
+                l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
+            }
             l->rx_synced = 1;
+            l->peer_session = sess;
             l->rx_next = fh->seq;
             memset(l->hist, 0, sizeof l->hist);
+#if IT2N_PROTO_RX_REORDER
+            {
+                unsigned k;
+                for (k = 0; k < W; k++)
+                    l->rxbuf[k].used = 0;
+            }
+#endif
         }
     } else if (!l->rx_synced) {
         l->stats.rx_nosync++;
@@ -325,8 +550,9 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         send_answer(l, &a);
         return;
     }
-    if (fh->seq == l->rx_next) {
-        deliver(l, fh, p);
+    if (fh->seq == l->rx_next && can_deliver(l, fh->seq)) {
+        deliver(l, fh->seq, fh->type, p, len);
+        drain(l);
         return;
     }
     h = hist_find(l, fh->seq);
@@ -336,33 +562,85 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
             send_answer(l, &h->answer); /* our answer was lost: repeat it */
         return;
     }
-    l->stats.rx_ahead++; /* out of order or stale: the sender retries */
+    ahead = (uint16_t)(fh->seq - l->rx_next);
+#if IT2N_PROTO_RX_REORDER
+    if (ahead < W && len <= IT2N_PROTO_MAX_PAYLOAD) {
+        /* Ahead of a gap (or behind an unanswered frame): keep it. */
+        it2n_link_rxbuf *b = &l->rxbuf[fh->seq % W];
+        if (!b->used || b->seq != fh->seq) {
+            b->used = 1;
+            b->seq = fh->seq;
+            b->type = fh->type;
+            b->len = (uint16_t)len;
+            memcpy(b->payload, p, len);
+            l->stats.rx_buffered++;
+            if (ahead > 0u && !(l->rxbuf[l->rx_next % W].used &&
+                                l->rxbuf[l->rx_next % W].seq == l->rx_next)) {
+                /* a gap: tell the sender which frame we miss */
+                it2n_msg g;
+                uint8_t gb[4];
+                it2n_frame_hdr gh;
+                g.type = IT2N_MSG_GAP;
+                g.u.gap.seq = l->rx_next;
+                g.u.gap.have = fh->seq;
+                if (it2n_msg_pack(&g, gb, sizeof gb, NULL) == 4) {
+                    gh.version = IT2N_PROTO_VERSION;
+                    gh.type = IT2N_MSG_GAP;
+                    gh.flags = 0;
+                    gh.seq = 0;
+                    gh.len = 4;
+                    (void)it2n_frame_write(l->cfg.out, &gh, gb, 4u);
+                    l->stats.tx_gaps++;
+                }
+            }
+        }
+        return;
+    }
+#endif
+    (void)ahead;
+    l->stats.rx_ahead++; /* out of window or stale: the sender retries */
 }
 
 static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
                      const uint8_t *p, uint32_t now)
 {
     if (r == IT2N_PROTO_ERR_VERSION) {
-        /* Intact frame of another version: tell a reliable sender which
-         * version we speak (NACK value) instead of letting it retry. */
+        /* ACK and NACK have one layout in every version: read an older
+         * peer's answers (its VERSION refusal, notably). */
+        if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK) {
+            it2n_msg m;
+            if (fh->version >= 1u && (fh->flags & IT2N_FLAG_REL) == 0u &&
+                it2n_msg_unpack(fh->type, p, fh->len, &m, NULL) == IT2N_OK)
+                on_answer(l, &m, now);
+            return;
+        }
+        /* Intact reliable frame of another version: tell the sender which
+         * versions we speak (NACK value/lo/hi), framed in its version when
+         * it is older so that it can read the refusal. */
         if (fh->flags & IT2N_FLAG_REL) {
             it2n_msg_nack a;
             nack_plain(&a, fh->seq, IT2N_PROTO_ERR_VERSION);
             a.value = fh->version;
-            a.lo = IT2N_PROTO_VERSION;
+            a.lo = IT2N_PROTO_VERSION_MIN;
             a.hi = IT2N_PROTO_VERSION;
-            send_answer(l, &a);
+            send_answer_v(l, &a,
+                          fh->version >= 1u && fh->version < IT2N_PROTO_VERSION
+                              ? fh->version
+                              : (uint8_t)IT2N_PROTO_VERSION);
         }
         return;
     }
     if (r != 1)
         return; /* damaged: counted by the decoder, sender retransmits */
-    if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK) {
+    if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK ||
+        fh->type == IT2N_MSG_GAP) {
         it2n_msg m;
-        if (it2n_msg_unpack(fh->type, p, fh->len, &m, NULL) == IT2N_OK)
-            on_answer(l, &m, now);
-        else
+        if (it2n_msg_unpack(fh->type, p, fh->len, &m, NULL) != IT2N_OK)
             l->stats.rx_bad_msg++;
+        else if (m.type == IT2N_MSG_GAP)
+            on_gap(l, m.u.gap.seq, m.u.gap.have, now);
+        else
+            on_answer(l, &m, now);
         return;
     }
     if (!(fh->flags & IT2N_FLAG_REL)) {

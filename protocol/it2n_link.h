@@ -5,18 +5,24 @@
  * every entry point takes `now` in milliseconds (any monotonic origin,
  * wrapping at 2^32). Each direction has its own 16-bit sequence space.
  *
- * Sender: up to IT2N_PROTO_WINDOW reliable frames in flight, each kept in
- * the context until ACKed or NACKed and retransmitted after rto_ms; after
- * max_tries transmissions the frame is given up (IT2N_PROTO_ERR_TIMEOUT).
- * The first frame of a sequence carries IT2N_FLAG_SYN and travels alone.
+ * Sender: up to IT2N_PROTO_WINDOW reliable frames in flight (fewer when
+ * the peer announced a smaller window, it2n_link_set_peer), each kept in
+ * the context until ACKed or NACKed and retransmitted after the RTO, which
+ * doubles on every retransmission up to rto_max_ms; after max_tries
+ * transmissions (0 = never) the frame is given up (IT2N_PROTO_ERR_TIMEOUT).
+ * The first frame of a sequence carries IT2N_FLAG_SYN and the sender's
+ * session id, and travels alone.
  *
  * Receiver: delivers reliable frames once and in order. The application
  * answers each delivery at once (return 0 or a negative NACK code from the
  * callback) or later (return IT2N_LINK_DEFER and call it2n_link_complete,
  * e.g. after fsync). A retransmission of a frame already answered is
  * re-answered with the same ACK/NACK and NOT delivered again; one still
- * awaiting its answer is ignored. Frames ahead of the expected sequence
- * number are dropped (the sender retransmits them).
+ * awaiting its answer is ignored. A SYN frame is a retransmission only when
+ * it carries the current peer session id and its number is in the
+ * history: a restarted peer (new session id) always starts a new sequence.
+ * Frames ahead of the expected sequence number (within the window) are
+ * kept and delivered once the gap is filled (IT2N_PROTO_RX_REORDER).
  *
  * Contexts are plain structs in caller memory; any number may coexist.
  * The callbacks may call it2n_link_send / it2n_link_complete on the same
@@ -52,24 +58,48 @@ typedef struct it2n_link_cfg {
     it2n_link_rx_fn on_rx;  /* required                           */
     it2n_link_done_fn on_done; /* may be NULL                      */
     void *app;              /* passed to the callbacks             */
-    uint32_t rto_ms;        /* retransmission timeout, >= 1        */
-    uint8_t max_tries;      /* transmissions before giving up, >=1 */
-    uint16_t first_seq;     /* initial sequence number             */
+    uint32_t rto_ms;        /* first retransmission timeout, >= 1  */
+    uint8_t max_tries;      /* transmissions before giving up,
+                               0 = retry until the app gives up    */
+    uint16_t first_seq;     /* initial sequence number (random)    */
+    /* v1.1 (added at the end: older positional initialisers still
+     * compile and get 0 = defaults). */
+    uint32_t session;       /* this session's id: must differ from
+                               every earlier session of this sender
+                               (random, or a persisted boot counter);
+                               0 = none: then a retransmitted SYN frame
+                               may be delivered twice (docs/protocol.md
+                               4.3 rule 1)                           */
+    uint32_t rto_max_ms;    /* backoff cap; 0 = 8 x rto_ms          */
 } it2n_link_cfg;
 
 typedef struct it2n_link_stats {
     uint32_t tx_frames, tx_retx, tx_acked, tx_nacked, tx_timeouts;
     uint32_t rx_delivered, rx_dup, rx_ahead, rx_nosync, rx_bad_msg;
     uint32_t rx_acks, rx_stale_acks;
+    uint32_t rx_buffered;   /* frames kept ahead of a gap          */
+    uint32_t rx_sessions;   /* new peer sessions seen              */
+    uint32_t tx_dropped;    /* frames dropped by it2n_link_drop_tx */
+    uint32_t tx_gaps;       /* GAPs sent (we hold frames past a gap) */
+    uint32_t tx_fast_retx;  /* retransmissions on a peer's GAP      */
 } it2n_link_stats;
 
-/* One sender slot: a reliable frame in flight. */
+/* One sender slot: a reliable frame in flight. The message starts at
+ * buf[IT2N_FRAME_SESSION_SIZE]; the room before it takes the session id
+ * when the frame is sent with SYN. */
 typedef struct it2n_link_slot {
     uint8_t used, tries, type, flags;
     uint16_t seq, len;
-    uint32_t deadline;
-    uint8_t payload[IT2N_PROTO_MAX_PAYLOAD];
+    uint32_t deadline, first, last; /* next try, first and last sent */
+    uint8_t buf[IT2N_FRAME_MAX_LEN];
 } it2n_link_slot;
+
+/* One receiver reorder entry: a frame ahead of the expected one. */
+typedef struct it2n_link_rxbuf {
+    uint8_t used, type;
+    uint16_t seq, len;
+    uint8_t payload[IT2N_PROTO_MAX_PAYLOAD];
+} it2n_link_rxbuf;
 
 /* One receiver history entry: answer to a recent reliable frame. */
 typedef struct it2n_link_hist {
@@ -83,11 +113,18 @@ typedef struct it2n_link {
     /* sender */
     uint16_t tx_next;
     uint8_t tx_synced; /* peer accepted our SYN frame */
+    uint8_t peer_window;       /* frames in flight the peer accepts  */
+    uint16_t peer_max_payload; /* largest message the peer accepts   */
     it2n_link_slot slot[IT2N_PROTO_WINDOW];
     /* receiver */
     uint16_t rx_next;
     uint8_t rx_synced;
+    uint8_t draining;
+    uint32_t peer_session;     /* session id of the current sequence */
     it2n_link_hist hist[IT2N_PROTO_WINDOW];
+#if IT2N_PROTO_RX_REORDER
+    it2n_link_rxbuf rxbuf[IT2N_PROTO_WINDOW];
+#endif
     it2n_frame_decoder dec;
     it2n_link_stats stats;
 } it2n_link;
@@ -99,8 +136,10 @@ int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg);
 /*
  * Queue and transmit a reliable message. Returns its sequence number
  * (0..65535), IT2N_PROTO_ERR_BUSY when the window is full (call poll/input
- * and retry), or a pack error (message unchanged, nothing sent). A stream
- * error is not returned: the frame stays queued for retransmission.
+ * and retry), IT2N_PROTO_ERR_NOSPACE when the packed message is larger
+ * than the peer's announced max_payload, or a pack error (message
+ * unchanged, nothing sent). A stream error is not returned: the frame
+ * stays queued for retransmission.
  */
 int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now);
 
@@ -135,5 +174,29 @@ uint32_t it2n_link_next_timeout(const it2n_link *l, uint32_t now);
  */
 int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
                        const it2n_errinfo *detail);
+
+/*
+ * Apply the limits the peer announced in its HELLO: at most `window`
+ * frames in flight (1..IT2N_PROTO_WINDOW; 0 = unchanged) and no message
+ * larger than `max_payload` bytes (0 = unchanged). Until called: our own
+ * IT2N_PROTO_WINDOW and IT2N_PROTO_MAX_PAYLOAD.
+ */
+void it2n_link_set_peer(it2n_link *l, uint8_t window, uint16_t max_payload);
+
+/* Largest message payload it2n_link_send accepts now (peer's limit). */
+uint16_t it2n_link_max_payload(const it2n_link *l);
+
+/*
+ * Milliseconds the oldest frame in flight has waited for its answer
+ * (0 when nothing is in flight): for declaring a silent peer down.
+ */
+uint32_t it2n_link_stalled_ms(const it2n_link *l, uint32_t now);
+
+/*
+ * Drop every frame in flight (the peer is declared down): each is reported
+ * through on_done with IT2N_PROTO_ERR_DOWN, and the next frame starts a
+ * new sequence with SYN. Returns the number of frames dropped.
+ */
+unsigned it2n_link_drop_tx(it2n_link *l);
 
 #endif /* IT2N_LINK_H */

@@ -157,9 +157,14 @@ static void c_hello(cur *c, it2n_msg_hello *h)
                             h->version_min <= h->version_max),
          off, h->version_min, h->version_max);
     c_u8(c, &h->max_degree);
+    off = c->pos;
     c_u8(c, &h->window);
+    need(c, c->err != 0 || h->window >= 1u, off, h->window, 1);
     c_u32(c, &h->caps);
+    off = c->pos;
     c_u16(c, &h->max_payload);
+    need(c, c->err != 0 || h->max_payload >= IT2N_HELLO_MIN_PAYLOAD, off,
+         h->max_payload, IT2N_HELLO_MIN_PAYLOAD);
     c_u16(c, &h->max_models);
     (void)io(c, (uint8_t *)h->node, sizeof h->node);
 }
@@ -224,8 +229,8 @@ static void c_event(cur *c, it2n_msg_event *e)
     off = c->pos;
     c_u8(c, &e->kind);
     need(c, c->err != 0 || (e->kind >= IT2N_EV_CONFIGURED &&
-                            e->kind <= IT2N_EV_ERROR),
-         off, e->kind, IT2N_EV_ERROR);
+                            e->kind <= IT2N_EV_LOST),
+         off, e->kind, IT2N_EV_LOST);
     c_i16(c, &e->code);
     c_u32(c, &e->generation);
 }
@@ -386,6 +391,10 @@ static void codec(cur *c, it2n_msg *m)
         break;
     case IT2N_MSG_EVENT: c_event(c, &m->u.event); break;
     case IT2N_MSG_ACK: c_u16(c, &m->u.ack.seq); break;
+    case IT2N_MSG_GAP:
+        c_u16(c, &m->u.gap.seq);
+        c_u16(c, &m->u.gap.have);
+        break;
     case IT2N_MSG_NACK: c_nack(c, &m->u.nack); break;
     case IT2N_MSG_QUERY_RESULT: c_query_result(c, &m->u.query_result); break;
     case IT2N_MSG_LOCATE_RESULT: c_locate_result(c, &m->u.locate_result); break;
@@ -417,6 +426,36 @@ int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
     return (int)c.pos;
 }
 
+/* The payload length a message of `type` must have, from its fixed size
+ * or its count field (0 when the bytes at hand do not say). */
+static size_t expected_len(uint8_t type, const uint8_t *p, size_t len)
+{
+    switch (type) {
+    case IT2N_MSG_HELLO: return 28u;
+    case IT2N_MSG_CONFIGURE: return 4u;
+    case IT2N_MSG_PUT: return len >= 3u ? IT2N_PUT_HDR + IT2N_PUT_ENTRY * (size_t)p[2] : 0u;
+    case IT2N_MSG_COMMIT:
+    case IT2N_MSG_GET_STATUS:
+    case IT2N_MSG_RESET: return 1u;
+    case IT2N_MSG_QUERY: return 9u;
+    case IT2N_MSG_LOCATE: return 17u;
+    case IT2N_MSG_SAMPLE: return 6u;
+    case IT2N_MSG_GET_NET: return 2u;
+    case IT2N_MSG_EVENT: return 8u;
+    case IT2N_MSG_ACK: return 2u;
+    case IT2N_MSG_GAP: return 4u;
+    case IT2N_MSG_NACK: return 34u;
+    case IT2N_MSG_QUERY_RESULT: return 447u;
+    case IT2N_MSG_LOCATE_RESULT: return 474u;
+    case IT2N_MSG_SAMPLE_DATA:
+        return len >= 13u ? IT2N_SAMPLE_HDR + IT2N_SAMPLE_POINT * (size_t)p[12] : 0u;
+    case IT2N_MSG_NET_ROW:
+        return len >= 6u ? IT2N_NET_ROW_HDR + IT2N_SAMPLE_POINT * ((size_t)p[5] + 1u) : 0u;
+    case IT2N_MSG_STATUS: return 15u;
+    default: return 0u;
+    }
+}
+
 int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
                     it2n_proto_errinfo *err)
 {
@@ -431,6 +470,13 @@ int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
     codec(&c, msg);
     if (c.err == 0 && c.pos != len)
         fail(&c, IT2N_PROTO_ERR_PAYLOAD, c.pos, (int64_t)len, (int64_t)c.pos);
+    if (c.err == IT2N_PROTO_ERR_PAYLOAD && err != NULL) {
+        /* value = length received, hi = the length the type requires */
+        size_t want = expected_len(type, p, len);
+        err->value = (int64_t)len;
+        if (want != 0u)
+            err->limit = (int64_t)want;
+    }
     if (c.err != 0)
         return c.err;
     if (err != NULL)
@@ -467,6 +513,7 @@ const char *it2n_msg_name(uint8_t type)
     case IT2N_MSG_RESET: return "RESET";
     case IT2N_MSG_EVENT: return "EVENT";
     case IT2N_MSG_ACK: return "ACK";
+    case IT2N_MSG_GAP: return "GAP";
     case IT2N_MSG_NACK: return "NACK";
     case IT2N_MSG_QUERY_RESULT: return "QUERY_RESULT";
     case IT2N_MSG_LOCATE_RESULT: return "LOCATE_RESULT";
@@ -495,7 +542,8 @@ const char *it2n_proto_strerror(int code)
     case IT2N_PROTO_ERR_STREAM: return "stream I/O error";
     case IT2N_PROTO_ERR_MODEL: return "unknown model id";
     case IT2N_PROTO_ERR_SEQ: return "sequence number not awaiting an ACK";
-    case IT2N_PROTO_ERR_NOSPACE: return "buffer too small";
+    case IT2N_PROTO_ERR_NOSPACE: return "too large for the buffer or the peer's max_payload";
+    case IT2N_PROTO_ERR_DOWN: return "link declared down: frame dropped";
     default: return code >= IT2N_ERR_NOCONV && code <= 0 ? "core error" : "unknown error";
     }
 }

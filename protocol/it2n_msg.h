@@ -28,6 +28,7 @@ enum it2n_msg_type {
     IT2N_MSG_EVENT = 0x10,      /* model changed (daemon -> subscribers)  */
     IT2N_MSG_ACK = 0x20,        /* reliable frame accepted (and durable)  */
     IT2N_MSG_NACK = 0x21,       /* reliable frame refused, with reason    */
+    IT2N_MSG_GAP = 0x22,        /* v1.1: receiver misses a frame, holds later ones */
     IT2N_MSG_QUERY_RESULT = 0x45,
     IT2N_MSG_LOCATE_RESULT = 0x46,
     IT2N_MSG_SAMPLE_DATA = 0x47,
@@ -73,13 +74,17 @@ uint32_t it2n_par_to_wire(it2n_par p);
 /* Q2.30 wire -> Q32 it2n_par (exact: shift by 2). */
 it2n_par it2n_par_from_wire(uint32_t w);
 
+/* Smallest max_payload a HELLO may announce (an ACK/NACK, a SAMPLE_DATA
+ * of one point and every request fit). */
+#define IT2N_HELLO_MIN_PAYLOAD 64u
+
 typedef struct it2n_msg_hello {
     uint8_t version_min, version_max; /* protocol versions spoken      */
     uint8_t max_degree;               /* IT2N_MAX_DEGREE of the sender */
-    uint8_t window;                   /* IT2N_PROTO_WINDOW             */
+    uint8_t window;                   /* IT2N_PROTO_WINDOW, >= 1       */
     uint32_t caps;                    /* IT2N_CAP_*                    */
-    uint16_t max_payload;             /* IT2N_PROTO_MAX_PAYLOAD        */
-    uint16_t max_models;              /* models the sender can hold    */
+    uint16_t max_payload;             /* IT2N_PROTO_MAX_PAYLOAD, >= 64 */
+    uint16_t max_models;              /* model ids the sender serves   */
     char node[16];                    /* name, NUL-padded, not terminated if 16 long */
 } it2n_msg_hello;
 
@@ -123,7 +128,11 @@ typedef struct it2n_msg_get_net {
 /* EVENT kinds. */
 enum it2n_event_kind {
     IT2N_EV_CONFIGURED = 1, IT2N_EV_UPDATED = 2, IT2N_EV_SOLVED = 3,
-    IT2N_EV_RESET = 4, IT2N_EV_ERROR = 5
+    IT2N_EV_RESET = 4, IT2N_EV_ERROR = 5,
+    /* v1.1: the sender declared the link down and dropped frames it could
+     * not deliver: model 0xFF, code IT2N_PROTO_ERR_DOWN, generation = the
+     * number of reliable frames dropped. */
+    IT2N_EV_LOST = 6
 };
 
 typedef struct it2n_msg_event {
@@ -135,6 +144,12 @@ typedef struct it2n_msg_event {
 typedef struct it2n_msg_ack {
     uint16_t seq; /* sequence number acknowledged */
 } it2n_msg_ack;
+
+/* GAP (v1.1, unreliable): the receiver misses `seq` and has just kept
+ * `have`, a later frame. */
+typedef struct it2n_msg_gap {
+    uint16_t seq, have;
+} it2n_msg_gap;
 
 typedef struct it2n_msg_nack {
     uint16_t seq;  /* sequence number refused                       */
@@ -210,6 +225,7 @@ typedef struct it2n_msg {
         it2n_msg_get_net get_net;
         it2n_msg_event event;
         it2n_msg_ack ack;
+        it2n_msg_gap gap;
         it2n_msg_nack nack;
         it2n_msg_query_result query_result;
         it2n_msg_locate_result locate_result;
@@ -239,12 +255,16 @@ int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
 int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
                     it2n_proto_errinfo *err);
 
+/* Session id carried by the SYN golden vector (00_hello). */
+#define IT2N_VECTOR_SESSION 0x1D2C3B4Au
+
 /* Number of golden vectors (one per message type). */
-#define IT2N_VECTOR_COUNT 18u
+#define IT2N_VECTOR_COUNT 19u
 
 /*
  * Golden vector k (0..IT2N_VECTOR_COUNT-1): fills the frame header and the
- * message whose encoding is protocol/vectors/<NN>_<name>.hex and returns
+ * message whose encoding is protocol/vectors/<NN>_<name>.hex (a SYN frame's
+ * payload is IT2N_VECTOR_SESSION, u32 little-endian, then the message) and returns
  * the name ("hello"), or NULL when k is out of range. Code, not a table, so
  * flash holds a few hundred bytes instead of 18 message structs.
  */

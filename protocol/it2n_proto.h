@@ -42,21 +42,37 @@
 #error "IT2N_PROTO_WINDOW must be within 1..64"
 #endif
 
-/* Protocol version carried in every header. */
-#define IT2N_PROTO_VERSION 1
+/* Protocol version carried in every header: wire version 2 is protocol
+ * v1.1 (wire version 1 was v1.0; see docs/protocol.md section 6). */
+#define IT2N_PROTO_VERSION 2
+/* Lowest version this implementation speaks (v1.0 peers are refused). */
+#define IT2N_PROTO_VERSION_MIN 2
+
+/* Receiver reorder buffer: frames arriving ahead of the expected one
+ * (within the window) are kept and delivered once the gap is filled.
+ * 1 (default) keeps IT2N_PROTO_WINDOW frames, ~1 KiB each; 0 drops them
+ * (the sender retransmits), for the smallest RAM. */
+#ifndef IT2N_PROTO_RX_REORDER
+#define IT2N_PROTO_RX_REORDER 1
+#endif
 
 #define IT2N_FRAME_HDR_SIZE 8
 #define IT2N_FRAME_CRC_SIZE 4
+/* A SYN frame's payload starts with the sender's u32 session id, then the
+ * message (v1.1); so a frame's len is at most the message limit + 4. */
+#define IT2N_FRAME_SESSION_SIZE 4
+#define IT2N_FRAME_MAX_LEN (IT2N_PROTO_MAX_PAYLOAD + IT2N_FRAME_SESSION_SIZE)
 /* Frame before stuffing: header + payload + CRC. */
 #define IT2N_FRAME_MIN_RAW (IT2N_FRAME_HDR_SIZE + IT2N_FRAME_CRC_SIZE)
-#define IT2N_FRAME_MAX_RAW (IT2N_FRAME_MIN_RAW + IT2N_PROTO_MAX_PAYLOAD)
+#define IT2N_FRAME_MAX_RAW (IT2N_FRAME_MIN_RAW + IT2N_FRAME_MAX_LEN)
 /* COBS adds one byte per started 254-byte block; plus the 0x00 delimiter. */
 #define IT2N_COBS_MAX(n) ((n) + (n) / 254u + 1u)
 #define IT2N_FRAME_MAX_WIRE (IT2N_COBS_MAX(IT2N_FRAME_MAX_RAW) + 1u)
 
 /* Header flags. */
 #define IT2N_FLAG_REL 0x01u  /* reliable: receiver answers ACK or NACK     */
-#define IT2N_FLAG_SYN 0x02u  /* first frame of a sequence: resync receiver */
+#define IT2N_FLAG_SYN 0x02u  /* first frame of a sequence; payload starts
+                                with the sender's u32 session id       */
 #define IT2N_FLAG_RETX 0x04u /* retransmission (informational only)       */
 
 /* ---- Errors (negative, disjoint from enum it2n_error) ------------------- */
@@ -77,7 +93,9 @@ enum it2n_proto_error {
     IT2N_PROTO_ERR_STREAM = -112,   /* stream callback failed               */
     IT2N_PROTO_ERR_MODEL = -113,    /* unknown / unusable model id          */
     IT2N_PROTO_ERR_SEQ = -114,      /* sequence number not awaiting an ACK  */
-    IT2N_PROTO_ERR_NOSPACE = -115   /* caller buffer too small              */
+    IT2N_PROTO_ERR_NOSPACE = -115,  /* buffer too small / response larger
+                                       than the peer's max_payload       */
+    IT2N_PROTO_ERR_DOWN = -116      /* link declared down: frame dropped  */
 };
 
 /* Short English description of a protocol error code (-100..); for the

@@ -47,7 +47,7 @@ static int cmp_write(it2n_ostream *s, const uint8_t *buf, size_t len)
 
 typedef struct selftest_mem {
     it2n_msg msg, back;
-    uint8_t payload[IT2N_PROTO_MAX_PAYLOAD];
+    uint8_t payload[IT2N_FRAME_MAX_LEN];
     it2n_frame_decoder dec;
 } selftest_mem;
 
@@ -60,12 +60,17 @@ static int check_one(unsigned k, selftest_mem *t)
     it2n_ostream os;
     size_t used = 0;
     int len, r;
+    unsigned sess, b;
 
     if (it2n_proto_vector(k, &hdr, &t->msg) == NULL)
         return 1;
-    len = it2n_msg_pack(&t->msg, t->payload, sizeof t->payload, NULL);
+    sess = (hdr.flags & IT2N_FLAG_SYN) ? IT2N_FRAME_SESSION_SIZE : 0u;
+    len = it2n_msg_pack(&t->msg, t->payload + sess, IT2N_PROTO_MAX_PAYLOAD, NULL);
     if (len < 0)
         return 2;
+    for (b = 0; b < sess; b++) /* SYN frame: session id, then the message */
+        t->payload[b] = (uint8_t)((IT2N_VECTOR_SESSION >> (8u * b)) & 0xFFu);
+    len += (int)sess;
     hdr.len = (uint16_t)len;
     cs.want = g->bytes;
     cs.len = g->len;
@@ -82,11 +87,11 @@ static int check_one(unsigned k, selftest_mem *t)
         got.seq != hdr.seq || got.flags != hdr.flags || got.len != hdr.len ||
         !same(p, t->payload, got.len))
         return 4;
-    if (it2n_msg_unpack(got.type, p, got.len, &t->back, NULL) != IT2N_OK)
+    if (it2n_msg_unpack(got.type, p + sess, got.len - sess, &t->back, NULL) != IT2N_OK)
         return 5;
     /* Re-pack what was parsed: must give the same payload again. */
     len = it2n_msg_pack(&t->back, t->dec.buf, sizeof t->dec.buf, NULL);
-    if (len != (int)got.len || !same(t->dec.buf, t->payload, got.len))
+    if (len != (int)(got.len - sess) || !same(t->dec.buf, t->payload + sess, got.len - sess))
         return 6;
     return 0;
 }

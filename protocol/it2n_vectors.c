@@ -30,8 +30,8 @@ static void fill(unsigned k, it2n_msg *m)
     switch (k) {
     case 0:
         m->type = IT2N_MSG_HELLO;
-        m->u.hello.version_min = 1;
-        m->u.hello.version_max = 1;
+        m->u.hello.version_min = IT2N_PROTO_VERSION_MIN;
+        m->u.hello.version_max = IT2N_PROTO_VERSION;
         m->u.hello.max_degree = 7;
         m->u.hello.window = 4;
         m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_TYPE1;
@@ -107,6 +107,11 @@ static void fill(unsigned k, it2n_msg *m)
         m->u.event.code = 0;
         m->u.event.generation = 0x01020304u;
         break;
+    case 18:
+        m->type = IT2N_MSG_GAP;
+        m->u.gap.seq = 0x0103;
+        m->u.gap.have = 0x0105;
+        break;
     case 11:
         m->type = IT2N_MSG_ACK;
         m->u.ack.seq = 0x0102;
@@ -129,9 +134,16 @@ static void fill(unsigned k, it2n_msg *m)
         m->u.query_result.model = 2;
         m->u.query_result.u = IT2N_WIRE_PAR_ONE / 2u;
         m->u.query_result.w = IT2N_WIRE_PAR_ONE;
-        m->u.query_result.out_of_range = 0x00000010u;
         for (a = 0; a < IT2N_FP_COUNT; a++)
             vals(m->u.query_result.v[a], IT2N_CH_COUNT, 100u + 6u * a);
+        /* bit fp*3+k: membership k of footprint fp outside [0, 1], as the
+         * values say (the v1.0 vector had a bit its values contradicted) */
+        for (a = 0; a < IT2N_FP_COUNT; a++)
+            for (b = 0; b < 3u; b++) {
+                it2n_val x = m->u.query_result.v[a][IT2N_CH_T + b];
+                if (x < 0 || x > IT2N_VAL_ONE)
+                    m->u.query_result.out_of_range |= 1u << (3u * a + b);
+            }
         vals(m->u.query_result.sum.upper_min, 3, 200);
         vals(m->u.query_result.sum.upper_max, 3, 203);
         vals(m->u.query_result.sum.lower_min, 3, 206);
@@ -195,7 +207,8 @@ const char *it2n_proto_vector(unsigned k, it2n_frame_hdr *hdr, it2n_msg *msg)
     static const char *const names[IT2N_VECTOR_COUNT] = {
         "hello", "configure", "put", "commit", "query", "locate", "sample",
         "get_net", "get_status", "reset", "event", "ack", "nack",
-        "query_result", "locate_result", "sample_data", "net_row", "status"};
+        "query_result", "locate_result", "sample_data", "net_row", "status",
+        "gap"};
 
     if (k >= IT2N_VECTOR_COUNT)
         return NULL;
@@ -203,7 +216,8 @@ const char *it2n_proto_vector(unsigned k, it2n_frame_hdr *hdr, it2n_msg *msg)
     fill(k, msg);
     hdr->version = IT2N_PROTO_VERSION;
     hdr->type = msg->type;
-    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK) {
+    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK ||
+        msg->type == IT2N_MSG_GAP) {
         hdr->flags = 0;
         hdr->seq = 0;
     } else {

@@ -3,9 +3,9 @@
  *
  * Synthesises a measured grid (examples/instrument/synth.c: seven nested
  * footprints, z, T/I/F memberships), solves it locally with the core,
- * uploads it over CMSDK UART0 with the serial protocol (HELLO, CONFIGURE,
- * PUT batches, COMMIT through examples/instrument/session.c and the
- * reliable link of protocol/), then QUERYs the peer at a set of (u, w) and
+ * uploads it over CMSDK UART0 with the serial protocol v1.1 through the
+ * instrument API of protocol/it2n_inst.h (HELLO, CONFIGURE, batched PUTs,
+ * COMMIT, sync; docs/instrument.md), then QUERYs the peer at a set of (u, w) and
  * checks each QUERY_RESULT bit for bit against its own evaluation. Its own
  * evaluations at the Modbus points are printed over semihosting as
  *   EVAL <u x10000> <w x10000> <out_of_range> <42 values> <12 summary>
@@ -16,7 +16,7 @@
 
 #include "board.h"
 #include "semihost.h"
-#include "session.h"
+#include "it2n_inst.h"
 #include "synth.h"
 
 #ifndef FW_N
@@ -44,12 +44,10 @@ static const uint16_t fw_points[][2] = {
 
 static it2n_dataset ds;
 static it2n_model mdl;
-static session sess;
+static it2n_inst inst;
 static it2n_point local_pt;
 
-/* QUERY answer capture (the link delivers QUERY_RESULT to on_rx). */
-static int32_t q_seq = -1;
-static int q_have;
+/* The peer's QUERY_RESULT. */
 static it2n_msg_query_result q_res;
 
 /* ---- output over semihosting ---- */
@@ -93,34 +91,31 @@ static void flush_line(void)
     line_len = 0;
 }
 
-/* ---- streams on UART0 ---- */
+/* ---- the instrument API's callbacks on UART0 ---- */
 
-static int uart_out(it2n_ostream *s, const uint8_t *buf, size_t len)
+static int uart_out(void *user, const uint8_t *buf, size_t len)
 {
-    (void)s;
+    (void)user;
     uart_write(buf, len);
     return 0;
 }
 
-static int uart_in(it2n_istream *s, uint8_t *buf, size_t len)
+static int uart_in(void *user, uint8_t *buf, size_t len)
 {
-    (void)s;
+    (void)user;
     return (int)uart_read(buf, len > 256u ? 256u : len);
 }
 
-static it2n_ostream out_stream = {uart_out, NULL};
-static it2n_istream in_stream = {uart_in, NULL};
-
-/* Installed on the session's link after the upload: keeps QUERY_RESULTs. */
-static int on_rx_query(void *app, uint16_t seq, const it2n_msg *msg)
+static uint32_t clock_ms(void *user)
 {
-    (void)app, (void)seq;
-    if (msg->type == IT2N_MSG_QUERY_RESULT && q_seq >= 0 &&
-        msg->u.query_result.re == (uint16_t)q_seq) {
-        q_res = msg->u.query_result;
-        q_have = 1;
-    }
-    return 0;
+    (void)user;
+    return board_now_ms();
+}
+
+static void idle(void *user)
+{
+    (void)user;
+    board_idle();
 }
 
 /* Q32 parameter from x10000, rounded as it2nd does for q_u / q_w. */
@@ -167,137 +162,98 @@ static void fail(const char *what, int64_t code)
     flush_line();
 }
 
-/* Upload with session.c; a failed session (peer absent, retries
- * exhausted) starts over with a fresh SYN, up to three times. */
+/* A session id no earlier session of this board used: on hardware, a
+ * boot counter in flash or the TRNG; here the board's unique id (none on
+ * the emulated board: its clock at start) mixed with the attempt. */
+static uint32_t fw_session_id(unsigned attempt)
+{
+    uint32_t x = board_now_ms() * 2654435761u ^ 0x1F2E3D4Cu;
+    return x + attempt * 0x9E3779B9u;
+}
+
+static unsigned resyncs;
+
+/* CONFIGURE, every point of the data set, COMMIT, and wait for the ACKs. */
+static int send_model(void)
+{
+    unsigned i, j, fp;
+    int r = it2n_inst_configure(&inst, FW_MODEL, FW_N, FW_M, IT2N_F_Z);
+    for (i = 0; r == 0 && i <= ds.n; i++)
+        for (j = 0; r == 0 && j <= ds.m; j++)
+            for (fp = 0; r == 0 && fp < IT2N_FP_COUNT; fp++) {
+                it2n_val v[IT2N_CH_COUNT];
+                if (!(ds.present[i][j] & (1u << fp)))
+                    continue;
+                it2n_dataset_get(&ds, i, j, fp, v);
+                r = it2n_inst_put(&inst, FW_MODEL, (uint8_t)i, (uint8_t)j,
+                                  (uint8_t)fp, v);
+            }
+    if (r == 0)
+        r = it2n_inst_commit(&inst, FW_MODEL);
+    if (r == 0)
+        r = it2n_inst_sync(&inst);
+    return r;
+}
+
+/* Upload with the instrument API; a failed attempt (peer absent, retries
+ * exhausted) starts over with a fresh sequence, up to three times —
+ * points the daemon already holds with the same values are ACKed without
+ * effect, so sending them again is safe. */
 static int upload(void)
 {
     unsigned attempt;
+    it2n_inst_cfg cfg;
+    int r;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.write = uart_out;
+    cfg.read = uart_in;
+    cfg.now_ms = clock_ms;
+    cfg.idle = idle;
+    cfg.session_id = fw_session_id(0);
+    cfg.first_seq = (uint16_t)board_now_ms();
+    cfg.rto_ms = FW_RTO_MS;
+    cfg.max_tries = (uint8_t)FW_TRIES;
+    cfg.timeout_ms = 60000u;
+    cfg.node = "it2n-firmware";
+    r = it2n_inst_open(&inst, &cfg);
     for (attempt = 0; attempt < 3u; attempt++) {
-        int st;
-        int r = session_init(&sess, &ds, FW_MODEL, &out_stream, &in_stream,
-                             FW_RTO_MS, (uint8_t)FW_TRIES, false,
-                             (uint16_t)(attempt * 1000u));
-        if (r != IT2N_OK) {
-            fail("session_init", r);
-            return r;
-        }
-        while ((st = session_step(&sess, board_now_ms())) == SESSION_RUNNING)
-            board_idle();
-        if (st == SESSION_DONE)
+        if (r == 0)
+            r = send_model();
+        if (r == 0)
             return 0;
-        fail("upload attempt failed, code", sess.fail_code);
+        fail("upload attempt failed, code", r);
+        resyncs++;
+        r = it2n_inst_resync(&inst, (uint16_t)(inst.link.tx_next + 1000u));
     }
     return -1;
-}
-
-static int query(uint32_t wu, uint32_t ww)
-{
-    it2n_msg m;
-    uint32_t t0;
-    int32_t seq;
-    memset(&m, 0, sizeof m);
-    m.type = IT2N_MSG_QUERY;
-    m.u.query.model = FW_MODEL;
-    m.u.query.u = wu;
-    m.u.query.w = ww;
-    q_have = 0;
-    q_seq = -1;
-    t0 = board_now_ms();
-    while (!it2n_link_can_send(&sess.link)) {
-        (void)it2n_link_pump(&sess.link, board_now_ms());
-        (void)it2n_link_poll(&sess.link, board_now_ms());
-        board_idle();
-    }
-    seq = it2n_link_send(&sess.link, &m, board_now_ms());
-    if (seq < 0)
-        return (int)seq;
-    q_seq = seq;
-    while (!q_have && board_now_ms() - t0 < FW_QUERY_WAIT_MS) {
-        (void)it2n_link_pump(&sess.link, board_now_ms());
-        (void)it2n_link_poll(&sess.link, board_now_ms());
-        if (sess.state == SESSION_FAILED)
-            return sess.fail_code;
-        if (!q_have)
-            board_idle();
-    }
-    return q_have ? 0 : IT2N_PROTO_ERR_TIMEOUT;
-}
-
-/* Start a new sequence (SYN) on the link and say HELLO again: what a peer
- * does when the other end lost its state (a reopened port NACKs with
- * NOSYNC, or answers never come). */
-static unsigned resyncs;
-
-static int resync(void)
-{
-    it2n_link_cfg cfg = sess.link.cfg;
-    it2n_msg m;
-    uint32_t t0 = board_now_ms();
-    resyncs++;
-    cfg.first_seq = (uint16_t)(sess.link.tx_next + 1000u);
-    if (it2n_link_init(&sess.link, &cfg) != IT2N_OK)
-        return -1;
-    sess.state = SESSION_RUNNING;
-    sess.fail_code = 0;
-    memset(&m, 0, sizeof m);
-    m.type = IT2N_MSG_HELLO;
-    m.u.hello.version_min = IT2N_PROTO_VERSION;
-    m.u.hello.version_max = IT2N_PROTO_VERSION;
-    m.u.hello.max_degree = IT2N_MAX_DEGREE;
-    m.u.hello.window = IT2N_PROTO_WINDOW;
-    m.u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z;
-    m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
-    m.u.hello.max_models = 1;
-    memcpy(m.u.hello.node, "it2n-firmware", 13);
-    if (it2n_link_send(&sess.link, &m, t0) < 0)
-        return -1;
-    while (it2n_link_pending(&sess.link) != 0u && sess.state == SESSION_RUNNING &&
-           board_now_ms() - t0 < FW_QUERY_WAIT_MS) {
-        (void)it2n_link_pump(&sess.link, board_now_ms());
-        (void)it2n_link_poll(&sess.link, board_now_ms());
-        board_idle();
-    }
-    return it2n_link_pending(&sess.link) == 0u && sess.state == SESSION_RUNNING ? 0 : -1;
 }
 
 /* QUERY, resynchronising the link and asking again when it fails. */
 static int query_retry(uint32_t wu, uint32_t ww)
 {
     unsigned attempt;
-    int r = query(wu, ww);
+    int r = it2n_inst_query(&inst, FW_MODEL, wu, ww, &q_res);
     for (attempt = 0; r != 0 && attempt < 3u; attempt++) {
         put_str("QUERY failed (");
         put_i64(r);
         put_str("): resynchronising the link; stats rx_delivered ");
-        put_u64(sess.link.stats.rx_delivered);
+        put_u64(inst.link.stats.rx_delivered);
         put_str(" rx_dup ");
-        put_u64(sess.link.stats.rx_dup);
-        put_str(" rx_ahead ");
-        put_u64(sess.link.stats.rx_ahead);
+        put_u64(inst.link.stats.rx_dup);
+        put_str(" rx_buffered ");
+        put_u64(inst.link.stats.rx_buffered);
         put_str(" rx_nosync ");
-        put_u64(sess.link.stats.rx_nosync);
-        put_str(" rx_bad_msg ");
-        put_u64(sess.link.stats.rx_bad_msg);
+        put_u64(inst.link.stats.rx_nosync);
         put_str(" tx_timeouts ");
-        put_u64(sess.link.stats.tx_timeouts);
-        put_str(" tx_nacked ");
-        put_u64(sess.link.stats.tx_nacked);
+        put_u64(inst.link.stats.tx_timeouts);
         put_str(" frames ok ");
-        put_u64(sess.link.dec.stats.ok);
+        put_u64(inst.link.dec.stats.ok);
         put_str(" crc ");
-        put_u64(sess.link.dec.stats.crc);
-        put_str(" cobs ");
-        put_u64(sess.link.dec.stats.cobs);
-        put_str(" other ");
-        put_u64((uint64_t)sess.link.dec.stats.shortf + sess.link.dec.stats.oversize +
-                sess.link.dec.stats.length + sess.link.dec.stats.version);
-        put_str(" rx_acks ");
-        put_u64(sess.link.stats.rx_acks);
-        put_str(" q_acked ");
-        put_u64(it2n_link_pending(&sess.link) == 0u);
+        put_u64(inst.link.dec.stats.crc);
         flush_line();
-        if (resync() == 0)
-            r = query(wu, ww);
+        resyncs++;
+        if (it2n_inst_resync(&inst, (uint16_t)(inst.link.tx_next + 1000u)) == 0)
+            r = it2n_inst_query(&inst, FW_MODEL, wu, ww, &q_res);
     }
     return r;
 }
@@ -336,17 +292,14 @@ int main(void)
     put_str("UPLOAD committed ms ");
     put_u64(t1 - t0);
     put_str(" puts ");
-    put_u64(sess.puts);
+    put_u64(inst.puts);
     put_str(" entries ");
-    put_u64(sess.entries);
+    put_u64(inst.entries);
     put_str(" retx ");
-    put_u64(sess.link.stats.tx_retx);
+    put_u64(inst.link.stats.tx_retx);
     put_str(" rx_overruns ");
     put_u64(uart_rx_overruns());
     flush_line();
-
-    /* From here the firmware consumes what the peer sends itself. */
-    sess.link.cfg.on_rx = on_rx_query;
 
     for (k = 0; k < FW_NPOINTS; k++) {
         it2n_par u = par_from_x10000(fw_points[k][0]);
@@ -384,7 +337,7 @@ int main(void)
     put_str("/");
     put_u64(FW_NPOINTS);
     put_str(" retx ");
-    put_u64(sess.link.stats.tx_retx);
+    put_u64(inst.link.stats.tx_retx);
     put_str(" resyncs ");
     put_u64(resyncs);
     flush_line();

@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/random.h>
 #include <termios.h>
 #include <time.h>
 #include <unistd.h>
@@ -307,8 +308,12 @@ int main(int argc, char **argv)
     it2n_ostream os = {fd_write, &ofd};
     it2n_istream is = {fd_read, &ifd};
     uint32_t t0 = now_ms();
+    /* A fresh random session id and first sequence number per run. */
+    uint32_t rnd[2] = {t0 ^ (uint32_t)getpid(), (t0 ^ (uint32_t)getpid()) * 2654435761u};
+    if (getrandom(rnd, sizeof rnd, GRND_NONBLOCK) != (ssize_t)sizeof rnd)
+        rnd[0] ^= (uint32_t)time(NULL);
     if (session_init(&sess, &ds, (uint8_t)model, &os, &is, (uint32_t)rto, (uint8_t)tries,
-                     device == NULL, (uint16_t)(t0 ^ (uint32_t)getpid())) != IT2N_OK)
+                     device == NULL, (uint16_t)rnd[1], rnd[0] ? rnd[0] : 1u) != IT2N_OK)
         return 2;
     int st;
     for (;;) {

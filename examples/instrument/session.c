@@ -5,9 +5,13 @@
 
 static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
 {
-    /* The peer's HELLO and EVENTs need no action here; ACK them so the
-     * peer does not retransmit. */
-    (void)app, (void)seq, (void)msg;
+    session *s = app;
+    /* The peer's HELLO: apply its window and max_payload (PUT batches are
+     * cut to fit). EVENTs need no action here; ACK them so the peer does
+     * not retransmit. */
+    (void)seq;
+    if (msg->type == IT2N_MSG_HELLO)
+        it2n_link_set_peer(&s->link, msg->u.hello.window, msg->u.hello.max_payload);
     return 0;
 }
 
@@ -27,7 +31,8 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code,
 
 int session_init(session *s, const it2n_dataset *ds, uint8_t model,
                  it2n_ostream *out, it2n_istream *in, uint32_t rto_ms,
-                 uint8_t tries, bool oneway, uint16_t first_seq)
+                 uint8_t tries, bool oneway, uint16_t first_seq,
+                 uint32_t session_id)
 {
     it2n_link_cfg cfg;
     memset(s, 0, sizeof *s);
@@ -44,6 +49,7 @@ int session_init(session *s, const it2n_dataset *ds, uint8_t model,
     cfg.rto_ms = rto_ms;
     cfg.max_tries = tries;
     cfg.first_seq = first_seq;
+    cfg.session = session_id;
     s->ow_hdr.seq = first_seq;
     return it2n_link_init(&s->link, &cfg);
 }
@@ -52,10 +58,14 @@ int session_init(session *s, const it2n_dataset *ds, uint8_t model,
 static bool next_put(session *s, it2n_msg *m)
 {
     it2n_msg_put *p = &m->u.put;
+    /* as many entries as the daemon's announced max_payload takes */
+    unsigned max = (it2n_link_max_payload(&s->link) - IT2N_PUT_HDR) / IT2N_PUT_ENTRY;
+    if (max > IT2N_PUT_MAX)
+        max = IT2N_PUT_MAX;
     memset(m, 0, sizeof *m);
     m->type = IT2N_MSG_PUT;
     p->model = s->model;
-    while (s->i <= s->ds->n && p->count < IT2N_PUT_MAX) {
+    while (s->i <= s->ds->n && p->count < max) {
         if (s->ds->present[s->i][s->j] & (1u << s->fp)) {
             it2n_put_entry *e = &p->e[p->count++];
             e->i = (uint8_t)s->i;
@@ -81,7 +91,7 @@ static bool build(session *s, it2n_msg *m)
     switch (s->step) {
     case 0:
         m->type = IT2N_MSG_HELLO;
-        m->u.hello.version_min = IT2N_PROTO_VERSION;
+        m->u.hello.version_min = IT2N_PROTO_VERSION_MIN;
         m->u.hello.version_max = IT2N_PROTO_VERSION;
         m->u.hello.max_degree = IT2N_MAX_DEGREE;
         m->u.hello.window = IT2N_PROTO_WINDOW;
@@ -112,10 +122,15 @@ static bool build(session *s, it2n_msg *m)
 /* One-way mode: frame and write without the link (nothing to answer). */
 static int send_oneway(session *s, const it2n_msg *m)
 {
-    uint8_t payload[IT2N_PROTO_MAX_PAYLOAD];
-    int len = it2n_msg_pack(m, payload, sizeof payload, NULL);
+    uint8_t payload[IT2N_FRAME_MAX_LEN];
+    size_t sess = s->step == 0u ? IT2N_FRAME_SESSION_SIZE : 0u;
+    int len = it2n_msg_pack(m, payload + sess, IT2N_PROTO_MAX_PAYLOAD, NULL);
+    unsigned b;
     if (len < 0)
         return len;
+    for (b = 0; b < sess; b++) /* SYN frame: the session id first */
+        payload[b] = (uint8_t)(s->link.cfg.session >> (8u * b));
+    len += (int)sess;
     s->ow_hdr.version = IT2N_PROTO_VERSION;
     s->ow_hdr.type = m->type;
     s->ow_hdr.flags = (uint8_t)(IT2N_FLAG_REL |

@@ -33,10 +33,14 @@ typedef struct session {
     it2n_frame_hdr ow_hdr; /* one-way mode: frame counter */
 } session;
 
-/* Start a session sending ds as model `model` through out/in. */
+/* Start a session sending ds as model `model` through out/in. session_id
+ * must differ from every earlier session of this instrument (random, or a
+ * boot counter kept in non-volatile memory): it is what lets the daemon
+ * tell a restarted instrument from a retransmission (protocol v1.1). */
 int session_init(session *s, const it2n_dataset *ds, uint8_t model,
                  it2n_ostream *out, it2n_istream *in, uint32_t rto_ms,
-                 uint8_t tries, bool oneway, uint16_t first_seq);
+                 uint8_t tries, bool oneway, uint16_t first_seq,
+                 uint32_t session_id);
 
 /* Do whatever is possible now: read input, retransmit, send the next
  * messages while the window allows. Returns the session state. */

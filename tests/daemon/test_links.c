@@ -204,7 +204,8 @@ static void test_slow_reader(void **st)
             if (r != 1)
                 continue;
             it2n_msg got;
-            assert_int_equal(it2n_msg_unpack(h.type, pl, h.len, &got, NULL), IT2N_OK);
+            size_t sess = (h.flags & IT2N_FLAG_SYN) ? IT2N_FRAME_SESSION_SIZE : 0; /* v1.1 */
+            assert_int_equal(it2n_msg_unpack(h.type, pl + sess, h.len - sess, &got, NULL), IT2N_OK);
             if (got.type == IT2N_MSG_NACK && got.u.nack.code == IT2N_PROTO_ERR_NOSYNC)
                 nosync++;
             else
@@ -249,10 +250,47 @@ static void test_slow_reader(void **st)
     assert_int_equal(links_up(), 1);
 }
 
+/* The RTO default docs/daemon.md states for [link:] (rto_ms): 50 ms + the
+ * time 5 maximum frames take at the baud rate; the key overrides it. And
+ * the keys parse, with their limits. */
+static void test_rto_default(void **st)
+{
+    struct conf_link c;
+    (void)st;
+    memset(&c, 0, sizeof c);
+    c.type = CONF_LINK_SERIAL;
+    c.baud = 921600;
+    assert_int_equal(links_rto_ms(&c), 107);
+    c.baud = 115200;
+    assert_int_equal(links_rto_ms(&c), 504);
+    c.rto_ms = 30;
+    assert_int_equal(links_rto_ms(&c), 30);
+    c.rto_ms = 0;
+    c.type = CONF_LINK_USB;
+    assert_int_equal(links_rto_ms(&c), 100);
+    FILE *f = fopen("/tmp/it2n-test-links-rto.conf", "w");
+    assert_non_null(f);
+    fprintf(f, "[link:a]\ndevice = /dev/null\nrto_ms = 25\npeer_timeout_ms = 800\n");
+    fclose(f);
+    struct conf *cf2 = calloc(1, sizeof *cf2);
+    char err[256];
+    assert_int_equal(conf_load(cf2, "/tmp/it2n-test-links-rto.conf", err, sizeof err), 0);
+    assert_int_equal(cf2->link[0].rto_ms, 25);
+    assert_int_equal(cf2->link[0].peer_timeout_ms, 800);
+    f = fopen("/tmp/it2n-test-links-rto.conf", "w");
+    fprintf(f, "[link:a]\ndevice = /dev/null\nrto_ms = 0\n");
+    fclose(f);
+    assert_int_not_equal(conf_load(cf2, "/tmp/it2n-test-links-rto.conf", err, sizeof err), 0);
+    assert_non_null(strstr(err, "rto_ms"));
+    free(cf2);
+    unlink("/tmp/it2n-test-links-rto.conf");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_slow_reader, setup, teardown),
+        cmocka_unit_test(test_rto_default),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

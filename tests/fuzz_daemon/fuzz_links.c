@@ -186,7 +186,9 @@ static unsigned process_output(int line)
             continue;
         it2n_proto_errinfo e;
         fuzz_note("daemon frame type 0x%02x len %u", h.type, h.len);
-        fuzz_check(it2n_msg_unpack(h.type, p, h.len, &msg, &e) == IT2N_OK, "daemon frames unpack");
+        size_t sess = (h.flags & IT2N_FLAG_SYN) ? IT2N_FRAME_SESSION_SIZE : 0; /* v1.1 SYN: session id */
+        fuzz_check(h.len >= sess && it2n_msg_unpack(h.type, p + sess, h.len - sess, &msg, &e) == IT2N_OK,
+                   "daemon frames unpack");
         if ((h.flags & IT2N_FLAG_REL) && peer_acks) {
             uint8_t pl[8];
             memset(&msg, 0, sizeof msg);
@@ -254,13 +256,21 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (kind & 0x80u) {
             fuzz_check(write(line, data + pos, len) == len, "harness write");
         } else {
+            static uint8_t pl[4 + 256];
+            size_t sess = 0;
             it2n_frame_hdr h = { IT2N_PROTO_VERSION, (uint8_t)(kind & 0x3Fu), 0, 0, len };
             if (kind & 0x40u) {
                 h.flags = IT2N_FLAG_REL | (first ? IT2N_FLAG_SYN : 0);
                 h.seq = seq++;
+                if (first) { /* v1.1: a SYN frame starts with the session id */
+                    memcpy(pl, "\x55\x5e\x11\x00", 4);
+                    sess = 4;
+                }
                 first = 0;
             }
-            int w = it2n_frame_encode(&h, data + pos, len, wire, sizeof wire);
+            memcpy(pl + sess, data + pos, len);
+            h.len = (uint16_t)(len + sess);
+            int w = it2n_frame_encode(&h, pl, len + sess, wire, sizeof wire);
             fuzz_check(w > 0, "harness frame encode");
             fuzz_check(write(line, wire, (size_t)w) == w, "harness write");
         }

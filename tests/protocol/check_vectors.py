@@ -25,7 +25,7 @@ def cobs_decode(enc):
 # Fixed payload sizes from docs/protocol.md (None: variable, checked below).
 SIZES = {0x01: 28, 0x02: 4, 0x03: None, 0x04: 1, 0x05: 9, 0x06: 17, 0x07: 6,
          0x08: 2, 0x09: 1, 0x0A: 1, 0x10: 8, 0x20: 2, 0x21: 34, 0x45: 447,
-         0x46: 474, 0x47: None, 0x48: None, 0x49: 15}
+         0x46: 474, 0x47: None, 0x48: None, 0x49: 15, 0x22: 4}
 
 def main(vdir):
     files = sorted(glob.glob(os.path.join(vdir, "*.hex")))
@@ -37,11 +37,15 @@ def main(vdir):
         assert wire[-1] == 0 and 0 not in wire[:-1], f"{f}: delimiter"
         raw = cobs_decode(wire[:-1])
         ver, typ, flags, _res, seq, ln = struct.unpack_from("<BBBBHH", raw)
-        assert ver == 1, f"{f}: version {ver}"
+        assert ver == 2, f"{f}: version {ver} (v1.1 is wire version 2)"
         assert ln == len(raw) - 12, f"{f}: length {ln} vs {len(raw) - 12}"
         (crc,) = struct.unpack_from("<I", raw, len(raw) - 4)
         assert crc == crc32c(raw[:-4]), f"{f}: CRC"
         p = raw[8:-4]
+        if flags & 2:  # SYN: u32 session id, then the message
+            (sess,) = struct.unpack_from("<I", p)
+            assert sess == 0x1D2C3B4A, f"{f}: session id {sess:#x}"
+            p = p[4:]
         want = SIZES[typ]
         if typ == 0x03:
             want = 4 + 52 * p[2]
@@ -50,8 +54,15 @@ def main(vdir):
         elif typ == 0x48:
             want = 7 + 48 * (p[5] + 1)
         assert len(p) == want, f"{f}: payload {len(p)} != {want}"
-        rel = typ not in (0x20, 0x21)
+        rel = typ not in (0x20, 0x21, 0x22)
         assert bool(flags & 1) == rel, f"{f}: REL flag"
+        if typ == 0x45:  # out_of_range bits agree with the memberships
+            oor = struct.unpack_from("<I", p, 11)[0]
+            for fp in range(7):
+                for k in range(3):
+                    (v,) = struct.unpack_from("<q", p, 15 + 48 * fp + 8 * (3 + k))
+                    bit = (oor >> (3 * fp + k)) & 1
+                    assert bit == (v < 0 or v > 1 << 24), f"{f}: out_of_range bit {3 * fp + k}"
         seen.add(typ)
     assert seen == set(SIZES), "a message type has no vector"
     doc = os.path.join(os.path.dirname(vdir.rstrip("/")), "..", "docs", "protocol.md")
@@ -60,10 +71,15 @@ def main(vdir):
         for f in files:
             body = "".join(l for l in open(f) if not l.startswith("#"))
             assert body in text, f"docs/protocol.md Appendix A is stale for {f}"
+        # the worked example of section 3 is vector 03_commit
+        commit = [f for f in files if f.endswith("03_commit.hex")][0]
+        want = " ".join("".join(l for l in open(commit) if not l.startswith("#")).split())
+        wl = [l for l in text.splitlines() if l.startswith("wire:  ")]
+        assert wl and wl[0][7:].strip() == want, "docs/protocol.md section 3 worked example is stale"
     print(f"check_vectors: {len(files)} vectors OK")
 
 APPX = "## Appendix A: golden vectors"
-APPX_END = "0x0100 + NN; HELLO also SYN; ACK and NACK have flags 0 and seq 0.\n"
+APPX_END = "ACK, NACK and GAP have flags 0 and seq 0.\n"
 
 def update_doc(vdir, doc):
     """Rewrite Appendix A of docs/protocol.md from the vector files."""

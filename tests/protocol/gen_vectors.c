@@ -35,15 +35,19 @@ int main(int argc, char **argv)
     for (k = 0; k < IT2N_VECTOR_COUNT; k++) {
         it2n_frame_hdr h;
         it2n_msg m;
-        uint8_t payload[IT2N_PROTO_MAX_PAYLOAD], wire[IT2N_FRAME_MAX_WIRE];
+        uint8_t payload[IT2N_FRAME_MAX_LEN], wire[IT2N_FRAME_MAX_WIRE];
         const char *name = it2n_proto_vector(k, &h, &m);
-        int len = it2n_msg_pack(&m, payload, sizeof payload, NULL);
+        size_t sess = (h.flags & IT2N_FLAG_SYN) ? IT2N_FRAME_SESSION_SIZE : 0u;
+        int len = it2n_msg_pack(&m, payload + sess, IT2N_PROTO_MAX_PAYLOAD, NULL);
         int wl;
         FILE *f;
         if (len < 0) {
             fprintf(stderr, "gen_vectors: vector %u (%s) does not pack: %d\n", k, name, len);
             return 1;
         }
+        for (size_t b = 0; b < sess; b++) /* SYN: session id first */
+            payload[b] = (uint8_t)(IT2N_VECTOR_SESSION >> (8u * b));
+        len += (int)sess;
         h.len = (uint16_t)len;
         wl = it2n_frame_encode(&h, payload, (size_t)len, wire, sizeof wire);
         if (wl < 0)
@@ -52,10 +56,10 @@ int main(int argc, char **argv)
         f = fopen(path, "w");
         if (f == NULL)
             die("write", path);
-        fprintf(f, "# it2n protocol v%u golden vector: %s (type 0x%02X), "
-                   "flags 0x%02X, seq %u, payload %d bytes, wire %d bytes\n",
+        fprintf(f, "# it2n protocol v1.1 (wire version %u) golden vector: %s (type 0x%02X), "
+                   "flags 0x%02X, seq %u, payload %d bytes%s, wire %d bytes\n",
                 IT2N_PROTO_VERSION, it2n_msg_name(h.type), h.type, h.flags,
-                h.seq, len, wl);
+                h.seq, len, sess ? " (session id + message)" : "", wl);
         fprintf(f, "# message: see it2n_proto_vector(%u) in protocol/it2n_vectors.c\n", k);
         fprintf(f, "# frame = COBS(header[8] payload[%d] crc32c[4]) 00\n", len);
         for (int b = 0; b < wl; b++)

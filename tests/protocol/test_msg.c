@@ -28,9 +28,20 @@ static void test_length_must_be_exact(void **st)
              * first (FIELD); it must never be accepted. */
             assert_true(r == IT2N_PROTO_ERR_PAYLOAD || r == IT2N_PROTO_ERR_FIELD);
             assert_int_equal(e.code, r);
+            /* v1.1 (issue 11): PAYLOAD says the length found and the one
+             * the type requires, once the bytes at hand tell it */
+            if (r == IT2N_PROTO_ERR_PAYLOAD) {
+                assert_true(e.value == cut);
+                int known = !((m.type == IT2N_MSG_PUT && cut < 3) || (m.type == IT2N_MSG_SAMPLE_DATA && cut < 13) ||
+                              (m.type == IT2N_MSG_NET_ROW && cut < 6));
+                if (known)
+                    assert_true(e.limit == len);
+            }
         }
         buf[len] = 0;
-        assert_int_equal(it2n_msg_unpack(m.type, buf, (size_t)len + 1, &back, NULL), IT2N_PROTO_ERR_PAYLOAD);
+        it2n_proto_errinfo e2;
+        assert_int_equal(it2n_msg_unpack(m.type, buf, (size_t)len + 1, &back, &e2), IT2N_PROTO_ERR_PAYLOAD);
+        assert_true(e2.value == len + 1 && e2.limit == len);
         /* Packing into one byte too few: NOSPACE. */
         assert_int_equal(it2n_msg_pack(&m, buf, (size_t)len - 1, NULL), IT2N_PROTO_ERR_NOSPACE);
     }
@@ -93,7 +104,10 @@ static void test_field_checks(void **st)
     expect_field_at(IT2N_MSG_QUERY, 4, 0x41, IT2N_WIRE_PAR_ONE, 1); /* u > 1.0 */
     expect_field(IT2N_MSG_SAMPLE, 1, 7, IT2N_FP_COUNT - 1);
     expect_field(IT2N_MSG_SAMPLE, 2, 1, 2);                      /* rows 1 */
-    expect_field(IT2N_MSG_EVENT, 1, 0, IT2N_EV_ERROR);
+    expect_field(IT2N_MSG_EVENT, 1, 0, IT2N_EV_LOST);
+    expect_field(IT2N_MSG_EVENT, 1, IT2N_EV_LOST + 1, IT2N_EV_LOST);
+    expect_field(IT2N_MSG_HELLO, 3, 0, 1);                       /* window 0 */
+    expect_field_at(IT2N_MSG_HELLO, 9, 0, IT2N_HELLO_MIN_PAYLOAD, 8); /* max_payload < 64 */
     expect_field_at(IT2N_MSG_NACK, 3, 0x00, -1, 2);              /* code >= 0 */
     expect_field(IT2N_MSG_NET_ROW, 6, 4, 3);                     /* row > n */
     expect_field(IT2N_MSG_STATUS, 3, 4, IT2N_MS_ERROR);

@@ -144,7 +144,7 @@ static void test_frame_sizes_and_chunks(void **st)
                 roundtrip_payload(sizes[s], chunks[c]);
     }
     /* Over the maximum is refused by the encoder. */
-    assert_int_equal(encode(1, 0, payload, IT2N_PROTO_MAX_PAYLOAD + 1, wire, sizeof wire),
+    assert_int_equal(encode(1, 0, payload, IT2N_FRAME_MAX_LEN + 1, wire, sizeof wire),
                      IT2N_PROTO_ERR_OVERSIZE);
     /* Stream and buffer encoders give identical bytes; blocks <= 255. */
     mem_out *mo = calloc(1, sizeof *mo);
@@ -271,15 +271,15 @@ static void test_oversize_and_short(void **st)
     dec_log l3 = {0};
     feed(&dec, enc, (size_t)e + 1, 4, &l3);
     assert_int_equal(l3.err[0], IT2N_PROTO_ERR_LENGTH);
-    /* Version 2, otherwise fine: VERSION with the header filled in. */
-    it2n_frame_hdr h = {2, 1, IT2N_FLAG_REL, 99, 0};
+    /* Version 1 (v1.0), otherwise fine: VERSION with the header filled in. */
+    it2n_frame_hdr h = {1, 1, IT2N_FLAG_REL, 99, 0};
     int w = it2n_frame_encode(&h, NULL, 0, wire, sizeof wire);
     size_t used;
     const uint8_t *p;
     it2n_frame_hdr got;
     it2n_frame_decoder_init(&dec);
     assert_int_equal(it2n_frame_decode(&dec, wire, (size_t)w, &used, &got, &p), IT2N_PROTO_ERR_VERSION);
-    assert_int_equal(got.version, 2);
+    assert_int_equal(got.version, 1);
     assert_int_equal(got.seq, 99);
     assert_int_equal(dec.stats.version, 1);
 }

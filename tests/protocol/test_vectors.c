@@ -44,12 +44,16 @@ static void test_files_match_encoder(void **st)
     for (unsigned k = 0; k < IT2N_VECTOR_COUNT; k++) {
         it2n_frame_hdr h;
         it2n_msg m, back;
-        uint8_t payload[IT2N_PROTO_MAX_PAYLOAD], wire[IT2N_FRAME_MAX_WIRE], file[IT2N_FRAME_MAX_WIRE];
+        uint8_t payload[IT2N_FRAME_MAX_LEN], wire[IT2N_FRAME_MAX_WIRE], file[IT2N_FRAME_MAX_WIRE];
         char path[512];
         const char *name = it2n_proto_vector(k, &h, &m);
         assert_non_null(name);
-        int len = it2n_msg_pack(&m, payload, sizeof payload, NULL);
+        size_t sess = (h.flags & IT2N_FLAG_SYN) ? IT2N_FRAME_SESSION_SIZE : 0;
+        int len = it2n_msg_pack(&m, payload + sess, IT2N_PROTO_MAX_PAYLOAD, NULL);
         assert_true(len >= 0);
+        for (size_t b = 0; b < sess; b++)
+            payload[b] = (uint8_t)(IT2N_VECTOR_SESSION >> (8 * b));
+        len += (int)sess;
         h.len = (uint16_t)len;
         int w = it2n_frame_encode(&h, payload, (size_t)len, wire, sizeof wire);
         assert_true(w > 0);
@@ -64,7 +68,8 @@ static void test_files_match_encoder(void **st)
         const uint8_t *p;
         it2n_frame_hdr got;
         assert_int_equal(it2n_frame_decode(&d, file, fl, &used, &got, &p), 1);
-        assert_int_equal(it2n_msg_unpack(got.type, p, got.len, &back, NULL), IT2N_OK);
+        assert_int_equal(got.version, IT2N_PROTO_VERSION);
+        assert_int_equal(it2n_msg_unpack(got.type, p + sess, got.len - sess, &back, NULL), IT2N_OK);
         assert_memory_equal(&back.u, &m.u, sizeof m.u);
     }
     assert_null(it2n_proto_vector(IT2N_VECTOR_COUNT, NULL, NULL));

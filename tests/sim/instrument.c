@@ -286,6 +286,7 @@ int main(int argc, char **argv)
     cfg.rto_ms = 150;
     cfg.max_tries = 100;
     cfg.first_seq = (uint16_t)(rnd() & 0xFFFF);
+    cfg.session = (rnd() ^ now_ms() ^ ((uint32_t)getpid() << 12)) | 1u; /* v1.1: new per run, never 0 */
     it2n_link_init(&l, &cfg);
 
     unsigned step = configure ? 0 : 2, i = 0, j = 0, fp = 0;

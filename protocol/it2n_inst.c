@@ -1,0 +1,361 @@
+/*
+ * Instrument API over the reliable link (see it2n_inst.h).
+ *
+ * Copyright (c) 2026 the it2n authors. MIT licence (see LICENSE).
+ */
+#include <string.h>
+
+#include "it2n_inst.h"
+
+#define DEF_RTO 200u
+#define DEF_TRIES 20u
+#define DEF_TIMEOUT 10000u
+
+static uint32_t now(const it2n_inst *c)
+{
+    return c->cfg.now_ms(c->cfg.user);
+}
+
+static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
+{
+    it2n_inst *c = (it2n_inst *)s->state;
+    return c->cfg.write(c->cfg.user, buf, len) < 0 ? -1 : 0;
+}
+
+static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
+{
+    it2n_inst *c = (it2n_inst *)app;
+    (void)seq;
+    if (m->type == IT2N_MSG_HELLO) {
+        /* the daemon's limits bind what we send */
+        c->hello = m->u.hello;
+        c->peer_hello = 1;
+        it2n_link_set_peer(&c->link, m->u.hello.window,
+                           m->u.hello.max_payload);
+    } else if (m->type == IT2N_MSG_QUERY_RESULT && c->q_seq >= 0 &&
+               m->u.query_result.re == (uint16_t)c->q_seq) {
+        if (c->q_out != NULL)
+            *c->q_out = m->u.query_result;
+        c->q_have = 1;
+        c->q_seq = -1;
+    }
+    return 0; /* EVENTs and the rest: ACK */
+}
+
+static void on_done(void *app, uint16_t seq, uint8_t type, int code,
+                    const it2n_msg_nack *nack)
+{
+    it2n_inst *c = (it2n_inst *)app;
+    if (code == 0)
+        return;
+    if (type == IT2N_MSG_QUERY && c->q_seq == (int32_t)seq &&
+        code != IT2N_PROTO_ERR_TIMEOUT && code != IT2N_PROTO_ERR_DOWN) {
+        /* a refused QUERY changes nothing: its code, not a failure */
+        c->q_seq = -1;
+        c->q_code = code;
+        return;
+    }
+    if (c->err != 0)
+        return;
+    c->err = code;
+    c->err_seq = seq;
+    c->err_type = type;
+    if (nack != NULL)
+        c->nack = *nack;
+    else
+        memset(&c->nack, 0, sizeof c->nack);
+}
+
+int it2n_inst_feed(it2n_inst *ctx, const uint8_t *data, size_t len)
+{
+    return it2n_link_input(&ctx->link, data, len, now(ctx));
+}
+
+int it2n_inst_poll(it2n_inst *ctx)
+{
+    if (ctx->cfg.read != NULL) {
+        uint8_t buf[64];
+        unsigned k;
+        /* bounded: two maximal frames per call */
+        for (k = 0; k < 2u * IT2N_FRAME_MAX_WIRE / sizeof buf + 1u; k++) {
+            int n = ctx->cfg.read(ctx->cfg.user, buf, sizeof buf);
+            if (n <= 0)
+                break;
+            (void)it2n_link_input(&ctx->link, buf,
+                                  (size_t)n > sizeof buf ? sizeof buf : (size_t)n,
+                                  now(ctx));
+        }
+    }
+    (void)it2n_link_poll(&ctx->link, now(ctx));
+    return ctx->err;
+}
+
+/* Read mode: poll until cond(ctx) holds, a failure, or the timeout. */
+static int wait_for(it2n_inst *ctx, bool (*cond)(const it2n_inst *))
+{
+    uint32_t t0 = now(ctx);
+    while (!cond(ctx)) {
+        if (it2n_inst_poll(ctx) != 0)
+            return ctx->err;
+        if (cond(ctx))
+            break;
+        if (now(ctx) - t0 >= ctx->cfg.timeout_ms)
+            return IT2N_PROTO_ERR_TIMEOUT;
+        if (ctx->cfg.idle != NULL)
+            ctx->cfg.idle(ctx->cfg.user);
+    }
+    return ctx->err;
+}
+
+static bool can_send(const it2n_inst *ctx)
+{
+    return it2n_link_can_send(&ctx->link);
+}
+
+static bool all_answered(const it2n_inst *ctx)
+{
+    return it2n_link_pending(&ctx->link) == 0u;
+}
+
+static bool query_answered(const it2n_inst *ctx)
+{
+    return ctx->q_seq < 0;
+}
+
+/* Send m: waits for window room in read mode. seq or an error. */
+static int32_t send(it2n_inst *ctx, const it2n_msg *m)
+{
+    if (ctx->err != 0)
+        return ctx->err;
+    if (!can_send(ctx)) {
+        int r;
+        if (ctx->cfg.read == NULL)
+            return IT2N_PROTO_ERR_BUSY;
+        r = wait_for(ctx, can_send);
+        if (r != 0)
+            return r;
+    }
+    return it2n_link_send(&ctx->link, m, now(ctx));
+}
+
+/* ctx->msg is free once the batch is flushed: the scratch message for
+ * everything else (no 1 KiB it2n_msg on the stack). */
+static it2n_msg *scratch(it2n_inst *ctx, uint8_t type)
+{
+    memset(&ctx->msg, 0, sizeof ctx->msg);
+    ctx->msg.type = type;
+    return &ctx->msg;
+}
+
+/* Send the scratch message; it is free again afterwards. */
+static int32_t send_scratch(it2n_inst *ctx)
+{
+    int32_t r = send(ctx, &ctx->msg);
+    ctx->msg.type = 0;
+    return r;
+}
+
+static void hello(it2n_inst *ctx, it2n_msg *m)
+{
+    size_t k;
+    memset(m, 0, sizeof *m);
+    m->type = IT2N_MSG_HELLO;
+    m->u.hello.version_min = IT2N_PROTO_VERSION_MIN;
+    m->u.hello.version_max = IT2N_PROTO_VERSION;
+    m->u.hello.max_degree = IT2N_MAX_DEGREE;
+    m->u.hello.window = IT2N_PROTO_WINDOW;
+    m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_CHORD |
+                      IT2N_CAP_TYPE1;
+    m->u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
+    m->u.hello.max_models = 1;
+    for (k = 0; ctx->cfg.node != NULL && k < sizeof m->u.hello.node &&
+                ctx->cfg.node[k] != '\0';
+         k++)
+        m->u.hello.node[k] = ctx->cfg.node[k];
+}
+
+static int start(it2n_inst *ctx, uint16_t first_seq)
+{
+    it2n_link_cfg lc;
+    int32_t r;
+    memset(&lc, 0, sizeof lc);
+    ctx->os.write = os_write;
+    ctx->os.state = ctx;
+    lc.out = &ctx->os;
+    lc.on_rx = on_rx;
+    lc.on_done = on_done;
+    lc.app = ctx;
+    lc.rto_ms = ctx->cfg.rto_ms;
+    lc.max_tries = ctx->cfg.max_tries;
+    lc.first_seq = first_seq;
+    lc.session = ctx->cfg.session_id;
+    r = it2n_link_init(&ctx->link, &lc);
+    if (r != IT2N_OK)
+        return (int)r;
+    ctx->err = 0;
+    ctx->peer_hello = 0;
+    ctx->q_seq = -1;
+    ctx->q_have = 0;
+    hello(ctx, &ctx->msg);
+    r = send_scratch(ctx);
+    if (r < 0)
+        return (int)r;
+    if (ctx->cfg.read != NULL)
+        return wait_for(ctx, all_answered);
+    return IT2N_OK;
+}
+
+int it2n_inst_open(it2n_inst *ctx, const it2n_inst_cfg *cfg)
+{
+    if (cfg == NULL || cfg->write == NULL || cfg->now_ms == NULL)
+        return IT2N_ERR_INVAL;
+    memset(ctx, 0, sizeof *ctx);
+    ctx->cfg = *cfg;
+    if (ctx->cfg.rto_ms == 0u)
+        ctx->cfg.rto_ms = DEF_RTO;
+    if (ctx->cfg.max_tries == 0u)
+        ctx->cfg.max_tries = DEF_TRIES;
+    if (ctx->cfg.timeout_ms == 0u)
+        ctx->cfg.timeout_ms = DEF_TIMEOUT;
+    return start(ctx, cfg->first_seq);
+}
+
+int it2n_inst_resync(it2n_inst *ctx, uint16_t first_seq)
+{
+    (void)it2n_link_drop_tx(&ctx->link);
+    ctx->err = 0;
+    return start(ctx, first_seq);
+}
+
+int it2n_inst_flush(it2n_inst *ctx)
+{
+    int32_t r;
+    if (ctx->msg.type != IT2N_MSG_PUT || ctx->msg.u.put.count == 0u)
+        return ctx->err;
+    r = send(ctx, &ctx->msg);
+    if (r < 0)
+        return (int)r;
+    ctx->puts++;
+    ctx->entries += ctx->msg.u.put.count;
+    ctx->msg.type = 0;
+    return IT2N_OK;
+}
+
+/* Entries per PUT the daemon accepts (its max_payload). */
+static unsigned put_max(const it2n_inst *ctx)
+{
+    unsigned k = (it2n_link_max_payload(&ctx->link) - IT2N_PUT_HDR) /
+                 IT2N_PUT_ENTRY;
+    return k < IT2N_PUT_MAX ? k : IT2N_PUT_MAX;
+}
+
+int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
+                  uint8_t fp, const it2n_val vals[IT2N_CH_COUNT])
+{
+    it2n_put_entry *e;
+    unsigned ch;
+    int r;
+    if (ctx->err != 0)
+        return ctx->err;
+    if (i > IT2N_MAX_DEGREE || j > IT2N_MAX_DEGREE || fp >= IT2N_FP_COUNT ||
+        model == IT2N_MODEL_ALL)
+        return IT2N_PROTO_ERR_FIELD;
+    if (ctx->msg.type == IT2N_MSG_PUT &&
+        (ctx->msg.u.put.model != model || ctx->msg.u.put.count >= put_max(ctx))) {
+        r = it2n_inst_flush(ctx); /* full or another model: send it */
+        if (r != 0)
+            return r;
+    }
+    if (ctx->msg.type != IT2N_MSG_PUT) {
+        memset(&ctx->msg, 0, sizeof ctx->msg);
+        ctx->msg.type = IT2N_MSG_PUT;
+        ctx->msg.u.put.model = model;
+    }
+    e = &ctx->msg.u.put.e[ctx->msg.u.put.count++];
+    e->i = i;
+    e->j = j;
+    e->fp = fp;
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++)
+        e->vals[ch] = vals[ch];
+    return IT2N_OK;
+}
+
+int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,
+                        uint8_t flags)
+{
+    it2n_msg *c;
+    int32_t r = it2n_inst_flush(ctx);
+    if (r != 0)
+        return (int)r;
+    c = scratch(ctx, IT2N_MSG_CONFIGURE);
+    c->u.configure.model = model;
+    c->u.configure.n = n;
+    c->u.configure.m = m;
+    c->u.configure.flags = flags;
+    r = send_scratch(ctx);
+    return r < 0 ? (int)r : IT2N_OK;
+}
+
+int it2n_inst_commit(it2n_inst *ctx, uint8_t model)
+{
+    it2n_msg *c;
+    int32_t r = it2n_inst_flush(ctx);
+    if (r != 0)
+        return (int)r;
+    c = scratch(ctx, IT2N_MSG_COMMIT);
+    c->u.model.model = model;
+    r = send_scratch(ctx);
+    return r < 0 ? (int)r : IT2N_OK;
+}
+
+int it2n_inst_sync(it2n_inst *ctx)
+{
+    int r = it2n_inst_flush(ctx);
+    if (r != 0)
+        return r;
+    if (ctx->cfg.read == NULL)
+        return ctx->err != 0 ? ctx->err
+                             : all_answered(ctx) ? IT2N_OK : IT2N_PROTO_ERR_BUSY;
+    return wait_for(ctx, all_answered);
+}
+
+int it2n_inst_query(it2n_inst *ctx, uint8_t model, uint32_t u, uint32_t w,
+                    it2n_msg_query_result *out)
+{
+    it2n_msg *q;
+    int32_t seq;
+    int r = it2n_inst_flush(ctx);
+    if (r != 0)
+        return r;
+    q = scratch(ctx, IT2N_MSG_QUERY);
+    q->u.query.model = model;
+    q->u.query.u = u;
+    q->u.query.w = w;
+    seq = send_scratch(ctx);
+    if (seq < 0)
+        return (int)seq;
+    ctx->q_seq = seq;
+    ctx->q_have = 0;
+    ctx->q_code = 0;
+    ctx->q_out = out;
+    if (ctx->cfg.read == NULL)
+        return IT2N_OK;
+    r = wait_for(ctx, query_answered);
+    if (r != 0)
+        return r;
+    if (ctx->q_code != 0)
+        return ctx->q_code;
+    return ctx->q_have ? IT2N_OK : IT2N_PROTO_ERR_TIMEOUT;
+}
+
+bool it2n_inst_query_done(const it2n_inst *ctx)
+{
+    return ctx->q_have != 0u;
+}
+
+int it2n_inst_error(const it2n_inst *ctx, it2n_msg_nack *nack)
+{
+    if (nack != NULL)
+        *nack = ctx->nack;
+    return ctx->err;
+}

@@ -1,0 +1,1086 @@
+/*
+ * daemon_link — protocol v1.1 against the real it2nd over a pty (issue 11).
+ * The test is the instrument/host on the pty master; the daemon opens the
+ * slave through a symlink as it would /dev/serial/by-id/... Scenarios:
+ *
+ *   sessions N   N back-to-back sessions on one open link, each a new
+ *                peer session (new session id) whose first sequence number
+ *                is deliberately inside the daemon's duplicate history
+ *                (the last W numbers of the previous session). Each
+ *                session: HELLO, CONFIGURE, PUT (its own values), COMMIT,
+ *                QUERY at both corners, checked against a local solve.
+ *                Must end with 0 lost, 0 refused.
+ *   kill K       an upload of a 7x7 model, the daemon killed with SIGKILL
+ *                K times while PUTs are in flight (delivery unknown) and
+ *                restarted; the same link context re-sends: every PUT is
+ *                ACKed exactly once (identical entries are an idempotent
+ *                success), 0 NACKs, and the solved model equals the local
+ *                solve.
+ *   lossy PCT    HELLO, upload, COMMIT, 16 QUERYs and a 33x33 SAMPLE with
+ *                PCT % drop, duplicate, reorder and corruption of frames in
+ *                each direction: every response must arrive without the
+ *                host asking twice (0 re-requests) and match the core.
+ *
+ * Usage: daemon_link IT2ND SCENARIO ARG [SCENARIO ARG ...]
+ * Prints one line of figures per scenario; exit 0 when all held.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <pty.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "it2n_link.h"
+#include "synth.h"
+
+#define W IT2N_PROTO_WINDOW
+
+static const char *it2nd;
+static char dir[256], conf_path[320], link_path[320], log_path[320];
+static int master = -1, slave = -1;
+static pid_t dpid = -1;
+static uint64_t rng = 0x11AB5EEDu;
+static int failures;
+
+static uint32_t rnd(void)
+{
+    rng ^= rng >> 12;
+    rng ^= rng << 25;
+    rng ^= rng >> 27;
+    return (uint32_t)((rng * 0x2545F4914F6CDD1Dull) >> 32);
+}
+
+static uint32_t now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint32_t)((uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u);
+}
+
+#define CHECK(c, ...)                                                                              \
+    do {                                                                                           \
+        if (!(c)) {                                                                                \
+            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);                                   \
+            fprintf(stderr, __VA_ARGS__);                                                          \
+            fprintf(stderr, "\n");                                                                 \
+            failures++;                                                                            \
+        }                                                                                          \
+    } while (0)
+
+/* ---- the daemon ------------------------------------------------------- */
+
+static void daemon_start(void)
+{
+    dpid = fork();
+    if (dpid == 0) {
+        int fd = open(log_path, O_WRONLY | O_CREAT | O_APPEND, 0644);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+        }
+        close(master);
+        close(slave);
+        execl(it2nd, it2nd, "-c", conf_path, "-f", "-v", (char *)NULL);
+        _exit(127);
+    }
+}
+
+static void daemon_kill(int sig)
+{
+    int st;
+    if (dpid > 0) {
+        kill(dpid, sig);
+        waitpid(dpid, &st, 0);
+    }
+    dpid = -1;
+}
+
+static void cleanup(void)
+{
+    char cmd[600];
+    daemon_kill(SIGTERM);
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    if (getenv("KEEP") == NULL && system(cmd) != 0)
+        fprintf(stderr, "cleanup failed\n");
+}
+
+static void setup(const char *extra)
+{
+    char name[128];
+    struct termios t;
+    FILE *f;
+    snprintf(dir, sizeof dir, "/tmp/it2n-dlink.XXXXXX");
+    if (!mkdtemp(dir)) {
+        perror("mkdtemp");
+        exit(2);
+    }
+    snprintf(conf_path, sizeof conf_path, "%s/it2nd.conf", dir);
+    snprintf(link_path, sizeof link_path, "%s/inst0", dir);
+    snprintf(log_path, sizeof log_path, "%s/daemon.log", dir);
+    if (openpty(&master, &slave, name, NULL, NULL)) {
+        perror("openpty");
+        exit(2);
+    }
+    tcgetattr(slave, &t);
+    cfmakeraw(&t);
+    tcsetattr(slave, TCSANOW, &t);
+    fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK);
+    if (symlink(name, link_path)) {
+        perror("symlink");
+        exit(2);
+    }
+    f = fopen(conf_path, "w");
+    fprintf(f, "[daemon]\nstate_dir = %s/state\nsnapshot_interval = 3600\nlink_backoff_max = 1\n", dir);
+    fprintf(f, "[modbus]\ntcp_listen = 127.0.0.1:%u\n", 31000u + (unsigned)getpid() % 900u);
+    fprintf(f, "[model:1]\nunit_id = 1\nn = 1\nm = 1\ntype1 = yes\n");
+    fprintf(f, "[model:2]\nunit_id = 2\nn = 7\nm = 7\n");
+    fprintf(f, "[model:3]\nunit_id = 3\nn = 3\nm = 3\n");
+    fprintf(f, "[link:inst]\ntype = serial\ndevice = %s\nbaud = 921600\n%s\n", link_path, extra);
+    fclose(f);
+    {
+        char sd[300];
+        snprintf(sd, sizeof sd, "%s/state", dir);
+        mkdir(sd, 0700);
+    }
+    atexit(cleanup);
+    daemon_start();
+}
+
+/* ---- the peer (instrument + host) with optional faults ----------------- */
+
+typedef struct peer {
+    it2n_link l;
+    it2n_ostream os;
+    unsigned pct;                 /* fault rate per direction */
+    uint8_t fr[IT2N_FRAME_MAX_WIRE + 64];
+    size_t flen;                  /* frame being written */
+    struct { uint32_t at; uint16_t len; uint8_t b[IT2N_FRAME_MAX_WIRE + 64]; } held[16];
+    unsigned nheld;               /* delayed frames (reordering), both ways */
+    uint8_t in[IT2N_FRAME_MAX_WIRE + 64];
+    size_t ilen;
+    /* outcomes */
+    unsigned acked, nacked, timeouts;
+    int last_code;
+    it2n_msg_nack last_nack;
+    /* host side */
+    const it2n_model *ref;
+    unsigned results, mismatches, points, events, hellos;
+    int32_t want_re;
+    uint8_t seen[33 * 33];
+    /* spec checks: a trace of what arrived, in order ('A' ACK of ours,
+     * 'N' NACK, 'E' EVENT, 'H' HELLO, 'S' SAMPLE_DATA, 'T' STATUS,
+     * 'Q' QUERY_RESULT), the daemon's HELLO, the last EVENT, deferred
+     * answers (to count the daemon's frames in flight) */
+    char trace[4096];
+    unsigned ntrace;
+    it2n_msg_hello dh;
+    it2n_msg_event ev;
+    it2n_msg_status status;
+    unsigned max_count;
+    int defer;
+    uint16_t dseq[16];
+    uint32_t dat[16];
+    unsigned nd, max_unanswered;
+} peer;
+
+static void trace(peer *p, char c)
+{
+    if (p->ntrace + 1 < sizeof p->trace)
+        p->trace[p->ntrace++] = c;
+}
+
+static peer P;
+
+static void raw_write(const uint8_t *p, size_t n)
+{
+    while (n) {
+        ssize_t w = write(master, p, n);
+        if (w < 0 && (errno == EAGAIN || errno == EINTR)) {
+            usleep(200);
+            continue;
+        }
+        if (w <= 0)
+            return;
+        p += w;
+        n -= (size_t)w;
+    }
+}
+
+/* A whole frame in one direction: dropped, corrupted, duplicated or held
+ * back (reordered) with probability pct each; out = 1 toward the daemon. */
+static void fault_frame(peer *p, const uint8_t *b, size_t n, int out)
+{
+    uint8_t tmp[IT2N_FRAME_MAX_WIRE + 64];
+    if (n > sizeof tmp)
+        return;
+    memcpy(tmp, b, n);
+    if (p->pct && rnd() % 100 < p->pct)
+        return; /* dropped */
+    if (p->pct && rnd() % 100 < p->pct && n > 2)
+        tmp[rnd() % (n - 1)] ^= (uint8_t)(1u << (rnd() % 8)); /* corrupted */
+    if (p->pct && rnd() % 100 < p->pct && p->nheld < 16) {
+        /* held back a few ms: frames sent meanwhile overtake it */
+        p->held[p->nheld].at = now_ms() + 2 + rnd() % 10;
+        p->held[p->nheld].len = (uint16_t)(n | (out ? 0x8000u : 0u));
+        memcpy(p->held[p->nheld].b, tmp, n);
+        p->nheld++;
+        return;
+    }
+    if (out)
+        raw_write(tmp, n);
+    else
+        it2n_link_input(&p->l, tmp, n, now_ms());
+    if (p->pct && rnd() % 100 < p->pct) { /* duplicated */
+        if (out)
+            raw_write(tmp, n);
+        else
+            it2n_link_input(&p->l, tmp, n, now_ms());
+    }
+}
+
+static void release_held(peer *p, int all)
+{
+    for (unsigned k = 0; k < p->nheld;) {
+        if (all || (int32_t)(now_ms() - p->held[k].at) >= 0) {
+            size_t n = p->held[k].len & 0x7FFFu;
+            if (p->held[k].len & 0x8000u)
+                raw_write(p->held[k].b, n);
+            else
+                it2n_link_input(&p->l, p->held[k].b, n, now_ms());
+            p->held[k] = p->held[--p->nheld];
+        } else {
+            k++;
+        }
+    }
+}
+
+static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
+{
+    peer *p = s->state;
+    if (p->flen + len > sizeof p->fr)
+        p->flen = 0;
+    memcpy(p->fr + p->flen, buf, len);
+    p->flen += len;
+    if (buf[len - 1] == 0) {
+        fault_frame(p, p->fr, p->flen, 1);
+        p->flen = 0;
+    }
+    return 0;
+}
+
+static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
+{
+    peer *p = app;
+    int ret = 0;
+    if (p->defer && p->nd < 16) {
+        /* answer later: what the daemon sends meanwhile is in flight */
+        p->dseq[p->nd] = seq;
+        p->dat[p->nd++] = now_ms() + 20;
+        if (p->nd > p->max_unanswered)
+            p->max_unanswered = p->nd;
+        ret = IT2N_LINK_DEFER;
+    }
+    switch (m->type) {
+    case IT2N_MSG_STATUS:
+        trace(p, 'T');
+        p->status = m->u.status;
+        break;
+    case IT2N_MSG_HELLO:
+        trace(p, 'H');
+        p->dh = m->u.hello;
+        p->hellos++;
+        it2n_link_set_peer(&p->l, m->u.hello.window, m->u.hello.max_payload);
+        break;
+    case IT2N_MSG_EVENT:
+        trace(p, 'E');
+        p->ev = m->u.event;
+        p->events++;
+        break;
+    case IT2N_MSG_QUERY_RESULT: {
+        const it2n_msg_query_result *d = &m->u.query_result;
+        it2n_point pt;
+        trace(p, 'Q');
+        it2n_eval(p->ref, it2n_par_from_wire(d->u), it2n_par_from_wire(d->w), &pt, NULL);
+        p->mismatches += memcmp(pt.v, d->v, sizeof pt.v) != 0;
+        p->results += d->re == (uint16_t)p->want_re || p->want_re < 0;
+        break;
+    }
+    case IT2N_MSG_SAMPLE_DATA: {
+        const it2n_msg_sample_data *d = &m->u.sample_data;
+        trace(p, 'S');
+        if (d->count > p->max_count)
+            p->max_count = d->count;
+        for (unsigned k = 0; k < d->count; k++) {
+            uint32_t idx = d->start + k, r = idx / d->cols, c = idx % d->cols;
+            it2n_point pt;
+            it2n_eval(p->ref, (it2n_par)(((uint64_t)r << IT2N_PAR_FRAC) / (d->rows - 1u)),
+                      (it2n_par)(((uint64_t)c << IT2N_PAR_FRAC) / (d->cols - 1u)), &pt, NULL);
+            p->mismatches += memcmp(pt.v[d->fp], d->v[k], sizeof d->v[k]) != 0;
+            if (idx < sizeof p->seen && !p->seen[idx]++)
+                p->points++;
+        }
+        break;
+    }
+    default:
+        break;
+    }
+    return ret;
+}
+
+static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *n)
+{
+    peer *p = app;
+    (void)seq;
+    trace(p, code == 0 ? 'A' : 'N');
+    if (code == 0) {
+        p->acked++;
+        return;
+    }
+    if (code == IT2N_PROTO_ERR_TIMEOUT) {
+        p->timeouts++;
+        return;
+    }
+    p->nacked++;
+    p->last_code = code;
+    if (n)
+        p->last_nack = *n;
+    fprintf(stderr, "  %s seq %u NACKed %d (%s) i %d j %d fp %d\n", it2n_msg_name(type), seq, code,
+            code <= -100 ? it2n_proto_strerror(code) : "core", n ? n->i : -9, n ? n->j : -9, n ? n->fp : -9);
+}
+
+static void peer_init(peer *p, uint16_t first, uint32_t session, unsigned pct, uint32_t rto)
+{
+    it2n_link_cfg c;
+    const it2n_model *ref = p->ref;
+    memset(p, 0, sizeof *p);
+    p->ref = ref;
+    p->pct = pct;
+    p->os.write = os_write;
+    p->os.state = p;
+    p->want_re = -1;
+    memset(&c, 0, sizeof c);
+    c.out = &p->os;
+    c.on_rx = on_rx;
+    c.on_done = on_done;
+    c.app = p;
+    c.rto_ms = rto;
+    c.rto_max_ms = 4 * rto;
+    c.max_tries = 0; /* the tests decide when to give up */
+    c.first_seq = first;
+    c.session = session;
+    it2n_link_init(&p->l, &c);
+}
+
+/* Read what the daemon wrote, split into frames for the fault model. */
+static void pump(peer *p, int wait_ms)
+{
+    uint8_t buf[4096];
+    struct pollfd pf = {master, POLLIN, 0};
+    if (wait_ms > 0)
+        (void)poll(&pf, 1, wait_ms);
+    for (;;) {
+        ssize_t n = read(master, buf, sizeof buf);
+        if (n <= 0)
+            break;
+        for (ssize_t k = 0; k < n; k++) {
+            if (p->ilen < sizeof p->in)
+                p->in[p->ilen++] = buf[k];
+            if (buf[k] == 0) {
+                fault_frame(p, p->in, p->ilen, 0);
+                p->ilen = 0;
+            }
+        }
+    }
+    release_held(p, 0);
+    for (unsigned k = 0; k < p->nd;) { /* deferred answers come due */
+        if ((int32_t)(now_ms() - p->dat[k]) >= 0) {
+            it2n_link_complete(&p->l, p->dseq[k], 0, NULL);
+            p->dseq[k] = p->dseq[p->nd - 1];
+            p->dat[k] = p->dat[--p->nd];
+        } else {
+            k++;
+        }
+    }
+    it2n_link_poll(&p->l, now_ms());
+}
+
+/* Send m (waiting for window room); the sequence number, or -1. */
+static int32_t send_msg(peer *p, const it2n_msg *m, uint32_t limit_ms)
+{
+    uint32_t t0 = now_ms();
+    while (!it2n_link_can_send(&p->l)) {
+        pump(p, 2);
+        if (now_ms() - t0 > limit_ms)
+            return -1;
+    }
+    return it2n_link_send(&p->l, m, now_ms());
+}
+
+static int drain(peer *p, uint32_t limit_ms)
+{
+    uint32_t t0 = now_ms();
+    while (it2n_link_pending(&p->l) || p->nheld) {
+        pump(p, 2);
+        if (now_ms() - t0 > limit_ms)
+            return -1;
+    }
+    return 0;
+}
+
+static it2n_msg hello(void)
+{
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_HELLO;
+    m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
+    m.u.hello.version_max = IT2N_PROTO_VERSION;
+    m.u.hello.max_degree = IT2N_MAX_DEGREE;
+    m.u.hello.window = W;
+    m.u.hello.caps = IT2N_CAP_INSTRUMENT;
+    m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
+    m.u.hello.max_models = 1;
+    memcpy(m.u.hello.node, "daemon_link", 11);
+    return m;
+}
+
+static it2n_msg model_msg(uint8_t type, uint8_t model)
+{
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = type;
+    m.u.model.model = model;
+    return m;
+}
+
+/* Upload ds as model `model` (CONFIGURE, PUTs of `batch`, COMMIT). */
+static void upload(peer *p, uint8_t model, const it2n_dataset *ds, unsigned batch, uint32_t limit)
+{
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_CONFIGURE;
+    m.u.configure.model = model;
+    m.u.configure.n = ds->n;
+    m.u.configure.m = ds->m;
+    m.u.configure.flags = ds->flags;
+    send_msg(p, &m, limit);
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_PUT;
+    m.u.put.model = model;
+    for (unsigned i = 0; i <= ds->n; i++)
+        for (unsigned j = 0; j <= ds->m; j++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (!(ds->present[i][j] & (1u << fp)))
+                    continue;
+                it2n_put_entry *e = &m.u.put.e[m.u.put.count++];
+                e->i = (uint8_t)i;
+                e->j = (uint8_t)j;
+                e->fp = (uint8_t)fp;
+                it2n_dataset_get(ds, i, j, fp, e->vals);
+                if (m.u.put.count == batch) {
+                    send_msg(p, &m, limit);
+                    m.u.put.count = 0;
+                }
+            }
+    if (m.u.put.count)
+        send_msg(p, &m, limit);
+    m = model_msg(IT2N_MSG_COMMIT, model);
+    send_msg(p, &m, limit);
+}
+
+/* ---- scenarios ----------------------------------------------------------- */
+
+static void wait_link(void)
+{
+    /* the daemon opens the link: HELLO until ACKed */
+    it2n_msg m = hello();
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    send_msg(&P, &m, 1000);
+    CHECK(drain(&P, 10000) == 0, "daemon did not answer HELLO (log %s)", log_path);
+}
+
+static void sessions(unsigned n)
+{
+    static it2n_model ref;
+    unsigned lost = 0, refused = 0, ok = 0;
+    uint16_t last = P.l.tx_next;
+    uint32_t t0 = now_ms();
+    for (unsigned s = 0; s < n; s++) {
+        it2n_dataset ds;
+        it2n_errinfo e;
+        it2n_dataset_init(&ds, 1, 1, IT2N_F_TYPE1, NULL);
+        for (unsigned i = 0; i <= 1; i++)
+            for (unsigned j = 0; j <= 1; j++) {
+                it2n_val v[IT2N_CH_COUNT] = {(it2n_val)(10 * i + s % 7) << 24, (it2n_val)(10 * j) << 24, 0,
+                                             (it2n_val)((s * 7919u + i * 3 + j) % 1000u) << 14,
+                                             (it2n_val)((s * 104729u + j) % 1000u) << 14, 1 << 22};
+                it2n_dataset_put(&ds, i, j, IT2N_FP_D, v, false, &e);
+            }
+        it2n_model_init(&ref);
+        if (it2n_model_solve(&ref, &ds, &e) != IT2N_OK) {
+            fprintf(stderr, "local solve %u failed\n", s);
+            lost++;
+            continue;
+        }
+        /* first number inside the daemon's history of the last session */
+        peer_init(&P, (uint16_t)(last - 1u - rnd() % W), rnd(), 0, 100);
+        P.ref = &ref;
+        it2n_msg h = hello();
+        send_msg(&P, &h, 2000);
+        upload(&P, 1, &ds, 2, 2000);
+        /* readers see the last durable state: query after COMMIT's ACK */
+        drain(&P, 5000);
+        it2n_msg q;
+        memset(&q, 0, sizeof q);
+        q.type = IT2N_MSG_QUERY;
+        q.u.query.model = 1;
+        send_msg(&P, &q, 2000);
+        q.u.query.u = q.u.query.w = IT2N_WIRE_PAR_ONE;
+        send_msg(&P, &q, 2000);
+        if (drain(&P, 5000) != 0) {
+            lost++;
+            continue;
+        }
+        /* wait for both results (responses follow the ACKs) */
+        for (uint32_t t1 = now_ms(); P.results < 2 && now_ms() - t1 < 2000;)
+            pump(&P, 2);
+        refused += P.nacked;
+        if (P.results != 2 || P.mismatches || P.nacked || P.acked != 7)
+            lost++;
+        else
+            ok++;
+        last = P.l.tx_next;
+    }
+    printf("sessions: %u back-to-back on one link, first seq inside the daemon's history: %u ok, %u lost, "
+           "%u refused, %u ms\n", n, ok, lost, refused, now_ms() - t0);
+    CHECK(lost == 0 && refused == 0 && ok == n, "sessions: %u lost, %u refused", lost, refused);
+}
+
+static void kills(unsigned k)
+{
+    static it2n_dataset ds;
+    static it2n_model ref;
+    it2n_errinfo e;
+    unsigned killed = 0, sent = 0;
+    CHECK(synth_dataset(&ds, 7, 7, 0, 77, &e) == IT2N_OK, "synth");
+    it2n_model_init(&ref);
+    CHECK(it2n_model_solve(&ref, &ds, &e) == IT2N_OK, "local solve");
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 50);
+    P.ref = &ref;
+    it2n_msg h = hello();
+    send_msg(&P, &h, 2000);
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_CONFIGURE;
+    m.u.configure.model = 2;
+    m.u.configure.n = 7;
+    m.u.configure.m = 7;
+    send_msg(&P, &m, 2000);
+    drain(&P, 5000);
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_PUT;
+    m.u.put.model = 2;
+    unsigned total = 0;
+    for (unsigned i = 0; i <= 7; i++)
+        for (unsigned j = 0; j <= 7; j++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                it2n_put_entry *en = &m.u.put.e[m.u.put.count++];
+                en->i = (uint8_t)i;
+                en->j = (uint8_t)j;
+                en->fp = (uint8_t)fp;
+                it2n_dataset_get(&ds, i, j, fp, en->vals);
+                total++;
+                if (m.u.put.count < 7 && total < 448)
+                    continue;
+                CHECK(send_msg(&P, &m, 20000) >= 0, "PUT send");
+                sent++;
+                m.u.put.count = 0;
+                /* every few PUTs: kill -9 with frames in flight, restart */
+                if (killed < k && killed * 60u < k * sent && it2n_link_pending(&P.l) > 0) {
+                    pump(&P, rnd() % 3); /* some delivered, some ACKs unread */
+                    daemon_kill(SIGKILL);
+                    killed++;
+                    daemon_start();
+                }
+            }
+    drain(&P, 30000);
+    unsigned put_acked = P.acked;
+    m = model_msg(IT2N_MSG_COMMIT, 2);
+    send_msg(&P, &m, 5000);
+    drain(&P, 10000);
+    it2n_msg q;
+    memset(&q, 0, sizeof q);
+    q.type = IT2N_MSG_QUERY;
+    q.u.query.model = 2;
+    q.u.query.u = IT2N_WIRE_PAR_ONE / 3;
+    q.u.query.w = IT2N_WIRE_PAR_ONE / 7;
+    send_msg(&P, &q, 5000);
+    for (uint32_t t1 = now_ms(); P.results < 1 && now_ms() - t1 < 5000;)
+        pump(&P, 2);
+    printf("kill -9: %u kills mid-upload, %u PUTs sent, %u ACKed, %u NACKed, %u retransmissions, "
+           "solved model %s the local solve\n",
+           killed, sent, put_acked - 2, P.nacked, P.l.stats.tx_retx,
+           P.results == 1 && !P.mismatches ? "equals" : "DIFFERS FROM");
+    {
+        /* how many re-sent PUTs found their entries stored (the rule) */
+        char cmd[400];
+        snprintf(cmd, sizeof cmd, "grep -c 'already stored with these values' '%s'", log_path);
+        FILE *g = popen(cmd, "r");
+        unsigned idem = 0;
+        if (g) {
+            if (fscanf(g, "%u", &idem) != 1)
+                idem = 0;
+            pclose(g);
+        }
+        printf("kill -9: %u re-sent PUTs were found already stored (idempotent success)\n", idem);
+        if (k >= 5)
+            CHECK(idem > 0, "no re-sent PUT hit a stored entry: the case under test did not happen");
+    }
+    CHECK(killed == k, "killed %u of %u", killed, k);
+    CHECK(P.nacked == 0, "%u NACKs (last %d)", P.nacked, P.last_code);
+    CHECK(put_acked == 2 + sent, "ACKs %u for %u PUTs", put_acked - 2, sent);
+    CHECK(P.results == 1 && P.mismatches == 0, "query after the kills");
+}
+
+static void lossy(unsigned pct)
+{
+    static it2n_dataset ds;
+    static it2n_model ref;
+    it2n_errinfo e;
+    CHECK(synth_dataset(&ds, 3, 3, 0, 5, &e) == IT2N_OK, "synth");
+    it2n_model_init(&ref);
+    CHECK(it2n_model_solve(&ref, &ds, &e) == IT2N_OK, "local solve");
+    peer_init(&P, (uint16_t)rnd(), rnd(), pct, 40);
+    P.ref = &ref;
+    uint32_t t0 = now_ms();
+    it2n_msg h = hello();
+    send_msg(&P, &h, 5000);
+    upload(&P, 3, &ds, 19, 20000);
+    CHECK(drain(&P, 30000) == 0, "upload not acknowledged");
+    uint32_t t_up = now_ms();
+    for (unsigned k = 0; k < 16; k++) {
+        it2n_msg q;
+        memset(&q, 0, sizeof q);
+        q.type = IT2N_MSG_QUERY;
+        q.u.query.model = 3;
+        q.u.query.u = (uint32_t)(k * (IT2N_WIRE_PAR_ONE / 15u));
+        q.u.query.w = IT2N_WIRE_PAR_ONE - q.u.query.u;
+        CHECK(send_msg(&P, &q, 20000) >= 0, "QUERY %u", k);
+    }
+    it2n_msg s;
+    memset(&s, 0, sizeof s);
+    s.type = IT2N_MSG_SAMPLE;
+    s.u.sample.model = 3;
+    s.u.sample.fp = IT2N_FP_D;
+    s.u.sample.rows = 33;
+    s.u.sample.cols = 33;
+    CHECK(send_msg(&P, &s, 20000) >= 0, "SAMPLE");
+    uint32_t t1 = now_ms();
+    while ((P.results < 16 || P.points < 33 * 33) && now_ms() - t1 < 60000)
+        pump(&P, 2);
+    if (getenv("DL_DEBUG"))
+        fprintf(stderr, "  upload %u ms, requests sent %u ms, responses %u ms; host: gaps %u fast %u\n",
+                t_up - t0, t1 - t_up, now_ms() - t1, P.l.stats.tx_gaps, P.l.stats.tx_fast_retx);
+    drain(&P, 10000);
+    release_held(&P, 1);
+    printf("lossy %u%%: session (HELLO, 1 CONFIGURE + 9 PUT + COMMIT, 16 QUERY, SAMPLE 33x33) in %u ms, "
+           "%u/16 results, %u/1089 points, %u mismatches, 0 re-requests; host retx %u, buffered %u, "
+           "dup %u; NACKs %u\n",
+           pct, now_ms() - t0, P.results, P.points, P.mismatches, P.l.stats.tx_retx, P.l.stats.rx_buffered,
+           P.l.stats.rx_dup, P.nacked);
+    CHECK(P.results == 16 && P.points == 33 * 33 && P.mismatches == 0, "lossy: responses incomplete");
+    CHECK(P.nacked == 0, "lossy: %u NACKs", P.nacked);
+    if (pct)
+        CHECK(P.l.stats.tx_retx > 0 && P.l.stats.rx_dup + P.l.stats.rx_buffered > 0, "faults not exercised");
+}
+
+/* Send m and wait for its answer; returns the code (0 ACK). */
+static int request(peer *p, const it2n_msg *m)
+{
+    unsigned before = p->acked + p->nacked;
+    if (send_msg(p, m, 5000) < 0)
+        return 1;
+    for (uint32_t t0 = now_ms(); p->acked + p->nacked == before && now_ms() - t0 < 5000;)
+        pump(p, 2);
+    if (p->acked + p->nacked == before)
+        return 2;
+    return p->nacked && p->acked + p->nacked > before && p->trace[p->ntrace - 1] == 'N' ? p->last_code : 0;
+}
+
+static void settle(peer *p, unsigned ms)
+{
+    for (uint32_t t0 = now_ms(); now_ms() - t0 < ms;)
+        pump(p, 2);
+}
+
+static it2n_msg put1(uint8_t model, uint8_t i, uint8_t j, uint8_t fp, it2n_val z)
+{
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_PUT;
+    m.u.put.model = model;
+    m.u.put.count = 1;
+    m.u.put.e[0].i = i;
+    m.u.put.e[0].j = j;
+    m.u.put.e[0].fp = fp;
+    m.u.put.e[0].vals[IT2N_CH_X] = (it2n_val)i << 24;
+    m.u.put.e[0].vals[IT2N_CH_Y] = (it2n_val)j << 24;
+    m.u.put.e[0].vals[IT2N_CH_Z] = z;
+    m.u.put.e[0].vals[IT2N_CH_T] = 1 << 23;
+    return m;
+}
+
+/* Issue 11 item 5 (and 4): the gaps the issue lists, each driven on the
+ * wire against the daemon. Needs the daemon's default RTO (no rto_ms) and
+ * peer_timeout_ms = 600 in the link section. */
+static void spec(unsigned unused)
+{
+    static it2n_dataset ds;
+    static it2n_model ref;
+    it2n_errinfo e;
+    int r;
+    (void)unused;
+    CHECK(synth_dataset(&ds, 3, 3, 0, 9, &e) == IT2N_OK, "synth");
+    it2n_model_init(&ref);
+    CHECK(it2n_model_solve(&ref, &ds, &e) == IT2N_OK, "local solve");
+
+    /* No common version: NACK VERSION, value = our highest, lo..hi = the
+     * daemon's versions. */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    it2n_msg h = hello();
+    h.u.hello.version_min = h.u.hello.version_max = 1;
+    r = request(&P, &h);
+    CHECK(r == IT2N_PROTO_ERR_VERSION && P.last_nack.value == 1 && P.last_nack.lo == IT2N_PROTO_VERSION_MIN &&
+              P.last_nack.hi == IT2N_PROTO_VERSION,
+          "HELLO without a common version: %d value %lld lo %lld hi %lld", r, (long long)P.last_nack.value,
+          (long long)P.last_nack.lo, (long long)P.last_nack.hi);
+    CHECK(P.hellos == 0, "a refused HELLO got the daemon's HELLO");
+
+    /* HELLO is optional: a session without it is served (no EVENTs). */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_CONFIGURE;
+    m.u.configure.model = 1;
+    m.u.configure.n = m.u.configure.m = 1;
+    m.u.configure.flags = IT2N_F_TYPE1;
+    CHECK(request(&P, &m) == 0, "CONFIGURE without HELLO");
+    settle(&P, 100);
+    CHECK(P.events == 0, "EVENT to a peer that said no HELLO");
+
+    /* HELLO answered by ACK, then the daemon's HELLO (type 0x01, not
+     * 0x41), whose max_models is the number of model ids it serves. */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    h = hello();
+    h.u.hello.caps |= IT2N_CAP_EVENTS;
+    CHECK(request(&P, &h) == 0, "HELLO");
+    settle(&P, 100);
+    CHECK(P.hellos == 1 && P.trace[0] == 'A' && P.trace[1] == 'H', "HELLO answer: trace %.*s", (int)P.ntrace,
+          P.trace);
+    CHECK(P.dh.max_models == 3 && P.dh.version_min == IT2N_PROTO_VERSION_MIN &&
+              P.dh.version_max == IT2N_PROTO_VERSION && (P.dh.caps & IT2N_CAP_SERVER),
+          "daemon HELLO: max_models %u versions %u..%u", P.dh.max_models, P.dh.version_min, P.dh.version_max);
+
+    /* CONFIGURE: its ACK comes before the CONFIGURED EVENT. */
+    P.ntrace = 0;
+    m.u.configure.model = 1;
+    CHECK(request(&P, &m) == 0, "CONFIGURE");
+    settle(&P, 100);
+    CHECK(P.ntrace >= 2 && P.trace[0] == 'A' && P.trace[1] == 'E' && P.ev.kind == IT2N_EV_CONFIGURED,
+          "CONFIGURE ACK then EVENT CONFIGURED: trace %.*s kind %u", (int)P.ntrace, P.trace, P.ev.kind);
+
+    /* NACK details. Unknown model: MODEL, value = the id. */
+    m.u.configure.model = 9;
+    r = request(&P, &m);
+    CHECK(r == IT2N_PROTO_ERR_MODEL && P.last_nack.value == 9, "unknown model: %d value %lld", r,
+          (long long)P.last_nack.value);
+    /* type-1 model, footprint LL: INVAL, value 0, lo..hi = 3..3 (D only) */
+    it2n_msg pm = put1(1, 0, 0, IT2N_FP_LL, 0);
+    r = request(&P, &pm);
+    CHECK(r == IT2N_ERR_INVAL && P.last_nack.value == 0 && P.last_nack.lo == IT2N_FP_D &&
+              P.last_nack.hi == IT2N_FP_D && P.last_nack.fp == IT2N_FP_LL,
+          "type-1 fp LL: %d value %lld lo %lld hi %lld", r, (long long)P.last_nack.value,
+          (long long)P.last_nack.lo, (long long)P.last_nack.hi);
+    /* i > n: INVAL with the entry's fp (not -1), value i, hi n */
+    pm = put1(1, 5, 0, IT2N_FP_D, 0);
+    r = request(&P, &pm);
+    CHECK(r == IT2N_ERR_INVAL && P.last_nack.i == 5 && P.last_nack.fp == IT2N_FP_D && P.last_nack.value == 5 &&
+              P.last_nack.hi == 1,
+          "i > n: %d i %d fp %d value %lld hi %lld", r, P.last_nack.i, P.last_nack.fp,
+          (long long)P.last_nack.value, (long long)P.last_nack.hi);
+    /* z for a model without z: RANGE on channel z, never dropped */
+    pm = put1(1, 0, 0, IT2N_FP_D, 5 << 24);
+    r = request(&P, &pm);
+    CHECK(r == IT2N_ERR_RANGE && P.last_nack.ch == IT2N_CH_Z && P.last_nack.value == 5 << 24,
+          "z on a model without z: %d ch %d", r, P.last_nack.ch);
+    /* COMMIT of an incomplete model: MISSING with ch -1 */
+    pm = put1(1, 0, 0, IT2N_FP_D, 0);
+    CHECK(request(&P, &pm) == 0, "PUT (0,0)");
+    /* the same entry again, no REPLACE: idempotent success */
+    CHECK(request(&P, &pm) == 0, "identical PUT again");
+    /* ... also from a restarted instrument (a new session re-sending a PUT
+     * whose delivery it does not know), with no generation change */
+    {
+        it2n_msg gs1 = model_msg(IT2N_MSG_GET_STATUS, 1);
+        CHECK(request(&P, &gs1) == 0, "GET_STATUS");
+        settle(&P, 50);
+        uint32_t gen0 = P.status.generation;
+        peer_init(&P, (uint16_t)(P.l.tx_next - 1u), rnd(), 0, 100);
+        P.ref = &ref;
+        CHECK(request(&P, &pm) == 0, "identical PUT from a new session");
+        CHECK(request(&P, &gs1) == 0, "GET_STATUS");
+        settle(&P, 50);
+        CHECK(P.status.generation == gen0, "re-sent PUT changed the generation %u -> %u", gen0,
+              P.status.generation);
+    }
+    pm.u.put.e[0].vals[IT2N_CH_T] = 1 << 22;
+    r = request(&P, &pm);
+    CHECK(r == IT2N_ERR_DUPLICATE, "different value at a stored entry: %d (want DUPLICATE)", r);
+    it2n_msg cm = model_msg(IT2N_MSG_COMMIT, 1);
+    r = request(&P, &cm);
+    CHECK(r == IT2N_ERR_MISSING && P.last_nack.ch == -1 && P.last_nack.fp >= 0, "MISSING: %d ch %d fp %d", r,
+          P.last_nack.ch, P.last_nack.fp);
+
+    /* RESET: points gone, configuration (degrees, flags) kept, EMPTY */
+    it2n_msg rs = model_msg(IT2N_MSG_RESET, 1);
+    CHECK(request(&P, &rs) == 0, "RESET");
+    it2n_msg gs = model_msg(IT2N_MSG_GET_STATUS, 1);
+    CHECK(request(&P, &gs) == 0, "GET_STATUS");
+    settle(&P, 100);
+    CHECK(P.status.state == IT2N_MS_EMPTY && P.status.n == 1 && P.status.m == 1 &&
+              P.status.flags == IT2N_F_TYPE1 && P.status.missing == 4,
+          "after RESET: state %u n %u m %u flags %u missing %u", P.status.state, P.status.n, P.status.m,
+          P.status.flags, P.status.missing);
+
+    /* SAMPLE above 65 536 nodes: RANGE, value = nodes asked, hi = limit */
+    unsigned nk0 = P.nacked;
+    upload(&P, 3, &ds, 19, 5000);
+    CHECK(drain(&P, 10000) == 0 && P.nacked == nk0, "upload model 3 (%u NACKs)", P.nacked - nk0);
+    it2n_msg sm;
+    memset(&sm, 0, sizeof sm);
+    sm.type = IT2N_MSG_SAMPLE;
+    sm.u.sample.model = 3;
+    sm.u.sample.fp = IT2N_FP_D;
+    sm.u.sample.rows = 257;
+    sm.u.sample.cols = 256;
+    r = request(&P, &sm);
+    CHECK(r == IT2N_ERR_RANGE && P.last_nack.value == 257 * 256 && P.last_nack.hi == 65536,
+          "SAMPLE 257x256: %d value %lld hi %lld", r, (long long)P.last_nack.value, (long long)P.last_nack.hi);
+
+    /* Requests during a response run wait for it: never BUSY; the STATUS
+     * comes after the last SAMPLE_DATA. */
+    settle(&P, 50);
+    P.ntrace = 0;
+    unsigned nacked = P.nacked;
+    sm.u.sample.rows = sm.u.sample.cols = 33;
+    CHECK(send_msg(&P, &sm, 2000) >= 0, "SAMPLE");
+    CHECK(send_msg(&P, &gs, 2000) >= 0, "GET_STATUS");
+    it2n_msg q;
+    memset(&q, 0, sizeof q);
+    q.type = IT2N_MSG_QUERY;
+    q.u.query.model = 3;
+    CHECK(send_msg(&P, &q, 2000) >= 0, "QUERY");
+    drain(&P, 10000);
+    settle(&P, 300);
+    {
+        const char *t = memchr(P.trace, 'T', P.ntrace), *lastS = NULL;
+        for (unsigned k = 0; k < P.ntrace; k++)
+            if (P.trace[k] == 'S')
+                lastS = P.trace + k;
+        CHECK(P.nacked == nacked && t && lastS && t > lastS && memchr(P.trace, 'Q', P.ntrace),
+              "requests during a SAMPLE run: %u NACKs, trace %.*s", P.nacked - nacked, (int)P.ntrace, P.trace);
+    }
+
+    /* Negotiated limits: window 1, max_payload 64 — SAMPLE_DATA of one
+     * point and one frame in flight; QUERY_RESULT (447) refused NOSPACE. */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    h = hello();
+    h.u.hello.window = 1;
+    h.u.hello.max_payload = 64;
+    CHECK(request(&P, &h) == 0, "HELLO window 1");
+    r = request(&P, &q);
+    CHECK(r == IT2N_PROTO_ERR_NOSPACE && P.last_nack.value == 447 && P.last_nack.hi == 64,
+          "QUERY to a 64-byte peer: %d value %lld hi %lld", r, (long long)P.last_nack.value,
+          (long long)P.last_nack.hi);
+    settle(&P, 100);
+    memset(P.seen, 0, sizeof P.seen);
+    P.points = 0;
+    P.defer = 1;
+    sm.u.sample.rows = sm.u.sample.cols = 8;
+    CHECK(send_msg(&P, &sm, 2000) >= 0, "SAMPLE 8x8");
+    for (uint32_t t0 = now_ms(); P.points < 64 && now_ms() - t0 < 20000;)
+        pump(&P, 2);
+    P.defer = 0;
+    settle(&P, 100);
+    printf("spec: window 1 / max_payload 64 peer: %u points, at most %u per SAMPLE_DATA, at most %u "
+           "unanswered daemon frames\n", P.points, P.max_count, P.max_unanswered);
+    CHECK(P.points == 64 && P.max_count == 1 && P.max_unanswered == 1, "limits: %u points, count %u, in flight %u",
+          P.points, P.max_count, P.max_unanswered);
+    /* the same with window 4: more in flight (the check can fail) */
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    h = hello();
+    CHECK(request(&P, &h) == 0, "HELLO window 4");
+    settle(&P, 50);
+    P.defer = 1;
+    CHECK(send_msg(&P, &sm, 2000) >= 0, "SAMPLE 8x8");
+    for (uint32_t t0 = now_ms(); P.points < 64 && now_ms() - t0 < 20000;)
+        pump(&P, 2);
+    P.defer = 0;
+    settle(&P, 100);
+    CHECK(P.max_count == 21 && P.max_unanswered > 1, "window 4: count %u, in flight %u", P.max_count,
+          P.max_unanswered);
+
+    /* RTO from the baud rate (921 600: 50 + 5 x 1046 x 10 / 921.6 = 107
+     * ms): the daemon's first retransmission of an unanswered frame comes
+     * no sooner; then, silent past peer_timeout_ms, the link is declared
+     * down and the next word from the peer brings EVENT LOST. */
+    settle(&P, 100);
+    P.defer = 1;
+    P.nd = 0;
+    unsigned rx_before = P.l.stats.rx_dup;
+    uint32_t t0 = now_ms();
+    CHECK(send_msg(&P, &gs, 2000) >= 0, "GET_STATUS");
+    /* hold every answer: the STATUS frame stays unanswered */
+    uint32_t first_retx = 0;
+    while (now_ms() - t0 < 1500) {
+        for (unsigned k = 0; k < P.nd; k++)
+            P.dat[k] = now_ms() + 100000;
+        pump(&P, 2);
+        if (!first_retx && P.l.stats.rx_dup > rx_before)
+            first_retx = now_ms() - t0;
+    }
+    P.nd = 0;
+    P.defer = 0;
+    printf("spec: daemon's first retransmission after %u ms (default RTO at 921600 baud: %u ms)\n", first_retx,
+           50u + (5u * 1046u * 10u * 1000u + 921599u) / 921600u);
+    CHECK(first_retx >= 100 && first_retx < 1000, "first retransmission after %u ms", first_retx);
+    P.events = 0;
+    P.ev.kind = 0;
+    CHECK(request(&P, &gs) == 0, "GET_STATUS after the link was declared down");
+    settle(&P, 300);
+    CHECK(P.ev.kind == IT2N_EV_LOST && P.ev.model == 0xFF && P.ev.code == IT2N_PROTO_ERR_DOWN &&
+              P.ev.generation >= 1,
+          "EVENT LOST: kind %u model %u code %d frames %u", P.ev.kind, P.ev.model, P.ev.code,
+          (unsigned)P.ev.generation);
+    printf("spec: %d checks failed\n", failures);
+}
+
+/* ---- the worked example of docs/instrument.md ------------------------ */
+#ifdef DOC_EXAMPLE
+#include "it2n_inst.h"
+int upload_and_query(it2n_val *t_centre, it2n_msg_nack *why);
+int board_uart_write(const uint8_t *buf, size_t len);
+int board_uart_read(uint8_t *buf, size_t len);
+uint32_t board_millis(void);
+uint32_t board_boot_count(void);
+
+int board_uart_write(const uint8_t *buf, size_t len)
+{
+    raw_write(buf, len);
+    return 0;
+}
+
+int board_uart_read(uint8_t *buf, size_t len)
+{
+    ssize_t n = read(master, buf, len);
+    return n > 0 ? (int)n : 0;
+}
+
+uint32_t board_millis(void)
+{
+    return now_ms();
+}
+
+uint32_t board_boot_count(void)
+{
+    return rnd();
+}
+
+/* The example as a firmware would run it, twice (two boots: the second
+ * session's id differs, the same points again are no DUPLICATE because
+ * CONFIGURE clears them), each result checked against the core. */
+static void doc(unsigned runs)
+{
+    static it2n_dataset ds;
+    static it2n_model ref;
+    it2n_errinfo e;
+    it2n_point pt;
+    it2n_dataset_init(&ds, 1, 1, IT2N_F_TYPE1, NULL);
+    for (unsigned i = 0; i <= 1; i++)
+        for (unsigned j = 0; j <= 1; j++) {
+            it2n_val v[IT2N_CH_COUNT] = {(it2n_val)(10 * i) * IT2N_VAL_ONE, (it2n_val)(10 * j) * IT2N_VAL_ONE, 0,
+                                         IT2N_VAL_ONE / 2 + (it2n_val)i * (IT2N_VAL_ONE / 4), IT2N_VAL_ONE / 8,
+                                         IT2N_VAL_ONE / 4 - (it2n_val)j * (IT2N_VAL_ONE / 8)};
+            it2n_dataset_put(&ds, i, j, IT2N_FP_D, v, false, &e);
+        }
+    it2n_model_init(&ref);
+    CHECK(it2n_model_solve(&ref, &ds, &e) == IT2N_OK, "local solve");
+    it2n_eval(&ref, it2n_par_from_wire(IT2N_WIRE_PAR_ONE / 2), it2n_par_from_wire(IT2N_WIRE_PAR_ONE / 2), &pt, NULL);
+    for (unsigned k = 0; k < runs; k++) {
+        it2n_val t = -1;
+        it2n_msg_nack why;
+        memset(&why, 0, sizeof why);
+        int r = upload_and_query(&t, &why);
+        printf("doc example (docs/instrument.md) run %u: %d, T(0.5, 0.5) = %.7f (core: %.7f)\n", k + 1, r,
+               (double)t / 16777216.0, (double)pt.v[IT2N_FP_D][IT2N_CH_T] / 16777216.0);
+        CHECK(r == 0 && t == pt.v[IT2N_FP_D][IT2N_CH_T], "doc example: %d (NACK code %d at %d,%d)", r, why.code,
+              why.i, why.j);
+    }
+}
+#else
+static void doc(unsigned runs)
+{
+    (void)runs;
+    fprintf(stderr, "daemon_link: built without the docs/instrument.md example\n");
+    failures++;
+}
+#endif
+
+int main(int argc, char **argv)
+{
+    if (argc < 4 || (argc - 2) % 2) {
+        fprintf(stderr, "usage: daemon_link IT2ND SCENARIO ARG [SCENARIO ARG ...]\n");
+        return 2;
+    }
+    it2nd = argv[1];
+    signal(SIGPIPE, SIG_IGN);
+    rng ^= (uint64_t)getpid() << 20;
+    setup(getenv("LINK_EXTRA") ? getenv("LINK_EXTRA") : "rto_ms = 30\n");
+    wait_link();
+    for (int k = 2; k + 1 < argc && !failures; k += 2) {
+        unsigned v = (unsigned)atoi(argv[k + 1]);
+        if (!strcmp(argv[k], "sessions"))
+            sessions(v);
+        else if (!strcmp(argv[k], "kill"))
+            kills(v);
+        else if (!strcmp(argv[k], "lossy"))
+            lossy(v);
+        else if (!strcmp(argv[k], "spec"))
+            spec(v);
+        else if (!strcmp(argv[k], "doc"))
+            doc(v);
+        else {
+            fprintf(stderr, "unknown scenario %s\n", argv[k]);
+            return 2;
+        }
+    }
+    if (failures) {
+        fprintf(stderr, "daemon_link: %d check(s) failed; daemon log %s:\n", failures, log_path);
+        char cmd[400];
+        snprintf(cmd, sizeof cmd, "tail -20 '%s' >&2", log_path);
+        if (system(cmd) != 0)
+            fprintf(stderr, "(no log)\n");
+    }
+    return failures ? 1 : 0;
+}
