@@ -274,6 +274,8 @@ static void test_rto_default(void **st)
     fclose(f);
     struct conf *cf2 = calloc(1, sizeof *cf2);
     char err[256];
+    assert_non_null(cf2);
+    conf_default(cf2); /* as it2nd does before loading a file */
     assert_int_equal(conf_load(cf2, "/tmp/it2n-test-links-rto.conf", err, sizeof err), 0);
     assert_int_equal(cf2->link[0].rto_ms, 25);
     assert_int_equal(cf2->link[0].peer_timeout_ms, 800);

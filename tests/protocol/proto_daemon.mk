@@ -8,7 +8,7 @@ PROTO_DL := $(BUILD)/tests/protocol/daemon_link
 PROTO_DOC_EX := $(BUILD)/tests/protocol/instrument_example.c
 $(PROTO_DOC_EX): docs/instrument.md
 	@mkdir -p $(@D)
-	awk '/<!-- example:begin -->/{on=1;next} /<!-- example:end -->/{on=0} on && !/^```/' $< > $@
+	awk '/<!-- run: proto-daemon -->/{m=1;next} m && /^```c/{on=1;m=0;next} on && /^```/{on=0} on' $< > $@
 	@test -s $@ || { echo "docs/instrument.md: no example block" >&2; exit 1; }
 $(BUILD)/tests/protocol/instrument_example.o: $(PROTO_DOC_EX) $(PROTO_HDR)
 	$(CC) $(CORE_CFLAGS) -c $< -o $@
