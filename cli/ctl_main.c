@@ -94,6 +94,8 @@ static const char conn_help[] =
     "                      one of the daemon's [link:] devices\n"
     "  --model ID          model id on a link, 0..254 (default 1)\n"
     "  --timeout MS        per request (default 3000)\n"
+    "Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
+    "127.0.0.1:1502.\n"
     "Common: --decimals N (6..9), --help.\n"
     "Exit status: 0 ok, 1 usage error, 2 data error or refused by the\n"
     "daemon, 3 daemon unreachable or not answering.\n";
@@ -361,7 +363,7 @@ static void put_status_row(const ctl_status *st)
     printf("%u,%s,%u,%u,%s,%s,%s,%u,%u,%lu,%d\n", st->model,
            ctl_state_name(st->state), st->n, st->m,
            (st->flags & IT2N_F_TYPE1) ? "type-1" : "type-2",
-           (st->flags & IT2N_F_Z) ? "x,y,z" : "x,y",
+           (st->flags & IT2N_F_Z) ? "xyz" : "xy",
            (st->flags & IT2N_F_CHORD) ? "chord-length" : "uniform",
            st->present, st->required, (unsigned long)st->generation,
            st->last_error);
@@ -734,7 +736,9 @@ static int cmd_plot(ctl_session *s, const ctl_args *a)
     g_ds.m = (uint8_t)st.m;
     g_ds.flags = (uint8_t)st.flags;
     /* The title names the source: no '/' so it is printed whole. */
-    snprintf(title, sizeof(title), "it2nd %s generation %lu", s->ops->kind,
+    snprintf(title, sizeof(title), "it2nd %s %u generation %lu",
+             a->conn.link != NULL ? "model" : "unit",
+             a->conn.link != NULL ? a->conn.model : a->conn.unit,
              (unsigned long)st.generation);
     o.path = title;
     return cli_plot(&o, &g_mdl, &g_ds);
@@ -1115,6 +1119,10 @@ static int parse_args(int argc, char **argv, ctl_args *a)
     if (nconn > 1) {
         return usage_error(c->name, "%s",
                            "give one of --tcp, --rtu and --link");
+    }
+    if (nconn == 0 && getenv("IT2NCTL_TCP") != NULL &&
+        getenv("IT2NCTL_TCP")[0] != '\0') {
+        a->conn.tcp = getenv("IT2NCTL_TCP");
     }
     if (!baud) {
         a->conn.baud = a->conn.link != NULL ? 115200u : 19200u;
