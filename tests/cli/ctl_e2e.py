@@ -219,7 +219,7 @@ def main():
             f.write(f"[daemon]\nstate_dir = {tmp}/state\n"
                     "snapshot_interval = 3600\nlink_backoff_max = 1\n"
                     f"[modbus]\ntcp_listen = 127.0.0.1:{port}\n"
-                    f"[rtu:bus]\ndevice = {rtu_a}\nbaud = 19200\n"
+                    f"[rtu:bus]\ndevice = {rtu_a}\nbaud = 115200\n"
                     "[model:1]\nunit_id = 1\npreload = paper\n"
                     "[model:2]\nunit_id = 2\nn = 3\nm = 3\n"
                     "[model:3]\nunit_id = 3\nn = 3\nm = 3\n"
@@ -234,7 +234,7 @@ def main():
                 break
             time.sleep(0.05)
         link = ["--link", link_b]
-        rtu = ["--rtu", rtu_b, "--unit", "3"]
+        rtu = ["--rtu", rtu_b, "--unit", "3", "--baud", "115200"]
         seed = random.randint(1, 10 ** 6)
         print(f"ctl e2e: port {port}, data seed {seed}")
 
@@ -272,6 +272,29 @@ def main():
         check_status(rtu, ch, extra=("--chord",))
         compare_all("rtu", rtu, ch, "modbus", extra=("--chord",),
                     grids=("5x5",))
+
+        # -- progress bar on a terminal only -----------------------------
+        rc, out, err = run("push", g_tcp, *tcp)
+        check(rc == 0 and err == "", f"push to a pipe printed {err!r}")
+        mfd, sfd = os.openpty()
+        p = subprocess.Popen([CTL, "push", g_tcp, *tcp],
+                             stdout=subprocess.PIPE, stderr=sfd)
+        os.close(sfd)
+        tty = b""
+        while True:
+            try:
+                chunk = os.read(mfd, 4096)
+            except OSError:
+                break
+            if not chunk:
+                break
+            tty += chunk
+        p.wait()
+        os.close(mfd)
+        bars = re.findall(rb"\rpush \[([#.]{40})\] (\d+)/140 points", tty)
+        check(p.returncode == 0 and len(bars) == 140 and
+              bars[-1] == (b"#" * 40, b"140") and bars[0][1] == b"1",
+              f"progress bar on a tty: {tty[:120]!r}... {len(bars)} updates")
 
         # -- the link data set cannot go over Modbus: FILE:LINE, nothing sent
         before = status_of(tcp)["generation"]
@@ -375,6 +398,7 @@ def main():
                    PATH=os.path.dirname(CTL) + os.pathsep +
                    os.path.dirname(IT2N) + os.pathsep + os.environ["PATH"])
         blocks = doc_blocks(os.path.join(ROOT, "docs", "it2nctl.md"))
+        blocks += doc_blocks(os.path.join(ROOT, "README.md"))
         blocks += man_examples(os.path.join(ROOT, "cli", "it2nctl.1"))
         check(len(blocks) >= 2, "docs: no marked blocks")
         scratch = os.path.join(tmp, "docs")
