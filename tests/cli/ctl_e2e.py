@@ -195,6 +195,11 @@ def compare_all(label, conn, csv, mode, extra=(), grids=("5x5", "3x9")):
                binary=IT2N)[1]
     if mode == "link":
         compare(f"{label} eval --decimals 9", got, want, mode)
+        for grid in grids:  # the daemon's SAMPLE nodes are it2n's
+            got = run("sample", "--grid", grid, "--decimals", "9", *conn)[1]
+            want = run("sample", csv, "--grid", grid, "--decimals", "9",
+                       *extra, binary=IT2N)[1]
+            compare(f"{label} sample {grid} --decimals 9", got, want, mode)
 
 
 def push(label, conn, csv, extra=()):
@@ -260,7 +265,7 @@ def main():
         g_link = gen(3, 5, seed + 1, 4)
         push("link", link, g_link)
         check_status(link, g_link)
-        compare_all("link", link, g_link, "link")
+        compare_all("link", link, g_link, "link", grids=("5x5", "4x4", "7x3"))
         t1 = os.path.join(ROOT, "examples/type1_4x3.csv")
         push("link type-1", link, t1)
         check_status(link, t1)
