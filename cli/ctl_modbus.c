@@ -124,7 +124,11 @@ static void put_f32(uint16_t out[2], float f, int order)
  * bits, and |value| < 2^39 for anything the core produces). */
 static it2n_val f2q(float f)
 {
-    return (it2n_val)llround((double)f * (double)IT2N_VAL_ONE);
+    double d = (double)f * (double)IT2N_VAL_ONE;
+    if (!(d > -9.0e18 && d < 9.0e18)) { /* NaN, inf: not from it2nd */
+        return d < 0 ? INT64_MIN >> 1 : INT64_MAX >> 1;
+    }
+    return (it2n_val)llround(d);
 }
 
 /* Scaled integer (register = value * scale) to Q24, as the daemon rounds. */

@@ -228,6 +228,8 @@ def main():
                     "[model:1]\nunit_id = 1\npreload = paper\n"
                     "[model:2]\nunit_id = 2\nn = 3\nm = 3\n"
                     "[model:3]\nunit_id = 3\nn = 3\nm = 3\n"
+                    "[model:4]\nunit_id = 4\npreload = paper\n"
+                    "write_protect = yes\n"
                     f"[link:ctl]\ntype = serial\ndevice = {link_a}\n"
                     "baud = 115200\n")
         log = open(os.path.join(tmp, "daemon.log"), "w")
@@ -348,6 +350,13 @@ def main():
         check(rc == 2 and "exception 0B" in err, f"unit 9: {rc} {err!r}")
         rc, _, err = run("status", *link, "--model", "9")
         check(rc == 2 and "no such model" in err, f"model 9: {rc} {err!r}")
+        before4 = status_of(tcp + ["--unit", "4"])
+        rc, _, err = run("push", g_tcp, *tcp, "--unit", "4")
+        after4 = status_of(tcp + ["--unit", "4"])
+        check(rc == 2 and "configure: exception 02" in err and
+              [after4[k] for k in ("state", "n", "generation")] ==
+              [before4[k] for k in ("state", "n", "generation")],
+              f"write-protected unit: {rc} {err!r}")
         # -- usage errors: exit 1 ------------------------------------------
         for args, msg in ((["eval"], "eval needs at least one --at"),
                           (["frob"], "unknown command 'frob'"),
