@@ -636,8 +636,12 @@ void *ctl_link_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
     cfg.on_rx = on_rx;
     cfg.on_done = on_done;
     cfg.app = c;
-    cfg.rto_ms = 200;
-    cfg.max_tries = 8;
+    /* Retransmit every 200 ms (the daemon's default RTO) until the
+     * request timeout has passed. */
+    cfg.rto_ms = o->timeout_ms < 200u ? o->timeout_ms : 200u;
+    cfg.max_tries = (uint8_t)(o->timeout_ms / cfg.rto_ms > 255u
+                                  ? 255u
+                                  : o->timeout_ms / cfg.rto_ms + 1u);
     /* A fresh sequence each run: the daemon keeps the answers to the last
      * few sequence numbers of this line and would take a repeated SYN
      * frame for a retransmission. */
