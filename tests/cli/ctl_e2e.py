@@ -155,8 +155,9 @@ def check_status(conn, csv, extra=()):
 
 
 def compare_all(label, conn, csv, mode, extra=(), grids=("5x5", "3x9")):
+    # the last two are not in steps of 0.0001: Modbus sends them as float32
     ats = ["0,0", "1,1", "0.5,0.5", "0.25,0.75", "0.125,0.875", "1,0",
-           "0.3,0.7"]
+           "0.3,0.7", "0.0009765625,0.5", "0.6669921875,0.25"]
     args = [x for a in ats for x in ("--at", a)]
     uw = 1.5e-6 if mode == "link" else 0.0
     for summ in ((), ("--summary",)):
@@ -171,6 +172,9 @@ def compare_all(label, conn, csv, mode, extra=(), grids=("5x5", "3x9")):
     xy = [ln.split(",")[3:5] for ln in out.strip().split("\n")[1:]]
     pts = [f"{float(x):.2f},{float(y):.2f}" for x, y in xy[::2]]
     pts.append("-1000,1000")  # outside every surface
+    # dyadic, not in steps of 1/100: float32 over Modbus
+    pts.append(f"{round(float(xy[4][0]) * 128) / 128:.7f},"
+               f"{round(float(xy[4][1]) * 128) / 128:.7f}")
     args = [x for a in pts for x in ("--at", a)]
     rc, got, err = run("locate", *args, *conn)
     check(rc == 0, f"{label} locate: rc {rc} {err}")
