@@ -9,7 +9,8 @@ free port in 23000..23999, a [link:] on one side of a pty pair (it2nctl
 as a user would:
 
 * pushes data sets the daemon has never seen (generated with a fresh seed)
-  through it2nctl over TCP, over the link and over RTU, and compares every
+  through it2nctl over TCP, over the link (also through a relay dropping
+  0.03 % of the bytes each way) and over RTU, and compares every
   answer (status, eval at several points with and without --summary,
   locate, net, sample with --summary/--footprint) with `it2n` run on the
   same file: over the link the text must be identical (values are exact
@@ -276,6 +277,38 @@ def main():
         push("link type-1", link, t1)
         check_status(link, t1)
         compare_all("link type-1", link, t1, "link", grids=("5x5",))
+
+        # -- the link again through a relay dropping bytes both ways -----
+        relay_out = os.path.join(tmp, "lossy_pty")
+        relay = subprocess.Popen(
+            [sys.executable, os.path.join(ROOT, "tests/firmware/lossy_relay.py"),
+             link_b, relay_out, "300", str(seed)],
+            stdout=open(os.path.join(tmp, "relay.log"), "w"))
+        procs.append(relay)
+        for _ in range(100):
+            if os.path.exists(relay_out):
+                break
+            time.sleep(0.02)
+        lossy = ["--link", open(relay_out).read().strip(), "--timeout", "8000"]
+        g_lossy = gen(2, 3, seed + 3, 6)
+        push("lossy link", lossy, g_lossy)
+        check_status(lossy, g_lossy)
+        for cmd, ref in ((["net"], ["solve"]),
+                         (["sample", "--grid", "5x5", "--summary"],
+                          ["sample", "--grid", "5x5", "--summary"])):
+            rc, got, err = run(*cmd, *lossy)
+            check(rc == 0, f"lossy {cmd}: rc {rc} {err}")
+            compare(f"lossy link {cmd}", got,
+                    run(ref[0], g_lossy, *ref[1:], binary=IT2N)[1], "link")
+        relay.terminate()
+        relay.wait()
+        procs.remove(relay)
+        last = open(os.path.join(tmp, "relay.log")).read().strip()
+        last = last.split("\n")[-1] if last else ""
+        drops = [int(d) for d in re.findall(r"dropped (\d+)", last)]
+        check(len(drops) == 2 and sum(drops) > 0,
+              f"the relay dropped nothing: {last!r}")
+        print(f"ctl e2e: lossy link: {last}")
 
         # -- RTU: chord-length parameters on unit 3 -----------------------
         ch = os.path.join(ROOT, "examples/chord_5x4.csv")
