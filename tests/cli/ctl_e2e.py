@@ -19,7 +19,8 @@ as a user would:
   them exactly) and coordinates and memberships beyond 1 equal to float32
   precision, locate has no u, w and reports outside|noconv;
 * watch prints a row per new generation (TCP polling and link EVENTs);
-* plot draws the live model (PNG and SVG checked as images);
+* plot draws the live model (PNG and SVG checked as images; the SVG path
+  data equal to `it2n plot` on the pushed file, over TCP and the link);
 * errors: bad CSV (the same FILE:LINE message as `it2n check`, exit 2,
   nothing sent), a value Modbus cannot carry (FILE:LINE, exit 2, nothing
   sent), unreachable daemon and silent link (exit 3), unsolved model and
@@ -436,6 +437,20 @@ def main():
                   f"plot png: {w}x{h}, {colours} colours, {ink:.1%} ink")
         except (OSError, ValueError) as e:
             check(False, f"plot png invalid: {e}")
+        # the live model drawn as `it2n plot` draws the file: the same
+        # surfaces and nets (SVG path data; only the title differs)
+        for c, label in ((tcp, "tcp"), (link, "link")):
+            push(f"plot {label}", c, g_tcp)
+            mine, ref = (os.path.join(tmp, f"{label}_{k}.svg")
+                         for k in ("ctl", "it2n"))
+            rc, _, err = run("plot", "--membership", "T", "-o", mine, *c)
+            run("plot", g_tcp, "--membership", "T", "-o", ref, binary=IT2N)
+            pm, pr = svg_paths(mine), svg_paths(ref)
+            same = sum(a == b for a, b in zip(pm, pr))
+            check(rc == 0 and len(pm) == len(pr) >= 50 and
+                  same >= 0.97 * len(pr),
+                  f"plot {label} vs it2n plot: rc {rc} {err} "
+                  f"{same}/{len(pr)} paths equal ({len(pm)} drawn)")
         push("plot", link, g_link)
         svg = os.path.join(tmp, "band.svg")
         rc, _, err = run("plot", "-o", svg, "--interval", "--size", "600x400",
@@ -479,6 +494,12 @@ def main():
             shutil.rmtree(tmp, ignore_errors=True)
     print(f"it2nctl e2e: {checks - len(failures)}/{checks} checks passed")
     return 1 if failures else 0
+
+
+def svg_paths(path):
+    if not os.path.exists(path):
+        return []
+    return re.findall(r"<path[^>]*\sd=[\"']([^\"']*)", open(path).read())
 
 
 def doc_blocks(path):
