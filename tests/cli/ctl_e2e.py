@@ -372,22 +372,48 @@ def main():
         # -- connection errors: exit 3 with a clear message ---------------
         closed = free_port()
         rc, _, err = run("status", "--tcp", f"127.0.0.1:{closed}")
+        doc_errs = [err.replace(f"127.0.0.1:{closed}", "127.0.0.1:1502")]
         check(rc == 3 and f"cannot connect to 127.0.0.1:{closed}" in err
               and "is it2nd running?" in err, f"unreachable: {rc} {err!r}")
         t0 = time.time()
         rc, _, err = run("status", "--link", dead_b, "--timeout", "300")
+        doc_errs.append(err.replace(dead_b, "/dev/ttyUSB1")
+                        .replace("300 ms", "3000 ms"))
         check(rc == 3 and "no answer from it2nd within 300 ms" in err and
               time.time() - t0 < 5, f"silent link: {rc} {err!r}")
         rc, _, err = run("status", "--link", os.path.join(tmp, "nodev"))
         check(rc == 3 and "cannot open" in err, f"no device: {rc} {err!r}")
         # -- refusals: exit 2 ---------------------------------------------
         rc, _, err = run("eval", "--at", "0,0", *tcp, "--unit", "2")
+        doc_errs.append(err)
         check(rc == 2 and "the model is not solved (state empty" in err,
               f"unsolved: {rc} {err!r}")
         rc, _, err = run("status", *tcp, "--unit", "9")
+        doc_errs.append(err)
         check(rc == 2 and "exception 0B" in err, f"unit 9: {rc} {err!r}")
         rc, _, err = run("status", *link, "--model", "9")
         check(rc == 2 and "no such model" in err, f"model 9: {rc} {err!r}")
+        # the errors of docs/it2nctl.md, produced here
+        ddir = os.path.join(tmp, "derr")
+        os.mkdir(ddir)
+        paper = open(os.path.join(ROOT, "examples/paper_4x4.csv")).read()
+        lines = paper.split("\n")
+        lines[5] = lines[5].replace(",0.4,0.7,0.2", ",1.2,0.7,0.2")
+        open(os.path.join(ddir, "data.csv"), "w").write("\n".join(lines))
+        p = subprocess.run([CTL, "push", "data.csv", *tcp], cwd=ddir,
+                           capture_output=True, text=True)
+        doc_errs.append(p.stderr)
+        lines = paper.split("\n")
+        lines[2] = lines[2].replace("-21,", "-21.0625,")
+        open(os.path.join(ddir, "data.csv"), "w").write("\n".join(lines))
+        p = subprocess.run([CTL, "push", "data.csv", *tcp], cwd=ddir,
+                           capture_output=True, text=True)
+        check(p.returncode == 2, f"doc push x=-21.0625: {p.returncode}")
+        doc_errs.append(p.stderr)
+        doc = open(os.path.join(ROOT, "docs", "it2nctl.md")).read().split("\n")
+        for e in doc_errs:
+            e = e.strip().replace(f"127.0.0.1:{port}", "127.0.0.1:1502")
+            check(e in doc, f"docs/it2nctl.md lacks the error {e!r}")
         before4 = status_of(tcp + ["--unit", "4"])
         rc, _, err = run("push", g_tcp, *tcp, "--unit", "4")
         after4 = status_of(tcp + ["--unit", "4"])
