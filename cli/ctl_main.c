@@ -465,11 +465,14 @@ static int load(const cli_opts *o)
     return CTL_EXIT_OK;
 }
 
+static bool g_bar_open; /* a progress line without its newline */
+
 static void progress_bar(void *ctx, unsigned done, unsigned total)
 {
     const unsigned width = 40u;
     unsigned k, fill = total ? done * width / total : width;
     (void)ctx;
+    g_bar_open = done != total;
     fputs("\rpush [", stderr);
     for (k = 0; k < width; k++) {
         fputc(k < fill ? '#' : '.', stderr);
@@ -489,6 +492,10 @@ static int cmd_push(ctl_session *s, const ctl_args *a)
     char msg[600];
     int rc = s->ops->push(s->c, &g_ds, isatty(2) ? progress_bar : NULL, NULL,
                           &rej);
+    if (g_bar_open) { /* failed midway: the message on its own line */
+        fputc('\n', stderr);
+        g_bar_open = false;
+    }
     if (rc == CTL_REJECTED) {
         it2n_csv_error e;
         unsigned long line = 0;
