@@ -226,39 +226,68 @@ static int comm_fail(lk_conn *c, int how, const char *what)
     return CTL_EXIT_COMM;
 }
 
+static bool never(const lk_conn *c)
+{
+    (void)c;
+    return false;
+}
+
+/* The daemon gives a response frame up after its own retries (5 x 300 ms
+ * by default), which cuts an answer short on a lossy line: a query whose
+ * answer stalls this long is sent again (queries change nothing), and one
+ * refused BUSY (the daemon still sending an earlier answer) a bit later. */
+#define LK_STALL_MS 2500u
+#define LK_ATTEMPTS 4
+
 /* Send msg and wait for its ACK and, with wait_rsp, its response(s).
  * Returns CTL_EXIT_OK, CTL_REJECTED (c->nack holds the refusal) or a
  * printed failure. */
 static int request(lk_conn *c, it2n_msg *msg, bool wait_rsp, const char *what)
 {
-    int32_t seq;
-    int rc = run_until(c, can_send, c->timeout_ms);
-    if (rc != 0) {
-        return comm_fail(c, rc, what);
-    }
-    c->req_done = 0;
-    c->have_rsp = false;
-    c->req_seq = -1;
-    seq = it2n_link_send(&c->link, msg, now_ms());
-    if (seq < 0) {
-        fprintf(stderr, "it2nctl: %s: %s: cannot send: %s\n", c->where, what,
-                it2n_proto_strerror((int)seq));
-        return CTL_EXIT_COMM;
-    }
-    c->req_seq = seq;
-    rc = run_until(c, wait_rsp ? answered : acked, c->timeout_ms);
-    if (rc != 0) {
+    int attempt;
+    for (attempt = 1;; attempt++) {
+        bool last = attempt >= (wait_rsp ? LK_ATTEMPTS : 1);
+        unsigned wait_ms = c->timeout_ms;
+        int32_t seq;
+        int rc = run_until(c, can_send, c->timeout_ms);
+        if (rc != 0) {
+            return comm_fail(c, rc, what);
+        }
+        c->req_done = 0;
+        c->have_rsp = false;
+        c->samp_got = 0;
+        c->net_rows = 0;
         c->req_seq = -1;
-        return comm_fail(c, rc, what);
+        seq = it2n_link_send(&c->link, msg, now_ms());
+        if (seq < 0) {
+            fprintf(stderr, "it2nctl: %s: %s: cannot send: %s\n", c->where,
+                    what, it2n_proto_strerror((int)seq));
+            return CTL_EXIT_COMM;
+        }
+        c->req_seq = seq;
+        if (!last && wait_ms > LK_STALL_MS) {
+            wait_ms = LK_STALL_MS;
+        }
+        rc = run_until(c, wait_rsp ? answered : acked, wait_ms);
+        c->req_seq = -1;
+        if (rc == -2) {
+            return comm_fail(c, rc, what);
+        }
+        if (rc == -1 || c->req_done == IT2N_PROTO_ERR_TIMEOUT) {
+            if (last) {
+                return comm_fail(c, -1, what);
+            }
+            continue;
+        }
+        if (c->req_done == IT2N_PROTO_ERR_BUSY && !last) {
+            (void)run_until(c, never, 300u);
+            continue;
+        }
+        if (c->req_done < 0) {
+            return CTL_REJECTED;
+        }
+        return CTL_EXIT_OK;
     }
-    c->req_seq = -1;
-    if (c->req_done == IT2N_PROTO_ERR_TIMEOUT) {
-        return comm_fail(c, -1, what);
-    }
-    if (c->req_done < 0) {
-        return CTL_REJECTED;
-    }
-    return CTL_EXIT_OK;
 }
 
 static const char *code_text(int code)

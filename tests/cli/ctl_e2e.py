@@ -10,7 +10,7 @@ as a user would:
 
 * pushes data sets the daemon has never seen (generated with a fresh seed)
   through it2nctl over TCP, over the link (also through a relay dropping
-  0.03 % of the bytes each way) and over RTU, and compares every
+  0.06 % of the bytes each way) and over RTU, and compares every
   answer (status, eval at several points with and without --summary,
   locate, net, sample with --summary/--footprint) with `it2n` run on the
   same file: over the link the text must be identical (values are exact
@@ -280,10 +280,11 @@ def main():
         compare_all("link type-1", link, t1, "link", grids=("5x5",))
 
         # -- the link again through a relay dropping bytes both ways -----
+        t_lossy = time.time()
         relay_out = os.path.join(tmp, "lossy_pty")
         relay = subprocess.Popen(
             [sys.executable, os.path.join(ROOT, "tests/firmware/lossy_relay.py"),
-             link_b, relay_out, "300", str(seed)],
+             link_b, relay_out, "600", str(seed)],
             stdout=open(os.path.join(tmp, "relay.log"), "w"))
         procs.append(relay)
         for _ in range(100):
@@ -309,7 +310,7 @@ def main():
         drops = [int(d) for d in re.findall(r"dropped (\d+)", last)]
         check(len(drops) == 2 and sum(drops) > 0,
               f"the relay dropped nothing: {last!r}")
-        print(f"ctl e2e: lossy link: {last}")
+        print(f"ctl e2e: lossy link ({time.time() - t_lossy:.1f} s): {last}")
 
         # -- RTU: chord-length parameters on unit 3 -----------------------
         ch = os.path.join(ROOT, "examples/chord_5x4.csv")
