@@ -32,7 +32,9 @@ import os
 import random
 import re
 import shutil
+import signal
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -312,6 +314,19 @@ def main():
               f"the relay dropped nothing: {last!r}")
         print(f"ctl e2e: lossy link ({time.time() - t_lossy:.1f} s): {last}")
 
+        # -- the other float32 word orders: DCBA from here on (SIGHUP) ----
+        with open(conf) as f:
+            text = f.read()
+        with open(conf, "w") as f:
+            f.write(text.replace("[modbus]\n",
+                                 "[modbus]\nfloat_word_order = DCBA\n"))
+        daemon.send_signal(signal.SIGHUP)
+        for _ in range(100):
+            if read_reg(port, 21) == 3:
+                break
+            time.sleep(0.05)
+        check(read_reg(port, 21) == 3, "word order DCBA not reloaded")
+
         # -- RTU: chord-length parameters on unit 3 -----------------------
         ch = os.path.join(ROOT, "examples/chord_5x4.csv")
         push("rtu", rtu, ch, extra=("--chord",))
@@ -521,6 +536,17 @@ def main():
             shutil.rmtree(tmp, ignore_errors=True)
     print(f"it2nctl e2e: {checks - len(failures)}/{checks} checks passed")
     return 1 if failures else 0
+
+
+def read_reg(port, addr, unit=1):
+    """One holding register over Modbus TCP (FC 03), or None."""
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=2) as s:
+            s.sendall(struct.pack(">HHHBBHH", 7, 0, 6, unit, 3, addr, 1))
+            r = s.recv(64)
+            return struct.unpack(">H", r[9:11])[0] if len(r) == 11 else None
+    except OSError:
+        return None
 
 
 def svg_paths(path):
