@@ -397,6 +397,16 @@ def main():
                         .replace("300 ms", "3000 ms"))
         check(rc == 3 and "no answer from it2nd within 300 ms" in err and
               time.time() - t0 < 5, f"silent link: {rc} {err!r}")
+        # a TCP peer that accepts and never answers
+        mute = socket.socket()
+        mute.bind(("127.0.0.1", free_port()))
+        mute.listen(4)
+        rc, _, err = run("status", "--tcp",
+                         "127.0.0.1:%d" % mute.getsockname()[1],
+                         "--timeout", "300")
+        mute.close()
+        check(rc == 3 and "read status: no answer (timeout)" in err,
+              f"mute TCP peer: {rc} {err!r}")
         rc, _, err = run("status", "--link", os.path.join(tmp, "nodev"))
         check(rc == 3 and "cannot open" in err, f"no device: {rc} {err!r}")
         # -- refusals: exit 2 ---------------------------------------------
