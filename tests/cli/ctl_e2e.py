@@ -498,9 +498,8 @@ def main():
             rc, _, err = run("plot", "--membership", "T", "-o", mine, *c)
             run("plot", g_tcp, "--membership", "T", "-o", ref, binary=IT2N)
             pm, pr = svg_paths(mine), svg_paths(ref)
-            same = sum(a == b for a, b in zip(pm, pr))
-            check(rc == 0 and len(pm) == len(pr) >= 50 and
-                  same >= 0.97 * len(pr),
+            same = sum(same_path(a, b) for a, b in zip(pm, pr))
+            check(rc == 0 and len(pm) == len(pr) >= 50 and same == len(pr),
                   f"plot {label} vs it2n plot: rc {rc} {err} "
                   f"{same}/{len(pr)} paths equal ({len(pm)} drawn)")
         push("plot", link, g_link)
@@ -557,6 +556,18 @@ def read_reg(port, addr, unit=1):
             return struct.unpack(">H", r[9:11])[0] if len(r) == 11 else None
     except OSError:
         return None
+
+
+NUM = re.compile(r"-?\d+(?:\.\d+)?")
+
+
+def same_path(a, b):
+    """Equal SVG path data, coordinates within 0.05 px (the model over
+    Modbus has float32 control points: a sample may move by 0.01 px)."""
+    if NUM.sub("#", a) != NUM.sub("#", b):
+        return False
+    return all(abs(float(x) - float(y)) <= 0.05
+               for x, y in zip(NUM.findall(a), NUM.findall(b)))
 
 
 def svg_paths(path):
