@@ -244,7 +244,7 @@ def main():
         daemon = subprocess.Popen([IT2ND, "-c", conf, "-f", "-v"],
                                   stdout=log, stderr=subprocess.STDOUT)
         tcp = ["--tcp", f"127.0.0.1:{port}"]
-        for _ in range(100):
+        for _ in range(200):
             if run("status", *tcp)[0] == 0:
                 break
             time.sleep(0.05)
@@ -289,7 +289,7 @@ def main():
              link_b, relay_out, "600", str(seed)],
             stdout=open(os.path.join(tmp, "relay.log"), "w"))
         procs.append(relay)
-        for _ in range(100):
+        for _ in range(500):
             if os.path.exists(relay_out):
                 break
             time.sleep(0.02)
@@ -464,15 +464,17 @@ def main():
         watchers = [subprocess.Popen([CTL, "watch", "--count", "2", *c],
                                      stdout=subprocess.PIPE, text=True)
                     for c in (tcp, link)]
-        time.sleep(0.5)
+        # each has printed its header and first row before the change
+        first = [wp.stdout.readline() + wp.stdout.readline()
+                 for wp in watchers]
         g_w = gen(2, 2, seed + 2, 2)
         push("watch trigger", tcp, g_w)
-        for c, wp in zip(("tcp", "link"), watchers):
+        for c, wp, head in zip(("tcp", "link"), watchers, first):
             try:
-                out = wp.communicate(timeout=10)[0]
+                out = head + wp.communicate(timeout=10)[0]
             except subprocess.TimeoutExpired:
                 wp.kill()
-                out = wp.communicate()[0]
+                out = head + wp.communicate()[0]
             rows = [dict(zip(out.split("\n")[0].split(","), ln.split(",")))
                     for ln in out.strip().split("\n")[1:]]
             gens = [int(r["generation"]) for r in rows]
