@@ -31,7 +31,7 @@ $(CLI_SAN_BIN): $(CLI_SAN_OBJ) $(CORE_SAN_LIB)
 # protocol via protocol/). Links the CLI's CSV reader, plot and output code.
 # The register map header is included by name: CTL_REGMAP_INC is where it
 # lives (protocol/ today).
-CTL_REGMAP_INC := -Iprotocol
+CTL_REGMAP_INC := -Idaemon
 CTL_SRC := $(wildcard cli/ctl*.c)
 CTL_HDR := $(wildcard cli/ctl*.h) $(CLI_HDR)
 CTL_CFLAGS := $(HOST_CFLAGS) -Icli $(CTL_REGMAP_INC) \

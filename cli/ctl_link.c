@@ -16,6 +16,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/random.h>
 #include <termios.h>
 #include <time.h>
 #include <unistd.h>
@@ -130,8 +131,12 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         }
         break;
     }
+    case IT2N_MSG_HELLO:
+        /* The daemon's limits bind what we send (protocol.md, HELLO). */
+        it2n_link_set_peer(&c->link, msg->u.hello.window, msg->u.hello.max_payload);
+        break;
     default:
-        break; /* the daemon's HELLO and anything else: ACK */
+        break; /* anything else: ACK */
     }
     return 0;
 }
@@ -226,68 +231,45 @@ static int comm_fail(lk_conn *c, int how, const char *what)
     return CTL_EXIT_COMM;
 }
 
-static bool never(const lk_conn *c)
-{
-    (void)c;
-    return false;
-}
-
-/* The daemon gives a response frame up after its own retries (5 x 300 ms
- * by default), which cuts an answer short on a lossy line: a query whose
- * answer stalls this long is sent again (queries change nothing), and one
- * refused BUSY (the daemon still sending an earlier answer) a bit later. */
-#define LK_STALL_MS 2500u
-#define LK_ATTEMPTS 4
 
 /* Send msg and wait for its ACK and, with wait_rsp, its response(s).
  * Returns CTL_EXIT_OK, CTL_REJECTED (c->nack holds the refusal) or a
  * printed failure. */
 static int request(lk_conn *c, it2n_msg *msg, bool wait_rsp, const char *what)
 {
-    int attempt;
-    for (attempt = 1;; attempt++) {
-        bool last = attempt >= (wait_rsp ? LK_ATTEMPTS : 1);
-        unsigned wait_ms = c->timeout_ms;
-        int32_t seq;
-        int rc = run_until(c, can_send, c->timeout_ms);
-        if (rc != 0) {
-            return comm_fail(c, rc, what);
-        }
-        c->req_done = 0;
-        c->have_rsp = false;
-        c->samp_got = 0;
-        c->net_rows = 0;
-        c->req_seq = -1;
-        seq = it2n_link_send(&c->link, msg, now_ms());
-        if (seq < 0) {
-            fprintf(stderr, "it2nctl: %s: %s: cannot send: %s\n", c->where,
-                    what, it2n_proto_strerror((int)seq));
-            return CTL_EXIT_COMM;
-        }
-        c->req_seq = seq;
-        if (!last && wait_ms > LK_STALL_MS) {
-            wait_ms = LK_STALL_MS;
-        }
-        rc = run_until(c, wait_rsp ? answered : acked, wait_ms);
-        c->req_seq = -1;
-        if (rc == -2) {
-            return comm_fail(c, rc, what);
-        }
-        if (rc == -1 || c->req_done == IT2N_PROTO_ERR_TIMEOUT) {
-            if (last) {
-                return comm_fail(c, -1, what);
-            }
-            continue;
-        }
-        if (c->req_done == IT2N_PROTO_ERR_BUSY && !last) {
-            (void)run_until(c, never, 300u);
-            continue;
-        }
-        if (c->req_done < 0) {
-            return CTL_REJECTED;
-        }
-        return CTL_EXIT_OK;
+    /* Sent once: the link retransmits until ACKed, and a v1.1 daemon
+     * retries its response frames until it declares the link down
+     * (protocol.md section 4), so a request is never sent again here
+     * (that would be a second request, answered after the first). */
+    int32_t seq;
+    int rc = run_until(c, can_send, c->timeout_ms);
+    if (rc != 0) {
+        return comm_fail(c, rc, what);
     }
+    c->req_done = 0;
+    c->have_rsp = false;
+    c->samp_got = 0;
+    c->net_rows = 0;
+    c->req_seq = -1;
+    seq = it2n_link_send(&c->link, msg, now_ms());
+    if (seq < 0) {
+        fprintf(stderr, "it2nctl: %s: %s: cannot send: %s\n", c->where,
+                what, it2n_proto_strerror((int)seq));
+        return CTL_EXIT_COMM;
+    }
+    c->req_seq = seq;
+    rc = run_until(c, wait_rsp ? answered : acked, c->timeout_ms);
+    c->req_seq = -1;
+    if (rc == -2) {
+        return comm_fail(c, rc, what);
+    }
+    if (rc == -1 || c->req_done == IT2N_PROTO_ERR_TIMEOUT) {
+        return comm_fail(c, -1, what);
+    }
+    if (c->req_done < 0) {
+        return CTL_REJECTED;
+    }
+    return CTL_EXIT_OK;
 }
 
 static const char *code_text(int code)
@@ -671,10 +653,16 @@ void *ctl_link_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
     cfg.max_tries = (uint8_t)(o->timeout_ms / cfg.rto_ms > 255u
                                   ? 255u
                                   : o->timeout_ms / cfg.rto_ms + 1u);
-    /* A fresh sequence each run: the daemon keeps the answers to the last
-     * few sequence numbers of this line and would take a repeated SYN
-     * frame for a retransmission. */
-    cfg.first_seq = (uint16_t)(now_ms() * 2654435761u ^ (uint32_t)getpid());
+    /* A fresh random session id and first sequence number each run
+     * (protocol.md 4.2): a SYN frame of a new session is never taken for a
+     * retransmission of an earlier one's. */
+    {
+        uint32_t rnd[2] = {now_ms() ^ (uint32_t)getpid(), (now_ms() ^ (uint32_t)getpid()) * 2654435761u};
+        if (getrandom(rnd, sizeof rnd, GRND_NONBLOCK) != (ssize_t)sizeof rnd)
+            rnd[0] ^= (uint32_t)time(NULL);
+        cfg.session = rnd[0] ? rnd[0] : 1u;
+        cfg.first_seq = (uint16_t)rnd[1];
+    }
     if (it2n_link_init(&c->link, &cfg) != IT2N_OK) {
         close(c->fd);
         free(c);

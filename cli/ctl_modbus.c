@@ -24,7 +24,8 @@ __extension__ typedef __int128 i128;
 typedef struct mb_conn {
     modbus_t *ctx;
     char where[160];     /* "127.0.0.1:1502 unit 1" for messages */
-    int word_order;      /* IT2N_WO_*                            */
+    int word_order;      /* IT2N_WO_*, float32 registers          */
+    int int32_order;     /* IT2N_WO_*, u32/i32 registers (reg 27) */
     int coord_scale;
     bool have_map;       /* word order / scale read              */
 } mb_conn;
@@ -76,16 +77,11 @@ static int wr(mb_conn *c, unsigned addr, unsigned count, const uint16_t *v,
     return CTL_EXIT_OK;
 }
 
-static uint32_t u32(const uint16_t *r)
-{
-    return ((uint32_t)r[0] << 16) | r[1];
-}
-
-static float get_f32(const uint16_t in[2], int order)
+/* 32 bits from two registers in word order `order` (IT2N_WO_*: A is the
+ * most significant byte), and back. */
+static uint32_t get32(const uint16_t in[2], int order)
 {
     uint16_t hi, lo;
-    uint32_t b;
-    float f;
     switch (order) {
     case IT2N_WO_CDAB: hi = in[1]; lo = in[0]; break;
     case IT2N_WO_BADC:
@@ -98,7 +94,26 @@ static float get_f32(const uint16_t in[2], int order)
         break;
     default: hi = in[0]; lo = in[1]; break;
     }
-    b = ((uint32_t)hi << 16) | lo;
+    return ((uint32_t)hi << 16) | lo;
+}
+
+static void put32(uint16_t out[2], uint32_t b, int order)
+{
+    uint16_t hi = (uint16_t)(b >> 16), lo = (uint16_t)b;
+    uint16_t shi = (uint16_t)((hi >> 8) | (hi << 8));
+    uint16_t slo = (uint16_t)((lo >> 8) | (lo << 8));
+    switch (order) {
+    case IT2N_WO_CDAB: out[0] = lo; out[1] = hi; break;
+    case IT2N_WO_BADC: out[0] = shi; out[1] = slo; break;
+    case IT2N_WO_DCBA: out[0] = slo; out[1] = shi; break;
+    default: out[0] = hi; out[1] = lo; break;
+    }
+}
+
+static float get_f32(const uint16_t in[2], int order)
+{
+    uint32_t b = get32(in, order);
+    float f;
     memcpy(&f, &b, sizeof f);
     return f;
 }
@@ -106,18 +121,8 @@ static float get_f32(const uint16_t in[2], int order)
 static void put_f32(uint16_t out[2], float f, int order)
 {
     uint32_t b;
-    uint16_t hi, lo, shi, slo;
     memcpy(&b, &f, sizeof b);
-    hi = (uint16_t)(b >> 16);
-    lo = (uint16_t)b;
-    shi = (uint16_t)((hi >> 8) | (hi << 8));
-    slo = (uint16_t)((lo >> 8) | (lo << 8));
-    switch (order) {
-    case IT2N_WO_CDAB: out[0] = lo; out[1] = hi; break;
-    case IT2N_WO_BADC: out[0] = shi; out[1] = slo; break;
-    case IT2N_WO_DCBA: out[0] = slo; out[1] = shi; break;
-    default: out[0] = hi; out[1] = lo; break;
-    }
+    put32(out, b, order);
 }
 
 /* A float32 result back to Q24 (exact: a float has at most 24 significant
@@ -148,17 +153,18 @@ static int64_t to_scaled(it2n_val v, int64_t scale)
 /* Word order and coordinate scale from the status block (once). */
 static int mb_map(mb_conn *c)
 {
-    uint16_t r[2];
+    uint16_t r[IT2N_REG_INT32_ORDER - IT2N_REG_WORD_ORDER + 1];
     int rc;
     if (c->have_map) {
         return CTL_EXIT_OK;
     }
-    rc = rd(c, IT2N_REG_WORD_ORDER, 2, r, "read status");
+    rc = rd(c, IT2N_REG_WORD_ORDER, IT2N_REG_INT32_ORDER - IT2N_REG_WORD_ORDER + 1, r, "read status");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
     c->word_order = r[0] & 3;
-    c->coord_scale = r[1] ? r[1] : 100;
+    c->coord_scale = r[IT2N_REG_COORD_SCALE - IT2N_REG_WORD_ORDER] ? r[IT2N_REG_COORD_SCALE - IT2N_REG_WORD_ORDER] : 100;
+    c->int32_order = r[IT2N_REG_INT32_ORDER - IT2N_REG_WORD_ORDER] & 3;
     c->have_map = true;
     return CTL_EXIT_OK;
 }
@@ -179,9 +185,10 @@ static int mb_status(void *p, ctl_status *st)
     st->flags = r[IT2N_REG_FLAGS];
     st->present = r[IT2N_REG_PRESENT];
     st->required = r[IT2N_REG_REQUIRED];
-    st->generation = u32(&r[IT2N_REG_GENERATION]);
-    st->last_error = (int16_t)r[IT2N_REG_LAST_ERR];
     c->word_order = r[IT2N_REG_WORD_ORDER] & 3;
+    c->int32_order = r[IT2N_REG_INT32_ORDER] & 3;
+    st->generation = get32(&r[IT2N_REG_GENERATION], c->int32_order);
+    st->last_error = (int16_t)r[IT2N_REG_LAST_ERR];
     c->coord_scale = r[IT2N_REG_COORD_SCALE] ? r[IT2N_REG_COORD_SCALE] : 100;
     c->have_map = true;
     return CTL_EXIT_OK;
@@ -220,8 +227,7 @@ static bool upload_regs(const mb_conn *c, const it2n_dataset *ds, unsigned i,
             return false;
         }
         if (coord) {
-            r[3 + 2 * ch] = (uint16_t)((uint32_t)(int32_t)k >> 16);
-            r[4 + 2 * ch] = (uint16_t)(uint32_t)(int32_t)k;
+            put32(&r[3 + 2 * ch], (uint32_t)(int32_t)k, c->int32_order);
         } else {
             r[9 + ch - IT2N_CH_T] = (uint16_t)k;
         }
@@ -365,7 +371,7 @@ static int query(mb_conn *c, unsigned addr, unsigned count, const uint16_t *w,
     }
     memset(pt, 0, sizeof(*pt));
     read_results(c, r, pt);
-    pt->out_of_range = u32(&qs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND]);
+    pt->out_of_range = get32(&qs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND], c->int32_order);
     if (locfail != NULL) {
         *locfail = qs[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND];
     }
@@ -412,10 +418,8 @@ static int mb_locate(void *p, it2n_val *x, it2n_val *y,
     if (from_scaled(kx, c->coord_scale) == *x &&
         from_scaled(ky, c->coord_scale) == *y && kx <= INT32_MAX &&
         kx >= INT32_MIN && ky <= INT32_MAX && ky >= INT32_MIN) {
-        regs[0] = (uint16_t)((uint32_t)(int32_t)kx >> 16);
-        regs[1] = (uint16_t)(uint32_t)(int32_t)kx;
-        regs[2] = (uint16_t)((uint32_t)(int32_t)ky >> 16);
-        regs[3] = (uint16_t)(uint32_t)(int32_t)ky;
+        put32(&regs[0], (uint32_t)(int32_t)kx, c->int32_order);
+        put32(&regs[2], (uint32_t)(int32_t)ky, c->int32_order);
         rc = query(c, IT2N_REG_Q_XS, 4, regs, &pt, &fail);
     } else {
         float fx = (float)((double)*x / (double)IT2N_VAL_ONE);

@@ -293,7 +293,7 @@ def main():
             if os.path.exists(relay_out):
                 break
             time.sleep(0.02)
-        lossy = ["--link", open(relay_out).read().strip(), "--timeout", "8000"]
+        lossy = ["--link", open(relay_out).read().strip(), "--timeout", "30000"]
         g_lossy = gen(2, 3, seed + 3, 6)
         push("lossy link", lossy, g_lossy)
         check_status(lossy, g_lossy)
