@@ -1,7 +1,7 @@
 # cli/: the host command-line tool `it2n` (reads CSV, calls firmware_core,
 # prints CSV). Built normally for use and with $(SAN_FLAGS) for the tests.
-CLI_SRC := $(wildcard cli/*.c)
-CLI_HDR := $(wildcard cli/*.h)
+CLI_SRC := $(filter-out cli/ctl%.c,$(wildcard cli/*.c))
+CLI_HDR := $(filter-out cli/ctl%.h,$(wildcard cli/*.h))
 CLI_BIN := $(BUILD)/host/it2n
 CLI_SAN_BIN := $(BUILD)/san/it2n
 CLI_OBJ := $(CLI_SRC:%.c=$(BUILD)/host/%.o)
@@ -27,11 +27,48 @@ $(CLI_BIN): $(CLI_OBJ) $(CORE_LIB)
 $(CLI_SAN_BIN): $(CLI_SAN_OBJ) $(CORE_SAN_LIB)
 	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -o $@ $(CLI_SAN_OBJ) $(CORE_SAN_LIB)
 
+# it2nctl: client for a running it2nd (Modbus via libmodbus, the framing
+# protocol via protocol/). Links the CLI's CSV reader, plot and output code.
+# The register map header is included by name: CTL_REGMAP_INC is where it
+# lives (protocol/ today).
+CTL_REGMAP_INC := -Idaemon
+CTL_SRC := $(wildcard cli/ctl*.c)
+CTL_HDR := $(wildcard cli/ctl*.h) $(CLI_HDR)
+CTL_CFLAGS := $(HOST_CFLAGS) -Icli $(CTL_REGMAP_INC) \
+              $(shell pkg-config --cflags libmodbus 2>/dev/null)
+CTL_LIBS := $(shell pkg-config --libs libmodbus 2>/dev/null) -lm
+CTL_BIN := $(BUILD)/host/it2nctl
+CTL_SAN_BIN := $(BUILD)/san/it2nctl
+CTL_OBJ := $(CTL_SRC:%.c=$(BUILD)/host/%.o)
+CTL_SAN_OBJ := $(CTL_SRC:%.c=$(BUILD)/san/%.o)
+# it2n's modules it2nctl reuses (everything but its main).
+CTL_CLI_OBJ := $(filter-out $(BUILD)/host/cli/main.o,$(CLI_OBJ))
+CTL_CLI_SAN_OBJ := $(filter-out $(BUILD)/san/cli/main.o,$(CLI_SAN_OBJ))
+ALL_TARGETS += $(CTL_BIN)
+
+$(BUILD)/host/cli/ctl%.o: cli/ctl%.c $(CTL_HDR) $(CORE_HDR) $(PROTO_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(CTL_CFLAGS) -c $< -o $@
+
+$(BUILD)/san/cli/ctl%.o: cli/ctl%.c $(CTL_HDR) $(CORE_HDR) $(PROTO_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(CTL_CFLAGS) $(SAN_FLAGS) -c $< -o $@
+
+$(CTL_BIN): $(CTL_OBJ) $(CTL_CLI_OBJ) $(PROTO_LIB) $(CORE_LIB)
+	$(CC) $(HOST_CFLAGS) -o $@ $(CTL_OBJ) $(CTL_CLI_OBJ) $(PROTO_LIB) \
+	  $(CORE_LIB) $(CTL_LIBS)
+
+$(CTL_SAN_BIN): $(CTL_SAN_OBJ) $(CTL_CLI_SAN_OBJ) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
+	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -o $@ $(CTL_SAN_OBJ) $(CTL_CLI_SAN_OBJ) \
+	  $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(CTL_LIBS)
+
 .PHONY: install-cli demo
-install-cli: $(CLI_BIN)
+install-cli: $(CLI_BIN) $(CTL_BIN)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/man/man1
 	install -m 0755 $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/it2n
 	install -m 0644 cli/it2n.1 $(DESTDIR)$(PREFIX)/share/man/man1/it2n.1
+	install -m 0755 $(CTL_BIN) $(DESTDIR)$(PREFIX)/bin/it2nctl
+	install -m 0644 cli/it2nctl.1 $(DESTDIR)$(PREFIX)/share/man/man1/it2nctl.1
 
 demo: $(CLI_BIN) ## Print the paper model's memberships at a few parameters
 	$(CLI_BIN) eval examples/paper_4x4.csv --summary \

@@ -1,0 +1,1239 @@
+/*
+ * it2nctl — client for a running it2nd: push a dataset CSV, query, read the
+ * control nets, watch and plot the live model, over Modbus TCP/RTU or the
+ * framing protocol on a serial line. Output and errors follow it2n's
+ * conventions (docs/cli.md): CSV on stdout with the same headers and exact
+ * decimal text, FILE:LINE errors, exit 1 usage, 2 data, 3 connection.
+ */
+#include "cli.h"
+#include "csv.h"
+#include "ctl.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <unistd.h>
+
+#define CTL_GRID_DEFAULT 21u
+
+enum {
+    O_AT_UW = 0x01, O_AT_XY = 0x02, O_SUMMARY = 0x04, O_GRID = 0x08,
+    O_GRID_OPT = 0x10, O_FP = 0x20, O_DATA = 0x40, O_PLOT = 0x80,
+    O_COUNT = 0x100, O_CHORD = 0x200
+};
+
+typedef struct ctl_cmd {
+    const char *name, *args, *summary, *help;
+    unsigned opts;
+} ctl_cmd;
+
+static const ctl_cmd cmds[] = {
+    {"status", "", "Print the model's state, degrees, points and generation",
+     "One CSV row: model,state,n,m,type,coordinates,parameters,\n"
+     "points_present,points_required,generation,last_error. state is empty,\n"
+     "incomplete, solved or failed; last_error an it2n error code (0 none).\n",
+     0},
+    {"push", "DATA.csv", "Configure the model, upload every point, commit",
+     "Reads DATA.csv as 'it2n check' does (errors FILE:LINE, exit 2, nothing\n"
+     "sent), then configures the model to the file's degrees and flags,\n"
+     "clears it, uploads every point and commits (solves). A progress bar\n"
+     "goes to standard error when it is a terminal. Over Modbus every value\n"
+     "must be exact in the map's scaled integers (memberships x10000,\n"
+     "coordinates x coord_scale); --link carries any value exactly.\n"
+     "  --chord   chord-length parameters\n",
+     O_DATA | O_CHORD},
+    {"eval", "--at U,W [--at U,W ...]", "Evaluate every footprint at (u, w)",
+     "As 'it2n eval', answered by the daemon: u,w,footprint,x,y[,z],T,I,F,\n"
+     "out_of_range.\n"
+     "  --at U,W    parameters in [0,1] (repeatable)\n"
+     "  --summary   add upper/lower interval bound rows\n",
+     O_AT_UW | O_SUMMARY},
+    {"locate", "--at X,Y [--at X,Y ...]", "Find (u, w) of location (x, y)",
+     "As 'it2n locate': x,y,footprint,u,w[,z],T,I,F,status. Over Modbus the\n"
+     "register map carries no u, w (left empty) and one bit per footprint:\n"
+     "status is inside or outside|noconv.\n"
+     "  --at X,Y    location (repeatable)\n",
+     O_AT_XY},
+    {"net", "", "Print the solved control nets",
+     "As 'it2n solve': i,j,footprint,x,y[,z],T,I,F.\n", 0},
+    {"sample", "--grid RxC", "Evaluate on an RxC parameter grid",
+     "As 'it2n sample': u = r/(R-1), w = c/(C-1), row-major.\n"
+     "  --grid RxC          R, C in 2..65535\n"
+     "  --summary           add interval bound rows\n"
+     "  --footprint LIST    only these footprints\n",
+     O_GRID | O_SUMMARY | O_FP},
+    {"watch", "[--count N]", "Print a status row for each new generation",
+     "Prints the status row now and again whenever the model's generation\n"
+     "changes (Modbus: polled every 100 ms; link: on the daemon's EVENTs).\n"
+     "  --count N   stop after N rows (default: run until interrupted)\n",
+     O_COUNT},
+    {"plot", "-o FILE.png|FILE.svg", "Draw the live model with gnuplot",
+     "Reads the control nets and draws them with it2n plot's code: same\n"
+     "options, colours and errors (see 'it2n plot --help').\n"
+     "  -o FILE            .png or .svg\n"
+     "  --membership M     T, I, F or all (default all)\n"
+     "  --interval         upper/lower band of one membership\n"
+     "  --grid RxC         2..1001 each (default 21x21)\n"
+     "  --footprint LIST   only these footprints\n"
+     "  --size WxH         200..8000 each (default 900x700)\n",
+     O_PLOT | O_GRID_OPT | O_FP},
+};
+#define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
+
+static const char conn_help[] =
+    "Connection (default Modbus TCP 127.0.0.1:1502, unit 1):\n"
+    "  --tcp HOST[:PORT]   Modbus TCP (PORT default 1502; [v6addr]:PORT)\n"
+    "  --rtu DEVICE        Modbus RTU on a serial device\n"
+    "  --baud N            RTU (default 19200) or link (default 115200)\n"
+    "  --parity none|even|odd   RTU (default even), --stop-bits 1|2\n"
+    "  --unit N            Modbus unit id 0..247 (default 1)\n"
+    "  --link DEVICE       framing protocol on a serial line or pty wired to\n"
+    "                      one of the daemon's [link:] devices\n"
+    "  --model ID          model id on a link, 0..254 (default 1)\n"
+    "  --timeout MS        per request (default 3000)\n"
+    "Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
+    "127.0.0.1:1502.\n"
+    "Common: --decimals N (6..9), --help.\n"
+    "Exit status: 0 ok, 1 usage error, 2 data error or refused by the\n"
+    "daemon, 3 daemon unreachable or not answering.\n";
+
+typedef struct ctl_args {
+    const ctl_cmd *cmd;
+    cli_opts o;            /* output options as it2n's            */
+    ctl_conn_opts conn;
+    unsigned count;        /* watch --count, 0 = forever           */
+} ctl_args;
+
+static void usage_all(FILE *out)
+{
+    size_t k;
+    fprintf(out, "Usage: it2nctl COMMAND [ARGS] [OPTIONS]\n"
+                 "Client for a running it2nd (Modbus TCP/RTU or a protocol "
+                 "link).\n\nCommands:\n");
+    for (k = 0; k < NCMDS; k++) {
+        fprintf(out, "  %-7s %s\n", cmds[k].name, cmds[k].summary);
+    }
+    fprintf(out, "\n'it2nctl COMMAND --help' for details; 'it2nctl "
+                 "--version'.\n\n%s",
+            conn_help);
+}
+
+static void usage_cmd(const ctl_cmd *c)
+{
+    printf("Usage: it2nctl %s%s%s [CONNECTION] [--decimals N]\n\n%s\n%s",
+           c->name, c->args[0] ? " " : "", c->args, c->help, conn_help);
+}
+
+static int usage_error(const char *cmd, const char *fmt, const char *arg)
+{
+    fprintf(stderr, "it2nctl: ");
+    fprintf(stderr, fmt, arg);
+    fprintf(stderr, "\nTry 'it2nctl %s%s--help'.\n", cmd ? cmd : "",
+            cmd ? " " : "");
+    return CTL_EXIT_USAGE;
+}
+
+/* ---- output, as it2n prints it (cli/commands.c) ------------------------ */
+
+static void put_val(it2n_val v, unsigned decimals)
+{
+    char buf[48];
+    cli_fmt_val(buf, sizeof(buf), v, decimals);
+    fputs(buf, stdout);
+}
+
+static void put_par(it2n_par p, unsigned decimals)
+{
+    char buf[48];
+    if (it2n_format_par(buf, sizeof(buf), p, decimals) < 0) {
+        fputs("?", stdout);
+        return;
+    }
+    fputs(buf, stdout);
+}
+
+static bool g_z;      /* the model has z                 */
+static bool g_type1;  /* the model is type-1             */
+
+static bool has_fp(unsigned fp)
+{
+    return g_type1 ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;
+}
+
+static bool fp_selected(const cli_opts *o, unsigned fp)
+{
+    return has_fp(fp) && (o->fpmask == 0u || (o->fpmask & (1u << fp)));
+}
+
+static void put_channels(const it2n_val *v, unsigned decimals)
+{
+    unsigned ch;
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        if (ch == IT2N_CH_Z && !g_z) {
+            continue;
+        }
+        putchar(',');
+        put_val(v[ch], decimals);
+    }
+}
+
+static void put_header(const char *lead, const char *tail)
+{
+    printf("%s,x,y%s,T,I,F%s\n", lead, g_z ? ",z" : "", tail);
+}
+
+static void put_flags_list(bool t, bool i, bool f)
+{
+    bool any = false;
+    putchar(',');
+    if (t) {
+        fputs("T", stdout);
+        any = true;
+    }
+    if (i) {
+        printf("%sI", any ? "|" : "");
+        any = true;
+    }
+    if (f) {
+        printf("%sF", any ? "|" : "");
+        any = true;
+    }
+    if (!any) {
+        putchar('-');
+    }
+}
+
+static void put_summary_row(it2n_par u, it2n_par w, const char *what,
+                            const it2n_val tif[3], unsigned decimals)
+{
+    unsigned k;
+    bool out[3];
+    put_par(u, decimals);
+    putchar(',');
+    put_par(w, decimals);
+    printf(",%s,,%s", what, g_z ? ",," : "");
+    for (k = 0; k < 3u; k++) {
+        putchar(',');
+        put_val(tif[k], decimals);
+        out[k] = tif[k] < 0 || tif[k] > IT2N_VAL_ONE;
+    }
+    put_flags_list(out[0], out[1], out[2]);
+    putchar('\n');
+}
+
+static void put_point(it2n_par u, it2n_par w, const it2n_point *pt,
+                      const cli_opts *o)
+{
+    unsigned fp;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        uint32_t b = pt->out_of_range >> (fp * 3u);
+        if (!fp_selected(o, fp)) {
+            continue;
+        }
+        put_par(u, o->decimals);
+        putchar(',');
+        put_par(w, o->decimals);
+        printf(",%s", it2n_fp_name(fp));
+        put_channels(pt->v[fp], o->decimals);
+        put_flags_list(b & 1u, (b >> 1) & 1u, (b >> 2) & 1u);
+        putchar('\n');
+    }
+    if (o->summary) {
+        put_summary_row(u, w, "upper_min", pt->sum.upper_min, o->decimals);
+        put_summary_row(u, w, "upper_max", pt->sum.upper_max, o->decimals);
+        put_summary_row(u, w, "lower_min", pt->sum.lower_min, o->decimals);
+        put_summary_row(u, w, "lower_max", pt->sum.lower_max, o->decimals);
+    }
+}
+
+static int finish_output(void)
+{
+    if (fflush(stdout) != 0 || ferror(stdout)) {
+        fprintf(stderr, "it2nctl: write error: %s\n", strerror(errno));
+        return CTL_EXIT_DATA;
+    }
+    return CTL_EXIT_OK;
+}
+
+/* ---- shared helpers ----------------------------------------------------- */
+
+const char *ctl_state_name(int state)
+{
+    switch (state) {
+    case CTL_ST_EMPTY: return "empty";
+    case CTL_ST_INCOMPLETE: return "incomplete";
+    case CTL_ST_SOLVED: return "solved";
+    case CTL_ST_FAILED: return "failed";
+    default: return "?";
+    }
+}
+
+void ctl_summarise(bool type1, it2n_point *pt)
+{
+    static const unsigned char upper[3] = {IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR};
+    static const unsigned char lower[3] = {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL};
+    unsigned k, f, fp;
+    pt->out_of_range = 0u;
+    for (k = 0; k < 3u; k++) {
+        unsigned ch = IT2N_CH_T + k;
+        it2n_val d = pt->v[IT2N_FP_D][ch];
+        pt->sum.upper_min[k] = pt->sum.upper_max[k] = d;
+        pt->sum.lower_min[k] = pt->sum.lower_max[k] = d;
+        for (f = 0; f < 3u && !type1; f++) {
+            it2n_val a = pt->v[upper[f]][ch], b = pt->v[lower[f]][ch];
+            if (a < pt->sum.upper_min[k]) pt->sum.upper_min[k] = a;
+            if (a > pt->sum.upper_max[k]) pt->sum.upper_max[k] = a;
+            if (b < pt->sum.lower_min[k]) pt->sum.lower_min[k] = b;
+            if (b > pt->sum.lower_max[k]) pt->sum.lower_max[k] = b;
+        }
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            it2n_val v = pt->v[fp][ch];
+            if ((type1 ? fp == IT2N_FP_D : true) &&
+                (v < 0 || v > IT2N_VAL_ONE)) {
+                pt->out_of_range |= (uint32_t)1u << (fp * 3u + k);
+            }
+        }
+    }
+}
+
+typedef struct ctl_session {
+    void *c;
+    const ctl_ops *ops;
+    const char *where; /* for messages */
+    char wbuf[200];
+} ctl_session;
+
+static int open_session(const ctl_args *a, ctl_session *s)
+{
+    int rc = CTL_EXIT_OK;
+    if (a->conn.link != NULL) {
+        s->c = ctl_link_open(&a->conn, &s->ops, &rc);
+        snprintf(s->wbuf, sizeof(s->wbuf), "%s model %u", a->conn.link,
+                 a->conn.model);
+    } else {
+        s->c = ctl_modbus_open(&a->conn, &s->ops, &rc);
+        if (a->conn.rtu != NULL) {
+            snprintf(s->wbuf, sizeof(s->wbuf), "%s unit %u", a->conn.rtu,
+                     a->conn.unit);
+        } else {
+            snprintf(s->wbuf, sizeof(s->wbuf), "%s unit %u",
+                     a->conn.tcp ? a->conn.tcp : "127.0.0.1:1502",
+                     a->conn.unit);
+        }
+    }
+    s->where = s->wbuf;
+    return s->c == NULL ? rc : CTL_EXIT_OK;
+}
+
+/* Status, and the model must be solved for queries. */
+static int solved_status(ctl_session *s, ctl_status *st)
+{
+    int rc = s->ops->status(s->c, st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    g_z = (st->flags & IT2N_F_Z) != 0u;
+    g_type1 = (st->flags & IT2N_F_TYPE1) != 0u;
+    if (st->state != CTL_ST_SOLVED) {
+        fprintf(stderr,
+                "it2nctl: %s: the model is not solved (state %s, %u of %u "
+                "points%s)\n",
+                s->where, ctl_state_name(st->state), st->present,
+                st->required,
+                st->state == CTL_ST_FAILED ? "; see last_error in status"
+                                           : "");
+        return CTL_EXIT_DATA;
+    }
+    return CTL_EXIT_OK;
+}
+
+/* ---- commands ----------------------------------------------------------- */
+
+static void put_status_header(void)
+{
+    puts("model,state,n,m,type,coordinates,parameters,points_present,"
+         "points_required,generation,last_error");
+}
+
+static void put_status_row(const ctl_status *st)
+{
+    printf("%u,%s,%u,%u,%s,%s,%s,%u,%u,%lu,%d\n", st->model,
+           ctl_state_name(st->state), st->n, st->m,
+           (st->flags & IT2N_F_TYPE1) ? "type-1" : "type-2",
+           (st->flags & IT2N_F_Z) ? "xyz" : "xy",
+           (st->flags & IT2N_F_CHORD) ? "chord-length" : "uniform",
+           st->present, st->required, (unsigned long)st->generation,
+           st->last_error);
+}
+
+static int cmd_status(ctl_session *s)
+{
+    ctl_status st;
+    int rc = s->ops->status(s->c, &st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    put_status_header();
+    put_status_row(&st);
+    return finish_output();
+}
+
+static int cmd_watch(ctl_session *s, const ctl_args *a)
+{
+    ctl_status st;
+    unsigned rows = 0;
+    uint32_t gen;
+    int rc = s->ops->status(s->c, &st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    put_status_header();
+    for (;;) {
+        put_status_row(&st);
+        fflush(stdout);
+        if (ferror(stdout)) {
+            return finish_output();
+        }
+        if (a->count != 0u && ++rows >= a->count) {
+            return finish_output();
+        }
+        gen = st.generation;
+        do {
+            rc = s->ops->wait(s->c, gen, 1000, &st);
+            if (rc != CTL_EXIT_OK) {
+                return rc;
+            }
+        } while (st.generation == gen);
+    }
+}
+
+static it2n_csv g_csv;
+static it2n_dataset g_ds;
+static it2n_model g_mdl;
+
+static const char *display_name(const char *path)
+{
+    return strcmp(path, "-") == 0 ? "<stdin>" : path;
+}
+
+/* Read, check and solve DATA.csv exactly as it2n does. */
+static int load(const cli_opts *o)
+{
+    const char *name = display_name(o->path);
+    FILE *f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
+    char chunk[4096], msg[512];
+    it2n_csv_error e;
+    it2n_errinfo info;
+    size_t got;
+    int rc = IT2N_OK;
+    if (f == NULL) {
+        fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
+        return CTL_EXIT_DATA;
+    }
+    it2n_csv_init(&g_csv, o->flags);
+    while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
+        rc = it2n_csv_feed(&g_csv, chunk, got, &e);
+    }
+    if (rc == IT2N_OK && ferror(f)) {
+        fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
+        if (f != stdin) {
+            fclose(f);
+        }
+        return CTL_EXIT_DATA;
+    }
+    if (f != stdin) {
+        fclose(f);
+    }
+    if (rc == IT2N_OK) {
+        rc = it2n_csv_finish(&g_csv, &g_ds, &e);
+    }
+    if (rc == IT2N_OK) {
+        it2n_model_init(&g_mdl);
+        rc = it2n_model_solve(&g_mdl, &g_ds, &info);
+        if (rc != IT2N_OK) {
+            it2n_csv_locate(&g_csv, &info, &e);
+        }
+    }
+    if (rc != IT2N_OK) {
+        it2n_csv_message(&e, name, msg, sizeof(msg));
+        fprintf(stderr, "%s\n", msg);
+        return CTL_EXIT_DATA;
+    }
+    return CTL_EXIT_OK;
+}
+
+static bool g_bar_open; /* a progress line without its newline */
+
+static void progress_bar(void *ctx, unsigned done, unsigned total)
+{
+    const unsigned width = 40u;
+    unsigned k, fill = total ? done * width / total : width;
+    (void)ctx;
+    g_bar_open = done != total;
+    fputs("\rpush [", stderr);
+    for (k = 0; k < width; k++) {
+        fputc(k < fill ? '#' : '.', stderr);
+    }
+    fprintf(stderr, "] %u/%u points", done, total);
+    if (done == total) {
+        fputc('\n', stderr);
+    }
+    fflush(stderr);
+}
+
+static int cmd_push(ctl_session *s, const ctl_args *a)
+{
+    const char *name = display_name(a->o.path);
+    it2n_errinfo rej;
+    ctl_status st;
+    char msg[600];
+    int rc = s->ops->push(s->c, &g_ds, isatty(2) ? progress_bar : NULL, NULL,
+                          &rej);
+    if (g_bar_open) { /* failed midway: the message on its own line */
+        fputc('\n', stderr);
+        g_bar_open = false;
+    }
+    if (rc == CTL_REJECTED) {
+        it2n_csv_error e;
+        unsigned long line = 0;
+        if (rej.i >= 0 && rej.j >= 0 && rej.fp >= 0 && rej.i < IT2N_DIM &&
+            rej.j < IT2N_DIM && rej.fp < IT2N_FP_COUNT) {
+            line = g_csv.lines[rej.i][rej.j][rej.fp];
+        }
+        if (rej.code == IT2N_ERR_RANGE && rej.ch >= 0 &&
+            strcmp(s->ops->kind, "modbus") == 0 && rej.lo > 0) {
+            char v[48];
+            cli_fmt_val(v, sizeof(v), rej.value, 6);
+            snprintf(msg, sizeof(msg), "%s:%lu: %s=%s is not a multiple of "
+                     "1/%lld: the Modbus map carries %s x%lld as %s "
+                     "(use --link for exact values) at (i=%d,j=%d,%s)",
+                     name, line, it2n_ch_name((unsigned)rej.ch), v,
+                     (long long)rej.lo,
+                     rej.hi ? "coordinates" : "memberships",
+                     (long long)rej.lo, rej.hi ? "i32" : "u16", rej.i, rej.j,
+                     it2n_fp_name((unsigned)rej.fp));
+            fprintf(stderr, "%s\n", msg);
+            return CTL_EXIT_DATA;
+        }
+        it2n_csv_locate(&g_csv, &rej, &e);
+        it2n_csv_message(&e, name, msg, sizeof(msg));
+        fprintf(stderr, "%s (refused by it2nd at %s; the model is left "
+                        "incomplete)\n",
+                msg, s->where);
+        return CTL_EXIT_DATA;
+    }
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    rc = s->ops->status(s->c, &st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    printf("%s: pushed %u points to %s: %s, %ux%u grid, generation %lu\n",
+           name, st.present, s->where, ctl_state_name(st.state), st.n + 1u,
+           st.m + 1u, (unsigned long)st.generation);
+    return finish_output();
+}
+
+static int cmd_eval(ctl_session *s, const ctl_args *a)
+{
+    ctl_status st;
+    size_t k;
+    int rc = solved_status(s, &st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    put_header("u,w,footprint", ",out_of_range");
+    for (k = 0; k < a->o.nat; k++) {
+        it2n_par u = a->o.at[k].a, w = a->o.at[k].b;
+        it2n_point pt;
+        memset(&pt, 0, sizeof(pt));
+        rc = s->ops->eval(s->c, &u, &w, &pt);
+        if (rc != CTL_EXIT_OK) {
+            return rc;
+        }
+        put_point(u, w, &pt, &a->o);
+    }
+    return finish_output();
+}
+
+static int cmd_locate(ctl_session *s, const ctl_args *a)
+{
+    static const char *const status[4] = {"inside", "outside", "noconv",
+                                          "outside|noconv"};
+    ctl_status st;
+    ctl_loc res[IT2N_FP_COUNT];
+    size_t k;
+    unsigned fp, ch;
+    int rc = solved_status(s, &st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    printf("x,y,footprint,u,w%s,T,I,F,status\n", g_z ? ",z" : "");
+    for (k = 0; k < a->o.nat; k++) {
+        it2n_val x = a->o.at[k].a, y = a->o.at[k].b;
+        rc = s->ops->locate(s->c, &x, &y, res);
+        if (rc != CTL_EXIT_OK) {
+            return rc;
+        }
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            if (!has_fp(fp)) {
+                continue;
+            }
+            put_val(x, a->o.decimals);
+            putchar(',');
+            put_val(y, a->o.decimals);
+            printf(",%s,", it2n_fp_name(fp));
+            if (res[fp].has_uw) {
+                put_par(res[fp].u, a->o.decimals);
+                putchar(',');
+                put_par(res[fp].w, a->o.decimals);
+            } else {
+                putchar(',');
+            }
+            for (ch = g_z ? IT2N_CH_Z : IT2N_CH_T; ch < IT2N_CH_COUNT; ch++) {
+                putchar(',');
+                put_val(res[fp].v[ch], a->o.decimals);
+            }
+            printf(",%s\n", res[fp].status >= 0 && res[fp].status < 4
+                                ? status[res[fp].status]
+                                : "?");
+        }
+    }
+    return finish_output();
+}
+
+static ctl_net g_net;
+
+static int cmd_net(ctl_session *s, const ctl_args *a)
+{
+    ctl_status st;
+    unsigned i, j, fp;
+    int rc = solved_status(s, &st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    rc = s->ops->net(s->c, &st, &g_net);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    put_header("i,j,footprint", "");
+    for (i = 0; i <= st.n; i++) {
+        for (j = 0; j <= st.m; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (!has_fp(fp)) {
+                    continue;
+                }
+                printf("%u,%u,%s", i, j, it2n_fp_name(fp));
+                put_channels(g_net[fp][i][j], a->o.decimals);
+                putchar('\n');
+            }
+        }
+    }
+    return finish_output();
+}
+
+static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
+                      it2n_par w, const it2n_point *pt)
+{
+    (void)r;
+    (void)c;
+    put_point(u, w, pt, (const cli_opts *)ctx);
+    return ferror(stdout) ? CTL_EXIT_DATA : 0;
+}
+
+static int cmd_sample(ctl_session *s, const ctl_args *a)
+{
+    ctl_status st;
+    unsigned fp;
+    int rc = solved_status(s, &st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if ((a->o.fpmask & (1u << fp)) && !has_fp(fp)) {
+            fprintf(stderr,
+                    "it2nctl: %s: --footprint %s: not in this type-1 model "
+                    "(footprint D only)\n",
+                    s->where, it2n_fp_name(fp));
+            return CTL_EXIT_DATA;
+        }
+    }
+    put_header("u,w,footprint", ",out_of_range");
+    rc = s->ops->sample(s->c, &st, a->o.rows, a->o.cols, sample_row,
+                        (void *)&a->o);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    return finish_output();
+}
+
+static unsigned bitlen64(uint64_t v)
+{
+    unsigned n = 0;
+    while (v != 0u) {
+        n++;
+        v >>= 1;
+    }
+    return n;
+}
+
+/* The live model for plotting: the control nets (Q24) in the core's block
+ * floating point, each net's largest point with 30 significant bits. */
+static void net_to_model(const ctl_status *st, ctl_net *net,
+                         it2n_model *mdl)
+{
+    unsigned fp, ch, i, j;
+    memset(mdl, 0, sizeof(*mdl));
+    mdl->n = (uint8_t)st->n;
+    mdl->m = (uint8_t)st->m;
+    mdl->flags = (uint8_t)st->flags;
+    mdl->solved = 1;
+    mdl->generation = st->generation;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            uint64_t big = 0;
+            int s;
+            for (i = 0; i <= st->n; i++) {
+                for (j = 0; j <= st->m; j++) {
+                    it2n_val v = (*net)[fp][i][j][ch];
+                    uint64_t a = v < 0 ? (uint64_t)0 - (uint64_t)v
+                                       : (uint64_t)v;
+                    big = a > big ? a : big;
+                }
+            }
+            s = (int)bitlen64(big) - 30;
+            mdl->frac[fp][ch] = (int8_t)(IT2N_VAL_FRAC - s);
+            for (i = 0; i <= st->n; i++) {
+                for (j = 0; j <= st->m; j++) {
+                    it2n_val v = (*net)[fp][i][j][ch];
+                    int64_t q = s > 0 ? (v + ((int64_t)1 << (s - 1))) >> s
+                                      : v * ((int64_t)1 << -s);
+                    mdl->net[fp][ch][i * (st->m + 1u) + j] = (int32_t)q;
+                }
+            }
+        }
+    }
+}
+
+static int cmd_plot(ctl_session *s, const ctl_args *a)
+{
+    ctl_status st;
+    cli_opts o = a->o;
+    char title[256];
+    int rc = solved_status(s, &st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    if (o.interval && g_type1) {
+        fprintf(stderr, "it2nctl: %s: --interval needs a type-2 model\n",
+                s->where);
+        return CTL_EXIT_DATA;
+    }
+    rc = s->ops->net(s->c, &st, &g_net);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    net_to_model(&st, &g_net, &g_mdl);
+    memset(&g_ds, 0, sizeof(g_ds));
+    g_ds.n = (uint8_t)st.n;
+    g_ds.m = (uint8_t)st.m;
+    g_ds.flags = (uint8_t)st.flags;
+    /* The title names the source: no '/' so it is printed whole. */
+    snprintf(title, sizeof(title), "it2nd %s %u generation %lu",
+             a->conn.link != NULL ? "model" : "unit",
+             a->conn.link != NULL ? a->conn.model : a->conn.unit,
+             (unsigned long)st.generation);
+    o.path = title;
+    return cli_plot(&o, &g_mdl, &g_ds);
+}
+
+/* ---- options ------------------------------------------------------------ */
+
+static const ctl_cmd *find_cmd(const char *name)
+{
+    size_t k;
+    for (k = 0; k < NCMDS; k++) {
+        if (strcmp(cmds[k].name, name) == 0) {
+            return &cmds[k];
+        }
+    }
+    return NULL;
+}
+
+static int parse_pair(const char *s, bool par, cli_at *out, const char **why)
+{
+    const char *comma = strchr(s, ',');
+    int rc1, rc2;
+    if (comma == NULL) {
+        *why = "expected two numbers separated by a comma";
+        return -1;
+    }
+    if (par) {
+        rc1 = it2n_parse_par(s, (size_t)(comma - s), &out->a);
+        rc2 = it2n_parse_par(comma + 1, strlen(comma + 1), &out->b);
+    } else {
+        rc1 = it2n_parse_val(s, (size_t)(comma - s), &out->a);
+        rc2 = it2n_parse_val(comma + 1, strlen(comma + 1), &out->b);
+    }
+    if (rc1 == IT2N_ERR_INVAL || rc2 == IT2N_ERR_INVAL) {
+        *why = "not a decimal number";
+        return -1;
+    }
+    if (rc1 != IT2N_OK || rc2 != IT2N_OK) {
+        *why = par ? "parameters must lie in [0,1]"
+                   : "coordinate beyond IT2N_COORD_LIMIT";
+        return -1;
+    }
+    return 0;
+}
+
+static bool parse_grid(const char *s, unsigned *r, unsigned *c)
+{
+    char *end;
+    unsigned long x, y;
+    if (*s < '0' || *s > '9') {
+        return false;
+    }
+    x = strtoul(s, &end, 10);
+    if (*end != 'x' && *end != 'X') {
+        return false;
+    }
+    s = end + 1;
+    if (*s < '0' || *s > '9') {
+        return false;
+    }
+    y = strtoul(s, &end, 10);
+    if (*end != '\0' || x < 2 || y < 2 || x > 65535 || y > 65535) {
+        return false;
+    }
+    *r = (unsigned)x;
+    *c = (unsigned)y;
+    return true;
+}
+
+static bool parse_fps(const char *s, unsigned *mask)
+{
+    for (;;) {
+        size_t len = strcspn(s, ",");
+        int fp = it2n_fp_from_name(s, len);
+        if (len == 0u || fp < 0) {
+            return false;
+        }
+        *mask |= 1u << (unsigned)fp;
+        if (s[len] == '\0') {
+            return true;
+        }
+        s += len + 1u;
+    }
+}
+
+static bool parse_uint(const char *s, unsigned long lo, unsigned long hi,
+                       unsigned *out)
+{
+    char *end;
+    unsigned long v;
+    if (*s < '0' || *s > '9') {
+        return false;
+    }
+    errno = 0;
+    v = strtoul(s, &end, 10);
+    if (*end != '\0' || errno != 0 || v < lo || v > hi) {
+        return false;
+    }
+    *out = (unsigned)v;
+    return true;
+}
+
+enum {
+    OPT_AT = 256, OPT_SUMMARY, OPT_GRID, OPT_CHORD, OPT_DECIMALS, OPT_HELP,
+    OPT_VERSION, OPT_FP, OPT_MEMB, OPT_INTERVAL, OPT_SIZE, OPT_TCP, OPT_RTU,
+    OPT_LINK, OPT_UNIT, OPT_MODEL, OPT_BAUD, OPT_PARITY, OPT_STOP,
+    OPT_TIMEOUT, OPT_COUNT
+};
+
+/* Parse argv into a; returns -1 to go on, else an exit status. */
+static int parse_args(int argc, char **argv, ctl_args *a)
+{
+    static const struct option longopts[] = {
+        {"at", required_argument, NULL, OPT_AT},
+        {"summary", no_argument, NULL, OPT_SUMMARY},
+        {"grid", required_argument, NULL, OPT_GRID},
+        {"chord", no_argument, NULL, OPT_CHORD},
+        {"decimals", required_argument, NULL, OPT_DECIMALS},
+        {"help", no_argument, NULL, OPT_HELP},
+        {"version", no_argument, NULL, OPT_VERSION},
+        {"footprint", required_argument, NULL, OPT_FP},
+        {"output", required_argument, NULL, 'o'},
+        {"membership", required_argument, NULL, OPT_MEMB},
+        {"interval", no_argument, NULL, OPT_INTERVAL},
+        {"size", required_argument, NULL, OPT_SIZE},
+        {"tcp", required_argument, NULL, OPT_TCP},
+        {"rtu", required_argument, NULL, OPT_RTU},
+        {"link", required_argument, NULL, OPT_LINK},
+        {"unit", required_argument, NULL, OPT_UNIT},
+        {"model", required_argument, NULL, OPT_MODEL},
+        {"baud", required_argument, NULL, OPT_BAUD},
+        {"parity", required_argument, NULL, OPT_PARITY},
+        {"stop-bits", required_argument, NULL, OPT_STOP},
+        {"timeout", required_argument, NULL, OPT_TIMEOUT},
+        {"count", required_argument, NULL, OPT_COUNT},
+        {NULL, 0, NULL, 0}};
+    const ctl_cmd *c;
+    cli_opts *o = &a->o;
+    bool grid = false, baud = false, memb = false;
+    int opt, nconn = 0;
+
+    if (argc < 2) {
+        usage_all(stderr);
+        return CTL_EXIT_USAGE;
+    }
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
+        strcmp(argv[1], "help") == 0) {
+        if (argc > 2 && (c = find_cmd(argv[2])) != NULL) {
+            usage_cmd(c);
+        } else {
+            usage_all(stdout);
+        }
+        return CTL_EXIT_OK;
+    }
+    if (strcmp(argv[1], "--version") == 0) {
+        printf("it2nctl %s (IT2N_MAX_DEGREE %d)\n", IT2N_CLI_VERSION,
+               IT2N_MAX_DEGREE);
+        return CTL_EXIT_OK;
+    }
+    c = find_cmd(argv[1]);
+    if (c == NULL) {
+        return usage_error(NULL, "unknown command '%s'", argv[1]);
+    }
+    a->cmd = c;
+    o->cmd = c->name;
+    optind = 2;
+    opterr = 0;
+    while ((opt = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
+        const char *why = NULL;
+        switch (opt) {
+        case 'h':
+        case OPT_HELP:
+            usage_cmd(c);
+            return CTL_EXIT_OK;
+        case OPT_VERSION:
+            printf("it2nctl %s\n", IT2N_CLI_VERSION);
+            return CTL_EXIT_OK;
+        case OPT_CHORD:
+            if (!(c->opts & O_CHORD)) {
+                return usage_error(c->name, "--chord does not apply to %s",
+                                   c->name);
+            }
+            o->flags |= IT2N_F_CHORD;
+            break;
+        case OPT_DECIMALS:
+            if (!parse_uint(optarg, 6, 9, &o->decimals)) {
+                return usage_error(c->name, "--decimals '%s': expected 6..9",
+                                   optarg);
+            }
+            break;
+        case OPT_SUMMARY:
+            if (!(c->opts & O_SUMMARY)) {
+                return usage_error(c->name, "--summary does not apply to %s",
+                                   c->name);
+            }
+            o->summary = true;
+            break;
+        case OPT_FP:
+            if (!(c->opts & O_FP)) {
+                return usage_error(c->name,
+                                   "--footprint does not apply to %s",
+                                   c->name);
+            }
+            if (!parse_fps(optarg, &o->fpmask)) {
+                return usage_error(c->name,
+                                   "--footprint '%s': expected names from "
+                                   "LL,LR,L,D,R,RL,RR separated by commas",
+                                   optarg);
+            }
+            break;
+        case 'o':
+            if (!(c->opts & O_PLOT)) {
+                return usage_error(c->name, "-o does not apply to %s",
+                                   c->name);
+            }
+            o->output = optarg;
+            break;
+        case OPT_MEMB:
+            if (!(c->opts & O_PLOT)) {
+                return usage_error(c->name,
+                                   "--membership does not apply to %s",
+                                   c->name);
+            }
+            if (strcmp(optarg, "T") == 0) {
+                o->membership = 0;
+            } else if (strcmp(optarg, "I") == 0) {
+                o->membership = 1;
+            } else if (strcmp(optarg, "F") == 0) {
+                o->membership = 2;
+            } else if (strcmp(optarg, "all") == 0) {
+                o->membership = -1;
+            } else {
+                return usage_error(c->name,
+                                   "--membership '%s': expected T, I, F or "
+                                   "all",
+                                   optarg);
+            }
+            memb = true;
+            break;
+        case OPT_INTERVAL:
+            if (!(c->opts & O_PLOT)) {
+                return usage_error(c->name,
+                                   "--interval does not apply to %s",
+                                   c->name);
+            }
+            o->interval = true;
+            break;
+        case OPT_SIZE:
+            if (!(c->opts & O_PLOT)) {
+                return usage_error(c->name, "--size does not apply to %s",
+                                   c->name);
+            }
+            if (!parse_grid(optarg, &o->width, &o->height) ||
+                o->width < 200u || o->height < 200u || o->width > 8000u ||
+                o->height > 8000u) {
+                return usage_error(c->name,
+                                   "--size '%s': expected WxH with W, H in "
+                                   "200..8000",
+                                   optarg);
+            }
+            break;
+        case OPT_GRID:
+            if (!(c->opts & (O_GRID | O_GRID_OPT))) {
+                return usage_error(c->name, "--grid does not apply to %s",
+                                   c->name);
+            }
+            if (!parse_grid(optarg, &o->rows, &o->cols)) {
+                return usage_error(c->name,
+                                   "--grid '%s': expected RxC with R, C in "
+                                   "2..65535",
+                                   optarg);
+            }
+            if ((c->opts & O_GRID_OPT) && (o->rows > CLI_GRID_MAX_MESH ||
+                                           o->cols > CLI_GRID_MAX_MESH)) {
+                return usage_error(c->name,
+                                   "--grid '%s': at most 1001x1001 here",
+                                   optarg);
+            }
+            grid = true;
+            break;
+        case OPT_AT: {
+            cli_at *n;
+            if (!(c->opts & (O_AT_UW | O_AT_XY))) {
+                return usage_error(c->name, "--at does not apply to %s",
+                                   c->name);
+            }
+            n = realloc(o->at, (o->nat + 1u) * sizeof(*o->at));
+            if (n == NULL) {
+                fprintf(stderr, "it2nctl: out of memory\n");
+                return CTL_EXIT_DATA;
+            }
+            o->at = n;
+            if (parse_pair(optarg, (c->opts & O_AT_UW) != 0u, &o->at[o->nat],
+                           &why) != 0) {
+                fprintf(stderr, "it2nctl: --at '%s': %s\n", optarg, why);
+                fprintf(stderr, "Try 'it2nctl %s --help'.\n", c->name);
+                return CTL_EXIT_USAGE;
+            }
+            o->nat++;
+            break;
+        }
+        case OPT_COUNT:
+            if (!(c->opts & O_COUNT)) {
+                return usage_error(c->name, "--count does not apply to %s",
+                                   c->name);
+            }
+            if (!parse_uint(optarg, 1, 1000000000, &a->count)) {
+                return usage_error(c->name, "--count '%s': expected 1 or more",
+                                   optarg);
+            }
+            break;
+        case OPT_TCP:
+            a->conn.tcp = optarg;
+            nconn++;
+            break;
+        case OPT_RTU:
+            a->conn.rtu = optarg;
+            nconn++;
+            break;
+        case OPT_LINK:
+            a->conn.link = optarg;
+            nconn++;
+            break;
+        case OPT_UNIT:
+            if (!parse_uint(optarg, 0, 247, &a->conn.unit)) {
+                return usage_error(c->name, "--unit '%s': expected 0..247",
+                                   optarg);
+            }
+            break;
+        case OPT_MODEL:
+            if (!parse_uint(optarg, 0, 254, &a->conn.model)) {
+                return usage_error(c->name, "--model '%s': expected 0..254",
+                                   optarg);
+            }
+            break;
+        case OPT_BAUD:
+            if (!parse_uint(optarg, 1200, 4000000, &a->conn.baud)) {
+                return usage_error(c->name,
+                                   "--baud '%s': expected 1200..4000000",
+                                   optarg);
+            }
+            baud = true;
+            break;
+        case OPT_PARITY:
+            if (strcmp(optarg, "none") == 0) {
+                a->conn.parity = 'N';
+            } else if (strcmp(optarg, "even") == 0) {
+                a->conn.parity = 'E';
+            } else if (strcmp(optarg, "odd") == 0) {
+                a->conn.parity = 'O';
+            } else {
+                return usage_error(c->name,
+                                   "--parity '%s': expected none, even or odd",
+                                   optarg);
+            }
+            break;
+        case OPT_STOP:
+            if (!parse_uint(optarg, 1, 2, &a->conn.stop_bits)) {
+                return usage_error(c->name, "--stop-bits '%s': expected 1 or 2",
+                                   optarg);
+            }
+            break;
+        case OPT_TIMEOUT:
+            if (!parse_uint(optarg, 10, 600000, &a->conn.timeout_ms)) {
+                return usage_error(c->name,
+                                   "--timeout '%s': expected 10..600000 ms",
+                                   optarg);
+            }
+            break;
+        case ':':
+            return usage_error(c->name, "option '%s' needs an argument",
+                               argv[optind - 1]);
+        default:
+            return usage_error(c->name, "unknown option '%s'",
+                               argv[optind - 1]);
+        }
+    }
+    if (nconn > 1) {
+        return usage_error(c->name, "%s",
+                           "give one of --tcp, --rtu and --link");
+    }
+    if (nconn == 0 && getenv("IT2NCTL_TCP") != NULL &&
+        getenv("IT2NCTL_TCP")[0] != '\0') {
+        a->conn.tcp = getenv("IT2NCTL_TCP");
+    }
+    if (!baud) {
+        a->conn.baud = a->conn.link != NULL ? 115200u : 19200u;
+    }
+    if (c->opts & O_DATA) {
+        if (optind != argc - 1) {
+            return usage_error(c->name, "%s",
+                               optind >= argc ? "missing DATA.csv"
+                                              : "expected exactly one DATA.csv");
+        }
+        o->path = argv[optind];
+    } else if (optind != argc) {
+        return usage_error(c->name, "unexpected argument '%s'", argv[optind]);
+    }
+    if ((c->opts & (O_AT_UW | O_AT_XY)) && o->nat == 0u) {
+        return usage_error(c->name, "%s needs at least one --at", c->name);
+    }
+    if ((c->opts & O_GRID) && !grid) {
+        return usage_error(c->name, "%s needs --grid RxC", c->name);
+    }
+    if ((c->opts & O_GRID_OPT) && !grid) {
+        o->rows = o->cols = CTL_GRID_DEFAULT;
+    }
+    if (c->opts & O_PLOT) {
+        const char *dot = o->output ? strrchr(o->output, '.') : NULL;
+        if (o->output == NULL) {
+            return usage_error(c->name, "%s needs -o FILE.png or -o FILE.svg",
+                               c->name);
+        }
+        if (dot == NULL || (strcasecmp(dot, ".png") != 0 &&
+                            strcasecmp(dot, ".svg") != 0)) {
+            return usage_error(c->name,
+                               "-o '%s': the name must end in .png or .svg",
+                               o->output);
+        }
+        if (o->interval && memb && o->membership == -1) {
+            return usage_error(c->name, "%s",
+                               "--interval needs one membership: "
+                               "--membership T, I or F");
+        }
+        if (o->interval && o->fpmask != 0u) {
+            return usage_error(c->name, "%s",
+                               "--interval uses LL, LR, D, RL, RR: "
+                               "no --footprint");
+        }
+        if (!memb) {
+            o->membership = o->interval ? 0 : -1;
+        }
+    }
+    return -1;
+}
+
+int main(int argc, char **argv)
+{
+    ctl_args a;
+    ctl_session s;
+    int rc;
+    memset(&a, 0, sizeof(a));
+    memset(&s, 0, sizeof(s));
+    a.o.decimals = 6;
+    a.o.membership = -1;
+    a.o.width = 900u;
+    a.o.height = 700u;
+    a.conn.unit = 1;
+    a.conn.model = 1;
+    a.conn.parity = 'E';
+    a.conn.stop_bits = 1;
+    a.conn.timeout_ms = 3000;
+    rc = parse_args(argc, argv, &a);
+    if (rc >= 0) {
+        free(a.o.at);
+        return rc;
+    }
+    /* Bad data is reported before the daemon is contacted. */
+    if (a.cmd->opts & O_DATA) {
+        rc = load(&a.o);
+        if (rc != CTL_EXIT_OK) {
+            free(a.o.at);
+            return rc;
+        }
+    }
+    rc = open_session(&a, &s);
+    if (rc != CTL_EXIT_OK) {
+        free(a.o.at);
+        return rc;
+    }
+    if (strcmp(a.cmd->name, "status") == 0) {
+        rc = cmd_status(&s);
+    } else if (strcmp(a.cmd->name, "push") == 0) {
+        rc = cmd_push(&s, &a);
+    } else if (strcmp(a.cmd->name, "eval") == 0) {
+        rc = cmd_eval(&s, &a);
+    } else if (strcmp(a.cmd->name, "locate") == 0) {
+        rc = cmd_locate(&s, &a);
+    } else if (strcmp(a.cmd->name, "net") == 0) {
+        rc = cmd_net(&s, &a);
+    } else if (strcmp(a.cmd->name, "sample") == 0) {
+        rc = cmd_sample(&s, &a);
+    } else if (strcmp(a.cmd->name, "watch") == 0) {
+        rc = cmd_watch(&s, &a);
+    } else {
+        rc = cmd_plot(&s, &a);
+    }
+    s.ops->close(s.c);
+    free(a.o.at);
+    return rc;
+}

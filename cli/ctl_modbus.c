@@ -1,0 +1,595 @@
+/*
+ * it2nctl over Modbus TCP or RTU (libmodbus), following docs/registers.md:
+ * status block, configuration + upload + commit for push, FC 23 queries
+ * (write u, w or x, y and read the results in one transaction), the
+ * control-net block. Values travel as the map carries them: parameters and
+ * locations as scaled integers when that is exact, else float32; results
+ * as float32 (memberships in [-1, 1] round-trip exactly, coordinates keep
+ * 24 significant bits).
+ */
+#include "ctl.h"
+
+#include "it2n_regmap.h"
+
+#include <errno.h>
+#include <math.h>
+#include <modbus.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+__extension__ typedef __int128 i128;
+
+typedef struct mb_conn {
+    modbus_t *ctx;
+    char where[160];     /* "127.0.0.1:1502 unit 1" for messages */
+    int word_order;      /* IT2N_WO_*, float32 registers          */
+    int int32_order;     /* IT2N_WO_*, u32/i32 registers (reg 27) */
+    int coord_scale;
+    bool have_map;       /* word order / scale read              */
+} mb_conn;
+
+static const char *exc_text(int err)
+{
+    switch (err) {
+    case EMBXILFUN: return "exception 01: function not supported";
+    case EMBXILADD: return "exception 02: address refused (read-only listener, write-protected model, or not in the map)";
+    case EMBXILVAL: return "exception 03: value refused";
+    case EMBXSFAIL: return "exception 04: the solve failed";
+    case EMBXSBUSY: return "exception 06: model incomplete or not solved";
+    case EMBXGTAR: return "exception 0B: no model on this unit id";
+    default: return NULL;
+    }
+}
+
+/* Report a failed libmodbus call; returns the exit status. */
+static int mb_fail(const mb_conn *c, const char *what)
+{
+    int e = errno;
+    const char *x = exc_text(e);
+    if (x != NULL) {
+        fprintf(stderr, "it2nctl: %s: %s: %s\n", c->where, what, x);
+        return CTL_EXIT_DATA;
+    }
+    fprintf(stderr, "it2nctl: %s: %s: %s\n", c->where, what,
+            e == ETIMEDOUT ? "no answer (timeout)" : modbus_strerror(e));
+    return CTL_EXIT_COMM;
+}
+
+static int rd(mb_conn *c, unsigned addr, unsigned count, uint16_t *out,
+              const char *what)
+{
+    if (modbus_read_registers(c->ctx, (int)addr, (int)count, out) !=
+        (int)count) {
+        return mb_fail(c, what);
+    }
+    return CTL_EXIT_OK;
+}
+
+static int wr(mb_conn *c, unsigned addr, unsigned count, const uint16_t *v,
+              const char *what)
+{
+    if (modbus_write_registers(c->ctx, (int)addr, (int)count, v) !=
+        (int)count) {
+        return mb_fail(c, what);
+    }
+    return CTL_EXIT_OK;
+}
+
+/* 32 bits from two registers in word order `order` (IT2N_WO_*: A is the
+ * most significant byte), and back. */
+static uint32_t get32(const uint16_t in[2], int order)
+{
+    uint16_t hi, lo;
+    switch (order) {
+    case IT2N_WO_CDAB: hi = in[1]; lo = in[0]; break;
+    case IT2N_WO_BADC:
+        hi = (uint16_t)((in[0] >> 8) | (in[0] << 8));
+        lo = (uint16_t)((in[1] >> 8) | (in[1] << 8));
+        break;
+    case IT2N_WO_DCBA:
+        hi = (uint16_t)((in[1] >> 8) | (in[1] << 8));
+        lo = (uint16_t)((in[0] >> 8) | (in[0] << 8));
+        break;
+    default: hi = in[0]; lo = in[1]; break;
+    }
+    return ((uint32_t)hi << 16) | lo;
+}
+
+static void put32(uint16_t out[2], uint32_t b, int order)
+{
+    uint16_t hi = (uint16_t)(b >> 16), lo = (uint16_t)b;
+    uint16_t shi = (uint16_t)((hi >> 8) | (hi << 8));
+    uint16_t slo = (uint16_t)((lo >> 8) | (lo << 8));
+    switch (order) {
+    case IT2N_WO_CDAB: out[0] = lo; out[1] = hi; break;
+    case IT2N_WO_BADC: out[0] = shi; out[1] = slo; break;
+    case IT2N_WO_DCBA: out[0] = slo; out[1] = shi; break;
+    default: out[0] = hi; out[1] = lo; break;
+    }
+}
+
+static float get_f32(const uint16_t in[2], int order)
+{
+    uint32_t b = get32(in, order);
+    float f;
+    memcpy(&f, &b, sizeof f);
+    return f;
+}
+
+static void put_f32(uint16_t out[2], float f, int order)
+{
+    uint32_t b;
+    memcpy(&b, &f, sizeof b);
+    put32(out, b, order);
+}
+
+/* A float32 result back to Q24 (exact: a float has at most 24 significant
+ * bits, and |value| < 2^39 for anything the core produces). */
+static it2n_val f2q(float f)
+{
+    double d = (double)f * (double)IT2N_VAL_ONE;
+    if (!(d > -9.0e18 && d < 9.0e18)) { /* NaN, inf: not from it2nd */
+        return d < 0 ? INT64_MIN >> 1 : INT64_MAX >> 1;
+    }
+    return (it2n_val)llround(d);
+}
+
+/* Scaled integer (register = value * scale) to Q24, as the daemon rounds. */
+static it2n_val from_scaled(int64_t raw, int64_t scale)
+{
+    i128 s = (i128)raw * IT2N_VAL_ONE;
+    return (it2n_val)((s >= 0 ? s + scale / 2 : s - scale / 2) / scale);
+}
+
+/* Q24 to the nearest scaled integer (half away from zero). */
+static int64_t to_scaled(it2n_val v, int64_t scale)
+{
+    i128 s = (i128)v * scale, half = IT2N_VAL_ONE / 2;
+    return (int64_t)((s >= 0 ? s + half : s - half) / IT2N_VAL_ONE);
+}
+
+/* Word order and coordinate scale from the status block (once). */
+static int mb_map(mb_conn *c)
+{
+    uint16_t r[IT2N_REG_INT32_ORDER - IT2N_REG_WORD_ORDER + 1];
+    int rc;
+    if (c->have_map) {
+        return CTL_EXIT_OK;
+    }
+    rc = rd(c, IT2N_REG_WORD_ORDER, IT2N_REG_INT32_ORDER - IT2N_REG_WORD_ORDER + 1, r, "read status");
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    c->word_order = r[0] & 3;
+    c->coord_scale = r[IT2N_REG_COORD_SCALE - IT2N_REG_WORD_ORDER] ? r[IT2N_REG_COORD_SCALE - IT2N_REG_WORD_ORDER] : 100;
+    c->int32_order = r[IT2N_REG_INT32_ORDER - IT2N_REG_WORD_ORDER] & 3;
+    c->have_map = true;
+    return CTL_EXIT_OK;
+}
+
+static int mb_status(void *p, ctl_status *st)
+{
+    mb_conn *c = p;
+    uint16_t r[IT2N_REG_STATUS_END];
+    int rc = rd(c, 0, IT2N_REG_STATUS_END, r, "read status");
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    memset(st, 0, sizeof(*st));
+    st->model = r[IT2N_REG_MODEL_ID];
+    st->state = r[IT2N_REG_STATE];
+    st->n = r[IT2N_REG_N];
+    st->m = r[IT2N_REG_M];
+    st->flags = r[IT2N_REG_FLAGS];
+    st->present = r[IT2N_REG_PRESENT];
+    st->required = r[IT2N_REG_REQUIRED];
+    c->word_order = r[IT2N_REG_WORD_ORDER] & 3;
+    c->int32_order = r[IT2N_REG_INT32_ORDER] & 3;
+    st->generation = get32(&r[IT2N_REG_GENERATION], c->int32_order);
+    st->last_error = (int16_t)r[IT2N_REG_LAST_ERR];
+    c->coord_scale = r[IT2N_REG_COORD_SCALE] ? r[IT2N_REG_COORD_SCALE] : 100;
+    c->have_map = true;
+    return CTL_EXIT_OK;
+}
+
+/* The upload block of entry (i, j, fp); false (rej filled) when a value
+ * is not exactly representable in the map's scaled integers. */
+static bool upload_regs(const mb_conn *c, const it2n_dataset *ds, unsigned i,
+                        unsigned j, unsigned fp, uint16_t r[12],
+                        it2n_errinfo *rej)
+{
+    it2n_val v[IT2N_CH_COUNT];
+    unsigned ch;
+    it2n_dataset_get(ds, i, j, fp, v);
+    r[0] = (uint16_t)i;
+    r[1] = (uint16_t)j;
+    r[2] = (uint16_t)fp;
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        bool coord = ch < IT2N_CH_T;
+        int64_t scale = coord ? c->coord_scale : IT2N_REGMAP_MEMB_SCALE;
+        int64_t k;
+        if (ch == IT2N_CH_Z && !(ds->flags & IT2N_F_Z)) {
+            v[ch] = 0;
+        }
+        k = to_scaled(v[ch], scale);
+        if (from_scaled(k, scale) != v[ch] || k > INT32_MAX || k < INT32_MIN) {
+            memset(rej, 0, sizeof(*rej));
+            rej->code = IT2N_ERR_RANGE;
+            rej->i = (int16_t)i;
+            rej->j = (int16_t)j;
+            rej->fp = (int8_t)fp;
+            rej->ch = (int8_t)ch;
+            rej->value = v[ch];
+            rej->lo = scale; /* the caller names the scale */
+            rej->hi = coord;
+            return false;
+        }
+        if (coord) {
+            put32(&r[3 + 2 * ch], (uint32_t)(int32_t)k, c->int32_order);
+        } else {
+            r[9 + ch - IT2N_CH_T] = (uint16_t)k;
+        }
+    }
+    return true;
+}
+
+/* After a refused write: the daemon's last_error names the point. */
+static void refused_detail(mb_conn *c, it2n_errinfo *rej)
+{
+    uint16_t r[4];
+    memset(rej, 0, sizeof(*rej));
+    rej->i = rej->j = -1;
+    rej->fp = rej->ch = -1;
+    if (modbus_read_registers(c->ctx, IT2N_REG_LAST_ERR, 4, r) == 4) {
+        rej->code = (int16_t)r[0];
+        rej->i = (int16_t)r[1];
+        rej->j = (int16_t)r[2];
+        rej->fp = (int8_t)(int16_t)r[3];
+    }
+}
+
+static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
+                   void *pctx, it2n_errinfo *rej)
+{
+    mb_conn *c = p;
+    uint16_t cfg[4], up[12];
+    unsigned i, j, fp, total = 0, done = 0;
+    int rc = mb_map(c);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    /* Everything representable before the first write: a refused push
+     * changes nothing. */
+    for (i = 0; i <= ds->n; i++) {
+        for (j = 0; j <= ds->m; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (ds->present[i][j] & (1u << fp)) {
+                    if (!upload_regs(c, ds, i, j, fp, up, rej)) {
+                        return CTL_REJECTED;
+                    }
+                    total++;
+                }
+            }
+        }
+    }
+    cfg[0] = ds->n;
+    cfg[1] = ds->m;
+    cfg[2] = ds->flags;
+    cfg[3] = IT2N_CMD_CLEAR;
+    rc = wr(c, IT2N_REG_CFG_N, 4, cfg, "configure");
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    for (i = 0; i <= ds->n; i++) {
+        for (j = 0; j <= ds->m; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (!(ds->present[i][j] & (1u << fp))) {
+                    continue;
+                }
+                (void)upload_regs(c, ds, i, j, fp, up, rej);
+                if (modbus_write_registers(c->ctx, IT2N_REG_UP_I, 12, up) !=
+                    12) {
+                    int e = errno;
+                    if (exc_text(e) != NULL && e != EMBXILADD) {
+                        refused_detail(c, rej);
+                        return CTL_REJECTED;
+                    }
+                    errno = e;
+                    return mb_fail(c, "upload");
+                }
+                done++;
+                if (progress != NULL) {
+                    progress(pctx, done, total);
+                }
+            }
+        }
+    }
+    cfg[0] = IT2N_CMD_COMMIT;
+    if (modbus_write_register(c->ctx, IT2N_REG_COMMAND, cfg[0]) != 1) {
+        int e = errno;
+        if (e == EMBXSFAIL) {
+            refused_detail(c, rej);
+            return CTL_REJECTED;
+        }
+        errno = e;
+        return mb_fail(c, "commit");
+    }
+    return CTL_EXIT_OK;
+}
+
+/* Parameter as the daemon reads q_u (x10000) — exact when it matches. */
+static bool par_scaled(it2n_par p, uint16_t *reg)
+{
+    int64_t k = (int64_t)(((i128)p * 10000 + IT2N_PAR_ONE / 2) >> 32);
+    if (k < 0 || k > 10000 ||
+        (it2n_par)(((i128)k * IT2N_PAR_ONE + 5000) / 10000) != p) {
+        return false;
+    }
+    *reg = (uint16_t)k;
+    return true;
+}
+
+/* results_f32 (128..235) into pt; q_out_of_range from query_status. */
+static void read_results(const mb_conn *c, const uint16_t *r, it2n_point *pt)
+{
+    unsigned fp, ch, k;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            pt->v[fp][ch] = f2q(get_f32(&r[(fp * IT2N_CH_COUNT + ch) * 2],
+                                        c->word_order));
+        }
+    }
+    for (k = 0; k < 3u; k++) {
+        const uint16_t *s = &r[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32];
+        pt->sum.upper_min[k] = f2q(get_f32(&s[(0 * 3 + k) * 2], c->word_order));
+        pt->sum.upper_max[k] = f2q(get_f32(&s[(1 * 3 + k) * 2], c->word_order));
+        pt->sum.lower_min[k] = f2q(get_f32(&s[(2 * 3 + k) * 2], c->word_order));
+        pt->sum.lower_max[k] = f2q(get_f32(&s[(3 * 3 + k) * 2], c->word_order));
+    }
+}
+
+/* One FC 23 query: write regs at addr, read the float32 results, then the
+ * query status (out of range bits, locate failures). */
+static int query(mb_conn *c, unsigned addr, unsigned count, const uint16_t *w,
+                 it2n_point *pt, uint16_t *locfail)
+{
+    uint16_t r[IT2N_REG_SUM_F32 + 24 - IT2N_REG_RES_F32];
+    uint16_t qs[IT2N_REG_QSTATUS_END - IT2N_REG_Q_KIND];
+    unsigned n = (unsigned)(sizeof(r) / sizeof(r[0]));
+    int rc;
+    if (modbus_write_and_read_registers(c->ctx, (int)addr, (int)count, w,
+                                        IT2N_REG_RES_F32, (int)n, r) !=
+        (int)n) {
+        return mb_fail(c, "query");
+    }
+    rc = rd(c, IT2N_REG_Q_KIND, IT2N_REG_QSTATUS_END - IT2N_REG_Q_KIND, qs,
+            "query status");
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    memset(pt, 0, sizeof(*pt));
+    read_results(c, r, pt);
+    pt->out_of_range = get32(&qs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND], c->int32_order);
+    if (locfail != NULL) {
+        *locfail = qs[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND];
+    }
+    return CTL_EXIT_OK;
+}
+
+static int mb_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
+{
+    mb_conn *c = p;
+    uint16_t regs[4];
+    int rc = mb_map(c);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    if (par_scaled(*u, &regs[0]) && par_scaled(*w, &regs[1])) {
+        return query(c, IT2N_REG_Q_U16, 2, regs, pt, NULL);
+    }
+    /* float32: the daemon evaluates at llround(f * 2^32) */
+    {
+        float fu = (float)((double)*u / (double)IT2N_PAR_ONE);
+        float fw = (float)((double)*w / (double)IT2N_PAR_ONE);
+        put_f32(&regs[0], fu, c->word_order);
+        put_f32(&regs[2], fw, c->word_order);
+        *u = (it2n_par)llround((double)fu * (double)IT2N_PAR_ONE);
+        *w = (it2n_par)llround((double)fw * (double)IT2N_PAR_ONE);
+        return query(c, IT2N_REG_Q_UF, 4, regs, pt, NULL);
+    }
+}
+
+static int mb_locate(void *p, it2n_val *x, it2n_val *y,
+                     ctl_loc res[IT2N_FP_COUNT])
+{
+    mb_conn *c = p;
+    uint16_t regs[4], fail = 0;
+    it2n_point pt;
+    int64_t kx, ky;
+    unsigned fp;
+    int rc = mb_map(c);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    kx = to_scaled(*x, c->coord_scale);
+    ky = to_scaled(*y, c->coord_scale);
+    if (from_scaled(kx, c->coord_scale) == *x &&
+        from_scaled(ky, c->coord_scale) == *y && kx <= INT32_MAX &&
+        kx >= INT32_MIN && ky <= INT32_MAX && ky >= INT32_MIN) {
+        put32(&regs[0], (uint32_t)(int32_t)kx, c->int32_order);
+        put32(&regs[2], (uint32_t)(int32_t)ky, c->int32_order);
+        rc = query(c, IT2N_REG_Q_XS, 4, regs, &pt, &fail);
+    } else {
+        float fx = (float)((double)*x / (double)IT2N_VAL_ONE);
+        float fy = (float)((double)*y / (double)IT2N_VAL_ONE);
+        put_f32(&regs[0], fx, c->word_order);
+        put_f32(&regs[2], fy, c->word_order);
+        *x = f2q(fx);
+        *y = f2q(fy);
+        rc = query(c, IT2N_REG_Q_XF, 4, regs, &pt, &fail);
+    }
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        memset(&res[fp], 0, sizeof(res[fp]));
+        res[fp].has_uw = false;
+        res[fp].status = (fail & (1u << fp)) ? CTL_LOC_NOT_INSIDE
+                                             : CTL_LOC_INSIDE;
+        memcpy(res[fp].v, pt.v[fp], sizeof(res[fp].v));
+    }
+    return CTL_EXIT_OK;
+}
+
+static int mb_net(void *p, const ctl_status *st, ctl_net *net)
+{
+    mb_conn *c = p;
+    uint16_t r[IT2N_REGMAP_DIM * IT2N_REGMAP_CH * 2];
+    unsigned fp, i, j, ch, cnt = (st->m + 1u) * IT2N_REGMAP_CH * 2u;
+    int rc = mb_map(c);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    memset(net, 0, sizeof(*net));
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if ((st->flags & IT2N_F_TYPE1) && fp != IT2N_FP_D) {
+            continue;
+        }
+        for (i = 0; i <= st->n; i++) {
+            unsigned addr = IT2N_REG_CTRL +
+                            ((fp * IT2N_REGMAP_DIM + i) * IT2N_REGMAP_DIM) *
+                                IT2N_REGMAP_CH * 2u;
+            rc = rd(c, addr, cnt, r, "read control net");
+            if (rc != CTL_EXIT_OK) {
+                return rc;
+            }
+            for (j = 0; j <= st->m; j++) {
+                for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                    (*net)[fp][i][j][ch] = f2q(get_f32(
+                        &r[(j * IT2N_REGMAP_CH + ch) * 2], c->word_order));
+                }
+            }
+        }
+    }
+    return CTL_EXIT_OK;
+}
+
+static int mb_sample(void *p, const ctl_status *st, unsigned rows,
+                     unsigned cols, ctl_sample_fn cb, void *ctx)
+{
+    unsigned r, cc;
+    (void)st;
+    for (r = 0; r < rows; r++) {
+        for (cc = 0; cc < cols; cc++) {
+            it2n_par u = ctl_grid_par(r, rows), w = ctl_grid_par(cc, cols);
+            it2n_point pt;
+            int rc = mb_eval(p, &u, &w, &pt);
+            if (rc != CTL_EXIT_OK) {
+                return rc;
+            }
+            rc = cb(ctx, r, cc, u, w, &pt);
+            if (rc != 0) {
+                return rc;
+            }
+        }
+    }
+    return CTL_EXIT_OK;
+}
+
+static int mb_wait(void *p, uint32_t gen, int timeout_ms, ctl_status *st)
+{
+    mb_conn *c = p;
+    struct timespec t0, t1;
+    int poll = timeout_ms < 100 ? timeout_ms : 100;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (;;) {
+        long ms;
+        int rc = mb_status(c, st);
+        if (rc != CTL_EXIT_OK || st->generation != gen) {
+            return rc;
+        }
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        ms = (t1.tv_sec - t0.tv_sec) * 1000L + (t1.tv_nsec - t0.tv_nsec) / 1000000L;
+        if (ms >= timeout_ms) {
+            return CTL_EXIT_OK;
+        }
+        {
+            struct timespec d = {0, (long)poll * 1000000L};
+            nanosleep(&d, NULL);
+        }
+    }
+}
+
+static void mb_close(void *p)
+{
+    mb_conn *c = p;
+    modbus_close(c->ctx);
+    modbus_free(c->ctx);
+    free(c);
+}
+
+static const ctl_ops mb_ops = {"modbus", mb_status, mb_push, mb_eval,
+                               mb_locate, mb_net, mb_sample, mb_wait,
+                               mb_close};
+
+void *ctl_modbus_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
+{
+    mb_conn *c = calloc(1, sizeof(*c));
+    char host[128] = "127.0.0.1", port[16] = "1502";
+    if (c == NULL) {
+        fprintf(stderr, "it2nctl: out of memory\n");
+        *rc = CTL_EXIT_COMM;
+        return NULL;
+    }
+    if (o->rtu != NULL) {
+        c->ctx = modbus_new_rtu(o->rtu, (int)o->baud, o->parity, 8,
+                                (int)o->stop_bits);
+        snprintf(c->where, sizeof(c->where), "%s unit %u", o->rtu, o->unit);
+    } else {
+        const char *t = o->tcp ? o->tcp : "127.0.0.1:1502";
+        const char *colon = strrchr(t, ':');
+        size_t hl = colon ? (size_t)(colon - t) : strlen(t);
+        if (t[0] == '[') { /* [v6]:port */
+            const char *rb = strchr(t, ']');
+            if (rb != NULL) {
+                hl = (size_t)(rb - t - 1);
+                memcpy(host, t + 1, hl < sizeof(host) ? hl : sizeof(host) - 1);
+                host[hl < sizeof(host) ? hl : sizeof(host) - 1] = '\0';
+                colon = rb[1] == ':' ? rb + 1 : NULL;
+            }
+        } else if (hl > 0) {
+            memcpy(host, t, hl < sizeof(host) ? hl : sizeof(host) - 1);
+            host[hl < sizeof(host) ? hl : sizeof(host) - 1] = '\0';
+        }
+        if (colon != NULL) {
+            snprintf(port, sizeof(port), "%s", colon + 1);
+        }
+        c->ctx = modbus_new_tcp_pi(host, port);
+        snprintf(c->where, sizeof(c->where), "%s%s%s:%s unit %u",
+                 strchr(host, ':') ? "[" : "", host,
+                 strchr(host, ':') ? "]" : "", port, o->unit);
+    }
+    if (c->ctx == NULL) {
+        fprintf(stderr, "it2nctl: %s: %s\n", c->where, modbus_strerror(errno));
+        free(c);
+        *rc = CTL_EXIT_COMM;
+        return NULL;
+    }
+    modbus_set_slave(c->ctx, (int)o->unit);
+    modbus_set_response_timeout(c->ctx, o->timeout_ms / 1000u,
+                                (o->timeout_ms % 1000u) * 1000u);
+    if (modbus_connect(c->ctx) != 0) {
+        fprintf(stderr, "it2nctl: cannot connect to %s: %s (is it2nd running? "
+                        "--tcp HOST:PORT, --rtu DEVICE or --link DEVICE)\n",
+                c->where, modbus_strerror(errno));
+        modbus_free(c->ctx);
+        free(c);
+        *rc = CTL_EXIT_COMM;
+        return NULL;
+    }
+    *ops = &mb_ops;
+    *rc = CTL_EXIT_OK;
+    return c;
+}
