@@ -81,8 +81,8 @@ install-completion:
 # ---- Debian package -----------------------------------------------------------
 # `make deb` builds it2n_VERSION_ARCH.deb and libit2n-dev_VERSION_ARCH.deb
 # with debhelper (debian/) from a copy of the tree, into $(DEB_OUT).
-# Its own Debian packages are installed by `make deb` (not by `make deps`:
-# `make test` does not need them).
+# Its own Debian packages are installed by `make deb` (deb-deps), so only
+# `make deb` and deb-check (in make test) pull in debhelper and lintian.
 DEB_OUT ?= $(BUILD)/deb
 DEB_TOOL_PACKAGES := debhelper dpkg-dev fakeroot lintian pkg-config libinih-dev \
   libmodbus-dev libusb-1.0-0-dev systemd

@@ -4,8 +4,8 @@
 #                    kept on reinstall, a pkg-config consumer, completions
 #   test-completion  the bash completions (completions/) and the man pages
 #                    agree with each program's --help
-#   deb-check        (not in make test: minutes) builds the .debs with
-#                    `make deb`, checks them with dpkg-deb and lintian
+#   deb-check        (in make test, about 30 s to 2 min) builds the .debs
+#                    with `make deb`, checks them with dpkg-deb and lintian
 #   deb-smoke        (in make test) debian/ agrees with make install and cli.h
 # docs/packaging.md describes the layout and the package.
 # bash-completion (test-completion), dpkg-dev (dpkg-parsechangelog,
@@ -39,4 +39,4 @@ deb-smoke: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO
 deb-check: deb ## Build the Debian packages and check them (dpkg-deb -I/-c, unpacked programs, lintian; docs/packaging.md)
 	@MAKE="$(MAKE)" CC="$(CC)" tests/install/deb_check.sh $(DEB_OUT)
 
-TEST_TARGETS += deb-smoke
+TEST_TARGETS += deb-smoke deb-check
