@@ -34,6 +34,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/random.h>
 #include <termios.h>
 #include <time.h>
 #include <unistd.h>
@@ -403,6 +404,15 @@ int main(int argc, char **argv)
     cfg.rto_ms = rto;
     cfg.max_tries = (uint8_t)tries;
     cfg.first_seq = (uint16_t)((now_us() ^ ((uint64_t)getpid() << 8)) & 0xFFFF);
+    /* A v1.1 session id (protocol.md 4.2): without one (0) every SYN copy
+     * starts a new sequence, so a late duplicate of the first frame would
+     * reset the daemon's receiver in the middle of the session. */
+    {
+        uint32_t rnd = 0;
+        if (getrandom(&rnd, sizeof rnd, GRND_NONBLOCK) != (ssize_t)sizeof rnd)
+            rnd = (uint32_t)(now_us() * 2654435761u) ^ (uint32_t)getpid();
+        cfg.session = rnd ? rnd : 1u;
+    }
     if (it2n_link_init(&lk, &cfg) != IT2N_OK)
         return 2;
 
