@@ -238,6 +238,16 @@ int mb_req_release(struct mb_session *s, int commit_ok)
     s->held_len = 0;
     if (len <= 0)
         return 0;
+    if (!commit_ok && s->held_model) {
+        /* Not durable: refused with 04, and last_error says why, also for
+         * a write that changed no model field the batch rollback marks
+         * (e.g. the upload block): every refused write sets it. */
+        struct model *md = s->held_model;
+        memset(&md->last_err, 0, sizeof md->last_err);
+        md->last_err.code = IT2ND_ERR_IO;
+        md->last_err.i = md->last_err.j = -1;
+        md->last_err.fp = md->last_err.ch = -1;
+    }
     if (exc != MBX_OK)
         return exception(s, s->held_model, s->held, exc);
     return modbus_reply(s->ctx, s->held, len, s->map) < 0 ? -1 : 0;

@@ -23,6 +23,7 @@
 
 #include "mb_map.h"
 #include "mb_req.h"
+#include "errs.h"
 #include "models.h"
 #include "store.h"
 
@@ -292,9 +293,35 @@ static void test_fc23_query_touches_nothing(void **st)
     models_pass_end(1, NULL, NULL);
 }
 
+/* A held write whose batch is not durable is refused with 04 and its
+ * model's last_error says so (-200), whatever the write touched: the
+ * configuration here, the upload block or a point alike (issue 8 item 11;
+ * seen in the soak: an 04 with last_error 0). */
+static void test_refused_write_sets_last_error(void **st)
+{
+    uint8_t req[300], rep[300];
+    (void)st;
+    struct model *md = models_by_id(1);
+    memset(&md->last_err, 0, sizeof md->last_err);
+    /* FC 16: n = m = 2 (a new configuration: held for the commit). */
+    static const uint8_t pdu[] = { 0x10, 0x00, IT2N_REG_CFG_N, 0x00, 0x02, 0x04, 0x00, 0x02, 0x00, 0x02 };
+    int len = adu(req, pdu, sizeof pdu);
+    assert_int_equal(mb_req_handle(&sess, req, len, &opts), 1); /* held */
+    models_pass_end(0, NULL, NULL);                             /* the commit failed */
+    assert_int_equal(mb_req_release(&sess, 0), 0);
+    ssize_t n = read(sp[1], rep, sizeof rep);
+    assert_int_equal(n, 9);
+    assert_int_equal(rep[7], 0x90);
+    assert_int_equal(rep[8], MBX_DEVICE_FAILURE);
+    md = models_by_id(1);
+    assert_int_equal(md->last_err.code, IT2ND_ERR_IO);
+    assert_int_equal(md->ds.n, 3); /* nothing changed */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_refused_write_sets_last_error, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fc23_all_or_nothing, setup, teardown),
         cmocka_unit_test_setup_teardown(test_readers_see_durable, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fc23_query_touches_nothing, setup, teardown),
