@@ -6,6 +6,7 @@
 #ifndef IT2N_CLI_H
 #define IT2N_CLI_H
 
+#include "csv.h"
 #include "it2n.h"
 
 #include <stdbool.h>
@@ -51,6 +52,12 @@ enum { CLI_FMT_VTK = 0, CLI_FMT_OBJ, CLI_FMT_CSV };
 
 /* Run the subcommand in o; returns an exit status. */
 int cli_run(const cli_opts *o);
+
+/* Read DATA.csv (o->path, "-" = stdin) with o->flags into csv and ds,
+ * check it and solve it into mdl, as every it2n command does. Errors are
+ * printed as FILE:LINE: ...; returns CLI_EXIT_OK or CLI_EXIT_DATA. Also
+ * it2nctl's push, so both tools refuse a file alike. */
+int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl);
 
 /* True if footprint fp is selected by --footprint (and in the model). */
 bool cli_fp_selected(const cli_opts *o, const it2n_model *mdl, unsigned fp);

@@ -28,8 +28,7 @@ static const char *display_name(const cli_opts *o)
     return strcmp(o->path, "-") == 0 ? "<stdin>" : o->path;
 }
 
-/* Read and validate the dataset, then solve it. */
-static int load(const cli_opts *o)
+int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl)
 {
     const char *name = display_name(o);
     FILE *f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
@@ -43,9 +42,9 @@ static int load(const cli_opts *o)
         fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
         return CLI_EXIT_DATA;
     }
-    it2n_csv_init(&g_csv, o->flags);
+    it2n_csv_init(csv, o->flags);
     while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
-        rc = it2n_csv_feed(&g_csv, chunk, got, &e);
+        rc = it2n_csv_feed(csv, chunk, got, &e);
     }
     if (rc == IT2N_OK && ferror(f)) {
         fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
@@ -58,20 +57,26 @@ static int load(const cli_opts *o)
         fclose(f);
     }
     if (rc == IT2N_OK) {
-        rc = it2n_csv_finish(&g_csv, &g_ds, &e);
+        rc = it2n_csv_finish(csv, ds, &e);
     }
     if (rc != IT2N_OK) {
         report(&e, name);
         return CLI_EXIT_DATA;
     }
-    it2n_model_init(&g_mdl);
-    rc = it2n_model_solve(&g_mdl, &g_ds, &info);
+    it2n_model_init(mdl);
+    rc = it2n_model_solve(mdl, ds, &info);
     if (rc != IT2N_OK) {
-        it2n_csv_locate(&g_csv, &info, &e);
+        it2n_csv_locate(csv, &info, &e);
         report(&e, name);
         return CLI_EXIT_DATA;
     }
     return CLI_EXIT_OK;
+}
+
+/* Read and validate the dataset, then solve it. */
+static int load(const cli_opts *o)
+{
+    return cli_load(o, &g_csv, &g_ds, &g_mdl);
 }
 
 bool cli_fp_selected(const cli_opts *o, const it2n_model *mdl, unsigned fp)

@@ -419,50 +419,10 @@ static const char *display_name(const char *path)
     return strcmp(path, "-") == 0 ? "<stdin>" : path;
 }
 
-/* Read, check and solve DATA.csv exactly as it2n does. */
+/* Read, check and solve DATA.csv exactly as it2n does (the same code). */
 static int load(const cli_opts *o)
 {
-    const char *name = display_name(o->path);
-    FILE *f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
-    char chunk[4096], msg[512];
-    it2n_csv_error e;
-    it2n_errinfo info;
-    size_t got;
-    int rc = IT2N_OK;
-    if (f == NULL) {
-        fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
-        return CTL_EXIT_DATA;
-    }
-    it2n_csv_init(&g_csv, o->flags);
-    while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
-        rc = it2n_csv_feed(&g_csv, chunk, got, &e);
-    }
-    if (rc == IT2N_OK && ferror(f)) {
-        fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
-        if (f != stdin) {
-            fclose(f);
-        }
-        return CTL_EXIT_DATA;
-    }
-    if (f != stdin) {
-        fclose(f);
-    }
-    if (rc == IT2N_OK) {
-        rc = it2n_csv_finish(&g_csv, &g_ds, &e);
-    }
-    if (rc == IT2N_OK) {
-        it2n_model_init(&g_mdl);
-        rc = it2n_model_solve(&g_mdl, &g_ds, &info);
-        if (rc != IT2N_OK) {
-            it2n_csv_locate(&g_csv, &info, &e);
-        }
-    }
-    if (rc != IT2N_OK) {
-        it2n_csv_message(&e, name, msg, sizeof(msg));
-        fprintf(stderr, "%s\n", msg);
-        return CTL_EXIT_DATA;
-    }
-    return CTL_EXIT_OK;
+    return cli_load(o, &g_csv, &g_ds, &g_mdl) == CLI_EXIT_OK ? CTL_EXIT_OK : CTL_EXIT_DATA;
 }
 
 static bool g_bar_open; /* a progress line without its newline */
