@@ -59,6 +59,14 @@ int cli_run(const cli_opts *o);
  * it2nctl's push, so both tools refuse a file alike. */
 int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl);
 
+/* Option values (cli/args.c). cli_parse_pair: "A,B", both parameters in
+ * [0,1] (par) or both values; 0, or an error with *why set. cli_parse_grid:
+ * "RxC", R and C in 2..65535. cli_parse_fps: "D", "LL,RR", ... or'ed into
+ * *mask as bits of IT2N_FP_*. */
+int cli_parse_pair(const char *s, bool par, cli_at *out, const char **why);
+bool cli_parse_grid(const char *s, unsigned *r, unsigned *c);
+bool cli_parse_fps(const char *s, unsigned *mask);
+
 /* True if footprint fp is selected by --footprint (and in the model). */
 bool cli_fp_selected(const cli_opts *o, const it2n_model *mdl, unsigned fp);
 

@@ -724,73 +724,6 @@ static const ctl_cmd *find_cmd(const char *name)
     return NULL;
 }
 
-static int parse_pair(const char *s, bool par, cli_at *out, const char **why)
-{
-    const char *comma = strchr(s, ',');
-    int rc1, rc2;
-    if (comma == NULL) {
-        *why = "expected two numbers separated by a comma";
-        return -1;
-    }
-    if (par) {
-        rc1 = it2n_parse_par(s, (size_t)(comma - s), &out->a);
-        rc2 = it2n_parse_par(comma + 1, strlen(comma + 1), &out->b);
-    } else {
-        rc1 = it2n_parse_val(s, (size_t)(comma - s), &out->a);
-        rc2 = it2n_parse_val(comma + 1, strlen(comma + 1), &out->b);
-    }
-    if (rc1 == IT2N_ERR_INVAL || rc2 == IT2N_ERR_INVAL) {
-        *why = "not a decimal number";
-        return -1;
-    }
-    if (rc1 != IT2N_OK || rc2 != IT2N_OK) {
-        *why = par ? "parameters must lie in [0,1]"
-                   : "coordinate beyond IT2N_COORD_LIMIT";
-        return -1;
-    }
-    return 0;
-}
-
-static bool parse_grid(const char *s, unsigned *r, unsigned *c)
-{
-    char *end;
-    unsigned long x, y;
-    if (*s < '0' || *s > '9') {
-        return false;
-    }
-    x = strtoul(s, &end, 10);
-    if (*end != 'x' && *end != 'X') {
-        return false;
-    }
-    s = end + 1;
-    if (*s < '0' || *s > '9') {
-        return false;
-    }
-    y = strtoul(s, &end, 10);
-    if (*end != '\0' || x < 2 || y < 2 || x > 65535 || y > 65535) {
-        return false;
-    }
-    *r = (unsigned)x;
-    *c = (unsigned)y;
-    return true;
-}
-
-static bool parse_fps(const char *s, unsigned *mask)
-{
-    for (;;) {
-        size_t len = strcspn(s, ",");
-        int fp = it2n_fp_from_name(s, len);
-        if (len == 0u || fp < 0) {
-            return false;
-        }
-        *mask |= 1u << (unsigned)fp;
-        if (s[len] == '\0') {
-            return true;
-        }
-        s += len + 1u;
-    }
-}
-
 static bool parse_uint(const char *s, unsigned long lo, unsigned long hi,
                        unsigned *out)
 {
@@ -909,7 +842,7 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                                    "--footprint does not apply to %s",
                                    c->name);
             }
-            if (!parse_fps(optarg, &o->fpmask)) {
+            if (!cli_parse_fps(optarg, &o->fpmask)) {
                 return usage_error(c->name,
                                    "--footprint '%s': expected names from "
                                    "LL,LR,L,D,R,RL,RR separated by commas",
@@ -958,7 +891,7 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                 return usage_error(c->name, "--size does not apply to %s",
                                    c->name);
             }
-            if (!parse_grid(optarg, &o->width, &o->height) ||
+            if (!cli_parse_grid(optarg, &o->width, &o->height) ||
                 o->width < 200u || o->height < 200u || o->width > 8000u ||
                 o->height > 8000u) {
                 return usage_error(c->name,
@@ -972,7 +905,7 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                 return usage_error(c->name, "--grid does not apply to %s",
                                    c->name);
             }
-            if (!parse_grid(optarg, &o->rows, &o->cols)) {
+            if (!cli_parse_grid(optarg, &o->rows, &o->cols)) {
                 return usage_error(c->name,
                                    "--grid '%s': expected RxC with R, C in "
                                    "2..65535",
@@ -998,7 +931,7 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                 return CTL_EXIT_DATA;
             }
             o->at = n;
-            if (parse_pair(optarg, (c->opts & O_AT_UW) != 0u, &o->at[o->nat],
+            if (cli_parse_pair(optarg, (c->opts & O_AT_UW) != 0u, &o->at[o->nat],
                            &why) != 0) {
                 fprintf(stderr, "it2nctl: --at '%s': %s\n", optarg, why);
                 fprintf(stderr, "Try 'it2nctl %s --help'.\n", c->name);
