@@ -102,6 +102,17 @@ static uint8_t *sample_seen;
 static it2n_val (*sample_v)[IT2N_CH_COUNT];
 static it2n_msg_query_result qres[MAX_QUERIES];
 static unsigned query_k;
+/* Pipelined QUERYs (as many in flight as the window takes): per query the
+ * request, the sequence number of its latest copy, its state and whether
+ * its result arrived. */
+static struct {
+    it2n_msg msg;
+    int32_t seq;
+    int state;
+    int got;
+    uint64_t progress;
+} qq[MAX_QUERIES];
+static unsigned nqq;
 static unsigned rerequest_ms = 3000;
 static unsigned in_session_resp;
 
@@ -127,7 +138,21 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
     (void)app;
     if (trace)
         fprintf(stderr, "%9.3f rx %s seq %u\n", (double)(now_us() - t_start) / 1e3, it2n_msg_name(m->type), seq);
-    if (m->type == IT2N_MSG_QUERY_RESULT && cur.state != R_NONE && cur.msg.type == IT2N_MSG_QUERY &&
+    if (m->type == IT2N_MSG_QUERY_RESULT && nqq) {
+        const it2n_msg_query_result *d = &m->u.query_result;
+        for (unsigned k = 0; k < nqq; k++) {
+            if (qq[k].got || qq[k].state == R_NONE || d->u != qq[k].msg.u.query.u || d->w != qq[k].msg.u.query.w)
+                continue;
+            it2n_point pt;
+            it2n_eval(&local, it2n_par_from_wire(d->u), it2n_par_from_wire(d->w), &pt, NULL);
+            mismatches += memcmp(pt.v, d->v, sizeof pt.v) != 0;
+            mismatches += memcmp(&pt.sum, &d->sum, sizeof pt.sum) != 0;
+            mismatches += pt.out_of_range != d->out_of_range;
+            qres[k] = *d;
+            qq[k].got = 1;
+            break;
+        }
+    } else if (m->type == IT2N_MSG_QUERY_RESULT && cur.state != R_NONE && cur.msg.type == IT2N_MSG_QUERY &&
         m->u.query_result.u == cur.msg.u.query.u && m->u.query_result.w == cur.msg.u.query.w) {
         const it2n_msg_query_result *d = &m->u.query_result;
         if (cur.got == 0) {
@@ -173,6 +198,25 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_
                 seq, code);
     if (type == IT2N_MSG_PUT && code == 0)
         ack_entries += put_entries_in_flight[seq];
+    for (unsigned k = 0; k < nqq; k++) {
+        if (qq[k].state != R_SENT || (uint16_t)qq[k].seq != seq)
+            continue;
+        if (code == 0) {
+            qq[k].state = R_ACKED;
+            qq[k].progress = now_us();
+        } else if (code == IT2N_PROTO_ERR_BUSY || code == IT2N_PROTO_ERR_TIMEOUT) {
+            qq[k].state = R_RESEND; /* refused while busy, or delivery unknown */
+            busy_retries += code == IT2N_PROTO_ERR_BUSY;
+            if (code == IT2N_PROTO_ERR_BUSY)
+                rereq_busy++;
+            else
+                rereq_lost++;
+        } else {
+            fprintf(stderr, "proto_session: QUERY refused: %d (%s)\n", code, it2n_proto_strerror(code));
+            refused++;
+        }
+        return;
+    }
     if (cur.state == R_SENT && seq == (uint16_t)cur.seq) {
         if (code == 0) {
             cur.busy_counted = 0;
@@ -278,6 +322,44 @@ static int request(const it2n_msg *m, uint32_t want)
     while (it2n_link_pending(&lk) && now_us() < deadline)
         pump(20);
     cur.state = R_NONE;
+    return 0;
+}
+
+/* Every QUERY of qq[0..nqq), as many in flight as the window takes (a
+ * host has no reason to wait for one result before asking the next
+ * question); a query whose result stops coming is asked again (counted,
+ * as in request()). Returns 0, or -1 on timeout. */
+static int query_all(void)
+{
+    unsigned next = 0, done = 0;
+    while (done < nqq) {
+        if (now_us() > deadline || refused)
+            return -1;
+        for (unsigned k = 0; k < next; k++) {
+            int again = qq[k].state == R_RESEND ||
+                        (qq[k].state == R_ACKED && !qq[k].got &&
+                         now_us() - qq[k].progress > (uint64_t)rerequest_ms * 1000u);
+            if (!again || !it2n_link_can_send(&lk))
+                continue;
+            if (qq[k].state == R_ACKED)
+                rereq_timeout++;
+            qq[k].state = R_SENT;
+            qq[k].seq = it2n_link_send(&lk, &qq[k].msg, now_ms());
+        }
+        while (next < nqq && it2n_link_can_send(&lk)) {
+            qq[next].state = R_SENT;
+            qq[next].seq = it2n_link_send(&lk, &qq[next].msg, now_ms());
+            if (trace)
+                fprintf(stderr, "%9.3f tx QUERY %u seq %d\n", (double)(now_us() - t_start) / 1e3, next,
+                        qq[next].seq);
+            next++;
+        }
+        done = 0;
+        for (unsigned k = 0; k < nqq; k++)
+            done += qq[k].got;
+        if (done < nqq && pump(20))
+            return -1;
+    }
     return 0;
 }
 
@@ -461,13 +543,18 @@ int main(int argc, char **argv)
             for (query_k = 0; query_k < queries; query_k++) {
                 /* a 4-wide lattice of interior parameters, then its shifts */
                 unsigned a = query_k % 4, b = (query_k / 4) % 4, c = query_k / 16;
-                memset(&m, 0, sizeof m);
+                memset(&qq[query_k], 0, sizeof qq[query_k]);
+                m = (it2n_msg){0};
                 m.type = IT2N_MSG_QUERY;
                 m.u.query.model = (uint8_t)model_id;
                 m.u.query.u = (uint32_t)(((uint64_t)(2 * a + 1) * IT2N_WIRE_PAR_ONE) / 8u) + c;
                 m.u.query.w = (uint32_t)(((uint64_t)(2 * b + 1) * IT2N_WIRE_PAR_ONE) / 8u) + c;
-                if (request(&m, 1))
-                    goto out;
+                qq[query_k].msg = m;
+            }
+            nqq = queries;
+            if (query_all())
+                goto out;
+            for (query_k = 0; query_k < queries; query_k++) {
                 fold(&qres[query_k].out_of_range, sizeof qres[query_k].out_of_range);
                 fold(qres[query_k].v, sizeof qres[query_k].v);
                 fold(&qres[query_k].sum, sizeof qres[query_k].sum);
