@@ -50,6 +50,7 @@
 struct link {
     struct conf_link cfg;
     int fd;                   /* serial; -1 when closed        */
+    int tty;                  /* fd is a tty (VMIN 0: read 0 = no data) */
     struct usb_link *usb;     /* usb; NULL when closed         */
     int up;
     it2n_link pl;
@@ -784,6 +785,8 @@ static void on_serial(void *arg, int fd, short revents)
     }
     if (n < 0 && (errno == EAGAIN || errno == EINTR))
         return;
+    if (n == 0 && l->tty && !(revents & (POLLHUP | POLLERR)))
+        return; /* a tty read with VMIN 0 finds nothing: not a hang-up */
     link_down(l, n == 0 ? "hang-up" : (revents & POLLHUP) ? "hang-up" : strerror(errno));
 }
 
@@ -834,6 +837,7 @@ static void link_open(void *arg)
             link_down(l, strerror(errno));
             return;
         }
+        l->tty = isatty(l->fd);
     } else {
         l->usb = link_usb_open(&l->cfg, usb_rx, usb_gone, l);
         if (!l->usb) {
@@ -850,6 +854,8 @@ static void link_open(void *arg)
     cfg.app = l;
     cfg.rto_ms = links_rto_ms(&l->cfg);
     cfg.rto_max_ms = 8 * cfg.rto_ms;
+    /* serial: the RTO counts from when a frame has left the line */
+    cfg.baud = l->cfg.type == CONF_LINK_SERIAL && l->cfg.baud > 0 ? (uint32_t)l->cfg.baud : 0u;
     cfg.max_tries = 0; /* never abandoned: retried until declared down */
     /* A new session id and first sequence number on every open, so that
      * a peer never takes our frames for a previous session's. */
@@ -882,17 +888,16 @@ static void link_open(void *arg)
 }
 
 /* The first retransmission timeout of a link: rto_ms, or derived from the
- * baud rate: the time (W + 1) maximum frames take on the line (our frame
- * may queue behind W others, then the answer) plus 50 ms for the peer;
- * 100 ms on USB. */
+ * baud rate (it2n_link_rto_default: 20 ms + one maximum frame's time,
+ * counted from when the frame has left the line, which the link estimates
+ * from the baud rate); 100 ms on USB. */
 uint32_t links_rto_ms(const struct conf_link *c)
 {
     if (c->rto_ms > 0)
         return (uint32_t)c->rto_ms;
     if (c->type == CONF_LINK_USB || c->baud <= 0)
         return 100;
-    return 50u + (uint32_t)(((uint64_t)(IT2N_PROTO_WINDOW + 1) * IT2N_FRAME_MAX_WIRE * 10u * 1000u +
-                             (uint64_t)c->baud - 1u) / (uint64_t)c->baud);
+    return it2n_link_rto_default((uint32_t)c->baud);
 }
 
 /* Hotplug arrival: retry waiting USB links now instead of after backoff. */

@@ -34,6 +34,55 @@ static uint32_t get_u32(const uint8_t *p)
            ((uint32_t)p[3] << 24);
 }
 
+/* Time n bytes take on a line of `baud` bits/s (8N1: 10 bits a byte), ms
+ * rounded up. 32-bit: n is at most a few maximum frames. */
+static uint32_t line_ms(uint32_t n, uint32_t baud)
+{
+    uint32_t q = baud / 10u; /* bytes per second */
+    if (q == 0u)
+        q = 1u;
+    return (uint32_t)((n / q) * 1000u + ((n % q) * 1000u + q - 1u) / q);
+}
+
+uint32_t it2n_link_rto_default(uint32_t baud)
+{
+    if (baud == 0u)
+        return 100u;
+    return 20u + line_ms(IT2N_FRAME_MAX_WIRE, baud);
+}
+
+/* n wire bytes were written at l->clock: returns when their last byte
+ * leaves the line (the line clock; `now` when the baud is unknown). */
+static uint32_t line_put(it2n_link *l, uint32_t n)
+{
+    uint32_t baud = l->cfg.baud;
+    if (baud == 0u)
+        return l->clock;
+    if (due(l->clock, l->line_free)) { /* idle line: starts now */
+        l->line_free = l->clock;
+        l->line_frac = 0;
+    }
+    /* ms = n * 10 * 1000 / baud, the remainder kept in line_frac (< baud;
+     * n * 10000 stays far below 2^32 for a frame) */
+    while (n > 0u) {
+        uint32_t k = n > 4096u ? 4096u : n;
+        l->line_frac += k * 10000u;
+        l->line_free += l->line_frac / baud;
+        l->line_frac %= baud;
+        n -= k;
+    }
+    return l->line_free;
+}
+
+/* Write a frame and run the line clock. Returns when it leaves. */
+static uint32_t frame_out(it2n_link *l, const it2n_frame_hdr *h,
+                          const uint8_t *p, size_t len)
+{
+    int n = it2n_frame_write(l->cfg.out, h, p, len);
+    /* A stream error only loses this transmission; the timer retries. */
+    return n > 0 ? line_put(l, (uint32_t)n) : l->clock;
+}
+
 int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
 {
     if (cfg == NULL || cfg->out == NULL || cfg->out->write == NULL ||
@@ -121,8 +170,12 @@ static uint32_t rto_for(const it2n_link *l, unsigned tries)
 {
     uint32_t rto = l->cfg.rto_ms;
     /* Exponential backoff from the second retransmission on: rto, rto,
-     * 2 rto, 4 rto ... up to rto_max_ms (one loss is not an outage). */
-    while (tries > 2u && rto < l->cfg.rto_max_ms) {
+     * 2 rto, 4 rto ... up to rto_max_ms (one loss is not an outage). With
+     * the line clock (baud known) our own queue never makes a timeout
+     * spurious, so a loss is line noise, not congestion: the first
+     * three retransmissions keep rto (rto x 4, then 2 rto, 4 rto ...). */
+    unsigned flat = l->cfg.baud != 0u ? 4u : 2u;
+    while (tries > flat && rto < l->cfg.rto_max_ms) {
         rto = rto > l->cfg.rto_max_ms / 2u ? l->cfg.rto_max_ms : 2u * rto;
         tries--;
     }
@@ -151,11 +204,12 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
         s->first = now;
     s->last = now;
     l->stats.tx_frames++;
-    /* A stream error only loses this transmission; the timer retries. */
-    (void)it2n_frame_write(l->cfg.out, &h, p, h.len);
+    l->clock = now;
+    s->gone = frame_out(l, &h, p, h.len);
     if (s->tries < 255u)
         s->tries++;
-    s->deadline = now + rto_for(l, s->tries);
+    /* the RTO runs from when this copy has left the line */
+    s->deadline = s->gone + rto_for(l, s->tmo + 1u);
 }
 
 int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
@@ -181,6 +235,7 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
         return IT2N_PROTO_ERR_NOSPACE; /* the peer could not take it */
     s->used = 1;
     s->tries = 0;
+    s->tmo = 0;
     s->type = msg->type;
     s->flags = l->tx_synced ? 0u : IT2N_FLAG_SYN;
     s->seq = l->tx_next++;
@@ -290,13 +345,34 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
     }
 }
 
+/* Silence on the peer's line long enough to say nothing is queued behind
+ * its last bytes: 2 ms plus the time of 64 bytes (read granularity). */
+static uint32_t quiet_ms(const it2n_link *l)
+{
+    return 2u + line_ms(64u, l->cfg.baud);
+}
+
+static bool reverse_busy(const it2n_link *l, uint32_t now)
+{
+    return l->rx_heard && (uint32_t)(now - l->rx_last) < quiet_ms(l);
+}
+
 int it2n_link_poll(it2n_link *l, uint32_t now)
 {
     unsigned k;
+    l->clock = now;
     for (k = 0; k < W; k++) {
         it2n_link_slot *s = &l->slot[k];
         if (!s->used || !due(now, s->deadline))
             continue;
+        if (l->cfg.baud != 0u && reverse_busy(l, now) &&
+            !due(now, s->gone + rto_for(l, s->tmo + 1u) +
+                          line_ms(W * IT2N_FRAME_MAX_WIRE, l->cfg.baud))) {
+            /* The peer's bytes are still arriving: its answer may be
+             * queued behind them. Look again once the line is quiet. */
+            s->deadline = now + quiet_ms(l);
+            continue;
+        }
         if (l->cfg.max_tries != 0u && s->tries >= l->cfg.max_tries) {
             /* Lost for good: report it and resync the rest, so the
              * receiver does not wait for this sequence number forever. */
@@ -309,11 +385,13 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
         if (!l->tx_synced) {
             it2n_link_slot *old = oldest_slot(l);
             if (old != s) {
-                s->deadline = now + rto_for(l, s->tries); /* wait for SYN */
+                s->deadline = now + rto_for(l, s->tmo + 1u); /* wait for SYN */
                 continue;
             }
             s->flags |= IT2N_FLAG_SYN;
         }
+        if (s->tmo < 255u)
+            s->tmo++;
         transmit(l, s, now);
     }
     return IT2N_OK;
@@ -362,7 +440,7 @@ static void send_answer_v(it2n_link *l, const it2n_msg_nack *a, uint8_t ver)
     h.flags = 0;
     h.seq = 0;
     h.len = (uint16_t)len;
-    (void)it2n_frame_write(l->cfg.out, &h, buf, (size_t)len);
+    (void)frame_out(l, &h, buf, (size_t)len);
 }
 
 static void send_answer(it2n_link *l, const it2n_msg_nack *a)
@@ -589,7 +667,7 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
                     gh.flags = 0;
                     gh.seq = 0;
                     gh.len = 4;
-                    (void)it2n_frame_write(l->cfg.out, &gh, gb, 4u);
+                    (void)frame_out(l, &gh, gb, 4u);
                     l->stats.tx_gaps++;
                 }
             }
@@ -653,6 +731,11 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
 int it2n_link_input(it2n_link *l, const uint8_t *data, size_t len,
                     uint32_t now)
 {
+    if (len > 0u) {
+        l->rx_last = now;
+        l->rx_heard = 1;
+    }
+    l->clock = now;
     while (len > 0u) {
         it2n_frame_hdr fh;
         const uint8_t *p = NULL;

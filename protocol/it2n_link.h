@@ -71,6 +71,16 @@ typedef struct it2n_link_cfg {
                                may be delivered twice (docs/protocol.md
                                4.3 rule 1)                           */
     uint32_t rto_max_ms;    /* backoff cap; 0 = 8 x rto_ms          */
+    uint32_t baud;          /* line rate (bits/s, 10 bits a byte) or
+                               0 = unknown. When known, the RTO of a
+                               frame counts from when its last byte
+                               has left the line (estimated from the
+                               bytes written before it), and a due
+                               retransmission waits while the peer's
+                               bytes keep arriving (its answer may be
+                               queued behind them), at most the time
+                               IT2N_PROTO_WINDOW maximum frames take
+                               (docs/protocol.md 4.2 rule 3)          */
 } it2n_link_cfg;
 
 typedef struct it2n_link_stats {
@@ -91,6 +101,9 @@ typedef struct it2n_link_slot {
     uint8_t used, tries, type, flags;
     uint16_t seq, len;
     uint32_t deadline, first, last; /* next try, first and last sent */
+    uint32_t gone;  /* when the last copy left the line (estimated)   */
+    uint8_t tmo;    /* retransmissions on timeout: the backoff exponent
+                       (fast retransmissions do not back off)          */
     uint8_t buf[IT2N_FRAME_MAX_LEN];
 } it2n_link_slot;
 
@@ -127,7 +140,21 @@ typedef struct it2n_link {
 #endif
     it2n_frame_decoder dec;
     it2n_link_stats stats;
+    /* line clock (cfg.baud > 0): when the bytes written so far have left
+     * (line_free, plus line_frac / baud ms), the latest `now` seen, and
+     * when the peer's bytes last arrived */
+    uint32_t line_free, line_frac, clock, rx_last;
+    uint8_t rx_heard; /* rx_last is set */
 } it2n_link;
+
+/*
+ * The default first retransmission timeout for a line of `baud` bits/s
+ * (0 = unknown: 100 ms), counted from when the frame has left the line
+ * (cfg.baud set): 20 ms for the peer's turnaround plus the time one
+ * maximum frame takes at the baud rate (32 ms at 921 600, 111 ms at
+ * 115 200, 1110 ms at 9600; docs/protocol.md 4.2 rule 3).
+ */
+uint32_t it2n_link_rto_default(uint32_t baud);
 
 /* Initialise a link context from cfg (copied). Returns IT2N_OK or
  * IT2N_ERR_INVAL for a missing callback/stream or zero rto/tries. */

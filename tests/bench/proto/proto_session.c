@@ -15,7 +15,7 @@
  *            from the first PUT to the last PUT's ACK (ACK means durable).
  *
  *   proto_session --device PATH [--degree NxM] [--queries Q] [--sample S]
- *                 [--ingest ROUNDS] [--rto MS] [--tries N]
+ *                 [--ingest ROUNDS] [--baud BD] [--rto MS] [--tries N]
  *                 [--rerequest-ms MS] [--timeout S] [--seed S]
  *
  * Host re-requests: a request whose responses stop coming (no new response
@@ -260,8 +260,32 @@ static int pump(unsigned max_ms)
     if (p.revents & POLLIN) {
         uint8_t buf[4096];
         ssize_t n = read(fd, buf, sizeof buf);
-        if (n > 0)
+        if (n > 0) {
+            it2n_link_stats b = lk.stats;
             it2n_link_input(&lk, buf, (size_t)n, now_ms());
+            if (trace > 2) {
+                static it2n_frame_decoder td;
+                const uint8_t *q = buf;
+                size_t left = (size_t)n;
+                while (left) {
+                    it2n_frame_hdr fh;
+                    const uint8_t *pl = NULL;
+                    size_t used = 0;
+                    int r = it2n_frame_decode(&td, q, left, &used, &fh, &pl);
+                    if (r != 0)
+                        fprintf(stderr, "%9.3f frame r %d type %u seq %u flags %x len %u\n",
+                                (double)(now_us() - t_start) / 1e3, r, fh.type, fh.seq, fh.flags, fh.len);
+                    q += used;
+                    left -= used;
+                }
+            }
+            if (trace > 1)
+                fprintf(stderr, "%9.3f read %zd: dup %u ahead %u buffered %u gaps %u acks %u stale %u\n",
+                        (double)(now_us() - t_start) / 1e3, n, lk.stats.rx_dup - b.rx_dup,
+                        lk.stats.rx_ahead - b.rx_ahead, lk.stats.rx_buffered - b.rx_buffered,
+                        lk.stats.tx_gaps - b.tx_gaps, lk.stats.rx_acks - b.rx_acks,
+                        lk.stats.rx_stale_acks - b.rx_stale_acks);
+        }
     }
     it2n_link_poll(&lk, now_ms());
     return 0;
@@ -424,7 +448,7 @@ static int open_device(const char *path)
 int main(int argc, char **argv)
 {
     const char *dev = NULL;
-    unsigned n = 7, mdeg = 7, queries = 16, sample = 33, ingest = 0, rto = 150, tries = 100, timeout_s = 300;
+    unsigned n = 7, mdeg = 7, queries = 16, sample = 33, ingest = 0, rto = 0, baud = 0, tries = 100, timeout_s = 300;
     uint32_t seed = 2026;
     for (int k = 1; k < argc; k++) {
         const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
@@ -443,6 +467,7 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--sample")) sample = (unsigned)atoi(v);
         else if (!strcmp(a, "--ingest")) ingest = (unsigned)atoi(v);
         else if (!strcmp(a, "--rto")) rto = (unsigned)atoi(v);
+        else if (!strcmp(a, "--baud")) baud = (unsigned)atoi(v);
         else if (!strcmp(a, "--tries")) tries = (unsigned)atoi(v);
         else if (!strcmp(a, "--rerequest-ms")) rerequest_ms = (unsigned)atoi(v);
         else if (!strcmp(a, "--timeout")) timeout_s = (unsigned)atoi(v);
@@ -455,9 +480,10 @@ int main(int argc, char **argv)
     }
     if (!dev || n < 1 || n > IT2N_MAX_DEGREE || mdeg < 1 || mdeg > IT2N_MAX_DEGREE ||
         queries > MAX_QUERIES || (sample && (sample < 2 || sample * sample > MAX_NODES)) ||
-        rto < 1 || tries < 1 || tries > 255 || model_id > 254) {
+        tries < 1 || tries > 255 || model_id > 254) {
         fprintf(stderr, "usage: proto_session --device PATH [--degree NxM] [--queries Q<=%u] [--sample S]\n"
-                        "       [--ingest ROUNDS] [--rto MS] [--tries N] [--rerequest-ms MS] [--timeout S]\n",
+                        "       [--ingest ROUNDS] [--baud BD] [--rto MS] [--tries N] [--rerequest-ms MS]\n"
+                        "       [--timeout S]\n",
                 MAX_QUERIES);
         return 2;
     }
@@ -483,7 +509,10 @@ int main(int argc, char **argv)
     cfg.out = &os;
     cfg.on_rx = on_rx;
     cfg.on_done = on_done;
-    cfg.rto_ms = rto;
+    /* The line's baud rate (0 = unknown): the RTO then counts from when a
+     * frame has left the line, default it2n_link_rto_default (as it2nd). */
+    cfg.baud = baud;
+    cfg.rto_ms = rto ? rto : baud ? it2n_link_rto_default(baud) : 150u;
     cfg.max_tries = (uint8_t)tries;
     cfg.first_seq = (uint16_t)((now_us() ^ ((uint64_t)getpid() << 8)) & 0xFFFF);
     /* A v1.1 session id (protocol.md 4.2): without one (0) every SYN copy
@@ -498,7 +527,7 @@ int main(int argc, char **argv)
     if (it2n_link_init(&lk, &cfg) != IT2N_OK)
         return 2;
 
-    trace = getenv("PROTO_SESSION_TRACE") != NULL;
+    trace = getenv("PROTO_SESSION_TRACE") ? atoi(getenv("PROTO_SESSION_TRACE")) : 0; /* 2: every read */
     t_start = now_us();
     uint64_t t0 = now_us(), t_put0 = 0, t_put1 = 0, t_upload = 0, t_queries = 0;
     deadline = t0 + (uint64_t)timeout_s * 1000000u;
