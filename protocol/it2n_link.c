@@ -365,13 +365,17 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
         it2n_link_slot *s = &l->slot[k];
         if (!s->used || !due(now, s->deadline))
             continue;
-        if (l->cfg.baud != 0u && reverse_busy(l, now) &&
-            !due(now, s->gone + rto_for(l, s->tmo + 1u) +
-                          line_ms(W * IT2N_FRAME_MAX_WIRE, l->cfg.baud))) {
+        if (l->cfg.baud != 0u && reverse_busy(l, now)) {
             /* The peer's bytes are still arriving: its answer may be
-             * queued behind them. Look again once the line is quiet. */
-            s->deadline = now + quiet_ms(l);
-            continue;
+             * queued behind them (at most a window of maximum frames).
+             * Look again once its line is quiet, or at that bound. */
+            uint32_t cap = s->gone + rto_for(l, s->tmo + 1u) +
+                           line_ms(W * IT2N_FRAME_MAX_WIRE, l->cfg.baud);
+            if (!due(now, cap)) {
+                uint32_t again = now + quiet_ms(l);
+                s->deadline = due(again, cap) ? cap : again;
+                continue;
+            }
         }
         if (l->cfg.max_tries != 0u && s->tries >= l->cfg.max_tries) {
             /* Lost for good: report it and resync the rest, so the

@@ -250,8 +250,9 @@ static void test_slow_reader(void **st)
     assert_int_equal(links_up(), 1);
 }
 
-/* The RTO default docs/daemon.md states for [link:] (rto_ms): 50 ms + the
- * time 5 maximum frames take at the baud rate; the key overrides it. And
+/* The RTO default docs/daemon.md states for [link:] (rto_ms): 20 ms + the
+ * time one maximum frame takes at the baud rate, counted from when the
+ * frame has left the line; the key overrides it. And
  * the keys parse, with their limits. */
 static void test_rto_default(void **st)
 {
@@ -260,9 +261,11 @@ static void test_rto_default(void **st)
     memset(&c, 0, sizeof c);
     c.type = CONF_LINK_SERIAL;
     c.baud = 921600;
-    assert_int_equal(links_rto_ms(&c), 107);
+    assert_int_equal(links_rto_ms(&c), 32);
     c.baud = 115200;
-    assert_int_equal(links_rto_ms(&c), 504);
+    assert_int_equal(links_rto_ms(&c), 111);
+    c.baud = 9600;
+    assert_int_equal(links_rto_ms(&c), 1110);
     c.rto_ms = 30;
     assert_int_equal(links_rto_ms(&c), 30);
     c.rto_ms = 0;

@@ -43,7 +43,7 @@ static void ep_init(ep *e, uint16_t first, uint8_t tries)
 {
     memset(e, 0, sizeof *e);
     e->os = mem_stream(&e->out);
-    it2n_link_cfg c = {&e->os, NULL, on_rx, on_done, e, 100, tries, first, 0x5E550000u + first, 0};
+    it2n_link_cfg c = {&e->os, NULL, on_rx, on_done, e, 100, tries, first, 0x5E550000u + first, 0, 0};
     assert_int_equal(it2n_link_init(&e->l, &c), IT2N_OK);
 }
 
@@ -98,7 +98,7 @@ static void test_init_checks(void **st)
 {
     (void)st;
     it2n_link l;
-    it2n_link_cfg c = {&A->os, NULL, on_rx, NULL, A, 0, 3, 0, 1, 0};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, NULL, A, 0, 3, 0, 1, 0, 0};
     assert_int_equal(it2n_link_init(&l, &c), IT2N_ERR_INVAL); /* rto 0 */
     c.rto_ms = 10;
     c.on_rx = NULL;
@@ -414,6 +414,166 @@ static void test_reorder_buffer(void **st)
     assert_int_equal(B->nrx, 9);
 }
 
+
+/* A PUT of `count` entries (a frame of about 4 + 52 x count bytes). */
+static it2n_msg put_msg(unsigned count)
+{
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_PUT;
+    m.u.put.model = 1;
+    m.u.put.count = (uint8_t)count;
+    for (unsigned k = 0; k < count; k++)
+        m.u.put.e[k].i = (uint8_t)(k % 4u), m.u.put.e[k].j = (uint8_t)(k / 4u);
+    return m;
+}
+
+static it2n_link_slot *slot_seq(ep *e, uint16_t seq)
+{
+    for (unsigned k = 0; k < IT2N_PROTO_WINDOW; k++)
+        if (e->l.slot[k].used && e->l.slot[k].seq == seq)
+            return &e->l.slot[k];
+    fail_msg("no slot for %u", seq);
+    return NULL;
+}
+
+/* Time n bytes take at 9600 Bd, ms rounded down (as the line clock). */
+static uint32_t ms9600(size_t n)
+{
+    return (uint32_t)(n * 10000u / 9600u);
+}
+
+/* Line clock (cfg.baud, protocol.md 4.2 rule 3): the RTO counts from when
+ * the frame's last byte has left the line, and a frame written behind
+ * others waits for them too. Without the baud: from the write. */
+static void test_rto_from_departure(void **st)
+{
+    (void)st;
+    assert_int_equal(it2n_link_rto_default(921600), 32);
+    assert_int_equal(it2n_link_rto_default(115200), 111);
+    assert_int_equal(it2n_link_rto_default(9600), 1110);
+    assert_int_equal(it2n_link_rto_default(0), 100);
+
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 9600};
+    assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
+    it2n_msg m = put_msg(19);
+    assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
+    size_t w1 = A->out.len; /* the SYN frame, alone: answer it */
+    assert_true(w1 > 900);
+    /* 1 KiB at 9600 Bd takes about a second: the timeout counts from then */
+    assert_int_equal(it2n_link_next_timeout(&A->l, 0), ms9600(w1) + 20);
+    xfer(A, B, 0, 0);
+    xfer(B, A, ms9600(w1) + 5, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    /* two frames written at once: the second leaves after the first */
+    uint32_t t0 = 5000;
+    A->out.len = 0;
+    assert_int_equal(it2n_link_send(&A->l, &m, t0), 1001);
+    size_t f1 = A->out.len;
+    assert_int_equal(it2n_link_send(&A->l, &m, t0), 1002);
+    size_t f2 = A->out.len;
+    uint32_t d1 = t0 + ms9600(f1) + 20, d2 = t0 + ms9600(f2) + 20;
+    assert_int_equal(slot_seq(A, 1001)->deadline, d1);
+    assert_int_equal(slot_seq(A, 1002)->deadline, d2);
+    A->out.len = 0;
+    it2n_link_poll(&A->l, d1 - 1);
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    it2n_link_poll(&A->l, d1);
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    /* the retransmission queues behind 1002: its timeout after that */
+    assert_int_equal(slot_seq(A, 1001)->deadline, t0 + ms9600(f2 + A->out.len) + 20);
+
+    /* without the baud, the same frame times out rto after the write */
+    ep_init(A, 50, 0);
+    assert_int_equal(it2n_link_send(&A->l, &m, 0), 50);
+    assert_int_equal(it2n_link_next_timeout(&A->l, 0), 100);
+}
+
+/* A due retransmission waits while the peer's bytes arrive (its answer may
+ * be queued behind them): until the line has been quiet 2 ms + 64 bytes'
+ * time, at most W maximum frames' time past the timeout. */
+static void test_rto_waits_for_busy_peer(void **st)
+{
+    (void)st;
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 9600};
+    assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    uint32_t due = A->l.slot[0].deadline;
+    uint32_t quiet = 2u + (64u * 10000u + 9599u) / 9600u;
+    uint8_t junk = 0; /* a lone delimiter: bytes from the peer, no frame */
+    /* the peer's bytes came just before the timeout: wait */
+    it2n_link_input(&A->l, &junk, 1, due - 1);
+    it2n_link_poll(&A->l, due);
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    it2n_link_poll(&A->l, due - 1 + quiet - 1);
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    /* quiet long enough: now */
+    for (uint32_t t = due - 1 + quiet - 1; t < due + 1000 && !A->l.stats.tx_retx; t++)
+        it2n_link_poll(&A->l, t);
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    assert_true(it2n_link_stalled_ms(&A->l, due + quiet) > 0);
+    /* a peer that never stops sending: at most W maximum frames later */
+    uint32_t due2 = A->l.slot[0].deadline, t;
+    uint32_t cap = due2 + (uint32_t)(IT2N_PROTO_WINDOW * IT2N_FRAME_MAX_WIRE * 10000u + 9599u) / 9600u;
+    for (t = due2 - 5; t < cap + 100 && A->l.stats.tx_retx == 1; t++) {
+        it2n_link_input(&A->l, &junk, 1, t);
+        it2n_link_poll(&A->l, t);
+    }
+    assert_int_equal(A->l.stats.tx_retx, 2);
+    print_message("busy peer: retransmitted at %u, cap %u\n", t - 1, cap);
+    assert_true(t - 1 >= cap - quiet && t - 1 <= cap + 1);
+}
+
+/* With the line clock the first three retransmissions keep the RTO (a
+ * loss is line noise), then it doubles; fast retransmissions (GAP, a
+ * later ACK) never back off. */
+static void test_backoff_counts_timeouts_only(void **st)
+{
+    (void)st;
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 921600};
+    assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    uint32_t sent_at[8];
+    unsigned n = 0;
+    for (uint32_t t = 0; t <= 2000 && n < 8; t++) {
+        unsigned before = A->l.stats.tx_frames;
+        it2n_link_poll(&A->l, t);
+        if (A->l.stats.tx_frames != before)
+            sent_at[n++] = t;
+        A->out.len = 0;
+    }
+    /* the CONFIGURE frame leaves within 1 ms at 921600 Bd */
+    assert_int_equal(sent_at[0], 20);
+    assert_int_equal(sent_at[1] - sent_at[0], 20);
+    assert_int_equal(sent_at[2] - sent_at[1], 20);
+    assert_int_equal(sent_at[3] - sent_at[2], 20);
+    assert_int_equal(sent_at[4] - sent_at[3], 40);
+    assert_int_equal(sent_at[5] - sent_at[4], 80);
+
+    /* no baud: GAPs bring 1001 twice; its timeout stays rto after that */
+    ep_init(A, 1000, 0);
+    it2n_link_send(&A->l, &m, 0);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    assert_int_equal(it2n_link_send(&A->l, &m, 10), 1001);
+    xfer(A, B, 10, 1); /* lost */
+    assert_int_equal(it2n_link_send(&A->l, &m, 10), 1002);
+    xfer(A, B, 10, 0);
+    xfer(B, A, 11, 0); /* GAP 1001, have 1002: 1001 again */
+    assert_int_equal(A->l.stats.tx_fast_retx, 1);
+    xfer(A, B, 11, 1); /* lost again */
+    assert_int_equal(it2n_link_send(&A->l, &m, 12), 1003);
+    xfer(A, B, 12, 0);
+    xfer(B, A, 13, 0); /* GAP 1001, have 1003 */
+    assert_int_equal(A->l.stats.tx_fast_retx, 2);
+    A->out.len = 0;
+    it2n_link_slot *s = slot_seq(A, 1001);
+    assert_int_equal(s->tries, 3);
+    assert_int_equal(s->deadline, 13 + 100); /* not 2 x rto */
+}
+
 /* Exponential backoff and the never-give-up mode (max_tries 0). */
 static void test_backoff_until_dropped(void **st)
 {
@@ -660,6 +820,9 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_sessions_without_id, setup, teardown),
         cmocka_unit_test_setup_teardown(test_reorder_buffer, setup, teardown),
         cmocka_unit_test_setup_teardown(test_backoff_until_dropped, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rto_from_departure, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rto_waits_for_busy_peer, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_backoff_counts_timeouts_only, setup, teardown),
         cmocka_unit_test_setup_teardown(test_peer_limits, setup, teardown),
         cmocka_unit_test_setup_teardown(test_syn_without_session, setup, teardown),
         cmocka_unit_test_setup_teardown(test_stale_syn_copy, setup, teardown),

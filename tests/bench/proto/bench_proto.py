@@ -79,7 +79,10 @@ class Run:
 
     def session(self, args, timeout):
         b = self.start()
-        p = subprocess.run([SESSION, "--device", b, "--timeout", str(timeout)] + args,
+        # the host knows its line's baud rate as the daemon does (its RTO
+        # counts from when a frame has left the line; unpaced: unknown)
+        baud = ["--baud", str(self.baud)] if self.baud else []
+        p = subprocess.run([SESSION, "--device", b, "--timeout", str(timeout)] + baud + args,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            timeout=timeout + 30)
         cpu = None
@@ -120,12 +123,13 @@ class Run:
 # bench's own logs show about where the time goes.
 REASONS = {
     "faults per direction vs clean":
-        "with v1.1 a gap is repaired at once when a later frame arrives (GAP, "
-        "fast retransmission), but a frame lost at the end of a burst has no "
-        "later frame to reveal it and waits a full RTO (107 ms at 921 600 Bd), "
-        "doubled from the second retransmission; at 10 % of each fault kind "
-        "per direction such tails dominate (retransmission counts per run in "
-        "bench/proto_loss.json)",
+        "each lost frame, ACK or GAP at the end of a burst (and of each "
+        "stop-and-wait exchange: HELLO, CONFIGURE, COMMIT, the last QUERY, "
+        "SAMPLE) waits for a timeout of 32 ms after it has left the line, "
+        "and at 10 % drop + 10 % corruption per direction a round trip fails "
+        "about one time in three, so repeated losses of one frame stack up "
+        "(backoff from the fourth retransmission); retransmission counts "
+        "per run in bench/proto_loss.json",
     "host re-requests":
         "a response run the daemon gave up on, or a request refused while busy, "
         "is sent again by the host",
@@ -221,7 +225,10 @@ def main():
                    "(drop, duplicate, reorder, corrupt, each at the rate, each direction, fixed seeds)" % BAUD,
            "session": {"degree": runs[plan[0][0]]["degree"], "entries": runs[plan[0][0]]["entries"],
                        "queries": runs[plan[0][0]]["queries"], "sample": runs[plan[0][0]]["sample"],
-                       "z": True, "host_rto_ms": 150, "host_rerequest_after_ms": 3000},
+                       "z": True, "queries_pipelined": "within the window (4)",
+                       "rto": "host and daemon: 20 ms + one maximum frame at the baud (32 ms at 921600), "
+                              "counted from when the frame has left the line (protocol.md 4.2 rule 3)",
+                       "host_rerequest_after_ms": 3000},
            "ingest_conditions": "relay unpaced (baud 0) and fault-free, degree 7x7 with z (448 entries), the grid "
                                 "PUT %d times with REPLACE, 19 entries per PUT, window 4; entries/s from the first "
                                 "PUT to the last PUT's ACK (ACK after the WAL's fdatasync when fsync = yes); state "
