@@ -298,6 +298,30 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint32_t now)
     }
 }
 
+/* A frame sent once was answered at `now` though the line clock has it
+ * leave at `gone`: the line is faster than the baud rate says (a USB
+ * adapter, a pty). Everything written before it has left too: move the
+ * clock back by the difference, and every later departure with it, so
+ * that the estimate never runs ahead of the line. */
+static void line_sync(it2n_link *l, uint32_t gone, uint32_t now)
+{
+    uint32_t d;
+    unsigned k;
+    if (l->cfg.baud == 0u || due(now, gone))
+        return;
+    d = gone - now;
+    l->line_free -= d;
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *o = &l->slot[k];
+        uint32_t e;
+        if (!o->used || due(now, o->gone))
+            continue;
+        e = o->gone - now < d ? o->gone - now : d;
+        o->gone -= e;
+        o->deadline -= e;
+    }
+}
+
 static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
 {
     uint16_t seq = m->type == IT2N_MSG_ACK ? m->u.ack.seq : m->u.nack.seq;
@@ -312,6 +336,8 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
         return;
     }
     l->stats.rx_acks++;
+    if (s->tries == 1u)
+        line_sync(l, s->gone, now);
     if (m->type == IT2N_MSG_ACK) {
         uint16_t age = (uint16_t)(l->tx_next - seq);
         uint32_t acked_last = s->last;

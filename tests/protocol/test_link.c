@@ -489,6 +489,44 @@ static void test_rto_from_departure(void **st)
     assert_int_equal(it2n_link_next_timeout(&A->l, 0), 100);
 }
 
+/* A line faster than its baud rate (a USB adapter, a pty): an answer to a
+ * frame sent once, before the line clock has it leave, moves the clock
+ * back, so later frames do not wait behind bytes that are long gone. */
+static void test_line_clock_follows_answers(void **st)
+{
+    (void)st;
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 9600};
+    assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
+    it2n_msg m = put_msg(19);
+    it2n_link_send(&A->l, &m, 0);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 2, 0); /* answered at 2 ms: the ~1 s estimate was wrong */
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(it2n_link_send(&A->l, &m, 3), 1001);
+    size_t f1 = A->out.len;
+    assert_int_equal(it2n_link_send(&A->l, &m, 3), 1002);
+    size_t f2 = A->out.len;
+    A->out.len = 0;
+    /* 1001 leaves after its own bytes only (not after 1000's) */
+    assert_int_equal(slot_seq(A, 1001)->deadline, 3 + ms9600(f1) + 20);
+    uint32_t d2 = slot_seq(A, 1002)->deadline;
+    assert_int_equal(d2, 3 + ms9600(f2) + 20);
+    /* 1001 answered at 10 ms: 1002, written after it, moves back as much */
+    it2n_msg am;
+    memset(&am, 0, sizeof am);
+    am.type = IT2N_MSG_ACK;
+    am.u.ack.seq = 1001;
+    uint8_t fb[64];
+    it2n_frame_hdr h = {IT2N_PROTO_VERSION, IT2N_MSG_ACK, 0, 0, 2};
+    uint8_t pl[8];
+    assert_int_equal(it2n_msg_pack(&am, pl, sizeof pl, NULL), 2);
+    int n = it2n_frame_encode(&h, pl, 2, fb, sizeof fb);
+    assert_true(n > 0);
+    it2n_link_input(&A->l, fb, (size_t)n, 10);
+    assert_int_equal(it2n_link_pending(&A->l), 1);
+    assert_int_equal(slot_seq(A, 1002)->deadline, d2 - (3 + ms9600(f1) - 10));
+}
+
 /* A due retransmission waits while the peer's bytes arrive (its answer may
  * be queued behind them): until the line has been quiet 2 ms + 64 bytes'
  * time, at most W maximum frames' time past the timeout. */
@@ -822,6 +860,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_backoff_until_dropped, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rto_from_departure, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rto_waits_for_busy_peer, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_line_clock_follows_answers, setup, teardown),
         cmocka_unit_test_setup_teardown(test_backoff_counts_timeouts_only, setup, teardown),
         cmocka_unit_test_setup_teardown(test_peer_limits, setup, teardown),
         cmocka_unit_test_setup_teardown(test_syn_without_session, setup, teardown),
