@@ -256,6 +256,21 @@ static void finish(it2n_link *l, it2n_link_slot *s, int code,
         l->cfg.on_done(l->cfg.app, seq, type, code, nack);
 }
 
+/* Our SYN frame `seq` was answered. After a resync (the peer restarted and
+ * took up the sequence at that frame) a frame after it may already have
+ * been answered by the peer's previous life: the peer then waits for it
+ * forever. So unless the next frame in flight follows directly, it starts
+ * a new sequence too. */
+static void syn_answered(it2n_link *l, uint16_t seq, uint32_t now)
+{
+    it2n_link_slot *o = oldest_slot(l);
+    if (o == NULL || o->seq == (uint16_t)(seq + 1u) || !l->tx_synced)
+        return;
+    l->tx_synced = 0;
+    o->flags |= IT2N_FLAG_SYN;
+    transmit(l, o, now);
+}
+
 unsigned it2n_link_drop_tx(it2n_link *l)
 {
     unsigned k, n = 0;
@@ -341,8 +356,11 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
     if (m->type == IT2N_MSG_ACK) {
         uint16_t age = (uint16_t)(l->tx_next - seq);
         uint32_t acked_last = s->last;
+        bool syn = (s->flags & IT2N_FLAG_SYN) != 0u;
         l->stats.tx_acked++;
         finish(l, s, IT2N_OK, NULL);
+        if (syn)
+            syn_answered(l, seq, now);
         /* Frames are delivered in order: an older frame still unanswered
          * whose last copy left no later than the acknowledged one's was
          * delivered too, and its answer was lost (or is deferred, then the
@@ -366,8 +384,11 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
         old->flags |= IT2N_FLAG_SYN;
         transmit(l, old, now);
     } else {
+        bool syn = (s->flags & IT2N_FLAG_SYN) != 0u;
         l->stats.tx_nacked++;
         finish(l, s, m->u.nack.code, &m->u.nack);
+        if (syn)
+            syn_answered(l, seq, now);
     }
 }
 
@@ -705,8 +726,16 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         return;
     }
 #endif
-    (void)ahead;
-    l->stats.rx_ahead++; /* out of window or stale: the sender retries */
+    l->stats.rx_ahead++;
+    if (ahead >= W && ahead < 0x8000u) {
+        /* Beyond the window: a sender never gets that far ahead of our
+         * `next` unless `next` is stale (we started the sequence on an old
+         * SYN copy, e.g. bytes left in a buffer from an earlier session):
+         * NOSYNC makes it resync (a sender ignores it for a frame no longer
+         * in flight). A stale frame behind `next` is dropped silently. */
+        nack_plain(&a, fh->seq, IT2N_PROTO_ERR_NOSYNC);
+        send_answer(l, &a);
+    }
 }
 
 static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,

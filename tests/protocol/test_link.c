@@ -489,6 +489,99 @@ static void test_rto_from_departure(void **st)
     assert_int_equal(it2n_link_next_timeout(&A->l, 0), 100);
 }
 
+/* A receiver that started its sequence on a stale SYN copy (bytes left
+ * in a tty buffer by an earlier session) is behind the sender: a frame
+ * beyond its window is answered NOSYNC, the sender resyncs, and the frame
+ * is delivered (it used to be dropped silently, forever). */
+static void test_beyond_window_resyncs(void **st)
+{
+    (void)st;
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    mem_out stale = A->out; /* the SYN frame 1000 */
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    for (int k = 0; k < 6; k++) {
+        assert_int_equal(it2n_link_send(&A->l, &m, 1), 1001 + k);
+        xfer(A, B, 1, 0);
+        xfer(B, A, 1, 0);
+    }
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    /* a new receiver reads the stale copy first: its next is 1001 */
+    ep_init(B, 7, 5);
+    B->out.len = 0;
+    A->out = stale;
+    xfer(A, B, 2, 0);
+    assert_int_equal(B->nrx, 1);
+    xfer(B, A, 2, 0); /* an ACK of 1000: long finished, ignored */
+    assert_int_equal(it2n_link_send(&A->l, &m, 3), 1007);
+    xfer(A, B, 3, 0);
+    assert_int_equal(B->nrx, 1);
+    assert_int_equal(frames_in(B), 1); /* NACK NOSYNC, not silence */
+    xfer(B, A, 3, 0);
+    assert_int_equal(frames_in(A), 1); /* 1007 again, with SYN */
+    xfer(A, B, 4, 0);
+    assert_int_equal(B->nrx, 2);
+    assert_int_equal(B->rx_seq[1], 1007);
+    xfer(B, A, 4, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(A->ndone, 8);
+    assert_int_equal(A->done_code[7], 0);
+    /* a stale frame behind next (not in the history): still silence */
+    A->out = stale;
+    B->out.len = 0;
+    xfer(A, B, 5, 0);
+    assert_int_equal(frames_in(B), 0);
+}
+
+/* A receiver restarts (a new host process on the same tty) while an ACK
+ * of the old one was lost: after the resync at the oldest frame in flight,
+ * the next frame in flight does not follow it (one between was ACKed by
+ * the old receiver), so it starts a new sequence as well — the new
+ * receiver would otherwise wait for the frame between forever. */
+static void test_resync_over_answered_frame(void **st)
+{
+    (void)st;
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    assert_int_equal(it2n_link_send(&A->l, &m, 1), 1001);
+    xfer(A, B, 1, 0);
+    xfer(B, A, 1, 1); /* the ACK of 1001 is lost */
+    assert_int_equal(it2n_link_send(&A->l, &m, 2), 1002);
+    xfer(A, B, 2, 0);
+    B->out.len = 0;
+    /* B answers 1002 and goes away; A resends 1001 at once (a later frame
+     * was ACKed), then sends 1003 to the new receiver */
+    it2n_msg am;
+    memset(&am, 0, sizeof am);
+    am.type = IT2N_MSG_ACK;
+    am.u.ack.seq = 1002;
+    uint8_t fb[64], pl[8];
+    it2n_frame_hdr h = {IT2N_PROTO_VERSION, IT2N_MSG_ACK, 0, 0, 2};
+    assert_int_equal(it2n_msg_pack(&am, pl, sizeof pl, NULL), 2);
+    int n = it2n_frame_encode(&h, pl, 2, fb, sizeof fb);
+    it2n_link_input(&A->l, fb, (size_t)n, 3);
+    assert_int_equal(it2n_link_pending(&A->l), 1); /* 1001 */
+    assert_int_equal(it2n_link_send(&A->l, &m, 3), 1003);
+    ep_init(B, 7, 5); /* the new receiver */
+    xfer(A, B, 3, 0); /* 1001 and 1003, no SYN: NOSYNC twice */
+    assert_int_equal(B->nrx, 0);
+    xfer(B, A, 4, 0); /* resync: 1001 with SYN */
+    xfer(A, B, 4, 0);
+    assert_int_equal(B->nrx, 1);
+    xfer(B, A, 5, 0); /* ACK 1001: 1003 does not follow it, so SYN too */
+    assert_int_equal(frames_in(A), 1);
+    assert_int_equal(slot_seq(A, 1003)->flags & IT2N_FLAG_SYN, IT2N_FLAG_SYN);
+    xfer(A, B, 5, 0);
+    assert_int_equal(B->nrx, 2);
+    assert_int_equal(B->rx_seq[1], 1003);
+    xfer(B, A, 6, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_true(it2n_link_can_send(&A->l));
+}
+
 /* A line faster than its baud rate (a USB adapter, a pty): an answer to a
  * frame sent once, before the line clock has it leave, moves the clock
  * back, so later frames do not wait behind bytes that are long gone. */
@@ -861,6 +954,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_rto_from_departure, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rto_waits_for_busy_peer, setup, teardown),
         cmocka_unit_test_setup_teardown(test_line_clock_follows_answers, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_beyond_window_resyncs, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_resync_over_answered_frame, setup, teardown),
         cmocka_unit_test_setup_teardown(test_backoff_counts_timeouts_only, setup, teardown),
         cmocka_unit_test_setup_teardown(test_peer_limits, setup, teardown),
         cmocka_unit_test_setup_teardown(test_syn_without_session, setup, teardown),
