@@ -60,6 +60,7 @@ struct link {
     int nheld;
     unsigned backoff_ms;
     long retry_timer, poll_timer;
+    uint32_t poll_due;        /* when poll_timer fires (ms, now32) */
     uint32_t entries;         /* entries accepted, for logs   */
     uint32_t entries_idem;    /* entries re-sent as stored: no effect */
     /* A multi-frame response (SAMPLE_DATA or NET_ROW run) still to send,
@@ -269,6 +270,24 @@ static uint32_t sample_per_frame(const struct link *l)
 
 static void serve_queue(struct link *l);
 static void pump_rsp(struct link *l);
+static void on_poll(void *arg);
+
+/* (Re)arm the retransmission timer for the link's next deadline when the
+ * armed one would fire later (a frame just sent with a short RTO): at
+ * most 100 ms, at least 5 ms ahead. */
+static void arm_poll(struct link *l)
+{
+    uint32_t now = now32(), next = it2n_link_next_timeout(&l->pl, now);
+    if (!l->up)
+        return;
+    next = next < 5 ? 5 : next > 100 ? 100 : next;
+    if (l->poll_timer && (int32_t)(l->poll_due - (now + next)) <= 0)
+        return; /* the armed timer comes soon enough */
+    if (l->poll_timer)
+        loop_cancel_timer(l->poll_timer);
+    l->poll_due = now + next;
+    l->poll_timer = loop_add_timer(next, on_poll, l);
+}
 
 /* Send the queued EVENTs that fit the window, oldest first. */
 static void pump_events(struct link *l)
@@ -292,6 +311,7 @@ static void pump_job(struct link *l)
     pump_events(l);
     pump_rsp(l);
     serve_queue(l);
+    arm_poll(l);
 }
 
 static void pump_rsp(struct link *l)
@@ -762,6 +782,7 @@ static void feed(struct link *l, const uint8_t *buf, size_t n)
     l->backoff_ms = 500;
     it2n_link_input(&l->pl, buf, n, now32());
     /* If the data needed no commit the ACKs are already out. */
+    arm_poll(l);
 }
 
 static void on_serial(void *arg, int fd, short revents)
@@ -805,6 +826,7 @@ static void on_poll(void *arg)
 {
     struct link *l = arg;
     uint32_t now = now32();
+    l->poll_timer = 0; /* this one has fired */
     it2n_link_poll(&l->pl, now);
     if (l->cfg.peer_timeout_ms > 0 && it2n_link_stalled_ms(&l->pl, now) > (uint32_t)l->cfg.peer_timeout_ms) {
         /* The peer has not answered for peer_timeout_ms: declared down.
@@ -820,10 +842,7 @@ static void on_poll(void *arg)
         log_warn("link %s: peer silent for %d ms: declared down, %u frame(s) dropped (EVENT LOST follows "
                  "when it speaks again)", l->cfg.name, l->cfg.peer_timeout_ms, n + more);
     }
-    pump_job(l);
-    /* next: when a retransmission is due (the RTO may be short), else 100 ms */
-    uint32_t next = it2n_link_next_timeout(&l->pl, now32());
-    l->poll_timer = loop_add_timer(next < 5 ? 5 : next > 100 ? 100 : (int)next, on_poll, l);
+    pump_job(l); /* next: when a retransmission is due, else 100 ms (arm_poll) */
 }
 
 static void link_open(void *arg)
@@ -883,6 +902,7 @@ static void link_open(void *arg)
     l->nev = 0;
     if (l->fd >= 0)
         loop_add_fd(l->fd, POLLIN, on_serial, l);
+    l->poll_due = now32() + 100;
     l->poll_timer = loop_add_timer(100, on_poll, l);
     log_notice("link %s: open (%s)", l->cfg.name, l->cfg.type == CONF_LINK_SERIAL ? l->cfg.device : "usb");
 }
@@ -1028,8 +1048,10 @@ void links_event(const struct model *md, int old_state)
             log_warn("link %s: EVENT queue full; model %u event dropped", l->cfg.name, ev.model);
             continue;
         }
-        if (!l->nheld)
+        if (!l->nheld) {
             pump_events(l); /* else after the ACKs (links_release_upto) */
+            arm_poll(l);
+        }
     }
 }
 
