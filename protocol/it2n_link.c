@@ -226,16 +226,39 @@ static it2n_link_slot *slot_of(it2n_link *l, uint16_t seq)
     return NULL;
 }
 
+/* The receiver's state does not match ours (it restarted, or it started
+ * its sequence on a stale copy of an old SYN frame): resend the oldest
+ * frame with SYN, the others follow once it is accepted. */
+static void resync(it2n_link *l, uint32_t now)
+{
+    it2n_link_slot *old = oldest_slot(l);
+    if (!l->tx_synced || old == NULL)
+        return; /* already resyncing, or nothing to resync */
+    l->tx_synced = 0;
+    l->stats.tx_resyncs++;
+    old->flags |= IT2N_FLAG_SYN;
+    transmit(l, old, now);
+}
+
 /* GAP from the receiver: it just kept frame `have` but misses `seq`. If
  * our last copy of seq left no later than the copy of `have` it got (a
  * line keeps order), that copy was lost: send it again now rather than at
  * its timeout. A copy sent after `have` may still be on its way: wait. If
- * `have` is no longer in flight, a quarter RTO since the last copy. */
+ * `have` is no longer in flight, a quarter RTO since the last copy. If seq
+ * is not in flight but `have` is and seq comes before it, the receiver
+ * waits for a frame we count as answered: its sequence is not ours (it
+ * synced on a stale SYN copy), so we resync (docs/protocol.md 4.2 rule 6). */
 static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint32_t now)
 {
     it2n_link_slot *s = slot_of(l, seq), *h = slot_of(l, have);
-    if (s == NULL || !l->tx_synced || h == s)
+    if (!l->tx_synced || h == s)
         return;
+    if (s == NULL) {
+        if (h != NULL && (uint16_t)(l->tx_next - seq) > (uint16_t)(l->tx_next - have) &&
+            (uint16_t)(have - seq) < 0x8000u)
+            resync(l, now);
+        return;
+    }
     if (h != NULL ? (int32_t)(h->last - s->last) >= 0
                   : (uint32_t)(now - s->last) >= (l->cfg.rto_ms + 3u) / 4u) {
         l->stats.tx_fast_retx++;
@@ -275,15 +298,8 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
             }
         }
     } else if (m->u.nack.code == IT2N_PROTO_ERR_NOSYNC) {
-        /* Peer lost its state (restart): resend the oldest frame with SYN,
-         * the others follow once it is accepted. */
-        it2n_link_slot *old;
-        if (!l->tx_synced)
-            return; /* already resyncing */
-        l->tx_synced = 0;
-        old = oldest_slot(l);
-        old->flags |= IT2N_FLAG_SYN;
-        transmit(l, old, now);
+        /* Peer lost its state (restart) or holds another sequence. */
+        resync(l, now);
     } else {
         l->stats.tx_nacked++;
         finish(l, s, m->u.nack.code, &m->u.nack);
@@ -567,13 +583,18 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
     if (ahead < W && len <= IT2N_PROTO_MAX_PAYLOAD) {
         /* Ahead of a gap (or behind an unanswered frame): keep it. */
         it2n_link_rxbuf *b = &l->rxbuf[fh->seq % W];
-        if (!b->used || b->seq != fh->seq) {
-            b->used = 1;
-            b->seq = fh->seq;
-            b->type = fh->type;
-            b->len = (uint16_t)len;
-            memcpy(b->payload, p, len);
-            l->stats.rx_buffered++;
+        bool again = b->used && b->seq == fh->seq;
+        if (!again || (fh->flags & IT2N_FLAG_RETX)) {
+            /* A retransmission of a frame kept already: the sender has not
+             * got our GAP (or its answer to it was lost): say it again. */
+            if (!again) {
+                b->used = 1;
+                b->seq = fh->seq;
+                b->type = fh->type;
+                b->len = (uint16_t)len;
+                memcpy(b->payload, p, len);
+                l->stats.rx_buffered++;
+            }
             if (ahead > 0u && !(l->rxbuf[l->rx_next % W].used &&
                                 l->rxbuf[l->rx_next % W].seq == l->rx_next)) {
                 /* a gap: tell the sender which frame we miss */
@@ -597,8 +618,20 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         return;
     }
 #endif
-    (void)ahead;
-    l->stats.rx_ahead++; /* out of window or stale: the sender retries */
+    if (ahead < W) {
+        /* Kept nowhere (IT2N_PROTO_RX_REORDER 0): the sender retries. */
+        l->stats.rx_ahead++;
+        return;
+    }
+    /* Neither answered recently nor within the window ahead: a stale copy
+     * (its sender no longer has it in flight and ignores this answer), or
+     * the sender's sequence is not ours (we synced on a stale copy of an
+     * old SYN frame): NOSYNC makes such a sender start again with SYN
+     * (docs/protocol.md 4.3 rule 6). Never silent: silence would leave a
+     * sender retrying a frame we drop until it gives up. */
+    l->stats.rx_ahead++;
+    nack_plain(&a, fh->seq, IT2N_PROTO_ERR_NOSYNC);
+    send_answer(l, &a);
 }
 
 static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,

@@ -82,6 +82,9 @@ typedef struct it2n_link_stats {
     uint32_t tx_dropped;    /* frames dropped by it2n_link_drop_tx */
     uint32_t tx_gaps;       /* GAPs sent (we hold frames past a gap) */
     uint32_t tx_fast_retx;  /* retransmissions on a peer's GAP      */
+    uint32_t tx_resyncs;    /* restarts with SYN: the peer's NOSYNC,
+                               or its GAP for a frame we count as
+                               answered                          */
 } it2n_link_stats;
 
 /* One sender slot: a reliable frame in flight. The message starts at

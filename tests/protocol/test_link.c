@@ -503,6 +503,73 @@ static void test_stale_syn_copy(void **st)
     assert_int_equal(B->nrx, n + 1);
 }
 
+/* Bug (ctl-test lossy link, 1 run in 4): a fresh receiver that reads a
+ * stale copy of an old SYN frame first (left in a tty or relay buffer)
+ * starts its sequence there, ACKs it (stale for the sender) and then waits
+ * for a frame the sender counts as answered: it kept the sender's next
+ * frames silently (or dropped them beyond the window) and the sender never
+ * resent the frame GAP asked for: both sides stalled until the timeout.
+ * Now the sender resyncs on such a GAP, the receiver repeats its GAP on a
+ * retransmission of a kept frame, and answers NOSYNC beyond the window. */
+static void stale_syn_then(unsigned later, int drop_first_gap)
+{
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    mem_out syn = A->out; /* a copy of A's SYN frame, left in a buffer */
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    for (unsigned k = 0; k < later; k++) { /* answered by the old receiver */
+        it2n_link_send(&A->l, &m, 1);
+        xfer(A, B, 1, 0);
+        xfer(B, A, 1, 0);
+    }
+    ep_init(B, 7, 5); /* a new receiver process on the same line */
+    assert_int_equal(it2n_link_input(&B->l, syn.buf, syn.len, 2), IT2N_OK);
+    assert_int_equal(B->nrx, 1); /* it took the stale copy as a start */
+    xfer(B, A, 2, 0);            /* its ACK is stale for A */
+    assert_int_equal(A->l.stats.rx_stale_acks, 1);
+    int32_t seq = it2n_link_send(&A->l, &m, 3);
+    assert_true(seq >= 0);
+    xfer(A, B, 3, 0);
+    assert_int_equal(B->nrx, 1); /* not deliverable in B's sequence */
+    xfer(B, A, 4, drop_first_gap);
+    uint32_t t = 4;
+    for (int round = 0; round < 4 && it2n_link_pending(&A->l); round++) {
+        t += 1000;
+        it2n_link_poll(&A->l, t);
+        xfer(A, B, t, 0);
+        xfer(B, A, t, 0);
+    }
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(A->done_code[A->ndone - 1], IT2N_OK);
+    assert_int_equal(B->nrx, 2); /* delivered, once */
+    assert_int_equal(B->rx_seq[1], (uint16_t)seq);
+    assert_true(A->l.stats.tx_resyncs >= 1);
+    it2n_link_send(&A->l, &m, t + 1); /* and the sequence goes on */
+    xfer(A, B, t + 1, 0);
+    xfer(B, A, t + 1, 0);
+    assert_int_equal(B->nrx, 3);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+static void test_fresh_receiver_on_stale_syn_gap(void **st)
+{
+    (void)st;
+    stale_syn_then(2, 0); /* A's next frame is inside B's window: GAP */
+}
+
+static void test_fresh_receiver_on_stale_syn_gap_lost(void **st)
+{
+    (void)st;
+    stale_syn_then(2, 1); /* ... and B's first GAP is lost */
+}
+
+static void test_fresh_receiver_on_stale_syn_beyond(void **st)
+{
+    (void)st;
+    stale_syn_then(3 * IT2N_PROTO_WINDOW, 0); /* beyond B's window: NOSYNC */
+}
+
 /* A SYN frame without the session id is refused, not delivered. */
 static void test_syn_without_session(void **st)
 {
@@ -663,6 +730,9 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_peer_limits, setup, teardown),
         cmocka_unit_test_setup_teardown(test_syn_without_session, setup, teardown),
         cmocka_unit_test_setup_teardown(test_stale_syn_copy, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_gap, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_gap_lost, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_beyond, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
 }
