@@ -155,8 +155,13 @@ int session_step(session *s, uint32_t now)
         }
         (void)it2n_link_poll(&s->link, now);
     }
+    /* CONFIGURE is a barrier (docs/protocol.md 4.2 rule 7): sent with
+     * nothing else in flight, and nothing follows it until it is answered. */
     while (s->state == SESSION_RUNNING && s->step < 4u &&
-           (s->oneway || it2n_link_can_send(&s->link))) {
+           (s->oneway ||
+            (it2n_link_can_send(&s->link) &&
+             ((s->step != 1u && !(s->step == 2u && s->puts == 0u)) ||
+              it2n_link_pending(&s->link) == 0u)))) {
         if (!build(s, &m)) {
             s->step++; /* PUTs exhausted */
             continue;

@@ -326,7 +326,10 @@ int main(int argc, char **argv)
             if (m.type && it2n_link_send(&l, &m, now) < 0)
                 return 2;
         }
-        while (step < 4 && it2n_link_can_send(&l)) {
+        /* CONFIGURE is a barrier (docs/protocol.md 4.2 rule 7): alone in
+         * flight, answered before the first PUT goes out. */
+        while (step < 4 && it2n_link_can_send(&l) &&
+               ((step != 1 && !(step == 2 && i == 0 && j == 0 && fp == 0)) || it2n_link_pending(&l) == 0)) {
             memset(&m, 0, sizeof m);
             if (step == 0) {
                 m.type = IT2N_MSG_HELLO;
