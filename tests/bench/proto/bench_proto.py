@@ -40,22 +40,30 @@ BAUD = 921600
 class Run:
     """One relay + daemon + session, stopped by PID."""
 
-    def __init__(self, tmp, name, baud, fault_pct, seed, fsync=True):
+    def __init__(self, tmp, name, baud, fault_pct, seed, fsync=True, direct=False):
         self.d = os.path.join(tmp, name)
         os.makedirs(os.path.join(self.d, "state"))
         self.procs = []
         self.baud, self.fault, self.seed, self.fsync = baud, fault_pct, seed, fsync
+        self.direct, self.master = direct, None
 
     def start(self):
-        a, b = os.path.join(self.d, "link-a"), os.path.join(self.d, "link-b")
-        f = str(self.fault)
-        self.relay = subprocess.Popen(
-            [RELAY, "--a", a, "--b", b, "--baud", str(self.baud), "--drop", f, "--dup", f,
-             "--reorder", f, "--corrupt", f, "--seed", str(self.seed),
-             "--stats", os.path.join(self.d, "relay.json")],
-            stdout=subprocess.PIPE, stderr=open(os.path.join(self.d, "relay.log"), "w"), text=True)
-        self.procs.append(self.relay)
-        self.relay.stdout.readline()  # slave names: both links exist now
+        if self.direct:
+            # one pty pair, no relay: the daemon opens the slave, the
+            # session holds the master (a USB-serial adapter's view)
+            self.master, slave = os.openpty()
+            a = os.ttyname(slave)
+            self.slave = slave
+        else:
+            a, b = os.path.join(self.d, "link-a"), os.path.join(self.d, "link-b")
+            f = str(self.fault)
+            self.relay = subprocess.Popen(
+                [RELAY, "--a", a, "--b", b, "--baud", str(self.baud), "--drop", f, "--dup", f,
+                 "--reorder", f, "--corrupt", f, "--seed", str(self.seed),
+                 "--stats", os.path.join(self.d, "relay.json")],
+                stdout=subprocess.PIPE, stderr=open(os.path.join(self.d, "relay.log"), "w"), text=True)
+            self.procs.append(self.relay)
+            self.relay.stdout.readline()  # slave names: both links exist now
         conf = os.path.join(self.d, "it2nd.conf")
         with open(conf, "w") as c:
             c.write("[daemon]\nstate_dir = %s\nlink_backoff_max = 1\nfsync = %s\n"
@@ -75,13 +83,14 @@ class Run:
                 break
             time.sleep(0.025)
         time.sleep(0.1)
-        return b
+        return None if self.direct else b
 
     def session(self, args, timeout):
         b = self.start()
-        p = subprocess.run([SESSION, "--device", b, "--timeout", str(timeout)] + args,
+        line = ["--fd", str(self.master)] if self.direct else ["--device", b]
+        p = subprocess.run([SESSION] + line + ["--timeout", str(timeout)] + args,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                           timeout=timeout + 30)
+                           timeout=timeout + 30, pass_fds=(self.master,) if self.direct else ())
         cpu = None
         try:  # the daemon's CPU time (user + system) so far, start-up included
             f = open("/proc/%d/stat" % self.daemon.pid).read().rsplit(")", 1)[1].split()
@@ -114,6 +123,10 @@ class Run:
                     p.kill()
                     p.wait()
         self.procs = []
+        if self.master is not None:
+            os.close(self.master)
+            os.close(self.slave)
+            self.master = None
 
 
 # Why a target can be missed, by a substring of the row's name: what the
