@@ -15,6 +15,8 @@
 /* W sizes the arrays (the build's maximum); l->win is this link's own
  * window, the modulus of the receiver's history and reorder buffer. */
 #define W IT2N_PROTO_WINDOW
+/* Own window: a constant in minimum builds (MCU: no code for it). */
+#define WIN(l) (W == IT2N_PROTO_WINDOW_MIN ? (unsigned)W : (unsigned)(l)->win)
 #define SESS IT2N_FRAME_SESSION_SIZE
 
 static bool due(uint32_t now, uint32_t deadline)
@@ -398,7 +400,7 @@ static void nack_plain(it2n_msg_nack *a, uint16_t seq, int code)
 
 static it2n_link_hist *hist_find(it2n_link *l, uint16_t seq)
 {
-    it2n_link_hist *h = &l->hist[seq % l->win];
+    it2n_link_hist *h = &l->hist[seq & (WIN(l) - 1u)];
     return h->state != H_EMPTY && h->seq == seq ? h : NULL;
 }
 
@@ -440,14 +442,14 @@ int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
  * answer to the frame W before it (same history entry). */
 static bool can_deliver(const it2n_link *l, uint16_t seq)
 {
-    return l->hist[seq % l->win].state != H_WAITING;
+    return l->hist[seq & (WIN(l) - 1u)].state != H_WAITING;
 }
 
 /* Deliver frame seq = rx_next (message body p, len bytes). */
 static void deliver(it2n_link *l, uint16_t seq, uint8_t type,
                     const uint8_t *p, size_t len)
 {
-    it2n_link_hist *h = &l->hist[seq % l->win];
+    it2n_link_hist *h = &l->hist[seq & (WIN(l) - 1u)];
     it2n_proto_errinfo info;
     it2n_msg m;
     uint8_t was;
@@ -490,7 +492,7 @@ static void drain(it2n_link *l)
         return;
     l->draining = 1;
     for (guard = 0; guard < W; guard++) {
-        it2n_link_rxbuf *b = &l->rxbuf[l->rx_next % l->win];
+        it2n_link_rxbuf *b = &l->rxbuf[l->rx_next & (WIN(l) - 1u)];
         if (!b->used || b->seq != l->rx_next || !can_deliver(l, b->seq))
             break;
         b->used = 0;
@@ -573,7 +575,7 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         return;
     }
     h = hist_find(l, fh->seq);
-    if (h != NULL && (uint16_t)(l->rx_next - fh->seq) <= l->win) {
+    if (h != NULL && (uint16_t)(l->rx_next - fh->seq) <= WIN(l)) {
         l->stats.rx_dup++;
         if (h->state == H_ANSWERED)
             send_answer(l, &h->answer); /* our answer was lost: repeat it */
@@ -581,9 +583,9 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
     }
     ahead = (uint16_t)(fh->seq - l->rx_next);
 #if IT2N_PROTO_RX_REORDER
-    if (ahead < l->win && len <= IT2N_PROTO_MAX_PAYLOAD) {
+    if (ahead < WIN(l) && len <= IT2N_PROTO_MAX_PAYLOAD) {
         /* Ahead of a gap (or behind an unanswered frame): keep it. */
-        it2n_link_rxbuf *b = &l->rxbuf[fh->seq % l->win];
+        it2n_link_rxbuf *b = &l->rxbuf[fh->seq & (WIN(l) - 1u)];
         if (!b->used || b->seq != fh->seq) {
             b->used = 1;
             b->seq = fh->seq;
@@ -591,8 +593,8 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
             b->len = (uint16_t)len;
             memcpy(b->payload, p, len);
             l->stats.rx_buffered++;
-            if (ahead > 0u && !(l->rxbuf[l->rx_next % l->win].used &&
-                                l->rxbuf[l->rx_next % l->win].seq == l->rx_next)) {
+            if (ahead > 0u && !(l->rxbuf[l->rx_next & (WIN(l) - 1u)].used &&
+                                l->rxbuf[l->rx_next & (WIN(l) - 1u)].seq == l->rx_next)) {
                 /* a gap: tell the sender which frame we miss */
                 it2n_msg g;
                 uint8_t gb[4];
