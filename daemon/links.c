@@ -100,6 +100,8 @@ struct link {
     uint8_t out[OUTQ_SIZE];
     size_t out_off, out_len;
     int pollout;              /* POLLOUT armed on fd */
+    int hold_flush;           /* frames queued, written at the end of
+                                 the input or release being handled */
     struct links_out_stats st;
 };
 
@@ -176,7 +178,30 @@ static int frame_out(struct link *l)
     }
     memcpy(l->out + l->out_len, l->stage, n);
     l->out_len += n;
-    return l->pollout ? 0 : out_flush(l);
+    return l->pollout || l->hold_flush ? 0 : out_flush(l);
+}
+
+/* Frames produced while handling one input chunk or one WAL release (the
+ * ACKs of a group commit, answers, EVENTs) go out in one write(), not one
+ * each: fewer system calls, and the peer wakes up once. */
+static void flush_begin(struct link *l)
+{
+    l->hold_flush = 1;
+}
+
+static void pump_job(struct link *l);
+static void link_down(struct link *l, const char *why);
+
+static void flush_end(struct link *l)
+{
+    l->hold_flush = 0;
+    if (!l->up || l->fd < 0 || l->pollout || l->out_off == l->out_len)
+        return;
+    if (out_flush(l) < 0) {
+        link_down(l, strerror(errno));
+        return;
+    }
+    pump_job(l); /* a response waiting for queue room may go on */
 }
 
 /* Output stream (contract in it2n_stream.h): it2n_frame_write hands over
@@ -806,7 +831,9 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_
 static void feed(struct link *l, const uint8_t *buf, size_t n)
 {
     l->backoff_ms = 500;
+    flush_begin(l);
     it2n_link_input(&l->pl, buf, n, now32());
+    flush_end(l);
     /* If the data needed no commit the ACKs are already out. */
 }
 
@@ -1002,6 +1029,7 @@ void links_release_upto(uint64_t batch, int commit_ok)
     for (int k = 0; k < nlinks; k++) {
         struct link *l = &links[k];
         int keep = 0;
+        flush_begin(l);
         for (int h = 0; h < l->nheld; h++) {
             if (l->held_batch[h] > batch) {
                 l->held_batch[keep] = l->held_batch[h];
@@ -1013,6 +1041,7 @@ void links_release_upto(uint64_t batch, int commit_ok)
         l->nheld = keep;
         if (l->up)
             pump_job(l); /* EVENTs of this commit go out after its ACKs */
+        flush_end(l);
     }
 }
 

@@ -95,10 +95,11 @@ class Run:
         p = subprocess.run([SESSION] + line + ["--timeout", str(timeout)] + args,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            timeout=timeout + 30, pass_fds=(self.master,) if self.direct else ())
-        cpu = None
+        cpu = cpu_user = None
         try:  # the daemon's CPU time (user + system) so far, start-up included
             f = open("/proc/%d/stat" % self.daemon.pid).read().rsplit(")", 1)[1].split()
             cpu = (int(f[11]) + int(f[12])) / os.sysconf("SC_CLK_TCK")
+            cpu_user = int(f[11]) / os.sysconf("SC_CLK_TCK")
         except (OSError, ValueError, IndexError):
             pass
         self.stop()
@@ -110,6 +111,7 @@ class Run:
                              % (p.returncode, p.stdout, p.stderr))
         res["exit"] = p.returncode
         res["daemon_cpu_s"] = cpu
+        res["daemon_cpu_user_s"] = cpu_user
         try:
             res["relay"] = json.load(open(os.path.join(self.d, "relay.json")))
         except (OSError, ValueError):
@@ -147,17 +149,11 @@ REASONS = {
         "a response run the daemon gave up on, or a request refused while busy, "
         "is sent again by the host",
     "durable ingest":
-        "CPU-bound in the daemon, not durability- or window-bound: fsync off "
-        "gives about the same rate (next row), and windows of 16 and 32 give "
-        "the same as each other (issue 11 measurements). Each REPLACE entry "
-        "into the solved 7x7 model re-solves that footprint's six nets "
-        "(it2n_model_update: 19 footprint solves per PUT; solve_net is the "
-        "daemon's top symbol in perf), about 35-60 us of daemon CPU per "
-        "entry on this machine (daemon_cpu_us_per_entry in "
-        "bench/proto_loss.json), which caps the rate near 20 000/s with a "
-        "whole core and below it on 2 shared cores. Applying a PUT's entries "
-        "and then solving each touched footprint once (7 solves instead of "
-        "19) is the next step",
+        "below 20 000 only on an overloaded machine: with window 16 the "
+        "daemon's group commit releases 16 ACKs at once and the session "
+        "refills the window at once (about 42 000 entries/s on the 2-core "
+        "test machine, window 4: about 30 000); daemon CPU per entry is in "
+        "daemon_cpu_us_per_entry of bench/proto_loss.json",
 }
 
 

@@ -15,11 +15,15 @@
  *            from the first PUT to the last PUT's ACK (ACK means durable).
  *
  *   proto_session --device PATH | --fd N [--degree NxM] [--queries Q]
- *                 [--sample S] [--ingest ROUNDS] [--window W] [--rto MS]
+ *                 [--sample S] [--ingest ROUNDS [--reconfigure 1]] [--window W] [--rto MS]
  *                 [--tries N] [--rerequest-ms MS] [--timeout S] [--seed S]
  *
  * --fd N: the line is the inherited descriptor N (e.g. the master of a pty
  * pair whose slave the daemon opened) instead of --device.
+ * --reconfigure: (with --ingest) each round starts with CONFIGURE (sent in
+ * the stream, not waited for) and PUTs without REPLACE: every round fills
+ * an empty model (one solve, at its last entry) instead of updating a
+ * solved one entry by entry.
  * --window W: the window announced in HELLO and kept to (4..16, a power
  * of two; default 4: the fixed RTO of 150 ms covers 4 maximal frames on a
  * 921600 Bd line, not 16). Frames in flight are min(W, the daemon's HELLO
@@ -70,9 +74,36 @@ static uint32_t now_ms(void)
     return (uint32_t)(now_us() / 1000u);
 }
 
+/* it2n_frame_write hands a frame over in COBS blocks of at most 255
+ * bytes, the 0x00 delimiter last: collect them and write the frame whole,
+ * one write() instead of up to five, so that the daemon wakes up once per
+ * frame rather than once per block. */
+static uint8_t stage[IT2N_FRAME_MAX_WIRE];
+static size_t nstage;
+
+static int fd_write_all(const uint8_t *p, size_t n);
+
 static int fd_write(it2n_ostream *s, const uint8_t *p, size_t n)
 {
     (void)s;
+    if (n > sizeof stage - nstage) { /* cannot happen: frames fit */
+        size_t k = nstage;
+        nstage = 0;
+        if (fd_write_all(stage, k))
+            return IT2N_PROTO_ERR_STREAM;
+        return fd_write_all(p, n);
+    }
+    memcpy(stage + nstage, p, n);
+    nstage += n;
+    if (p[n - 1] != 0)
+        return 0;
+    n = nstage;
+    nstage = 0;
+    return fd_write_all(stage, n);
+}
+
+static int fd_write_all(const uint8_t *p, size_t n)
+{
     while (n) {
         ssize_t w = write(fd, p, n);
         if (w < 0 && (errno == EAGAIN || errno == EINTR)) {
@@ -358,7 +389,7 @@ int main(int argc, char **argv)
 {
     const char *dev = NULL;
     unsigned n = 7, mdeg = 7, queries = 16, sample = 33, ingest = 0, rto = 150, tries = 100, timeout_s = 300;
-    unsigned window = 4;
+    unsigned window = 4, reconfigure = 0;
     int in_fd = -1;
     uint32_t seed = 2026;
     for (int k = 1; k < argc; k++) {
@@ -370,6 +401,7 @@ int main(int argc, char **argv)
         k++;
         if (!strcmp(a, "--device")) dev = v;
         else if (!strcmp(a, "--fd")) in_fd = atoi(v);
+        else if (!strcmp(a, "--reconfigure")) reconfigure = (unsigned)atoi(v);
         else if (!strcmp(a, "--window")) window = (unsigned)atoi(v);
         else if (!strcmp(a, "--degree")) {
             if (sscanf(v, "%ux%u", &n, &mdeg) != 2) {
@@ -479,9 +511,20 @@ int main(int argc, char **argv)
         if (send_msg(&m) < 0 || wait_idle())
             break;
         t_put0 = now_us();
-        for (unsigned r = 0; r < (ingest ? ingest : 1); r++)
-            if (put_all(ingest ? IT2N_PUT_REPLACE : 0, &entries))
+        for (unsigned r = 0; r < (ingest ? ingest : 1); r++) {
+            if (ingest && reconfigure && r > 0) {
+                memset(&m, 0, sizeof m);
+                m.type = IT2N_MSG_CONFIGURE;
+                m.u.configure.model = (uint8_t)model_id;
+                m.u.configure.n = ds.n;
+                m.u.configure.m = ds.m;
+                m.u.configure.flags = ds.flags;
+                if (send_msg(&m) < 0)
+                    goto out;
+            }
+            if (put_all(ingest && !reconfigure ? IT2N_PUT_REPLACE : 0, &entries))
                 goto out;
+        }
         if (wait_idle())
             break;
         t_put1 = now_us();
