@@ -248,6 +248,10 @@ static void link_down(struct link *l, const char *why)
     }
     l->up = 0;
     l->nheld = 0; /* never ACKed: the instrument retransmits */
+    if (l->held_down_timer) {
+        loop_cancel_timer(l->held_down_timer);
+        l->held_down_timer = 0;
+    }
     if (l->poll_timer)
         loop_cancel_timer(l->poll_timer);
     l->poll_timer = 0;
