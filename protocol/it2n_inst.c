@@ -178,7 +178,7 @@ static void hello(it2n_inst *ctx, it2n_msg *m)
     m->u.hello.version_min = IT2N_PROTO_VERSION_MIN;
     m->u.hello.version_max = IT2N_PROTO_VERSION;
     m->u.hello.max_degree = IT2N_MAX_DEGREE;
-    m->u.hello.window = IT2N_PROTO_WINDOW;
+    m->u.hello.window = it2n_link_window(&ctx->link);
     m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_CHORD |
                       IT2N_CAP_TYPE1;
     m->u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
