@@ -20,6 +20,12 @@ CORE_CFLAGS := -std=c99 -O2 -g $(CORE_WARN) -Ifirmware_core -Iprotocol
 # Host programs (CLI, daemon, tests): C11 + POSIX.
 HOST_CFLAGS := -std=c11 -D_GNU_SOURCE -O2 -g -Wall -Wextra -Wpedantic -Wshadow -Werror \
                -Ifirmware_core -Iprotocol
+# Host builds of the protocol (daemon, CLI, tests, libit2n-dev) keep up to 16
+# frames in flight per link (negotiated per peer in HELLO; MCU builds keep
+# the default 4). The installed .pc file passes it on (mk/install.mk).
+PROTO_HOST_DEFS := -DIT2N_PROTO_WINDOW=16
+CORE_CFLAGS += $(PROTO_HOST_DEFS)
+HOST_CFLAGS += $(PROTO_HOST_DEFS)
 SAN_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
 
 # Fragments append to these.

@@ -674,7 +674,7 @@ void *ctl_link_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
     m.u.hello.version_min = IT2N_PROTO_VERSION;
     m.u.hello.version_max = IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
-    m.u.hello.window = IT2N_PROTO_WINDOW;
+    m.u.hello.window = it2n_link_window(&c->link);
     m.u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_TYPE1 |
                      IT2N_CAP_CHORD;
     m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;

@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <sys/file.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -40,6 +41,16 @@ int link_serial_open(const char *device, int baud)
     fd = open(device, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0)
         return -1;
+    /* One owner per device (the convention of picocom, minicom, ...): a
+     * second it2nd, or one whose vanished pty path now names another
+     * process's pty, must neither steal frames nor change the line
+     * settings. EWOULDBLOCK becomes EBUSY: "in use". */
+    if (flock(fd, LOCK_EX | LOCK_NB)) {
+        int e = errno == EWOULDBLOCK ? EBUSY : errno;
+        close(fd);
+        errno = e;
+        return -1;
+    }
     if (tcgetattr(fd, &t) == 0) {
         cfmakeraw(&t);
         t.c_cflag |= CLOCAL | CREAD;

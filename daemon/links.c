@@ -35,7 +35,11 @@
 #include "models.h"
 #include "store.h"
 
-#define HELD_MAX 16
+/* ACKs waiting for the WAL: each is a delivery the link still awaits an
+ * answer for, and the link delivers none while the frame a window before
+ * it awaits one (protocol.md 4.3 rule 3): at most our window per peer
+ * session (held ACKs of an earlier session are forgotten, see on_rx). */
+#define HELD_MAX IT2N_PROTO_WINDOW
 /* EVENTs waiting for the send window: one per model at most (the latest),
  * so a slow peer costs bounded memory and never stalls the loop. */
 #define EVQ_MAX 64
@@ -58,6 +62,8 @@ struct link {
     uint16_t held[HELD_MAX];  /* seqs whose ACK waits for the commit */
     uint64_t held_batch[HELD_MAX]; /* the WAL batch each waits for */
     int nheld;
+    uint32_t held_sessions;   /* pl.stats.rx_sessions the held ACKs belong to */
+    long held_down_timer;     /* reopen after an impossible hold overflow */
     unsigned backoff_ms;
     long retry_timer, poll_timer;
     uint32_t poll_due;        /* when poll_timer fires (ms, now32) */
@@ -96,6 +102,8 @@ struct link {
     uint8_t out[OUTQ_SIZE];
     size_t out_off, out_len;
     int pollout;              /* POLLOUT armed on fd */
+    int hold_flush;           /* frames queued, written at the end of
+                                 the input or release being handled */
     struct links_out_stats st;
 };
 
@@ -172,7 +180,30 @@ static int frame_out(struct link *l)
     }
     memcpy(l->out + l->out_len, l->stage, n);
     l->out_len += n;
-    return l->pollout ? 0 : out_flush(l);
+    return l->pollout || l->hold_flush ? 0 : out_flush(l);
+}
+
+/* Frames produced while handling one input chunk or one WAL release (the
+ * ACKs of a group commit, answers, EVENTs) go out in one write(), not one
+ * each: fewer system calls, and the peer wakes up once. */
+static void flush_begin(struct link *l)
+{
+    l->hold_flush = 1;
+}
+
+static void pump_job(struct link *l);
+static void link_down(struct link *l, const char *why);
+
+static void flush_end(struct link *l)
+{
+    l->hold_flush = 0;
+    if (!l->up || l->fd < 0 || l->pollout || l->out_off == l->out_len)
+        return;
+    if (out_flush(l) < 0) {
+        link_down(l, strerror(errno));
+        return;
+    }
+    pump_job(l); /* a response waiting for queue room may go on */
 }
 
 /* Output stream (contract in it2n_stream.h): it2n_frame_write hands over
@@ -219,11 +250,22 @@ static void link_down(struct link *l, const char *why)
     }
     l->up = 0;
     l->nheld = 0; /* never ACKed: the instrument retransmits */
+    if (l->held_down_timer) {
+        loop_cancel_timer(l->held_down_timer);
+        l->held_down_timer = 0;
+    }
     if (l->poll_timer)
         loop_cancel_timer(l->poll_timer);
     l->poll_timer = 0;
     l->retry_timer = loop_add_timer(l->backoff_ms, link_open, l);
     l->backoff_ms = l->backoff_ms * 2 > (unsigned)backoff_max_ms ? (unsigned)backoff_max_ms : l->backoff_ms * 2;
+}
+
+static void held_overflow_down(void *arg)
+{
+    struct link *l = arg;
+    l->held_down_timer = 0;
+    link_down(l, "more deliveries awaiting the WAL than the window allows");
 }
 
 /* ACK seq once WAL batch `batch` is durable (links_release_upto). */
@@ -232,7 +274,30 @@ static void hold(struct link *l, uint16_t seq, uint64_t batch)
     if (l->nheld < HELD_MAX) {
         l->held_batch[l->nheld] = batch;
         l->held[l->nheld++] = seq;
+        return;
     }
+    /* Cannot happen (HELD_MAX): never drop an ACK silently. Reopen the
+     * link; the peer resends what was not ACKed (exactly once: 4.3). */
+    log_err("link %s: seq %u: %d ACKs already wait for the WAL (window %u): internal error, reopening the link",
+            l->cfg.name, seq, l->nheld, (unsigned)it2n_link_window(&l->pl));
+    if (!l->held_down_timer)
+        l->held_down_timer = loop_add_timer(0, held_overflow_down, l);
+}
+
+/* Frames the daemon keeps in flight towards the peer: what its RTO covers.
+ * links_rto_ms is the time IT2N_PROTO_WINDOW_MIN + 1 maximal frames take on
+ * a serial line, plus 50 ms: a wider window would have its last frames
+ * retransmitted while still queued on the line. USB and an unpaced (baud
+ * 0) link: the negotiated window. */
+static unsigned send_window_cap(const struct link *l)
+{
+    uint64_t frame_ms1000, n;
+    if (l->cfg.type == CONF_LINK_USB || l->cfg.baud <= 0 || l->rto_ms <= 50u)
+        return l->cfg.type == CONF_LINK_USB || l->cfg.baud <= 0 ? IT2N_PROTO_WINDOW : IT2N_PROTO_WINDOW_MIN;
+    frame_ms1000 = (uint64_t)IT2N_FRAME_MAX_WIRE * 10u * 1000u * 1000u / (uint64_t)l->cfg.baud;
+    n = (uint64_t)(l->rto_ms - 50u) * 1000u / (frame_ms1000 ? frame_ms1000 : 1u);
+    n = n > 1u ? n - 1u : 0u;
+    return n < IT2N_PROTO_WINDOW_MIN ? IT2N_PROTO_WINDOW_MIN : n > IT2N_PROTO_WINDOW ? IT2N_PROTO_WINDOW : (unsigned)n;
 }
 
 static void send_hello(struct link *l)
@@ -243,7 +308,7 @@ static void send_hello(struct link *l)
     m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
     m.u.hello.version_max = IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
-    m.u.hello.window = IT2N_PROTO_WINDOW;
+    m.u.hello.window = it2n_link_window(&l->pl); /* what we accept in flight */
     m.u.hello.caps = IT2N_CAP_SERVER | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1 | IT2N_CAP_EVENTS;
     m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
     m.u.hello.max_models = (uint16_t)models_count(); /* ids served (configured) */
@@ -668,9 +733,11 @@ static int on_hello(struct link *l, uint16_t seq, const it2n_msg_hello *h)
                  l->cfg.name, h->node, h->version_min, h->version_max, IT2N_PROTO_VERSION_MIN, IT2N_PROTO_VERSION);
         return refuse(l, seq, IT2N_PROTO_ERR_VERSION, &e);
     }
-    log_info("link %s: HELLO from '%.16s' (session %08x, window %u, max_payload %u)", l->cfg.name, h->node,
-             (unsigned)l->pl.peer_session, h->window, h->max_payload);
-    it2n_link_set_peer(&l->pl, h->window, h->max_payload);
+    unsigned cap = send_window_cap(l);
+    it2n_link_set_peer(&l->pl, h->window < cap ? h->window : (uint8_t)cap, h->max_payload);
+    log_info("link %s: HELLO from '%.16s' (session %08x, window %u, max_payload %u): we send up to %u "
+             "frames in flight, accept %u", l->cfg.name, h->node, (unsigned)l->pl.peer_session, h->window,
+             h->max_payload, (unsigned)it2n_link_send_window(&l->pl), (unsigned)it2n_link_window(&l->pl));
     l->peer = 1;
     l->hello_session = l->pl.peer_session;
     it2n_link_complete(&l->pl, seq, 0, NULL);
@@ -685,6 +752,15 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
     it2n_errinfo err;
     int rc;
     memset(&err, 0, sizeof err);
+    if (l->pl.stats.rx_sessions != l->held_sessions) {
+        /* A new peer session: the link forgot the old one's deliveries, so
+         * their held ACKs can no longer be sent (the restarted peer resends
+         * what it needs, exactly once: protocol.md 4.3). */
+        if (l->nheld)
+            log_info("link %s: new peer session: %d ACK(s) of the previous one not sent", l->cfg.name, l->nheld);
+        l->nheld = 0;
+        l->held_sessions = l->pl.stats.rx_sessions;
+    }
     if (l->lost && l->nev < EVQ_MAX) {
         /* The peer is back after we declared the link down: tell it. */
         it2n_msg_event *ev = &l->evq[l->nev++];
@@ -752,7 +828,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         if (l->job.kind || l->has_rsp || l->nrq) {
             /* After the response in progress: unanswered until then, so
              * the peer's window bounds the queue (never BUSY). */
-            if (l->nrq == IT2N_PROTO_WINDOW)
+            if (l->nrq == (int)(sizeof l->rq / sizeof l->rq[0]))
                 return IT2N_PROTO_ERR_BUSY; /* a peer ignoring the window */
             l->rq[l->nrq].seq = seq;
             l->rq[l->nrq].req = *msg;
@@ -780,7 +856,9 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_
 static void feed(struct link *l, const uint8_t *buf, size_t n)
 {
     l->backoff_ms = 500;
+    flush_begin(l);
     it2n_link_input(&l->pl, buf, n, now32());
+    flush_end(l);
     /* If the data needed no commit the ACKs are already out. */
     arm_poll(l);
 }
@@ -853,7 +931,9 @@ static void link_open(void *arg)
     if (l->cfg.type == CONF_LINK_SERIAL) {
         l->fd = link_serial_open(l->cfg.device, l->cfg.baud);
         if (l->fd < 0) {
-            link_down(l, strerror(errno));
+            link_down(l, errno == EBUSY ? "device locked by another process (another it2nd, or a terminal program "
+                                          "holding it)"
+                                        : strerror(errno));
             return;
         }
         l->tty = isatty(l->fd);
@@ -895,6 +975,7 @@ static void link_open(void *arg)
     l->out_off = l->out_len = 0;
     l->pollout = 0;
     l->nheld = 0;
+    l->held_sessions = 0;
     l->job.kind = 0;
     l->has_rsp = 0;
     l->nrq = 0;
@@ -978,6 +1059,7 @@ void links_release_upto(uint64_t batch, int commit_ok)
     for (int k = 0; k < nlinks; k++) {
         struct link *l = &links[k];
         int keep = 0;
+        flush_begin(l);
         for (int h = 0; h < l->nheld; h++) {
             if (l->held_batch[h] > batch) {
                 l->held_batch[keep] = l->held_batch[h];
@@ -989,6 +1071,7 @@ void links_release_upto(uint64_t batch, int commit_ok)
         l->nheld = keep;
         if (l->up)
             pump_job(l); /* EVENTs of this commit go out after its ACKs */
+        flush_end(l);
     }
 }
 

@@ -24,6 +24,7 @@
 #include <linux/serial.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
 
@@ -382,6 +383,18 @@ static void port_open(void *arg)
 {
     struct rtu_port *p = arg;
     p->retry_timer = 0;
+    {
+        /* Held by another process? Ask before modbus_connect, which sets
+         * the line (speed, parity) and would disturb its owner. */
+        int lk = open(p->cfg.device, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+        int busy = lk >= 0 && flock(lk, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+        if (lk >= 0)
+            close(lk);
+        if (busy) {
+            port_fail(p, "device locked by another process (another it2nd, or a terminal program holding it)");
+            return;
+        }
+    }
     p->ctx = modbus_new_rtu(p->cfg.device, p->cfg.baud, p->cfg.parity, 8, p->cfg.stop_bits);
     if (!p->ctx) {
         port_fail(p, "bad parameters");
@@ -391,6 +404,15 @@ static void port_open(void *arg)
         modbus_free(p->ctx);
         p->ctx = NULL;
         port_fail(p, modbus_strerror(errno));
+        return;
+    }
+    /* One server per bus device: a second it2nd on the same
+     * port would answer every request twice (links do the same). */
+    if (flock(modbus_get_socket(p->ctx), LOCK_EX | LOCK_NB)) {
+        modbus_close(p->ctx);
+        modbus_free(p->ctx);
+        p->ctx = NULL;
+        port_fail(p, "device locked by another process (another it2nd, or a terminal program holding it)");
         return;
     }
     char mode[96];

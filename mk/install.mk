@@ -45,6 +45,7 @@ $(BUILD)/pkgconfig/%.pc: cmake/%.pc.in cli/cli.h FORCE_PC
 	@mkdir -p $(@D)
 	@sed -e 's|@IT2N_PC_PREFIX@|$(PREFIX)|' -e 's|@IT2N_PC_LIBDIR@|$(call pc_rel,$(LIBDIR))|' \
 	  -e 's|@IT2N_PC_INCLUDEDIR@|$(call pc_rel,$(INCLUDEDIR))|' -e 's|@IT2N_PC_CFLAGS@||' \
+	  -e 's|@IT2N_PROTO_PC_CFLAGS@| $(PROTO_HOST_DEFS)|' \
 	  -e 's|@PROJECT_VERSION@|$(IT2N_VERSION)|' $< > $@.tmp && mv $@.tmp $@
 # Rebuilt every time: the paths depend on the command line, not on files.
 .PHONY: FORCE_PC

@@ -46,6 +46,8 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code,
                     const it2n_msg_nack *nack)
 {
     it2n_inst *c = (it2n_inst *)app;
+    if ((int32_t)seq == c->barrier)
+        c->barrier = -1; /* answered (or given up): the barrier lifts */
     if (code == 0)
         return;
     if (type == IT2N_MSG_QUERY && c->q_seq == (int32_t)seq &&
@@ -107,9 +109,16 @@ static int wait_for(it2n_inst *ctx, bool (*cond)(const it2n_inst *))
     return ctx->err;
 }
 
+/* CONFIGURE is a barrier (docs/protocol.md 4.2 rule 7): nothing goes out
+ * while one is unanswered, and it goes out with nothing else in flight. */
 static bool can_send(const it2n_inst *ctx)
 {
-    return it2n_link_can_send(&ctx->link);
+    return ctx->barrier < 0 && it2n_link_can_send(&ctx->link);
+}
+
+static bool can_send_alone(const it2n_inst *ctx)
+{
+    return ctx->barrier < 0 && it2n_link_pending(&ctx->link) == 0u;
 }
 
 static bool all_answered(const it2n_inst *ctx)
@@ -125,17 +134,23 @@ static bool query_answered(const it2n_inst *ctx)
 /* Send m: waits for window room in read mode. seq or an error. */
 static int32_t send(it2n_inst *ctx, const it2n_msg *m)
 {
+    bool (*ready)(const it2n_inst *) =
+        m->type == IT2N_MSG_CONFIGURE ? can_send_alone : can_send;
+    int32_t seq;
     if (ctx->err != 0)
         return ctx->err;
-    if (!can_send(ctx)) {
+    if (!ready(ctx)) {
         int r;
         if (ctx->cfg.read == NULL)
             return IT2N_PROTO_ERR_BUSY;
-        r = wait_for(ctx, can_send);
+        r = wait_for(ctx, ready);
         if (r != 0)
             return r;
     }
-    return it2n_link_send(&ctx->link, m, now(ctx));
+    seq = it2n_link_send(&ctx->link, m, now(ctx));
+    if (seq >= 0 && m->type == IT2N_MSG_CONFIGURE)
+        ctx->barrier = seq;
+    return seq;
 }
 
 /* ctx->msg is free once the batch is flushed: the scratch message for
@@ -163,7 +178,7 @@ static void hello(it2n_inst *ctx, it2n_msg *m)
     m->u.hello.version_min = IT2N_PROTO_VERSION_MIN;
     m->u.hello.version_max = IT2N_PROTO_VERSION;
     m->u.hello.max_degree = IT2N_MAX_DEGREE;
-    m->u.hello.window = IT2N_PROTO_WINDOW;
+    m->u.hello.window = it2n_link_window(&ctx->link);
     m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_CHORD |
                       IT2N_CAP_TYPE1;
     m->u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
@@ -195,6 +210,7 @@ static int start(it2n_inst *ctx, uint16_t first_seq)
     ctx->err = 0;
     ctx->peer_hello = 0;
     ctx->q_seq = -1;
+    ctx->barrier = -1;
     ctx->q_have = 0;
     hello(ctx, &ctx->msg);
     r = send_scratch(ctx);

@@ -66,6 +66,7 @@ typedef struct it2n_inst {
     uint8_t put_model, put_flags;
     it2n_msg msg;             /* PUT batch being filled; scratch          */
     int32_t q_seq;            /* QUERY awaiting its result, or -1         */
+    int32_t barrier;          /* CONFIGURE awaiting its answer, or -1     */
     uint8_t q_have;
     int q_code;               /* NACK code of the last QUERY, 0 none       */
     it2n_msg_query_result *q_out;
@@ -94,7 +95,10 @@ int it2n_inst_poll(it2n_inst *ctx);
 
 /*
  * CONFIGURE model (0..254) as n x m (1..7 each) with IT2N_F_* flags; its
- * points are cleared. Returns IT2N_OK (sent), IT2N_PROTO_ERR_BUSY (feed
+ * points are cleared. A barrier (docs/protocol.md 4.2 rule 7): it goes out
+ * once everything before it is answered, and nothing follows it until it
+ * is answered (feed mode: the calls after it return BUSY meanwhile).
+ * Returns IT2N_OK (sent), IT2N_PROTO_ERR_BUSY (feed
  * mode, window full: poll/feed and call again), a field error
  * (IT2N_PROTO_ERR_FIELD: nothing sent) or an earlier failure.
  */

@@ -12,7 +12,11 @@
 #define H_WAITING 1u /* delivered, the application has not answered */
 #define H_ANSWERED 2u
 
+/* W sizes the arrays (the build's maximum); l->win is this link's own
+ * window, the modulus of the receiver's history and reorder buffer. */
 #define W IT2N_PROTO_WINDOW
+/* Own window: a constant in minimum builds (MCU: no code for it). */
+#define WIN(l) (W == IT2N_PROTO_WINDOW_MIN ? (unsigned)W : (unsigned)(l)->win)
 #define SESS IT2N_FRAME_SESSION_SIZE
 
 static bool due(uint32_t now, uint32_t deadline)
@@ -88,6 +92,10 @@ int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
     if (cfg == NULL || cfg->out == NULL || cfg->out->write == NULL ||
         cfg->on_rx == NULL || cfg->rto_ms == 0u)
         return IT2N_ERR_INVAL;
+    if (cfg->window != 0u &&
+        (cfg->window < IT2N_PROTO_WINDOW_MIN || cfg->window > W ||
+         (cfg->window & (cfg->window - 1u)) != 0u))
+        return IT2N_ERR_INVAL;
     memset(l, 0, sizeof *l);
     l->cfg = *cfg;
     if (l->cfg.rto_max_ms < l->cfg.rto_ms)
@@ -95,7 +103,8 @@ int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
                                 ? UINT32_MAX
                                 : 8u * l->cfg.rto_ms;
     l->tx_next = cfg->first_seq;
-    l->peer_window = W;
+    l->win = cfg->window != 0u ? cfg->window : (uint8_t)W;
+    l->peer_window = IT2N_PROTO_WINDOW_MIN; /* until the peer's HELLO */
     l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
     it2n_frame_decoder_init(&l->dec);
     return IT2N_OK;
@@ -104,11 +113,21 @@ int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
 void it2n_link_set_peer(it2n_link *l, uint8_t window, uint16_t max_payload)
 {
     if (window > 0u)
-        l->peer_window = window < W ? window : (uint8_t)W;
+        l->peer_window = window < l->win ? window : l->win;
     if (max_payload > 0u)
         l->peer_max_payload = max_payload < IT2N_PROTO_MAX_PAYLOAD
                                   ? max_payload
                                   : (uint16_t)IT2N_PROTO_MAX_PAYLOAD;
+}
+
+uint8_t it2n_link_window(const it2n_link *l)
+{
+    return l->win;
+}
+
+uint8_t it2n_link_send_window(const it2n_link *l)
+{
+    return l->peer_window;
 }
 
 uint16_t it2n_link_max_payload(const it2n_link *l)
@@ -296,16 +315,39 @@ static it2n_link_slot *slot_of(it2n_link *l, uint16_t seq)
     return NULL;
 }
 
+/* The receiver's state does not match ours (it restarted, or it started
+ * its sequence on a stale copy of an old SYN frame): resend the oldest
+ * frame with SYN, the others follow once it is accepted. */
+static void resync(it2n_link *l, uint32_t now)
+{
+    it2n_link_slot *old = oldest_slot(l);
+    if (!l->tx_synced || old == NULL)
+        return; /* already resyncing, or nothing to resync */
+    l->tx_synced = 0;
+    l->stats.tx_resyncs++;
+    old->flags |= IT2N_FLAG_SYN;
+    transmit(l, old, now);
+}
+
 /* GAP from the receiver: it just kept frame `have` but misses `seq`. If
  * our last copy of seq left no later than the copy of `have` it got (a
  * line keeps order), that copy was lost: send it again now rather than at
  * its timeout. A copy sent after `have` may still be on its way: wait. If
- * `have` is no longer in flight, a quarter RTO since the last copy. */
+ * `have` is no longer in flight, a quarter RTO since the last copy. If seq
+ * is not in flight but `have` is and seq comes before it, the receiver
+ * waits for a frame we count as answered: its sequence is not ours (it
+ * synced on a stale SYN copy), so we resync (docs/protocol.md 4.2 rule 6). */
 static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint32_t now)
 {
     it2n_link_slot *s = slot_of(l, seq), *h = slot_of(l, have);
-    if (s == NULL || !l->tx_synced || h == s)
+    if (!l->tx_synced || h == s)
         return;
+    if (s == NULL) {
+        if (h != NULL && (uint16_t)(l->tx_next - seq) > (uint16_t)(l->tx_next - have) &&
+            (uint16_t)(have - seq) < 0x8000u)
+            resync(l, now);
+        return;
+    }
     if (h != NULL ? (int32_t)(h->last - s->last) >= 0
                   : (uint32_t)(now - s->last) >= (l->cfg.rto_ms + 3u) / 4u) {
         l->stats.tx_fast_retx++;
@@ -374,15 +416,8 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
             }
         }
     } else if (m->u.nack.code == IT2N_PROTO_ERR_NOSYNC) {
-        /* Peer lost its state (restart): resend the oldest frame with SYN,
-         * the others follow once it is accepted. */
-        it2n_link_slot *old;
-        if (!l->tx_synced)
-            return; /* already resyncing */
-        l->tx_synced = 0;
-        old = oldest_slot(l);
-        old->flags |= IT2N_FLAG_SYN;
-        transmit(l, old, now);
+        /* Peer lost its state (restart) or holds another sequence. */
+        resync(l, now);
     } else {
         bool syn = (s->flags & IT2N_FLAG_SYN) != 0u;
         l->stats.tx_nacked++;
@@ -417,7 +452,7 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
              * queued behind them (at most a window of maximum frames).
              * Look again once its line is quiet, or at that bound. */
             uint32_t cap = s->gone + rto_for(l, s->tmo + 1u) +
-                           line_ms(W * IT2N_FRAME_MAX_WIRE, l->cfg.baud);
+                           line_ms(WIN(l) * IT2N_FRAME_MAX_WIRE, l->cfg.baud);
             if (!due(now, cap)) {
                 uint32_t again = now + quiet_ms(l);
                 s->deadline = due(again, cap) ? cap : again;
@@ -510,7 +545,7 @@ static void nack_plain(it2n_msg_nack *a, uint16_t seq, int code)
 
 static it2n_link_hist *hist_find(it2n_link *l, uint16_t seq)
 {
-    it2n_link_hist *h = &l->hist[seq % W];
+    it2n_link_hist *h = &l->hist[seq & (WIN(l) - 1u)];
     return h->state != H_EMPTY && h->seq == seq ? h : NULL;
 }
 
@@ -552,14 +587,14 @@ int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
  * answer to the frame W before it (same history entry). */
 static bool can_deliver(const it2n_link *l, uint16_t seq)
 {
-    return l->hist[seq % W].state != H_WAITING;
+    return l->hist[seq & (WIN(l) - 1u)].state != H_WAITING;
 }
 
 /* Deliver frame seq = rx_next (message body p, len bytes). */
 static void deliver(it2n_link *l, uint16_t seq, uint8_t type,
                     const uint8_t *p, size_t len)
 {
-    it2n_link_hist *h = &l->hist[seq % W];
+    it2n_link_hist *h = &l->hist[seq & (WIN(l) - 1u)];
     it2n_proto_errinfo info;
     it2n_msg m;
     uint8_t was;
@@ -602,7 +637,7 @@ static void drain(it2n_link *l)
         return;
     l->draining = 1;
     for (guard = 0; guard < W; guard++) {
-        it2n_link_rxbuf *b = &l->rxbuf[l->rx_next % W];
+        it2n_link_rxbuf *b = &l->rxbuf[l->rx_next & (WIN(l) - 1u)];
         if (!b->used || b->seq != l->rx_next || !can_deliver(l, b->seq))
             break;
         b->used = 0;
@@ -658,7 +693,7 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
                 /* a new peer session: its limits are unknown until its
                  * HELLO (delivered next, if this frame is one) */
                 l->stats.rx_sessions++;
-                l->peer_window = W;
+                l->peer_window = IT2N_PROTO_WINDOW_MIN;
                 l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
             }
             l->rx_synced = 1;
@@ -685,7 +720,7 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         return;
     }
     h = hist_find(l, fh->seq);
-    if (h != NULL && (uint16_t)(l->rx_next - fh->seq) <= W) {
+    if (h != NULL && (uint16_t)(l->rx_next - fh->seq) <= WIN(l)) {
         l->stats.rx_dup++;
         if (h->state == H_ANSWERED)
             send_answer(l, &h->answer); /* our answer was lost: repeat it */
@@ -693,18 +728,23 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
     }
     ahead = (uint16_t)(fh->seq - l->rx_next);
 #if IT2N_PROTO_RX_REORDER
-    if (ahead < W && len <= IT2N_PROTO_MAX_PAYLOAD) {
+    if (ahead < WIN(l) && len <= IT2N_PROTO_MAX_PAYLOAD) {
         /* Ahead of a gap (or behind an unanswered frame): keep it. */
-        it2n_link_rxbuf *b = &l->rxbuf[fh->seq % W];
-        if (!b->used || b->seq != fh->seq) {
-            b->used = 1;
-            b->seq = fh->seq;
-            b->type = fh->type;
-            b->len = (uint16_t)len;
-            memcpy(b->payload, p, len);
-            l->stats.rx_buffered++;
-            if (ahead > 0u && !(l->rxbuf[l->rx_next % W].used &&
-                                l->rxbuf[l->rx_next % W].seq == l->rx_next)) {
+        it2n_link_rxbuf *b = &l->rxbuf[fh->seq & (WIN(l) - 1u)];
+        bool again = b->used && b->seq == fh->seq;
+        if (!again || (fh->flags & IT2N_FLAG_RETX)) {
+            /* A retransmission of a frame kept already: the sender has not
+             * got our GAP (or its answer to it was lost): say it again. */
+            if (!again) {
+                b->used = 1;
+                b->seq = fh->seq;
+                b->type = fh->type;
+                b->len = (uint16_t)len;
+                memcpy(b->payload, p, len);
+                l->stats.rx_buffered++;
+            }
+            if (ahead > 0u && !(l->rxbuf[l->rx_next & (WIN(l) - 1u)].used &&
+                                l->rxbuf[l->rx_next & (WIN(l) - 1u)].seq == l->rx_next)) {
                 /* a gap: tell the sender which frame we miss */
                 it2n_msg g;
                 uint8_t gb[4];
@@ -726,16 +766,23 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         return;
     }
 #endif
-    l->stats.rx_ahead++;
-    if (ahead >= W && ahead < 0x8000u) {
-        /* Beyond the window: a sender never gets that far ahead of our
-         * `next` unless `next` is stale (we started the sequence on an old
-         * SYN copy, e.g. bytes left in a buffer from an earlier session):
-         * NOSYNC makes it resync (a sender ignores it for a frame no longer
-         * in flight). A stale frame behind `next` is dropped silently. */
-        nack_plain(&a, fh->seq, IT2N_PROTO_ERR_NOSYNC);
-        send_answer(l, &a);
+    if (ahead < WIN(l)) {
+        /* Kept nowhere (IT2N_PROTO_RX_REORDER 0): the sender retries. */
+        l->stats.rx_ahead++;
+        return;
     }
+    /* Neither answered recently nor within the window ahead: a stale copy
+     * (its sender no longer has it in flight and ignores this answer), or
+     * the sender's sequence is not ours (we synced on a stale copy of an
+     * old SYN frame): NOSYNC makes such a sender start again with SYN
+     * (docs/protocol.md 4.3 rule 6). Never silent: silence would leave a
+     * sender retrying a frame we drop until it gives up. */
+    if (ahead >= 0x8000u)
+        l->stats.rx_stale++; /* behind `next` and the history */
+    else
+        l->stats.rx_ahead++; /* beyond the window */
+    nack_plain(&a, fh->seq, IT2N_PROTO_ERR_NOSYNC);
+    send_answer(l, &a);
 }
 
 static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,

@@ -5,8 +5,13 @@
  * every entry point takes `now` in milliseconds (any monotonic origin,
  * wrapping at 2^32). Each direction has its own 16-bit sequence space.
  *
- * Sender: up to IT2N_PROTO_WINDOW reliable frames in flight (fewer when
- * the peer announced a smaller window, it2n_link_set_peer), each kept in
+ * Window: this side's own window (cfg.window, 0 = IT2N_PROTO_WINDOW, the
+ * build's maximum) is what it announces in HELLO (it2n_link_window) and
+ * sizes what the receiver keeps. The sender keeps up to the protocol
+ * minimum IT2N_PROTO_WINDOW_MIN (4) frames in flight until the peer's
+ * HELLO is applied (it2n_link_set_peer), then min(own, announced).
+ *
+ * Sender: up to that many reliable frames in flight, each kept in
  * the context until ACKed or NACKed and retransmitted after the RTO, which
  * doubles on every retransmission up to rto_max_ms; after max_tries
  * transmissions (0 = never) the frame is given up (IT2N_PROTO_ERR_TIMEOUT).
@@ -71,6 +76,9 @@ typedef struct it2n_link_cfg {
                                may be delivered twice (docs/protocol.md
                                4.3 rule 1)                           */
     uint32_t rto_max_ms;    /* backoff cap; 0 = 8 x rto_ms          */
+    uint8_t window;         /* own window: frames in flight we accept
+                               and send at most; a power of two within
+                               4..IT2N_PROTO_WINDOW, 0 = IT2N_PROTO_WINDOW */
     uint32_t baud;          /* line rate (bits/s, 10 bits a byte) or
                                0 = unknown. When known, the RTO of a
                                frame counts from when its last byte
@@ -92,6 +100,11 @@ typedef struct it2n_link_stats {
     uint32_t tx_dropped;    /* frames dropped by it2n_link_drop_tx */
     uint32_t tx_gaps;       /* GAPs sent (we hold frames past a gap) */
     uint32_t tx_fast_retx;  /* retransmissions on a peer's GAP      */
+    uint32_t rx_stale;      /* behind next and out of the history:
+                               answered NOSYNC                   */
+    uint32_t tx_resyncs;    /* restarts with SYN: the peer's NOSYNC,
+                               or its GAP for a frame we count as
+                               answered                          */
 } it2n_link_stats;
 
 /* One sender slot: a reliable frame in flight. The message starts at
@@ -126,6 +139,7 @@ typedef struct it2n_link {
     /* sender */
     uint16_t tx_next;
     uint8_t tx_synced; /* peer accepted our SYN frame */
+    uint8_t win;               /* own window (cfg.window resolved)   */
     uint8_t peer_window;       /* frames in flight the peer accepts  */
     uint16_t peer_max_payload; /* largest message the peer accepts   */
     it2n_link_slot slot[IT2N_PROTO_WINDOW];
@@ -155,10 +169,27 @@ typedef struct it2n_link {
  * 115 200, 1110 ms at 9600; docs/protocol.md 4.2 rule 3).
  */
 uint32_t it2n_link_rto_default(uint32_t baud);
+/* The struct above depends on IT2N_PROTO_WINDOW, IT2N_PROTO_MAX_PAYLOAD and
+ * IT2N_PROTO_RX_REORDER: the library's it2n_link_init is named after their
+ * values, so a program compiled with other values than the library fails
+ * to link (undefined reference to it2n_link_init_w4_p1024_r1, say) instead
+ * of corrupting memory. Callers just write it2n_link_init. */
+#define IT2N_LINK_ABI_(w, p, r) it2n_link_init_w##w##_p##p##_r##r
+#define IT2N_LINK_ABI(w, p, r) IT2N_LINK_ABI_(w, p, r)
+#define it2n_link_init \
+    IT2N_LINK_ABI(IT2N_PROTO_WINDOW, IT2N_PROTO_MAX_PAYLOAD, IT2N_PROTO_RX_REORDER)
 
 /* Initialise a link context from cfg (copied). Returns IT2N_OK or
- * IT2N_ERR_INVAL for a missing callback/stream or zero rto/tries. */
+ * IT2N_ERR_INVAL for a missing callback/stream, zero rto/tries, or a
+ * window that is not a power of two within 4..IT2N_PROTO_WINDOW. */
 int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg);
+
+/* This side's own window (what to announce in HELLO `window`). */
+uint8_t it2n_link_window(const it2n_link *l);
+
+/* Frames in flight the sender may keep now: min(own window, the peer's
+ * announced window), IT2N_PROTO_WINDOW_MIN until the peer's HELLO. */
+uint8_t it2n_link_send_window(const it2n_link *l);
 
 /*
  * Queue and transmit a reliable message. Returns its sequence number
@@ -204,9 +235,10 @@ int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
 
 /*
  * Apply the limits the peer announced in its HELLO: at most `window`
- * frames in flight (1..IT2N_PROTO_WINDOW; 0 = unchanged) and no message
- * larger than `max_payload` bytes (0 = unchanged). Until called: our own
- * IT2N_PROTO_WINDOW and IT2N_PROTO_MAX_PAYLOAD.
+ * frames in flight (1..255, clamped to our own window; 0 = unchanged) and
+ * no message larger than `max_payload` bytes (0 = unchanged). Until called
+ * (and again from each new peer session on): IT2N_PROTO_WINDOW_MIN (4)
+ * frames and IT2N_PROTO_MAX_PAYLOAD.
  */
 void it2n_link_set_peer(it2n_link *l, uint8_t window, uint16_t max_payload);
 

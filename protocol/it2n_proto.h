@@ -29,17 +29,30 @@
 #define IT2N_PROTO_MAX_PAYLOAD 1024
 #endif
 
-/* Reliable frames in flight per direction (sender window = receiver
- * duplicate-history depth). */
+/* Largest window this build supports: reliable frames in flight per
+ * direction (sender slots = receiver duplicate history = reorder buffer).
+ * The window actually used is negotiated per peer (HELLO `window`, see
+ * it2n_link_set_peer) and may be set lower per link (it2n_link_cfg.window).
+ * A power of two (so seq % W stays in step across the 16-bit wrap), 4..64
+ * (a plain decimal literal: it is part of the
+ * library's link-time names, see it2n_link.h). 4 keeps MCU RAM small; the
+ * daemon and host tools are built with 16. Every user of a library must
+ * compile with the value it was built with (pkg-config / CMake pass it on;
+ * a mismatch fails to link). */
 #ifndef IT2N_PROTO_WINDOW
 #define IT2N_PROTO_WINDOW 4
 #endif
 
+/* Protocol constant: the window every receiver supports, and what a sender
+ * keeps to until the peer's HELLO announced its own (docs/protocol.md 4.2). */
+#define IT2N_PROTO_WINDOW_MIN 4
+
 #if IT2N_PROTO_MAX_PAYLOAD < 480 || IT2N_PROTO_MAX_PAYLOAD > 65535
 #error "IT2N_PROTO_MAX_PAYLOAD must be within 480..65535"
 #endif
-#if IT2N_PROTO_WINDOW < 1 || IT2N_PROTO_WINDOW > 64
-#error "IT2N_PROTO_WINDOW must be within 1..64"
+#if IT2N_PROTO_WINDOW < 4 || IT2N_PROTO_WINDOW > 64 || \
+    (IT2N_PROTO_WINDOW & (IT2N_PROTO_WINDOW - 1)) != 0
+#error "IT2N_PROTO_WINDOW must be a power of two within 4..64"
 #endif
 
 /* Protocol version carried in every header: wire version 2 is protocol

@@ -94,7 +94,7 @@ static bool build(session *s, it2n_msg *m)
         m->u.hello.version_min = IT2N_PROTO_VERSION_MIN;
         m->u.hello.version_max = IT2N_PROTO_VERSION;
         m->u.hello.max_degree = IT2N_MAX_DEGREE;
-        m->u.hello.window = IT2N_PROTO_WINDOW;
+        m->u.hello.window = it2n_link_window(&s->link);
         m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_TYPE1 |
                           IT2N_CAP_CHORD;
         m->u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
@@ -155,8 +155,13 @@ int session_step(session *s, uint32_t now)
         }
         (void)it2n_link_poll(&s->link, now);
     }
+    /* CONFIGURE is a barrier (docs/protocol.md 4.2 rule 7): sent with
+     * nothing else in flight, and nothing follows it until it is answered. */
     while (s->state == SESSION_RUNNING && s->step < 4u &&
-           (s->oneway || it2n_link_can_send(&s->link))) {
+           (s->oneway ||
+            (it2n_link_can_send(&s->link) &&
+             ((s->step != 1u && !(s->step == 2u && s->puts == 0u)) ||
+              it2n_link_pending(&s->link) == 0u)))) {
         if (!build(s, &m)) {
             s->step++; /* PUTs exhausted */
             continue;

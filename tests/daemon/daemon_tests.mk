@@ -74,9 +74,9 @@ daemon-regdoc: $(GEN_REGISTERS)
 	  { echo "docs/registers.md is stale: run 'make docs/registers.md'" >&2; exit 1; }
 	@echo "docs/registers.md is current"
 
-daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSYNC)
+daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSYNC) $(BUILD)/host/it2n-instrument
 	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) INSTR=$(SIM_INSTR) PTY=$(SIM_PTY) \
-	  FAILSYNC=$(DT_FAILSYNC) \
+	  FAILSYNC=$(DT_FAILSYNC) EXINSTR=$(BUILD)/host/it2n-instrument \
 	  timeout 300 $(DT)/e2e.sh
 
 # Durability (issue 8): unreadable configuration, state-directory lock, an

@@ -213,6 +213,42 @@ instr --csv "$PAPER" --model 5 >/dev/null && plc --unit 5 verify "$PAPER" 3 >/de
     && ok "link reopened after hang-up, stream completed" || fail "link reopen"
 grep -q "link inst: hang-up; reopening" "$T/daemon.log" && ok "hang-up logged, reopen with backoff" || fail "hang-up log"
 
+# ---- one daemon per device ----------------------------------------------------
+# A second it2nd naming the same serial device (a link on a pty pair, the
+# RTU bus held by the first daemon) must not open it: both would read the
+# frames and answer (bug: a stray daemon reopening a vanished /dev/pts/N
+# answered another test's instrument with its own models).
+"$PTY" > "$T/pty2" &
+LBPID=$!
+for _ in $(seq 50); do [ -s "$T/pty2" ] && break; sleep 0.02; done
+read -r LNK_A LNK_B < "$T/pty2"
+two_conf() { # name port
+    mkdir -p "$T/$1"
+    printf '[daemon]\nstate_dir = %s\nlink_backoff_max = 1\n[modbus]\ntcp_listen = 127.0.0.1:%s\n' "$T/$1" "$2"
+    printf '[rtu:bus]\ndevice = %s\nbaud = 19200\n' "$RTU_A"
+    printf '[model:1]\nunit_id = 1\nn = 3\nm = 3\n[link:x]\ntype = serial\ndevice = %s\nbaud = 115200\n' "$LNK_A"
+}
+P2=$(free_port); P3=$(free_port)
+two_conf d2 "$P2" > "$T/d2.conf"; two_conf d3 "$P3" > "$T/d3.conf"
+"$IT2ND" -c "$T/d2.conf" -f -v > "$T/d2.log" 2>&1 & D2=$!
+for _ in $(seq 100); do grep -q "link x: open" "$T/d2.log" && break; sleep 0.05; done
+"$IT2ND" -c "$T/d3.conf" -f -v > "$T/d3.log" 2>&1 & D3=$!
+for _ in $(seq 100); do grep -q "link x: device locked" "$T/d3.log" && break; sleep 0.05; done
+grep -q "link x: device locked by another process" "$T/d3.log" \
+    && grep -q "rtu bus.*device locked by another process" "$T/d3.log" \
+    && grep -q "rtu bus.*device locked by another process" "$T/d2.log" \
+    && ! grep -q "link x: open" "$T/d3.log" \
+    && ok "a second and third it2nd on the same link / RTU device: not opened, 'device locked by another process' logged" \
+    || fail "device lock: $(grep -h 'link x\|rtu bus' "$T/d2.log" "$T/d3.log" | head -5)"
+timeout 30 "$EXINSTR" --device "$LNK_B" --model 1 --degree 3x3 --seed 5 --quiet > "$T/ex.out" 2>&1; xr=$?
+plc read 0 1 >/dev/null && "$PLC" --tcp 127.0.0.1:$P2 --unit 1 read 0 1 > /dev/null \
+    && [ $xr = 0 ] && grep -q "link x: HELLO from" "$T/d2.log" && ! grep -q "HELLO from" "$T/d3.log" \
+    && ok "the instrument on that link was served by the daemon holding it, once; the first daemon's RTU bus kept serving" \
+    || fail "served by the lock holder: instrument rc $xr $(cat "$T/ex.out"); d3: $(grep HELLO "$T/d3.log" | head -2)"
+out=$(mbpoll -m rtu -a 1 -0 -r 0 -c 8 -t 3 -b 19200 -P even -1 "$RTU_B" 2>&1)
+echo "$out" | grep -q '^\[1\]:[[:space:]]*2$' && ok "RTU still answered by the first daemon alone (mbpoll)" || fail "RTU after the refused daemons: $out"
+kill "$D2" "$D3" "$LBPID"; wait "$D2" "$D3" "$LBPID" 2>/dev/null
+
 # ---- EVENTs to link peers ---------------------------------------------------
 # A passive peer on a second pty logs every EVENT ("model kind code gen").
 gen() { plc --unit "${1:-1}" read 7 2 | awk '{print $1 * 65536 + $2}'; }

@@ -305,7 +305,7 @@ int main(void)
     m.type = IT2N_MSG_HELLO;
     m.u.hello.version_min = m.u.hello.version_max = IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
-    m.u.hello.window = IT2N_PROTO_WINDOW;
+    m.u.hello.window = it2n_link_window(&dl);
     m.u.hello.caps = IT2N_CAP_INSTRUMENT;
     m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
     m.u.hello.max_models = 1;

@@ -108,6 +108,34 @@ ${CC:-gcc} -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-protocol) \
 "$r$P/bin/it2n" eval "$d/d.csv" --at 0.25,0.75 --decimals 9 | cut -d, -f1-8 >"$d/want.csv"
 "$d/consumer" 0.25 0.75 >"$d/got.csv" || fail "the pkg-config consumer failed"
 diff -u "$d/want.csv" "$d/got.csv" >&2 || fail "the pkg-config consumer differs from the installed it2n eval"
+# A link context's size depends on IT2N_PROTO_WINDOW (16 in this build):
+# the .pc file passes it on, and a program compiled with another value
+# fails to link instead of overrunning the library's context.
+cat >"$d/link_user.c" <<'EOC'
+#include <string.h>
+#include "it2n_link.h"
+static int w(it2n_ostream *s, const uint8_t *p, size_t n) { (void)s; (void)p; (void)n; return 0; }
+static int rx(void *a, uint16_t q, const it2n_msg *m) { (void)a; (void)q; (void)m; return 0; }
+int main(void)
+{
+    static it2n_link l;
+    it2n_ostream os = { w, NULL };
+    it2n_link_cfg c;
+    memset(&c, 0, sizeof c);
+    c.out = &os;
+    c.on_rx = rx;
+    c.rto_ms = 100;
+    return it2n_link_init(&l, &c) != IT2N_OK || it2n_link_window(&l) != IT2N_PROTO_WINDOW;
+}
+EOC
+${CC:-gcc} -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-protocol) "$d/link_user.c" \
+  $(pkg-config --libs it2n-protocol) -o "$d/link_user" || fail "a link user does not build with the .pc flags"
+"$d/link_user" || fail "the link user's window is not the library's"
+if ${CC:-gcc} -std=c99 $(pkg-config --cflags it2n-protocol) -UIT2N_PROTO_WINDOW -DIT2N_PROTO_WINDOW=4 \
+     "$d/link_user.c" $(pkg-config --libs it2n-protocol) -o "$d/link_user4" 2>"$d/link4.err"; then
+  fail "a program compiled with IT2N_PROTO_WINDOW=4 linked against the library built with 16"
+fi
+grep -q 'it2n_link_init_w4_' "$d/link4.err" || fail "window mismatch: not the expected link error: $(cat "$d/link4.err")"
 
 # ---- bash-completion finds the completions ---------------------------------
 for b in "$r$P"/bin/* "$r$P"/sbin/*; do

@@ -16,6 +16,13 @@
  *                ACKed exactly once (identical entries are an idempotent
  *                success), 0 NACKs, and the solved model equals the local
  *                solve.
+ *   wide R       the window negotiated per peer: a peer of window W (the
+ *                host build's) uploads a 7x7 model R times keeping W PUTs
+ *                in flight (the daemon holds W ACKs for its WAL and sends
+ *                every one), then defers its answers to a SAMPLE run: the
+ *                daemon keeps min(W, what its RTO covers) frames in
+ *                flight; the same with a 4-frame peer (an MCU build):
+ *                never more than 4 either way. Run with rto_ms = 300.
  *   lossy PCT    HELLO, upload, COMMIT, 16 QUERYs and a 33x33 SAMPLE with
  *                PCT % drop, duplicate, reorder and corruption of frames in
  *                each direction: every response must arrive without the
@@ -186,9 +193,10 @@ typedef struct peer {
     it2n_msg_status status;
     unsigned max_count;
     int defer;
-    uint16_t dseq[16];
-    uint32_t dat[16];
+    uint16_t dseq[2 * W];         /* room beyond the window: an overrun shows */
+    uint32_t dat[2 * W];
     unsigned nd, max_unanswered;
+    unsigned max_pending;         /* most of our frames in flight */
 } peer;
 
 static void trace(peer *p, char c)
@@ -280,7 +288,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
 {
     peer *p = app;
     int ret = 0;
-    if (p->defer && p->nd < 16) {
+    if (p->defer && p->nd < 2 * W) {
         /* answer later: what the daemon sends meanwhile is in flight */
         p->dseq[p->nd] = seq;
         p->dat[p->nd++] = now_ms() + 20;
@@ -356,7 +364,14 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_
             code <= -100 ? it2n_proto_strerror(code) : "core", n ? n->i : -9, n ? n->j : -9, n ? n->fp : -9);
 }
 
+static void peer_init_w(peer *p, uint16_t first, uint32_t session, unsigned pct, uint32_t rto, uint8_t window);
+
 static void peer_init(peer *p, uint16_t first, uint32_t session, unsigned pct, uint32_t rto)
+{
+    peer_init_w(p, first, session, pct, rto, 0);
+}
+
+static void peer_init_w(peer *p, uint16_t first, uint32_t session, unsigned pct, uint32_t rto, uint8_t window)
 {
     it2n_link_cfg c;
     const it2n_model *ref = p->ref;
@@ -376,6 +391,7 @@ static void peer_init(peer *p, uint16_t first, uint32_t session, unsigned pct, u
     c.max_tries = 0; /* the tests decide when to give up */
     c.first_seq = first;
     c.session = session;
+    c.window = window;
     it2n_link_init(&p->l, &c);
 }
 
@@ -421,7 +437,10 @@ static int32_t send_msg(peer *p, const it2n_msg *m, uint32_t limit_ms)
         if (now_ms() - t0 > limit_ms)
             return -1;
     }
-    return it2n_link_send(&p->l, m, now_ms());
+    int32_t s = it2n_link_send(&p->l, m, now_ms());
+    if (it2n_link_pending(&p->l) > p->max_pending)
+        p->max_pending = it2n_link_pending(&p->l);
+    return s;
 }
 
 static int drain(peer *p, uint32_t limit_ms)
@@ -443,7 +462,7 @@ static it2n_msg hello(void)
     m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
     m.u.hello.version_max = IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
-    m.u.hello.window = W;
+    m.u.hello.window = W; /* peer_init_w with a smaller window: overwrite */
     m.u.hello.caps = IT2N_CAP_INSTRUMENT;
     m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
     m.u.hello.max_models = 1;
@@ -710,6 +729,62 @@ static void lossy(unsigned pct)
     CHECK(P.nacked == 0, "lossy: %u NACKs", P.nacked);
     if (pct)
         CHECK(P.l.stats.tx_retx > 0 && P.l.stats.rx_dup + P.l.stats.rx_buffered > 0, "faults not exercised");
+}
+
+static void settle(peer *p, unsigned ms);
+
+/* The window negotiated per peer (see the header comment, "wide"). */
+static void wide(unsigned rounds)
+{
+    static it2n_dataset ds;
+    static it2n_model ref;
+    it2n_errinfo e;
+    CHECK(synth_dataset(&ds, 7, 7, IT2N_F_Z, 11, &e) == IT2N_OK, "synth");
+    it2n_model_init(&ref);
+    CHECK(it2n_model_solve(&ref, &ds, &e) == IT2N_OK, "local solve");
+    for (unsigned pass = 0; pass < 2; pass++) {
+        uint8_t win = pass == 0 ? (uint8_t)W : 4u;
+        unsigned puts = 0;
+        peer_init_w(&P, (uint16_t)rnd(), rnd(), 0, 100, win);
+        P.ref = &ref;
+        it2n_msg h = hello();
+        h.u.hello.window = it2n_link_window(&P.l);
+        send_msg(&P, &h, 5000);
+        for (uint32_t t0 = now_ms(); !P.hellos && now_ms() - t0 < 5000;)
+            pump(&P, 2);
+        CHECK(P.hellos == 1 && P.dh.window == IT2N_PROTO_WINDOW, "daemon HELLO window %u, want its build's %u",
+              P.dh.window, (unsigned)IT2N_PROTO_WINDOW);
+        CHECK(it2n_link_send_window(&P.l) == win, "negotiated %u, want %u", it2n_link_send_window(&P.l), win);
+        uint32_t t0 = now_ms();
+        for (unsigned r = 0; r < rounds; r++)
+            upload(&P, 2, &ds, 19, 20000);
+        CHECK(drain(&P, 30000) == 0, "upload not acknowledged");
+        uint32_t t_up = now_ms() - t0;
+        puts = (unsigned)((448u + 18u) / 19u);
+        CHECK(P.acked == 1 + rounds * (puts + 2u) && P.nacked == 0 && P.timeouts == 0,
+              "window %u: %u ACKed of %u, %u NACKed, %u timed out", win, P.acked, 1 + rounds * (puts + 2u),
+              P.nacked, P.timeouts);
+        CHECK(P.max_pending == win, "window %u: at most %u of our frames in flight", win, P.max_pending);
+        /* the daemon's frames: answers deferred 20 ms, a 33x33 SAMPLE run */
+        P.defer = 1;
+        it2n_msg sm;
+        memset(&sm, 0, sizeof sm);
+        sm.type = IT2N_MSG_SAMPLE;
+        sm.u.sample.model = 2;
+        sm.u.sample.fp = IT2N_FP_D;
+        sm.u.sample.rows = sm.u.sample.cols = 33;
+        CHECK(send_msg(&P, &sm, 5000) >= 0, "SAMPLE");
+        for (uint32_t t1 = now_ms(); P.points < 33 * 33 && now_ms() - t1 < 30000;)
+            pump(&P, 2);
+        drain(&P, 5000);
+        settle(&P, 50);
+        P.defer = 0;
+        printf("wide: window %u peer: %u x (CONFIGURE, %u PUT, COMMIT) in %u ms, at most %u PUTs in flight, "
+               "0 lost; SAMPLE 33x33: %u points, at most %u daemon frames in flight, %u mismatches\n",
+               win, rounds, puts, t_up, P.max_pending, P.points, P.max_unanswered, P.mismatches);
+        CHECK(P.points == 33 * 33 && P.mismatches == 0, "SAMPLE: %u points, %u mismatches", P.points, P.mismatches);
+        CHECK(P.max_unanswered == win, "window %u: the daemon kept %u frames in flight", win, P.max_unanswered);
+    }
 }
 
 /* Send m and wait for its answer; returns the code (0 ACK). */
@@ -1083,6 +1158,8 @@ int main(int argc, char **argv)
             kills(v);
         else if (!strcmp(argv[k], "lossy"))
             lossy(v);
+        else if (!strcmp(argv[k], "wide"))
+            wide(v);
         else if (!strcmp(argv[k], "spec"))
             spec(v);
         else if (!strcmp(argv[k], "doc"))

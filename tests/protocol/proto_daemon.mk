@@ -24,6 +24,7 @@ TEST_TARGETS += proto-daemon
 proto-daemon: $(PROTO_DL) $(IT2ND) $(IT2ND_SAN) ## Protocol v1.1 against it2nd over a pty (sessions, kill -9, 10% faults, spec, doc example)
 	timeout 300 $(PROTO_DL) $(IT2ND) $(PROTO_DL_ARGS)
 	LINK_EXTRA='peer_timeout_ms = 600' timeout 300 $(PROTO_DL) $(IT2ND) spec 1 doc 2
+	LINK_EXTRA='rto_ms = 300' timeout 300 $(PROTO_DL) $(IT2ND) wide 2
 	timeout 300 $(PROTO_DL) $(IT2ND_SAN) sessions 20 kill 2 lossy 10
 
 proto-daemon-long: $(PROTO_DL) $(IT2ND) ## 1000 back-to-back sessions, 20 kill -9s, 10% and 1% faults against it2nd

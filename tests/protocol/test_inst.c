@@ -19,6 +19,10 @@ typedef struct server {
     unsigned puts, entries, max_count, configures, commits, hellos;
     uint16_t hello_window, hello_payload;
     int refuse_i7; /* NACK RANGE for a PUT entry at i = 7 */
+    int defer_cfg; /* leave CONFIGURE unanswered (cfg_seq) */
+    int cfg_open;
+    uint16_t cfg_seq;
+    unsigned past_barrier; /* frames delivered while a CONFIGURE is open */
 } server;
 
 static server *S;
@@ -31,6 +35,8 @@ static int srv_rx(void *app, uint16_t seq, const it2n_msg *m)
     server *s = app;
     it2n_msg r;
     memset(&r, 0, sizeof r);
+    if (s->cfg_open)
+        s->past_barrier++;
     switch (m->type) {
     case IT2N_MSG_HELLO:
         s->hellos++;
@@ -45,6 +51,11 @@ static int srv_rx(void *app, uint16_t seq, const it2n_msg *m)
         return IT2N_LINK_DEFER;
     case IT2N_MSG_CONFIGURE:
         s->configures++;
+        if (s->defer_cfg) {
+            s->cfg_open = 1;
+            s->cfg_seq = seq;
+            return IT2N_LINK_DEFER;
+        }
         return 0;
     case IT2N_MSG_PUT:
         s->puts++;
@@ -320,6 +331,68 @@ static void test_feed_mode_busy_and_loss(void **st)
     assert_true(res.u == 99);
 }
 
+/* A CONFIGURE whose answer is outstanding holds everything behind it (a
+ * barrier): a PUT ACKed before it would be cleared by the CONFIGURE re-sent
+ * after a restart. Before: the PUTs went out in the same window. */
+static void feed_round(void)
+{
+    uint8_t buf[4096];
+    exchange();
+    size_t n = S->out.len;
+    memcpy(buf, S->out.buf, n);
+    S->out.len = 0;
+    it2n_inst_feed(I, buf, n);
+    assert_int_equal(it2n_inst_poll(I), 0);
+}
+
+static void test_configure_is_a_barrier(void **st)
+{
+    (void)st;
+    it2n_inst_cfg c = cfg(0);
+    it2n_val v[IT2N_CH_COUNT];
+    int r = IT2N_PROTO_ERR_BUSY;
+    assert_int_equal(it2n_inst_open(I, &c), IT2N_OK);
+    for (int it = 0; it < 100 && it2n_inst_sync(I) != IT2N_OK; it++)
+        feed_round(); /* HELLO answered */
+    S->defer_cfg = 1;
+    assert_int_equal(it2n_inst_configure(I, 1, 1, 1, 0), IT2N_OK);
+    unsigned taken = 0, busy = 0;
+    for (int it = 0; it < 50; it++) {
+        feed_round();
+        if (taken < 4) {
+            vals(v, taken / 2, taken % 2);
+            r = it2n_inst_put(I, 1, (uint8_t)(taken / 2), (uint8_t)(taken % 2), IT2N_FP_D, v);
+            if (r == IT2N_OK)
+                taken++;
+            else
+                busy++;
+        }
+    }
+    assert_true(S->cfg_open);
+    assert_int_equal(S->past_barrier, 0); /* nothing delivered behind it */
+    assert_int_equal(S->puts, 0);
+    assert_true(busy > 0);                 /* the caller was told to wait */
+    it2n_link_complete(&S->l, S->cfg_seq, 0, NULL);
+    S->cfg_open = 0;
+    for (int it = 0; it < 200 && (taken < 4 || it2n_inst_sync(I) != IT2N_OK); it++) {
+        feed_round();
+        if (taken < 4) {
+            vals(v, taken / 2, taken % 2);
+            if (it2n_inst_put(I, 1, (uint8_t)(taken / 2), (uint8_t)(taken % 2), IT2N_FP_D, v) == IT2N_OK)
+                taken++;
+        }
+    }
+    assert_int_equal(it2n_inst_sync(I), IT2N_OK);
+    assert_int_equal(S->entries, 4);
+    assert_int_equal(S->configures, 1);
+    /* and a CONFIGURE waits for what is in flight before it */
+    S->defer_cfg = 0;
+    vals(v, 0, 0);
+    assert_int_equal(it2n_inst_put(I, 1, 0, 0, IT2N_FP_D, v), IT2N_OK);
+    assert_int_equal(it2n_inst_flush(I), IT2N_OK);
+    assert_int_equal(it2n_inst_configure(I, 1, 1, 1, 0), IT2N_PROTO_ERR_BUSY);
+}
+
 /* A daemon that never answers: the session fails with TIMEOUT after
  * max_tries, and says so. */
 static void test_silent_peer_times_out(void **st)
@@ -342,6 +415,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_nack_detail_and_resync, setup, teardown),
         cmocka_unit_test_setup_teardown(test_feed_mode_busy_and_loss, setup, teardown),
         cmocka_unit_test_setup_teardown(test_silent_peer_times_out, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_configure_is_a_barrier, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_inst", tests, NULL, NULL);
 }

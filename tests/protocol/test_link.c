@@ -43,7 +43,7 @@ static void ep_init(ep *e, uint16_t first, uint8_t tries)
 {
     memset(e, 0, sizeof *e);
     e->os = mem_stream(&e->out);
-    it2n_link_cfg c = {&e->os, NULL, on_rx, on_done, e, 100, tries, first, 0x5E550000u + first, 0, 0};
+    it2n_link_cfg c = {&e->os, NULL, on_rx, on_done, e, 100, tries, first, 0x5E550000u + first, 0, 0, 0};
     assert_int_equal(it2n_link_init(&e->l, &c), IT2N_OK);
 }
 
@@ -98,11 +98,26 @@ static void test_init_checks(void **st)
 {
     (void)st;
     it2n_link l;
-    it2n_link_cfg c = {&A->os, NULL, on_rx, NULL, A, 0, 3, 0, 1, 0, 0};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, NULL, A, 0, 3, 0, 1, 0, 0, 0};
     assert_int_equal(it2n_link_init(&l, &c), IT2N_ERR_INVAL); /* rto 0 */
     c.rto_ms = 10;
     c.on_rx = NULL;
     assert_int_equal(it2n_link_init(&l, &c), IT2N_ERR_INVAL);
+    /* own window: a power of two within 4..IT2N_PROTO_WINDOW, 0 = that */
+    c.on_rx = on_rx;
+    c.window = 2;
+    assert_int_equal(it2n_link_init(&l, &c), IT2N_ERR_INVAL);
+    c.window = 6;
+    assert_int_equal(it2n_link_init(&l, &c), IT2N_ERR_INVAL);
+    c.window = (uint8_t)(IT2N_PROTO_WINDOW * 2);
+    assert_int_equal(it2n_link_init(&l, &c), IT2N_ERR_INVAL);
+    c.window = 4;
+    assert_int_equal(it2n_link_init(&l, &c), IT2N_OK);
+    assert_int_equal(it2n_link_window(&l), 4);
+    c.window = 0;
+    assert_int_equal(it2n_link_init(&l, &c), IT2N_OK);
+    assert_int_equal(it2n_link_window(&l), IT2N_PROTO_WINDOW);
+    assert_int_equal(it2n_link_send_window(&l), IT2N_PROTO_WINDOW_MIN);
 }
 
 static void test_basic_ack_and_window(void **st)
@@ -122,15 +137,25 @@ static void test_basic_ack_and_window(void **st)
     assert_int_equal(A->ndone, 1);
     assert_int_equal(A->done_code[0], 0);
     assert_int_equal(it2n_link_pending(&A->l), 0);
-    /* Now a full window, then BUSY. */
-    for (int k = 0; k < IT2N_PROTO_WINDOW; k++)
+    /* Before the peer's HELLO: the protocol minimum, then BUSY. */
+    for (int k = 0; k < IT2N_PROTO_WINDOW_MIN; k++)
         assert_int_equal(it2n_link_send(&A->l, &m, 3), 1001 + k);
     assert_int_equal(it2n_link_send(&A->l, &m, 3), IT2N_PROTO_ERR_BUSY);
-    assert_int_equal(it2n_link_pending(&A->l), IT2N_PROTO_WINDOW);
+    assert_int_equal(it2n_link_pending(&A->l), IT2N_PROTO_WINDOW_MIN);
     xfer(A, B, 4, 0);
-    assert_int_equal(B->nrx, 1 + IT2N_PROTO_WINDOW);
+    assert_int_equal(B->nrx, 1 + IT2N_PROTO_WINDOW_MIN);
     xfer(B, A, 5, 0);
-    assert_int_equal(A->ndone, 1 + IT2N_PROTO_WINDOW);
+    assert_int_equal(A->ndone, 1 + IT2N_PROTO_WINDOW_MIN);
+    /* The peer announced our whole window: all of it. */
+    it2n_link_set_peer(&A->l, IT2N_PROTO_WINDOW, 0);
+    for (int k = 0; k < IT2N_PROTO_WINDOW; k++)
+        assert_true(it2n_link_send(&A->l, &m, 5) >= 0);
+    assert_int_equal(it2n_link_send(&A->l, &m, 5), IT2N_PROTO_ERR_BUSY);
+    assert_int_equal(it2n_link_pending(&A->l), IT2N_PROTO_WINDOW);
+    xfer(A, B, 5, 0);
+    assert_int_equal(B->nrx, 1 + IT2N_PROTO_WINDOW_MIN + IT2N_PROTO_WINDOW);
+    xfer(B, A, 5, 0);
+    assert_int_equal(A->ndone, 1 + IT2N_PROTO_WINDOW_MIN + IT2N_PROTO_WINDOW);
     assert_int_equal(it2n_link_next_timeout(&A->l, 5), UINT32_MAX);
     /* ACK/NACK are link-internal. */
     m.type = IT2N_MSG_ACK;
@@ -454,7 +479,7 @@ static void test_rto_from_departure(void **st)
     assert_int_equal(it2n_link_rto_default(9600), 1110);
     assert_int_equal(it2n_link_rto_default(0), 100);
 
-    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 9600};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 9600};
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
     it2n_msg m = put_msg(19);
     assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
@@ -588,7 +613,7 @@ static void test_resync_over_answered_frame(void **st)
 static void test_line_clock_follows_answers(void **st)
 {
     (void)st;
-    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 9600};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 9600};
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
     it2n_msg m = put_msg(19);
     it2n_link_send(&A->l, &m, 0);
@@ -626,7 +651,7 @@ static void test_line_clock_follows_answers(void **st)
 static void test_rto_waits_for_busy_peer(void **st)
 {
     (void)st;
-    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 9600};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 9600};
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
     it2n_msg m = cfg_msg(1);
     it2n_link_send(&A->l, &m, 0);
@@ -662,7 +687,7 @@ static void test_rto_waits_for_busy_peer(void **st)
 static void test_backoff_counts_timeouts_only(void **st)
 {
     (void)st;
-    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 921600};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 921600};
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
     it2n_msg m = cfg_msg(1);
     it2n_link_send(&A->l, &m, 0);
@@ -769,6 +794,203 @@ static void test_peer_limits(void **st)
     assert_int_equal(A->l.peer_window, IT2N_PROTO_WINDOW);
 }
 
+/* ---- window negotiation (issue 11): a 4-frame peer (an MCU build) and a
+ * wide one, both ways, under loss and reordering ------------------------ */
+
+typedef struct wep {
+    ep e;
+    unsigned sent, want;       /* messages queued so far / in all       */
+    uint16_t first;            /* first sequence number sent            */
+    unsigned max_pending;      /* most frames seen in flight            */
+    unsigned over;             /* sends beyond the allowed window        */
+    int hello_seen;            /* the peer's HELLO was applied           */
+} wep;
+
+static int wep_rx(void *app, uint16_t seq, const it2n_msg *msg)
+{
+    wep *w = app;
+    if (msg->type == IT2N_MSG_HELLO) {
+        it2n_link_set_peer(&w->e.l, msg->u.hello.window, msg->u.hello.max_payload);
+        w->hello_seen = 1;
+    }
+    return on_rx(&w->e, seq, msg);
+}
+
+static void wep_init(wep *w, uint16_t first, uint8_t window, unsigned want)
+{
+    memset(w, 0, sizeof *w);
+    w->e.os = mem_stream(&w->e.out);
+    it2n_link_cfg c = {&w->e.os, NULL, wep_rx, on_done, w, 40, 0, first, 0xC0DE0000u + first, 0, window, 0};
+    assert_int_equal(it2n_link_init(&w->e.l, &c), IT2N_OK);
+    w->first = first;
+    w->want = want;
+}
+
+/* Span of the sequence numbers in flight (0 when none). */
+static unsigned span_in_flight(const it2n_link *l)
+{
+    unsigned k, span = 0;
+    for (k = 0; k < IT2N_PROTO_WINDOW; k++)
+        if (l->slot[k].used && (uint16_t)(l->tx_next - l->slot[k].seq) > span)
+            span = (uint16_t)(l->tx_next - l->slot[k].seq);
+    return span;
+}
+
+/* Queue what the window allows: HELLO first (alone, SYN), then CONFIGUREs
+ * whose model byte is the message number (checked in order at the other
+ * end). */
+static void wep_send(wep *w, uint32_t now)
+{
+    while (w->sent < w->want && it2n_link_can_send(&w->e.l)) {
+        it2n_msg m;
+        memset(&m, 0, sizeof m);
+        if (w->sent == 0) {
+            m.type = IT2N_MSG_HELLO;
+            m.u.hello.version_min = m.u.hello.version_max = IT2N_PROTO_VERSION;
+            m.u.hello.max_degree = IT2N_MAX_DEGREE;
+            m.u.hello.window = it2n_link_window(&w->e.l);
+            m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
+        } else {
+            m = cfg_msg((uint8_t)(w->sent % 250u));
+        }
+        assert_true(it2n_link_send(&w->e.l, &m, now) >= 0);
+        w->sent++;
+        unsigned allowed = it2n_link_send_window(&w->e.l);
+        if (span_in_flight(&w->e.l) > allowed || it2n_link_pending(&w->e.l) > allowed)
+            w->over++;
+        if (it2n_link_pending(&w->e.l) > w->max_pending)
+            w->max_pending = it2n_link_pending(&w->e.l);
+    }
+}
+
+/* The line: frames of `from` reach `to` in order, except that each is lost
+ * with drop_pct, or swapped with the next one with swap_pct. */
+static void lossy_xfer(wep *from, wep *to, uint32_t now, uint64_t *rng, unsigned drop_pct, unsigned swap_pct)
+{
+    mem_out *o = &from->e.out;
+    size_t starts[4096], lens[4096], n = 0, at = 0;
+    for (size_t k = 0; k < o->len && n < 4096; k++)
+        if (o->buf[k] == 0) {
+            starts[n] = at;
+            lens[n++] = k + 1 - at;
+            at = k + 1;
+        }
+    for (size_t k = 0; k < n; k++) {
+        if (k + 1 < n && rng_below(rng, 100) < swap_pct) {
+            size_t s0 = starts[k], l0 = lens[k];
+            starts[k] = starts[k + 1];
+            lens[k] = lens[k + 1];
+            starts[k + 1] = s0;
+            lens[k + 1] = l0;
+        }
+        if (rng_below(rng, 100) < drop_pct)
+            continue;
+        assert_int_equal(it2n_link_input(&to->e.l, o->buf + starts[k], lens[k], now), IT2N_OK);
+    }
+    o->len = 0;
+}
+
+static void run_negotiation(uint8_t wa, uint8_t wb, unsigned drop_pct, uint64_t seed)
+{
+    wep *a = calloc(1, sizeof *a), *b = calloc(1, sizeof *b);
+    uint64_t rng = seed;
+    uint32_t now = 0;
+    unsigned expect_ab, expect_ba;
+    wep_init(a, 65500, wa, 400); /* both sequences wrap */
+    wep_init(b, 65000, wb, 400);
+    expect_ab = wa < wb ? wa : wb;
+    expect_ba = expect_ab;
+    for (; now < 200000 && (a->e.ndone < a->want || b->e.ndone < b->want); now++) {
+        wep_send(a, now);
+        wep_send(b, now);
+        lossy_xfer(a, b, now, &rng, drop_pct, 5);
+        lossy_xfer(b, a, now, &rng, drop_pct, 5);
+        it2n_link_poll(&a->e.l, now);
+        it2n_link_poll(&b->e.l, now);
+    }
+    /* nothing lost: every message ACKed, delivered once and in order */
+    assert_int_equal(a->e.ndone, a->want);
+    assert_int_equal(b->e.ndone, b->want);
+    for (unsigned k = 0; k < 64; k++) {
+        assert_int_equal(a->e.done_code[k], 0);
+        assert_int_equal(b->e.done_code[k], 0);
+    }
+    assert_int_equal(b->e.nrx, a->want);
+    assert_int_equal(a->e.nrx, b->want);
+    assert_int_equal(b->e.l.stats.rx_delivered, a->want);
+    assert_int_equal(a->e.l.stats.rx_delivered, b->want);
+    assert_int_equal(b->e.last_rx.u.configure.model, (a->want - 1u) % 250u);
+    assert_int_equal(a->e.last_rx.u.configure.model, (b->want - 1u) % 250u);
+    /* the negotiated window, never more; used to the full */
+    assert_true(a->hello_seen && b->hello_seen);
+    assert_int_equal(it2n_link_send_window(&a->e.l), expect_ab);
+    assert_int_equal(it2n_link_send_window(&b->e.l), expect_ba);
+    assert_int_equal(a->over, 0);
+    assert_int_equal(b->over, 0);
+    assert_int_equal(a->max_pending, expect_ab);
+    assert_int_equal(b->max_pending, expect_ba);
+    /* nothing ever arrived beyond a receiver's window (its history and
+     * reorder buffer): no frame dropped as out of window */
+    assert_int_equal(a->e.l.stats.rx_ahead, 0);
+    assert_int_equal(b->e.l.stats.rx_ahead, 0);
+    if (drop_pct) {
+        assert_true(a->e.l.stats.tx_retx > 0 && b->e.l.stats.tx_retx > 0);
+        assert_true(a->e.l.stats.rx_buffered > 0 && b->e.l.stats.rx_buffered > 0);
+    }
+    free(a);
+    free(b);
+}
+
+static void test_window_negotiated_4_16(void **st)
+{
+    (void)st;
+    run_negotiation(4, IT2N_PROTO_WINDOW, 0, 1);
+    run_negotiation(4, IT2N_PROTO_WINDOW, 15, 2);
+    run_negotiation(4, IT2N_PROTO_WINDOW, 15, 3);
+}
+
+static void test_window_negotiated_16_4(void **st)
+{
+    (void)st;
+    run_negotiation(IT2N_PROTO_WINDOW, 4, 15, 4);
+    run_negotiation(IT2N_PROTO_WINDOW, 4, 15, 5);
+}
+
+static void test_window_negotiated_wide(void **st)
+{
+    (void)st;
+    run_negotiation(IT2N_PROTO_WINDOW, IT2N_PROTO_WINDOW, 0, 6);
+    run_negotiation(IT2N_PROTO_WINDOW, IT2N_PROTO_WINDOW, 15, 7);
+}
+
+/* The check above can fail: a sender that ignores a 4-frame receiver's
+ * window (here told 16 while the receiver keeps 4) gets frames dropped as
+ * out of window, and the test's rx_ahead assertion would see them. */
+static void test_window_overrun_is_detected(void **st)
+{
+    (void)st;
+    wep *a = calloc(1, sizeof *a), *b = calloc(1, sizeof *b);
+    uint64_t rng = 9;
+    wep_init(a, 100, IT2N_PROTO_WINDOW, 60);
+    wep_init(b, 200, 4, 1);
+    wep_send(a, 0); /* HELLO, alone */
+    lossy_xfer(a, b, 0, &rng, 0, 0);
+    lossy_xfer(b, a, 0, &rng, 0, 0);
+    it2n_link_set_peer(&a->e.l, IT2N_PROTO_WINDOW, 0); /* wrong: b said 4 */
+    wep_send(a, 1);
+    assert_int_equal(it2n_link_pending(&a->e.l), IT2N_PROTO_WINDOW);
+    /* the first frame is lost: the others are ahead of the gap */
+    mem_out *o = &a->e.out;
+    size_t k = 0;
+    while (o->buf[k] != 0)
+        k++;
+    assert_int_equal(it2n_link_input(&b->e.l, o->buf + k + 1, o->len - k - 1, 1), IT2N_OK);
+    o->len = 0;
+    assert_true(b->e.l.stats.rx_ahead > 0);
+    free(a);
+    free(b);
+}
+
 /* A late copy of this session's SYN frame, arriving after the sequence
  * moved past the history, is stale: not a new sequence, not delivered. */
 static void test_stale_syn_copy(void **st)
@@ -792,6 +1014,73 @@ static void test_stale_syn_copy(void **st)
     it2n_link_send(&A->l, &m, 3);           /* the sequence goes on */
     xfer(A, B, 3, 0);
     assert_int_equal(B->nrx, n + 1);
+}
+
+/* Bug (ctl-test lossy link, 1 run in 4): a fresh receiver that reads a
+ * stale copy of an old SYN frame first (left in a tty or relay buffer)
+ * starts its sequence there, ACKs it (stale for the sender) and then waits
+ * for a frame the sender counts as answered: it kept the sender's next
+ * frames silently (or dropped them beyond the window) and the sender never
+ * resent the frame GAP asked for: both sides stalled until the timeout.
+ * Now the sender resyncs on such a GAP, the receiver repeats its GAP on a
+ * retransmission of a kept frame, and answers NOSYNC beyond the window. */
+static void stale_syn_then(unsigned later, int drop_first_gap)
+{
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    mem_out syn = A->out; /* a copy of A's SYN frame, left in a buffer */
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    for (unsigned k = 0; k < later; k++) { /* answered by the old receiver */
+        it2n_link_send(&A->l, &m, 1);
+        xfer(A, B, 1, 0);
+        xfer(B, A, 1, 0);
+    }
+    ep_init(B, 7, 5); /* a new receiver process on the same line */
+    assert_int_equal(it2n_link_input(&B->l, syn.buf, syn.len, 2), IT2N_OK);
+    assert_int_equal(B->nrx, 1); /* it took the stale copy as a start */
+    xfer(B, A, 2, 0);            /* its ACK is stale for A */
+    assert_int_equal(A->l.stats.rx_stale_acks, 1);
+    int32_t seq = it2n_link_send(&A->l, &m, 3);
+    assert_true(seq >= 0);
+    xfer(A, B, 3, 0);
+    assert_int_equal(B->nrx, 1); /* not deliverable in B's sequence */
+    xfer(B, A, 4, drop_first_gap);
+    uint32_t t = 4;
+    for (int round = 0; round < 4 && it2n_link_pending(&A->l); round++) {
+        t += 1000;
+        it2n_link_poll(&A->l, t);
+        xfer(A, B, t, 0);
+        xfer(B, A, t, 0);
+    }
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(A->done_code[A->ndone - 1], IT2N_OK);
+    assert_int_equal(B->nrx, 2); /* delivered, once */
+    assert_int_equal(B->rx_seq[1], (uint16_t)seq);
+    assert_true(A->l.stats.tx_resyncs >= 1);
+    it2n_link_send(&A->l, &m, t + 1); /* and the sequence goes on */
+    xfer(A, B, t + 1, 0);
+    xfer(B, A, t + 1, 0);
+    assert_int_equal(B->nrx, 3);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+static void test_fresh_receiver_on_stale_syn_gap(void **st)
+{
+    (void)st;
+    stale_syn_then(2, 0); /* A's next frame is inside B's window: GAP */
+}
+
+static void test_fresh_receiver_on_stale_syn_gap_lost(void **st)
+{
+    (void)st;
+    stale_syn_then(2, 1); /* ... and B's first GAP is lost */
+}
+
+static void test_fresh_receiver_on_stale_syn_beyond(void **st)
+{
+    (void)st;
+    stale_syn_then(3 * IT2N_PROTO_WINDOW, 0); /* beyond B's window: NOSYNC */
 }
 
 /* A SYN frame without the session id is refused, not delivered. */
@@ -822,6 +1111,7 @@ static void test_seq_wraps(void **st)
 {
     (void)st;
     ep_init(A, 65533, 5);
+    it2n_link_set_peer(&A->l, IT2N_PROTO_WINDOW, 0); /* the whole window */
     it2n_msg m = cfg_msg(1);
     for (int round = 0; round < 3; round++) {
         int sent = 0;
@@ -958,8 +1248,15 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_resync_over_answered_frame, setup, teardown),
         cmocka_unit_test_setup_teardown(test_backoff_counts_timeouts_only, setup, teardown),
         cmocka_unit_test_setup_teardown(test_peer_limits, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_window_negotiated_4_16, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_window_negotiated_16_4, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_window_negotiated_wide, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_window_overrun_is_detected, setup, teardown),
         cmocka_unit_test_setup_teardown(test_syn_without_session, setup, teardown),
         cmocka_unit_test_setup_teardown(test_stale_syn_copy, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_gap, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_gap_lost, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_beyond, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
 }

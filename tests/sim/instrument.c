@@ -326,13 +326,16 @@ int main(int argc, char **argv)
             if (m.type && it2n_link_send(&l, &m, now) < 0)
                 return 2;
         }
-        while (step < 4 && it2n_link_can_send(&l)) {
+        /* CONFIGURE is a barrier (docs/protocol.md 4.2 rule 7): alone in
+         * flight, answered before the first PUT goes out. */
+        while (step < 4 && it2n_link_can_send(&l) &&
+               ((step != 1 && !(step == 2 && i == 0 && j == 0 && fp == 0)) || it2n_link_pending(&l) == 0)) {
             memset(&m, 0, sizeof m);
             if (step == 0) {
                 m.type = IT2N_MSG_HELLO;
                 m.u.hello.version_min = m.u.hello.version_max = IT2N_PROTO_VERSION;
                 m.u.hello.max_degree = IT2N_MAX_DEGREE;
-                m.u.hello.window = IT2N_PROTO_WINDOW;
+                m.u.hello.window = it2n_link_window(&l);
                 m.u.hello.caps = evlog ? IT2N_CAP_EVENTS : IT2N_CAP_INSTRUMENT;
                 m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
                 m.u.hello.max_models = 1;

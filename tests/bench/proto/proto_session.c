@@ -14,9 +14,23 @@
  *            ROUNDS times with the REPLACE flag, COMMIT: entries per second
  *            from the first PUT to the last PUT's ACK (ACK means durable).
  *
- *   proto_session --device PATH [--degree NxM] [--queries Q] [--sample S]
- *                 [--ingest ROUNDS] [--baud BD] [--rto MS] [--tries N]
- *                 [--rerequest-ms MS] [--timeout S] [--seed S]
+ *   proto_session --device PATH | --fd N [--degree NxM] [--queries Q]
+ *                 [--sample S] [--ingest ROUNDS [--reconfigure 1]] [--window W]
+ *                 [--baud BD] [--rto MS]
+ *                 [--tries N] [--rerequest-ms MS] [--timeout S] [--seed S]
+ *
+ * --fd N: the line is the inherited descriptor N (e.g. the master of a pty
+ * pair whose slave the daemon opened) instead of --device.
+ * --reconfigure: (with --ingest) each round starts with CONFIGURE (sent in
+ * the stream, not waited for) and PUTs without REPLACE: every round fills
+ * an empty model (one solve, at its last entry) instead of updating a
+ * solved one entry by entry.
+ * --baud BD: the line's rate; the RTO then counts from when a frame has
+ * left the line, default it2n_link_rto_default(BD) as it2nd (else 150 ms).
+ * --window W: the window announced in HELLO and kept to (4..16, a power
+ * of two; default 4: the fixed RTO of 150 ms covers 4 maximal frames on a
+ * 921600 Bd line, not 16). Frames in flight are min(W, the daemon's HELLO
+ * window); "max_in_flight" in the output is the most seen.
  *
  * Host re-requests: a request whose responses stop coming (no new response
  * for --rerequest-ms after the request was ACKed, default 3000), whose
@@ -63,9 +77,36 @@ static uint32_t now_ms(void)
     return (uint32_t)(now_us() / 1000u);
 }
 
+/* it2n_frame_write hands a frame over in COBS blocks of at most 255
+ * bytes, the 0x00 delimiter last: collect them and write the frame whole,
+ * one write() instead of up to five, so that the daemon wakes up once per
+ * frame rather than once per block. */
+static uint8_t stage[IT2N_FRAME_MAX_WIRE];
+static size_t nstage;
+
+static int fd_write_all(const uint8_t *p, size_t n);
+
 static int fd_write(it2n_ostream *s, const uint8_t *p, size_t n)
 {
     (void)s;
+    if (n > sizeof stage - nstage) { /* cannot happen: frames fit */
+        size_t k = nstage;
+        nstage = 0;
+        if (fd_write_all(stage, k))
+            return IT2N_PROTO_ERR_STREAM;
+        return fd_write_all(p, n);
+    }
+    memcpy(stage + nstage, p, n);
+    nstage += n;
+    if (p[n - 1] != 0)
+        return 0;
+    n = nstage;
+    nstage = 0;
+    return fd_write_all(stage, n);
+}
+
+static int fd_write_all(const uint8_t *p, size_t n)
+{
     while (n) {
         ssize_t w = write(fd, p, n);
         if (w < 0 && (errno == EAGAIN || errno == EINTR)) {
@@ -133,9 +174,15 @@ static it2n_par node_par(uint32_t k, uint32_t count)
 static int trace;
 static uint64_t t_start;
 
+static unsigned max_in_flight, daemon_window;
+
 static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
 {
     (void)app;
+    if (m->type == IT2N_MSG_HELLO) { /* the daemon's limits */
+        daemon_window = m->u.hello.window;
+        it2n_link_set_peer(&lk, m->u.hello.window, m->u.hello.max_payload);
+    }
     if (trace)
         fprintf(stderr, "%9.3f rx %s seq %u\n", (double)(now_us() - t_start) / 1e3, it2n_msg_name(m->type), seq);
     if (m->type == IT2N_MSG_QUERY_RESULT && nqq) {
@@ -300,6 +347,8 @@ static int send_msg(const it2n_msg *m)
         if (now_us() > deadline || pump(50))
             return -1;
     }
+    if (it2n_link_pending(&lk) > max_in_flight)
+        max_in_flight = it2n_link_pending(&lk);
     if (s < 0) {
         fprintf(stderr, "proto_session: send %s: %s\n", it2n_msg_name(m->type), it2n_proto_strerror((int)s));
         exit(2);
@@ -449,6 +498,8 @@ int main(int argc, char **argv)
 {
     const char *dev = NULL;
     unsigned n = 7, mdeg = 7, queries = 16, sample = 33, ingest = 0, rto = 0, baud = 0, tries = 100, timeout_s = 300;
+    unsigned window = 4, reconfigure = 0;
+    int in_fd = -1;
     uint32_t seed = 2026;
     for (int k = 1; k < argc; k++) {
         const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
@@ -458,6 +509,9 @@ int main(int argc, char **argv)
         }
         k++;
         if (!strcmp(a, "--device")) dev = v;
+        else if (!strcmp(a, "--fd")) in_fd = atoi(v);
+        else if (!strcmp(a, "--reconfigure")) reconfigure = (unsigned)atoi(v);
+        else if (!strcmp(a, "--window")) window = (unsigned)atoi(v);
         else if (!strcmp(a, "--degree")) {
             if (sscanf(v, "%ux%u", &n, &mdeg) != 2) {
                 fprintf(stderr, "proto_session: --degree NxM\n");
@@ -478,13 +532,14 @@ int main(int argc, char **argv)
             return 2;
         }
     }
-    if (!dev || n < 1 || n > IT2N_MAX_DEGREE || mdeg < 1 || mdeg > IT2N_MAX_DEGREE ||
+    if ((!dev) == (in_fd < 0) || window < IT2N_PROTO_WINDOW_MIN || window > IT2N_PROTO_WINDOW ||
+        (window & (window - 1)) || n < 1 || n > IT2N_MAX_DEGREE || mdeg < 1 || mdeg > IT2N_MAX_DEGREE ||
         queries > MAX_QUERIES || (sample && (sample < 2 || sample * sample > MAX_NODES)) ||
         tries < 1 || tries > 255 || model_id > 254) {
-        fprintf(stderr, "usage: proto_session --device PATH [--degree NxM] [--queries Q<=%u] [--sample S]\n"
-                        "       [--ingest ROUNDS] [--baud BD] [--rto MS] [--tries N] [--rerequest-ms MS]\n"
-                        "       [--timeout S]\n",
-                MAX_QUERIES);
+        fprintf(stderr, "usage: proto_session --device PATH | --fd N [--degree NxM] [--queries Q<=%u] [--sample S]\n"
+                        "       [--ingest ROUNDS] [--window 4..%u] [--baud BD] [--rto MS] [--tries N]\n"
+                        "       [--rerequest-ms MS] [--timeout S]\n",
+                MAX_QUERIES, (unsigned)IT2N_PROTO_WINDOW);
         return 2;
     }
     it2n_errinfo e;
@@ -499,7 +554,19 @@ int main(int argc, char **argv)
     }
     sample_seen = calloc(MAX_NODES, 1);
     sample_v = calloc(MAX_NODES, sizeof *sample_v);
-    if (!sample_seen || !sample_v || open_device(dev)) {
+    if (in_fd >= 0) {
+        struct termios t;
+        fd = in_fd;
+        if (fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK) < 0) {
+            perror("proto_session: --fd");
+            return 3;
+        }
+        if (tcgetattr(fd, &t) == 0) {
+            cfmakeraw(&t);
+            tcsetattr(fd, TCSANOW, &t);
+        }
+    }
+    if (!sample_seen || !sample_v || (in_fd < 0 && open_device(dev))) {
         perror("proto_session: open");
         return 3;
     }
@@ -514,6 +581,7 @@ int main(int argc, char **argv)
     cfg.baud = baud;
     cfg.rto_ms = rto ? rto : baud ? it2n_link_rto_default(baud) : 150u;
     cfg.max_tries = (uint8_t)tries;
+    cfg.window = (uint8_t)window;
     cfg.first_seq = (uint16_t)((now_us() ^ ((uint64_t)getpid() << 8)) & 0xFFFF);
     /* A v1.1 session id (protocol.md 4.2): without one (0) every SYN copy
      * starts a new sequence, so a late duplicate of the first frame would
@@ -540,7 +608,7 @@ int main(int argc, char **argv)
         m.u.hello.version_min = 1;
         m.u.hello.version_max = IT2N_PROTO_VERSION;
         m.u.hello.max_degree = IT2N_MAX_DEGREE;
-        m.u.hello.window = IT2N_PROTO_WINDOW;
+        m.u.hello.window = it2n_link_window(&lk);
         m.u.hello.caps = IT2N_CAP_INSTRUMENT;
         m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
         m.u.hello.max_models = 1;
@@ -556,9 +624,20 @@ int main(int argc, char **argv)
         if (send_msg(&m) < 0 || wait_idle())
             break;
         t_put0 = now_us();
-        for (unsigned r = 0; r < (ingest ? ingest : 1); r++)
-            if (put_all(ingest ? IT2N_PUT_REPLACE : 0, &entries))
+        for (unsigned r = 0; r < (ingest ? ingest : 1); r++) {
+            if (ingest && reconfigure && r > 0) {
+                memset(&m, 0, sizeof m);
+                m.type = IT2N_MSG_CONFIGURE;
+                m.u.configure.model = (uint8_t)model_id;
+                m.u.configure.n = ds.n;
+                m.u.configure.m = ds.m;
+                m.u.configure.flags = ds.flags;
+                if (send_msg(&m) < 0)
+                    goto out;
+            }
+            if (put_all(ingest && !reconfigure ? IT2N_PUT_REPLACE : 0, &entries))
                 goto out;
+        }
         if (wait_idle())
             break;
         t_put1 = now_us();
@@ -612,7 +691,8 @@ out:;
            "\"digest\": \"%016llx\", \"mismatches\": %u, \"duplicate_points_differing\": %u, \"refused\": %u, "
            "\"host_rerequests\": %u, \"rerequests_stalled\": %u, \"rerequests_busy\": %u, "
            "\"rerequests_lost\": %u, \"busy_retries\": %u, \"link\": {\"tx_frames\": %u, \"tx_retx\": %u, \"tx_timeouts\": %u, "
-           "\"rx_delivered\": %u, \"rx_dup\": %u, \"rx_ahead\": %u, \"rx_nosync\": %u}}\n",
+           "\"rx_delivered\": %u, \"rx_dup\": %u, \"rx_ahead\": %u, \"rx_nosync\": %u}, \"window\": %u, "
+           "\"daemon_window\": %u, \"max_in_flight\": %u}\n",
            rc == 0 ? "true" : "false", rc, wall, t_upload ? (double)(t_upload - t0) / 1e6 : 0.0,
            t_queries ? (double)(t_queries - t_upload) / 1e6 : 0.0,
            t_queries && ok ? (double)(t1 - t_queries) / 1e6 : 0.0, ds.n, ds.m, entries, queries, sample,
@@ -621,6 +701,6 @@ out:;
            (unsigned long long)digest, mismatches, dup_diff, refused,
            rereq_timeout + rereq_busy + rereq_lost, rereq_timeout, rereq_busy, rereq_lost,
            busy_retries, lk.stats.tx_frames, lk.stats.tx_retx, lk.stats.tx_timeouts, lk.stats.rx_delivered,
-           lk.stats.rx_dup, lk.stats.rx_ahead, lk.stats.rx_nosync);
+           lk.stats.rx_dup, lk.stats.rx_ahead, lk.stats.rx_nosync, window, daemon_window, max_in_flight);
     return rc;
 }
