@@ -256,6 +256,19 @@ static void test_nack_detail_and_resync(void **st)
     assert_int_equal(it2n_inst_open(I, &bad), IT2N_ERR_INVAL);
 }
 
+/* One round in feed mode: the server runs, its bytes are fed to the
+ * instrument, which then polls. */
+static void feed_round(void)
+{
+    uint8_t buf[4096];
+    exchange();
+    size_t n = S->out.len;
+    memcpy(buf, S->out.buf, n);
+    S->out.len = 0;
+    it2n_inst_feed(I, buf, n);
+    assert_int_equal(it2n_inst_poll(I), 0);
+}
+
 static void test_feed_mode_busy_and_loss(void **st)
 {
     (void)st;
@@ -263,19 +276,13 @@ static void test_feed_mode_busy_and_loss(void **st)
     assert_int_equal(it2n_inst_open(I, &c), IT2N_OK);
     /* SYN in flight alone: the next frame has to wait */
     assert_int_equal(it2n_inst_configure(I, 1, 1, 1, 0), IT2N_PROTO_ERR_BUSY);
-    uint8_t buf[4096];
     unsigned busy = 1, sent = 0; /* the CONFIGURE above */
     it2n_val v[IT2N_CH_COUNT];
     unsigned i = 0;
     drop_next = 1; /* our first frame after HELLO (the ACK of the server HELLO) is lost */
     int configured = 0;
     for (int it = 0; it < 5000 && (sent < 4 || it2n_inst_sync(I) != IT2N_OK || it2n_link_pending(&S->l)); it++) {
-        exchange();
-        size_t n = S->out.len;
-        memcpy(buf, S->out.buf, n);
-        S->out.len = 0;
-        it2n_inst_feed(I, buf, n);
-        assert_int_equal(it2n_inst_poll(I), 0);
+        feed_round();
         if (!configured) {
             int r = it2n_inst_configure(I, 1, 1, 1, 0);
             if (r == IT2N_PROTO_ERR_BUSY) {
@@ -294,12 +301,7 @@ static void test_feed_mode_busy_and_loss(void **st)
             if (sent == 4) {
                 r = it2n_inst_commit(I, 1);
                 while (r == IT2N_PROTO_ERR_BUSY) {
-                    exchange();
-                    n = S->out.len;
-                    memcpy(buf, S->out.buf, n);
-                    S->out.len = 0;
-                    it2n_inst_feed(I, buf, n);
-                    it2n_inst_poll(I);
+                    feed_round();
                     busy++;
                     r = it2n_inst_commit(I, 1);
                 }
@@ -319,14 +321,8 @@ static void test_feed_mode_busy_and_loss(void **st)
     memset(&res, 0, sizeof res);
     assert_int_equal(it2n_inst_query(I, 1, 99, 1, &res), IT2N_OK);
     assert_false(it2n_inst_query_done(I));
-    for (int it = 0; it < 100 && !it2n_inst_query_done(I); it++) {
-        exchange();
-        size_t n = S->out.len;
-        memcpy(buf, S->out.buf, n);
-        S->out.len = 0;
-        it2n_inst_feed(I, buf, n);
-        it2n_inst_poll(I);
-    }
+    for (int it = 0; it < 100 && !it2n_inst_query_done(I); it++)
+        feed_round();
     assert_true(it2n_inst_query_done(I));
     assert_true(res.u == 99);
 }
@@ -334,17 +330,6 @@ static void test_feed_mode_busy_and_loss(void **st)
 /* A CONFIGURE whose answer is outstanding holds everything behind it (a
  * barrier): a PUT ACKed before it would be cleared by the CONFIGURE re-sent
  * after a restart. Before: the PUTs went out in the same window. */
-static void feed_round(void)
-{
-    uint8_t buf[4096];
-    exchange();
-    size_t n = S->out.len;
-    memcpy(buf, S->out.buf, n);
-    S->out.len = 0;
-    it2n_inst_feed(I, buf, n);
-    assert_int_equal(it2n_inst_poll(I), 0);
-}
-
 static void test_configure_is_a_barrier(void **st)
 {
     (void)st;

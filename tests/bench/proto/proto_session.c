@@ -176,6 +176,16 @@ static uint64_t t_start;
 
 static unsigned max_in_flight, daemon_window;
 
+/* A QUERY_RESULT against the core's own evaluation, bit for bit. */
+static void check_result(const it2n_msg_query_result *d)
+{
+    it2n_point pt;
+    it2n_eval(&local, it2n_par_from_wire(d->u), it2n_par_from_wire(d->w), &pt, NULL);
+    mismatches += memcmp(pt.v, d->v, sizeof pt.v) != 0;
+    mismatches += memcmp(&pt.sum, &d->sum, sizeof pt.sum) != 0;
+    mismatches += pt.out_of_range != d->out_of_range;
+}
+
 static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
 {
     (void)app;
@@ -190,11 +200,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
         for (unsigned k = 0; k < nqq; k++) {
             if (qq[k].got || qq[k].state == R_NONE || d->u != qq[k].msg.u.query.u || d->w != qq[k].msg.u.query.w)
                 continue;
-            it2n_point pt;
-            it2n_eval(&local, it2n_par_from_wire(d->u), it2n_par_from_wire(d->w), &pt, NULL);
-            mismatches += memcmp(pt.v, d->v, sizeof pt.v) != 0;
-            mismatches += memcmp(&pt.sum, &d->sum, sizeof pt.sum) != 0;
-            mismatches += pt.out_of_range != d->out_of_range;
+            check_result(d);
             qres[k] = *d;
             qq[k].got = 1;
             break;
@@ -203,11 +209,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
         m->u.query_result.u == cur.msg.u.query.u && m->u.query_result.w == cur.msg.u.query.w) {
         const it2n_msg_query_result *d = &m->u.query_result;
         if (cur.got == 0) {
-            it2n_point pt;
-            it2n_eval(&local, it2n_par_from_wire(d->u), it2n_par_from_wire(d->w), &pt, NULL);
-            mismatches += memcmp(pt.v, d->v, sizeof pt.v) != 0;
-            mismatches += memcmp(&pt.sum, &d->sum, sizeof pt.sum) != 0;
-            mismatches += pt.out_of_range != d->out_of_range;
+            check_result(d);
             qres[query_k] = *d;
             cur.got = 1;
             cur.progress = now_us();
