@@ -447,6 +447,20 @@ static int wait_idle(void)
     return refused ? -1 : 0;
 }
 
+/* CONFIGURE is a barrier (docs/protocol.md 4.2 rule 7): sent with nothing
+ * else in flight, answered before anything follows. 0 or failure. */
+static int configure(const it2n_dataset *d)
+{
+    it2n_msg c;
+    memset(&c, 0, sizeof c);
+    c.type = IT2N_MSG_CONFIGURE;
+    c.u.configure.model = (uint8_t)model_id;
+    c.u.configure.n = d->n;
+    c.u.configure.m = d->m;
+    c.u.configure.flags = d->flags;
+    return wait_idle() || send_msg(&c) < 0 || wait_idle();
+}
+
 /* Queue PUTs of every entry (flags), keeping the window full. */
 static int put_all(uint8_t flags, unsigned *entries)
 {
@@ -617,26 +631,12 @@ int main(int argc, char **argv)
         memcpy(m.u.hello.node, "proto-bench", 11);
         if (send_msg(&m) < 0 || wait_idle())
             break;
-        memset(&m, 0, sizeof m);
-        m.type = IT2N_MSG_CONFIGURE;
-        m.u.configure.model = (uint8_t)model_id;
-        m.u.configure.n = ds.n;
-        m.u.configure.m = ds.m;
-        m.u.configure.flags = ds.flags;
-        if (send_msg(&m) < 0 || wait_idle())
+        if (configure(&ds))
             break;
         t_put0 = now_us();
         for (unsigned r = 0; r < (ingest ? ingest : 1); r++) {
-            if (ingest && reconfigure && r > 0) {
-                memset(&m, 0, sizeof m);
-                m.type = IT2N_MSG_CONFIGURE;
-                m.u.configure.model = (uint8_t)model_id;
-                m.u.configure.n = ds.n;
-                m.u.configure.m = ds.m;
-                m.u.configure.flags = ds.flags;
-                if (send_msg(&m) < 0)
-                    goto out;
-            }
+            if (ingest && reconfigure && r > 0 && configure(&ds))
+                goto out;
             if (put_all(ingest && !reconfigure ? IT2N_PUT_REPLACE : 0, &entries))
                 goto out;
         }
