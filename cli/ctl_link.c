@@ -44,6 +44,11 @@ typedef struct lk_conn {
     /* EVENTs of our model */
     bool event;
     uint32_t event_gen;
+    /* it2n_frame_write hands a frame over in COBS blocks: they are
+     * collected and the frame goes out in one write (one wake-up of the
+     * daemon per frame, not one per block) */
+    uint8_t stage[IT2N_FRAME_MAX_WIRE];
+    size_t nstage;
 } lk_conn;
 
 static uint32_t now_ms(void)
@@ -54,9 +59,8 @@ static uint32_t now_ms(void)
                       (uint64_t)ts.tv_nsec / 1000000u);
 }
 
-static int fd_write(it2n_ostream *s, const uint8_t *buf, size_t len)
+static int fd_write_all(lk_conn *c, const uint8_t *buf, size_t len)
 {
-    lk_conn *c = s->state;
     while (len > 0) {
         ssize_t n = write(c->fd, buf, len);
         if (n < 0 && (errno == EAGAIN || errno == EINTR)) {
@@ -74,6 +78,24 @@ static int fd_write(it2n_ostream *s, const uint8_t *buf, size_t len)
         len -= (size_t)n;
     }
     return 0;
+}
+
+static int fd_write(it2n_ostream *s, const uint8_t *buf, size_t len)
+{
+    lk_conn *c = s->state;
+    int r;
+    if (len > sizeof c->stage - c->nstage) { /* never for a valid frame */
+        r = fd_write_all(c, c->stage, c->nstage);
+        c->nstage = 0;
+        return r != 0 ? r : fd_write_all(c, buf, len);
+    }
+    memcpy(c->stage + c->nstage, buf, len);
+    c->nstage += len;
+    if (len == 0 || buf[len - 1] != 0)
+        return 0; /* more blocks of this frame follow */
+    r = fd_write_all(c, c->stage, c->nstage);
+    c->nstage = 0;
+    return r;
 }
 
 static int fd_read(it2n_istream *s, uint8_t *buf, size_t len)
