@@ -29,6 +29,15 @@ static speed_t speed_of(int baud)
     }
 }
 
+int link_serial_lock(int fd)
+{
+    if (flock(fd, LOCK_EX | LOCK_NB) == 0)
+        return 0;
+    if (errno == EWOULDBLOCK)
+        errno = EBUSY; /* "in use" */
+    return -1;
+}
+
 int link_serial_open(const char *device, int baud)
 {
     struct termios t;
@@ -41,12 +50,11 @@ int link_serial_open(const char *device, int baud)
     fd = open(device, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0)
         return -1;
-    /* One owner per device (the convention of picocom, minicom, ...): a
-     * second it2nd, or one whose vanished pty path now names another
+    /* A second it2nd, or one whose vanished pty path now names another
      * process's pty, must neither steal frames nor change the line
-     * settings. EWOULDBLOCK becomes EBUSY: "in use". */
-    if (flock(fd, LOCK_EX | LOCK_NB)) {
-        int e = errno == EWOULDBLOCK ? EBUSY : errno;
+     * settings. */
+    if (link_serial_lock(fd)) {
+        int e = errno;
         close(fd);
         errno = e;
         return -1;

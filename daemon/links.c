@@ -931,9 +931,7 @@ static void link_open(void *arg)
     if (l->cfg.type == CONF_LINK_SERIAL) {
         l->fd = link_serial_open(l->cfg.device, l->cfg.baud);
         if (l->fd < 0) {
-            link_down(l, errno == EBUSY ? "device locked by another process (another it2nd, or a terminal program "
-                                          "holding it)"
-                                        : strerror(errno));
+            link_down(l, errno == EBUSY ? LINK_SERIAL_LOCKED : strerror(errno));
             return;
         }
         l->tty = isatty(l->fd);

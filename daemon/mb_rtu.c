@@ -24,10 +24,10 @@
 #include <linux/serial.h>
 #include <stdio.h>
 #include <string.h>
-#include <sys/file.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
 
+#include "link_serial.h"
 #include "log.h"
 #include "loop.h"
 #include "mb_req.h"
@@ -387,11 +387,11 @@ static void port_open(void *arg)
         /* Held by another process? Ask before modbus_connect, which sets
          * the line (speed, parity) and would disturb its owner. */
         int lk = open(p->cfg.device, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-        int busy = lk >= 0 && flock(lk, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+        int busy = lk >= 0 && link_serial_lock(lk) != 0 && errno == EBUSY;
         if (lk >= 0)
             close(lk);
         if (busy) {
-            port_fail(p, "device locked by another process (another it2nd, or a terminal program holding it)");
+            port_fail(p, LINK_SERIAL_LOCKED);
             return;
         }
     }
@@ -408,11 +408,11 @@ static void port_open(void *arg)
     }
     /* One server per bus device: a second it2nd on the same
      * port would answer every request twice (links do the same). */
-    if (flock(modbus_get_socket(p->ctx), LOCK_EX | LOCK_NB)) {
+    if (link_serial_lock(modbus_get_socket(p->ctx))) {
         modbus_close(p->ctx);
         modbus_free(p->ctx);
         p->ctx = NULL;
-        port_fail(p, "device locked by another process (another it2nd, or a terminal program holding it)");
+        port_fail(p, LINK_SERIAL_LOCKED);
         return;
     }
     char mode[96];
