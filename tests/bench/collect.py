@@ -25,19 +25,11 @@ import os
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "mcu"))
-from results import KEYS, validate  # noqa: E402
+from results import KEYS, row as mkrow, validate  # noqa: E402
 
 # Files shown first, in this order (the issue-7 core figures lead).
 SOURCES = ["mcu"]
 OUT = "results.json"
-
-
-def mkrow(name, unit, value, baseline=None, target=None):
-    ratio = None if baseline in (None, 0) else round(value / baseline, 4)
-    got = ratio if baseline is not None else value
-    met = None if target is None else bool(got is not None and got <= target)
-    return {"name": name, "unit": unit, "value": value, "baseline": baseline,
-            "ratio": ratio, "target": target, "met": met}
 
 
 def conn_rows(d):

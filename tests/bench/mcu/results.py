@@ -81,6 +81,22 @@ def flash_from_map(path):
     return core, total
 
 
+def row(name, unit, value, baseline=None, target=None, sense="<=", met=None):
+    """One figure as stored: the ratio is computed from the value and
+    baseline exactly as given (round them first, if at all), and met from
+    that stored ratio, so validate() holds by construction whatever the
+    digits (a ratio taken before rounding once failed its own check)."""
+    ratio = None if baseline in (None, 0) else round(value / baseline, 4)
+    if target is not None:
+        got = ratio if baseline is not None else value
+        met = got is not None and (got >= target if sense == ">=" else got <= target)
+    r = {"name": name, "unit": unit, "value": value, "baseline": baseline,
+         "ratio": ratio, "target": target, "met": met}
+    if sense == ">=":
+        r["sense"] = ">="
+    return r
+
+
 class Table:
     def __init__(self, require_targets):
         self.rows = []
@@ -92,17 +108,9 @@ class Table:
             if self.require and (target is not None or limit is not None):
                 self.missing.append(name)
             return
-        ratio = None
-        if baseline is not None:
-            ratio = value / baseline if baseline else None
-            if target is not None and ratio is not None:
-                met = ratio <= target
-        elif limit is not None:
+        if baseline is None and limit is not None:
             target = limit
-            met = value <= limit
-        self.rows.append({"name": name, "unit": unit, "value": value, "baseline": baseline,
-                          "ratio": None if ratio is None else round(ratio, 4),
-                          "target": target, "met": met})
+        self.rows.append(row(name, unit, value, baseline, target, met=met))
 
 
 def validate(rows):
@@ -132,7 +140,9 @@ def validate(rows):
                 bad.append(f"{r['name']}: {k} {r[k]!r}")
         if r["met"] is not None and not isinstance(r["met"], bool):
             bad.append(f"{r['name']}: met {r['met']!r}")
-        if r["baseline"] is not None and r["ratio"] is not None:
+        if r["baseline"] == 0 and r["ratio"] is not None:
+            bad.append(f"{r['name']}: ratio with a zero baseline")
+        elif r["baseline"] is not None and r["ratio"] is not None:
             if abs(r["ratio"] - r["value"] / r["baseline"]) > 1e-3 * max(1.0, abs(r["ratio"])):
                 bad.append(f"{r['name']}: ratio != value/baseline")
         if r["target"] is not None:
