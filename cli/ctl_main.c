@@ -89,14 +89,15 @@ static const char conn_help[] =
     "  --rtu DEVICE        Modbus RTU on a serial device\n"
     "  --baud N            RTU (default 19200) or link (default 115200)\n"
     "  --parity none|even|odd   RTU (default even), --stop-bits 1|2\n"
-    "  --unit N            Modbus unit id 0..247 (default 1)\n"
+    "  --unit N            Modbus unit id 0..255 (default 1; on TCP 0 and 255\n"
+    "                      reach the default model)\n"
     "  --link DEVICE       framing protocol on a serial line or pty wired to\n"
     "                      one of the daemon's [link:] devices\n"
     "  --model ID          model id on a link, 0..254 (default 1)\n"
     "  --timeout MS        per request (default 3000)\n"
     "Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
     "127.0.0.1:1502.\n"
-    "Common: --decimals N (6..9), --help.\n"
+    "Common: --decimals N (0..9, default 6), --help.\n"
     "Exit status: 0 ok, 1 usage error, 2 data error or refused by the\n"
     "daemon, 3 daemon unreachable or not answering.\n";
 
@@ -145,9 +146,13 @@ static void put_val(it2n_val v, unsigned decimals)
     fputs(buf, stdout);
 }
 
+/* As it2n: parameters keep at least CLI_PAR_DECIMALS digits. */
 static void put_par(it2n_par p, unsigned decimals)
 {
     char buf[48];
+    if (decimals < CLI_PAR_DECIMALS) {
+        decimals = CLI_PAR_DECIMALS;
+    }
     if (it2n_format_par(buf, sizeof(buf), p, decimals) < 0) {
         fputs("?", stdout);
         return;
@@ -798,6 +803,34 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                IT2N_MAX_DEGREE);
         return CTL_EXIT_OK;
     }
+    if (argv[1][0] == '-') {
+        /* Options may come before the command (it2nctl --tcp H:P status):
+         * the first word that is not an option or an option's value is
+         * moved to the front, the rest keep their order. */
+        int i = 1;
+        while (i < argc && argv[i][0] == '-') {
+            const struct option *lo = NULL;
+            if (argv[i][1] == '-' && strchr(argv[i], '=') == NULL) {
+                for (lo = longopts; lo->name != NULL; lo++) {
+                    if (strcmp(lo->name, argv[i] + 2) == 0) {
+                        break;
+                    }
+                }
+            }
+            i += (lo != NULL && lo->name != NULL &&
+                  lo->has_arg == required_argument) ||
+                         strcmp(argv[i], "-o") == 0
+                     ? 2
+                     : 1;
+        }
+        if (i >= argc) {
+            return usage_error(NULL, "%s", "no command given (it may stand "
+                                           "before or after the options)");
+        }
+        char *cmd = argv[i];
+        memmove(&argv[2], &argv[1], (size_t)(i - 1) * sizeof(argv[0]));
+        argv[1] = cmd;
+    }
     c = find_cmd(argv[1]);
     if (c == NULL) {
         return usage_error(NULL, "unknown command '%s'", argv[1]);
@@ -824,8 +857,8 @@ static int parse_args(int argc, char **argv, ctl_args *a)
             o->flags |= IT2N_F_CHORD;
             break;
         case OPT_DECIMALS:
-            if (!parse_uint(optarg, 6, 9, &o->decimals)) {
-                return usage_error(c->name, "--decimals '%s': expected 6..9",
+            if (!parse_uint(optarg, 0, 9, &o->decimals)) {
+                return usage_error(c->name, "--decimals '%s': expected 0..9",
                                    optarg);
             }
             break;
@@ -950,10 +983,19 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                                    optarg);
             }
             break;
-        case OPT_TCP:
+        case OPT_TCP: {
+            char host[128], port[16];
+            const char *bad = ctl_tcp_split(optarg, host, sizeof(host), port,
+                                            sizeof(port));
+            if (bad != NULL) {
+                char msg[320];
+                snprintf(msg, sizeof(msg), "--tcp '%.200s': %s", optarg, bad);
+                return usage_error(c->name, "%s", msg);
+            }
             a->conn.tcp = optarg;
             nconn++;
             break;
+        }
         case OPT_RTU:
             a->conn.rtu = optarg;
             nconn++;
@@ -963,8 +1005,8 @@ static int parse_args(int argc, char **argv, ctl_args *a)
             nconn++;
             break;
         case OPT_UNIT:
-            if (!parse_uint(optarg, 0, 247, &a->conn.unit)) {
-                return usage_error(c->name, "--unit '%s': expected 0..247",
+            if (!parse_uint(optarg, 0, 255, &a->conn.unit)) {
+                return usage_error(c->name, "--unit '%s': expected 0..255",
                                    optarg);
             }
             break;
@@ -1022,7 +1064,22 @@ static int parse_args(int argc, char **argv, ctl_args *a)
     }
     if (nconn == 0 && getenv("IT2NCTL_TCP") != NULL &&
         getenv("IT2NCTL_TCP")[0] != '\0') {
+        char host[128], port[16], msg[320];
+        const char *bad;
         a->conn.tcp = getenv("IT2NCTL_TCP");
+        bad = ctl_tcp_split(a->conn.tcp, host, sizeof(host), port,
+                            sizeof(port));
+        if (bad != NULL) {
+            snprintf(msg, sizeof(msg), "IT2NCTL_TCP='%.200s': %s",
+                     a->conn.tcp, bad);
+            return usage_error(c->name, "%s", msg);
+        }
+    }
+    if (a->conn.rtu != NULL && a->conn.unit > 247) {
+        return usage_error(c->name, "%s",
+                           "--unit: RTU unit ids are 0..247 (248..255 are "
+                           "reserved on a serial line; 255 reaches the "
+                           "default model on TCP only)");
     }
     if (!baud) {
         a->conn.baud = a->conn.link != NULL ? 115200u : 19200u;
