@@ -512,8 +512,10 @@ def main():
             rows = [dict(zip(out.split("\n")[0].split(","), ln.split(",")))
                     for ln in out.strip().split("\n")[1:]]
             gens = [int(r["generation"]) for r in rows]
-            check(wp.returncode == 0 and len(gens) == 2 and gens[1] > gens[0],
-                  f"watch {c}: rc {wp.returncode} {out!r}")
+            check(wp.returncode == 0 and len(gens) == 2 and gens[1] > gens[0]
+                  and rows[1]["state"] == "solved",
+                  f"watch {c}: rc {wp.returncode} {out!r} (the push's committed generation, "
+                  "not a transient incomplete one)")
 
         # -- plot the live model ------------------------------------------
         png = os.path.join(tmp, "live.png")
@@ -538,6 +540,32 @@ def main():
             check(rc == 0 and len(pm) == len(pr) >= 50 and same == len(pr),
                   f"plot {label} vs it2n plot: rc {rc} {err} "
                   f"{same}/{len(pr)} paths equal ({len(pm)} drawn)")
+        # plot --follow: redrawn on every new solved generation, the file
+        # replaced whole; a push's transient generations are not drawn
+        fsvg = os.path.join(tmp, "follow.svg")
+        fp = subprocess.Popen([CTL, "plot", "--follow", "--count", "2", "--membership", "T",
+                               "-o", fsvg, *tcp], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
+        first = fp.stdout.readline()
+        g_f = gen(3, 3, seed + 7, 2)
+        push("plot --follow trigger", tcp, g_f)
+        try:
+            out, ferr = fp.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            fp.kill()
+            out, ferr = fp.communicate()
+        lines = (first + out).strip().split("\n")
+        gens = [int(ln.split()[1].rstrip(":")) for ln in lines if ln.startswith("generation ")]
+        st = status_of(tcp)
+        ref = os.path.join(tmp, "follow_ref.svg")
+        run("plot", g_f, "--membership", "T", "-o", ref, binary=IT2N)
+        pm, pr = svg_paths(fsvg), svg_paths(ref)
+        same = sum(same_path(a, b) for a, b in zip(pm, pr))
+        check(fp.returncode == 0 and len(gens) == 2 and gens[1] == int(st["generation"]) > gens[0]
+              and len(pm) == len(pr) >= 50 and same == len(pr)
+              and not [n for n in os.listdir(tmp) if ".part" in n],
+              f"plot --follow: rc {fp.returncode} {lines} {ferr!r}, status gen {st['generation']}, "
+              f"{same}/{len(pr)} paths as it2n plot of the pushed file")
         push("plot", link, g_link)
         svg = os.path.join(tmp, "band.svg")
         rc, _, err = run("plot", "-o", svg, "--interval", "--size", "600x400",
