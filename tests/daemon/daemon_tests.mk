@@ -143,4 +143,4 @@ daemon-cppcheck:
 
 daemon-systemd: $(IT2ND)
 	@if command -v systemd-analyze >/dev/null; then \
-	  $(DT)/systemd_verify.sh $(IT2ND); else echo "systemd-analyze not available: skipped"; fi
+	  $(DT)/systemd_verify.sh $(IT2ND); else echo "skip suite: systemd-analyze not available (Debian package systemd)"; fi
