@@ -32,6 +32,10 @@ struct rs485_origin {
     char kernel_key[CONF_NAME];
 };
 
+/* Longest line kept whole (libinih's own limit, INI_MAX_LINE, is 200):
+ * an empty section's error quotes its header's name in full. */
+#define CONF_LINE_CAP 256
+
 struct parse {
     struct conf c;
     int listen_set;      /* first tcp_listen replaces the default */
@@ -50,9 +54,9 @@ struct parse {
     /* The section being read: its header line and name, and whether a key
      * of it was seen (an empty section is an error: its keys are missing). */
     int sec_line, sec_keys;
-    char sec_name[64];
+    char sec_name[CONF_LINE_CAP]; /* whole: reader() refuses longer lines */
     int empty_line;           /* first empty section's header line     */
-    char empty_name[64];
+    char empty_name[CONF_LINE_CAP];
     int max_models_line, grid_line, default_model_line;
     char grid_key[CONF_NAME];
     struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS], listen[CONF_MAX_LISTEN];
@@ -774,12 +778,14 @@ static char *reader(char *str, int num, void *stream)
     p->line++;
     section_start(p, p->lbuf);
     p->maxline = num - 2; /* room for the newline and the NUL */
+    if (p->maxline > CONF_LINE_CAP - 1) /* a header's name must fit sec_name */
+        p->maxline = CONF_LINE_CAP - 1;
     if (memchr(p->lbuf, 0, (size_t)n)) {
         p->bad_line = p->line;
         p->bad_why = "NUL byte in the line";
         return NULL;
     }
-    if (n - (p->lbuf[n - 1] == '\n') > num - 2) {
+    if (n - (p->lbuf[n - 1] == '\n') > p->maxline) {
         p->bad_line = p->line;
         p->bad_why = "line too long";
         return NULL;

@@ -104,6 +104,12 @@ def compare(what, got, want, mode, uw_tol=0.0):
     bad = []
     for k, (gl, wl) in enumerate(zip(g[1:], w[1:]), 2):
         gf, wf = gl.split(","), wl.split(",")
+        # every row under its header (a --summary row with z had 11 fields
+        # under 10 columns, in it2nctl and it2n alike)
+        if len(gf) != len(head) or len(wf) != len(head):
+            bad.append(f"line {k}: {len(gf)} / {len(wf)} fields under "
+                       f"{len(head)} columns: {gl!r} vs {wl!r}")
+            continue
         if len(gf) != len(wf):
             bad.append(f"line {k}: {gl!r} vs {wl!r}")
             continue

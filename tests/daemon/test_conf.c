@@ -254,6 +254,7 @@ static void test_rs485(void **st)
  * running models with the built-in default); an empty section is an error
  * with its header's line (an empty [model:5] was ignored: unit 5 answered
  * nothing while the default model was served). Nothing changes on error. */
+#define NAME40 "abcdefghijklmnopqrstuvwxyz0123456789ABCD"
 static void test_unreadable_and_empty(void **st)
 {
     struct conf c, before;
@@ -287,6 +288,10 @@ static void test_unreadable_and_empty(void **st)
         { "[daemon]\n[modbus]\nmax_clients = 4\n", 1,
           "[daemon]: empty section: its required keys are missing (a section with no keys has no effect; remove it "
           "or add keys)" },
+        /* the header's name in full, however long (make fuzz: it was cut
+         * at 63 bytes and quoted as if whole) */
+        { "[model:1]\nn = 2\n[rtu:" NAME40 NAME40 NAME40 "]\n", 3,
+          "[rtu:" NAME40 NAME40 NAME40 "]: empty section: its required keys are missing (device is required)" },
         /* the first error in the file wins */
         { "[modbus]\nmax_clients = 0\n[model:5]\n", 2, "[modbus] max_clients: expected 1..512" },
         { "[model:5]\n[modbus]\nmax_clients = 0\n", 1, "[model:5]: empty section: its required keys are missing (a "

@@ -12,7 +12,9 @@
  *    have split it and parsed the tail of a long comment as a setting).
  * Found by this fuzzer and fixed in daemon/conf.c: corpus/conf/long_* and
  * first_error_line.conf (message of the first error with the key of the
- * last, libinih being built with INI_STOP_ON_FIRST_ERROR 0).
+ * last, libinih being built with INI_STOP_ON_FIRST_ERROR 0),
+ * empty_long_section.conf (an empty section's error quoted its header's
+ * name cut at 63 bytes, as if that were the name).
  * Built as a libFuzzer target (make fuzzd-fuzz) and, with fuzz_main.c, as a
  * plain corpus run under make test. */
 #include <stdint.h>
@@ -175,7 +177,7 @@ static void check_err(const uint8_t *data, size_t size, const char *err, size_t 
         (!strstr(sec, "] ") || strstr(sec, "]: empty section: ") < strstr(sec, "] "))) {
         /* "PATH:N: [name]: empty section: ...": line N is that header. */
         const char *close = strstr(sec, "]: empty section: ");
-        char hdr[80];
+        char hdr[300]; /* "[name]": a header is one line, at most 255 bytes */
         fuzz_check((size_t)(close - sec) < sizeof hdr - 2, "empty section name length");
         memcpy(hdr, sec + 1, (size_t)(close - sec));
         hdr[close - sec] = 0;
