@@ -362,7 +362,7 @@ static int removals_refused(const struct conf *nc)
         unsigned pts = models_present(md);
         if (!pts || conf_model_by_id(nc, md->id) || conf_removes(nc, md->id))
             continue;
-        log_err("reload refused: model %d (unit %d) holds %u data points (generation %u) but %s has no [model:%d] "
+        log_err("reload refused: model %d (unit %d) holds %u data point(s) (generation %u) but %s has no [model:%d] "
                 "section; to discard its data on purpose keep the section with 'removed = yes' (docs/daemon.md)",
                 md->id, md->unit, pts, (unsigned)md->gen, conf_path ? conf_path : "the configuration", md->id);
         refused++;
@@ -384,7 +384,7 @@ static void reload_models(const struct conf *nc)
         if (!conf_model_by_id(nc, md->id)) {
             unsigned pts = models_present(md);
             if (pts)
-                log_notice("reload: model %d (unit %d) removed (removed = yes); its %u data points are discarded",
+                log_notice("reload: model %d (unit %d) removed (removed = yes); its %u data point(s) are discarded",
                            md->id, md->unit, pts);
             else
                 log_notice("reload: model %d (unit %d) removed; it held no data points", md->id, md->unit);
