@@ -111,7 +111,7 @@ class Daemon:
         with open(self.log, "a") as logf:
             try:
                 rc = subprocess.run([self.binary, "-c", conf or self.conf, "-f", "-v"], stdout=logf,
-                                    stderr=subprocess.STDOUT, timeout=timeout).returncode
+                                    stderr=subprocess.STDOUT, timeout=timeout, cwd=self.tmp).returncode
             except subprocess.TimeoutExpired:
                 rc = "timeout"
         return rc, self.logtext()[before:]
@@ -119,7 +119,7 @@ class Daemon:
     def start(self):
         with open(self.log, "a") as logf:
             self.proc = subprocess.Popen([self.binary, "-c", self.conf, "-f", "-v"], stdout=logf,
-                                         stderr=subprocess.STDOUT)
+                                         stderr=subprocess.STDOUT, cwd=self.tmp)
         deadline = time.time() + 10
         while time.time() < deadline:
             if self.proc.poll() is not None:
@@ -251,11 +251,39 @@ def check_config(binary, path):
     t0 = time.monotonic()
     try:
         p = subprocess.run([binary, "-c", path, "--check-config"], capture_output=True, text=True,
-                           timeout=10)
+                           timeout=10, cwd=os.path.dirname(path))
         rc, out = p.returncode, p.stdout + p.stderr
     except subprocess.TimeoutExpired:
         rc, out = "timeout", "(no answer in 10 s)"
     return rc, out.strip(), time.monotonic() - t0
+
+
+def reload_case(d, s, plc, name, kind, text, want, status0, snap0):
+    """SIGHUP with a bad file: everything must stay as it was."""
+    port, state = d.port, d.state
+    place(d.conf, kind, text)
+    new = d.hup_and_wait("reload failed; keeping the running configuration")
+    verify = subprocess.run([plc, "--tcp", "127.0.0.1:%d" % port, "--unit", "5", "verify", PAPER, "3"],
+                            capture_output=True, text=True, timeout=60)
+    ports = listening_ports(d.proc.pid)
+    why = []
+    if new is None:
+        why.append("no 'reload failed' line: %s" % d.logtext()[-600:])
+    else:
+        if want not in new:
+            why.append("log lacks '%s': %s" % (want, new))
+        if "removed" in new.replace("'removed = yes'", "") or "reloaded" in new:
+            why.append("something was applied: %s" % new)
+    if read_input(s, 5, 0, 10) != status0:
+        why.append("status of model 5 changed: %r" % (read_input(s, 5, 0, 10),))
+    if verify.returncode != 0:
+        why.append("model 5 data not served: %s" % verify.stdout[-300:])
+    if ports != {port}:
+        why.append("listening on %s, want only %d" % (sorted(ports), port))
+    if file_sig(os.path.join(state, "snapshot")) != snap0:
+        why.append("a snapshot was written")
+    check(not why, "SIGHUP with a %s: running configuration kept (model 5's data served, listener on %d), "
+          "error logged" % (name, port), "; ".join(why))
 
 
 def main():
@@ -263,6 +291,7 @@ def main():
     ap.add_argument("--it2nd", required=True)
     ap.add_argument("--plc", required=True)
     args = ap.parse_args()
+    args.it2nd, args.plc = os.path.abspath(args.it2nd), os.path.abspath(args.plc)
     tmp = tempfile.mkdtemp(prefix="it2nd-reload.")
     port = free_port()
     state = os.path.join(tmp, "state")
@@ -321,29 +350,11 @@ def main():
             "no [model:5] section; to discard its data on purpose keep the section with 'removed = yes'"
             % (status0[7] << 16 | status0[8], d.conf))
         for name, (kind, text, want) in cases.items():
-            place(d.conf, kind, text)
-            new = d.hup_and_wait("reload failed; keeping the running configuration")
-            verify = subprocess.run([args.plc, "--tcp", "127.0.0.1:%d" % port, "--unit", "5", "verify", PAPER, "3"],
-                                    capture_output=True, text=True, timeout=60)
-            ports = listening_ports(d.proc.pid)
-            why = []
-            if new is None:
-                why.append("no 'reload failed' line: %s" % d.logtext()[-600:])
-            else:
-                if want not in new:
-                    why.append("log lacks '%s': %s" % (want, new))
-                if "removed" in new.replace("'removed = yes'", "") or "reloaded" in new:
-                    why.append("something was applied: %s" % new)
-            if read_input(s, 5, 0, 10) != status0:
-                why.append("status of model 5 changed: %r" % (read_input(s, 5, 0, 10),))
-            if verify.returncode != 0:
-                why.append("model 5 data not served: %s" % verify.stdout[-300:])
-            if ports != {port}:
-                why.append("listening on %s, want only %d" % (sorted(ports), port))
-            if file_sig(os.path.join(state, "snapshot")) != snap0:
-                why.append("a snapshot was written")
-            check(not why, "SIGHUP with a %s: running configuration kept (model 5's data served, listener on %d), "
-                  "error logged" % (name, port), "; ".join(why))
+            try:
+                reload_case(d, s, args.plc, name, kind, text, want, status0, snap0)
+            except (OSError, ConnectionError) as e:
+                fail("SIGHUP with a %s: %s" % (name, e))
+                break
         reader.stop_flag.set()
         reader.join(10)
         check(not reader.errors and reader.n >= 20 and reader.worst < READ_BOUND_S,
@@ -400,6 +411,10 @@ def main():
               in d.logtext(), "start with removed = yes: model 5's data dropped as asked")
         s.close()
         d.stop()
+    except (OSError, ConnectionError, RuntimeError, subprocess.TimeoutExpired) as e:
+        import traceback
+        traceback.print_exc()
+        fail("aborted: %r" % e)
     finally:
         d.stop(signal.SIGKILL)
         os.close(master)
