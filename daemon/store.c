@@ -91,11 +91,16 @@ void store_set_drop_policy(store_drop_fn fn)
 
 int store_may_drop(int id, unsigned points, const char *file)
 {
+    char what[48];
     if (!drop_policy || drop_policy(id))
         return 1;
-    log_err("state directory %s: %s holds %u data point(s) of model %d, which the configuration does not have; "
-            "add its [model:%d] section back, or keep one with 'removed = yes' to discard them (docs/daemon.md); "
-            "refusing to start, files left as they are", state_dir, file, points, id, id);
+    if (points)
+        snprintf(what, sizeof what, "%u data point(s)", points);
+    else
+        snprintf(what, sizeof what, "data points");
+    log_err("state directory %s: %s holds %s of model %d, which the configuration does not have; add its "
+            "[model:%d] section back, or keep one with 'removed = yes' to discard them (docs/daemon.md); refusing "
+            "to start, files left as they are", state_dir, file, what, id, id);
     return 0;
 }
 
@@ -1021,7 +1026,7 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
                     (unsigned long long)rseq - 1);
             goto out;
         }
-        if (rec.op == MOP_POINT && !models_by_id(rec.id) && !store_may_drop(rec.id, 1, "wal"))
+        if (rec.op == MOP_POINT && !models_by_id(rec.id) && !store_may_drop(rec.id, 0, "wal"))
             goto out;
         if (models_apply(&rec, &err) != IT2N_OK) {
             log_warn("wal: record %llu (model %d, op %d) no longer applies: %s", (unsigned long long)rseq, rec.id,

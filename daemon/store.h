@@ -36,7 +36,8 @@ typedef int (*store_drop_fn)(int id);
 void store_set_drop_policy(store_drop_fn fn);
 
 /* For the loaders (store.c, snapshot.c): may the data of unconfigured
- * model id (points of them, found in file) be dropped? Logs the refusal. */
+ * model id (points of them, 0 if not counted, found in file) be dropped?
+ * Logs the refusal. */
 int store_may_drop(int id, unsigned points, const char *file);
 
 /* Queue one record (model journal hook). Returns 0, or IT2ND_ERR_DEGRADED,
