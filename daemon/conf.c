@@ -430,14 +430,17 @@ static int key_model(struct parse *p, struct conf_model *m, const char *name, co
     } else if (!strcmp(name, "n")) {
         if (parse_int(v, 1, IT2N_MAX_DEGREE, &m->n))
             FAIL("expected 1..%d", IT2N_MAX_DEGREE);
+        m->set |= CONF_SET_N;
     } else if (!strcmp(name, "m")) {
         if (parse_int(v, 1, IT2N_MAX_DEGREE, &m->m))
             FAIL("expected 1..%d", IT2N_MAX_DEGREE);
+        m->set |= CONF_SET_M;
     } else if (!strcmp(name, "z") || !strcmp(name, "type1") || !strcmp(name, "chord")) {
         unsigned bit = name[0] == 'z' ? IT2N_F_Z : name[0] == 't' ? IT2N_F_TYPE1 : IT2N_F_CHORD;
         if (parse_bool(v, &b))
             FAIL("expected yes or no");
         m->flags = b ? (m->flags | bit) : (m->flags & ~bit);
+        m->set |= name[0] == 'z' ? CONF_SET_Z : name[0] == 't' ? CONF_SET_TYPE1 : CONF_SET_CHORD;
     } else if (!strcmp(name, "write_protect")) {
         if (parse_bool(v, &m->write_protect))
             FAIL("expected yes or no");

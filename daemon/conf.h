@@ -64,7 +64,17 @@ struct conf_model {
     int preload;      /* 1: the paper's 4x4 example data set */
     int write_protect; /* 1: no Modbus write may change it (links may) */
     int removed;      /* parsing only: removed = yes moves the id to conf.removed */
+    unsigned set;     /* CONF_SET_*: the keys the file gives (not defaults) */
 };
+
+/* Keys of [model:ID] that change its shape (a change clears its points):
+ * a reload applies such a change to a model holding data only when the
+ * file gives the key, never from a default (a line lost in a rewrite). */
+#define CONF_SET_N 1u
+#define CONF_SET_M 2u
+#define CONF_SET_Z 4u
+#define CONF_SET_TYPE1 8u
+#define CONF_SET_CHORD 16u
 
 enum conf_link_type { CONF_LINK_SERIAL = 0, CONF_LINK_USB = 1 };
 

@@ -370,6 +370,42 @@ static int removals_refused(const struct conf *nc)
     return refused;
 }
 
+/* The same for a change of degree or flags (a CONFIGURE, clearing the
+ * points) that comes from a default because the file no longer gives the
+ * key (a line lost at the end of a cut file): only a key the file gives
+ * reconfigures a model holding data. Returns how many models refuse. */
+static int reconfigures_refused(const struct conf *nc)
+{
+    static const struct { unsigned set, flag; const char *key; } keys[] = {
+        { CONF_SET_Z, IT2N_F_Z, "z" }, { CONF_SET_TYPE1, IT2N_F_TYPE1, "type1" }, { CONF_SET_CHORD, IT2N_F_CHORD, "chord" },
+    };
+    int refused = 0;
+    for (int k = 0; k < models_count(); k++) {
+        const struct model *md = models_at(k);
+        const struct conf_model *m = conf_model_by_id(nc, md->id), *old = conf_model_by_id(&cfg, md->id);
+        unsigned pts = models_present(md);
+        char lost[64] = "";
+        size_t len = 0;
+        if (!pts || !m || !old)
+            continue;
+        if (old->n != m->n && !(m->set & CONF_SET_N))
+            len += (size_t)snprintf(lost + len, sizeof lost - len, "%sn", len ? ", " : "");
+        if (old->m != m->m && !(m->set & CONF_SET_M))
+            len += (size_t)snprintf(lost + len, sizeof lost - len, "%sm", len ? ", " : "");
+        for (size_t b = 0; b < sizeof keys / sizeof keys[0]; b++)
+            if (((old->flags ^ m->flags) & keys[b].flag) && !(m->set & keys[b].set))
+                len += (size_t)snprintf(lost + len, sizeof lost - len, "%s%s", len ? ", " : "", keys[b].key);
+        if (!len)
+            continue;
+        log_err("reload refused: model %d (unit %d) holds %u data point(s) (generation %u) and [model:%d] in %s no "
+                "longer gives %s: its default would reconfigure the model and clear them; write the key to reconfigure "
+                "on purpose (docs/daemon.md)", md->id, md->unit, pts, (unsigned)md->gen, md->id,
+                conf_path ? conf_path : "the configuration", lost);
+        refused++;
+    }
+    return refused;
+}
+
 /* Apply [model:] changes of a reload to the live table (no pass in
  * progress): removed models go (removals_refused() has made sure the data
  * of each was either nothing or given up with removed = yes; a snapshot
@@ -445,7 +481,7 @@ static void reload(void)
         sig_reload = 1;
         return;
     }
-    if (removals_refused(&nc)) {
+    if (removals_refused(&nc) + reconfigures_refused(&nc)) {
         log_err("reload failed; keeping the running configuration");
         notify_send("READY=1");
         return;

@@ -9,7 +9,8 @@ tested against the real it2nd process on loopback TCP and a pty.
   symlink) exits 1 within 2 s naming the problem (file:line where there is
   one); a start on them is refused the same way;
 * SIGHUP with each of them (and with a file cut on a line end so that a
-  model holding data is missing) keeps the running configuration entirely:
+  model holding data is missing, or loses the degree keys of the last
+  section, which their defaults would change) keeps the running configuration entirely:
   the model's data served, the listener where it was, no snapshot written,
   an error logged; a reader polling the status block over Modbus TCP the
   whole time is answered within 100 ms every time;
@@ -224,7 +225,13 @@ def good_conf(state, port, extra=""):
     return ("[daemon]\nstate_dir = %s\nsnapshot_interval = 3600\n"
             "[modbus]\ntcp_listen = 127.0.0.1:%d\n"
             "[model:1]\nunit_id = 1\npreload = paper\n"
-            "[model:5]\nunit_id = 5\nn = 3\nm = 3\n%s" % (state, port, extra))
+            "[model:5]\nunit_id = 5\nn = 3\nm = 3\n"
+            "[model:6]\nunit_id = 6\nn = 2\nm = 2\n%s" % (state, port, extra))
+
+
+M5 = "[model:5]\nunit_id = 5\nn = 3\nm = 3\n"
+# One point of model 6 (2x2): upload registers i j fp(D) x y z T I F.
+UP_6 = ["40", "0", "0", "3", "65535", "63836", "0", "1700", "0", "0", "4500", "7000", "2000"]
 
 
 def write(path, text):
@@ -258,7 +265,7 @@ def check_config(binary, path):
     return rc, out.strip(), time.monotonic() - t0
 
 
-def reload_case(d, s, plc, name, kind, text, want, status0, snap0):
+def reload_case(d, s, plc, name, kind, text, want, status0, status6, snap0):
     """SIGHUP with a bad file: everything must stay as it was."""
     port, state = d.port, d.state
     place(d.conf, kind, text)
@@ -276,6 +283,8 @@ def reload_case(d, s, plc, name, kind, text, want, status0, snap0):
             why.append("something was applied: %s" % new)
     if read_input(s, 5, 0, 10) != status0:
         why.append("status of model 5 changed: %r" % (read_input(s, 5, 0, 10),))
+    if read_input(s, 6, 0, 10) != status6:
+        why.append("status of model 6 changed: %r" % (read_input(s, 6, 0, 10),))
     if verify.returncode != 0:
         why.append("model 5 data not served: %s" % verify.stdout[-300:])
     if ports != {port}:
@@ -304,7 +313,9 @@ def main():
     conflict = good + "[rtu:bus]\ndevice = %s\n[link:inst]\ntype = serial\ndevice = %s\n" % (tty, tty_link)
     conflict_same = good + "[rtu:bus]\ndevice = %s\n[link:inst]\ntype = serial\ndevice = %s\n" % (tty, tty)
     cut_mid = good[:good.index("n = 3") + 3]                # ends "n =": a line cut short
-    cut_line = good[:good.index("[model:5]")]              # whole lines, model 5 gone
+    cut_line = good[:good.index("[model:5]")]              # whole lines, models 5 and 6 gone
+    cut_sec = good[:good.index("n = 2")]                   # whole lines, model 6's n and m gone
+    no5 = good.replace(M5, "")
     bad = {   # name: (kind, text, what the error must say)
         "FIFO": ("fifo", "", "it2nd.conf: a FIFO, not a regular file"),
         "/dev/zero": ("zero", "", "it2nd.conf: a character device, not a regular file"),
@@ -337,8 +348,12 @@ def main():
         up = subprocess.run([args.plc, "--tcp", "127.0.0.1:%d" % port, "--unit", "5", "upload", PAPER],
                             capture_output=True, text=True, timeout=60)
         check(up.returncode == 0, "112 points of the paper data set uploaded to model 5 (unit 5)", up.stdout + up.stderr)
+        w6 = subprocess.run([args.plc, "--tcp", "127.0.0.1:%d" % port, "--unit", "6", "write"] + UP_6,
+                            capture_output=True, text=True, timeout=60)
+        check(w6.stdout.strip() == "ok", "one point written to model 6 (2x2, unit 6)", w6.stdout + w6.stderr)
         s = socket.create_connection(("127.0.0.1", port), timeout=5)
         status0 = read_input(s, 5, 0, 10)
+        status6 = read_input(s, 6, 0, 10)
         snap0 = file_sig(os.path.join(state, "snapshot"))
         wal0 = file_sig(os.path.join(state, "wal"))
         reader = Reader(port, 5)
@@ -349,9 +364,13 @@ def main():
             "file", cut_line, "reload refused: model 5 (unit 5) holds 112 data point(s) (generation %d) but %s has "
             "no [model:5] section; to discard its data on purpose keep the section with 'removed = yes'"
             % (status0[7] << 16 | status0[8], d.conf))
+        cases["file cut on a line end inside the last section (model 6's n, m)"] = (
+            "file", cut_sec, "reload refused: model 6 (unit 6) holds 1 data point(s) (generation %d) and [model:6] in "
+            "%s no longer gives n, m: its default would reconfigure the model and clear them"
+            % (status6[7] << 16 | status6[8], d.conf))
         for name, (kind, text, want) in cases.items():
             try:
-                reload_case(d, s, args.plc, name, kind, text, want, status0, snap0)
+                reload_case(d, s, args.plc, name, kind, text, want, status0, status6, snap0)
             except (OSError, ConnectionError) as e:
                 fail("SIGHUP with a %s: %s" % (name, e))
                 break
@@ -364,7 +383,7 @@ def main():
         check(file_sig(os.path.join(state, "wal")) == wal0, "the WAL untouched by the refused reloads")
 
         # ---- removal done explicitly -------------------------------------------
-        write(d.conf, good.replace("[model:5]\nunit_id = 5\nn = 3\nm = 3\n", "[model:5]\nremoved = yes\n"))
+        write(d.conf, good.replace(M5, "[model:5]\nremoved = yes\n"))
         new = d.hup_and_wait("configuration reloaded")
         check(new is not None and "reload: model 5 (unit 5) removed (removed = yes); its 112 data point(s) are "
               "discarded" in new and read_input(s, 5, 0, 1) == ("exc", 0x0B) and read_input(s, 1, 1, 1) == (2,),
@@ -372,7 +391,7 @@ def main():
               "%s; unit 5 %r" % (new, read_input(s, 5, 0, 1)))
         s.close()
         d.stop(signal.SIGKILL)
-        write(d.conf, good.replace("[model:5]\nunit_id = 5\nn = 3\nm = 3\n", ""))  # the operator cleans up
+        write(d.conf, no5)  # the operator cleans up
         d.start()
         s = socket.create_connection(("127.0.0.1", port), timeout=5)
         check(read_input(s, 5, 0, 1) == ("exc", 0x0B) and read_input(s, 1, 1, 1) == (2,),
@@ -388,7 +407,7 @@ def main():
                                 capture_output=True, text=True, timeout=60)
             d.stop(how)
             files0 = {f: file_sig(os.path.join(state, f)) for f in ("wal", "snapshot")}
-            write(d.conf, cut_line)
+            write(d.conf, no5)
             rc, new = d.run()
             files1 = {f: file_sig(os.path.join(state, f)) for f in ("wal", "snapshot")}
             check(up.returncode == 0 and rc == 1 and "%s holds" % where in new and "of model 5, which the "
@@ -402,7 +421,7 @@ def main():
                                capture_output=True, text=True, timeout=60)
             check(v.returncode == 0, "the section back: model 5's data served again (%s)" % where)
             d.stop()
-        write(d.conf, cut_line + "[model:5]\nremoved = yes\n")
+        write(d.conf, good.replace(M5, "[model:5]\nremoved = yes\n"))
         rc, out, _ = check_config(args.it2nd, d.conf)
         check(rc == 0 and "removed = yes: model 5" in out, "--check-config lists the removed model: " + out)
         d.start()
