@@ -78,10 +78,10 @@ static void test_full(void **st)
     /* The keys the file gives (a reload reconfigures a model holding data
      * only from those, never from a default). */
     assert_int_equal(c.model[0].set, CONF_SET_N | CONF_SET_M | CONF_SET_CHORD | CONF_SET_Z);
-    assert_int_equal(load("[model:7]\nunit_id = 9\ntype1 = no\n", &c, err, sizeof err), 0);
-    assert_int_equal(c.model[0].set, CONF_SET_TYPE1);
     assert_int_equal(c.link[0].vid, 0x1d50);
     assert_string_equal(c.link[0].serial, "ABC");
+    assert_int_equal(load("[model:7]\nunit_id = 9\ntype1 = no\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.model[0].set, CONF_SET_TYPE1);
 }
 
 static void test_errors(void **st)
