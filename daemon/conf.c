@@ -1087,7 +1087,10 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
     } else if (rc > 0) {
         snprintf(err, errsize, "%s:%d: syntax error", path, rc);
     } else if (p->bad_line) {
-        snprintf(err, errsize, "%s:%d: %s (at most %d characters)", path, p->bad_line, p->bad_why, p->maxline);
+        if (strcmp(p->bad_why, "out of memory"))
+            snprintf(err, errsize, "%s:%d: %s (at most %d characters)", path, p->bad_line, p->bad_why, p->maxline);
+        else
+            snprintf(err, errsize, "%s:%d: out of memory", path, p->bad_line);
         rc = 1;
     } else if (!p->nkeys) {
         snprintf(err, errsize, "%s:1: no key in the file (only blank lines and comments): refused, a configuration "
