@@ -160,6 +160,9 @@ class Daemon:
                 self.proc.kill()
                 self.proc.wait()
         rc = self.proc.returncode if self.proc else 0
+        if self.proc and sig == signal.SIGTERM and rc != 0:
+            # a clean stop exits 0; the sanitizer build exits non-zero on a leak or an error
+            fail("exit status %s after SIGTERM: %s" % (rc, self.logtext()[-1500:]))
         self.proc = None
         return rc
 
