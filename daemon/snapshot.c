@@ -19,6 +19,7 @@
 #include "log.h"
 #include "le_bytes.h"
 #include "models.h"
+#include "store.h"
 
 #define MODEL_HDR 44u
 #define UPLOAD_WORDS (IT2N_REG_UPLOAD_END - IT2N_REG_UP_I)
@@ -138,6 +139,10 @@ static size_t load_model(const uint8_t *buf, int *result)
     for (unsigned k = 0; k < points; k++)
         rlen += 3 + FP_BYTES * popcount8(buf[rlen + 2]);
     if (!md) {
+        if (points && !store_may_drop((int)id, points, "snapshot")) {
+            *result = SNAP_UNCONFIGURED;
+            return rlen;
+        }
         log_warn("snapshot: model %u no longer configured; dropped", id);
         return rlen;
     }

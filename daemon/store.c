@@ -82,6 +82,27 @@ static pthread_mutex_t wmu = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t wcv = PTHREAD_COND_INITIALIZER, dcv = PTHREAD_COND_INITIALIZER;
 static uint64_t delayed_us;  /* last job's duration, for the log */
 static char state_dir[256]; /* for messages */
+static store_drop_fn drop_policy;
+
+void store_set_drop_policy(store_drop_fn fn)
+{
+    drop_policy = fn;
+}
+
+int store_may_drop(int id, unsigned points, const char *file)
+{
+    char what[48];
+    if (!drop_policy || drop_policy(id))
+        return 1;
+    if (points)
+        snprintf(what, sizeof what, "%u data point(s)", points);
+    else
+        snprintf(what, sizeof what, "data points");
+    log_err("state directory %s: %s holds %s of model %d, which the configuration does not have; add its "
+            "[model:%d] section back, or keep one with 'removed = yes' to discard them (docs/daemon.md); refusing "
+            "to start, files left as they are", state_dir, file, what, id, id);
+    return 0;
+}
 
 /* Serialise a record payload; returns its length. */
 static size_t encode_payload(const struct model_rec *r, uint8_t *p)
@@ -834,6 +855,8 @@ static int load_snapshot(uint64_t *seqp)
     if (get32(buf + 8) == SNAP_VERSION) {
         int drc = snap_decode(buf, len, &sseq);
         free(buf);
+        if (drc == SNAP_UNCONFIGURED)
+            return -1;
         if (drc == SNAP_NOMEM) {
             log_err("snapshot: out of memory while loading %s/snapshot; refusing to start, file left as it is",
                     state_dir);
@@ -865,6 +888,14 @@ static int load_snapshot(uint64_t *seqp)
         memcpy(&sm, buf + 32 + (size_t)k * sizeof sm, sizeof sm);
         struct model *md = models_by_id(sm.id);
         if (!md) {
+            unsigned pts = 0;  /* counted over the whole array: n, m are not trusted yet */
+            for (unsigned i = 0; i < IT2N_DIM; i++)
+                for (unsigned j = 0; j < IT2N_DIM; j++)
+                    pts += (unsigned)__builtin_popcount(sm.ds.present[i][j]);
+            if (pts && !store_may_drop(sm.id, pts, "snapshot")) {
+                free(buf);
+                return -1;
+            }
             log_warn("snapshot: model %d no longer configured; dropped", sm.id);
             continue;
         }
@@ -995,6 +1026,8 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
                     (unsigned long long)rseq - 1);
             goto out;
         }
+        if (rec.op == MOP_POINT && !models_by_id(rec.id) && !store_may_drop(rec.id, 0, "wal"))
+            goto out;
         if (models_apply(&rec, &err) != IT2N_OK) {
             log_warn("wal: record %llu (model %d, op %d) no longer applies: %s", (unsigned long long)rseq, rec.id,
                      rec.op, it2n_strerror(err.code));

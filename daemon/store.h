@@ -26,6 +26,20 @@
  * if the directory cannot be used. */
 int store_open(const char *dir, int fsync);
 
+/* Data in the state directory for a model the configuration does not
+ * have (a section lost in a rewrite of the file, or removed on purpose).
+ * Without a policy (unit tests, fuzzers) they are dropped with a log line.
+ * With one, store_open asks it for every such model holding data points:
+ * 1 = drop them (the operator said removed = yes), 0 = refuse to start,
+ * files left as they are. */
+typedef int (*store_drop_fn)(int id);
+void store_set_drop_policy(store_drop_fn fn);
+
+/* For the loaders (store.c, snapshot.c): may the data of unconfigured
+ * model id (points of them, 0 if not counted, found in file) be dropped?
+ * Logs the refusal. */
+int store_may_drop(int id, unsigned points, const char *file);
+
 /* Queue one record (model journal hook). Returns 0, or IT2ND_ERR_DEGRADED,
  * IT2ND_ERR_IO or IT2ND_ERR_NOMEM (errs.h): the change is refused. */
 int store_append(void *arg, const struct model_rec *rec);

@@ -86,6 +86,18 @@ daemon-durability: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_INSTR) $(DT_FAILIO)
 	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) INSTR=$(SIM_INSTR) FAILIO=$(DT_FAILIO) \
 	  timeout 300 $(DT)/e2e_durability.sh
 
+# A reload is all or nothing (issue 20 items 2, 6): empty, cut, FIFO,
+# /dev/zero and device-conflicting configurations refused by --check-config,
+# start and SIGHUP (running configuration kept, reads answered within
+# 100 ms), model removal only with removed = yes, at reload and at start.
+# tests/daemon/reload_test.py, ~5 s per build (normal, then ASan+UBSan).
+.PHONY: daemon-reload
+TEST_TARGETS += daemon-reload
+daemon-reload: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC)
+	timeout 300 /usr/bin/python3 $(DT)/reload_test.py --it2nd $(IT2ND) --plc $(SIM_PLC)
+	ASAN_OPTIONS=verify_asan_link_order=0 timeout 300 /usr/bin/python3 $(DT)/reload_test.py --it2nd $(IT2ND_SAN) \
+	  --plc $(SIM_PLC)
+
 # Connection slots, RTU inter-frame silence, access control: the real
 # daemon on loopback TCP and ptys (tests/daemon/conn_test.py, ~30 s); its
 # figures go to bench/daemon_conn.json. DT_CONN=... runs a subset.
