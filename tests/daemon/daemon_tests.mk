@@ -58,6 +58,13 @@ $(DT_FAILIO): $(DT)/failio.c
 	@mkdir -p $(@D)
 	$(CC) $(HOST_CFLAGS) -fPIC -shared $< -o $@ -ldl
 
+# LD_PRELOAD shim keeping the image a power cut would leave of the state
+# directory (what fsync/fdatasync/directory fsyncs made durable).
+DT_POWERCUT := $(DTB)/powercut.so
+$(DT_POWERCUT): $(DT)/powercut.c
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -fPIC -shared $< -o $@ -ldl -lpthread
+
 DT_UNIT_BINS := $(DT_UNITS:%=$(DTB)/%) $(DT_UNITS:%=$(DTB)/san/%)
 
 .PHONY: daemon-unit daemon-regdoc daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-cppcheck daemon-systemd
