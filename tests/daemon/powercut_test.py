@@ -373,7 +373,8 @@ class Harness:
         self.ref = Daemon(args.it2nd, rconf, os.path.join(tmp, "ref.log"))
         self.gate = Gate()
         self.base = {}              # unit -> status key at the last check
-        self.stats = {"cuts": 0, "cuts_random": 0, "cuts_in_checkpoint": 0, "cuts_in_recovery": 0,
+        self.stats = {"cuts": 0, "cuts_random": 0, "cuts_in_checkpoint": 0, "cuts_in_commit": 0,
+                      "cuts_in_recovery": 0,
                       "cut_events": {}, "torn": 0, "torn_bytes": 0, "ns_prefix_cuts": 0, "ns_ops_undone": 0,
                       "dir_absent": 0, "checks": 0, "modbus_acked": 0, "modbus_in_doubt_applied": 0,
                       "modbus_in_doubt_not_applied": 0, "link_entries_acked": 0, "link_entries_applied": 0,
@@ -561,8 +562,11 @@ def main():
         t.start()
     last_desc = None
     for cyc in range(1, args.cycles + 1):
-        kind = "random" if cyc == 1 else rnd.choice(["random", "random", "checkpoint"])
+        kind = "random" if cyc == 1 else rnd.choice(["random", "random", "checkpoint", "checkpoint", "commit"])
         ev_k, skip = rnd.choice(CKPT_EVENTS) if kind == "checkpoint" else (None, 0)
+        if kind == "commit":
+            # between a WAL write and its fdatasync: an unsynced tail to tear
+            ev_k, skip = "pre-fdatasync:wal", rnd.randint(5, 150)
         if cyc > 1:
             h.start_with_recovery_cuts(last_desc, allow=True, kill=ev_k, skip=skip)
             h.check(writers, link, "cycle %d" % cyc)
@@ -570,7 +574,7 @@ def main():
         tear = cyc > 1 and rnd.random() < 0.6
         h.set_arm(True)
         h.gate.run.set()
-        t_end = now() + (rnd.uniform(0.3, 1.5) if kind == "random" else 3.0)
+        t_end = now() + (rnd.uniform(0.3, 1.5) if kind == "random" else 2.5)
         if cyc == 1:
             t_end = now() + 1.0
         while now() < t_end and h.d.proc.poll() is None:
@@ -580,7 +584,9 @@ def main():
         if link.proc and link.proc.poll() is None:
             link.proc.terminate()
         ev, desc = h.cut_and_rollback(prefix, tear, "random")
-        if ev:
+        if ev and ev.startswith("pre-fdatasync:wal"):
+            h.stats["cuts_in_commit"] += 1
+        elif ev:
             h.stats["cuts_in_checkpoint"] += 1
         else:
             h.stats["cuts_random"] += 1
@@ -595,10 +601,11 @@ def main():
             fail("cycle 1: the state directory's creation was never made durable (its parent not fsynced)")
     h.start_with_recovery_cuts(last_desc, allow=False)
     h.check(writers, link, "final")
-    say("%d cycles: %d cuts (%d random, %d inside checkpoints, %d inside start-up recovery), %d torn, %d with a "
-        "namespace prefix, %d namespace operations undone; %d Modbus writes acknowledged, link entries ACKed %d "
-        "(applied %d); lost %d, fabricated %d, compare mismatches %d" % (
+    say("%d cycles: %d cuts (%d random, %d inside checkpoints, %d between a WAL write and its fdatasync, %d inside "
+        "start-up recovery), %d torn, %d with a namespace prefix, %d namespace operations undone; %d Modbus writes "
+        "acknowledged, link entries ACKed %d (applied %d); lost %d, fabricated %d, compare mismatches %d" % (
             args.cycles, h.stats["cuts"], h.stats["cuts_random"], h.stats["cuts_in_checkpoint"],
+            h.stats["cuts_in_commit"],
             h.stats["cuts_in_recovery"], h.stats["torn"], h.stats["ns_prefix_cuts"], h.stats["ns_ops_undone"],
             h.stats["modbus_acked"], h.stats["link_entries_acked"], h.stats["link_entries_applied"],
             h.stats["lost"], h.stats["fabricated"], h.stats["compare_mismatches"]))
