@@ -15,7 +15,12 @@
  *   - the state directory itself exists durably once its parent has been
  *     fsynced after its creation (or if it existed when the shim started).
  * Files are named by an id the shim gives each inode it sees created (an
- * inode number can be reused once the old file is gone).
+ * inode number can be reused once the old file is gone). A file is copied
+ * right after its sync returns: a write by another thread in between would
+ * count as synced too (in it2nd only the writer thread writes the WAL and
+ * the checkpoint files, and only between its own syncs). Writes are not
+ * intercepted: what was written but not synced is whatever the live file
+ * holds beyond the copy, which the harness may keep part of (a torn write).
  *
  *   IT2N_PC_STATE      the state directory (as in the daemon's config)
  *   IT2N_PC_SHADOW     an existing directory for the image; emptied and
