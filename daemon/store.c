@@ -1119,6 +1119,32 @@ static void close_all(void)
     wal_ok = 0;
 }
 
+/* The state directory's own entry is durable only once its parent has
+ * been fsynced after the mkdir (a power cut could otherwise take the whole
+ * directory, and every acknowledged record in it, away). Done at every
+ * start: an earlier start may have died between the mkdir and this. */
+static int sync_parent(const char *dir)
+{
+    char *parent = strdup(dir), *slash;
+    size_t n = strlen(dir);
+    int fd, rc = -1, e = ENOMEM;
+    if (parent) {
+        while (n > 1 && parent[n - 1] == '/')
+            parent[--n] = 0;
+        slash = strrchr(parent, '/');
+        if (slash)
+            slash[slash == parent] = 0; /* "/x" -> "/" */
+        fd = open(slash ? parent : ".", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+        rc = fd < 0 ? -1 : fsync(fd);
+        e = errno;
+        if (fd >= 0)
+            close(fd);
+        free(parent);
+    }
+    errno = e;
+    return rc;
+}
+
 int store_open(const char *dir, int fsync_on)
 {
     uint64_t good, total;
@@ -1126,9 +1152,19 @@ int store_open(const char *dir, int fsync_on)
     degraded = 0;
     seq = dseq = 0;
     snprintf(state_dir, sizeof state_dir, "%s", dir);
-    if (mkdir(dir, 0750) && errno != EEXIST) {
+    int made = mkdir(dir, 0750) == 0;
+    if (!made && errno != EEXIST) {
         log_err("state directory %s: %s", dir, strerror(errno));
         return -1;
+    }
+    if (do_fsync && sync_parent(dir)) {
+        /* Fatal when the directory is new: nothing in it would be durable. */
+        if (made) {
+            log_err("state directory %s: created, but its parent directory cannot be fsynced: %s", dir,
+                    strerror(errno));
+            return -1;
+        }
+        log_warn("state directory %s: cannot fsync its parent directory: %s", dir, strerror(errno));
     }
     dirfd_ = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (dirfd_ < 0) {
