@@ -66,7 +66,7 @@ class Daemon:
         with open(self.conf, "w") as f:
             f.write(text)
 
-    def start(self, text, ready, prefix=(), nofile=None):
+    def start(self, text, ready, prefix=(), nofile=None, verbose=True):
         self.write(text)
         logf = open(self.log, "a")
         limit = None
@@ -75,7 +75,7 @@ class Daemon:
 
             def limit():
                 resource.setrlimit(resource.RLIMIT_NOFILE, (nofile, nofile))
-        self.proc = subprocess.Popen(list(prefix) + [self.binary, "-c", self.conf, "-f", "-v"],
+        self.proc = subprocess.Popen(list(prefix) + [self.binary, "-c", self.conf, "-f"] + (["-v"] if verbose else []),
                                      stdout=logf, stderr=subprocess.STDOUT, preexec_fn=limit)
         logf.close()
         deadline = time.time() + 10
