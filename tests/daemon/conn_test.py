@@ -785,6 +785,12 @@ def test_acl(args):
         # Read-only listener: reads and queries work, model changes do not.
         rc, out = mbpoll(p[1], 1, 0, count=2)
         ok_read = rc == 0 and "[1]: \t2" in out.replace(" ", " ") or (rc == 0 and "[1]:" in out)
+        # A refused upload on the read-write listener sets the model's
+        # last_error (-2, T out of range at i 0, j 0, fp 3); refusals on the
+        # read-only listener below must leave it as it is (issue 20 item 6).
+        watch = connect(p[0], src="127.0.0.2")
+        bad_t = write_regs(watch, 1, 40, UP_D00[:9] + [12000, 7000, 2000])
+        err0 = read_regs(watch, 1, 9, 4)
         s = connect(p[1])
         g0 = generation(s, 1)
         rc, out = mbpoll(p[1], 1, 40, UP_D00[:9] + [4500, 7000, 2000])
@@ -801,6 +807,13 @@ def test_acl(args):
                                                                               out[-200:]))
         check(d.wait_log("write to unit 1 registers 40..51 refused: read-only listener"),
               "refused write logged (first per connection at notice level)")
+        err1 = read_regs(watch, 1, 9, 4)
+        check(bad_t == ("exc", 3) and err0 == (0xFFFE, 0, 0, 3) and err1 == err0,
+              "read-only refusals are the requester's alone: another client reads last_error %d (i %d, j %d, "
+              "fp %d) of its own refused upload before and after them" % (err0[0] - 65536 if err0[0] > 32767
+                                                                         else err0[0], err0[1], err0[2], err0[3]),
+              "upload %r, status before %r, after %r" % (bad_t, err0, err1))
+        watch.close()
 
         # Per-unit write protection: unit 2 refuses model changes on every
         # listener, queries still work; unit 1 on the same connection writes.
@@ -809,9 +822,10 @@ def test_acl(args):
         w2 = write_regs(s2, 2, 40, UP_D00)
         wq = write_regs(s2, 2, 64, [2500, 7500])
         w1 = write_regs(s2, 1, 40, UP_D00)
-        check(w2 == ("exc", 2) and wq == "ok" and w1 == "ok" and generation(s2, 2) == g2,
-              "write_protect unit 2: upload refused (02), query registers writable; unit 1 writable",
-              "%r %r %r" % (w2, wq, w1))
+        e2 = read_regs(s2, 2, 9, 1)
+        check(w2 == ("exc", 2) and wq == "ok" and w1 == "ok" and generation(s2, 2) == g2 and e2 == (0,),
+              "write_protect unit 2: upload refused (02) with its last_error left 0, query registers writable; "
+              "unit 1 writable", "%r %r %r last_error %r" % (w2, wq, w1, e2))
 
         # Reload: the allow-list and read_only apply to live connections.
         s3 = connect(p[0], src="127.0.0.2")
