@@ -35,6 +35,19 @@
  * next loop iteration, so clients in their slots are served in between. */
 #define ACCEPT_BATCH 256
 
+/* Pending connections without a complete request, per client address:
+ * when the pending places are full, the one pushed out comes from the
+ * address holding most of them, so a flood from one address never pushes
+ * out a newcomer from another while it holds more places. */
+struct peer_addr {
+    uint8_t a[16];          /* IPv6, IPv4 as ::ffff:a.b.c.d */
+    int n;
+    struct peer_addr *next;
+};
+#define PEER_BUCKETS 1024
+static struct peer_addr *peer_tab[PEER_BUCKETS];
+static int peer_max; /* an upper bound of the largest n */
+
 struct conn {
     int fd;
     int slot;               /* 1: holds a slot (s is set up) */
@@ -49,6 +62,7 @@ struct conn {
     uint64_t ready_since;   /* ms, its first complete request (ready) */
     uint64_t partial_since; /* ms, first byte of an incomplete request, 0 none */
     struct sockaddr_storage sa; /* peer, for the allow-list at a reload */
+    struct peer_addr *pa;   /* its address' count while pending without a request */
     char laddr[80];         /* listener host:port, to find its policy at a reload */
     char peer[64];
     struct conn *next, *prev; /* accept order: oldest first */
@@ -110,6 +124,62 @@ static void schedule_admit(void)
         admit_timer = loop_add_timer(0, on_admit_timer, NULL);
 }
 
+static void addr_bytes(const struct sockaddr_storage *ss, uint8_t out[16])
+{
+    memset(out, 0, 16);
+    if (ss->ss_family == AF_INET6) {
+        memcpy(out, &((const struct sockaddr_in6 *)ss)->sin6_addr, 16);
+    } else if (ss->ss_family == AF_INET) {
+        out[10] = out[11] = 0xFF;
+        memcpy(out + 12, &((const struct sockaddr_in *)ss)->sin_addr, 4);
+    }
+}
+
+static struct peer_addr **peer_bucket(const uint8_t a[16])
+{
+    unsigned h = 2166136261u; /* FNV-1a */
+    for (int k = 0; k < 16; k++)
+        h = (h ^ a[k]) * 16777619u;
+    return &peer_tab[h % PEER_BUCKETS];
+}
+
+/* c holds a pending place without a request: count it for its address. */
+static int addr_hold(struct conn *c)
+{
+    uint8_t a[16];
+    addr_bytes(&c->sa, a);
+    struct peer_addr **pp = peer_bucket(a), *p;
+    for (p = *pp; p && memcmp(p->a, a, 16); p = p->next)
+        ;
+    if (!p) {
+        p = calloc(1, sizeof *p);
+        if (!p)
+            return -1;
+        memcpy(p->a, a, 16);
+        p->next = *pp;
+        *pp = p;
+    }
+    c->pa = p;
+    if (++p->n > peer_max)
+        peer_max = p->n;
+    return 0;
+}
+
+/* c no longer holds a place without a request (ready, or closed). */
+static void addr_release(struct conn *c)
+{
+    struct peer_addr *p = c->pa, **pp;
+    if (!p)
+        return;
+    c->pa = NULL;
+    if (--p->n > 0)
+        return;
+    for (pp = peer_bucket(p->a); *pp != p; pp = &(*pp)->next)
+        ;
+    *pp = p->next;
+    free(p);
+}
+
 static void conn_close(struct conn *c, const char *why)
 {
     log_info("tcp %s: closed (%s)", c->peer, why);
@@ -123,6 +193,7 @@ static void conn_close(struct conn *c, const char *why)
     }
     *(c->prev ? &c->prev->next : &conns) = c->next;
     *(c->next ? &c->next->prev : &conns_tail) = c->prev;
+    addr_release(c);
     if (c->slot) {
         nconns--;
         schedule_admit(); /* a slot is free: a waiting request may take it */
@@ -154,6 +225,7 @@ static int process(struct conn *c)
         if (!c->slot) {
             c->ready = 1;
             nready++;
+            addr_release(c);
             c->ready_since = loop_now_ms();
             c->partial_since = 0;
             loop_mod_fd(c->fd, 0);
@@ -283,13 +355,15 @@ static void admit(void)
 }
 
 /* The pending connection to close when the pending places are full: the
- * oldest that has not sent a complete request; NULL when every pending
- * connection has one (they are never pushed out for a newcomer). */
+ * oldest that has not sent a complete request, from the address holding
+ * most such places; NULL when every pending connection has sent one (they
+ * are never pushed out for a newcomer). */
 static struct conn *pending_victim(void)
 {
-    for (struct conn *c = conns; c; c = c->next)
-        if (!c->slot && !c->ready)
-            return c;
+    for (; peer_max > 0; peer_max--)
+        for (struct conn *c = conns; c; c = c->next)
+            if (c->pa && c->pa->n == peer_max)
+                return c;
     return NULL;
 }
 
@@ -370,6 +444,10 @@ static void on_accept(void *arg, int lfd, short revents)
             close(fd);
             continue;
         }
+        /* Requests read in this batch take free slots now (admit() would
+         * run after it), so that their places count as free below. */
+        if (npending >= pending_cap && nready && nconns < max_clients)
+            admit();
         while (npending >= pending_cap) {
             struct conn *v = pending_victim();
             if (!v)
@@ -402,6 +480,13 @@ static void on_accept(void *arg, int lfd, short revents)
         snprintf(c->peer, sizeof c->peer, "%s:%s", host, serv);
         if (loop_add_fd(fd, POLLIN, on_conn, c)) {
             log_err("tcp: out of memory");
+            close(fd);
+            free(c);
+            continue;
+        }
+        if (addr_hold(c)) {
+            log_err("tcp: out of memory");
+            loop_del_fd(fd);
             close(fd);
             free(c);
             continue;

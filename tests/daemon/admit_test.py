@@ -12,6 +12,10 @@ reconnect as soon as the daemon closes them. Meanwhile:
 
   - 10 new well-behaved clients (pymodbus 3.0: connect, one complete
     request) must each be answered within 1 s of starting to connect;
+  - 5 clients from another address (127.0.0.2) that send their request
+    500 ms after connecting (a slow link) must be answered within 1 s too:
+    when the pending places are full, the one pushed out comes from the
+    address holding most of them;
   - clients connected before the swarm (three polling every 100 ms, one
     every 2 s, longer than evict_idle) must see no failure at all.
 
@@ -21,7 +25,7 @@ and slowloris) against a daemon whose RLIMIT_NOFILE is 1 024, so that its
 pending places are full and holders are pushed out all the time. --large
 (make daemon-admit-large) adds 2 000 holders with 30 newcomers each.
 
-The holders all come from 127.0.0.1, as the clients measured do: the
+The holders all come from 127.0.0.1, as the new clients measured do: that
 guarantee must not depend on the attacker having another address.
 """
 import argparse
@@ -184,6 +188,30 @@ class Pollers:
             t.join()
 
 
+FAR_DELAY = 0.5
+
+
+def far_client(port):
+    """A client on a slow link from another address (127.0.0.2): its
+    request comes FAR_DELAY after the connection. The pending places are
+    full of the holders' connections (from 127.0.0.1), which are pushed out
+    first. Seconds from connecting to the answer, or None."""
+    t0 = time.monotonic()
+    try:
+        s = ct.connect(port, src="127.0.0.2", timeout=3)
+    except OSError:
+        return None
+    try:
+        time.sleep(FAR_DELAY)
+        if ct.read_regs(s, 1, 0, 2, 77) != (1, 2):
+            return None
+        return time.monotonic() - t0
+    except (OSError, ValueError):
+        return None
+    finally:
+        s.close()
+
+
 def count_conns(port):
     """Established loopback connections to port (the daemon's ends)."""
     n = 0
@@ -224,10 +252,13 @@ def scenario(args, name, kinds, nofile=None, newcomers=10):
             time.sleep(0.1)
         time.sleep(0.7)
         held = count_conns(port)
-        times = []
-        for _ in range(newcomers):
+        times, far = [], []
+        for k in range(newcomers):
             times.append(ct.pymodbus_read(port))
-            time.sleep(0.25)
+            time.sleep(0.1)
+            if k % 2:
+                far.append(far_client(port))
+            time.sleep(0.15)
         sw.send_signal(signal.SIGTERM)
         out, _ = sw.communicate(timeout=30)
         sw = None
@@ -238,6 +269,12 @@ def scenario(args, name, kinds, nofile=None, newcomers=10):
         ct.check(len(served) == newcomers,
                  "%s: %d of %d new clients answered within 1 s (ms: %s)" % (label, len(served), newcomers, shown),
                  "holders at the start: %d connections; swarm %r" % (held, st))
+        far_ok = [x for x in far if x is not None and x <= 1.0]
+        ct.check(len(far_ok) == len(far),
+                 "%s: %d of %d clients from another address sending their request %d ms after connecting "
+                 "answered within 1 s (ms: %s)" % (label, len(far_ok), len(far), FAR_DELAY * 1000,
+                                                   "/".join("%.0f" % (x * 1000) if x is not None else "-"
+                                                            for x in far)))
         lat = sorted(pol.lat)
         ct.check(not pol.fails and pol.polls > 0,
                  "%s: 4 connected clients, %d polls, no failure (max %.1f ms)"
@@ -248,7 +285,8 @@ def scenario(args, name, kinds, nofile=None, newcomers=10):
         ct.FIGS["admit_%s" % name] = {
             "holders": len(kinds), "daemon_nofile": nofile, "held_at_start": held,
             "newcomer_ms": [round(x * 1000, 1) if x is not None else None for x in times],
-            "newcomers_within_1s": len(served), "client_polls": pol.polls, "client_failures": len(pol.fails),
+            "newcomers_within_1s": len(served),
+            "far_ms": [round(x * 1000, 1) if x is not None else None for x in far], "client_polls": pol.polls, "client_failures": len(pol.fails),
             "client_latency_max_ms": round(lat[-1] * 1000, 2) if lat else None, "swarm": st}
     finally:
         if sw is not None:
