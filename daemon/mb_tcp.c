@@ -204,6 +204,8 @@ static void conn_close(struct conn *c, const char *why)
     free(c);
 }
 
+static int grant(struct conn *c, uint64_t now);
+
 /* Frame and handle every complete request in the buffer. Stops at a held
  * request (its reply, and so any later request, waits for the commit), and
  * for a connection without a slot at its first complete request: it stops
@@ -228,6 +230,9 @@ static int process(struct conn *c)
             addr_release(c);
             c->ready_since = loop_now_ms();
             c->partial_since = 0;
+            /* A free slot and no request waiting before it: at once. */
+            if (nready == 1 && nconns < max_clients)
+                return grant(c, c->ready_since);
             loop_mod_fd(c->fd, 0);
             schedule_admit();
             return 0;
@@ -575,7 +580,7 @@ static void fd_budget(const struct conf *c)
 {
     struct rlimit rl;
     rlim_t want = (rlim_t)c->max_clients + (rlim_t)c->max_pending + FD_RESERVE;
-    pending_cap = c->max_pending;
+    pending_cap = c->max_pending < 4 ? 4 : c->max_pending;
     if (getrlimit(RLIMIT_NOFILE, &rl))
         return;
     if (rl.rlim_cur != RLIM_INFINITY && rl.rlim_cur < want) {
@@ -711,7 +716,7 @@ void mb_tcp_release_upto(uint64_t batch, int commit_ok)
 
 int mb_tcp_clients(void)
 {
-    return nconns;
+    return nconns + npending;
 }
 
 void mb_tcp_stop(void)
