@@ -23,8 +23,9 @@
  * is pending and costs a descriptor and a buffer, never a slot, so idle,
  * slow or reconnecting connections cannot hold the slots. Pending
  * connections are bounded (max_pending, within RLIMIT_NOFILE): when full,
- * a new one pushes out the oldest pending connection that has not sent a
- * complete request, never one that has. A complete request waits for a
+ * a new one pushes out a pending connection that has not sent a complete
+ * request (the oldest of the address holding most), never one that has.
+ * A complete request waits for a
  * slot at most WAIT_MS: a free one, else that of the slot holder idle
  * longest (at least evict_idle). */
 #define WAIT_MS 1000

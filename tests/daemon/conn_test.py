@@ -26,14 +26,15 @@ import tty
 
 FAILS = []
 FIGS = {}
+PREFIX = "conn"  # admit_test.py, which imports these helpers, sets its own
 
 
 def ok(msg):
-    print("conn: ok: " + msg, flush=True)
+    print("%s: ok: %s" % (PREFIX, msg), flush=True)
 
 
 def fail(msg):
-    print("conn: FAIL: " + msg, file=sys.stderr, flush=True)
+    print("%s: FAIL: %s" % (PREFIX, msg), file=sys.stderr, flush=True)
     FAILS.append(msg)
 
 
