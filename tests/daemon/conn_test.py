@@ -489,7 +489,7 @@ def flood(port):
         th = threading.Thread(target=attempt, args=(k,), daemon=True)
         th.start()
         pool.append(th)
-        if len(pool) >= 60:
+        if len(pool) >= 120:
             pool.pop(0).join()
     for th in pool:
         th.join()
