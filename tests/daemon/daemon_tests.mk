@@ -86,6 +86,14 @@ daemon-durability: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_INSTR) $(DT_FAILIO)
 	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) INSTR=$(SIM_INSTR) FAILIO=$(DT_FAILIO) \
 	  timeout 300 $(DT)/e2e_durability.sh
 
+# Damage inside the WAL never served as complete; torn tails still
+# recovered; the operator's --accept-wal-loss (issue 20 item 3).
+# tests/daemon/e2e_wal_damage.sh, ~15 s.
+.PHONY: daemon-waldamage
+TEST_TARGETS += daemon-waldamage
+daemon-waldamage: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC)
+	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) timeout 300 $(DT)/e2e_wal_damage.sh
+
 # Connection slots, RTU inter-frame silence, access control: the real
 # daemon on loopback TCP and ptys (tests/daemon/conn_test.py, ~30 s); its
 # figures go to bench/daemon_conn.json. DT_CONN=... runs a subset.
