@@ -27,6 +27,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "conf.h"
 #include "errs.h"
 
 #include "it2n_proto.h"
@@ -72,6 +73,10 @@ struct job {
     uint64_t batch;
     /* results */
     int rc, err, new_wal, degrade;
+    /* checkpoint: the reserve (below). want: make it if it is not held;
+     * used: released for this checkpoint; held: held afterwards; rerr:
+     * why it could not be made. */
+    int reserve_want, reserve_used, reserve_held, reserve_rerr;
     const char *step, *degrade_what;
 };
 static struct job job;
@@ -84,6 +89,15 @@ static int writer_on, writer_stop, evfd = -1;
 static pthread_mutex_t wmu = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t wcv = PTHREAD_COND_INITIALIZER, dcv = PTHREAD_COND_INITIALIZER;
 static uint64_t delayed_us;  /* last job's duration, for the log */
+/* The checkpoint reserve (issue 20 item 4): state_dir/reserve, a file of
+ * reserve_size() bytes allocated for real. A checkpoint needs room for
+ * snapshot.tmp and wal.tmp; when the WAL has filled the disk there is
+ * none, and without a checkpoint the WAL never shrinks. So a checkpoint
+ * that meets ENOSPC releases the reserve and tries again; once it has
+ * replaced the WAL, the reserve is made again. Loop thread (the writer
+ * reports through the job). */
+static int reserve_held;
+static int reserve_warned;
 static char state_dir[256]; /* for messages */
 
 /* Serialise a record payload; returns its length. */
@@ -257,6 +271,8 @@ static void run_commit(struct job *j)
 }
 
 static void run_checkpoint(struct job *j);
+static off_t reserve_size(void);
+static int reserve_make(int sync);
 
 static void run_job(struct job *j)
 {
@@ -434,6 +450,7 @@ static int submit_checkpoint(int durable_view)
     job.recs = 0;
     job.last_seq = dseq;
     job.batch = 0;
+    job.reserve_want = !reserve_held;
     queue_job();
     return 1;
 }
@@ -441,6 +458,24 @@ static int submit_checkpoint(int durable_view)
 int store_submit_checkpoint(void)
 {
     return submit_checkpoint(1);
+}
+
+/* Loop side: what the checkpoint did with the reserve. */
+static void reserve_reap(const struct job *j)
+{
+    if (j->reserve_used)
+        log_notice("store: the disk is full; the checkpoint reserve (%s/reserve, %lld bytes) released for this "
+                   "checkpoint", state_dir, (long long)reserve_size());
+    if (j->reserve_held && !reserve_held)
+        log_notice("store: checkpoint reserve %s/reserve (%lld bytes) in place", state_dir,
+                   (long long)reserve_size());
+    else if (!j->reserve_held && j->rc == 0 && !reserve_warned)
+        log_warn("store: no room for the checkpoint reserve (%s/reserve, %lld bytes): %s; if the WAL fills the "
+                 "disk, writes stay refused until space is freed; retried at every checkpoint",
+                 state_dir, (long long)reserve_size(), strerror(j->reserve_rerr));
+    if (j->rc == 0)
+        reserve_warned = !j->reserve_held;
+    reserve_held = j->reserve_held;
 }
 
 int store_reap(struct store_done *d)
@@ -488,6 +523,7 @@ int store_reap(struct store_done *d)
             wal_bytes = 0;
         if (job.degrade)
             set_degraded(job.degrade_what, job.err);
+        reserve_reap(&job);
         if (job.rc) {
             log_err("snapshot failed (%s): %s", job.step, strerror(job.err));
         } else {
@@ -592,7 +628,7 @@ static int wal_reset(struct job *j)
  * record, so either snapshot plus it replays to the same state). A success
  * clears the degraded state: memory, which equals what was acknowledged,
  * is then on disk in fresh files. */
-static void run_checkpoint(struct job *j)
+static void checkpoint_once(struct job *j)
 {
     int fd = -1;
     j->rc = -1;
@@ -635,6 +671,70 @@ out_tmp:
 out:
     if (!j->err)
         j->err = errno;
+}
+
+/* The largest snapshot CONF_MAX_MODELS models can give, a new WAL, and
+ * room for the filesystem's own blocks, in whole 4 KiB blocks. */
+static off_t reserve_size(void)
+{
+    size_t n = snap_max_size(CONF_MAX_MODELS) + WAL_HDR + ((size_t)64 << 10);
+    return (off_t)((n + 4095) & ~(size_t)4095);
+}
+
+/* Make the reserve (or complete it): 0 or an errno. The blocks are
+ * allocated for real: fallocate, or zeros written where the filesystem
+ * has no fallocate (never a sparse file). sync: fsync it too. */
+static int reserve_make(int sync)
+{
+    const off_t want = reserve_size();
+    struct stat st;
+    int e = 0, fd = openat(dirfd_, "reserve", O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0640);
+    if (fd < 0)
+        return errno;
+    if (fstat(fd, &st) == 0 && st.st_size == want && (off_t)st.st_blocks * 512 >= want) {
+        close(fd);
+        return 0;
+    }
+    if (fallocate(fd, 0, 0, want)) {
+        e = errno;
+        if (e == EOPNOTSUPP || e == ENOSYS) {
+            static const uint8_t zero[4096];
+            e = 0;
+            for (off_t off = 0; !e && off < want; off += (off_t)sizeof zero)
+                if (pwrite(fd, zero, sizeof zero, off) != (ssize_t)sizeof zero)
+                    e = errno ? errno : ENOSPC;
+        }
+    }
+    if (!e && sync && do_fsync && fsync(fd))
+        e = errno;
+    close(fd);
+    return e;
+}
+
+static int full(int e)
+{
+    return e == ENOSPC || e == EDQUOT;
+}
+
+/* Writer side: a checkpoint; on a full disk, once more with the reserve
+ * released; then the reserve made again if it is not held. */
+static void run_checkpoint(struct job *j)
+{
+    j->reserve_used = 0;
+    j->reserve_held = !j->reserve_want;
+    j->reserve_rerr = 0;
+    checkpoint_once(j);
+    if (j->rc && full(j->err) && !j->degrade && unlinkat(dirfd_, "reserve", 0) == 0) {
+        j->reserve_used = 1;
+        j->reserve_held = 0;
+        j->err = 0;
+        j->step = NULL;
+        checkpoint_once(j);
+    }
+    if (j->rc == 0 && !j->reserve_held) {
+        j->reserve_rerr = reserve_make(1);
+        j->reserve_held = j->reserve_rerr == 0;
+    }
 }
 
 int store_snapshot(void)
@@ -1268,6 +1368,18 @@ int store_open(const char *dir, int fsync_on)
     }
     dseq = seq;
     wal_ok = 1;
+    /* The checkpoint reserve, kept across restarts (a restart on a disk
+     * the WAL filled needs it as much). Not having it is no reason to
+     * refuse the start: logged, made at the next checkpoint if it can. */
+    int re = reserve_make(1);
+    reserve_held = re == 0;
+    reserve_warned = !reserve_held;
+    if (re)
+        log_warn("store: no room for the checkpoint reserve (%s/reserve, %lld bytes): %s; if the WAL fills the disk, "
+                 "writes stay refused until space is freed; retried at every checkpoint",
+                 dir, (long long)reserve_size(), strerror(re));
+    else if (sync_dir())
+        log_warn("store: fsync of %s after making the checkpoint reserve: %s", dir, strerror(errno));
     return 0;
 }
 
@@ -1278,7 +1390,7 @@ void store_accept_wal_loss(int on)
 
 int store_chown(unsigned uid, unsigned gid)
 {
-    static const char *const files[] = { "wal", "snapshot", "lock" };
+    static const char *const files[] = { "wal", "snapshot", "lock", "reserve" };
     if (fchown(dirfd_, (uid_t)uid, (gid_t)gid))
         return -1;
     for (size_t k = 0; k < sizeof files / sizeof files[0]; k++)
