@@ -5,27 +5,29 @@ the real it2nd on a small filesystem: a 4 MiB tmpfs mounted for the test
 (ENOSPC once the state directory's files would exceed it).
 
 1. WAL fills the disk: the rest of the filesystem is taken by a file that
-   stays (about 120 KiB left); one client writes until the WAL hits ENOSPC
-   (exception 04), then goes on every 20 ms. Without any operator act a
+   stays (about 64 KiB left); one client writes until the WAL hits ENOSPC
+   (exception 04), then goes on every 20 ms (up to 6 s, or 20 in a row acknowledged). Without any operator act a
    write must be acknowledged again within 5 s of the first refusal (the
    checkpoint runs on the reserve, the WAL shrinks), the last 20 writes
    all acknowledged. kill -9 and a restart: exactly the acknowledged state
    (T of the last acknowledged write, generation + the number acknowledged).
 2. The same, killed (-9) as soon as the disk is full; the restart on the
    full disk accepts writes again within 5 s.
-3. Disk filled by someone else (the reserve consumed, nothing left):
-   writes refused; the other file removed, writes acknowledged again within
-   5 s without a restart; kill -9 and restart: the acknowledged state.
+3. Disk filled by another process that takes every byte freed (the
+   reserve used up, nothing left): every write refused for 2.5 s; the other
+   file removed, writes acknowledged again within 5 s without a restart;
+   kill -9 and restart: the acknowledged state.
 
 Prints "skip: <reason>" and exits 0 when neither a mount nor the shim is
 available.
 usage: diskfull_test.py --it2nd PATH [--failio PATH] [--mode auto|tmpfs|shim]"""
-import argparse, os, shutil, signal, socket, struct, subprocess, sys, tempfile, time
+import argparse, os, shutil, signal, socket, struct, subprocess, sys, tempfile, threading, time
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--it2nd", required=True)
 ap.add_argument("--failio")
 ap.add_argument("--mode", default="auto", choices=("auto", "tmpfs", "shim"))
+ap.add_argument("--keep", action="store_true", help="keep the log and state (path printed)")
 args = ap.parse_args()
 
 FAILS = []
@@ -85,11 +87,11 @@ def set_free(nbytes, name):
     that stays (tmpfs), or set the budget so (shim)."""
     if mode == "tmpfs":
         take = avail() - nbytes
-        with open(os.path.join(MNT, name), "ab") as f:
+        with open(os.path.join(MNT, name), "ab", buffering=0) as f:
             chunk = b"\x55" * 65536
             while take > 0:
                 try:
-                    f.write(chunk[:min(take, len(chunk))]); f.flush()
+                    f.write(chunk[:min(take, len(chunk))])
                 except OSError:
                     break
                 take -= len(chunk)
@@ -97,6 +99,25 @@ def set_free(nbytes, name):
         with open(BUDGET_FILE + ".tmp", "w") as f:
             f.write(str(dir_usage() + nbytes))
         os.rename(BUDGET_FILE + ".tmp", BUDGET_FILE)
+
+hog_stop = threading.Event()
+def hog():
+    """Another process that takes every byte freed (so the checkpoint's
+    freed WAL goes to it, not back to the reserve)."""
+    with open(os.path.join(MNT, "filler2"), "ab", buffering=0) as f:
+        while not hog_stop.is_set():
+            if mode == "tmpfs":
+                try:
+                    f.write(b"\x55" * 4096)
+                except OSError:
+                    pass
+            else:
+                u = dir_usage()
+                if int(open(BUDGET_FILE).read()) > u:
+                    with open(BUDGET_FILE + ".tmp", "w") as b:
+                        b.write(str(u))
+                    os.rename(BUDGET_FILE + ".tmp", BUDGET_FILE)
+            time.sleep(0.002)
 
 def remove_filler(name):
     if mode == "tmpfs":
@@ -163,30 +184,44 @@ def next_value():
     value = value % 9000 + 1
     return value
 
-def write_phase(name, until, after_s, free_after=None):
+def write_phase(name, until, after_s, free_when_stuck=False):
     """Write as fast as acknowledged until the first refusal (at most 60 s),
-    then (until == "after") go on every 20 ms for after_s s; free_after:
-    remove the other file that many seconds after the first refusal.
-    Returns (results [(t, value, result)], t of the first refusal or None,
-    t when the file was removed or None)."""
+    then (until == "after") go on every 20 ms for after_s s. With
+    free_when_stuck, first go on writing until every write has been
+    refused for 2.5 s (stuck: the reserve is used up too; at most 40 s),
+    then remove the other file and go on for after_s s. Returns (results
+    [(t, value, result)], t of the first refusal or None, t when the file
+    was removed or None)."""
     c = Client()
     res, t_refused, t_freed, t0 = [], None, None, time.time()
+    last_ok_t = t0
     while True:
         v = next_value()
         r = c.write(v)
         now = time.time()
         res.append((now, v, r))
-        if r != "ok" and t_refused is None:
+        if r == "ok":
+            last_ok_t = now
+        elif t_refused is None:
             t_refused = now
             if until == "refused": break
         if t_refused is None and now - t0 > 60:
             break
-        if t_refused is not None:
-            if free_after is not None and t_freed is None and now - t_refused >= free_after:
+        if t_refused is None:
+            continue
+        if free_when_stuck and t_freed is None:
+            if now - last_ok_t >= 2.5 or now - t_refused > 40:
+                hog_stop.set(); hog_thread.join()
                 remove_filler("filler2")
                 t_freed = time.time()
-            if now - t_refused > after_s: break
-            time.sleep(0.02)
+            else:
+                time.sleep(0.005)
+            continue
+        ref = t_freed or t_refused
+        if now - ref > after_s: break
+        if len(res) >= 20 and all(r == "ok" and t > ref for t, _, r in res[-20:]):
+            break  # healed: 20 in a row acknowledged
+        time.sleep(0.02)
     c.close()
     return res, t_refused, t_freed
 
@@ -227,11 +262,13 @@ def log_has(s, since):
 
 def finish():
     if proc is not None: kill9()
+    hog_stop.set()
     if mode == "tmpfs": subprocess.run(["umount", "-l", MNT])
     if FAILS:
         print("diskfull: %d failure(s); log %s" % (len(FAILS), LOG)); print(open(LOG).read()[-3000:])
         sys.exit(1)
-    shutil.rmtree(T, ignore_errors=True)
+    if args.keep: print("diskfull: kept " + T)
+    else: shutil.rmtree(T, ignore_errors=True)
     print("diskfull: all passed (%s)" % mode)
     sys.exit(0)
 
@@ -247,9 +284,9 @@ try:
         fail("no checkpoint reserve in %s: %s" % (STATE, os.listdir(STATE)))
 
     # 1. The WAL fills the disk; nothing is freed.
-    set_free(120 << 10, "filler")
+    set_free(64 << 10, "filler")
     since = len(open(LOG).read())
-    res, t_ref, _ = write_phase("wal-full", "after", 7.0)
+    res, t_ref, _ = write_phase("wal-full", "after", 6.0)
     account(res)
     wal_kib = None
     if t_ref is None:
@@ -274,7 +311,7 @@ try:
         fail("restart-full: the disk never filled")
     t_start = time.time()
     start()
-    res2, _, _ = write_phase("restart-full", "after", 7.0)
+    res2, _, _ = write_phase("restart-full", "after", 6.0)
     # write_phase stops at the first refusal + 7 s; if none is refused the
     # restart healed before the first write was tried.
     account(res2)
@@ -284,19 +321,28 @@ try:
     kill9()
     check_restart("restart-full")
 
-    # 3. Filled by someone else: refused until the operator frees space.
+    # 3. Filled by someone else, who takes every byte freed: refused once
+    #    the reserve is used up, until the operator frees space.
     since = len(open(LOG).read())
     set_free(0, "filler2")
-    res, t_ref, t_freed = write_phase("other-full", "after", 8.0, free_after=2.0)
+    hog_thread = threading.Thread(target=hog)
+    hog_thread.start()
+    res, t_ref, t_freed = write_phase("other-full", "after", 6.0, free_when_stuck=True)
     account(res)
     if t_ref is None or t_freed is None:
         fail("other-full: the disk never filled")
     else:
+        stuck = t_freed - max([t for t, _, r in res if r == "ok" and t < t_freed] or [t_ref])
         refused = sum(1 for t, _, r in res if r != "ok")
         dt = check_heal("other-full", res, t_freed, "space was freed")
-        if dt is not None:
-            ok("disk filled by another file: %d writes refused, then acknowledged %.2f s after it was removed, no "
-               "restart" % (refused, dt))
+        if stuck < 2.4:
+            fail("other-full: writes were not refused for 2.5 s before the file was removed (%.2f s)" % stuck)
+        elif not (log_has("no room for the checkpoint reserve", since) or log_has("snapshot failed", since)):
+            fail("other-full: the reserve was never used up (no 'no room for the checkpoint reserve' or "
+                 "'snapshot failed' line)")
+        elif dt is not None:
+            ok("disk filled by another file: the reserve used up, every write refused for %.1f s (%d refused in "
+               "all), then acknowledged %.2f s after the file was removed, no restart" % (stuck, refused, dt))
     kill9()
     check_restart("other-full")
 except Exception as e:  # a broken connection etc.: a failure, with the log
