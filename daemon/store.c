@@ -1022,8 +1022,8 @@ static int rec_valid(const uint8_t *p, size_t avail, uint64_t after, uint64_t *r
  * the sequence after seq `after`): is anything valid behind it? Scans
  * every offset from `start` on (from + 1, or from itself when the record
  * there is valid but out of sequence) for a valid record with a later
- * seq, then counts
- * the run of consecutive records from there (for the log). Returns 1
+ * seq, then counts the run of consecutive records from there (for the
+ * log). Returns 1
  * (found: *at, *first, *last, *count), 0 (nothing valid follows: a torn
  * tail) or -1 (read error, logged). A record torn by a crash is the last
  * thing written; one that valid records follow was acknowledged, or sits
