@@ -272,6 +272,11 @@ def finish():
     print("diskfull: all passed (%s)" % mode)
     sys.exit(0)
 
+def on_term(signum, frame):
+    fail("stopped by signal %d (timeout?)" % signum)
+    finish()
+signal.signal(signal.SIGTERM, on_term)  # `timeout` must not leave the tmpfs mounted
+
 try:
     if mode == "shim":
         with open(BUDGET_FILE, "w") as f: f.write(str(1 << 40))
