@@ -86,7 +86,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (size > 0 && size - 1 <= IT2N_PROTO_MAX_PAYLOAD)
         roundtrip(data[0], data + 1, size - 1);
     /* 3: the link receiver on the same bytes. */
-    it2n_link_cfg cfg = {&os, NULL, rx_any, NULL, NULL, 10, 3, 0, 0x600D5E55u, 0, 0, 0};
+    it2n_link_cfg cfg = {&os, NULL, rx_any, NULL, NULL, 10, 3, 0, 0x600D5E55u, 0, 0, 0, 0, NULL};
     check(it2n_link_init(&link, &cfg) == IT2N_OK, "link init");
     /* One frame in flight so injected ACK/NACK (NOSYNC...) hit a sender. */
     it2n_msg m;

@@ -147,7 +147,7 @@ static int run_pty(rx *r, const char *const *args, unsigned nargs)
     }
     r->fd = master;
     it2n_ostream os = {out_write, r};
-    it2n_link_cfg cfg = {&os, NULL, on_rx, NULL, r, 50, 10, 0, 0xDAE40001u, 0, 0, 0};
+    it2n_link_cfg cfg = {&os, NULL, on_rx, NULL, r, 50, 10, 0, 0xDAE40001u, 0, 0, 0, 0, NULL};
     assert_int_equal(it2n_link_init(&r->l, &cfg), IT2N_OK);
     uint32_t t0 = now_ms();
     int status = -1;
@@ -249,7 +249,7 @@ static void test_oneway_stdout(void **st)
     memset(&r, 0, sizeof r);
     mem_out *sink = calloc(1, sizeof *sink);
     it2n_ostream os = mem_stream(sink);
-    it2n_link_cfg cfg = {&os, NULL, on_rx, NULL, &r, 50, 10, 0, 0xDAE40002u, 0, 0, 0};
+    it2n_link_cfg cfg = {&os, NULL, on_rx, NULL, &r, 50, 10, 0, 0xDAE40002u, 0, 0, 0, 0, NULL};
     assert_int_equal(it2n_link_init(&r.l, &cfg), IT2N_OK);
     uint8_t buf[100];
     size_t n;
