@@ -621,8 +621,9 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
          * whose session it is asks for a new one (the server restarted)
          * and sends the frame again in it; anything else is gone. */
         l->stats.tx_nacked++;
-        if (CLIENT(l) && tag == l->tag && tag != 0u) {
-            if (!l->hello.used && l->hello.len > 0u)
+        if (CLIENT(l)) {
+            /* kept: it goes again in the new session */
+            if (tag == l->tag && !l->hello.used && l->hello.len > 0u)
                 hello_start(l, now);
             return;
         }
