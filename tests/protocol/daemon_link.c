@@ -27,6 +27,22 @@
  *                PCT % drop, duplicate, reorder and corruption of frames in
  *                each direction: every response must arrive without the
  *                host asking twice (0 re-requests) and match the core.
+ *   reboot N     N boots of a deterministic v1.2 instrument (the same first
+ *                sequence number every boot, no id of its own) on one open
+ *                line, killed at random points (during HELLO, STATUS,
+ *                CONFIGURE, PUTs, COMMIT, QUERYs), alternating two data
+ *                sets; half the kills leave the dying boot's last frames to
+ *                arrive after the next boot's HELLO (a relay's buffer), and
+ *                the daemon's frames for the dead boot reach the next one.
+ *                Each boot asks STATUS before its CONFIGURE: every entry the
+ *                previous boot got ACKed is still there (0 lost); a boot
+ *                that completes gets every PUT ACKed (no DUPLICATE: 0 stale
+ *                entries) and QUERY results equal to its own solve; every
+ *                HELLO is answered within one exchange plus 2 RTO.
+ *   reboot11 N   the same with the v1.1 handshake and a fixed session id
+ *                (what such an instrument has): asserts that it FAILS
+ *                (frames taken for the previous boot's, stalls), which is
+ *                what v1.2 fixes.
  *
  * Usage: daemon_link IT2ND SCENARIO ARG [SCENARIO ARG ...]
  * Prints one line of figures per scenario; exit 0 when all held.
@@ -206,6 +222,9 @@ static void trace(peer *p, char c)
 }
 
 static peer P;
+/* the last frames the peer wrote (reboot: delivered late after a kill) */
+static struct { uint16_t len; uint8_t b[IT2N_FRAME_MAX_WIRE + 64]; } last_out[4];
+static unsigned nlast_out;
 
 static void raw_write(const uint8_t *p, size_t n)
 {
@@ -279,6 +298,8 @@ static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
     p->flen += len;
     if (buf[len - 1] == 0) {
         fault_frame(p, p->fr, p->flen, 1);
+        last_out[nlast_out % 4].len = (uint16_t)p->flen;
+        memcpy(last_out[nlast_out++ % 4].b, p->fr, p->flen);
         p->flen = 0;
     }
     return 0;
@@ -371,6 +392,8 @@ static void peer_init(peer *p, uint16_t first, uint32_t session, unsigned pct, u
     peer_init_w(p, first, session, pct, rto, 0);
 }
 
+static uint8_t peer_version; /* it2n_link_cfg.version of new peers */
+
 static void peer_init_w(peer *p, uint16_t first, uint32_t session, unsigned pct, uint32_t rto, uint8_t window)
 {
     it2n_link_cfg c;
@@ -392,6 +415,7 @@ static void peer_init_w(peer *p, uint16_t first, uint32_t session, unsigned pct,
     c.first_seq = first;
     c.session = session;
     c.window = window;
+    c.version = peer_version;
     it2n_link_init(&p->l, &c);
 }
 
@@ -1099,6 +1123,215 @@ uint32_t board_boot_count(void)
     return rnd();
 }
 
+/* ---- reboots of a deterministic instrument (v1.2 4.1) ------------------ */
+
+static uint8_t rb_put_entries[65536]; /* entries of the PUT sent with seq */
+static struct {
+    int cfg_acked, status_seen, hello_at_set;
+    unsigned entries_acked, puts_acked, commit_acked, refused;
+    uint32_t hello_ms;
+} rb;
+static uint32_t rb_boot_at;
+
+static void rb_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *n)
+{
+    on_done(app, seq, type, code, n);
+    if (code != 0) {
+        rb.refused++;
+        return;
+    }
+    if (type == IT2N_MSG_HELLO && !rb.hello_at_set) {
+        rb.hello_ms = now_ms() - rb_boot_at;
+        rb.hello_at_set = 1;
+    } else if (type == IT2N_MSG_CONFIGURE)
+        rb.cfg_acked = 1;
+    else if (type == IT2N_MSG_PUT) {
+        rb.entries_acked += rb_put_entries[seq];
+        rb.puts_acked++;
+    } else if (type == IT2N_MSG_COMMIT)
+        rb.commit_acked = 1;
+}
+
+static void reboots(unsigned n, int v12)
+{
+    static it2n_dataset ds[2];
+    static it2n_model ref[2];
+    static it2n_msg puts[2][40];
+    unsigned nput[2] = {0, 0}, total = 0;
+    it2n_errinfo e;
+    const uint32_t rto = 100;
+    unsigned complete = 0, killed = 0, lost = 0, stale = 0, stalls = 0, slow = 0, refused = 0, late = 0;
+    unsigned checked = 0, max_hello = 0;
+    unsigned phase[6] = {0, 0, 0, 0, 0, 0}; /* kills during HELLO, STATUS, CONFIGURE, PUTs, COMMIT, QUERYs */
+    unsigned prev_acked = 0;
+    int prev_cfg = 0, prev_killed = 0;
+    uint32_t t0 = now_ms();
+    for (int d = 0; d < 2; d++) {
+        CHECK(synth_dataset(&ds[d], 3, 3, 0, d ? 2222u : 1111u, &e) == IT2N_OK, "synth");
+        it2n_model_init(&ref[d]);
+        CHECK(it2n_model_solve(&ref[d], &ds[d], &e) == IT2N_OK, "local solve");
+        it2n_msg *m = &puts[d][0];
+        memset(m, 0, sizeof *m);
+        for (unsigned i = 0; i <= 3; i++)
+            for (unsigned j = 0; j <= 3; j++)
+                for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                    it2n_put_entry *en;
+                    if (!(ds[d].present[i][j] & (1u << fp)))
+                        continue;
+                    if (m->u.put.count == 6) {
+                        m = &puts[d][++nput[d]];
+                        memset(m, 0, sizeof *m);
+                    }
+                    m->type = IT2N_MSG_PUT;
+                    m->u.put.model = 3;
+                    en = &m->u.put.e[m->u.put.count++];
+                    en->i = (uint8_t)i;
+                    en->j = (uint8_t)j;
+                    en->fp = (uint8_t)fp;
+                    it2n_dataset_get(&ds[d], i, j, fp, en->vals);
+                    if (d == 0)
+                        total++;
+                }
+        nput[d]++;
+    }
+    peer_version = v12 ? IT2N_PROTO_VERSION_12 : 0;
+    for (unsigned b = 0; b < n && !failures; b++) {
+        int set = (int)(b & 1u);
+        /* steps: 0 HELLO, 1 STATUS, 2 CONFIGURE, 3.. PUTs, COMMIT, 2 QUERYs */
+        unsigned nsteps = 3 + nput[set] + 3, step = 0;
+        unsigned kill_at = rnd() % (nsteps + 4); /* >= nsteps: runs to the end */
+        uint32_t kill_delay = rnd() % 3 ? rnd() % 12 : 0, step_at = 0;
+        int late_frames = b > 0 && (rnd() & 1u) && prev_killed;
+        static struct { uint16_t len; uint8_t b[IT2N_FRAME_MAX_WIRE + 64]; } keep[4];
+        unsigned nkeep = 0;
+        if (late_frames) {
+            /* the dead boot's last frames, to arrive after the new HELLO */
+            for (unsigned k = 0; k < 4 && k < nlast_out; k++) {
+                unsigned at = (nlast_out - 1 - k) % 4;
+                keep[nkeep].len = last_out[at].len;
+                memcpy(keep[nkeep++].b, last_out[at].b, last_out[at].len);
+            }
+        }
+        memset(&rb, 0, sizeof rb);
+        peer_init(&P, 77, 0x1D, 0, rto); /* the same every boot */
+        P.l.cfg.on_done = rb_done;
+        P.ref = &ref[set];
+        rb_boot_at = now_ms();
+        uint32_t boot_t = now_ms(), progress = now_ms();
+        int stalled = 0, done = 0;
+        unsigned last_acked = 0;
+        while (!done) {
+            it2n_msg m;
+            int can = 0;
+            if (step < nsteps) {
+                memset(&m, 0, sizeof m);
+                if (step == 0) {
+                    m = hello();
+                    m.u.hello.version_min = m.u.hello.version_max =
+                        v12 ? IT2N_PROTO_VERSION_12 : IT2N_PROTO_VERSION;
+                    m.u.hello.window = 4;
+                    can = 1;
+                } else if (step == 1) {
+                    m = model_msg(IT2N_MSG_GET_STATUS, 3);
+                    can = rb.hello_at_set && P.hellos > 0;
+                } else if (step == 2) {
+                    m.type = IT2N_MSG_CONFIGURE;
+                    m.u.configure.model = 3;
+                    m.u.configure.n = 3;
+                    m.u.configure.m = 3;
+                    can = rb.status_seen && it2n_link_pending(&P.l) == 0;
+                } else if (step < 3 + nput[set]) {
+                    m = puts[set][step - 3];
+                    can = rb.cfg_acked && it2n_link_can_send(&P.l);
+                } else if (step == 3 + nput[set]) {
+                    m = model_msg(IT2N_MSG_COMMIT, 3);
+                    can = it2n_link_can_send(&P.l);
+                } else {
+                    memset(&m, 0, sizeof m);
+                    m.type = IT2N_MSG_QUERY;
+                    m.u.query.model = 3;
+                    m.u.query.u = m.u.query.w = step == nsteps - 1 ? IT2N_WIRE_PAR_ONE / 3 : 0;
+                    can = rb.commit_acked && it2n_link_can_send(&P.l);
+                }
+            }
+            if (kill_at < nsteps && step > kill_at)
+                can = 0; /* the power cut comes while this step is out */
+            if (can) {
+                int32_t seq = it2n_link_send(&P.l, &m, now_ms());
+                CHECK(seq >= 0, "boot %u: send step %u: %d", b, step, (int)seq);
+                if (seq < 0)
+                    break;
+                if (m.type == IT2N_MSG_PUT)
+                    rb_put_entries[seq] = m.u.put.count;
+                step++;
+                step_at = now_ms();
+                progress = now_ms();
+            }
+            pump(&P, can ? 0 : 2);
+            if (step == 2 && !rb.status_seen && P.status.model == 3) {
+                rb.status_seen = 1;
+                /* what the previous boot got ACKed is all there */
+                unsigned present = total - P.status.missing;
+                checked++;
+                if (prev_cfg && P.status.n == 3 && present < prev_acked)
+                    lost += prev_acked - present;
+            }
+            if (late_frames && rb.hello_at_set && nkeep) {
+                for (unsigned k = nkeep; k-- > 0;)
+                    raw_write(keep[k].b, keep[k].len);
+                nkeep = 0;
+                late++;
+            }
+            if (P.acked != last_acked) {
+                last_acked = P.acked;
+                progress = now_ms();
+            }
+            if (kill_at < nsteps && step > kill_at && now_ms() - step_at >= kill_delay) {
+                unsigned last = step - 1;
+                killed++;
+                phase[last < 3 ? last : last < 3 + nput[set] ? 3 : last == 3 + nput[set] ? 4 : 5]++;
+                break; /* power cut: whatever is on the line stays there */
+            }
+            if (step == nsteps && it2n_link_pending(&P.l) == 0 && P.results >= 2) {
+                complete++;
+                CHECK(P.mismatches == 0, "boot %u: QUERY results differ from the data set's solve", b);
+                stale += P.mismatches;
+                done = 1;
+            }
+            if (now_ms() - progress > 3000) {
+                stalled = 1; /* never a timeout: nothing moved for 3 s */
+                break;
+            }
+        }
+        stalls += stalled;
+        refused += rb.refused;
+        if (rb.hello_at_set) {
+            if (rb.hello_ms > max_hello)
+                max_hello = rb.hello_ms;
+            slow += rb.hello_ms > 2 * rto + 200; /* one exchange + 2 RTO */
+        } else if (stalled) {
+            slow++;
+        }
+        (void)boot_t;
+        prev_acked = rb.cfg_acked ? rb.entries_acked : 0;
+        prev_killed = !done && !stalled;
+        prev_cfg = rb.cfg_acked;
+    }
+    peer_version = 0;
+    printf("%s: %u boots of a deterministic instrument (first seq 77%s): %u complete, %u killed (%u with "
+           "frames arriving late), %u STATUS checks: %u ACKed entries lost, %u refused (DUPLICATE: stale), %u "
+           "mismatching results, %u stalls, %u slow HELLOs (max %u ms, bound %u), %u ms; kills after sending "
+           "HELLO %u, STATUS %u, CONFIGURE %u, a PUT %u, COMMIT %u, a QUERY %u\n",
+           v12 ? "reboot (v1.2)" : "reboot11 (v1.1, fixed session id)", n, v12 ? "" : ", session 0x1D", complete,
+           killed, late, checked, lost, refused, stale, stalls, slow, max_hello, 2 * rto + 200, now_ms() - t0,
+           phase[0], phase[1], phase[2], phase[3], phase[4], phase[5]);
+    if (v12)
+        CHECK(lost == 0 && refused == 0 && stale == 0 && stalls == 0 && slow == 0,
+              "reboot: %u lost, %u refused, %u stale, %u stalls, %u slow", lost, refused, stale, stalls, slow);
+    else
+        CHECK(lost + refused + stale + stalls + slow > 0, "reboot11: the v1.1 handshake was expected to fail");
+}
+
 /* The example as a firmware would run it, twice (two boots: the second
  * session's id differs, the same points again are no DUPLICATE because
  * CONFIGURE clears them), each result checked against the core. */
@@ -1164,6 +1397,10 @@ int main(int argc, char **argv)
             spec(v);
         else if (!strcmp(argv[k], "doc"))
             doc(v);
+        else if (!strcmp(argv[k], "reboot"))
+            reboots(v, 1);
+        else if (!strcmp(argv[k], "reboot11"))
+            reboots(v, 0);
         else {
             fprintf(stderr, "unknown scenario %s\n", argv[k]);
             return 2;
