@@ -868,7 +868,7 @@ static void spec(unsigned unused)
     h.u.hello.version_min = h.u.hello.version_max = 1;
     r = request(&P, &h);
     CHECK(r == IT2N_PROTO_ERR_VERSION && P.last_nack.value == 1 && P.last_nack.lo == IT2N_PROTO_VERSION_MIN &&
-              P.last_nack.hi == IT2N_PROTO_VERSION,
+              P.last_nack.hi == IT2N_PROTO_VERSION_MAX,
           "HELLO without a common version: %d value %lld lo %lld hi %lld", r, (long long)P.last_nack.value,
           (long long)P.last_nack.lo, (long long)P.last_nack.hi);
     CHECK(P.hellos == 0, "a refused HELLO got the daemon's HELLO");
@@ -897,7 +897,7 @@ static void spec(unsigned unused)
     CHECK(P.hellos == 1 && P.trace[0] == 'A' && P.trace[1] == 'H', "HELLO answer: trace %.*s", (int)P.ntrace,
           P.trace);
     CHECK(P.dh.max_models == 3 && P.dh.version_min == IT2N_PROTO_VERSION_MIN &&
-              P.dh.version_max == IT2N_PROTO_VERSION && (P.dh.caps & IT2N_CAP_SERVER),
+              P.dh.version_max == IT2N_PROTO_VERSION_MAX && (P.dh.caps & IT2N_CAP_SERVER),
           "daemon HELLO: max_models %u versions %u..%u", P.dh.max_models, P.dh.version_min, P.dh.version_max);
 
     /* CONFIGURE: its ACK comes before the CONFIGURED EVENT. */
@@ -1089,6 +1089,24 @@ static void spec(unsigned unused)
               P.ev.generation >= 1,
           "EVENT LOST: kind %u model %u code %d frames %u", P.ev.kind, P.ev.model, P.ev.code,
           (unsigned)P.ev.generation);
+
+    /* EVENT LOST goes only to the session whose frames were dropped (and
+     * that said HELLO): declared down again, then a new session speaks
+     * (the peer restarted, its HELLO-less first frame): no LOST for it. */
+    settle(&P, 100);
+    P.defer = 1;
+    P.nd = 0;
+    CHECK(send_msg(&P, &gs, 2000) >= 0, "GET_STATUS");
+    for (uint32_t t1 = now_ms(); now_ms() - t1 < 1500;) {
+        for (unsigned k = 0; k < P.nd; k++)
+            P.dat[k] = now_ms() + 100000;
+        pump(&P, 2);
+    }
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    CHECK(request(&P, &gs) == 0, "GET_STATUS of a new session after the link was declared down");
+    settle(&P, 300);
+    CHECK(P.events == 0, "EVENT (kind %u) to a new session for the previous one's frames", P.ev.kind);
     printf("spec: %d checks failed\n", failures);
 }
 
