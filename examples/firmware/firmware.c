@@ -3,7 +3,7 @@
  *
  * Synthesises a measured grid (examples/instrument/synth.c: seven nested
  * footprints, z, T/I/F memberships), solves it locally with the core,
- * uploads it over CMSDK UART0 with the serial protocol v1.1 through the
+ * uploads it over CMSDK UART0 with the serial protocol v1.2 through the
  * instrument API of protocol/it2n_inst.h (HELLO, CONFIGURE, batched PUTs,
  * COMMIT, sync; docs/instrument.md), then QUERYs the peer at a set of (u, w) and
  * checks each QUERY_RESULT bit for bit against its own evaluation. Its own
@@ -162,15 +162,6 @@ static void fail(const char *what, int64_t code)
     flush_line();
 }
 
-/* A session id no earlier session of this board used: on hardware, a
- * boot counter in flash or the TRNG; here the board's unique id (none on
- * the emulated board: its clock at start) mixed with the attempt. */
-static uint32_t fw_session_id(unsigned attempt)
-{
-    uint32_t x = board_now_ms() * 2654435761u ^ 0x1F2E3D4Cu;
-    return x + attempt * 0x9E3779B9u;
-}
-
 static unsigned resyncs;
 
 /* CONFIGURE, every point of the data set, COMMIT, and wait for the ACKs. */
@@ -209,8 +200,9 @@ static int upload(void)
     cfg.read = uart_in;
     cfg.now_ms = clock_ms;
     cfg.idle = idle;
-    cfg.session_id = fw_session_id(0);
-    cfg.first_seq = (uint16_t)board_now_ms();
+    /* Protocol v1.2 (cfg.version 0): it2nd hands out the session id in its
+     * HELLO, so this board needs no boot counter, TRNG or clock-derived
+     * id: every boot may start exactly alike (docs/instrument.md). */
     cfg.rto_ms = FW_RTO_MS;
     cfg.max_tries = (uint8_t)FW_TRIES;
     cfg.timeout_ms = 60000u;
