@@ -420,6 +420,148 @@ static void test_v12_foreign_refused(void **st)
     assert_int_equal(S->l.stats.rx_foreign, 2);
 }
 
+
+/* ---- docs/protocol.md Appendix B, reproduced frame by frame ---------- */
+
+static mem_out ex_out;
+static char ex_text[4096];
+static size_t ex_len;
+
+static void ex_dump(const char *title)
+{
+    ex_len += (size_t)snprintf(ex_text + ex_len, sizeof ex_text - ex_len, "%s\n", title);
+    for (size_t k = 0; k < ex_out.len; k++)
+        ex_len += (size_t)snprintf(ex_text + ex_len, sizeof ex_text - ex_len, "%02x%s", ex_out.buf[k],
+                                   ex_out.buf[k] == 0 ? "\n" : " ");
+}
+
+static uint32_t ex_session(void *app)
+{
+    (void)app;
+    return 0x1D2C3B4Au;
+}
+
+static it2n_link *ex_srv;
+
+static int ex_srv_rx(void *app, uint16_t seq, const it2n_msg *m)
+{
+    (void)app;
+    if (m->type == IT2N_MSG_HELLO) {
+        it2n_msg h;
+        memset(&h, 0, sizeof h);
+        it2n_link_complete(ex_srv, seq, 0, NULL);
+        h.type = IT2N_MSG_HELLO;
+        h.u.hello.version_min = 2;
+        h.u.hello.version_max = 3;
+        h.u.hello.max_degree = 7;
+        h.u.hello.window = 16;
+        h.u.hello.caps = 0x3E;
+        h.u.hello.max_payload = 1024;
+        h.u.hello.max_models = 1;
+        memcpy(h.u.hello.node, "it2nd", 5);
+        it2n_link_send(ex_srv, &h, 0);
+        return IT2N_LINK_DEFER;
+    }
+    return 0;
+}
+
+static int ex_cl_rx(void *app, uint16_t seq, const it2n_msg *m)
+{
+    (void)app;
+    (void)seq;
+    (void)m;
+    return 0;
+}
+
+static void test_v12_doc_example(void **st)
+{
+    (void)st;
+    static mem_out co, so;
+    it2n_ostream cos = mem_stream(&co), sos = mem_stream(&so);
+    it2n_link_cfg c, sc;
+    it2n_msg h, m;
+    memset(&c, 0, sizeof c);
+    memset(&sc, 0, sizeof sc);
+    c.out = &cos;
+    c.on_rx = ex_cl_rx;
+    c.rto_ms = 100;
+    c.first_seq = 0x100;
+    c.version = IT2N_PROTO_VERSION_12;
+    sc.out = &sos;
+    sc.on_rx = ex_srv_rx;
+    sc.rto_ms = 100;
+    sc.first_seq = 0x2000;
+    sc.session = 1;
+    sc.new_session = ex_session;
+    ex_srv = &S->l;
+    assert_int_equal(it2n_link_init(&C->l, &c), IT2N_OK);
+    assert_int_equal(it2n_link_init(&S->l, &sc), IT2N_OK);
+    memset(&h, 0, sizeof h);
+    h.type = IT2N_MSG_HELLO;
+    h.u.hello.version_min = h.u.hello.version_max = 3;
+    h.u.hello.max_degree = 7;
+    h.u.hello.window = 4;
+    h.u.hello.caps = IT2N_CAP_INSTRUMENT;
+    h.u.hello.max_payload = 1024;
+    h.u.hello.max_models = 1;
+    memcpy(h.u.hello.node, "inst-0001", 9);
+    ex_len = 0;
+    assert_int_equal(it2n_link_send(&C->l, &h, 0), 0x100);
+    ex_out = co;
+    ex_dump("client HELLO, SYN, session 0, seq 0x0100:");
+    it2n_link_input(&S->l, co.buf, co.len, 1);
+    co.len = 0;
+    /* the server's ACK and HELLO: split at the first delimiter */
+    size_t first = 0;
+    while (first < so.len && so.buf[first] != 0)
+        first++;
+    ex_out.len = first + 1;
+    memcpy(ex_out.buf, so.buf, first + 1);
+    ex_dump("server ACK (session 0, seq 0x0100):");
+    ex_out.len = so.len - first - 1;
+    memcpy(ex_out.buf, so.buf + first + 1, ex_out.len);
+    ex_dump("server HELLO, SYN, session 0x1D2C3B4A (its own sequence, 0x2000):");
+    it2n_link_input(&C->l, so.buf, so.len, 2);
+    so.len = 0;
+    assert_int_equal(it2n_link_session(&C->l), 0x1D2C3B4Au);
+    ex_out = co;
+    ex_dump("client ACK of it (session 0x1D2C3B4A, seq 0x2000):");
+    it2n_link_input(&S->l, co.buf, co.len, 3);
+    co.len = 0;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_COMMIT;
+    m.u.model.model = 2;
+    assert_int_equal(it2n_link_send(&C->l, &m, 4), 0x100);
+    ex_out = co;
+    ex_dump("client COMMIT model 2, SYN (a new sequence in the session), seq 0x0100:");
+    it2n_link_input(&S->l, co.buf, co.len, 5);
+    ex_out = so;
+    ex_dump("server ACK (session 0x1D2C3B4A, seq 0x0100):");
+    assert_int_equal(it2n_link_session(&S->l), 0x1D2C3B4Au);
+    it2n_link_input(&C->l, so.buf, so.len, 6);
+    assert_int_equal(it2n_link_pending(&C->l), 0);
+
+    /* the block of docs/protocol.md after its marker */
+    FILE *f = fopen("docs/protocol.md", "r");
+    if (f == NULL) {
+        printf("skip: docs/protocol.md not found from %s (run from the source root)\n", getenv("PWD"));
+        return;
+    }
+    static char doc[1 << 17];
+    size_t n = fread(doc, 1, sizeof doc - 1, f);
+    fclose(f);
+    doc[n] = 0;
+    char *at = strstr(doc, "<!-- v1.2 example: test_reboot -->\n```\n");
+    assert_non_null(at);
+    at = strchr(strchr(at, '\n') + 1, '\n') + 1;
+    char *end = strstr(at, "```");
+    assert_non_null(end);
+    *end = 0;
+    if (strcmp(at, ex_text) != 0)
+        printf("docs/protocol.md Appendix B should read:\n%s", ex_text);
+    assert_string_equal(at, ex_text);
+}
+
 static int setup(void **st)
 {
     (void)st;
@@ -444,6 +586,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_v11_fixed_id_fails, setup, teardown),
         cmocka_unit_test_setup_teardown(test_v12_server_restart, setup, teardown),
         cmocka_unit_test_setup_teardown(test_v12_foreign_refused, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_v12_doc_example, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
