@@ -1117,7 +1117,6 @@ int upload_and_query(it2n_val *t_centre, it2n_msg_nack *why);
 int board_uart_write(const uint8_t *buf, size_t len);
 int board_uart_read(uint8_t *buf, size_t len);
 uint32_t board_millis(void);
-uint32_t board_boot_count(void);
 
 int board_uart_write(const uint8_t *buf, size_t len)
 {
@@ -1136,10 +1135,6 @@ uint32_t board_millis(void)
     return now_ms();
 }
 
-uint32_t board_boot_count(void)
-{
-    return rnd();
-}
 
 /* ---- reboots of a deterministic instrument (v1.2 4.1) ------------------ */
 
@@ -1350,9 +1345,10 @@ static void reboots(unsigned n, int v12)
         CHECK(lost + refused + stale + stalls + slow > 0, "reboot11: the v1.1 handshake was expected to fail");
 }
 
-/* The example as a firmware would run it, twice (two boots: the second
- * session's id differs, the same points again are no DUPLICATE because
- * CONFIGURE clears them), each result checked against the core. */
+/* The example as a firmware would run it, twice (two boots exactly alike:
+ * no session id, the same first sequence number 0; v1.2 gives each its
+ * session, and the same points again are no DUPLICATE because CONFIGURE
+ * clears them), each result checked against the core. */
 static void doc(unsigned runs)
 {
     static it2n_dataset ds;

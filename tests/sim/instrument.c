@@ -304,7 +304,9 @@ int main(int argc, char **argv)
     cfg.version = v11 ? 0 : IT2N_PROTO_VERSION_12; /* v1.2: the daemon's id */
     it2n_link_init(&l, &cfg);
 
-    unsigned step = configure ? 0 : 2, i = 0, j = 0, fp = 0;
+    /* v1.2: HELLO first in any case (it brings the session); v1.1 without
+     * CONFIGURE starts with the PUTs (HELLO is optional there) */
+    unsigned step = configure || !v11 ? 0 : 2, i = 0, j = 0, fp = 0;
     uint32_t start = now_ms();
     while (!failed) {
         uint32_t now = now_ms();
@@ -356,7 +358,7 @@ int main(int argc, char **argv)
                 m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
                 m.u.hello.max_models = 1;
                 memcpy(m.u.hello.node, evlog ? "sim-peer" : "sim-instrument", evlog ? 8 : 14);
-                step = evlog ? 100 : 1;
+                step = evlog ? 100 : configure ? 1 : 2;
             } else if (step == 1) {
                 m.type = IT2N_MSG_CONFIGURE;
                 m.u.configure.model = (uint8_t)model;
