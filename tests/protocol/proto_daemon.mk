@@ -29,8 +29,8 @@ proto-daemon: $(PROTO_DL) $(IT2ND) $(IT2ND_SAN) ## Protocol v1.1/v1.2 against it
 	@# the v1.1 handshake with a fixed session id fails the same test (asserted)
 	timeout 60 $(PROTO_DL) $(IT2ND) reboot11 3
 
-proto-daemon-long: $(PROTO_DL) $(IT2ND) ## 1000 back-to-back sessions, 20 kill -9s, 10% and 1% faults against it2nd
-	timeout 1200 $(PROTO_DL) $(IT2ND) sessions 1000 kill 20 lossy 10 lossy 1
+proto-daemon-long: $(PROTO_DL) $(IT2ND) ## 1000 back-to-back sessions, 20 kill -9s, 10% and 1% faults, 10000 reboots against it2nd
+	timeout 1200 $(PROTO_DL) $(IT2ND) sessions 1000 kill 20 lossy 10 lossy 1 reboot 10000
 
 # Cortex-M0+ size of the instrument API (the docs/instrument.md example and
 # what it links): the figure in docs/instrument.md is checked here; the
