@@ -39,6 +39,12 @@
  *                that completes gets every PUT ACKed (no DUPLICATE: 0 stale
  *                entries) and QUERY results equal to its own solve; every
  *                HELLO is answered within one exchange plus 2 RTO.
+ *   relimit 1    v1.2: a peer announcing max_payload 64, the daemon killed
+ *                and restarted: the peer's link sends its HELLO again by
+ *                itself (NACK SESSION) and the SAMPLE_DATA frames after
+ *                the restart still hold 1 point (the limit is not lost).
+ *   kill12 K     the kill scenario with a v1.2 peer (its frames in flight
+ *                re-sent in the session it asks for after each restart).
  *   reboot11 N   the same with the v1.1 handshake and a fixed session id
  *                (what such an instrument has): asserts that it FAILS
  *                (frames taken for the previous boot's, stalls), which is
@@ -456,7 +462,10 @@ static void pump(peer *p, int wait_ms)
 static int32_t send_msg(peer *p, const it2n_msg *m, uint32_t limit_ms)
 {
     uint32_t t0 = now_ms();
-    while (!it2n_link_can_send(&p->l)) {
+    /* a v1.2 peer's HELLO asking for its session goes before anything */
+    int asks = m->type == IT2N_MSG_HELLO && p->l.cfg.version == IT2N_PROTO_VERSION_12 &&
+               it2n_link_session(&p->l) == 0;
+    while (!asks && !it2n_link_can_send(&p->l)) {
         pump(p, 2);
         if (now_ms() - t0 > limit_ms)
             return -1;
@@ -483,8 +492,8 @@ static it2n_msg hello(void)
     it2n_msg m;
     memset(&m, 0, sizeof m);
     m.type = IT2N_MSG_HELLO;
-    m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
-    m.u.hello.version_max = IT2N_PROTO_VERSION;
+    /* the one version the peer's link speaks */
+    m.u.hello.version_min = m.u.hello.version_max = peer_version ? peer_version : IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
     m.u.hello.window = W; /* peer_init_w with a smaller window: overwrite */
     m.u.hello.caps = IT2N_CAP_INSTRUMENT;
@@ -699,7 +708,12 @@ static void kills(unsigned k)
     }
     CHECK(killed == k, "killed %u of %u", killed, k);
     CHECK(P.nacked == 0, "%u NACKs (last %d)", P.nacked, P.last_code);
-    CHECK(put_acked == 2 + sent, "ACKs %u for %u PUTs", put_acked - 2, sent);
+    /* v1.2: each HELLO re-sent for a new session (after a restart) is
+     * answered too */
+    unsigned rehellos = peer_version ? P.l.stats.tx_hellos - 1u : 0u;
+    if (peer_version)
+        printf("kill -9 (v1.2 peer): %u HELLOs re-sent by the link for a new session\n", rehellos);
+    CHECK(put_acked == 2 + sent + rehellos, "ACKs %u for %u PUTs", put_acked - 2 - rehellos, sent);
     CHECK(P.results == 1 && P.mismatches == 0, "query after the kills");
 }
 
@@ -1136,6 +1150,70 @@ uint32_t board_millis(void)
 }
 
 
+/* ---- v1.2: limits announced again after a daemon restart (5.2) ---------- */
+
+static void relimit(unsigned unused)
+{
+    static it2n_dataset ds;
+    static it2n_model ref;
+    it2n_errinfo e;
+    (void)unused;
+    it2n_dataset_init(&ds, 1, 1, IT2N_F_TYPE1, NULL);
+    for (unsigned i = 0; i <= 1; i++)
+        for (unsigned j = 0; j <= 1; j++) {
+            it2n_val v[IT2N_CH_COUNT] = {(it2n_val)(10 * i) << 24, (it2n_val)(10 * j) << 24, 0,
+                                         (it2n_val)(3 + i + j) << 21, 1 << 21, 1 << 20};
+            it2n_dataset_put(&ds, i, j, IT2N_FP_D, v, false, &e);
+        }
+    it2n_model_init(&ref);
+    CHECK(it2n_model_solve(&ref, &ds, &e) == IT2N_OK, "local solve");
+    peer_version = IT2N_PROTO_VERSION_12;
+    peer_init(&P, 0, 0, 0, 100);
+    P.ref = &ref;
+    it2n_msg h = hello();
+    h.u.hello.max_payload = 64; /* one SAMPLE_DATA point per frame */
+    CHECK(request(&P, &h) == 0, "v1.2 HELLO");
+    uint32_t s1 = it2n_link_session(&P.l);
+    upload(&P, 1, &ds, 2, 2000);
+    CHECK(drain(&P, 5000) == 0 && P.nacked == 0, "upload");
+    it2n_msg sm;
+    memset(&sm, 0, sizeof sm);
+    sm.type = IT2N_MSG_SAMPLE;
+    sm.u.sample.model = 1;
+    sm.u.sample.fp = IT2N_FP_D;
+    sm.u.sample.rows = sm.u.sample.cols = 3;
+    CHECK(request(&P, &sm) == 0, "SAMPLE");
+    for (uint32_t t0 = now_ms(); P.points < 9 && now_ms() - t0 < 3000;)
+        pump(&P, 2);
+    CHECK(P.points == 9 && P.max_count == 1 && !P.mismatches, "before: %u points, at most %u per frame", P.points,
+          P.max_count);
+    /* kill -9 and restart: the new daemon knows neither the session nor
+     * the limits; the peer's next frame is refused (SESSION) and its link
+     * sends the HELLO again by itself */
+    daemon_kill(SIGKILL);
+    daemon_start();
+    memset(P.seen, 0, sizeof P.seen);
+    P.points = P.max_count = 0;
+    it2n_msg gs = model_msg(IT2N_MSG_GET_STATUS, 1);
+    int r = 2;
+    for (uint32_t t0 = now_ms(); r == 2 && now_ms() - t0 < 10000;)
+        r = request(&P, &gs); /* the daemon reopens the line meanwhile */
+    CHECK(r == 0, "GET_STATUS after the restart: %d", r);
+    CHECK(request(&P, &sm) == 0, "SAMPLE after the restart");
+    for (uint32_t t0 = now_ms(); P.points < 9 && now_ms() - t0 < 3000;)
+        pump(&P, 2);
+    printf("relimit (v1.2): daemon kill -9 and restart: the peer's HELLO re-sent by its link (%u HELLOs asked, "
+           "%u answered), session %08x -> %08x, SAMPLE after: %u points, at most %u per frame (max_payload 64)\n",
+           (unsigned)P.l.stats.tx_hellos, P.hellos, (unsigned)s1, (unsigned)it2n_link_session(&P.l), P.points,
+           P.max_count);
+    CHECK(P.l.stats.tx_hellos == 2 && P.hellos == 2 && it2n_link_session(&P.l) != s1 &&
+              it2n_link_session(&P.l) != 0,
+          "re-HELLO: %u asked, %u answered", (unsigned)P.l.stats.tx_hellos, P.hellos);
+    CHECK(P.points == 9 && P.max_count == 1 && !P.mismatches && P.nacked == 0,
+          "after the restart: %u points, at most %u per frame (limit forgotten?)", P.points, P.max_count);
+    peer_version = 0;
+}
+
 /* ---- reboots of a deterministic instrument (v1.2 4.1) ------------------ */
 
 static uint8_t rb_put_entries[65536]; /* entries of the PUT sent with seq */
@@ -1413,6 +1491,13 @@ int main(int argc, char **argv)
             doc(v);
         else if (!strcmp(argv[k], "reboot"))
             reboots(v, 1);
+        else if (!strcmp(argv[k], "relimit"))
+            relimit(v);
+        else if (!strcmp(argv[k], "kill12")) {
+            peer_version = IT2N_PROTO_VERSION_12; /* the same with a v1.2 peer */
+            kills(v);
+            peer_version = 0;
+        }
         else if (!strcmp(argv[k], "reboot11"))
             reboots(v, 0);
         else {

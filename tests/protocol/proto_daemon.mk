@@ -18,7 +18,7 @@ $(PROTO_DL): tests/protocol/daemon_link.c examples/instrument/synth.c examples/i
 	$(CC) $(HOST_CFLAGS) -DDOC_EXAMPLE -Iexamples/instrument tests/protocol/daemon_link.c examples/instrument/synth.c \
 	  $(BUILD)/tests/protocol/instrument_example.o -o $@ $(PROTO_LIB) $(CORE_LIB) -lutil
 
-PROTO_DL_ARGS ?= sessions 200 kill 5 lossy 10 reboot 1000
+PROTO_DL_ARGS ?= sessions 200 kill 5 lossy 10 reboot 1000 kill12 5 relimit 1
 .PHONY: proto-daemon proto-daemon-long
 TEST_TARGETS += proto-daemon
 proto-daemon: $(PROTO_DL) $(IT2ND) $(IT2ND_SAN) ## Protocol v1.1/v1.2 against it2nd over a pty (sessions, kill -9, 10% faults, 1000 reboots, spec, doc example)
