@@ -949,10 +949,32 @@ static void start_seq(it2n_link *l, uint16_t seq, uint32_t sess, uint8_t ver)
 #endif
 }
 
+/* A HELLO that would start a session is well-formed? Otherwise it is
+ * NACKed with the parse detail (after session t) and changes nothing. */
+static bool hello_ok(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t,
+                     const uint8_t *p, size_t len)
+{
+    it2n_msg m;
+    it2n_proto_errinfo info;
+    int r = it2n_msg_unpack(fh->type, p, len, &m, &info);
+    if (r >= 0)
+        return true;
+    l->stats.rx_bad_msg++;
+    {
+        it2n_msg_nack a;
+        nack_plain(&a, fh->seq, r);
+        a.lo = info.offset;
+        a.value = info.value;
+        a.hi = info.limit;
+        send_answer_vt(l, &a, fh->version, t);
+    }
+    return false;
+}
+
 /* v1.2: may a frame of session t go on to the sequence rules (true), or
  * was it refused (false)? docs/protocol.md 4.1 and 4.3 rule 0. */
 static bool v12_admit(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t,
-                      uint32_t now)
+                      const uint8_t *p, size_t len, uint32_t now)
 {
     bool syn = (fh->flags & IT2N_FLAG_SYN) != 0u;
     if (SERVER(l)) {
@@ -962,6 +984,8 @@ static bool v12_admit(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t,
              * frame is never taken for its previous life's). */
             if (!syn || fh->type != IT2N_MSG_HELLO)
                 goto foreign;
+            if (!hello_ok(l, fh, t, p, len))
+                return false; /* malformed: nothing changes */
             offer(l);
             l->rx_synced = 0; /* a new peer: limits reset until its HELLO */
             return true;
@@ -979,6 +1003,8 @@ static bool v12_admit(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t,
         if (l->tag == 0u) {
             if (syn && t != 0u && fh->type == IT2N_MSG_HELLO) {
                 /* The server's HELLO: our session from now on. */
+                if (!hello_ok(l, fh, t, p, len))
+                    return false;
                 adopt(l, t, now);
                 start_seq(l, fh->seq, t, V12);
                 l->stats.rx_sessions++;
@@ -1021,7 +1047,7 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         len -= SESS;
     }
     if (fh->version == V12) {
-        if (!v12_admit(l, fh, sess, now))
+        if (!v12_admit(l, fh, sess, p, len, now))
             return;
     } else if (l->rx_ver == V12 && !(fh->flags & IT2N_FLAG_SYN)) {
         /* a v1.1 frame is no part of a v1.2 sequence */

@@ -418,6 +418,40 @@ static void test_v12_foreign_refused(void **st)
     it2n_link_input(&S->l, wire, (size_t)w, now);
     assert_int_equal(S->configures, 0);
     assert_int_equal(S->l.stats.rx_foreign, 2);
+
+    /* a malformed HELLO with session 0 (window 0: FIELD) changes nothing:
+     * a session in progress keeps going, no id is handed out */
+    client_boot(1, 0);
+    for (int t = 0; t < 4; t++)
+        tick();
+    uint32_t sess = it2n_link_session(&S->l), handed = S->handed;
+    assert_true(sess != 0u && sess == it2n_link_session(&C->l));
+    it2n_msg hm = {0};
+    hm.type = IT2N_MSG_HELLO;
+    hm.u.hello.version_min = hm.u.hello.version_max = IT2N_PROTO_VERSION_12;
+    hm.u.hello.window = 4;
+    hm.u.hello.max_payload = 1024;
+    memset(raw, 0, 4);
+    n = it2n_msg_pack(&hm, raw + 4, sizeof raw - 4, NULL);
+    raw[4 + 3] = 0; /* window 0 */
+    it2n_frame_hdr hh = {IT2N_PROTO_VERSION_12, IT2N_MSG_HELLO, IT2N_FLAG_REL | IT2N_FLAG_SYN, 5, (uint16_t)(n + 4)};
+    w = it2n_frame_encode(&hh, raw, (size_t)n + 4, wire, sizeof wire);
+    S->out.len = 0;
+    it2n_link_input(&S->l, wire, (size_t)w, now);
+    assert_int_equal(it2n_link_session(&S->l), sess);
+    assert_int_equal(S->handed, handed);
+    assert_int_equal(it2n_frame_decode(&d, S->out.buf, S->out.len, &used, &g, &p), 1);
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_NACK, p + 4, g.len - 4u, &a, NULL), IT2N_OK);
+    assert_int_equal(a.u.nack.code, IT2N_PROTO_ERR_FIELD);
+    assert_int_equal(a.u.nack.lo, 3);
+    S->out.len = 0;
+    for (int t = 0; t < 400 && !(C->step == NE + 2 && it2n_link_pending(&C->l) == 0); t++)
+        tick();
+    assert_int_equal(C->failed, 0);
+    assert_int_equal(S->hellos, 1);
+    unsigned stale = 0, lost = 0;
+    audit(0, &stale, &lost);
+    assert_int_equal(stale + lost, 0);
 }
 
 
