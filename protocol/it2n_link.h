@@ -29,6 +29,14 @@
  * Frames ahead of the expected sequence number (within the window) are
  * kept and delivered once the gap is filled (IT2N_PROTO_RX_REORDER).
  *
+ * Sessions (docs/protocol.md 4.1): a v1.1 link's SYN frames carry its own
+ * cfg.session. In v1.2 the server hands out the session id: a client
+ * (cfg.version = IT2N_PROTO_VERSION_12) sends HELLO with session 0 as its
+ * first frame, takes the id from the server's HELLO, and every frame both
+ * ways carries it; frames of another session are answered NACK SESSION and
+ * never delivered. A server (cfg.new_session set) serves v1.2 and v1.1
+ * peers alike, whichever a frame's version says.
+ *
  * Contexts are plain structs in caller memory; any number may coexist.
  * The callbacks may call it2n_link_send / it2n_link_complete on the same
  * context.
