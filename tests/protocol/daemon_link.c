@@ -1118,6 +1118,9 @@ static void spec(unsigned unused)
     }
     peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
     P.ref = &ref;
+    it2n_msg h2 = hello();
+    h2.u.hello.caps |= IT2N_CAP_EVENTS; /* it asks for events, and still */
+    CHECK(request(&P, &h2) == 0, "HELLO of a new session after the link was declared down");
     CHECK(request(&P, &gs) == 0, "GET_STATUS of a new session after the link was declared down");
     settle(&P, 300);
     CHECK(P.events == 0, "EVENT (kind %u) to a new session for the previous one's frames", P.ev.kind);
