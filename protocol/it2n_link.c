@@ -200,7 +200,7 @@ uint32_t it2n_link_stalled_ms(const it2n_link *l, uint32_t now)
 {
     const it2n_link_slot *old = oldest_of(l);
     if (old == NULL && l->hello.used)
-        return now - l->hello.deadline + l->cfg.rto_ms; /* about the last try */
+        return now - l->hello.first;
     return old == NULL ? 0u : now - old->first;
 }
 
@@ -290,6 +290,7 @@ static void hello_start(it2n_link *l, uint32_t now)
     l->hello.acked = 0;
     l->hello.tries = 0;
     l->hello.seq = l->tx_next;
+    l->hello.first = now;
     l->stats.tx_hellos++;
     hello_out(l, now);
 }
@@ -307,8 +308,8 @@ static int32_t send_hello(it2n_link *l, const it2n_msg *msg, uint32_t now)
     return (int32_t)l->hello.seq;
 }
 
-/* Finish every frame in flight that does not belong to session `keep` of
- * v1.2 (ver 0: keep none of v1.2): it was for a session that is gone. The
+/* Finish every frame in flight not framed in version `ver` or, for v1.2,
+ * not of session `keep`: it was for a session that is gone. The
  * application gets IT2N_PROTO_ERR_SESSION (not a loss to report). */
 static void drop_foreign(it2n_link *l, uint8_t ver, uint32_t keep)
 {
@@ -374,9 +375,6 @@ static void establish(it2n_link *l, uint32_t t, uint32_t now)
         restart_seq(l, now);
     }
 }
-
-static void finish(it2n_link *l, it2n_link_slot *s, int code,
-                   const it2n_msg_nack *nack);
 
 /* Client: the server's HELLO gives session t: the HELLO is answered, the
  * frames kept while asking go on in a new sequence of that session. */

@@ -157,7 +157,7 @@ typedef struct it2n_link_hello {
     uint8_t acked;  /* ACKed; the server's HELLO (the session) is due   */
     uint8_t tries, len;
     uint16_t seq;
-    uint32_t deadline;
+    uint32_t deadline, first; /* next try; when first asked          */
     uint8_t buf[IT2N_FRAME_SESSION_SIZE + IT2N_LINK_HELLO_MAX];
 } it2n_link_hello;
 
