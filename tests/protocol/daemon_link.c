@@ -43,8 +43,12 @@
  *                and restarted: the peer's link sends its HELLO again by
  *                itself (NACK SESSION) and the SAMPLE_DATA frames after
  *                the restart still hold 1 point (the limit is not lost).
+ *   lossy12 PCT  the lossy scenario with a v1.2 peer.
  *   kill12 K     the kill scenario with a v1.2 peer (its frames in flight
  *                re-sent in the session it asks for after each restart).
+ *   rebootlossy N  the same with 5 % drop, duplication, reordering and
+ *                corruption of frames each way (the HELLO bound is then
+ *                not checked: a lost HELLO waits for its retransmission).
  *   reboot11 N   the same with the v1.1 handshake and a fixed session id
  *                (what such an instrument has): asserts that it FAILS
  *                (frames taken for the previous boot's, stalls), which is
@@ -1246,7 +1250,7 @@ static void rb_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_
         rb.commit_acked = 1;
 }
 
-static void reboots(unsigned n, int v12)
+static void reboots(unsigned n, int v12, unsigned pct)
 {
     static it2n_dataset ds[2];
     static it2n_model ref[2];
@@ -1307,7 +1311,7 @@ static void reboots(unsigned n, int v12)
             }
         }
         memset(&rb, 0, sizeof rb);
-        peer_init(&P, 77, 0x1D, 0, rto); /* the same every boot */
+        peer_init(&P, 77, 0x1D, pct, rto); /* the same every boot */
         P.l.cfg.on_done = rb_done;
         P.ref = &ref[set];
         rb_boot_at = now_ms();
@@ -1402,7 +1406,7 @@ static void reboots(unsigned n, int v12)
         if (rb.hello_at_set) {
             if (rb.hello_ms > max_hello)
                 max_hello = rb.hello_ms;
-            slow += rb.hello_ms > 2 * rto + 200; /* one exchange + 2 RTO */
+            slow += pct == 0 && rb.hello_ms > 2 * rto + 200; /* one exchange + 2 RTO */
         } else if (stalled) {
             slow++;
         }
@@ -1412,11 +1416,11 @@ static void reboots(unsigned n, int v12)
         prev_cfg = rb.cfg_acked;
     }
     peer_version = 0;
-    printf("%s: %u boots of a deterministic instrument (first seq 77%s): %u complete, %u killed (%u with "
+    printf("%s%s: %u boots of a deterministic instrument (first seq 77%s): %u complete, %u killed (%u with "
            "frames arriving late), %u STATUS checks: %u ACKed entries lost, %u refused (DUPLICATE: stale), %u "
            "mismatching results, %u stalls, %u slow HELLOs (max %u ms, bound %u), %u ms; kills after sending "
            "HELLO %u, STATUS %u, CONFIGURE %u, a PUT %u, COMMIT %u, a QUERY %u\n",
-           v12 ? "reboot (v1.2)" : "reboot11 (v1.1, fixed session id)", n, v12 ? "" : ", session 0x1D", complete,
+           v12 ? "reboot (v1.2)" : "reboot11 (v1.1, fixed session id)", pct ? ", faults on the line" : "", n, v12 ? "" : ", session 0x1D", complete,
            killed, late, checked, lost, refused, stale, stalls, slow, max_hello, 2 * rto + 200, now_ms() - t0,
            phase[0], phase[1], phase[2], phase[3], phase[4], phase[5]);
     if (v12)
@@ -1493,16 +1497,22 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[k], "doc"))
             doc(v);
         else if (!strcmp(argv[k], "reboot"))
-            reboots(v, 1);
+            reboots(v, 1, 0);
+        else if (!strcmp(argv[k], "rebootlossy"))
+            reboots(v, 1, 5);
         else if (!strcmp(argv[k], "relimit"))
             relimit(v);
-        else if (!strcmp(argv[k], "kill12")) {
+        else if (!strcmp(argv[k], "lossy12")) {
+            peer_version = IT2N_PROTO_VERSION_12; /* the same with a v1.2 peer */
+            lossy(v);
+            peer_version = 0;
+        } else if (!strcmp(argv[k], "kill12")) {
             peer_version = IT2N_PROTO_VERSION_12; /* the same with a v1.2 peer */
             kills(v);
             peer_version = 0;
         }
         else if (!strcmp(argv[k], "reboot11"))
-            reboots(v, 0);
+            reboots(v, 0, 0);
         else {
             fprintf(stderr, "unknown scenario %s\n", argv[k]);
             return 2;
