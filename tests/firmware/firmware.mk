@@ -71,8 +71,8 @@ fw-reboot: $(FWR_ELF) $(IT2ND) ## Firmware on qemu reset at 30 random points, ex
 fw-reboot-long: $(FWR_ELF) $(IT2ND) ## The same with 300 resets
 	IT2ND=$(IT2ND) FW_ELF=$(FWR_ELF) FW_REBOOTS=300 tests/firmware/fw_reboot.sh
 # The old handshake fails it (asserted: the script must report a failure).
-.PHONY: fw-reboot-v11
-fw-reboot-v11: $(FWR11_ELF) $(IT2ND) ## fw-reboot with the v1.1 handshake (clock-derived id): must fail
+.PHONY: fw-reboot-legacy
+fw-reboot-legacy: $(FWR11_ELF) $(IT2ND) ## fw-reboot with the v1.1 handshake (clock-derived id): must fail
 	IT2ND=$(IT2ND) FW_ELF=$(FWR11_ELF) FW_REBOOTS=$${FW_REBOOTS:-10} FW_EXPECT_FAIL=1 tests/firmware/fw_reboot.sh
 
 .PHONY: bench-firmware
