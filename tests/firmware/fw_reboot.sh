@@ -124,6 +124,12 @@ early=$(echo "$phases" | sed -n 's/^boot \([0-9]*\),.*/\1/p')
 [ "$hellos" -ge "$((N + 1 - early))" ] \
     && ok "every boot's HELLO got a new session ($hellos for $((N + 1)) boots; $early reset before their HELLO)" \
     || fail "$hellos sessions for $((N + 1)) boots ($early reset before HELLO)"
+# recovery of each boot: from its HELLO reaching the daemon to its
+# CONFIGURE (one HELLO exchange; a stall would be retries of 150 ms)
+read -r ngap maxgap <<< "$(sed -n 's/^HELLO_TO_CONFIGURE_MS //p' "$T/resets.txt")"
+[ "${ngap:-0}" -gt 0 ] && [ "$maxgap" -le 700 ] \
+    && ok "$ngap boots seen from HELLO to CONFIGURE: at most $maxgap ms (bound 2 RTO + 400 ms = 700; a stall is seconds)" \
+    || fail "HELLO to CONFIGURE: ${maxgap:-?} ms over ${ngap:-0} boots"
 up=$(sed -n 's/^UPLOAD committed ms \([0-9]*\).*/\1/p' "$T/last.log")
 [ -n "$up" ] && [ "$up" -le 1000 ] && ok "last boot: HELLO to COMMIT's ACK in $up ms (no stall)" \
     || fail "last boot's upload took ${up:-?} ms"

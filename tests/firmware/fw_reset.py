@@ -55,13 +55,19 @@ if b"running" not in prompt():
     sys.exit("fw_reset: qemu did not start running")
 phases = {"boot": 0, "HELLO": 0, "CONFIGURE": 0, "PUT": 0, "COMMIT": 0, "QUERY": 0}
 seed = s0
+gaps = []  # per boot: the daemon's HELLO answer to the boot's CONFIGURE, ms
 for b in range(n):
     d0, q0 = first if b == 0 else (size(dlog), size(qlog))
     kind = rng.choice(["boot", "HELLO", "CONFIGURE", "PUT", "PUT", "PUT", "COMMIT", "QUERY", "QUERY"])
     k = rng.randint(1, 12) if kind == "PUT" else rng.randint(1, 7) if kind == "QUERY" else 1
     t0 = time.time()
+    t_hello = t_cfg = None
     while True:
         d, q = since(dlog, d0), since(qlog, q0)
+        if t_hello is None and "HELLO from" in d:
+            t_hello = time.time()
+        if t_cfg is None and "CONFIGURE model" in d:
+            t_cfg = time.time()
         got = {"boot": "SEED " in q and rng.random() < 0.05,
                "HELLO": "HELLO from" in d,
                "CONFIGURE": "CONFIGURE model" in d,
@@ -82,6 +88,8 @@ for b in range(n):
     if "EVAL " in q:
         at = "QUERY"
     phases[at] += 1
+    if t_hello is not None and t_cfg is not None:
+        gaps.append(int((t_cfg - t_hello) * 1000))
     seed = s1 if seed == s0 else s0
     with open(seedf, "w") as f:
         f.write(seed + "\n")
@@ -90,5 +98,6 @@ for b in range(n):
     s.sendall(b"system_reset\n")
     prompt()
 print(" ".join("%s %d," % (p, c) for p, c in phases.items()))
+print("HELLO_TO_CONFIGURE_MS %d %d" % (len(gaps), max(gaps) if gaps else 0))
 print("SEED_LAST %s" % seed)
 sys.stdout.flush()
