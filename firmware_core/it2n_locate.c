@@ -70,30 +70,30 @@ static int64_t shr(int64_t v, unsigned s)
 static bool newton_step(const loc_state *st, unsigned fp, int64_t *su,
                         int64_t *sw)
 {
-    xf xu, xw, yu, yw, rx, ry, det, p, q;
-    xf_set(&xu, st->du[fp][IT2N_CH_X], 0);
-    xf_set(&xw, st->dw[fp][IT2N_CH_X], 0);
-    xf_set(&yu, st->du[fp][IT2N_CH_Y], 0);
-    xf_set(&yw, st->dw[fp][IT2N_CH_Y], 0);
-    xf_set(&rx, st->rx, 0);
-    xf_set(&ry, st->ry, 0);
-    xf_mul(&p, &xu, &yw);
-    xf_mul(&q, &xw, &yu);
-    xf_sub(&det, &p, &q);
+    it2n__xf xu, xw, yu, yw, rx, ry, det, p, q;
+    it2n__xf_set(&xu, st->du[fp][IT2N_CH_X], 0);
+    it2n__xf_set(&xw, st->dw[fp][IT2N_CH_X], 0);
+    it2n__xf_set(&yu, st->du[fp][IT2N_CH_Y], 0);
+    it2n__xf_set(&yw, st->dw[fp][IT2N_CH_Y], 0);
+    it2n__xf_set(&rx, st->rx, 0);
+    it2n__xf_set(&ry, st->ry, 0);
+    it2n__xf_mul(&p, &xu, &yw);
+    it2n__xf_mul(&q, &xw, &yu);
+    it2n__xf_sub(&det, &p, &q);
     if (det.m == 0) {
         return false;
     }
     /* du = (xw ry - yw rx) / det, dw = (yu rx - xu ry) / det */
-    xf_mul(&p, &xw, &ry);
-    xf_mul(&q, &yw, &rx);
-    xf_sub(&p, &p, &q);
-    xf_div(&p, &p, &det);
-    *su = xf_to_q32(&p);
-    xf_mul(&p, &yu, &rx);
-    xf_mul(&q, &xu, &ry);
-    xf_sub(&p, &p, &q);
-    xf_div(&p, &p, &det);
-    *sw = xf_to_q32(&p);
+    it2n__xf_mul(&p, &xw, &ry);
+    it2n__xf_mul(&q, &yw, &rx);
+    it2n__xf_sub(&p, &p, &q);
+    it2n__xf_div(&p, &p, &det);
+    *su = it2n__xf_to_q32(&p);
+    it2n__xf_mul(&p, &yu, &rx);
+    it2n__xf_mul(&q, &xu, &ry);
+    it2n__xf_sub(&p, &p, &q);
+    it2n__xf_div(&p, &p, &det);
+    *sw = it2n__xf_to_q32(&p);
     return true;
 }
 
