@@ -113,5 +113,16 @@ int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
 
 /* Fill out->sum and out->out_of_range from out->v. */
 void it2n__summarise(const it2n_model *mdl, it2n_point *out);
+/* The same for a model of either kind with these IT2N_F_* flags. */
+void it2n__summarise_flags(unsigned flags, it2n_point *out);
+
+/* Common parameter check of the evaluation entry points: IT2N_ERR_RANGE
+ * (err->value the parameter in Q24, ch 0 for u, 1 for w) unless both are
+ * within [0, 1]. */
+int it2n__check_uw(it2n_par u, it2n_par w, it2n_errinfo *err);
+
+/* B-spline solve: round(2^32 / d_k), the reciprocal of pivot k of the
+ * (1, 4, 1) elimination (it2n_bspline.c; the tests recompute the table). */
+uint32_t it2n__bspline_pivot_inv(unsigned k);
 
 #endif /* IT2N_INTERNAL_H */

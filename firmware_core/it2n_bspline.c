@@ -1,0 +1,586 @@
+/*
+ * B-spline kind: data set in caller storage and the not-a-knot solve.
+ *
+ * One net (footprint, channel) is solved in two passes of line solves:
+ * every data row (fixed i, along w) into an intermediate row of m+3
+ * B-spline coefficients, then every intermediate column (along u) into n+3
+ * coefficients. A line solve is exact algebra on the uniform B-spline
+ * equations (c_{k-1} + 4 c_k + c_{k+1}) / 6 = y_k plus the not-a-knot
+ * conditions (the fourth difference of c vanishes at knots 1 and N-1):
+ *   6 c_1 = 8 y_1 - y_0 - y_2 (spans 0 and 1 are one cubic, so its second
+ *   difference gives S''(u_1) directly), likewise 6 c_{N-1};
+ *   c_2..c_{N-2} from the tridiagonal (1, 4, 1) system between them;
+ *   6 c_0 = 4 (y_0 + y_1 + y_2) - 6 c_2, 6 c_{-1} = 36 y_0 - 24 c_0 - 6 c_1
+ *   (the interpolation equations at u_1 and u_0), likewise at the far end.
+ * The tridiagonal system has constant coefficients, so its pivots are fixed
+ * rationals (a table below): no division at run time. Lines of 2 and 3
+ * points are the line and the parabola through them (see it2n.h).
+ *
+ * Precision: values are int64 with at most 2^55 in, every intermediate
+ * below 2^62 (|6 c| <= 93.5 max|y| over every line length, measured in
+ * exact rationals; intermediates <= 123 max|y|); each product is one
+ * rounding of an int64 by a 32-bit constant (two 32 x 32 -> 64 products).
+ * The intermediate rows are stored as int32 mantissas with one exponent per
+ * row, the result columns with one per column, then shifted to one exponent
+ * per net (the net's largest mantissa in [2^30, 2^31)).
+ */
+#include <string.h>
+
+#include "it2n_internal.h"
+
+#define COORD_MAX ((it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC)
+#define LINE_MAX (IT2N_BSPLINE_MAX_N + 3)
+
+/* ---- Data set ------------------------------------------------------------ */
+
+static unsigned nfp_of(unsigned flags)
+{
+    return IT2N_BSPLINE_NFP(flags);
+}
+
+/* Record of footprint fp at (i, j); fp must be stored by this data set. */
+static it2n_bspline_rec *rec_at(const it2n_bspline_data *ds, unsigned i,
+                                unsigned j, unsigned fp)
+{
+    unsigned nfp = nfp_of(ds->flags);
+    size_t k = ((size_t)i * (ds->m + 1u) + j) * nfp + (nfp == 1u ? 0u : fp);
+    return &ds->rec[k];
+}
+
+/* Channel ch of a record in Q24. */
+static it2n_val rec_value(const it2n_bspline_rec *r, unsigned ch)
+{
+    if (ch >= 3u) {
+        return (it2n_val)r->memb[ch - 3u];
+    }
+    return (it2n_val)((uint64_t)(int64_t)r->hi[ch] * 4294967296u | r->lo[ch]);
+}
+
+static bool fp_stored(unsigned flags, unsigned fp)
+{
+    return fp < IT2N_FP_COUNT && ((1u << fp) & it2n__fp_mask(flags)) != 0u;
+}
+
+int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec,
+                           size_t cap, unsigned n, unsigned m, unsigned flags,
+                           it2n_errinfo *err)
+{
+    const unsigned ok_flags = IT2N_F_Z | IT2N_F_TYPE1;
+    size_t need, k;
+    if (ds == NULL || rec == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (n < 1u || n > IT2N_BSPLINE_MAX_N) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)n,
+                          1, IT2N_BSPLINE_MAX_N);
+    }
+    if (m < 1u || m > IT2N_BSPLINE_MAX_N) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)m,
+                          1, IT2N_BSPLINE_MAX_N);
+    }
+    if ((flags & ~ok_flags) != 0u) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1,
+                          (it2n_val)flags, 0, ok_flags);
+    }
+    need = IT2N_BSPLINE_DATA_RECS(n, m, flags);
+    if (cap < need) {
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, -1, (it2n_val)cap,
+                          (it2n_val)need, (it2n_val)need);
+    }
+    for (k = 0; k < need; k++) {
+        memset(&rec[k], 0, sizeof(rec[k]));
+    }
+    ds->rec = rec;
+    ds->cap = cap;
+    ds->n = (uint16_t)n;
+    ds->m = (uint16_t)m;
+    ds->flags = (uint8_t)flags;
+    return IT2N_OK;
+}
+
+/* Store checked values into a record. */
+static void rec_store(it2n_bspline_rec *r, unsigned flags,
+                      const it2n_val vals[IT2N_CH_COUNT])
+{
+    unsigned ch;
+    for (ch = 0; ch < 3u; ch++) {
+        it2n_val v = it2n__ch_used(flags, ch) ? vals[ch] : 0;
+        r->lo[ch] = (uint32_t)(uint64_t)v;
+        r->hi[ch] = (int16_t)(v >> 32); /* |v| < 2^47 */
+        r->memb[ch] = (uint32_t)vals[3u + ch];
+    }
+    r->present = 1u;
+}
+
+/* Index and footprint checks shared by put and update. */
+static int check_where(const it2n_bspline_data *ds, unsigned i, unsigned j,
+                       unsigned fp, it2n_errinfo *err)
+{
+    if (i > ds->n || j > ds->m) {
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, -1, -1,
+                          (it2n_val)(i > ds->n ? i : j), 0,
+                          (it2n_val)(i > ds->n ? ds->n : ds->m));
+    }
+    if (!fp_stored(ds->flags, fp)) {
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
+                          (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
+    }
+    return IT2N_OK;
+}
+
+int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
+                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                          bool replace, it2n_errinfo *err)
+{
+    it2n_bspline_rec *r;
+    int rc;
+    if (ds == NULL || ds->rec == NULL || vals == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    rc = check_where(ds, i, j, fp, err);
+    if (rc != IT2N_OK) {
+        return rc;
+    }
+    rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+    if (rc != IT2N_OK) {
+        return rc;
+    }
+    r = rec_at(ds, i, j, fp);
+    if (!replace && r->present) {
+        return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp,
+                          -1, 0, 0, 0);
+    }
+    rec_store(r, ds->flags, vals);
+    return IT2N_OK;
+}
+
+void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i,
+                           unsigned j, unsigned fp,
+                           it2n_val vals[IT2N_CH_COUNT])
+{
+    const it2n_bspline_rec *r;
+    unsigned ch;
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        vals[ch] = 0;
+    }
+    if (ds == NULL || ds->rec == NULL || i > ds->n || j > ds->m ||
+        !fp_stored(ds->flags, fp)) {
+        return;
+    }
+    r = rec_at(ds, i, j, fp);
+    for (ch = 0; ch < IT2N_CH_COUNT && r->present; ch++) {
+        vals[ch] = rec_value(r, ch);
+    }
+}
+
+uint32_t it2n_bspline_data_missing(const it2n_bspline_data *ds)
+{
+    unsigned i, j, fp;
+    uint32_t missing = 0u;
+    for (i = 0; i <= ds->n; i++) {
+        for (j = 0; j <= ds->m; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (fp_stored(ds->flags, fp) && !rec_at(ds, i, j, fp)->present) {
+                    missing++;
+                }
+            }
+        }
+    }
+    return missing;
+}
+
+/* Nesting of footprint fp (values vals) with the stored fp - 1 and fp + 1
+ * at (i, j), reported as a full check would. */
+static int check_nesting(const it2n_bspline_data *ds, unsigned i, unsigned j,
+                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                         it2n_errinfo *err)
+{
+    unsigned ch;
+    if (ds->flags & IT2N_F_TYPE1) {
+        return IT2N_OK;
+    }
+    for (ch = 0; ch < it2n__ncoord(ds->flags) && fp > 0u; ch++) {
+        it2n_val prev = rec_value(rec_at(ds, i, j, fp - 1u), ch);
+        if (vals[ch] < prev) {
+            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp,
+                              (int)ch, vals[ch], prev, vals[ch]);
+        }
+    }
+    for (ch = 0; ch < it2n__ncoord(ds->flags) && fp + 1u < IT2N_FP_COUNT; ch++) {
+        it2n_val next = rec_value(rec_at(ds, i, j, fp + 1u), ch);
+        if (next < vals[ch]) {
+            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
+                              (int)fp + 1, (int)ch, next, vals[ch], next);
+        }
+    }
+    return IT2N_OK;
+}
+
+/* Sizes and flags a data set may have (the struct may be filled by hand). */
+static bool data_shape_ok(const it2n_bspline_data *ds)
+{
+    return ds != NULL && ds->rec != NULL && ds->n >= 1u &&
+           ds->n <= IT2N_BSPLINE_MAX_N && ds->m >= 1u &&
+           ds->m <= IT2N_BSPLINE_MAX_N &&
+           (ds->flags & ~(unsigned)(IT2N_F_Z | IT2N_F_TYPE1)) == 0u &&
+           ds->cap >= IT2N_BSPLINE_DATA_RECS(ds->n, ds->m, ds->flags);
+}
+
+int it2n_bspline_data_check(const it2n_bspline_data *ds, it2n_errinfo *err)
+{
+    it2n_val vals[IT2N_CH_COUNT];
+    unsigned i, j, fp;
+    int rc;
+    if (!data_shape_ok(ds)) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    for (i = 0; i <= ds->n; i++) {
+        for (j = 0; j <= ds->m; j++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                if (!fp_stored(ds->flags, fp)) {
+                    continue;
+                }
+                if (!rec_at(ds, i, j, fp)->present) {
+                    return it2n__fail(err, IT2N_ERR_MISSING, (int)i, (int)j,
+                                      (int)fp, -1, 0, 0, 0);
+                }
+                it2n_bspline_data_get(ds, i, j, fp, vals);
+                rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+                if (rc != IT2N_OK) {
+                    return rc;
+                }
+                /* against fp - 1 only: each pair is checked once, in order */
+                if (fp > 0u && !(ds->flags & IT2N_F_TYPE1)) {
+                    unsigned ch;
+                    for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
+                        it2n_val prev = rec_value(rec_at(ds, i, j, fp - 1u), ch);
+                        if (vals[ch] < prev) {
+                            return it2n__fail(err, IT2N_ERR_ORDER, (int)i,
+                                              (int)j, (int)fp, (int)ch,
+                                              vals[ch], prev, vals[ch]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    return IT2N_OK;
+}
+
+/* ---- Line solve -------------------------------------------------------- */
+
+/* round(a b / 2^32) for |a| < 2^62: a = hi 2^32 + lo, two 32 x 32 -> 64
+ * products, exact rounding (ties toward +inf). */
+static int64_t mulq32(int64_t a, uint32_t b)
+{
+    int32_t hi = (int32_t)(a >> 32);
+    uint32_t lo = (uint32_t)(uint64_t)a;
+    return it2n_mul32su(hi, b) +
+           (int64_t)((it2n_umul32(lo, b) + 0x80000000u) >> 32);
+}
+
+/* Pivot reciprocals of the (1, 4, 1) elimination, round(2^32 / d_k) with
+ * d_0 = 4, d_k = 4 - 1 / d_{k-1} (d_k = a_k / a_{k-1}, a_k = 4 a_{k-1} -
+ * a_{k-2}, a_{-1} = 1, a_0 = 4); from k = 7 on they round to the limit
+ * 2^32 (2 - sqrt 3). tests/core/test_bspline.c recomputes them. */
+#define PIVOTS 8u
+static const uint32_t inv_pivot[PIVOTS] = {
+    1073741824u, 1145324612u, 1150437669u, 1150804634u,
+    1150830981u, 1150832872u, 1150833008u, 1150833018u};
+
+uint32_t it2n__bspline_pivot_inv(unsigned k)
+{
+    return inv_pivot[k < PIVOTS ? k : PIVOTS - 1u];
+}
+
+/*
+ * In: v[1..N+1] = y_0..y_N, |y| < 2^55, N in 1..IT2N_BSPLINE_MAX_N.
+ * Out: v[0..N+2] = 6 c_{-1} .. 6 c_{N+1}, the not-a-knot coefficients (line
+ * or parabola for N < 3), each below 93.5 max|y| < 2^62.
+ */
+static void line_solve(int64_t *v, unsigned N)
+{
+    int64_t y0 = v[1], y1 = v[2], y2, ya, yb, yc, z1, zn1, z0, zn;
+    unsigned k, M;
+    if (N == 1u) {
+        v[0] = 6 * (2 * y0 - y1);
+        v[1] = 6 * y0;
+        v[2] = 6 * y1;
+        v[3] = 6 * (2 * y1 - y0);
+        return;
+    }
+    y2 = v[3];
+    if (N == 2u) {
+        /* the parabola p: 6 c_k = 6 p(u_k) - h^2 p'' */
+        int64_t d = y0 - 2 * y1 + y2;
+        v[0] = 6 * (3 * y0 - 3 * y1 + y2) - d;
+        v[1] = 6 * y0 - d;
+        v[2] = 6 * y1 - d;
+        v[3] = 6 * y2 - d;
+        v[4] = 6 * (y0 - 3 * y1 + 3 * y2) - d;
+        return;
+    }
+    ya = v[N - 1u];
+    yb = v[N];
+    yc = v[N + 1u];
+    z1 = 8 * y1 - y0 - y2;
+    zn1 = 8 * yb - ya - yc;
+    /* (1, 4, 1) system for z_2..z_{N-2} (at v[3..N-1]), right-hand sides
+     * 36 y_k, z_1 and z_{N-1} moved over; forward elimination in place */
+    M = N - 3u;
+    for (k = 0; k < M; k++) {
+        int64_t r = 36 * v[k + 3u];
+        if (k == 0u) {
+            r -= z1;
+        } else {
+            r -= mulq32(v[k + 2u], it2n__bspline_pivot_inv(k - 1u));
+        }
+        if (k + 1u == M) {
+            r -= zn1;
+        }
+        v[k + 3u] = r;
+    }
+    /* back substitution */
+    for (k = M; k-- > 0u;) {
+        int64_t r = v[k + 3u];
+        if (k + 1u < M) {
+            r -= v[k + 4u];
+        }
+        v[k + 3u] = mulq32(r, it2n__bspline_pivot_inv(k));
+    }
+    v[2] = z1;
+    v[N] = zn1;
+    z0 = 4 * (y0 + y1 + y2) - v[3];
+    v[1] = z0;
+    v[0] = 36 * y0 - 4 * z0 - z1;
+    zn = 4 * (yc + yb + ya) - v[N - 1u];
+    v[N + 1u] = zn;
+    v[N + 2u] = 36 * yc - 4 * zn - zn1;
+}
+
+/* Shift s with round(max / 2^s) in [2^30, 2^31) for max > 0 (s may be
+ * negative: an exact left shift). */
+static int norm_shift(uint64_t max)
+{
+    int s = (int)it2n_bitlen64(max) - 31;
+    if (s > 0 && (((max + ((uint64_t)1 << (s - 1))) >> s) >> 31) != 0u) {
+        s++;
+    }
+    return s;
+}
+
+static uint64_t uabs(int64_t v)
+{
+    return v < 0 ? (uint64_t)0 - (uint64_t)v : (uint64_t)v;
+}
+
+/* v * 2^-s rounded (s > 0) or exact (s <= 0, the caller knows it fits). */
+static int64_t scale(int64_t v, int s)
+{
+    if (s >= 63) {
+        return 0;
+    }
+    return it2n__shift_round(v, s);
+}
+
+/* 2^36 / 36 rounded: the two passes' factor 6 each. */
+#define INV36 1908874354u
+
+/* Net of footprint fp, channel ch (both stored by the model). */
+static int32_t *net_of(const it2n_bspline_model *mdl, unsigned fp,
+                       unsigned ch)
+{
+    unsigned nch = IT2N_BSPLINE_NCH(mdl->flags);
+    unsigned slot = (mdl->flags & IT2N_F_TYPE1) ? 0u : fp;
+    /* channels in order x, y, [z], T, I, F */
+    unsigned c = (ch > IT2N_CH_Z && nch == 5u) ? ch - 1u : ch;
+    size_t size = (size_t)(mdl->n + 3u) * (mdl->m + 3u);
+    return mdl->coef + (slot * nch + c) * size;
+}
+
+/*
+ * Solve one net from ds into mdl (sizes and flags already set). Returns
+ * the net's exponent (frac). Always succeeds: see the bounds above.
+ */
+static int solve_net(const it2n_bspline_model *mdl,
+                     const it2n_bspline_data *ds, unsigned fp, unsigned ch)
+{
+    int64_t v[LINE_MAX];
+    int8_t rsh[IT2N_BSPLINE_MAX_N + 1], csh[LINE_MAX];
+    unsigned n = ds->n, m = ds->m, w = m + 3u, i, j;
+    int32_t *net = net_of(mdl, fp, ch);
+    uint64_t amax = 0u;
+    int f1, tmax = -64, cmax = -64, frac;
+    for (i = 0; i <= n; i++) {
+        for (j = 0; j <= m; j++) {
+            uint64_t a = uabs(rec_value(rec_at(ds, i, j, fp), ch));
+            amax = a > amax ? a : amax;
+        }
+    }
+    if (amax == 0u) {
+        for (i = 0; i < (n + 3u) * w; i++) {
+            net[i] = 0;
+        }
+        return 0;
+    }
+    /* pass 1: data rows (|f| < 2^47) scaled to below 2^55 */
+    f1 = 55 - (int)it2n_bitlen64(amax);
+    for (i = 0; i <= n; i++) {
+        uint64_t mx = 0u;
+        int s;
+        for (j = 0; j <= m; j++) {
+            v[j + 1u] = (int64_t)((uint64_t)rec_value(rec_at(ds, i, j, fp), ch) << f1);
+        }
+        line_solve(v, m);
+        for (j = 0; j < w; j++) {
+            uint64_t a = uabs(v[j]);
+            mx = a > mx ? a : mx;
+        }
+        s = mx == 0u ? -31 : norm_shift(mx);
+        rsh[i] = (int8_t)s;
+        tmax = s > tmax ? s : tmax;
+        for (j = 0; j < w; j++) {
+            /* row i of the intermediate in net row i + 1 */
+            net[(i + 1u) * w + j] = (int32_t)scale(v[j], s);
+        }
+    }
+    /* pass 2: columns, rows brought to the largest row's exponent (each
+     * below 2^55), results times 16/36 */
+    for (j = 0; j < w; j++) {
+        uint64_t mx = 0u;
+        int s;
+        for (i = 0; i <= n; i++) {
+            int64_t g = net[(i + 1u) * w + j];
+            int sh = rsh[i] - tmax + 24;
+            v[i + 1u] = sh >= 0 ? (int64_t)((uint64_t)g << sh) : scale(g, -sh);
+        }
+        line_solve(v, n);
+        for (i = 0; i < n + 3u; i++) {
+            uint64_t a;
+            v[i] = mulq32(v[i], INV36);
+            a = uabs(v[i]);
+            mx = a > mx ? a : mx;
+        }
+        s = mx == 0u ? -31 : norm_shift(mx);
+        csh[j] = (int8_t)s;
+        cmax = s > cmax ? s : cmax;
+        for (i = 0; i < n + 3u; i++) {
+            net[i * w + j] = (int32_t)scale(v[i], s);
+        }
+    }
+    /* one exponent per net: columns shifted to the largest one's */
+    for (j = 0; j < w; j++) {
+        int d = cmax - csh[j];
+        for (i = 0; i < n + 3u && d > 0; i++) {
+            net[i * w + j] = (int32_t)scale(net[i * w + j], d);
+        }
+    }
+    /* value (Q24) = y 2^-f1; 6 g = row result; g = G 2^(rsh - f1) / 6;
+     * column input 2^(tmax - 24 - f1) / 6 per unit; result 16 c / 36 ...:
+     * c (Q24) = mantissa 2^(cmax + tmax - 28 - f1); frac counts real units */
+    frac = f1 + 28 - cmax - tmax + IT2N_VAL_FRAC;
+    IT2N_ASSERT(frac >= -1 && frac <= 127);
+    return frac;
+}
+
+/* ---- Model --------------------------------------------------------------- */
+
+void it2n_bspline_model_init(it2n_bspline_model *mdl, int32_t *coef,
+                             size_t cap)
+{
+    if (mdl == NULL) {
+        return;
+    }
+    memset(mdl, 0, sizeof(*mdl));
+    mdl->coef = coef;
+    mdl->cap = coef != NULL ? cap : 0u;
+}
+
+/* Solve every net of the footprints in fpmask (checks done). */
+static void solve_fps(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
+                      unsigned fpmask)
+{
+    unsigned fp, ch;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if (!(fpmask & (1u << fp))) {
+            continue;
+        }
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            if (it2n__ch_used(ds->flags, ch)) {
+                mdl->frac[fp][ch] = (int8_t)solve_net(mdl, ds, fp, ch);
+            }
+        }
+    }
+    mdl->generation++;
+}
+
+int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
+                       it2n_errinfo *err)
+{
+    size_t need;
+    int rc;
+    if (mdl == NULL || ds == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    rc = it2n_bspline_data_check(ds, err);
+    if (rc != IT2N_OK) {
+        return rc;
+    }
+    need = IT2N_BSPLINE_MODEL_WORDS(ds->n, ds->m, ds->flags);
+    if (mdl->coef == NULL || mdl->cap < need) {
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, -1,
+                          (it2n_val)mdl->cap, (it2n_val)need, (it2n_val)need);
+    }
+    /* nothing below can fail */
+    mdl->n = ds->n;
+    mdl->m = ds->m;
+    mdl->flags = ds->flags;
+    memset(mdl->frac, 0, sizeof(mdl->frac));
+    solve_fps(mdl, ds, it2n__fp_mask(ds->flags));
+    mdl->solved = 1u;
+    return IT2N_OK;
+}
+
+int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                        unsigned i, unsigned j, unsigned fp,
+                        const it2n_val vals[IT2N_CH_COUNT],
+                        it2n_errinfo *err)
+{
+    int rc;
+    if (mdl == NULL || vals == NULL || !data_shape_ok(ds)) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (!mdl->solved || mdl->n != ds->n || mdl->m != ds->m ||
+        mdl->flags != ds->flags || mdl->coef == NULL ||
+        mdl->cap < IT2N_BSPLINE_MODEL_WORDS(ds->n, ds->m, ds->flags)) {
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
+    }
+    rc = check_where(ds, i, j, fp, err);
+    if (rc == IT2N_OK) {
+        rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+    }
+    if (rc == IT2N_OK) {
+        rc = check_nesting(ds, i, j, fp, vals, err);
+    }
+    if (rc != IT2N_OK) {
+        return rc;
+    }
+    rec_store(rec_at(ds, i, j, fp), ds->flags, vals);
+    solve_fps(mdl, ds, 1u << fp);
+    return IT2N_OK;
+}
+
+it2n_val it2n_bspline_coef(const it2n_bspline_model *mdl, unsigned r,
+                           unsigned s, unsigned fp, unsigned ch)
+{
+    const int32_t *net;
+    if (mdl == NULL || !mdl->solved || r > mdl->n + 2u || s > mdl->m + 2u ||
+        !fp_stored(mdl->flags, fp) || ch >= IT2N_CH_COUNT ||
+        !it2n__ch_used(mdl->flags, ch)) {
+        return 0;
+    }
+    net = net_of(mdl, fp, ch);
+    /* frac >= -1: below 2^56 in Q24, no overflow */
+    return it2n__shift_round(net[r * (mdl->m + 3u) + s],
+                             mdl->frac[fp][ch] - IT2N_VAL_FRAC);
+}
