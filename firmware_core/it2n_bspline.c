@@ -293,6 +293,18 @@ uint32_t it2n__bspline_pivot_inv(unsigned k)
     return inv_pivot[k < PIVOTS ? k : PIVOTS - 1u];
 }
 
+/* k x for small constants k as shifts and adds: no 64-bit multiply helper
+ * on ARMv6-M (|k x| < 2^63 in every caller). */
+static int64_t shl(int64_t x, unsigned s)
+{
+    return (int64_t)((uint64_t)x << s);
+}
+#define MUL4(x) shl((x), 2)
+#define MUL6(x) (shl((x), 2) + shl((x), 1))
+#define MUL8(x) shl((x), 3)
+#define MUL3(x) (shl((x), 1) + (x))
+#define MUL36(x) (shl((x), 5) + shl((x), 2))
+
 /*
  * In: v[1..N+1] = y_0..y_N, |y| < 2^55, N in 1..IT2N_BSPLINE_MAX_N.
  * Out: v[0..N+2] = 6 c_{-1} .. 6 c_{N+1}, the not-a-knot coefficients (line
@@ -303,33 +315,33 @@ static void line_solve(int64_t *v, unsigned N)
     int64_t y0 = v[1], y1 = v[2], y2, ya, yb, yc, z1, zn1, z0, zn;
     unsigned k, M;
     if (N == 1u) {
-        v[0] = 6 * (2 * y0 - y1);
-        v[1] = 6 * y0;
-        v[2] = 6 * y1;
-        v[3] = 6 * (2 * y1 - y0);
+        v[0] = MUL6(2 * y0 - y1);
+        v[1] = MUL6(y0);
+        v[2] = MUL6(y1);
+        v[3] = MUL6(2 * y1 - y0);
         return;
     }
     y2 = v[3];
     if (N == 2u) {
         /* the parabola p: 6 c_k = 6 p(u_k) - h^2 p'' */
         int64_t d = y0 - 2 * y1 + y2;
-        v[0] = 6 * (3 * y0 - 3 * y1 + y2) - d;
-        v[1] = 6 * y0 - d;
-        v[2] = 6 * y1 - d;
-        v[3] = 6 * y2 - d;
-        v[4] = 6 * (y0 - 3 * y1 + 3 * y2) - d;
+        v[0] = MUL6(MUL3(y0 - y1) + y2) - d;
+        v[1] = MUL6(y0) - d;
+        v[2] = MUL6(y1) - d;
+        v[3] = MUL6(y2) - d;
+        v[4] = MUL6(y0 + MUL3(y2 - y1)) - d;
         return;
     }
     ya = v[N - 1u];
     yb = v[N];
     yc = v[N + 1u];
-    z1 = 8 * y1 - y0 - y2;
-    zn1 = 8 * yb - ya - yc;
+    z1 = MUL8(y1) - y0 - y2;
+    zn1 = MUL8(yb) - ya - yc;
     /* (1, 4, 1) system for z_2..z_{N-2} (at v[3..N-1]), right-hand sides
      * 36 y_k, z_1 and z_{N-1} moved over; forward elimination in place */
     M = N - 3u;
     for (k = 0; k < M; k++) {
-        int64_t r = 36 * v[k + 3u];
+        int64_t r = MUL36(v[k + 3u]);
         if (k == 0u) {
             r -= z1;
         } else {
@@ -350,12 +362,12 @@ static void line_solve(int64_t *v, unsigned N)
     }
     v[2] = z1;
     v[N] = zn1;
-    z0 = 4 * (y0 + y1 + y2) - v[3];
+    z0 = MUL4(y0 + y1 + y2) - v[3];
     v[1] = z0;
-    v[0] = 36 * y0 - 4 * z0 - z1;
-    zn = 4 * (yc + yb + ya) - v[N - 1u];
+    v[0] = MUL36(y0) - MUL4(z0) - z1;
+    zn = MUL4(yc + yb + ya) - v[N - 1u];
     v[N + 1u] = zn;
-    v[N + 2u] = 36 * yc - 4 * zn - zn1;
+    v[N + 2u] = MUL36(yc) - MUL4(zn) - zn1;
 }
 
 /* Shift s with round(max / 2^s) in [2^30, 2^31) for max > 0 (s may be

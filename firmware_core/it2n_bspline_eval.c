@@ -181,10 +181,21 @@ static bool deriv_value(const int32_t *win, unsigned stride,
     /* acc is 2^(60 - s1) times the derivative's mantissa; |v| <= 1.5
      * max|coefficient| < 2^57 in Q24 */
     v = it2n__shift_round(acc, 60 - s1 + frac - IT2N_VAL_FRAC);
-    if (v > INT64_MAX / (int64_t)N || v < -(INT64_MAX / (int64_t)N)) {
-        return false;
+    {
+        /* |v| N from two 32 x 32 products (no 64-bit multiply or divide
+         * helper on ARMv6-M); N < 2^8 */
+        uint64_t a = v < 0 ? (uint64_t)0 - (uint64_t)v : (uint64_t)v;
+        uint64_t hi = it2n_umul32((uint32_t)(a >> 32), N);
+        uint64_t lo = it2n_umul32((uint32_t)a, N), p;
+        if (hi >> 31) {
+            return false;
+        }
+        p = (hi << 32) + lo;
+        if (p > (uint64_t)INT64_MAX) {
+            return false;
+        }
+        *out = v < 0 ? -(int64_t)p : (int64_t)p;
     }
-    *out = v * (int64_t)N;
     return true;
 }
 
