@@ -41,7 +41,11 @@ typedef struct cli_opts {
     const char *output;   /* plot/export -o FILE (NULL: stdout) */
     int format;           /* export --format: CLI_FMT_*       */
     unsigned width, height; /* plot --size WxH (pixels)       */
+    int kind;             /* --kind: CLI_KIND_*               */
 } cli_opts;
+
+/* --kind: the paper's Bezier patch (default) or the cubic B-spline. */
+enum { CLI_KIND_BEZIER = 0, CLI_KIND_BSPLINE };
 
 /* export --format */
 enum { CLI_FMT_VTK = 0, CLI_FMT_OBJ, CLI_FMT_CSV };
