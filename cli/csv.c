@@ -170,10 +170,12 @@ static int parse_header(it2n_csv *p, const char *s, size_t len)
     p->z = n == 9;
     p->header = 1;
     if (p->bspline) {
-        /* cannot fail: sizes are the limits, storage as documented */
-        it2n_bspline_data_init(&p->bs_scratch, p->bs_scratch.rec,
-                               IT2N_CSV_BSPLINE_RECS, IT2N_BSPLINE_MAX_N,
-                               IT2N_BSPLINE_MAX_N, p->z ? IT2N_F_Z : 0u, NULL);
+        /* The largest grid, records not cleared (15 MB): bs_lines says which
+         * are set, and finish rebuilds every present flag from it. */
+        p->bs_scratch.cap = IT2N_CSV_BSPLINE_RECS;
+        p->bs_scratch.n = IT2N_BSPLINE_MAX_N;
+        p->bs_scratch.m = IT2N_BSPLINE_MAX_N;
+        p->bs_scratch.flags = (uint8_t)(p->z ? IT2N_F_Z : 0u);
         return IT2N_OK;
     }
     it2n_dataset_init(&p->scratch, IT2N_MAX_DEGREE, IT2N_MAX_DEGREE,
@@ -267,8 +269,9 @@ static int parse_row(it2n_csv *p, const char *s, size_t len)
         p->err.other = *line;
         return p->error;
     }
+    /* (duplicates were caught above: replace, the flags are not cleared) */
     rc = p->bspline ? it2n_bspline_data_put(&p->bs_scratch, i, j, (unsigned)fp,
-                                            vals, false, &info)
+                                            vals, true, &info)
                     : it2n_dataset_put(&p->scratch, i, j, (unsigned)fp, vals,
                                        false, &info);
     if (rc != IT2N_OK) {
@@ -465,10 +468,17 @@ int it2n_csv_finish_bspline(it2n_csv *p, it2n_bspline_data *ds,
         for (j = 0; j <= p->max_j; j++) {
             size_t from = ((size_t)i * IT2N_CSV_BSPLINE_SIDE + j) * IT2N_FP_COUNT;
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                it2n_bspline_rec *r = &p->bs_scratch.rec[to];
                 if (nfp == 1u && fp != IT2N_FP_D) {
                     continue;
                 }
-                p->bs_scratch.rec[to++] = p->bs_scratch.rec[from + fp];
+                if (p->bs_lines[from + fp] != 0u) {
+                    *r = p->bs_scratch.rec[from + fp];
+                    r->present = 1u;
+                } else {
+                    memset(r, 0, sizeof(*r));
+                }
+                to++;
             }
         }
     }
