@@ -494,6 +494,54 @@ static void check_case(const bcase *c, unsigned randoms, bool nodes,
     }
 }
 
+/* Every coefficient against the exact solution of the data the core was
+ * given (Q24): the solve's own error, relative to the net's largest
+ * coefficient (plus the Q24 read-out's rounding). Returns the worst. */
+static long double check_coefs(const bcase *c)
+{
+    long double *f = malloc(sizeof(long double) * (c->n + 1u) * (c->m + 1u));
+    long double cworst = 0;
+    unsigned i, j, fp, ch;
+    assert_non_null(f);
+    for (fp = 0; fp < NFP; fp++) {
+        for (ch = 0; ch < NCH; ch++) {
+            bref_net r;
+            long double big = 0;
+            if (!has_fp(c->flags, fp) || !has_ch(c->flags, ch)) {
+                continue;
+            }
+            for (i = 0; i <= c->n; i++) {
+                for (j = 0; j <= c->m; j++) {
+                    f[i * (c->m + 1u) + j] = tc_ld(c->q[vidx(c, i, j, fp, ch)]);
+                }
+            }
+            bref_net_solve(&r, c->n, c->m, f);
+            for (i = 0; i < (c->n + 3u) * (c->m + 3u); i++) {
+                big = fmaxl(big, fabsl(r.c[i]));
+            }
+            for (i = 0; i < c->n + 3u; i++) {
+                for (j = 0; j < c->m + 3u; j++) {
+                    long double e = fabsl(tc_ld(it2n_bspline_coef(&c->mdl, i, j, fp, ch)) -
+                                          r.c[i * (c->m + 3u) + j]);
+                    long double rel = (e - 0.5L / TC_Q24) / big;
+                    cworst = fmaxl(cworst, rel);
+                    /* the intermediate rows' 2^-31 rounding, amplified up
+                     * to 15.6 times by the column solve (end coefficients):
+                     * about 2^-27; bound 2^-24 */
+                    if (rel > 5.96e-8L) {
+                        fail_msg("coef %ux%u %s.%s [%u][%u]: err %.3Le of max %.3Le",
+                                 c->n, c->m, it2n_fp_name(fp), it2n_ch_name(ch), i,
+                                 j, e, big);
+                    }
+                }
+            }
+            free(r.c);
+        }
+    }
+    free(f);
+    return cworst;
+}
+
 static void report(const char *what, const worst *wo)
 {
     printf("[bspline] %-30s worst |err| memb %.3Le coord %.3Le (%.3Lf of tol); %lu checks\n",
@@ -573,6 +621,7 @@ static void test_reference_self(void **state)
 static void test_small_grids(void **state)
 {
     worst all = {0, 0, 0, 0}, rough = {0, 0, 0, 0};
+    long double coef_worst = 0;
     unsigned n, m;
     (void)state;
     for (n = 1; n <= 8; n++) {
@@ -584,16 +633,20 @@ static void test_small_grids(void **state)
             bcase_core(&c);
             bcase_ref(&c);
             check_case(&c, 60, true, n * 31 + m, &all);
+            coef_worst = fmaxl(coef_worst, check_coefs(&c));
             bcase_free(&c);
             bcase_gen(&c, n, m, fl[(n + 2 * m) & 3u], GEN_ROUGH, 1000, n * 7 + m);
             bcase_core(&c);
             bcase_ref(&c);
             check_case(&c, 60, true, n * 37 + m, &rough);
+            coef_worst = fmaxl(coef_worst, check_coefs(&c));
             bcase_free(&c);
         }
     }
     report("1..8 x 1..8 smooth scale 10", &all);
     report("1..8 x 1..8 rough scale 1000", &rough);
+    printf("[bspline] coefficients 1..8 x 1..8: worst err %.3Le of the net's max|c| "
+           "(vs the exact solution of the Q24 data)\n", coef_worst);
 }
 
 /* Data points are interpolated and the polynomial cases match exactly
@@ -657,6 +710,8 @@ static void test_64x64(void **state)
     bcase_core(&c);
     bcase_ref(&c);
     check_case(&c, 400, true, 650, &b);
+    printf("[bspline] coefficients 64x64 rough: worst err %.3Le of the net's max|c|\n",
+           check_coefs(&c));
     bcase_free(&c);
     report("64x64 type-2 x,y rough 5000", &b);
 }
@@ -971,6 +1026,41 @@ static void test_local_support(void **state)
     bcase_free(&c);
 }
 
+/* Memory of data set + model (the caller's storage) per grid, and the
+ * largest square grid a RAM budget holds (printed for docs/numerics.md). */
+static size_t bs_bytes(unsigned n, unsigned flags)
+{
+    return IT2N_BSPLINE_DATA_RECS(n, n, flags) * sizeof(it2n_bspline_rec) +
+           IT2N_BSPLINE_MODEL_WORDS(n, n, flags) * sizeof(int32_t);
+}
+
+static void test_memory(void **state)
+{
+    static const struct { unsigned flags; const char *name; } kinds[] = {
+        {IT2N_F_TYPE1, "type-1 x,y"}, {IT2N_F_TYPE1 | IT2N_F_Z, "type-1 x,y,z"},
+        {0, "type-2 x,y"}, {IT2N_F_Z, "type-2 x,y,z"}};
+    unsigned k;
+    (void)state;
+    assert_int_equal(sizeof(it2n_bspline_rec), 32);
+    for (k = 0; k < 4; k++) {
+        unsigned f = kinds[k].flags, n, fit32 = 0, fit128 = 0;
+        /* budgets: 24 KiB of a 32 KiB M0+, 112 KiB of a 128 KiB M4F (the
+         * rest for stack, the protocol and the application) */
+        for (n = 1; n <= 255; n++) {
+            if (bs_bytes(n, f) <= 24u * 1024u) fit32 = n;
+            if (bs_bytes(n, f) <= 112u * 1024u) fit128 = n;
+        }
+        assert_true(bs_bytes(63, f) > bs_bytes(62, f));
+        printf("[bspline] memory %-13s %3zu B/point + model %5.1f B/point at 64x64;"
+               " 64x64 %7.1f KiB, 256x256 %6.1f MiB; largest square in 24 KiB %ux%u,"
+               " in 112 KiB %ux%u\n",
+               kinds[k].name, IT2N_BSPLINE_NFP(f) * sizeof(it2n_bspline_rec),
+               (double)(IT2N_BSPLINE_MODEL_WORDS(63, 63, f) * 4) / (64.0 * 64.0),
+               (double)bs_bytes(63, f) / 1024.0, (double)bs_bytes(255, f) / 1048576.0,
+               fit32 + 1, fit32 + 1, fit128 + 1, fit128 + 1);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -986,6 +1076,7 @@ int main(void)
         cmocka_unit_test(test_sample),
         cmocka_unit_test(test_validation),
         cmocka_unit_test(test_local_support),
+        cmocka_unit_test(test_memory),
     };
     int rc = cmocka_run_group_tests_name("core bspline", tests, NULL, NULL);
     for (unsigned k = 0; k < 256; k++) {
