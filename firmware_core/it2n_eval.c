@@ -239,18 +239,6 @@ static int check_args(const it2n_model *mdl, it2n_par u, it2n_par w,
     return it2n__check_uw(u, w, err);
 }
 
-int it2n__check_uw(it2n_par u, it2n_par w, it2n_errinfo *err)
-{
-    if (!it2n__par_ok(u) || !it2n__par_ok(w)) {
-        it2n_par bad = it2n__par_ok(u) ? w : u;
-        /* value in Q24 (parameters are Q32; saturate far-off values) */
-        it2n_val v = bad > ((int64_t)1 << 60) ? INT64_MAX >> 8
-                   : bad < -((int64_t)1 << 60) ? INT64_MIN >> 8 : bad >> 8;
-        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1,
-                          it2n__par_ok(u) ? 1 : 0, v, 0, IT2N_VAL_ONE);
-    }
-    return IT2N_OK;
-}
 
 /* Values of every footprint at (u, w) into v (no summary). */
 static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w,
