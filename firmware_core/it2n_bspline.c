@@ -410,60 +410,96 @@ static int32_t *net_of(const it2n_bspline_model *mdl, unsigned fp,
     return mdl->coef + (slot * nch + c) * size;
 }
 
+/* Pass-1 state of the nets of one footprint: per channel the input shift
+ * (or -1: all data zero), the exponent of every intermediate row and the
+ * largest of them. */
+typedef struct solve_fp_state {
+    int f1[IT2N_CH_COUNT], tmax[IT2N_CH_COUNT];
+    int8_t rsh[IT2N_CH_COUNT][IT2N_BSPLINE_MAX_N + 1];
+} solve_fp_state;
+
 /*
- * Solve one net from ds into mdl (sizes and flags already set). Returns
- * the net's exponent (frac). Always succeeds: see the bounds above.
+ * Pass 1 of every net of footprint fp: the data rows (|f| < 2^47, scaled to
+ * below 2^55) into intermediate rows, row i at net row i + 1, 31-bit
+ * mantissas with one exponent per row. All channels together, so the data
+ * set is read twice per footprint (its largest value, then the rows), not
+ * twice per net.
  */
-static int solve_net(const it2n_bspline_model *mdl,
-                     const it2n_bspline_data *ds, unsigned fp, unsigned ch)
+static void solve_rows(const it2n_bspline_model *mdl,
+                       const it2n_bspline_data *ds, unsigned fp,
+                       solve_fp_state *st)
 {
     int64_t v[LINE_MAX];
-    int8_t rsh[IT2N_BSPLINE_MAX_N + 1], csh[LINE_MAX];
-    unsigned n = ds->n, m = ds->m, w = m + 3u, i, j;
-    int32_t *net = net_of(mdl, fp, ch);
-    uint64_t amax = 0u;
-    int f1, tmax = -64, cmax = -64, frac;
+    uint64_t amax[IT2N_CH_COUNT] = {0, 0, 0, 0, 0, 0};
+    unsigned n = ds->n, m = ds->m, w = m + 3u, i, j, ch;
     for (i = 0; i <= n; i++) {
         for (j = 0; j <= m; j++) {
-            uint64_t a = uabs(rec_value(rec_at(ds, i, j, fp), ch));
-            amax = a > amax ? a : amax;
+            const it2n_bspline_rec *r = rec_at(ds, i, j, fp);
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                uint64_t a = uabs(rec_value(r, ch));
+                amax[ch] = a > amax[ch] ? a : amax[ch];
+            }
         }
     }
-    if (amax == 0u) {
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        st->f1[ch] = amax[ch] == 0u || !it2n__ch_used(ds->flags, ch)
+                         ? -1
+                         : 55 - (int)it2n_bitlen64(amax[ch]);
+        st->tmax[ch] = -64;
+    }
+    for (i = 0; i <= n; i++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            int32_t *net;
+            uint64_t mx = 0u;
+            int s, f1 = st->f1[ch];
+            if (f1 < 0) {
+                continue;
+            }
+            net = net_of(mdl, fp, ch);
+            for (j = 0; j <= m; j++) {
+                v[j + 1u] = (int64_t)((uint64_t)rec_value(rec_at(ds, i, j, fp), ch) << f1);
+            }
+            line_solve(v, m);
+            for (j = 0; j < w; j++) {
+                uint64_t a = uabs(v[j]);
+                mx = a > mx ? a : mx;
+            }
+            s = mx == 0u ? -31 : norm_shift(mx);
+            st->rsh[ch][i] = (int8_t)s;
+            st->tmax[ch] = s > st->tmax[ch] ? s : st->tmax[ch];
+            for (j = 0; j < w; j++) {
+                net[(i + 1u) * w + j] = (int32_t)scale(v[j], s);
+            }
+        }
+    }
+}
+
+/*
+ * Pass 2 of one net: the intermediate columns, rows brought to the largest
+ * row's exponent (each below 2^55), results times 16/36, one exponent per
+ * column, then one per net. Returns the net's exponent (frac). Always
+ * succeeds: see the bounds above.
+ */
+static int solve_cols(const it2n_bspline_model *mdl, unsigned fp, unsigned ch,
+                      const solve_fp_state *st)
+{
+    int64_t v[LINE_MAX];
+    int8_t csh[LINE_MAX];
+    unsigned n = mdl->n, w = mdl->m + 3u, i, j;
+    int32_t *net = net_of(mdl, fp, ch);
+    int f1 = st->f1[ch], tmax = st->tmax[ch], cmax = -64, frac;
+    if (f1 < 0) {
         for (i = 0; i < (n + 3u) * w; i++) {
             net[i] = 0;
         }
         return 0;
     }
-    /* pass 1: data rows (|f| < 2^47) scaled to below 2^55 */
-    f1 = 55 - (int)it2n_bitlen64(amax);
-    for (i = 0; i <= n; i++) {
-        uint64_t mx = 0u;
-        int s;
-        for (j = 0; j <= m; j++) {
-            v[j + 1u] = (int64_t)((uint64_t)rec_value(rec_at(ds, i, j, fp), ch) << f1);
-        }
-        line_solve(v, m);
-        for (j = 0; j < w; j++) {
-            uint64_t a = uabs(v[j]);
-            mx = a > mx ? a : mx;
-        }
-        s = mx == 0u ? -31 : norm_shift(mx);
-        rsh[i] = (int8_t)s;
-        tmax = s > tmax ? s : tmax;
-        for (j = 0; j < w; j++) {
-            /* row i of the intermediate in net row i + 1 */
-            net[(i + 1u) * w + j] = (int32_t)scale(v[j], s);
-        }
-    }
-    /* pass 2: columns, rows brought to the largest row's exponent (each
-     * below 2^55), results times 16/36 */
     for (j = 0; j < w; j++) {
         uint64_t mx = 0u;
         int s;
         for (i = 0; i <= n; i++) {
             int64_t g = net[(i + 1u) * w + j];
-            int sh = rsh[i] - tmax + 24;
+            int sh = st->rsh[ch][i] - tmax + 24;
             v[i + 1u] = sh >= 0 ? (int64_t)((uint64_t)g << sh) : scale(g, -sh);
         }
         line_solve(v, n);
@@ -512,14 +548,16 @@ void it2n_bspline_model_init(it2n_bspline_model *mdl, int32_t *coef,
 static void solve_fps(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
                       unsigned fpmask)
 {
+    solve_fp_state st;
     unsigned fp, ch;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if (!(fpmask & (1u << fp))) {
             continue;
         }
+        solve_rows(mdl, ds, fp, &st);
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
             if (it2n__ch_used(ds->flags, ch)) {
-                mdl->frac[fp][ch] = (int8_t)solve_net(mdl, ds, fp, ch);
+                mdl->frac[fp][ch] = (int8_t)solve_cols(mdl, fp, ch, &st);
             }
         }
     }
