@@ -310,10 +310,15 @@ static int64_t shl(int64_t x, unsigned s)
  * Out: v[0..N+2] = 6 c_{-1} .. 6 c_{N+1}, the not-a-knot coefficients (line
  * or parabola for N < 3), each below 93.5 max|y| < 2^62.
  */
-static void line_solve(int64_t *v, unsigned N)
+/* The data a line solve keeps aside while it overwrites v. */
+typedef struct line_ends {
+    int64_t y0, y1, y2, ya, yb, yc, z1, zn1;
+} line_ends;
+
+/* Lines of 2 and 3 points: the line and the parabola through them. */
+static void line_small(int64_t *v, unsigned N)
 {
-    int64_t y0 = v[1], y1 = v[2], y2, ya, yb, yc, z1, zn1, z0, zn;
-    unsigned k, M;
+    int64_t y0 = v[1], y1 = v[2], y2;
     if (N == 1u) {
         v[0] = MUL6(2 * y0 - y1);
         v[1] = MUL6(y0);
@@ -322,7 +327,7 @@ static void line_solve(int64_t *v, unsigned N)
         return;
     }
     y2 = v[3];
-    if (N == 2u) {
+    {
         /* the parabola p: 6 c_k = 6 p(u_k) - h^2 p'' */
         int64_t d = y0 - 2 * y1 + y2;
         v[0] = MUL6(MUL3(y0 - y1) + y2) - d;
@@ -330,45 +335,117 @@ static void line_solve(int64_t *v, unsigned N)
         v[2] = MUL6(y1) - d;
         v[3] = MUL6(y2) - d;
         v[4] = MUL6(y0 + MUL3(y2 - y1)) - d;
+    }
+}
+
+/* N >= 3: the ends' data and 6 c_1, 6 c_{N-1}. */
+static void line_begin(const int64_t *v, unsigned N, line_ends *e)
+{
+    e->y0 = v[1];
+    e->y1 = v[2];
+    e->y2 = v[3];
+    e->ya = v[N - 1u];
+    e->yb = v[N];
+    e->yc = v[N + 1u];
+    e->z1 = MUL8(e->y1) - e->y0 - e->y2;
+    e->zn1 = MUL8(e->yb) - e->ya - e->yc;
+}
+
+/* Forward elimination step k of the (1, 4, 1) system for z_2..z_{N-2}
+ * (at v[3..N-1]), right-hand sides 36 y_k with z_1 and z_{N-1} moved
+ * over: the new v[k + 3]. */
+IT2N_INLINE int64_t line_fwd(const int64_t *v, unsigned k, unsigned M,
+                             const line_ends *e)
+{
+    int64_t r = MUL36(v[k + 3u]);
+    if (k == 0u) {
+        r -= e->z1;
+    } else {
+        r -= mulq32(v[k + 2u], it2n__bspline_pivot_inv(k - 1u));
+    }
+    if (k + 1u == M) {
+        r -= e->zn1;
+    }
+    return r;
+}
+
+/* Back substitution step k: the new v[k + 3]. */
+IT2N_INLINE int64_t line_back(const int64_t *v, unsigned k, unsigned M)
+{
+    int64_t r = v[k + 3u];
+    if (k + 1u < M) {
+        r -= v[k + 4u];
+    }
+    return mulq32(r, it2n__bspline_pivot_inv(k));
+}
+
+/* The ends from the interpolation equations at u_0, u_1 and u_{N-1}, u_N. */
+static void line_finish(int64_t *v, unsigned N, const line_ends *e)
+{
+    int64_t z0, zn;
+    v[2] = e->z1;
+    v[N] = e->zn1;
+    z0 = MUL4(e->y0 + e->y1 + e->y2) - v[3];
+    v[1] = z0;
+    v[0] = MUL36(e->y0) - MUL4(z0) - e->z1;
+    zn = MUL4(e->yc + e->yb + e->ya) - v[N - 1u];
+    v[N + 1u] = zn;
+    v[N + 2u] = MUL36(e->yc) - MUL4(zn) - e->zn1;
+}
+
+static void line_solve(int64_t *v, unsigned N)
+{
+    line_ends e;
+    unsigned k, M;
+    if (N < 3u) {
+        line_small(v, N);
         return;
     }
-    ya = v[N - 1u];
-    yb = v[N];
-    yc = v[N + 1u];
-    z1 = MUL8(y1) - y0 - y2;
-    zn1 = MUL8(yb) - ya - yc;
-    /* (1, 4, 1) system for z_2..z_{N-2} (at v[3..N-1]), right-hand sides
-     * 36 y_k, z_1 and z_{N-1} moved over; forward elimination in place */
+    line_begin(v, N, &e);
     M = N - 3u;
     for (k = 0; k < M; k++) {
-        int64_t r = MUL36(v[k + 3u]);
-        if (k == 0u) {
-            r -= z1;
-        } else {
-            r -= mulq32(v[k + 2u], it2n__bspline_pivot_inv(k - 1u));
-        }
-        if (k + 1u == M) {
-            r -= zn1;
-        }
-        v[k + 3u] = r;
+        v[k + 3u] = line_fwd(v, k, M, &e);
     }
-    /* back substitution */
     for (k = M; k-- > 0u;) {
-        int64_t r = v[k + 3u];
-        if (k + 1u < M) {
-            r -= v[k + 4u];
-        }
-        v[k + 3u] = mulq32(r, it2n__bspline_pivot_inv(k));
+        v[k + 3u] = line_back(v, k, M);
     }
-    v[2] = z1;
-    v[N] = zn1;
-    z0 = MUL4(y0 + y1 + y2) - v[3];
-    v[1] = z0;
-    v[0] = MUL36(y0) - MUL4(z0) - z1;
-    zn = MUL4(yc + yb + ya) - v[N - 1u];
-    v[N + 1u] = zn;
-    v[N + 2u] = MUL36(yc) - MUL4(zn) - zn1;
+    line_finish(v, N, &e);
 }
+
+/* Hosts solve two lines at a time: their elimination chains interleaved
+ * (each step waits for a multiply of the previous one), the same
+ * arithmetic per line, so the same bits as one at a time. MCUs (in order,
+ * no gain) keep one line and half the stack. */
+#if !IT2N_MUL_HALVES && (defined(__x86_64__) || defined(__aarch64__))
+#define LINE_PAIRS 1
+static void line_solve2(int64_t *a, int64_t *b, unsigned N)
+{
+    line_ends ea, eb;
+    unsigned k, M;
+    if (N < 3u) {
+        line_small(a, N);
+        line_small(b, N);
+        return;
+    }
+    line_begin(a, N, &ea);
+    line_begin(b, N, &eb);
+    M = N - 3u;
+    for (k = 0; k < M; k++) {
+        int64_t ra = line_fwd(a, k, M, &ea), rb = line_fwd(b, k, M, &eb);
+        a[k + 3u] = ra;
+        b[k + 3u] = rb;
+    }
+    for (k = M; k-- > 0u;) {
+        int64_t ra = line_back(a, k, M), rb = line_back(b, k, M);
+        a[k + 3u] = ra;
+        b[k + 3u] = rb;
+    }
+    line_finish(a, N, &ea);
+    line_finish(b, N, &eb);
+}
+#else
+#define LINE_PAIRS 0
+#endif
 
 /* Shift s with round(max / 2^s) in [2^30, 2^31) for max > 0 (s may be
  * negative: an exact left shift). */
@@ -393,6 +470,28 @@ static int64_t scale(int64_t v, int s)
         return 0;
     }
     return it2n__shift_round(v, s);
+}
+
+/* out[k * stride] = v[k] * 2^-s rounded, k < count, exactly as scale()
+ * does it element by element (the shift's case decided once). */
+static void store_line(int32_t *out, size_t stride, const int64_t *v,
+                       unsigned count, int s)
+{
+    unsigned k;
+    if (s >= 63) {
+        for (k = 0; k < count; k++) {
+            out[k * stride] = 0;
+        }
+    } else if (s >= 1) {
+        int64_t half = (int64_t)1 << (s - 1);
+        for (k = 0; k < count; k++) {
+            out[k * stride] = (int32_t)((v[k] + half) >> s);
+        }
+    } else {
+        for (k = 0; k < count; k++) {
+            out[k * stride] = (int32_t)(uint32_t)((uint64_t)v[k] << (unsigned)-s);
+        }
+    }
 }
 
 /* 2^36 / 36 rounded: the two passes' factor 6 each. */
@@ -425,13 +524,55 @@ typedef struct solve_fp_state {
  * set is read twice per footprint (its largest value, then the rows), not
  * twice per net.
  */
+/* Data row starting at record row (records nfp apart), channel ch, scaled
+ * by 2^f1, into v[1..m+1]. */
+static void gather_row(int64_t *v, const it2n_bspline_rec *row,
+                       unsigned flags, unsigned m, unsigned ch, int f1)
+{
+    size_t nfp = IT2N_BSPLINE_NFP(flags);
+    const it2n_bspline_rec *r = row;
+    unsigned j;
+    if (ch < 3u) {
+        for (j = 0; j <= m; j++, r += nfp) {
+            int64_t x = (int64_t)((uint64_t)(int64_t)r->hi[ch] * 4294967296u | r->lo[ch]);
+            v[j + 1u] = (int64_t)((uint64_t)x << f1);
+        }
+    } else {
+        for (j = 0; j <= m; j++, r += nfp) {
+            v[j + 1u] = (int64_t)((uint64_t)r->memb[ch - 3u] << f1);
+        }
+    }
+}
+
+/* A solved data row i of channel ch into net row i + 1, with its own
+ * exponent. */
+static void store_row(const it2n_bspline_model *mdl, unsigned fp,
+                      unsigned ch, unsigned i, const int64_t *v,
+                      solve_fp_state *st)
+{
+    unsigned w = mdl->m + 3u, j;
+    uint64_t mx = 0u;
+    int s;
+    for (j = 0; j < w; j++) {
+        uint64_t a = uabs(v[j]);
+        mx = a > mx ? a : mx;
+    }
+    s = mx == 0u ? -31 : norm_shift(mx);
+    st->rsh[ch][i] = (int8_t)s;
+    st->tmax[ch] = s > st->tmax[ch] ? s : st->tmax[ch];
+    store_line(net_of(mdl, fp, ch) + (i + 1u) * w, 1u, v, w, s);
+}
+
 static void solve_rows(const it2n_bspline_model *mdl,
                        const it2n_bspline_data *ds, unsigned fp,
                        solve_fp_state *st)
 {
     int64_t v[LINE_MAX];
+#if LINE_PAIRS
+    int64_t v2[LINE_MAX];
+#endif
     uint64_t amax[IT2N_CH_COUNT] = {0, 0, 0, 0, 0, 0};
-    unsigned n = ds->n, m = ds->m, w = m + 3u, i, j, ch;
+    unsigned n = ds->n, m = ds->m, i, j, ch;
     for (i = 0; i <= n; i++) {
         for (j = 0; j <= m; j++) {
             const it2n_bspline_rec *r = rec_at(ds, i, j, fp);
@@ -448,28 +589,28 @@ static void solve_rows(const it2n_bspline_model *mdl,
         st->tmax[ch] = -64;
     }
     for (i = 0; i <= n; i++) {
+        const it2n_bspline_rec *row = rec_at(ds, i, 0, fp);
+        unsigned act[IT2N_CH_COUNT], na = 0, k;
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            int32_t *net;
-            uint64_t mx = 0u;
-            int s, f1 = st->f1[ch];
-            if (f1 < 0) {
+            if (st->f1[ch] >= 0) {
+                act[na++] = ch;
+            }
+        }
+        for (k = 0; k < na; k++) {
+#if LINE_PAIRS
+            if (k + 1u < na) {
+                gather_row(v, row, ds->flags, m, act[k], st->f1[act[k]]);
+                gather_row(v2, row, ds->flags, m, act[k + 1u], st->f1[act[k + 1u]]);
+                line_solve2(v, v2, m);
+                store_row(mdl, fp, act[k], i, v, st);
+                store_row(mdl, fp, act[k + 1u], i, v2, st);
+                k++;
                 continue;
             }
-            net = net_of(mdl, fp, ch);
-            for (j = 0; j <= m; j++) {
-                v[j + 1u] = (int64_t)((uint64_t)rec_value(rec_at(ds, i, j, fp), ch) << f1);
-            }
+#endif
+            gather_row(v, row, ds->flags, m, act[k], st->f1[act[k]]);
             line_solve(v, m);
-            for (j = 0; j < w; j++) {
-                uint64_t a = uabs(v[j]);
-                mx = a > mx ? a : mx;
-            }
-            s = mx == 0u ? -31 : norm_shift(mx);
-            st->rsh[ch][i] = (int8_t)s;
-            st->tmax[ch] = s > st->tmax[ch] ? s : st->tmax[ch];
-            for (j = 0; j < w; j++) {
-                net[(i + 1u) * w + j] = (int32_t)scale(v[j], s);
-            }
+            store_row(mdl, fp, act[k], i, v, st);
         }
     }
 }
@@ -480,10 +621,46 @@ static void solve_rows(const it2n_bspline_model *mdl,
  * column, then one per net. Returns the net's exponent (frac). Always
  * succeeds: see the bounds above.
  */
+/* Intermediate column j (net rows 1..n+1), rows brought to the largest
+ * row's exponent tmax (each below 2^55), into v[1..n+1]. */
+static void gather_col(int64_t *v, const int32_t *net, unsigned w, unsigned n,
+                       unsigned j, const int8_t *rsh, int tmax)
+{
+    unsigned i;
+    for (i = 0; i <= n; i++) {
+        int64_t g = net[(i + 1u) * w + j];
+        int sh = rsh[i] - tmax + 24;
+        v[i + 1u] = sh >= 0 ? (int64_t)((uint64_t)g << sh) : scale(g, -sh);
+    }
+}
+
+/* A solved column: times 16/36, into net column j with its own exponent
+ * (csh[j]; *cmax the largest so far). */
+static void store_col(int32_t *net, unsigned w, unsigned n, unsigned j,
+                      int64_t *v, int8_t *csh, int *cmax)
+{
+    uint64_t mx = 0u;
+    unsigned i;
+    int s;
+    for (i = 0; i < n + 3u; i++) {
+        uint64_t a;
+        v[i] = mulq32(v[i], INV36);
+        a = uabs(v[i]);
+        mx = a > mx ? a : mx;
+    }
+    s = mx == 0u ? -31 : norm_shift(mx);
+    csh[j] = (int8_t)s;
+    *cmax = s > *cmax ? s : *cmax;
+    store_line(net + j, w, v, n + 3u, s);
+}
+
 static int solve_cols(const it2n_bspline_model *mdl, unsigned fp, unsigned ch,
                       const solve_fp_state *st)
 {
     int64_t v[LINE_MAX];
+#if LINE_PAIRS
+    int64_t v2[LINE_MAX];
+#endif
     int8_t csh[LINE_MAX];
     unsigned n = mdl->n, w = mdl->m + 3u, i, j;
     int32_t *net = net_of(mdl, fp, ch);
@@ -495,32 +672,30 @@ static int solve_cols(const it2n_bspline_model *mdl, unsigned fp, unsigned ch,
         return 0;
     }
     for (j = 0; j < w; j++) {
-        uint64_t mx = 0u;
-        int s;
-        for (i = 0; i <= n; i++) {
-            int64_t g = net[(i + 1u) * w + j];
-            int sh = st->rsh[ch][i] - tmax + 24;
-            v[i + 1u] = sh >= 0 ? (int64_t)((uint64_t)g << sh) : scale(g, -sh);
+#if LINE_PAIRS
+        if (j + 1u < w) {
+            gather_col(v, net, w, n, j, st->rsh[ch], tmax);
+            gather_col(v2, net, w, n, j + 1u, st->rsh[ch], tmax);
+            line_solve2(v, v2, n);
+            store_col(net, w, n, j, v, csh, &cmax);
+            store_col(net, w, n, j + 1u, v2, csh, &cmax);
+            j++;
+            continue;
         }
+#endif
+        gather_col(v, net, w, n, j, st->rsh[ch], tmax);
         line_solve(v, n);
-        for (i = 0; i < n + 3u; i++) {
-            uint64_t a;
-            v[i] = mulq32(v[i], INV36);
-            a = uabs(v[i]);
-            mx = a > mx ? a : mx;
-        }
-        s = mx == 0u ? -31 : norm_shift(mx);
-        csh[j] = (int8_t)s;
-        cmax = s > cmax ? s : cmax;
-        for (i = 0; i < n + 3u; i++) {
-            net[i * w + j] = (int32_t)scale(v[i], s);
-        }
+        store_col(net, w, n, j, v, csh, &cmax);
     }
-    /* one exponent per net: columns shifted to the largest one's */
-    for (j = 0; j < w; j++) {
-        int d = cmax - csh[j];
-        for (i = 0; i < n + 3u && d > 0; i++) {
-            net[i * w + j] = (int32_t)scale(net[i * w + j], d);
+    /* one exponent per net: columns shifted to the largest one's (row by
+     * row, the same roundings as column by column) */
+    for (i = 0; i < n + 3u; i++) {
+        int32_t *p = net + i * w;
+        for (j = 0; j < w; j++) {
+            int d = cmax - csh[j];
+            if (d > 0) {
+                p[j] = (int32_t)scale(p[j], d);
+            }
         }
     }
     /* value (Q24) = y 2^-f1; 6 g = row result; g = G 2^(rsh - f1) / 6;
