@@ -471,14 +471,16 @@ static int cmd_locate(const cli_opts *o)
     unsigned fp;
     printf("x,y,footprint,u,w%s,T,I,F,status\n", has_z() ? ",z" : "");
     for (k = 0; k < o->nat; k++) {
-        int rc = it2n_locate(&g_mdl, o->at[k].a, o->at[k].b, &res, NULL);
+        int rc = g_bspline ? it2n_bspline_locate(&g_bmdl, o->at[k].a, o->at[k].b,
+                                                 &res, NULL)
+                           : it2n_locate(&g_mdl, o->at[k].a, o->at[k].b, &res, NULL);
         if (rc != IT2N_OK) {
             return core_fail("locate", rc);
         }
         for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
             const it2n_locate_fp *r = &res.fp[fp];
             unsigned ch;
-            if (!it2n_model_has_fp(&g_mdl, fp)) {
+            if (!fp_in_model(fp)) {
                 continue;
             }
             put_val(o->at[k].a, o->decimals);

@@ -515,6 +515,16 @@ int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
                        it2n_point *du, it2n_point *dw, it2n_errinfo *err);
 
 /*
+ * For each footprint the (u, w) whose surface passes through (x, y), as
+ * it2n_locate (same method, statuses and errors): Newton from the best node
+ * of the (IT2N_LOCATE_GRID+1)^2 start grid. The start grid does not grow
+ * with the model: on a large grid folded in (x, y) Newton may stop in a
+ * local minimum (status noconv or outside).
+ */
+int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
+                        it2n_locate_result *out, it2n_errinfo *err);
+
+/*
  * Evaluate on a uniform rows x cols parameter grid as it2n_sample (same
  * callback, limits and errors); every node bit-identical to
  * it2n_bspline_eval at the same (u, w).

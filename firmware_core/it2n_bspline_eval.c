@@ -245,6 +245,41 @@ int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
     return IT2N_OK;
 }
 
+int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask,
+                            it2n_par u, it2n_par w, it2n_val *v,
+                            it2n_val *du, it2n_val *dw, it2n_errinfo *err)
+{
+    int32_t bu[4], bw[4], dbu[4], dbw[4], q[4];
+    uint32_t tu, tw;
+    unsigned k = span_of(u, mdl->n, &tu), l = span_of(w, mdl->m, &tw);
+    unsigned stride = mdl->m + 3u, fp, ch;
+    basis(tu, bu);
+    basis(tw, bw);
+    dbasis(tu, dbu);
+    dbasis(tw, dbw);
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            unsigned at = fp * IT2N_CH_COUNT + ch;
+            const int32_t *win;
+            if (!(fpmask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
+                v[at] = du[at] = dw[at] = 0;
+                continue;
+            }
+            win = net_of(mdl, fp, ch) + k * stride + l;
+            stage1(win, stride, bu, 30, q);
+            v[at] = stage2(q, bw, mdl->frac[fp][ch]);
+            if (!deriv_value(win, stride, dbu, bw, 31, mdl->frac[fp][ch],
+                             mdl->n, &du[at]) ||
+                !deriv_value(win, stride, bu, dbw, 30, mdl->frac[fp][ch],
+                             mdl->m, &dw[at])) {
+                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp,
+                                  (int)ch, 0, 0, 0);
+            }
+        }
+    }
+    return IT2N_OK;
+}
+
 /* Grid parameter k / (count - 1) in Q32 (as it2n_sample). */
 static it2n_par grid_par(unsigned k, unsigned count)
 {

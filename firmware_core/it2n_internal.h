@@ -105,6 +105,12 @@ int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
                     it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw,
                     it2n_errinfo *err);
 
+/* it2n__eval_full for a B-spline model (values, d/du, d/dw of the
+ * footprints in fpmask, all three arrays required). */
+int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask,
+                            it2n_par u, it2n_par w, it2n_val *v,
+                            it2n_val *du, it2n_val *dw, it2n_errinfo *err);
+
 /* Fill out->sum and out->out_of_range from out->v. */
 void it2n__summarise(const it2n_model *mdl, it2n_point *out);
 /* The same for a model of either kind with these IT2N_F_* flags. */

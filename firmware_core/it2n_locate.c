@@ -14,6 +14,12 @@
 
 #define COORD_MAX ((it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC)
 
+/* The model being located on: one of the two kinds. */
+typedef struct loc_model {
+    const it2n_model *bz;
+    const it2n_bspline_model *bs;
+} loc_model;
+
 typedef struct loc_state {
     it2n_par u, w;
     it2n_val v[IT2N_FP_COUNT][IT2N_CH_COUNT];
@@ -28,14 +34,18 @@ static int64_t abs64(int64_t v)
 }
 
 /* Evaluate footprint fp at (u, w) into st; false on derivative overflow. */
-static bool probe(const it2n_model *mdl, unsigned fp, it2n_par u, it2n_par w,
+static bool probe(const loc_model *mdl, unsigned fp, it2n_par u, it2n_par w,
                   it2n_val x, it2n_val y, loc_state *st)
 {
     int64_t ax, ay;
     st->u = u;
     st->w = w;
-    if (it2n__eval_full(mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0],
-                        &st->dw[0][0], NULL) != IT2N_OK) {
+    if (mdl->bz != NULL
+            ? it2n__eval_full(mdl->bz, 1u << fp, u, w, &st->v[0][0],
+                              &st->du[0][0], &st->dw[0][0], NULL) != IT2N_OK
+            : it2n__bspline_eval_full(mdl->bs, 1u << fp, u, w, &st->v[0][0],
+                                      &st->du[0][0], &st->dw[0][0],
+                                      NULL) != IT2N_OK) {
         return false;
     }
     /* Surface points lie in the control net's hull (< 2^62): no overflow. */
@@ -110,20 +120,44 @@ static bool on_boundary(const loc_state *st)
 
 /* Convergence tolerance: ~1e-6 absolute plus ~1e-6 of the net's extent,
  * since basis rounding scales with the control points. */
-static int64_t tolerance(const it2n_model *mdl, unsigned fp)
+static int64_t tolerance(const loc_model *lm, unsigned fp)
 {
     int64_t big = 0;
-    unsigned k, ch, count = (mdl->n + 1u) * (mdl->m + 1u);
+    unsigned k, ch;
     for (ch = IT2N_CH_X; ch <= IT2N_CH_Y; ch++) {
         /* rounding is monotone: the largest |Q24 control point| comes from
          * the largest and the smallest mantissa */
         int32_t lo = 0, hi = 0;
-        int s = mdl->frac[fp][ch] - IT2N_VAL_FRAC;
         int64_t a, b;
-        for (k = 0; k < count; k++) {
-            int32_t v = mdl->net[fp][ch][k];
-            lo = v < lo ? v : lo;
-            hi = v > hi ? v : hi;
+        int s;
+        if (lm->bz != NULL) {
+            const it2n_model *mdl = lm->bz;
+            unsigned count = (mdl->n + 1u) * (mdl->m + 1u);
+            s = mdl->frac[fp][ch] - IT2N_VAL_FRAC;
+            for (k = 0; k < count; k++) {
+                int32_t v = mdl->net[fp][ch][k];
+                lo = v < lo ? v : lo;
+                hi = v > hi ? v : hi;
+            }
+        } else {
+            /* a B-spline net's largest |mantissa| is in [2^30, 2^31) by
+             * construction: bound it by 2^31, O(1) whatever the grid. An
+             * all-zero net has exponent 0 (as have nets near 2^31 units):
+             * only then are its coefficients read. */
+            const it2n_bspline_model *mdl = lm->bs;
+            s = mdl->frac[fp][ch] - IT2N_VAL_FRAC;
+            hi = INT32_MAX;
+            if (mdl->frac[fp][ch] == 0) {
+                unsigned r, c;
+                hi = 0;
+                for (r = 0; r <= mdl->n + 2u; r++) {
+                    for (c = 0; c <= mdl->m + 2u; c++) {
+                        it2n_val q = it2n_bspline_coef(mdl, r, c, fp, ch);
+                        q = q < 0 ? -q : q;
+                        big = q > big ? q : big;
+                    }
+                }
+            }
         }
         a = it2n__shift_round(hi, s);
         b = -it2n__shift_round(lo, s);
@@ -133,7 +167,7 @@ static int64_t tolerance(const it2n_model *mdl, unsigned fp)
     return 16 + (big >> 20);
 }
 
-static void locate_fp(const it2n_model *mdl, unsigned fp, it2n_val x,
+static void locate_fp(const loc_model *mdl, unsigned fp, it2n_val x,
                       it2n_val y, it2n_locate_fp *out)
 {
     loc_state best, cand;
@@ -205,16 +239,11 @@ static void locate_fp(const it2n_model *mdl, unsigned fp, it2n_val x,
     out->status = status;
 }
 
-int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
-                it2n_locate_result *out, it2n_errinfo *err)
+/* Both kinds: range checks, then every footprint the model carries. */
+static int locate_all(const loc_model *lm, unsigned flags, it2n_val x,
+                      it2n_val y, it2n_locate_result *out, it2n_errinfo *err)
 {
     unsigned fp;
-    if (mdl == NULL || out == NULL) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
-    }
-    if (!mdl->solved) {
-        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
-    }
     if (x < -COORD_MAX || x > COORD_MAX) {
         return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, IT2N_CH_X, x,
                           -COORD_MAX, COORD_MAX);
@@ -224,12 +253,42 @@ int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
                           -COORD_MAX, COORD_MAX);
     }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        if (it2n_model_has_fp(mdl, fp)) {
-            locate_fp(mdl, fp, x, y, &out->fp[fp]);
+        if ((it2n__fp_mask(flags) & (1u << fp)) != 0u) {
+            locate_fp(lm, fp, x, y, &out->fp[fp]);
         } else {
             memset(&out->fp[fp], 0, sizeof(out->fp[fp]));
             out->fp[fp].status = IT2N_LOC_NOCONV;
         }
     }
     return IT2N_OK;
+}
+
+int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
+                it2n_locate_result *out, it2n_errinfo *err)
+{
+    loc_model lm;
+    if (mdl == NULL || out == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (!mdl->solved) {
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
+    }
+    lm.bz = mdl;
+    lm.bs = NULL;
+    return locate_all(&lm, mdl->flags, x, y, out, err);
+}
+
+int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
+                        it2n_locate_result *out, it2n_errinfo *err)
+{
+    loc_model lm;
+    if (mdl == NULL || out == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (!mdl->solved || mdl->coef == NULL) {
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
+    }
+    lm.bz = NULL;
+    lm.bs = mdl;
+    return locate_all(&lm, mdl->flags, x, y, out, err);
 }

@@ -316,8 +316,27 @@ def main():
           "bad kind: %d %s" % (rc, err))
     rc, out, err = run("check", "--kind", "bspline", "--chord", p65)
     check(rc == 1 and "uniform parameters only" in err, "chord: %s" % err)
-    rc, out, err = run("locate", "--kind", "bspline", p65, "--at", "1,1")
-    check(rc == 1 and "not available yet" in err, "locate: %s" % err)
+    rc, out, err = run("plot", "--kind", "bspline", p65, "-o", "x.png")
+    check(rc == 1 and "not available yet" in err, "plot: %s" % err)
+
+    # locate: the (u, w) of a surface point of footprint D is found again
+    u0, w0 = Fr(3, 10), Fr(3, 5)
+    xd = ref65.surf("D", "x", u0, w0)
+    yd = ref65.surf("D", "y", u0, w0)
+    rc, out, err = run("locate", "--kind", "bspline", p65, "--decimals", "9",
+                       "--at", "%.9f,%.9f" % (float(xd), float(yd)))
+    check(rc == 0, "locate rc=%d %s" % (rc, err))
+    hdr, rs = rows(out)
+    cols = hdr.split(",")
+    d = [r for r in rs if r[2] == "D"]
+    check(len(d) == 1 and d[0][-1] == "inside", "locate D: %s" % out)
+    if d:
+        check(abs(float(Fr(d[0][3]) - u0)) < 1e-6 and
+              abs(float(Fr(d[0][4]) - w0)) < 1e-6,
+              "locate D (u,w) = (%s,%s), want (0.3,0.6)" % (d[0][3], d[0][4]))
+        want_t = ref65.surf("D", "T", u0, w0)
+        check(abs(float(Fr(d[0][cols.index("T")]) - want_t)) < 1e-6,
+              "locate D T %s vs %.9f" % (d[0][cols.index("T")], float(want_t)))
     rc, out, err = run("check", sv)
     check(rc == 2 and "is not a grid index 0..7" in err, "bezier limit: %s" % err)
 

@@ -1026,6 +1026,70 @@ static void test_local_support(void **state)
     bcase_free(&c);
 }
 
+/* Locate: the (u, w) of a point of footprint D is found again, with the
+ * surface values there; far-off locations are outside; errors. */
+static void locate_case(unsigned pts, unsigned flags, long double scale,
+                        unsigned queries, long double *worst_uw)
+{
+    bcase c;
+    uint64_t s = pts;
+    unsigned q, fp;
+    bcase_gen(&c, pts - 1u, pts - 1u, flags, GEN_SMOOTH, scale, 300 + pts);
+    bcase_core(&c);
+    for (q = 0; q < queries; q++) {
+        it2n_point pt;
+        it2n_locate_result res;
+        it2n_par uq = (it2n_par)(tc_rand(&s) % (IT2N_PAR_ONE + 1));
+        it2n_par wq = (it2n_par)(tc_rand(&s) % (IT2N_PAR_ONE + 1));
+        assert_int_equal(it2n_bspline_eval(&c.mdl, uq, wq, &pt, NULL), IT2N_OK);
+        assert_int_equal(it2n_bspline_locate(&c.mdl, pt.v[IT2N_FP_D][IT2N_CH_X],
+                                             pt.v[IT2N_FP_D][IT2N_CH_Y], &res, NULL),
+                         IT2N_OK);
+        for (fp = 0; fp < NFP; fp++) {
+            const it2n_locate_fp *r = &res.fp[fp];
+            if (!has_fp(flags, fp)) {
+                assert_int_equal(r->status, IT2N_LOC_NOCONV);
+                continue;
+            }
+            if (fp == IT2N_FP_D) {
+                long double du = fabsl(tc_ldp(r->u) - tc_ldp(uq));
+                long double dw = fabsl(tc_ldp(r->w) - tc_ldp(wq));
+                if (r->status != IT2N_LOC_INSIDE || du > 1e-6L || dw > 1e-6L ||
+                    llabs((long long)(r->v[IT2N_CH_T] - pt.v[IT2N_FP_D][IT2N_CH_T])) > 32) {
+                    fail_msg("locate %ux%u: status %d (u,w) (%.9Lf,%.9Lf) want (%.9Lf,%.9Lf)",
+                             pts, pts, r->status, tc_ldp(r->u), tc_ldp(r->w),
+                             tc_ldp(uq), tc_ldp(wq));
+                }
+                *worst_uw = fmaxl(*worst_uw, fmaxl(du, dw));
+            }
+        }
+    }
+    {
+        it2n_locate_result res;
+        it2n_errinfo err;
+        it2n_val far = (it2n_val)IT2N_COORD_LIMIT << 24;
+        assert_int_equal(it2n_bspline_locate(&c.mdl, far, far, &res, NULL), IT2N_OK);
+        assert_int_equal(res.fp[IT2N_FP_D].status, IT2N_LOC_OUTSIDE);
+        assert_int_equal(it2n_bspline_locate(&c.mdl, far + 1, 0, &res, &err),
+                         IT2N_ERR_RANGE);
+        assert_int_equal(err.ch, IT2N_CH_X);
+        c.mdl.solved = 0;
+        assert_int_equal(it2n_bspline_locate(&c.mdl, 0, 0, &res, &err), IT2N_ERR_STATE);
+    }
+    bcase_free(&c);
+}
+
+static void test_locate(void **state)
+{
+    long double wuw = 0;
+    (void)state;
+    locate_case(31, IT2N_F_Z, 100, 40, &wuw);
+    locate_case(4, 0, 10, 40, &wuw);
+    locate_case(256, IT2N_F_TYPE1, 2500, 20, &wuw);
+    printf("[bspline] locate 31x31, 4x4 and 256x256: 100 points found again, worst |du|,|dw| %.3Le\n",
+           wuw);
+}
+
 /* Memory of data set + model (the caller's storage) per grid, and the
  * largest square grid a RAM budget holds (printed for docs/numerics.md). */
 static size_t bs_bytes(unsigned n, unsigned flags)
@@ -1076,6 +1140,7 @@ int main(void)
         cmocka_unit_test(test_sample),
         cmocka_unit_test(test_validation),
         cmocka_unit_test(test_local_support),
+        cmocka_unit_test(test_locate),
         cmocka_unit_test(test_memory),
     };
     int rc = cmocka_run_group_tests_name("core bspline", tests, NULL, NULL);

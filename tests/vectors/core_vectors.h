@@ -9,7 +9,7 @@
 
 #include <stdint.h>
 
-#define IT2N_CORE_VECTORS_COUNT 5353u
+#define IT2N_CORE_VECTORS_COUNT 5363u
 
 static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     /* paper.init */
@@ -3674,6 +3674,10 @@ static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     0,
     /* bs.deriv_hash */
     9091562610343079104,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    -7288779628044830406,
     /* bs.sample */
     0,
     /* bs.sample_hash */
@@ -3764,6 +3768,10 @@ static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     0,
     /* bs.deriv_hash */
     -6967521059941740194,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    -4980468997849325641,
     /* bs.sample */
     0,
     /* bs.sample_hash */
@@ -3854,6 +3862,10 @@ static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     0,
     /* bs.deriv_hash */
     7144163825002348976,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    -8010293872426980793,
     /* bs.sample */
     0,
     /* bs.sample_hash */
@@ -3944,6 +3956,10 @@ static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     0,
     /* bs.deriv_hash */
     8350329680531241278,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    -3501342731119136234,
     /* bs.sample */
     0,
     /* bs.sample_hash */
@@ -4034,6 +4050,10 @@ static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     0,
     /* bs.deriv_hash */
     4936832442831826185,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    7175155391192870736,
     /* bs.sample */
     0,
     /* bs.sample_hash */

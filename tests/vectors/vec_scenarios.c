@@ -849,6 +849,24 @@ static void scen_bspline_one(it2n_vec_work *wk, const vec_out *o, unsigned n,
         }
         out(o, "bs.deriv_hash", as_i64(h));
     }
+    /* locate the D point at (5/7, 2/9) */
+    rc = it2n_bspline_eval(&wk->bs_a, par(5, 7), par(2, 9), &wk->pt, &wk->err);
+    if (rc == IT2N_OK) {
+        uint64_t h = VEC_FNV_INIT;
+        rc = it2n_bspline_locate(&wk->bs_a, wk->pt.v[IT2N_FP_D][IT2N_CH_X],
+                                 wk->pt.v[IT2N_FP_D][IT2N_CH_Y], &wk->loc, &wk->err);
+        for (fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
+            h = hash_i64(h, wk->loc.fp[fp].u);
+            h = hash_i64(h, wk->loc.fp[fp].w);
+            h = hash_i64(h, wk->loc.fp[fp].residual);
+            h = hash_i64(h, wk->loc.fp[fp].status);
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                h = hash_i64(h, wk->loc.fp[fp].v[ch]);
+            }
+        }
+        out(o, "bs.locate", rc);
+        out(o, "bs.locate_hash", as_i64(h));
+    }
     ss.hash = VEC_FNV_INIT;
     rc = it2n_bspline_sample(&wk->bs_a, 9, 6, bs_sample_cb, &ss, &wk->err);
     out(o, "bs.sample", rc);
