@@ -74,8 +74,9 @@
 
 /* Largest number of intervals n, m per direction of a B-spline model (grid
  * up to (n+1) x (n+1) points, see "B-spline kind" below). Bounds the solve's
- * stack (about 10 bytes per interval); MCU builds with small grids set it
- * lower. Storage itself is the caller's and sized per grid. */
+ * stack (about 11 bytes per interval on MCUs, 20 on 64-bit hosts, which
+ * solve two lines at a time); MCU builds with small grids set it lower.
+ * Storage itself is the caller's and sized per grid. */
 #ifndef IT2N_BSPLINE_MAX_N
 #define IT2N_BSPLINE_MAX_N 255
 #endif

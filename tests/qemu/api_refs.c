@@ -30,6 +30,7 @@ static const volatile it2n_any_fn it2n_api[] = {
     (it2n_any_fn)it2n_bspline_solve, (it2n_any_fn)it2n_bspline_update,
     (it2n_any_fn)it2n_bspline_coef, (it2n_any_fn)it2n_bspline_eval,
     (it2n_any_fn)it2n_bspline_deriv, (it2n_any_fn)it2n_bspline_sample,
+    (it2n_any_fn)it2n_bspline_locate,
 };
 
 void it2n_cross_entry(void)
