@@ -1026,6 +1026,97 @@ static void test_local_support(void **state)
     bcase_free(&c);
 }
 
+/* Random shapes and magnitudes: sizes 1..40 each way, every flag set,
+ * data from single LSBs to +-IT2N_COORD_LIMIT, zero rows and zero nets,
+ * constants, spikes. Every model solves (the sanitizer build traps on the
+ * exponent assertion), matches the reference, and an update matches a
+ * full solve. */
+static void test_random_shapes(void **state)
+{
+    static const unsigned fl[4] = {0, IT2N_F_Z, IT2N_F_TYPE1, IT2N_F_TYPE1 | IT2N_F_Z};
+    uint64_t s = 4242;
+    worst wo = {0, 0, 0, 0};
+    unsigned t;
+    (void)state;
+    for (t = 0; t < 60; t++) {
+        unsigned n = 1u + (unsigned)(tc_rand(&s) % 40u);
+        unsigned m = 1u + (unsigned)(tc_rand(&s) % 40u);
+        unsigned flags = fl[tc_rand(&s) % 4u], kind = (unsigned)(tc_rand(&s) % 6u);
+        unsigned i, j, fp, ch;
+        bcase c;
+        bcase_gen(&c, n, m, flags, GEN_SMOOTH, 1, t);
+        /* overwrite with the shape under test: the same for every
+         * footprint, so they nest */
+        for (i = 0; i <= n; i++) {
+            for (j = 0; j <= m; j++) {
+                for (ch = 0; ch < NCH; ch++) {
+                    long double x, e;
+                    it2n_val q;
+                    uint64_t r = tc_rand(&s);
+                    long double lim = ch < 3 ? IT2N_COORD_LIMIT - 1 : 1;
+                    switch (kind) {
+                    case 0: /* single LSBs (Q24 1e-6 steps) */
+                        x = (long double)(r % 3u) * 1e-6L;
+                        break;
+                    case 1: /* +-limit at random */
+                        x = ch < 3 ? ((r & 1u) ? lim : -lim) : (long double)(r & 1u);
+                        break;
+                    case 2: /* zero except a spike */
+                        x = (i == n / 2u && j == m / 3u) ? lim : 0;
+                        break;
+                    case 3: /* constants (and all-zero nets for z, F) */
+                        x = ch == 2 || ch == 5 ? 0 : lim / 3;
+                        break;
+                    case 4: /* zero rows */
+                        x = (i & 1u) ? 0 : (long double)(r % 1000u) / 1000.0L * lim;
+                        break;
+                    default: /* random in range */
+                        x = ch < 3 ? ((long double)(r % 2000001u) / 1e6L - 1) * lim
+                                   : (long double)(r % 1000001u) / 1e6L;
+                        break;
+                    }
+                    if (ch >= 3 && x < 0) {
+                        x = -x;
+                    }
+                    q = dec6(x, &e);
+                    for (fp = 0; fp < NFP; fp++) {
+                        if (has_fp(flags, fp) && has_ch(flags, ch)) {
+                            c.q[vidx(&c, i, j, fp, ch)] = q;
+                            c.v[vidx(&c, i, j, fp, ch)] = e;
+                        }
+                    }
+                }
+            }
+        }
+        c.maxabs = 0;
+        for (i = 0; i <= n; i++)
+            for (j = 0; j <= m; j++)
+                for (ch = 0; ch < 3; ch++)
+                    c.maxabs = fmaxl(c.maxabs, fabsl(c.v[vidx(&c, i, j, IT2N_FP_D, ch)]));
+        bcase_core(&c);
+        bcase_ref(&c);
+        check_case(&c, 30, n * m < 200, t, &wo);
+        (void)check_coefs(&c);
+        {
+            it2n_val vals[NCH];
+            size_t words = IT2N_BSPLINE_MODEL_WORDS(n, m, flags);
+            int32_t *fresh = malloc(words * sizeof(*fresh));
+            it2n_bspline_model m2;
+            assert_non_null(fresh);
+            it2n_bspline_data_get(&c.ds, n, 0, IT2N_FP_D, vals);
+            vals[IT2N_CH_T] = IT2N_VAL_ONE - vals[IT2N_CH_T];
+            assert_int_equal(it2n_bspline_update(&c.mdl, &c.ds, n, 0, IT2N_FP_D, vals, NULL),
+                             IT2N_OK);
+            it2n_bspline_model_init(&m2, fresh, words);
+            assert_int_equal(it2n_bspline_solve(&m2, &c.ds, NULL), IT2N_OK);
+            assert_memory_equal(fresh, c.coef, words * sizeof(*fresh));
+            free(fresh);
+        }
+        bcase_free(&c);
+    }
+    report("random shapes and magnitudes", &wo);
+}
+
 /* Locate: the (u, w) of a point of footprint D is found again, with the
  * surface values there; far-off locations are outside; errors. */
 static void locate_case(unsigned pts, unsigned flags, long double scale,
@@ -1140,6 +1231,7 @@ int main(void)
         cmocka_unit_test(test_sample),
         cmocka_unit_test(test_validation),
         cmocka_unit_test(test_local_support),
+        cmocka_unit_test(test_random_shapes),
         cmocka_unit_test(test_locate),
         cmocka_unit_test(test_memory),
     };
