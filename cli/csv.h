@@ -97,7 +97,8 @@ void it2n_csv_init(it2n_csv *p, unsigned flags);
  * Start reading a data set for the B-spline kind: grid indices 0..
  * IT2N_BSPLINE_MAX_N, uniform parameters only. scratch holds
  * IT2N_CSV_BSPLINE_RECS records, lines IT2N_CSV_BSPLINE_LINES words (both
- * the caller's, about 15 MB and 1.8 MB at the default 255; cleared here).
+ * the caller's, about 15 MB and 1.8 MB at the default 255; the line
+ * table is cleared here, the records need not be).
  */
 void it2n_csv_init_bspline(it2n_csv *p, it2n_bspline_rec *scratch,
                            uint32_t *lines);

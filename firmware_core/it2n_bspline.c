@@ -305,11 +305,6 @@ static int64_t shl(int64_t x, unsigned s)
 #define MUL3(x) (shl((x), 1) + (x))
 #define MUL36(x) (shl((x), 5) + shl((x), 2))
 
-/*
- * In: v[1..N+1] = y_0..y_N, |y| < 2^55, N in 1..IT2N_BSPLINE_MAX_N.
- * Out: v[0..N+2] = 6 c_{-1} .. 6 c_{N+1}, the not-a-knot coefficients (line
- * or parabola for N < 3), each below 93.5 max|y| < 2^62.
- */
 /* The data a line solve keeps aside while it overwrites v. */
 typedef struct line_ends {
     int64_t y0, y1, y2, ya, yb, yc, z1, zn1;
@@ -393,6 +388,11 @@ static void line_finish(int64_t *v, unsigned N, const line_ends *e)
     v[N + 2u] = MUL36(e->yc) - MUL4(zn) - e->zn1;
 }
 
+/*
+ * In: v[1..N+1] = y_0..y_N, |y| < 2^55, N in 1..IT2N_BSPLINE_MAX_N.
+ * Out: v[0..N+2] = 6 c_{-1} .. 6 c_{N+1}, the not-a-knot coefficients (line
+ * or parabola for N < 3), each below 93.5 max|y| < 2^62.
+ */
 static void line_solve(int64_t *v, unsigned N)
 {
     line_ends e;
