@@ -40,7 +40,8 @@ typedef struct cli_opts {
     bool interval;        /* plot --interval: band heat map   */
     const char *output;   /* plot/export -o FILE (NULL: stdout) */
     int format;           /* export --format: CLI_FMT_*       */
-    unsigned width, height; /* plot --size WxH (pixels)       */
+    unsigned width, height; /* plot --size WxH (pixels); 0: by figure */
+    bool nets;            /* plot --nets: draw the control nets */
     int kind;             /* --kind: CLI_KIND_*               */
 } cli_opts;
 
@@ -53,6 +54,9 @@ enum { CLI_FMT_VTK = 0, CLI_FMT_OBJ, CLI_FMT_CSV };
 /* Largest --grid side for plot and export (they hold the samples). */
 #define CLI_GRID_MAX_MESH 1001u
 #define CLI_PAR_DECIMALS 6u /* digits of u, w whatever --decimals says */
+/* plot --interval's default (x, y) nodes per side: fine enough that the
+ * heat map's cells are smaller than the lines of the surfaces plot. */
+#define CLI_GRID_INTERVAL 81u
 
 /* Run the subcommand in o; returns an exit status. */
 int cli_run(const cli_opts *o);

@@ -343,7 +343,7 @@ static void put_summary_row(it2n_par u, it2n_par w, const char *what,
     put_par(u, decimals);
     putchar(',');
     put_par(w, decimals);
-    printf(",%s,,%s", what, has_z() ? ",," : "");
+    printf(",%s,,%s", what, has_z() ? "," : ""); /* x, y (, z) empty */
     for (k = 0; k < 3u; k++) {
         putchar(',');
         put_val(tif[k], decimals);

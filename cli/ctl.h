@@ -13,6 +13,7 @@
 #include "it2n.h"
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 /* Exit statuses: those of it2n (cli.h) plus the connection failures. */
@@ -100,6 +101,13 @@ typedef struct ctl_conn_opts {
     unsigned timeout_ms;  /* per request                                  */
     int poll_ms;          /* watch: Modbus polling interval               */
 } ctl_conn_opts;
+
+/* Split a --tcp argument, HOST:PORT or [V6]:PORT (HOST alone: port 1502),
+ * into host[hn] and port[pn]. Returns NULL when it is well formed, else
+ * what is wrong with it (a usage error: the port is not 1..65535, the host
+ * is empty, a bracket is not closed); checks syntax only, no name lookup. */
+const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port,
+                          size_t pn);
 
 /* Open a transport; on failure prints why and returns NULL with *rc set. */
 void *ctl_modbus_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc);

@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <time.h>
 #include <unistd.h>
 
 #define CTL_GRID_DEFAULT 21u
@@ -22,7 +23,7 @@
 enum {
     O_AT_UW = 0x01, O_AT_XY = 0x02, O_SUMMARY = 0x04, O_GRID = 0x08,
     O_GRID_OPT = 0x10, O_FP = 0x20, O_DATA = 0x40, O_PLOT = 0x80,
-    O_COUNT = 0x100, O_CHORD = 0x200
+    O_COUNT = 0x100, O_CHORD = 0x200, O_INCOMPLETE = 0x400, O_FOLLOW = 0x800
 };
 
 typedef struct ctl_cmd {
@@ -65,21 +66,33 @@ static const ctl_cmd cmds[] = {
      "  --summary           add interval bound rows\n"
      "  --footprint LIST    only these footprints\n",
      O_GRID | O_SUMMARY | O_FP},
-    {"watch", "[--count N]", "Print a status row for each new generation",
+    {"watch", "[--count N] [--incomplete]",
+     "Print a status row for each new generation",
      "Prints the status row now and again whenever the model's generation\n"
      "changes (Modbus: polled every 100 ms; link: on the daemon's EVENTs).\n"
-     "  --count N   stop after N rows (default: run until interrupted)\n",
-     O_COUNT},
-    {"plot", "-o FILE.png|FILE.svg", "Draw the live model with gnuplot",
+     "Rows are committed generations: a solved or failed model at once, an\n"
+     "empty or incomplete one once it has stood for 1 s (a push in progress\n"
+     "configures, clears and uploads before it commits: no rows).\n"
+     "  --count N      stop after N rows (default: run until interrupted)\n"
+     "  --incomplete   a row for every generation, a push's too\n",
+     O_COUNT | O_INCOMPLETE},
+    {"plot", "-o FILE.png|FILE.svg [--follow [--count N]]",
+     "Draw the live model with gnuplot",
      "Reads the control nets and draws them with it2n plot's code: same\n"
-     "options, colours and errors (see 'it2n plot --help').\n"
+     "options, colours and errors (see 'it2n plot --help'); the data points\n"
+     "marked are the surfaces at the parameter nodes.\n"
      "  -o FILE            .png or .svg\n"
-     "  --membership M     T, I, F or all (default all)\n"
+     "  --membership M     T, I, F or all (three panels; default)\n"
      "  --interval         upper/lower band of one membership\n"
-     "  --grid RxC         2..1001 each (default 21x21)\n"
+     "  --nets             also draw the control nets\n"
+     "  --grid RxC         2..1001 each (default 21x21; --interval 81x81)\n"
      "  --footprint LIST   only these footprints\n"
-     "  --size WxH         200..8000 each (default 900x700)\n",
-     O_PLOT | O_GRID_OPT | O_FP},
+     "  --size WxH         200..8000 each (default by figure, see it2n)\n"
+     "  --follow           draw again on every new solved generation (the\n"
+     "                     file is replaced whole, never seen half written);\n"
+     "                     one line 'generation G: FILE' per drawing\n"
+     "  --count N          with --follow: stop after N drawings\n",
+     O_PLOT | O_GRID_OPT | O_FP | O_COUNT | O_FOLLOW},
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
 
@@ -89,14 +102,15 @@ static const char conn_help[] =
     "  --rtu DEVICE        Modbus RTU on a serial device\n"
     "  --baud N            RTU (default 19200) or link (default 115200)\n"
     "  --parity none|even|odd   RTU (default even), --stop-bits 1|2\n"
-    "  --unit N            Modbus unit id 0..247 (default 1)\n"
+    "  --unit N            Modbus unit id 0..255 (default 1; on TCP 0 and 255\n"
+    "                      reach the default model)\n"
     "  --link DEVICE       framing protocol on a serial line or pty wired to\n"
     "                      one of the daemon's [link:] devices\n"
     "  --model ID          model id on a link, 0..254 (default 1)\n"
     "  --timeout MS        per request (default 3000)\n"
     "Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
     "127.0.0.1:1502.\n"
-    "Common: --decimals N (6..9), --help.\n"
+    "Common: --decimals N (0..9, default 6), --help.\n"
     "Exit status: 0 ok, 1 usage error, 2 data error or refused by the\n"
     "daemon, 3 daemon unreachable or not answering.\n";
 
@@ -104,7 +118,9 @@ typedef struct ctl_args {
     const ctl_cmd *cmd;
     cli_opts o;            /* output options as it2n's            */
     ctl_conn_opts conn;
-    unsigned count;        /* watch --count, 0 = forever           */
+    unsigned count;        /* watch/plot --count, 0 = forever      */
+    bool incomplete;       /* watch --incomplete                   */
+    bool follow;           /* plot --follow                        */
 } ctl_args;
 
 static void usage_all(FILE *out)
@@ -145,9 +161,13 @@ static void put_val(it2n_val v, unsigned decimals)
     fputs(buf, stdout);
 }
 
+/* As it2n: parameters keep at least CLI_PAR_DECIMALS digits. */
 static void put_par(it2n_par p, unsigned decimals)
 {
     char buf[48];
+    if (decimals < CLI_PAR_DECIMALS) {
+        decimals = CLI_PAR_DECIMALS;
+    }
     if (it2n_format_par(buf, sizeof(buf), p, decimals) < 0) {
         fputs("?", stdout);
         return;
@@ -214,7 +234,7 @@ static void put_summary_row(it2n_par u, it2n_par w, const char *what,
     put_par(u, decimals);
     putchar(',');
     put_par(w, decimals);
-    printf(",%s,,%s", what, g_z ? ",," : "");
+    printf(",%s,,%s", what, g_z ? "," : ""); /* x, y (, z) empty */
     for (k = 0; k < 3u; k++) {
         putchar(',');
         put_val(tif[k], decimals);
@@ -381,6 +401,52 @@ static int cmd_status(ctl_session *s)
     return finish_output();
 }
 
+/* Wait for the next generation after gen worth a row or a drawing: a solved
+ * or failed model at once; an empty or incomplete one (a push configures,
+ * clears and uploads before it commits) only once it has stood unchanged
+ * for WATCH_SETTLE_MS — a cleared or abandoned model is shown, a push in
+ * progress is not — or at once when every generation is asked for. */
+#define WATCH_SETTLE_MS 1000
+static int next_generation(ctl_session *s, bool every, uint32_t gen,
+                           ctl_status *st)
+{
+    int rc;
+    for (;;) {
+        rc = s->ops->wait(s->c, gen, 1000, st);
+        if (rc != CTL_EXIT_OK || st->generation == gen) {
+            if (rc != CTL_EXIT_OK) {
+                return rc;
+            }
+            continue;
+        }
+        if (every || st->state == CTL_ST_SOLVED ||
+            st->state == CTL_ST_FAILED) {
+            return CTL_EXIT_OK;
+        }
+        /* A transport's wait may return early (an event that kept the
+         * generation): the settling time is measured here. */
+        gen = st->generation;
+        {
+            struct timespec t0, t;
+            long left = WATCH_SETTLE_MS;
+            clock_gettime(CLOCK_MONOTONIC, &t0);
+            while (left > 0 && st->generation == gen) {
+                rc = s->ops->wait(s->c, gen, (int)left, st);
+                if (rc != CTL_EXIT_OK) {
+                    return rc;
+                }
+                clock_gettime(CLOCK_MONOTONIC, &t);
+                left = WATCH_SETTLE_MS - ((t.tv_sec - t0.tv_sec) * 1000L +
+                                          (t.tv_nsec - t0.tv_nsec) / 1000000L);
+            }
+        }
+        if (st->generation == gen) {
+            return CTL_EXIT_OK; /* settled */
+        }
+        gen = st->generation - 1u; /* moved on: judge the new one */
+    }
+}
+
 static int cmd_watch(ctl_session *s, const ctl_args *a)
 {
     ctl_status st;
@@ -401,12 +467,10 @@ static int cmd_watch(ctl_session *s, const ctl_args *a)
             return finish_output();
         }
         gen = st.generation;
-        do {
-            rc = s->ops->wait(s->c, gen, 1000, &st);
-            if (rc != CTL_EXIT_OK) {
-                return rc;
-            }
-        } while (st.generation == gen);
+        rc = next_generation(s, a->incomplete, gen, &st);
+        if (rc != CTL_EXIT_OK) {
+            return rc;
+        }
     }
 }
 
@@ -679,36 +743,82 @@ static void net_to_model(const ctl_status *st, ctl_net *net,
     }
 }
 
-static int cmd_plot(ctl_session *s, const ctl_args *a)
+/* Draw the model described by st (already read, solved) into o->output. */
+static int draw_live(ctl_session *s, const ctl_args *a, const ctl_status *st,
+                     const char *output)
 {
-    ctl_status st;
     cli_opts o = a->o;
     char title[256];
-    int rc = solved_status(s, &st);
+    int rc = s->ops->net(s->c, st, &g_net);
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    if (o.interval && g_type1) {
-        fprintf(stderr, "it2nctl: %s: --interval needs a type-2 model\n",
-                s->where);
-        return CTL_EXIT_DATA;
-    }
-    rc = s->ops->net(s->c, &st, &g_net);
-    if (rc != CTL_EXIT_OK) {
-        return rc;
-    }
-    net_to_model(&st, &g_net, &g_mdl);
+    net_to_model(st, &g_net, &g_mdl);
     memset(&g_ds, 0, sizeof(g_ds));
-    g_ds.n = (uint8_t)st.n;
-    g_ds.m = (uint8_t)st.m;
-    g_ds.flags = (uint8_t)st.flags;
+    g_ds.n = (uint8_t)st->n;
+    g_ds.m = (uint8_t)st->m;
+    g_ds.flags = (uint8_t)st->flags;
     /* The title names the source: no '/' so it is printed whole. */
     snprintf(title, sizeof(title), "it2nd %s %u generation %lu",
              a->conn.link != NULL ? "model" : "unit",
              a->conn.link != NULL ? a->conn.model : a->conn.unit,
-             (unsigned long)st.generation);
+             (unsigned long)st->generation);
     o.path = title;
+    o.output = output;
     return cli_plot(&o, &g_mdl, &g_ds);
+}
+
+/* --follow: each drawing goes to a hidden file beside FILE, renamed over it
+ * when complete, so a viewer reloading FILE never reads half an image. */
+static int follow_plot(ctl_session *s, const ctl_args *a, ctl_status *st)
+{
+    const char *out = a->o.output, *base = strrchr(out, '/');
+    char tmp[4200];
+    unsigned drawn = 0;
+    int rc;
+
+    base = base ? base + 1 : out;
+    snprintf(tmp, sizeof(tmp), "%.*s.%s.part%s", (int)(base - out), out, base,
+             strrchr(base, '.'));
+    for (;;) {
+        rc = draw_live(s, a, st, tmp);
+        if (rc == CTL_EXIT_OK && rename(tmp, out) != 0) {
+            fprintf(stderr, "it2nctl: cannot replace %s: %s\n", out,
+                    strerror(errno));
+            unlink(tmp);
+            rc = CTL_EXIT_DATA;
+        }
+        if (rc != CTL_EXIT_OK) {
+            return rc;
+        }
+        printf("generation %lu: %s\n", (unsigned long)st->generation, out);
+        fflush(stdout);
+        if (a->count != 0u && ++drawn >= a->count) {
+            return finish_output();
+        }
+        do { /* the next solved generation; pushes in progress skipped */
+            rc = next_generation(s, false, st->generation, st);
+            if (rc != CTL_EXIT_OK) {
+                return rc;
+            }
+        } while (st->state != CTL_ST_SOLVED);
+    }
+}
+
+static int cmd_plot(ctl_session *s, const ctl_args *a)
+{
+    ctl_status st;
+    int rc = solved_status(s, &st);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    if (a->o.interval && g_type1) {
+        fprintf(stderr, "it2nctl: %s: --interval needs a type-2 model\n",
+                s->where);
+        return CTL_EXIT_DATA;
+    }
+    return a->follow ? follow_plot(s, a, &st)
+                     : draw_live(s, a, &st, a->o.output);
 }
 
 /* ---- options ------------------------------------------------------------ */
@@ -745,7 +855,7 @@ enum {
     OPT_AT = 256, OPT_SUMMARY, OPT_GRID, OPT_CHORD, OPT_DECIMALS, OPT_HELP,
     OPT_VERSION, OPT_FP, OPT_MEMB, OPT_INTERVAL, OPT_SIZE, OPT_TCP, OPT_RTU,
     OPT_LINK, OPT_UNIT, OPT_MODEL, OPT_BAUD, OPT_PARITY, OPT_STOP,
-    OPT_TIMEOUT, OPT_COUNT
+    OPT_TIMEOUT, OPT_COUNT, OPT_NETS, OPT_FOLLOW, OPT_INCOMPLETE
 };
 
 /* Parse argv into a; returns -1 to go on, else an exit status. */
@@ -774,6 +884,9 @@ static int parse_args(int argc, char **argv, ctl_args *a)
         {"stop-bits", required_argument, NULL, OPT_STOP},
         {"timeout", required_argument, NULL, OPT_TIMEOUT},
         {"count", required_argument, NULL, OPT_COUNT},
+        {"nets", no_argument, NULL, OPT_NETS},
+        {"follow", no_argument, NULL, OPT_FOLLOW},
+        {"incomplete", no_argument, NULL, OPT_INCOMPLETE},
         {NULL, 0, NULL, 0}};
     const ctl_cmd *c;
     cli_opts *o = &a->o;
@@ -797,6 +910,34 @@ static int parse_args(int argc, char **argv, ctl_args *a)
         printf("it2nctl %s (IT2N_MAX_DEGREE %d)\n", IT2N_CLI_VERSION,
                IT2N_MAX_DEGREE);
         return CTL_EXIT_OK;
+    }
+    if (argv[1][0] == '-') {
+        /* Options may come before the command (it2nctl --tcp H:P status):
+         * the first word that is not an option or an option's value is
+         * moved to the front, the rest keep their order. */
+        int i = 1;
+        while (i < argc && argv[i][0] == '-') {
+            const struct option *lo = NULL;
+            if (argv[i][1] == '-' && strchr(argv[i], '=') == NULL) {
+                for (lo = longopts; lo->name != NULL; lo++) {
+                    if (strcmp(lo->name, argv[i] + 2) == 0) {
+                        break;
+                    }
+                }
+            }
+            i += (lo != NULL && lo->name != NULL &&
+                  lo->has_arg == required_argument) ||
+                         strcmp(argv[i], "-o") == 0
+                     ? 2
+                     : 1;
+        }
+        if (i >= argc) {
+            return usage_error(NULL, "%s", "no command given (it may stand "
+                                           "before or after the options)");
+        }
+        char *cmd = argv[i];
+        memmove(&argv[2], &argv[1], (size_t)(i - 1) * sizeof(argv[0]));
+        argv[1] = cmd;
     }
     c = find_cmd(argv[1]);
     if (c == NULL) {
@@ -824,8 +965,8 @@ static int parse_args(int argc, char **argv, ctl_args *a)
             o->flags |= IT2N_F_CHORD;
             break;
         case OPT_DECIMALS:
-            if (!parse_uint(optarg, 6, 9, &o->decimals)) {
-                return usage_error(c->name, "--decimals '%s': expected 6..9",
+            if (!parse_uint(optarg, 0, 9, &o->decimals)) {
+                return usage_error(c->name, "--decimals '%s': expected 0..9",
                                    optarg);
             }
             break;
@@ -877,6 +1018,28 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                                    optarg);
             }
             memb = true;
+            break;
+        case OPT_NETS:
+            if (!(c->opts & O_PLOT)) {
+                return usage_error(c->name, "--nets does not apply to %s",
+                                   c->name);
+            }
+            o->nets = true;
+            break;
+        case OPT_FOLLOW:
+            if (!(c->opts & O_FOLLOW)) {
+                return usage_error(c->name, "--follow does not apply to %s",
+                                   c->name);
+            }
+            a->follow = true;
+            break;
+        case OPT_INCOMPLETE:
+            if (!(c->opts & O_INCOMPLETE)) {
+                return usage_error(c->name,
+                                   "--incomplete does not apply to %s",
+                                   c->name);
+            }
+            a->incomplete = true;
             break;
         case OPT_INTERVAL:
             if (!(c->opts & O_PLOT)) {
@@ -950,10 +1113,19 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                                    optarg);
             }
             break;
-        case OPT_TCP:
+        case OPT_TCP: {
+            char host[128], port[16];
+            const char *bad = ctl_tcp_split(optarg, host, sizeof(host), port,
+                                            sizeof(port));
+            if (bad != NULL) {
+                char msg[320];
+                snprintf(msg, sizeof(msg), "--tcp '%.200s': %s", optarg, bad);
+                return usage_error(c->name, "%s", msg);
+            }
             a->conn.tcp = optarg;
             nconn++;
             break;
+        }
         case OPT_RTU:
             a->conn.rtu = optarg;
             nconn++;
@@ -963,8 +1135,8 @@ static int parse_args(int argc, char **argv, ctl_args *a)
             nconn++;
             break;
         case OPT_UNIT:
-            if (!parse_uint(optarg, 0, 247, &a->conn.unit)) {
-                return usage_error(c->name, "--unit '%s': expected 0..247",
+            if (!parse_uint(optarg, 0, 255, &a->conn.unit)) {
+                return usage_error(c->name, "--unit '%s': expected 0..255",
                                    optarg);
             }
             break;
@@ -1022,7 +1194,22 @@ static int parse_args(int argc, char **argv, ctl_args *a)
     }
     if (nconn == 0 && getenv("IT2NCTL_TCP") != NULL &&
         getenv("IT2NCTL_TCP")[0] != '\0') {
+        char host[128], port[16], msg[320];
+        const char *bad;
         a->conn.tcp = getenv("IT2NCTL_TCP");
+        bad = ctl_tcp_split(a->conn.tcp, host, sizeof(host), port,
+                            sizeof(port));
+        if (bad != NULL) {
+            snprintf(msg, sizeof(msg), "IT2NCTL_TCP='%.200s': %s",
+                     a->conn.tcp, bad);
+            return usage_error(c->name, "%s", msg);
+        }
+    }
+    if (a->conn.rtu != NULL && a->conn.unit > 247) {
+        return usage_error(c->name, "%s",
+                           "--unit: RTU unit ids are 0..247 (248..255 are "
+                           "reserved on a serial line; 255 reaches the "
+                           "default model on TCP only)");
     }
     if (!baud) {
         a->conn.baud = a->conn.link != NULL ? 115200u : 19200u;
@@ -1044,7 +1231,12 @@ static int parse_args(int argc, char **argv, ctl_args *a)
         return usage_error(c->name, "%s needs --grid RxC", c->name);
     }
     if ((c->opts & O_GRID_OPT) && !grid) {
-        o->rows = o->cols = CTL_GRID_DEFAULT;
+        o->rows = o->cols = (c->opts & O_PLOT) && o->interval
+                                ? CLI_GRID_INTERVAL
+                                : CTL_GRID_DEFAULT;
+    }
+    if ((c->opts & O_FOLLOW) && a->count != 0u && !a->follow) {
+        return usage_error(c->name, "%s", "--count needs --follow");
     }
     if (c->opts & O_PLOT) {
         const char *dot = o->output ? strrchr(o->output, '.') : NULL;
@@ -1084,8 +1276,6 @@ int main(int argc, char **argv)
     memset(&s, 0, sizeof(s));
     a.o.decimals = 6;
     a.o.membership = -1;
-    a.o.width = 900u;
-    a.o.height = 700u;
     a.conn.unit = 1;
     a.conn.model = 1;
     a.conn.parity = 'E';

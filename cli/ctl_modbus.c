@@ -13,6 +13,8 @@
 
 #include <errno.h>
 #include <math.h>
+#include <netdb.h>
+#include <sys/socket.h>
 #include <modbus.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -534,37 +536,98 @@ static const ctl_ops mb_ops = {"modbus", mb_status, mb_push, mb_eval,
                                mb_locate, mb_net, mb_sample, mb_wait,
                                mb_close};
 
+const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port,
+                          size_t pn)
+{
+    const char *colon, *end;
+    size_t hl;
+    unsigned long v;
+    char *stop;
+
+    if (t[0] == '[') { /* [v6]:port */
+        const char *rb = strchr(t, ']');
+        if (rb == NULL) {
+            return "the address has no closing ']' (expected [V6]:PORT)";
+        }
+        hl = (size_t)(rb - t - 1);
+        t++;
+        colon = rb[1] == ':' ? rb + 1 : NULL;
+        if (colon == NULL && rb[1] != '\0') {
+            return "expected ':' after ']' (expected [V6]:PORT)";
+        }
+    } else {
+        colon = strrchr(t, ':');
+        if (colon != NULL && strchr(t, ':') != colon) {
+            return "an IPv6 address needs brackets: [V6]:PORT";
+        }
+        hl = colon ? (size_t)(colon - t) : strlen(t);
+    }
+    if (hl == 0) {
+        return "the host is empty (expected HOST:PORT)";
+    }
+    if (hl >= hn) {
+        return "the host name is too long";
+    }
+    memcpy(host, t, hl);
+    host[hl] = '\0';
+    end = colon ? colon + 1 : "1502";
+    errno = 0;
+    v = strtoul(end, &stop, 10);
+    if (end[0] < '0' || end[0] > '9' || *stop != '\0' || errno != 0 ||
+        v < 1 || v > 65535 || strlen(end) >= pn) {
+        return "the port is not a number 1..65535 (expected HOST:PORT)";
+    }
+    snprintf(port, pn, "%lu", v);
+    return NULL;
+}
+
+/* Name errors are told apart from an absent daemon: an unresolvable host
+ * is never "connection refused (is it2nd running?)". */
+static bool tcp_resolves(const char *host, const char *port)
+{
+    struct addrinfo hints, *res = NULL;
+    int e;
+
+    memset(&hints, 0, sizeof(hints));
+    hints.ai_socktype = SOCK_STREAM;
+    e = getaddrinfo(host, port, &hints, &res);
+    if (e != 0) {
+        fprintf(stderr, "it2nctl: cannot resolve host '%s': %s (check the "
+                        "name in --tcp HOST:PORT, or give an address)\n",
+                host, gai_strerror(e));
+        return false;
+    }
+    freeaddrinfo(res);
+    return true;
+}
+
 void *ctl_modbus_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
 {
     mb_conn *c = calloc(1, sizeof(*c));
-    char host[128] = "127.0.0.1", port[16] = "1502";
+    char host[128], port[16];
     if (c == NULL) {
         fprintf(stderr, "it2nctl: out of memory\n");
         *rc = CTL_EXIT_COMM;
         return NULL;
     }
+    *rc = CTL_EXIT_COMM;
     if (o->rtu != NULL) {
         c->ctx = modbus_new_rtu(o->rtu, (int)o->baud, o->parity, 8,
                                 (int)o->stop_bits);
         snprintf(c->where, sizeof(c->where), "%s unit %u", o->rtu, o->unit);
     } else {
-        const char *t = o->tcp ? o->tcp : "127.0.0.1:1502";
-        const char *colon = strrchr(t, ':');
-        size_t hl = colon ? (size_t)(colon - t) : strlen(t);
-        if (t[0] == '[') { /* [v6]:port */
-            const char *rb = strchr(t, ']');
-            if (rb != NULL) {
-                hl = (size_t)(rb - t - 1);
-                memcpy(host, t + 1, hl < sizeof(host) ? hl : sizeof(host) - 1);
-                host[hl < sizeof(host) ? hl : sizeof(host) - 1] = '\0';
-                colon = rb[1] == ':' ? rb + 1 : NULL;
-            }
-        } else if (hl > 0) {
-            memcpy(host, t, hl < sizeof(host) ? hl : sizeof(host) - 1);
-            host[hl < sizeof(host) ? hl : sizeof(host) - 1] = '\0';
+        const char *why = ctl_tcp_split(o->tcp ? o->tcp : "127.0.0.1:1502",
+                                        host, sizeof(host), port,
+                                        sizeof(port));
+        if (why != NULL) { /* parse_args checked it: not reached */
+            fprintf(stderr, "it2nctl: --tcp '%s': %s\n", o->tcp, why);
+            free(c);
+            *rc = CTL_EXIT_USAGE;
+            return NULL;
         }
-        if (colon != NULL) {
-            snprintf(port, sizeof(port), "%s", colon + 1);
+        if (!tcp_resolves(host, port)) {
+            free(c);
+            return NULL;
         }
         c->ctx = modbus_new_tcp_pi(host, port);
         snprintf(c->where, sizeof(c->where), "%s%s%s:%s unit %u",
@@ -574,19 +637,29 @@ void *ctl_modbus_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
     if (c->ctx == NULL) {
         fprintf(stderr, "it2nctl: %s: %s\n", c->where, modbus_strerror(errno));
         free(c);
-        *rc = CTL_EXIT_COMM;
         return NULL;
     }
     modbus_set_slave(c->ctx, (int)o->unit);
     modbus_set_response_timeout(c->ctx, o->timeout_ms / 1000u,
                                 (o->timeout_ms % 1000u) * 1000u);
     if (modbus_connect(c->ctx) != 0) {
-        fprintf(stderr, "it2nctl: cannot connect to %s: %s (is it2nd running? "
-                        "--tcp HOST:PORT, --rtu DEVICE or --link DEVICE)\n",
-                c->where, modbus_strerror(errno));
+        int e = errno;
+        if (o->rtu != NULL) {
+            fprintf(stderr, "it2nctl: cannot open serial device %s: %s (%s)\n",
+                    o->rtu, modbus_strerror(e),
+                    e == ENOENT ? "check the path in --rtu DEVICE, e.g. "
+                                  "ls /dev/serial/by-id/"
+                    : e == EACCES ? "add yourself to the dialout group, or "
+                                    "run as a user allowed to open it"
+                                  : "is another program holding it?");
+        } else {
+            fprintf(stderr, "it2nctl: cannot connect to %s: %s (is it2nd "
+                            "running? --tcp HOST:PORT, --rtu DEVICE or "
+                            "--link DEVICE)\n",
+                    c->where, modbus_strerror(e));
+        }
         modbus_free(c->ctx);
         free(c);
-        *rc = CTL_EXIT_COMM;
         return NULL;
     }
     *ops = &mb_ops;

@@ -89,23 +89,28 @@ static const cli_cmd cmds[] = {
      CLI_O_AT_UW},
     {"plot",
      "-o FILE.png|FILE.svg [--membership T|I|F|all] [--interval]\n"
-     "       [--grid RxC] [--footprint LIST] [--size WxH]",
-     "draw the surfaces and control nets with gnuplot",
-     "Render every footprint surface (x, y, membership) with its control net\n"
-     "through gnuplot (PNG with pngcairo or SVG, from the file name).\n"
-     "Truth is green, indeterminacy blue, falsity red; upper footprints\n"
-     "(LL, RR) solid, lower (LR, RL) dashed, inner (L, R) dotted, type-1 D\n"
-     "thick; control nets as points joined by thin lines.\n"
+     "       [--nets] [--grid RxC] [--footprint LIST] [--size WxH]",
+     "draw the surfaces with gnuplot",
+     "Render every footprint surface (x, y, membership) with hidden lines\n"
+     "removed and the data points marked, through gnuplot (PNG with pngcairo\n"
+     "or SVG, from the file name). Truth is green, indeterminacy blue,\n"
+     "falsity red; upper footprints (LL, RR) solid, lower (LR, RL) dashed,\n"
+     "inner (L, R) dotted, the mean D thick; the z axis spans the surfaces\n"
+     "and data points.\n"
      "  -o, --output FILE   FILE.png or FILE.svg (required)\n"
-     "  --membership M      T, I, F or all (all three together; default)\n"
+     "  --membership M      T, I, F or all (three panels; default)\n"
+     "  --nets              also draw the control nets (points joined by thin\n"
+     "                      lines; the z axis then spans them too)\n"
      "  --interval          heat maps over (x,y) of the upper band (max-min\n"
      "                      of M over LL,D,RR) and lower band (LR,D,RL), each\n"
      "                      footprint located through (x,y); M is T, I or F\n"
      "                      (default T); needs a type-2 model\n"
      "  --grid RxC          samples per surface, or (x,y) cells of the heat\n"
-     "                      map; 2..1001 each (default 21x21)\n"
+     "                      map; 2..1001 each (default 21x21; --interval\n"
+     "                      81x81 over the region the bands cover)\n"
      "  --footprint LIST    only these footprints (default all)\n"
-     "  --size WxH          image size in pixels, 200..8000 (default 900x700)\n"
+     "  --size WxH          image size in pixels, 200..8000 (default 900x700;\n"
+     "                      all: 1500x600; --interval: 1000x500)\n"
      "gnuplot must be on PATH (Debian: gnuplot-nox), or named by the\n"
      "IT2N_GNUPLOT environment variable.\n",
      CLI_O_GRID_OPT | CLI_O_FP | CLI_O_OUT | CLI_O_MEMB | CLI_O_PLOT},
@@ -190,6 +195,7 @@ int main(int argc, char **argv)
         {"interval", no_argument, NULL, 'i'},
         {"format", required_argument, NULL, 'F'},
         {"size", required_argument, NULL, 'S'},
+        {"nets", no_argument, NULL, 'N'},
         {"kind", required_argument, NULL, 'K'},
         {NULL, 0, NULL, 0}};
     cli_opts o;
@@ -201,8 +207,6 @@ int main(int argc, char **argv)
     o.decimals = 6;
     o.membership = CLI_MEMB_UNSET;
     o.format = -1;
-    o.width = 900u;
-    o.height = 700u;
     if (argc < 2) {
         usage_all(stderr);
         return CLI_EXIT_USAGE;
@@ -327,6 +331,14 @@ int main(int argc, char **argv)
             }
             o.interval = true;
             break;
+        case 'N':
+            if (!(c->opts & CLI_O_PLOT)) {
+                free(o.at);
+                return usage_error(c->name, "--nets does not apply to %s",
+                                   c->name);
+            }
+            o.nets = true;
+            break;
         case 'S':
             if (!(c->opts & CLI_O_PLOT)) {
                 free(o.at);
@@ -448,7 +460,9 @@ int main(int argc, char **argv)
         return usage_error(c->name, "%s needs --grid RxC", c->name);
     }
     if ((c->opts & CLI_O_GRID_OPT) && !grid) {
-        o.rows = o.cols = CLI_GRID_DEFAULT;
+        o.rows = o.cols = (c->opts & CLI_O_PLOT) && o.interval
+                              ? CLI_GRID_INTERVAL
+                              : CLI_GRID_DEFAULT;
     }
     if ((c->opts & CLI_O_FORMAT) && !fmt) {
         free(o.at);

@@ -74,7 +74,7 @@ static void put_val(FILE *f, it2n_val v, unsigned decimals)
 
 typedef struct tmpfiles {
     char dir[512];
-    char path[4][600];
+    char path[5][600];
     unsigned n;
 } tmpfiles;
 
@@ -116,15 +116,18 @@ static void tmp_remove(tmpfiles *t)
     }
 }
 
+static void plot_size(const cli_opts *o, unsigned *w, unsigned *h);
+
 static void put_terminal(FILE *g, const cli_opts *o)
 {
     const char *dot = strrchr(o->output, '.');
     bool svg = dot != NULL && strcasecmp(dot, ".svg") == 0;
+    unsigned w, h;
+    plot_size(o, &w, &h);
     fprintf(g,
             "set terminal %s size %u,%u noenhanced font 'sans,%u' "
             "background '#ffffff'\n",
-            svg ? "svg" : "pngcairo", o->width, o->height,
-            o->width >= 1400u ? 12u : 10u);
+            svg ? "svg" : "pngcairo", w, h, w >= 1400u && h >= 900u ? 12u : 10u);
     fputs("set output ", g);
     put_quoted(g, o->output);
     fputs("\nset encoding utf8\n", g);
@@ -140,18 +143,90 @@ static const char *base_name(const cli_opts *o)
     return s ? s + 1 : o->path;
 }
 
-/* Surfaces and control nets: data blocks, one per selected footprint. */
+/* Membership range per channel T, I, F over what is drawn: the z axis is
+ * scaled to the surfaces and data points (and the nets when drawn), not to
+ * the control nets alone, which overshoot the surfaces by far. */
+typedef struct zspan {
+    it2n_val lo[3], hi[3];
+    bool any[3];
+} zspan;
+
+static void zspan_add(zspan *z, unsigned k, it2n_val v)
+{
+    if (!z->any[k] || v < z->lo[k]) {
+        z->lo[k] = v;
+    }
+    if (!z->any[k] || v > z->hi[k]) {
+        z->hi[k] = v;
+    }
+    z->any[k] = true;
+}
+
+/* One row "x y T I F" (z left out: the plot is over (x, y)). */
+static void put_row(FILE *f, const it2n_val v[IT2N_CH_COUNT],
+                    unsigned decimals)
+{
+    unsigned ch;
+    for (ch = IT2N_CH_X; ch < IT2N_CH_COUNT; ch++) {
+        if (ch == IT2N_CH_Z) {
+            continue;
+        }
+        if (ch != IT2N_CH_X) {
+            fputc(' ', f);
+        }
+        put_val(f, v[ch], decimals);
+    }
+    fputc('\n', f);
+}
+
+/* The data points of footprint fp: the data set's where it has them (it2n),
+ * else the surfaces at the parameter nodes, where they interpolate the data
+ * (it2nctl's live model; uniform parameters only). Returns how many. */
+static unsigned write_points(FILE *f, const it2n_model *mdl,
+                             const it2n_dataset *ds, unsigned fp,
+                             unsigned decimals, zspan *z)
+{
+    unsigned i, j, k, count = 0;
+    it2n_val v[IT2N_CH_COUNT];
+    for (i = 0; i <= mdl->n; i++) {
+        for (j = 0; j <= mdl->m; j++) {
+            if (ds != NULL && ds->present[i][j]) {
+                it2n_dataset_get(ds, i, j, fp, v);
+            } else {
+                it2n_point pt;
+                if ((mdl->flags & IT2N_F_CHORD) ||
+                    it2n_eval(mdl, (it2n_par)(((uint64_t)i << 32) / mdl->n),
+                              (it2n_par)(((uint64_t)j << 32) / mdl->m), &pt,
+                              NULL) != IT2N_OK) {
+                    continue;
+                }
+                memcpy(v, pt.v[fp], sizeof(v));
+            }
+            put_row(f, v, decimals);
+            for (k = 0; k < 3u; k++) {
+                zspan_add(z, k, v[IT2N_CH_T + k]);
+            }
+            count++;
+        }
+    }
+    return count;
+}
+
+/* Surfaces, data points and control nets: data blocks, one per selected
+ * footprint in each file. */
 static int write_surfaces(const cli_opts *o, const it2n_model *mdl,
-                          tmpfiles *t, unsigned fps[], unsigned *nfp)
+                          const it2n_dataset *ds, tmpfiles *t, unsigned fps[],
+                          unsigned *nfp, zspan *z, unsigned *npoints)
 {
     cli_mesh mesh;
-    FILE *s, *n;
-    unsigned a, fp, r, c, ch;
+    FILE *s, *n, *p;
+    unsigned a, fp, r, c, k;
     int rc = cli_mesh_sample(&mesh, mdl, o->rows, o->cols);
     if (rc != CLI_EXIT_OK) {
         return rc;
     }
     *nfp = 0;
+    *npoints = 0;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if (cli_fp_selected(o, mdl, fp)) {
             fps[(*nfp)++] = fp;
@@ -159,47 +234,48 @@ static int write_surfaces(const cli_opts *o, const it2n_model *mdl,
     }
     s = tmp_open(t, "surfaces.dat");
     n = s ? tmp_open(t, "nets.dat") : NULL;
-    if (s == NULL || n == NULL) {
+    p = n ? tmp_open(t, "points.dat") : NULL;
+    if (s == NULL || n == NULL || p == NULL) {
         if (s) {
             fclose(s);
+        }
+        if (n) {
+            fclose(n);
         }
         cli_mesh_free(&mesh);
         return CLI_EXIT_DATA;
     }
     for (a = 0; a < *nfp; a++) {
+        it2n_val v[IT2N_CH_COUNT];
         fp = fps[a];
         fprintf(s, "# footprint %s: x y T I F, %u rows of %u samples\n",
                 it2n_fp_name(fp), mesh.rows, mesh.cols);
         for (r = 0; r < mesh.rows; r++) {
             for (c = 0; c < mesh.cols; c++) {
-                for (ch = IT2N_CH_X; ch < IT2N_CH_COUNT; ch++) {
-                    if (ch == IT2N_CH_Z) {
-                        continue;
-                    }
-                    if (ch != IT2N_CH_X) {
-                        fputc(' ', s);
-                    }
-                    put_val(s, cli_mesh_at(&mesh, r, c, fp, ch), o->decimals);
+                for (k = 0; k < IT2N_CH_COUNT; k++) {
+                    v[k] = cli_mesh_at(&mesh, r, c, fp, k);
                 }
-                fputc('\n', s);
+                put_row(s, v, o->decimals);
+                for (k = 0; k < 3u; k++) {
+                    zspan_add(z, k, v[IT2N_CH_T + k]);
+                }
             }
             fputc('\n', s);
         }
         fputs("\n", s);
+        fprintf(p, "# data points %s: x y T I F\n", it2n_fp_name(fp));
+        *npoints += write_points(p, mdl, ds, fp, o->decimals, z);
+        fputs("\n\n", p);
         fprintf(n, "# control net %s: x y T I F\n", it2n_fp_name(fp));
         for (r = 0; r <= mdl->n; r++) {
             for (c = 0; c <= mdl->m; c++) {
-                for (ch = IT2N_CH_X; ch < IT2N_CH_COUNT; ch++) {
-                    if (ch == IT2N_CH_Z) {
-                        continue;
-                    }
-                    if (ch != IT2N_CH_X) {
-                        fputc(' ', n);
-                    }
-                    put_val(n, it2n_model_ctrl(mdl, r, c, fp, ch),
-                            o->decimals);
+                for (k = 0; k < IT2N_CH_COUNT; k++) {
+                    v[k] = it2n_model_ctrl(mdl, r, c, fp, k);
                 }
-                fputc('\n', n);
+                put_row(n, v, o->decimals);
+                for (k = 0; o->nets && k < 3u; k++) {
+                    zspan_add(z, k, v[IT2N_CH_T + k]);
+                }
             }
             fputc('\n', n);
         }
@@ -207,19 +283,105 @@ static int write_surfaces(const cli_opts *o, const it2n_model *mdl,
     }
     cli_mesh_free(&mesh);
     rc = tmp_close(s);
-    if (tmp_close(n) != CLI_EXIT_OK) {
+    if (tmp_close(n) != CLI_EXIT_OK || tmp_close(p) != CLI_EXIT_OK) {
         rc = CLI_EXIT_DATA;
     }
     return rc;
 }
 
-static int script_surfaces(const cli_opts *o, const it2n_model *mdl,
-                           tmpfiles *t)
+/* set zrange: the span of channel k with a 6 % margin each side (0.05 for
+ * a flat surface), so nothing drawn touches the box. */
+static void put_zrange(FILE *g, const zspan *z, unsigned k, unsigned decimals)
 {
-    unsigned fps[IT2N_FP_COUNT], nfp, a, k, k0, k1;
-    bool first = true;
+    it2n_val lo = z->any[k] ? z->lo[k] : 0, hi = z->any[k] ? z->hi[k] : 0;
+    it2n_val pad = (hi - lo) / 16;
+    if (pad < IT2N_VAL_ONE / 20) {
+        pad = IT2N_VAL_ONE / 20;
+    }
+    fputs("set zrange [", g);
+    put_val(g, lo - pad, decimals);
+    fputc(':', g);
+    put_val(g, hi + pad, decimals);
+    fputs("]\n", g);
+}
+
+/* One 3-D panel: membership k of every selected footprint, hidden lines
+ * removed (hidden3d), data points and nets drawn on top. */
+static void put_panel(FILE *g, const cli_opts *o, const it2n_model *mdl,
+                      const unsigned fps[], unsigned nfp, unsigned k,
+                      const zspan *z, unsigned npoints, const char *key)
+{
+    bool cls_seen[CLS_COUNT] = {false, false, false, false};
+    bool type1 = (mdl->flags & IT2N_F_TYPE1) != 0u;
+    unsigned a;
+    fprintf(g, "set zlabel '%s %s' rotate parallel\n", memb_long[k],
+            memb_short[k]);
+    put_zrange(g, z, k, 6u);
+    fprintf(g, "set key %s\nsplot \\\n", key);
+    for (a = 0; a < nfp; a++) {
+        unsigned cl = fp_class(fps[a]);
+        fprintf(g, "%s  surf index %u using 1:2:%u with lines lc rgb '%s' "
+                   "dt %s lw %s ",
+                a == 0u ? "" : ", \\\n", a, 3u + k, colour[k][cl],
+                cls_dash[cl], cls_width[cl]);
+        if (cls_seen[cl]) {
+            fputs("notitle", g);
+        } else {
+            fprintf(g, "title '%s'",
+                    cl == CLS_TYPE1 && !type1 ? "mean (D)" : cls_name[cl]);
+            cls_seen[cl] = true;
+        }
+    }
+    if (npoints > 0u) {
+        for (a = 0; a < nfp; a++) {
+            fprintf(g, ", \\\n  pts index %u using 1:2:%u with points "
+                       "nohidden3d pt 7 ps 0.7 lc rgb '#000000' %s",
+                    a, 3u + k, a == 0u ? "title 'data points'" : "notitle");
+        }
+    }
+    if (o->nets) {
+        for (a = 0; a < nfp; a++) {
+            unsigned cl = fp_class(fps[a]);
+            /* Nets half transparent (#AARRGGBB): the surfaces stay
+             * readable through them. */
+            fprintf(g, ", \\\n  nets index %u using 1:2:%u with linespoints "
+                       "nohidden3d lc rgb '#80%s' dt 1 lw 0.6 pt 6 ps 0.5 %s",
+                    a, 3u + k, colour[k][cl] + 1,
+                    a == 0u ? "title 'control nets'" : "notitle");
+        }
+    }
+    fputs("\n", g);
+}
+
+/* The default image size by figure: three panels side by side need width. */
+static void plot_size(const cli_opts *o, unsigned *w, unsigned *h)
+{
+    if (o->width != 0u) {
+        *w = o->width;
+        *h = o->height;
+    } else if (o->interval) {
+        *w = 1000u;
+        *h = 500u;
+    } else if (o->membership < 0) {
+        *w = 1500u;
+        *h = 600u;
+    } else {
+        *w = 900u;
+        *h = 700u;
+    }
+}
+
+static int script_surfaces(const cli_opts *o, const it2n_model *mdl,
+                           const it2n_dataset *ds, tmpfiles *t)
+{
+    unsigned fps[IT2N_FP_COUNT], nfp, k, npoints;
+    zspan z;
+    char title[512];
     FILE *g;
-    int rc = write_surfaces(o, mdl, t, fps, &nfp);
+    int rc;
+
+    memset(&z, 0, sizeof(z));
+    rc = write_surfaces(o, mdl, ds, t, fps, &nfp, &z, &npoints);
     if (rc != CLI_EXIT_OK) {
         return rc;
     }
@@ -227,80 +389,143 @@ static int script_surfaces(const cli_opts *o, const it2n_model *mdl,
     if (g == NULL) {
         return CLI_EXIT_DATA;
     }
-    k0 = o->membership < 0 ? 0u : (unsigned)o->membership;
-    k1 = o->membership < 0 ? 3u : k0 + 1u;
     put_terminal(g, o);
-    fputs("set title ", g);
-    {
-        char title[512];
-        if (o->membership < 0) {
-            snprintf(title, sizeof(title),
-                     "%s: truth T, indeterminacy I, falsity F of %u "
-                     "footprint surface%s with control nets (%ux%u samples)",
-                     base_name(o), nfp, nfp == 1u ? "" : "s", o->rows,
-                     o->cols);
-        } else {
-            snprintf(title, sizeof(title),
-                     "%s: %s membership %s of %u footprint surface%s with "
-                     "control nets (%ux%u samples)",
-                     base_name(o), memb_long[k0], memb_short[k0], nfp,
-                     nfp == 1u ? "" : "s", o->rows, o->cols);
-        }
-        put_quoted(g, title);
-    }
     fprintf(g,
-            "\nset xlabel 'x'\nset ylabel 'y'\n"
-            "set zlabel '%s' rotate parallel\n"
+            "set xlabel 'x'\nset ylabel 'y'\n"
             "set view 60,35\nset xyplane relative 0\nset grid\n"
-            "set key outside right top vertical spacing 1.1 box\n"
-            "set border 4095 lc rgb '#808080'\n",
-            o->membership < 0 ? "membership" : memb_long[k0]);
+            "set hidden3d front\n"
+            "set border 4095 lc rgb '#808080'\n");
     fputs("surf = ", g);
     put_quoted(g, t->path[0]);
     fputs("\nnets = ", g);
     put_quoted(g, t->path[1]);
-    fputs("\nsplot \\\n", g);
-    for (k = k0; k < k1; k++) {
-        bool cls_seen[CLS_COUNT] = {false, false, false, false};
-        for (a = 0; a < nfp; a++) {
-            unsigned cl = fp_class(fps[a]);
-            fprintf(g, "%s  surf index %u using 1:2:%u with lines lc rgb '%s' "
-                       "dt %s lw %s ",
-                    first ? "" : ", \\\n", a, 3u + k,
-                    colour[k][cl], cls_dash[cl], cls_width[cl]);
-            first = false;
-            if (cls_seen[cl]) {
-                fputs("notitle", g);
-            } else {
-                fprintf(g, "title '%s %s'", memb_short[k], cls_name[cl]);
-                cls_seen[cl] = true;
-            }
-            /* Nets half transparent (#AARRGGBB) so the surfaces stay
-             * readable through them. */
-            fprintf(g, ", \\\n  nets index %u using 1:2:%u with linespoints "
-                       "lc rgb '#80%s' dt 1 lw 0.6 pt 7 ps 0.5 ",
-                    a, 3u + k, colour[k][cl] + 1);
-            if (a == 0u) {
-                fprintf(g, "title '%s control nets'", memb_short[k]);
-            } else {
-                fputs("notitle", g);
-            }
+    fputs("\npts = ", g);
+    put_quoted(g, t->path[2]);
+    fputc('\n', g);
+    snprintf(title, sizeof(title), "%s: %u footprint surface%s%s, %ux%u "
+                                   "samples",
+             base_name(o), nfp, nfp == 1u ? "" : "s",
+             o->nets ? " with control nets" : "", o->rows, o->cols);
+    if (o->membership < 0) {
+        /* Three panels, T, I and F, each scaled to itself: drawn in one
+         * box I hid behind F. */
+        fputs("set multiplot layout 1,3 title ", g);
+        put_quoted(g, title);
+        fputc('\n', g);
+        for (k = 0; k < 3u; k++) {
+            fprintf(g, "set title '%s %s'\n", memb_long[k], memb_short[k]);
+            put_panel(g, o, mdl, fps, nfp, k, &z, npoints,
+                      "below center horizontal maxrows 3 samplen 2 width -6 spacing 1.1 box");
         }
+        fputs("unset multiplot\n", g);
+    } else {
+        k = (unsigned)o->membership;
+        snprintf(title, sizeof(title), "%s: %s %s of %u footprint surface%s%s,"
+                                       " %ux%u samples",
+                 base_name(o), memb_long[k], memb_short[k], nfp,
+                 nfp == 1u ? "" : "s", o->nets ? " with control nets" : "",
+                 o->rows, o->cols);
+        fputs("set title ", g);
+        put_quoted(g, title);
+        fputc('\n', g);
+        put_panel(g, o, mdl, fps, nfp, k, &z, npoints,
+                  "outside right top vertical spacing 1.1 box");
     }
-    fputs("\n", g);
     return tmp_close(g);
 }
 
-/* Interval band over (x, y): every footprint located through each node. */
+/* A rectangle in (x, y), Q24. */
+typedef struct xybox {
+    it2n_val x0, x1, y0, y1;
+} xybox;
+
+/* The bands at one (x, y): every footprint located through it. ok[b] when
+ * all three footprints of band b (upper LL, D, RR; lower LR, D, RL) pass
+ * there; lo/hi their extremes of channel ch. */
+static int band_at(const it2n_model *mdl, it2n_val x, it2n_val y, unsigned ch,
+                   bool ok[2], it2n_val lo[2], it2n_val hi[2])
+{
+    static const unsigned set[2][3] = {{IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR},
+                                       {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL}};
+    it2n_locate_result res;
+    unsigned b, s;
+    int rc = it2n_locate(mdl, x, y, &res, NULL);
+    if (rc != IT2N_OK) {
+        fprintf(stderr, "it2n: locate failed: %s\n", it2n_strerror(rc));
+        return CLI_EXIT_DATA;
+    }
+    for (b = 0; b < 2u; b++) {
+        ok[b] = true;
+        lo[b] = hi[b] = res.fp[set[b][0]].v[ch];
+        for (s = 0; s < 3u; s++) {
+            const it2n_locate_fp *lf = &res.fp[set[b][s]];
+            ok[b] = ok[b] && lf->status == IT2N_LOC_INSIDE;
+            lo[b] = lf->v[ch] < lo[b] ? lf->v[ch] : lo[b];
+            hi[b] = lf->v[ch] > hi[b] ? lf->v[ch] : hi[b];
+        }
+    }
+    return CLI_EXIT_OK;
+}
+
+static it2n_val grid_at(it2n_val a, it2n_val b, unsigned i, unsigned n)
+{
+    return a + (b - a) * (it2n_val)i / (it2n_val)(n - 1u);
+}
+
+/* The box of the nodes of a rows x cols grid over *in where a band is known,
+ * widened by one cell (the region's edge lies between nodes) and kept in
+ * *in. Returns false if no node has a band. */
+static int band_region(const it2n_model *mdl, unsigned ch, const xybox *in,
+                       unsigned rows, unsigned cols, xybox *out, bool *any)
+{
+    unsigned r, c;
+    it2n_val dx = (in->x1 - in->x0) / (it2n_val)(cols - 1u);
+    it2n_val dy = (in->y1 - in->y0) / (it2n_val)(rows - 1u);
+    *any = false;
+    for (r = 0; r < rows; r++) {
+        for (c = 0; c < cols; c++) {
+            it2n_val x = grid_at(in->x0, in->x1, c, cols);
+            it2n_val y = grid_at(in->y0, in->y1, r, rows);
+            it2n_val lo[2], hi[2];
+            bool ok[2];
+            int rc = band_at(mdl, x, y, ch, ok, lo, hi);
+            if (rc != CLI_EXIT_OK) {
+                return rc;
+            }
+            if (!ok[0] && !ok[1]) {
+                continue;
+            }
+            if (!*any) {
+                out->x0 = out->x1 = x;
+                out->y0 = out->y1 = y;
+            }
+            *any = true;
+            out->x0 = x < out->x0 ? x : out->x0;
+            out->x1 = x > out->x1 ? x : out->x1;
+            out->y0 = y < out->y0 ? y : out->y0;
+            out->y1 = y > out->y1 ? y : out->y1;
+        }
+    }
+    if (*any) {
+        out->x0 = out->x0 - dx > in->x0 ? out->x0 - dx : in->x0;
+        out->x1 = out->x1 + dx < in->x1 ? out->x1 + dx : in->x1;
+        out->y0 = out->y0 - dy > in->y0 ? out->y0 - dy : in->y0;
+        out->y1 = out->y1 + dy < in->y1 ? out->y1 + dy : in->y1;
+    }
+    return CLI_EXIT_OK;
+}
+
+/* Interval band over (x, y): every footprint located through each node of
+ * a grid over the region the bands cover (found on a coarse grid first, so
+ * the map is not a small patch in a wide white frame). */
 static int script_interval(const cli_opts *o, const it2n_model *mdl,
                            tmpfiles *t)
 {
-    static const unsigned upper[3] = {IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR};
-    static const unsigned lower[3] = {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL};
     const unsigned k = (unsigned)o->membership, ch = IT2N_CH_T + k;
-    it2n_val xmin = 0, xmax = 0, ymin = 0, ymax = 0, wmax = 0;
-    it2n_locate_result res;
-    unsigned r, c, fp, known = 0, nodes = 0;
+    it2n_val wmax = 0;
+    xybox all, box;
+    unsigned r, c, fp, known = 0;
+    bool any;
     cli_mesh mesh;
     FILE *d, *g;
     int rc;
@@ -313,25 +538,32 @@ static int script_interval(const cli_opts *o, const it2n_model *mdl,
         return CLI_EXIT_DATA;
     }
     /* Extent in (x, y): every footprint surface sampled on the grid. */
-    rc = cli_mesh_sample(&mesh, mdl, o->rows, o->cols);
+    rc = cli_mesh_sample(&mesh, mdl, 21u, 21u);
     if (rc != CLI_EXIT_OK) {
         return rc;
     }
-    xmin = xmax = cli_mesh_at(&mesh, 0, 0, 0, IT2N_CH_X);
-    ymin = ymax = cli_mesh_at(&mesh, 0, 0, 0, IT2N_CH_Y);
+    all.x0 = all.x1 = cli_mesh_at(&mesh, 0, 0, 0, IT2N_CH_X);
+    all.y0 = all.y1 = cli_mesh_at(&mesh, 0, 0, 0, IT2N_CH_Y);
     for (r = 0; r < mesh.rows; r++) {
         for (c = 0; c < mesh.cols; c++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 it2n_val x = cli_mesh_at(&mesh, r, c, fp, IT2N_CH_X);
                 it2n_val y = cli_mesh_at(&mesh, r, c, fp, IT2N_CH_Y);
-                xmin = x < xmin ? x : xmin;
-                xmax = x > xmax ? x : xmax;
-                ymin = y < ymin ? y : ymin;
-                ymax = y > ymax ? y : ymax;
+                all.x0 = x < all.x0 ? x : all.x0;
+                all.x1 = x > all.x1 ? x : all.x1;
+                all.y0 = y < all.y0 ? y : all.y0;
+                all.y1 = y > all.y1 ? y : all.y1;
             }
         }
     }
     cli_mesh_free(&mesh);
+    rc = band_region(mdl, ch, &all, 41u, 41u, &box, &any);
+    if (rc != CLI_EXIT_OK) {
+        return rc;
+    }
+    if (!any) {
+        box = all; /* the fine grid may still find some: it says if not */
+    }
 
     d = tmp_open(t, "band.dat");
     if (d == NULL) {
@@ -341,37 +573,22 @@ static int script_interval(const cli_opts *o, const it2n_model *mdl,
                "lower_max of %s ('?': not every footprint passes here)\n",
             memb_short[k]);
     for (r = 0; r < o->rows; r++) {
-        it2n_val y = ymin + (ymax - ymin) * (it2n_val)r / (it2n_val)(o->rows - 1u);
+        it2n_val y = grid_at(box.y0, box.y1, r, o->rows);
         for (c = 0; c < o->cols; c++) {
-            it2n_val x =
-                xmin + (xmax - xmin) * (it2n_val)c / (it2n_val)(o->cols - 1u);
+            it2n_val x = grid_at(box.x0, box.x1, c, o->cols);
             it2n_val lo[2], hi[2];
-            bool ok[2] = {true, true};
-            unsigned b, s;
-            rc = it2n_locate(mdl, x, y, &res, NULL);
-            if (rc != IT2N_OK) {
+            bool ok[2];
+            unsigned b;
+            rc = band_at(mdl, x, y, ch, ok, lo, hi);
+            if (rc != CLI_EXIT_OK) {
                 fclose(d);
-                fprintf(stderr, "it2n: locate failed: %s\n",
-                        it2n_strerror(rc));
-                return CLI_EXIT_DATA;
+                return rc;
             }
             for (b = 0; b < 2u; b++) {
-                const unsigned *set = b == 0u ? upper : lower;
-                lo[b] = hi[b] = res.fp[set[0]].v[ch];
-                for (s = 0; s < 3u; s++) {
-                    const it2n_locate_fp *lf = &res.fp[set[s]];
-                    it2n_val v = lf->v[ch];
-                    if (lf->status != IT2N_LOC_INSIDE) {
-                        ok[b] = false;
-                    }
-                    lo[b] = v < lo[b] ? v : lo[b];
-                    hi[b] = v > hi[b] ? v : hi[b];
-                }
                 if (ok[b] && hi[b] - lo[b] > wmax) {
                     wmax = hi[b] - lo[b];
                 }
             }
-            nodes++;
             known += ok[0] || ok[1];
             put_val(d, x, o->decimals);
             fputc(' ', d);
@@ -402,7 +619,6 @@ static int script_interval(const cli_opts *o, const it2n_model *mdl,
     if (rc != CLI_EXIT_OK) {
         return rc;
     }
-    (void)nodes;
     if (known == 0u) {
         fprintf(stderr,
                 "it2n: --interval: no (x, y) node on the %ux%u grid lies on "
@@ -422,7 +638,8 @@ static int script_interval(const cli_opts *o, const it2n_model *mdl,
                  "%s: interval of the %s membership %s over (x, y), "
                  "%ux%u nodes",
                  base_name(o), memb_long[k], memb_short[k], o->rows, o->cols);
-        fputs("set multiplot layout 1,2 title ", g);
+        fputs("set multiplot layout 1,2 margins 0.06,0.87,0.1,0.86 "
+              "spacing 0.16 title ", g);
         put_quoted(g, title);
     }
     fprintf(g,
@@ -435,13 +652,13 @@ static int script_interval(const cli_opts *o, const it2n_model *mdl,
     fprintf(g, "]\nset cblabel 'band width of %s' rotate\n"
                "set xrange [",
             memb_short[k]);
-    put_val(g, xmin, o->decimals);
+    put_val(g, box.x0, o->decimals);
     fputc(':', g);
-    put_val(g, xmax, o->decimals);
+    put_val(g, box.x1, o->decimals);
     fputs("]\nset yrange [", g);
-    put_val(g, ymin, o->decimals);
+    put_val(g, box.y0, o->decimals);
     fputc(':', g);
-    put_val(g, ymax, o->decimals);
+    put_val(g, box.y1, o->decimals);
     fputs("]\nband = ", g);
     put_quoted(g, t->path[0]);
     fprintf(g,
@@ -505,7 +722,6 @@ int cli_plot(const cli_opts *o, const it2n_model *mdl,
     bool existed = access(o->output, F_OK) == 0;
     int rc;
 
-    (void)ds;
     memset(&t, 0, sizeof(t));
     /* Fail early, as gnuplot would only warn, if FILE cannot be written;
      * a file this run created is removed again on failure. */
@@ -524,7 +740,7 @@ int cli_plot(const cli_opts *o, const it2n_model *mdl,
         return CLI_EXIT_DATA;
     }
     rc = o->interval ? script_interval(o, mdl, &t)
-                     : script_surfaces(o, mdl, &t);
+                     : script_surfaces(o, mdl, ds, &t);
     if (rc == CLI_EXIT_OK) {
         rc = run_gnuplot(o, t.path[t.n - 1u]);
     }

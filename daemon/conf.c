@@ -2,8 +2,12 @@
 #include "conf.h"
 
 #include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
 #include <netdb.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <ini.h>
 #include <pwd.h>
 #include <stdio.h>
@@ -19,7 +23,7 @@
 struct origin {
     int first_line;           /* its first key */
     char first_key[CONF_NAME];
-    int unit_line, preload_line;
+    int unit_line, preload_line, removed_line;
 };
 
 /* Where an [rtu:] section's RS-485 options are, for the checks between
@@ -32,6 +36,10 @@ struct rs485_origin {
     char kernel_key[CONF_NAME];
 };
 
+/* Longest line kept whole (libinih's own limit, INI_MAX_LINE, is 200):
+ * an empty section's error quotes its header's name in full. */
+#define CONF_LINE_CAP 256
+
 struct parse {
     struct conf c;
     int listen_set;      /* first tcp_listen replaces the default */
@@ -41,18 +49,19 @@ struct parse {
     int err_line, syntax;
     /* Lines are counted here (the reader), not by libinih, so a message
      * always names the physical line. */
-    FILE *f;
+    const char *text;         /* the whole file, read by read_conf     */
+    size_t len, pos;
     char *lbuf;
     size_t lcap;
     int line, bad_line, maxline;
+    int nkeys;                /* keys in the whole file                 */
     const char *bad_why;
-    int read_errno;           /* the file could not be read (not EOF)  */
     /* The section being read: its header line and name, and whether a key
      * of it was seen (an empty section is an error: its keys are missing). */
     int sec_line, sec_keys;
-    char sec_name[64];
+    char sec_name[CONF_LINE_CAP]; /* whole: reader() refuses longer lines */
     int empty_line;           /* first empty section's header line     */
-    char empty_name[64];
+    char empty_name[CONF_LINE_CAP];
     int max_models_line, grid_line, default_model_line;
     char grid_key[CONF_NAME];
     struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS], listen[CONF_MAX_LISTEN];
@@ -190,6 +199,8 @@ static void note(struct parse *p, struct origin *o, const char *name)
         o->unit_line = p->line;
     else if (!strcmp(name, "preload"))
         o->preload_line = p->line;
+    else if (!strcmp(name, "removed"))
+        o->removed_line = p->line;
 }
 
 static void note_rs485(const struct parse *p, struct rs485_origin *o, const char *name)
@@ -268,6 +279,9 @@ static int key_modbus(struct parse *p, const char *name, const char *v)
     } else if (!strcmp(name, "max_clients")) {
         if (parse_int(v, 1, 512, &c->max_clients))
             FAIL("expected 1..512");
+    } else if (!strcmp(name, "max_pending")) {
+        if (parse_int(v, 16, 65536, &c->max_pending))
+            FAIL("expected 16..65536");
     } else if (!strcmp(name, "idle_timeout")) {
         if (parse_int(v, 1, 86400, &c->idle_timeout))
             FAIL("expected seconds 1..86400");
@@ -352,6 +366,7 @@ static int key_rtu(struct parse *p, struct conf_rtu *r, const char *name, const 
     if (!strcmp(name, "device")) {
         if (copy_str(r->device, sizeof r->device, v))
             FAIL("path empty or too long");
+        r->device_line = p->line;
     } else if (!strcmp(name, "baud")) {
         if (parse_int(v, 1200, 4000000, &r->baud))
             FAIL("expected 1200..4000000");
@@ -422,14 +437,17 @@ static int key_model(struct parse *p, struct conf_model *m, const char *name, co
     } else if (!strcmp(name, "n")) {
         if (parse_int(v, 1, IT2N_MAX_DEGREE, &m->n))
             FAIL("expected 1..%d", IT2N_MAX_DEGREE);
+        m->set |= CONF_SET_N;
     } else if (!strcmp(name, "m")) {
         if (parse_int(v, 1, IT2N_MAX_DEGREE, &m->m))
             FAIL("expected 1..%d", IT2N_MAX_DEGREE);
+        m->set |= CONF_SET_M;
     } else if (!strcmp(name, "z") || !strcmp(name, "type1") || !strcmp(name, "chord")) {
         unsigned bit = name[0] == 'z' ? IT2N_F_Z : name[0] == 't' ? IT2N_F_TYPE1 : IT2N_F_CHORD;
         if (parse_bool(v, &b))
             FAIL("expected yes or no");
         m->flags = b ? (m->flags | bit) : (m->flags & ~bit);
+        m->set |= name[0] == 'z' ? CONF_SET_Z : name[0] == 't' ? CONF_SET_TYPE1 : CONF_SET_CHORD;
     } else if (!strcmp(name, "write_protect")) {
         if (parse_bool(v, &m->write_protect))
             FAIL("expected yes or no");
@@ -440,6 +458,9 @@ static int key_model(struct parse *p, struct conf_model *m, const char *name, co
             m->preload = 0;
         else
             FAIL("expected paper or none");
+    } else if (!strcmp(name, "removed")) {
+        if (parse_bool(v, &m->removed))
+            FAIL("expected yes or no");
     } else {
         FAIL("unknown key");
     }
@@ -458,6 +479,7 @@ static int key_link(struct parse *p, struct conf_link *l, const char *name, cons
     } else if (!strcmp(name, "device")) {
         if (copy_str(l->device, sizeof l->device, v))
             FAIL("path empty or too long");
+        l->device_line = p->line;
     } else if (!strcmp(name, "baud")) {
         if (parse_int(v, 1200, 4000000, &l->baud))
             FAIL("expected 1200..4000000");
@@ -492,6 +514,7 @@ static int handler(void *user, const char *section, const char *name, const char
     snprintf(p->sec, sizeof p->sec, "%s", section);
     snprintf(p->key, sizeof p->key, "%s", name);
     p->sec_keys++;
+    p->nkeys++;
     {
         int first = duplicate_key(p, section, name);
         if (first)
@@ -612,6 +635,7 @@ void conf_default(struct conf *c)
     snprintf(c->listen[0].port, sizeof c->listen[0].port, "1502");
     c->nlisten = 1;
     c->max_clients = 32;
+    c->max_pending = 1024;
     c->idle_timeout = 300;
     c->byte_timeout = 500;
     c->tcp_keepalive = 60;
@@ -641,6 +665,78 @@ void conf_default(struct conf *c)
         snprintf(err, errsize, __VA_ARGS__); \
         return -1; \
     } while (0)
+
+/* [model:ID] sections with removed = yes leave the model list (their
+ * unit id is free, they do not count in max_models) for conf.removed, the
+ * operator's consent to discard what the state holds for them. Their
+ * origins move with the models, so later errors name the right lines. */
+static int split_removed(struct parse *p, int *line, char *sect, size_t sectsize, char *key, size_t keysize,
+                         char *err, size_t errsize)
+{
+    struct conf *c = &p->c;
+    int w = 0, last = -1;
+    for (int k = 0; k < c->nmodels; k++) {
+        if (c->model[k].removed) {
+            c->removed[c->nremoved++] = c->model[k].id;
+            last = k;
+            continue;
+        }
+        c->model[w] = c->model[k];
+        p->model[w] = p->model[k];
+        w++;
+    }
+    if (last >= 0 && w == 0) {
+        char sec[64];
+        snprintf(sec, sizeof sec, "model:%d", c->model[last].id);
+        VFAIL(p->model[last].removed_line, sec, "removed",
+              "every [model:] section says removed = yes: at least one model must be served");
+    }
+    c->nmodels = w;
+    return 0;
+}
+
+/* The device of an [rtu:] or serial [link:] section. */
+struct dev_ref {
+    const char *kind, *name, *device;
+    int line;
+};
+
+static int device_refs(const struct conf *c, struct dev_ref *d)
+{
+    int n = 0;
+    for (int k = 0; k < c->nrtu; k++)
+        if (c->rtu[k].device[0])
+            d[n++] = (struct dev_ref){ "rtu", c->rtu[k].name, c->rtu[k].device, c->rtu[k].device_line };
+    for (int k = 0; k < c->nlinks; k++)
+        if (c->link[k].type == CONF_LINK_SERIAL && c->link[k].device[0])
+            d[n++] = (struct dev_ref){ "link", c->link[k].name, c->link[k].device, c->link[k].device_line };
+    return n;
+}
+
+/* The pair of d[] on one device whose later line comes first in the file
+ * (same(a, b) decides); returns 0 and *a (earlier), *b (later) or -1. */
+static int first_conflict(const struct dev_ref *d, int n, int (*same)(const struct dev_ref *, const struct dev_ref *),
+                          int *a, int *b)
+{
+    int best = -1;
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < j; i++) {
+            int later = d[i].line > d[j].line ? i : j, earlier = later == i ? j : i;
+            if ((best < 0 || d[later].line < d[*b].line) && same(&d[i], &d[j])) {
+                best = 0;
+                *a = earlier;
+                *b = later;
+            }
+        }
+    return best;
+}
+
+static int same_path(const struct dev_ref *x, const struct dev_ref *y)
+{
+    return !strcmp(x->device, y->device);
+}
+
+#define DEV_CONFLICT_WHY "one device serves one section (the other would find it locked by another process)"
 
 static int validate(const struct parse *p, int *line, char *sect, size_t sectsize, char *key, size_t keysize,
                     char *err, size_t errsize)
@@ -724,6 +820,15 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
         if (l->type == CONF_LINK_USB && !l->vid && !l->pid)
             VFAIL(p->link[k].first_line, sec, p->link[k].first_key, "usb is required for type usb");
     }
+    {
+        struct dev_ref d[CONF_MAX_RTU + CONF_MAX_LINKS];
+        int n = device_refs(c, d), a = 0, b = 0;
+        if (!first_conflict(d, n, same_path, &a, &b)) {
+            snprintf(sec, sizeof sec, "%s:%s", d[b].kind, d[b].name);
+            VFAIL(d[b].line, sec, "device", "%s is also the device of [%s:%s] (line %d): " DEV_CONFLICT_WHY,
+                  d[b].device, d[a].kind, d[a].name, d[a].line);
+        }
+    }
     return 0;
 }
 
@@ -751,41 +856,136 @@ static void section_start(struct parse *p, const char *l)
     snprintf(p->sec_name, sizeof p->sec_name, "%.*s", (int)(close - l - 1), l + 1);
 }
 
-/* libinih reader: one physical line per call, counted; a line that does
- * not fit libinih's buffer (it would be split and its tail parsed as a new
- * line) or holds a NUL byte stops the parse and is reported. */
+/* libinih reader: one physical line of the file's text per call, counted;
+ * a line that does not fit libinih's buffer (it would be split and its
+ * tail parsed as a new line) or holds a NUL byte (a file whose blocks were
+ * allocated but never written reads as zeros after a crash) stops the
+ * parse and is reported. */
 static char *reader(char *str, int num, void *stream)
 {
     struct parse *p = stream;
-    ssize_t n;
-    if (p->bad_line || p->read_errno)
+    const char *l, *nl;
+    size_t n;
+    if (p->bad_line)
         return NULL;
-    errno = 0;
-    n = getline(&p->lbuf, &p->lcap, p->f);
-    if (n < 0) {
-        /* A read error (EISDIR for a directory, EIO) is not the end of the
-         * file: an unreadable configuration must not parse as an empty one. */
-        if (ferror(p->f))
-            p->read_errno = errno ? errno : EIO;
-        else
-            section_end(p);
+    if (p->pos >= p->len) {
+        section_end(p);
         return NULL;
     }
+    l = p->text + p->pos;
+    nl = memchr(l, '\n', p->len - p->pos);
+    n = nl ? (size_t)(nl - l) + 1 : p->len - p->pos;
+    p->pos += n;
+    if (n + 1 > p->lcap) {
+        char *b = realloc(p->lbuf, n + 1);
+        if (!b) {
+            p->bad_line = p->line + 1;
+            p->bad_why = "out of memory";
+            return NULL;
+        }
+        p->lbuf = b;
+        p->lcap = n + 1;
+    }
+    memcpy(p->lbuf, l, n);
+    p->lbuf[n] = 0;
     p->line++;
     section_start(p, p->lbuf);
     p->maxline = num - 2; /* room for the newline and the NUL */
-    if (memchr(p->lbuf, 0, (size_t)n)) {
+    if (p->maxline > CONF_LINE_CAP - 1) /* a header's name must fit sec_name */
+        p->maxline = CONF_LINE_CAP - 1;
+    if (memchr(p->lbuf, 0, n)) {
         p->bad_line = p->line;
         p->bad_why = "NUL byte in the line";
         return NULL;
     }
-    if (n - (p->lbuf[n - 1] == '\n') > num - 2) {
+    if (n - (p->lbuf[n - 1] == '\n') > (size_t)p->maxline) {
         p->bad_line = p->line;
         p->bad_why = "line too long";
         return NULL;
     }
-    memcpy(str, p->lbuf, (size_t)n + 1);
+    memcpy(str, p->lbuf, n + 1);
     return str;
+}
+
+/* What fstat says a path is, for "not a regular file". */
+static const char *file_kind(mode_t mode)
+{
+    return S_ISDIR(mode) ? "a directory" : S_ISFIFO(mode) ? "a FIFO" : S_ISCHR(mode) ? "a character device" :
+           S_ISBLK(mode) ? "a block device" : S_ISSOCK(mode) ? "a socket" : "not a regular file";
+}
+
+/* Read path whole into a NUL-terminated heap buffer, never blocking and
+ * never opening anything but a regular file: stat first (a FIFO without
+ * a writer, /dev/zero or a tty is refused without an open, so no DTR
+ * toggles and nothing waits), then open with O_NONBLOCK and fstat again
+ * (the path may have been replaced in between). At most CONF_MAX_BYTES;
+ * a file whose size changes while it is read is being rewritten and is
+ * refused. Returns the buffer or NULL with err written. */
+static char *read_conf(const char *path, size_t *lenp, char *err, size_t errsize)
+{
+    struct stat st;
+    char *buf = NULL;
+    size_t len = 0;
+    int fd;
+    if (stat(path, &st)) {
+        snprintf(err, errsize, "%s: cannot open: %s", path, strerror(errno));
+        return NULL;
+    }
+    if (!S_ISREG(st.st_mode))
+        goto not_regular;
+    fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    if (fd < 0) {
+        snprintf(err, errsize, "%s: cannot open: %s", path, strerror(errno));
+        return NULL;
+    }
+    if (fstat(fd, &st)) {
+        snprintf(err, errsize, "%s: cannot read: %s", path, strerror(errno));
+        goto fail;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        close(fd);
+        goto not_regular;
+    }
+    if (st.st_size > CONF_MAX_BYTES) {
+        snprintf(err, errsize, "%s: %lld bytes: larger than a configuration can be (%d bytes at most)", path,
+                 (long long)st.st_size, CONF_MAX_BYTES);
+        goto fail;
+    }
+    /* One byte more than fstat said, to see a file still growing. */
+    buf = malloc((size_t)st.st_size + 2);
+    if (!buf) {
+        snprintf(err, errsize, "%s: out of memory", path);
+        goto fail;
+    }
+    while (len < (size_t)st.st_size + 1) {
+        ssize_t n = read(fd, buf + len, (size_t)st.st_size + 1 - len);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0) {
+            snprintf(err, errsize, "%s: cannot read: %s", path, strerror(errno));
+            goto fail;
+        }
+        if (n == 0)
+            break;
+        len += (size_t)n;
+    }
+    if (len != (size_t)st.st_size) {
+        snprintf(err, errsize, "%s: changed while it was read (%lld bytes, then %zu%s): it is being rewritten; "
+                 "reload once it is complete", path, (long long)st.st_size, len, len > (size_t)st.st_size ? " or more" : "");
+        goto fail;
+    }
+    close(fd);
+    buf[len] = 0;
+    *lenp = len;
+    return buf;
+fail:
+    free(buf);
+    close(fd);
+    return NULL;
+not_regular:
+    snprintf(err, errsize, "%s: %s, not a regular file: the configuration must be a regular file (nothing was read)",
+             path, file_kind(st.st_mode));
+    return NULL;
 }
 
 /* What an empty section of this kind lacks, for the error message. */
@@ -836,26 +1036,51 @@ int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t e
     return 0;
 }
 
+/* Lines of text up to its end (the number of the last line). */
+static int count_lines(const char *text, size_t len)
+{
+    int n = 1;
+    for (size_t k = 0; k + 1 < len; k++)
+        n += text[k] == '\n';
+    return n;
+}
+
 int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
 {
-    struct parse *p = calloc(1, sizeof *p);
+    struct parse *p;
+    size_t len;
+    char *text = read_conf(path, &len, err, errsize);
     int rc, vline = 0;
+    if (!text)
+        return -1;
+    /* What a rewrite that is not atomic leaves behind (an editor crash, a
+     * copy cut short, a reload between truncate and write): an empty file
+     * would load as the built-in default, and a file cut mid-line may still
+     * parse ("n = 12" cut to "n = 1"); both are refused before parsing. */
+    if (len == 0) {
+        snprintf(err, errsize, "%s: empty file (0 bytes): refused, a configuration sets at least one key (for the "
+                 "built-in default run it2nd without -c)", path);
+        free(text);
+        return -1;
+    }
+    if (text[len - 1] != '\n') {
+        snprintf(err, errsize, "%s:%d: no newline at the end of the last line: the file looks cut short (an "
+                 "unfinished or interrupted rewrite); if it is complete, end it with a newline",
+                 path, count_lines(text, len));
+        free(text);
+        return -1;
+    }
+    p = calloc(1, sizeof *p);
     if (!p) {
         snprintf(err, errsize, "%s: out of memory", path);
+        free(text);
         return -1;
     }
     p->c = *c;
-    p->f = fopen(path, "r");
-    if (!p->f) {
-        snprintf(err, errsize, "%s: cannot open: %s", path, strerror(errno));
-        free(p);
-        return -1;
-    }
+    p->text = text;
+    p->len = len;
     rc = ini_parse_stream(reader, p, handler, p);
-    if (p->read_errno) {
-        snprintf(err, errsize, "%s:%d: cannot read: %s", path, p->line + 1, strerror(p->read_errno));
-        rc = 1;
-    } else if (rc == -2) {
+    if (rc == -2) {
         snprintf(err, errsize, "%s: out of memory", path);
     } else if (p->empty_line && (!p->err[0] || p->empty_line < p->err_line) && (rc <= 0 || p->empty_line < rc) &&
                (!p->bad_line || p->empty_line < p->bad_line)) {
@@ -872,9 +1097,17 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
     } else if (rc > 0) {
         snprintf(err, errsize, "%s:%d: syntax error", path, rc);
     } else if (p->bad_line) {
-        snprintf(err, errsize, "%s:%d: %s (at most %d characters)", path, p->bad_line, p->bad_why, p->maxline);
+        if (strcmp(p->bad_why, "out of memory"))
+            snprintf(err, errsize, "%s:%d: %s (at most %d characters)", path, p->bad_line, p->bad_why, p->maxline);
+        else
+            snprintf(err, errsize, "%s:%d: out of memory", path, p->bad_line);
         rc = 1;
-    } else if (validate(p, &vline, p->sec, sizeof p->sec, p->key, sizeof p->key, p->err, sizeof p->err)) {
+    } else if (!p->nkeys) {
+        snprintf(err, errsize, "%s:1: no key in the file (only blank lines and comments): refused, a configuration "
+                 "sets at least one key (for the built-in default run it2nd without -c)", path);
+        rc = 1;
+    } else if (split_removed(p, &vline, p->sec, sizeof p->sec, p->key, sizeof p->key, p->err, sizeof p->err) ||
+               validate(p, &vline, p->sec, sizeof p->sec, p->key, sizeof p->key, p->err, sizeof p->err)) {
         if (vline)
             snprintf(err, errsize, "%s:%d: [%s] %s: %s", path, vline, p->sec, p->key, p->err);
         else
@@ -883,9 +1116,44 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
     } else {
         *c = p->c;
     }
-    fclose(p->f);
+    free(text);
     free(p->lbuf);
     free(p->seen);
     free(p);
     return rc == 0 ? 0 : -1;
+}
+
+int conf_removes(const struct conf *c, int id)
+{
+    for (int k = 0; k < c->nremoved; k++)
+        if (c->removed[k] == id)
+            return 1;
+    return 0;
+}
+
+/* Two paths naming one device: the same file (a symlink, a hard link) or
+ * two nodes of one character device. Paths that cannot be stat'ed (not
+ * plugged in yet) never conflict here. */
+static int same_device(const struct dev_ref *x, const struct dev_ref *y)
+{
+    struct stat a, b;
+    if (stat(x->device, &a) || stat(y->device, &b))
+        return 0;
+    return (a.st_dev == b.st_dev && a.st_ino == b.st_ino) ||
+           (S_ISCHR(a.st_mode) && S_ISCHR(b.st_mode) && a.st_rdev == b.st_rdev);
+}
+
+int conf_check_devices(const struct conf *c, const char *path, char *err, size_t errsize)
+{
+    struct dev_ref d[CONF_MAX_RTU + CONF_MAX_LINKS];
+    int n = device_refs(c, d), a = 0, b = 0;
+    char real[PATH_MAX];
+    if (first_conflict(d, n, same_device, &a, &b))
+        return 0;
+    if (!realpath(d[b].device, real))
+        snprintf(real, sizeof real, "?");
+    snprintf(err, errsize, "%s:%d: [%s:%s] device: %s is the same device as %s of [%s:%s] (line %d), both %s: "
+             DEV_CONFLICT_WHY, path ? path : "built-in", d[b].line, d[b].kind, d[b].name, d[b].device, d[a].device,
+             d[a].kind, d[a].name, d[a].line, real);
+    return -1;
 }

@@ -48,6 +48,7 @@ struct conf_rtu {
     int delay_after_ms;   /* kernel: -1 or 0..CONF_RS485_DELAY_MS_MAX */
     int termination;      /* kernel: -1, 0, 1 (SER_RS485_TERMINATE_BUS) */
     int strict;           /* 1: a device refusing any of it is not served */
+    int device_line;      /* config line of device, for conflicts */
 };
 
 /* Values of libmodbus' MODBUS_RTU_RTS_* (checked in mb_rtu.c). */
@@ -62,7 +63,18 @@ struct conf_model {
     unsigned flags;   /* IT2N_F_* */
     int preload;      /* 1: the paper's 4x4 example data set */
     int write_protect; /* 1: no Modbus write may change it (links may) */
+    int removed;      /* parsing only: removed = yes moves the id to conf.removed */
+    unsigned set;     /* CONF_SET_*: the keys the file gives (not defaults) */
 };
+
+/* Keys of [model:ID] that change its shape (a change clears its points):
+ * a reload applies such a change to a model holding data only when the
+ * file gives the key, never from a default (a line lost in a rewrite). */
+#define CONF_SET_N 1u
+#define CONF_SET_M 2u
+#define CONF_SET_Z 4u
+#define CONF_SET_TYPE1 8u
+#define CONF_SET_CHORD 16u
 
 enum conf_link_type { CONF_LINK_SERIAL = 0, CONF_LINK_USB = 1 };
 
@@ -75,6 +87,7 @@ struct conf_link {
     char serial[64];         /* usb, optional */
     int rto_ms;              /* first retransmission timeout; 0 = from baud */
     int peer_timeout_ms;     /* unanswered this long: link declared down */
+    int device_line;         /* config line of device, for conflicts */
 };
 
 struct conf {
@@ -85,6 +98,7 @@ struct conf {
     struct conf_listen listen[CONF_MAX_LISTEN];
     int nlisten;
     int max_clients;
+    int max_pending;         /* TCP connections without a slot (no complete request yet) */
     int idle_timeout;        /* s */
     int byte_timeout;        /* ms */
     int tcp_keepalive;       /* s idle before keepalive probes, 0 off */
@@ -98,6 +112,10 @@ struct conf {
     int nrtu;
     struct conf_model model[CONF_MAX_MODELS];
     int nmodels;
+    /* [model:ID] sections with removed = yes: the operator's explicit
+     * consent to discard the data of these ids (never in model[]). */
+    int removed[CONF_MAX_MODELS];
+    int nremoved;
     struct conf_link link[CONF_MAX_LINKS];
     int nlinks;
     int link_backoff_max;    /* s */
@@ -118,7 +136,12 @@ void conf_default(struct conf *c);
 
 /* Load path over the defaults. On error returns -1 and writes
  * "file:line: [section] key: reason" into err. c is only written on
- * success. */
+ * success. The file is read whole before parsing, never blocking: it must
+ * be a regular file (a FIFO, a device or a directory is refused without
+ * reading it) of 1..CONF_MAX_BYTES bytes whose last line ends with a
+ * newline (a file cut short by a non-atomic rewrite almost always ends
+ * mid-line) and that sets at least one key. */
+#define CONF_MAX_BYTES (1024 * 1024)
 int conf_load(struct conf *c, const char *path, char *err, size_t errsize);
 
 /* Resolve every listener's host as the listener will (getaddrinfo, passive,
@@ -127,5 +150,18 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize);
  * instead of at bind time. Kept out of conf_load so parsing (and its
  * fuzzer) never waits for DNS. Returns 0 or -1 with err written. */
 int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t errsize);
+
+/* Whether c removes model id with removed = yes. */
+int conf_removes(const struct conf *c, int id);
+
+/* Two [rtu:]/[link:] sections on one device: one of them would fail at
+ * run time ("locked by another process"). conf_load refuses identical
+ * paths; this also compares what the paths name (stat: same inode, or the
+ * same character device through another node), so a symlink such as
+ * /dev/serial/by-id/... is caught. Paths that do not exist yet are
+ * skipped (a device may be plugged in later). Kept out of conf_load like
+ * conf_check_hosts. Returns 0 or -1 with "file:line: [section] device:
+ * ..." naming both sections in err. */
+int conf_check_devices(const struct conf *c, const char *path, char *err, size_t errsize);
 
 #endif

@@ -58,10 +58,14 @@ static void on_sig_pipe(void *arg, int fd, short revents)
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: it2nd [-c FILE] [--check-config] [--foreground] [-v...] [--help] [--version]\n"
+            "usage: it2nd [-c FILE] [--check-config] [--accept-wal-loss] [--foreground] [-v...] [--help]\n"
+            "             [--version]\n"
             "  -c, --config FILE   configuration (INI); default: built-in (Modbus TCP\n"
             "                      127.0.0.1:1502, model 1 on unit 1 with the paper data)\n"
             "  -t, --check-config  validate the configuration and exit\n"
+            "  --accept-wal-loss   the operator's act after damage inside the WAL: cut the\n"
+            "                      WAL at the damaged record (the rest kept in wal.cut-*),\n"
+            "                      log the records given up, and exit (docs/daemon.md)\n"
             "  -f, --foreground    log to stderr (default when not started by systemd: syslog)\n"
             "  -v, --verbose       more logging (-vv debug)\n"
             "  -h, --help          this text\n"
@@ -87,7 +91,7 @@ static int load_conf(struct conf *c)
     char err[512];
     conf_default(c);
     if ((conf_path && conf_load(c, conf_path, err, sizeof err)) ||
-        conf_check_hosts(c, conf_path, err, sizeof err)) {
+        conf_check_devices(c, conf_path, err, sizeof err) || conf_check_hosts(c, conf_path, err, sizeof err)) {
         log_err("%s", err);
         return -1;
     }
@@ -342,18 +346,88 @@ static const struct conf_model *conf_model_by_id(const struct conf *c, int id)
     return NULL;
 }
 
+/* At start: the state's data of a model without a [model:] section are
+ * dropped only when its section says removed = yes. */
+static int may_drop(int id)
+{
+    return conf_removes(&cfg, id);
+}
+
+/* A reload never discards data as a side effect of the file (a section
+ * lost in a rewrite): a running model that holds points and has no
+ * [model:] section in the new file refuses the whole reload, unless its
+ * section says removed = yes (the operator's explicit act). Logged, one
+ * line per model; returns how many there are. */
+static int removals_refused(const struct conf *nc)
+{
+    int refused = 0;
+    for (int k = 0; k < models_count(); k++) {
+        const struct model *md = models_at(k);
+        unsigned pts = models_present(md);
+        if (!pts || conf_model_by_id(nc, md->id) || conf_removes(nc, md->id))
+            continue;
+        log_err("reload refused: model %d (unit %d) holds %u data point(s) (generation %u) but %s has no [model:%d] "
+                "section; to discard its data on purpose keep the section with 'removed = yes' (docs/daemon.md)",
+                md->id, md->unit, pts, (unsigned)md->gen, conf_path ? conf_path : "the configuration", md->id);
+        refused++;
+    }
+    return refused;
+}
+
+/* The same for a change of degree or flags (a CONFIGURE, clearing the
+ * points) that comes from a default because the file no longer gives the
+ * key (a line lost at the end of a cut file): only a key the file gives
+ * reconfigures a model holding data. Returns how many models refuse. */
+static int reconfigures_refused(const struct conf *nc)
+{
+    static const struct { unsigned set, flag; const char *key; } keys[] = {
+        { CONF_SET_Z, IT2N_F_Z, "z" }, { CONF_SET_TYPE1, IT2N_F_TYPE1, "type1" }, { CONF_SET_CHORD, IT2N_F_CHORD, "chord" },
+    };
+    int refused = 0;
+    for (int k = 0; k < models_count(); k++) {
+        const struct model *md = models_at(k);
+        const struct conf_model *m = conf_model_by_id(nc, md->id), *old = conf_model_by_id(&cfg, md->id);
+        unsigned pts = models_present(md);
+        char lost[64] = "";
+        size_t len = 0;
+        if (!pts || !m || !old)
+            continue;
+        if (old->n != m->n && !(m->set & CONF_SET_N))
+            len += (size_t)snprintf(lost + len, sizeof lost - len, "%sn", len ? ", " : "");
+        if (old->m != m->m && !(m->set & CONF_SET_M))
+            len += (size_t)snprintf(lost + len, sizeof lost - len, "%sm", len ? ", " : "");
+        for (size_t b = 0; b < sizeof keys / sizeof keys[0]; b++)
+            if (((old->flags ^ m->flags) & keys[b].flag) && !(m->set & keys[b].set))
+                len += (size_t)snprintf(lost + len, sizeof lost - len, "%s%s", len ? ", " : "", keys[b].key);
+        if (!len)
+            continue;
+        log_err("reload refused: model %d (unit %d) holds %u data point(s) (generation %u) and [model:%d] in %s no "
+                "longer gives %s: its default would reconfigure the model and clear them; write the key to reconfigure "
+                "on purpose (docs/daemon.md)", md->id, md->unit, pts, (unsigned)md->gen, md->id,
+                conf_path ? conf_path : "the configuration", lost);
+        refused++;
+    }
+    return refused;
+}
+
 /* Apply [model:] changes of a reload to the live table (no pass in
- * progress): removed models go (their data are discarded: a snapshot right
- * after makes sure no WAL record of theirs is left to replay at restart),
- * unit ids re-map, a changed degree/flags is a journaled CONFIGURE (points
- * cleared), new models appear (preloaded if asked). */
+ * progress): removed models go (removals_refused() has made sure the data
+ * of each was either nothing or given up with removed = yes; a snapshot
+ * right after makes sure no WAL record of theirs is left to replay at
+ * restart), unit ids re-map, a changed degree/flags is a journaled
+ * CONFIGURE (points cleared), new models appear (preloaded if asked). */
 static void reload_models(const struct conf *nc)
 {
     int removed = 0;
     for (int k = models_count() - 1; k >= 0; k--) {
         struct model *md = models_at(k);
         if (!conf_model_by_id(nc, md->id)) {
-            log_notice("reload: model %d (unit %d) removed; its data are discarded", md->id, md->unit);
+            unsigned pts = models_present(md);
+            if (pts)
+                log_notice("reload: model %d (unit %d) removed (removed = yes); its %u data point(s) are discarded",
+                           md->id, md->unit, pts);
+            else
+                log_notice("reload: model %d (unit %d) removed; it held no data points", md->id, md->unit);
             models_remove(md);
             removed++;
         }
@@ -411,6 +485,11 @@ static void reload(void)
         sig_reload = 1;
         return;
     }
+    if (removals_refused(&nc) + reconfigures_refused(&nc)) {
+        log_err("reload failed; keeping the running configuration");
+        notify_send("READY=1");
+        return;
+    }
     if (strcmp(nc.state_dir, cfg.state_dir)) {
         log_warn("reload: state_dir change (%s -> %s) takes effect at restart", cfg.state_dir, nc.state_dir);
         snprintf(nc.state_dir, sizeof nc.state_dir, "%s", cfg.state_dir);
@@ -439,9 +518,9 @@ int main(int argc, char **argv)
         { "config", required_argument, NULL, 'c' }, { "check-config", no_argument, NULL, 't' },
         { "foreground", no_argument, NULL, 'f' },   { "verbose", no_argument, NULL, 'v' },
         { "help", no_argument, NULL, 'h' },         { "version", no_argument, NULL, 'V' },
-        { NULL, 0, NULL, 0 }
+        { "accept-wal-loss", no_argument, NULL, 'A' }, { NULL, 0, NULL, 0 }
     };
-    int opt, check = 0, fg = 0, verbose = 0;
+    int opt, check = 0, fg = 0, verbose = 0, accept_loss = 0;
     while ((opt = getopt_long(argc, argv, "c:tfvhV", lopts, NULL)) != -1) {
         switch (opt) {
         case 'c': conf_path = optarg; break;
@@ -449,6 +528,7 @@ int main(int argc, char **argv)
         case 'f': fg = 1; break;
         case 'v': verbose++; break;
         case 'h': usage(stdout); return 0;
+        case 'A': accept_loss = 1; break;
         case 'V': printf("it2nd %s (register map %u)\n", IT2ND_VERSION, IT2N_REGMAP_VERSION); return 0;
         default: usage(stderr); return 2;
         }
@@ -457,12 +537,15 @@ int main(int argc, char **argv)
         usage(stderr);
         return 2;
     }
-    log_open(fg || check, verbose);
+    log_open(fg || check || accept_loss, verbose);
     if (load_conf(&cfg))
         return 1;
     if (check) {
-        printf("%s: configuration OK (%d listen, %d rtu, %d models, %d links)\n",
-               conf_path ? conf_path : "built-in", cfg.nlisten, cfg.nrtu, cfg.nmodels, cfg.nlinks);
+        printf("%s: configuration OK (%d listen, %d rtu, %d models, %d links", conf_path ? conf_path : "built-in",
+               cfg.nlisten, cfg.nrtu, cfg.nmodels, cfg.nlinks);
+        for (int k = 0; k < cfg.nremoved; k++)
+            printf("%s%d", k ? ", " : "; removed = yes: model ", cfg.removed[k]);
+        printf(")\n");
         return 0;
     }
     notify_init();
@@ -482,8 +565,18 @@ int main(int argc, char **argv)
     fill_opts();
     if (setup_models())
         return 1;
+    store_set_drop_policy(may_drop);
+    store_accept_wal_loss(accept_loss);
     if (store_open(cfg.state_dir, cfg.fsync))
         return 1;
+    if (accept_loss) {
+        /* One shot, with the service stopped (the state directory's lock
+         * is taken): the WAL now ends before the damage; nothing served. */
+        store_close();
+        models_free();
+        log_notice("--accept-wal-loss: %s/wal is valid to its end now; start the daemon as usual", cfg.state_dir);
+        return 0;
+    }
     for (int k = 0; k < models_count(); k++)
         log_model(models_at(k), "");
     models_set_journal(store_append, NULL);

@@ -19,6 +19,7 @@
 #include "log.h"
 #include "le_bytes.h"
 #include "models.h"
+#include "store.h"
 
 #define MODEL_HDR 44u
 #define UPLOAD_WORDS (IT2N_REG_UPLOAD_END - IT2N_REG_UP_I)
@@ -33,6 +34,12 @@ static unsigned popcount8(unsigned v)
     for (; v; v &= v - 1)
         c++;
     return c;
+}
+
+size_t snap_max_size(int nmodels)
+{
+    return SNAP_HDR + 4 +
+           (size_t)nmodels * (MODEL_HDR + (size_t)IT2N_DIM * IT2N_DIM * (3 + FP_BYTES * IT2N_FP_COUNT));
 }
 
 /* durable_view: encode models_view() of each model (the last durable
@@ -138,6 +145,10 @@ static size_t load_model(const uint8_t *buf, int *result)
     for (unsigned k = 0; k < points; k++)
         rlen += 3 + FP_BYTES * popcount8(buf[rlen + 2]);
     if (!md) {
+        if (points && !store_may_drop((int)id, points, "snapshot")) {
+            *result = SNAP_UNCONFIGURED;
+            return rlen;
+        }
         log_warn("snapshot: model %u no longer configured; dropped", id);
         return rlen;
     }

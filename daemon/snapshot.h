@@ -18,15 +18,21 @@
  * malloc'd buffer (caller frees) and its length, or NULL (no memory). */
 uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view);
 
+/* The largest snapshot nmodels models can give (every grid point of the
+ * largest degree with every footprint): the room a checkpoint needs. */
+size_t snap_max_size(int nmodels);
+
 /* snap_decode results. */
 #define SNAP_BAD (-1)       /* length, CRC-32C or structure: the file is damaged */
 #define SNAP_BAD_MODEL (-2) /* a model record does not validate: damaged too     */
 #define SNAP_NOMEM (-3)
+#define SNAP_UNCONFIGURED (-4) /* data of a model not configured, not to be dropped */
 
 /* Decode a version 2 file into the model table. The whole file is checked
  * first (length, CRC-32C, structure): on failure SNAP_BAD and nothing
  * changed. Then each model is rebuilt and re-solved on its own; one that is
- * no longer configured or beyond this build's IT2N_MAX_DEGREE is dropped
+ * no longer configured (and holds no data points, or store_may_drop()
+ * allows it; else SNAP_UNCONFIGURED) or beyond this build's IT2N_MAX_DEGREE is dropped
  * with a log line (a configuration choice); one that does not validate
  * gives SNAP_BAD_MODEL (the caller refuses to start, so what was loaded
  * before it does not matter). Returns 0 and the covered WAL seq. */

@@ -89,6 +89,26 @@
 #error "IT2N_LOCATE_GRID must be within 1..64 and IT2N_LOCATE_MAX_ITER >= 1"
 #endif
 
+/* Link-time ABI guard. it2n_dataset and it2n_model are sized by
+ * IT2N_MAX_DEGREE, and IT2N_CHORD decides which flags the library accepts:
+ * a program compiled with other values than the library would overrun
+ * them. So the functions every use of those structs starts with are named
+ * after the values (it2n_dataset_init_abi_degree7_chord1, say), and such a
+ * program fails to link ("undefined reference to
+ * it2n_dataset_init_abi_degree3_chord1": it asked for degree 3, `nm` on the
+ * library shows what it was built with). Callers just write
+ * it2n_dataset_init. IT2N_MAX_DEGREE must be a plain decimal literal. */
+#if IT2N_CHORD
+#define IT2N_ABI_CHORD_ 1
+#else
+#define IT2N_ABI_CHORD_ 0
+#endif
+#define IT2N_ABI_CORE_(f, d, c) f##_abi_degree##d##_chord##c
+#define IT2N_ABI_CORE(f, d, c) IT2N_ABI_CORE_(f, d, c)
+#define IT2N_CORE_ABI(f) IT2N_ABI_CORE(f, IT2N_MAX_DEGREE, IT2N_ABI_CHORD_)
+#define it2n_dataset_init IT2N_CORE_ABI(it2n_dataset_init)
+#define it2n_model_init IT2N_CORE_ABI(it2n_model_init)
+
 /* ---- Fixed-point formats ------------------------------------------------ */
 
 /* it2n_val: coordinates, memberships, control points, results, derivatives.

@@ -73,6 +73,10 @@ typedef struct it2n_inst {
     uint32_t puts, entries;   /* PUT frames and entries sent              */
 } it2n_inst;
 
+/* it2n_inst holds a link context and a message: the library's name of
+ * it2n_inst_open carries the options that size them (IT2N_PROTO_ABI). */
+#define it2n_inst_open IT2N_PROTO_ABI(it2n_inst_open)
+
 /*
  * Start a session: initialise ctx from cfg and send HELLO (the first frame,
  * with SYN and cfg->session_id). Returns IT2N_OK, IT2N_ERR_INVAL (missing

@@ -170,14 +170,10 @@ typedef struct it2n_link {
  */
 uint32_t it2n_link_rto_default(uint32_t baud);
 /* The struct above depends on IT2N_PROTO_WINDOW, IT2N_PROTO_MAX_PAYLOAD and
- * IT2N_PROTO_RX_REORDER: the library's it2n_link_init is named after their
- * values, so a program compiled with other values than the library fails
- * to link (undefined reference to it2n_link_init_w4_p1024_r1, say) instead
- * of corrupting memory. Callers just write it2n_link_init. */
-#define IT2N_LINK_ABI_(w, p, r) it2n_link_init_w##w##_p##p##_r##r
-#define IT2N_LINK_ABI(w, p, r) IT2N_LINK_ABI_(w, p, r)
-#define it2n_link_init \
-    IT2N_LINK_ABI(IT2N_PROTO_WINDOW, IT2N_PROTO_MAX_PAYLOAD, IT2N_PROTO_RX_REORDER)
+ * IT2N_PROTO_RX_REORDER: it2n_link_init's link-time name carries them (see
+ * IT2N_PROTO_ABI in it2n_proto.h), so a program compiled with other values
+ * than the library fails to link. Callers just write it2n_link_init. */
+#define it2n_link_init IT2N_PROTO_ABI(it2n_link_init)
 
 /* Initialise a link context from cfg (copied). Returns IT2N_OK or
  * IT2N_ERR_INVAL for a missing callback/stream, zero rto/tries, or a

@@ -241,6 +241,7 @@ typedef struct it2n_msg {
  * length, IT2N_PROTO_ERR_TYPE, IT2N_PROTO_ERR_FIELD or
  * IT2N_PROTO_ERR_NOSPACE; err (may be NULL) says which field.
  */
+#define it2n_msg_pack IT2N_PROTO_ABI(it2n_msg_pack)
 int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
                   it2n_proto_errinfo *err);
 
@@ -252,6 +253,7 @@ int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
  * IT2N_PROTO_ERR_TYPE, _PAYLOAD or _FIELD with err filled (may be NULL);
  * on error *msg is unspecified.
  */
+#define it2n_msg_unpack IT2N_PROTO_ABI(it2n_msg_unpack)
 int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
                     it2n_proto_errinfo *err);
 
@@ -268,6 +270,7 @@ int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
  * the name ("hello"), or NULL when k is out of range. Code, not a table, so
  * flash holds a few hundred bytes instead of 18 message structs.
  */
+#define it2n_proto_vector IT2N_PROTO_ABI(it2n_proto_vector)
 const char *it2n_proto_vector(unsigned k, it2n_frame_hdr *hdr, it2n_msg *msg);
 
 /* Name of a message type ("PUT"), or NULL if unknown. */

@@ -69,6 +69,26 @@
 #define IT2N_PROTO_RX_REORDER 1
 #endif
 
+/* Link-time ABI guard. The protocol's structs are sized by the window, the
+ * payload, the reorder buffer and (it2n_msg) IT2N_MAX_DEGREE: the entry
+ * points every use of them starts with (it2n_link_init, it2n_inst_open,
+ * it2n_frame_decoder_init, it2n_msg_pack/unpack, it2n_proto_vector) are
+ * named after the values, e.g.
+ * it2n_inst_open_abi_window16_payload1024_reorder1_degree7, so a program
+ * compiled with other values than the library fails to link (the undefined
+ * name says what the program asked for; `nm` on the library shows what it
+ * was built with) instead of overrunning a context. Callers use the plain
+ * names. Window, payload and degree must be plain decimal literals. */
+#if IT2N_PROTO_RX_REORDER
+#define IT2N_ABI_REORDER_ 1
+#else
+#define IT2N_ABI_REORDER_ 0
+#endif
+#define IT2N_ABI_PROTO_(f, w, p, r, d) f##_abi_window##w##_payload##p##_reorder##r##_degree##d
+#define IT2N_ABI_PROTO(f, w, p, r, d) IT2N_ABI_PROTO_(f, w, p, r, d)
+#define IT2N_PROTO_ABI(f) IT2N_ABI_PROTO(f, IT2N_PROTO_WINDOW, IT2N_PROTO_MAX_PAYLOAD, \
+                                         IT2N_ABI_REORDER_, IT2N_MAX_DEGREE)
+
 #define IT2N_FRAME_HDR_SIZE 8
 #define IT2N_FRAME_CRC_SIZE 4
 /* A SYN frame's payload starts with the sender's u32 session id, then the
@@ -203,6 +223,7 @@ typedef struct it2n_frame_decoder {
 } it2n_frame_decoder;
 
 /* Reset a decoder (also clears its statistics). */
+#define it2n_frame_decoder_init IT2N_PROTO_ABI(it2n_frame_decoder_init)
 void it2n_frame_decoder_init(it2n_frame_decoder *d);
 
 /*

@@ -62,13 +62,15 @@ include tests/bench/mcu/mcu.mk
 # Every benchmark writes bench/<name>.json; bench-collect merges their rows
 # into bench/results.json and renders docs/performance.md (run last by
 # `make bench`). bench-results-check (make test) fails if the committed
-# results.json or performance.md is not what the committed bench/*.json give.
+# results.json or performance.md is not what the committed bench/*.json give,
+# and feeds the collector rows whose rounding once failed (test_rows.py).
 .PHONY: bench-collect bench-results-check
 bench-collect: ## Merge bench/*.json rows into bench/results.json and docs/performance.md
 	@/usr/bin/python3 tests/bench/collect.py bench
 	@/usr/bin/python3 tests/bench/mcu/perfdoc.py bench/results.json docs/performance.md
 
 bench-results-check:
+	@/usr/bin/python3 tests/bench/test_rows.py
 	@/usr/bin/python3 tests/bench/collect.py --check bench
 	@/usr/bin/python3 tests/bench/mcu/perfdoc.py --check bench/results.json docs/performance.md
 

@@ -25,19 +25,11 @@ import os
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "mcu"))
-from results import KEYS, validate  # noqa: E402
+from results import KEYS, OPTIONAL, keys_ok, row as mkrow, validate  # noqa: E402
 
 # Files shown first, in this order (the issue-7 core figures lead).
 SOURCES = ["mcu"]
 OUT = "results.json"
-
-
-def mkrow(name, unit, value, baseline=None, target=None):
-    ratio = None if baseline in (None, 0) else round(value / baseline, 4)
-    got = ratio if baseline is not None else value
-    met = None if target is None else bool(got is not None and got <= target)
-    return {"name": name, "unit": unit, "value": value, "baseline": baseline,
-            "ratio": ratio, "target": target, "met": met}
 
 
 def conn_rows(d):
@@ -105,13 +97,13 @@ def collect(bench_dir):
         if not isinstance(part, list):
             bad.append(f"{path}: rows is not a list")
             continue
-        # Key order as KEYS (+ "sense"), whatever order the writer used.
-        part = [{k: r[k] for k in KEYS + ["sense"] if k in r} if isinstance(r, dict) and set(r) <= set(KEYS + ["sense"])
+        # Key order as KEYS (+ OPTIONAL), whatever order the writer used.
+        part = [{k: r[k] for k in KEYS + OPTIONAL if k in r} if isinstance(r, dict) and set(r) <= set(KEYS + OPTIONAL)
                 else r for r in part]
         bad += [f"{path}: {b}" for b in validate(part)]
         why = data.get("reasons", {}) if isinstance(data, dict) else {}
         for r in part:
-            if isinstance(r, dict) and list(r.keys()) in (KEYS, KEYS + ["sense"]):
+            if isinstance(r, dict) and keys_ok(list(r.keys())):
                 r = dict(r, source=stem)
                 if r["met"] is False and r["name"] in why:
                     r["why"] = why[r["name"]]

@@ -104,6 +104,12 @@ def compare(what, got, want, mode, uw_tol=0.0):
     bad = []
     for k, (gl, wl) in enumerate(zip(g[1:], w[1:]), 2):
         gf, wf = gl.split(","), wl.split(",")
+        # every row under its header (a --summary row with z had 11 fields
+        # under 10 columns, in it2nctl and it2n alike)
+        if len(gf) != len(head) or len(wf) != len(head):
+            bad.append(f"line {k}: {len(gf)} / {len(wf)} fields under "
+                       f"{len(head)} columns: {gl!r} vs {wl!r}")
+            continue
         if len(gf) != len(wf):
             bad.append(f"line {k}: {gl!r} vs {wl!r}")
             continue
@@ -203,6 +209,10 @@ def compare_all(label, conn, csv, mode, extra=(), grids=("5x5", "3x9")):
                binary=IT2N)[1]
     if mode == "link":
         compare(f"{label} eval --decimals 9", got, want, mode)
+        # it2nctl takes it2n's 0..9 decimals (it once took 6..9 only)
+        rc, got2, err = run("eval", "--at", "0.5,0.5", "--decimals", "2", *conn)
+        want2 = run("eval", csv, "--at", "0.5,0.5", "--decimals", "2", *extra, binary=IT2N)[1]
+        check(rc == 0 and got2 == want2, f"{label} eval --decimals 2: {rc} {err} {got2!r} vs {want2!r}")
         for grid in grids:  # the daemon's SAMPLE nodes are it2n's
             got = run("sample", "--grid", grid, "--decimals", "9", *conn)[1]
             want = run("sample", csv, "--grid", grid, "--decimals", "9",
@@ -409,6 +419,36 @@ def main():
               f"mute TCP peer: {rc} {err!r}")
         rc, _, err = run("status", "--link", os.path.join(tmp, "nodev"))
         check(rc == 3 and "cannot open" in err, f"no device: {rc} {err!r}")
+        # -- errors that say what is wrong (issue 18 item 4) ---------------
+        for bad, msg in (("127.0.0.1:notaport", "the port is not a number 1..65535"),
+                         ("127.0.0.1:99999", "the port is not a number 1..65535"),
+                         (":1502", "the host is empty"),
+                         ("::1", "an IPv6 address needs brackets"),
+                         ("[::1", "no closing ']'")):
+            rc, _, err = run("status", "--tcp", bad)
+            check(rc == 1 and msg in err and "is it2nd running" not in err,
+                  f"--tcp {bad}: {rc} {err!r}")
+        rc, _, err = run("status", "--tcp", "no-such-host.invalid:1502")
+        # the resolver's words depend on the machine's DNS setup
+        doc_errs.append(re.sub(r"(no-such-host\.invalid'): [^(]*\(", r"\1: Name or service not known (", err))
+        check(rc == 3 and "cannot resolve host 'no-such-host.invalid'" in err
+              and "is it2nd running" not in err, f"unresolvable host: {rc} {err!r}")
+        rc, _, err = run("status", "--rtu", "/dev/ttyUSB7")
+        doc_errs.append(err)
+        check(rc == 3 and "cannot open serial device /dev/ttyUSB7" in err
+              and "is it2nd running" not in err, f"missing RTU device: {rc} {err!r}")
+        rc, _, err = run("status", "--rtu", "/dev/ttyUSB7", "--unit", "255")
+        check(rc == 1 and "RTU unit ids are 0..247" in err, f"RTU unit 255: {rc} {err!r}")
+        # options before the command
+        rc0, out0, _ = run("status", *tcp)
+        for args in ((*tcp, "status"), ("--unit", "1", *tcp, "status", "--timeout", "3000")):
+            rc, out, err = run(*args)
+            check(rc == rc0 == 0 and out == out0, f"it2nctl {' '.join(args)}: {rc} {out!r} {err!r}")
+        # unit 255 (and 0) are asked of the daemon, not refused: this
+        # configuration has no default model, so the daemon answers 0B
+        for u in ("0", "255"):
+            rc, _, err = run("status", *tcp, "--unit", u)
+            check(rc == 2 and "exception 0B" in err, f"--unit {u}: {rc} {err!r}")
         # -- refusals: exit 2 ---------------------------------------------
         rc, _, err = run("eval", "--at", "0,0", *tcp, "--unit", "2")
         doc_errs.append(err)
@@ -478,8 +518,10 @@ def main():
             rows = [dict(zip(out.split("\n")[0].split(","), ln.split(",")))
                     for ln in out.strip().split("\n")[1:]]
             gens = [int(r["generation"]) for r in rows]
-            check(wp.returncode == 0 and len(gens) == 2 and gens[1] > gens[0],
-                  f"watch {c}: rc {wp.returncode} {out!r}")
+            check(wp.returncode == 0 and len(gens) == 2 and gens[1] > gens[0]
+                  and rows[1]["state"] == "solved",
+                  f"watch {c}: rc {wp.returncode} {out!r} (the push's committed generation, "
+                  "not a transient incomplete one)")
 
         # -- plot the live model ------------------------------------------
         png = os.path.join(tmp, "live.png")
@@ -504,6 +546,32 @@ def main():
             check(rc == 0 and len(pm) == len(pr) >= 50 and same == len(pr),
                   f"plot {label} vs it2n plot: rc {rc} {err} "
                   f"{same}/{len(pr)} paths equal ({len(pm)} drawn)")
+        # plot --follow: redrawn on every new solved generation, the file
+        # replaced whole; a push's transient generations are not drawn
+        fsvg = os.path.join(tmp, "follow.svg")
+        fp = subprocess.Popen([CTL, "plot", "--follow", "--count", "2", "--membership", "T",
+                               "-o", fsvg, *tcp], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
+        first = fp.stdout.readline()
+        g_f = gen(3, 3, seed + 7, 2)
+        push("plot --follow trigger", tcp, g_f)
+        try:
+            out, ferr = fp.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            fp.kill()
+            out, ferr = fp.communicate()
+        lines = (first + out).strip().split("\n")
+        gens = [int(ln.split()[1].rstrip(":")) for ln in lines if ln.startswith("generation ")]
+        st = status_of(tcp)
+        ref = os.path.join(tmp, "follow_ref.svg")
+        run("plot", g_f, "--membership", "T", "-o", ref, binary=IT2N)
+        pm, pr = svg_paths(fsvg), svg_paths(ref)
+        same = sum(same_path(a, b) for a, b in zip(pm, pr))
+        check(fp.returncode == 0 and len(gens) == 2 and gens[1] == int(st["generation"]) > gens[0]
+              and len(pm) == len(pr) >= 50 and same == len(pr)
+              and not [n for n in os.listdir(tmp) if ".part" in n],
+              f"plot --follow: rc {fp.returncode} {lines} {ferr!r}, status gen {st['generation']}, "
+              f"{same}/{len(pr)} paths as it2n plot of the pushed file")
         push("plot", link, g_link)
         svg = os.path.join(tmp, "band.svg")
         rc, _, err = run("plot", "-o", svg, "--interval", "--size", "600x400",

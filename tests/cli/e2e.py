@@ -344,6 +344,32 @@ def main():
               Fr(by["lower_min"][5 + k]) == min(lo) and
               Fr(by["lower_max"][5 + k]) == max(lo), f"summary {ch}")
     check(by["upper_min"][3:5] == ["", ""], "summary rows leave x,y empty")
+    # With z: every row under the 10-column header (a summary row had 11
+    # fields), T, I, F of the summary rows in the T, I, F columns.
+    for cmd in (["eval", "examples/z_3x3.csv", "--at", "0.3,0.8", "--at", "1,0"],
+                ["sample", "examples/z_3x3.csv", "--grid", "3x2"]):
+        rc, out, err = run(*cmd, "--summary")
+        hdr, rs = rows(out)
+        cols = hdr.split(",")
+        check(rc == 0 and cols == ["u", "w", "footprint", "x", "y", "z", "T",
+                                   "I", "F", "out_of_range"],
+              f"{cmd[0]} --summary with z: header {hdr} {err}")
+        check(rs and all(len(r) == len(cols) for r in rs),
+              f"{cmd[0]} --summary with z: rows of {sorted({len(r) for r in rs})}"
+              f" fields under {len(cols)} columns")
+        for at in {tuple(r[:2]) for r in rs}:
+            by = {r[2]: r for r in rs if tuple(r[:2]) == at}
+            check(by["upper_min"][3:6] == ["", "", ""],
+                  "summary rows leave x,y,z empty")
+            for k, ch in enumerate("TIF"):
+                c = cols.index(ch)
+                up = [Fr(by[f][c]) for f in ("LL", "D", "RR")]
+                lo = [Fr(by[f][c]) for f in ("LR", "D", "RL")]
+                check(Fr(by["upper_min"][c]) == min(up) and
+                      Fr(by["upper_max"][c]) == max(up) and
+                      Fr(by["lower_min"][c]) == min(lo) and
+                      Fr(by["lower_max"][c]) == max(lo),
+                      f"{cmd[0]} --summary with z: {ch} in its column at {at}")
 
     # stdin
     rc, out2, err = run("eval", "-", "--at", "0.5,0.5", stdin=open(paper).read())

@@ -140,9 +140,9 @@ def test_plot(tmp):
         (["--membership", "I"], "I.png", 900, 700),
         (["--membership", "F", "--grid", "11x9"], "F.png", 900, 700),
         (["--membership", "all", "--size", "1200x800"], "all.png", 1200, 800),
-        ([], "default.svg", 900, 700),
-        (["--membership", "T", "--footprint", "LL,D,RR"], "T3.svg", 900, 700),
-        (["--interval", "--membership", "I"], "band_I.png", 900, 700),
+        ([], "default.svg", 1500, 600),
+        (["--membership", "T", "--footprint", "LL,D,RR", "--nets"], "T3.svg", 900, 700),
+        (["--interval", "--membership", "I"], "band_I.png", 1000, 500),
         (["--interval", "--grid", "15x15", "--size", "640x480"],
          "band_T.svg", 640, 480),
     ]
@@ -163,16 +163,16 @@ def test_plot(tmp):
                     env=dict(os.environ, TMPDIR=odd))
     check(rc == 0 and os.listdir(odd) == ["a 'b'.png"],
           f"quotes in names: {rc} {se!r} {os.listdir(odd)}")
-    check_png(out, 900, 700, "quotes in names")
+    check_png(out, 1500, 600, "quotes in names")
     rc, _, se = run("plot", PAPER, "--interval", "-o", out,
                     env=dict(os.environ, TMPDIR=odd))
     check(rc == 0 and os.listdir(odd) == ["a 'b'.png"],
           f"interval, quotes in names: {rc} {se!r}")
-    check_png(out, 900, 700, "interval, quotes in names")
+    check_png(out, 1000, 500, "interval, quotes in names")
     out = os.path.join(tmp, "type1.png")
     rc, _, se = run("plot", "examples/type1_4x3.csv", "-o", out)
     check(rc == 0, f"type-1 plot: {se!r}")
-    check_png(out, 900, 700, "type-1 plot")
+    check_png(out, 1500, 600, "type-1 plot")
 
     # Errors: gnuplot missing or failing, bad data, bad usage.
     out = os.path.join(tmp, "err.png")
@@ -219,6 +219,73 @@ def test_plot(tmp):
     rc, so, _ = run("plot", "--help")
     check(rc == 0 and so.startswith("Usage: it2n plot DATA.csv -o"),
           "plot --help")
+
+
+def plot_files(tmp, *args):
+    """Run it2n plot through a gnuplot wrapper that keeps the script and
+    data files; returns {name: text}."""
+    keep = tempfile.mkdtemp(dir=tmp)
+    wrap = os.path.join(tmp, "gp_keep.sh")
+    with open(wrap, "w") as f:
+        f.write('#!/bin/sh\ncp "$(dirname "$1")"/* "$KEEP"/ && exec gnuplot "$1"\n')
+    os.chmod(wrap, 0o755)
+    out = os.path.join(keep, "fig.png")
+    rc, _, se = run("plot", PAPER, "-o", out, *args,
+                    env=dict(os.environ, IT2N_GNUPLOT=wrap, KEEP=keep))
+    check(rc == 0, f"plot {args} (kept): {rc} {se!r}")
+    return {n: open(os.path.join(keep, n)).read() for n in os.listdir(keep)
+            if n.endswith((".gp", ".dat"))}
+
+
+def columns(text, col):
+    return [float(ln.split()[col]) for ln in text.split("\n")
+            if ln.strip() and not ln.startswith("#") and ln.split()[col] != "?"]
+
+
+def zranges(script):
+    return [tuple(float(v) for v in ln[len("set zrange ["):-1].split(":"))
+            for ln in script.split("\n") if ln.startswith("set zrange [")]
+
+
+def test_figures(tmp):
+    """What the figure shows (issue 18): the z axis spans the surfaces and
+    data points, not the control nets; hidden lines; every data point
+    marked; three panels for all; the band map over the region it covers."""
+    csv = [ln.split(",") for ln in open(PAPER).read().strip().split("\n")[1:]]
+    data_t = [float(f[-3]) for f in csv]
+    f = plot_files(tmp, "--membership", "T")
+    surf_t = columns(f["surfaces.dat"], 2)
+    lo, hi = min(surf_t + data_t), max(surf_t + data_t)
+    zr = zranges(f["plot.gp"])
+    check(len(zr) == 1 and lo - (hi - lo) / 8 - 0.05 <= zr[0][0] <= lo and
+          hi <= zr[0][1] <= hi + (hi - lo) / 8 + 0.05,
+          f"T z range {zr} for surfaces and data in [{lo}, {hi}]")
+    nets_t = columns(f["nets.dat"], 2)
+    check(min(nets_t) < zr[0][0] or max(nets_t) > zr[0][1],
+          "the paper's nets overshoot the surfaces: this check cannot fail otherwise")
+    check("set hidden3d" in f["plot.gp"] and " nets index" not in f["plot.gp"],
+          "surfaces with hidden lines, no nets unless asked")
+    check(sorted(columns(f["points.dat"], 2)) == sorted(data_t),
+          "every data point marked, at its T")
+    title = [ln for ln in f["plot.gp"].split("\n") if ln.startswith("set title")][0]
+    check(len(title) - len("set title ''") <= 80, f"title fits: {title!r}")
+    f = plot_files(tmp, "--membership", "T", "--nets")
+    zr = zranges(f["plot.gp"])
+    nets_t = columns(f["nets.dat"], 2)
+    check(len(zr) == 1 and zr[0][0] <= min(nets_t) and max(nets_t) <= zr[0][1] and
+          " nets index" in f["plot.gp"], f"--nets: z range {zr} holds the nets")
+    f = plot_files(tmp)
+    zr = zranges(f["plot.gp"])
+    spans = [(min(columns(f["surfaces.dat"], c) + columns(f["points.dat"], c)),
+              max(columns(f["surfaces.dat"], c) + columns(f["points.dat"], c))) for c in (2, 3, 4)]
+    check("layout 1,3" in f["plot.gp"] and len(zr) == 3 and
+          all(a - 0.1 <= z[0] <= a and b <= z[1] <= b + 0.1 for z, (a, b) in zip(zr, spans)),
+          f"all: three panels, each scaled to its membership: {zr} vs {spans}")
+    f = plot_files(tmp, "--interval", "--membership", "T")
+    band = [ln.split() for ln in f["band.dat"].split("\n") if ln.strip() and not ln.startswith("#")]
+    unknown = sum(r[2] == "?" and r[3] == "?" for r in band) / len(band)
+    check(len(band) == 81 * 81 and unknown < 0.25,
+          f"band map: {len(band)} nodes, {unknown:.0%} outside every band (cropped to the region)")
 
 
 # ---- meshes ---------------------------------------------------------------
@@ -442,10 +509,11 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         os.mkdir(os.path.join(tmp, "empty"))
         test_plot(tmp)
+        test_figures(tmp)
         test_export(tmp)
     test_sample_footprint()
     for fig in FIGURES:
-        check_png(fig, 900, 700, f"committed figure {fig}")
+        check_png(fig, *((1000, 500) if "band" in fig else (900, 700)), f"committed figure {fig}")
     print(f"cli plot/export: {checks - len(failures)}/{checks} checks passed")
     return 1 if failures else 0
 

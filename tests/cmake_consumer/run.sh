@@ -12,8 +12,13 @@
 #               floating-point symbol (arm-none-eabi-nm); the same image
 #               with pkg-config and from source with Makefile.firmware.
 # Also: the libraries hold exactly firmware_core/*.c and protocol/*.c, a
-# host package is refused by a cross build, and the symbol check rejects an
-# image that uses double.
+# host package is refused by a cross build, a hard-float build refuses a
+# soft-float package at configure time, and the symbol check rejects an
+# image that uses double. ABI guards: abi_user.c, calling every entry point
+# whose structs a build option sizes, links and runs with the package's
+# options (find_package, add_subdirectory, pkg-config) and fails to link,
+# naming each, with others. As a subproject it2n installs nothing unless
+# IT2N_INSTALL=ON.
 # usage: run.sh IT2N_CLI   (from the repository root)
 set -euo pipefail
 cli=$(realpath "$1")
@@ -79,10 +84,62 @@ quiet cmake -S "$src" -B "$work/consumer-host" -DCMAKE_PREFIX_PATH="$work/host" 
 quiet cmake --build "$work/consumer-host"
 check_host_output "$work/consumer-host/consumer" "host consumer (find_package)"
 
+# ABI guards (it2n.h, it2n_proto.h): abi_user calls every entry point whose
+# structs a build option sizes. With the package's options it links and
+# runs; given another value of an option it must fail to link, naming each
+# entry point with the values it asked for. $1 = log, $2 = label, rest =
+# the undefined names expected (every other link error is a failure).
+abi_names() { # $1 = core suffix, $2 = protocol suffix ("-": that library matches)
+  [ "$1" = - ] || for f in it2n_dataset_init it2n_model_init; do echo "${f}_abi_$1"; done
+  [ "$2" = - ] || for f in it2n_msg_pack it2n_msg_unpack it2n_proto_vector it2n_frame_decoder_init \
+                           it2n_link_init it2n_inst_open; do echo "${f}_abi_$2"; done
+}
+check_abi_refused() { # $1 = linker output, $2 = label, $3 = core suffix, $4 = protocol suffix
+  local s
+  for s in $(abi_names "$3" "$4"); do
+    grep -q "undefined reference to .$s'" "$1" ||
+      { cat "$1" >&2; fail "ABI guard, $2: the link error does not name $s"; }
+  done
+  [ "$(grep -c 'undefined reference' "$1")" = "$(abi_names "$3" "$4" | wc -l)" ] ||
+    { cat "$1" >&2; fail "ABI guard, $2: other link errors than the guarded names"; }
+}
+"$work/consumer-host/abi_user" >"$log" 2>&1 || { cat "$log" >&2; fail "abi_user (find_package) failed"; }
+say "host abi_user (find_package, package options): $(cat "$log")"
+n_abi=0
+for defs in "IT2N_MAX_DEGREE=3:degree3_chord1:window4_payload1024_reorder1_degree3" \
+            "IT2N_PROTO_WINDOW=16:-:window16_payload1024_reorder1_degree7" \
+            "IT2N_CHORD=0:degree7_chord0:-"; do
+  IFS=: read -r def core proto <<<"$defs"
+  quiet cmake -S "$src" -B "$work/consumer-abi" -DCMAKE_PREFIX_PATH="$work/host" \
+    -DCMAKE_BUILD_TYPE=Release -DCONSUMER_ABI_DEFINES="$def"
+  if cmake --build "$work/consumer-abi" --target abi_user >"$log" 2>&1; then
+    fail "ABI guard: abi_user compiled with $def linked against the package (default options)"
+  fi
+  check_abi_refused "$log" "find_package, $def" "$core" "$proto"
+  n_abi=$((n_abi + 1))
+done
+say "host abi_user (find_package) compiled with IT2N_MAX_DEGREE=3, IT2N_PROTO_WINDOW=16 or" \
+  "IT2N_CHORD=0: $n_abi of $n_abi fail to link, naming every guarded entry point"
+
 # ---- host consumer: it2n's source tree with add_subdirectory ------------------
 quiet cmake -S "$src" -B "$work/consumer-subdir" -DCONSUMER_IT2N_SOURCE="$root" -DCMAKE_BUILD_TYPE=Release
 quiet cmake --build "$work/consumer-subdir" -j2
 check_host_output "$work/consumer-subdir/consumer" "host consumer (add_subdirectory)"
+"$work/consumer-subdir/abi_user" >"$log" 2>&1 || { cat "$log" >&2; fail "abi_user (add_subdirectory) failed"; }
+# As a subproject (added as FetchContent does, not EXCLUDE_FROM_ALL) it2n
+# installs nothing unless asked with IT2N_INSTALL=ON.
+quiet cmake -S "$src" -B "$work/consumer-subdir" -DCONSUMER_IT2N_EXCLUDE_FROM_ALL=OFF
+quiet cmake --build "$work/consumer-subdir" -j2
+quiet cmake --install "$work/consumer-subdir" --prefix "$work/sub-inst"
+got=$(cd "$work/sub-inst" && find . -type f | sort | tr '\n' ' ')
+[ "$got" = "./bin/consumer " ] || fail "as a subproject (IT2N_INSTALL default) it2n installed files: $got"
+quiet cmake -S "$src" -B "$work/consumer-subdir" -DIT2N_INSTALL=ON
+quiet cmake --install "$work/consumer-subdir" --prefix "$work/sub-inst-on"
+for f in bin/consumer lib/libit2n.a lib/libit2n_proto.a include/it2n/it2n.h lib/cmake/it2n/it2nConfig.cmake \
+         lib/pkgconfig/it2n.pc; do
+  [ -s "$work/sub-inst-on/$f" ] || fail "subproject with IT2N_INSTALL=ON: $f not installed"
+done
+say "as a subproject it2n installs nothing by default, its libraries, headers and package with IT2N_INSTALL=ON"
 
 # ---- host consumer: pkg-config ---------------------------------------------------
 export PKG_CONFIG_PATH="$work/host/lib/pkgconfig"
@@ -90,6 +147,16 @@ quiet gcc -std=c99 -O2 -Wall -Wextra -Wpedantic -Wconversion -Werror \
   $(pkg-config --cflags it2n-protocol) "$src/host_main.c" "$src/paper_model.c" \
   $(pkg-config --libs it2n-protocol) -o "$work/consumer-pc"
 check_host_output "$work/consumer-pc" "host consumer (pkg-config it2n-protocol)"
+quiet gcc -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-protocol) "$src/abi_user.c" \
+  $(pkg-config --libs it2n-protocol) -o "$work/abi-pc"
+"$work/abi-pc" >"$log" 2>&1 || { cat "$log" >&2; fail "abi_user (pkg-config) failed"; }
+if gcc -std=c99 $(pkg-config --cflags it2n-protocol) -DIT2N_MAX_DEGREE=5 -DIT2N_PROTO_MAX_PAYLOAD=2048 \
+     "$src/abi_user.c" $(pkg-config --libs it2n-protocol) -o "$work/abi-pc-bad" >"$log" 2>&1; then
+  fail "ABI guard: abi_user with IT2N_MAX_DEGREE=5 IT2N_PROTO_MAX_PAYLOAD=2048 linked (pkg-config)"
+fi
+check_abi_refused "$log" "pkg-config, degree 5, payload 2048" degree5_chord1 window4_payload2048_reorder1_degree5
+say "host abi_user (pkg-config): links and runs with the .pc flags; with IT2N_MAX_DEGREE=5" \
+  "IT2N_PROTO_MAX_PAYLOAD=2048 it fails to link, naming every guarded entry point"
 
 # ---- Cortex-M0+ image ---------------------------------------------------------
 # $1 = ELF, $2 = label: fully linked, and no heap or float symbol anywhere.
@@ -125,6 +192,17 @@ quiet arm-none-eabi-gcc -mcpu=cortex-m0plus -mthumb -std=c99 -Os -ffreestanding 
   $(pkg-config --libs it2n-protocol) -lc -lgcc -o "$work/consumer-m0p-pc.elf"
 msg=$(check_image "$work/consumer-m0p-pc.elf" "M0+ image (pkg-config)") || fail "$msg"
 say "Cortex-M0+ image (pkg-config it2n-protocol): linked freestanding, no heap/float symbols"
+# Without the .pc flags (no -DIT2N_CONFIG): degree 7 with chord against a
+# library built for degree 3 without: refused at link time.
+if arm-none-eabi-gcc -mcpu=cortex-m0plus -mthumb -std=c99 -Os -ffreestanding -DCONSUMER_NO_CONFIG_CHECK \
+     -I"$work/m0p/include/it2n" "$src/mcu_main.c" "$src/paper_model.c" -nostdlib -Wl,--gc-sections \
+     -T "$src/m0p.ld" $(pkg-config --libs it2n-protocol) -lc -lgcc -o "$work/m0p-noconfig.elf" >"$log" 2>&1; then
+  fail "ABI guard: an M0+ image compiled without IT2N_CONFIG linked against the degree-3 library"
+fi
+grep -q "undefined reference to .it2n_dataset_init_abi_degree7_chord1'" "$log" ||
+  { cat "$log" >&2; fail "ABI guard: M0+ image without IT2N_CONFIG: not the expected link error"; }
+say "an M0+ image compiled without the .pc flags (degree 7, chord) fails to link:" \
+  "undefined it2n_dataset_init_abi_degree7_chord1 (the library has degree 3, no chord)"
 
 # From source in a plain Makefile (docs/firmware.md quotes Makefile.firmware).
 quiet make -s -j2 -f "$src/Makefile.firmware" IT2N="$root" APP="$src" OUT="$work/plain"
@@ -159,4 +237,18 @@ quiet cmake -S "$src" -B "$work/consumer-m4" --toolchain "$tc" -DIT2N_ARM_CPU=co
   -DCMAKE_PREFIX_PATH="$work/m0p"
 tr -s '\n ' '  ' <"$log" | grep -q "built with '-mcpu=cortex-m0plus', this build has '-mcpu=cortex-m4'" || { cat "$log" >&2; fail "no warning for a package of another CPU"; }
 say "a Cortex-M4 build is warned that the package is for -mcpu=cortex-m0plus"
+
+# A hard-float build is refused at configure time (with a message naming
+# both calling conventions), not with a linker error per object.
+if cmake -S "$src" -B "$work/consumer-m4hf" --toolchain "$tc" -DIT2N_ARM_CPU=cortex-m4 \
+     -DIT2N_ARM_FLAGS="-mfloat-abi=hard -mfpu=fpv4-sp-d16" -DCMAKE_PREFIX_PATH="$work/m0p" >"$log" 2>&1; then
+  fail "a -mfloat-abi=hard build accepted the soft-float Cortex-M0+ package"
+fi
+tr -s '\n ' '  ' <"$log" | grep -q "built for the soft-float calling convention .* this build uses the hard-float one" ||
+  { cat "$log" >&2; fail "the float-ABI refusal does not name both calling conventions"; }
+# softfp passes floats as soft does: accepted (warned for the CPU only).
+quiet cmake -S "$src" -B "$work/consumer-m4sfp" --toolchain "$tc" -DIT2N_ARM_CPU=cortex-m4 \
+  -DIT2N_ARM_FLAGS="-mfloat-abi=softfp -mfpu=fpv4-sp-d16" -DCMAKE_PREFIX_PATH="$work/m0p"
+say "a -mfloat-abi=hard build is refused at configure time (package: soft-float calling convention);" \
+  "-mfloat-abi=softfp is accepted"
 say "ok"

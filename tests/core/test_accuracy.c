@@ -352,12 +352,16 @@ static void acc_merge(const acc_stats *st)
     }
     g_stats.hull_lsb = fmaxl(g_stats.hull_lsb, st->hull_lsb);
     g_stats.checks += st->checks;
+    g_stats.failures += st->failures;
 }
 
 static void acc_finish(const char *what, const acc_stats *st)
 {
     acc_report(what, st);
     acc_merge(st);
+    if (st->checks == 0)
+        fail_msg("%s: no check ran (a test that checks nothing passes nothing)",
+                 what);
     if (st->failures)
         fail_msg("%s: %lu of %lu checks out of tolerance", what, st->failures,
                  st->checks);
@@ -543,10 +547,19 @@ static void test_extreme_coordinates(void **state)
     acc_finish("alternating +-limit 7x7", &st);
 }
 
+/* The summary docs/numerics.md quotes: the merged worst case of every test
+ * above. It must hold checks, no failure and coordinates within their
+ * tolerance (worst ratio <= 1) in both degree classes: the figure the
+ * docs print is itself checked, not only printed. */
 static void test_print_summary(void **state)
 {
     (void)state;
     acc_report("ALL (for docs/numerics.md)", &g_stats);
+    assert_true(g_stats.checks > 0);
+    assert_int_equal(g_stats.failures, 0);
+    assert_true(g_stats.coord_ratio[0] <= 1.0L && g_stats.coord_ratio[1] <= 1.0L);
+    assert_true(g_stats.memb[0] <= tc_tol_memb(3, 3) &&
+                g_stats.memb[1] <= tc_tol_memb(7, 7));
 }
 
 int main(void)

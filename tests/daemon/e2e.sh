@@ -454,7 +454,9 @@ assert read(6, 1, 1) != ("exc", 0x0B)
 assert read(7, 1, 1) == ("exc", 0x0B)                # no model on unit 7 yet
 assert read(4, 32, 3) == (2, 2, 1), read(4, 32, 3)
 c = open(tdir + "/it2nd.conf").read()
-c = c.replace("[model:6]\nunit_id = 6\nn = 2\nm = 2\n", "[model:7]\nunit_id = 7\npreload = paper\n")
+# model 6 holds data: its removal is explicit (removed = yes), never a
+# side effect of a section gone from the file.
+c = c.replace("[model:6]\nunit_id = 6\nn = 2\nm = 2\n", "[model:6]\nremoved = yes\n[model:7]\nunit_id = 7\npreload = paper\n")
 c = c.replace("[model:3]\nunit_id = 3\n", "[model:3]\nunit_id = 13\n")
 c = c.replace("[model:4]\nunit_id = 4\nn = 2\nm = 2\n", "[model:4]\nunit_id = 4\nn = 3\nm = 3\n")
 open(tdir + "/it2nd.conf", "w").write(c)
@@ -472,7 +474,7 @@ PY
 plc --unit 13 verify "$ROOT/examples/type1_4x3.csv" 3 >/dev/null && plc --unit 7 verify "$PAPER" 3 >/dev/null \
     && ok "after the reload: unit 13 serves model 3's data, unit 7 the paper data" || fail "data after the model reload"
 grep -q "reload: model 4 reconfigured to 3x3, flags 1: points cleared (journaled CONFIGURE)" "$T/daemon.log" \
-    && grep -q "reload: model 6 (unit 6) removed; its data are discarded" "$T/daemon.log" \
+    && grep -q "reload: model 6 (unit 6) removed (removed = yes); its 1 data point(s) are discarded" "$T/daemon.log" \
     && ok "reconfigure and removal logged" || fail "reload log lines"
 stop KILL   # no snapshot at exit: only the one the reload took
 start "$IT2ND"

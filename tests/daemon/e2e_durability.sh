@@ -69,7 +69,7 @@ write_conf "$T/it2nd.conf" "$STATE" "$PORT" < /dev/null
 # ---- configuration that cannot be read (item 3) ------------------------------
 mkdir -p "$T/confdir"
 msg=$("$IT2ND" -c "$T/confdir" --check-config 2>&1); rc=$?
-[ $rc = 1 ] && echo "$msg" | grep -q "confdir:1: cannot read: Is a directory" \
+[ $rc = 1 ] && echo "$msg" | grep -q "confdir: a directory, not a regular file" \
     && ok "-c DIR: --check-config fails with file:line ($msg)" || fail "-c DIR: rc $rc: $msg"
 printf '[daemon]\nstate_dir = %s\n[model:5]\n' "$T/unused" > "$T/empty.conf"
 msg=$("$IT2ND" -c "$T/empty.conf" --check-config 2>&1); rc=$?
@@ -97,7 +97,7 @@ for bad in dir empty; do
         ok "SIGHUP with an unreadable/incomplete config ($bad): running configuration and data kept"
     else fail "SIGHUP with a bad config ($bad): $(tail -3 "$LOG")"; fi
 done
-grep -q "it2nd.conf:1: cannot read: Is a directory" "$LOG" && grep -q "it2nd.conf:[0-9]*: \[model:5\]: empty section" "$LOG" \
+grep -q "it2nd.conf: a directory, not a regular file" "$LOG" && grep -q "it2nd.conf:[0-9]*: \[model:5\]: empty section" "$LOG" \
     && ok "reload errors logged with file:line" || fail "reload error lines"
 rm -rf "$T/it2nd.conf"; cp "$T/it2nd.conf.good" "$T/it2nd.conf"
 stop TERM || fail "exit status after the reload tests"

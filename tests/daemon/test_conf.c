@@ -20,17 +20,23 @@
 
 static char path[64];
 
-static int load(const char *text, struct conf *c, char *err, size_t size)
+static int load_n(const char *text, size_t n, struct conf *c, char *err, size_t size)
 {
     FILE *f;
     snprintf(path, sizeof path, "/tmp/it2nd-test-conf.%d.ini", (int)getpid());
     f = fopen(path, "w");
-    fputs(text, f);
+    assert_non_null(f);
+    assert_int_equal(fwrite(text, 1, n, f), n);
     fclose(f);
     conf_default(c);
     int rc = conf_load(c, path, err, size);
     unlink(path);
     return rc;
+}
+
+static int load(const char *text, struct conf *c, char *err, size_t size)
+{
+    return load_n(text, strlen(text), c, err, size);
 }
 
 static void test_default(void **st)
@@ -69,8 +75,13 @@ static void test_full(void **st)
     assert_int_equal(c.model[0].id, 7);
     assert_int_equal(c.model[0].unit, 9);
     assert_int_equal(c.model[0].flags, IT2N_F_CHORD | IT2N_F_Z);
+    /* The keys the file gives (a reload reconfigures a model holding data
+     * only from those, never from a default). */
+    assert_int_equal(c.model[0].set, CONF_SET_N | CONF_SET_M | CONF_SET_CHORD | CONF_SET_Z);
     assert_int_equal(c.link[0].vid, 0x1d50);
     assert_string_equal(c.link[0].serial, "ABC");
+    assert_int_equal(load("[model:7]\nunit_id = 9\ntype1 = no\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.model[0].set, CONF_SET_TYPE1);
 }
 
 static void test_errors(void **st)
@@ -254,6 +265,7 @@ static void test_rs485(void **st)
  * running models with the built-in default); an empty section is an error
  * with its header's line (an empty [model:5] was ignored: unit 5 answered
  * nothing while the default model was served). Nothing changes on error. */
+#define NAME40 "abcdefghijklmnopqrstuvwxyz0123456789ABCD"
 static void test_unreadable_and_empty(void **st)
 {
     struct conf c, before;
@@ -264,7 +276,8 @@ static void test_unreadable_and_empty(void **st)
     conf_default(&c);
     before = c;
     assert_int_equal(conf_load(&c, dir, err, sizeof err), -1);
-    snprintf(want, sizeof want, "%s:1: cannot read: Is a directory", dir);
+    snprintf(want, sizeof want, "%s: a directory, not a regular file: the configuration must be a regular file "
+             "(nothing was read)", dir);
     assert_string_equal(err, want);
     assert_memory_equal(&c, &before, sizeof c);
     assert_int_equal(rmdir(dir), 0);
@@ -287,6 +300,10 @@ static void test_unreadable_and_empty(void **st)
         { "[daemon]\n[modbus]\nmax_clients = 4\n", 1,
           "[daemon]: empty section: its required keys are missing (a section with no keys has no effect; remove it "
           "or add keys)" },
+        /* the header's name in full, however long (make fuzz: it was cut
+         * at 63 bytes and quoted as if whole) */
+        { "[model:1]\nn = 2\n[rtu:" NAME40 NAME40 NAME40 "]\n", 3,
+          "[rtu:" NAME40 NAME40 NAME40 "]: empty section: its required keys are missing (device is required)" },
         /* the first error in the file wins */
         { "[modbus]\nmax_clients = 0\n[model:5]\n", 2, "[modbus] max_clients: expected 1..512" },
         { "[model:5]\n[modbus]\nmax_clients = 0\n", 1, "[model:5]: empty section: its required keys are missing (a "
@@ -305,6 +322,157 @@ static void test_unreadable_and_empty(void **st)
     assert_int_equal(load("[model:5]\nn = 3\n", &c, err, sizeof err), 0);
     assert_int_equal(c.nmodels, 1);
     assert_int_equal(c.model[0].unit, 5);
+}
+
+/* What a non-atomic rewrite leaves (issue 20 item 2): an empty file, a
+ * file cut mid-line, one with only comments, a FIFO with no writer and
+ * /dev/zero are errors, never a configuration (an empty file loaded as the
+ * built-in default and a reload then discarded the running models; a FIFO
+ * or /dev/zero hung --check-config). Nothing blocks, nothing changes. */
+static void test_partial_files(void **st)
+{
+    struct conf c, before;
+    char err[512], want[512], fifo[64];
+    (void)st;
+    static const struct {
+        const char *text;
+        int line;               /* 0: no line in the message */
+        const char *tail;
+    } t[] = {
+        { "", 0, "empty file (0 bytes): refused, a configuration sets at least one key (for the built-in default "
+                 "run it2nd without -c)" },
+        { "[model:1]\nn = 3", 2, "no newline at the end of the last line: the file looks cut short (an unfinished "
+                                 "or interrupted rewrite); if it is complete, end it with a newline" },
+        { "[model:5]\nunit_id = 5\nn = 3\n[mod", 4, "no newline at the end of the last line: the file looks cut "
+          "short (an unfinished or interrupted rewrite); if it is complete, end it with a newline" },
+        { "\n", 1, "no key in the file (only blank lines and comments): refused, a configuration sets at least one "
+                   "key (for the built-in default run it2nd without -c)" },
+        { "; it2nd.conf\n\n# nothing yet\n", 1, "no key in the file (only blank lines and comments): refused, a "
+          "configuration sets at least one key (for the built-in default run it2nd without -c)" },
+    };
+    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
+        conf_default(&before);
+        assert_int_equal(load(t[k].text, &c, err, sizeof err), -1);
+        if (t[k].line)
+            snprintf(want, sizeof want, "%s:%d: %s", path, t[k].line, t[k].tail);
+        else
+            snprintf(want, sizeof want, "%s: %s", path, t[k].tail);
+        assert_string_equal(err, want);
+        assert_memory_equal(&c, &before, sizeof c);
+    }
+    /* Blocks allocated but never written before a crash read as zeros. */
+    static const char zeros[] = "[model:1]\nn = 3\n\0\0\0\n";
+    assert_int_equal(load_n(zeros, sizeof zeros - 1, &c, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:3: NUL byte in the line (at most 198 characters)", path);
+    assert_string_equal(err, want);
+    /* The same text with its newline is a configuration. */
+    assert_int_equal(load("[model:1]\nn = 3\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.model[0].n, 3);
+    /* Non-regular files: refused before any read (a FIFO without a writer
+     * would block a blocking open, /dev/zero a read forever). */
+    snprintf(fifo, sizeof fifo, "/tmp/it2nd-test-conf-fifo.%d", (int)getpid());
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    conf_default(&c);
+    before = c;
+    assert_int_equal(conf_load(&c, fifo, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s: a FIFO, not a regular file: the configuration must be a regular file (nothing "
+             "was read)", fifo);
+    assert_string_equal(err, want);
+    assert_int_equal(unlink(fifo), 0);
+    assert_int_equal(conf_load(&c, "/dev/zero", err, sizeof err), -1);
+    assert_string_equal(err, "/dev/zero: a character device, not a regular file: the configuration must be a regular "
+                             "file (nothing was read)");
+    assert_memory_equal(&c, &before, sizeof c);
+    /* Over the size bound: refused without reading it. */
+    {
+        FILE *f = fopen(path, "w");
+        assert_non_null(f);
+        assert_int_equal(fseek(f, CONF_MAX_BYTES, SEEK_SET), 0);
+        fputs("\n", f);
+        fclose(f);
+        assert_int_equal(conf_load(&c, path, err, sizeof err), -1);
+        snprintf(want, sizeof want, "%s: %d bytes: larger than a configuration can be (%d bytes at most)", path,
+                 CONF_MAX_BYTES + 1, CONF_MAX_BYTES);
+        assert_string_equal(err, want);
+        unlink(path);
+    }
+}
+
+/* [model:ID] removed = yes: the id leaves the model list for conf.removed
+ * (its unit id is free, max_models does not count it); every model removed
+ * is an error. */
+static void test_removed(void **st)
+{
+    struct conf c;
+    char err[512], want[512];
+    (void)st;
+    assert_int_equal(load("[daemon]\nmax_models = 1\n[model:5]\nunit_id = 5\nremoved = yes\n"
+                          "[model:6]\nunit_id = 5\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.nmodels, 1);
+    assert_int_equal(c.model[0].id, 6);
+    assert_int_equal(c.model[0].unit, 5);
+    assert_int_equal(c.nremoved, 1);
+    assert_int_equal(c.removed[0], 5);
+    assert_true(conf_removes(&c, 5));
+    assert_false(conf_removes(&c, 6));
+    assert_int_equal(load("[model:5]\nremoved = no\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.nmodels, 1);
+    assert_int_equal(c.nremoved, 0);
+    assert_int_equal(load("[model:5]\nremoved = yes\n[model:0]\nremoved = yes\n", &c, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:4: [model:0] removed: every [model:] section says removed = yes: at least one "
+             "model must be served", path);
+    assert_string_equal(err, want);
+    assert_int_equal(load("[model:5]\nremoved = maybe\n", &c, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:2: [model:5] removed: expected yes or no", path);
+    assert_string_equal(err, want);
+    /* default_model may not name a removed model */
+    assert_int_equal(load("[modbus]\ndefault_model = 5\n[model:5]\nremoved = yes\n[model:6]\nn = 2\n", &c, err,
+                          sizeof err), -1);
+    snprintf(want, sizeof want, "%s:2: [modbus] default_model: no [model:5] is configured", path);
+    assert_string_equal(err, want);
+}
+
+/* Two sections on one device (issue 20 item 6): the same path is refused
+ * by conf_load; the same device through a symlink (or another node of the
+ * same character device) by conf_check_devices, naming both sections. */
+static void test_device_conflicts(void **st)
+{
+    struct conf c;
+    char err[512], want[512], text[512], lnk[64];
+    (void)st;
+    assert_int_equal(load("[rtu:a]\ndevice = /dev/ttyS1\n[link:b]\ntype = serial\n\ndevice = /dev/ttyS1\n", &c,
+                          err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:6: [link:b] device: /dev/ttyS1 is also the device of [rtu:a] (line 2): one "
+             "device serves one section (the other would find it locked by another process)", path);
+    assert_string_equal(err, want);
+    assert_int_equal(load("[link:x]\ndevice = /dev/ttyACM0\n[rtu:a]\ndevice = /dev/ttyS1\n[rtu:b]\n"
+                          "device = /dev/ttyS1\n[link:y]\ndevice = /dev/ttyACM0\n", &c, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:6: [rtu:b] device: /dev/ttyS1 is also the device of [rtu:a] (line 4): one "
+             "device serves one section (the other would find it locked by another process)", path);
+    assert_string_equal(err, want);
+    assert_int_equal(load("[link:x]\ndevice = /dev/ttyACM0\n[link:y]\ndevice = /dev/ttyACM0\n", &c, err,
+                          sizeof err), -1);
+    /* A USB link has no device path: no conflict with an RTU port. */
+    assert_int_equal(load("[rtu:a]\ndevice = /dev/ttyS1\n[link:u]\ntype = usb\nusb = 1d50:6018\n", &c, err,
+                          sizeof err), 0);
+    assert_int_equal(conf_check_devices(&c, path, err, sizeof err), 0);
+    /* Through a symlink: passes conf_load, refused by conf_check_devices. */
+    snprintf(lnk, sizeof lnk, "/tmp/it2nd-test-conf-tty.%d", (int)getpid());
+    unlink(lnk);
+    assert_int_equal(symlink("/dev/null", lnk), 0);
+    snprintf(text, sizeof text, "[rtu:bus]\ndevice = /dev/null\n[link:inst]\ntype = serial\ndevice = %s\n", lnk);
+    assert_int_equal(load(text, &c, err, sizeof err), 0);
+    assert_int_equal(conf_check_devices(&c, path, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:5: [link:inst] device: %s is the same device as /dev/null of [rtu:bus] (line 2), "
+             "both /dev/null: one device serves one section (the other would find it locked by another process)",
+             path, lnk);
+    assert_string_equal(err, want);
+    /* Two different devices, and a path that does not exist yet: fine. */
+    snprintf(text, sizeof text, "[rtu:bus]\ndevice = /dev/zero\n[link:inst]\ndevice = %s\n[link:later]\n"
+             "device = /dev/it2n-no-such-tty\n", lnk);
+    assert_int_equal(load(text, &c, err, sizeof err), 0);
+    assert_int_equal(conf_check_devices(&c, path, err, sizeof err), 0);
+    assert_int_equal(unlink(lnk), 0);
 }
 
 static int allowed6(const struct conf_listen *l, const char *a)
@@ -336,6 +504,11 @@ static void test_listen_acl(void **st)
     conf_default(&c);
     assert_int_equal(c.tcp_keepalive, 60);
     assert_int_equal(c.evict_idle, 500);
+    assert_int_equal(c.max_pending, 1024);
+    assert_int_equal(load("[modbus]\nmax_pending = 16\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.max_pending, 16);
+    assert_int_equal(load("[modbus]\nmax_pending = 15\n", &c, err, sizeof err), -1);
+    assert_non_null(strstr(err, ":2: [modbus] max_pending: expected 16..65536"));
     assert_int_equal(load("[listen:plc]\naddress = :502\nallow = 10.1.0.0/16, 192.168.7.128/25\nallow = fd00::/8\n"
                           "read_only = yes\n[listen:eng]\naddress = [::1]:1502\nallow = ::1\n"
                           "[modbus]\ntcp_listen = 127.0.0.1:1503\n[model:2]\nwrite_protect = yes\n",
@@ -390,6 +563,9 @@ int main(void)
         cmocka_unit_test(test_repeat_and_hosts),
         cmocka_unit_test(test_rs485),
         cmocka_unit_test(test_unreadable_and_empty),
+        cmocka_unit_test(test_partial_files),
+        cmocka_unit_test(test_removed),
+        cmocka_unit_test(test_device_conflicts),
         cmocka_unit_test(test_listen_acl),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

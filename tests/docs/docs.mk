@@ -19,5 +19,12 @@ TEST_TARGETS += docs-check
 .PHONY: docs-snippets
 docs-snippets: all
 	@BUILD=$(BUILD) /usr/bin/python3 tests/docs/snippets.py
+	@# self-test: a session page whose blocks hold only in another order fails
+	@if BUILD=$(BUILD) /usr/bin/python3 tests/docs/snippets.py tests/docs/fixtures/session_order.md \
+	    > $(BUILD)/session_order.log 2>&1; then \
+	  echo "docs-snippets: session_order.md passed: sessions do not carry state"; exit 1; \
+	elif ! grep -q "stdout differs" $(BUILD)/session_order.log; then \
+	  cat $(BUILD)/session_order.log; exit 1; \
+	else echo "docs snippets: a session run out of order is refused (self-test)"; fi
 
 TEST_TARGETS += docs-snippets

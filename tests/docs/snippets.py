@@ -17,6 +17,12 @@ The marking rule (docs/README "Documentation checks" repeats it):
                                    default (paper model on unit 1) listens on
                                    a free loopback port; every `1502` in the
                                    block is replaced by that port.
+    <!-- snippet: session -->      as daemon, but the blocks of one file so
+                                   marked share one it2nd and one scratch
+                                   directory, run in the order written: a
+                                   reader following the page top to bottom
+                                   (what one block changes, the next sees;
+                                   it2nctl reaches it through IT2NCTL_TCP).
     <!-- snippet: config -->       (c) a configuration header: compiled as
                                    -DIT2N_CONFIG=<it> with it2n.h and the core.
     <!-- snippet: output -->       (any fence) the exact stdout of the checked
@@ -160,9 +166,23 @@ def env():
     return e
 
 
-def run(cmd, cwd, stdin=None):
-    return subprocess.run(cmd, cwd=cwd, env=env(), input=stdin,
+def run(cmd, cwd, stdin=None, extra_env=None):
+    e = env()
+    e.update(extra_env or {})
+    return subprocess.run(cmd, cwd=cwd, env=e, input=stdin,
                           capture_output=True, text=True, timeout=TIMEOUT)
+
+
+class Session:
+    """One it2nd and one scratch directory for a file's session blocks."""
+
+    def __init__(self):
+        self.tmp = scratch()
+        self.daemon = Daemon(self.tmp)
+
+    def close(self):
+        self.daemon.stop()
+        shutil.rmtree(self.tmp, ignore_errors=True)
 
 
 def compile_c(b, tmp):
@@ -199,22 +219,29 @@ def _compile_core(flags, hdr, src, core, tmp):
     return p
 
 
-def check_block(b, daemon):
-    tmp = scratch()
+def check_block(b, daemon, session=None):
+    tmp = session.tmp if session else scratch()
+    extra_env = None
     try:
         text = b.text
         if b.marker == "snippet: daemon":
             daemon = Daemon(tmp)
+        if session:
+            daemon = session.daemon
+            extra_env = {"IT2NCTL_TCP": f"127.0.0.1:{daemon.port}"}
+        if daemon:
             text = text.replace("1502", str(daemon.port))
         try:
             if b.lang in ("sh", "bash"):
-                p = run(["bash", "-e", "-o", "pipefail", "-c", text], tmp)
+                p = run(["bash", "-e", "-o", "pipefail", "-c", text], tmp,
+                        extra_env=extra_env)
             elif b.lang == "python":
-                p = run(["/usr/bin/python3", "-"], tmp, stdin=text)
+                p = run(["/usr/bin/python3", "-"], tmp, stdin=text,
+                        extra_env=extra_env)
             else:
                 p = compile_c(b, tmp)
         finally:
-            if daemon:
+            if daemon and not session:
                 daemon.stop()
         msg = None
         if p.returncode != 0:
@@ -232,7 +259,8 @@ def check_block(b, daemon):
     except RuntimeError as e:
         return str(e)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if not session:
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
 def help_targets():
@@ -298,6 +326,7 @@ def main(argv):
     targets = help_targets()
     for path in files:
         blocks = parse(path)
+        session = None
         for line, t in make_names(path, blocks) + table_targets(path):
             if t not in targets:
                 failures.append(f"{os.path.relpath(path, ROOT)}:{line}: "
@@ -325,7 +354,7 @@ def main(argv):
                     print(f"{b.where()}: {b.lang}: {b.marker}")
                 continue
             if b.marker not in ("", "run: it2n", "snippet: daemon",
-                                "snippet: config"):
+                                "snippet: session", "snippet: config"):
                 failures.append(f"{b.where()}: unknown marker "
                                 f"<!-- {b.marker} -->")
                 continue
@@ -337,9 +366,17 @@ def main(argv):
             if listing:
                 print(f"{b.where()}: {b.lang}: {b.marker or 'default'}")
                 continue
-            err = check_block(b, None)
+            if b.marker == "snippet: session" and session is None:
+                try:
+                    session = Session()
+                except RuntimeError as e:
+                    failures.append(f"{b.where()}: session: {e}")
+                    break
+            err = check_block(b, None, session if b.marker == "snippet: session" else None)
             if err:
                 failures.append(f"{b.where()}: {b.lang} block: {err}")
+        if session:
+            session.close()
     for f in failures:
         print("FAIL: " + f, file=sys.stderr)
     print(f"docs snippets: {counts['run']} checked, {counts['quote']} quotes, "

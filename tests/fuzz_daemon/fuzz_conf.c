@@ -9,10 +9,17 @@
  *    key occurs on line N or above (libinih continuation lines repeat the
  *    key of an earlier line); cross-key (validation) errors name a line too;
  *  - no accepted file has a line of 199 characters or more (libinih would
- *    have split it and parsed the tail of a long comment as a setting).
+ *    have split it and parsed the tail of a long comment as a setting);
+ *  - no accepted file is empty or ends without a newline (what a rewrite
+ *    cut short leaves); the one error without a line is that of the empty
+ *    file. An input without its final newline is also run with one, so
+ *    the parser behind that check is fuzzed as before;
+ *  - a model id with removed = yes is never in the model list.
  * Found by this fuzzer and fixed in daemon/conf.c: corpus/conf/long_* and
  * first_error_line.conf (message of the first error with the key of the
- * last, libinih being built with INI_STOP_ON_FIRST_ERROR 0).
+ * last, libinih being built with INI_STOP_ON_FIRST_ERROR 0),
+ * empty_long_section.conf (an empty section's error quoted its header's
+ * name cut at 63 bytes, as if that were the name).
  * Built as a libFuzzer target (make fuzzd-fuzz) and, with fuzz_main.c, as a
  * plain corpus run under make test. */
 #include <stdint.h>
@@ -112,6 +119,12 @@ static void check_ok(const struct conf *c)
             fuzz_check(strcmp(c->link[m].name, l->name) != 0, "link names unique");
     }
     fuzz_check(c->link_backoff_max >= 1 && c->link_backoff_max <= 3600, "link_backoff_max range");
+    fuzz_check(c->nremoved >= 0 && c->nremoved <= CONF_MAX_MODELS, "nremoved bound");
+    for (int k = 0; k < c->nremoved; k++)
+        for (int m = 0; m < c->nmodels; m++)
+            fuzz_check(c->model[m].id != c->removed[k], "a removed model is not served");
+    for (int m = 0; m < c->nmodels; m++)
+        fuzz_check(!c->model[m].removed, "no model in the list is marked removed");
 }
 
 /* Start of physical line n (1-based) of data, or NULL past the end. */
@@ -157,6 +170,10 @@ static void check_err(const uint8_t *data, size_t size, const char *err, size_t 
     size_t plen = strlen(path);
     fuzz_check(terminated(err, errsize) && err[0], "error message present");
     fuzz_check(strncmp(err, path, plen) == 0 && err[plen] == ':', "error names the file");
+    if (size == 0) {
+        fuzz_check(strncmp(err + plen, ": empty file (0 bytes)", 22) == 0, "an empty file is an empty-file error");
+        return;
+    }
     const char *p = err + plen + 1;
     char *end;
     long line = strtol(p, &end, 10);
@@ -175,7 +192,7 @@ static void check_err(const uint8_t *data, size_t size, const char *err, size_t 
         (!strstr(sec, "] ") || strstr(sec, "]: empty section: ") < strstr(sec, "] "))) {
         /* "PATH:N: [name]: empty section: ...": line N is that header. */
         const char *close = strstr(sec, "]: empty section: ");
-        char hdr[80];
+        char hdr[300]; /* "[name]": a header is one line, at most 255 bytes */
         fuzz_check((size_t)(close - sec) < sizeof hdr - 2, "empty section name length");
         memcpy(hdr, sec + 1, (size_t)(close - sec));
         hdr[close - sec] = 0;
@@ -194,18 +211,17 @@ static void check_err(const uint8_t *data, size_t size, const char *err, size_t 
     }
 }
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+static void one(const uint8_t *data, size_t size)
 {
     static struct conf c, before;
     char err[512];
-    if (size > 64 * 1024)
-        return 0;
     fuzz_write_file(path, data, size);
     conf_default(&c);
     before = c;
     memset(err, 0, sizeof err);
     if (conf_load(&c, path, err, sizeof err) == 0) {
         check_ok(&c);
+        fuzz_check(size > 0 && data[size - 1] == '\n', "an accepted file is not empty and ends with a newline");
         /* libinih (INI_MAX_LINE 200) reads a longer line as several: the
          * tail of a long comment must not be taken as a setting. */
         fuzz_check(longest_line(data, size) < 199, "no over-long line accepted");
@@ -213,6 +229,22 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fuzz_note("conf_load error: %s", err);
         fuzz_check(memcmp(&c, &before, sizeof c) == 0, "failed load leaves the config untouched");
         check_err(data, size, err, sizeof err);
+        if (size == 0 || data[size - 1] != '\n')
+            fuzz_check(strstr(err, size ? ": no newline at the end of the last line: " : ": empty file") != NULL,
+                       "a file cut short is refused as such");
+    }
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static uint8_t buf[64 * 1024 + 1];
+    if (size > 64 * 1024)
+        return 0;
+    one(data, size);
+    if (size && data[size - 1] != '\n') {
+        memcpy(buf, data, size);
+        buf[size] = '\n';
+        one(buf, size + 1);
     }
     return 0;
 }

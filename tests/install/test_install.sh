@@ -15,6 +15,10 @@
 #   - the installed programs run; the man pages format without warnings;
 #   - a program built with `pkg-config --cflags --libs it2n-protocol` against
 #     the installed tree prints what the installed `it2n eval` prints;
+#   - ABI guards: a program calling every entry point whose structs a build
+#     option sizes links and runs with the .pc flags, and fails to link
+#     (naming each entry point with its options) with any other window,
+#     payload, reorder, IT2N_MAX_DEGREE or IT2N_CHORD, or without the flags;
 #   - bash-completion finds the completions through XDG_DATA_DIRS=PREFIX/share.
 # usage: test_install.sh   (from the repository root; MAKE may name make)
 set -euo pipefail
@@ -108,34 +112,53 @@ ${CC:-gcc} -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-protocol) \
 "$r$P/bin/it2n" eval "$d/d.csv" --at 0.25,0.75 --decimals 9 | cut -d, -f1-8 >"$d/want.csv"
 "$d/consumer" 0.25 0.75 >"$d/got.csv" || fail "the pkg-config consumer failed"
 diff -u "$d/want.csv" "$d/got.csv" >&2 || fail "the pkg-config consumer differs from the installed it2n eval"
-# A link context's size depends on IT2N_PROTO_WINDOW (16 in this build):
-# the .pc file passes it on, and a program compiled with another value
-# fails to link instead of overrunning the library's context.
-cat >"$d/link_user.c" <<'EOC'
-#include <string.h>
-#include "it2n_link.h"
-static int w(it2n_ostream *s, const uint8_t *p, size_t n) { (void)s; (void)p; (void)n; return 0; }
-static int rx(void *a, uint16_t q, const it2n_msg *m) { (void)a; (void)q; (void)m; return 0; }
-int main(void)
-{
-    static it2n_link l;
-    it2n_ostream os = { w, NULL };
-    it2n_link_cfg c;
-    memset(&c, 0, sizeof c);
-    c.out = &os;
-    c.on_rx = rx;
-    c.rto_ms = 100;
-    return it2n_link_init(&l, &c) != IT2N_OK || it2n_link_window(&l) != IT2N_PROTO_WINDOW;
+# ABI guards: every entry point whose structs are sized by a build option
+# is named after the options (it2n.h, it2n_proto.h). The library here is
+# built with window 16 (the .pc file passes it on); abi_user calls each
+# such entry point. With the .pc flags it links and runs; compiled with
+# any other value of any option (or without the .pc flags, as a plain
+# -I/-L user of the installed tree would) it must fail to link, and the
+# linker must name every guarded entry point with the values it asked for.
+cc_abi() { # $1 = output, rest = extra flags; the linker's errors in $1.err
+  local out=$1; shift
+  ${CC:-gcc} -std=c99 -Wall -Wextra -Werror "$@" tests/cmake_consumer/abi_user.c \
+    -L"$r$P/lib" -lit2n_proto -lit2n -o "$out" 2>"$out.err"
 }
-EOC
-${CC:-gcc} -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-protocol) "$d/link_user.c" \
-  $(pkg-config --libs it2n-protocol) -o "$d/link_user" || fail "a link user does not build with the .pc flags"
-"$d/link_user" || fail "the link user's window is not the library's"
-if ${CC:-gcc} -std=c99 $(pkg-config --cflags it2n-protocol) -UIT2N_PROTO_WINDOW -DIT2N_PROTO_WINDOW=4 \
-     "$d/link_user.c" $(pkg-config --libs it2n-protocol) -o "$d/link_user4" 2>"$d/link4.err"; then
-  fail "a program compiled with IT2N_PROTO_WINDOW=4 linked against the library built with 16"
-fi
-grep -q 'it2n_link_init_w4_' "$d/link4.err" || fail "window mismatch: not the expected link error: $(cat "$d/link4.err")"
+abi_names() { # $1 = core suffix, $2 = protocol suffix ("-": that library matches)
+  [ "$1" = - ] || for f in it2n_dataset_init it2n_model_init; do echo "${f}_abi_$1"; done
+  [ "$2" = - ] || for f in it2n_msg_pack it2n_msg_unpack it2n_proto_vector it2n_frame_decoder_init \
+           it2n_link_init it2n_inst_open; do echo "${f}_abi_$2"; done
+}
+pc_cflags=$(pkg-config --cflags it2n-protocol)
+cc_abi "$d/abi_ok" $pc_cflags || { cat "$d/abi_ok.err" >&2; fail "abi_user does not build with the .pc flags"; }
+"$d/abi_ok" >"$d/abi_ok.out" || fail "abi_user built with the .pc flags: $(cat "$d/abi_ok.out")"
+grep -q 'window 16, payload 1024' "$d/abi_ok.out" || fail "the .pc flags do not give window 16: $(cat "$d/abi_ok.out")"
+n_abi=0
+abi_refused() { # $1 = label, $2 = core suffix, $3 = protocol suffix, rest = flags
+  local label=$1 core=$2 proto=$3 out=$d/abi_$n_abi; shift 3
+  n_abi=$((n_abi + 1))
+  if cc_abi "$out" "$@"; then
+    fail "ABI guard: $label linked against the installed library (window 16, default options)"
+  fi
+  for s in $(abi_names "$core" "$proto"); do
+    grep -q "undefined reference to .$s'" "$out.err" ||
+      fail "ABI guard: $label: the link error does not name $s: $(head -c 2000 "$out.err")"
+  done
+  [ "$(grep -c 'undefined reference' "$out.err")" = "$(abi_names "$core" "$proto" | wc -l)" ] ||
+    fail "ABI guard: $label: other link errors than the guarded names: $(head -c 2000 "$out.err")"
+}
+abi_refused "-I/-L without the .pc flags (window 4)" - window4_payload1024_reorder1_degree7 \
+  -I"$r$P/include/it2n"
+abi_refused "IT2N_MAX_DEGREE=3" degree3_chord1 window16_payload1024_reorder1_degree3 \
+  $pc_cflags -DIT2N_MAX_DEGREE=3
+abi_refused "IT2N_CHORD=0" degree7_chord0 - \
+  $pc_cflags -DIT2N_CHORD=0
+abi_refused "IT2N_PROTO_MAX_PAYLOAD=512" - window16_payload512_reorder1_degree7 \
+  $pc_cflags -DIT2N_PROTO_MAX_PAYLOAD=512
+abi_refused "IT2N_PROTO_RX_REORDER=0" - window16_payload1024_reorder0_degree7 \
+  $pc_cflags -DIT2N_PROTO_RX_REORDER=0
+abi_refused "IT2N_PROTO_WINDOW=4" - window4_payload1024_reorder1_degree7 \
+  $pc_cflags -UIT2N_PROTO_WINDOW -DIT2N_PROTO_WINDOW=4
 
 # ---- bash-completion finds the completions ---------------------------------
 for b in "$r$P"/bin/* "$r$P"/sbin/*; do
@@ -146,4 +169,5 @@ for b in "$r$P"/bin/* "$r$P"/sbin/*; do
   grep -q -- "-F _" "$d/spec" || fail "completion of $b: $(cat "$d/spec")"
 done
 echo "test-install: ok (PREFIX=$P, DESTDIR=scratch: $n_files files as expected, units in $unitdir," \
-  "it2nd.conf kept on reinstall, pkg-config consumer = it2n eval, completions load)"
+  "it2nd.conf kept on reinstall, pkg-config consumer = it2n eval, ABI guards: matching options link and run," \
+  "$n_abi mismatches refused at link time, completions load)"

@@ -172,7 +172,6 @@ static void test_every_bit_flip_caught(void **st)
     int w = encode(0x03, 77, payload, 40, wire, sizeof wire);
     assert_true(w > 0);
     uint8_t bad[256];
-    unsigned flips = 0;
     for (int byte = 0; byte < w - 1; byte++) {
         for (int bit = 0; bit < 8; bit++) {
             memcpy(bad, wire, (size_t)w);
@@ -184,10 +183,8 @@ static void test_every_bit_flip_caught(void **st)
             feed(&dec, bad, (size_t)w, 1, &lg);
             assert_int_equal(lg.ok, 0);
             assert_true(lg.nerr >= 1);
-            flips++;
         }
     }
-    assert_int_equal(flips, (unsigned)(w - 1) * 8);
     /* And the decoder still takes the next good frame. */
     dec_log lg = {0};
     feed(&dec, wire, (size_t)w, 3, &lg);

@@ -3,8 +3,8 @@
 "Tests": the soak). Drives the real daemon; loopback TCP (ports 26000-26999)
 and ptys only. docs/daemon.md, "Soak", says what it checks and why.
 
-  soak.py --it2nd BIN --instrument BIN --failio SO [--seconds 300]
-          [--out FILE] [--seed S] [--keep] [--rss-tol-kib N]
+  soak.py --it2nd BIN --instrument BIN --failio SO [--powercut SO]
+          [--seconds 300] [--out FILE] [--seed S] [--keep] [--rss-tol-kib N]
 
 For --seconds:
   * 6 writer clients, each owning one model (units 1..6), Modbus TCP: FC 23
@@ -19,7 +19,13 @@ For --seconds:
     link noise (garbage, drops, duplicates);
   * SIGHUP every 2-5 s (idle_timeout toggled, so the reload has work);
   * kill -9 at random moments during the first 60 % of the run (instruments
-    stopped with it), restart on the same state directory, continue;
+    stopped with it), restart on the same state directory, continue; with
+    --powercut (tests/daemon/powercut.so, preloaded after failio.so so that
+    a failed fsync is never recorded as durable) every kill is a power cut:
+    the state directory is first rolled back to what fsync, fdatasync and
+    directory fsyncs had made durable (tests/daemon/powercut_image.py; half
+    the cuts keep a prefix of the unsynced creates/renames/unlinks, half
+    tear the last unsynced write);
   * tests/daemon/failio.so preloaded, one call site of the durability path
     per daemon incarnation (alternately one that degrades the store and one
     that must refuse nothing), failing for 0.5-2 s at random moments; every
@@ -64,6 +70,7 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon"))
 from conn_test import Daemon, recv_exact, mbap  # noqa: E402
+import powercut_image as pci  # noqa: E402
 
 RSS_TOL_KIB = 2048
 FD_TOL = 2
@@ -901,6 +908,7 @@ def main():
     ap.add_argument("--it2nd", required=True)
     ap.add_argument("--instrument", required=True)
     ap.add_argument("--failio", required=True)
+    ap.add_argument("--powercut", help="powercut.so: every kill -9 becomes a power cut")
     ap.add_argument("--seconds", type=float, default=300)
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--out")
@@ -912,6 +920,8 @@ def main():
     rnd = random.Random(seed)
     tmp = tempfile.mkdtemp(prefix="it2nd-soak.")
     state = os.path.join(tmp, "state")
+    shadow = os.path.join(tmp, "powercut-shadow")
+    os.mkdir(shadow)
     port = pick_port(rnd)
     say("seed %d, %.0f s, port %d, logs in %s" % (seed, args.seconds, port, tmp))
     flag = os.path.join(tmp, "fault-flag")
@@ -926,11 +936,14 @@ def main():
         kinds = [f for f in FAULTS if f[5] == (inc[0] % 2 == 1)]
         f = kinds[rnd.randrange(len(kinds))]
         path = f[2].replace("STATE", os.path.basename(state))
-        env = ["env", "LD_PRELOAD=" + args.failio, "IT2N_FAILIO_FLAG=" + flag, "IT2N_FAILIO_CALL=" + f[1],
+        preload = args.failio + (":" + args.powercut if args.powercut else "")
+        env = ["env", "LD_PRELOAD=" + preload, "IT2N_FAILIO_FLAG=" + flag, "IT2N_FAILIO_CALL=" + f[1],
                "IT2N_FAILIO_PATH=" + path, "IT2N_FAILIO_SKIP=%d" % f[3], "IT2N_FAILIO_ERRNO=%d" % f[4]]
         # Every third incarnation on a slow disk too: fsync/fdatasync 20 ms.
         delay = 20 if inc[0] % 3 == 0 else 0
         env.append("IT2N_FAILIO_DELAY_MS=%d" % delay)
+        if args.powercut:
+            env += ["%s=%s" % kv for kv in sorted(pci.env(args.powercut, state, shadow).items()) if kv[0] != "LD_PRELOAD"]
         d = Daemon(args.it2nd, tmp, "soak-%d" % inc[0])
         d.start(conf_text(state, port, tmp, idle[0]), " ready (", prefix=env)
         cur.update(d=d, fault=f, pid=d.proc.pid, samples=[], t_start=now(), delay=delay)
@@ -955,6 +968,7 @@ def main():
     last_sample = 0
     incarnations = []
     kills = hups = faults = 0
+    powercuts = []
     crashed = 0
     while now() < args.seconds:
         t = now()
@@ -998,6 +1012,14 @@ def main():
                 TL.restarts.append([now(), None])
             d.proc.send_signal(signal.SIGKILL)
             d.proc.wait()
+            cut = ""
+            if args.powercut:
+                desc = pci.rollback(state, shadow, rnd, prefix=rnd.random() < 0.5, tear=rnd.random() < 0.5)
+                powercuts.append(desc)
+                cut = " (power cut: %s%s%s)" % ("namespace operations kept %d of %d unsynced"
+                                                % (desc["ops_kept"], desc["ops_pending"]),
+                                                ", torn %r" % desc["torn"] if desc["torn"] else "",
+                                                "" if desc["dir"] else ", NO state directory")
             for lk in links:
                 if lk.proc and lk.proc.poll() is None:
                     lk.killed = True
@@ -1014,8 +1036,8 @@ def main():
             start()
             with TL.lock:
                 TL.restarts[-1][1] = now()
-            say("kill -9 #%d; incarnation %d up (fault site %s, fsync delay %d ms)"
-                % (kills, inc[0], cur["fault"][0], cur["delay"]))
+            say("kill -9 #%d%s; incarnation %d up (fault site %s, fsync delay %d ms)"
+                % (kills, cut, inc[0], cur["fault"][0], cur["delay"]))
             t_next_kill = now() + rnd.uniform(6, 20)
         time.sleep(0.05)
 
@@ -1142,6 +1164,8 @@ def main():
     c = dict(ST.c)
     summary = {
         "seconds": args.seconds, "seed": seed, "kills": kills, "sighups": hups, "fault_windows": faults,
+        "power_cuts": len(powercuts), "power_cuts_torn": sum(1 for p in powercuts if p["torn"]),
+        "power_cut_namespace_ops_undone": sum(p["ops_pending"] - p["ops_kept"] for p in powercuts),
         "daemon_crashes": crashed, "operations_logged": ops,
         "operations_per_model": {str(u): len(LOGS[u].ops) for u in UNITS},
         "counters": c, "unexpected_failures": ST.unexpected[:50],
@@ -1167,20 +1191,22 @@ def main():
             fd_growth is not None and fd_growth <= FD_TOL),
         row("soak acknowledged operations replayed", "operations", ops, None, None),
         row("soak kill -9 restarts", "count", kills, None, None),
+        row("soak power cuts (state rolled back to its durable image)", "count", len(powercuts), None, None),
         row("soak duration", "s", args.seconds, None, None),
     ]
     result = {"rows": rows, "soak": summary, "conditions": {
         "cpus": os.cpu_count(), "loadavg_1min": round(os.getloadavg()[0], 2),
         "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "note": "tests/soak/soak.py: %d writers, %d readers (Modbus TCP), %d instrument links, SIGHUP every 2-5 s, "
-                "kill -9 every 6-20 s in the first 60 %%, failio.so faults" % (WRITERS, READERS, len(LINKS))}}
+                "kill -9 every 6-20 s in the first 60 %%%s, failio.so faults"
+                % (WRITERS, READERS, len(LINKS), " (each a power cut: powercut.so)" if args.powercut else "")}}
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         with open(args.out, "w") as f:
             json.dump(result, f, indent=2, sort_keys=True)
             f.write("\n")
-    say("%d operations logged over %d models, %d kills, %d SIGHUPs, %d fault windows; counters %s"
-        % (ops, len(UNITS), kills, hups, faults, json.dumps(c, sort_keys=True)))
+    say("%d operations logged over %d models, %d kills (%d power cuts), %d SIGHUPs, %d fault windows; counters %s"
+        % (ops, len(UNITS), kills, len(powercuts), hups, faults, json.dumps(c, sort_keys=True)))
     say("lost %d, unexpected failures %d, RSS growth %s KiB, fd growth %s" % (lost, unexpected, rss_growth, fd_growth))
     if FAILS or unexpected:
         print("soak: FAILED (%d check(s), %d unexpected failures); logs in %s" % (len(FAILS), unexpected, tmp),

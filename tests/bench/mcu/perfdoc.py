@@ -53,6 +53,11 @@ to 4.4·10⁴ — a property of the input format, not of the solve (the error
 against the decimal data is listed too). Reading a row: with a baseline, the
 target applies to the ratio value/baseline; without one, it is a limit on the
 value; rows without a target are information. All figures come from one run.
+Wall-clock ratios measured in interleaved rounds (the two sides back to
+back, order alternating) show their 95 % confidence interval and the number
+of rounds after the ratio: rounds are added until the interval lies within
+±5 % of the ratio or the benchmark's maximum is reached, and such a target
+counts as met only when the whole interval meets it.
 
 **Where the rows come from.** The "bench" column names the file
 `bench/<bench>.json` that a benchmark target of `make bench` wrote (`mcu`:
@@ -84,6 +89,8 @@ def row(r):
         value += f" {unit}"
     baseline = "—" if r["baseline"] is None else num(r["baseline"], unit)
     ratio = "—" if r["ratio"] is None else f"{r['ratio']:.3g}×"
+    if r.get("interval"):
+        ratio += f" [{r['interval'][0]:.3g}, {r['interval'][1]:.3g}] ({r['rounds']} rounds)"
     if r["target"] is None:
         target = "—"
     elif r["baseline"] is not None:
@@ -141,7 +148,9 @@ def render(rows):
         out.append("\n### Not met, and why\n\n")
         for r in unmet:
             rel = "≥" if r.get("sense") == ">=" else "≤"
-            got = (f"{r['ratio']:.3g}× vs {rel} {r['target']:g}×" if r["baseline"] is not None
+            iv = (f", 95 % interval [{r['interval'][0]:.3g}, {r['interval'][1]:.3g}]"
+                  if r.get("interval") else "")
+            got = (f"{r['ratio']:.3g}×{iv} vs {rel} {r['target']:g}×" if r["baseline"] is not None
                    else f"{num(r['value'], r['unit'])} vs {rel} {num(r['target'], r['unit'])}")
             why = reason(r)
             out.append(f"* {r['name']} ({got}): {why}\n")

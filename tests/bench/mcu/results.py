@@ -81,6 +81,74 @@ def flash_from_map(path):
     return core, total
 
 
+# Optional keys after KEYS, in this order: "sense" (">=" for a lower bound),
+# "interval" ([lo, hi], the 95 % confidence interval of the ratio) and
+# "rounds" (how many interleaved rounds gave it).
+OPTIONAL = ["sense", "interval", "rounds"]
+
+# Two-sided 95 % quantiles of Student's t, by degrees of freedom (1..30);
+# beyond 30 the normal 1.96 is within 2 %.
+T95 = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
+       2.201, 2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
+       2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042]
+
+
+def ratio_interval(values, baselines):
+    """Paired rounds (values[i] measured beside baselines[i]) -> (value,
+    baseline, lo, hi): the geometric means of each side, whose quotient is
+    the geometric mean of the per-round ratios, and the 95 % confidence
+    interval of that ratio (Student's t on the log ratios). A ratio of
+    rates is a ratio of times inverted, and logs make the interval
+    symmetric in both. Needs two rounds or more."""
+    n = len(values)
+    if n < 2 or n != len(baselines):
+        raise ValueError("ratio_interval: two or more paired rounds needed")
+    logs = [math.log(v / b) for v, b in zip(values, baselines)]
+    mean = statistics.fmean(logs)
+    half = (T95[n - 2] if n - 1 <= len(T95) else 1.96) * statistics.stdev(logs) / math.sqrt(n)
+    gv = math.exp(statistics.fmean(math.log(v) for v in values))
+    gb = math.exp(statistics.fmean(math.log(b) for b in baselines))
+    return gv, gb, math.exp(mean - half), math.exp(mean + half)
+
+
+def precise(values, baselines, rel=0.05):
+    """True once the ratio's 95 % interval lies within +-rel of it."""
+    if len(values) < 3:
+        return False
+    _, _, lo, hi = ratio_interval(values, baselines)
+    mid = math.sqrt(lo * hi)
+    return hi / mid - 1 <= rel and 1 - lo / mid <= rel
+
+
+def row(name, unit, value, baseline=None, target=None, sense="<=", met=None, interval=None, rounds=None):
+    """One figure as stored: the ratio is computed from the value and
+    baseline exactly as given (round them first, if at all), and met from
+    that stored ratio, so validate() holds by construction whatever the
+    digits (a ratio taken before rounding once failed its own check). With
+    an interval, a target is met only when the whole interval meets it."""
+    ratio = None if baseline in (None, 0) else round(value / baseline, 4)
+    if interval is not None:
+        interval = [min(round(interval[0], 4), ratio), max(round(interval[1], 4), ratio)]
+    if target is not None:
+        got = ratio if baseline is not None else value
+        if interval is not None:
+            got = interval[0] if sense == ">=" else interval[1]
+        met = got is not None and (got >= target if sense == ">=" else got <= target)
+    r = {"name": name, "unit": unit, "value": value, "baseline": baseline,
+         "ratio": ratio, "target": target, "met": met}
+    if sense == ">=":
+        r["sense"] = ">="
+    if interval is not None:
+        r["interval"] = interval
+        r["rounds"] = rounds
+    return r
+
+
+def keys_ok(keys):
+    """KEYS in order, then any of OPTIONAL in their order."""
+    return keys[:len(KEYS)] == KEYS and keys[len(KEYS):] == [k for k in OPTIONAL if k in keys[len(KEYS):]]
+
+
 class Table:
     def __init__(self, require_targets):
         self.rows = []
@@ -92,29 +160,23 @@ class Table:
             if self.require and (target is not None or limit is not None):
                 self.missing.append(name)
             return
-        ratio = None
-        if baseline is not None:
-            ratio = value / baseline if baseline else None
-            if target is not None and ratio is not None:
-                met = ratio <= target
-        elif limit is not None:
+        if baseline is None and limit is not None:
             target = limit
-            met = value <= limit
-        self.rows.append({"name": name, "unit": unit, "value": value, "baseline": baseline,
-                          "ratio": None if ratio is None else round(ratio, 4),
-                          "target": target, "met": met})
+        self.rows.append(row(name, unit, value, baseline, target, met=met))
 
 
 def validate(rows):
     """Schema and internal consistency of the JSON rows; returns problems.
     A row is KEYS in that order, plus optionally "sense": ">=" for a target
     that is a lower bound (throughput); without it the target is an upper
-    bound (met when the ratio, or the value without a baseline, is <= it)."""
+    bound (met when the ratio, or the value without a baseline, is <= it).
+    A row with "interval" [lo, hi] (and "rounds") meets its target only
+    when the whole interval does."""
     bad = []
     names = set()
     for r in rows:
         keys = list(r.keys())
-        if keys != KEYS and keys != KEYS + ["sense"]:
+        if not keys_ok(keys):
             bad.append(f"row keys {keys}")
             continue
         sense = r.get("sense", "<=")
@@ -132,11 +194,24 @@ def validate(rows):
                 bad.append(f"{r['name']}: {k} {r[k]!r}")
         if r["met"] is not None and not isinstance(r["met"], bool):
             bad.append(f"{r['name']}: met {r['met']!r}")
-        if r["baseline"] is not None and r["ratio"] is not None:
+        if r["baseline"] == 0 and r["ratio"] is not None:
+            bad.append(f"{r['name']}: ratio with a zero baseline")
+        elif r["baseline"] is not None and r["ratio"] is not None:
             if abs(r["ratio"] - r["value"] / r["baseline"]) > 1e-3 * max(1.0, abs(r["ratio"])):
                 bad.append(f"{r['name']}: ratio != value/baseline")
+        iv = r.get("interval")
+        if iv is not None:
+            if (not isinstance(iv, list) or len(iv) != 2 or r["ratio"] is None
+                    or not all(isinstance(x, (int, float)) for x in iv)
+                    or not iv[0] <= r["ratio"] <= iv[1]):
+                bad.append(f"{r['name']}: interval {iv!r} does not hold ratio {r['ratio']!r}")
+                continue
+            if not isinstance(r.get("rounds"), int) or r["rounds"] < 2:
+                bad.append(f"{r['name']}: rounds {r.get('rounds')!r}")
         if r["target"] is not None:
             got = r["ratio"] if r["baseline"] is not None else r["value"]
+            if iv is not None:
+                got = iv[0] if sense == ">=" else iv[1]
             ok = got is not None and (got >= r["target"] if sense == ">=" else got <= r["target"])
             if r["met"] is not ok:
                 bad.append(f"{r['name']}: met inconsistent with target ({sense} {r['target']})")

@@ -31,6 +31,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "mcu"))
+from results import row  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 BUILD = os.environ.get("BUILD", os.path.join(ROOT, "build"))
 IT2ND = os.environ.get("IT2ND", os.path.join(BUILD, "host", "it2nd"))
@@ -161,16 +164,6 @@ REASONS = {
 }
 
 
-def row(name, unit, value, baseline, target, better="lower"):
-    ratio = value / baseline if baseline else None
-    met = None
-    if target is not None:
-        met = (ratio if baseline else value) <= target if better == "lower" else \
-              (ratio if baseline else value) >= target
-    return {"name": name, "unit": unit, "value": value, "baseline": baseline,
-            "ratio": round(ratio, 4) if ratio is not None else None, "target": target, "met": met}
-
-
 def main():
     args = sys.argv[1:]
     out = args[args.index("--out") + 1]
@@ -272,11 +265,9 @@ def main():
                 round(c, 3), 3.0),
             row("proto session, 1 % faults per direction vs clean, 921600 Bd (wall time)", "s", round(f1, 3),
                 round(c, 3), 1.3),
-            {"name": "proto session host re-requests, 1 % and 10 % faults (6 runs)", "unit": "requests",
-             "value": rr, "baseline": None, "ratio": None, "target": 0, "met": rr == 0},
-            {"name": "durable ingest over a pty, fsync on (PUT entries/s, 7x7 grid, REPLACE)", "unit": "entries/s",
-             "value": round(on), "baseline": None, "ratio": None, "target": 20000, "met": on >= 20000,
-             "sense": ">="},
+            row("proto session host re-requests, 1 % and 10 % faults (6 runs)", "requests", rr, target=0),
+            row("durable ingest over a pty, fsync on (PUT entries/s, 7x7 grid, REPLACE)", "entries/s",
+                round(on), target=20000, sense=">="),
             row("durable ingest over a pty, fsync off vs on (PUT entries/s)", "entries/s",
                 round(off), round(on), None),
         ]
