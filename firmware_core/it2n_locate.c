@@ -14,10 +14,17 @@
 
 #define COORD_MAX ((it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC)
 
-/* The model being located on: one of the two kinds. */
+/* The model being located on, of either kind: its evaluation (values and
+ * derivatives of the footprints in fpmask) through a pointer, so that an
+ * application using one kind links only that kind's code, and the
+ * convergence tolerance per footprint. */
+typedef int (*loc_eval_fn)(const void *mdl, unsigned fpmask, it2n_par u,
+                           it2n_par w, it2n_val *v, it2n_val *du,
+                           it2n_val *dw);
 typedef struct loc_model {
-    const it2n_model *bz;
-    const it2n_bspline_model *bs;
+    loc_eval_fn eval;
+    const void *mdl;
+    int64_t tol[IT2N_FP_COUNT];
 } loc_model;
 
 typedef struct loc_state {
@@ -40,12 +47,8 @@ static bool probe(const loc_model *mdl, unsigned fp, it2n_par u, it2n_par w,
     int64_t ax, ay;
     st->u = u;
     st->w = w;
-    if (mdl->bz != NULL
-            ? it2n__eval_full(mdl->bz, 1u << fp, u, w, &st->v[0][0],
-                              &st->du[0][0], &st->dw[0][0], NULL) != IT2N_OK
-            : it2n__bspline_eval_full(mdl->bs, 1u << fp, u, w, &st->v[0][0],
-                                      &st->du[0][0], &st->dw[0][0],
-                                      NULL) != IT2N_OK) {
+    if (mdl->eval(mdl->mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0],
+                  &st->dw[0][0]) != IT2N_OK) {
         return false;
     }
     /* Surface points lie in the control net's hull (< 2^62): no overflow. */
@@ -120,58 +123,65 @@ static bool on_boundary(const loc_state *st)
 
 /* Convergence tolerance: ~1e-6 absolute plus ~1e-6 of the net's extent,
  * since basis rounding scales with the control points. */
-static int64_t tolerance(const loc_model *lm, unsigned fp)
+static int64_t tol_of(int64_t big)
+{
+    return 16 + (big >> 20);
+}
+
+/* The largest |Q24 control point| of the x and y nets of fp. */
+static int64_t bz_extent(const it2n_model *mdl, unsigned fp)
 {
     int64_t big = 0;
-    unsigned k, ch;
+    unsigned k, ch, count = (mdl->n + 1u) * (mdl->m + 1u);
     for (ch = IT2N_CH_X; ch <= IT2N_CH_Y; ch++) {
         /* rounding is monotone: the largest |Q24 control point| comes from
          * the largest and the smallest mantissa */
         int32_t lo = 0, hi = 0;
+        int s = mdl->frac[fp][ch] - IT2N_VAL_FRAC;
         int64_t a, b;
-        int s;
-        if (lm->bz != NULL) {
-            const it2n_model *mdl = lm->bz;
-            unsigned count = (mdl->n + 1u) * (mdl->m + 1u);
-            s = mdl->frac[fp][ch] - IT2N_VAL_FRAC;
-            for (k = 0; k < count; k++) {
-                int32_t v = mdl->net[fp][ch][k];
-                lo = v < lo ? v : lo;
-                hi = v > hi ? v : hi;
-            }
-        } else {
-            /* a B-spline net's largest |mantissa| is in [2^30, 2^31) by
-             * construction: bound it by 2^31, O(1) whatever the grid. An
-             * all-zero net has exponent 0 (as have nets near 2^31 units):
-             * only then are its coefficients read. */
-            const it2n_bspline_model *mdl = lm->bs;
-            s = mdl->frac[fp][ch] - IT2N_VAL_FRAC;
-            hi = INT32_MAX;
-            if (mdl->frac[fp][ch] == 0) {
-                unsigned r, c;
-                hi = 0;
-                for (r = 0; r <= mdl->n + 2u; r++) {
-                    for (c = 0; c <= mdl->m + 2u; c++) {
-                        it2n_val q = it2n_bspline_coef(mdl, r, c, fp, ch);
-                        q = q < 0 ? -q : q;
-                        big = q > big ? q : big;
-                    }
-                }
-            }
+        for (k = 0; k < count; k++) {
+            int32_t v = mdl->net[fp][ch][k];
+            lo = v < lo ? v : lo;
+            hi = v > hi ? v : hi;
         }
         a = it2n__shift_round(hi, s);
         b = -it2n__shift_round(lo, s);
         big = a > big ? a : big;
         big = b > big ? b : big;
     }
-    return 16 + (big >> 20);
+    return big;
+}
+
+/* The same bound for a B-spline model: a net's largest |mantissa| is in
+ * [2^30, 2^31) by construction, so 2^31 bounds it, O(1) whatever the grid.
+ * An all-zero net has exponent 0 (as have nets near 2^31 units): only then
+ * are its coefficients read. */
+static int64_t bs_extent(const it2n_bspline_model *mdl, unsigned fp)
+{
+    int64_t big = 0;
+    unsigned ch, r, c;
+    for (ch = IT2N_CH_X; ch <= IT2N_CH_Y; ch++) {
+        if (mdl->frac[fp][ch] != 0) {
+            int64_t a = it2n__shift_round(INT32_MAX, mdl->frac[fp][ch] - IT2N_VAL_FRAC);
+            big = a > big ? a : big;
+            continue;
+        }
+        for (r = 0; r <= mdl->n + 2u; r++) {
+            for (c = 0; c <= mdl->m + 2u; c++) {
+                it2n_val q = it2n_bspline_coef(mdl, r, c, fp, ch);
+                q = q < 0 ? -q : q;
+                big = q > big ? q : big;
+            }
+        }
+    }
+    return big;
 }
 
 static void locate_fp(const loc_model *mdl, unsigned fp, it2n_val x,
                       it2n_val y, it2n_locate_fp *out)
 {
     loc_state best, cand;
-    int64_t tol = tolerance(mdl, fp);
+    int64_t tol = mdl->tol[fp];
     unsigned a, b, it;
     uint8_t status = IT2N_LOC_NOCONV;
     bool have = false;
@@ -263,18 +273,35 @@ static int locate_all(const loc_model *lm, unsigned flags, it2n_val x,
     return IT2N_OK;
 }
 
+static int bz_eval(const void *mdl, unsigned fpmask, it2n_par u, it2n_par w,
+                   it2n_val *v, it2n_val *du, it2n_val *dw)
+{
+    return it2n__eval_full((const it2n_model *)mdl, fpmask, u, w, v, du, dw, NULL);
+}
+
+static int bs_eval(const void *mdl, unsigned fpmask, it2n_par u, it2n_par w,
+                   it2n_val *v, it2n_val *du, it2n_val *dw)
+{
+    return it2n__bspline_eval_full((const it2n_bspline_model *)mdl, fpmask, u, w,
+                                   v, du, dw, NULL);
+}
+
 int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
                 it2n_locate_result *out, it2n_errinfo *err)
 {
     loc_model lm;
+    unsigned fp;
     if (mdl == NULL || out == NULL) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     if (!mdl->solved) {
         return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
-    lm.bz = mdl;
-    lm.bs = NULL;
+    lm.eval = bz_eval;
+    lm.mdl = mdl;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        lm.tol[fp] = it2n_model_has_fp(mdl, fp) ? tol_of(bz_extent(mdl, fp)) : 0;
+    }
     return locate_all(&lm, mdl->flags, x, y, out, err);
 }
 
@@ -282,13 +309,18 @@ int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
                         it2n_locate_result *out, it2n_errinfo *err)
 {
     loc_model lm;
+    unsigned fp;
     if (mdl == NULL || out == NULL) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     if (!mdl->solved || mdl->coef == NULL) {
         return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
-    lm.bz = NULL;
-    lm.bs = mdl;
+    lm.eval = bs_eval;
+    lm.mdl = mdl;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        lm.tol[fp] = (it2n__fp_mask(mdl->flags) & (1u << fp)) != 0u
+                         ? tol_of(bs_extent(mdl, fp)) : 0;
+    }
     return locate_all(&lm, mdl->flags, x, y, out, err);
 }
