@@ -14,15 +14,16 @@
 
 #define COORD_MAX ((it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC)
 
-/* The model being located on, of either kind: its evaluation (values and
- * derivatives of the footprints in fpmask) through a pointer, so that an
- * application using one kind links only that kind's code, and the
- * convergence tolerance per footprint. */
+/* The model being located on, of either kind, and the convergence
+ * tolerance per footprint. Its evaluation (values and derivatives of the
+ * footprints in fpmask) is a constant argument of the always-inlined
+ * search below: each entry point gets its own copy with direct calls, so
+ * an application using one kind links only that kind's code and the stack
+ * analysis sees every call. */
 typedef int (*loc_eval_fn)(const void *mdl, unsigned fpmask, it2n_par u,
                            it2n_par w, it2n_val *v, it2n_val *du,
                            it2n_val *dw);
 typedef struct loc_model {
-    loc_eval_fn eval;
     const void *mdl;
     int64_t tol[IT2N_FP_COUNT];
 } loc_model;
@@ -41,14 +42,15 @@ static int64_t abs64(int64_t v)
 }
 
 /* Evaluate footprint fp at (u, w) into st; false on derivative overflow. */
-static bool probe(const loc_model *mdl, unsigned fp, it2n_par u, it2n_par w,
-                  it2n_val x, it2n_val y, loc_state *st)
+IT2N_INLINE bool probe(const loc_model *mdl, loc_eval_fn eval, unsigned fp,
+                       it2n_par u, it2n_par w, it2n_val x, it2n_val y,
+                       loc_state *st)
 {
     int64_t ax, ay;
     st->u = u;
     st->w = w;
-    if (mdl->eval(mdl->mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0],
-                  &st->dw[0][0]) != IT2N_OK) {
+    if (eval(mdl->mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0],
+             &st->dw[0][0]) != IT2N_OK) {
         return false;
     }
     /* Surface points lie in the control net's hull (< 2^62): no overflow. */
@@ -177,8 +179,9 @@ static int64_t bs_extent(const it2n_bspline_model *mdl, unsigned fp)
     return big;
 }
 
-static void locate_fp(const loc_model *mdl, unsigned fp, it2n_val x,
-                      it2n_val y, it2n_locate_fp *out)
+IT2N_INLINE void locate_fp(const loc_model *mdl, loc_eval_fn eval,
+                           unsigned fp, it2n_val x, it2n_val y,
+                           it2n_locate_fp *out)
 {
     loc_state best, cand;
     int64_t tol = mdl->tol[fp];
@@ -192,7 +195,7 @@ static void locate_fp(const loc_model *mdl, unsigned fp, it2n_val x,
                                     IT2N_LOCATE_GRID);
             it2n_par w = (it2n_par)(((uint64_t)b << IT2N_PAR_FRAC) /
                                     IT2N_LOCATE_GRID);
-            if (probe(mdl, fp, u, w, x, y, &cand) &&
+            if (probe(mdl, eval, fp, u, w, x, y, &cand) &&
                 (!have || cand.res < best.res)) {
                 best = cand;
                 have = true;
@@ -225,7 +228,7 @@ static void locate_fp(const loc_model *mdl, unsigned fp, it2n_val x,
         for (half = 0; half < 24u; half++) {
             it2n_par u = clamp01(best.u + su), w = clamp01(best.w + sw);
             if ((u != best.u || w != best.w) &&
-                probe(mdl, fp, u, w, x, y, &cand) && cand.res < best.res) {
+                probe(mdl, eval, fp, u, w, x, y, &cand) && cand.res < best.res) {
                 best = cand;
                 moved = true;
                 break;
@@ -250,8 +253,9 @@ static void locate_fp(const loc_model *mdl, unsigned fp, it2n_val x,
 }
 
 /* Both kinds: range checks, then every footprint the model carries. */
-static int locate_all(const loc_model *lm, unsigned flags, it2n_val x,
-                      it2n_val y, it2n_locate_result *out, it2n_errinfo *err)
+IT2N_INLINE int locate_all(const loc_model *lm, loc_eval_fn eval,
+                           unsigned flags, it2n_val x, it2n_val y,
+                           it2n_locate_result *out, it2n_errinfo *err)
 {
     unsigned fp;
     if (x < -COORD_MAX || x > COORD_MAX) {
@@ -264,7 +268,7 @@ static int locate_all(const loc_model *lm, unsigned flags, it2n_val x,
     }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if ((it2n__fp_mask(flags) & (1u << fp)) != 0u) {
-            locate_fp(lm, fp, x, y, &out->fp[fp]);
+            locate_fp(lm, eval, fp, x, y, &out->fp[fp]);
         } else {
             memset(&out->fp[fp], 0, sizeof(out->fp[fp]));
             out->fp[fp].status = IT2N_LOC_NOCONV;
@@ -297,12 +301,11 @@ int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
     if (!mdl->solved) {
         return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
-    lm.eval = bz_eval;
     lm.mdl = mdl;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         lm.tol[fp] = it2n_model_has_fp(mdl, fp) ? tol_of(bz_extent(mdl, fp)) : 0;
     }
-    return locate_all(&lm, mdl->flags, x, y, out, err);
+    return locate_all(&lm, bz_eval, mdl->flags, x, y, out, err);
 }
 
 int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
@@ -316,11 +319,10 @@ int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
     if (!mdl->solved || mdl->coef == NULL) {
         return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
-    lm.eval = bs_eval;
     lm.mdl = mdl;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         lm.tol[fp] = (it2n__fp_mask(mdl->flags) & (1u << fp)) != 0u
                          ? tol_of(bs_extent(mdl, fp)) : 0;
     }
-    return locate_all(&lm, mdl->flags, x, y, out, err);
+    return locate_all(&lm, bs_eval, mdl->flags, x, y, out, err);
 }
