@@ -76,3 +76,29 @@ bench-results-check:
 
 TEST_TARGETS += bench-results-check
 include tests/bench/proto/proto.mk
+
+# B-spline kind on emulated Cortex-M0+ (-Os) and Cortex-M4F (-O2):
+# instruction counts of solve and query against a plain float baseline
+# (tests/bench/mcu/bspline_image.c; issue 21's speed goals, measured).
+BSMCU_OBJ = $(BMCU_B)/$(1)/bench/bspline_image.o $(BMCU_B)/$(1)/bench/entry.o \
+            $(BMCU_B)/$(1)/bench/counter.o $(BMCU_B)/$(1)/qemu/startup.o \
+            $(BMCU_B)/$(1)/qemu/semihost.o $(BMCU_CORE_SRC:%.c=$(BMCU_B)/$(1)/%.o)
+
+$(BMCU_B)/m0p/bspline.elf: $(call BSMCU_OBJ,m0p) tests/qemu/mps2_an385.ld
+	arm-none-eabi-gcc $(BMCU_CPU_m0p) -nostdlib -T tests/qemu/mps2_an385.ld -Wl,--gc-sections \
+	  -o $@ $(filter %.o,$^) -lc -lgcc
+
+$(BMCU_B)/m4f/bspline.elf: $(call BSMCU_OBJ,m4f) tests/qemu/mps2_an385.ld
+	arm-none-eabi-gcc $(BMCU_CPU_m4f) -nostdlib -T tests/qemu/mps2_an385.ld -Wl,--gc-sections \
+	  -o $@ $(filter %.o,$^) -lc -lgcc
+
+.PHONY: bench-bspline-mcu
+bench-bspline-mcu: $(BMCU_B)/m0p/bspline.elf $(BMCU_B)/m4f/bspline.elf ## B-spline kind: solve/query instructions vs plain float on emulated M0+ and M4F
+	@for t in m0p m4f; do \
+	  case $$t in m0p) mach=$(BMCU_MACHINE_m0p);; m4f) mach=$(BMCU_MACHINE_m4f);; esac; \
+	  timeout --kill-after=5 $(BMCU_TIMEOUT) qemu-system-arm -M $$mach -icount shift=0 -nographic \
+	    -monitor none -serial none -semihosting-config enable=on,target=native \
+	    -kernel $(BMCU_B)/$$t/bspline.elf </dev/null || exit 1; \
+	done
+
+BENCH_TARGETS += bench-bspline-mcu
