@@ -120,14 +120,37 @@ static int check_model(const it2n_bspline_model *mdl, it2n_errinfo *err)
     return IT2N_OK;
 }
 
-/* Values of every net at (u, w) into out->v (unused channels 0). */
+#if !IT2N_MUL_HALVES
+/* One surface value from the 4 x 4 window at p: the two stages written out
+ * (no loop overhead; SMLAL each on ARMv7-M). The same sums as stage1 and
+ * stage2, so the same bits. ARMv6-M keeps the loops (flash). */
+IT2N_INLINE it2n_val window(const int32_t *p, unsigned stride,
+                            const int32_t bu[4], const int32_t bw[4],
+                            int frac)
+{
+    const int32_t *p1 = p + stride, *p2 = p1 + stride, *p3 = p2 + stride;
+    int64_t acc = 0;
+    unsigned s;
+    for (s = 0; s < 4u; s++) {
+        int64_t q = it2n_smul32(bu[0], p[s]) + it2n_smul32(bu[1], p1[s]) +
+                    it2n_smul32(bu[2], p2[s]) + it2n_smul32(bu[3], p3[s]);
+        acc += it2n_smul32(bw[s], (int32_t)((q + ((int64_t)1 << 29)) >> 30));
+    }
+    return it2n__shift_round(acc, 30 + frac - IT2N_VAL_FRAC);
+}
+#endif
+
+/* Values of every net at (u, w) into out->v (unused channels 0). The nets
+ * are visited in storage order: footprint, then channel. */
 static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
                         it2n_par w, it2n_point *out)
 {
-    int32_t bu[4], bw[4], q[4];
+    int32_t bu[4], bw[4];
     uint32_t tu, tw;
     unsigned k = span_of(u, mdl->n, &tu), l = span_of(w, mdl->m, &tw);
     unsigned stride = mdl->m + 3u, fp, ch, mask = it2n__fp_mask(mdl->flags);
+    size_t size = (size_t)(mdl->n + 3u) * stride;
+    const int32_t *win = mdl->coef + k * stride + l;
     basis(tu, bu);
     basis(tw, bw);
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
@@ -136,8 +159,16 @@ static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
                 out->v[fp][ch] = 0;
                 continue;
             }
-            stage1(net_of(mdl, fp, ch) + k * stride + l, stride, bu, 30, q);
-            out->v[fp][ch] = stage2(q, bw, mdl->frac[fp][ch]);
+#if IT2N_MUL_HALVES
+            {
+                int32_t q[4];
+                stage1(win, stride, bu, 30, q);
+                out->v[fp][ch] = stage2(q, bw, mdl->frac[fp][ch]);
+            }
+#else
+            out->v[fp][ch] = window(win, stride, bu, bw, mdl->frac[fp][ch]);
+#endif
+            win += size;
         }
     }
 }
