@@ -10,6 +10,7 @@ docs-figures: $(DOCFIG_DEPS) ## Regenerate the build figures quoted in README.md
 
 docs-check: $(DOCFIG_DEPS)
 	@BUILD=$(BUILD) /usr/bin/python3 tests/docs/docfig.py --check
+	@/usr/bin/python3 tests/docs/design_check.py .
 
 TEST_TARGETS += docs-check
 
