@@ -160,6 +160,14 @@ abi_refused "IT2N_PROTO_RX_REORDER=0" - window16_payload1024_reorder0_degree7 \
 abi_refused "IT2N_PROTO_WINDOW=4" - window4_payload1024_reorder1_degree7 \
   $pc_cflags -UIT2N_PROTO_WINDOW -DIT2N_PROTO_WINDOW=4
 
+# ---- docs/packaging.md lists what is installed ------------------------------
+want_h=$(grep '^| headers ' docs/packaging.md | grep -o '`[a-z0-9_]*\.h`' | tr -d '`' | sort | tr '\n' ' ')
+got_h=$(ls "$r$P/include/it2n" | sort | tr '\n' ' ')
+[ "$want_h" = "$got_h" ] || fail "docs/packaging.md lists headers '$want_h', make install installs '$got_h'"
+for lib in libit2n.a libit2n_proto.a; do
+  [ -f "$r$P/lib/$lib" ] && grep -q "\`$lib\`" docs/packaging.md || fail "docs/packaging.md and the installed $lib disagree"
+done
+
 # ---- names: the libraries export only their own prefix -----------------------
 # Every global symbol of the installed libraries is it2n_ (public: declared
 # in an installed header, the ABI-tagged names by their base name) or
