@@ -509,6 +509,11 @@ static int handler(void *user, const char *section, const char *name, const char
         }
         return key_modbus(p, name, value);
     }
+    if (!strcmp(section, "sparkplug")) {
+        if (spb_conf_key(&c->spb, name, value, p->line, p->err, sizeof p->err))
+            p->err_line = p->line;
+        return !p->err[0];
+    }
     if (!strncmp(section, "listen:", 7) && section[7]) {
         int k;
         if (!p->listen_set) {
@@ -629,6 +634,7 @@ void conf_default(struct conf *c)
     c->model[0].preload = 1;
     c->nmodels = 1;
     c->link_backoff_max = 30;
+    spb_conf_default(&c->spb);
 }
 
 /* Cross-key checks, done after the whole file is read. Each error names
@@ -723,6 +729,10 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
             VFAIL(p->link[k].first_line, sec, p->link[k].first_key, "device is required for type serial");
         if (l->type == CONF_LINK_USB && !l->vid && !l->pid)
             VFAIL(p->link[k].first_line, sec, p->link[k].first_key, "usb is required for type usb");
+    }
+    if (spb_conf_check(&c->spb, line, key, keysize, err, errsize)) {
+        snprintf(sect, sectsize, "sparkplug");
+        return -1;
     }
     return 0;
 }

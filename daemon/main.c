@@ -19,6 +19,7 @@
 #include "mb_tcp.h"
 #include "models.h"
 #include "notify.h"
+#include "spb.h"
 #include "store.h"
 
 #ifndef IT2ND_VERSION
@@ -149,6 +150,7 @@ static void on_model_changed(void *arg, const struct model *md, int old_state, u
     else if (md->state != old_state)
         log_info("model %d: %s", md->id, md->state == IT2N_RS_EMPTY ? "cleared" : "points missing");
     links_event(md, old_state);
+    spb_model_changed(md->id);
 }
 
 /* The store is degraded (an I/O error): try a checkpoint every second. */
@@ -427,6 +429,7 @@ static void reload(void)
     mb_tcp_reload(&cfg, &mbo);
     mb_rtu_reload(&cfg, &mbo);
     links_reload(&cfg);
+    spb_reload(&cfg);
     loop_cancel_timer(snap_timer);
     snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
     notify_send("READY=1");
@@ -501,6 +504,8 @@ int main(int argc, char **argv)
     links_start(&cfg);
     if (drop_privileges())
         return 1;
+    if (spb_start(&cfg, IT2ND_VERSION))
+        return 1;
     snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
     if (notify_watchdog_ms())
         wd_timer = loop_add_timer(notify_watchdog_ms() / 2, on_watchdog, NULL);
@@ -522,6 +527,7 @@ int main(int argc, char **argv)
     notify_send("STOPPING=1");
     log_notice("stopping: flushing state");
     drain();
+    spb_stop(); /* after drain: its changes go out as DDATA before the NDEATH */
     links_stop();
     mb_rtu_stop();
     mb_tcp_stop();

@@ -1,0 +1,32 @@
+/* spb — it2nd as a Sparkplug B 3.0 Edge Node on MQTT 3.1.1 (libmosquitto),
+ * each model a Device "model-N" (docs/sparkplug.md). The MQTT client runs
+ * inside the daemon's poll() loop: its socket is a loop fd, its keep-alive
+ * a loop timer, and every call is non-blocking (no thread, no lock; the
+ * one wait is the bounded NDEATH hand-off at a graceful stop). Nothing
+ * here runs unless the configuration has a [sparkplug] section. */
+#ifndef IT2ND_SPB_H
+#define IT2ND_SPB_H
+
+#include "conf.h"
+
+/* Start the edge node when c has [sparkplug]: the first connection
+ * attempt is made from the loop at once. Call after the models are
+ * restored (the births carry them). version: the daemon's, for the
+ * NBIRTH. Returns 0 (also when not configured) or -1 (cannot start:
+ * logged). */
+int spb_start(const struct conf *c, const char *version);
+
+/* Model id changed durably (or its status otherwise): a DDATA with what
+ * changed goes out at the end of this loop pass when the node is online. */
+void spb_model_changed(int id);
+
+/* The configuration was reloaded (models added/removed, grid size):
+ * DDEATH for devices that went, a new birth sequence when the metric set
+ * changed. [sparkplug] changes take effect at restart (logged). */
+void spb_reload(const struct conf *c);
+
+/* Graceful stop: pending DDATA, then NDEATH (QoS 1, waited for at most
+ * 2 s), then DISCONNECT, so the broker does not send the will as well. */
+void spb_stop(void);
+
+#endif
