@@ -24,7 +24,7 @@ FZD_MB := daemon/mb_req.c daemon/mb_map.c daemon/it2n_regmap.c daemon/models.c d
 FZD_SRC_modbus := daemon/mb_tcp.c daemon/acl.c $(FZD_MB)
 FZD_SRC_rtu := daemon/mb_rtu.c daemon/link_serial.c $(FZD_MB)
 FZD_SRC_store := daemon/store.c daemon/models.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
-FZD_SRC_conf := daemon/conf.c daemon/acl.c
+FZD_SRC_conf := daemon/conf.c daemon/acl.c daemon/spb_conf.c
 FZD_SRC_links := daemon/links.c daemon/link_serial.c daemon/models.c daemon/store.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
 FZD_SECONDS ?= $(FUZZ_SECONDS)
 # links: the harness takes the daemon's write()s to the link (fuzz_links.c).
