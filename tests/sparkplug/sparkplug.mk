@@ -8,5 +8,5 @@
 TEST_TARGETS += daemon-sparkplug
 
 daemon-sparkplug: $(IT2ND) $(IT2ND_SAN)
-	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND)
+	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND) --doc docs/sparkplug.md
 	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND_SAN) --quick

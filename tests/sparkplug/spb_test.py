@@ -193,6 +193,94 @@ def ncmd_rebirth(by_alias=None):
     return key(1, 0) + enc_varint(ts) + enc_len(2, m)
 
 
+# ---- the worked examples of docs/sparkplug.md, rendered from the wire
+
+TYPE_NAMES = {INT16: "Int16", INT32: "Int32", INT64: "Int64", UINT16: "UInt16", UINT32: "UInt32",
+              FLOAT: "Float", BOOLEAN: "Boolean", STRING: "String"}
+MFIELDS = {1: "name", 2: "alias", 3: "timestamp", 4: "datatype", 7: "is_null", 9: "properties", 10: "int_value",
+           11: "long_value", 12: "float_value", 14: "boolean_value", 15: "string_value"}
+
+
+def render(topic, qos, retain, p, aliases=None, pick=None, props=True):
+    """A message as the docs show it: topic, QoS, then the payload as JSON
+    with the protobuf field of each value; times as <ms>. aliases: names
+    of DATA metrics (by alias) for the reader, as comments. pick: the
+    indices of the metrics shown (the others are counted)."""
+    out = ["topic %s   (QoS %d, %sretained)" % (topic, qos, "" if retain else "not "), "{"]
+    if "timestamp" in p:
+        out.append('  "timestamp": <ms>,')
+    out.append('  "metrics": [')
+    ms = p["metrics"]
+    pick = range(len(ms)) if pick is None else [k for k in pick if k < len(ms)]
+    last = -1
+    for k in pick:
+        m = ms[k]
+        if k > last + 1:
+            out.append("    ... %d metrics" % (k - last - 1))
+        last = k
+        dt = m.get("datatype")
+        if dt is None and aliases and m.get("alias") in aliases:
+            dt = aliases[m["alias"]][2]
+        parts = []
+        for f in m["fields"]:
+            name = MFIELDS.get(f, "field%d" % f)
+            if f == 1:
+                parts.append('"name": "%s"' % m["name"])
+            elif f == 2:
+                parts.append('"alias": %d' % m["alias"])
+            elif f == 3:
+                parts.append('"timestamp": <ms>')
+            elif f == 4:
+                parts.append('"datatype": %d (%s)' % (dt, TYPE_NAMES.get(dt, "?")))
+            elif f == 7:
+                parts.append('"is_null": true')
+            elif f == 9 and props:
+                parts.append('"properties": {%s}' % ", ".join('"%s": "%s"' % (kk, vv.get("value"))
+                                                           for kk, vv in m["props"].items()))
+            elif f == 12:
+                parts.append('"%s": %r' % (name, m["raw"]))
+            elif f == 14:
+                parts.append('"%s": %s' % (name, "true" if m["raw"] else "false"))
+            elif f == 15:
+                parts.append('"%s": "%s"' % (name, m["raw"]))
+            elif f in (10, 11):
+                v = value(m, dt)
+                parts.append('"%s": %d%s' % (name, m["raw"], "" if v == m["raw"] else " (%d)" % v))
+        note = ""
+        if "name" not in m and aliases and m.get("alias") in aliases:
+            note = "   // %s" % aliases[m["alias"]][1]
+        out.append("    {%s}%s%s" % (", ".join(parts), "," if k + 1 < len(ms) else "", note))
+    if last + 1 < len(ms):
+        out.append("    ... %d metrics" % (len(ms) - last - 1))
+    out.append("  ]" + ("," if "seq" in p else ""))
+    if "seq" in p:
+        out.append('  "seq": %d' % p["seq"])
+    out.append("}")
+    return "\n".join(out) + "\n"
+
+
+def doc_blocks(path, samples, write):
+    """Compare (or rewrite) every `<!-- spb:NAME -->` fenced block of path
+    with the message rendered from this run. Returns the names that differ."""
+    import re
+    text = open(path).read()
+    bad = []
+
+    def sub(mo):
+        name = mo.group(1)
+        if name not in samples:
+            bad.append(name + " (not captured)")
+            return mo.group(0)
+        new = "<!-- spb:%s -->\n```text\n%s```\n<!-- /spb:%s -->" % (name, samples[name], name)
+        if new != mo.group(0):
+            bad.append(name)
+        return new
+    text2 = re.sub(r"<!-- spb:(\w+) -->\n.*?<!-- /spb:\1 -->", sub, text, flags=re.S)
+    if write and text2 != text:
+        open(path, "w").write(text2)
+    return bad
+
+
 # ---- processes
 
 def free_port():
@@ -438,7 +526,7 @@ def expect_births(host, seq, plc, devs, rows, cols, bdseq, why, timeout=10, ask_
         check(got_bd == bdseq, "%s: NBIRTH bdSeq %r == %d" % (why, got_bd, bdseq))
     aliases = {x["alias"]: ("node", x["name"], x["datatype"]) for x in p["metrics"] if "alias" in x}
     check(len(aliases) == len(p["metrics"]), "%s: NBIRTH metrics each with an alias" % why)
-    tabs = {}
+    tabs, msgs = {}, {"NBIRTH": nb}
     for dev, unit in devs:
         m = host.wait("DBIRTH", 5, dev=dev, log=log)
         for x in log[fed:]:
@@ -446,8 +534,9 @@ def expect_births(host, seq, plc, devs, rows, cols, bdseq, why, timeout=10, ask_
         fed = len(log)
         if check(m is not None, "%s: DBIRTH %s" % (why, dev)):
             tabs[dev] = check_dbirth(m, plc, unit, rows, cols, aliases)
+            msgs[dev] = m
     check(not seq.bad, "%s: seq rules %s" % (why, seq.bad[:3]))
-    return got_bd, {"aliases": aliases, "tabs": tabs, "nbirth": tab}
+    return got_bd, {"aliases": aliases, "tabs": tabs, "nbirth": tab, "msgs": msgs}
 
 
 def start_it2nd(args, conf):
@@ -499,6 +588,8 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--it2nd", required=True)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--doc", help="check the worked examples of this file (docs/sparkplug.md)")
+    ap.add_argument("--write-doc", action="store_true", help="rewrite them instead")
     args = ap.parse_args()
     if not MOSQUITTO:
         print("skip: mosquitto is not installed (Debian package mosquitto; make deps)")
@@ -528,6 +619,17 @@ def main():
         plc = Plc(mbport)
         bd0, st = expect_births(host, seq, plc, devs, rows, cols, 0, "first start")
         aliases = st["aliases"]
+        samples = {}
+
+        def topic(m):
+            return "%s/%s/%s/%s%s" % (NS, GROUP, m[1], NODE, "/" + m[2] if m[2] else "")
+        first_grid = len(STATUS)
+        for name, sample, pick in (("NBIRTH", "NBIRTH", None),
+                                   ("model-1", "DBIRTH", list(range(9)) + [first_grid, first_grid + 1])):
+            m = st["msgs"].get(name)
+            if m:
+                samples[sample] = render(topic(m), m[4], m[5], m[3], pick=pick)
+        samples["NCMD"] = render("%s/%s/NCMD/%s" % (NS, GROUP, NODE), 0, False, decode_payload(ncmd_rebirth()))
 
         # A Modbus write (an upload point into model 2): DDATA by alias in 1 s.
         t0 = time.monotonic()
@@ -540,6 +642,7 @@ def main():
             check(m[0] - t0 <= 1.0, "DDATA model-2 %.3f s after the write request (<= 1 s)" % (m[0] - t0))
             check(all("name" not in x and "alias" in x and "timestamp" in x for x in m[3]["metrics"]),
                   "DDATA: metrics by alias only, timestamped")
+            samples["DDATA"] = render(topic(m), m[4], m[5], m[3], aliases=aliases)
             v = ddata_values(m, aliases)
             regs = plc.read(2, 0, 28)
             check(v.get("Status/points_present") == 1 == reg_value(regs, "points_present") and
@@ -597,6 +700,7 @@ def main():
             m = host.wait("NDEATH", 5)
             if check(m is not None, "kill -9: NDEATH from the broker"):
                 p = m[3]
+                samples["NDEATH"] = render(topic(m), m[4], m[5], p)
                 check(m[4] == 1 and not m[5], "NDEATH (the will) QoS 1, not retained")
                 check(len(p["metrics"]) == 1 and p["metrics"][0].get("name") == "bdSeq" and
                       p["metrics"][0].get("datatype") == INT64 and "seq" not in p,
@@ -634,6 +738,13 @@ def main():
                   % (value(m[3]["metrics"][0], INT64), bd_last))
         check(host.wait("NDEATH", 1.5) is None, "SIGTERM: one NDEATH only (DISCONNECT sent, the will discarded)")
         node = None
+        if args.doc:
+            bad = doc_blocks(args.doc, samples, args.write_doc)
+            if args.write_doc:
+                print("rewrote %s: %s" % (args.doc, ", ".join(bad) or "nothing changed"))
+            else:
+                check(not bad, "%s: the worked examples are what the node sends %s (tests/sparkplug/spb_test.py "
+                      "--write-doc rewrites them)" % (args.doc, bad))
     finally:
         if node is not None and node.poll() is None:
             node.kill()
