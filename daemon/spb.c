@@ -598,7 +598,11 @@ static void on_tick(void *arg)
         return;
     mosquitto_loop_misc(g.mosq); /* keep-alive: PINGREQ, or drop a silent broker */
     after();
-    scan(1);  /* what changed without a durable change (last_error, counters) */
+    /* What changed without a durable change (last_error, counters); not
+     * while a change is on its way to the disk, so its DDATA carries the
+     * request that made it too. */
+    if (!models_pass_dirty())
+        scan(1);
     sync_fd();
 }
 
