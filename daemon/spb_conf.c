@@ -63,7 +63,9 @@ static int parse_broker(struct spb_conf *s, const char *v)
         return -1;
     memcpy(s->host, v, hlen);
     s->host[hlen] = 0;
-    if (colon && parse_num(colon + 1, 1, 65535, &s->port))
+    if (!colon)
+        s->port = 1883;  /* the MQTT port (IANA) */
+    else if (parse_num(colon + 1, 1, 65535, &s->port))
         return -1;
     return 0;
 }

@@ -2,7 +2,7 @@
 # tests against the real daemon binary (normal and ASan+UBSan builds).
 DT := tests/daemon
 DTB := $(BUILD)/tests/daemon
-DT_UNITS := test_mb_map test_mb_req test_conf test_store test_links test_models
+DT_UNITS := test_mb_map test_mb_req test_conf test_store test_links test_models test_spb
 # Daemon modules the unit tests link (everything but main.c).
 DT_MODS := $(filter-out $(BUILD)/host/daemon/main.o,$(DAEMON_OBJ))
 DT_SAN_MODS := $(filter-out $(BUILD)/san/daemon/main.o,$(DAEMON_SAN_OBJ))
