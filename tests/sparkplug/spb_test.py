@@ -36,6 +36,7 @@ except ImportError:
     mqtt = None
 
 GROUP, NODE = "plant-a", "cell-7"
+NODE_USER, NODE_PASSWORD = "cell-7", "correct horse battery"
 NS = "spBv1.0"
 # Sparkplug datatypes (spec 6.4.16) the test names.
 INT16, INT32, INT64, UINT16, UINT32, FLOAT, BOOLEAN, STRING = 2, 3, 4, 6, 7, 9, 11, 12
@@ -292,12 +293,23 @@ def free_port():
 
 
 class Broker:
-    def __init__(self, d, port):
+    """mosquitto with two loopback listeners: `port` anonymous (the host
+    application), `node_port` for user NODE_USER with a password only."""
+
+    def __init__(self, d, port, node_port):
         self.conf = os.path.join(d, "mosquitto.conf")
         self.log = os.path.join(d, "mosquitto.log")
-        self.port = port
+        self.port, self.node_port = port, node_port
+        pw = os.path.join(d, "passwd")
+        open(pw, "w").close()
+        subprocess.run(["mosquitto_passwd", "-b", pw, NODE_USER, NODE_PASSWORD], check=True)
+        # mosquitto started as root reads it as user mosquitto (a test secret)
+        os.chmod(d, 0o755)
+        os.chmod(pw, 0o644)
         with open(self.conf, "w") as f:
-            f.write("listener %d 127.0.0.1\nallow_anonymous true\npersistence false\n" % port)
+            f.write("per_listener_settings true\npersistence false\n"
+                    "listener %d 127.0.0.1\nallow_anonymous true\n"
+                    "listener %d 127.0.0.1\nallow_anonymous false\npassword_file %s\n" % (port, node_port, pw))
         self.p = None
 
     def start(self):
@@ -306,6 +318,7 @@ class Broker:
         while time.monotonic() < t:
             try:
                 socket.create_connection(("127.0.0.1", self.port), 0.2).close()
+                socket.create_connection(("127.0.0.1", self.node_port), 0.2).close()
                 return
             except OSError:
                 time.sleep(0.05)
@@ -598,6 +611,30 @@ def config_errors(args, d):
           "config: a missing edge_node_id is named with the section's first line")
 
 
+def wrong_password(args, d, broker, host):
+    """A password the broker refuses: logged, never born, Modbus served, a
+    clean stop (and no will: there was no session)."""
+    pw, conf, mb = os.path.join(d, "wrong.password"), os.path.join(d, "wrong.conf"), free_port()
+    with open(pw, "w") as f:
+        f.write("not the password\n")
+    with open(conf, "w") as f:
+        f.write("[daemon]\nstate_dir = %s/wrong\n[modbus]\ntcp_listen = 127.0.0.1:%d\n[sparkplug]\n"
+                "broker = 127.0.0.1:%d\ngroup_id = %s\nedge_node_id = wrong\nusername = %s\npassword_file = %s\n"
+                "reconnect_max = 1\n" % (d, mb, broker.node_port, GROUP, NODE_USER, pw))
+    p = start_it2nd(args, conf)
+    plc = Plc(mb)
+    ok = plc.read(1, 0, 28) is not None
+    plc.close()
+    m = host.get(2.5)
+    p.terminate()
+    rc = p.wait(10)
+    log = open(conf + ".log").read()
+    check(ok and m is None and rc == 0, "wrong password: no birth, Modbus served, exit 0")
+    check("refused the connection" in log and "not authorised" in log,
+          "wrong password: the refusal is logged (%s)" % [l for l in log.splitlines() if "refused" in l][:1])
+    check(host.get(1.0) is None, "wrong password: no NDEATH either (no session was opened)")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--it2nd", required=True)
@@ -612,7 +649,7 @@ def main():
         print("skip: paho-mqtt is not installed (Debian package python3-paho-mqtt; make deps)")
         return 0
     d = tempfile.mkdtemp(prefix="spb-test-")
-    broker = Broker(d, free_port())
+    broker = Broker(d, free_port(), free_port())
     node = host = plc = None
     try:
         broker.start()
@@ -622,16 +659,23 @@ def main():
         conf = os.path.join(d, "it2nd.conf")
         rows, cols = 3, 4
 
+        pwfile = os.path.join(d, "node.password")
+        with open(pwfile, "w") as f:
+            f.write(NODE_PASSWORD + "\n")
+
         def write_conf(model2=True):
             with open(conf, "w") as f:
                 f.write("[daemon]\nstate_dir = %s/state\n[modbus]\ntcp_listen = 127.0.0.1:%d\ngrid_rows = %d\n"
                         "grid_cols = %d\n[model:1]\npreload = paper\n%s"
                         "[sparkplug]\nbroker = 127.0.0.1:%d\ngroup_id = %s\nedge_node_id = %s\nkeepalive = 5\n"
-                        "reconnect_max = 2\n" % (d, mbport, rows, cols, "[model:2]\nn = 2\nm = 2\n" if model2 else "",
-                                                 broker.port, GROUP, NODE))
+                        "reconnect_max = 2\nusername = %s\npassword_file = %s\n"
+                        % (d, mbport, rows, cols, "[model:2]\nn = 2\nm = 2\n" if model2 else "", broker.node_port,
+                           GROUP, NODE, NODE_USER, pwfile))
         write_conf()
         devs = [("model-1", 1), ("model-2", 2)]
         host = Host(broker.port)
+        if not args.quick:
+            wrong_password(args, d, broker, host)
         seq = Seq()
         node = start_it2nd(args, conf)
         plc = Plc(mbport)
