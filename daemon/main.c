@@ -88,7 +88,7 @@ static int load_conf(struct conf *c)
     char err[512];
     conf_default(c);
     if ((conf_path && conf_load(c, conf_path, err, sizeof err)) ||
-        conf_check_hosts(c, conf_path, err, sizeof err)) {
+        conf_check_hosts(c, conf_path, err, sizeof err) || spb_conf_check_tls(&c->spb, conf_path, err, sizeof err)) {
         log_err("%s", err);
         return -1;
     }

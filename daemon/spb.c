@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <mosquitto.h>
+#include <openssl/ssl.h>
 #include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -47,6 +48,7 @@ static struct {
     struct mosquitto *mosq;
     enum st st;
     int fd;                    /* the socket the loop watches, or -1   */
+    int parked;                /* a TLS socket that failed while connecting: not watched */
     short events;
     long retry_timer, tick_timer;
     int backoff_ms;
@@ -60,7 +62,7 @@ static struct {
     struct dev *devs;
     int ndevs;
     unsigned long births, ddata;
-} g = { .fd = -1 };
+} g = { .fd = -1, .parked = -1 };
 
 enum { TP_DBIRTH, TP_DDATA, TP_DDEATH };
 
@@ -428,7 +430,15 @@ static void schedule_retry(void)
 static void sync_fd(void)
 {
     int fd = g.mosq ? mosquitto_socket(g.mosq) : -1;
-    short ev = (short)(POLLIN | (fd >= 0 && mosquitto_want_write(g.mosq) ? POLLOUT : 0));
+    const SSL *ssl = fd >= 0 ? mosquitto_ssl_get(g.mosq) : NULL;
+    /* During a TLS handshake the CONNECT is queued but cannot go yet: wait
+     * for what OpenSSL wants, not for any writable socket (a busy loop). */
+    int out = fd >= 0 && (ssl && !SSL_is_init_finished(ssl) ? SSL_want_write(ssl) : mosquitto_want_write(g.mosq));
+    short ev = (short)(POLLIN | (out ? POLLOUT : 0));
+    if (fd < 0 || fd != g.parked)
+        g.parked = -1;
+    else
+        fd = -1;  /* parked: libmosquitto's keep-alive check closes it */
     if (fd != g.fd) {
         if (g.fd >= 0)
             loop_del_fd(g.fd);
@@ -464,8 +474,17 @@ static void on_fd(void *arg, int fd, short revents)
     int rc = MOSQ_ERR_SUCCESS;
     (void)arg;
     (void)fd;
-    if (revents & (POLLIN | POLLERR | POLLHUP))
+    /* A TLS handshake advances in loop_read, whichever way it waits. */
+    if (revents & (POLLIN | POLLERR | POLLHUP | POLLOUT))
         rc = mosquitto_loop_read(g.mosq, 1);
+    /* A TLS connection that failed before its handshake: libmosquitto keeps
+     * the socket (SSL_ERROR_SYSCALL) until the keep-alive check; stop
+     * watching it meanwhile (poll would report it at once, again and again). */
+    if (rc == MOSQ_ERR_SUCCESS && (revents & (POLLERR | POLLHUP)) && g.st == ST_CONNECTING && g.sc.tls_ca[0] &&
+        mosquitto_socket(g.mosq) >= 0) {
+        log_info("sparkplug: %s:%d: connection failed", g.sc.host, g.sc.port);
+        g.parked = mosquitto_socket(g.mosq);
+    }
     if (rc == MOSQ_ERR_SUCCESS && (revents & POLLOUT) && mosquitto_socket(g.mosq) >= 0)
         rc = mosquitto_loop_write(g.mosq, 1);
     if (rc != MOSQ_ERR_SUCCESS && g.st == ST_CONNECTING)
@@ -530,6 +549,24 @@ static void try_connect(void *arg)
     g.st = ST_CONNECTING;
     g.dropped = 0;
     sync_fd();
+}
+
+/* libmosquitto's own errors (TLS: "certificate verify failed") into ours. */
+static void on_log(struct mosquitto *m, void *obj, int level, const char *str)
+{
+    (void)m;
+    (void)obj;
+    if (level & (MOSQ_LOG_ERR | MOSQ_LOG_WARNING))
+        log_warn("sparkplug: libmosquitto: %s", str);
+}
+
+static int no_password(char *buf, int size, int rwflag, void *u)
+{
+    (void)buf;
+    (void)size;
+    (void)rwflag;
+    (void)u;
+    return 0;  /* encrypted keys are refused at load (spb_tls.c) */
 }
 
 static void on_connect(struct mosquitto *m, void *obj, int rc)
@@ -666,6 +703,19 @@ int spb_start(const struct conf *c, const char *version)
         log_err("sparkplug: username: %s", mosquitto_strerror(rc));
         return -1;
     }
+    if (s->tls_ca[0]) {
+        /* Server verification: the chain against tls_ca and the host name
+         * against `broker` (libmosquitto's default, not "insecure"). */
+        rc = mosquitto_tls_set(g.mosq, s->tls_ca, NULL, s->tls_cert[0] ? s->tls_cert : NULL,
+                               s->tls_key[0] ? s->tls_key : NULL, no_password);
+        if (rc == MOSQ_ERR_SUCCESS)
+            rc = mosquitto_tls_opts_set(g.mosq, 1, NULL, NULL);
+        if (rc != MOSQ_ERR_SUCCESS) {
+            log_err("sparkplug: TLS: %s", mosquitto_strerror(rc));
+            return -1;
+        }
+    }
+    mosquitto_log_callback_set(g.mosq, on_log);
     mosquitto_connect_callback_set(g.mosq, on_connect);
     mosquitto_disconnect_callback_set(g.mosq, on_disconnect);
     mosquitto_publish_callback_set(g.mosq, on_publish);

@@ -126,8 +126,19 @@ int spb_conf_key(struct spb_conf *s, const char *name, const char *v, int line, 
         if (read_password(s, v, err, errsize))
             return -1;
         s->password_line = line;
-    } else if (!strcmp(name, "tls_ca") || !strcmp(name, "tls_cert") || !strcmp(name, "tls_key") ||
-               !strcmp(name, "primary_host_id") || !strcmp(name, "store_forward_max")) {
+    } else if (!strcmp(name, "tls_ca") || !strcmp(name, "tls_cert") || !strcmp(name, "tls_key")) {
+        char *dst = name[4] == 'c' && name[5] == 'a' ? s->tls_ca : name[4] == 'c' ? s->tls_cert : s->tls_key;
+        int *l = dst == s->tls_ca ? &s->tls_ca_line : dst == s->tls_cert ? &s->tls_cert_line : &s->tls_key_line;
+        FILE *f;
+        if (!*v || strlen(v) >= sizeof s->tls_ca)
+            ERR("path empty or too long");
+        /* Readable now (the contents are checked by spb_conf_check_tls). */
+        if (!(f = fopen(v, "r")))
+            ERR("cannot open '%s': %s", v, strerror(errno));
+        fclose(f);
+        snprintf(dst, sizeof s->tls_ca, "%s", v);
+        *l = line;
+    } else if (!strcmp(name, "primary_host_id") || !strcmp(name, "store_forward_max")) {
         ERR("not supported by this it2nd yet (docs/sparkplug.md, \"Not yet\"); remove the key");
     } else {
         ERR("unknown key");
@@ -147,6 +158,17 @@ int spb_conf_check(const struct spb_conf *s, int *line, char *key, size_t keysiz
             snprintf(key, keysize, "%s", s->first_key);
             ERR("%s is required in this section", need[k]);
         }
+    if (!!s->tls_cert[0] != !!s->tls_key[0]) {
+        *line = s->tls_cert[0] ? s->tls_cert_line : s->tls_key_line;
+        snprintf(key, keysize, "%s", s->tls_cert[0] ? "tls_cert" : "tls_key");
+        ERR("needs %s in this section (a client certificate and its key go together)",
+            s->tls_cert[0] ? "tls_key" : "tls_cert");
+    }
+    if (s->tls_cert[0] && !s->tls_ca[0]) {
+        *line = s->tls_cert_line;
+        snprintf(key, keysize, "tls_cert");
+        ERR("needs tls_ca in this section (TLS verifies the broker's certificate)");
+    }
     if (s->password_set && !s->username[0]) {
         *line = s->password_line;
         snprintf(key, keysize, "password_file");

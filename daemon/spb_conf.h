@@ -26,6 +26,10 @@ struct spb_conf {
     char password[SPB_SECRET_MAX]; /* the first line of password_file        */
     int password_set;
     int password_line;           /* line of password_file, 0 when not given  */
+    /* TLS: tls_ca set = TLS with server verification (certificate and host
+     * name); tls_cert + tls_key = a client certificate too. */
+    char tls_ca[256], tls_cert[256], tls_key[256];
+    int tls_ca_line, tls_cert_line, tls_key_line;
 };
 
 /* The defaults of a configuration without the section (disabled). */
@@ -38,5 +42,12 @@ int spb_conf_key(struct spb_conf *s, const char *name, const char *value, int li
 /* Checks between keys once the file is read: the required keys. Returns
  * 0, or -1 with *line, key (the key to name) and err (the reason). */
 int spb_conf_check(const struct spb_conf *s, int *line, char *key, size_t keysize, char *err, size_t errsize);
+
+/* Load the TLS files as the MQTT client will (OpenSSL: the CA
+ * certificates, the client certificate chain and key, and that they
+ * match), so a bad one fails --check-config, start and reload with
+ * "path:line: [sparkplug] key: reason". Kept out of spb_conf_key() so the
+ * parser (and its fuzzer) stays free of OpenSSL. 0 or -1 with err. */
+int spb_conf_check_tls(const struct spb_conf *s, const char *path, char *err, size_t errsize);
 
 #endif

@@ -292,14 +292,40 @@ def free_port():
     return p
 
 
-class Broker:
-    """mosquitto with two loopback listeners: `port` anonymous (the host
-    application), `node_port` for user NODE_USER with a password only."""
+def make_certs(d):
+    """A test CA, a broker certificate for 127.0.0.1 and a client
+    certificate signed by it, and a second CA that signed neither (EC keys:
+    fast). Paths by name."""
+    c = {k: os.path.join(d, k) for k in ("ca.crt", "ca.key", "ca2.crt", "ca2.key", "server.crt", "server.key",
+                                          "client.crt", "client.key", "san.ext")}
+    ec = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes"]
+    with open(c["san.ext"], "w") as f:
+        f.write("subjectAltName=IP:127.0.0.1\n")
 
-    def __init__(self, d, port, node_port):
+    def run(*a):
+        subprocess.run(["openssl"] + list(a), check=True, capture_output=True)
+    for ca in ("ca", "ca2"):
+        run("req", "-x509", *ec, "-keyout", c[ca + ".key"], "-out", c[ca + ".crt"], "-days", "2", "-subj",
+            "/CN=spb-test-" + ca)
+    for who, ext in (("server", ["-extfile", c["san.ext"]]), ("client", [])):
+        csr = os.path.join(d, who + ".csr")
+        run("req", *ec, "-keyout", c[who + ".key"], "-out", csr, "-subj", "/CN=" + who)
+        run("x509", "-req", "-in", csr, "-CA", c["ca.crt"], "-CAkey", c["ca.key"], "-CAcreateserial", "-out",
+            c[who + ".crt"], "-days", "2", *ext)
+    for k in c:
+        os.chmod(c[k], 0o644)  # the broker reads them as user mosquitto
+    return c
+
+
+class Broker:
+    """mosquitto with three loopback listeners: `port` anonymous (the host
+    application), `node_port` for user NODE_USER with a password only,
+    `tls_port` TLS with a client certificate required."""
+
+    def __init__(self, d, port, node_port, tls_port, certs):
         self.conf = os.path.join(d, "mosquitto.conf")
         self.log = os.path.join(d, "mosquitto.log")
-        self.port, self.node_port = port, node_port
+        self.port, self.node_port, self.tls_port = port, node_port, tls_port
         pw = os.path.join(d, "passwd")
         open(pw, "w").close()
         subprocess.run(["mosquitto_passwd", "-b", pw, NODE_USER, NODE_PASSWORD], check=True)
@@ -309,7 +335,10 @@ class Broker:
         with open(self.conf, "w") as f:
             f.write("per_listener_settings true\npersistence false\n"
                     "listener %d 127.0.0.1\nallow_anonymous true\n"
-                    "listener %d 127.0.0.1\nallow_anonymous false\npassword_file %s\n" % (port, node_port, pw))
+                    "listener %d 127.0.0.1\nallow_anonymous false\npassword_file %s\n"
+                    "listener %d 127.0.0.1\nallow_anonymous true\ncafile %s\ncertfile %s\nkeyfile %s\n"
+                    "require_certificate true\n" % (port, node_port, pw, tls_port, certs["ca.crt"],
+                                                   certs["server.crt"], certs["server.key"]))
         self.p = None
 
     def start(self):
@@ -590,7 +619,7 @@ def ddata_values(m, aliases):
 def config_errors(args, d):
     """[sparkplug] mistakes are fatal with file:line (it2nd -t)."""
     cases = [("bogus = 1", 6, "[sparkplug] bogus: unknown key"),
-             ("tls_ca = /x", 6, "[sparkplug] tls_ca: not supported"),
+             ("primary_host_id = scada", 6, "[sparkplug] primary_host_id: not supported"),
              ("keepalive = 2", 6, "[sparkplug] keepalive: expected seconds 5..3600"),
              ("group_id = a/b", 6, "[sparkplug] group_id: expected")]
     for extra, line, want in cases:
@@ -635,6 +664,60 @@ def wrong_password(args, d, broker, host):
     check(host.get(1.0) is None, "wrong password: no NDEATH either (no session was opened)")
 
 
+def tls_checks(args, d, broker, host, certs):
+    """TLS: files that do not load are configuration errors with file:line;
+    with the test CA and a client certificate the node is born over TLS; a
+    broker certificate from another CA, or no client certificate, and it is
+    not (logged), while Modbus is served and the node stops cleanly."""
+    conf = os.path.join(d, "tls.conf")
+
+    def write(tls, node="tls-node"):
+        mb = free_port()
+        with open(conf, "w") as f:
+            f.write("[daemon]\nstate_dir = %s/%s\n[modbus]\ntcp_listen = 127.0.0.1:%d\n[sparkplug]\n"
+                    "broker = 127.0.0.1:%d\ngroup_id = %s\nedge_node_id = %s\nreconnect_max = 1\n%s"
+                    % (d, node, mb, broker.tls_port, GROUP, node, tls))
+        return mb
+    bad = [("tls_cert = %s\n" % certs["client.crt"], 10, "[sparkplug] tls_cert: needs tls_key"),
+           ("tls_ca = %s/none.crt\n" % d, 10, "[sparkplug] tls_ca: cannot open"),
+           ("tls_ca = %s\n" % certs["san.ext"], 10, "[sparkplug] tls_ca: cannot load CA certificates"),
+           ("tls_ca = %s\ntls_cert = %s\ntls_key = %s\n" % (certs["ca.crt"], certs["client.crt"], certs["ca.key"]), 12,
+            "[sparkplug] tls_key: '%s' is not the key of tls_cert" % certs["ca.key"])]
+    for tls, line, want in bad:
+        write(tls)
+        r = subprocess.run([args.it2nd, "-t", "-c", conf], capture_output=True, text=True)
+        check(r.returncode != 0 and "%s:%d: %s" % (conf, line, want) in r.stderr,
+              "TLS config refused at line %d: %s" % (line, r.stderr.strip()[-100:]))
+    good = "tls_ca = %s\ntls_cert = %s\ntls_key = %s\n" % (certs["ca.crt"], certs["client.crt"], certs["client.key"])
+    write(good)
+    p = start_it2nd(args, conf)
+    m = host.wait("NBIRTH", 8)
+    check(m is not None and birth_table(m[3]).get("bdSeq") is not None,
+          "TLS (server verified, client certificate): NBIRTH of tls-node")
+    p.terminate()
+    rc = p.wait(10)
+    m = host.wait("NDEATH", 5)
+    check(rc == 0 and m is not None, "TLS: SIGTERM -> NDEATH, exit 0")
+    for tls, why, want in (("tls_ca = %s\ntls_cert = %s\ntls_key = %s\n" % (certs["ca2.crt"], certs["client.crt"],
+                                                                         certs["client.key"]),
+                            "a broker certificate from another CA", "certificate verify failed"),
+                           ("tls_ca = %s\n" % certs["ca.crt"], "no client certificate", "libmosquitto: OpenSSL Error")):
+        node = "tls-bad"
+        mb = write(tls, node)
+        open(conf + ".log", "w").close()
+        p = start_it2nd(args, conf)
+        plc = Plc(mb)
+        ok = plc.read(1, 0, 28) is not None
+        plc.close()
+        m = host.get(2.5)
+        p.terminate()
+        rc = p.wait(10)
+        log = open(conf + ".log").read()
+        check(ok and m is None and rc == 0 and want in log,
+              "TLS with %s: never born, Modbus served, exit 0, logged (%s)"
+              % (why, [l for l in log.splitlines() if "libmosquitto" in l or "sparkplug: 127" in l][:1]))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--it2nd", required=True)
@@ -649,7 +732,8 @@ def main():
         print("skip: paho-mqtt is not installed (Debian package python3-paho-mqtt; make deps)")
         return 0
     d = tempfile.mkdtemp(prefix="spb-test-")
-    broker = Broker(d, free_port(), free_port())
+    certs = make_certs(d)
+    broker = Broker(d, free_port(), free_port(), free_port(), certs)
     node = host = plc = None
     try:
         broker.start()
@@ -676,6 +760,7 @@ def main():
         host = Host(broker.port)
         if not args.quick:
             wrong_password(args, d, broker, host)
+            tls_checks(args, d, broker, host, certs)
         seq = Seq()
         node = start_it2nd(args, conf)
         plc = Plc(mbport)
