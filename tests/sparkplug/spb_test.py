@@ -36,7 +36,9 @@ except ImportError:
     mqtt = None
 
 GROUP, NODE = "plant-a", "cell-7"
-NODE_USER, NODE_PASSWORD = "cell-7", "correct horse battery"
+NODE_USER, NODE_PASSWORD = "cell-7", "correct horse battery"  # user = edge_node_id (the ACL)
+ACL = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                   "examples", "sparkplug", "mosquitto.acl")
 NS = "spBv1.0"
 # Sparkplug datatypes (spec 6.4.16) the test names.
 INT16, INT32, INT64, UINT16, UINT32, FLOAT, BOOLEAN, STRING = 2, 3, 4, 6, 7, 9, 11, 12
@@ -335,9 +337,9 @@ class Broker:
         with open(self.conf, "w") as f:
             f.write("per_listener_settings true\npersistence false\n"
                     "listener %d 127.0.0.1\nallow_anonymous true\n"
-                    "listener %d 127.0.0.1\nallow_anonymous false\npassword_file %s\n"
+                    "listener %d 127.0.0.1\nallow_anonymous false\npassword_file %s\nacl_file %s\n"
                     "listener %d 127.0.0.1\nallow_anonymous true\ncafile %s\ncertfile %s\nkeyfile %s\n"
-                    "require_certificate true\n" % (port, node_port, pw, tls_port, certs["ca.crt"],
+                    "require_certificate true\n" % (port, node_port, pw, ACL, tls_port, certs["ca.crt"],
                                                    certs["server.crt"], certs["server.key"]))
         self.p = None
 
@@ -640,6 +642,22 @@ def config_errors(args, d):
           "config: a missing edge_node_id is named with the section's first line")
 
 
+def acl_confines(args, d, broker, host, pwfile):
+    """examples/sparkplug/mosquitto.acl (docs/security.md): user cell-7
+    publishing as another edge node gets nothing through."""
+    conf, mb = os.path.join(d, "intruder.conf"), free_port()
+    with open(conf, "w") as f:
+        f.write("[daemon]\nstate_dir = %s/intruder\n[modbus]\ntcp_listen = 127.0.0.1:%d\n[sparkplug]\n"
+                "broker = 127.0.0.1:%d\ngroup_id = %s\nedge_node_id = intruder\nusername = %s\n"
+                "password_file = %s\n" % (d, mb, broker.node_port, GROUP, NODE_USER, pwfile))
+    p = start_it2nd(args, conf)
+    m = host.get(2.5)
+    p.terminate()
+    rc = p.wait(10)
+    check(m is None and rc == 0, "ACL: user %s as edge node 'intruder': nothing published (%s)"
+          % (NODE_USER, m and m[1]))
+
+
 def wrong_password(args, d, broker, host):
     """A password the broker refuses: logged, never born, Modbus served, a
     clean stop (and no will: there was no session)."""
@@ -761,6 +779,7 @@ def main():
         if not args.quick:
             wrong_password(args, d, broker, host)
             tls_checks(args, d, broker, host, certs)
+            acl_confines(args, d, broker, host, pwfile)
         seq = Seq()
         node = start_it2nd(args, conf)
         plc = Plc(mbport)
