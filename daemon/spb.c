@@ -333,13 +333,15 @@ static void dev_scan(struct dev *d)
     if (!md || !(cur = malloc((size_t)nm * sizeof *cur)))
         return;
     dev_values(models_view(md), cur);
-    pl = spb_pl_new((size_t)nm);
+    for (int k = 0; k < nm; k++)
+        n += !spb_val_equal(metric_type(k), &cur[k], &d->last[k]);
+    /* Sized for what changed: the 1 s scan of an unchanged device costs
+     * the comparison only. */
+    pl = n ? spb_pl_new((size_t)n) : NULL;
     for (int k = 0; pl && k < nm; k++)
-        if (!spb_val_equal(metric_type(k), &cur[k], &d->last[k])) {
+        if (!spb_val_equal(metric_type(k), &cur[k], &d->last[k]))
             spb_pl_add(pl, NULL, (uint64_t)(d->id + 1) * DEV_ALIAS + (uint64_t)k, metric_type(k), ts, &cur[k]);
-            n++;
-        }
-    if (pl && n) {
+    if (pl) {
         dev_topic(topic, sizeof topic, TP_DDATA, d->id);
         if (publish(topic, pl, ts, next_seq(), 0, NULL) == 0) {
             memcpy(d->last, cur, (size_t)nm * sizeof *cur);

@@ -25,8 +25,9 @@ void spb_model_changed(int id);
  * changed. [sparkplug] changes take effect at restart (logged). */
 void spb_reload(const struct conf *c);
 
-/* Graceful stop: pending DDATA, then NDEATH (QoS 1, waited for at most
- * 2 s), then DISCONNECT, so the broker does not send the will as well. */
+/* Graceful stop: pending DDATA (output flushed for at most 1 s), then
+ * NDEATH (QoS 1, its PUBACK waited for at most 2 s), then DISCONNECT, so
+ * the broker does not send the will as well. */
 void spb_stop(void);
 
 #endif
