@@ -416,10 +416,13 @@ class Host:
 
 class Seq:
     """seq rules over the node's messages in arrival order: NBIRTH 0, every
-    later NBIRTH/NDATA/DBIRTH/DDATA/DDEATH one more mod 256, NDEATH none."""
+    later NBIRTH/NDATA/DBIRTH/DDATA/DDEATH one more mod 256, NDEATH none.
+    An NDEATH ends the session only when its bdSeq is the last NBIRTH's (a
+    host ignores the will of an older session, spec 5.x)."""
 
     def __init__(self):
         self.last = None
+        self.bd = None
         self.bad = []
 
     def feed(self, m):
@@ -427,10 +430,13 @@ class Seq:
         if kind == "NDEATH":
             if "seq" in p:
                 self.bad.append("NDEATH with seq %d" % p["seq"])
-            self.last = None
+            if p["metrics"] and value(p["metrics"][0], INT64) == self.bd:
+                self.last = None
             return
         s = p.get("seq")
         if kind == "NBIRTH":
+            bd = [x for x in p["metrics"] if x.get("name") == "bdSeq"]
+            self.bd = value(bd[0], INT64) if bd else None
             if s != 0:
                 self.bad.append("NBIRTH seq %r" % s)
         elif self.last is None or s != (self.last + 1) % 256:
@@ -542,9 +548,11 @@ def check_dbirth(m, plc, unit, rows, cols, aliases):
     return tab
 
 
-def expect_births(host, seq, plc, devs, rows, cols, bdseq, why, timeout=10, ask_if_missed=False):
+def expect_births(host, seq, plc, devs, rows, cols, bdseq, why, timeout=10, ask_if_missed=False, before=None):
     log = []
     nb = host.wait("NBIRTH", timeout, log=log)
+    if before is not None:
+        before += log[:-1]
     if nb is None and ask_if_missed:
         host.rebirth()
         log = []
@@ -594,6 +602,19 @@ def upload(i, j, fp, t, ind, f):
     def i32(v):
         return [(v >> 16) & 0xFFFF, v & 0xFFFF]
     return [i, j, fp] + i32(i * 100) + i32(j * 100) + i32(0) + [t, ind, f]
+
+
+def wait_death(host, seq, bd, timeout):
+    """The NDEATH with bdSeq bd (wills of older sessions may come too)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        log = []
+        m = host.wait("NDEATH", end - time.monotonic(), log=log)
+        for x in log:
+            seq.feed(x)
+        if m is None or (m[3]["metrics"] and value(m[3]["metrics"][0], INT64) == bd):
+            return m
+    return None
 
 
 def wait_ddata(host, seq, dev, aliases, metric, timeout):
@@ -877,24 +898,44 @@ def main():
                   "the change made while the broker was stopped arrives as DDATA once it runs (points_present %d)"
                   % want)
 
-            # kill -9: the broker sends the will, the NDEATH of this session.
-            node.kill()
-            node.wait()
-            m = host.wait("NDEATH", 5)
-            if check(m is not None, "kill -9: NDEATH from the broker"):
+            # A broker silent for longer than the keep alive (5 s): the node
+            # drops it and tries again (each CONNECT a new bdSeq); once the
+            # broker runs, it sends the will of the first session and the
+            # node is born again.
+            broker.p.send_signal(signal.SIGSTOP)
+            lat = modbus_for(14)
+            broker.p.send_signal(signal.SIGCONT)
+            check(lat[-1] < 0.5, "broker SIGSTOPped 14 s (keep alive 5 s): %d Modbus requests answered, slowest "
+                  "%.1f ms" % (len(lat), lat[-1] * 1000))
+            seen, log = [], []
+            bdk, st = expect_births(host, seq, plc, devs, rows, cols, None, "after the broker was silent", timeout=20,
+                                    before=seen)
+            aliases = st["aliases"] or aliases
+            check(bdk is not None and 1 <= (bdk - bd0) % 256 <= 20, "after the silence: NBIRTH with a new bdSeq "
+                  "%r (was %d)" % (bdk, bd0))
+            deaths = [x for x in seen if x[1] == "NDEATH"]
+            m = deaths[0] if deaths else wait_death(host, seq, bd0, 5)
+            if check(m is not None, "the broker sends the will of the silent session"):
                 p = m[3]
                 samples["NDEATH"] = render(topic(m), m[4], m[5], p)
                 check(m[4] == 1 and not m[5], "NDEATH (the will) QoS 1, not retained")
                 check(len(p["metrics"]) == 1 and p["metrics"][0].get("name") == "bdSeq" and
                       p["metrics"][0].get("datatype") == INT64 and "seq" not in p,
                       "NDEATH: only the bdSeq metric (Int64), no seq")
-                check(value(p["metrics"][0], INT64) == bd0, "NDEATH bdSeq %r == the NBIRTH's %d"
+                check(value(p["metrics"][0], INT64) == bd0, "NDEATH bdSeq %r == the silent session's NBIRTH's %d"
                       % (value(p["metrics"][0], INT64), bd0))
+
+            # kill -9: the broker sends the will, the NDEATH of this session.
+            node.kill()
+            node.wait()
+            m = wait_death(host, seq, bdk, 5)
+            check(m is not None and m[4] == 1, "kill -9: NDEATH (QoS 1) from the broker with the session's bdSeq %r"
+                  % bdk)
             seq.last = None
             node = start_it2nd(args, conf)
             plc.close()
             plc = Plc(mbport)
-            bd1, st = expect_births(host, seq, plc, devs, rows, cols, (bd0 + 1) % 256, "restart after kill -9")
+            bd1, st = expect_births(host, seq, plc, devs, rows, cols, (bdk + 1) % 256, "restart after kill -9")
             aliases = st["aliases"] or aliases
             # The broker restarts: the node reconnects (backoff) and is born again.
             broker.stop()
