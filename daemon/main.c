@@ -227,6 +227,7 @@ static void on_done(const struct store_done *d)
         if (d->us > 100000)
             log_debug("wal: group commit took %llu ms", (unsigned long long)(d->us / 1000));
         models_batch_done(d->ok, on_model_changed, NULL);
+        spb_batch_done(); /* every durable change, not only state/generation moves */
         release_upto(d->ok ? d->batch : UINT64_MAX, d->ok);
     }
     arm_recover();

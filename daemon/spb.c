@@ -36,6 +36,7 @@ struct dev {
     int id;
     int dirty;                 /* a change was signalled: scan it      */
     struct spb_val *last;      /* values as last published             */
+    struct mb_query q;         /* its query (DCMD), like a Modbus connection's */
 };
 
 static struct {
@@ -44,7 +45,7 @@ static struct {
     char state_dir[CONF_PATH];
     char version[64];
     char client_id[2 * SPB_ID_MAX + 8];
-    char t_nbirth[160], t_ndeath[160], t_ncmd[160], t_dpre[4][160];
+    char t_nbirth[160], t_ndeath[160], t_ncmd[160], t_dpre[4][160], t_dcmd_sub[160];
     struct mosquitto *mosq;
     enum st st;
     int fd;                    /* the socket the loop watches, or -1   */
@@ -64,16 +65,41 @@ static struct {
     unsigned long births, ddata;
 } g = { .fd = -1, .parked = -1 };
 
-enum { TP_DBIRTH, TP_DDATA, TP_DDEATH };
+enum { TP_DBIRTH, TP_DDATA, TP_DDEATH, TP_DCMD };
 
-/* ---- the metric layout of a device ---- */
+/* ---- the metric layout of a device ----
+ *
+ * In this order (index K, alias (N + 1) * DEV_ALIAS + K):
+ *   Status/<name>         every field of the status block (registers 0..27)
+ *   Query/u, Query/w      the device's query (Float; written by DCMD)
+ *   Query/generation      model generation of the results (UInt32)
+ *   Query/Result/<FP>/<ch>, Query/Summary/<s>/<TIF>   results (Float)
+ *   Upload/<name>         the upload block (registers 40..51; written by
+ *                         DCMD as a whole, like FC16)
+ *   Sample Grid/r<R>/c<C>/<T|I|F>   the sample grid (Float) */
+
+#define N_QIN 2
+#define N_QGEN 1
+#define N_RES ((int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH) + 12)
+
+enum seg { SEG_STATUS, SEG_QIN, SEG_QGEN, SEG_RES, SEG_UPLOAD, SEG_GRID };
+
+static const it2n_regmap_block *block_at(unsigned start)
+{
+    for (size_t k = 0; k < it2n_regmap_nblocks; k++)
+        if (it2n_regmap_blocks[k].start == start)
+            return &it2n_regmap_blocks[k];
+    return NULL;
+}
 
 static const it2n_regmap_block *status_block(void)
 {
-    for (size_t k = 0; k < it2n_regmap_nblocks; k++)
-        if (it2n_regmap_blocks[k].start == IT2N_REG_MAP_VERSION)
-            return &it2n_regmap_blocks[k];
-    return NULL;
+    return block_at(IT2N_REG_MAP_VERSION);
+}
+
+static const it2n_regmap_block *upload_block(void)
+{
+    return block_at(IT2N_REG_UP_I);
 }
 
 static unsigned grid_nodes(void)
@@ -81,12 +107,40 @@ static unsigned grid_nodes(void)
     return g.mbo.grid_rows * g.mbo.grid_cols;
 }
 
-static int dev_nmetrics(void)
+/* First index of each segment, and the count. */
+static int seg_start(int seg)
 {
-    return (int)status_block()->nfields + (int)grid_nodes() * 3;
+    int n = 0;
+    if (seg > SEG_STATUS)
+        n += (int)status_block()->nfields;
+    if (seg > SEG_QIN)
+        n += N_QIN;
+    if (seg > SEG_QGEN)
+        n += N_QGEN;
+    if (seg > SEG_RES)
+        n += N_RES;
+    if (seg > SEG_UPLOAD)
+        n += (int)upload_block()->nfields;
+    return n;
 }
 
-static int status_type(int rt)
+static int dev_nmetrics(void)
+{
+    return seg_start(SEG_GRID) + (int)grid_nodes() * 3;
+}
+
+/* The segment of idx, with idx made relative to it. */
+static int seg_of(int *idx)
+{
+    for (int seg = SEG_GRID; seg > SEG_STATUS; seg--)
+        if (*idx >= seg_start(seg)) {
+            *idx -= seg_start(seg);
+            return seg;
+        }
+    return SEG_STATUS;
+}
+
+static int field_type(int rt)
 {
     switch (rt) {
     case IT2N_RT_I16: return SPB_INT16;
@@ -99,67 +153,137 @@ static int status_type(int rt)
 
 static int metric_type(int idx)
 {
-    const it2n_regmap_block *b = status_block();
-    return idx < (int)b->nfields ? status_type(b->fields[idx].type) : SPB_FLOAT;
+    switch (seg_of(&idx)) {
+    case SEG_STATUS: return field_type(status_block()->fields[idx].type);
+    case SEG_QGEN: return SPB_UINT32;
+    case SEG_UPLOAD: return field_type(upload_block()->fields[idx].type);
+    default: return SPB_FLOAT;
+    }
 }
+
+static const char *const fp_names[IT2N_REGMAP_FP] = { "LL", "LR", "L", "D", "R", "RL", "RR" };
+static const char ch_names[IT2N_REGMAP_CH] = { 'x', 'y', 'z', 'T', 'I', 'F' };
+static const char *const sum_names[4] = { "upper_min", "upper_max", "lower_min", "lower_max" };
 
 /* Name, and the description and unit for the birth. */
 static void metric_info(int idx, char *name, size_t nsize, char *desc, size_t dsize, const char **unit)
 {
-    const it2n_regmap_block *b = status_block();
-    static const char ch[3] = { 'T', 'I', 'F' };
     static const char *const chname[3] = { "Truth", "Indeterminacy", "Falsity" };
-    if (idx < (int)b->nfields) {
-        const it2n_regmap_field *f = &b->fields[idx];
-        snprintf(name, nsize, "Status/%s", f->name);
-        snprintf(desc, dsize, "%s (Modbus register %u)", f->desc, (unsigned)f->addr);
+    const it2n_regmap_field *f;
+    unsigned nd, k, r, c;
+    double u, w;
+    int seg = seg_of(&idx);
+    *unit = NULL;
+    switch (seg) {
+    case SEG_STATUS:
+    case SEG_UPLOAD:
+        f = &(seg == SEG_STATUS ? status_block() : upload_block())->fields[idx];
+        snprintf(name, nsize, "%s/%s", seg == SEG_STATUS ? "Status" : "Upload", f->name);
+        snprintf(desc, dsize, "%s (Modbus register %u%s)", f->desc, (unsigned)f->addr,
+                 seg == SEG_UPLOAD ? "; a DCMD writes the 9 Upload metrics together" : "");
         *unit = strcmp(f->unit, "-") ? f->unit : NULL;
         return;
+    case SEG_QIN:
+        snprintf(name, nsize, "Query/%c", idx ? 'w' : 'u');
+        snprintf(desc, dsize, "Parameter %c in [0, 1] of this device's query (Modbus q_%c_f, register %u); a DCMD "
+                 "writing Query/u and/or Query/w evaluates the model there", idx ? 'w' : 'u', idx ? 'w' : 'u',
+                 idx ? IT2N_REG_Q_WF : IT2N_REG_Q_UF);
+        return;
+    case SEG_QGEN:
+        snprintf(name, nsize, "Query/generation");
+        snprintf(desc, dsize, "Model generation the query results were computed from (Modbus q_generation)");
+        return;
+    case SEG_RES:
+        if (idx < (int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH)) {
+            k = (unsigned)idx % IT2N_REGMAP_CH;
+            snprintf(name, nsize, "Query/Result/%s/%c", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k]);
+            snprintf(desc, dsize, "Surface value of footprint %s, channel %c at (Query/u, Query/w) (Modbus register "
+                     "%u, float32)", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k], IT2N_REG_RES_F32 + 2u * (unsigned)idx);
+            *unit = k < 3 ? "coord" : NULL;
+        } else {
+            idx -= (int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH);
+            snprintf(name, nsize, "Query/Summary/%s/%c", sum_names[idx / 3], "TIF"[idx % 3]);
+            snprintf(desc, dsize, "Interval summary %s of %c at (Query/u, Query/w) (Modbus register %u, float32)",
+                     sum_names[idx / 3], "TIF"[idx % 3], IT2N_REG_SUM_F32 + 2u * (unsigned)idx);
+        }
+        return;
+    default:
+        nd = (unsigned)idx / 3;
+        k = (unsigned)idx % 3;
+        r = nd / g.mbo.grid_cols;
+        c = nd % g.mbo.grid_cols;
+        u = g.mbo.grid_rows > 1 ? (double)r / (g.mbo.grid_rows - 1) : 0.0;
+        w = g.mbo.grid_cols > 1 ? (double)c / (g.mbo.grid_cols - 1) : 0.0;
+        snprintf(name, nsize, "Sample Grid/r%u/c%u/%c", r, c, "TIF"[k]);
+        snprintf(desc, dsize, "%s membership of footprint D at u = %.4g, w = %.4g (Modbus register %u, float32)",
+                 chname[k], u, w, IT2N_REG_GRID_F32 + (nd * 3 + k) * 2);
+        return;
     }
-    idx -= (int)b->nfields;
-    unsigned nd = (unsigned)idx / 3, k = (unsigned)idx % 3;
-    unsigned r = nd / g.mbo.grid_cols, c = nd % g.mbo.grid_cols;
-    double u = g.mbo.grid_rows > 1 ? (double)r / (g.mbo.grid_rows - 1) : 0.0;
-    double w = g.mbo.grid_cols > 1 ? (double)c / (g.mbo.grid_cols - 1) : 0.0;
-    snprintf(name, nsize, "Sample Grid/r%u/c%u/%c", r, c, ch[k]);
-    snprintf(desc, dsize, "%s membership of footprint D at u = %.4g, w = %.4g (Modbus register %u, float32)",
-             chname[k], u, w, IT2N_REG_GRID_F32 + (nd * 3 + k) * 2);
-    *unit = NULL;
 }
 
-/* The values a PLC reads now, through the same register map code: the
- * status block and the float32 sample grid of the last durable state. */
-static void dev_values(struct model *md, struct spb_val *out)
+/* Register fields of a block into metric values. */
+static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, struct spb_val *out)
 {
-    static uint16_t regs[IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32];
-    struct mb_query q;
-    const it2n_regmap_block *b = status_block();
-    unsigned nodes = grid_nodes();
-    int n = dev_nmetrics();
-    memset(&q, 0, sizeof q);
-    memset(out, 0, (size_t)n * sizeof *out);
-    if (mbmap_read(md, &q, &g.mbo, b->start, (unsigned)(b->end - b->start), regs) != MBX_OK) {
-        for (size_t k = 0; k < b->nfields; k++)
-            out[k].null = 1;
-    } else {
-        for (size_t k = 0; k < b->nfields; k++) {
-            const it2n_regmap_field *f = &b->fields[k];
-            const uint16_t *r = &regs[f->addr - b->start];
-            switch (f->type) {
-            case IT2N_RT_I16: out[k].u = (uint64_t)(int64_t)(int16_t)r[0]; break;
-            case IT2N_RT_U32: out[k].u = (uint32_t)r[0] << 16 | r[1]; break;
-            case IT2N_RT_I32: out[k].u = (uint64_t)(int64_t)(int32_t)((uint32_t)r[0] << 16 | r[1]); break;
-            case IT2N_RT_F32: out[k].f = mbmap_get_f32(r, IT2N_WO_ABCD); break;
-            default: out[k].u = r[0]; break;
-            }
+    for (size_t k = 0; k < b->nfields; k++) {
+        const it2n_regmap_field *f = &b->fields[k];
+        const uint16_t *r = &regs[f->addr - b->start];
+        switch (f->type) {
+        case IT2N_RT_I16: out[k].u = (uint64_t)(int64_t)(int16_t)r[0]; break;
+        case IT2N_RT_U32: out[k].u = (uint32_t)r[0] << 16 | r[1]; break;
+        case IT2N_RT_I32: out[k].u = (uint64_t)(int64_t)(int32_t)((uint32_t)r[0] << 16 | r[1]); break;
+        case IT2N_RT_F32: out[k].f = mbmap_get_f32(r, IT2N_WO_ABCD); break;
+        default: out[k].u = r[0]; break;
         }
     }
-    out += b->nfields;
+}
+
+static void set_null(struct spb_val *out, int n)
+{
+    for (int k = 0; k < n; k++)
+        out[k].null = 1;
+}
+
+/* The values a PLC reads now, through the same register map code, from
+ * the last durable state: the status block, this device's query (its own
+ * connection-like state) and results, the upload block, the float32
+ * sample grid. Null where Modbus answers an exception (not solved). */
+static void dev_values(struct model *md, struct mb_query *q, struct spb_val *out)
+{
+    static uint16_t regs[IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32];
+    const it2n_regmap_block *b = status_block(), *up = upload_block();
+    unsigned nodes = grid_nodes();
+    int n = dev_nmetrics();
+    memset(out, 0, (size_t)n * sizeof *out);
+    if (mbmap_read(md, q, &g.mbo, b->start, (unsigned)(b->end - b->start), regs) == MBX_OK)
+        fields_values(b, regs, out);
+    else
+        set_null(out, (int)b->nfields);
+    out += seg_start(SEG_QIN);
+    if (q->kind == 1 && mbmap_read(md, q, &g.mbo, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
+        out[0].f = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
+        out[1].f = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+    } else {
+        set_null(out, N_QIN);
+    }
+    out += N_QIN;
+    if (q->kind == 1 && mbmap_read(md, q, &g.mbo, IT2N_REG_Q_GEN, 2, regs) == MBX_OK &&
+        mbmap_read(md, q, &g.mbo, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MBX_OK) {
+        out[0].u = (uint32_t)regs[0] << 16 | regs[1];
+        for (int k = 0; k < N_RES; k++)
+            out[1 + k].f = mbmap_get_f32(&regs[2 + 2 * k], IT2N_WO_ABCD);
+    } else {
+        set_null(out, N_QGEN + N_RES);  /* no query yet, or not solved (06) */
+    }
+    out += N_QGEN + N_RES;
+    if (mbmap_read(md, q, &g.mbo, up->start, (unsigned)(up->end - up->start), regs) == MBX_OK)
+        fields_values(up, regs, out);
+    else
+        set_null(out, (int)up->nfields);
+    out += up->nfields;
     if (!nodes)
         return;
-    if (mbmap_read(md, &q, &g.mbo, IT2N_REG_GRID_F32, nodes * 6u, regs) != MBX_OK) {
-        for (unsigned k = 0; k < nodes * 3u; k++)
-            out[k].null = 1;  /* not solved: no grid (Modbus answers 06) */
+    if (mbmap_read(md, q, &g.mbo, IT2N_REG_GRID_F32, nodes * 6u, regs) != MBX_OK) {
+        set_null(out, (int)nodes * 3);  /* not solved: no grid (Modbus answers 06) */
         return;
     }
     for (unsigned k = 0; k < nodes * 3u; k++)
@@ -230,18 +354,31 @@ static void devs_free(void)
 static int devs_build(void)
 {
     int n = models_count(), nm = dev_nmetrics();
-    devs_free();
+    struct dev *old = g.devs;
+    int nold = g.ndevs;
     g.devs = calloc((size_t)(n ? n : 1), sizeof *g.devs);
-    if (!g.devs)
+    g.ndevs = 0;
+    if (!g.devs) {
+        g.devs = old;
+        g.ndevs = nold;
         return -1;
+    }
     for (int k = 0; k < n; k++) {
         g.devs[k].id = models_at(k)->id;
+        /* A query outlives a birth, not its model (a removed and re-added
+         * model is a new one: its cached results are keyed on instance). */
+        for (int j = 0; j < nold; j++)
+            if (old[j].id == g.devs[k].id)
+                g.devs[k].q = old[j].q;
         g.devs[k].last = calloc((size_t)nm, sizeof *g.devs[k].last);
         if (!g.devs[k].last)
-            return -1;
+            break;
         g.ndevs = k + 1;
     }
-    return 0;
+    for (int j = 0; j < nold; j++)
+        free(old[j].last);
+    free(old);
+    return g.ndevs == n ? 0 : -1;
 }
 
 static int nbirth(void)
@@ -282,7 +419,7 @@ static int dbirth(struct dev *d, struct model *md)
     char topic[200], name[96], desc[200];
     if (!pl)
         return -1;
-    dev_values(models_view(md), d->last);
+    dev_values(models_view(md), &d->q, d->last);
     for (int k = 0; k < nm; k++) {
         const char *unit;
         int idx;
@@ -332,7 +469,7 @@ static void dev_scan(struct dev *d)
     d->dirty = 0;
     if (!md || !(cur = malloc((size_t)nm * sizeof *cur)))
         return;
-    dev_values(models_view(md), cur);
+    dev_values(models_view(md), &d->q, cur);
     for (int k = 0; k < nm; k++)
         n += !spb_val_equal(metric_type(k), &cur[k], &d->last[k]);
     /* Sized for what changed: the 1 s scan of an unchanged device costs
@@ -586,8 +723,10 @@ static void on_connect(struct mosquitto *m, void *obj, int rc)
     /* Commands first (spec 5.4): a Rebirth asked right after the NBIRTH
      * is not missed. */
     rc = mosquitto_subscribe(g.mosq, NULL, g.t_ncmd, 1);
+    if (rc == MOSQ_ERR_SUCCESS)
+        rc = mosquitto_subscribe(g.mosq, NULL, g.t_dcmd_sub, 1);
     if (rc != MOSQ_ERR_SUCCESS)
-        log_warn("sparkplug: subscribe %s: %s", g.t_ncmd, mosquitto_strerror(rc));
+        log_warn("sparkplug: subscribe: %s", mosquitto_strerror(rc));
     births();
 }
 
@@ -607,12 +746,184 @@ static void on_publish(struct mosquitto *m, void *obj, int mid)
         g.ndeath_acked = 1;
 }
 
+/* ---- DCMD: a query (Query/u, Query/w) and a data point (the 9 Upload
+ * metrics), through the register map like a Modbus write ---- */
+
+struct dcmd {
+    struct dev *d;
+    int nm;
+    float q[2];
+    int has_q[2];
+    uint16_t up[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
+    unsigned upmask;
+    int bad;
+    char why[200];
+};
+
+static int dcmd_index(const struct dcmd *c, const struct spb_in *m)
+{
+    char name[96], desc[200];
+    const char *unit;
+    if (m->name) {
+        for (int k = 0; k < c->nm; k++) {
+            metric_info(k, name, sizeof name, desc, sizeof desc, &unit);
+            if (!strcmp(name, m->name))
+                return k;
+        }
+        return -1;
+    }
+    if (m->has_alias && m->alias >= (uint64_t)(c->d->id + 1) * DEV_ALIAS &&
+        m->alias < (uint64_t)(c->d->id + 1) * DEV_ALIAS + (uint64_t)c->nm)
+        return (int)(m->alias - (uint64_t)(c->d->id + 1) * DEV_ALIAS);
+    return -1;
+}
+
+static void dcmd_refuse(struct dcmd *c, const char *fmt, const char *what)
+{
+    if (!c->bad++)
+        snprintf(c->why, sizeof c->why, fmt, what);
+}
+
+static void dcmd_metric(void *ctx, const struct spb_in *m)
+{
+    struct dcmd *c = ctx;
+    char label[64];
+    int idx = dcmd_index(c, m), rel = idx;
+    if (m->name)
+        snprintf(label, sizeof label, "%s", m->name);
+    else
+        snprintf(label, sizeof label, "alias %llu", (unsigned long long)m->alias);
+    if (idx < 0) {
+        dcmd_refuse(c, "%s: no such metric on this device", label);
+        return;
+    }
+    switch (seg_of(&rel)) {
+    case SEG_QIN:
+        if (m->kind == SPB_IN_FLOAT)
+            c->q[rel] = (float)m->d;
+        else if (m->kind == SPB_IN_INT || m->kind == SPB_IN_LONG)
+            c->q[rel] = (float)m->u;
+        else {
+            dcmd_refuse(c, "%s: expected a Float", label);
+            return;
+        }
+        c->has_q[rel] = 1;
+        return;
+    case SEG_UPLOAD: {
+        const it2n_regmap_field *f = &upload_block()->fields[rel];
+        uint16_t *r = &c->up[f->addr - IT2N_REG_UP_I];
+        int64_t v;
+        if (m->kind == SPB_IN_INT)
+            v = f->type == IT2N_RT_I32 ? (int64_t)(int32_t)(uint32_t)m->u : (int64_t)(uint32_t)m->u;
+        else if (m->kind == SPB_IN_LONG)
+            v = (int64_t)m->u;
+        else if (m->kind == SPB_IN_FLOAT && m->d == (double)(int64_t)m->d)
+            v = (int64_t)m->d;
+        else {
+            dcmd_refuse(c, "%s: expected an integer (the register's value)", label);
+            return;
+        }
+        if (f->type == IT2N_RT_I32 ? (v < INT32_MIN || v > INT32_MAX) : (v < 0 || v > 65535)) {
+            dcmd_refuse(c, "%s: out of the register's range", label);
+            return;
+        }
+        if (f->type == IT2N_RT_I32) {
+            r[0] = (uint16_t)((uint32_t)v >> 16);
+            r[1] = (uint16_t)v;
+        } else {
+            r[0] = (uint16_t)v;
+        }
+        c->upmask |= 1u << rel;
+        return;
+    }
+    default:
+        dcmd_refuse(c, "%s: read-only (a DCMD may write Query/u, Query/w and the Upload metrics)", label);
+        return;
+    }
+}
+
+static void on_dcmd(int id, const uint8_t *buf, size_t len)
+{
+    struct model *md = models_by_id(id);
+    struct dev *d = dev_find(id);
+    struct dcmd c;
+    int rc, persisted;
+    unsigned all = (1u << upload_block()->nfields) - 1u;
+    char why[128];
+    if (!md || !d) {
+        log_warn("sparkplug: DCMD for model-%d: no such device", id);
+        return;
+    }
+    memset(&c, 0, sizeof c);
+    c.d = d;
+    c.nm = dev_nmetrics();
+    if (spb_cmd_each(buf, len, dcmd_metric, &c, why, sizeof why)) {
+        log_warn("sparkplug: DCMD model-%d refused: %s", id, why);
+        mbmap_refused(md, MBX_ILLEGAL_VALUE);
+        d->dirty = 1;
+        return;
+    }
+    if (!c.bad && c.upmask && c.upmask != all)
+        dcmd_refuse(&c, "%s", "the 9 Upload metrics are one data point and go together (as one FC16 of registers "
+                                "40..51)");
+    if (!c.bad && c.upmask && ((g.mbo.write_protect[md->unit / 8] >> (md->unit % 8)) & 1))
+        dcmd_refuse(&c, "%s", "the model is write-protected ([model:] write_protect)");
+    if (c.bad) {
+        /* Nothing changes; the refusal is the report, as for Modbus. */
+        log_warn("sparkplug: DCMD model-%d refused: %s", id, c.why);
+        mbmap_refused(md, MBX_ILLEGAL_VALUE);
+        d->dirty = 1;
+        return;
+    }
+    if (c.has_q[0] || c.has_q[1]) {
+        uint16_t regs[4];
+        float cur[2] = { 0.0f, 0.0f };
+        if (d->q.kind == 1 && mbmap_read(md, &d->q, &g.mbo, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
+            cur[0] = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
+            cur[1] = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+        }
+        mbmap_put_f32(&regs[0], c.has_q[0] ? c.q[0] : cur[0], IT2N_WO_ABCD);
+        mbmap_put_f32(&regs[2], c.has_q[1] ? c.q[1] : cur[1], IT2N_WO_ABCD);
+        rc = mbmap_write(md, &d->q, &g.mbo, IT2N_REG_Q_UF, 4, regs, &persisted);
+        if (rc != MBX_OK)
+            log_warn("sparkplug: DCMD model-%d: query refused (u, w in [0, 1]): exception %02X", id, (unsigned)rc);
+    }
+    if (c.upmask) {
+        /* A data point: validated, journaled and made durable like a
+         * Modbus upload (its DDATA follows the commit, on_model_changed). */
+        struct model_txn t;
+        models_txn_begin(&t);
+        rc = mbmap_write(md, &d->q, &g.mbo, IT2N_REG_UP_I, IT2N_REG_UPLOAD_END - IT2N_REG_UP_I, c.up, &persisted);
+        if (rc != MBX_OK && persisted) {
+            it2n_errinfo e = md->last_err;
+            models_txn_rollback(&t);
+            md->last_err = e;
+        } else {
+            models_txn_commit(&t);
+        }
+        if (rc != MBX_OK)
+            log_warn("sparkplug: DCMD model-%d: data point refused: exception %02X, last_error %d", id, (unsigned)rc,
+                     md->last_err.code);
+    }
+    d->dirty = 1;
+}
+
 static void on_message(struct mosquitto *m, void *obj, const struct mosquitto_message *msg)
 {
     struct spb_cmd cmd;
     char why[128];
+    size_t pre = strlen(g.t_dpre[TP_DCMD]);
     (void)m;
     (void)obj;
+    if (!strncmp(msg->topic, g.t_dpre[TP_DCMD], pre)) {
+        char *end;
+        long id = strtol(msg->topic + pre, &end, 10);
+        if (end == msg->topic + pre || *end || id < 0 || id > 254)
+            log_warn("sparkplug: DCMD for %s: no such device", msg->topic);
+        else if (g.st == ST_ONLINE)
+            on_dcmd((int)id, msg->payload, (size_t)(msg->payloadlen > 0 ? msg->payloadlen : 0));
+        return;
+    }
     if (strcmp(msg->topic, g.t_ncmd))
         return;
     if (spb_cmd_parse(msg->payload, (size_t)(msg->payloadlen > 0 ? msg->payloadlen : 0), NA_REBIRTH, &cmd, why,
@@ -665,6 +976,9 @@ static void opts_from(const struct conf *c)
     /* The Modbus grid size, so the register map's grid cache serves both. */
     g.mbo.grid_rows = (unsigned)c->grid_rows;
     g.mbo.grid_cols = (unsigned)c->grid_cols;
+    for (int k = 0; k < c->nmodels; k++)
+        if (c->model[k].write_protect)
+            g.mbo.write_protect[c->model[k].unit / 8] |= (uint8_t)(1u << (c->model[k].unit % 8));
 }
 
 int spb_start(const struct conf *c, const char *version)
@@ -687,6 +1001,8 @@ int spb_start(const struct conf *c, const char *version)
     snprintf(g.t_dpre[TP_DBIRTH], sizeof g.t_dpre[0], NS "/%s/DBIRTH/%s/model-", s->group_id, s->edge_node_id);
     snprintf(g.t_dpre[TP_DDATA], sizeof g.t_dpre[0], NS "/%s/DDATA/%s/model-", s->group_id, s->edge_node_id);
     snprintf(g.t_dpre[TP_DDEATH], sizeof g.t_dpre[0], NS "/%s/DDEATH/%s/model-", s->group_id, s->edge_node_id);
+    snprintf(g.t_dpre[TP_DCMD], sizeof g.t_dpre[0], NS "/%s/DCMD/%s/model-", s->group_id, s->edge_node_id);
+    snprintf(g.t_dcmd_sub, sizeof g.t_dcmd_sub, NS "/%s/DCMD/%s/+", s->group_id, s->edge_node_id);
     g.file_bd = bdseq_load();
     if (g.file_bd == -2)
         return -1;
@@ -742,6 +1058,14 @@ void spb_model_changed(int id)
         return;
     d->dirty = 1;
     loop_wake();
+}
+
+void spb_batch_done(void)
+{
+    if (!g.on)
+        return;
+    for (int k = 0; k < g.ndevs; k++)
+        g.devs[k].dirty = 1;
 }
 
 void spb_reload(const struct conf *c)

@@ -20,6 +20,11 @@ int spb_start(const struct conf *c, const char *version);
  * changed goes out at the end of this loop pass when the node is online. */
 void spb_model_changed(int id);
 
+/* A group commit ended: whatever it made durable (a data point that
+ * moved neither state nor generation too) goes out as DDATA at the end of
+ * this loop pass; devices whose metrics did not move send nothing. */
+void spb_batch_done(void);
+
 /* The configuration was reloaded (models added/removed, grid size):
  * DDEATH for devices that went, a new birth sequence when the metric set
  * changed. [sparkplug] changes take effect at restart (logged). */

@@ -212,3 +212,35 @@ int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct
     spb__payload__free_unpacked(p, NULL);
     return rc;
 }
+
+int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_in *m), void *ctx,
+                 char *why, size_t whysize)
+{
+    Spb__Payload *p = spb__payload__unpack(NULL, len, buf);
+    if (!p) {
+        snprintf(why, whysize, "not a Sparkplug B payload (protobuf decoding failed, %zu bytes)", len);
+        return -1;
+    }
+    for (size_t k = 0; k < p->n_metrics; k++) {
+        const Spb__Payload__Metric *m = p->metrics[k];
+        struct spb_in in;
+        memset(&in, 0, sizeof in);
+        in.name = m->name;
+        in.has_alias = m->has_alias;
+        in.alias = m->alias;
+        in.has_datatype = m->has_datatype;
+        in.datatype = m->datatype;
+        switch (m->value_case) {
+        case SPB__PAYLOAD__METRIC__VALUE_INT_VALUE: in.kind = SPB_IN_INT; in.u = m->int_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_LONG_VALUE: in.kind = SPB_IN_LONG; in.u = m->long_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_FLOAT_VALUE: in.kind = SPB_IN_FLOAT; in.d = m->float_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_DOUBLE_VALUE: in.kind = SPB_IN_FLOAT; in.d = m->double_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE: in.kind = SPB_IN_BOOL; in.u = m->boolean_value != 0; break;
+        case SPB__PAYLOAD__METRIC__VALUE__NOT_SET: in.kind = SPB_IN_NONE; break;
+        default: in.kind = SPB_IN_OTHER; break;
+        }
+        fn(ctx, &in);
+    }
+    spb__payload__free_unpacked(p, NULL);
+    return 0;
+}

@@ -47,6 +47,25 @@ int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value);
  * malloc'ed (free it). Returns 0 or -1 (out of memory). */
 int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *len);
 
+/* One metric of a command (NCMD/DCMD), as decoded: by name or by alias,
+ * and its value by protobuf field (kind). Valid during the callback. */
+enum spb_in_kind { SPB_IN_NONE = 0, SPB_IN_INT, SPB_IN_LONG, SPB_IN_FLOAT, SPB_IN_BOOL, SPB_IN_OTHER };
+struct spb_in {
+    const char *name;      /* NULL: by alias                          */
+    int has_alias;
+    uint64_t alias;
+    int has_datatype;
+    uint32_t datatype;
+    int kind;              /* enum spb_in_kind; float and double: FLOAT */
+    uint64_t u;            /* INT (uint32 as sent), LONG, BOOL (0/1)   */
+    double d;              /* FLOAT                                    */
+};
+
+/* Decode a command payload and call fn for each metric, in order.
+ * Returns 0, or -1 with why (not a Sparkplug B payload). */
+int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_in *m), void *ctx,
+                 char *why, size_t whysize);
+
 /* What an NCMD/DCMD asks for. */
 struct spb_cmd {
     int rebirth;           /* "Node Control/Rebirth" = true             */

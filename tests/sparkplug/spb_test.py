@@ -196,6 +196,29 @@ def ncmd_rebirth(by_alias=None):
     return key(1, 0) + enc_varint(ts) + enc_len(2, m)
 
 
+def dcmd_payload(metrics):
+    """A DCMD payload: metrics as (name or None, alias or None, datatype,
+    value); Float as float_value, integers as int_value (32-bit two's
+    complement for negative Int32)."""
+    ts = int(time.time() * 1000)
+    out = key(1, 0) + enc_varint(ts)
+    for name, alias, dt, v in metrics:
+        m = b""
+        if name is not None:
+            m += enc_len(1, name.encode())
+        if alias is not None:
+            m += key(2, 0) + enc_varint(alias)
+        m += key(3, 0) + enc_varint(ts)
+        if name is not None:
+            m += key(4, 0) + enc_varint(dt)
+        if dt == FLOAT:
+            m += key(12, 5) + struct.pack("<f", v)
+        else:
+            m += key(10, 0) + enc_varint(v & 0xFFFFFFFF)
+        out += enc_len(2, m)
+    return out
+
+
 # ---- the worked examples of docs/sparkplug.md, rendered from the wire
 
 TYPE_NAMES = {INT16: "Int16", INT32: "Int32", INT64: "Int64", UINT16: "UInt16", UINT32: "UInt32",
@@ -409,6 +432,9 @@ class Host:
             if m[1] == kind and (dev is None or m[2] == dev):
                 return m
         return None
+
+    def dcmd(self, dev, metrics):
+        self.c.publish("%s/%s/DCMD/%s/%s" % (NS, GROUP, NODE, dev), dcmd_payload(metrics), qos=0)
 
     def rebirth(self, by_alias=None):
         self.c.publish("%s/%s/NCMD/%s" % (NS, GROUP, NODE), ncmd_rebirth(by_alias), qos=0)
@@ -810,13 +836,22 @@ def main():
 
         def topic(m):
             return "%s/%s/%s/%s%s" % (NS, GROUP, m[1], NODE, "/" + m[2] if m[2] else "")
-        first_grid = len(STATUS)
-        for name, sample, pick in (("NBIRTH", "NBIRTH", None),
-                                   ("model-1", "DBIRTH", list(range(9)) + [first_grid, first_grid + 1])):
+        for name, sample in (("NBIRTH", "NBIRTH"), ("model-1", "DBIRTH")):
             m = st["msgs"].get(name)
             if m:
+                names = [x.get("name") for x in m[3]["metrics"]]
+                pick = None if name == "NBIRTH" else sorted(
+                    list(range(9)) + [names.index(n) for n in ("Query/u", "Query/generation", "Query/Result/D/T",
+                                                               "Upload/up_i", "Upload/up_T", "Sample Grid/r0/c0/T",
+                                                               "Sample Grid/r0/c0/I") if n in names])
                 samples[sample] = render(topic(m), m[4], m[5], m[3], pick=pick)
         samples["NCMD"] = render("%s/%s/NCMD/%s" % (NS, GROUP, NODE), 0, False, decode_payload(ncmd_rebirth()))
+
+        # The reads of the DBIRTH checks moved the request counters: their
+        # DDATA (the 1 s scan) first, so what follows is reproducible.
+        for dev in ("model-1", "model-2"):
+            check(wait_ddata(host, seq, dev, aliases, "Status/requests", 3) is not None,
+                  "%s: the request counters read by the test come as DDATA within the 1 s scan" % dev)
 
         # A Modbus write (an upload point into model 2): DDATA by alias in 1 s.
         t0 = time.monotonic()
@@ -833,6 +868,56 @@ def main():
                   v.get("Status/state") == 1 and v.get("Status/points_received") == reg_value(regs, "points_received"),
                   "DDATA model-2 carries what changed: %s" % {k: v[k] for k in list(v)[:4]})
             check("Status/n" not in v, "DDATA model-2 leaves out what did not change")
+        # DCMD: a query of model 1 (by name) answered in DDATA, bit-equal to
+        # what a PLC reads for the same (u, w) with FC23.
+        samples["DCMD"] = render("%s/%s/DCMD/%s/model-1" % (NS, GROUP, NODE), 0, False,
+                                 decode_payload(dcmd_payload([("Query/u", None, FLOAT, 0.25),
+                                                              ("Query/w", None, FLOAT, 0.5)])))
+        host.dcmd("model-1", [("Query/u", None, FLOAT, 0.25), ("Query/w", None, FLOAT, 0.5)])
+        m = wait_ddata(host, seq, "model-1", aliases, "Query/u", 3)
+        if check(m is not None, "DCMD query (u, w) = (0.25, 0.5) on model-1: DDATA"):
+            samples["DDATA_QUERY"] = render(topic(m), m[4], m[5], m[3], aliases=aliases, pick=list(range(8)))
+            v = ddata_values(m, aliases)
+            rr = plc.c.readwrite_registers(read_address=128, read_count=108, write_address=66,
+                                           write_registers=list(struct.unpack(">4H", struct.pack(">ff", 0.25, 0.5))),
+                                           unit=1, slave=1)
+            want = [struct.unpack(">f", struct.pack(">HH", rr.registers[2 * k], rr.registers[2 * k + 1]))[0]
+                    for k in range(54)]
+            got = [v.get("Query/Result/%s/%s" % (fp, ch)) for fp in ("LL", "LR", "L", "D", "R", "RL", "RR")
+                   for ch in "xyzTIF"] + [v.get("Query/Summary/%s/%s" % (s_, k)) for s_ in
+                                          ("upper_min", "upper_max", "lower_min", "lower_max") for k in "TIF"]
+            check(v.get("Query/u") == 0.25 and v.get("Query/w") == 0.5 and got == want,
+                  "DCMD query: the 54 results and summaries equal the Modbus FC23 answer (first %r)" % got[:2])
+            check(v.get("Query/generation") == reg_value(plc.read(1, 0, 28), "generation"),
+                  "DCMD query: Query/generation is the model's generation")
+        # DCMD: a data point into model 2 by alias, the 9 Upload metrics:
+        # journaled like a Modbus upload, its DDATA after the commit.
+        ua = {n: a for a, (dv, n, dt) in aliases.items() if dv == "model-2" and n.startswith("Upload/")}
+        pt = [("up_i", UINT16, 1), ("up_j", UINT16, 0), ("up_fp", UINT16, 3), ("up_x", INT32, -150),
+              ("up_y", INT32, 0), ("up_z", INT32, 0), ("up_T", UINT16, 4000), ("up_I", UINT16, 1000),
+              ("up_F", UINT16, 2000)]
+        t0 = time.monotonic()
+        host.dcmd("model-2", [(None, ua["Upload/" + n], dt, val) for n, dt, val in pt])
+        m = wait_ddata(host, seq, "model-2", aliases, "Status/points_present", 3)
+        regs, upb = plc.read(2, 0, 28), plc.read(2, 40, 12)
+        if check(m is not None, "DCMD data point on model-2: DDATA"):
+            v = ddata_values(m, aliases)
+            check(m[0] - t0 <= 1.0 and v.get("Status/points_present") == 2 == reg_value(regs, "points_present"),
+                  "DCMD data point: DDATA in %.3f s, points_present 2 (Modbus too)" % (m[0] - t0))
+            check(v.get("Upload/up_i") == 1 and v.get("Upload/up_x") == -150 and upb[3:5] == [0xFFFF, 0xFF6A],
+                  "DCMD data point: the upload block as written (up_x -150, as Modbus reads it)")
+        # Half a data point: refused, nothing changes, last_error says so.
+        host.dcmd("model-2", [("Upload/up_i", None, UINT16, 2)])
+        m = wait_ddata(host, seq, "model-2", aliases, "Status/last_error", 3)
+        check(m is not None and ddata_values(m, aliases).get("Status/last_error") == -1 and
+              "Status/points_present" not in ddata_values(m, aliases) and
+              reg_value(plc.read(2, 0, 28), "points_present") == 2,
+              "DCMD half a data point: refused (last_error -1 in DDATA), nothing changed")
+        host.dcmd("model-2", [("Status/state", None, UINT16, 0)])
+        time.sleep(0.3)
+        check("DCMD model-2 refused: Status/state: read-only" in open(conf + ".log").read(),
+              "DCMD to a read-only metric: refused and logged")
+
         # A clear of model 1 (command register 35 = 2): state 0, grid null.
         t1 = time.monotonic()
         check(plc.write(1, 35, [2]), "Modbus: clear model 1")
