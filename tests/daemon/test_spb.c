@@ -240,12 +240,60 @@ static void test_cmd_parse(void **state)
     assert_non_null(strstr(why, "not a Sparkplug B payload"));
 }
 
+struct seen {
+    int n, rebirth_alias, floats;
+    double last;
+};
+
+static void seen_metric(void *ctx, const struct spb_in *m)
+{
+    struct seen *c = ctx;
+    c->n++;
+    if (!m->name && m->has_alias && m->alias == 2 && m->kind == SPB_IN_BOOL && m->u == 1)
+        c->rebirth_alias++;
+    if (m->kind == SPB_IN_FLOAT) {
+        c->floats++;
+        c->last = m->d;
+    }
+}
+
+static void test_cmd_each(void **state)
+{
+    struct spb_pl *pl = spb_pl_new(3);
+    struct spb_val v;
+    struct seen c;
+    char why[128];
+    uint8_t *buf, junk[2] = { 0x12, 0x09 };
+    size_t len;
+    (void)state;
+    memset(&v, 0, sizeof v);
+    memset(&c, 0, sizeof c);
+    v.u = 1;
+    spb_pl_add(pl, NULL, 2, SPB_BOOLEAN, 1, &v);
+    v.f = 0.75f;
+    spb_pl_add(pl, "Query/u", 0, SPB_FLOAT, 1, &v);
+    v.null = 1;
+    spb_pl_add(pl, "Query/w", 0, SPB_FLOAT, 1, &v);
+    assert_int_equal(spb_pl_pack(pl, 1, -1, &buf, &len), 0);
+    assert_int_equal(spb_cmd_each(buf, len, seen_metric, &c, why, sizeof why), 0);
+    assert_int_equal(c.n, 3);
+    assert_int_equal(c.rebirth_alias, 1);
+    assert_int_equal(c.floats, 1);  /* the null one has no value */
+    assert_true(c.last == 0.75);
+    free(buf);
+    spb_pl_free(pl);
+    memset(&c, 0, sizeof c);
+    assert_int_equal(spb_cmd_each(junk, sizeof junk, seen_metric, &c, why, sizeof why), -1);
+    assert_int_equal(c.n, 0);  /* all or nothing */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_broker_forms),  cmocka_unit_test(test_ids_and_ranges),
         cmocka_unit_test(test_password_file), cmocka_unit_test(test_payload_fields),
         cmocka_unit_test(test_val_equal),     cmocka_unit_test(test_cmd_parse),
+        cmocka_unit_test(test_cmd_each),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -2,7 +2,10 @@
  * (what any client allowed to publish on the node's NCMD topic sends),
  * decoded by spb_cmd_parse (protobuf-c code generated from daemon/spb.proto).
  * Invariants (abort on violation):
- *  - the decoder returns 0 or -1; -1 comes with a reason, 0 with
+ *  - spb_cmd_each (DCMD) decodes the same bytes all or nothing: every
+ *    metric it hands over has a known value kind, a terminated name, a
+ *    Boolean 0/1, a 32-bit int_value; the same count as spb_cmd_parse;
+ *  - the NCMD decoder returns 0 or -1; -1 comes with a reason, 0 with
  *    rebirth 0 or 1 and a metric count >= 0;
  *  - round trip: a payload built by the daemon's encoder (spb_pl_*) from
  *    the input (a Rebirth true/false by name or by alias, and a String
@@ -56,11 +59,27 @@ static void round_trip(const uint8_t *data, size_t size)
     spb_pl_free(pl);
 }
 
+struct each_ctx {
+    int n;
+};
+
+/* Every metric the DCMD decoder hands over is well formed. */
+static void each_metric(void *ctx, const struct spb_in *m)
+{
+    struct each_ctx *c = ctx;
+    c->n++;
+    fuzz_check(m->kind >= SPB_IN_NONE && m->kind <= SPB_IN_OTHER, "value kind");
+    fuzz_check(!m->name || strlen(m->name) < (1u << 17), "name terminated");
+    fuzz_check(m->kind != SPB_IN_BOOL || m->u <= 1, "boolean 0 or 1");
+    fuzz_check(m->kind != SPB_IN_INT || m->u <= UINT32_MAX, "int_value is 32 bits");
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     struct spb_cmd cmd;
+    struct each_ctx ec = { 0 };
     char why[128];
-    int rc;
+    int rc, rc2;
     why[0] = 0;
     rc = spb_cmd_parse(data, size, REBIRTH_ALIAS, &cmd, why, sizeof why);
     fuzz_check(rc == 0 || rc == -1, "return value");
@@ -68,6 +87,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fuzz_check(why[0] != 0 && memchr(why, 0, sizeof why) != NULL, "a refusal says why");
     else
         fuzz_check((cmd.rebirth == 0 || cmd.rebirth == 1) && cmd.nmetrics >= 0, "decoded command");
+    why[0] = 0;
+    rc2 = spb_cmd_each(data, size, each_metric, &ec, why, sizeof why);
+    fuzz_check(rc2 == 0 || (rc2 == -1 && why[0] && ec.n == 0), "DCMD decoder: all or nothing, with a reason");
+    fuzz_check(rc2 != 0 || rc != 0 || ec.n == cmd.nmetrics, "both decoders see the same metrics");
     round_trip(data, size);
     return 0;
 }
