@@ -17,6 +17,8 @@
 #include "loop.h"
 #include "mb_map.h"
 #include "models.h"
+#include "spb_dcmd.h"
+#include "spb_metrics.h"
 #include "spb_payload.h"
 
 #define NS "spBv1.0"
@@ -26,9 +28,8 @@
 #define STOP_WAIT_MS 2000       /* NDEATH PUBACK at a graceful stop     */
 
 /* Node metrics (NBIRTH), by alias. Device metrics have the aliases
- * (model id + 1) * DEV_ALIAS + index: unique on the node, readable. */
+ * (model id + 1) * SPB_DEV_ALIAS + index: unique on the node, readable. */
 enum { NA_BDSEQ = 1, NA_REBIRTH, NA_VERSION, NA_MAP_VERSION, NA_MODELS, NA_COUNT = NA_MODELS };
-#define DEV_ALIAS 10000u
 
 enum st { ST_IDLE, ST_CONNECTING, ST_ONLINE };
 
@@ -66,229 +67,6 @@ static struct {
 } g = { .fd = -1, .parked = -1 };
 
 enum { TP_DBIRTH, TP_DDATA, TP_DDEATH, TP_DCMD };
-
-/* ---- the metric layout of a device ----
- *
- * In this order (index K, alias (N + 1) * DEV_ALIAS + K):
- *   Status/<name>         every field of the status block (registers 0..27)
- *   Query/u, Query/w      the device's query (Float; written by DCMD)
- *   Query/generation      model generation of the results (UInt32)
- *   Query/Result/<FP>/<ch>, Query/Summary/<s>/<TIF>   results (Float)
- *   Upload/<name>         the upload block (registers 40..51; written by
- *                         DCMD as a whole, like FC16)
- *   Sample Grid/r<R>/c<C>/<T|I|F>   the sample grid (Float) */
-
-#define N_QIN 2
-#define N_QGEN 1
-#define N_RES ((int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH) + 12)
-
-enum seg { SEG_STATUS, SEG_QIN, SEG_QGEN, SEG_RES, SEG_UPLOAD, SEG_GRID };
-
-static const it2n_regmap_block *block_at(unsigned start)
-{
-    for (size_t k = 0; k < it2n_regmap_nblocks; k++)
-        if (it2n_regmap_blocks[k].start == start)
-            return &it2n_regmap_blocks[k];
-    return NULL;
-}
-
-static const it2n_regmap_block *status_block(void)
-{
-    return block_at(IT2N_REG_MAP_VERSION);
-}
-
-static const it2n_regmap_block *upload_block(void)
-{
-    return block_at(IT2N_REG_UP_I);
-}
-
-static unsigned grid_nodes(void)
-{
-    return g.mbo.grid_rows * g.mbo.grid_cols;
-}
-
-/* First index of each segment, and the count. */
-static int seg_start(int seg)
-{
-    int n = 0;
-    if (seg > SEG_STATUS)
-        n += (int)status_block()->nfields;
-    if (seg > SEG_QIN)
-        n += N_QIN;
-    if (seg > SEG_QGEN)
-        n += N_QGEN;
-    if (seg > SEG_RES)
-        n += N_RES;
-    if (seg > SEG_UPLOAD)
-        n += (int)upload_block()->nfields;
-    return n;
-}
-
-static int dev_nmetrics(void)
-{
-    return seg_start(SEG_GRID) + (int)grid_nodes() * 3;
-}
-
-/* The segment of idx, with idx made relative to it. */
-static int seg_of(int *idx)
-{
-    for (int seg = SEG_GRID; seg > SEG_STATUS; seg--)
-        if (*idx >= seg_start(seg)) {
-            *idx -= seg_start(seg);
-            return seg;
-        }
-    return SEG_STATUS;
-}
-
-static int field_type(int rt)
-{
-    switch (rt) {
-    case IT2N_RT_I16: return SPB_INT16;
-    case IT2N_RT_U32: return SPB_UINT32;
-    case IT2N_RT_I32: return SPB_INT32;
-    case IT2N_RT_F32: return SPB_FLOAT;
-    default: return SPB_UINT16;
-    }
-}
-
-static int metric_type(int idx)
-{
-    switch (seg_of(&idx)) {
-    case SEG_STATUS: return field_type(status_block()->fields[idx].type);
-    case SEG_QGEN: return SPB_UINT32;
-    case SEG_UPLOAD: return field_type(upload_block()->fields[idx].type);
-    default: return SPB_FLOAT;
-    }
-}
-
-static const char *const fp_names[IT2N_REGMAP_FP] = { "LL", "LR", "L", "D", "R", "RL", "RR" };
-static const char ch_names[IT2N_REGMAP_CH] = { 'x', 'y', 'z', 'T', 'I', 'F' };
-static const char *const sum_names[4] = { "upper_min", "upper_max", "lower_min", "lower_max" };
-
-/* Name, and the description and unit for the birth. */
-static void metric_info(int idx, char *name, size_t nsize, char *desc, size_t dsize, const char **unit)
-{
-    static const char *const chname[3] = { "Truth", "Indeterminacy", "Falsity" };
-    const it2n_regmap_field *f;
-    unsigned nd, k, r, c;
-    double u, w;
-    int seg = seg_of(&idx);
-    *unit = NULL;
-    switch (seg) {
-    case SEG_STATUS:
-    case SEG_UPLOAD:
-        f = &(seg == SEG_STATUS ? status_block() : upload_block())->fields[idx];
-        snprintf(name, nsize, "%s/%s", seg == SEG_STATUS ? "Status" : "Upload", f->name);
-        snprintf(desc, dsize, "%s (Modbus register %u%s)", f->desc, (unsigned)f->addr,
-                 seg == SEG_UPLOAD ? "; a DCMD writes the 9 Upload metrics together" : "");
-        *unit = strcmp(f->unit, "-") ? f->unit : NULL;
-        return;
-    case SEG_QIN:
-        snprintf(name, nsize, "Query/%c", idx ? 'w' : 'u');
-        snprintf(desc, dsize, "Parameter %c in [0, 1] of this device's query (Modbus q_%c_f, register %u); a DCMD "
-                 "writing Query/u and/or Query/w evaluates the model there", idx ? 'w' : 'u', idx ? 'w' : 'u',
-                 idx ? IT2N_REG_Q_WF : IT2N_REG_Q_UF);
-        return;
-    case SEG_QGEN:
-        snprintf(name, nsize, "Query/generation");
-        snprintf(desc, dsize, "Model generation the query results were computed from (Modbus q_generation)");
-        return;
-    case SEG_RES:
-        if (idx < (int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH)) {
-            k = (unsigned)idx % IT2N_REGMAP_CH;
-            snprintf(name, nsize, "Query/Result/%s/%c", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k]);
-            snprintf(desc, dsize, "Surface value of footprint %s, channel %c at (Query/u, Query/w) (Modbus register "
-                     "%u, float32)", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k], IT2N_REG_RES_F32 + 2u * (unsigned)idx);
-            *unit = k < 3 ? "coord" : NULL;
-        } else {
-            idx -= (int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH);
-            snprintf(name, nsize, "Query/Summary/%s/%c", sum_names[idx / 3], "TIF"[idx % 3]);
-            snprintf(desc, dsize, "Interval summary %s of %c at (Query/u, Query/w) (Modbus register %u, float32)",
-                     sum_names[idx / 3], "TIF"[idx % 3], IT2N_REG_SUM_F32 + 2u * (unsigned)idx);
-        }
-        return;
-    default:
-        nd = (unsigned)idx / 3;
-        k = (unsigned)idx % 3;
-        r = nd / g.mbo.grid_cols;
-        c = nd % g.mbo.grid_cols;
-        u = g.mbo.grid_rows > 1 ? (double)r / (g.mbo.grid_rows - 1) : 0.0;
-        w = g.mbo.grid_cols > 1 ? (double)c / (g.mbo.grid_cols - 1) : 0.0;
-        snprintf(name, nsize, "Sample Grid/r%u/c%u/%c", r, c, "TIF"[k]);
-        snprintf(desc, dsize, "%s membership of footprint D at u = %.4g, w = %.4g (Modbus register %u, float32)",
-                 chname[k], u, w, IT2N_REG_GRID_F32 + (nd * 3 + k) * 2);
-        return;
-    }
-}
-
-/* Register fields of a block into metric values. */
-static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, struct spb_val *out)
-{
-    for (size_t k = 0; k < b->nfields; k++) {
-        const it2n_regmap_field *f = &b->fields[k];
-        const uint16_t *r = &regs[f->addr - b->start];
-        switch (f->type) {
-        case IT2N_RT_I16: out[k].u = (uint64_t)(int64_t)(int16_t)r[0]; break;
-        case IT2N_RT_U32: out[k].u = (uint32_t)r[0] << 16 | r[1]; break;
-        case IT2N_RT_I32: out[k].u = (uint64_t)(int64_t)(int32_t)((uint32_t)r[0] << 16 | r[1]); break;
-        case IT2N_RT_F32: out[k].f = mbmap_get_f32(r, IT2N_WO_ABCD); break;
-        default: out[k].u = r[0]; break;
-        }
-    }
-}
-
-static void set_null(struct spb_val *out, int n)
-{
-    for (int k = 0; k < n; k++)
-        out[k].null = 1;
-}
-
-/* The values a PLC reads now, through the same register map code, from
- * the last durable state: the status block, this device's query (its own
- * connection-like state) and results, the upload block, the float32
- * sample grid. Null where Modbus answers an exception (not solved). */
-static void dev_values(struct model *md, struct mb_query *q, struct spb_val *out)
-{
-    static uint16_t regs[IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32];
-    const it2n_regmap_block *b = status_block(), *up = upload_block();
-    unsigned nodes = grid_nodes();
-    int n = dev_nmetrics();
-    memset(out, 0, (size_t)n * sizeof *out);
-    if (mbmap_read(md, q, &g.mbo, b->start, (unsigned)(b->end - b->start), regs) == MBX_OK)
-        fields_values(b, regs, out);
-    else
-        set_null(out, (int)b->nfields);
-    out += seg_start(SEG_QIN);
-    if (q->kind == 1 && mbmap_read(md, q, &g.mbo, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
-        out[0].f = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
-        out[1].f = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
-    } else {
-        set_null(out, N_QIN);
-    }
-    out += N_QIN;
-    if (q->kind == 1 && mbmap_read(md, q, &g.mbo, IT2N_REG_Q_GEN, 2, regs) == MBX_OK &&
-        mbmap_read(md, q, &g.mbo, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MBX_OK) {
-        out[0].u = (uint32_t)regs[0] << 16 | regs[1];
-        for (int k = 0; k < N_RES; k++)
-            out[1 + k].f = mbmap_get_f32(&regs[2 + 2 * k], IT2N_WO_ABCD);
-    } else {
-        set_null(out, N_QGEN + N_RES);  /* no query yet, or not solved (06) */
-    }
-    out += N_QGEN + N_RES;
-    if (mbmap_read(md, q, &g.mbo, up->start, (unsigned)(up->end - up->start), regs) == MBX_OK)
-        fields_values(up, regs, out);
-    else
-        set_null(out, (int)up->nfields);
-    out += up->nfields;
-    if (!nodes)
-        return;
-    if (mbmap_read(md, q, &g.mbo, IT2N_REG_GRID_F32, nodes * 6u, regs) != MBX_OK) {
-        set_null(out, (int)nodes * 3);  /* not solved: no grid (Modbus answers 06) */
-        return;
-    }
-    for (unsigned k = 0; k < nodes * 3u; k++)
-        out[k].f = mbmap_get_f32(&regs[k * 2], IT2N_WO_ABCD);
-}
 
 /* ---- publishing ---- */
 
@@ -353,7 +131,7 @@ static void devs_free(void)
 /* The device table follows the model table (births, reload). */
 static int devs_build(void)
 {
-    int n = models_count(), nm = dev_nmetrics();
+    int n = models_count(), nm = spb_metrics_count(&g.mbo);
     struct dev *old = g.devs;
     int nold = g.ndevs;
     g.devs = calloc((size_t)(n ? n : 1), sizeof *g.devs);
@@ -413,18 +191,18 @@ static int nbirth(void)
 
 static int dbirth(struct dev *d, struct model *md)
 {
-    int nm = dev_nmetrics(), rc;
+    int nm = spb_metrics_count(&g.mbo), rc;
     struct spb_pl *pl = spb_pl_new((size_t)nm);
     uint64_t ts = now_ms();
     char topic[200], name[96], desc[200];
     if (!pl)
         return -1;
-    dev_values(models_view(md), &d->q, d->last);
+    spb_metrics_values(models_view(md), &d->q, &g.mbo, d->last);
     for (int k = 0; k < nm; k++) {
         const char *unit;
         int idx;
-        metric_info(k, name, sizeof name, desc, sizeof desc, &unit);
-        idx = spb_pl_add(pl, name, (uint64_t)(d->id + 1) * DEV_ALIAS + (uint64_t)k, metric_type(k), ts, &d->last[k]);
+        spb_metrics_info(&g.mbo, k, name, sizeof name, desc, sizeof desc, &unit);
+        idx = spb_pl_add(pl, name, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts, &d->last[k]);
         if (idx < 0 || spb_pl_prop(pl, idx, "description", desc) || (unit && spb_pl_prop(pl, idx, "engUnit", unit))) {
             spb_pl_free(pl);
             return -1;
@@ -461,7 +239,7 @@ static void births(void)
 static void dev_scan(struct dev *d)
 {
     struct model *md = models_by_id(d->id);
-    int nm = dev_nmetrics(), n = 0;
+    int nm = spb_metrics_count(&g.mbo), n = 0;
     struct spb_val *cur;
     struct spb_pl *pl;
     uint64_t ts = now_ms();
@@ -469,15 +247,15 @@ static void dev_scan(struct dev *d)
     d->dirty = 0;
     if (!md || !(cur = malloc((size_t)nm * sizeof *cur)))
         return;
-    dev_values(models_view(md), &d->q, cur);
+    spb_metrics_values(models_view(md), &d->q, &g.mbo, cur);
     for (int k = 0; k < nm; k++)
-        n += !spb_val_equal(metric_type(k), &cur[k], &d->last[k]);
+        n += !spb_val_equal(spb_metrics_type(k), &cur[k], &d->last[k]);
     /* Sized for what changed: the 1 s scan of an unchanged device costs
      * the comparison only. */
     pl = n ? spb_pl_new((size_t)n) : NULL;
     for (int k = 0; pl && k < nm; k++)
-        if (!spb_val_equal(metric_type(k), &cur[k], &d->last[k]))
-            spb_pl_add(pl, NULL, (uint64_t)(d->id + 1) * DEV_ALIAS + (uint64_t)k, metric_type(k), ts, &cur[k]);
+        if (!spb_val_equal(spb_metrics_type(k), &cur[k], &d->last[k]))
+            spb_pl_add(pl, NULL, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts, &cur[k]);
     if (pl) {
         dev_topic(topic, sizeof topic, TP_DDATA, d->id);
         if (publish(topic, pl, ts, next_seq(), 0, NULL) == 0) {
@@ -746,165 +524,16 @@ static void on_publish(struct mosquitto *m, void *obj, int mid)
         g.ndeath_acked = 1;
 }
 
-/* ---- DCMD: a query (Query/u, Query/w) and a data point (the 9 Upload
- * metrics), through the register map like a Modbus write ---- */
-
-struct dcmd {
-    struct dev *d;
-    int nm;
-    float q[2];
-    int has_q[2];
-    uint16_t up[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
-    unsigned upmask;
-    int bad;
-    char why[200];
-};
-
-static int dcmd_index(const struct dcmd *c, const struct spb_in *m)
-{
-    char name[96], desc[200];
-    const char *unit;
-    if (m->name) {
-        for (int k = 0; k < c->nm; k++) {
-            metric_info(k, name, sizeof name, desc, sizeof desc, &unit);
-            if (!strcmp(name, m->name))
-                return k;
-        }
-        return -1;
-    }
-    if (m->has_alias && m->alias >= (uint64_t)(c->d->id + 1) * DEV_ALIAS &&
-        m->alias < (uint64_t)(c->d->id + 1) * DEV_ALIAS + (uint64_t)c->nm)
-        return (int)(m->alias - (uint64_t)(c->d->id + 1) * DEV_ALIAS);
-    return -1;
-}
-
-static void dcmd_refuse(struct dcmd *c, const char *fmt, const char *what)
-{
-    if (!c->bad++)
-        snprintf(c->why, sizeof c->why, fmt, what);
-}
-
-static void dcmd_metric(void *ctx, const struct spb_in *m)
-{
-    struct dcmd *c = ctx;
-    char label[64];
-    int idx = dcmd_index(c, m), rel = idx;
-    if (m->name)
-        snprintf(label, sizeof label, "%s", m->name);
-    else
-        snprintf(label, sizeof label, "alias %llu", (unsigned long long)m->alias);
-    if (idx < 0) {
-        dcmd_refuse(c, "%s: no such metric on this device", label);
-        return;
-    }
-    switch (seg_of(&rel)) {
-    case SEG_QIN:
-        if (m->kind == SPB_IN_FLOAT)
-            c->q[rel] = (float)m->d;
-        else if (m->kind == SPB_IN_INT || m->kind == SPB_IN_LONG)
-            c->q[rel] = (float)m->u;
-        else {
-            dcmd_refuse(c, "%s: expected a Float", label);
-            return;
-        }
-        c->has_q[rel] = 1;
-        return;
-    case SEG_UPLOAD: {
-        const it2n_regmap_field *f = &upload_block()->fields[rel];
-        uint16_t *r = &c->up[f->addr - IT2N_REG_UP_I];
-        int64_t v;
-        if (m->kind == SPB_IN_INT)
-            v = f->type == IT2N_RT_I32 ? (int64_t)(int32_t)(uint32_t)m->u : (int64_t)(uint32_t)m->u;
-        else if (m->kind == SPB_IN_LONG)
-            v = (int64_t)m->u;
-        else if (m->kind == SPB_IN_FLOAT && m->d == (double)(int64_t)m->d)
-            v = (int64_t)m->d;
-        else {
-            dcmd_refuse(c, "%s: expected an integer (the register's value)", label);
-            return;
-        }
-        if (f->type == IT2N_RT_I32 ? (v < INT32_MIN || v > INT32_MAX) : (v < 0 || v > 65535)) {
-            dcmd_refuse(c, "%s: out of the register's range", label);
-            return;
-        }
-        if (f->type == IT2N_RT_I32) {
-            r[0] = (uint16_t)((uint32_t)v >> 16);
-            r[1] = (uint16_t)v;
-        } else {
-            r[0] = (uint16_t)v;
-        }
-        c->upmask |= 1u << rel;
-        return;
-    }
-    default:
-        dcmd_refuse(c, "%s: read-only (a DCMD may write Query/u, Query/w and the Upload metrics)", label);
-        return;
-    }
-}
-
+/* A DCMD to model-N (spb_dcmd.c): the device reports in DDATA. */
 static void on_dcmd(int id, const uint8_t *buf, size_t len)
 {
     struct model *md = models_by_id(id);
     struct dev *d = dev_find(id);
-    struct dcmd c;
-    int rc, persisted;
-    unsigned all = (1u << upload_block()->nfields) - 1u;
-    char why[128];
     if (!md || !d) {
         log_warn("sparkplug: DCMD for model-%d: no such device", id);
         return;
     }
-    memset(&c, 0, sizeof c);
-    c.d = d;
-    c.nm = dev_nmetrics();
-    if (spb_cmd_each(buf, len, dcmd_metric, &c, why, sizeof why)) {
-        log_warn("sparkplug: DCMD model-%d refused: %s", id, why);
-        mbmap_refused(md, MBX_ILLEGAL_VALUE);
-        d->dirty = 1;
-        return;
-    }
-    if (!c.bad && c.upmask && c.upmask != all)
-        dcmd_refuse(&c, "%s", "the 9 Upload metrics are one data point and go together (as one FC16 of registers "
-                                "40..51)");
-    if (!c.bad && c.upmask && ((g.mbo.write_protect[md->unit / 8] >> (md->unit % 8)) & 1))
-        dcmd_refuse(&c, "%s", "the model is write-protected ([model:] write_protect)");
-    if (c.bad) {
-        /* Nothing changes; the refusal is the report, as for Modbus. */
-        log_warn("sparkplug: DCMD model-%d refused: %s", id, c.why);
-        mbmap_refused(md, MBX_ILLEGAL_VALUE);
-        d->dirty = 1;
-        return;
-    }
-    if (c.has_q[0] || c.has_q[1]) {
-        uint16_t regs[4];
-        float cur[2] = { 0.0f, 0.0f };
-        if (d->q.kind == 1 && mbmap_read(md, &d->q, &g.mbo, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
-            cur[0] = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
-            cur[1] = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
-        }
-        mbmap_put_f32(&regs[0], c.has_q[0] ? c.q[0] : cur[0], IT2N_WO_ABCD);
-        mbmap_put_f32(&regs[2], c.has_q[1] ? c.q[1] : cur[1], IT2N_WO_ABCD);
-        rc = mbmap_write(md, &d->q, &g.mbo, IT2N_REG_Q_UF, 4, regs, &persisted);
-        if (rc != MBX_OK)
-            log_warn("sparkplug: DCMD model-%d: query refused (u, w in [0, 1]): exception %02X", id, (unsigned)rc);
-    }
-    if (c.upmask) {
-        /* A data point: validated, journaled and made durable like a
-         * Modbus upload (its DDATA follows the commit, on_model_changed). */
-        struct model_txn t;
-        models_txn_begin(&t);
-        rc = mbmap_write(md, &d->q, &g.mbo, IT2N_REG_UP_I, IT2N_REG_UPLOAD_END - IT2N_REG_UP_I, c.up, &persisted);
-        if (rc != MBX_OK && persisted) {
-            it2n_errinfo e = md->last_err;
-            models_txn_rollback(&t);
-            md->last_err = e;
-        } else {
-            models_txn_commit(&t);
-        }
-        if (rc != MBX_OK)
-            log_warn("sparkplug: DCMD model-%d: data point refused: exception %02X, last_error %d", id, (unsigned)rc,
-                     md->last_err.code);
-    }
+    spb_dcmd_apply(md, &d->q, &g.mbo, buf, len);
     d->dirty = 1;
 }
 
