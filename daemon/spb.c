@@ -1,5 +1,6 @@
 /* spb.c — see spb.h. The session (connect, births, data, commands, death)
- * and the metric layout of the node and of its devices. */
+ * and the node's own metrics; the devices' metrics are spb_metrics.c's,
+ * DCMD handling spb_dcmd.c's. */
 #include "spb.h"
 
 #include <errno.h>
@@ -60,6 +61,7 @@ static struct {
     int seq;                   /* seq of the next message after NBIRTH */
     int dropped;               /* on_disconnect since the last check   */
     int ndeath_mid, ndeath_acked;
+    int need_birth;            /* a birth sequence is incomplete       */
     struct mb_opts mbo;        /* the grid as Modbus serves it, ABCD   */
     struct dev *devs;
     int ndevs;
@@ -99,11 +101,14 @@ static int publish(const char *topic, struct spb_pl *pl, uint64_t ts, int seq, i
     return 0;
 }
 
-static int next_seq(void)
+/* Publish with the next seq, taken only when the message is queued: a
+ * failed publish leaves no gap a host would read as a lost message. */
+static int publish_seq(const char *topic, struct spb_pl *pl, uint64_t ts)
 {
-    int s = g.seq;
+    if (publish(topic, pl, ts, g.seq, 0, NULL))
+        return -1;
     g.seq = (g.seq + 1) & 255;
-    return s;
+    return 0;
 }
 
 static void dev_topic(char *buf, size_t size, int kind, int id)
@@ -184,7 +189,7 @@ static int nbirth(void)
     spb_pl_prop(pl, spb_pl_add(pl, "Properties/Models", NA_MODELS, SPB_UINT32, ts, &v), "description",
                 "Devices (models) served by this edge node, each as model-N");
     g.seq = 0;
-    rc = publish(g.t_nbirth, pl, ts, next_seq(), 0, NULL);
+    rc = publish_seq(g.t_nbirth, pl, ts);
     spb_pl_free(pl);
     return rc;
 }
@@ -209,7 +214,7 @@ static int dbirth(struct dev *d, struct model *md)
         }
     }
     dev_topic(topic, sizeof topic, TP_DBIRTH, d->id);
-    rc = publish(topic, pl, ts, next_seq(), 0, NULL);
+    rc = publish_seq(topic, pl, ts);
     spb_pl_free(pl);
     d->dirty = 0;
     return rc;
@@ -219,6 +224,9 @@ static int dbirth(struct dev *d, struct model *md)
  * Rebirth command, a reload that changed the metric set). */
 static void births(void)
 {
+    /* Until a whole sequence is out, no DDATA (its aliases would not be
+     * born): an incomplete one is tried again from the loop hook. */
+    g.need_birth = 1;
     if (devs_build()) {
         log_err("sparkplug: out of memory building the device table");
         return;
@@ -230,6 +238,7 @@ static void births(void)
         if (md && dbirth(&g.devs[k], md))
             return;
     }
+    g.need_birth = 0;
     g.births++;
     log_info("sparkplug: NBIRTH and %d DBIRTH published (bdSeq %d)", g.ndevs, g.bdseq);
 }
@@ -258,7 +267,7 @@ static void dev_scan(struct dev *d)
             spb_pl_add(pl, NULL, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts, &cur[k]);
     if (pl) {
         dev_topic(topic, sizeof topic, TP_DDATA, d->id);
-        if (publish(topic, pl, ts, next_seq(), 0, NULL) == 0) {
+        if (publish_seq(topic, pl, ts) == 0) {
             memcpy(d->last, cur, (size_t)nm * sizeof *cur);
             g.ddata++;
         }
@@ -274,6 +283,10 @@ static void scan(int all)
 {
     if (g.st != ST_ONLINE || mosquitto_want_write(g.mosq))
         return;
+    if (g.need_birth) {
+        births();
+        return;
+    }
     for (int k = 0; k < g.ndevs; k++)
         if (all || g.devs[k].dirty)
             dev_scan(&g.devs[k]);
@@ -722,7 +735,7 @@ void spb_reload(const struct conf *c)
             char topic[200];
             dev_topic(topic, sizeof topic, TP_DDEATH, g.devs[k].id);
             if (pl)
-                publish(topic, pl, now_ms(), next_seq(), 0, NULL);
+                publish_seq(topic, pl, now_ms());
             spb_pl_free(pl);
         }
     }
