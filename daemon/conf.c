@@ -532,6 +532,11 @@ static int handler(void *user, const char *section, const char *name, const char
         }
         return key_modbus(p, name, value);
     }
+    if (!strcmp(section, "sparkplug")) {
+        if (spb_conf_key(&c->spb, name, value, p->line, p->err, sizeof p->err))
+            p->err_line = p->line;
+        return !p->err[0];
+    }
     if (!strncmp(section, "listen:", 7) && section[7]) {
         int k;
         if (!p->listen_set) {
@@ -653,6 +658,7 @@ void conf_default(struct conf *c)
     c->model[0].preload = 1;
     c->nmodels = 1;
     c->link_backoff_max = 30;
+    spb_conf_default(&c->spb);
 }
 
 /* Cross-key checks, done after the whole file is read. Each error names
@@ -828,6 +834,10 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
             VFAIL(d[b].line, sec, "device", "%s is also the device of [%s:%s] (line %d): " DEV_CONFLICT_WHY,
                   d[b].device, d[a].kind, d[a].name, d[a].line);
         }
+    }
+    if (spb_conf_check(&c->spb, line, key, keysize, err, errsize)) {
+        snprintf(sect, sectsize, "sparkplug");
+        return -1;
     }
     return 0;
 }

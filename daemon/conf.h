@@ -16,6 +16,7 @@
 #define CONF_MAX_ALLOW 32
 
 #include "acl.h"
+#include "spb_conf.h"
 
 struct conf_listen {
     char name[CONF_NAME];    /* [listen:NAME]; "" for a tcp_listen line */
@@ -121,6 +122,7 @@ struct conf {
     int link_backoff_max;    /* s */
     char user[CONF_NAME];    /* "" = keep the starting user          */
     unsigned uid, gid;       /* resolved from user at load           */
+    struct spb_conf spb;     /* [sparkplug] (spb_conf.h)             */
 };
 
 #define CONF_DEFAULT_AUTO (-1) /* the only model, when exactly one is configured */

@@ -1,13 +1,17 @@
 # daemon/: it2nd, the Linux daemon (Modbus TCP/RTU, links, persistence).
 # Exports IT2ND (host build) and IT2ND_SAN (ASan+UBSan build).
-DAEMON_PKGS := libmodbus inih libusb-1.0
+DAEMON_PKGS := libmodbus inih libusb-1.0 libmosquitto libprotobuf-c libssl libcrypto
 DAEMON_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(BUILD)/daemon $(shell pkg-config --cflags $(DAEMON_PKGS) 2>/dev/null)
 DAEMON_LIBS := $(shell pkg-config --libs $(DAEMON_PKGS) 2>/dev/null) -lm -pthread
 DAEMON_SRC := $(wildcard daemon/*.c)
-DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) $(wildcard protocol/it2n_*.h)
+# The Sparkplug B payload code, generated from daemon/spb.proto by protoc-c
+# (docs/sparkplug.md, "Encoding").
+SPB_PB_C := $(BUILD)/daemon/spb.pb-c.c
+SPB_PB_H := $(BUILD)/daemon/spb.pb-c.h
+DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) $(wildcard protocol/it2n_*.h) $(SPB_PB_H)
 DAEMON_GEN := $(BUILD)/daemon/paper_data.c
-DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/host/%.o) $(BUILD)/host/daemon/paper_data.o
-DAEMON_SAN_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/san/%.o) $(BUILD)/san/daemon/paper_data.o
+DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/host/%.o) $(BUILD)/host/daemon/paper_data.o $(BUILD)/host/daemon/spb.pb-c.o
+DAEMON_SAN_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/san/%.o) $(BUILD)/san/daemon/paper_data.o $(BUILD)/san/daemon/spb.pb-c.o
 IT2ND := $(BUILD)/host/it2nd
 IT2ND_SAN := $(BUILD)/san/it2nd
 GEN_REGISTERS := $(BUILD)/host/gen_registers
@@ -25,6 +29,19 @@ $(BUILD)/host/daemon/paper_data.o: $(DAEMON_GEN) daemon/paper_data.h
 	$(CC) $(DAEMON_CFLAGS) -c $< -o $@
 
 $(BUILD)/san/daemon/paper_data.o: $(DAEMON_GEN) daemon/paper_data.h
+	@mkdir -p $(@D)
+	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) -c $< -o $@
+
+$(SPB_PB_H): $(SPB_PB_C)
+$(SPB_PB_C): daemon/spb.proto
+	@mkdir -p $(@D)
+	protoc-c --c_out=$(@D) -Idaemon $<
+
+$(BUILD)/host/daemon/spb.pb-c.o: $(SPB_PB_C) $(SPB_PB_H)
+	@mkdir -p $(@D)
+	$(CC) $(DAEMON_CFLAGS) -c $< -o $@
+
+$(BUILD)/san/daemon/spb.pb-c.o: $(SPB_PB_C) $(SPB_PB_H)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) -c $< -o $@
 

@@ -19,6 +19,7 @@
 #include "mb_tcp.h"
 #include "models.h"
 #include "notify.h"
+#include "spb.h"
 #include "store.h"
 
 #ifndef IT2ND_VERSION
@@ -91,7 +92,8 @@ static int load_conf(struct conf *c)
     char err[512];
     conf_default(c);
     if ((conf_path && conf_load(c, conf_path, err, sizeof err)) ||
-        conf_check_devices(c, conf_path, err, sizeof err) || conf_check_hosts(c, conf_path, err, sizeof err)) {
+        conf_check_devices(c, conf_path, err, sizeof err) || conf_check_hosts(c, conf_path, err, sizeof err) ||
+        spb_conf_check_tls(&c->spb, conf_path, err, sizeof err)) {
         log_err("%s", err);
         return -1;
     }
@@ -153,6 +155,7 @@ static void on_model_changed(void *arg, const struct model *md, int old_state, u
     else if (md->state != old_state)
         log_info("model %d: %s", md->id, md->state == IT2N_RS_EMPTY ? "cleared" : "points missing");
     links_event(md, old_state);
+    spb_model_changed(md->id);
 }
 
 /* The store is degraded (an I/O error): try a checkpoint every second. */
@@ -229,6 +232,7 @@ static void on_done(const struct store_done *d)
         if (d->us > 100000)
             log_debug("wal: group commit took %llu ms", (unsigned long long)(d->us / 1000));
         models_batch_done(d->ok, on_model_changed, NULL);
+        spb_batch_done(); /* every durable change, not only state/generation moves */
         release_upto(d->ok ? d->batch : UINT64_MAX, d->ok);
     }
     arm_recover();
@@ -506,6 +510,7 @@ static void reload(void)
     mb_tcp_reload(&cfg, &mbo);
     mb_rtu_reload(&cfg, &mbo);
     links_reload(&cfg);
+    spb_reload(&cfg);
     loop_cancel_timer(snap_timer);
     snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
     notify_send("READY=1");
@@ -594,6 +599,8 @@ int main(int argc, char **argv)
     links_start(&cfg);
     if (drop_privileges())
         return 1;
+    if (spb_start(&cfg, IT2ND_VERSION))
+        return 1;
     snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
     if (notify_watchdog_ms())
         wd_timer = loop_add_timer(notify_watchdog_ms() / 2, on_watchdog, NULL);
@@ -615,6 +622,7 @@ int main(int argc, char **argv)
     notify_send("STOPPING=1");
     log_notice("stopping: flushing state");
     drain();
+    spb_stop(); /* after drain: its changes go out as DDATA before the NDEATH */
     links_stop();
     mb_rtu_stop();
     mb_tcp_stop();

@@ -2,7 +2,7 @@
 # tests against the real daemon binary (normal and ASan+UBSan builds).
 DT := tests/daemon
 DTB := $(BUILD)/tests/daemon
-DT_UNITS := test_mb_map test_mb_req test_conf test_store test_links test_models test_loop
+DT_UNITS := test_mb_map test_mb_req test_conf test_store test_links test_models test_loop test_spb
 # Daemon modules the unit tests link (everything but main.c).
 DT_MODS := $(filter-out $(BUILD)/host/daemon/main.o,$(DAEMON_OBJ))
 DT_SAN_MODS := $(filter-out $(BUILD)/san/daemon/main.o,$(DAEMON_SAN_OBJ))
@@ -171,9 +171,9 @@ DT_SLOW_S ?= 20
 # with relaxed latency bounds and no figures.
 IT2ND_TSAN := $(BUILD)/tsan/it2nd
 DAEMON_SRC := $(wildcard daemon/*.c)
-$(IT2ND_TSAN): $(DAEMON_SRC) $(DAEMON_HDR) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c
+$(IT2ND_TSAN): $(DAEMON_SRC) $(DAEMON_HDR) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
 	@mkdir -p $(@D)
-	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(BUILD)/daemon/paper_data.c \
+	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(BUILD)/daemon/paper_data.c $(SPB_PB_C) \
 	  $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) -o $@ $(DAEMON_LIBS)
 daemon-slowdisk: $(IT2ND) $(IT2ND_SAN) $(IT2ND_TSAN) $(DT_FAILIO)
 	timeout 300 /usr/bin/python3 $(DT)/slowdisk_test.py --it2nd $(IT2ND) --failio $(DT_FAILIO) \

@@ -125,6 +125,18 @@ static void check_ok(const struct conf *c)
             fuzz_check(c->model[m].id != c->removed[k], "a removed model is not served");
     for (int m = 0; m < c->nmodels; m++)
         fuzz_check(!c->model[m].removed, "no model in the list is marked removed");
+    if (c->spb.enabled) {
+        const struct spb_conf *s = &c->spb;
+        const char *ids[] = { s->group_id, s->edge_node_id, s->client_id };
+        fuzz_check(terminated(s->host, sizeof s->host) && s->host[0], "sparkplug broker host");
+        fuzz_check(s->port >= 1 && s->port <= 65535, "sparkplug broker port");
+        for (int k = 0; k < 3; k++)
+            fuzz_check(terminated(ids[k], SPB_ID_MAX) && (k == 2 || ids[k][0]) && !strpbrk(ids[k], "/+# \t"),
+                       "sparkplug ids: one topic level, no wildcard");
+        fuzz_check(s->keepalive >= 5 && s->keepalive <= 3600, "sparkplug keepalive range");
+        fuzz_check(s->reconnect_max >= 1 && s->reconnect_max <= 3600, "sparkplug reconnect_max range");
+        fuzz_check(!s->password_set || s->username[0], "sparkplug password needs a username");
+    }
 }
 
 /* Start of physical line n (1-based) of data, or NULL past the end. */
