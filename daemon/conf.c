@@ -1221,6 +1221,23 @@ int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t e
             return -1;
         }
     }
+    if (c->metrics.port[0] && c->metrics.host[0]) {
+        struct addrinfo hints, *res = NULL;
+        int rc;
+        memset(&hints, 0, sizeof hints);
+        hints.ai_family = AF_UNSPEC;
+        hints.ai_socktype = SOCK_STREAM;
+        hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
+        rc = getaddrinfo(c->metrics.host, c->metrics.port, &hints, &res);
+        if (res)
+            freeaddrinfo(res);
+        if (rc) {
+            snprintf(err, errsize, "%s:%d: [metrics] listen: cannot resolve host '%s': %s",
+                     path && c->metrics.line ? path : "--metrics", c->metrics.line, c->metrics.host,
+                     rc == EAI_SYSTEM ? strerror(errno) : gai_strerror(rc));
+            return -1;
+        }
+    }
     return 0;
 }
 
@@ -1355,5 +1372,76 @@ int conf_check_devices(const struct conf *c, const char *path, char *err, size_t
     snprintf(err, errsize, "%s:%d: [%s:%s] device: %s is the same device as %s of [%s:%s] (line %d), both %s: "
              DEV_CONFLICT_WHY, path ? path : "built-in", d[b].line, d[b].kind, d[b].name, d[b].device, d[a].device,
              d[a].kind, d[a].name, d[a].line, real);
+    return -1;
+}
+
+/* "[v6]:port" or "host:port" of a listener, for messages. */
+static const char *addr_text(const char *host, const char *port, char *buf, size_t size)
+{
+    int v6 = strchr(host, ':') != NULL;
+    snprintf(buf, size, "%s%s%s:%s", v6 ? "[" : "", host, v6 ? "]" : "", port);
+    return buf;
+}
+
+int conf_apply_override(struct conf *c, const struct conf_override *o, char *err, size_t errsize)
+{
+    struct conf *n = malloc(sizeof *n);
+    char a[96];
+    if (!n) {
+        snprintf(err, errsize, "out of memory");
+        return -1;
+    }
+    *n = *c;
+    if (o->nlisten > 0) {
+        n->nlisten = 0;
+        for (int k = 0; k < o->nlisten && k < CONF_MAX_LISTEN; k++) {
+            struct conf_listen *l = &n->listen[n->nlisten];
+            int rc;
+            memset(l, 0, sizeof *l);
+            rc = parse_listen(o->listen[k], l);
+            if (rc) {
+                snprintf(err, errsize, "--listen '%s': %s", o->listen[k],
+                         rc == -2 ? "port 0: expected a port 1..65535" : "expected HOST:PORT, [V6ADDR]:PORT or :PORT");
+                goto fail;
+            }
+            for (int j = 0; j < n->nlisten; j++)
+                if (!strcmp(n->listen[j].host, l->host) && !strcmp(n->listen[j].port, l->port)) {
+                    snprintf(err, errsize, "--listen '%s': given twice", o->listen[k]);
+                    goto fail;
+                }
+            n->nlisten++;
+        }
+    }
+    if (o->state_dir && copy_str(n->state_dir, sizeof n->state_dir, o->state_dir)) {
+        snprintf(err, errsize, "--state-dir '%s': path empty or longer than %d bytes", o->state_dir, CONF_PATH - 1);
+        goto fail;
+    }
+    if (o->metrics && !strcasecmp(o->metrics, "none")) {
+        memset(&n->metrics, 0, sizeof n->metrics);
+    } else if (o->metrics) {
+        struct conf_listen l;
+        int rc;
+        memset(&l, 0, sizeof l);
+        rc = parse_listen(o->metrics, &l);
+        if (rc) {
+            snprintf(err, errsize, "--metrics '%s': %s", o->metrics,
+                     rc == -2 ? "port 0: expected a port 1..65535" : "expected HOST:PORT, [V6ADDR]:PORT, :PORT or none");
+            goto fail;
+        }
+        memcpy(n->metrics.host, l.host, sizeof n->metrics.host);
+        memcpy(n->metrics.port, l.port, sizeof n->metrics.port);
+        n->metrics.line = 0;
+    }
+    for (int k = 0; k < n->nlisten && n->metrics.port[0]; k++)
+        if (!strcmp(n->listen[k].host, n->metrics.host) && !strcmp(n->listen[k].port, n->metrics.port)) {
+            snprintf(err, errsize, "%s: the metrics endpoint and a Modbus listener on one address; give --metrics "
+                     "(or [metrics] listen) a port of its own", addr_text(n->metrics.host, n->metrics.port, a, sizeof a));
+            goto fail;
+        }
+    *c = *n;
+    free(n);
+    return 0;
+fail:
+    free(n);
     return -1;
 }

@@ -16,6 +16,7 @@
 #include "log.h"
 #include "loop.h"
 #include "mb_req.h"
+#include "porthint.h"
 
 /* At most this many new connections wait for a slot when all max_clients
  * slots are in use, each for at most WAIT_MS; more push out the oldest. */
@@ -393,7 +394,14 @@ static int open_listener(const struct conf_listen *l)
             setsockopt(fd, IPPROTO_IPV6, IPV6_V6ONLY, &v6only, sizeof v6only);
         if (bind(fd, ai->ai_addr, ai->ai_addrlen) == 0 && listen(fd, 64) == 0)
             break;
-        log_err("tcp listen %s:%s: %s", l->host, l->port, strerror(errno));
+        if (errno == EADDRINUSE) {
+            char hint[320];
+            porthint_in_use(l->host, l->port, "it2nd --listen HOST:PORT, or tcp_listen / address in the configuration",
+                            hint, sizeof hint);
+            log_err("tcp listen %s:%s: %s: %s", l->host, l->port, strerror(EADDRINUSE), hint);
+        } else {
+            log_err("tcp listen %s:%s: %s", l->host, l->port, strerror(errno));
+        }
         close(fd);
         fd = -1;
     }
