@@ -13,7 +13,6 @@
 #include <sys/file.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
-#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include "conf.h"
@@ -545,67 +544,63 @@ static int state_dir_in_use(const char *dir)
     return busy;
 }
 
-/* --check-config: the daemon could create and write state_dir. An
- * existing directory gets a file created and removed in it (access()
- * would say yes to root on a read-only mount); a missing one needs its
- * nearest existing parent writable. Returns 0 or -1 (logged). */
+/* --check-config: a file can be created in dir (then removed); access()
+ * would say yes to root on a read-only mount. Returns 0 or errno. */
+static int try_write(const char *dir)
+{
+    char path[CONF_PATH + 32];
+    int fd;
+    snprintf(path, sizeof path, "%s/.it2nd-check-XXXXXX", dir);
+    fd = mkstemp(path);
+    if (fd < 0)
+        return errno;
+    close(fd);
+    unlink(path);
+    return 0;
+}
+
+/* --check-config: the daemon could create and write state_dir, done the
+ * way it does it: an existing directory gets a file created and removed;
+ * a missing one is created (mkdir -p, as store_open) for the test and the
+ * directories made are removed again, so the check leaves nothing behind.
+ * Returns 0 or -1 (logged). */
 static int check_state_dir(const char *dir)
 {
     struct stat st;
-    char path[CONF_PATH + 32];
-    if (stat(dir, &st) == 0) {
-        int fd;
-        if (!S_ISDIR(st.st_mode)) {
-            log_err("state_dir %s: exists and is not a directory; choose another (state_dir or --state-dir)", dir);
-            return -1;
-        }
-        snprintf(path, sizeof path, "%s/.it2nd-check-XXXXXX", dir);
-        fd = mkstemp(path);
-        if (fd < 0) {
-            log_err("state_dir %s: not writable (creating a file: %s); the daemon could not keep its WAL there: "
-                    "fix its permissions%s%s or choose another (state_dir or --state-dir)", dir, strerror(errno),
-                    cfg.user[0] ? " for user " : "", cfg.user);
-            return -1;
-        }
-        close(fd);
-        unlink(path);
-        return 0;
-    }
-    if (errno != ENOENT) {
-        log_err("state_dir %s: %s", dir, strerror(errno));
+    char path[CONF_PATH], made[16][CONF_PATH];
+    int nmade = 0, e = 0;
+    const char *who = cfg.user[0] ? cfg.user : "the user it2nd runs as";
+    if (stat(dir, &st) == 0 && !S_ISDIR(st.st_mode)) {
+        log_err("state_dir %s: exists and is not a directory; choose another (state_dir or --state-dir)", dir);
         return -1;
     }
-    /* Missing: the daemon creates it (mkdir -p) under its nearest
-     * existing ancestor. */
-    snprintf(path, sizeof path, "%s", dir);
-    for (int k = 0; k < CONF_PATH; k++) {
-        char *slash = strrchr(path, '/');
-        struct statvfs vs;
-        if (!slash)
-            snprintf(path, sizeof path, ".");
-        else if (slash == path)
-            path[1] = 0;
-        else
-            *slash = 0;
-        if (stat(path, &st) != 0) {
-            if (errno == ENOENT)
+    if (stat(dir, &st) != 0) {
+        /* Create the missing components, outermost first. */
+        snprintf(path, sizeof path, "%s", dir);
+        for (char *p = path + 1; !e; p++) {
+            int end = *p == 0;
+            if (*p != '/' && !end)
                 continue;
-            log_err("state_dir %s: cannot be created: %s: %s", dir, path, strerror(errno));
-            return -1;
+            *p = 0;
+            if (mkdir(path, 0750) == 0) {
+                if (nmade < 16)
+                    snprintf(made[nmade++], sizeof made[0], "%s", path);
+            } else if (errno != EEXIST) {
+                e = errno;
+                log_err("state_dir %s: cannot be created: mkdir %s: %s; create it (writable by %s) or choose another "
+                        "(state_dir or --state-dir)", dir, path, strerror(e), who);
+            }
+            if (end)
+                break;
+            *p = '/';
         }
-        if (!S_ISDIR(st.st_mode)) {
-            log_err("state_dir %s: cannot be created: %s is not a directory", dir, path);
-            return -1;
-        }
-        if (access(path, W_OK | X_OK) || (statvfs(path, &vs) == 0 && (vs.f_flag & ST_RDONLY))) {
-            log_err("state_dir %s: does not exist and cannot be created: %s is not writable%s; create it (and give "
-                    "it to the daemon's user) or choose another (state_dir or --state-dir)", dir, path,
-                    (statvfs(path, &vs) == 0 && (vs.f_flag & ST_RDONLY)) ? " (read-only file system)" : "");
-            return -1;
-        }
-        return 0;
     }
-    return 0;
+    if (!e && (e = try_write(dir)) != 0)
+        log_err("state_dir %s: not writable (creating a file: %s); the daemon could not keep its WAL there: make it "
+                "writable by %s or choose another (state_dir or --state-dir)", dir, strerror(e), who);
+    while (nmade > 0)
+        rmdir(made[--nmade]);
+    return e ? -1 : 0;
 }
 
 /* --check-config: bind host:port now (then close). In use: an error, or
