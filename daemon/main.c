@@ -559,47 +559,40 @@ static int try_write(const char *dir)
     return 0;
 }
 
-/* --check-config: the daemon could create and write state_dir, done the
- * way it does it: an existing directory gets a file created and removed;
- * a missing one is created (mkdir -p, as store_open) for the test and the
- * directories made are removed again, so the check leaves nothing behind.
- * Returns 0 or -1 (logged). */
+/* --check-config: the daemon could create and write state_dir, tried the
+ * way store_open does it: an existing directory gets a file created and
+ * removed; a missing one is created (one mkdir: the daemon creates the
+ * last component only) for the test and removed again, so the check
+ * leaves nothing behind. Returns 0 or -1 (logged). */
 static int check_state_dir(const char *dir)
 {
     struct stat st;
-    char path[CONF_PATH], made[16][CONF_PATH];
-    int nmade = 0, e = 0;
+    int made = 0, e = 0;
     const char *who = cfg.user[0] ? cfg.user : "the user it2nd runs as";
     if (stat(dir, &st) == 0 && !S_ISDIR(st.st_mode)) {
         log_err("state_dir %s: exists and is not a directory; choose another (state_dir or --state-dir)", dir);
         return -1;
     }
+    if (stat(dir, &st) != 0 && errno != ENOENT) {
+        log_err("state_dir %s: %s; the daemon could not use it: make it reachable by %s or choose another "
+                "(state_dir or --state-dir)", dir, strerror(errno), who);
+        return -1;
+    }
     if (stat(dir, &st) != 0) {
-        /* Create the missing components, outermost first. */
-        snprintf(path, sizeof path, "%s", dir);
-        for (char *p = path + 1; !e; p++) {
-            int end = *p == 0;
-            if (*p != '/' && !end)
-                continue;
-            *p = 0;
-            if (mkdir(path, 0750) == 0) {
-                if (nmade < 16)
-                    snprintf(made[nmade++], sizeof made[0], "%s", path);
-            } else if (errno != EEXIST) {
-                e = errno;
-                log_err("state_dir %s: cannot be created: mkdir %s: %s; create it (writable by %s) or choose another "
-                        "(state_dir or --state-dir)", dir, path, strerror(e), who);
-            }
-            if (end)
-                break;
-            *p = '/';
+        if (mkdir(dir, 0750) == 0) {
+            made = 1;
+        } else {
+            e = errno;
+            log_err("state_dir %s: cannot be created: %s%s; create it (writable by %s) or choose another (state_dir "
+                    "or --state-dir)", dir, strerror(e), e == ENOENT ? " (its parent directory does not exist; "
+                    "it2nd creates the last component only)" : "", who);
         }
     }
     if (!e && (e = try_write(dir)) != 0)
         log_err("state_dir %s: not writable (creating a file: %s); the daemon could not keep its WAL there: make it "
                 "writable by %s or choose another (state_dir or --state-dir)", dir, strerror(e), who);
-    while (nmade > 0)
-        rmdir(made[--nmade]);
+    if (made)
+        rmdir(dir);
     return e ? -1 : 0;
 }
 
