@@ -15,6 +15,7 @@
  *    file. An input without its final newline is also run with one, so
  *    the parser behind that check is fuzzed as before;
  *  - a model id with removed = yes is never in the model list.
+ *  - a line without '=' is reported with its text, quoted from that line;
  * Found by this fuzzer and fixed in daemon/conf.c: corpus/conf/long_* and
  * first_error_line.conf (message of the first error with the key of the
  * last, libinih being built with INI_STOP_ON_FIRST_ERROR 0),
@@ -63,6 +64,15 @@ static void check_ok(const struct conf *c)
         fuzz_check(terminated(l->host, sizeof l->host) && terminated(l->port, sizeof l->port), "listen strings");
         long port = strtol(l->port, NULL, 10);
         fuzz_check(port >= 1 && port <= 65535, "listen port range (0 refused)");
+    }
+    fuzz_check(terminated(c->metrics.host, sizeof c->metrics.host) && terminated(c->metrics.port, sizeof c->metrics.port),
+               "metrics strings");
+    if (c->metrics.port[0]) {
+        long port = strtol(c->metrics.port, NULL, 10);
+        fuzz_check(port >= 1 && port <= 65535, "metrics port range (0 refused)");
+        for (int k = 0; k < c->nlisten; k++)
+            fuzz_check(strcmp(c->listen[k].host, c->metrics.host) || strcmp(c->listen[k].port, c->metrics.port),
+                       "metrics address is not a Modbus listener's");
     }
     fuzz_check(c->max_clients >= 1 && c->max_clients <= 512, "max_clients range");
     fuzz_check(c->idle_timeout >= 1 && c->idle_timeout <= 86400, "idle_timeout range");
@@ -198,6 +208,20 @@ static void check_err(const uint8_t *data, size_t size, const char *err, size_t 
         hdr[close - sec] = 0;
         const uint8_t *lp = line_at(data, size, line, &llen);
         fuzz_check(contains(lp, llen, hdr), "an empty section's error names its header line");
+    } else if (sec[0] == ' ' && sec[1] == '[' && strstr(sec, "] '") &&
+               strstr(sec, "': no '=' in this line: ")) {
+        /* "PATH:N: [section] 'TEXT': no '=' in this line: ...": TEXT (cut
+         * to 48 bytes, then "...") is from line N. */
+        const char *t = strstr(sec, "] '") + 3, *q = strstr(t, "': no '=' in this line: ");
+        char k[64];
+        size_t n = (size_t)(q - t);
+        if (n >= 3 && !memcmp(q - 3, "...", 3))
+            n -= 3;
+        fuzz_check(n > 0 && n < sizeof k, "no '=' text length");
+        memcpy(k, t, n);
+        k[n] = 0;
+        const uint8_t *lp = line_at(data, size, line, &llen);
+        fuzz_check(contains(lp, llen, k), "a line without '=' is quoted from its line");
     } else if (sec[0] == ' ' && sec[1] == '[') {
         const char *close = strstr(sec, "] ");
         fuzz_check(close != NULL, "error: [section] key form");
