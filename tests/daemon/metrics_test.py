@@ -25,7 +25,8 @@ by a real Prometheus and cross-checked with the Modbus registers.
     pending to gone;
 * a slow HTTP client (one byte per second) and 8 clients that connect and
   send nothing (all of the endpoint's connection slots) never delay Modbus
-  reads: each answered within 0.5 s, the endpoint serves again after.
+  reads: each answered within 0.5 s, the endpoint serves again after;
+* a reload with another [metrics] listen is logged and applies at restart.
 
 Without the prometheus binary the suite prints "skip suite: ..." (the
 make test runner lists it as a skip). Every process started is stopped.
@@ -327,6 +328,32 @@ def main():
                 time.sleep(0.2)
         check(code == 200, "the endpoint serves again once the stuck clients are gone")
         check(d.proc.poll() is None, "it2nd still running")
+
+        # A reload with another [metrics] listen: logged, applied at restart.
+        other = free_port()
+        text = open(d.conf).read()
+        with open(d.conf + ".new", "w") as f:
+            f.write(text.replace("listen = 127.0.0.1:%d" % metrics_port, "listen = 127.0.0.1:%d" % other))
+        os.rename(d.conf + ".new", d.conf)
+        d.proc.send_signal(signal.SIGHUP)
+        end, logged = time.time() + 5, False
+        while time.time() < end and not logged:
+            d.log.seek(0)
+            t = d.log.read()
+            logged = "[metrics] listen change" in t and "takes effect at restart" in t and "configuration reloaded" in t
+            time.sleep(0.05)
+        served_old = http_get(base + "/metrics")[0] == 200
+        try:
+            socket.create_connection(("127.0.0.1", other), timeout=0.5).close()
+            opened_new = True
+        except OSError:
+            opened_new = False
+        check(logged and served_old and not opened_new,
+              "SIGHUP with another [metrics] listen: logged, the endpoint stays until a restart",
+              (logged, served_old, opened_new))
+        with open(d.conf, "w") as f:
+            f.write(text)
+        d.proc.send_signal(signal.SIGHUP)
         if a.quick:
             return 0
 
