@@ -700,7 +700,8 @@ int main(int argc, char **argv)
     if (check) {
         if (check_runtime())
             return 1;
-        printf("%s: configuration OK (%d listen, %d rtu, %d models, %d links", conf_path ? conf_path : "built-in",
+        printf("%s%s: configuration OK (%d listen, %d rtu, %d models, %d links", conf_path ? conf_path : "built-in",
+               ovr.nlisten || ovr.state_dir || ovr.metrics ? " with flags" : "",
                cfg.nlisten, cfg.nrtu, cfg.nmodels, cfg.nlinks);
         for (int k = 0; k < cfg.nremoved; k++)
             printf("%s%d", k ? ", " : "; removed = yes: model ", cfg.removed[k]);
