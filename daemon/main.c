@@ -98,13 +98,27 @@ static void fill_opts(void)
 
 static int load_conf(struct conf *c)
 {
+    static int warned;
     char err[512];
+    int policies = 0;
     conf_default(c);
-    if ((conf_path && conf_load(c, conf_path, err, sizeof err)) || conf_apply_override(c, &ovr, err, sizeof err) ||
-        conf_check_devices(c, conf_path, err, sizeof err) || conf_check_hosts(c, conf_path, err, sizeof err)) {
+    if (conf_path && conf_load(c, conf_path, err, sizeof err)) {
         log_err("%s", err);
         return -1;
     }
+    for (int k = 0; k < c->nlisten; k++)
+        policies += c->listen[k].nallow > 0 || c->listen[k].read_only;
+    if (conf_apply_override(c, &ovr, err, sizeof err) || conf_check_devices(c, conf_path, err, sizeof err) ||
+        conf_check_hosts(c, conf_path, err, sizeof err)) {
+        log_err("%s", err);
+        return -1;
+    }
+    /* --listen replaces the file's listeners, access policy included:
+     * say so once rather than widen access silently. */
+    if (ovr.nlisten && policies && !warned++)
+        log_warn("--listen replaces the listeners of %s, %d of them with an access policy (allow, read_only): "
+                 "the --listen address%s ha%s none", conf_path, policies, ovr.nlisten > 1 ? "es" : "",
+                 ovr.nlisten > 1 ? "ve" : "s");
     return 0;
 }
 

@@ -120,6 +120,11 @@ tcp_listen = 127.0.0.1:$P2
 EOF
 start "$T/d5.log" -c "$T/f.conf" --listen "127.0.0.1:$P1" --state-dir "$T/flag-state"
 if wait_port "$P1" && serves "$P1"; then ok "flags over a file: served on --listen"; else fail "flags over a file: not on --listen"; fi
+# a file whose listener has an access policy: the replacement is logged
+printf '[listen:plc]\naddress = 127.0.0.1:%s\nallow = 10.0.0.0/8\n' "$P2" > "$T/acl.conf"
+out=$("$IT2ND" -c "$T/acl.conf" --listen "127.0.0.1:$(free_port)" --state-dir "$T/acl-state" -t 2>&1)
+grep -q "listen replaces the listeners of $T/acl.conf, 1 of them with an access policy (allow, read_only): the --listen address has none" <<<"$out" &&
+    ok "--listen over a listener with an allow list: a warning says so" || fail "--listen over an ACL: $out"
 if ! $PY -c "import socket; socket.create_connection(('127.0.0.1',$P2),0.5)" 2>/dev/null; then
     ok "the file's tcp_listen is not opened"
 else fail "the file's tcp_listen was opened"; fi

@@ -291,6 +291,12 @@ def main():
               "model 1 (paper data) solved, model 2 (empty) not")
         for path in ("/", "/metrics/x", "/favicon.ico"):
             check(http_get(base + path)[0] == 404, "GET %s: 404" % path)
+        try:
+            with urllib.request.urlopen(urllib.request.Request(base + "/metrics", data=b"x=1"), timeout=5) as r:
+                code = r.status
+        except urllib.error.HTTPError as e:
+            code = e.code
+        check(code == 405, "POST /metrics: 405", code)
 
         # Slow and stuck HTTP clients never delay Modbus.
         stop = threading.Event()

@@ -14,10 +14,10 @@
  *    cut short leaves); the one error without a line is that of the empty
  *    file. An input without its final newline is also run with one, so
  *    the parser behind that check is fuzzed as before;
- *  - a model id with removed = yes is never in the model list.
+ *  - a model id with removed = yes is never in the model list;
  *  - a line without '=' is reported with its text, quoted from that line
  *    (the message is told by its end: a section name may hold the marker;
- *    corpus/conf/noeq_* are what the fuzzer found in this harness);
+ *    corpus/conf/noeq_* are what the fuzzer found in this harness).
  * Found by this fuzzer and fixed in daemon/conf.c: corpus/conf/long_* and
  * first_error_line.conf (message of the first error with the key of the
  * last, libinih being built with INI_STOP_ON_FIRST_ERROR 0),
