@@ -284,6 +284,9 @@ static int key_modbus(struct parse *p, const char *name, const char *v)
     } else if (!strcmp(name, "max_clients")) {
         if (parse_int(v, 1, 512, &c->max_clients))
             FAIL("expected 1..512");
+    } else if (!strcmp(name, "max_pending")) {
+        if (parse_int(v, 16, 65536, &c->max_pending))
+            FAIL("expected 16..65536");
     } else if (!strcmp(name, "idle_timeout")) {
         if (parse_int(v, 1, 86400, &c->idle_timeout))
             FAIL("expected seconds 1..86400");
@@ -665,6 +668,7 @@ void conf_default(struct conf *c)
     snprintf(c->listen[0].port, sizeof c->listen[0].port, "1502");
     c->nlisten = 1;
     c->max_clients = 32;
+    c->max_pending = 1024;
     c->idle_timeout = 300;
     c->byte_timeout = 500;
     c->tcp_keepalive = 60;

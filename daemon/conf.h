@@ -105,6 +105,7 @@ struct conf {
     struct conf_listen listen[CONF_MAX_LISTEN];
     int nlisten;
     int max_clients;
+    int max_pending;         /* TCP connections without a slot (no complete request yet) */
     int idle_timeout;        /* s */
     int byte_timeout;        /* ms */
     int tcp_keepalive;       /* s idle before keepalive probes, 0 off */

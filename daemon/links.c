@@ -1,8 +1,10 @@
 /* links.c — see links.h. The protocol application of the daemon side
- * (protocol v1.1, docs/protocol.md):
+ * (protocol v1.2 and v1.1, docs/protocol.md):
  *   HELLO       version check (NACK VERSION without a common version), the
  *               peer's window and max_payload applied, ACK, then the
- *               daemon's own HELLO (type HELLO)
+ *               daemon's own HELLO (type HELLO); a v1.2 peer's HELLO gets
+ *               a new session id (links_new_session), carried by our HELLO
+ *               and every later frame of that session
  *   CONFIGURE   (re)start collecting the model (clears its points)
  *   PUT         all entries or none; REPLACE flag honoured; an entry equal
  *               to the stored one is an idempotent success (exactly once
@@ -17,7 +19,8 @@
  * a queue (at most the peer's window) and are served in order after it —
  * never NACKed BUSY. Our frames are retransmitted with backoff until the
  * peer answers or the link is declared down (peer_timeout_ms); then they
- * are dropped and the peer, when it speaks again, gets EVENT LOST. */
+ * are dropped and the peer session, when it speaks again, gets EVENT LOST
+ * (if it said HELLO; a new session does not: the frames were not its). */
 #include "links.h"
 
 #include <errno.h>
@@ -87,6 +90,7 @@ struct link {
     } rq[IT2N_PROTO_WINDOW];
     int nrq;
     uint32_t lost;            /* frames dropped when declared down, to report */
+    uint32_t lost_session;    /* ... to this peer session (it2n_link_session) */
     uint32_t rto_ms;
     int peer;                 /* a HELLO came from the peer since the open */
     uint32_t hello_session;   /* ... in this peer session (EVENTs go to it) */
@@ -306,7 +310,7 @@ static void send_hello(struct link *l)
     memset(&m, 0, sizeof m);
     m.type = IT2N_MSG_HELLO;
     m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
-    m.u.hello.version_max = IT2N_PROTO_VERSION;
+    m.u.hello.version_max = IT2N_PROTO_VERSION_MAX;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
     m.u.hello.window = it2n_link_window(&l->pl); /* what we accept in flight */
     m.u.hello.caps = IT2N_CAP_SERVER | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1 | IT2N_CAP_EVENTS;
@@ -727,19 +731,22 @@ static void serve_queue(struct link *l)
 /* HELLO: a common version, the peer's limits, ACK, our HELLO. */
 static int on_hello(struct link *l, uint16_t seq, const it2n_msg_hello *h)
 {
-    if (h->version_max < IT2N_PROTO_VERSION_MIN || h->version_min > IT2N_PROTO_VERSION) {
-        it2n_errinfo e = detail(IT2N_PROTO_ERR_VERSION, h->version_max, IT2N_PROTO_VERSION_MIN, IT2N_PROTO_VERSION);
+    if (h->version_max < IT2N_PROTO_VERSION_MIN || h->version_min > IT2N_PROTO_VERSION_MAX) {
+        it2n_errinfo e = detail(IT2N_PROTO_ERR_VERSION, h->version_max, IT2N_PROTO_VERSION_MIN, IT2N_PROTO_VERSION_MAX);
         log_warn("link %s: peer '%.16s' speaks protocol versions %u..%u, this daemon %u..%u: refused",
-                 l->cfg.name, h->node, h->version_min, h->version_max, IT2N_PROTO_VERSION_MIN, IT2N_PROTO_VERSION);
+                 l->cfg.name, h->node, h->version_min, h->version_max, IT2N_PROTO_VERSION_MIN,
+                 IT2N_PROTO_VERSION_MAX);
         return refuse(l, seq, IT2N_PROTO_ERR_VERSION, &e);
     }
     unsigned cap = send_window_cap(l);
     it2n_link_set_peer(&l->pl, h->window < cap ? h->window : (uint8_t)cap, h->max_payload);
-    log_info("link %s: HELLO from '%.16s' (session %08x, window %u, max_payload %u): we send up to %u "
-             "frames in flight, accept %u", l->cfg.name, h->node, (unsigned)l->pl.peer_session, h->window,
-             h->max_payload, (unsigned)it2n_link_send_window(&l->pl), (unsigned)it2n_link_window(&l->pl));
+    log_info("link %s: HELLO from '%.16s' (%s %08x, window %u, max_payload %u): we send up to %u "
+             "frames in flight, accept %u", l->cfg.name, h->node,
+             l->pl.rx_ver == IT2N_PROTO_VERSION_12 ? "v1.2, new session" : "v1.1, session",
+             (unsigned)it2n_link_session(&l->pl), h->window, h->max_payload,
+             (unsigned)it2n_link_send_window(&l->pl), (unsigned)it2n_link_window(&l->pl));
     l->peer = 1;
-    l->hello_session = l->pl.peer_session;
+    l->hello_session = it2n_link_session(&l->pl);
     it2n_link_complete(&l->pl, seq, 0, NULL);
     send_hello(l);
     return IT2N_LINK_DEFER;
@@ -755,13 +762,34 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
     if (l->pl.stats.rx_sessions != l->held_sessions) {
         /* A new peer session: the link forgot the old one's deliveries, so
          * their held ACKs can no longer be sent (the restarted peer resends
-         * what it needs, exactly once: protocol.md 4.3). */
-        if (l->nheld)
-            log_info("link %s: new peer session: %d ACK(s) of the previous one not sent", l->cfg.name, l->nheld);
+         * what it needs, exactly once: protocol.md 4.3), nor the requests
+         * waiting for a response run (their numbers may be the new
+         * sequence's). */
+        if (l->nheld || l->nrq)
+            log_info("link %s: new peer session: %d ACK(s) and %d request(s) of the previous one dropped",
+                     l->cfg.name, l->nheld, l->nrq);
         l->nheld = 0;
+        l->nrq = 0;
         l->held_sessions = l->pl.stats.rx_sessions;
+        if (l->pl.rx_ver == IT2N_PROTO_VERSION_12) {
+            /* v1.2: a session is one life of the peer; what we owed the
+             * previous one (responses, EVENTs, a LOST count) is not this
+             * one's. (v1.1 sends responses on to the new session.) */
+            l->job.kind = 0;
+            l->has_rsp = 0;
+            l->nev = 0;
+        }
+        if (l->peer && l->hello_session != it2n_link_session(&l->pl) &&
+            msg->type != IT2N_MSG_HELLO)
+            l->peer = 0; /* EVENTs only to a session that said HELLO */
     }
-    if (l->lost && l->nev < EVQ_MAX) {
+    if (l->lost && l->lost_session != it2n_link_session(&l->pl)) {
+        /* The session whose frames were dropped is gone: nobody to tell. */
+        log_info("link %s: %u frame(s) dropped for a previous peer session: no EVENT LOST to the new one",
+                 l->cfg.name, (unsigned)l->lost);
+        l->lost = 0;
+    }
+    if (l->lost && l->peer && l->hello_session == l->lost_session && l->nev < EVQ_MAX) {
         /* The peer is back after we declared the link down: tell it. */
         it2n_msg_event *ev = &l->evq[l->nev++];
         memset(ev, 0, sizeof *ev);
@@ -912,6 +940,9 @@ static void on_poll(void *arg)
          * told (EVENT LOST) when it speaks again. */
         unsigned n = it2n_link_drop_tx(&l->pl);
         unsigned more = (unsigned)l->nev + (l->has_rsp ? 1u : 0u) + (l->job.kind ? 1u : 0u);
+        if (l->lost && l->lost_session != it2n_link_session(&l->pl))
+            l->lost = 0;
+        l->lost_session = it2n_link_session(&l->pl);
         l->lost += n + more;
         l->nev = 0;
         l->has_rsp = 0;
@@ -921,6 +952,19 @@ static void on_poll(void *arg)
                  "when it speaks again)", l->cfg.name, l->cfg.peer_timeout_ms, n + more);
     }
     pump_job(l); /* next: when a retransmission is due, else 100 ms (arm_poll) */
+}
+
+/* A fresh v1.2 session id for a peer's HELLO (protocol.md 4.1): random, so
+ * that no id repeats across links or daemon restarts (the link draws again
+ * if it equals one in use on this link). */
+static uint32_t links_new_session(void *app)
+{
+    static uint32_t fallback; /* only without getrandom() */
+    uint32_t v = 0;
+    (void)app;
+    if (getrandom(&v, sizeof v, GRND_NONBLOCK) != (ssize_t)sizeof v)
+        v = ((uint32_t)loop_now_ms() ^ ((uint32_t)getpid() << 16)) + 2654435761u * ++fallback;
+    return v;
 }
 
 static void link_open(void *arg)
@@ -954,6 +998,7 @@ static void link_open(void *arg)
     /* serial: the RTO counts from when a frame has left the line */
     cfg.baud = l->cfg.type == CONF_LINK_SERIAL && l->cfg.baud > 0 ? (uint32_t)l->cfg.baud : 0u;
     cfg.max_tries = 0; /* never abandoned: retried until declared down */
+    cfg.new_session = links_new_session; /* v1.2 peers get their session id */
     /* A new session id and first sequence number on every open, so that
      * a peer never takes our frames for a previous session's. */
     {
@@ -1115,7 +1160,7 @@ void links_event(const struct model *md, int old_state)
     for (int k = 0; k < nlinks; k++) {
         struct link *l = &links[k];
         int q;
-        if (!l->up || !l->peer || l->pl.peer_session != l->hello_session)
+        if (!l->up || !l->peer || it2n_link_session(&l->pl) != l->hello_session)
             continue; /* EVENTs only to a peer session that said HELLO */
         /* Coalesce: a queued EVENT of this model is replaced in place. */
         for (q = 0; q < l->nev && l->evq[q].model != ev.model; q++) {

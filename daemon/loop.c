@@ -1,5 +1,7 @@
-/* loop.c — see loop.h. Small tables scanned linearly: the daemon has tens of
- * fds and timers, so this is simpler and as fast as a heap. */
+/* loop.c — see loop.h. Timers are a small table scanned linearly (tens of
+ * them). Fds can be thousands (pending TCP connections, mb_tcp.c): an
+ * index by fd number makes add/mod/del O(1), and the poll array grows with
+ * the table (no fixed cap: an fd beyond it would never be read). */
 #include "loop.h"
 
 #include <errno.h>
@@ -28,6 +30,9 @@ struct hook_ent {
 
 static struct fd_ent *fds;
 static size_t nfds, capfds;
+static struct pollfd *pfds;      /* capfds entries, filled per iteration */
+static size_t *fd_idx;           /* fd number -> index in fds, SIZE_MAX none */
+static size_t cap_idx;
 static struct timer_ent *timers;
 static size_t ntimers, captimers;
 static struct hook_ent hooks[8];
@@ -47,37 +52,65 @@ uint64_t loop_now_ms(void)
     return loop_now_us() / 1000u;
 }
 
+static size_t idx_of(int fd)
+{
+    return fd >= 0 && (size_t)fd < cap_idx ? fd_idx[fd] : SIZE_MAX;
+}
+
 int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg)
 {
+    if (fd < 0)
+        return -1;
+    if ((size_t)fd >= cap_idx) {
+        size_t cap = cap_idx ? cap_idx : 64;
+        while (cap <= (size_t)fd)
+            cap *= 2;
+        size_t *p = realloc(fd_idx, cap * sizeof *p);
+        if (!p)
+            return -1;
+        for (size_t k = cap_idx; k < cap; k++)
+            p[k] = SIZE_MAX;
+        fd_idx = p;
+        cap_idx = cap;
+    }
     if (nfds == capfds) {
         size_t cap = capfds ? capfds * 2 : 16;
         struct fd_ent *p = realloc(fds, cap * sizeof *p);
         if (!p)
             return -1;
         fds = p;
+        struct pollfd *q = realloc(pfds, cap * sizeof *q);
+        if (!q)
+            return -1;
+        pfds = q;
         capfds = cap;
     }
+    /* A deleted entry of the same fd may still be in the table (marked,
+     * compacted at the end of the iteration): the index names the new one. */
     fds[nfds].fd = fd;
     fds[nfds].events = events;
     fds[nfds].cb = cb;
     fds[nfds].arg = arg;
+    fd_idx[fd] = nfds;
     nfds++;
     return 0;
 }
 
 void loop_mod_fd(int fd, short events)
 {
-    for (size_t k = 0; k < nfds; k++)
-        if (fds[k].fd == fd)
-            fds[k].events = events;
+    size_t k = idx_of(fd);
+    if (k != SIZE_MAX)
+        fds[k].events = events;
 }
 
 void loop_del_fd(int fd)
 {
     /* Mark only: the dispatcher may be iterating; compacted after. */
-    for (size_t k = 0; k < nfds; k++)
-        if (fds[k].fd == fd)
-            fds[k].fd = -1;
+    size_t k = idx_of(fd);
+    if (k != SIZE_MAX) {
+        fds[k].fd = -1;
+        fd_idx[fd] = SIZE_MAX;
+    }
 }
 
 long loop_add_timer(uint64_t delay_ms, loop_timer_cb cb, void *arg)
@@ -130,8 +163,10 @@ static void compact_fds(void)
 {
     size_t out = 0;
     for (size_t k = 0; k < nfds; k++)
-        if (fds[k].fd >= 0)
+        if (fds[k].fd >= 0) {
+            fd_idx[fds[k].fd] = out;
             fds[out++] = fds[k];
+        }
     nfds = out;
 }
 
@@ -154,8 +189,8 @@ static void run_timers(void)
 
 int loop_run_once(int max_wait_ms)
 {
-    struct pollfd pfd[1024];
-    size_t n = nfds < 1024 ? nfds : 1024;
+    struct pollfd *pfd = pfds;
+    size_t n = nfds;
     /* µs: timers are kept to the microsecond (the RTU inter-frame silence
      * is 1.75 ms above 19200 Bd), so wait with ppoll, not poll. */
     int64_t timeout = max_wait_ms < 0 ? -1 : (int64_t)max_wait_ms * 1000;
@@ -182,15 +217,15 @@ int loop_run_once(int max_wait_ms)
     int rc = ppoll(pfd, n, timeout < 0 ? NULL : &ts, NULL);
     if (rc < 0 && errno != EINTR)
         return -1;
+    /* Entries 0..n-1 keep their places until compact_fds (callbacks only
+     * mark deletions and append): an entry deleted by an earlier callback
+     * is skipped, and revents never go to a new entry that reuses its fd
+     * number. pfds itself may move (an append that grows the table), so
+     * it is read through the global. */
     for (size_t k = 0; rc > 0 && k < n; k++) {
-        if (!pfd[k].revents)
-            continue;
-        /* The table may have been changed by an earlier callback. */
-        for (size_t e = 0; e < nfds; e++)
-            if (fds[e].fd == pfd[k].fd && fds[e].fd >= 0) {
-                fds[e].cb(fds[e].arg, fds[e].fd, pfd[k].revents);
-                break;
-            }
+        short rev = pfds[k].revents;
+        if (rev && fds[k].fd >= 0 && fds[k].fd == pfds[k].fd)
+            fds[k].cb(fds[k].arg, fds[k].fd, rev);
     }
     compact_fds();
     run_timers();
@@ -203,8 +238,12 @@ int loop_run_once(int max_wait_ms)
 void loop_free(void)
 {
     free(fds);
+    free(pfds);
+    free(fd_idx);
     free(timers);
     fds = NULL;
+    pfds = NULL;
+    fd_idx = NULL;
     timers = NULL;
-    nfds = capfds = ntimers = captimers = nhooks = 0;
+    nfds = capfds = cap_idx = ntimers = captimers = nhooks = 0;
 }

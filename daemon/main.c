@@ -66,7 +66,7 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: it2nd [-c FILE] [--listen HOST:PORT] [--state-dir DIR] [--metrics HOST:PORT]\n"
-            "             [--check-config] [--foreground] [-v...] [--help] [--version]\n"
+            "             [--check-config] [--accept-wal-loss] [--foreground] [-v...] [--help] [--version]\n"
             "  -c, --config FILE     configuration (INI); default: built-in (Modbus TCP\n"
             "                        127.0.0.1:1502, model 1 on unit 1 with the paper data)\n"
             "  -l, --listen HOST:PORT  Modbus TCP address (repeatable); replaces the\n"
@@ -76,6 +76,9 @@ static void usage(FILE *f)
             "                        overrides [metrics] listen (default: off)\n"
             "  -t, --check-config    validate the configuration, check that the state\n"
             "                        directory is writable and the ports free, and exit\n"
+            "  --accept-wal-loss     the operator's act after damage inside the WAL: cut the\n"
+            "                        WAL at the damaged record (the rest kept in wal.cut-*),\n"
+            "                        log the records given up, and exit (docs/daemon.md)\n"
             "  -f, --foreground      log to stderr (default when not started by systemd: syslog)\n"
             "  -v, --verbose         more logging (-vv debug)\n"
             "  -h, --help            this text\n"
@@ -680,10 +683,11 @@ int main(int argc, char **argv)
         { "config", required_argument, NULL, 'c' }, { "check-config", no_argument, NULL, 't' },
         { "foreground", no_argument, NULL, 'f' },   { "verbose", no_argument, NULL, 'v' },
         { "help", no_argument, NULL, 'h' },         { "version", no_argument, NULL, 'V' },
-        { "listen", required_argument, NULL, 'l' }, { "state-dir", required_argument, NULL, 's' },
-        { "metrics", required_argument, NULL, 'm' }, { NULL, 0, NULL, 0 }
+        { "accept-wal-loss", no_argument, NULL, 'A' }, { "listen", required_argument, NULL, 'l' },
+        { "state-dir", required_argument, NULL, 's' }, { "metrics", required_argument, NULL, 'm' },
+        { NULL, 0, NULL, 0 }
     };
-    int opt, check = 0, fg = 0, verbose = 0;
+    int opt, check = 0, fg = 0, verbose = 0, accept_loss = 0;
     while ((opt = getopt_long(argc, argv, "c:tfvhVl:s:m:", lopts, NULL)) != -1) {
         switch (opt) {
         case 'c': conf_path = optarg; break;
@@ -700,6 +704,7 @@ int main(int argc, char **argv)
         case 'f': fg = 1; break;
         case 'v': verbose++; break;
         case 'h': usage(stdout); return 0;
+        case 'A': accept_loss = 1; break;
         case 'V': printf("it2nd %s (register map %u)\n", IT2ND_VERSION, IT2N_REGMAP_VERSION); return 0;
         default: usage(stderr); return 2;
         }
@@ -708,7 +713,7 @@ int main(int argc, char **argv)
         usage(stderr);
         return 2;
     }
-    log_open(fg || check, verbose);
+    log_open(fg || check || accept_loss, verbose);
     if (load_conf(&cfg))
         return 1;
     if (check) {
@@ -740,8 +745,17 @@ int main(int argc, char **argv)
     if (setup_models())
         return 1;
     store_set_drop_policy(may_drop);
+    store_accept_wal_loss(accept_loss);
     if (store_open(cfg.state_dir, cfg.fsync))
         return 1;
+    if (accept_loss) {
+        /* One shot, with the service stopped (the state directory's lock
+         * is taken): the WAL now ends before the damage; nothing served. */
+        store_close();
+        models_free();
+        log_notice("--accept-wal-loss: %s/wal is valid to its end now; start the daemon as usual", cfg.state_dir);
+        return 0;
+    }
     for (int k = 0; k < models_count(); k++)
         log_model(models_at(k), "");
     models_set_journal(store_append, NULL);

@@ -116,7 +116,9 @@ static int write_req(struct mb_session *s, struct model *md, const struct mb_opt
 /* Access control: a write that would change the model (configuration or
  * upload block) through a read-only listener, or to a write-protected
  * unit, is refused with exception 02 (to this client the block is
- * read-only) before anything is looked at. Query registers stay writable:
+ * read-only) before anything is looked at. The refusal is this client's
+ * alone: the exception answers it, the model's last_error (read by every
+ * client of the model) is left as it was. Query registers stay writable:
  * querying is reading. The first refusal per session is logged at notice
  * level, the rest at debug. */
 static int write_denied(struct mb_session *s, int unit, const struct mb_opts *o, unsigned addr, unsigned count)
@@ -182,7 +184,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         vals[0] = (uint16_t)u16at(pdu + 3);
         if (write_denied(s, unit, o, u16at(pdu + 1), 1))
-            return refuse_write(s, md, req, MBX_ILLEGAL_ADDRESS);
+            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
         rc = write_req(s, md, o, u16at(pdu + 1), 1, vals, 0, 0, &persisted);
         break;
     }
@@ -193,7 +195,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         if (count < 1 || count > MODBUS_MAX_WRITE_REGISTERS || bytes != count * 2 || plen != 6 + (int)bytes)
             return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         if (write_denied(s, unit, o, addr, count))
-            return refuse_write(s, md, req, MBX_ILLEGAL_ADDRESS);
+            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < count; k++)
             vals[k] = (uint16_t)u16at(pdu + 6 + 2 * k);
         rc = write_req(s, md, o, addr, count, vals, 0, 0, &persisted);
@@ -208,8 +210,10 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             wcount > MODBUS_MAX_WR_WRITE_REGISTERS || bytes != wcount * 2 || plen != 10 + (int)bytes)
             return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
         /* Check the read range before writing, so a bad read changes nothing. */
-        if (!it2n_regmap_find(raddr, rcount) || write_denied(s, unit, o, waddr, wcount))
+        if (!it2n_regmap_find(raddr, rcount))
             return refuse_write(s, md, req, MBX_ILLEGAL_ADDRESS);
+        if (write_denied(s, unit, o, waddr, wcount))
+            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < wcount; k++)
             vals[k] = (uint16_t)u16at(pdu + 10 + 2 * k);
         rc = write_req(s, md, o, waddr, wcount, vals, raddr, rcount, &persisted);

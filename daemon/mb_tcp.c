@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -18,32 +19,63 @@
 #include "mb_req.h"
 #include "porthint.h"
 
-/* At most this many new connections wait for a slot when all max_clients
- * slots are in use, each for at most WAIT_MS; more push out the oldest. */
-#define WAIT_MAX 16
+/* Admission (docs/daemon.md, "Connection slots"). A connection takes one
+ * of max_clients slots only with its first complete request; until then it
+ * is pending and costs a descriptor and a buffer, never a slot, so idle,
+ * slow or reconnecting connections cannot hold the slots. Pending
+ * connections are bounded (max_pending, within RLIMIT_NOFILE): when full,
+ * a new one pushes out a pending connection that has not sent a complete
+ * request (the oldest of the address holding most), never one that has.
+ * A complete request waits for a
+ * slot at most WAIT_MS: a free one, else that of the slot holder idle
+ * longest (at least evict_idle). */
 #define WAIT_MS 1000
+/* Descriptors kept out of the pending budget: state directory, links,
+ * RTU ports, reloads. */
+#define FD_RESERVE 64
+/* Connections accepted per readable listener event: the rest wait for the
+ * next loop iteration, so clients in their slots are served in between. */
+#define ACCEPT_BATCH 256
+
+/* Pending connections without a complete request, per client address:
+ * when the pending places are full, the one pushed out comes from the
+ * address holding most of them, so a flood from one address never pushes
+ * out a newcomer from another while it holds more places. */
+struct peer_addr {
+    uint8_t a[16];          /* IPv6, IPv4 as ::ffff:a.b.c.d */
+    int n;
+    struct peer_addr *next;
+};
+#define PEER_BUCKETS 1024
+static struct peer_addr *peer_tab[PEER_BUCKETS];
+static int peer_max; /* an upper bound of the largest n */
 
 struct conn {
     int fd;
+    int slot;               /* 1: holds a slot (s is set up) */
+    int ready;              /* no slot yet, a complete request buffered */
+    int ro;                 /* the listener is read-only (s.read_only once in a slot) */
     struct mb_session s;
     uint8_t buf[MODBUS_TCP_MAX_ADU_LENGTH * 2];
     size_t len;
     uint64_t accepted;      /* ms */
     uint64_t last_rx;       /* ms, for the idle timeout */
-    uint64_t last_req;      /* us, last complete request (or accept): who is idle longest */
+    uint64_t last_req;      /* us, last complete request: who is idle longest */
+    uint64_t ready_since;   /* ms, its first complete request (ready) */
     uint64_t partial_since; /* ms, first byte of an incomplete request, 0 none */
-    int waiting;            /* 1: no slot yet (all max_clients in use) */
     struct sockaddr_storage sa; /* peer, for the allow-list at a reload */
+    struct peer_addr *pa;   /* its address' count while pending without a request */
     char laddr[80];         /* listener host:port, to find its policy at a reload */
     char peer[64];
-    struct conn *next;
+    struct conn *next, *prev; /* accept order: oldest first */
 };
 
 static int listen_fd[CONF_MAX_LISTEN];
 static struct conf_listen listen_addr[CONF_MAX_LISTEN];
 static int nlisten;
-static struct conn *conns;
-static int nconns, nwait;   /* connections holding a slot, waiting for one */
+static struct conn *conns, *conns_tail;
+static int nconns, npending, nready; /* in a slot; without one; of those, with a request */
+static int pending_cap;              /* max_pending within RLIMIT_NOFILE */
 static struct mb_opts opts;
 static int max_clients, idle_ms, byte_ms, keepalive_s, evict_ms;
 static long sweep_timer, admit_timer, resume_timer;
@@ -90,44 +122,100 @@ static void on_admit_timer(void *arg)
 
 static void schedule_admit(void)
 {
-    if (!admit_timer && nwait)
+    if (!admit_timer && nready)
         admit_timer = loop_add_timer(0, on_admit_timer, NULL);
+}
+
+static void addr_bytes(const struct sockaddr_storage *ss, uint8_t out[16])
+{
+    memset(out, 0, 16);
+    if (ss->ss_family == AF_INET6) {
+        memcpy(out, &((const struct sockaddr_in6 *)ss)->sin6_addr, 16);
+    } else if (ss->ss_family == AF_INET) {
+        out[10] = out[11] = 0xFF;
+        memcpy(out + 12, &((const struct sockaddr_in *)ss)->sin_addr, 4);
+    }
+}
+
+static struct peer_addr **peer_bucket(const uint8_t a[16])
+{
+    unsigned h = 2166136261u; /* FNV-1a */
+    for (int k = 0; k < 16; k++)
+        h = (h ^ a[k]) * 16777619u;
+    return &peer_tab[h % PEER_BUCKETS];
+}
+
+/* c holds a pending place without a request: count it for its address. */
+static int addr_hold(struct conn *c)
+{
+    uint8_t a[16];
+    addr_bytes(&c->sa, a);
+    struct peer_addr **pp = peer_bucket(a), *p;
+    for (p = *pp; p && memcmp(p->a, a, 16); p = p->next)
+        ;
+    if (!p) {
+        p = calloc(1, sizeof *p);
+        if (!p)
+            return -1;
+        memcpy(p->a, a, 16);
+        p->next = *pp;
+        *pp = p;
+    }
+    c->pa = p;
+    if (++p->n > peer_max)
+        peer_max = p->n;
+    return 0;
+}
+
+/* c no longer holds a place without a request (ready, or closed). */
+static void addr_release(struct conn *c)
+{
+    struct peer_addr *p = c->pa, **pp;
+    if (!p)
+        return;
+    c->pa = NULL;
+    if (--p->n > 0)
+        return;
+    for (pp = peer_bucket(p->a); *pp != p; pp = &(*pp)->next)
+        ;
+    *pp = p->next;
+    free(p);
 }
 
 static void conn_close(struct conn *c, const char *why)
 {
-    struct conn **pp;
     log_info("tcp %s: closed (%s)", c->peer, why);
     loop_del_fd(c->fd);
-    modbus_close(c->s.ctx); /* closes c->fd */
-    modbus_free(c->s.ctx);
-    mb_session_free(&c->s);
-    for (pp = &conns; *pp; pp = &(*pp)->next)
-        if (*pp == c) {
-            *pp = c->next;
-            break;
-        }
-    if (c->waiting) {
-        nwait--;
+    if (c->s.ctx) {
+        modbus_close(c->s.ctx); /* closes c->fd */
+        modbus_free(c->s.ctx);
+        mb_session_free(&c->s);
     } else {
+        close(c->fd);
+    }
+    *(c->prev ? &c->prev->next : &conns) = c->next;
+    *(c->next ? &c->next->prev : &conns_tail) = c->prev;
+    addr_release(c);
+    if (c->slot) {
         nconns--;
-        schedule_admit(); /* a slot is free: a waiting client may take it */
+        schedule_admit(); /* a slot is free: a waiting request may take it */
+    } else {
+        npending--;
+        nready -= c->ready;
     }
     free(c);
 }
 
-/* A complete request is in the buffer (framing already checked). */
-static int has_request(const struct conn *c)
-{
-    return c->len >= 7 && c->len >= 6u + ((unsigned)c->buf[4] << 8 | c->buf[5]);
-}
+static int grant(struct conn *c, uint64_t now);
 
 /* Frame and handle every complete request in the buffer. Stops at a held
  * request (its reply, and so any later request, waits for the commit), and
- * for a connection still waiting for a slot at its first complete request
- * (admit() gives it one). */
+ * for a connection without a slot at its first complete request: it stops
+ * reading and waits for admit(). */
 static int process(struct conn *c)
 {
+    if (c->ready)
+        return 0;
     while (c->len >= 7 && c->s.held_len == 0) {
         unsigned proto = (unsigned)c->buf[2] << 8 | c->buf[3];
         unsigned mlen = (unsigned)c->buf[4] << 8 | c->buf[5];
@@ -138,8 +226,15 @@ static int process(struct conn *c)
         size_t total = 6 + mlen;
         if (c->len < total)
             break;
-        if (c->waiting) {
+        if (!c->slot) {
+            c->ready = 1;
+            nready++;
+            addr_release(c);
+            c->ready_since = loop_now_ms();
             c->partial_since = 0;
+            /* A free slot and no request waiting before it: at once. */
+            if (nready == 1 && nconns < max_clients)
+                return grant(c, c->ready_since);
             loop_mod_fd(c->fd, 0);
             schedule_admit();
             return 0;
@@ -174,6 +269,12 @@ static void on_conn(void *arg, int fd, short revents)
         conn_close(c, "socket error");
         return;
     }
+    if (c->ready) {
+        /* Not reading until admitted: only a hang-up is news. */
+        if (revents & POLLHUP)
+            conn_close(c, "peer closed");
+        return;
+    }
     r = recv(fd, c->buf + c->len, sizeof c->buf - c->len, 0);
     if (r == 0) {
         conn_close(c, "peer closed");
@@ -189,35 +290,64 @@ static void on_conn(void *arg, int fd, short revents)
     process(c);
 }
 
-/* The established connection that has gone longest without a complete
- * request, if that is at least evict_idle; never one whose reply is held. */
+/* The slot holder that has gone longest without a complete request, if
+ * that is at least evict_idle; never one whose reply is held. */
 static struct conn *idlest(uint64_t now_us)
 {
     struct conn *c, *best = NULL;
     for (c = conns; c; c = c->next)
-        if (!c->waiting && !c->s.held_len && now_us - c->last_req >= (uint64_t)evict_ms * 1000u &&
+        if (c->slot && !c->s.held_len && now_us - c->last_req >= (uint64_t)evict_ms * 1000u &&
             (!best || c->last_req < best->last_req))
             best = c;
     return best;
 }
 
-/* Give slots to waiting connections, oldest first: a free slot to the
- * oldest; when none is free, the slot of the connection idle longest (at
- * least evict_idle) to the oldest that has sent a complete request. A
- * newcomer must send a request before it can take anyone's slot, so
- * connection attempts alone never disturb a client. */
+/* The connection with a complete request waiting longest for a slot. */
+static struct conn *oldest_ready(void)
+{
+    struct conn *c, *best = NULL;
+    for (c = conns; c; c = c->next)
+        if (c->ready && (!best || c->ready_since < best->ready_since))
+            best = c;
+    return best;
+}
+
+/* Give c (ready) its slot: the Modbus session is set up only now, so a
+ * pending connection costs no register map. */
+static int grant(struct conn *c, uint64_t now)
+{
+    modbus_t *ctx = modbus_new_tcp_pi(NULL, "502");
+    if (!ctx || mb_session_init(&c->s, ctx, 1)) {
+        log_err("tcp %s: out of memory", c->peer);
+        if (ctx)
+            modbus_free(ctx);
+        c->s.ctx = NULL;
+        c->s.map = NULL;
+        conn_close(c, "out of memory");
+        return -1;
+    }
+    modbus_set_socket(ctx, c->fd);
+    c->s.read_only = c->ro;
+    snprintf(c->s.who, sizeof c->s.who, "tcp %s (listener %s)", c->peer, c->laddr);
+    c->slot = 1;
+    c->ready = 0;
+    nready--;
+    npending--;
+    nconns++;
+    log_info("tcp %s: got a slot %llu ms after its request, %llu ms after connecting (%d clients)", c->peer,
+             (unsigned long long)(now - c->ready_since), (unsigned long long)(now - c->accepted), nconns);
+    return process(c);
+}
+
+/* Give slots to connections with a complete request, longest waiting
+ * first: a free slot, else that of the slot holder idle longest (at least
+ * evict_idle). A connection without a complete request never takes a
+ * slot, and never costs anyone theirs. */
 static void admit(void)
 {
-    while (nwait) {
-        uint64_t now = loop_now_ms();
-        int free_slot = nconns < max_clients;
-        struct conn *c, *w = NULL;
-        for (c = conns; c; c = c->next)
-            if (c->waiting && (free_slot || has_request(c)) && (!w || c->accepted < w->accepted))
-                w = c;
-        if (!w)
-            return;
-        if (!free_slot) {
+    while (nready) {
+        struct conn *w = oldest_ready();
+        if (nconns >= max_clients) {
             uint64_t now_us = loop_now_us();
             struct conn *v = idlest(now_us);
             if (!v)
@@ -227,13 +357,28 @@ static void admit(void)
                        (unsigned long long)((now_us - v->last_req) / 1000u), w->peer, max_clients);
             conn_close(v, "evicted for a new client");
         }
-        w->waiting = 0;
-        nwait--;
-        nconns++;
-        log_info("tcp %s: got a slot after %llu ms (%d clients)", w->peer, (unsigned long long)(now - w->accepted),
-                 nconns);
-        process(w);
+        grant(w, loop_now_ms());
     }
+}
+
+/* The pending connection to close when the pending places are full: the
+ * oldest that has not sent a complete request, from the address holding
+ * most such places; NULL when every pending connection has sent one (they
+ * are never pushed out for a newcomer). */
+static struct conn *pending_victim(void)
+{
+    for (; peer_max > 0; peer_max--)
+        for (struct conn *c = conns; c; c = c->next)
+            if (c->pa && c->pa->n == peer_max)
+                return c;
+    return NULL;
+}
+
+static void push_out(struct conn *v, const char *why)
+{
+    refusal_log("tcp %s: closed after %llu ms without a complete request: %s (%d pending, max_pending %d)",
+                v->peer, (unsigned long long)(loop_now_ms() - v->accepted), why, npending, pending_cap);
+    conn_close(v, "no request; pushed out by a newer connection");
 }
 
 static void resume_listeners(void *arg)
@@ -275,17 +420,25 @@ static void on_accept(void *arg, int lfd, short revents)
 {
     const struct conf_listen *l = arg;
     (void)revents;
-    for (;;) {
+    for (int n = 0; n < ACCEPT_BATCH; n++) {
         struct sockaddr_storage ss;
         socklen_t sl = sizeof ss;
         int fd = accept4(lfd, (struct sockaddr *)&ss, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
         char host[48] = "?", serv[8] = "?", lk[80];
         if (fd < 0) {
-            if (errno == EMFILE || errno == ENFILE || errno == ENOBUFS || errno == ENOMEM) {
-                refusal_log("tcp accept: %s; listeners paused for 100 ms", strerror(errno));
+            int e = errno;
+            struct conn *v;
+            if ((e == EMFILE || e == ENFILE) && (v = pending_victim()) != NULL) {
+                /* A descriptor held by a connection that has sent no
+                 * request makes room for the one waiting in the backlog. */
+                push_out(v, "out of descriptors");
+                continue;
+            }
+            if (e == EMFILE || e == ENFILE || e == ENOBUFS || e == ENOMEM) {
+                refusal_log("tcp accept: %s; listeners paused for 100 ms", strerror(e));
                 pause_listeners();
-            } else if (errno != EAGAIN && errno != EINTR && errno != ECONNABORTED) {
-                log_warn("tcp accept: %s", strerror(errno));
+            } else if (e != EAGAIN && e != EINTR && e != ECONNABORTED) {
+                log_warn("tcp accept: %s", strerror(e));
             }
             return;
         }
@@ -298,56 +451,68 @@ static void on_accept(void *arg, int lfd, short revents)
             close(fd);
             continue;
         }
-        if (nconns >= max_clients && nwait >= WAIT_MAX) {
-            /* The oldest waiting newcomer makes room for this one. */
-            struct conn *c, *old = NULL;
-            for (c = conns; c; c = c->next)
-                if (c->waiting && (!old || c->accepted < old->accepted))
-                    old = c;
-            if (old)
-                conn_close(old, "no slot; pushed out by a newer connection");
+        /* Requests read in this batch take free slots now (admit() would
+         * run after it), so that their places count as free below. */
+        if (npending >= pending_cap && nready && nconns < max_clients)
+            admit();
+        while (npending >= pending_cap) {
+            struct conn *v = pending_victim();
+            if (!v)
+                break;
+            push_out(v, "its place goes to a new connection");
+        }
+        if (npending >= pending_cap) {
+            /* Every pending connection has a complete request: they keep
+             * their places, the newcomer is closed. */
+            refusal_log("tcp %s:%s: refused: all %d pending places hold complete requests waiting for a slot "
+                        "(max_pending, max_clients)", host, serv, pending_cap);
+            close(fd);
+            continue;
         }
         struct conn *c = calloc(1, sizeof *c);
-        modbus_t *ctx = modbus_new_tcp_pi(NULL, "502");
-        if (!c || !ctx || mb_session_init(&c->s, ctx, 1)) {
+        if (!c) {
             log_err("tcp: out of memory");
-            if (ctx)
-                modbus_free(ctx);
-            free(c);
             close(fd);
             continue;
         }
         int one = 1;
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
         set_keepalive(fd);
-        modbus_set_socket(ctx, fd);
         c->fd = fd;
         c->accepted = c->last_rx = loop_now_ms();
         c->last_req = loop_now_us();
         c->sa = ss;
-        c->s.read_only = l->read_only;
+        c->ro = l->read_only;
         snprintf(c->laddr, sizeof c->laddr, "%s", lk);
         snprintf(c->peer, sizeof c->peer, "%s:%s", host, serv);
-        snprintf(c->s.who, sizeof c->s.who, "tcp %s (listener %s)", c->peer, lk);
-        /* Behind connections already waiting, even if a slot just freed:
-         * admit() hands slots out oldest first. */
-        c->waiting = nconns >= max_clients || nwait > 0;
-        c->next = conns;
-        conns = c;
-        loop_add_fd(fd, POLLIN, on_conn, c);
-        if (c->waiting) {
-            nwait++;
-            log_info("tcp %s: connected, waiting for a slot (%d clients, max_clients)", c->peer, nconns);
-        } else {
-            nconns++;
-            log_info("tcp %s: connected (%d clients)", c->peer, nconns);
+        if (loop_add_fd(fd, POLLIN, on_conn, c)) {
+            log_err("tcp: out of memory");
+            close(fd);
+            free(c);
+            continue;
         }
+        if (addr_hold(c)) {
+            log_err("tcp: out of memory");
+            loop_del_fd(fd);
+            close(fd);
+            free(c);
+            continue;
+        }
+        c->prev = conns_tail;
+        *(conns_tail ? &conns_tail->next : &conns) = c;
+        conns_tail = c;
+        npending++;
+        log_info("tcp %s: connected (%d clients, %d pending)", c->peer, nconns, npending);
+        /* A request sent right after the handshake is often here already:
+         * read it now, so that the connection is ready (and can no longer
+         * be pushed out) before the next connection is accepted. */
+        on_conn(c, fd, 0);
     }
 }
 
-/* Every 100 ms: idle and byte (incomplete request) timeouts; newcomers
- * that got no slot within WAIT_MS are closed; waiting ones are admitted
- * as connections become idle long enough. */
+/* Every 100 ms: idle and byte (incomplete request) timeouts; a complete
+ * request that got no slot within WAIT_MS is refused (closed); waiting
+ * ones are admitted as slot holders become idle long enough. */
 static void sweep(void *arg)
 {
     uint64_t now = loop_now_ms();
@@ -357,11 +522,11 @@ static void sweep(void *arg)
         next = c->next;
         if (c->partial_since && now - c->partial_since > (uint64_t)byte_ms)
             conn_close(c, "byte timeout: request incomplete");
-        else if (c->waiting && now - c->accepted > WAIT_MS) {
+        else if (c->ready && now - c->ready_since > WAIT_MS) {
             refusal_log("tcp %s: refused: no slot within %d ms, all %d in use by active clients (max_clients)",
                         c->peer, WAIT_MS, max_clients);
             conn_close(c, "no slot");
-        } else if (!c->waiting && !c->s.held_len && now - c->last_rx > (uint64_t)idle_ms)
+        } else if (!c->ready && !c->s.held_len && now - c->last_rx > (uint64_t)idle_ms)
             conn_close(c, "idle timeout");
     }
     admit();
@@ -392,7 +557,7 @@ static int open_listener(const struct conf_listen *l)
         setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
         if (ai->ai_family == AF_INET6)
             setsockopt(fd, IPPROTO_IPV6, IPV6_V6ONLY, &v6only, sizeof v6only);
-        if (bind(fd, ai->ai_addr, ai->ai_addrlen) == 0 && listen(fd, 64) == 0)
+        if (bind(fd, ai->ai_addr, ai->ai_addrlen) == 0 && listen(fd, 1024) == 0)
             break;
         if (errno == EADDRINUSE) {
             char hint[320];
@@ -417,6 +582,34 @@ static int open_listener(const struct conf_listen *l)
     return fd;
 }
 
+/* Pending connections need descriptors: the soft RLIMIT_NOFILE is raised
+ * (up to the hard limit) to hold max_clients + max_pending + FD_RESERVE,
+ * and what it cannot hold lowers the pending places (logged). */
+static void fd_budget(const struct conf *c)
+{
+    struct rlimit rl;
+    rlim_t want = (rlim_t)c->max_clients + (rlim_t)c->max_pending + FD_RESERVE;
+    pending_cap = c->max_pending < 4 ? 4 : c->max_pending;
+    if (getrlimit(RLIMIT_NOFILE, &rl))
+        return;
+    if (rl.rlim_cur != RLIM_INFINITY && rl.rlim_cur < want) {
+        struct rlimit nl = rl;
+        nl.rlim_cur = rl.rlim_max != RLIM_INFINITY && rl.rlim_max < want ? rl.rlim_max : want;
+        if (nl.rlim_cur > rl.rlim_cur && setrlimit(RLIMIT_NOFILE, &nl) == 0) {
+            log_info("tcp: RLIMIT_NOFILE raised from %llu to %llu (max_clients + max_pending + %d)",
+                     (unsigned long long)rl.rlim_cur, (unsigned long long)nl.rlim_cur, FD_RESERVE);
+            rl = nl;
+        }
+    }
+    if (rl.rlim_cur != RLIM_INFINITY && rl.rlim_cur < want) {
+        long room = (long)rl.rlim_cur - c->max_clients - FD_RESERVE;
+        pending_cap = room < 4 ? 4 : (int)room;
+        log_warn("tcp: RLIMIT_NOFILE %llu (hard %llu) leaves room for %d pending connections, not max_pending %d: "
+                 "raise the limit (LimitNOFILE=) or lower max_pending", (unsigned long long)rl.rlim_cur,
+                 (unsigned long long)rl.rlim_max, pending_cap, c->max_pending);
+    }
+}
+
 static void set_opts(const struct conf *c, const struct mb_opts *o)
 {
     opts = *o;
@@ -425,6 +618,7 @@ static void set_opts(const struct conf *c, const struct mb_opts *o)
     byte_ms = c->byte_timeout;
     keepalive_s = c->tcp_keepalive;
     evict_ms = c->evict_idle;
+    fd_budget(c);
 }
 
 static void close_listeners(void)
@@ -480,7 +674,8 @@ static void recheck_conns(const struct conf *cf)
                 log_notice("tcp %s: closed: no longer in the allow-list of listener %s", c->peer, lk);
                 conn_close(c, "not allowed after reload");
             } else {
-                c->s.read_only = cf->listen[k].read_only;
+                c->ro = cf->listen[k].read_only;
+                c->s.read_only = c->ro;
             }
             break;
         }
@@ -530,7 +725,7 @@ void mb_tcp_release_upto(uint64_t batch, int commit_ok)
 
 int mb_tcp_clients(void)
 {
-    return nconns;
+    return nconns + npending;
 }
 
 void mb_tcp_stop(void)

@@ -22,7 +22,7 @@ void mb_tcp_release(int commit_ok);
 /* The same for the replies waiting for WAL batches up to `batch`. */
 void mb_tcp_release_upto(uint64_t batch, int commit_ok);
 
-/* Number of open client connections. */
+/* Number of open client connections (in a slot or pending). */
 int mb_tcp_clients(void);
 
 /* Close everything. */

@@ -36,6 +36,12 @@ static unsigned popcount8(unsigned v)
     return c;
 }
 
+size_t snap_max_size(int nmodels)
+{
+    return SNAP_HDR + 4 +
+           (size_t)nmodels * (MODEL_HDR + (size_t)IT2N_DIM * IT2N_DIM * (3 + FP_BYTES * IT2N_FP_COUNT));
+}
+
 /* durable_view: encode models_view() of each model (the last durable
  * state, while a batch is gathered or in flight), else the models. */
 uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)

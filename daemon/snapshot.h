@@ -18,6 +18,10 @@
  * malloc'd buffer (caller frees) and its length, or NULL (no memory). */
 uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view);
 
+/* The largest snapshot nmodels models can give (every grid point of the
+ * largest degree with every footprint): the room a checkpoint needs. */
+size_t snap_max_size(int nmodels);
+
 /* snap_decode results. */
 #define SNAP_BAD (-1)       /* length, CRC-32C or structure: the file is damaged */
 #define SNAP_BAD_MODEL (-2) /* a model record does not validate: damaged too     */

@@ -27,6 +27,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "conf.h"
 #include "errs.h"
 
 #include "it2n_proto.h"
@@ -42,6 +43,9 @@
 #define REC_MAX 128u
 
 static int dirfd_ = -1, walfd = -1, lockfd = -1, do_fsync = 1;
+/* The operator accepted the loss of the WAL behind a damaged record
+ * (store_accept_wal_loss): cut there instead of refusing to start. */
+static int accept_loss;
 /* seq: the last record queued; dseq: the last one durable (a failed commit
  * goes back to it, so the WAL never has a hole in its sequence). */
 static uint64_t seq, dseq, wal_bytes;
@@ -70,6 +74,10 @@ struct job {
     uint64_t batch;
     /* results */
     int rc, err, new_wal, degrade;
+    /* checkpoint: the reserve (below). want: make it if it is not held;
+     * used: released for this checkpoint; held: held afterwards; rerr:
+     * why it could not be made. */
+    int reserve_want, reserve_used, reserve_held, reserve_rerr;
     const char *step, *degrade_what;
 };
 static struct job job;
@@ -82,6 +90,15 @@ static int writer_on, writer_stop, evfd = -1;
 static pthread_mutex_t wmu = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t wcv = PTHREAD_COND_INITIALIZER, dcv = PTHREAD_COND_INITIALIZER;
 static uint64_t delayed_us;  /* last job's duration, for the log */
+/* The checkpoint reserve (issue 20 item 4): state_dir/reserve, a file of
+ * reserve_size() bytes allocated for real. A checkpoint needs room for
+ * snapshot.tmp and wal.tmp; when the WAL has filled the disk there is
+ * none, and without a checkpoint the WAL never shrinks. So a checkpoint
+ * that meets ENOSPC releases the reserve and tries again; once it has
+ * replaced the WAL, the reserve is made again. Loop thread (the writer
+ * reports through the job). */
+static int reserve_held;
+static int reserve_warned;
 static char state_dir[256]; /* for messages */
 static store_drop_fn drop_policy;
 
@@ -291,6 +308,8 @@ static void run_commit(struct job *j)
 }
 
 static void run_checkpoint(struct job *j);
+static off_t reserve_size(void);
+static int reserve_make(int sync);
 
 static void run_job(struct job *j)
 {
@@ -468,6 +487,7 @@ static int submit_checkpoint(int durable_view)
     job.recs = 0;
     job.last_seq = dseq;
     job.batch = 0;
+    job.reserve_want = !reserve_held;
     queue_job();
     return 1;
 }
@@ -475,6 +495,24 @@ static int submit_checkpoint(int durable_view)
 int store_submit_checkpoint(void)
 {
     return submit_checkpoint(1);
+}
+
+/* Loop side: what the checkpoint did with the reserve. */
+static void reserve_reap(const struct job *j)
+{
+    if (j->reserve_used)
+        log_notice("store: the disk is full; the checkpoint reserve (%s/reserve, %lld bytes) released for this "
+                   "checkpoint", state_dir, (long long)reserve_size());
+    if (j->reserve_held && !reserve_held)
+        log_notice("store: checkpoint reserve %s/reserve (%lld bytes) in place", state_dir,
+                   (long long)reserve_size());
+    else if (!j->reserve_held && j->rc == 0 && !reserve_warned)
+        log_warn("store: no room for the checkpoint reserve (%s/reserve, %lld bytes): %s; if the WAL fills the "
+                 "disk, writes stay refused until space is freed; retried at every checkpoint",
+                 state_dir, (long long)reserve_size(), strerror(j->reserve_rerr));
+    if (j->rc == 0)
+        reserve_warned = !j->reserve_held;
+    reserve_held = j->reserve_held;
 }
 
 int store_reap(struct store_done *d)
@@ -522,6 +560,7 @@ int store_reap(struct store_done *d)
             wal_bytes = 0;
         if (job.degrade)
             set_degraded(job.degrade_what, job.err);
+        reserve_reap(&job);
         if (job.rc) {
             log_err("snapshot failed (%s): %s", job.step, strerror(job.err));
         } else {
@@ -626,7 +665,7 @@ static int wal_reset(struct job *j)
  * record, so either snapshot plus it replays to the same state). A success
  * clears the degraded state: memory, which equals what was acknowledged,
  * is then on disk in fresh files. */
-static void run_checkpoint(struct job *j)
+static void checkpoint_once(struct job *j)
 {
     int fd = -1;
     j->rc = -1;
@@ -669,6 +708,70 @@ out_tmp:
 out:
     if (!j->err)
         j->err = errno;
+}
+
+/* The largest snapshot CONF_MAX_MODELS models can give, a new WAL, and
+ * room for the filesystem's own blocks, in whole 4 KiB blocks. */
+static off_t reserve_size(void)
+{
+    size_t n = snap_max_size(CONF_MAX_MODELS) + WAL_HDR + ((size_t)64 << 10);
+    return (off_t)((n + 4095) & ~(size_t)4095);
+}
+
+/* Make the reserve (or complete it): 0 or an errno. The blocks are
+ * allocated for real: fallocate, or zeros written where the filesystem
+ * has no fallocate (never a sparse file). sync: fsync it too. */
+static int reserve_make(int sync)
+{
+    const off_t want = reserve_size();
+    struct stat st;
+    int e = 0, fd = openat(dirfd_, "reserve", O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0640);
+    if (fd < 0)
+        return errno;
+    if (fstat(fd, &st) == 0 && st.st_size == want && (off_t)st.st_blocks * 512 >= want) {
+        close(fd);
+        return 0;
+    }
+    if (fallocate(fd, 0, 0, want)) {
+        e = errno;
+        if (e == EOPNOTSUPP || e == ENOSYS) {
+            static const uint8_t zero[4096];
+            e = 0;
+            for (off_t off = 0; !e && off < want; off += (off_t)sizeof zero)
+                if (pwrite(fd, zero, sizeof zero, off) != (ssize_t)sizeof zero)
+                    e = errno ? errno : ENOSPC;
+        }
+    }
+    if (!e && sync && do_fsync && fsync(fd))
+        e = errno;
+    close(fd);
+    return e;
+}
+
+static int full(int e)
+{
+    return e == ENOSPC || e == EDQUOT;
+}
+
+/* Writer side: a checkpoint; on a full disk, once more with the reserve
+ * released; then the reserve made again if it is not held. */
+static void run_checkpoint(struct job *j)
+{
+    j->reserve_used = 0;
+    j->reserve_held = !j->reserve_want;
+    j->reserve_rerr = 0;
+    checkpoint_once(j);
+    if (j->rc && full(j->err) && !j->degrade && unlinkat(dirfd_, "reserve", 0) == 0) {
+        j->reserve_used = 1;
+        j->reserve_held = 0;
+        j->err = 0;
+        j->step = NULL;
+        checkpoint_once(j);
+    }
+    if (j->rc == 0 && !j->reserve_held) {
+        j->reserve_rerr = reserve_make(1);
+        j->reserve_held = j->reserve_rerr == 0;
+    }
 }
 
 int store_snapshot(void)
@@ -946,6 +1049,125 @@ static int load_snapshot(uint64_t *seqp)
 #define WAL_CHUNK ((size_t)64 << 10)
 #define REC_WIRE_MAX (8u + 9u + REC_MAX) /* len, crc, then seq..payload */
 
+/* Is there a whole, valid record at p (avail bytes): length in range, CRC,
+ * decodable, seq > after? *rseq and *wire (its length on disk) filled. */
+static int rec_valid(const uint8_t *p, size_t avail, uint64_t after, uint64_t *rseq, size_t *wire)
+{
+    struct model_rec rec;
+    if (avail < 8)
+        return 0;
+    uint32_t rlen = get32(p);
+    if (rlen < 9 || rlen > 9 + REC_MAX || 8u + rlen > avail || get32(p + 4) != it2n_crc32c(p + 8, rlen) ||
+        decode_payload(p[16], p + REC_HDR, rlen - 9, &rec) || get64(p + 8) <= after)
+        return 0;
+    *rseq = get64(p + 8);
+    *wire = 8u + rlen;
+    return 1;
+}
+
+/* Damage at offset from (the record there does not validate, or breaks
+ * the sequence after seq `after`): is anything valid behind it? Scans
+ * every offset from `start` on (from + 1, or from itself when the record
+ * there is valid but out of sequence) for a valid record with a later
+ * seq, then counts the run of consecutive records from there (for the
+ * log). Returns 1
+ * (found: *at, *first, *last, *count), 0 (nothing valid follows: a torn
+ * tail) or -1 (read error, logged). A record torn by a crash is the last
+ * thing written; one that valid records follow was acknowledged, or sits
+ * before records that were (issue 20 item 3). */
+static int find_after_damage(int fd, uint64_t from, uint64_t start, uint64_t total, uint64_t after, uint64_t *at,
+                             uint64_t *first, uint64_t *last, uint64_t *count)
+{
+    const size_t cap = WAL_CHUNK + REC_WIRE_MAX;
+    uint8_t *b = malloc(cap);
+    uint64_t base = start, rs = 0;
+    size_t wire = 0;
+    int found = 0;
+    *count = 0;
+    if (!b) {
+        log_err("wal: no memory to examine the damage at offset %llu; refusing to start", (unsigned long long)from);
+        return -1;
+    }
+    /* Find the first valid record after the damage; then walk the run. */
+    while (base < total) {
+        size_t want = total - base < cap ? (size_t)(total - base) : cap, got = 0;
+        while (got < want) {
+            ssize_t n = pread(fd, b + got, want - got, (off_t)(base + got));
+            if (n < 0 && errno == EINTR)
+                continue;
+            if (n <= 0) {
+                log_err("wal: read error in %s/wal at offset %llu: %s; refusing to start, file left as it is",
+                        state_dir, (unsigned long long)(base + got), n < 0 ? strerror(errno) : "file shrank");
+                free(b);
+                return -1;
+            }
+            got += (size_t)n;
+        }
+        size_t lim = got == cap ? WAL_CHUNK : got;
+        if (!found) {
+            for (size_t k = 0; k < lim; k++)
+                if (rec_valid(b + k, got - k, after, &rs, &wire)) {
+                    found = 1;
+                    *at = base + k;
+                    *first = *last = rs;
+                    *count = 1;
+                    base += k + wire;
+                    break;
+                }
+            if (!found) {
+                base += lim;
+                continue;
+            }
+        } else {
+            size_t k = 0;
+            while (k < lim && rec_valid(b + k, got - k, *last, &rs, &wire) && rs == *last + 1) {
+                *last = rs;
+                ++*count;
+                k += wire;
+            }
+            if (k < lim)
+                break; /* the run ends here */
+            base += k;
+        }
+    }
+    free(b);
+    return found;
+}
+
+/* The WAL does not validate from offset off on (why). Nothing valid
+ * behind it: a torn tail, the last commit cut short by a crash or power cut
+ * before it was acknowledged; it is cut off (kept in wal.cut-*). Valid
+ * records behind it: damage inside the log, acknowledged records would be
+ * lost, so the start is refused and the file left as it is, unless the
+ * operator accepted the loss (store_accept_wal_loss). Returns 0 (cut
+ * here) or -1 (logged). */
+static int wal_damage(int fd, const char *why, int in_seq, uint64_t off, uint64_t total)
+{
+    uint64_t at = 0, first = 0, last = 0, count = 0;
+    int f = find_after_damage(fd, off, in_seq ? off + 1 : off, total, seq, &at, &first, &last, &count);
+    if (f < 0)
+        return -1;
+    if (f == 0) {
+        log_err("wal: %s at offset %llu; %llu byte(s) dropped (a torn last commit: nothing valid follows it)", why,
+                (unsigned long long)off, (unsigned long long)(total - off));
+        return 0;
+    }
+    if (!accept_loss) {
+        log_err("wal: %s/wal is damaged inside the log: %s at offset %llu after record %llu, but valid records "
+                "follow it (%llu record(s), seq %llu..%llu, from offset %llu): acknowledged records would be lost; "
+                "refusing to start, file left as it is. Recovery: docs/daemon.md, \"Damage inside the WAL\"",
+                state_dir, why, (unsigned long long)off, (unsigned long long)seq, (unsigned long long)count,
+                (unsigned long long)first, (unsigned long long)last, (unsigned long long)at);
+        return -1;
+    }
+    log_warn("wal: --accept-wal-loss: %s at offset %llu after record %llu; the operator accepts the loss of every "
+             "record from there on (%llu valid record(s) behind the damage, seq %llu..%llu, and %llu byte(s) in "
+             "all; kept in wal.cut-*)",
+             why, (unsigned long long)off, (unsigned long long)seq, (unsigned long long)count,
+             (unsigned long long)first, (unsigned long long)last, (unsigned long long)(total - off));
+    return 0;
+}
+
 static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
 {
     int fd = openat(dirfd_, "wal", O_RDONLY | O_CLOEXEC);
@@ -953,8 +1175,10 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
     uint8_t *buf = NULL;
     size_t have = 0, pos = 0;   /* bytes in buf; next record at buf[pos] */
     uint64_t base = 0;          /* file offset of buf[0] */
+    uint64_t off = 0;           /* the record being read */
     unsigned long long applied = 0, skipped = 0, failed = 0;
-    int eof = 0, rc = -1, damaged = 0;
+    int eof = 0, rc = -1, damaged = 0, seq_break = 0;
+    const char *why = NULL;     /* the damage at off */
     *good = *total = 0;
     if (fd < 0) {
         if (errno == ENOENT)
@@ -989,7 +1213,7 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
                 have += (size_t)n;
             }
         }
-        uint64_t off = base + pos;
+        off = base + pos;
         if (off == 0) {
             if (have < WAL_HDR || memcmp(buf, WAL_MAGIC, 8) || get32(buf + 8) != FORMAT_VERSION) {
                 /* Never dropped and overwritten (issue 8 item 4): its
@@ -1001,10 +1225,10 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
             pos = WAL_HDR;
             continue;
         }
+        if (have == pos)
+            break; /* the end */
         if (have - pos < REC_HDR) {
-            if (have > pos)
-                log_err("wal: truncated record at offset %llu; %llu byte(s) dropped", (unsigned long long)off,
-                        (unsigned long long)(*total - off));
+            why = "truncated record";
             break;
         }
         const uint8_t *r = buf + pos;
@@ -1012,23 +1236,20 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
         struct model_rec rec;
         it2n_errinfo err;
         if (rlen < 9 || rlen > 9 + REC_MAX || 8u + rlen > have - pos) {
-            log_err("wal: truncated record at offset %llu; %llu byte(s) dropped", (unsigned long long)off,
-                    (unsigned long long)(*total - off));
+            why = "truncated record";
             break;
         }
         if (get32(r + 4) != it2n_crc32c(r + 8, rlen)) {
-            log_err("wal: checksum mismatch at offset %llu; %llu byte(s) dropped", (unsigned long long)off,
-                    (unsigned long long)(*total - off));
+            why = "checksum mismatch";
             break;
         }
         uint64_t rseq = get64(r + 8);
         if (decode_payload(r[16], r + REC_HDR, rlen - 9, &rec)) {
-            log_err("wal: undecodable record at offset %llu; %llu byte(s) dropped", (unsigned long long)off,
-                    (unsigned long long)(*total - off));
+            why = "undecodable record";
             break;
         }
-        pos += 8u + rlen;
         if (rseq <= sseq) {
+            pos += 8u + rlen;
             skipped++;
             continue;
         }
@@ -1042,6 +1263,14 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
                     (unsigned long long)rseq - 1);
             goto out;
         }
+        if (rseq != seq + 1) {
+            /* Inside one WAL the sequence has no holes (a failed commit
+             * rolls it back): records are missing here. */
+            why = "sequence break (records missing)";
+            seq_break = 1;
+            break;
+        }
+        pos += 8u + rlen;
         if (rec.op == MOP_POINT && !models_by_id(rec.id) && !store_may_drop(rec.id, 0, "wal"))
             goto out;
         if (models_apply(&rec, &err) != IT2N_OK) {
@@ -1053,6 +1282,8 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
         }
         seq = rseq;
     }
+    if (why && wal_damage(fd, why, !seq_break, off, *total) < 0)
+        goto out;
     *good = base + pos;
     log_info("wal: %llu record(s) replayed, %llu already in the snapshot, %llu failed (%llu bytes)", applied,
              skipped, failed, (unsigned long long)*good);
@@ -1222,12 +1453,29 @@ int store_open(const char *dir, int fsync_on)
     }
     dseq = seq;
     wal_ok = 1;
+    /* The checkpoint reserve, kept across restarts (a restart on a disk
+     * the WAL filled needs it as much). Not having it is no reason to
+     * refuse the start: logged, made at the next checkpoint if it can. */
+    int re = reserve_make(1);
+    reserve_held = re == 0;
+    reserve_warned = !reserve_held;
+    if (re)
+        log_warn("store: no room for the checkpoint reserve (%s/reserve, %lld bytes): %s; if the WAL fills the disk, "
+                 "writes stay refused until space is freed; retried at every checkpoint",
+                 dir, (long long)reserve_size(), strerror(re));
+    else if (sync_dir())
+        log_warn("store: fsync of %s after making the checkpoint reserve: %s", dir, strerror(errno));
     return 0;
+}
+
+void store_accept_wal_loss(int on)
+{
+    accept_loss = on;
 }
 
 int store_chown(unsigned uid, unsigned gid)
 {
-    static const char *const files[] = { "wal", "snapshot", "lock" };
+    static const char *const files[] = { "wal", "snapshot", "lock", "reserve" };
     if (fchown(dirfd_, (uid_t)uid, (gid_t)gid))
         return -1;
     for (size_t k = 0; k < sizeof files / sizeof files[0]; k++)

@@ -40,6 +40,16 @@ void store_set_drop_policy(store_drop_fn fn);
  * Logs the refusal. */
 int store_may_drop(int id, unsigned points, const char *file);
 
+/* Damage inside the WAL (a record that does not validate, or a hole in the
+ * sequence, with valid records behind it): store_open refuses to start and
+ * leaves the file as it is, since acknowledged records would be lost. A
+ * damaged last record with nothing valid behind it is a torn tail (a
+ * commit cut short by a crash, never acknowledged): cut off silently. With
+ * on = 1 (it2nd --accept-wal-loss, the operator's explicit act) the next
+ * store_open cuts at the damage instead, keeping the bytes cut off in
+ * wal.cut-<UTC time>, and logs what was given up. */
+void store_accept_wal_loss(int on);
+
 /* Queue one record (model journal hook). Returns 0, or IT2ND_ERR_DEGRADED,
  * IT2ND_ERR_IO or IT2ND_ERR_NOMEM (errs.h): the change is refused. */
 int store_append(void *arg, const struct model_rec *rec);

@@ -189,7 +189,8 @@ static int dec_finish(it2n_frame_decoder *d, it2n_frame_hdr *hdr,
         d->stats.length++;
         return IT2N_PROTO_ERR_LENGTH;
     }
-    if (hdr->version != IT2N_PROTO_VERSION) {
+    if (hdr->version < IT2N_PROTO_VERSION_MIN ||
+        hdr->version > IT2N_PROTO_VERSION_MAX) {
         d->stats.version++;
         return IT2N_PROTO_ERR_VERSION;
     }

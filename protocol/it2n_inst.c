@@ -139,7 +139,8 @@ static int32_t send(it2n_inst *ctx, const it2n_msg *m)
     int32_t seq;
     if (ctx->err != 0)
         return ctx->err;
-    if (!ready(ctx)) {
+    /* HELLO opens the session (v1.2: before any other frame may go) */
+    if (m->type != IT2N_MSG_HELLO && !ready(ctx)) {
         int r;
         if (ctx->cfg.read == NULL)
             return IT2N_PROTO_ERR_BUSY;
@@ -175,8 +176,11 @@ static void hello(it2n_inst *ctx, it2n_msg *m)
     size_t k;
     memset(m, 0, sizeof *m);
     m->type = IT2N_MSG_HELLO;
-    m->u.hello.version_min = IT2N_PROTO_VERSION_MIN;
-    m->u.hello.version_max = IT2N_PROTO_VERSION;
+    /* the one version this context speaks */
+    m->u.hello.version_min = ctx->cfg.version == IT2N_PROTO_VERSION
+                                 ? (uint8_t)IT2N_PROTO_VERSION
+                                 : (uint8_t)IT2N_PROTO_VERSION_12;
+    m->u.hello.version_max = m->u.hello.version_min;
     m->u.hello.max_degree = IT2N_MAX_DEGREE;
     m->u.hello.window = it2n_link_window(&ctx->link);
     m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_CHORD |
@@ -204,6 +208,10 @@ static int start(it2n_inst *ctx, uint16_t first_seq)
     lc.max_tries = ctx->cfg.max_tries;
     lc.first_seq = first_seq;
     lc.session = ctx->cfg.session_id;
+    /* v1.2 by default: the daemon hands out the session id */
+    lc.version = ctx->cfg.version == IT2N_PROTO_VERSION
+                     ? (uint8_t)IT2N_PROTO_VERSION
+                     : (uint8_t)IT2N_PROTO_VERSION_12;
     r = it2n_link_init(&ctx->link, &lc);
     if (r != IT2N_OK)
         return (int)r;
@@ -223,7 +231,9 @@ static int start(it2n_inst *ctx, uint16_t first_seq)
 
 int it2n_inst_open(it2n_inst *ctx, const it2n_inst_cfg *cfg)
 {
-    if (cfg == NULL || cfg->write == NULL || cfg->now_ms == NULL)
+    if (cfg == NULL || cfg->write == NULL || cfg->now_ms == NULL ||
+        (cfg->version != 0u && cfg->version != IT2N_PROTO_VERSION &&
+         cfg->version != IT2N_PROTO_VERSION_12))
         return IT2N_ERR_INVAL;
     memset(ctx, 0, sizeof *ctx);
     ctx->cfg = *cfg;

@@ -1,9 +1,9 @@
 /*
  * it2n — instrument API: the few calls a firmware needs to upload grid
- * points to it2nd over a serial line and ask it questions (protocol v1.1,
+ * points to it2nd over a serial line and ask it questions (protocol v1.2,
  * docs/instrument.md has a worked example).
  *
- *   it2n_inst_open      start a session (HELLO with your session id)
+ *   it2n_inst_open      start a session (HELLO; the daemon hands out its id)
  *   it2n_inst_configure start (or restart) a model: degrees n x m, flags
  *   it2n_inst_put       one footprint of one grid point (batched for you)
  *   it2n_inst_commit    send what is batched, then COMMIT (solve)
@@ -42,15 +42,20 @@ typedef struct it2n_inst_cfg {
     /* Optional: called while waiting (e.g. __WFI()). */
     void (*idle)(void *user);
     void *user;               /* passed to the callbacks                  */
-    uint32_t session_id;      /* differs from every earlier session of this
-                                 instrument: TRNG, or a boot counter kept in
-                                 flash and incremented at every start     */
-    uint16_t first_seq;       /* first sequence number (random is best)  */
+    uint32_t session_id;      /* v1.1 only (version below): differs from
+                                 every earlier session of this instrument.
+                                 v1.2 (the default) needs none: the daemon
+                                 hands out the session id, so the same
+                                 boot every time is safe                  */
+    uint16_t first_seq;       /* first sequence number (any; 0 is fine)  */
     uint32_t rto_ms;          /* retransmission timeout; 0 = 200         */
     uint8_t max_tries;        /* transmissions before giving up; 0 = 20  */
     uint32_t timeout_ms;      /* longest wait of one call (read mode);
                                  0 = 10000                                */
     const char *node;         /* name sent in HELLO (<= 16 chars), or NULL */
+    uint8_t version;          /* 0: protocol v1.2 (needs it2nd 1.2 or
+                                 later); IT2N_PROTO_VERSION: v1.1, with
+                                 session_id                              */
 } it2n_inst_cfg;
 
 typedef struct it2n_inst {
@@ -78,9 +83,13 @@ typedef struct it2n_inst {
 #define it2n_inst_open IT2N_PROTO_ABI(it2n_inst_open)
 
 /*
- * Start a session: initialise ctx from cfg and send HELLO (the first frame,
- * with SYN and cfg->session_id). Returns IT2N_OK, IT2N_ERR_INVAL (missing
- * callback) or a link error. In read mode it waits for the HELLO's ACK.
+ * Start a session: initialise ctx from cfg and send HELLO (the first frame;
+ * v1.2: with session 0, the daemon's HELLO answers with the session id every
+ * later frame carries; v1.1: with cfg->session_id). Returns IT2N_OK,
+ * IT2N_ERR_INVAL (missing callback, unknown version) or a link error. In
+ * read mode it waits for the HELLO's answer (v1.2: the daemon's HELLO).
+ * v1.2: if the daemon later forgets the session (it restarted), the link
+ * sends this HELLO again by itself and goes on in the new session.
  */
 int it2n_inst_open(it2n_inst *ctx, const it2n_inst_cfg *cfg);
 
@@ -158,8 +167,9 @@ int it2n_inst_error(const it2n_inst *ctx, it2n_msg_nack *nack);
 /*
  * Start over on the same line after a failure or when the daemon was lost:
  * drops what is in flight and the PUT batch, clears the error, starts a new
- * sequence (SYN) with sequence number first_seq and sends HELLO again.
- * Keeps the session id (same instrument life). Returns as it2n_inst_open.
+ * sequence (SYN) with sequence number first_seq and sends HELLO again
+ * (v1.2: asks for a new session; v1.1: keeps the session id). Returns as
+ * it2n_inst_open.
  */
 int it2n_inst_resync(it2n_inst *ctx, uint16_t first_seq);
 

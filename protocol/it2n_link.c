@@ -18,6 +18,11 @@
 /* Own window: a constant in minimum builds (MCU: no code for it). */
 #define WIN(l) (W == IT2N_PROTO_WINDOW_MIN ? (unsigned)W : (unsigned)(l)->win)
 #define SESS IT2N_FRAME_SESSION_SIZE
+#define V11 IT2N_PROTO_VERSION
+#define V12 IT2N_PROTO_VERSION_12
+/* Roles in v1.2: the client asks for a session, the server hands it out. */
+#define CLIENT(l) ((l)->cfg.version == V12)
+#define SERVER(l) ((l)->cfg.new_session != NULL)
 
 static bool due(uint32_t now, uint32_t deadline)
 {
@@ -96,6 +101,9 @@ int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
         (cfg->window < IT2N_PROTO_WINDOW_MIN || cfg->window > W ||
          (cfg->window & (cfg->window - 1u)) != 0u))
         return IT2N_ERR_INVAL;
+    if ((cfg->version != 0u && cfg->version != V11 && cfg->version != V12) ||
+        (cfg->version == V12 && cfg->new_session != NULL))
+        return IT2N_ERR_INVAL; /* a v1.2 client does not hand out ids */
     memset(l, 0, sizeof *l);
     l->cfg = *cfg;
     if (l->cfg.rto_max_ms < l->cfg.rto_ms)
@@ -106,6 +114,8 @@ int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
     l->win = cfg->window != 0u ? cfg->window : (uint8_t)W;
     l->peer_window = IT2N_PROTO_WINDOW_MIN; /* until the peer's HELLO */
     l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
+    l->ver = CLIENT(l) ? (uint8_t)V12 : (uint8_t)V11;
+    l->rx_ver = l->ver;
     it2n_frame_decoder_init(&l->dec);
     return IT2N_OK;
 }
@@ -128,6 +138,11 @@ uint8_t it2n_link_window(const it2n_link *l)
 uint8_t it2n_link_send_window(const it2n_link *l)
 {
     return l->peer_window;
+}
+
+uint32_t it2n_link_session(const it2n_link *l)
+{
+    return l->ver == V12 ? l->tag : l->peer_session;
 }
 
 uint16_t it2n_link_max_payload(const it2n_link *l)
@@ -159,7 +174,7 @@ static it2n_link_slot *oldest_slot(it2n_link *l)
 
 unsigned it2n_link_pending(const it2n_link *l)
 {
-    unsigned k, n = 0;
+    unsigned k, n = l->hello.used;
     for (k = 0; k < W; k++)
         n += l->slot[k].used;
     return n;
@@ -168,6 +183,8 @@ unsigned it2n_link_pending(const it2n_link *l)
 bool it2n_link_can_send(const it2n_link *l)
 {
     const it2n_link_slot *old = oldest_of(l);
+    if (CLIENT(l) && l->tag == 0u)
+        return false; /* v1.2: nothing but HELLO before the session */
     if (old == NULL)
         return true;
     /* Until the peer accepted our SYN frame, it travels alone; otherwise
@@ -182,6 +199,8 @@ bool it2n_link_can_send(const it2n_link *l)
 uint32_t it2n_link_stalled_ms(const it2n_link *l, uint32_t now)
 {
     const it2n_link_slot *old = oldest_of(l);
+    if (old == NULL && l->hello.used)
+        return now - l->hello.first;
     return old == NULL ? 0u : now - old->first;
 }
 
@@ -205,13 +224,18 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
 {
     it2n_frame_hdr h;
     const uint8_t *p = s->buf + SESS;
-    h.version = IT2N_PROTO_VERSION;
+    h.version = s->ver;
     h.type = s->type;
     h.flags = (uint8_t)(IT2N_FLAG_REL | s->flags |
                         (s->tries > 0u ? IT2N_FLAG_RETX : 0u));
     h.seq = s->seq;
     h.len = s->len;
-    if (s->flags & IT2N_FLAG_SYN) {
+    if (s->ver == V12) {
+        /* v1.2: every frame carries the session it belongs to. */
+        put_u32(s->buf, s->tag);
+        p = s->buf;
+        h.len = (uint16_t)(s->len + SESS);
+    } else if (s->flags & IT2N_FLAG_SYN) {
         /* v1.1: a SYN frame's payload starts with our session id. */
         put_u32(s->buf, l->cfg.session);
         p = s->buf;
@@ -231,6 +255,148 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
     s->deadline = s->gone + rto_for(l, s->tmo + 1u);
 }
 
+/* ---- v1.2 sessions (docs/protocol.md 4.1) ------------------------------ */
+
+/* Client: (re)send the HELLO that asks for a session: SYN, session 0, alone. */
+static void hello_out(it2n_link *l, uint32_t now)
+{
+    it2n_link_hello *h = &l->hello;
+    it2n_frame_hdr fh;
+    fh.version = V12;
+    fh.type = IT2N_MSG_HELLO;
+    fh.flags = (uint8_t)(IT2N_FLAG_REL | IT2N_FLAG_SYN |
+                         (h->tries > 0u ? IT2N_FLAG_RETX : 0u));
+    fh.seq = h->seq;
+    fh.len = (uint16_t)(SESS + h->len);
+    put_u32(h->buf, 0u);
+    if (h->tries > 0u)
+        l->stats.tx_retx++;
+    l->stats.tx_frames++;
+    l->clock = now;
+    h->deadline = frame_out(l, &fh, h->buf, fh.len) + rto_for(l, h->tries + 1u);
+    if (h->tries < 255u)
+        h->tries++;
+}
+
+/* Client: start asking for a session with the HELLO kept in l->hello. Its
+ * number is the next one (not used up: a session's frames carry their own
+ * id, so the HELLO's ACK, tagged 0, is never taken for theirs). */
+static void hello_start(it2n_link *l, uint32_t now)
+{
+    l->tag = 0;
+    l->tx_synced = 0;
+    l->rx_synced = 0;
+    l->hello.used = 1;
+    l->hello.acked = 0;
+    l->hello.tries = 0;
+    l->hello.seq = l->tx_next;
+    l->hello.first = now;
+    l->stats.tx_hellos++;
+    hello_out(l, now);
+}
+
+static int32_t send_hello(it2n_link *l, const it2n_msg *msg, uint32_t now)
+{
+    int len;
+    if (l->hello.used)
+        return IT2N_PROTO_ERR_BUSY; /* one is asking already */
+    len = it2n_msg_pack(msg, l->hello.buf + SESS, IT2N_LINK_HELLO_MAX, NULL);
+    if (len < 0)
+        return len;
+    l->hello.len = (uint8_t)len;
+    hello_start(l, now);
+    return (int32_t)l->hello.seq;
+}
+
+/* Finish every frame in flight not framed in version `ver` or, for v1.2,
+ * not of session `keep`: it was for a session that is gone. The
+ * application gets IT2N_PROTO_ERR_SESSION (not a loss to report). */
+static void drop_foreign(it2n_link *l, uint8_t ver, uint32_t keep)
+{
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *s = &l->slot[k];
+        if (!s->used || (s->ver == ver && (ver != V12 || s->tag == keep)))
+            continue;
+        s->flags = 0;
+        s->used = 0;
+        if (l->cfg.on_done != NULL)
+            l->cfg.on_done(l->cfg.app, s->seq, s->type, IT2N_PROTO_ERR_SESSION,
+                           NULL);
+    }
+}
+
+static void restart_seq(it2n_link *l, uint32_t now);
+
+/* Server: a v1.2 HELLO with session 0 arrived: hand out a new session id
+ * (never 0, none in use on this link), for our answer and the peer's
+ * frames to come. What we had in flight was for a session that is gone. */
+static void offer(it2n_link *l)
+{
+    uint32_t n = 0;
+    unsigned k, tries;
+    for (tries = 0; tries < 8u; tries++) {
+        bool clash;
+        n = l->cfg.new_session(l->cfg.app);
+        clash = n == 0u || n == l->tag || n == l->peer_session;
+        for (k = 0; k < 4u; k++)
+            clash = clash || n == l->offer[k];
+        if (!clash)
+            break;
+        n = 0;
+    }
+    if (n == 0u) /* the source keeps repeating itself: derive one */
+        n = ((l->tag ^ l->offer[0]) * 2654435761u + 0x9E3779B9u) | 1u;
+    for (k = 3u; k > 0u; k--)
+        l->offer[k] = l->offer[k - 1u];
+    l->offer[0] = n;
+    l->tag = n;
+    l->ver = V12;
+    drop_foreign(l, V12, n);
+    l->tx_synced = 0; /* our answer starts a sequence of this session */
+}
+
+static bool offered(const it2n_link *l, uint32_t t)
+{
+    unsigned k;
+    for (k = 0; k < 4u; k++)
+        if (t != 0u && l->offer[k] == t)
+            return true;
+    return false;
+}
+
+/* Server: the peer took up session t (its first frame carries it). */
+static void establish(it2n_link *l, uint32_t t, uint32_t now)
+{
+    memset(l->offer, 0, sizeof l->offer);
+    if (l->tag != t) { /* it took an earlier offer: answers of later ones go */
+        l->tag = t;
+        drop_foreign(l, V12, t);
+        restart_seq(l, now);
+    }
+}
+
+/* Client: the server's HELLO gives session t: the HELLO is answered, the
+ * frames kept while asking go on in a new sequence of that session. */
+static void adopt(it2n_link *l, uint32_t t, uint32_t now)
+{
+    unsigned k;
+    uint16_t seq = l->hello.seq;
+    l->tag = t;
+    for (k = 0; k < W; k++)
+        if (l->slot[k].used) {
+            l->slot[k].tag = t;
+            l->slot[k].flags = 0;
+        }
+    if (l->hello.used) {
+        l->hello.used = 0;
+        l->stats.tx_acked++;
+        if (l->cfg.on_done != NULL)
+            l->cfg.on_done(l->cfg.app, seq, IT2N_MSG_HELLO, IT2N_OK, NULL);
+    }
+    restart_seq(l, now);
+}
+
 int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
 {
     it2n_link_slot *s = NULL;
@@ -240,6 +406,8 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
     if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK ||
         msg->type == IT2N_MSG_GAP)
         return IT2N_PROTO_ERR_TYPE; /* link-internal, never reliable */
+    if (CLIENT(l) && l->tag == 0u && msg->type == IT2N_MSG_HELLO)
+        return send_hello(l, msg, now);
     if (!it2n_link_can_send(l))
         return IT2N_PROTO_ERR_BUSY;
     for (k = 0; k < W && s == NULL; k++)
@@ -255,6 +423,8 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
     s->used = 1;
     s->tries = 0;
     s->tmo = 0;
+    s->ver = l->ver;
+    s->tag = l->tag;
     s->type = msg->type;
     s->flags = l->tx_synced ? 0u : IT2N_FLAG_SYN;
     s->seq = l->tx_next++;
@@ -301,6 +471,13 @@ unsigned it2n_link_drop_tx(it2n_link *l)
         finish(l, s, IT2N_PROTO_ERR_DOWN, NULL);
         n++;
     }
+    if (l->hello.used) {
+        l->hello.used = 0;
+        n++;
+        if (l->cfg.on_done != NULL)
+            l->cfg.on_done(l->cfg.app, l->hello.seq, IT2N_MSG_HELLO,
+                           IT2N_PROTO_ERR_DOWN, NULL);
+    }
     l->stats.tx_dropped += n;
     l->tx_synced = 0;
     return n;
@@ -325,6 +502,18 @@ static void resync(it2n_link *l, uint32_t now)
         return; /* already resyncing, or nothing to resync */
     l->tx_synced = 0;
     l->stats.tx_resyncs++;
+    old->flags |= IT2N_FLAG_SYN;
+    transmit(l, old, now);
+}
+
+/* Start a new sequence with the oldest frame in flight (SYN); the others
+ * follow once it is answered. */
+static void restart_seq(it2n_link *l, uint32_t now)
+{
+    it2n_link_slot *old = oldest_slot(l);
+    l->tx_synced = 0;
+    if (old == NULL)
+        return;
     old->flags |= IT2N_FLAG_SYN;
     transmit(l, old, now);
 }
@@ -379,17 +568,65 @@ static void line_sync(it2n_link *l, uint32_t gone, uint32_t now)
     }
 }
 
-static void on_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
+/* An answer to our v1.2 HELLO (session 0): the ACK says the server has
+ * it (its HELLO with the session follows); a NACK ends it. */
+static void hello_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
+{
+    l->stats.rx_acks++;
+    if (m->type == IT2N_MSG_ACK) {
+        /* Wait for the server's HELLO, which it retransmits itself; ask
+         * again only if it stays away (the ACK was a stale copy). */
+        l->hello.acked = 1;
+        l->hello.deadline = now + 4u * rto_for(l, l->hello.tries);
+        return;
+    }
+    l->hello.used = 0;
+    l->stats.tx_nacked++;
+    if (l->cfg.on_done != NULL)
+        l->cfg.on_done(l->cfg.app, l->hello.seq, IT2N_MSG_HELLO,
+                       m->u.nack.code, &m->u.nack);
+}
+
+/* ACK or NACK m, framed in version ver with session tag (v1.2). */
+static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
+                      uint32_t tag, uint32_t now)
 {
     uint16_t seq = m->type == IT2N_MSG_ACK ? m->u.ack.seq : m->u.nack.seq;
     it2n_link_slot *s = NULL;
     unsigned k;
+    /* Only an older peer's VERSION refusal is read across versions. */
+    bool any = m->type == IT2N_MSG_NACK && m->u.nack.code == IT2N_PROTO_ERR_VERSION &&
+               ver < V12;
 
+    if (l->hello.used && seq == l->hello.seq &&
+        ((ver == V12 && tag == 0u) || any)) {
+        hello_answer(l, m, now);
+        return;
+    }
     for (k = 0; k < W && s == NULL; k++)
-        if (l->slot[k].used && l->slot[k].seq == seq)
+        if (l->slot[k].used && l->slot[k].seq == seq &&
+            (any || (l->slot[k].ver == V12
+                         ? ver == V12 && l->slot[k].tag == tag
+                         : ver != V12)))
             s = &l->slot[k];
     if (s == NULL) {
         l->stats.rx_stale_acks++;
+        return;
+    }
+    if (m->type == IT2N_MSG_NACK && m->u.nack.code == IT2N_PROTO_ERR_SESSION &&
+        s->ver == V12) {
+        /* The peer does not know the session of this frame. A client
+         * whose session it is asks for a new one (the server restarted)
+         * and sends the frame again in it; anything else is gone. */
+        l->stats.tx_nacked++;
+        if (CLIENT(l)) {
+            /* kept: it goes again in the new session */
+            if (tag == l->tag && !l->hello.used && l->hello.len > 0u)
+                hello_start(l, now);
+            return;
+        }
+        s->flags = 0;
+        finish(l, s, IT2N_PROTO_ERR_SESSION, &m->u.nack);
         return;
     }
     l->stats.rx_acks++;
@@ -443,10 +680,27 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
 {
     unsigned k;
     l->clock = now;
+    if (l->hello.used && due(now, l->hello.deadline)) {
+        if (l->cfg.max_tries != 0u && l->hello.tries >= l->cfg.max_tries) {
+            l->hello.used = 0;
+            l->stats.tx_timeouts++;
+            if (l->cfg.on_done != NULL)
+                l->cfg.on_done(l->cfg.app, l->hello.seq, IT2N_MSG_HELLO,
+                               IT2N_PROTO_ERR_TIMEOUT, NULL);
+        } else {
+            l->hello.acked = 0;
+            hello_out(l, now);
+        }
+    }
     for (k = 0; k < W; k++) {
         it2n_link_slot *s = &l->slot[k];
         if (!s->used || !due(now, s->deadline))
             continue;
+        if (CLIENT(l) && l->tag == 0u) {
+            /* kept until the server's HELLO gives the session */
+            s->deadline = now + rto_for(l, s->tmo + 1u);
+            continue;
+        }
         if (l->cfg.baud != 0u && reverse_busy(l, now)) {
             /* The peer's bytes are still arriving: its answer may be
              * queued behind them (at most a window of maximum frames).
@@ -487,6 +741,8 @@ uint32_t it2n_link_next_timeout(const it2n_link *l, uint32_t now)
 {
     uint32_t best = UINT32_MAX;
     unsigned k;
+    if (l->hello.used)
+        best = due(now, l->hello.deadline) ? 0u : l->hello.deadline - now;
     for (k = 0; k < W; k++) {
         const it2n_link_slot *s = &l->slot[k];
         uint32_t left;
@@ -502,11 +758,14 @@ uint32_t it2n_link_next_timeout(const it2n_link *l, uint32_t now)
 /* ---- receiver ----------------------------------------------------------- */
 
 /* Send ACK/NACK a, framed with version `ver` (ours, or an older peer's so
- * that it can read the refusal: ACK and NACK never change layout). */
-static void send_answer_v(it2n_link *l, const it2n_msg_nack *a, uint8_t ver)
+ * that it can read the refusal: ACK and NACK never change layout); in
+ * v1.2 after the session `tag` of the frame answered. */
+static void send_answer_vt(it2n_link *l, const it2n_msg_nack *a, uint8_t ver,
+                           uint32_t tag)
 {
     it2n_msg m;
-    uint8_t buf[64];
+    uint8_t buf[64 + SESS];
+    size_t off = ver == V12 ? SESS : 0u;
     it2n_frame_hdr h;
     int len;
 
@@ -518,20 +777,28 @@ static void send_answer_v(it2n_link *l, const it2n_msg_nack *a, uint8_t ver)
         m.type = IT2N_MSG_NACK;
         m.u.nack = *a;
     }
-    len = it2n_msg_pack(&m, buf, sizeof buf, NULL);
+    len = it2n_msg_pack(&m, buf + off, sizeof buf - off, NULL);
     if (len < 0)
         return;
+    if (off > 0u)
+        put_u32(buf, tag);
     h.version = ver;
     h.type = m.type;
     h.flags = 0;
     h.seq = 0;
-    h.len = (uint16_t)len;
-    (void)frame_out(l, &h, buf, (size_t)len);
+    h.len = (uint16_t)((size_t)len + off);
+    (void)frame_out(l, &h, buf, h.len);
 }
 
+static void send_answer_v(it2n_link *l, const it2n_msg_nack *a, uint8_t ver)
+{
+    send_answer_vt(l, a, ver, 0u);
+}
+
+/* An answer within the current receive sequence. */
 static void send_answer(it2n_link *l, const it2n_msg_nack *a)
 {
-    send_answer_v(l, a, IT2N_PROTO_VERSION);
+    send_answer_vt(l, a, l->rx_ver, l->peer_session);
 }
 
 static void nack_plain(it2n_msg_nack *a, uint16_t seq, int code)
@@ -650,33 +917,148 @@ static void drain(it2n_link *l)
 #endif
 }
 
+/* Refuse frame fh (not delivered): NACK code, framed in its version and
+ * after its session (v1.2), so that its sender, and only it, reads it. */
+static void refuse_frame(it2n_link *l, const it2n_frame_hdr *fh, uint32_t tag,
+                         int code, int64_t value, int64_t hi)
+{
+    it2n_msg_nack a;
+    nack_plain(&a, fh->seq, code);
+    a.value = value;
+    a.hi = hi;
+    send_answer_vt(l, &a, fh->version, tag);
+}
+
+/* A new receive sequence at seq of session sess (history and kept frames
+ * cleared). */
+static void start_seq(it2n_link *l, uint16_t seq, uint32_t sess, uint8_t ver)
+{
+    l->rx_synced = 1;
+    l->peer_session = sess;
+    l->rx_ver = ver;
+    l->rx_next = seq;
+    memset(l->hist, 0, sizeof l->hist);
+#if IT2N_PROTO_RX_REORDER
+    {
+        unsigned k;
+        for (k = 0; k < W; k++)
+            l->rxbuf[k].used = 0;
+    }
+#endif
+}
+
+/* A HELLO that would start a session is well-formed? Otherwise it is
+ * NACKed with the parse detail (after session t) and changes nothing. */
+static bool hello_ok(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t,
+                     const uint8_t *p, size_t len)
+{
+    it2n_msg m;
+    it2n_proto_errinfo info;
+    int r = it2n_msg_unpack(fh->type, p, len, &m, &info);
+    if (r >= 0)
+        return true;
+    l->stats.rx_bad_msg++;
+    {
+        it2n_msg_nack a;
+        nack_plain(&a, fh->seq, r);
+        a.lo = info.offset;
+        a.value = info.value;
+        a.hi = info.limit;
+        send_answer_vt(l, &a, fh->version, t);
+    }
+    return false;
+}
+
+/* v1.2: may a frame of session t go on to the sequence rules (true), or
+ * was it refused (false)? docs/protocol.md 4.1 and 4.3 rule 0. */
+static bool v12_admit(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t,
+                      const uint8_t *p, size_t len, uint32_t now)
+{
+    bool syn = (fh->flags & IT2N_FLAG_SYN) != 0u;
+    if (SERVER(l)) {
+        if (t == 0u) {
+            /* Session 0 asks for a session: only a HELLO, with SYN. It
+             * always starts a new sequence (a rebooted instrument's first
+             * frame is never taken for its previous life's). */
+            if (!syn || fh->type != IT2N_MSG_HELLO)
+                goto foreign;
+            if (!hello_ok(l, fh, t, p, len))
+                return false; /* malformed: nothing changes */
+            offer(l);
+            l->rx_synced = 0; /* a new peer: limits reset until its HELLO */
+            return true;
+        }
+        if (l->rx_synced && l->rx_ver == V12 && t == l->peer_session)
+            return true; /* the current session */
+        if (syn && offered(l, t)) {
+            /* The peer takes up a session we handed out. */
+            establish(l, t, now);
+            start_seq(l, fh->seq, t, V12);
+            l->stats.rx_sessions++;
+            return true;
+        }
+    } else if (CLIENT(l)) {
+        if (l->tag == 0u) {
+            if (syn && t != 0u && fh->type == IT2N_MSG_HELLO) {
+                /* The server's HELLO: our session from now on. */
+                if (!hello_ok(l, fh, t, p, len))
+                    return false;
+                adopt(l, t, now);
+                start_seq(l, fh->seq, t, V12);
+                l->stats.rx_sessions++;
+                l->peer_window = IT2N_PROTO_WINDOW_MIN;
+                l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
+                return true;
+            }
+        } else if (t == l->tag) {
+            if (syn && (!l->rx_synced || l->peer_session != t))
+                start_seq(l, fh->seq, t, V12); /* a sequence of ours */
+            return true;
+        }
+    }
+foreign:
+    /* Not a session of ours: a previous life's frame (a rebooted peer's,
+     * or one from before we restarted). Never delivered; its sender, if it
+     * is still there, asks for a new session (rule 0). */
+    l->stats.rx_foreign++;
+    refuse_frame(l, fh, t, IT2N_PROTO_ERR_SESSION, (int64_t)t, 0);
+    return false;
+}
+
 static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
-                        const uint8_t *p)
+                        const uint8_t *p, uint32_t now)
 {
     it2n_link_hist *h;
     it2n_msg_nack a;
     size_t len = fh->len;
     uint16_t ahead;
+    uint32_t sess = 0;
 
-    if (fh->flags & IT2N_FLAG_SYN) {
-        uint32_t sess;
+    if (fh->version == V12 || (fh->flags & IT2N_FLAG_SYN)) {
         if (len < SESS) { /* no session id: cannot start a sequence */
             l->stats.rx_bad_msg++;
-            nack_plain(&a, fh->seq, IT2N_PROTO_ERR_PAYLOAD);
-            a.value = (int64_t)len;
-            a.lo = 0;
-            a.hi = SESS;
-            send_answer(l, &a);
+            refuse_frame(l, fh, 0u, IT2N_PROTO_ERR_PAYLOAD, (int64_t)len, SESS);
             return;
         }
         sess = get_u32(p);
         p += SESS;
         len -= SESS;
+    }
+    if (fh->version == V12) {
+        if (!v12_admit(l, fh, sess, p, len, now))
+            return;
+    } else if (l->rx_ver == V12 && !(fh->flags & IT2N_FLAG_SYN)) {
+        /* a v1.1 frame is no part of a v1.2 sequence */
+        l->stats.rx_nosync++;
+        refuse_frame(l, fh, 0u, IT2N_PROTO_ERR_NOSYNC, 0, 0);
+        return;
+    }
+    if (fh->flags & IT2N_FLAG_SYN) {
         /* A SYN frame is a retransmission only if it belongs to the
          * current peer session and its number is in the history; anything
          * else starts a new sequence (a restarted peer has a new id). */
         if (l->rx_synced && sess == l->peer_session && sess != 0u &&
-            hist_find(l, fh->seq) == NULL &&
+            fh->version == l->rx_ver && hist_find(l, fh->seq) == NULL &&
             (uint16_t)(l->rx_next - fh->seq) - 1u < 0x7FFFu) {
             /* This session's SYN from behind `next` and out of the
              * history: a stale copy (a sender never restarts a sequence
@@ -688,30 +1070,27 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
          * sequence (never mistaken for an old session's frame; a SYN copy
          * whose ACK was lost is delivered again — it travels alone). */
         if (!l->rx_synced || sess != l->peer_session || sess == 0u ||
-            hist_find(l, fh->seq) == NULL) {
-            if (!l->rx_synced || sess != l->peer_session) {
+            fh->version != l->rx_ver || hist_find(l, fh->seq) == NULL) {
+            if (!l->rx_synced || sess != l->peer_session ||
+                fh->version != l->rx_ver) {
                 /* a new peer session: its limits are unknown until its
                  * HELLO (delivered next, if this frame is one) */
                 l->stats.rx_sessions++;
                 l->peer_window = IT2N_PROTO_WINDOW_MIN;
                 l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
             }
-            l->rx_synced = 1;
-            l->peer_session = sess;
-            l->rx_next = fh->seq;
-            memset(l->hist, 0, sizeof l->hist);
-#if IT2N_PROTO_RX_REORDER
-            {
-                unsigned k;
-                for (k = 0; k < W; k++)
-                    l->rxbuf[k].used = 0;
+            if (fh->version != V12 && l->ver == V12 && SERVER(l)) {
+                /* a v1.1 peer now: what we had for a v1.2 one is gone */
+                l->ver = V11;
+                l->tag = 0;
+                drop_foreign(l, V11, 0u);
+                l->tx_synced = 0;
             }
-#endif
+            start_seq(l, fh->seq, sess, fh->version);
         }
     } else if (!l->rx_synced) {
         l->stats.rx_nosync++;
-        nack_plain(&a, fh->seq, IT2N_PROTO_ERR_NOSYNC);
-        send_answer(l, &a);
+        refuse_frame(l, fh, sess, IT2N_PROTO_ERR_NOSYNC, 0, 0);
         return;
     }
     if (fh->seq == l->rx_next && can_deliver(l, fh->seq)) {
@@ -747,18 +1126,20 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
                                 l->rxbuf[l->rx_next & (WIN(l) - 1u)].seq == l->rx_next)) {
                 /* a gap: tell the sender which frame we miss */
                 it2n_msg g;
-                uint8_t gb[4];
+                uint8_t gb[SESS + 4u];
+                size_t off = l->rx_ver == V12 ? SESS : 0u;
                 it2n_frame_hdr gh;
                 g.type = IT2N_MSG_GAP;
                 g.u.gap.seq = l->rx_next;
                 g.u.gap.have = fh->seq;
-                if (it2n_msg_pack(&g, gb, sizeof gb, NULL) == 4) {
-                    gh.version = IT2N_PROTO_VERSION;
+                put_u32(gb, l->peer_session);
+                if (it2n_msg_pack(&g, gb + off, 4u, NULL) == 4) {
+                    gh.version = l->rx_ver;
                     gh.type = IT2N_MSG_GAP;
                     gh.flags = 0;
                     gh.seq = 0;
-                    gh.len = 4;
-                    (void)frame_out(l, &gh, gb, 4u);
+                    gh.len = (uint16_t)(4u + off);
+                    (void)frame_out(l, &gh, gb, gh.len);
                     l->stats.tx_gaps++;
                 }
             }
@@ -785,17 +1166,43 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
     send_answer(l, &a);
 }
 
+/* Versions this link speaks: v1.1 links 2, v1.2 clients 3, servers both. */
+static uint8_t ver_lo(const it2n_link *l)
+{
+    return CLIENT(l) ? (uint8_t)V12 : (uint8_t)V11;
+}
+
+static uint8_t ver_hi(const it2n_link *l)
+{
+    return CLIENT(l) || SERVER(l) ? (uint8_t)V12 : (uint8_t)V11;
+}
+
 static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
                      const uint8_t *p, uint32_t now)
 {
+    size_t len = fh->len;
+    uint32_t tag = 0;
+    if (r == 1 && (fh->version < ver_lo(l) || fh->version > ver_hi(l)))
+        r = IT2N_PROTO_ERR_VERSION; /* a version the decoder knows, not we */
+    if ((r == 1 || r == IT2N_PROTO_ERR_VERSION) && fh->version == V12 &&
+        !(fh->flags & IT2N_FLAG_REL)) {
+        /* v1.2 answers start with the session of the frame answered */
+        if (len < SESS) {
+            l->stats.rx_bad_msg++;
+            return;
+        }
+        tag = get_u32(p);
+        p += SESS;
+        len -= SESS;
+    }
     if (r == IT2N_PROTO_ERR_VERSION) {
         /* ACK and NACK have one layout in every version: read an older
          * peer's answers (its VERSION refusal, notably). */
         if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK) {
             it2n_msg m;
             if (fh->version >= 1u && (fh->flags & IT2N_FLAG_REL) == 0u &&
-                it2n_msg_unpack(fh->type, p, fh->len, &m, NULL) == IT2N_OK)
-                on_answer(l, &m, now);
+                it2n_msg_unpack(fh->type, p, len, &m, NULL) == IT2N_OK)
+                on_answer(l, &m, fh->version, tag, now);
             return;
         }
         /* Intact reliable frame of another version: tell the sender which
@@ -805,12 +1212,12 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
             it2n_msg_nack a;
             nack_plain(&a, fh->seq, IT2N_PROTO_ERR_VERSION);
             a.value = fh->version;
-            a.lo = IT2N_PROTO_VERSION_MIN;
-            a.hi = IT2N_PROTO_VERSION;
+            a.lo = ver_lo(l);
+            a.hi = ver_hi(l);
             send_answer_v(l, &a,
-                          fh->version >= 1u && fh->version < IT2N_PROTO_VERSION
+                          fh->version >= 1u && fh->version < ver_hi(l)
                               ? fh->version
-                              : (uint8_t)IT2N_PROTO_VERSION);
+                              : ver_hi(l));
         }
         return;
     }
@@ -819,19 +1226,21 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
     if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK ||
         fh->type == IT2N_MSG_GAP) {
         it2n_msg m;
-        if (it2n_msg_unpack(fh->type, p, fh->len, &m, NULL) != IT2N_OK)
+        if (it2n_msg_unpack(fh->type, p, len, &m, NULL) != IT2N_OK)
             l->stats.rx_bad_msg++;
-        else if (m.type == IT2N_MSG_GAP)
-            on_gap(l, m.u.gap.seq, m.u.gap.have, now);
-        else
-            on_answer(l, &m, now);
+        else if (m.type == IT2N_MSG_GAP) {
+            /* about our frames of that session only */
+            if (fh->version == l->ver && (l->ver != V12 || tag == l->tag))
+                on_gap(l, m.u.gap.seq, m.u.gap.have, now);
+        } else
+            on_answer(l, &m, fh->version, tag, now);
         return;
     }
     if (!(fh->flags & IT2N_FLAG_REL)) {
         l->stats.rx_bad_msg++; /* every other message must be reliable */
         return;
     }
-    on_reliable(l, fh, p);
+    on_reliable(l, fh, p, now);
 }
 
 int it2n_link_input(it2n_link *l, const uint8_t *data, size_t len,

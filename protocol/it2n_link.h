@@ -29,6 +29,14 @@
  * Frames ahead of the expected sequence number (within the window) are
  * kept and delivered once the gap is filled (IT2N_PROTO_RX_REORDER).
  *
+ * Sessions (docs/protocol.md 4.1): a v1.1 link's SYN frames carry its own
+ * cfg.session. In v1.2 the server hands out the session id: a client
+ * (cfg.version = IT2N_PROTO_VERSION_12) sends HELLO with session 0 as its
+ * first frame, takes the id from the server's HELLO, and every frame both
+ * ways carries it; frames of another session are answered NACK SESSION and
+ * never delivered. A server (cfg.new_session set) serves v1.2 and v1.1
+ * peers alike, whichever a frame's version says.
+ *
  * Contexts are plain structs in caller memory; any number may coexist.
  * The callbacks may call it2n_link_send / it2n_link_complete on the same
  * context.
@@ -89,7 +97,24 @@ typedef struct it2n_link_cfg {
                                queued behind them), at most the time
                                IT2N_PROTO_WINDOW maximum frames take
                                (docs/protocol.md 4.2 rule 3)          */
+    /* v1.2 (docs/protocol.md 4.1): the server hands out session ids. */
+    uint8_t version;        /* 0 or IT2N_PROTO_VERSION: v1.1 (session
+                               above); IT2N_PROTO_VERSION_12: v1.2
+                               client: the first message must be HELLO,
+                               sent with session 0; the server's HELLO
+                               gives the session every later frame
+                               carries (cfg.session unused). The link
+                               re-sends that HELLO by itself whenever
+                               the server does not know the session
+                               (it restarted): NACK SESSION          */
+    uint32_t (*new_session)(void *app); /* server: serve v1.2 peers too
+                               (v1.1 ones as before): a fresh non-zero
+                               session id for each v1.2 HELLO, e.g.
+                               from getrandom(); NULL = v1.1 only     */
 } it2n_link_cfg;
+
+/* Largest HELLO a v1.2 client keeps to re-send (the message is 28 bytes). */
+#define IT2N_LINK_HELLO_MAX 28
 
 typedef struct it2n_link_stats {
     uint32_t tx_frames, tx_retx, tx_acked, tx_nacked, tx_timeouts;
@@ -105,6 +130,10 @@ typedef struct it2n_link_stats {
     uint32_t tx_resyncs;    /* restarts with SYN: the peer's NOSYNC,
                                or its GAP for a frame we count as
                                answered                          */
+    uint32_t rx_foreign;    /* v1.2: frames of a session not ours:
+                               answered NACK SESSION, not delivered */
+    uint32_t tx_hellos;     /* v1.2 client: HELLOs sent for a session
+                               (first and re-sent ones, not retries) */
 } it2n_link_stats;
 
 /* One sender slot: a reliable frame in flight. The message starts at
@@ -117,8 +146,20 @@ typedef struct it2n_link_slot {
     uint32_t gone;  /* when the last copy left the line (estimated)   */
     uint8_t tmo;    /* retransmissions on timeout: the backoff exponent
                        (fast retransmissions do not back off)          */
+    uint8_t ver;    /* wire version it is framed in                     */
+    uint32_t tag;   /* v1.2: the session it belongs to                  */
     uint8_t buf[IT2N_FRAME_MAX_LEN];
 } it2n_link_slot;
+
+/* v1.2 client: the HELLO asking for a session (sent with session 0). */
+typedef struct it2n_link_hello {
+    uint8_t used;   /* in flight: no session yet                        */
+    uint8_t acked;  /* ACKed; the server's HELLO (the session) is due   */
+    uint8_t tries, len;
+    uint16_t seq;
+    uint32_t deadline, first; /* next try; when first asked          */
+    uint8_t buf[IT2N_FRAME_SESSION_SIZE + IT2N_LINK_HELLO_MAX];
+} it2n_link_hello;
 
 /* One receiver reorder entry: a frame ahead of the expected one. */
 typedef struct it2n_link_rxbuf {
@@ -154,6 +195,13 @@ typedef struct it2n_link {
 #endif
     it2n_frame_decoder dec;
     it2n_link_stats stats;
+    /* v1.2 (docs/protocol.md 4.1) */
+    uint8_t ver;               /* wire version of our new frames      */
+    uint8_t rx_ver;            /* ... of the current receive sequence */
+    uint32_t tag;              /* the session: handed out by the server
+                                  (0 = none yet); our frames carry it */
+    uint32_t offer[4];         /* server: handed out, not taken up yet */
+    it2n_link_hello hello;     /* client: HELLO kept for re-sending   */
     /* line clock (cfg.baud > 0): when the bytes written so far have left
      * (line_free, plus line_frac / baud ms), the latest `now` seen, and
      * when the peer's bytes last arrived */
@@ -237,6 +285,10 @@ int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
  * frames and IT2N_PROTO_MAX_PAYLOAD.
  */
 void it2n_link_set_peer(it2n_link *l, uint8_t window, uint16_t max_payload);
+
+/* The current session: v1.2 the id the server handed out (0 = none
+ * yet), v1.1 the peer's session id of the current sequence. */
+uint32_t it2n_link_session(const it2n_link *l);
 
 /* Largest message payload it2n_link_send accepts now (peer's limit). */
 uint16_t it2n_link_max_payload(const it2n_link *l);

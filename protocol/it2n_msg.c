@@ -544,6 +544,7 @@ const char *it2n_proto_strerror(int code)
     case IT2N_PROTO_ERR_SEQ: return "sequence number not awaiting an ACK";
     case IT2N_PROTO_ERR_NOSPACE: return "too large for the buffer or the peer's max_payload";
     case IT2N_PROTO_ERR_DOWN: return "link declared down: frame dropped";
+    case IT2N_PROTO_ERR_SESSION: return "session unknown to the peer: HELLO for a new one";
     default: return code >= IT2N_ERR_NOCONV && code <= 0 ? "core error" : "unknown error";
     }
 }

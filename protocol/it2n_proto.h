@@ -55,11 +55,17 @@
 #error "IT2N_PROTO_WINDOW must be a power of two within 4..64"
 #endif
 
-/* Protocol version carried in every header: wire version 2 is protocol
- * v1.1 (wire version 1 was v1.0; see docs/protocol.md section 6). */
+/* Protocol version carried in every header (docs/protocol.md section 6):
+ * wire version 2 is protocol v1.1, what a link speaks unless configured
+ * for v1.2 (wire version 1 was v1.0). */
 #define IT2N_PROTO_VERSION 2
-/* Lowest version this implementation speaks (v1.0 peers are refused). */
+/* Wire version 3 is protocol v1.2: every frame carries the session id the
+ * server handed out (docs/protocol.md 4.1), so an instrument needs no
+ * entropy or storage of its own to be told from its previous life. */
+#define IT2N_PROTO_VERSION_12 3
+/* Versions this implementation speaks (v1.0 peers are refused). */
 #define IT2N_PROTO_VERSION_MIN 2
+#define IT2N_PROTO_VERSION_MAX 3
 
 /* Receiver reorder buffer: frames arriving ahead of the expected one
  * (within the window) are kept and delivered once the gap is filled.
@@ -92,7 +98,8 @@
 #define IT2N_FRAME_HDR_SIZE 8
 #define IT2N_FRAME_CRC_SIZE 4
 /* A SYN frame's payload starts with the sender's u32 session id, then the
- * message (v1.1); so a frame's len is at most the message limit + 4. */
+ * message (v1.1); in v1.2 every frame's does. So a frame's len is at most
+ * the message limit + 4. */
 #define IT2N_FRAME_SESSION_SIZE 4
 #define IT2N_FRAME_MAX_LEN (IT2N_PROTO_MAX_PAYLOAD + IT2N_FRAME_SESSION_SIZE)
 /* Frame before stuffing: header + payload + CRC. */
@@ -128,7 +135,9 @@ enum it2n_proto_error {
     IT2N_PROTO_ERR_SEQ = -114,      /* sequence number not awaiting an ACK  */
     IT2N_PROTO_ERR_NOSPACE = -115,  /* buffer too small / response larger
                                        than the peer's max_payload       */
-    IT2N_PROTO_ERR_DOWN = -116      /* link declared down: frame dropped  */
+    IT2N_PROTO_ERR_DOWN = -116,     /* link declared down: frame dropped  */
+    IT2N_PROTO_ERR_SESSION = -117   /* v1.2: session id unknown to the
+                                       receiver: send HELLO for a new one */
 };
 
 /* Short English description of a protocol error code (-100..); for the

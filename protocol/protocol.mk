@@ -33,7 +33,7 @@ $(PROTO_SAN_LIB): $(PROTO_SAN_OBJ)
 # ---- tests (tests/protocol/) ---------------------------------------------
 PROTO_T := tests/protocol
 PROTO_TB := $(BUILD)/tests/protocol
-PROTO_TESTS := test_proto test_msg test_link test_inst test_vectors lossy fuzz_plain
+PROTO_TESTS := test_proto test_msg test_link test_inst test_reboot test_vectors lossy fuzz_plain
 PROTO_THDR := $(wildcard $(PROTO_T)/*.h)
 
 $(PROTO_TB)/%: $(PROTO_T)/%.c $(PROTO_THDR) $(PROTO_LIB)

@@ -3,7 +3,7 @@
  *
  * Synthesises a measured grid (examples/instrument/synth.c: seven nested
  * footprints, z, T/I/F memberships), solves it locally with the core,
- * uploads it over CMSDK UART0 with the serial protocol v1.1 through the
+ * uploads it over CMSDK UART0 with the serial protocol v1.2 through the
  * instrument API of protocol/it2n_inst.h (HELLO, CONFIGURE, batched PUTs,
  * COMMIT, sync; docs/instrument.md), then QUERYs the peer at a set of (u, w) and
  * checks each QUERY_RESULT bit for bit against its own evaluation. Its own
@@ -31,6 +31,12 @@
 #ifndef FW_SEED
 #define FW_SEED 2026u
 #endif
+/* FW_REBOOT_TEST (tests/firmware/fw_reboot.sh only): the measurement of
+ * this boot comes from the host file fw-seed (semihosting; a new
+ * measurement per boot with one image), and the image idles after its
+ * checks instead of ending the emulation, so the test can reset it. The
+ * protocol side is the same as in the example: nothing differs between
+ * boots but the data. */
 #define FW_RTO_MS 150u
 #define FW_TRIES 40u
 #define FW_QUERY_WAIT_MS 10000u
@@ -89,6 +95,24 @@ static void flush_line(void)
     line[line_len] = '\0';
     it2n_sh_write0(line);
     line_len = 0;
+}
+
+static uint32_t fw_seed(void)
+{
+#ifdef FW_REBOOT_TEST
+    char b[16];
+    uint32_t v = 0;
+    unsigned k;
+    if (it2n_sh_read_file("fw-seed", b, sizeof b) > 0) {
+        for (k = 0; b[k] >= '0' && b[k] <= '9' && k < 9u; k++)
+            v = v * 10u + (uint32_t)(b[k] - '0');
+        put_str("SEED ");
+        put_u64(v);
+        flush_line();
+        return v;
+    }
+#endif
+    return FW_SEED;
 }
 
 /* ---- the instrument API's callbacks on UART0 ---- */
@@ -162,15 +186,6 @@ static void fail(const char *what, int64_t code)
     flush_line();
 }
 
-/* A session id no earlier session of this board used: on hardware, a
- * boot counter in flash or the TRNG; here the board's unique id (none on
- * the emulated board: its clock at start) mixed with the attempt. */
-static uint32_t fw_session_id(unsigned attempt)
-{
-    uint32_t x = board_now_ms() * 2654435761u ^ 0x1F2E3D4Cu;
-    return x + attempt * 0x9E3779B9u;
-}
-
 static unsigned resyncs;
 
 /* CONFIGURE, every point of the data set, COMMIT, and wait for the ACKs. */
@@ -209,8 +224,17 @@ static int upload(void)
     cfg.read = uart_in;
     cfg.now_ms = clock_ms;
     cfg.idle = idle;
-    cfg.session_id = fw_session_id(0);
+    /* Protocol v1.2 (cfg.version 0): it2nd hands out the session id in its
+     * HELLO, so this board needs no boot counter, TRNG or clock-derived
+     * id: every boot may start exactly alike (docs/instrument.md). */
+#ifdef FW_V11_HANDSHAKE
+    /* tests/firmware/fw_reboot.sh only: the v1.1 handshake as this example
+     * did it before 1.2, an id from the clock at start, which repeats on
+     * every boot with deterministic timing: the reboot test must fail */
+    cfg.version = IT2N_PROTO_VERSION;
+    cfg.session_id = board_now_ms() * 2654435761u ^ 0x1F2E3D4Cu;
     cfg.first_seq = (uint16_t)board_now_ms();
+#endif
     cfg.rto_ms = FW_RTO_MS;
     cfg.max_tries = (uint8_t)FW_TRIES;
     cfg.timeout_ms = 60000u;
@@ -267,7 +291,7 @@ int main(void)
 
     board_init();
     it2n_sh_write0("it2n firmware: mps2-an385 Cortex-M3, UART0 115200\n");
-    r = synth_dataset(&ds, FW_N, FW_M, IT2N_F_Z, FW_SEED, &err);
+    r = synth_dataset(&ds, FW_N, FW_M, IT2N_F_Z, fw_seed(), &err);
     if (r != IT2N_OK) {
         fail("synth_dataset", r);
         return 1;
@@ -344,5 +368,9 @@ int main(void)
     if (mismatches != 0u)
         return 1;
     it2n_sh_write0("PASS firmware\n");
+#ifdef FW_REBOOT_TEST
+    for (;;) /* the test resets the board (or stops qemu) */
+        board_idle();
+#endif
     return 0;
 }

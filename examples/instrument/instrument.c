@@ -308,7 +308,8 @@ int main(int argc, char **argv)
     it2n_ostream os = {fd_write, &ofd};
     it2n_istream is = {fd_read, &ifd};
     uint32_t t0 = now_ms();
-    /* A fresh random session id and first sequence number per run. */
+    /* A random first sequence number, and a session id for the one-way
+     * mode (v1.1); with --device the daemon hands out the session (v1.2). */
     uint32_t rnd[2] = {t0 ^ (uint32_t)getpid(), (t0 ^ (uint32_t)getpid()) * 2654435761u};
     if (getrandom(rnd, sizeof rnd, GRND_NONBLOCK) != (ssize_t)sizeof rnd)
         rnd[0] ^= (uint32_t)time(NULL);

@@ -50,6 +50,10 @@ int session_init(session *s, const it2n_dataset *ds, uint8_t model,
     cfg.max_tries = tries;
     cfg.first_seq = first_seq;
     cfg.session = session_id;
+    /* v1.2: the daemon hands out the session id (its HELLO); one-way mode
+     * hears no answer, so it speaks v1.1 with session_id */
+    cfg.version = oneway ? (uint8_t)IT2N_PROTO_VERSION
+                         : (uint8_t)IT2N_PROTO_VERSION_12;
     s->ow_hdr.seq = first_seq;
     return it2n_link_init(&s->link, &cfg);
 }
@@ -91,8 +95,9 @@ static bool build(session *s, it2n_msg *m)
     switch (s->step) {
     case 0:
         m->type = IT2N_MSG_HELLO;
-        m->u.hello.version_min = IT2N_PROTO_VERSION_MIN;
-        m->u.hello.version_max = IT2N_PROTO_VERSION;
+        /* the one version this session speaks */
+        m->u.hello.version_min = s->link.cfg.version;
+        m->u.hello.version_max = s->link.cfg.version;
         m->u.hello.max_degree = IT2N_MAX_DEGREE;
         m->u.hello.window = it2n_link_window(&s->link);
         m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_TYPE1 |
@@ -159,7 +164,7 @@ int session_step(session *s, uint32_t now)
      * nothing else in flight, and nothing follows it until it is answered. */
     while (s->state == SESSION_RUNNING && s->step < 4u &&
            (s->oneway ||
-            (it2n_link_can_send(&s->link) &&
+            ((s->step == 0u || it2n_link_can_send(&s->link)) &&
              ((s->step != 1u && !(s->step == 2u && s->puts == 0u)) ||
               it2n_link_pending(&s->link) == 0u)))) {
         if (!build(s, &m)) {

@@ -33,10 +33,11 @@ typedef struct session {
     it2n_frame_hdr ow_hdr; /* one-way mode: frame counter */
 } session;
 
-/* Start a session sending ds as model `model` through out/in. session_id
- * must differ from every earlier session of this instrument (random, or a
- * boot counter kept in non-volatile memory): it is what lets the daemon
- * tell a restarted instrument from a retransmission (protocol v1.1). */
+/* Start a session sending ds as model `model` through out/in, in protocol
+ * v1.2: the daemon hands out the session id, so a restarted instrument is
+ * never taken for a retransmission of its previous run. One-way mode
+ * (nothing is read back) speaks v1.1 and needs session_id, different from
+ * every earlier session of this instrument (random, or a boot counter). */
 int session_init(session *s, const it2n_dataset *ds, uint8_t model,
                  it2n_ostream *out, it2n_istream *in, uint32_t rto_ms,
                  uint8_t tries, bool oneway, uint16_t first_seq,

@@ -198,6 +198,14 @@ instr --csv "$PAPER" --model 5 --garbage 15 --drop 15 --dup 15 --seed 7 --sample
     || fail "instrument stream with faults"
 instr --csv "$T/gen66.csv" --model 6 --drop 10 --seed 3 >/dev/null && plc --unit 6 verify "$T/gen66.csv" 4 >/dev/null \
     && ok "generated 6x6 data set streamed by the instrument (CONFIGURE to 6x6) and verified" || fail "generated 6x6 stream"
+# A v1.1 instrument (its own session id, fixed first sequence) is still
+# served exactly as before, then a v1.2 one with the same numbers.
+instr --csv "$PAPER" --model 5 --v11 --session 0x1D --first-seq 77 --drop 10 --seed 4 >/dev/null \
+    && plc --unit 5 verify "$PAPER" 4 >/dev/null \
+    && instr --csv "$PAPER" --model 5 --first-seq 77 --drop 10 --seed 4 >/dev/null \
+    && plc --unit 5 verify "$PAPER" 4 >/dev/null \
+    && ok "a v1.1 instrument (session 0x1D) and a v1.2 one (daemon's session) on the same link, both verified" \
+    || fail "v1.1 / v1.2 instruments on one link"
 # Interleaved: the instrument re-sends every point (REPLACE, incremental
 # updates) while a PLC polls the same model and another one.
 gen0=$(plc --unit 5 read 7 2 | awk '{print $1 * 65536 + $2}')

@@ -15,10 +15,20 @@
  *
  * Slow-disk mode (independent of the above, no flag file needed):
  *   IT2N_FAILIO_DELAY_MS    every fsync and fdatasync first sleeps this long
- *   IT2N_FAILIO_DELAY_CALL  only these calls (default "fsync,fdatasync") */
+ *   IT2N_FAILIO_DELAY_CALL  only these calls (default "fsync,fdatasync")
+ *
+ * Byte-budget mode (a small filesystem where mount is not allowed):
+ *   IT2N_FAILIO_BUDGET      file holding a number of bytes: the files of
+ *   IT2N_FAILIO_BUDGET_DIR  this directory may occupy that much together
+ *                           (each counted as max(allocated, size)); a write
+ *                           or fallocate there that would exceed it fails
+ *                           with ENOSPC (a write that partly fits is short,
+ *                           as on a real filesystem). The file is read at
+ *                           every call, so a test can "free space". */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
 #endif
+#include <dirent.h>
 #include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -26,6 +36,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <time.h>
 #include <unistd.h>
@@ -119,6 +130,50 @@ static void delay(const char *call)
     errno = saved;
 }
 
+/* Byte-budget mode: how many more bytes the directory may take (-1: the
+ * mode is off, or fd is not a file in the directory). *st: fd's stat. */
+static long long budget_room(int fd, struct stat *st)
+{
+    const char *bf = getenv("IT2N_FAILIO_BUDGET"), *dir = getenv("IT2N_FAILIO_BUDGET_DIR");
+    char link[64], path[4096], num[32] = "";
+    int saved = errno;
+    long long room = -1;
+    if (!bf || !dir || fd < 0)
+        return -1;
+    snprintf(link, sizeof link, "/proc/self/fd/%d", fd);
+    ssize_t n = readlink(link, path, sizeof path - 1);
+    size_t dl = strlen(dir);
+    if (n <= 0 || (size_t)n <= dl || strncmp(path, dir, dl) || path[dl] != '/' || fstat(fd, st) ||
+        !S_ISREG(st->st_mode)) {
+        errno = saved;
+        return -1;
+    }
+    FILE *f = fopen(bf, "r");
+    if (f) {
+        if (!fgets(num, sizeof num, f))
+            num[0] = 0;
+        fclose(f);
+    }
+    DIR *d = opendir(dir);
+    if (d) {
+        long long used = 0;
+        const struct dirent *e;
+        while ((e = readdir(d)) != NULL) {
+            struct stat es;
+            char p[4200];
+            snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+            if (lstat(p, &es) == 0 && S_ISREG(es.st_mode))
+                used += (long long)es.st_blocks * 512 > es.st_size ? (long long)es.st_blocks * 512 : es.st_size;
+        }
+        closedir(d);
+        room = atoll(num) - used;
+        if (room < 0)
+            room = 0;
+    }
+    errno = saved;
+    return room;
+}
+
 /* dlsym returns an object pointer; copy it into a function pointer. */
 #define REAL(type, name) \
     type real; \
@@ -127,9 +182,40 @@ static void delay(const char *call)
 ssize_t write(int fd, const void *buf, size_t len)
 {
     REAL(write_fn, write);
+    struct stat st;
+    long long room;
     if (fd > 2 && fail_now("write", fd, NULL, NULL))
         return -1;
+    if (fd > 2 && (room = budget_room(fd, &st)) >= 0) {
+        int saved = errno;
+        off_t pos = (fcntl(fd, F_GETFL) & O_APPEND) ? st.st_size : lseek(fd, 0, SEEK_CUR);
+        long long grow = (long long)pos + (long long)len - (long long)st.st_size;
+        errno = saved;
+        if (grow > room) {
+            if ((long long)len - (grow - room) <= 0) {
+                errno = ENOSPC;
+                return -1;
+            }
+            len = (size_t)((long long)len - (grow - room)); /* what fits: a short write */
+        }
+    }
     return real(fd, buf, len);
+}
+
+typedef int (*fallocate_fn)(int, int, off_t, off_t);
+int fallocate(int fd, int mode, off_t off, off_t len)
+{
+    REAL(fallocate_fn, fallocate);
+    struct stat st;
+    long long room = budget_room(fd, &st);
+    if (room >= 0) {
+        long long have = (long long)st.st_blocks * 512 > st.st_size ? (long long)st.st_blocks * 512 : st.st_size;
+        if ((long long)off + len - have > room) {
+            errno = ENOSPC;
+            return -1;
+        }
+    }
+    return real(fd, mode, off, len);
 }
 
 int fsync(int fd)

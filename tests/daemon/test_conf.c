@@ -505,6 +505,11 @@ static void test_listen_acl(void **st)
     conf_default(&c);
     assert_int_equal(c.tcp_keepalive, 60);
     assert_int_equal(c.evict_idle, 500);
+    assert_int_equal(c.max_pending, 1024);
+    assert_int_equal(load("[modbus]\nmax_pending = 16\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.max_pending, 16);
+    assert_int_equal(load("[modbus]\nmax_pending = 15\n", &c, err, sizeof err), -1);
+    assert_non_null(strstr(err, ":2: [modbus] max_pending: expected 16..65536"));
     assert_int_equal(load("[listen:plc]\naddress = :502\nallow = 10.1.0.0/16, 192.168.7.128/25\nallow = fd00::/8\n"
                           "read_only = yes\n[listen:eng]\naddress = [::1]:1502\nallow = ::1\n"
                           "[modbus]\ntcp_listen = 127.0.0.1:1503\n[model:2]\nwrite_protect = yes\n",

@@ -36,6 +36,45 @@ fw-e2e: $(FW_ELF) $(IT2ND)
 	IT2ND=$(IT2ND) FW_ELF=$(FW_ELF) FW_MAP=$(FW_B)/it2n-firmware.map FW_OUT=$(abspath $(BUILD))/firmware.json \
 	  tests/firmware/fw_e2e.sh
 
+# The reboot test's image: the same firmware, its measurement chosen per
+# boot by the host (FW_REBOOT_TEST, see examples/firmware/firmware.c).
+FWR_B := $(BUILD)/fw-m3-reboot
+FWR_OBJ := $(FW_SRC:%.c=$(FWR_B)/%.o)
+FWR_ELF := $(FWR_B)/it2n-firmware-reboot.elf
+$(FWR_B)/%.o: %.c $(FW_HDR) tests/firmware/firmware.mk
+	@mkdir -p $(@D)
+	arm-none-eabi-gcc $(FW_CPU) $(FW_CFLAGS) -DFW_REBOOT_TEST -c $< -o $@
+$(FWR_ELF): $(FWR_OBJ) tests/qemu/mps2_an385.ld
+	arm-none-eabi-gcc $(FW_CPU) -nostdlib -T tests/qemu/mps2_an385.ld -Wl,--gc-sections \
+	  -Wl,-e,fw_reset_handler -o $@ $(FWR_OBJ) -lc -lgcc
+
+# ... and with the v1.1 handshake of the example before 1.2 (FW_V11_HANDSHAKE)
+FWR11_B := $(BUILD)/fw-m3-reboot11
+FWR11_OBJ := $(FW_SRC:%.c=$(FWR11_B)/%.o)
+FWR11_ELF := $(FWR11_B)/it2n-firmware-reboot11.elf
+$(FWR11_B)/%.o: %.c $(FW_HDR) tests/firmware/firmware.mk
+	@mkdir -p $(@D)
+	arm-none-eabi-gcc $(FW_CPU) $(FW_CFLAGS) -DFW_REBOOT_TEST -DFW_V11_HANDSHAKE -c $< -o $@
+$(FWR11_ELF): $(FWR11_OBJ) tests/qemu/mps2_an385.ld
+	arm-none-eabi-gcc $(FW_CPU) -nostdlib -T tests/qemu/mps2_an385.ld -Wl,--gc-sections \
+	  -Wl,-e,fw_reset_handler -o $@ $(FWR11_OBJ) -lc -lgcc
+
+# Exactly once across reboots on qemu (docs/protocol.md 4.1): the firmware
+# reset at random points (monitor system_reset, deterministic -icount
+# timing: every boot alike), alternating two measurements, one daemon and
+# one open line throughout; the last boot's results must be bit-identical
+# over the link and Modbus. FW_REBOOTS boots before it.
+.PHONY: fw-reboot fw-reboot-long
+TEST_TARGETS += fw-reboot
+fw-reboot: $(FWR_ELF) $(IT2ND) ## Firmware on qemu reset at 30 random points, exactly once across reboots
+	IT2ND=$(IT2ND) FW_ELF=$(FWR_ELF) FW_REBOOTS=$${FW_REBOOTS:-30} tests/firmware/fw_reboot.sh
+fw-reboot-long: $(FWR_ELF) $(IT2ND) ## The same with 300 resets
+	IT2ND=$(IT2ND) FW_ELF=$(FWR_ELF) FW_REBOOTS=300 tests/firmware/fw_reboot.sh
+# The old handshake fails it (asserted: the script must report a failure).
+.PHONY: fw-reboot-legacy
+fw-reboot-legacy: $(FWR11_ELF) $(IT2ND) ## fw-reboot with the v1.1 handshake (clock-derived id): must fail
+	IT2ND=$(IT2ND) FW_ELF=$(FWR11_ELF) FW_REBOOTS=$${FW_REBOOTS:-10} FW_EXPECT_FAIL=1 tests/firmware/fw_reboot.sh
+
 .PHONY: bench-firmware
 bench-firmware: $(FW_ELF) $(IT2ND)
 	IT2ND=$(IT2ND) FW_ELF=$(FW_ELF) FW_MAP=$(FW_B)/it2n-firmware.map FW_OUT=$(CURDIR)/bench/firmware.json \

@@ -98,6 +98,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     snprintf(tcp_conf.listen[0].port, sizeof tcp_conf.listen[0].port, "0");
     tcp_conf.nlisten = 1;
     tcp_conf.max_clients = 2;
+    tcp_conf.max_pending = 16;
     tcp_conf.idle_timeout = 300;
     tcp_conf.byte_timeout = 500;
     fuzz_check(mb_tcp_start(&tcp_conf, &opts) == 0, "mb_tcp_start");

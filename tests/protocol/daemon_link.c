@@ -27,6 +27,32 @@
  *                PCT % drop, duplicate, reorder and corruption of frames in
  *                each direction: every response must arrive without the
  *                host asking twice (0 re-requests) and match the core.
+ *   reboot N     N boots of a deterministic v1.2 instrument (the same first
+ *                sequence number every boot, no id of its own) on one open
+ *                line, killed at random points (during HELLO, STATUS,
+ *                CONFIGURE, PUTs, COMMIT, QUERYs), alternating two data
+ *                sets; half the kills leave the dying boot's last frames to
+ *                arrive after the next boot's HELLO (a relay's buffer), and
+ *                the daemon's frames for the dead boot reach the next one.
+ *                Each boot asks STATUS before its CONFIGURE: every entry the
+ *                previous boot got ACKed is still there (0 lost); a boot
+ *                that completes gets every PUT ACKed (no DUPLICATE: 0 stale
+ *                entries) and QUERY results equal to its own solve; every
+ *                HELLO is answered within one exchange plus 2 RTO.
+ *   relimit 1    v1.2: a peer announcing max_payload 64, the daemon killed
+ *                and restarted: the peer's link sends its HELLO again by
+ *                itself (NACK SESSION) and the SAMPLE_DATA frames after
+ *                the restart still hold 1 point (the limit is not lost).
+ *   lossy12 PCT  the lossy scenario with a v1.2 peer.
+ *   kill12 K     the kill scenario with a v1.2 peer (its frames in flight
+ *                re-sent in the session it asks for after each restart).
+ *   rebootlossy N  the same with 5 % drop, duplication, reordering and
+ *                corruption of frames each way (the HELLO bound is then
+ *                not checked: a lost HELLO waits for its retransmission).
+ *   reboot11 N   the same with the v1.1 handshake and a fixed session id
+ *                (what such an instrument has): asserts that it FAILS
+ *                (frames taken for the previous boot's, stalls), which is
+ *                what v1.2 fixes.
  *
  * Usage: daemon_link IT2ND SCENARIO ARG [SCENARIO ARG ...]
  * Prints one line of figures per scenario; exit 0 when all held.
@@ -206,6 +232,9 @@ static void trace(peer *p, char c)
 }
 
 static peer P;
+/* the last frames the peer wrote (reboot: delivered late after a kill) */
+static struct { uint16_t len; uint8_t b[IT2N_FRAME_MAX_WIRE + 64]; } last_out[4];
+static unsigned nlast_out;
 
 static void raw_write(const uint8_t *p, size_t n)
 {
@@ -279,6 +308,8 @@ static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
     p->flen += len;
     if (buf[len - 1] == 0) {
         fault_frame(p, p->fr, p->flen, 1);
+        last_out[nlast_out % 4].len = (uint16_t)p->flen;
+        memcpy(last_out[nlast_out++ % 4].b, p->fr, p->flen);
         p->flen = 0;
     }
     return 0;
@@ -371,6 +402,8 @@ static void peer_init(peer *p, uint16_t first, uint32_t session, unsigned pct, u
     peer_init_w(p, first, session, pct, rto, 0);
 }
 
+static uint8_t peer_version; /* it2n_link_cfg.version of new peers */
+
 static void peer_init_w(peer *p, uint16_t first, uint32_t session, unsigned pct, uint32_t rto, uint8_t window)
 {
     it2n_link_cfg c;
@@ -392,6 +425,7 @@ static void peer_init_w(peer *p, uint16_t first, uint32_t session, unsigned pct,
     c.first_seq = first;
     c.session = session;
     c.window = window;
+    c.version = peer_version;
     it2n_link_init(&p->l, &c);
 }
 
@@ -432,7 +466,10 @@ static void pump(peer *p, int wait_ms)
 static int32_t send_msg(peer *p, const it2n_msg *m, uint32_t limit_ms)
 {
     uint32_t t0 = now_ms();
-    while (!it2n_link_can_send(&p->l)) {
+    /* a v1.2 peer's HELLO asking for its session goes before anything */
+    int asks = m->type == IT2N_MSG_HELLO && p->l.cfg.version == IT2N_PROTO_VERSION_12 &&
+               it2n_link_session(&p->l) == 0;
+    while (!asks && !it2n_link_can_send(&p->l)) {
         pump(p, 2);
         if (now_ms() - t0 > limit_ms)
             return -1;
@@ -459,8 +496,8 @@ static it2n_msg hello(void)
     it2n_msg m;
     memset(&m, 0, sizeof m);
     m.type = IT2N_MSG_HELLO;
-    m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
-    m.u.hello.version_max = IT2N_PROTO_VERSION;
+    /* the one version the peer's link speaks */
+    m.u.hello.version_min = m.u.hello.version_max = peer_version ? peer_version : IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
     m.u.hello.window = W; /* peer_init_w with a smaller window: overwrite */
     m.u.hello.caps = IT2N_CAP_INSTRUMENT;
@@ -675,7 +712,12 @@ static void kills(unsigned k)
     }
     CHECK(killed == k, "killed %u of %u", killed, k);
     CHECK(P.nacked == 0, "%u NACKs (last %d)", P.nacked, P.last_code);
-    CHECK(put_acked == 2 + sent, "ACKs %u for %u PUTs", put_acked - 2, sent);
+    /* v1.2: each HELLO re-sent for a new session (after a restart) is
+     * answered too */
+    unsigned rehellos = peer_version ? P.l.stats.tx_hellos - 1u : 0u;
+    if (peer_version)
+        printf("kill -9 (v1.2 peer): %u HELLOs re-sent by the link for a new session\n", rehellos);
+    CHECK(put_acked == 2 + sent + rehellos, "ACKs %u for %u PUTs", put_acked - 2 - rehellos, sent);
     CHECK(P.results == 1 && P.mismatches == 0, "query after the kills");
 }
 
@@ -844,7 +886,7 @@ static void spec(unsigned unused)
     h.u.hello.version_min = h.u.hello.version_max = 1;
     r = request(&P, &h);
     CHECK(r == IT2N_PROTO_ERR_VERSION && P.last_nack.value == 1 && P.last_nack.lo == IT2N_PROTO_VERSION_MIN &&
-              P.last_nack.hi == IT2N_PROTO_VERSION,
+              P.last_nack.hi == IT2N_PROTO_VERSION_MAX,
           "HELLO without a common version: %d value %lld lo %lld hi %lld", r, (long long)P.last_nack.value,
           (long long)P.last_nack.lo, (long long)P.last_nack.hi);
     CHECK(P.hellos == 0, "a refused HELLO got the daemon's HELLO");
@@ -873,7 +915,7 @@ static void spec(unsigned unused)
     CHECK(P.hellos == 1 && P.trace[0] == 'A' && P.trace[1] == 'H', "HELLO answer: trace %.*s", (int)P.ntrace,
           P.trace);
     CHECK(P.dh.max_models == 3 && P.dh.version_min == IT2N_PROTO_VERSION_MIN &&
-              P.dh.version_max == IT2N_PROTO_VERSION && (P.dh.caps & IT2N_CAP_SERVER),
+              P.dh.version_max == IT2N_PROTO_VERSION_MAX && (P.dh.caps & IT2N_CAP_SERVER),
           "daemon HELLO: max_models %u versions %u..%u", P.dh.max_models, P.dh.version_min, P.dh.version_max);
 
     /* CONFIGURE: its ACK comes before the CONFIGURED EVENT. */
@@ -1065,6 +1107,27 @@ static void spec(unsigned unused)
               P.ev.generation >= 1,
           "EVENT LOST: kind %u model %u code %d frames %u", P.ev.kind, P.ev.model, P.ev.code,
           (unsigned)P.ev.generation);
+
+    /* EVENT LOST goes only to the session whose frames were dropped (and
+     * that said HELLO): declared down again, then a new session speaks
+     * (the peer restarted, its HELLO-less first frame): no LOST for it. */
+    settle(&P, 100);
+    P.defer = 1;
+    P.nd = 0;
+    CHECK(send_msg(&P, &gs, 2000) >= 0, "GET_STATUS");
+    for (uint32_t t1 = now_ms(); now_ms() - t1 < 1500;) {
+        for (unsigned k = 0; k < P.nd; k++)
+            P.dat[k] = now_ms() + 100000;
+        pump(&P, 2);
+    }
+    peer_init(&P, (uint16_t)rnd(), rnd(), 0, 100);
+    P.ref = &ref;
+    it2n_msg h2 = hello();
+    h2.u.hello.caps |= IT2N_CAP_EVENTS; /* it asks for events, and still */
+    CHECK(request(&P, &h2) == 0, "HELLO of a new session after the link was declared down");
+    CHECK(request(&P, &gs) == 0, "GET_STATUS of a new session after the link was declared down");
+    settle(&P, 300);
+    CHECK(P.events == 0, "EVENT (kind %u) to a new session for the previous one's frames", P.ev.kind);
     printf("spec: %d checks failed\n", failures);
 }
 
@@ -1075,7 +1138,6 @@ int upload_and_query(it2n_val *t_centre, it2n_msg_nack *why);
 int board_uart_write(const uint8_t *buf, size_t len);
 int board_uart_read(uint8_t *buf, size_t len);
 uint32_t board_millis(void);
-uint32_t board_boot_count(void);
 
 int board_uart_write(const uint8_t *buf, size_t len)
 {
@@ -1094,14 +1156,284 @@ uint32_t board_millis(void)
     return now_ms();
 }
 
-uint32_t board_boot_count(void)
+
+/* ---- v1.2: limits announced again after a daemon restart (5.2) ---------- */
+
+static void relimit(unsigned unused)
 {
-    return rnd();
+    static it2n_dataset ds;
+    static it2n_model ref;
+    it2n_errinfo e;
+    (void)unused;
+    it2n_dataset_init(&ds, 1, 1, IT2N_F_TYPE1, NULL);
+    for (unsigned i = 0; i <= 1; i++)
+        for (unsigned j = 0; j <= 1; j++) {
+            it2n_val v[IT2N_CH_COUNT] = {(it2n_val)(10 * i) << 24, (it2n_val)(10 * j) << 24, 0,
+                                         (it2n_val)(3 + i + j) << 21, 1 << 21, 1 << 20};
+            it2n_dataset_put(&ds, i, j, IT2N_FP_D, v, false, &e);
+        }
+    it2n_model_init(&ref);
+    CHECK(it2n_model_solve(&ref, &ds, &e) == IT2N_OK, "local solve");
+    peer_version = IT2N_PROTO_VERSION_12;
+    peer_init(&P, 0, 0, 0, 100);
+    P.ref = &ref;
+    it2n_msg h = hello();
+    h.u.hello.max_payload = 64; /* one SAMPLE_DATA point per frame */
+    CHECK(request(&P, &h) == 0, "v1.2 HELLO");
+    uint32_t s1 = it2n_link_session(&P.l);
+    upload(&P, 1, &ds, 2, 2000);
+    CHECK(drain(&P, 5000) == 0 && P.nacked == 0, "upload");
+    it2n_msg sm;
+    memset(&sm, 0, sizeof sm);
+    sm.type = IT2N_MSG_SAMPLE;
+    sm.u.sample.model = 1;
+    sm.u.sample.fp = IT2N_FP_D;
+    sm.u.sample.rows = sm.u.sample.cols = 3;
+    CHECK(request(&P, &sm) == 0, "SAMPLE");
+    for (uint32_t t0 = now_ms(); P.points < 9 && now_ms() - t0 < 3000;)
+        pump(&P, 2);
+    CHECK(P.points == 9 && P.max_count == 1 && !P.mismatches, "before: %u points, at most %u per frame", P.points,
+          P.max_count);
+    /* kill -9 and restart: the new daemon knows neither the session nor
+     * the limits; the peer's next frame is refused (SESSION) and its link
+     * sends the HELLO again by itself */
+    daemon_kill(SIGKILL);
+    daemon_start();
+    memset(P.seen, 0, sizeof P.seen);
+    P.points = P.max_count = 0;
+    it2n_msg gs = model_msg(IT2N_MSG_GET_STATUS, 1);
+    int r = 2;
+    for (uint32_t t0 = now_ms(); r == 2 && now_ms() - t0 < 10000;)
+        r = request(&P, &gs); /* the daemon reopens the line meanwhile */
+    CHECK(r == 0, "GET_STATUS after the restart: %d", r);
+    CHECK(request(&P, &sm) == 0, "SAMPLE after the restart");
+    for (uint32_t t0 = now_ms(); P.points < 9 && now_ms() - t0 < 3000;)
+        pump(&P, 2);
+    printf("relimit (v1.2): daemon kill -9 and restart: the peer's HELLO re-sent by its link (%u HELLOs asked, "
+           "%u answered), session %08x -> %08x, SAMPLE after: %u points, at most %u per frame (max_payload 64)\n",
+           (unsigned)P.l.stats.tx_hellos, P.hellos, (unsigned)s1, (unsigned)it2n_link_session(&P.l), P.points,
+           P.max_count);
+    CHECK(P.l.stats.tx_hellos == 2 && P.hellos == 2 && it2n_link_session(&P.l) != s1 &&
+              it2n_link_session(&P.l) != 0,
+          "re-HELLO: %u asked, %u answered", (unsigned)P.l.stats.tx_hellos, P.hellos);
+    CHECK(P.points == 9 && P.max_count == 1 && !P.mismatches && P.nacked == 0,
+          "after the restart: %u points, at most %u per frame (limit forgotten?)", P.points, P.max_count);
+    peer_version = 0;
 }
 
-/* The example as a firmware would run it, twice (two boots: the second
- * session's id differs, the same points again are no DUPLICATE because
- * CONFIGURE clears them), each result checked against the core. */
+/* ---- reboots of a deterministic instrument (v1.2 4.1) ------------------ */
+
+static uint8_t rb_put_entries[65536]; /* entries of the PUT sent with seq */
+static struct {
+    int cfg_acked, status_seen, hello_at_set;
+    unsigned entries_acked, puts_acked, commit_acked, refused;
+    uint32_t hello_ms;
+} rb;
+static uint32_t rb_boot_at;
+
+static void rb_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *n)
+{
+    on_done(app, seq, type, code, n);
+    if (code != 0) {
+        rb.refused++;
+        return;
+    }
+    if (type == IT2N_MSG_HELLO && !rb.hello_at_set) {
+        rb.hello_ms = now_ms() - rb_boot_at;
+        rb.hello_at_set = 1;
+    } else if (type == IT2N_MSG_CONFIGURE)
+        rb.cfg_acked = 1;
+    else if (type == IT2N_MSG_PUT) {
+        rb.entries_acked += rb_put_entries[seq];
+        rb.puts_acked++;
+    } else if (type == IT2N_MSG_COMMIT)
+        rb.commit_acked = 1;
+}
+
+static void reboots(unsigned n, int v12, unsigned pct)
+{
+    static it2n_dataset ds[2];
+    static it2n_model ref[2];
+    static it2n_msg puts[2][40];
+    unsigned nput[2] = {0, 0}, total = 0;
+    it2n_errinfo e;
+    const uint32_t rto = 100;
+    unsigned complete = 0, killed = 0, lost = 0, stale = 0, stalls = 0, slow = 0, refused = 0, late = 0;
+    unsigned checked = 0, max_hello = 0;
+    unsigned phase[6] = {0, 0, 0, 0, 0, 0}; /* kills during HELLO, STATUS, CONFIGURE, PUTs, COMMIT, QUERYs */
+    unsigned prev_acked = 0;
+    int prev_cfg = 0, prev_killed = 0;
+    uint32_t t0 = now_ms();
+    for (int d = 0; d < 2; d++) {
+        CHECK(synth_dataset(&ds[d], 3, 3, 0, d ? 2222u : 1111u, &e) == IT2N_OK, "synth");
+        it2n_model_init(&ref[d]);
+        CHECK(it2n_model_solve(&ref[d], &ds[d], &e) == IT2N_OK, "local solve");
+        it2n_msg *m = &puts[d][0];
+        memset(m, 0, sizeof *m);
+        for (unsigned i = 0; i <= 3; i++)
+            for (unsigned j = 0; j <= 3; j++)
+                for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                    it2n_put_entry *en;
+                    if (!(ds[d].present[i][j] & (1u << fp)))
+                        continue;
+                    if (m->u.put.count == 6) {
+                        m = &puts[d][++nput[d]];
+                        memset(m, 0, sizeof *m);
+                    }
+                    m->type = IT2N_MSG_PUT;
+                    m->u.put.model = 3;
+                    en = &m->u.put.e[m->u.put.count++];
+                    en->i = (uint8_t)i;
+                    en->j = (uint8_t)j;
+                    en->fp = (uint8_t)fp;
+                    it2n_dataset_get(&ds[d], i, j, fp, en->vals);
+                    if (d == 0)
+                        total++;
+                }
+        nput[d]++;
+    }
+    peer_version = v12 ? IT2N_PROTO_VERSION_12 : 0;
+    for (unsigned b = 0; b < n && !failures; b++) {
+        int set = (int)(b & 1u);
+        /* steps: 0 HELLO, 1 STATUS, 2 CONFIGURE, 3.. PUTs, COMMIT, 2 QUERYs */
+        unsigned nsteps = 3 + nput[set] + 3, step = 0;
+        unsigned kill_at = rnd() % (nsteps + 4); /* >= nsteps: runs to the end */
+        uint32_t kill_delay = rnd() % 3 ? rnd() % 12 : 0, step_at = 0;
+        int late_frames = b > 0 && (rnd() & 1u) && prev_killed;
+        static struct { uint16_t len; uint8_t b[IT2N_FRAME_MAX_WIRE + 64]; } keep[4];
+        unsigned nkeep = 0;
+        if (late_frames) {
+            /* the dead boot's last frames, to arrive after the new HELLO */
+            for (unsigned k = 0; k < 4 && k < nlast_out; k++) {
+                unsigned at = (nlast_out - 1 - k) % 4;
+                keep[nkeep].len = last_out[at].len;
+                memcpy(keep[nkeep++].b, last_out[at].b, last_out[at].len);
+            }
+        }
+        memset(&rb, 0, sizeof rb);
+        peer_init(&P, 77, 0x1D, pct, rto); /* the same every boot */
+        P.l.cfg.on_done = rb_done;
+        P.ref = &ref[set];
+        rb_boot_at = now_ms();
+        uint32_t boot_t = now_ms(), progress = now_ms();
+        int stalled = 0, done = 0;
+        unsigned last_acked = 0;
+        while (!done) {
+            it2n_msg m;
+            int can = 0;
+            if (step < nsteps) {
+                memset(&m, 0, sizeof m);
+                if (step == 0) {
+                    m = hello();
+                    m.u.hello.version_min = m.u.hello.version_max =
+                        v12 ? IT2N_PROTO_VERSION_12 : IT2N_PROTO_VERSION;
+                    m.u.hello.window = 4;
+                    can = 1;
+                } else if (step == 1) {
+                    m = model_msg(IT2N_MSG_GET_STATUS, 3);
+                    can = rb.hello_at_set && P.hellos > 0;
+                } else if (step == 2) {
+                    m.type = IT2N_MSG_CONFIGURE;
+                    m.u.configure.model = 3;
+                    m.u.configure.n = 3;
+                    m.u.configure.m = 3;
+                    can = rb.status_seen && it2n_link_pending(&P.l) == 0;
+                } else if (step < 3 + nput[set]) {
+                    m = puts[set][step - 3];
+                    can = rb.cfg_acked && it2n_link_can_send(&P.l);
+                } else if (step == 3 + nput[set]) {
+                    m = model_msg(IT2N_MSG_COMMIT, 3);
+                    can = it2n_link_can_send(&P.l);
+                } else {
+                    memset(&m, 0, sizeof m);
+                    m.type = IT2N_MSG_QUERY;
+                    m.u.query.model = 3;
+                    m.u.query.u = m.u.query.w = step == nsteps - 1 ? IT2N_WIRE_PAR_ONE / 3 : 0;
+                    can = rb.commit_acked && it2n_link_can_send(&P.l);
+                }
+            }
+            if (kill_at < nsteps && step > kill_at)
+                can = 0; /* the power cut comes while this step is out */
+            if (can) {
+                int32_t seq = it2n_link_send(&P.l, &m, now_ms());
+                CHECK(seq >= 0, "boot %u: send step %u: %d", b, step, (int)seq);
+                if (seq < 0)
+                    break;
+                if (m.type == IT2N_MSG_PUT)
+                    rb_put_entries[seq] = m.u.put.count;
+                step++;
+                step_at = now_ms();
+                progress = now_ms();
+            }
+            pump(&P, can ? 0 : 2);
+            if (step == 2 && !rb.status_seen && P.status.model == 3) {
+                rb.status_seen = 1;
+                /* what the previous boot got ACKed is all there */
+                unsigned present = total - P.status.missing;
+                checked++;
+                if (prev_cfg && P.status.n == 3 && present < prev_acked)
+                    lost += prev_acked - present;
+            }
+            if (late_frames && rb.hello_at_set && nkeep) {
+                for (unsigned k = nkeep; k-- > 0;)
+                    raw_write(keep[k].b, keep[k].len);
+                nkeep = 0;
+                late++;
+            }
+            if (P.acked != last_acked) {
+                last_acked = P.acked;
+                progress = now_ms();
+            }
+            if (kill_at < nsteps && step > kill_at && now_ms() - step_at >= kill_delay) {
+                unsigned last = step - 1;
+                killed++;
+                phase[last < 3 ? last : last < 3 + nput[set] ? 3 : last == 3 + nput[set] ? 4 : 5]++;
+                break; /* power cut: whatever is on the line stays there */
+            }
+            if (step == nsteps && it2n_link_pending(&P.l) == 0 && P.results >= 2) {
+                complete++;
+                CHECK(P.mismatches == 0, "boot %u: QUERY results differ from the data set's solve", b);
+                stale += P.mismatches;
+                done = 1;
+            }
+            if (now_ms() - progress > 3000) {
+                stalled = 1; /* never a timeout: nothing moved for 3 s */
+                break;
+            }
+        }
+        stalls += stalled;
+        refused += rb.refused;
+        if (rb.hello_at_set) {
+            if (rb.hello_ms > max_hello)
+                max_hello = rb.hello_ms;
+            slow += pct == 0 && rb.hello_ms > 2 * rto + 200; /* one exchange + 2 RTO */
+        } else if (stalled) {
+            slow++;
+        }
+        (void)boot_t;
+        prev_acked = rb.cfg_acked ? rb.entries_acked : 0;
+        prev_killed = !done && !stalled;
+        prev_cfg = rb.cfg_acked;
+    }
+    peer_version = 0;
+    printf("%s%s: %u boots of a deterministic instrument (first seq 77%s): %u complete, %u killed (%u with "
+           "frames arriving late), %u STATUS checks: %u ACKed entries lost, %u refused (DUPLICATE: stale), %u "
+           "mismatching results, %u stalls, %u slow HELLOs (max %u ms, bound %u), %u ms; kills after sending "
+           "HELLO %u, STATUS %u, CONFIGURE %u, a PUT %u, COMMIT %u, a QUERY %u\n",
+           v12 ? "reboot (v1.2)" : "reboot11 (v1.1, fixed session id)", pct ? ", faults on the line" : "", n, v12 ? "" : ", session 0x1D", complete,
+           killed, late, checked, lost, refused, stale, stalls, slow, max_hello, 2 * rto + 200, now_ms() - t0,
+           phase[0], phase[1], phase[2], phase[3], phase[4], phase[5]);
+    if (v12)
+        CHECK(lost == 0 && refused == 0 && stale == 0 && stalls == 0 && slow == 0,
+              "reboot: %u lost, %u refused, %u stale, %u stalls, %u slow", lost, refused, stale, stalls, slow);
+    else
+        CHECK(lost + refused + stale + stalls + slow > 0, "reboot11: the v1.1 handshake was expected to fail");
+}
+
+/* The example as a firmware would run it, twice (two boots exactly alike:
+ * no session id, the same first sequence number 0; v1.2 gives each its
+ * session, and the same points again are no DUPLICATE because CONFIGURE
+ * clears them), each result checked against the core. */
 static void doc(unsigned runs)
 {
     static it2n_dataset ds;
@@ -1164,6 +1496,23 @@ int main(int argc, char **argv)
             spec(v);
         else if (!strcmp(argv[k], "doc"))
             doc(v);
+        else if (!strcmp(argv[k], "reboot"))
+            reboots(v, 1, 0);
+        else if (!strcmp(argv[k], "rebootlossy"))
+            reboots(v, 1, 5);
+        else if (!strcmp(argv[k], "relimit"))
+            relimit(v);
+        else if (!strcmp(argv[k], "lossy12")) {
+            peer_version = IT2N_PROTO_VERSION_12; /* the same with a v1.2 peer */
+            lossy(v);
+            peer_version = 0;
+        } else if (!strcmp(argv[k], "kill12")) {
+            peer_version = IT2N_PROTO_VERSION_12; /* the same with a v1.2 peer */
+            kills(v);
+            peer_version = 0;
+        }
+        else if (!strcmp(argv[k], "reboot11"))
+            reboots(v, 0, 0);
         else {
             fprintf(stderr, "unknown scenario %s\n", argv[k]);
             return 2;

@@ -15,6 +15,13 @@
 
 #include "it2n_link.h"
 
+static uint32_t fuzz_session(void *app)
+{
+    static uint32_t n; /* the fuzzer's own state, not the library's */
+    (void)app;
+    return 0x5E550000u + ++n;
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 static void check(int ok, const char *what)
@@ -86,7 +93,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (size > 0 && size - 1 <= IT2N_PROTO_MAX_PAYLOAD)
         roundtrip(data[0], data + 1, size - 1);
     /* 3: the link receiver on the same bytes. */
-    it2n_link_cfg cfg = {&os, NULL, rx_any, NULL, NULL, 10, 3, 0, 0x600D5E55u, 0, 0, 0};
+    it2n_link_cfg cfg = {&os, NULL, rx_any, NULL, NULL, 10, 3, 0, 0x600D5E55u, 0, 0, 0, 0, NULL};
     check(it2n_link_init(&link, &cfg) == IT2N_OK, "link init");
     /* One frame in flight so injected ACK/NACK (NOSYNC...) hit a sender. */
     it2n_msg m;
@@ -99,6 +106,24 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     (void)it2n_link_poll(&link, 50);
     for (uint16_t s = 0; s < 8; s++)
         (void)it2n_link_complete(&link, s, s & 2 ? 0 : IT2N_ERR_RANGE, NULL);
+    /* 4: the same bytes into a v1.2 server (session field on every frame,
+     * sessions handed out) and a v1.2 client waiting for its session. */
+    it2n_link_cfg sc = {&os, NULL, rx_any, NULL, NULL, 10, 3, 0, 0x600D5E55u, 0, 0, 0, 0, fuzz_session};
+    check(it2n_link_init(&link, &sc) == IT2N_OK, "v1.2 server init");
+    check(it2n_link_input(&link, data, size, 0) == IT2N_OK, "v1.2 server input");
+    check(it2n_link_pending(&link) <= IT2N_PROTO_WINDOW, "v1.2 server window bound");
+    (void)it2n_link_poll(&link, 50);
+    it2n_link_cfg cc = {&os, NULL, rx_any, NULL, NULL, 10, 3, 0, 0, 0, 0, 0, IT2N_PROTO_VERSION_12, NULL};
+    check(it2n_link_init(&link, &cc) == IT2N_OK, "v1.2 client init");
+    m.type = IT2N_MSG_HELLO;
+    m.u.hello.version_min = m.u.hello.version_max = IT2N_PROTO_VERSION_12;
+    m.u.hello.window = 4;
+    m.u.hello.max_payload = 64;
+    check(it2n_link_send(&link, &m, 0) == 0, "v1.2 HELLO asks for a session");
+    check(it2n_link_input(&link, data, size, 0) == IT2N_OK, "v1.2 client input");
+    check(it2n_link_pending(&link) <= IT2N_PROTO_WINDOW + 1u, "v1.2 client window bound");
+    (void)it2n_link_poll(&link, 50);
+    (void)it2n_link_poll(&link, 500);
     return 0;
 }
 

@@ -186,7 +186,7 @@ static void run(uint64_t seed, unsigned loss, unsigned nmsg_a, unsigned nmsg_b)
         s->os.write = chan_write;
         s->os.state = cs[k];
         it2n_link_cfg cfg = {&s->os, NULL, on_rx, on_done, s, 60, 60,
-                             (uint16_t)(k ? 65000 : rng_next(&rng)), (uint32_t)rng_next(&rng), 0, 0, 0};
+                             (uint16_t)(k ? 65000 : rng_next(&rng)), (uint32_t)rng_next(&rng), 0, 0, 0, 0, NULL};
         assert_int_equal(it2n_link_init(&s->l, &cfg), IT2N_OK);
     }
     unsigned target[2] = {nmsg_a, nmsg_b};

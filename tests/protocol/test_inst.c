@@ -26,6 +26,14 @@ typedef struct server {
 } server;
 
 static server *S;
+static uint32_t sessions_handed; /* v1.2 session ids the server gave */
+
+static uint32_t srv_new_session(void *app)
+{
+    (void)app;
+    return 0x5E500000u + ++sessions_handed;
+}
+
 static mem_out *to_srv; /* bytes the instrument wrote */
 static uint32_t clock_ms;
 static it2n_inst *I;
@@ -42,7 +50,8 @@ static int srv_rx(void *app, uint16_t seq, const it2n_msg *m)
         s->hellos++;
         it2n_link_complete(&s->l, seq, 0, NULL);
         r.type = IT2N_MSG_HELLO;
-        r.u.hello.version_min = r.u.hello.version_max = IT2N_PROTO_VERSION;
+        r.u.hello.version_min = IT2N_PROTO_VERSION;
+        r.u.hello.version_max = IT2N_PROTO_VERSION_12;
         r.u.hello.window = (uint8_t)s->hello_window;
         r.u.hello.max_payload = s->hello_payload;
         r.u.hello.max_models = 1;
@@ -150,6 +159,7 @@ static int setup(void **st)
     c.rto_ms = 50;
     c.first_seq = 900;
     c.session = 0xD43;
+    c.new_session = srv_new_session; /* serves v1.2 (and v1.1) */
     assert_int_equal(it2n_link_init(&S->l, &c), IT2N_OK);
     S->hello_window = 2;
     S->hello_payload = 4 + 2 * 52; /* PUTs of at most 2 entries */

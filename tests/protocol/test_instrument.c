@@ -71,6 +71,15 @@ static int out_write(it2n_ostream *s, const uint8_t *b, size_t n)
     return 0;
 }
 
+static uint32_t now_ms(void);
+
+/* v1.2 session ids this receiver hands out */
+static uint32_t new_session(void *app)
+{
+    (void)app;
+    return 0x5E55u + (uint32_t)rand();
+}
+
 static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
 {
     rx *r = app;
@@ -80,7 +89,22 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
     switch (m->type) {
     case IT2N_MSG_HELLO:
         r->hello++;
-        assert_int_equal(m->u.hello.version_max, IT2N_PROTO_VERSION);
+        if (r->l.rx_ver == IT2N_PROTO_VERSION_12) {
+            /* v1.2: answer with our HELLO, which carries the session id */
+            it2n_msg h;
+            assert_int_equal(m->u.hello.version_max, IT2N_PROTO_VERSION_12);
+            assert_int_equal(it2n_link_complete(&r->l, seq, 0, NULL), IT2N_OK);
+            memset(&h, 0, sizeof h);
+            h.type = IT2N_MSG_HELLO;
+            h.u.hello.version_min = IT2N_PROTO_VERSION;
+            h.u.hello.version_max = IT2N_PROTO_VERSION_12;
+            h.u.hello.window = 4;
+            h.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
+            h.u.hello.caps = IT2N_CAP_SERVER;
+            assert_true(it2n_link_send(&r->l, &h, now_ms()) >= 0);
+            return IT2N_LINK_DEFER;
+        }
+        assert_int_equal(m->u.hello.version_max, IT2N_PROTO_VERSION); /* one-way: v1.1 */
         break;
     case IT2N_MSG_CONFIGURE:
         rc = it2n_dataset_init(&r->ds, m->u.configure.n, m->u.configure.m, m->u.configure.flags, &e);
@@ -147,7 +171,7 @@ static int run_pty(rx *r, const char *const *args, unsigned nargs)
     }
     r->fd = master;
     it2n_ostream os = {out_write, r};
-    it2n_link_cfg cfg = {&os, NULL, on_rx, NULL, r, 50, 10, 0, 0xDAE40001u, 0, 0, 0};
+    it2n_link_cfg cfg = {&os, NULL, on_rx, NULL, r, 50, 10, 0, 0xDAE40001u, 0, 0, 0, 0, new_session};
     assert_int_equal(it2n_link_init(&r->l, &cfg), IT2N_OK);
     uint32_t t0 = now_ms();
     int status = -1;
@@ -249,7 +273,7 @@ static void test_oneway_stdout(void **st)
     memset(&r, 0, sizeof r);
     mem_out *sink = calloc(1, sizeof *sink);
     it2n_ostream os = mem_stream(sink);
-    it2n_link_cfg cfg = {&os, NULL, on_rx, NULL, &r, 50, 10, 0, 0xDAE40002u, 0, 0, 0};
+    it2n_link_cfg cfg = {&os, NULL, on_rx, NULL, &r, 50, 10, 0, 0xDAE40002u, 0, 0, 0, 0, NULL};
     assert_int_equal(it2n_link_init(&r.l, &cfg), IT2N_OK);
     uint8_t buf[100];
     size_t n;

@@ -43,7 +43,7 @@ static void ep_init(ep *e, uint16_t first, uint8_t tries)
 {
     memset(e, 0, sizeof *e);
     e->os = mem_stream(&e->out);
-    it2n_link_cfg c = {&e->os, NULL, on_rx, on_done, e, 100, tries, first, 0x5E550000u + first, 0, 0, 0};
+    it2n_link_cfg c = {&e->os, NULL, on_rx, on_done, e, 100, tries, first, 0x5E550000u + first, 0, 0, 0, 0, NULL};
     assert_int_equal(it2n_link_init(&e->l, &c), IT2N_OK);
 }
 
@@ -98,7 +98,7 @@ static void test_init_checks(void **st)
 {
     (void)st;
     it2n_link l;
-    it2n_link_cfg c = {&A->os, NULL, on_rx, NULL, A, 0, 3, 0, 1, 0, 0, 0};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, NULL, A, 0, 3, 0, 1, 0, 0, 0, 0, NULL};
     assert_int_equal(it2n_link_init(&l, &c), IT2N_ERR_INVAL); /* rto 0 */
     c.rto_ms = 10;
     c.on_rx = NULL;
@@ -479,7 +479,7 @@ static void test_rto_from_departure(void **st)
     assert_int_equal(it2n_link_rto_default(9600), 1110);
     assert_int_equal(it2n_link_rto_default(0), 100);
 
-    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 9600};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 9600, 0, NULL};
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
     it2n_msg m = put_msg(19);
     assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
@@ -613,7 +613,7 @@ static void test_resync_over_answered_frame(void **st)
 static void test_line_clock_follows_answers(void **st)
 {
     (void)st;
-    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 9600};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 9600, 0, NULL};
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
     it2n_msg m = put_msg(19);
     it2n_link_send(&A->l, &m, 0);
@@ -651,7 +651,7 @@ static void test_line_clock_follows_answers(void **st)
 static void test_rto_waits_for_busy_peer(void **st)
 {
     (void)st;
-    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 9600};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 9600, 0, NULL};
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
     it2n_msg m = cfg_msg(1);
     it2n_link_send(&A->l, &m, 0);
@@ -687,7 +687,7 @@ static void test_rto_waits_for_busy_peer(void **st)
 static void test_backoff_counts_timeouts_only(void **st)
 {
     (void)st;
-    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 921600};
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, 20, 0, 1000, 0x5E551000u, 0, 0, 921600, 0, NULL};
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
     it2n_msg m = cfg_msg(1);
     it2n_link_send(&A->l, &m, 0);
@@ -820,7 +820,7 @@ static void wep_init(wep *w, uint16_t first, uint8_t window, unsigned want)
 {
     memset(w, 0, sizeof *w);
     w->e.os = mem_stream(&w->e.out);
-    it2n_link_cfg c = {&w->e.os, NULL, wep_rx, on_done, w, 40, 0, first, 0xC0DE0000u + first, 0, window, 0};
+    it2n_link_cfg c = {&w->e.os, NULL, wep_rx, on_done, w, 40, 0, first, 0xC0DE0000u + first, 0, window, 0, 0, NULL};
     assert_int_equal(it2n_link_init(&w->e.l, &c), IT2N_OK);
     w->first = first;
     w->want = want;

@@ -7,6 +7,12 @@
  *   instrument --link PATH --csv FILE [--model ID] [--batch K] [--replace]
  *              [--garbage PCT] [--drop PCT] [--dup PCT] [--seed S]
  *              [--hangup-after N] [--ack-log FILE] [--timeout S] [--no-configure]
+ *              [--v11] [--session ID] [--first-seq N]
+ *
+ *   protocol v1.2 by default: the daemon hands out the session id (HELLO
+ *   with session 0); --v11 speaks v1.1 with a session id of its own
+ *   (random, or --session ID: a fixed one, as a board without entropy
+ *   has). --first-seq N fixes the first sequence number (default random).
  *
  *   --garbage  PCT of frames preceded by random bytes (and a delimiter)
  *   --drop     PCT of frames never written (the link retransmits)
@@ -220,7 +226,8 @@ static int make_link(const char *path)
 int main(int argc, char **argv)
 {
     const char *link_path = NULL, *csv = NULL;
-    unsigned model = 1, batch = 4, replace = 0, hangup_after = 0, timeout_s = 30, configure = 1;
+    unsigned model = 1, batch = 4, replace = 0, hangup_after = 0, timeout_s = 30, configure = 1, v11 = 0;
+    long session = -1, first_seq = -1;
     int sample_fp = -1, net_fp = -1, want_query = 0;
     unsigned sample_rows = 0, sample_cols = 0;
     it2n_par qu = 0, qw = 0;
@@ -232,6 +239,7 @@ int main(int argc, char **argv)
         const char *a = argv[k], *v = k + 1 < argc ? argv[k + 1] : NULL;
         if (!strcmp(a, "--replace")) { replace = 1; continue; }
         if (!strcmp(a, "--no-configure")) { configure = 0; continue; }
+        if (!strcmp(a, "--v11")) { v11 = 1; continue; }
         if (!strcmp(a, "--sample") && k + 3 < argc) {
             sample_fp = atoi(argv[k + 1]);
             sample_rows = (unsigned)atoi(argv[k + 2]);
@@ -261,6 +269,8 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--ack-log")) acklog = fopen(v, "w");
         else if (!strcmp(a, "--net")) net_fp = atoi(v);
         else if (!strcmp(a, "--events")) evlog = fopen(v, "a");
+        else if (!strcmp(a, "--session")) session = (long)(strtoul(v, NULL, 0) & 0xFFFFFFFFul);
+        else if (!strcmp(a, "--first-seq")) first_seq = (long)(strtoul(v, NULL, 0) & 0xFFFFul);
         else { fprintf(stderr, "instrument: unknown option %s\n", a); return 2; }
     }
     if (!link_path || (!csv && !evlog) || batch < 1 || batch > IT2N_PUT_MAX)
@@ -287,9 +297,16 @@ int main(int argc, char **argv)
     cfg.max_tries = 100;
     cfg.first_seq = (uint16_t)(rnd() & 0xFFFF);
     cfg.session = (rnd() ^ now_ms() ^ ((uint32_t)getpid() << 12)) | 1u; /* v1.1: new per run, never 0 */
+    if (first_seq >= 0)
+        cfg.first_seq = (uint16_t)first_seq;
+    if (session >= 0)
+        cfg.session = (uint32_t)session;
+    cfg.version = v11 ? 0 : IT2N_PROTO_VERSION_12; /* v1.2: the daemon's id */
     it2n_link_init(&l, &cfg);
 
-    unsigned step = configure ? 0 : 2, i = 0, j = 0, fp = 0;
+    /* v1.2: HELLO first in any case (it brings the session); v1.1 without
+     * CONFIGURE starts with the PUTs (HELLO is optional there) */
+    unsigned step = configure || !v11 ? 0 : 2, i = 0, j = 0, fp = 0;
     uint32_t start = now_ms();
     while (!failed) {
         uint32_t now = now_ms();
@@ -328,19 +345,20 @@ int main(int argc, char **argv)
         }
         /* CONFIGURE is a barrier (docs/protocol.md 4.2 rule 7): alone in
          * flight, answered before the first PUT goes out. */
-        while (step < 4 && it2n_link_can_send(&l) &&
+        while (step < 4 && (step == 0 || it2n_link_can_send(&l)) &&
                ((step != 1 && !(step == 2 && i == 0 && j == 0 && fp == 0)) || it2n_link_pending(&l) == 0)) {
             memset(&m, 0, sizeof m);
             if (step == 0) {
                 m.type = IT2N_MSG_HELLO;
-                m.u.hello.version_min = m.u.hello.version_max = IT2N_PROTO_VERSION;
+                m.u.hello.version_min = m.u.hello.version_max =
+                    v11 ? IT2N_PROTO_VERSION : IT2N_PROTO_VERSION_12;
                 m.u.hello.max_degree = IT2N_MAX_DEGREE;
                 m.u.hello.window = it2n_link_window(&l);
                 m.u.hello.caps = evlog ? IT2N_CAP_EVENTS : IT2N_CAP_INSTRUMENT;
                 m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
                 m.u.hello.max_models = 1;
                 memcpy(m.u.hello.node, evlog ? "sim-peer" : "sim-instrument", evlog ? 8 : 14);
-                step = evlog ? 100 : 1;
+                step = evlog ? 100 : configure ? 1 : 2;
             } else if (step == 1) {
                 m.type = IT2N_MSG_CONFIGURE;
                 m.u.configure.model = (uint8_t)model;
