@@ -20,6 +20,7 @@ set(CONFIG_IT2N_COORD_LIMIT 1000)
 # CONFIG_IT2N_CHORD=n: Kconfig leaves the variable undefined
 set(CONFIG_IT2N_LOCATE_MAX_ITER 20)
 set(CONFIG_IT2N_LOCATE_GRID 4)
+set(CONFIG_IT2N_BSPLINE_MAX_N 15)
 set(CONFIG_IT2N_ASSERT y)
 
 function(_it2n_record file)
