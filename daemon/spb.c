@@ -21,22 +21,25 @@
 #include "spb_dcmd.h"
 #include "spb_metrics.h"
 #include "spb_payload.h"
+#include "spb_sf.h"
 
 #define NS "spBv1.0"
 #define BDSEQ_FILE "sparkplug.bdseq"
 #define BACKOFF_FIRST_MS 500
 #define TICK_MS 1000            /* keep-alive check and the status scan */
 #define STOP_WAIT_MS 2000       /* NDEATH PUBACK at a graceful stop     */
+#define SF_BATCH 32             /* historical DDATA per loop pass       */
 
 /* Node metrics (NBIRTH), by alias. Device metrics have the aliases
  * (model id + 1) * SPB_DEV_ALIAS + index: unique on the node, readable. */
-enum { NA_BDSEQ = 1, NA_REBIRTH, NA_VERSION, NA_MAP_VERSION, NA_MODELS, NA_COUNT = NA_MODELS };
+enum { NA_BDSEQ = 1, NA_REBIRTH, NA_VERSION, NA_MAP_VERSION, NA_MODELS, NA_SF_DROPPED, NA_COUNT = NA_SF_DROPPED };
 
 enum st { ST_IDLE, ST_CONNECTING, ST_ONLINE };
 
 struct dev {
     int id;
     int dirty;                 /* a change was signalled: scan it      */
+    int based;                 /* last holds values a host has or will have */
     struct spb_val *last;      /* values as last published             */
     struct mb_query q;         /* its query (DCMD), like a Modbus connection's */
 };
@@ -66,6 +69,16 @@ static struct {
     struct dev *devs;
     int ndevs;
     unsigned long births, ddata;
+    /* Primary host (Sparkplug 3.0 STATE) and store-and-forward. */
+    int use_host;              /* primary_host_id is set               */
+    char t_state[160];
+    int host_on;               /* its last STATE this session: online  */
+    uint64_t host_ts;          /* timestamp of the newest STATE taken  */
+    int leaving;               /* NDEATH + DISCONNECT: the host went offline */
+    int sf_max;                /* store_forward_max in effect (0: off) */
+    int sf_flushing;           /* stored changes are being published   */
+    uint64_t sf_off;           /* the next stored record to publish    */
+    unsigned long sf_dropped, sf_stored, sf_sent;
 } g = { .fd = -1, .parked = -1 };
 
 enum { TP_DBIRTH, TP_DDATA, TP_DDEATH, TP_DCMD };
@@ -188,6 +201,12 @@ static int nbirth(void)
     v.u = (uint64_t)models_count();
     spb_pl_prop(pl, spb_pl_add(pl, "Properties/Models", NA_MODELS, SPB_UINT32, ts, &v), "description",
                 "Devices (models) served by this edge node, each as model-N");
+    if (g.sf_max) {
+        v.u = (uint64_t)g.sf_dropped;
+        spb_pl_prop(pl, spb_pl_add(pl, "Store and Forward/Dropped", NA_SF_DROPPED, SPB_UINT64, ts, &v), "description",
+                    "Changes not kept for the host's history since start: the store (store_forward_max) was full or "
+                    "could not be written (each is logged)");
+    }
     g.seq = 0;
     rc = publish_seq(g.t_nbirth, pl, ts);
     spb_pl_free(pl);
@@ -217,6 +236,7 @@ static int dbirth(struct dev *d, struct model *md)
     rc = publish_seq(topic, pl, ts);
     spb_pl_free(pl);
     d->dirty = 0;
+    d->based = 1;
     return rc;
 }
 
@@ -227,6 +247,8 @@ static void births(void)
     /* Until a whole sequence is out, no DDATA (its aliases would not be
      * born): an incomplete one is tried again from the loop hook. */
     g.need_birth = 1;
+    if (g.use_host && !g.host_on)
+        return;  /* spec 3.0: no birth before the primary host is online */
     if (devs_build()) {
         log_err("sparkplug: out of memory building the device table");
         return;
@@ -241,6 +263,12 @@ static void births(void)
     g.need_birth = 0;
     g.births++;
     log_info("sparkplug: NBIRTH and %d DBIRTH published (bdSeq %d)", g.ndevs, g.bdseq);
+    /* What was stored while the host or the broker was away follows the
+     * births (its aliases are born), oldest first. */
+    g.sf_off = 0;
+    g.sf_flushing = g.sf_max && spb_sf_count() > 0;
+    if (g.sf_flushing)
+        log_info("sparkplug: publishing %d stored change(s) as historical DDATA", spb_sf_count());
 }
 
 /* Report by exception: a DDATA with the metrics whose value moved since
@@ -279,17 +307,140 @@ static void dev_scan(struct dev *d)
 /* Scan what is due, unless the socket still has output queued (a slow or
  * stopped broker): the changes wait, coalesced, since a DDATA carries the
  * latest values; the queue never grows past one birth sequence. */
+static void sf_store(int all);
+static void sf_forward(void);
+
 static void scan(int all)
 {
-    if (g.st != ST_ONLINE || mosquitto_want_write(g.mosq))
+    if (g.st != ST_ONLINE || (g.use_host && !g.host_on)) {
+        /* Nobody to tell: keep the change for the host's history. */
+        if (g.sf_max && !g.leaving)
+            sf_store(all);
+        return;
+    }
+    if (mosquitto_want_write(g.mosq))
         return;
     if (g.need_birth) {
         births();
         return;
     }
+    if (g.sf_flushing) {
+        sf_forward();   /* history first: live changes wait, coalesced */
+        return;
+    }
     for (int k = 0; k < g.ndevs; k++)
         if (all || g.devs[k].dirty)
             dev_scan(&g.devs[k]);
+}
+
+/* ---- store-and-forward ---- */
+
+/* Every device's values now as the baseline of what a host has (or will
+ * get in its next birth), for devices without one. */
+static void sf_base(void)
+{
+    if (!g.devs && devs_build()) {
+        log_err("sparkplug: out of memory building the device table");
+        return;
+    }
+    for (int k = 0; k < g.ndevs; k++) {
+        struct model *md = models_by_id(g.devs[k].id);
+        if (!g.devs[k].based && md) {
+            spb_metrics_values(models_view(md), &g.devs[k].q, &g.mbo, g.devs[k].last);
+            g.devs[k].based = 1;
+            g.devs[k].dirty = 0;
+        }
+    }
+}
+
+/* While nobody can be told: each device's metrics that moved since the
+ * last birth, DDATA or stored change go to the store, durably. */
+static void sf_store(int all)
+{
+    int nm = spb_metrics_count(&g.mbo);
+    struct spb_val *cur = NULL;
+    uint16_t *idx = NULL;
+    struct spb_val *vals = NULL;
+    sf_base();
+    for (int k = 0; k < g.ndevs; k++) {
+        struct dev *d = &g.devs[k];
+        struct model *md = models_by_id(d->id);
+        int n = 0, rc;
+        if (!(all || d->dirty) || !md)
+            continue;
+        d->dirty = 0;
+        if (!cur && (!(cur = malloc((size_t)nm * sizeof *cur)) || !(idx = malloc((size_t)nm * sizeof *idx)) ||
+                     !(vals = malloc((size_t)nm * sizeof *vals)))) {
+            log_err("sparkplug: out of memory storing a change");
+            break;
+        }
+        spb_metrics_values(models_view(md), &d->q, &g.mbo, cur);
+        for (int j = 0; j < nm; j++)
+            if (!spb_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
+                idx[n] = (uint16_t)j;
+                vals[n++] = cur[j];
+            }
+        if (!n)
+            continue;
+        rc = spb_sf_append(d->id, now_ms(), n, idx, vals);
+        if (rc == 0) {
+            g.sf_stored++;
+        } else {
+            /* Not kept: counted (NBIRTH "Store and Forward/Dropped") and
+             * logged; the next birth carries the value, not its history. */
+            if (rc > 0 && (g.sf_dropped == 0 || (g.sf_dropped & (g.sf_dropped + 1)) == 0))
+                log_warn("sparkplug: store-and-forward full (store_forward_max = %d): a change of model-%d not kept "
+                         "for the host's history (%lu dropped since start)", g.sf_max, d->id, g.sf_dropped + 1);
+            g.sf_dropped++;
+        }
+        memcpy(d->last, cur, (size_t)nm * sizeof *cur);
+    }
+    free(cur);
+    free(idx);
+    free(vals);
+}
+
+/* Publish the next stored changes as historical DDATA; once all are out
+ * of the socket, empty the store. */
+static void sf_forward(void)
+{
+    int nm = spb_metrics_count(&g.mbo);
+    for (int b = 0; b < SF_BATCH; b++) {
+        struct spb_sf_rec rec;
+        struct spb_pl *pl;
+        char topic[200];
+        int rc = spb_sf_read(&g.sf_off, &rec);
+        if (rc == 0) {
+            if (!mosquitto_want_write(g.mosq)) {
+                log_info("sparkplug: %d stored change(s) published as historical DDATA", spb_sf_count());
+                spb_sf_clear();
+                g.sf_flushing = 0;
+            }
+            return;
+        }
+        if (rc < 0) {
+            log_err("sparkplug: cannot read the stored changes; they stay in %s", SPB_SF_FILE);
+            g.sf_flushing = 0;
+            return;
+        }
+        pl = dev_find(rec.dev) ? spb_pl_new((size_t)rec.n) : NULL;
+        for (int k = 0; pl && k < rec.n; k++)
+            if (rec.idx[k] < nm)
+                spb_pl_add(pl, NULL, (uint64_t)(rec.dev + 1) * SPB_DEV_ALIAS + rec.idx[k], spb_metrics_type(rec.idx[k]),
+                           rec.ts, &rec.val[k]);
+        if (!pl) {
+            log_warn("sparkplug: a stored change of model-%d is not published: the device is gone", rec.dev);
+        } else {
+            spb_pl_historical(pl);
+            dev_topic(topic, sizeof topic, TP_DDATA, rec.dev);
+            if (publish_seq(topic, pl, rec.ts) == 0)
+                g.sf_sent++;
+        }
+        spb_pl_free(pl);
+        spb_sf_rec_free(&rec);
+        if (mosquitto_want_write(g.mosq))
+            return;
+    }
 }
 
 /* ---- bdSeq in state_dir ---- */
@@ -390,10 +541,15 @@ static void after(void)
 {
     if (g.dropped || (g.st != ST_IDLE && g.mosq && mosquitto_socket(g.mosq) < 0)) {
         g.dropped = 0;
-        if (g.st == ST_ONLINE)
+        g.sf_flushing = 0;  /* what was not cleared goes again next time */
+        if (g.leaving)
+            log_info("sparkplug: disconnected while the primary host %s is offline; waiting for it",
+                     g.sc.primary_host_id);
+        else if (g.st == ST_ONLINE)
             log_warn("sparkplug: connection to %s:%d lost; reconnecting (at most %d s apart)", g.sc.host, g.sc.port,
                      g.sc.reconnect_max);
         g.st = ST_IDLE;
+        g.leaving = 0;
         schedule_retry();
     }
     sync_fd();
@@ -477,6 +633,8 @@ static void try_connect(void *arg)
     g.bdseq = bd;
     g.next_bd = (bd + 1) & 255;
     g.st = ST_CONNECTING;
+    g.host_on = 0;  /* until its STATE (retained) says online */
+    g.leaving = 0;
     g.dropped = 0;
     sync_fd();
 }
@@ -516,6 +674,9 @@ static void on_connect(struct mosquitto *m, void *obj, int rc)
     rc = mosquitto_subscribe(g.mosq, NULL, g.t_ncmd, 1);
     if (rc == MOSQ_ERR_SUCCESS)
         rc = mosquitto_subscribe(g.mosq, NULL, g.t_dcmd_sub, 1);
+    /* The primary host's STATE (retained): the births wait for it. */
+    if (rc == MOSQ_ERR_SUCCESS && g.use_host)
+        rc = mosquitto_subscribe(g.mosq, NULL, g.t_state, 1);
     if (rc != MOSQ_ERR_SUCCESS)
         log_warn("sparkplug: subscribe: %s", mosquitto_strerror(rc));
     births();
@@ -550,6 +711,49 @@ static void on_dcmd(int id, const uint8_t *buf, size_t len)
     d->dirty = 1;
 }
 
+/* spBv1.0/STATE/<primary_host_id> (Sparkplug 3.0): online: born (and the
+ * stored history published); offline: NDEATH and DISCONNECT, then wait
+ * for it on a new connection. A STATE older than the newest taken is a
+ * late copy and ignored (spec: compare the timestamps). */
+static void on_state(const uint8_t *buf, size_t len)
+{
+    int online;
+    uint64_t ts;
+    char why[128];
+    if (spb_state_parse(buf, len, &online, &ts, why, sizeof why)) {
+        log_warn("sparkplug: STATE of %s refused: %s", g.sc.primary_host_id, why);
+        return;
+    }
+    if (ts < g.host_ts) {
+        log_info("sparkplug: STATE of %s (%s) older than the last one taken: ignored", g.sc.primary_host_id,
+                 online ? "online" : "offline");
+        return;
+    }
+    g.host_ts = ts;
+    if (online && !g.host_on) {
+        g.host_on = 1;
+        log_notice("sparkplug: primary host %s online", g.sc.primary_host_id);
+        if (g.st == ST_ONLINE && g.need_birth)
+            births();
+    } else if (!online) {
+        int was_born = g.host_on && !g.need_birth;
+        g.host_on = 0;
+        log_notice("sparkplug: primary host %s offline%s", g.sc.primary_host_id,
+                   was_born ? ": NDEATH, disconnecting; changes are kept until it is back" : "; waiting for it");
+        if (was_born && g.st == ST_ONLINE) {
+            struct spb_pl *pl = ndeath_payload(g.bdseq, now_ms());
+            /* Both queued in order: the broker has the NDEATH before the
+             * DISCONNECT that discards the will. */
+            if (pl)
+                publish(g.t_ndeath, pl, now_ms(), -1, 1, NULL);
+            spb_pl_free(pl);
+            g.leaving = 1;
+            g.need_birth = 1;
+            mosquitto_disconnect(g.mosq);
+        }
+    }
+}
+
 static void on_message(struct mosquitto *m, void *obj, const struct mosquitto_message *msg)
 {
     struct spb_cmd cmd;
@@ -557,6 +761,10 @@ static void on_message(struct mosquitto *m, void *obj, const struct mosquitto_me
     size_t pre = strlen(g.t_dpre[TP_DCMD]);
     (void)m;
     (void)obj;
+    if (g.use_host && !strcmp(msg->topic, g.t_state)) {
+        on_state(msg->payload, (size_t)(msg->payloadlen > 0 ? msg->payloadlen : 0));
+        return;
+    }
     if (!strncmp(msg->topic, g.t_dpre[TP_DCMD], pre)) {
         char *end;
         long id = strtol(msg->topic + pre, &end, 10);
@@ -586,8 +794,11 @@ static void on_tick(void *arg)
 {
     (void)arg;
     g.tick_timer = loop_add_timer(TICK_MS, on_tick, NULL);
-    if (g.st == ST_IDLE)
+    if (g.st == ST_IDLE) {
+        if (g.sf_max && !models_pass_dirty())
+            scan(1);  /* stored: the moves without a durable change too */
         return;
+    }
     mosquitto_loop_misc(g.mosq); /* keep-alive: PINGREQ, or drop a silent broker */
     after();
     /* What changed without a durable change (last_error, counters); not
@@ -649,6 +860,18 @@ int spb_start(const struct conf *c, const char *version)
     if (g.file_bd == -2)
         return -1;
     g.next_bd = g.file_bd < 0 ? 0 : (g.file_bd + 1) & 255;
+    g.use_host = s->primary_host_id[0] != 0;
+    g.host_on = !g.use_host;
+    snprintf(g.t_state, sizeof g.t_state, NS "/STATE/%s", s->primary_host_id);
+    g.sf_max = spb_conf_sf_max(s);
+    if (g.sf_max) {
+        int kept = spb_sf_open(g.state_dir, g.sf_max);
+        if (kept < 0)
+            return -1;
+        if (kept)
+            log_notice("sparkplug: %d stored change(s) in %s/%s wait for the host", kept, g.state_dir, SPB_SF_FILE);
+        sf_base();  /* what the host will get in the births: the baseline */
+    }
     mosquitto_lib_init();
     /* Clean session (spec: always true for Sparkplug clients). */
     g.mosq = mosquitto_new(g.client_id, true, NULL);
@@ -690,6 +913,9 @@ int spb_start(const struct conf *c, const char *version)
     g.tick_timer = loop_add_timer(TICK_MS, on_tick, NULL);
     log_info("sparkplug: edge node %s/%s, broker %s:%d, next bdSeq %d", s->group_id, s->edge_node_id, s->host,
              s->port, g.next_bd);
+    if (g.use_host || g.sf_max)
+        log_info("sparkplug: primary host %s, store-and-forward of at most %d change(s)",
+                 g.use_host ? s->primary_host_id : "(none)", g.sf_max);
     return 0;
 }
 
@@ -791,6 +1017,8 @@ void spb_stop(void)
     if (g.tick_timer)
         loop_cancel_timer(g.tick_timer);
     g.retry_timer = g.tick_timer = 0;
+    if (g.st != ST_ONLINE && g.sf_max)
+        scan(0);  /* changes made durable by the last drain: kept */
     if (g.st == ST_ONLINE) {
         uint64_t ts = now_ms();
         struct spb_pl *pl = ndeath_payload(g.bdseq, ts);
@@ -819,6 +1047,7 @@ void spb_stop(void)
     g.fd = -1;
     mosquitto_destroy(g.mosq);
     mosquitto_lib_cleanup();
+    spb_sf_close();
     g.mosq = NULL;
     devs_free();
     g.on = 0;

@@ -14,6 +14,14 @@ void spb_conf_default(struct spb_conf *s)
     s->port = 1883;
     s->keepalive = 30;
     s->reconnect_max = 30;
+    s->store_forward = -1;
+}
+
+int spb_conf_sf_max(const struct spb_conf *s)
+{
+    if (s->store_forward >= 0)
+        return s->store_forward;
+    return s->primary_host_id[0] ? SPB_SF_DEFAULT : 0;
 }
 
 static int parse_num(const char *v, long lo, long hi, int *out)
@@ -138,8 +146,13 @@ int spb_conf_key(struct spb_conf *s, const char *name, const char *v, int line, 
         fclose(f);
         snprintf(dst, sizeof s->tls_ca, "%s", v);
         *l = line;
-    } else if (!strcmp(name, "primary_host_id") || !strcmp(name, "store_forward_max")) {
-        ERR("not supported by this it2nd yet (docs/sparkplug.md, \"Not yet\"); remove the key");
+    } else if (!strcmp(name, "primary_host_id")) {
+        if (!valid_id(v))
+            ERR("expected 1..%d printable ASCII characters without '/', '+', '#' or blanks", SPB_ID_MAX - 1);
+        snprintf(s->primary_host_id, sizeof s->primary_host_id, "%s", v);
+    } else if (!strcmp(name, "store_forward_max")) {
+        if (parse_num(v, 0, SPB_SF_LIMIT, &s->store_forward))
+            ERR("expected a number of stored changes 0..%d (0: none kept)", SPB_SF_LIMIT);
     } else {
         ERR("unknown key");
     }

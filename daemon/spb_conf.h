@@ -30,7 +30,16 @@ struct spb_conf {
      * name); tls_cert + tls_key = a client certificate too. */
     char tls_ca[256], tls_cert[256], tls_key[256];
     int tls_ca_line, tls_cert_line, tls_key_line;
+    /* primary_host_id set: births wait for its STATE online (Sparkplug
+     * 3.0); changes made while it or the broker is away are stored, at
+     * most store_forward (0: not stored; -1: not given, the default). */
+    char primary_host_id[SPB_ID_MAX];
+    int store_forward;
 };
+
+/* store_forward_max when primary_host_id is set and the key is not given. */
+#define SPB_SF_DEFAULT 10000
+#define SPB_SF_LIMIT 1000000
 
 /* The defaults of a configuration without the section (disabled). */
 void spb_conf_default(struct spb_conf *s);
@@ -38,6 +47,9 @@ void spb_conf_default(struct spb_conf *s);
 /* One key of [sparkplug]. Returns 0, or -1 with the reason (without
  * file, line or key: the caller adds them) in err. line is the key's. */
 int spb_conf_key(struct spb_conf *s, const char *name, const char *value, int line, char *err, size_t errsize);
+
+/* The store-and-forward bound in effect (0: off). */
+int spb_conf_sf_max(const struct spb_conf *s);
 
 /* Checks between keys once the file is read: the required keys. Returns
  * 0, or -1 with *line, key (the key to name) and err (the reason). */

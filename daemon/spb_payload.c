@@ -164,6 +164,14 @@ int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value)
     return 0;
 }
 
+void spb_pl_historical(struct spb_pl *pl)
+{
+    for (size_t k = 0; k < pl->n; k++) {
+        pl->s[k].m.has_is_historical = 1;
+        pl->s[k].m.is_historical = 1;
+    }
+}
+
 int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *len)
 {
     Spb__Payload p = SPB__PAYLOAD__INIT;
@@ -243,4 +251,158 @@ int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const str
     }
     spb__payload__free_unpacked(p, NULL);
     return 0;
+}
+
+/* ---- STATE (JSON) ---- */
+
+struct js {
+    const uint8_t *p, *end;
+};
+
+static void js_ws(struct js *j)
+{
+    while (j->p < j->end && (*j->p == ' ' || *j->p == '\t' || *j->p == '\n' || *j->p == '\r'))
+        j->p++;
+}
+
+static int js_lit(struct js *j, const char *lit)
+{
+    size_t n = strlen(lit);
+    if ((size_t)(j->end - j->p) < n || memcmp(j->p, lit, n))
+        return 0;
+    j->p += n;
+    return 1;
+}
+
+/* A JSON string; its bytes (escapes kept as written) into out when it
+ * fits, else an empty key (matches nothing). */
+static int js_str(struct js *j, char *out, size_t size)
+{
+    size_t n = 0;
+    if (j->p >= j->end || *j->p != '"')
+        return -1;
+    j->p++;
+    while (j->p < j->end && *j->p != '"') {
+        if (*j->p < 0x20)
+            return -1;
+        if (*j->p == '\\') {
+            if (++j->p >= j->end)
+                return -1;
+        }
+        if (n + 1 < size)
+            out[n] = (char)*j->p;
+        n++;
+        j->p++;
+    }
+    if (j->p >= j->end)
+        return -1;
+    j->p++;
+    out[n + 1 < size ? n : 0] = 0;
+    return 0;
+}
+
+/* Any other value: skipped (a string; an object or array by bracket
+ * depth, strings inside honoured; a number or literal up to the next
+ * separator), bounded by len. */
+static int js_skip(struct js *j)
+{
+    char tmp[2];
+    int depth = 0;
+    if (j->p < j->end && *j->p == '"')
+        return js_str(j, tmp, sizeof tmp);
+    if (j->p < j->end && (*j->p == '{' || *j->p == '[')) {
+        do {
+            if (j->p >= j->end)
+                return -1;
+            if (*j->p == '"') {
+                if (js_str(j, tmp, sizeof tmp))
+                    return -1;
+                continue;
+            }
+            if (*j->p == '{' || *j->p == '[')
+                depth++;
+            else if (*j->p == '}' || *j->p == ']')
+                depth--;
+            j->p++;
+        } while (depth > 0);
+        return 0;
+    }
+    if (j->p >= j->end || *j->p == ',' || *j->p == '}')
+        return -1;
+    while (j->p < j->end && *j->p != ',' && *j->p != '}' && *j->p != ' ' && *j->p != '\t' && *j->p != '\n' &&
+           *j->p != '\r')
+        j->p++;
+    return 0;
+}
+
+int spb_state_parse(const uint8_t *buf, size_t len, int *online, uint64_t *ts, char *why, size_t whysize)
+{
+    struct js j = { buf, buf + len };
+    int have_on = 0, have_ts = 0;
+    char key[16];
+    js_ws(&j);
+    if (!js_lit(&j, "{")) {
+        snprintf(why, whysize, "not a JSON object (Sparkplug 3.0 STATE is {\"online\": ..., \"timestamp\": ...})");
+        return -1;
+    }
+    js_ws(&j);
+    if (js_lit(&j, "}"))
+        goto done;
+    for (;;) {
+        js_ws(&j);
+        if (js_str(&j, key, sizeof key))
+            goto bad;
+        js_ws(&j);
+        if (!js_lit(&j, ":"))
+            goto bad;
+        js_ws(&j);
+        if (!strcmp(key, "online")) {
+            if (js_lit(&j, "true"))
+                *online = 1;
+            else if (js_lit(&j, "false"))
+                *online = 0;
+            else {
+                snprintf(why, whysize, "\"online\" must be true or false");
+                return -1;
+            }
+            have_on = 1;
+        } else if (!strcmp(key, "timestamp")) {
+            uint64_t v = 0;
+            int digits = 0;
+            while (j.p < j.end && *j.p >= '0' && *j.p <= '9') {
+                if (v > (UINT64_MAX - 9) / 10) {
+                    snprintf(why, whysize, "\"timestamp\" out of range");
+                    return -1;
+                }
+                v = v * 10 + (uint64_t)(*j.p++ - '0');
+                digits++;
+            }
+            if (!digits || (j.p < j.end && (*j.p == '.' || *j.p == 'e' || *j.p == 'E' || *j.p == '-'))) {
+                snprintf(why, whysize, "\"timestamp\" must be ms since the epoch (an unsigned integer)");
+                return -1;
+            }
+            *ts = v;
+            have_ts = 1;
+        } else if (js_skip(&j)) {
+            goto bad;
+        }
+        js_ws(&j);
+        if (js_lit(&j, ","))
+            continue;
+        if (js_lit(&j, "}"))
+            break;
+        goto bad;
+    }
+done:
+    js_ws(&j);
+    if (j.p != j.end)
+        goto bad;
+    if (!have_on || !have_ts) {
+        snprintf(why, whysize, "missing \"%s\"", have_on ? "timestamp" : "online");
+        return -1;
+    }
+    return 0;
+bad:
+    snprintf(why, whysize, "malformed JSON at byte %zu", (size_t)(j.p - buf));
+    return -1;
 }

@@ -43,6 +43,10 @@ int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, ui
 /* Add a String property (key, value) to metric idx (at most 3 each). */
 int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value);
 
+/* Mark every metric added so far as historical (is_historical = true:
+ * store-and-forward data published after the host came back). */
+void spb_pl_historical(struct spb_pl *pl);
+
 /* Encode: payload timestamp ts, seq (< 0: none, as in NDEATH). *out is
  * malloc'ed (free it). Returns 0 or -1 (out of memory). */
 int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *len);
@@ -78,5 +82,12 @@ struct spb_cmd {
  * type other than Boolean). Unknown metrics are counted, not refused. */
 int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_cmd *cmd, char *why,
                   size_t whysize);
+
+/* A Sparkplug 3.0 STATE payload (spBv1.0/STATE/<host_id>, published by a
+ * host application, spec 6.6): the UTF-8 JSON object {"online": true|false,
+ * "timestamp": <ms>}, keys in any order, blanks allowed, other keys
+ * ignored. Returns 0 with *online and *ts, or -1 with why (not such an
+ * object: a missing or mistyped key, a bad number, trailing bytes). */
+int spb_state_parse(const uint8_t *buf, size_t len, int *online, uint64_t *ts, char *why, size_t whysize);
 
 #endif

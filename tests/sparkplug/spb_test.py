@@ -124,6 +124,8 @@ def decode_metric(b):
             m["timestamp"] = v
         elif num == 4:
             m["datatype"] = v
+        elif num == 5:
+            m["is_historical"] = bool(v)
         elif num == 7:
             m["is_null"] = bool(v)
         elif num == 9:
@@ -668,7 +670,8 @@ def ddata_values(m, aliases):
 def config_errors(args, d):
     """[sparkplug] mistakes are fatal with file:line (it2nd -t)."""
     cases = [("bogus = 1", 6, "[sparkplug] bogus: unknown key"),
-             ("primary_host_id = scada", 6, "[sparkplug] primary_host_id: not supported"),
+             ("primary_host_id = sca/da", 6, "[sparkplug] primary_host_id: expected"),
+             ("store_forward_max = -1", 6, "[sparkplug] store_forward_max: expected a number of stored changes"),
              ("keepalive = 2", 6, "[sparkplug] keepalive: expected seconds 5..3600"),
              ("group_id = a/b", 6, "[sparkplug] group_id: expected")]
     for extra, line, want in cases:

@@ -1,0 +1,242 @@
+#!/usr/bin/python3
+"""it2nd's primary host and store-and-forward, checked from outside (issue
+16 item 3; docs/sparkplug.md "Primary host and store-and-forward"): a real
+mosquitto on a free loopback port, the real it2nd with primary_host_id and
+store_forward_max, a host application that publishes its Sparkplug 3.0
+STATE (retained JSON, QoS 1) and decodes every payload with spb_test.py's
+own protobuf decoder, and pymodbus as the PLC.
+
+Checks: no birth while the host's STATE says offline; PLC writes made then,
+a kill -9 of it2nd with changes stored and a restart, more writes up to
+store_forward_max and past it; the host online -> NBIRTH ("Store and
+Forward/Dropped" = the overflow, also logged), DBIRTH with the current
+values, then every stored change as DDATA in order, each metric
+is_historical with its original timestamp, every written value present;
+live DDATA after it not historical; a stale STATE (older timestamp) is
+ignored; the host offline -> the node's NDEATH (its bdSeq) and silence, a
+write meanwhile, online again -> a new session (bdSeq + 1) and that write as
+history. Prints "skip: why" without mosquitto or paho-mqtt."""
+import argparse
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import spb_test as T  # noqa: E402  (the decoder, Host, Plc, helpers)
+
+HOST_ID = "scada-1"
+SF_MAX = 6
+
+
+class Broker:
+    def __init__(self, d, port):
+        self.conf = os.path.join(d, "mosquitto.conf")
+        self.log = os.path.join(d, "mosquitto.log")
+        self.port = port
+        with open(self.conf, "w") as f:
+            f.write("persistence false\nlistener %d 127.0.0.1\nallow_anonymous true\n" % port)
+        self.p = None
+
+    def start(self):
+        self.p = subprocess.Popen([T.MOSQUITTO, "-c", self.conf], stdout=open(self.log, "a"),
+                                  stderr=subprocess.STDOUT)
+        t = time.monotonic() + 5
+        while time.monotonic() < t:
+            try:
+                T.socket.create_connection(("127.0.0.1", self.port), 0.2).close()
+                return
+            except OSError:
+                time.sleep(0.05)
+        raise RuntimeError("mosquitto did not start (see %s)" % self.log)
+
+    def stop(self):
+        if self.p and self.p.poll() is None:
+            self.p.terminate()
+            self.p.wait(5)
+
+
+def state(host, online, ts, retain=True):
+    """The primary host's STATE (Sparkplug 3.0: JSON, QoS 1, retained)."""
+    host.c.publish("%s/STATE/%s" % (T.NS, HOST_ID), json.dumps({"online": online, "timestamp": ts}), qos=1,
+                   retain=retain).wait_for_publish(5)
+
+
+def drain(host, seq, secs):
+    out = []
+    end = time.monotonic() + secs
+    while True:
+        m = host.get(max(0.0, end - time.monotonic()))
+        if m is None:
+            return out
+        seq.feed(m)
+        out.append(m)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--it2nd", required=True)
+    args = ap.parse_args()
+    if not T.MOSQUITTO:
+        print("skip: mosquitto is not installed (Debian package mosquitto; make deps)")
+        return 0
+    if T.mqtt is None:
+        print("skip: paho-mqtt is not installed (Debian package python3-paho-mqtt; make deps)")
+        return 0
+    d = tempfile.mkdtemp(prefix="spb-sf-test-")
+    broker = Broker(d, T.free_port())
+    node = host = plc = None
+    check = T.check
+    try:
+        broker.start()
+        mbport = T.free_port()
+        conf = os.path.join(d, "it2nd.conf")
+        with open(conf, "w") as f:
+            f.write("[daemon]\nstate_dir = %s/state\n[modbus]\ntcp_listen = 127.0.0.1:%d\ngrid_rows = 2\n"
+                    "grid_cols = 2\n[model:1]\npreload = paper\n[model:2]\nn = 2\nm = 2\n"
+                    "[sparkplug]\nbroker = 127.0.0.1:%d\ngroup_id = %s\nedge_node_id = %s\nkeepalive = 5\n"
+                    "reconnect_max = 1\nprimary_host_id = %s\nstore_forward_max = %d\n"
+                    % (d, mbport, broker.port, T.GROUP, T.NODE, HOST_ID, SF_MAX))
+        host = T.Host(broker.port)
+        seq = T.Seq()
+        t0 = int(time.time() * 1000)
+        state(host, False, t0)          # the host was there and went away
+        node = T.start_it2nd(args, conf)
+        plc = T.Plc(mbport)
+        log = conf + ".log"
+        # Connected (its log says so) but not born while the host is offline.
+        end = time.monotonic() + 5
+        while time.monotonic() < end and "sparkplug: connected" not in open(log).read():
+            time.sleep(0.1)
+        check("sparkplug: connected" in open(log).read(), "the node connects to the broker")
+        msgs = drain(host, seq, 1.0)
+        check(not [m for m in msgs if m[1] in ("NBIRTH", "DBIRTH", "DDATA")],
+              "no birth and no data while the primary host's STATE is offline (%d messages)" % len(msgs))
+
+        # PLC writes while the host is away; a kill -9 in the middle.
+        written = []
+
+        def write_point(k):
+            t = 1000 + 100 * k
+            ok = plc.write(2, 40, T.upload(k % 3, k // 3 % 3, 3, t, 2000, 3000))
+            if ok:
+                written.append(t)
+            return ok
+        for k in range(3):
+            check(write_point(k), "host offline: PLC write %d" % k)
+        time.sleep(0.3)
+        sf = os.path.join(d, "state", "sparkplug.sf")
+        check(os.path.exists(sf) and os.path.getsize(sf) > 0, "the changes are in state_dir/sparkplug.sf (%d bytes)"
+              % (os.path.getsize(sf) if os.path.exists(sf) else -1))
+        node.send_signal(signal.SIGKILL)
+        node.wait(5)
+        plc.close()
+        node = T.start_it2nd(args, conf)
+        plc = T.Plc(mbport)
+        for k in range(3, SF_MAX + 2):  # SF_MAX stored, then 2 past the bound
+            check(write_point(k), "host offline, after kill -9 and restart: PLC write %d" % k)
+            time.sleep(0.05)
+        time.sleep(0.5)
+        text = open(log).read()
+        check("store-and-forward full (store_forward_max = %d)" % SF_MAX in text,
+              "the overflow is logged ('store-and-forward full')")
+        msgs = drain(host, seq, 0.3)
+        check(not [m for m in msgs if m[1] in ("NBIRTH", "DBIRTH", "DDATA")], "still nothing while offline")
+
+        # The host comes back: births, then the history in order.
+        t1 = int(time.time() * 1000)
+        state(host, True, t1)
+        nb = host.wait("NBIRTH", 5)
+        if check(nb is not None, "host online: NBIRTH"):
+            seq.feed(nb)
+            tab = T.birth_table(nb[3])
+            dr = tab.get("Store and Forward/Dropped")
+            check(dr is not None and dr.get("raw") == 2, "NBIRTH Store and Forward/Dropped = 2 (the overflow), got %r"
+                  % (dr and dr.get("raw")))
+        msgs = drain(host, seq, 2.0)
+        births = [m for m in msgs if m[1] == "DBIRTH"]
+        check(len(births) == 2, "host online: 2 DBIRTH")
+        aliases = {}
+        for m in births:
+            for x in m[3]["metrics"]:
+                aliases[x["alias"]] = (m[2], x["name"], x["datatype"])
+        b2 = [m for m in births if m[2] == "model-2"]
+        if b2:
+            v = {aliases[x["alias"]][1]: T.value(x, x["datatype"]) for x in b2[0][3]["metrics"]}
+            check(v.get("Upload/up_T") == written[-1], "DBIRTH model-2 carries the last write (up_T %r)"
+                  % v.get("Upload/up_T"))
+        hist = [m for m in msgs if m[1] == "DDATA"]
+        first_d = msgs.index(births[-1]) if births else 0
+        check(all(msgs.index(m) > first_d for m in hist), "the history comes after the births")
+        check(all(x.get("is_historical") for m in hist for x in m[3]["metrics"]),
+              "every metric of the stored DDATA is_historical (%d DDATA)" % len(hist))
+        ups = [T.ddata_values(m, aliases).get("Upload/up_T") for m in hist if m[2] == "model-2"]
+        ups = [u for u in ups if u is not None]
+        check(ups == written[:SF_MAX], "every value written while the host was away is in the history, in "
+              "order: %r == %r" % (ups, written[:SF_MAX]))
+        ts = [x["timestamp"] for m in hist for x in m[3]["metrics"]]
+        check(ts == sorted(ts) and (not ts or ts[-1] < nb[3]["timestamp"]),
+              "historical timestamps ascending, older than the NBIRTH")
+        check(not seq.bad, "seq rules over births and history %s" % seq.bad[:3])
+        time.sleep(0.3)
+        check(not os.path.exists(sf) or os.path.getsize(sf) == 0, "the store is emptied once published")
+
+        # A live change now: DDATA, not historical.
+        check(write_point(SF_MAX + 2), "host online: PLC write")
+        m = T.wait_ddata(host, seq, "model-2", aliases, "Upload/up_T", 3)
+        if check(m is not None, "live DDATA after the history"):
+            check(not any(x.get("is_historical") for x in m[3]["metrics"]), "a live DDATA is not historical")
+
+        # A stale STATE (older timestamp, not retained): ignored.
+        state(host, False, t0, retain=False)
+        msgs = drain(host, seq, 1.0)
+        check(not [m for m in msgs if m[1] == "NDEATH"], "a STATE older than the last one is ignored")
+
+        # The host goes offline: NDEATH with the session's bdSeq, silence.
+        bd = T.value(T.birth_table(nb[3])["bdSeq"], T.INT64) if nb else None
+        state(host, False, int(time.time() * 1000))
+        dm = T.wait_death(host, seq, bd, 5)
+        check(dm is not None, "host offline: the node publishes its NDEATH (bdSeq %r)" % bd)
+        time.sleep(0.5)
+        check(write_point(SF_MAX + 3), "host offline again: PLC write")
+        msgs = drain(host, seq, 1.0)
+        check(not [m for m in msgs if m[1] in ("NBIRTH", "DDATA")], "no data while the host is offline")
+        state(host, True, int(time.time() * 1000))
+        nb2 = host.wait("NBIRTH", 6)
+        if check(nb2 is not None, "host online again: NBIRTH"):
+            seq.feed(nb2)
+            bd2 = T.value(T.birth_table(nb2[3])["bdSeq"], T.INT64)
+            check(bd is not None and bd2 > bd, "a new session: bdSeq %r > %r" % (bd2, bd))
+        msgs = drain(host, seq, 1.5)
+        hist = [m for m in msgs if m[1] == "DDATA" and all(x.get("is_historical") for x in m[3]["metrics"])]
+        ups = [T.ddata_values(m, aliases).get("Upload/up_T") for m in hist if m[2] == "model-2"]
+        check(written[-1] in ups, "the write made while the host was offline comes as history (%r)" % ups)
+        node.send_signal(signal.SIGTERM)
+        check(node.wait(10) == 0, "SIGTERM: exit status 0")
+        node = None
+    finally:
+        if plc:
+            plc.close()
+        if node and node.poll() is None:
+            node.kill()
+            node.wait()
+        if host:
+            host.close()
+        broker.stop()
+        if T.failures:
+            print("--- it2nd log ---")
+            try:
+                sys.stdout.write(open(os.path.join(d, "it2nd.conf.log")).read()[-4000:])
+            except OSError:
+                pass
+        shutil.rmtree(d, ignore_errors=True)
+    print("spb_sf_test: %s" % ("FAILED (%d)" % T.failures if T.failures else "ok"))
+    return 1 if T.failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
