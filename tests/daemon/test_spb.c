@@ -69,7 +69,16 @@ static void test_ids_and_ranges(void **state)
     assert_int_equal(key(&s, "keepalive", "4"), -1);
     assert_int_equal(key(&s, "keepalive", "3601"), -1);
     assert_int_equal(key(&s, "reconnect_max", "0"), -1);
-    assert_int_equal(key(&s, "store_forward_max", "10"), -1);
+    assert_int_equal(spb_conf_sf_max(&s), 0);  /* off without a primary host */
+    assert_int_equal(key(&s, "store_forward_max", "-1"), -1);
+    assert_int_equal(key(&s, "store_forward_max", "1000001"), -1);
+    assert_int_equal(key(&s, "primary_host_id", "scada/1"), -1);
+    assert_int_equal(key(&s, "primary_host_id", "scada-1"), 0);
+    assert_int_equal(spb_conf_sf_max(&s), SPB_SF_DEFAULT);
+    assert_int_equal(key(&s, "store_forward_max", "0"), 0);
+    assert_int_equal(spb_conf_sf_max(&s), 0);
+    assert_int_equal(key(&s, "store_forward_max", "10"), 0);
+    assert_int_equal(spb_conf_sf_max(&s), 10);
     assert_int_equal(key(&s, "nonsense", "1"), -1);
     /* still missing broker and edge_node_id: named with the first key */
     assert_int_equal(spb_conf_check(&s, &line, k, sizeof k, err, sizeof err), -1);
@@ -287,13 +296,51 @@ static void test_cmd_each(void **state)
     assert_int_equal(c.n, 0);  /* all or nothing */
 }
 
+/* Sparkplug 3.0 STATE payloads: what a host publishes, and what is refused. */
+static void test_state_parse(void **state)
+{
+    static const struct {
+        const char *in;
+        int rc, online;
+        uint64_t ts;
+    } cases[] = {
+        { "{\"online\": true, \"timestamp\": 1668114759262}", 0, 1, 1668114759262u },
+        { " {\"timestamp\":5,\"online\":false} \n", 0, 0, 5 },
+        { "{\"online\":true,\"timestamp\":7,\"extra\":{\"a\":[1,\"}\"]},\"x\":null}", 0, 1, 7 },
+        { "{\"online\":true}", -1, 0, 0 },
+        { "{\"timestamp\":1}", -1, 0, 0 },
+        { "{\"online\":\"true\",\"timestamp\":1}", -1, 0, 0 },
+        { "{\"online\":true,\"timestamp\":-1}", -1, 0, 0 },
+        { "{\"online\":true,\"timestamp\":1.5}", -1, 0, 0 },
+        { "{\"online\":true,\"timestamp\":99999999999999999999999}", -1, 0, 0 },
+        { "{\"online\":true,\"timestamp\":1} x", -1, 0, 0 },
+        { "ONLINE", -1, 0, 0 },
+        { "{\"online\":true,\"timestamp\":1", -1, 0, 0 },
+        { "", -1, 0, 0 },
+    };
+    (void)state;
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        int online = -1;
+        uint64_t ts = 0;
+        char why[128] = "";
+        int rc = spb_state_parse((const uint8_t *)cases[k].in, strlen(cases[k].in), &online, &ts, why, sizeof why);
+        assert_int_equal(rc, cases[k].rc);
+        if (rc == 0) {
+            assert_int_equal(online, cases[k].online);
+            assert_true(ts == cases[k].ts);
+        } else {
+            assert_true(why[0] != 0);
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_broker_forms),  cmocka_unit_test(test_ids_and_ranges),
         cmocka_unit_test(test_password_file), cmocka_unit_test(test_payload_fields),
         cmocka_unit_test(test_val_equal),     cmocka_unit_test(test_cmd_parse),
-        cmocka_unit_test(test_cmd_each),
+        cmocka_unit_test(test_cmd_each),      cmocka_unit_test(test_state_parse),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -10,6 +10,9 @@
  *  - round trip: a payload built by the daemon's encoder (spb_pl_*) from
  *    the input (a Rebirth true/false by name or by alias, and a String
  *    metric holding input bytes) decodes to the same Rebirth request.
+ *  - the same bytes as a STATE payload of the primary host (spb_state_parse,
+ *    JSON): 0 with online 0/1, or -1 with a reason; a STATE built from the
+ *    input's first bytes (online, timestamp) parses back to the same values.
  * Built as a libFuzzer target (make fuzzd-fuzz) and, with fuzz_main.c, as a
  * plain corpus run under make test. */
 #include <stdint.h>
@@ -74,6 +77,24 @@ static void each_metric(void *ctx, const struct spb_in *m)
     fuzz_check(m->kind != SPB_IN_INT || m->u <= UINT32_MAX, "int_value is 32 bits");
 }
 
+static void state_check(const uint8_t *data, size_t size)
+{
+    char why[128], json[96];
+    int online = -1, rc;
+    uint64_t ts = 0, want = 0;
+    why[0] = 0;
+    rc = spb_state_parse(data, size, &online, &ts, why, sizeof why);
+    fuzz_check(rc == 0 || (rc == -1 && why[0]), "STATE: 0 or -1 with a reason");
+    fuzz_check(rc != 0 || online == 0 || online == 1, "STATE: online is a Boolean");
+    for (size_t k = 1; k < size && k < 9; k++)
+        want = want << 8 | data[k];
+    snprintf(json, sizeof json, "{\"timestamp\" : %llu,\"online\":%s }", (unsigned long long)want,
+             size && (data[0] & 1) ? "true" : "false");
+    fuzz_check(spb_state_parse((const uint8_t *)json, strlen(json), &online, &ts, why, sizeof why) == 0 && ts == want &&
+                   online == (size && (data[0] & 1)),
+               "STATE round trip");
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     struct spb_cmd cmd;
@@ -92,5 +113,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fuzz_check(rc2 == 0 || (rc2 == -1 && why[0] && ec.n == 0), "DCMD decoder: all or nothing, with a reason");
     fuzz_check(rc2 != 0 || rc != 0 || ec.n == cmd.nmetrics, "both decoders see the same metrics");
     round_trip(data, size);
+    state_check(data, size);
     return 0;
 }
