@@ -34,17 +34,21 @@ $(CLI_SAN_BIN): $(CLI_SAN_OBJ) $(CORE_SAN_LIB)
 CTL_REGMAP_INC := -Idaemon
 CTL_SRC := $(wildcard cli/ctl*.c)
 CTL_HDR := $(wildcard cli/ctl*.h) $(CLI_HDR)
-CTL_CFLAGS := $(HOST_CFLAGS) -Icli $(CTL_REGMAP_INC) \
-              $(shell pkg-config --cflags libmodbus 2>/dev/null)
-CTL_LIBS := $(shell pkg-config --libs libmodbus 2>/dev/null) -lm
+# it2nctl spb (ctl_spb.c): libmosquitto, and the Sparkplug payload code
+# protoc-c generates from daemon/spb.proto (daemon/daemon.mk).
+CTL_CFLAGS := $(HOST_CFLAGS) -Icli $(CTL_REGMAP_INC) -I$(BUILD)/daemon \
+              $(shell pkg-config --cflags libmodbus libmosquitto libprotobuf-c 2>/dev/null)
+CTL_LIBS := $(shell pkg-config --libs libmodbus libmosquitto libprotobuf-c 2>/dev/null) -lm
 CTL_BIN := $(BUILD)/host/it2nctl
 CTL_SAN_BIN := $(BUILD)/san/it2nctl
-CTL_OBJ := $(CTL_SRC:%.c=$(BUILD)/host/%.o)
-CTL_SAN_OBJ := $(CTL_SRC:%.c=$(BUILD)/san/%.o)
+CTL_OBJ := $(CTL_SRC:%.c=$(BUILD)/host/%.o) $(BUILD)/host/daemon/spb.pb-c.o
+CTL_SAN_OBJ := $(CTL_SRC:%.c=$(BUILD)/san/%.o) $(BUILD)/san/daemon/spb.pb-c.o
 # it2n's modules it2nctl reuses (everything but its main).
 CTL_CLI_OBJ := $(filter-out $(BUILD)/host/cli/main.o,$(CLI_OBJ))
 CTL_CLI_SAN_OBJ := $(filter-out $(BUILD)/san/cli/main.o,$(CLI_SAN_OBJ))
 ALL_TARGETS += $(CTL_BIN)
+
+$(BUILD)/host/cli/ctl_spb.o $(BUILD)/san/cli/ctl_spb.o: $(BUILD)/daemon/spb.pb-c.h
 
 $(BUILD)/host/cli/ctl%.o: cli/ctl%.c $(CTL_HDR) $(CORE_HDR) $(PROTO_HDR)
 	@mkdir -p $(@D)

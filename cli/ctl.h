@@ -100,6 +100,9 @@ typedef struct ctl_conn_opts {
     unsigned stop_bits;   /* RTU: 1 or 2                                  */
     unsigned timeout_ms;  /* per request                                  */
     int poll_ms;          /* watch: Modbus polling interval               */
+    const char *broker;   /* it2nctl spb: MQTT broker HOST[:PORT]         */
+    const char *group;    /* it2nctl spb: Sparkplug group_id              */
+    const char *node;     /* it2nctl spb: Sparkplug edge_node_id          */
 } ctl_conn_opts;
 
 /* Split a --tcp argument, HOST:PORT or [V6]:PORT (HOST alone: port 1502),
@@ -112,6 +115,13 @@ const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port,
 /* Open a transport; on failure prints why and returns NULL with *rc set. */
 void *ctl_modbus_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc);
 void *ctl_link_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc);
+/* Sparkplug B (ctl_spb.c): status and eval of device model-<o->model> of
+ * edge node o->node through its DCMD query, via the broker o->broker. */
+void *ctl_spb_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc);
+
+/* `it2nctl spb watch ARGS` (argv[0] = "watch"): the births and deaths of a
+ * Sparkplug group, one CSV line each. Returns the exit status. */
+int ctl_spb_watch(int argc, char **argv);
 
 /* Grid parameter k / (count - 1) in Q32, as it2n_sample computes it. */
 static inline it2n_par ctl_grid_par(unsigned k, unsigned count)

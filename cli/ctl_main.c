@@ -108,6 +108,10 @@ static const char conn_help[] =
     "                      one of the daemon's [link:] devices\n"
     "  --model ID          model id on a link, 0..254 (default 1)\n"
     "  --timeout MS        per request (default 3000)\n"
+    "  --broker HOST:PORT  'it2nctl spb status|eval': through a Sparkplug B\n"
+    "                      edge node's DCMD query on this MQTT broker (PORT\n"
+    "                      default 1883), with --group G --node N; --model ID\n"
+    "                      is the device model-ID (default 1)\n"
     "Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
     "127.0.0.1:1502.\n"
     "Common: --decimals N (0..9, default 6), --help.\n"
@@ -132,6 +136,8 @@ static void usage_all(FILE *out)
     for (k = 0; k < NCMDS; k++) {
         fprintf(out, "  %-7s %s\n", cmds[k].name, cmds[k].summary);
     }
+    fprintf(out, "  %-7s %s\n", "spb",
+            "Sparkplug B host mode: spb watch, spb status, spb eval");
     fprintf(out, "\n'it2nctl COMMAND --help' for details; 'it2nctl "
                  "--version'.\n\n%s",
             conn_help);
@@ -329,7 +335,11 @@ typedef struct ctl_session {
 static int open_session(const ctl_args *a, ctl_session *s)
 {
     int rc = CTL_EXIT_OK;
-    if (a->conn.link != NULL) {
+    if (a->conn.broker != NULL) {
+        s->c = ctl_spb_open(&a->conn, &s->ops, &rc);
+        snprintf(s->wbuf, sizeof(s->wbuf), "%s/%s model-%u", a->conn.group,
+                 a->conn.node, a->conn.model);
+    } else if (a->conn.link != NULL) {
         s->c = ctl_link_open(&a->conn, &s->ops, &rc);
         snprintf(s->wbuf, sizeof(s->wbuf), "%s model %u", a->conn.link,
                  a->conn.model);
@@ -855,7 +865,8 @@ enum {
     OPT_AT = 256, OPT_SUMMARY, OPT_GRID, OPT_CHORD, OPT_DECIMALS, OPT_HELP,
     OPT_VERSION, OPT_FP, OPT_MEMB, OPT_INTERVAL, OPT_SIZE, OPT_TCP, OPT_RTU,
     OPT_LINK, OPT_UNIT, OPT_MODEL, OPT_BAUD, OPT_PARITY, OPT_STOP,
-    OPT_TIMEOUT, OPT_COUNT, OPT_NETS, OPT_FOLLOW, OPT_INCOMPLETE
+    OPT_TIMEOUT, OPT_COUNT, OPT_NETS, OPT_FOLLOW, OPT_INCOMPLETE,
+    OPT_BROKER, OPT_GROUP, OPT_NODE
 };
 
 /* Parse argv into a; returns -1 to go on, else an exit status. */
@@ -887,6 +898,9 @@ static int parse_args(int argc, char **argv, ctl_args *a)
         {"nets", no_argument, NULL, OPT_NETS},
         {"follow", no_argument, NULL, OPT_FOLLOW},
         {"incomplete", no_argument, NULL, OPT_INCOMPLETE},
+        {"broker", required_argument, NULL, OPT_BROKER},
+        {"group", required_argument, NULL, OPT_GROUP},
+        {"node", required_argument, NULL, OPT_NODE},
         {NULL, 0, NULL, 0}};
     const ctl_cmd *c;
     cli_opts *o = &a->o;
@@ -1180,6 +1194,16 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                                    optarg);
             }
             break;
+        case OPT_BROKER: /* it2nctl spb (ctl_spb.c) */
+            a->conn.broker = optarg;
+            nconn++;
+            break;
+        case OPT_GROUP:
+            a->conn.group = optarg;
+            break;
+        case OPT_NODE:
+            a->conn.node = optarg;
+            break;
         case ':':
             return usage_error(c->name, "option '%s' needs an argument",
                                argv[optind - 1]);
@@ -1267,6 +1291,61 @@ static int parse_args(int argc, char **argv, ctl_args *a)
     return -1;
 }
 
+/* `it2nctl spb watch ...` runs here; `it2nctl spb status|eval ...` go on
+ * as status and eval with the Sparkplug transport (argv without "spb").
+ * Returns an exit status, or -1 to go on. */
+static int ctl_spb_args(int *argc, char ***argv)
+{
+    if (*argc > 2 && strcmp((*argv)[2], "watch") == 0) {
+        return ctl_spb_watch(*argc - 2, *argv + 2);
+    }
+    if (*argc == 3 && (strcmp((*argv)[2], "--help") == 0 ||
+                       strcmp((*argv)[2], "-h") == 0)) {
+        printf("Usage: it2nctl spb watch --broker HOST:PORT --group G "
+               "[--node N] [--count N]\n"
+               "       it2nctl spb status|eval --broker HOST:PORT --group G "
+               "--node N [--model ID] ...\n\n"
+               "A Sparkplug B host application (docs/sparkplug.md):\n"
+               "  --broker HOST:PORT   MQTT broker (PORT default 1883)\n"
+               "  --group G            Sparkplug group_id\n"
+               "  --node N             Sparkplug edge_node_id\n"
+               "  --model ID           device model-ID (default 1)\n"
+               "'watch' prints births and deaths as CSV lines; 'status' and "
+               "'eval' print\nwhat 'it2nctl status' and 'it2nctl eval' "
+               "print, through the device's DCMD\nquery ('it2nctl spb watch "
+               "--help', 'it2nctl eval --help').\n");
+        return CTL_EXIT_OK;
+    }
+    if (*argc < 3 || (strcmp((*argv)[2], "eval") != 0 &&
+                      strcmp((*argv)[2], "status") != 0)) {
+        fprintf(stderr, "it2nctl: spb: expected watch, status or eval\n"
+                        "Try 'it2nctl spb watch --help', "
+                        "'it2nctl spb eval --help'.\n");
+        return CTL_EXIT_USAGE;
+    }
+    (*argv)[1] = (char *)"spb"; /* argv[0] of the rest: only in messages */
+    (*argv)++;
+    (*argc)--;
+    return -1;
+}
+
+/* --broker, --group, --node: all three, with spb, and only there. */
+static int ctl_spb_check(const ctl_args *a, const char *argv0)
+{
+    bool spb = strcmp(argv0, "spb") == 0;
+    if (!spb && (a->conn.broker || a->conn.group || a->conn.node)) {
+        return usage_error(a->cmd->name, "%s",
+                           "--broker, --group and --node belong to "
+                           "'it2nctl spb status|eval'");
+    }
+    if (spb && (!a->conn.broker || !a->conn.group || !a->conn.node)) {
+        return usage_error(a->cmd->name, "%s",
+                           "it2nctl spb needs --broker HOST:PORT, --group G "
+                           "and --node N (and --model N, default 1)");
+    }
+    return -1;
+}
+
 int main(int argc, char **argv)
 {
     ctl_args a;
@@ -1281,7 +1360,16 @@ int main(int argc, char **argv)
     a.conn.parity = 'E';
     a.conn.stop_bits = 1;
     a.conn.timeout_ms = 3000;
+    if (argc > 1 && strcmp(argv[1], "spb") == 0) {
+        rc = ctl_spb_args(&argc, &argv);
+        if (rc >= 0) {
+            return rc;
+        }
+    }
     rc = parse_args(argc, argv, &a);
+    if (rc < 0) {
+        rc = ctl_spb_check(&a, argv[0]);
+    }
     if (rc >= 0) {
         free(a.o.at);
         return rc;
