@@ -272,13 +272,23 @@ static void w_message(struct mosquitto *m, void *obj, const struct mosquitto_mes
         return;
     }
     if (strcmp(part[2], "NBIRTH") == 0) {
+        int64_t bd = -1;
         for (size_t k = 0; k < p->n_metrics; k++) {
             if (p->metrics[k]->name && strcmp(p->metrics[k]->name, "bdSeq") == 0) {
-                n->bdseq = int_value(p->metrics[k], 4u);
+                bd = int_value(p->metrics[k], 4u);
             }
         }
+        /* A Rebirth keeps the session (its bdSeq): said once, as such. */
+        w_line(w, n->node, NULL, n->online && bd == n->bdseq ? "rebirth" : "online", bd, -1, -1);
+        if (!n->online || bd != n->bdseq) {
+            for (size_t k = 0; k < w->nd; k++) {
+                if (strcmp(w->devs[k].node, n->node) == 0) {
+                    w->devs[k].online = 0;  /* born again in the DBIRTHs */
+                }
+            }
+        }
+        n->bdseq = bd;
         n->online = 1;
-        w_line(w, n->node, NULL, "online", n->bdseq, -1, -1);
     } else if (strcmp(part[2], "NDEATH") == 0) {
         int64_t bd = -1;
         for (size_t k = 0; k < p->n_metrics; k++) {
@@ -307,10 +317,16 @@ static void w_message(struct mosquitto *m, void *obj, const struct mosquitto_mes
             return;
         }
         if (part[2][1] == 'B') {
+            int64_t gen = d->gen, st = d->state;
+            int was = d->online;
             d->online = 1;
             d->a_gen = d->a_state = 0;
             w_dev_values(d, p, 1);
-            w_line(w, n->node, d->dev, "online", n->bdseq, d->gen, d->state);
+            if (!was) {
+                w_line(w, n->node, d->dev, "online", n->bdseq, d->gen, d->state);
+            } else if (d->gen != gen || d->state != st) {
+                w_line(w, n->node, d->dev, "generation", n->bdseq, d->gen, d->state);
+            }
         } else if (part[2][1] == 'D' && part[2][2] == 'A') {
             int64_t gen = d->gen, st = d->state;
             if (!d->online || !n->online) {
@@ -341,8 +357,9 @@ static const char watch_help[] =
     "Watch a Sparkplug B group as a host application: one CSV line per event,\n"
     "time,node,device,event,bdseq,generation,state\n"
     "  event  online, offline (node: NBIRTH, NDEATH of its session; device:\n"
-    "         DBIRTH, DDEATH, or its node's death), generation (a device's\n"
-    "         model changed generation or state, from DDATA).\n"
+    "         DBIRTH, DDEATH, or its node's death), rebirth (a node's NBIRTH\n"
+    "         in the same session: a Rebirth), generation (a device's model\n"
+    "         changed generation or state).\n"
     "With --node, the node is asked for a Rebirth at once, so its current\n"
     "state is printed; without, a node is asked when data of it comes before\n"
     "its birth.\n"

@@ -3,12 +3,13 @@
 # application (paho-mqtt) decoding the payloads independently of the daemon's
 # protoc-c code, and pymodbus as the PLC (tests/sparkplug/spb_test.py, ~10 s).
 # The ASan+UBSan build runs the births, DDATA, Rebirth and SIGTERM part, and
-# the primary host / store-and-forward test (spb_sf_test.py, ~10 s).
+# the primary host / store-and-forward test with it2nctl spb watch, status
+# and eval (spb_sf_test.py, ~10 s).
 
 .PHONY: daemon-sparkplug
 TEST_TARGETS += daemon-sparkplug
 
-daemon-sparkplug: $(IT2ND) $(IT2ND_SAN)
+daemon-sparkplug: $(IT2ND) $(IT2ND_SAN) $(CTL_SAN_BIN)
 	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND) --doc docs/sparkplug.md
 	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND_SAN) --quick
-	timeout 60 /usr/bin/python3 tests/sparkplug/spb_sf_test.py --it2nd $(IT2ND_SAN)
+	timeout 60 /usr/bin/python3 tests/sparkplug/spb_sf_test.py --it2nd $(IT2ND_SAN) --it2nctl $(CTL_SAN_BIN)

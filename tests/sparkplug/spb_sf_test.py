@@ -77,9 +77,113 @@ def drain(host, seq, secs):
         out.append(m)
 
 
+class Lines:
+    """A process's stdout, line by line, with timeouts."""
+
+    def __init__(self, argv):
+        import queue
+        import threading
+        self.q = queue.Queue()
+        self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self):
+        for line in self.p.stdout:
+            self.q.put(line.rstrip("\n"))
+
+    def next(self, timeout):
+        import queue
+        try:
+            return self.q.get(timeout=timeout)
+        except queue.Empty:
+            return None
+
+    def expect(self, pred, timeout):
+        """The first line whose fields satisfy pred (lines before it are
+        returned too, for the message)."""
+        end, seen = time.monotonic() + timeout, []
+        while time.monotonic() < end:
+            line = self.next(end - time.monotonic())
+            if line is None:
+                break
+            seen.append(line)
+            f = line.split(",")
+            if len(f) == 7 and pred(f):
+                return f, seen
+        return None, seen
+
+    def stop(self):
+        if self.p.poll() is None:
+            self.p.terminate()
+        self.p.wait(5)
+
+
+def ctl_checks(args, broker, mbport, plc, host_state):
+    """it2nctl spb watch / status / eval against the node, compared with
+    what it2nctl prints over Modbus."""
+    check = T.check
+    b = "127.0.0.1:%d" % broker.port
+    w = Lines([args.it2nctl, "spb", "watch", "--broker", b, "--group", T.GROUP, "--node", T.NODE])
+    try:
+        check(w.next(5) == "time,node,device,event,bdseq,generation,state", "spb watch: CSV header")
+        f, seen = w.expect(lambda f: f[1] == T.NODE and f[2] == "" and f[3] == "online", 5)
+        check(f is not None, "spb watch: the node online (it asked for a Rebirth): %s" % seen[-1:])
+        bd = int(f[4]) if f else None
+        st = T.reg_value(plc.read(1, 0, 28), "generation")
+        f, seen = w.expect(lambda f: f[2] == "model-1" and f[3] == "online", 5)
+        check(f is not None and f[4] == str(bd) and f[5] == str(st) and f[6] == "solved",
+              "spb watch: model-1 online, bdSeq %r, generation %r (Modbus %d), solved" % (
+                  f and f[4], f and f[5], st))
+        f, seen = w.expect(lambda f: f[2] == "model-2" and f[3] == "online", 5)
+        check(f is not None and f[6] == "incomplete", "spb watch: model-2 online, incomplete")
+        # An instrument's new value for a point of the solved model 1
+        # (0,0,D: x -17, y 17 as in the paper; T 0.45): a new generation.
+        regs = [0, 0, 3] + [0xFFFF, (-1700) & 0xFFFF, 0, 1700, 0, 0] + [4500, 7000, 2000]
+        check(plc.write(1, 40, regs), "Modbus: a new value of point (0,0,D) of model 1")
+        gen = T.reg_value(plc.read(1, 0, 28), "generation")
+        f, seen = w.expect(lambda f: f[2] == "model-1" and f[3] == "generation", 5)
+        check(f is not None and f[5] == str(gen) and gen == st + 1,
+              "spb watch: model-1 generation %r == Modbus %d (was %d)" % (f and f[5], gen, st))
+
+        def run(*a):
+            return subprocess.run([args.it2nctl] + list(a), capture_output=True, text=True, timeout=20)
+        at = ["--at", "0.25,0.5", "--at", "0.75,0.125", "--at", "1,0"]
+        mb = run("eval", "--tcp", "127.0.0.1:%d" % mbport, "--unit", "1", "--summary", *at)
+        sp = run("spb", "eval", "--broker", b, "--group", T.GROUP, "--node", T.NODE, "--model", "1", "--summary",
+                 *at)
+        check(mb.returncode == 0 and sp.returncode == 0 and sp.stdout == mb.stdout and mb.stdout.count("\n") > 20,
+              "it2nctl spb eval prints what it2nctl eval prints over Modbus (%d lines; %s)" % (
+                  sp.stdout.count("\n"), (sp.stderr or mb.stderr).strip()[:120]))
+        mb = run("status", "--tcp", "127.0.0.1:%d" % mbport, "--unit", "1")
+        sp = run("spb", "status", "--broker", b, "--group", T.GROUP, "--node", T.NODE, "--model", "1")
+        check(mb.returncode == 0 and sp.returncode == 0 and sp.stdout == mb.stdout,
+              "it2nctl spb status prints what it2nctl status prints (%r)" % sp.stdout.splitlines()[-1:])
+        sp = run("spb", "eval", "--broker", b, "--group", T.GROUP, "--node", T.NODE, "--model", "2", "--at", "0,0")
+        check(sp.returncode == 2 and "not solved" in sp.stderr, "spb eval of an unsolved model: exit 2, said why")
+        sp = run("spb", "eval", "--broker", "127.0.0.1:%d" % T.free_port(), "--group", T.GROUP, "--node", T.NODE,
+                 "--at", "0,0")
+        check(sp.returncode == 3 and "broker" in sp.stderr, "spb eval, no broker there: exit 3 (%s)"
+              % sp.stderr.strip()[:80])
+        sp = run("spb", "eval", "--broker", b, "--group", T.GROUP, "--at", "0,0")
+        check(sp.returncode == 1 and "--node" in sp.stderr, "spb eval without --node: usage error, exit 1")
+        # The host goes offline: the node dies, its devices with it.
+        host_state(False)
+        f, seen = w.expect(lambda f: f[2] == "" and f[3] == "offline", 5)
+        check(f is not None and f[4] == str(bd) and
+              sum(1 for x in seen if x.split(",")[3:4] == ["offline"] and "model-" in x) == 2,
+              "spb watch: model-1, model-2 and the node offline, bdSeq %r (%s)" % (f and f[4], seen))
+        host_state(True)
+        f, seen = w.expect(lambda f: f[2] == "" and f[3] == "online", 8)
+        check(f is not None and bd is not None and int(f[4]) == (bd + 1) % 256,
+              "spb watch: the node online again, bdSeq %r (a new session)" % (f and f[4]))
+    finally:
+        w.stop()
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--it2nd", required=True)
+    ap.add_argument("--it2nctl", help="also check it2nctl spb watch/status/eval")
     args = ap.parse_args()
     if not T.MOSQUITTO:
         print("skip: mosquitto is not installed (Debian package mosquitto; make deps)")
@@ -215,6 +319,8 @@ def main():
         hist = [m for m in msgs if m[1] == "DDATA" and all(x.get("is_historical") for x in m[3]["metrics"])]
         ups = [T.ddata_values(m, aliases).get("Upload/up_T") for m in hist if m[2] == "model-2"]
         check(written[-1] in ups, "the write made while the host was offline comes as history (%r)" % ups)
+        if args.it2nctl:
+            ctl_checks(args, broker, mbport, plc, lambda on: state(host, on, int(time.time() * 1000)))
         node.send_signal(signal.SIGTERM)
         check(node.wait(10) == 0, "SIGTERM: exit status 0")
         node = None
