@@ -73,9 +73,9 @@ docs/registers.md: $(GEN_REGISTERS)
 RUN_LISTEN = $(if $(PORT),$(if $(findstring :,$(PORT)),$(PORT),127.0.0.1:$(PORT)),127.0.0.1:1502)
 RUN_PORT = $(lastword $(subst :, ,$(RUN_LISTEN)))
 RUN_HOST = $(patsubst %:$(RUN_PORT),%,$(RUN_LISTEN))
-RUN_FLAGS = $(if $(PORT),--listen $(RUN_LISTEN)) $(if $(STATE),--state-dir $(STATE)) $(if $(METRICS),--metrics $(METRICS))
-run: deps all ## Start it2nd in the foreground (PORT=15020 STATE=./state2 METRICS=127.0.0.1:9102 optional)
-	@echo "it2nd: Modbus TCP on $(RUN_LISTEN), model 1 on unit 1 (paper data), state in $(or $(STATE),./state)$(if $(METRICS), metrics on http://$(METRICS)/metrics)"
+RUN_FLAGS = $(if $(CONF),-c $(CONF)) $(if $(PORT),--listen $(RUN_LISTEN)) $(if $(STATE),--state-dir $(STATE)) $(if $(METRICS),--metrics $(METRICS))
+run: deps all ## Start it2nd in the foreground (PORT=15020 STATE=./state2 METRICS=127.0.0.1:9102 CONF=it2nd.conf optional)
+	@echo "$(if $(CONF),it2nd: configuration $(CONF),it2nd: Modbus TCP on $(RUN_LISTEN), model 1 on unit 1 (paper data), state in $(or $(STATE),./state))$(if $(METRICS), metrics on http://$(METRICS)/metrics)"
 	@echo "query it from another shell, e.g. the status block and the D-footprint sample grid:"
 	@echo "  mbpoll -m tcp -a 1 -0 -r 0 -c 10 -t 3 -1 $(RUN_HOST) -p $(RUN_PORT)"
 	@echo "  mbpoll -m tcp -a 1 -0 -r 1024 -c 12 -t 4 -1 $(RUN_HOST) -p $(RUN_PORT)"
