@@ -15,7 +15,9 @@ is_historical with its original timestamp, every written value present;
 live DDATA after it not historical; a stale STATE (older timestamp) is
 ignored; the host offline -> the node's NDEATH (its bdSeq) and silence, a
 write meanwhile, online again -> a new session (bdSeq + 1) and that write as
-history. Prints "skip: why" without mosquitto or paho-mqtt."""
+history; the broker stopped, a write, broker and host back -> that write as
+history; it2nctl spb watch/status/eval (--it2nctl). Prints "skip: why"
+without mosquitto or paho-mqtt."""
 import argparse
 import json
 import os
@@ -319,6 +321,22 @@ def main():
         hist = [m for m in msgs if m[1] == "DDATA" and all(x.get("is_historical") for x in m[3]["metrics"])]
         ups = [T.ddata_values(m, aliases).get("Upload/up_T") for m in hist if m[2] == "model-2"]
         check(written[-1] in ups, "the write made while the host was offline comes as history (%r)" % ups)
+        # The broker goes away (its retained STATE with it): a write then is
+        # kept too, and comes as history once broker and host are back.
+        host.close()
+        broker.stop()
+        time.sleep(0.5)
+        check(write_point(SF_MAX + 4), "broker stopped: PLC write")
+        time.sleep(0.5)
+        broker.start()
+        host = T.Host(broker.port)
+        state(host, True, int(time.time() * 1000))
+        nb3 = host.wait("NBIRTH", 8)
+        check(nb3 is not None, "broker back, host online: NBIRTH")
+        msgs = drain(host, T.Seq(), 1.5)
+        hist = [m for m in msgs if m[1] == "DDATA" and all(x.get("is_historical") for x in m[3]["metrics"])]
+        ups = [T.ddata_values(m, aliases).get("Upload/up_T") for m in hist if m[2] == "model-2"]
+        check(written[-1] in ups, "the write made while the broker was away comes as history (%r)" % ups)
         if args.it2nctl:
             ctl_checks(args, broker, mbport, plc, lambda on: state(host, on, int(time.time() * 1000)))
         node.send_signal(signal.SIGTERM)
