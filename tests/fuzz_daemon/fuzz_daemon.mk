@@ -10,7 +10,7 @@
 #   $(BUILD)/fuzz/fuzzd_X  clang libFuzzer+ASan+UBSan         make fuzz
 FZD := tests/fuzz_daemon
 FZD_B := $(BUILD)/tests/fuzz_daemon
-FZD_TARGETS := modbus rtu store conf links spbcmd
+FZD_TARGETS := modbus rtu store conf links spbcmd spbsf
 FZD_PAPER := $(BUILD)/daemon/paper_data.c
 FZD_PKGS := $(shell pkg-config --cflags --libs libmodbus inih 2>/dev/null) -lm
 # No pending findings: every check of the harnesses is on (the FZD_STRICT
@@ -30,6 +30,8 @@ FZD_SRC_links := daemon/links.c daemon/link_serial.c daemon/models.c daemon/stor
 # the protoc-c code of daemon/spb.proto).
 FZD_SRC_spbcmd := daemon/spb_payload.c $(SPB_PB_C)
 FZD_LD_spbcmd := -lprotobuf-c
+# spbsf: the store-and-forward file of the Sparkplug node (daemon/spb_sf.c).
+FZD_SRC_spbsf := daemon/spb_sf.c
 FZD_SECONDS ?= $(FUZZ_SECONDS)
 # links: the harness takes the daemon's write()s to the link (fuzz_links.c).
 FZD_LD_links := -Wl,--wrap=write
