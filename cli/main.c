@@ -443,14 +443,6 @@ int main(int argc, char **argv)
                            "--chord: the B-spline kind has uniform "
                            "parameters only");
     }
-    if (o.kind == CLI_KIND_BSPLINE &&
-        (strcmp(c->name, "plot") == 0 || strcmp(c->name, "export") == 0)) {
-        free(o.at);
-        return usage_error(c->name,
-                           "%s --kind bspline: not available yet (check, "
-                           "solve, eval, sample, deriv and locate are)",
-                           c->name);
-    }
     if ((c->opts & (CLI_O_AT_UW | CLI_O_AT_XY)) && o.nat == 0u) {
         free(o.at);
         return usage_error(c->name, "%s needs at least one --at", c->name);
