@@ -31,7 +31,7 @@ static struct model *fresh(void)
 {
     models_free();
     assert_int_equal(models_init(4), 0);
-    struct model *md = models_add(1, 1, 1, 1, IT2N_F_TYPE1);
+    struct model *md = models_add(1, 1, MODEL_BEZIER, 1, 1, IT2N_F_TYPE1);
     assert_non_null(md);
     models_set_journal(store_append, NULL);
     models_set_journal_marks(store_jmark, store_jrewind);
@@ -686,7 +686,7 @@ static void test_snapshot_foreign(void **st)
         unlink(p);
     }
     struct model *md = fresh();
-    struct model *md2 = models_add(2, 2, 2, 2, 0);
+    struct model *md2 = models_add(2, 2, MODEL_BEZIER, 2, 2, 0);
     assert_non_null(md2);
     assert_int_equal(store_open(dir, 0), 0);
     assert_int_equal(md->state, IT2N_RS_SOLVED);
@@ -801,7 +801,7 @@ static void only_model_2(void)
 {
     models_free();
     assert_int_equal(models_init(4), 0);
-    assert_non_null(models_add(2, 2, 1, 1, IT2N_F_TYPE1));
+    assert_non_null(models_add(2, 2, MODEL_BEZIER, 1, 1, IT2N_F_TYPE1));
 }
 
 static void test_drop_policy(void **st)

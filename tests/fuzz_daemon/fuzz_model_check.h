@@ -44,9 +44,9 @@ static inline void fuzz_check_model(const struct model *md)
 static inline void fuzz_standard_models(int max)
 {
     fuzz_check(models_init(max) == 0, "models_init");
-    struct model *a = models_add(1, 1, 3, 3, 0);
+    struct model *a = models_add(1, 1, MODEL_BEZIER, 3, 3, 0);
     fuzz_check(a && models_preload_paper(a) == IT2N_OK && a->state == IT2N_RS_SOLVED, "paper model");
-    fuzz_check(models_add(2, 2, 2, 2, IT2N_F_TYPE1) != NULL, "model 2");
+    fuzz_check(models_add(2, 2, MODEL_BEZIER, 2, 2, IT2N_F_TYPE1) != NULL, "model 2");
 }
 
 #endif

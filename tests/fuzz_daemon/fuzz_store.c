@@ -70,7 +70,7 @@ static void setup_models(void)
         fuzz_check(models_init(8) == 0, "models_init");
         for (int k = 0; k < NMODELS; k++) {
             const struct model *c = configured[k];
-            struct model *md = models_add(c->id, c->unit, c->ds.n, c->ds.m, c->ds.flags);
+            struct model *md = models_add(c->id, c->unit, MODEL_BEZIER, c->ds.n, c->ds.m, c->ds.flags);
             fuzz_check(md != NULL, "models_add");
             *md = *c;
         }
@@ -80,7 +80,7 @@ static void setup_models(void)
     static const it2n_val pt[IT2N_CH_COUNT] = { 0, 0, 0, IT2N_VAL_ONE / 2, IT2N_VAL_ONE / 4, IT2N_VAL_ONE / 8 };
     it2n_errinfo err;
     fuzz_standard_models(8);
-    struct model *c = models_add(3, 3, 3, 2, IT2N_F_CHORD | IT2N_F_Z);
+    struct model *c = models_add(3, 3, MODEL_BEZIER, 3, 2, IT2N_F_CHORD | IT2N_F_Z);
     fuzz_check(c != NULL, "model 3");
     models_set_journal(NULL, NULL);
     fuzz_check(models_put(c, 0, 0, IT2N_FP_D, pt, false, &err) == IT2N_OK, "model 3 point");
