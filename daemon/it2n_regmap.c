@@ -73,7 +73,7 @@ static const it2n_regmap_field page_fields[] = {
 
 static const it2n_regmap_field win_fields[] = {
     FN(IT2N_REG_WIN, IT2N_REGMAP_WIN_COLS, 2u, IT2N_RT_F32, 1, "coef[s]", "coord / 1",
-       "Coefficient (coef_row, s) of net (coef_fp, coef_ch) at 12288 + s*2, s = 0..net_cols-1: a Bezier "
+       "Coefficient (coef_row, s) of net (coef_fp, coef_ch) at 384 + s*2, s = 0..net_cols-1: a Bezier "
        "control point, or the B-spline coefficient c(r-1, s-1) (the surface is sum c(k,l) N_k(u) N_l(w) "
        "over the cubic B-splines of the uniform knots, docs/numerics.md). Columns past net_cols, rows past "
        "net_rows and footprints the model does not carry read 0."),
@@ -196,6 +196,10 @@ const it2n_regmap_block it2n_regmap_blocks[] = {
     { IT2N_REG_RES_SCALED, IT2N_REG_RESULTS_END, IT2N_RA_RO, 1u, "results_scaled",
       "Result of this connection's last query, scaled-integer view with saturation flags. "
       "Answers 06 while the model is not solved.", res_sc_fields, NF(res_sc_fields) },
+    { IT2N_REG_WIN, IT2N_REG_WIN_END, IT2N_RA_RO, 1u, "coef_window",
+      "The row coef_page selects, float32 (configured word order), read in as many requests as a PLC "
+      "needs (125 registers each at most): a 256 x 256 B-spline net row is 258 values. Answers 06 while "
+      "the model is not solved.", win_fields, NF(win_fields) },
     { IT2N_REG_GRID, IT2N_REG_GRID_END, IT2N_RA_RO, 0u, "sample_grid",
       "Precomputed sample grid (grid_rows x grid_cols, configured), refreshed on every generation. "
       "Answers 06 while the model is not solved.", grid_fields, NF(grid_fields) },
@@ -207,10 +211,6 @@ const it2n_regmap_block it2n_regmap_blocks[] = {
     { IT2N_REG_GRID_F32, IT2N_REG_GRID_F32_END, IT2N_RA_RO, 0u, "sample_grid_f32",
       "The sample grid again, float32 view (same nodes and refresh as sample_grid). "
       "Answers 06 while the model is not solved.", grid_f32_fields, NF(grid_f32_fields) },
-    { IT2N_REG_WIN, IT2N_REG_WIN_END, IT2N_RA_RO, 1u, "coef_window",
-      "The row coef_page selects, float32 (configured word order), read in as many requests as a PLC "
-      "needs (125 registers each at most): a 256 x 256 B-spline net row is 258 values. Answers 06 while "
-      "the model is not solved.", win_fields, NF(win_fields) },
 };
 
 const size_t it2n_regmap_nblocks = NF(it2n_regmap_blocks);

@@ -117,6 +117,13 @@
 #define IT2N_REG_SAT_SUM 339u      /* summary saturation mask, bit k */
 #define IT2N_REG_RESULTS_END 340u
 
+/* ---- Coefficient window (read-only, per connection): f32 coefficients
+ * of the selected row, up to IT2N_REGMAP_WIN_COLS ---- */
+#define IT2N_REGMAP_WIN_COLS 258u  /* a 256 x 256 B-spline net has 258 columns */
+#define IT2N_REGMAP_WIN_ROWS 258u
+#define IT2N_REG_WIN 384u
+#define IT2N_REG_WIN_END (IT2N_REG_WIN + 2u * IT2N_REGMAP_WIN_COLS)
+
 /* ---- Sample grid (read-only): D footprint T, I, F x10000 per node ---- */
 #define IT2N_REG_GRID 1024u
 #define IT2N_REG_GRID_END (IT2N_REG_GRID + 3u * IT2N_REGMAP_GRID_MAX_NODES)
@@ -130,15 +137,8 @@
 #define IT2N_REG_GRID_F32 8192u
 #define IT2N_REG_GRID_F32_END (IT2N_REG_GRID_F32 + 6u * IT2N_REGMAP_GRID_MAX_NODES)
 
-/* ---- Coefficient window (read-only, per connection): f32 coefficients
- * of the selected row, up to IT2N_REGMAP_WIN_COLS ---- */
-#define IT2N_REGMAP_WIN_COLS 258u  /* a 256 x 256 B-spline net has 258 columns */
-#define IT2N_REGMAP_WIN_ROWS 258u
-#define IT2N_REG_WIN 12288u
-#define IT2N_REG_WIN_END (IT2N_REG_WIN + 2u * IT2N_REGMAP_WIN_COLS)
-
 /* One past the highest address of the map. */
-#define IT2N_REG_MAP_END IT2N_REG_WIN_END
+#define IT2N_REG_MAP_END IT2N_REG_GRID_F32_END
 
 /* Values of IT2N_REG_KIND. */
 enum it2n_regmap_kind {

@@ -253,7 +253,7 @@ def main():
             check(ok(wr), f"page select ({fp}, {ch}, {row})")
             vals = []
             for start in (0, 124):
-                rr = c.read_holding_registers(12288 + start,
+                rr = c.read_holding_registers(384 + start,
                                               min(124, 132 - start), unit=1)
                 check(ok(rr), f"window read at {start}")
                 vals += rr.registers if ok(rr) else []
@@ -263,7 +263,7 @@ def main():
                 if got != exp:
                     bad.append(f"({FPS[fp]},{CHS[ch]},{row},{s}): {got} vs "
                                f"{exp:08x}")
-            tail = c.read_holding_registers(12288 + 132, 4, unit=1)
+            tail = c.read_holding_registers(384 + 132, 4, unit=1)
             check(ok(tail) and tail.registers == [0, 0, 0, 0],
                   "window past net_cols reads 0")
         check(not bad, "coefficient window: " + "; ".join(bad[:5]))
