@@ -85,6 +85,24 @@ static void fix_storage(struct model *md)
     md->bmdl.cap = bs_words(md->cap_n, md->cap_m);
 }
 
+struct model *models_dup(const struct model *md)
+{
+    struct model *c = malloc(md->bytes);
+    if (c) {
+        memcpy(c, md, md->bytes);
+        fix_storage(c);
+    }
+    return c;
+}
+
+void models_copy(struct model *dst, const struct model *src)
+{
+    if (dst->bytes != src->bytes || dst->kind != src->kind)
+        return; /* not the same storage: left alone */
+    memcpy(dst, src, src->bytes);
+    fix_storage(dst);
+}
+
 int models_init(int max)
 {
     table = calloc((size_t)max, sizeof *table);

@@ -155,6 +155,14 @@ void models_set_journal_marks(model_jmark_fn mark, model_jrewind_fn rewind);
  * undo log like every change. 0, or IT2ND_ERR_NOMEM (nothing changed). */
 int models_set_upload(struct model *md, const uint16_t regs[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I]);
 
+/* Tests and fuzzers, a model put back to a saved state: models_dup gives
+ * a copy of md in an allocation of its own (free() it; its B-spline
+ * pointers point into the copy); models_copy copies src's bytes over dst,
+ * which must be of the same kind and storage (models_add with the same
+ * sizes), and points dst's B-spline data at dst's own storage. */
+struct model *models_dup(const struct model *md);
+void models_copy(struct model *dst, const struct model *src);
+
 /* Bytes held by the undo log now (tests, statistics). */
 size_t models_undo_bytes(void);
 
