@@ -35,8 +35,9 @@ typedef struct ctl_cmd {
 static const ctl_cmd cmds[] = {
     {"status", "", "Print the model's state, degrees, points and generation",
      "One CSV row: model,state,n,m,type,coordinates,parameters,\n"
-     "points_present,points_required,generation,last_error. state is empty,\n"
-     "incomplete, solved or failed; last_error an it2n error code (0 none).\n",
+     "points_present,points_required,generation,last_error,kind. state is\n"
+     "empty, incomplete, solved or failed; last_error an it2n error code\n"
+     "(0 none); kind bezier or bspline (n, m: degrees or intervals).\n",
      0},
     {"push", "DATA.csv", "Configure the model, upload every point, commit",
      "Reads DATA.csv as 'it2n check' does (errors FILE:LINE, exit 2, nothing\n"
@@ -46,9 +47,10 @@ static const ctl_cmd cmds[] = {
      "must be exact in the map's scaled integers (memberships x10000,\n"
      "coordinates x coord_scale); --link carries any value exactly.\n"
      "  --chord   chord-length parameters\n"
-     "  --kind K  bezier (default) or bspline: read DATA.csv for the cubic\n"
-     "            B-spline kind (grids up to 256x256) and push it to a\n"
-     "            [model:ID] with kind = bspline (Modbus only)\n",
+     "  --kind bezier|bspline\n"
+     "            bspline: read DATA.csv for the cubic B-spline kind (grids up\n"
+     "            to 256x256) and push it to a [model:ID] with kind = bspline\n"
+     "            (over Modbus; the default is bezier)\n",
      O_DATA | O_CHORD | O_KIND},
     {"eval", "--at U,W [--at U,W ...]", "Evaluate every footprint at (u, w)",
      "As 'it2n eval', answered by the daemon: u,w,footprint,x,y[,z],T,I,F,\n"

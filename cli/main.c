@@ -37,7 +37,7 @@ static const char common_help[] =
     "Common options:\n"
     "  --kind K        bezier (default: one Bezier patch, grids up to 8x8)\n"
     "                  or bspline (cubic not-a-knot B-spline, grids up to\n"
-    "                  256x256; check, solve, eval, sample, deriv, locate)\n"
+    "                  256x256; every command)\n"
     "  --chord         chord-length parameters instead of uniform i/n, j/m\n"
     "  --decimals N    digits after the point, 0..9 (default 6)\n"
     "  -h, --help      this help\n"
