@@ -13,6 +13,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -499,6 +500,32 @@ static void test_bspline(void **state)
     free(b);
 }
 
+/* Memory per model in it2nd (docs/daemon.md quotes these lines: the
+ * docs-check figure "daemon-memory"): the allocation models_add makes, and
+ * as much again for the readers' view buffer. A B-spline model's storage
+ * is the core's macros for its configured grid with every footprint and z;
+ * checked against them here. */
+static void test_memory_figures(void **state)
+{
+    (void)state;
+    static const unsigned side[] = { 4, 16, 64, 128, 256 };
+    size_t bez = models_bytes(MODEL_BEZIER, 7, 7);
+    assert_int_equal(bez, sizeof(struct model));
+    print_message("[memory] %-9s %-19s %10s %16s\n", "kind", "grid", "bytes", "per grid point");
+    print_message("[memory] %-9s %-19s %10zu %16s\n", "bezier", "up to 8x8 (any)", bez, "-");
+    for (size_t k = 0; k < sizeof side / sizeof side[0]; k++) {
+        unsigned n = side[k] - 1;
+        size_t b = models_bytes(MODEL_BSPLINE, n, n);
+        size_t core = IT2N_BSPLINE_DATA_RECS(n, n, 0) * sizeof(it2n_bspline_rec) +
+                      IT2N_BSPLINE_MODEL_WORDS(n, n, IT2N_F_Z) * sizeof(int32_t);
+        char grid[32];
+        assert_true(b >= sizeof(struct model) + core && b < sizeof(struct model) + core + 8);
+        snprintf(grid, sizeof grid, "%ux%u (n=m=%u)", side[k], side[k], n);
+        print_message("[memory] %-9s %-19s %10zu %16zu\n", "bspline", grid, b,
+                      (b - sizeof(struct model)) / ((size_t)side[k] * side[k]));
+    }
+}
+
 static void test_undo_size(void **state)
 {
     (void)state;
@@ -525,6 +552,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_batches, setup, teardown),
         cmocka_unit_test_setup_teardown(test_undo_size, setup, teardown),
         cmocka_unit_test_setup_teardown(test_bspline, setup, teardown),
+        cmocka_unit_test(test_memory_figures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
