@@ -362,6 +362,39 @@ def main():
             fr, _ = plc_eval(c, *key)
             check(fr is not None and fr == before[key],
                   f"after restart: results at {key} unchanged")
+
+        # reload (SIGHUP) turning the paper model on unit 2 into a B-spline
+        # one, written in the file: replaced, preloaded again, and its
+        # results are the B-spline interpolant of the paper data
+        with open(conf, "a") as f:
+            f.write("kind = bspline\n")
+        d.p.send_signal(signal.SIGHUP)
+        kind = None
+        for _ in range(100):
+            time.sleep(0.05)
+            k = c.read_holding_registers(28, 3, unit=2)
+            if ok(k) and k.registers[0] == 1:
+                kind = k.registers
+                break
+        check(kind == [1, 6, 6], f"reload: unit 2 is a B-spline model now: {kind}")
+        compare_plc_unit2 = c.readwrite_registers(read_address=128,
+                                                  read_count=108,
+                                                  write_address=64,
+                                                  write_registers=[2500, 6000],
+                                                  unit=2)
+        rc, out, err = run(IT2N, "eval", "--kind", "bspline", paper,
+                           "--decimals", "9", "--at", "0.25,0.6")
+        want = {ln.split(",")[2]: [q24(x) for x in ln.split(",")[3:8]]
+                for ln in out.strip().split("\n")[1:]}
+        got = compare_plc_unit2.registers if ok(compare_plc_unit2) else []
+        bad = [(fp, ci) for fi, fp in enumerate(FPS) for ci in (0, 1, 3, 4, 5)
+               if len(got) < 108 or regs_u32(got, (fi * 6 + ci) * 2) !=
+               f32_bits(want[fp][ci if ci < 2 else ci - 1])]
+        check(rc == 0 and not bad,
+              f"reload: unit 2 answers as it2n eval --kind bspline of the "
+              f"paper data: {bad[:4]} {err}")
+        fr, _ = plc_eval(c, 1587, 3175)
+        check(fr == before[(1587, 3175)], "reload: unit 1 untouched")
         c.close()
     finally:
         d.stop(signal.SIGTERM)
