@@ -123,10 +123,16 @@ class Daemon:
         return False
 
     def stop(self, sig):
+        """Stop with sig; for SIGTERM the exit status must be 0 (a clean
+        stop; under ASan also no error or leak report)."""
+        rc = None
         if self.p and self.p.poll() is None:
             self.p.send_signal(sig)
-            self.p.wait(timeout=30)
+            rc = self.p.wait(timeout=30)
+            if sig == signal.SIGTERM:
+                check(rc == 0, f"it2nd stopped by SIGTERM exits 0 (got {rc})")
         self.p = None
+        return rc
 
 
 def plc_eval(c, u16, w16):
