@@ -192,6 +192,8 @@ def main():
                 f"[modbus]\ntcp_listen = 127.0.0.1:{port}\n"
                 f"coord_scale = {COORD_SCALE}\n"
                 "[model:1]\nkind = bspline\nn = 63\nm = 63\nz = yes\n"
+                # the largest grid: storage for 256 x 256 points
+                "[model:3]\nkind = bspline\nn = 255\nm = 255\n"
                 "[model:2]\npreload = paper\n")
     d = Daemon(conf, os.path.join(tmp, "it2nd.log"))
     conn = ("--tcp", f"127.0.0.1:{port}")
@@ -232,6 +234,14 @@ def main():
         b = c.read_holding_registers(28, 4, unit=2)
         check(ok(b) and b.registers[0] == 0 and b.registers[1] == 4,
               "the Bezier unit: kind 0, net rows 4")
+        big = c.read_holding_registers(0, 32, unit=3)
+        cnt3 = c.read_holding_registers(88, 4, unit=3)
+        check(ok(big) and big.registers[2] == 255 and big.registers[3] == 255
+              and big.registers[28] == 1 and big.registers[6] == 65535 and
+              ok(cnt3) and regs_u32(cnt3.registers, 2) == 256 * 256 * 7 and
+              regs_u32(cnt3.registers, 0) == 0,
+              "a 256 x 256 B-spline model: n = m = 255, u16 count saturated, "
+              "u32 count 458752")
         ctrl = c.read_holding_registers(2048, 2, unit=1)
         check(not ok(ctrl), "control_net block: 02 for a B-spline model")
         ctrl = c.read_holding_registers(2048, 2, unit=2)
