@@ -187,12 +187,6 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
         free(coef);
         return SNAP_NOMEM;
     }
-    if (n > md->cap_n || m > md->cap_m) {
-        log_err("snapshot: B-spline model %d is %ux%u, beyond the %ux%u its [model:%d] section gives it; raise n "
-                "and m there", md->id, n, m, md->cap_n, md->cap_m, md->id);
-        err->code = IT2N_ERR_RANGE;
-        goto out;
-    }
     rc = it2n_bspline_data_init(&ds, rec, md->bds.cap, n, m, flags, err);
     for (uint32_t k = 0; k < points && rc == IT2N_OK; k++) {
         unsigned i = p[0], j = p[1], mask = p[2];
@@ -218,7 +212,6 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
         mdl.coef = md->bmdl.coef;
         md->bmdl = mdl;
     }
-out:
     free(rec);
     free(coef);
     return rc;
@@ -269,6 +262,21 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int *result)
         }
         log_notice("snapshot: model %u was of kind %s with no data points; now %s", id, models_kind_name((int)kind),
                    models_kind_name(md->kind));
+        return rlen;
+    }
+    if (kind == MODEL_BSPLINE && (n > md->cap_n || m > md->cap_m)) {
+        /* The configuration shrank the model's storage while the daemon
+         * was down: its points do not fit, and are not dropped unasked. */
+        if (points) {
+            log_err("snapshot: B-spline model %u holds %u data point(s) of a %ux%u grid, beyond the n = %u, m = %u "
+                    "its [model:%u] section now gives it; raise n and m there (or remove the model with "
+                    "'removed = yes' to discard them); refusing to start, files left as they are",
+                    id, (unsigned)points, n, m, md->cap_n, md->cap_m, id);
+            *result = SNAP_UNCONFIGURED;
+            return rlen;
+        }
+        log_notice("snapshot: B-spline model %u was %ux%u with no data points; now at most %ux%u", id, n, m,
+                   md->cap_n, md->cap_m);
         return rlen;
     }
     if (kind == MODEL_BEZIER && (n > IT2N_MAX_DEGREE || m > IT2N_MAX_DEGREE)) {

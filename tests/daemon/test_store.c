@@ -234,6 +234,17 @@ static void test_wal_replay(void **st)
  * after each recovery bit-identical to the solve before it. A state
  * directory whose model is now configured as another kind: refused with
  * the files left as they are (points are never dropped unasked). */
+static struct model *fresh_cap(int kind, unsigned cap)
+{
+    models_free();
+    assert_int_equal(models_init(4), 0);
+    struct model *md = models_add(1, 1, kind, cap, cap, IT2N_F_TYPE1);
+    assert_non_null(md);
+    models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
+    return md;
+}
+
 static struct model *fresh_bs(int kind)
 {
     models_free();
@@ -299,6 +310,14 @@ static void test_bspline(void **st)
     md = fresh_bs(MODEL_BEZIER);
     assert_int_equal(store_open(dir, 0), -1);
     uint8_t *sn2 = slurp("snapshot", &slen2);
+    assert_int_equal(slen, slen2);
+    assert_memory_equal(sn, sn2, (size_t)slen);
+    /* configured with a smaller grid (storage for 5x5) than the 6x5 the
+     * snapshot holds: refused the same way */
+    md = fresh_cap(MODEL_BSPLINE, 5);
+    assert_int_equal(store_open(dir, 0), -1);
+    free(sn2);
+    sn2 = slurp("snapshot", &slen2);
     assert_int_equal(slen, slen2);
     assert_memory_equal(sn, sn2, (size_t)slen);
     free(sn);
