@@ -307,6 +307,25 @@ def main():
                 worst = max(worst, abs(float(x) - fy) / max(abs(fy), 1e-3))
         check(rc == 0 and rc2 == 0 and gl[0] == wl[0] and len(gl) == len(wl)
               and worst <= 2.0 ** -23, f"it2nctl eval: {worst} {err}")
+        # locate at a data point of D: found inside, the same surface
+        # values as it2n locate (float32 over Modbus)
+        at = ("--at", "200.195,299.505", "--at", "150.5,320.25")
+        rc, got, err = run(CTL, "locate", *at, "--decimals", "9", *conn)
+        rc2, want, _ = run(IT2N, "locate", "--kind", "bspline", SURVEY, *at,
+                           "--decimals", "9")
+        gl, wl = got.strip().split("\n"), want.strip().split("\n")
+        worst, stat = 0.0, []
+        for a_, b_ in zip(gl[1:], wl[1:]):
+            fa, fb = a_.split(","), b_.split(",")
+            stat.append((fa[-1], fb[-1]))
+            for x, y in zip(fa[5:9], fb[5:9]):
+                worst = max(worst, abs(float(x) - float(y)) /
+                            max(abs(float(y)), 1e-3))
+        check(rc == 0 and rc2 == 0 and len(gl) == len(wl) == 15 and
+              worst <= 2.0 ** -22 and
+              all(a_ == ("inside" if b_ == "inside" else "outside|noconv")
+                  for a_, b_ in stat) and stat[3][1] == "inside",
+              f"it2nctl locate: {worst} {stat} {err}")
         rc, got, err = run(CTL, "sample", "--grid", "3x3", "--footprint",
                            "D", *conn)
         check(rc == 0 and len(got.strip().split("\n")) == 10,
