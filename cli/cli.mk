@@ -33,7 +33,7 @@ $(CLI_SAN_BIN): $(CLI_SAN_OBJ) $(CORE_SAN_LIB)
 # lives (protocol/ today).
 CTL_REGMAP_INC := -Idaemon
 CTL_SRC := $(wildcard cli/ctl*.c)
-CTL_HDR := $(wildcard cli/ctl*.h) $(CLI_HDR)
+CTL_HDR := $(wildcard cli/ctl*.h) $(CLI_HDR) daemon/it2n_regmap.h # the map ctl_modbus.c speaks
 CTL_CFLAGS := $(HOST_CFLAGS) -Icli $(CTL_REGMAP_INC) \
               $(shell pkg-config --cflags libmodbus 2>/dev/null)
 CTL_LIBS := $(shell pkg-config --libs libmodbus 2>/dev/null) -lm

@@ -159,7 +159,8 @@ def check_status(conn, csv, extra=()):
     got = {k: st.get(k) for k in want}
     check(got == want, f"status {conn}: {got} != {want}")
     want_xyz = "xyz" if m.group(6) == "x,y,z" else "xy"
-    check(st.get("coordinates") == want_xyz and len(st) == 11,
+    check(st.get("coordinates") == want_xyz and len(st) == 12 and
+          st.get("kind") == "bezier",
           f"status coordinates: {st}")
     return st
 

@@ -36,7 +36,7 @@ static uint16_t tid;
 static struct model *open_table(void)
 {
     assert_int_equal(models_init(4), 0);
-    struct model *md = models_add(1, 1, 3, 3, 0);
+    struct model *md = models_add(1, 1, MODEL_BEZIER, 3, 3, 0);
     assert_non_null(md);
     assert_int_equal(models_preload_paper(md), IT2N_OK);
     models_set_journal(store_append, NULL);

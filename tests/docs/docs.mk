@@ -2,7 +2,7 @@
 # (docfig.py: `<!-- fig:NAME -->` blocks). docs-figures rewrites them;
 # docs-check (make test) fails if a committed figure differs from the build.
 DOCFIG_DEPS = cross $(BUILD)/tests/core/test_accuracy $(BUILD)/tests/core/test_operations \
-              $(BUILD)/tests/core/test_bspline
+              $(BUILD)/tests/core/test_bspline $(BUILD)/tests/daemon/test_models
 
 .PHONY: docs-figures docs-check
 docs-figures: $(DOCFIG_DEPS) ## Regenerate the build figures quoted in README.md and docs/
