@@ -933,6 +933,22 @@ static void on_poll(void *arg)
     struct link *l = arg;
     uint32_t now = now32();
     l->poll_timer = 0; /* this one has fired */
+    if (l->fd >= 0 && l->up) {
+        /* Read what has arrived first: on a loaded machine the answer to
+         * a frame due for retransmission may have come in since poll()
+         * returned; resending that frame would be spurious. Bounded: at
+         * most 4 reads of up to 4 KiB. */
+        uint8_t buf[4096];
+        for (int k = 0; k < 4 && l->fd >= 0; k++) {
+            ssize_t n = read(l->fd, buf, sizeof buf);
+            if (n <= 0)
+                break; /* EAGAIN, or a hang-up on_serial reports */
+            feed(l, buf, (size_t)n);
+        }
+        now = now32();
+        if (!l->up)
+            return;
+    }
     it2n_link_poll(&l->pl, now);
     if (l->cfg.peer_timeout_ms > 0 && it2n_link_stalled_ms(&l->pl, now) > (uint32_t)l->cfg.peer_timeout_ms) {
         /* The peer has not answered for peer_timeout_ms: declared down.
