@@ -485,6 +485,13 @@ static int too_big(struct link *l, uint16_t seq, size_t size)
 static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint8_t fp, uint16_t rows, uint16_t cols)
 {
     struct model *md = models_by_id(model);
+    /* Checks in the order of protocol.md 5.8: the request alone (its size),
+     * then the model (MODEL), its state (STATE), its footprints (INVAL). */
+    if (kind == IT2N_MSG_SAMPLE && (uint32_t)rows * cols > IT2N_SAMPLE_NODES_MAX) {
+        /* bound the work one request can cause: value = nodes asked for */
+        it2n_errinfo e = detail(IT2N_ERR_RANGE, (int64_t)rows * cols, 4, IT2N_SAMPLE_NODES_MAX);
+        return refuse(l, seq, IT2N_ERR_RANGE, &e);
+    }
     if (!md)
         return refuse_model(l, seq, model);
     md = models_view(md);
@@ -494,11 +501,6 @@ static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint
         it2n_errinfo e = detail(IT2N_ERR_INVAL, fp, IT2N_FP_D, IT2N_FP_D);
         e.fp = (int8_t)fp;
         return refuse(l, seq, IT2N_ERR_INVAL, &e); /* type-1: only D */
-    }
-    if (kind == IT2N_MSG_SAMPLE && (uint32_t)rows * cols > IT2N_SAMPLE_NODES_MAX) {
-        /* bound the work one request can cause: value = nodes asked for */
-        it2n_errinfo e = detail(IT2N_ERR_RANGE, (int64_t)rows * cols, 4, IT2N_SAMPLE_NODES_MAX);
-        return refuse(l, seq, IT2N_ERR_RANGE, &e);
     }
     if (kind == IT2N_MSG_GET_NET &&
         IT2N_NET_ROW_HDR + IT2N_SAMPLE_POINT * (md->mdl.m + 1u) > it2n_link_max_payload(&l->pl))

@@ -702,6 +702,45 @@ static void hello_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
                        m->u.nack.code, &m->u.nack);
 }
 
+/* Frame s is answered (ACK or NACK) at now. */
+static void answered(it2n_link *l, const it2n_link_slot *s, uint32_t now)
+{
+    l->stats.rx_acks++;
+    if (s->tries == 1u)
+        line_sync(l, s->gone, now);
+    if (s->held == 2u) { /* how long the peer took after its RCVD */
+        uint32_t d = now - s->rcvd;
+        l->defer_ms = d >= l->defer_ms ? d : l->defer_ms - (l->defer_ms - d) / 8u;
+    }
+}
+
+/* Frame s is ACKed. */
+static void acked(it2n_link *l, it2n_link_slot *s, uint32_t now)
+{
+    uint16_t seq = s->seq, age = (uint16_t)(l->tx_next - s->seq);
+    uint32_t acked_last = s->last;
+    bool syn = (s->flags & IT2N_FLAG_SYN) != 0u;
+    unsigned k;
+    answered(l, s, now);
+    l->stats.tx_acked++;
+    finish(l, s, IT2N_OK, NULL);
+    if (syn)
+        syn_answered(l, seq, now);
+    release_held(l, now);
+    /* Frames are delivered in order: an older frame still unanswered
+     * whose last copy left no later than the acknowledged one's was
+     * delivered too, and its answer was lost (or is deferred, then the
+     * copy is ignored): send it again now, not at its timeout. */
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *o = &l->slot[k];
+        if (o->used && l->tx_synced && (uint16_t)(l->tx_next - o->seq) > age &&
+            (int32_t)(acked_last - o->last) >= 0) {
+            l->stats.tx_fast_retx++;
+            transmit(l, o, now);
+        }
+    }
+}
+
 /* ACK or NACK m, framed in version ver with session tag (v1.2). */
 static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
                       uint32_t tag, uint32_t now)
@@ -721,18 +760,14 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
     if (m->type == IT2N_MSG_ACK && m->u.ack.acked != 0u && ver == V12) {
         /* v1.2: the frames it names were ACKed too (their own ACK may have
          * been lost): end them first, oldest first, as if ACKed. */
-        it2n_msg a;
-        memset(&a, 0, sizeof a);
-        a.type = IT2N_MSG_ACK;
         for (k = 64u; k-- > 0u;) {
-            const it2n_link_slot *o;
+            it2n_link_slot *o;
             if (!((m->u.ack.acked >> k) & 1u))
                 continue;
-            a.u.ack.seq = (uint16_t)(seq - 1u - k);
-            o = slot_of(l, a.u.ack.seq);
+            o = slot_of(l, (uint16_t)(seq - 1u - k));
             if (o != NULL && o->ver == V12 && o->tag == tag) {
                 l->stats.rx_acks_implied++;
-                on_answer(l, &a, ver, tag, now);
+                acked(l, o, now);
             }
         }
     }
@@ -762,35 +797,12 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
         finish(l, s, IT2N_PROTO_ERR_SESSION, &m->u.nack);
         return;
     }
-    l->stats.rx_acks++;
-    if (s->tries == 1u)
-        line_sync(l, s->gone, now);
-    if (s->held == 2u) { /* how long the peer took after its RCVD */
-        uint32_t d = now - s->rcvd;
-        l->defer_ms = d >= l->defer_ms ? d : l->defer_ms - (l->defer_ms - d) / 8u;
-    }
     if (m->type == IT2N_MSG_ACK) {
-        uint16_t age = (uint16_t)(l->tx_next - seq);
-        uint32_t acked_last = s->last;
-        bool syn = (s->flags & IT2N_FLAG_SYN) != 0u;
-        l->stats.tx_acked++;
-        finish(l, s, IT2N_OK, NULL);
-        if (syn)
-            syn_answered(l, seq, now);
-        release_held(l, now);
-        /* Frames are delivered in order: an older frame still unanswered
-         * whose last copy left no later than the acknowledged one's was
-         * delivered too, and its answer was lost (or is deferred, then the
-         * copy is ignored): send it again now, not at its timeout. */
-        for (k = 0; k < W; k++) {
-            it2n_link_slot *o = &l->slot[k];
-            if (o->used && l->tx_synced && (uint16_t)(l->tx_next - o->seq) > age &&
-                (int32_t)(acked_last - o->last) >= 0) {
-                l->stats.tx_fast_retx++;
-                transmit(l, o, now);
-            }
-        }
-    } else if (m->u.nack.code == IT2N_PROTO_ERR_NOSYNC) {
+        acked(l, s, now);
+        return;
+    }
+    answered(l, s, now);
+    if (m->u.nack.code == IT2N_PROTO_ERR_NOSYNC) {
         /* Peer lost its state (restart) or holds another sequence. */
         resync(l, now);
     } else {
