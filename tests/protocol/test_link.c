@@ -1449,6 +1449,72 @@ static void test_new_frames_wait_for_line(void **st)
     assert_int_equal(B->nrx, 9);
 }
 
+/* Raw v1.1 frame into B (payload as given). */
+static void raw_in(uint8_t type, uint8_t flags, uint16_t seq, const uint8_t *p, uint16_t len, uint32_t now)
+{
+    it2n_frame_hdr h = {IT2N_PROTO_VERSION, type, flags, seq, len};
+    uint8_t w[256];
+    int n = it2n_frame_encode(&h, p, len, w, sizeof w);
+    assert_true(n > 0);
+    assert_int_equal(it2n_link_input(&B->l, w, (size_t)n, now), IT2N_OK);
+}
+
+/* The answer B wrote last (ACK or NACK), decoded. */
+static it2n_msg b_answer(void)
+{
+    it2n_frame_decoder d;
+    it2n_msg m;
+    const uint8_t *q = B->out.buf, *pl = NULL;
+    size_t left = B->out.len;
+    memset(&m, 0, sizeof m);
+    it2n_frame_decoder_init(&d);
+    while (left) {
+        it2n_frame_hdr fh;
+        size_t used = 0;
+        if (it2n_frame_decode(&d, q, left, &used, &fh, &pl) == 1)
+            assert_int_equal(it2n_msg_unpack(fh.type, pl, fh.len, &m, NULL), IT2N_OK);
+        q += used;
+        left -= used;
+    }
+    B->out.len = 0;
+    return m;
+}
+
+/* Issue 17 points 1-4 and 17, answered in protocol.md 4.3 and 7: a SYN
+ * frame NACKed as malformed still starts the sequence, `lo` counts from
+ * the message (after the session id), a NACKed frame advances `next`, an
+ * unknown type gets TYPE with lo = hi = 0, a line duplicate of a kept
+ * frame gets no second GAP (a RETX copy does). */
+static void test_rules_left_open(void **st)
+{
+    (void)st;
+    uint8_t p[8] = {0x44, 0x33, 0x22, 0x11, 1, 0, 3, 0}; /* session, CONFIGURE n = 0 */
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL | IT2N_FLAG_SYN, 500, p, 8, 1);
+    it2n_msg a = b_answer();
+    assert_int_equal(a.type, IT2N_MSG_NACK);
+    assert_int_equal(a.u.nack.code, IT2N_PROTO_ERR_FIELD);
+    assert_true(a.u.nack.lo == 1); /* n: offset 1 of the message */
+    assert_int_equal(B->nrx, 0);
+    uint8_t ok[4] = {1, 3, 2, 0};
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL, 501, ok, 4, 2);
+    assert_int_equal(B->nrx, 1); /* the sequence started at 500 */
+    assert_int_equal(B->rx_seq[0], 501);
+    a = b_answer();
+    assert_int_equal(a.type, IT2N_MSG_ACK);
+    raw_in(0x30, IT2N_FLAG_REL, 502, ok, 1, 3); /* a type this receiver does not know */
+    a = b_answer();
+    assert_int_equal(a.u.nack.code, IT2N_PROTO_ERR_TYPE);
+    assert_true(a.u.nack.value == 0x30 && a.u.nack.lo == 0 && a.u.nack.hi == 0);
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL, 504, ok, 4, 4); /* 503 missing */
+    assert_int_equal(B->l.stats.tx_gaps, 1);
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL, 504, ok, 4, 5); /* line duplicate */
+    assert_int_equal(B->l.stats.tx_gaps, 1);
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL | IT2N_FLAG_RETX, 504, ok, 4, 6);
+    assert_int_equal(B->l.stats.tx_gaps, 2);
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL, 503, ok, 4, 7);
+    assert_int_equal(B->nrx, 3); /* 502 NACKed advanced `next` */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1481,6 +1547,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_gap, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_gap_lost, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_beyond, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rules_left_open, setup, teardown),
         cmocka_unit_test_setup_teardown(test_sack_held_not_resent, setup, teardown),
         cmocka_unit_test_setup_teardown(test_gap_have_is_held_v11, setup, teardown),
         cmocka_unit_test_setup_teardown(test_ack_names_acked, setup, teardown),
