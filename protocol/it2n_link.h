@@ -37,6 +37,16 @@
  * never delivered. A server (cfg.new_session set) serves v1.2 and v1.1
  * peers alike, whichever a frame's version says.
  *
+ * Selective acknowledgement (docs/protocol.md 4.2 rule 4): frames a GAP
+ * names as held (v1.2: all of them, v1.1: `have`) are not resent on a
+ * timer while an older frame is missing; a v1.2 ACK also names the frames
+ * ACKed before it; a v1.2 receiver whose application defers an answer
+ * sends RCVD, after which the sender waits twice the deferral it has seen
+ * (at least 2 RTO) before resending. With cfg.baud a new frame is written
+ * only while at most two maximum frames wait on the line (the rest are
+ * written by it2n_link_poll), so a retransmission never queues behind a
+ * window of new frames.
+ *
  * Contexts are plain structs in caller memory; any number may coexist.
  * The callbacks may call it2n_link_send / it2n_link_complete on the same
  * context.
