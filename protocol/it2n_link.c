@@ -1479,8 +1479,9 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
         fh->type == IT2N_MSG_GAP || fh->type == IT2N_MSG_RCVD) {
         it2n_msg m;
         if (it2n_msg_unpack(fh->type, p, len, &m, NULL) != IT2N_OK ||
-            (fh->flags & IT2N_FLAG_REL) != 0u)
-            l->stats.rx_bad_msg++;
+            (fh->flags & IT2N_FLAG_REL) != 0u ||
+            (m.type == IT2N_MSG_ACK && fh->version != V12 && len != 2u))
+            l->stats.rx_bad_msg++; /* answers are never REL; v1.1 ACK: 2 bytes */
         else if (m.type == IT2N_MSG_RCVD) {
             /* v1.2 only, about our frames of that session only */
             if (fh->version != V12)

@@ -405,8 +405,11 @@ static void codec(cur *c, it2n_msg *m)
     case IT2N_MSG_EVENT: c_event(c, &m->u.event); break;
     case IT2N_MSG_ACK:
         c_u16(c, &m->u.ack.seq);
-        if (c->pack ? m->u.ack.acked != 0u : c->end == IT2N_ACK12_LEN)
+        if (c->pack ? m->u.ack.acked != 0u : c->end == IT2N_ACK12_LEN) {
             c_u64(c, &m->u.ack.acked);
+            /* one encoding: no earlier ACK is the 2-byte form */
+            need(c, c->err != 0 || m->u.ack.acked != 0u, 2u, 0, 1);
+        }
         break;
     case IT2N_MSG_RCVD: c_u16(c, &m->u.rcvd.seq); break;
     case IT2N_MSG_GAP:
@@ -414,8 +417,10 @@ static void codec(cur *c, it2n_msg *m)
         c_u16(c, &m->u.gap.have);
         /* v1.2 (12 bytes): the frames held beyond the gap. v1.1: 4 bytes,
          * packed so when held is 0. */
-        if (c->pack ? m->u.gap.held != 0u : c->end == IT2N_GAP12_LEN)
+        if (c->pack ? m->u.gap.held != 0u : c->end == IT2N_GAP12_LEN) {
             c_u64(c, &m->u.gap.held);
+            need(c, c->err != 0 || m->u.gap.held != 0u, 4u, 0, 1);
+        }
         break;
     case IT2N_MSG_NACK: c_nack(c, &m->u.nack); break;
     case IT2N_MSG_QUERY_RESULT: c_query_result(c, &m->u.query_result); break;
