@@ -42,7 +42,11 @@ typedef struct cli_opts {
     int format;           /* export --format: CLI_FMT_*       */
     unsigned width, height; /* plot --size WxH (pixels); 0: by figure */
     bool nets;            /* plot --nets: draw the control nets */
+    int kind;             /* --kind: CLI_KIND_*               */
 } cli_opts;
+
+/* --kind: the paper's Bezier patch (default) or the cubic B-spline. */
+enum { CLI_KIND_BEZIER = 0, CLI_KIND_BSPLINE };
 
 /* export --format */
 enum { CLI_FMT_VTK = 0, CLI_FMT_OBJ, CLI_FMT_CSV };

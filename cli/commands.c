@@ -16,6 +16,16 @@ static it2n_csv g_csv;
 static it2n_dataset g_ds;
 static it2n_model g_mdl;
 
+/* --kind bspline: data set and model in heap storage (up to 256 x 256
+ * points), and the flags of whichever model was loaded. */
+static it2n_bspline_data g_bds;
+static it2n_bspline_model g_bmdl;
+static it2n_bspline_rec *g_brec;
+static uint32_t *g_blines;
+static int32_t *g_bcoef;
+static bool g_bspline;
+static unsigned g_flags;
+
 static void report(const it2n_csv_error *e, const char *name)
 {
     char msg[512];
@@ -73,10 +83,100 @@ int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl
     return CLI_EXIT_OK;
 }
 
+/* cli_load for the B-spline kind into g_bds, g_bmdl. */
+static int load_bspline(const cli_opts *o)
+{
+    const char *name = display_name(o);
+    FILE *f;
+    char chunk[4096];
+    it2n_csv_error e;
+    it2n_errinfo info;
+    size_t got, words;
+    int rc = IT2N_OK;
+
+    g_brec = malloc(IT2N_CSV_BSPLINE_RECS * sizeof(*g_brec));
+    g_blines = malloc(IT2N_CSV_BSPLINE_LINES * sizeof(*g_blines));
+    if (g_brec == NULL || g_blines == NULL) {
+        fprintf(stderr, "it2n: out of memory for a B-spline data set\n");
+        return CLI_EXIT_DATA;
+    }
+    f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
+    if (f == NULL) {
+        fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
+        return CLI_EXIT_DATA;
+    }
+    it2n_csv_init_bspline(&g_csv, g_brec, g_blines);
+    while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
+        rc = it2n_csv_feed(&g_csv, chunk, got, &e);
+    }
+    if (rc == IT2N_OK && ferror(f)) {
+        fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
+        if (f != stdin) {
+            fclose(f);
+        }
+        return CLI_EXIT_DATA;
+    }
+    if (f != stdin) {
+        fclose(f);
+    }
+    if (rc == IT2N_OK) {
+        rc = it2n_csv_finish_bspline(&g_csv, &g_bds, &e);
+    }
+    if (rc != IT2N_OK) {
+        report(&e, name);
+        return CLI_EXIT_DATA;
+    }
+    words = IT2N_BSPLINE_MODEL_WORDS(g_bds.n, g_bds.m, g_bds.flags);
+    g_bcoef = malloc(words * sizeof(*g_bcoef));
+    if (g_bcoef == NULL) {
+        fprintf(stderr, "it2n: out of memory for a B-spline model\n");
+        return CLI_EXIT_DATA;
+    }
+    it2n_bspline_model_init(&g_bmdl, g_bcoef, words);
+    rc = it2n_bspline_solve(&g_bmdl, &g_bds, &info);
+    if (rc != IT2N_OK) {
+        it2n_csv_locate(&g_csv, &info, &e);
+        report(&e, name);
+        return CLI_EXIT_DATA;
+    }
+    return CLI_EXIT_OK;
+}
+
+static void free_bspline(void)
+{
+    free(g_brec);
+    free(g_blines);
+    free(g_bcoef);
+    g_brec = NULL;
+    g_blines = NULL;
+    g_bcoef = NULL;
+}
+
 /* Read and validate the dataset, then solve it. */
 static int load(const cli_opts *o)
 {
-    return cli_load(o, &g_csv, &g_ds, &g_mdl);
+    int rc;
+    g_bspline = o->kind == CLI_KIND_BSPLINE;
+    if (g_bspline) {
+        rc = load_bspline(o);
+        g_flags = g_bds.flags;
+        return rc;
+    }
+    rc = cli_load(o, &g_csv, &g_ds, &g_mdl);
+    g_flags = g_ds.flags;
+    return rc;
+}
+
+/* Footprint fp is in the loaded model and selected by --footprint. */
+static bool fp_selected(const cli_opts *o, unsigned fp)
+{
+    bool in = (g_flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;
+    return in && (o->fpmask == 0u || (o->fpmask & (1u << fp)) != 0u);
+}
+
+static bool fp_in_model(unsigned fp)
+{
+    return (g_flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;
 }
 
 bool cli_fp_selected(const cli_opts *o, const it2n_model *mdl, unsigned fp)
@@ -120,7 +220,7 @@ static void put_par(it2n_par p, unsigned decimals)
 
 static bool has_z(void)
 {
-    return (g_ds.flags & IT2N_F_Z) != 0u;
+    return (g_flags & IT2N_F_Z) != 0u;
 }
 
 /* ",x,y[,z],T,I,F" from a channel vector. */
@@ -152,20 +252,48 @@ static int finish_output(void)
 
 static int cmd_check(const cli_opts *o)
 {
-    const it2n_dataset *d = &g_ds;
-    bool t1 = (d->flags & IT2N_F_TYPE1) != 0u;
+    unsigned n = g_bspline ? g_bds.n : g_ds.n, m = g_bspline ? g_bds.m : g_ds.m;
+    bool t1 = (g_flags & IT2N_F_TYPE1) != 0u;
     printf("%s: ok: %ux%u grid (n=%u, m=%u), %s, coordinates %s, %s "
-           "parameters\n",
-           display_name(o), d->n + 1u, d->m + 1u, d->n, d->m,
+           "parameters%s\n",
+           display_name(o), n + 1u, m + 1u, n, m,
            t1 ? "type-1 (footprint D)" : "type-2 (7 footprints)",
            has_z() ? "x,y,z" : "x,y",
-           (d->flags & IT2N_F_CHORD) ? "chord-length" : "uniform");
+           (g_flags & IT2N_F_CHORD) ? "chord-length" : "uniform",
+           g_bspline ? ", cubic B-spline (not-a-knot)" : "");
+    return finish_output();
+}
+
+/* B-spline coefficients c_{i,j}, i = -1..n+1, j = -1..m+1. */
+static int cmd_solve_bspline(const cli_opts *o)
+{
+    unsigned r, c, fp, ch;
+    put_header("i,j,footprint", "");
+    for (r = 0; r <= g_bds.n + 2u; r++) {
+        for (c = 0; c <= g_bds.m + 2u; c++) {
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                it2n_val v[IT2N_CH_COUNT];
+                if (!fp_in_model(fp)) {
+                    continue;
+                }
+                printf("%d,%d,%s", (int)r - 1, (int)c - 1, it2n_fp_name(fp));
+                for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                    v[ch] = it2n_bspline_coef(&g_bmdl, r, c, fp, ch);
+                }
+                put_channels(v, o->decimals);
+                putchar('\n');
+            }
+        }
+    }
     return finish_output();
 }
 
 static int cmd_solve(const cli_opts *o)
 {
     unsigned i, j, fp;
+    if (g_bspline) {
+        return cmd_solve_bspline(o);
+    }
     put_header("i,j,footprint", "");
     for (i = 0; i <= g_ds.n; i++) {
         for (j = 0; j <= g_ds.m; j++) {
@@ -238,7 +366,7 @@ static void put_point(it2n_par u, it2n_par w, const it2n_point *pt,
 {
     unsigned fp;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        if (!cli_fp_selected(o, &g_mdl, fp)) {
+        if (!fp_selected(o, fp)) {
             continue;
         }
         put_par(u, o->decimals);
@@ -269,7 +397,9 @@ static int cmd_eval(const cli_opts *o)
     size_t k;
     put_header("u,w,footprint", ",out_of_range");
     for (k = 0; k < o->nat; k++) {
-        int rc = it2n_eval(&g_mdl, o->at[k].a, o->at[k].b, &pt, NULL);
+        int rc = g_bspline
+                     ? it2n_bspline_eval(&g_bmdl, o->at[k].a, o->at[k].b, &pt, NULL)
+                     : it2n_eval(&g_mdl, o->at[k].a, o->at[k].b, &pt, NULL);
         if (rc != IT2N_OK) {
             return core_fail("eval", rc);
         }
@@ -291,7 +421,10 @@ static int cmd_sample(const cli_opts *o)
 {
     int rc;
     put_header("u,w,footprint", ",out_of_range");
-    rc = it2n_sample(&g_mdl, o->rows, o->cols, sample_row, (void *)o, NULL);
+    rc = g_bspline ? it2n_bspline_sample(&g_bmdl, o->rows, o->cols, sample_row,
+                                         (void *)o, NULL)
+                   : it2n_sample(&g_mdl, o->rows, o->cols, sample_row,
+                                 (void *)o, NULL);
     if (rc < 0) {
         return core_fail("sample", rc);
     }
@@ -305,13 +438,16 @@ static int cmd_deriv(const cli_opts *o)
     unsigned fp;
     put_header("u,w,footprint,wrt", "");
     for (k = 0; k < o->nat; k++) {
-        int rc = it2n_deriv(&g_mdl, o->at[k].a, o->at[k].b, &du, &dw, NULL);
+        int rc = g_bspline ? it2n_bspline_deriv(&g_bmdl, o->at[k].a, o->at[k].b,
+                                                &du, &dw, NULL)
+                           : it2n_deriv(&g_mdl, o->at[k].a, o->at[k].b, &du,
+                                        &dw, NULL);
         if (rc != IT2N_OK) {
             return core_fail("deriv", rc);
         }
         for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
             int d;
-            if (!it2n_model_has_fp(&g_mdl, fp)) {
+            if (!fp_in_model(fp)) {
                 continue;
             }
             for (d = 0; d < 2; d++) {
@@ -335,14 +471,16 @@ static int cmd_locate(const cli_opts *o)
     unsigned fp;
     printf("x,y,footprint,u,w%s,T,I,F,status\n", has_z() ? ",z" : "");
     for (k = 0; k < o->nat; k++) {
-        int rc = it2n_locate(&g_mdl, o->at[k].a, o->at[k].b, &res, NULL);
+        int rc = g_bspline ? it2n_bspline_locate(&g_bmdl, o->at[k].a, o->at[k].b,
+                                                 &res, NULL)
+                           : it2n_locate(&g_mdl, o->at[k].a, o->at[k].b, &res, NULL);
         if (rc != IT2N_OK) {
             return core_fail("locate", rc);
         }
         for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
             const it2n_locate_fp *r = &res.fp[fp];
             unsigned ch;
-            if (!it2n_model_has_fp(&g_mdl, fp)) {
+            if (!fp_in_model(fp)) {
                 continue;
             }
             put_val(o->at[k].a, o->decimals);
@@ -412,7 +550,16 @@ void cli_mesh_free(cli_mesh *mesh)
     mesh->u = mesh->w = NULL;
 }
 
+static int run(const cli_opts *o);
+
 int cli_run(const cli_opts *o)
+{
+    int rc = run(o);
+    free_bspline();
+    return rc;
+}
+
+static int run(const cli_opts *o)
 {
     unsigned fp;
     int rc = load(o);
@@ -420,7 +567,7 @@ int cli_run(const cli_opts *o)
         return rc;
     }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        if ((o->fpmask & (1u << fp)) && !it2n_model_has_fp(&g_mdl, fp)) {
+        if ((o->fpmask & (1u << fp)) && !fp_in_model(fp)) {
             fprintf(stderr,
                     "%s: --footprint %s: not in this type-1 model (footprint "
                     "D only)\n",

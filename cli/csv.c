@@ -46,6 +46,7 @@ static void err_clear(it2n_csv_error *e)
 /* Record the first error (sticky) and return its code. */
 static int fail(it2n_csv *p, int code, int field, const csv_field *f)
 {
+    p->err.bspline = p->bspline;
     p->err.code = code;
     p->err.info.code = code;
     p->err.line = p->line;
@@ -168,13 +169,22 @@ static int parse_header(it2n_csv *p, const char *s, size_t len)
     }
     p->z = n == 9;
     p->header = 1;
+    if (p->bspline) {
+        /* The largest grid, records not cleared (15 MB): bs_lines says which
+         * are set, and finish rebuilds every present flag from it. */
+        p->bs_scratch.cap = IT2N_CSV_BSPLINE_RECS;
+        p->bs_scratch.n = IT2N_BSPLINE_MAX_N;
+        p->bs_scratch.m = IT2N_BSPLINE_MAX_N;
+        p->bs_scratch.flags = (uint8_t)(p->z ? IT2N_F_Z : 0u);
+        return IT2N_OK;
+    }
     it2n_dataset_init(&p->scratch, IT2N_MAX_DEGREE, IT2N_MAX_DEGREE,
                       p->z ? IT2N_F_Z : 0u, NULL);
     return IT2N_OK;
 }
 
-/* A grid index: decimal digits only, value 0..IT2N_MAX_DEGREE. */
-static bool parse_index(const csv_field *f, unsigned *out)
+/* A grid index: decimal digits only, value 0..max. */
+static bool parse_index(const csv_field *f, unsigned max, unsigned *out)
 {
     unsigned v = 0;
     size_t k;
@@ -187,7 +197,7 @@ static bool parse_index(const csv_field *f, unsigned *out)
         }
         v = v * 10u + (unsigned)(f->s[k] - '0');
     }
-    if (v > IT2N_MAX_DEGREE) {
+    if (v > max) {
         return false;
     }
     *out = v;
@@ -204,7 +214,8 @@ static int parse_row(it2n_csv *p, const char *s, size_t len)
     const int8_t *chs = p->z ? ch_xyz : ch_xy;
     int want = p->z ? 9 : 8;
     int n = split(s, len, f), k, rc, fp;
-    unsigned i, j;
+    unsigned i, j, max = p->bspline ? IT2N_BSPLINE_MAX_N : IT2N_MAX_DEGREE;
+    uint32_t *line;
     it2n_val vals[IT2N_CH_COUNT];
     it2n_errinfo info;
 
@@ -217,11 +228,11 @@ static int parse_row(it2n_csv *p, const char *s, size_t len)
         p->err.expected = want;
         return p->error;
     }
-    if (!parse_index(&f[0], &i)) {
+    if (!parse_index(&f[0], max, &i)) {
         return fail(p, IT2N_CSV_ERR_INDEX, 1, &f[0]);
     }
     p->err.info.i = (int16_t)i;
-    if (!parse_index(&f[1], &j)) {
+    if (!parse_index(&f[1], max, &j)) {
         return fail(p, IT2N_CSV_ERR_INDEX, 2, &f[1]);
     }
     p->err.info.j = (int16_t)j;
@@ -250,12 +261,19 @@ static int parse_row(it2n_csv *p, const char *s, size_t len)
         }
     }
 
-    if (p->lines[i][j][fp] != 0u) {
+    line = p->bspline
+               ? &p->bs_lines[((size_t)i * IT2N_CSV_BSPLINE_SIDE + j) * IT2N_FP_COUNT + (unsigned)fp]
+               : &p->lines[i][j][fp];
+    if (*line != 0u) {
         fail(p, IT2N_ERR_DUPLICATE, 0, NULL);
-        p->err.other = p->lines[i][j][fp];
+        p->err.other = *line;
         return p->error;
     }
-    rc = it2n_dataset_put(&p->scratch, i, j, (unsigned)fp, vals, false, &info);
+    /* (duplicates were caught above: replace, the flags are not cleared) */
+    rc = p->bspline ? it2n_bspline_data_put(&p->bs_scratch, i, j, (unsigned)fp,
+                                            vals, true, &info)
+                    : it2n_dataset_put(&p->scratch, i, j, (unsigned)fp, vals,
+                                       false, &info);
     if (rc != IT2N_OK) {
         int field = 0;
         for (k = 3; k < want; k++) {
@@ -268,8 +286,7 @@ static int parse_row(it2n_csv *p, const char *s, size_t len)
         return p->error;
     }
     /* Saturate: 0 means absent, and no real row lies 4 G lines down. */
-    p->lines[i][j][fp] =
-        p->line > UINT32_MAX ? UINT32_MAX : (uint32_t)p->line;
+    *line = p->line > UINT32_MAX ? UINT32_MAX : (uint32_t)p->line;
     p->rows++;
     p->max_i = i > p->max_i ? i : p->max_i;
     p->max_j = j > p->max_j ? j : p->max_j;
@@ -318,6 +335,17 @@ void it2n_csv_init(it2n_csv *p, unsigned flags)
     p->flags = flags & IT2N_F_CHORD;
 }
 
+void it2n_csv_init_bspline(it2n_csv *p, it2n_bspline_rec *scratch,
+                           uint32_t *lines)
+{
+    it2n_csv_init(p, 0u);
+    p->bspline = 1;
+    p->err.bspline = 1;
+    p->bs_lines = lines;
+    memset(lines, 0, IT2N_CSV_BSPLINE_LINES * sizeof(*lines));
+    p->bs_scratch.rec = scratch;
+}
+
 static int report(const it2n_csv *p, it2n_csv_error *err)
 {
     if (err != NULL) {
@@ -359,6 +387,21 @@ void it2n_csv_locate(const it2n_csv *p, const it2n_errinfo *info,
     err_clear(err);
     err->code = info->code;
     err->info = *info;
+    err->bspline = p->bspline;
+    if (p->bspline) {
+        if (info->i >= 0 && info->j >= 0 && info->fp >= 0 &&
+            (size_t)info->i < IT2N_CSV_BSPLINE_SIDE &&
+            (size_t)info->j < IT2N_CSV_BSPLINE_SIDE &&
+            info->fp < IT2N_FP_COUNT) {
+            err->line = p->bs_lines[((size_t)info->i * IT2N_CSV_BSPLINE_SIDE +
+                                     (size_t)info->j) * IT2N_FP_COUNT +
+                                    (size_t)info->fp];
+            if (err->line != 0u && info->ch >= 0 && info->ch < IT2N_CH_COUNT) {
+                err->field = 4 + info->ch - ((!p->z && info->ch > IT2N_CH_Z) ? 1 : 0);
+            }
+        }
+        return;
+    }
     if (info->i >= 0 && info->j >= 0 && info->fp >= 0 &&
         info->i < IT2N_DIM && info->j < IT2N_DIM &&
         info->fp < IT2N_FP_COUNT) {
@@ -369,6 +412,94 @@ void it2n_csv_locate(const it2n_csv *p, const it2n_errinfo *info,
     }
 }
 
+/* End of input checks shared by both kinds: IT2N_OK or the error. */
+static int finish_common(it2n_csv *p, it2n_csv_error *err)
+{
+    if (p->error == 0 && (p->len > 0u || p->overlong)) {
+        /* Last line without a line end. */
+        it2n_csv_feed(p, "\n", 1u, NULL);
+    }
+    if (p->error != 0) {
+        return report(p, err);
+    }
+    if (!p->header) {
+        p->line = 0;
+        fail(p, IT2N_CSV_ERR_HEADER, 0, NULL);
+        return report(p, err);
+    }
+    if (p->rows == 0u) {
+        p->line = 0;
+        fail(p, IT2N_CSV_ERR_EMPTY, 0, NULL);
+        return report(p, err);
+    }
+    if (p->max_i == 0u || p->max_j == 0u) {
+        p->line = 0;
+        fail(p, IT2N_CSV_ERR_DEGREE, 0, NULL);
+        p->err.got = p->max_i == 0u ? 'i' : 'j';
+        return report(p, err);
+    }
+    return IT2N_OK;
+}
+
+int it2n_csv_finish_bspline(it2n_csv *p, it2n_bspline_data *ds,
+                            it2n_csv_error *err)
+{
+    it2n_bspline_data out;
+    it2n_errinfo info;
+    unsigned flags, i, j, fp, nfp;
+    size_t to = 0;
+    int rc;
+
+    if (!p->bspline) {
+        p->line = 0;
+        fail(p, IT2N_ERR_INVAL, 0, NULL);
+        return report(p, err);
+    }
+    rc = finish_common(p, err);
+    if (rc != IT2N_OK) {
+        return rc;
+    }
+    flags = (p->z ? IT2N_F_Z : 0u) | (p->non_d ? 0u : IT2N_F_TYPE1);
+    nfp = IT2N_BSPLINE_NFP(flags);
+    /* Compact the scratch grid (stride SIDE, 7 footprints) in place to the
+     * file's: every record moves to an index no larger than its own, so a
+     * forward copy never overwrites a record still to be read. */
+    for (i = 0; i <= p->max_i; i++) {
+        for (j = 0; j <= p->max_j; j++) {
+            size_t from = ((size_t)i * IT2N_CSV_BSPLINE_SIDE + j) * IT2N_FP_COUNT;
+            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                it2n_bspline_rec *r = &p->bs_scratch.rec[to];
+                if (nfp == 1u && fp != IT2N_FP_D) {
+                    continue;
+                }
+                if (p->bs_lines[from + fp] != 0u) {
+                    *r = p->bs_scratch.rec[from + fp];
+                    r->present = 1u;
+                } else {
+                    memset(r, 0, sizeof(*r));
+                }
+                to++;
+            }
+        }
+    }
+    out.rec = p->bs_scratch.rec;
+    out.cap = IT2N_CSV_BSPLINE_RECS;
+    out.n = (uint16_t)p->max_i;
+    out.m = (uint16_t)p->max_j;
+    out.flags = (uint8_t)flags;
+    /* the scratch is the data set now: no more rows */
+    p->bs_scratch.n = 0;
+    rc = it2n_bspline_data_check(&out, &info);
+    if (rc != IT2N_OK) {
+        it2n_csv_locate(p, &info, &p->err);
+        p->err.code = rc;
+        p->error = rc;
+        return report(p, err);
+    }
+    *ds = out;
+    return IT2N_OK;
+}
+
 int it2n_csv_finish(it2n_csv *p, it2n_dataset *ds, it2n_csv_error *err)
 {
     it2n_dataset out;
@@ -376,6 +507,11 @@ int it2n_csv_finish(it2n_csv *p, it2n_dataset *ds, it2n_csv_error *err)
     unsigned flags, i, j, fp;
     int rc;
 
+    if (p->bspline) {
+        p->line = 0;
+        fail(p, IT2N_ERR_INVAL, 0, NULL);
+        return report(p, err);
+    }
     if (p->error == 0 && (p->len > 0u || p->overlong)) {
         /* Last line without a line end. */
         it2n_csv_feed(p, "\n", 1u, NULL);
@@ -497,6 +633,13 @@ int it2n_csv_message(const it2n_csv_error *e, const char *name, char *buf,
         return snprintf(buf, size, "%s: %s='%s' is not a decimal number%s",
                         pre, chn, e->text, at);
     case IT2N_CSV_ERR_INDEX:
+        if (e->bspline) {
+            return snprintf(buf, size,
+                            "%s: %s='%s' is not a grid index 0..%d "
+                            "(IT2N_BSPLINE_MAX_N)",
+                            pre, e->field == 1 ? "i" : "j", e->text,
+                            IT2N_BSPLINE_MAX_N);
+        }
         return snprintf(buf, size,
                         "%s: %s='%s' is not a grid index 0..%d "
                         "(IT2N_MAX_DEGREE)",
@@ -513,6 +656,12 @@ int it2n_csv_message(const it2n_csv_error *e, const char *name, char *buf,
     case IT2N_CSV_ERR_EMPTY:
         return snprintf(buf, size, "%s: no data rows after the header", pre);
     case IT2N_CSV_ERR_DEGREE:
+        if (e->bspline) {
+            return snprintf(buf, size,
+                            "%s: every row has %c=0: need 2 to %d grid points "
+                            "per direction",
+                            pre, e->got, IT2N_BSPLINE_MAX_N + 1);
+        }
         return snprintf(buf, size,
                         "%s: every row has %c=0: need 2 to %d grid points "
                         "per direction (degree 1..%d)",

@@ -14,6 +14,10 @@
  *   it2n_csv_init(p, flags);                     flags: extra IT2N_F_* (CHORD)
  *   it2n_csv_feed(p, buf, len, &e) ...           any chunking, same result
  *   it2n_csv_finish(p, &ds, &e);                 builds and checks ds
+ * or, for the B-spline kind (grids up to 256 x 256, caller storage):
+ *   it2n_csv_init_bspline(p, scratch, lines);
+ *   it2n_csv_feed(p, buf, len, &e) ...
+ *   it2n_csv_finish_bspline(p, &bds, &e);        bds lives in scratch
  * The first error is sticky: later feeds and finish return it again. The
  * parser keeps the line of every (i, j, footprint) so errors found later
  * (it2n_model_solve, ...) can be mapped back with it2n_csv_locate().
@@ -53,7 +57,16 @@ typedef struct it2n_csv_error {
     int got, expected;       /* field count, or the control byte in got   */
     char text[40];           /* offending field text (truncated), or ""   */
     it2n_errinfo info;       /* core detail (code, i, j, fp, ch, ...)     */
+    uint8_t bspline;         /* read for the B-spline kind (index limits) */
 } it2n_csv_error;
+
+/* Storage of a B-spline read: scratch records and line numbers for the
+ * largest grid, IT2N_BSPLINE_MAX_N + 1 points per side (type-2). */
+#define IT2N_CSV_BSPLINE_SIDE ((size_t)IT2N_BSPLINE_MAX_N + 1u)
+#define IT2N_CSV_BSPLINE_RECS                                                \
+    IT2N_BSPLINE_DATA_RECS(IT2N_BSPLINE_MAX_N, IT2N_BSPLINE_MAX_N, 0u)
+#define IT2N_CSV_BSPLINE_LINES                                               \
+    (IT2N_CSV_BSPLINE_SIDE * IT2N_CSV_BSPLINE_SIDE * IT2N_FP_COUNT)
 
 /* Parser state; all memory is here (about 24 KiB). Treat as opaque. */
 typedef struct it2n_csv {
@@ -70,10 +83,33 @@ typedef struct it2n_csv {
     /* Rows as read, validated by it2n_dataset_put on a maximal grid so
      * range errors are found (and named) on the line that has them. */
     it2n_dataset scratch;
+    /* B-spline reads: the same in caller storage, for up to 256 x 256
+     * points; line of (i, j, fp) at bs_lines[(i * SIDE + j) * 7 + fp]. */
+    uint8_t bspline;
+    uint32_t *bs_lines;
+    it2n_bspline_data bs_scratch;
 } it2n_csv;
 
 /* Start reading; flags are extra IT2N_F_* bits for the data set (CHORD). */
 void it2n_csv_init(it2n_csv *p, unsigned flags);
+
+/*
+ * Start reading a data set for the B-spline kind: grid indices 0..
+ * IT2N_BSPLINE_MAX_N, uniform parameters only. scratch holds
+ * IT2N_CSV_BSPLINE_RECS records, lines IT2N_CSV_BSPLINE_LINES words (both
+ * the caller's, about 15 MB and 1.8 MB at the default 255; the line
+ * table is cleared here, the records need not be).
+ */
+void it2n_csv_init_bspline(it2n_csv *p, it2n_bspline_rec *scratch,
+                           uint32_t *lines);
+
+/*
+ * End of a B-spline read: as it2n_csv_finish, into *ds, whose records are
+ * the scratch passed to it2n_csv_init_bspline (compacted in place to the
+ * file's grid). ds is only written on success.
+ */
+int it2n_csv_finish_bspline(it2n_csv *p, it2n_bspline_data *ds,
+                            it2n_csv_error *err);
 
 /*
  * Consume len bytes (any split, even mid-line). Returns IT2N_OK or the first

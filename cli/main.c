@@ -35,6 +35,9 @@ typedef struct cli_cmd {
 
 static const char common_help[] =
     "Common options:\n"
+    "  --kind K        bezier (default: one Bezier patch, grids up to 8x8)\n"
+    "                  or bspline (cubic not-a-knot B-spline, grids up to\n"
+    "                  256x256; check, solve, eval, sample, deriv, locate)\n"
     "  --chord         chord-length parameters instead of uniform i/n, j/m\n"
     "  --decimals N    digits after the point, 0..9 (default 6)\n"
     "  -h, --help      this help\n"
@@ -152,7 +155,7 @@ static void usage_all(FILE *out)
 
 static void usage_cmd(const cli_cmd *c)
 {
-    printf("Usage: it2n %s DATA.csv%s%s [--chord] [--decimals N]\n\n%s\n%s",
+    printf("Usage: it2n %s DATA.csv%s%s [--kind K] [--chord] [--decimals N]\n\n%s\n%s",
            c->name, c->args[0] ? " " : "", c->args, c->help, common_help);
 }
 
@@ -193,6 +196,7 @@ int main(int argc, char **argv)
         {"format", required_argument, NULL, 'F'},
         {"size", required_argument, NULL, 'S'},
         {"nets", no_argument, NULL, 'N'},
+        {"kind", required_argument, NULL, 'K'},
         {NULL, 0, NULL, 0}};
     cli_opts o;
     const cli_cmd *c;
@@ -245,6 +249,18 @@ int main(int argc, char **argv)
             return CLI_EXIT_OK;
         case 'c':
             o.flags |= IT2N_F_CHORD;
+            break;
+        case 'K':
+            if (strcmp(optarg, "bezier") == 0) {
+                o.kind = CLI_KIND_BEZIER;
+            } else if (strcmp(optarg, "bspline") == 0) {
+                o.kind = CLI_KIND_BSPLINE;
+            } else {
+                free(o.at);
+                return usage_error(c->name,
+                                   "--kind '%s': expected bezier or bspline",
+                                   optarg);
+            }
             break;
         case 'd':
             d = strtoul(optarg, &end, 10);
@@ -421,6 +437,20 @@ int main(int argc, char **argv)
                                               : "expected exactly one DATA.csv");
     }
     o.path = argv[optind];
+    if (o.kind == CLI_KIND_BSPLINE && (o.flags & IT2N_F_CHORD)) {
+        free(o.at);
+        return usage_error(c->name, "%s",
+                           "--chord: the B-spline kind has uniform "
+                           "parameters only");
+    }
+    if (o.kind == CLI_KIND_BSPLINE &&
+        (strcmp(c->name, "plot") == 0 || strcmp(c->name, "export") == 0)) {
+        free(o.at);
+        return usage_error(c->name,
+                           "%s --kind bspline: not available yet (check, "
+                           "solve, eval, sample, deriv and locate are)",
+                           c->name);
+    }
     if ((c->opts & (CLI_O_AT_UW | CLI_O_AT_XY)) && o.nat == 0u) {
         free(o.at);
         return usage_error(c->name, "%s needs at least one --at", c->name);

@@ -1,6 +1,7 @@
 /* conf.c — see conf.h. */
 #include "conf.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -55,6 +56,10 @@ struct parse {
     size_t lcap;
     int line, bad_line, maxline;
     int nkeys;                /* keys in the whole file                 */
+    /* The first line that is neither blank, a comment, a header nor a
+     * "key = value" (libinih calls it a syntax error, without saying why). */
+    int noeq_line;
+    char noeq_text[64], noeq_sec[64];
     const char *bad_why;
     /* The section being read: its header line and name, and whether a key
      * of it was seen (an empty section is an error: its keys are missing). */
@@ -498,6 +503,32 @@ static int key_link(struct parse *p, struct conf_link *l, const char *name, cons
     return 1;
 }
 
+/* [metrics]: the Prometheus endpoint, off unless listen is given. */
+static int key_metrics(struct parse *p, const char *name, const char *v)
+{
+    struct conf_metrics *m = &p->c.metrics;
+    if (!strcmp(name, "listen")) {
+        struct conf_listen l;
+        int rc;
+        memset(&l, 0, sizeof l);
+        if (!strcasecmp(v, "none")) {
+            memset(m, 0, sizeof *m);
+            return 1;
+        }
+        rc = parse_listen(v, &l);
+        if (rc == -2)
+            FAIL("port 0: expected a port 1..65535 (Prometheus must know where to scrape)");
+        if (rc)
+            FAIL("expected host:port, [v6addr]:port, :port or none");
+        memcpy(m->host, l.host, sizeof m->host);
+        memcpy(m->port, l.port, sizeof m->port);
+        m->line = p->line;
+    } else {
+        FAIL("unknown key");
+    }
+    return 1;
+}
+
 /* Named sections "kind:NAME": find or create the entry for NAME. */
 static int handler(void *user, const char *section, const char *name, const char *value)
 {
@@ -532,6 +563,13 @@ static int handler(void *user, const char *section, const char *name, const char
         }
         return key_modbus(p, name, value);
     }
+    if (!strcmp(section, "sparkplug")) {
+        if (spb_conf_key(&c->spb, name, value, p->line, p->err, sizeof p->err))
+            p->err_line = p->line;
+        return !p->err[0];
+    }
+    if (!strcmp(section, "metrics"))
+        return key_metrics(p, name, value);
     if (!strncmp(section, "listen:", 7) && section[7]) {
         int k;
         if (!p->listen_set) {
@@ -653,6 +691,7 @@ void conf_default(struct conf *c)
     c->model[0].preload = 1;
     c->nmodels = 1;
     c->link_backoff_max = 30;
+    spb_conf_default(&c->spb);
 }
 
 /* Cross-key checks, done after the whole file is read. Each error names
@@ -797,6 +836,11 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
                       "%s%s%s:%s is already a listener address", strchr(c->listen[k].host, ':') ? "[" : "",
                       c->listen[k].host, strchr(c->listen[k].host, ':') ? "]" : "", c->listen[k].port);
             }
+    for (int k = 0; k < c->nlisten && c->metrics.port[0]; k++)
+        if (!strcmp(c->listen[k].host, c->metrics.host) && !strcmp(c->listen[k].port, c->metrics.port))
+            VFAIL(c->metrics.line, "metrics", "listen", "%s:%s is also a Modbus listener address (%s%.0d): "
+                  "the metrics endpoint needs a port of its own", c->metrics.host, c->metrics.port,
+                  c->listen[k].line ? "line " : "the built-in default", c->listen[k].line);
     for (int k = 0; k < c->nrtu; k++) {
         const struct conf_rtu *r = &c->rtu[k];
         const struct rs485_origin *o = &p->rs485[k];
@@ -829,6 +873,10 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
                   d[b].device, d[a].kind, d[a].name, d[a].line);
         }
     }
+    if (spb_conf_check(&c->spb, line, key, keysize, err, errsize)) {
+        snprintf(sect, sectsize, "sparkplug");
+        return -1;
+    }
     return 0;
 }
 
@@ -854,6 +902,27 @@ static void section_start(struct parse *p, const char *l)
     p->sec_line = p->line;
     p->sec_keys = 0;
     snprintf(p->sec_name, sizeof p->sec_name, "%.*s", (int)(close - l - 1), l + 1);
+}
+
+/* A line libinih will refuse for want of '=' (or ':'): remember the first
+ * for the message, and count it as an attempted key, so its section is
+ * not reported "empty" instead. */
+static void no_equals(struct parse *p, const char *l)
+{
+    size_t n;
+    while (*l == ' ' || *l == '\t')
+        l++;
+    if (!*l || *l == '\n' || *l == '\r' || *l == ';' || *l == '#' || *l == '[' || strpbrk(l, "=:"))
+        return;
+    p->sec_keys++;
+    if (p->noeq_line)
+        return;
+    p->noeq_line = p->line;
+    n = strcspn(l, "\r\n");
+    while (n > 0 && (l[n - 1] == ' ' || l[n - 1] == '\t'))
+        n--;
+    snprintf(p->noeq_text, sizeof p->noeq_text, "%.*s%s", (int)(n < 48 ? n : 48), l, n > 48 ? "..." : "");
+    snprintf(p->noeq_sec, sizeof p->noeq_sec, "%.63s", p->sec_name);
 }
 
 /* libinih reader: one physical line of the file's text per call, counted;
@@ -890,6 +959,7 @@ static char *reader(char *str, int num, void *stream)
     p->lbuf[n] = 0;
     p->line++;
     section_start(p, p->lbuf);
+    no_equals(p, p->lbuf);
     p->maxline = num - 2; /* room for the newline and the NUL */
     if (p->maxline > CONF_LINE_CAP - 1) /* a header's name must fit sec_name */
         p->maxline = CONF_LINE_CAP - 1;
@@ -1001,6 +1071,138 @@ static const char *section_needs(const char *name)
     return "a section with no keys has no effect; remove it or add keys";
 }
 
+/* The keys of every section, for "did you mean" (keep in step with the
+ * key_* parsers above; tests/daemon/test_conf.c checks each is accepted). */
+static const char *const keys_daemon[] = { "state_dir", "snapshot_interval", "fsync", "max_models",
+                                           "link_backoff_max", "user", NULL };
+static const char *const keys_modbus[] = { "tcp_listen", "max_clients", "idle_timeout", "byte_timeout",
+                                           "tcp_keepalive", "evict_idle", "float_word_order", "int32_word_order",
+                                           "default_model", "coord_scale", "grid_rows", "grid_cols", NULL };
+static const char *const keys_listen[] = { "address", "allow", "read_only", NULL };
+static const char *const keys_rtu[] = { "device", "baud", "parity", "stop_bits", "read_only", "t35_us", "rs485",
+                                        "rs485_rts", "rs485_rts_delay_us", "rs485_rts_on_send",
+                                        "rs485_delay_before_send_ms", "rs485_delay_after_send_ms",
+                                        "rs485_termination", "rs485_strict", NULL };
+static const char *const keys_model[] = { "unit_id", "n", "m", "z", "type1", "chord", "write_protect", "preload",
+                                          "removed", NULL };
+static const char *const keys_link[] = { "type", "device", "baud", "usb", "rto_ms", "peer_timeout_ms", NULL };
+static const char *const keys_metrics[] = { "listen", NULL };
+
+static const struct {
+    const char *name;   /* "daemon", or "rtu:" for [rtu:NAME] */
+    const char *const *keys;
+} sections[] = {
+    { "daemon", keys_daemon }, { "modbus", keys_modbus }, { "metrics", keys_metrics }, { "listen:", keys_listen },
+    { "rtu:", keys_rtu },      { "model:", keys_model },   { "link:", keys_link },
+};
+
+const char *const *conf_section_keys(const char *section)
+{
+    for (size_t k = 0; k < sizeof sections / sizeof sections[0]; k++) {
+        size_t n = strlen(sections[k].name);
+        if (sections[k].name[n - 1] == ':' ? !strncmp(section, sections[k].name, n) : !strcmp(section, sections[k].name))
+            return sections[k].keys;
+    }
+    return NULL;
+}
+
+/* Edit distance with transpositions (optimal string alignment), case
+ * folded; names longer than 40 characters are never close. */
+static int distance(const char *a, const char *b)
+{
+    int d[42][42];
+    int la = (int)strlen(a), lb = (int)strlen(b);
+    if (la > 40 || lb > 40)
+        return 99;
+    for (int i = 0; i <= la; i++)
+        d[i][0] = i;
+    for (int j = 0; j <= lb; j++)
+        d[0][j] = j;
+    for (int i = 1; i <= la; i++)
+        for (int j = 1; j <= lb; j++) {
+            int ca = tolower((unsigned char)a[i - 1]), cb = tolower((unsigned char)b[j - 1]);
+            int v = d[i - 1][j - 1] + (ca != cb);
+            if (d[i - 1][j] + 1 < v)
+                v = d[i - 1][j] + 1;
+            if (d[i][j - 1] + 1 < v)
+                v = d[i][j - 1] + 1;
+            if (i > 1 && j > 1 && ca == tolower((unsigned char)b[j - 2]) && tolower((unsigned char)a[i - 2]) == cb &&
+                d[i - 2][j - 2] + 1 < v)
+                v = d[i - 2][j - 2] + 1;
+            d[i][j] = v;
+        }
+    return d[la][lb];
+}
+
+/* Close enough to be a typo: one edit in a short name, two in a longer. */
+static int close_to(const char *name, const char *key, int *best)
+{
+    int d = distance(name, key), lim = strlen(key) <= 4 ? 1 : 2;
+    if (strlen(key) == 1 && strlen(name) == 1 && tolower((unsigned char)name[0]) != key[0])
+        return 0; /* "x" is not a typo of "n" */
+    if (d > lim || d >= *best)
+        return 0;
+    *best = d;
+    return 1;
+}
+
+const char *conf_suggest_key(const char *section, const char *name, const char **where)
+{
+    const char *const *keys = conf_section_keys(section);
+    const char *hit = NULL;
+    int best = 99;
+    *where = NULL;
+    for (int k = 0; keys && keys[k]; k++)
+        if (close_to(name, keys[k], &best))
+            hit = keys[k];
+    if (hit)
+        return hit;
+    /* A key of another section, written in the wrong one. */
+    for (size_t s = 0; s < sizeof sections / sizeof sections[0]; s++) {
+        if (sections[s].keys == keys)
+            continue;
+        for (int k = 0; sections[s].keys[k]; k++)
+            if (!strcasecmp(name, sections[s].keys[k])) {
+                *where = sections[s].name;
+                return sections[s].keys[k];
+            }
+    }
+    return NULL;
+}
+
+/* " (did you mean ...?)" for an unknown key or section, or "". */
+static void suggest(const struct parse *p, char *out, size_t size)
+{
+    const char *where, *hit;
+    int best = 99;
+    out[0] = 0;
+    if (!strcmp(p->err, "unknown key")) {
+        hit = conf_suggest_key(p->sec, p->key, &where);
+        if (hit && !where)
+            snprintf(out, size, ": did you mean '%s'?", hit);
+        else if (hit)
+            snprintf(out, size, ": '%s' is a key of [%s%s]", hit, where,
+                     where[strlen(where) - 1] == ':' ? "NAME" : "");
+        else if (conf_section_keys(p->sec))
+            snprintf(out, size, " in this section (docs/daemon.md lists the keys)");
+    } else if (!strcmp(p->err, "unknown section")) {
+        char kind[64];
+        const char *colon = strchr(p->sec, ':');
+        snprintf(kind, sizeof kind, "%.*s", colon ? (int)(colon - p->sec + 1) : (int)strlen(p->sec), p->sec);
+        hit = NULL;
+        for (size_t s = 0; s < sizeof sections / sizeof sections[0]; s++)
+            if (close_to(kind, sections[s].name, &best))
+                hit = sections[s].name;
+        if (hit && hit[strlen(hit) - 1] == ':')
+            snprintf(out, size, ": did you mean [%s%s]?", hit, colon ? colon + 1 : "NAME");
+        else if (hit)
+            snprintf(out, size, ": did you mean [%s]?", hit);
+        else
+            snprintf(out, size, " (known: [daemon], [modbus], [metrics], [listen:NAME], [rtu:NAME], [model:ID], "
+                     "[link:NAME])");
+    }
+}
+
 int conf_default_unit(const struct conf *c)
 {
     if (c->default_model == CONF_DEFAULT_NONE || (c->default_model == CONF_DEFAULT_AUTO && c->nmodels != 1))
@@ -1030,6 +1232,23 @@ int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t e
             snprintf(err, errsize, "%s:%d: [%s%s] %s: cannot resolve host '%s': %s", path ? path : "built-in",
                      l->line, l->name[0] ? "listen:" : "modbus", l->name, l->name[0] ? "address" : "tcp_listen",
                      l->host, rc == EAI_SYSTEM ? strerror(errno) : gai_strerror(rc));
+            return -1;
+        }
+    }
+    if (c->metrics.port[0] && c->metrics.host[0]) {
+        struct addrinfo hints, *res = NULL;
+        int rc;
+        memset(&hints, 0, sizeof hints);
+        hints.ai_family = AF_UNSPEC;
+        hints.ai_socktype = SOCK_STREAM;
+        hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
+        rc = getaddrinfo(c->metrics.host, c->metrics.port, &hints, &res);
+        if (res)
+            freeaddrinfo(res);
+        if (rc) {
+            snprintf(err, errsize, "%s:%d: [metrics] listen: cannot resolve host '%s': %s",
+                     path && c->metrics.line ? path : "--metrics", c->metrics.line, c->metrics.host,
+                     rc == EAI_SYSTEM ? strerror(errno) : gai_strerror(rc));
             return -1;
         }
     }
@@ -1089,11 +1308,23 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
         rc = 1;
     } else if (p->err[0] && (rc <= 0 || p->err_line <= rc)) {
         /* The first error in the file: ours (a key) before any syntax error. */
+        char hint[160];
+        suggest(p, hint, sizeof hint);
         if (p->syntax)
             snprintf(err, errsize, "%s:%d: syntax error: %s", path, p->err_line, p->err);
         else
-            snprintf(err, errsize, "%s:%d: [%s] %s: %s", path, p->err_line, p->sec, p->key, p->err);
+            snprintf(err, errsize, "%s:%d: [%s] %s: %s%s", path, p->err_line, p->sec, p->key, p->err, hint);
         rc = 1;
+    } else if (rc > 0 && rc == p->noeq_line) {
+        char word[64];
+        const char *const *keys = conf_section_keys(p->noeq_sec);
+        int known = 0;
+        snprintf(word, sizeof word, "%.*s", (int)strcspn(p->noeq_text, " \t"), p->noeq_text);
+        for (int k = 0; keys && keys[k]; k++)
+            known |= !strcmp(word, keys[k]);
+        snprintf(err, errsize, "%s:%d: [%s] '%s': no '=' in this line: expected key = value%s%s%s", path, rc,
+                 p->noeq_sec[0] ? p->noeq_sec : "(no section)", p->noeq_text, known ? " (" : "",
+                 known ? word : "", known ? " = ...?)" : "");
     } else if (rc > 0) {
         snprintf(err, errsize, "%s:%d: syntax error", path, rc);
     } else if (p->bad_line) {
@@ -1155,5 +1386,76 @@ int conf_check_devices(const struct conf *c, const char *path, char *err, size_t
     snprintf(err, errsize, "%s:%d: [%s:%s] device: %s is the same device as %s of [%s:%s] (line %d), both %s: "
              DEV_CONFLICT_WHY, path ? path : "built-in", d[b].line, d[b].kind, d[b].name, d[b].device, d[a].device,
              d[a].kind, d[a].name, d[a].line, real);
+    return -1;
+}
+
+/* "[v6]:port" or "host:port" of a listener, for messages. */
+static const char *addr_text(const char *host, const char *port, char *buf, size_t size)
+{
+    int v6 = strchr(host, ':') != NULL;
+    snprintf(buf, size, "%s%s%s:%s", v6 ? "[" : "", host, v6 ? "]" : "", port);
+    return buf;
+}
+
+int conf_apply_override(struct conf *c, const struct conf_override *o, char *err, size_t errsize)
+{
+    struct conf *n = malloc(sizeof *n);
+    char a[96];
+    if (!n) {
+        snprintf(err, errsize, "out of memory");
+        return -1;
+    }
+    *n = *c;
+    if (o->nlisten > 0) {
+        n->nlisten = 0;
+        for (int k = 0; k < o->nlisten && k < CONF_MAX_LISTEN; k++) {
+            struct conf_listen *l = &n->listen[n->nlisten];
+            int rc;
+            memset(l, 0, sizeof *l);
+            rc = parse_listen(o->listen[k], l);
+            if (rc) {
+                snprintf(err, errsize, "--listen '%s': %s", o->listen[k],
+                         rc == -2 ? "port 0: expected a port 1..65535" : "expected HOST:PORT, [V6ADDR]:PORT or :PORT");
+                goto fail;
+            }
+            for (int j = 0; j < n->nlisten; j++)
+                if (!strcmp(n->listen[j].host, l->host) && !strcmp(n->listen[j].port, l->port)) {
+                    snprintf(err, errsize, "--listen '%s': given twice", o->listen[k]);
+                    goto fail;
+                }
+            n->nlisten++;
+        }
+    }
+    if (o->state_dir && copy_str(n->state_dir, sizeof n->state_dir, o->state_dir)) {
+        snprintf(err, errsize, "--state-dir '%s': path empty or longer than %d bytes", o->state_dir, CONF_PATH - 1);
+        goto fail;
+    }
+    if (o->metrics && !strcasecmp(o->metrics, "none")) {
+        memset(&n->metrics, 0, sizeof n->metrics);
+    } else if (o->metrics) {
+        struct conf_listen l;
+        int rc;
+        memset(&l, 0, sizeof l);
+        rc = parse_listen(o->metrics, &l);
+        if (rc) {
+            snprintf(err, errsize, "--metrics '%s': %s", o->metrics,
+                     rc == -2 ? "port 0: expected a port 1..65535" : "expected HOST:PORT, [V6ADDR]:PORT, :PORT or none");
+            goto fail;
+        }
+        memcpy(n->metrics.host, l.host, sizeof n->metrics.host);
+        memcpy(n->metrics.port, l.port, sizeof n->metrics.port);
+        n->metrics.line = 0;
+    }
+    for (int k = 0; k < n->nlisten && n->metrics.port[0]; k++)
+        if (!strcmp(n->listen[k].host, n->metrics.host) && !strcmp(n->listen[k].port, n->metrics.port)) {
+            snprintf(err, errsize, "%s: the metrics endpoint and a Modbus listener on one address; give --metrics "
+                     "(or [metrics] listen) a port of its own", addr_text(n->metrics.host, n->metrics.port, a, sizeof a));
+            goto fail;
+        }
+    *c = *n;
+    free(n);
+    return 0;
+fail:
+    free(n);
     return -1;
 }

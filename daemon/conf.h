@@ -16,6 +16,7 @@
 #define CONF_MAX_ALLOW 32
 
 #include "acl.h"
+#include "spb_conf.h"
 
 struct conf_listen {
     char name[CONF_NAME];    /* [listen:NAME]; "" for a tcp_listen line */
@@ -90,6 +91,13 @@ struct conf_link {
     int device_line;         /* config line of device, for conflicts */
 };
 
+/* [metrics] listen: the Prometheus endpoint (daemon/metrics.c). */
+struct conf_metrics {
+    char host[64];
+    char port[8];            /* "" = off (the default) */
+    int line;                /* config line of listen, 0 built-in or a flag */
+};
+
 struct conf {
     char state_dir[CONF_PATH];
     int snapshot_interval;   /* s */
@@ -121,6 +129,8 @@ struct conf {
     int link_backoff_max;    /* s */
     char user[CONF_NAME];    /* "" = keep the starting user          */
     unsigned uid, gid;       /* resolved from user at load           */
+    struct spb_conf spb;     /* [sparkplug] (spb_conf.h)             */
+    struct conf_metrics metrics;
 };
 
 #define CONF_DEFAULT_AUTO (-1) /* the only model, when exactly one is configured */
@@ -150,6 +160,29 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize);
  * instead of at bind time. Kept out of conf_load so parsing (and its
  * fuzzer) never waits for DNS. Returns 0 or -1 with err written. */
 int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t errsize);
+
+/* Command-line settings that override the file (it2nd --listen,
+ * --state-dir, --metrics): the common case without a configuration file.
+ * listen[] replaces every TCP listener of the file ([modbus] tcp_listen
+ * and [listen:NAME] sections, their access policy included). */
+struct conf_override {
+    const char *listen[CONF_MAX_LISTEN];
+    int nlisten;
+    const char *state_dir;   /* NULL: the file's */
+    const char *metrics;     /* NULL: the file's; "none": off */
+};
+
+/* Apply o over c (after conf_default/conf_load) and check what the flags
+ * change as the file's keys are checked. Returns 0, or -1 with
+ * "--flag 'VALUE': reason" in err and c unchanged. */
+int conf_apply_override(struct conf *c, const struct conf_override *o, char *err, size_t errsize);
+
+/* The known keys of a section ("daemon", "modbus", "model:1", ...), NULL
+ * for an unknown section; and the key of that list (or of another
+ * section, returned in *where) nearest to a misspelt name, or NULL when
+ * none is close. For "did you mean" in conf_load's errors. */
+const char *const *conf_section_keys(const char *section);
+const char *conf_suggest_key(const char *section, const char *name, const char **where);
 
 /* Whether c removes model id with removed = yes. */
 int conf_removes(const struct conf *c, int id);

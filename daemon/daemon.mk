@@ -1,13 +1,17 @@
 # daemon/: it2nd, the Linux daemon (Modbus TCP/RTU, links, persistence).
 # Exports IT2ND (host build) and IT2ND_SAN (ASan+UBSan build).
-DAEMON_PKGS := libmodbus inih libusb-1.0
+DAEMON_PKGS := libmodbus inih libusb-1.0 libmicrohttpd libmosquitto libprotobuf-c libssl libcrypto
 DAEMON_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(BUILD)/daemon $(shell pkg-config --cflags $(DAEMON_PKGS) 2>/dev/null)
 DAEMON_LIBS := $(shell pkg-config --libs $(DAEMON_PKGS) 2>/dev/null) -lm -pthread
 DAEMON_SRC := $(wildcard daemon/*.c)
-DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) $(wildcard protocol/it2n_*.h)
+# The Sparkplug B payload code, generated from daemon/spb.proto by protoc-c
+# (docs/sparkplug.md, "Encoding").
+SPB_PB_C := $(BUILD)/daemon/spb.pb-c.c
+SPB_PB_H := $(BUILD)/daemon/spb.pb-c.h
+DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) $(wildcard protocol/it2n_*.h) $(SPB_PB_H)
 DAEMON_GEN := $(BUILD)/daemon/paper_data.c
-DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/host/%.o) $(BUILD)/host/daemon/paper_data.o
-DAEMON_SAN_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/san/%.o) $(BUILD)/san/daemon/paper_data.o
+DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/host/%.o) $(BUILD)/host/daemon/paper_data.o $(BUILD)/host/daemon/spb.pb-c.o
+DAEMON_SAN_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/san/%.o) $(BUILD)/san/daemon/paper_data.o $(BUILD)/san/daemon/spb.pb-c.o
 IT2ND := $(BUILD)/host/it2nd
 IT2ND_SAN := $(BUILD)/san/it2nd
 GEN_REGISTERS := $(BUILD)/host/gen_registers
@@ -25,6 +29,19 @@ $(BUILD)/host/daemon/paper_data.o: $(DAEMON_GEN) daemon/paper_data.h
 	$(CC) $(DAEMON_CFLAGS) -c $< -o $@
 
 $(BUILD)/san/daemon/paper_data.o: $(DAEMON_GEN) daemon/paper_data.h
+	@mkdir -p $(@D)
+	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) -c $< -o $@
+
+$(SPB_PB_H): $(SPB_PB_C)
+$(SPB_PB_C): daemon/spb.proto
+	@mkdir -p $(@D)
+	protoc-c --c_out=$(@D) -Idaemon $<
+
+$(BUILD)/host/daemon/spb.pb-c.o: $(SPB_PB_C) $(SPB_PB_H)
+	@mkdir -p $(@D)
+	$(CC) $(DAEMON_CFLAGS) -c $< -o $@
+
+$(BUILD)/san/daemon/spb.pb-c.o: $(SPB_PB_C) $(SPB_PB_H)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) -c $< -o $@
 
@@ -50,12 +67,19 @@ $(GEN_REGISTERS): daemon/tools/gen_registers.c daemon/it2n_regmap.c daemon/it2n_
 docs/registers.md: $(GEN_REGISTERS)
 	$(GEN_REGISTERS) > $@.tmp && mv $@.tmp $@
 
-run: deps all ## Build everything and start it2nd in the foreground on its built-in default
-	@echo "it2nd: Modbus TCP on 127.0.0.1:1502, model 1 on unit 1 (paper data), state in ./state"
+# make run PORT=15020 STATE=./state2 METRICS=127.0.0.1:9102: the same as
+# it2nd --listen 127.0.0.1:15020 --state-dir ./state2 --metrics ... (PORT
+# may be HOST:PORT).
+RUN_LISTEN = $(if $(PORT),$(if $(findstring :,$(PORT)),$(PORT),127.0.0.1:$(PORT)),127.0.0.1:1502)
+RUN_PORT = $(lastword $(subst :, ,$(RUN_LISTEN)))
+RUN_HOST = $(patsubst %:$(RUN_PORT),%,$(RUN_LISTEN))
+RUN_FLAGS = $(if $(PORT),--listen $(RUN_LISTEN)) $(if $(STATE),--state-dir $(STATE)) $(if $(METRICS),--metrics $(METRICS))
+run: deps all ## Start it2nd in the foreground (PORT=15020 STATE=./state2 METRICS=127.0.0.1:9102 optional)
+	@echo "it2nd: Modbus TCP on $(RUN_LISTEN), model 1 on unit 1 (paper data), state in $(or $(STATE),./state)$(if $(METRICS), metrics on http://$(METRICS)/metrics)"
 	@echo "query it from another shell, e.g. the status block and the D-footprint sample grid:"
-	@echo "  mbpoll -m tcp -a 1 -0 -r 0 -c 10 -t 3 -1 127.0.0.1 -p 1502"
-	@echo "  mbpoll -m tcp -a 1 -0 -r 1024 -c 12 -t 4 -1 127.0.0.1 -p 1502"
-	exec $(IT2ND) --foreground -v
+	@echo "  mbpoll -m tcp -a 1 -0 -r 0 -c 10 -t 3 -1 $(RUN_HOST) -p $(RUN_PORT)"
+	@echo "  mbpoll -m tcp -a 1 -0 -r 1024 -c 12 -t 4 -1 $(RUN_HOST) -p $(RUN_PORT)"
+	exec $(IT2ND) --foreground -v $(RUN_FLAGS)
 
 .PHONY: install-daemon
 install-daemon: $(IT2ND)

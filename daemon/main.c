@@ -5,10 +5,14 @@
 #include <getopt.h>
 #include <grp.h>
 #include <pwd.h>
+#include <netdb.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "conf.h"
@@ -17,8 +21,11 @@
 #include "loop.h"
 #include "mb_rtu.h"
 #include "mb_tcp.h"
+#include "metrics.h"
 #include "models.h"
 #include "notify.h"
+#include "spb.h"
+#include "porthint.h"
 #include "store.h"
 
 #ifndef IT2ND_VERSION
@@ -29,6 +36,7 @@ static volatile sig_atomic_t sig_stop, sig_reload;
 static int sig_pipe[2] = { -1, -1 };
 static struct conf cfg;
 static const char *conf_path;
+static struct conf_override ovr;  /* --listen, --state-dir, --metrics */
 static struct mb_opts mbo;
 static long snap_timer, wd_timer, recover_timer;
 static int snap_due, recover_due;
@@ -58,18 +66,24 @@ static void on_sig_pipe(void *arg, int fd, short revents)
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: it2nd [-c FILE] [--check-config] [--accept-wal-loss] [--foreground] [-v...] [--help]\n"
-            "             [--version]\n"
-            "  -c, --config FILE   configuration (INI); default: built-in (Modbus TCP\n"
-            "                      127.0.0.1:1502, model 1 on unit 1 with the paper data)\n"
-            "  -t, --check-config  validate the configuration and exit\n"
-            "  --accept-wal-loss   the operator's act after damage inside the WAL: cut the\n"
-            "                      WAL at the damaged record (the rest kept in wal.cut-*),\n"
-            "                      log the records given up, and exit (docs/daemon.md)\n"
-            "  -f, --foreground    log to stderr (default when not started by systemd: syslog)\n"
-            "  -v, --verbose       more logging (-vv debug)\n"
-            "  -h, --help          this text\n"
-            "  -V, --version       print the version\n");
+            "usage: it2nd [-c FILE] [--listen HOST:PORT] [--state-dir DIR] [--metrics HOST:PORT]\n"
+            "             [--check-config] [--accept-wal-loss] [--foreground] [-v...] [--help] [--version]\n"
+            "  -c, --config FILE     configuration (INI); default: built-in (Modbus TCP\n"
+            "                        127.0.0.1:1502, model 1 on unit 1 with the paper data)\n"
+            "  -l, --listen HOST:PORT  Modbus TCP address (repeatable); replaces the\n"
+            "                        file's listeners ([modbus] tcp_listen, [listen:NAME])\n"
+            "  -s, --state-dir DIR   state directory (WAL, snapshot); overrides state_dir\n"
+            "  -m, --metrics HOST:PORT  Prometheus endpoint (GET /metrics), or none;\n"
+            "                        overrides [metrics] listen (default: off)\n"
+            "  -t, --check-config    validate the configuration, check that the state\n"
+            "                        directory is writable and the ports free, and exit\n"
+            "  --accept-wal-loss     the operator's act after damage inside the WAL: cut the\n"
+            "                        WAL at the damaged record (the rest kept in wal.cut-*),\n"
+            "                        log the records given up, and exit (docs/daemon.md)\n"
+            "  -f, --foreground      log to stderr (default when not started by systemd: syslog)\n"
+            "  -v, --verbose         more logging (-vv debug)\n"
+            "  -h, --help            this text\n"
+            "  -V, --version         print the version\n");
 }
 
 static void fill_opts(void)
@@ -88,13 +102,27 @@ static void fill_opts(void)
 
 static int load_conf(struct conf *c)
 {
+    static int warned;
     char err[512];
+    int policies = 0;
     conf_default(c);
-    if ((conf_path && conf_load(c, conf_path, err, sizeof err)) ||
-        conf_check_devices(c, conf_path, err, sizeof err) || conf_check_hosts(c, conf_path, err, sizeof err)) {
+    if (conf_path && conf_load(c, conf_path, err, sizeof err)) {
         log_err("%s", err);
         return -1;
     }
+    for (int k = 0; k < c->nlisten; k++)
+        policies += c->listen[k].nallow > 0 || c->listen[k].read_only;
+    if (conf_apply_override(c, &ovr, err, sizeof err) || conf_check_devices(c, conf_path, err, sizeof err) ||
+        conf_check_hosts(c, conf_path, err, sizeof err) || spb_conf_check_tls(&c->spb, conf_path, err, sizeof err)) {
+        log_err("%s", err);
+        return -1;
+    }
+    /* --listen replaces the file's listeners, access policy included:
+     * say so once rather than widen access silently. */
+    if (ovr.nlisten && policies && !warned++)
+        log_warn("--listen replaces the listeners of %s, %d of them with an access policy (allow, read_only): "
+                 "the --listen address%s ha%s none", conf_path, policies, ovr.nlisten > 1 ? "es" : "",
+                 ovr.nlisten > 1 ? "ve" : "s");
     return 0;
 }
 
@@ -153,6 +181,7 @@ static void on_model_changed(void *arg, const struct model *md, int old_state, u
     else if (md->state != old_state)
         log_info("model %d: %s", md->id, md->state == IT2N_RS_EMPTY ? "cleared" : "points missing");
     links_event(md, old_state);
+    spb_model_changed(md->id);
 }
 
 /* The store is degraded (an I/O error): try a checkpoint every second. */
@@ -229,6 +258,7 @@ static void on_done(const struct store_done *d)
         if (d->us > 100000)
             log_debug("wal: group commit took %llu ms", (unsigned long long)(d->us / 1000));
         models_batch_done(d->ok, on_model_changed, NULL);
+        spb_batch_done(); /* every durable change, not only state/generation moves */
         release_upto(d->ok ? d->batch : UINT64_MAX, d->ok);
     }
     arm_recover();
@@ -494,6 +524,12 @@ static void reload(void)
         log_warn("reload: state_dir change (%s -> %s) takes effect at restart", cfg.state_dir, nc.state_dir);
         snprintf(nc.state_dir, sizeof nc.state_dir, "%s", cfg.state_dir);
     }
+    if (strcmp(nc.metrics.host, cfg.metrics.host) || strcmp(nc.metrics.port, cfg.metrics.port)) {
+        log_warn("reload: [metrics] listen change (%s -> %s%s%s) takes effect at restart",
+                 metrics_address()[0] ? metrics_address() : "off", nc.metrics.port[0] ? nc.metrics.host : "off",
+                 nc.metrics.port[0] ? ":" : "", nc.metrics.port);
+        nc.metrics = cfg.metrics;
+    }
     if (strcmp(nc.user, cfg.user)) {
         log_warn("reload: user change takes effect at restart");
         memcpy(nc.user, cfg.user, sizeof nc.user);
@@ -506,10 +542,143 @@ static void reload(void)
     mb_tcp_reload(&cfg, &mbo);
     mb_rtu_reload(&cfg, &mbo);
     links_reload(&cfg);
+    spb_reload(&cfg);
     loop_cancel_timer(snap_timer);
     snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
     notify_send("READY=1");
     log_notice("configuration reloaded (%d models)", models_count());
+}
+
+/* --check-config: whether a running it2nd holds state_dir's lock (then
+ * the ports it listens on are expected to be in use). */
+static int state_dir_in_use(const char *dir)
+{
+    char path[CONF_PATH + 8];
+    int fd, busy = 0;
+    snprintf(path, sizeof path, "%s/lock", dir);
+    fd = open(path, O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
+    if (fd < 0)
+        return 0;
+    if (flock(fd, LOCK_SH | LOCK_NB) && errno == EWOULDBLOCK)
+        busy = 1;
+    close(fd); /* releases a shared lock taken just now */
+    return busy;
+}
+
+/* --check-config: a file can be created in dir (then removed); access()
+ * would say yes to root on a read-only mount. Returns 0 or errno. */
+static int try_write(const char *dir)
+{
+    char path[CONF_PATH + 32];
+    int fd;
+    snprintf(path, sizeof path, "%s/.it2nd-check-XXXXXX", dir);
+    fd = mkstemp(path);
+    if (fd < 0)
+        return errno;
+    close(fd);
+    unlink(path);
+    return 0;
+}
+
+/* --check-config: the daemon could create and write state_dir, tried the
+ * way store_open does it: an existing directory gets a file created and
+ * removed; a missing one is created (one mkdir: the daemon creates the
+ * last component only) for the test and removed again, so the check
+ * leaves nothing behind. Returns 0 or -1 (logged). */
+static int check_state_dir(const char *dir)
+{
+    struct stat st;
+    int made = 0, e = 0;
+    const char *who = cfg.user[0] ? cfg.user : "the user it2nd runs as";
+    if (stat(dir, &st) == 0 && !S_ISDIR(st.st_mode)) {
+        log_err("state_dir %s: exists and is not a directory; choose another (state_dir or --state-dir)", dir);
+        return -1;
+    }
+    if (stat(dir, &st) != 0 && errno != ENOENT) {
+        log_err("state_dir %s: %s; the daemon could not use it: make it reachable by %s or choose another "
+                "(state_dir or --state-dir)", dir, strerror(errno), who);
+        return -1;
+    }
+    if (stat(dir, &st) != 0) {
+        if (mkdir(dir, 0750) == 0) {
+            made = 1;
+        } else {
+            e = errno;
+            log_err("state_dir %s: cannot be created: %s%s; create it (writable by %s) or choose another (state_dir "
+                    "or --state-dir)", dir, strerror(e), e == ENOENT ? " (its parent directory does not exist; "
+                    "it2nd creates the last component only)" : "", who);
+        }
+    }
+    if (!e && (e = try_write(dir)) != 0)
+        log_err("state_dir %s: not writable (creating a file: %s); the daemon could not keep its WAL there: make it "
+                "writable by %s or choose another (state_dir or --state-dir)", dir, strerror(e), who);
+    if (made)
+        rmdir(dir);
+    return e ? -1 : 0;
+}
+
+/* --check-config: bind host:port now (then close). In use: an error, or
+ * only a warning while a running it2nd holds this state_dir (it is the
+ * daemon being checked before a reload or restart). Returns 0 or -1. */
+static int check_port(const char *what, const char *host, const char *port, const char *flag, int running)
+{
+    struct addrinfo hints, *res = NULL, *ai;
+    int rc, e = 0, v6 = strchr(host, ':') != NULL;
+    memset(&hints, 0, sizeof hints);
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
+    rc = getaddrinfo(host[0] ? host : NULL, port, &hints, &res);
+    if (rc)
+        return 0; /* conf_check_hosts has said it */
+    for (ai = res; ai; ai = ai->ai_next) {
+        int one = 1, fd = socket(ai->ai_family, ai->ai_socktype | SOCK_CLOEXEC, 0);
+        if (fd < 0)
+            continue;
+        setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+        if (ai->ai_family == AF_INET6)
+            setsockopt(fd, IPPROTO_IPV6, IPV6_V6ONLY, &one, sizeof one);
+        if (bind(fd, ai->ai_addr, ai->ai_addrlen) && !e)
+            e = errno;
+        close(fd);
+    }
+    freeaddrinfo(res);
+    if (!e)
+        return 0;
+    if (e == EADDRINUSE) {
+        char hint[320];
+        if (running) {
+            porthint_holder(atoi(port), hint, sizeof hint);
+            log_warn("%s %s%s%s:%s: in use%s%s while a running it2nd holds %s/lock: presumably that daemon's own "
+                     "listener (not an error)", what, v6 ? "[" : "", host, v6 ? "]" : "", port, hint[0] ? " by " : "",
+                     hint, cfg.state_dir);
+            return 0;
+        }
+        porthint_in_use(host, port, flag, hint, sizeof hint);
+        log_err("%s: %s", what, hint);
+        return -1;
+    }
+    log_err("%s %s%s%s:%s: cannot bind: %s%s", what, v6 ? "[" : "", host, v6 ? "]" : "", port, strerror(e),
+            e == EACCES ? " (ports below 1024 need root or CAP_NET_BIND_SERVICE)" :
+            e == EADDRNOTAVAIL ? " (no such local address)" : "");
+    return -1;
+}
+
+static int check_runtime(void)
+{
+    int bad = 0, running = state_dir_in_use(cfg.state_dir);
+    if (running)
+        log_warn("state_dir %s: locked by a running it2nd (fine when checking before a reload; a second daemon "
+                 "on it would refuse to start)", cfg.state_dir);
+    else
+        bad |= check_state_dir(cfg.state_dir);
+    for (int k = 0; k < cfg.nlisten; k++)
+        bad |= check_port("modbus tcp listen", cfg.listen[k].host, cfg.listen[k].port,
+                          "it2nd --listen HOST:PORT, or tcp_listen / address in the configuration", running);
+    if (cfg.metrics.port[0])
+        bad |= check_port("metrics listen", cfg.metrics.host, cfg.metrics.port,
+                          "it2nd --metrics HOST:PORT, or [metrics] listen", running);
+    return bad ? -1 : 0;
 }
 
 int main(int argc, char **argv)
@@ -518,12 +687,23 @@ int main(int argc, char **argv)
         { "config", required_argument, NULL, 'c' }, { "check-config", no_argument, NULL, 't' },
         { "foreground", no_argument, NULL, 'f' },   { "verbose", no_argument, NULL, 'v' },
         { "help", no_argument, NULL, 'h' },         { "version", no_argument, NULL, 'V' },
-        { "accept-wal-loss", no_argument, NULL, 'A' }, { NULL, 0, NULL, 0 }
+        { "accept-wal-loss", no_argument, NULL, 'A' }, { "listen", required_argument, NULL, 'l' },
+        { "state-dir", required_argument, NULL, 's' }, { "metrics", required_argument, NULL, 'm' },
+        { NULL, 0, NULL, 0 }
     };
     int opt, check = 0, fg = 0, verbose = 0, accept_loss = 0;
-    while ((opt = getopt_long(argc, argv, "c:tfvhV", lopts, NULL)) != -1) {
+    while ((opt = getopt_long(argc, argv, "c:tfvhVl:s:m:", lopts, NULL)) != -1) {
         switch (opt) {
         case 'c': conf_path = optarg; break;
+        case 'l':
+            if (ovr.nlisten == CONF_MAX_LISTEN) {
+                fprintf(stderr, "it2nd: --listen: at most %d addresses\n", CONF_MAX_LISTEN);
+                return 2;
+            }
+            ovr.listen[ovr.nlisten++] = optarg;
+            break;
+        case 's': ovr.state_dir = optarg; break;
+        case 'm': ovr.metrics = optarg; break;
         case 't': check = 1; break;
         case 'f': fg = 1; break;
         case 'v': verbose++; break;
@@ -541,11 +721,14 @@ int main(int argc, char **argv)
     if (load_conf(&cfg))
         return 1;
     if (check) {
-        printf("%s: configuration OK (%d listen, %d rtu, %d models, %d links", conf_path ? conf_path : "built-in",
+        if (check_runtime())
+            return 1;
+        printf("%s%s: configuration OK (%d listen, %d rtu, %d models, %d links", conf_path ? conf_path : "built-in",
+               ovr.nlisten || ovr.state_dir || ovr.metrics ? " with flags" : "",
                cfg.nlisten, cfg.nrtu, cfg.nmodels, cfg.nlinks);
         for (int k = 0; k < cfg.nremoved; k++)
             printf("%s%d", k ? ", " : "; removed = yes: model ", cfg.removed[k]);
-        printf(")\n");
+        printf("%s)\n", cfg.metrics.port[0] ? ", metrics" : "");
         return 0;
     }
     notify_init();
@@ -591,8 +774,12 @@ int main(int argc, char **argv)
         log_err("no Modbus endpoint could be opened");
         return 1;
     }
+    if (metrics_start(&cfg))
+        return 1;
     links_start(&cfg);
     if (drop_privileges())
+        return 1;
+    if (spb_start(&cfg, IT2ND_VERSION))
         return 1;
     snap_timer = loop_add_timer((uint64_t)cfg.snapshot_interval * 1000u, on_snapshot, NULL);
     if (notify_watchdog_ms())
@@ -615,6 +802,8 @@ int main(int argc, char **argv)
     notify_send("STOPPING=1");
     log_notice("stopping: flushing state");
     drain();
+    spb_stop(); /* after drain: its changes go out as DDATA before the NDEATH */
+    metrics_stop();
     links_stop();
     mb_rtu_stop();
     mb_tcp_stop();

@@ -8,6 +8,7 @@
 #include "it2n_regmap.h"
 #include "errs.h"
 #include "log.h"
+#include "metrics.h"
 #include "store.h"
 
 int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp)
@@ -40,6 +41,7 @@ static int exception(struct mb_session *s, struct model *md, const uint8_t *req,
     int hl = modbus_get_header_length(s->ctx);
     if (md)
         md->mb.exceptions++;
+    metrics_modbus_reply(req[hl], code);
     if (req[hl] & 0x80u) {
         uint8_t copy[MODBUS_TCP_MAX_ADU_LENGTH > MODBUS_RTU_MAX_ADU_LENGTH ? MODBUS_TCP_MAX_ADU_LENGTH
                                                                          : MODBUS_RTU_MAX_ADU_LENGTH];
@@ -233,6 +235,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
     }
     if (rc != MBX_OK)
         return exception(s, md, req, rc);
+    metrics_modbus_reply(fc, 0);
     return modbus_reply(s->ctx, req, len, s->map) < 0 ? -1 : 0;
 }
 
@@ -254,5 +257,6 @@ int mb_req_release(struct mb_session *s, int commit_ok)
     }
     if (exc != MBX_OK)
         return exception(s, s->held_model, s->held, exc);
+    metrics_modbus_reply(s->held[modbus_get_header_length(s->ctx)], 0);
     return modbus_reply(s->ctx, s->held, len, s->map) < 0 ? -1 : 0;
 }

@@ -17,6 +17,7 @@
 #include "log.h"
 #include "loop.h"
 #include "mb_req.h"
+#include "porthint.h"
 
 /* Admission (docs/daemon.md, "Connection slots"). A connection takes one
  * of max_clients slots only with its first complete request; until then it
@@ -558,7 +559,14 @@ static int open_listener(const struct conf_listen *l)
             setsockopt(fd, IPPROTO_IPV6, IPV6_V6ONLY, &v6only, sizeof v6only);
         if (bind(fd, ai->ai_addr, ai->ai_addrlen) == 0 && listen(fd, 1024) == 0)
             break;
-        log_err("tcp listen %s:%s: %s", l->host, l->port, strerror(errno));
+        if (errno == EADDRINUSE) {
+            char hint[320];
+            porthint_in_use(l->host, l->port, "it2nd --listen HOST:PORT, or tcp_listen / address in the configuration",
+                            hint, sizeof hint);
+            log_err("tcp listen %s:%s: %s: %s", l->host, l->port, strerror(EADDRINUSE), hint);
+        } else {
+            log_err("tcp listen %s:%s: %s", l->host, l->port, strerror(errno));
+        }
         close(fd);
         fd = -1;
     }

@@ -72,6 +72,19 @@
 #error "IT2N_COORD_LIMIT must be within 1..8388607"
 #endif
 
+/* Largest number of intervals n, m per direction of a B-spline model (grid
+ * up to (n+1) x (n+1) points, see "B-spline kind" below). Bounds the solve's
+ * stack (about 11 bytes per interval on MCUs, 20 on 64-bit hosts, which
+ * solve two lines at a time); MCU builds with small grids set it lower.
+ * Storage itself is the caller's and sized per grid. */
+#ifndef IT2N_BSPLINE_MAX_N
+#define IT2N_BSPLINE_MAX_N 255
+#endif
+
+#if IT2N_BSPLINE_MAX_N < 1 || IT2N_BSPLINE_MAX_N > 255
+#error "IT2N_BSPLINE_MAX_N must be within 1..255"
+#endif
+
 #if IT2N_LOCATE_GRID < 1 || IT2N_LOCATE_GRID > 64 || IT2N_LOCATE_MAX_ITER < 1
 #error "IT2N_LOCATE_GRID must be within 1..64 and IT2N_LOCATE_MAX_ITER >= 1"
 #endif
@@ -358,6 +371,188 @@ typedef struct it2n_locate_result {
  */
 int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
                 it2n_locate_result *out, it2n_errinfo *err);
+
+/* ---- B-spline kind (cubic, not-a-knot) ----------------------------------- */
+
+/*
+ * The second model kind: tensor-product cubic B-spline interpolation through
+ * every data point of an (n+1) x (m+1) grid, n, m in 1..IT2N_BSPLINE_MAX_N
+ * (up to 256 x 256 points), for every footprint and channel as the Bezier
+ * kind, on the uniform parameters u_i = i/n, w_j = j/m with not-a-knot end
+ * conditions: the interpolant of MATLAB's spline / interp2(..., 'spline') and
+ * SciPy's make_interp_spline(k=3) and CubicSpline. In a direction with fewer
+ * than 4 points not-a-knot is undefined; as CubicSpline and MATLAB do, the
+ * interpolant there is the polynomial through the points: a straight line
+ * for 2 points (n = 1), a parabola for 3 (n = 2); 4 points give the cubic
+ * through them. Parameterisation is uniform only (IT2N_F_CHORD is refused).
+ *
+ * The surface is stored as coefficients c[r][s] of uniform cubic B-splines
+ * on the knots i/n extended by one knot beyond each end, r = 0..n+2
+ * (c_{-1}..c_{n+1}), s = 0..m+2: a query touches only the 4 x 4 coefficients
+ * of its knot span, whatever the grid size. The solve is O(n m): two passes
+ * of banded (almost tridiagonal, constant-coefficient) line solves, rows
+ * then columns, in integer arithmetic; no inverse matrix. Formats and
+ * accuracy: docs/numerics.md.
+ *
+ * All storage is the caller's (no heap): the data set's records and the
+ * model's coefficients live in arrays sized with the macros below, e.g. for
+ * a fixed largest grid on an MCU
+ *   static it2n_bspline_rec rec[IT2N_BSPLINE_DATA_RECS(63, 63, IT2N_F_TYPE1)];
+ *   static int32_t coef[IT2N_BSPLINE_MODEL_WORDS(63, 63, IT2N_F_TYPE1)];
+ */
+
+/* Footprints stored per grid point: 1 for type-1 (D only), else 7. */
+#define IT2N_BSPLINE_NFP(flags) (((flags) & IT2N_F_TYPE1) ? 1u : 7u)
+/* Channels stored per footprint in a model: 6 with z, else 5. */
+#define IT2N_BSPLINE_NCH(flags) (((flags) & IT2N_F_Z) ? 6u : 5u)
+/* Records a data set of n x m intervals needs. */
+#define IT2N_BSPLINE_DATA_RECS(n, m, flags)                                  \
+    ((size_t)((n) + 1u) * ((m) + 1u) * IT2N_BSPLINE_NFP(flags))
+/* int32 words a model of n x m intervals needs. */
+#define IT2N_BSPLINE_MODEL_WORDS(n, m, flags)                                \
+    ((size_t)((n) + 3u) * ((m) + 3u) * IT2N_BSPLINE_NFP(flags) *             \
+     IT2N_BSPLINE_NCH(flags))
+
+/* One footprint of one grid point, Q24 as it2n_dataset: a coordinate as
+ * its low 32 bits (lo) and high 16 bits (hi), a membership in memb. 32
+ * bytes. Read it with it2n_bspline_data_get. */
+typedef struct it2n_bspline_rec {
+    uint32_t lo[3];   /* x, y, z: low 32 bits of Q24   */
+    uint32_t memb[3]; /* T, I, F: Q24 in [0, 2^24]     */
+    int16_t hi[3];    /* x, y, z: bits 32..47 of Q24   */
+    uint16_t present; /* 1 once stored                 */
+} it2n_bspline_rec;
+
+/* A B-spline data set: grid sizes, flags and the caller's record array.
+ * Record of footprint fp at (i, j): rec[(i (m+1) + j) nfp + (type-1 ? 0 :
+ * fp)]. */
+typedef struct it2n_bspline_data {
+    it2n_bspline_rec *rec; /* caller storage                       */
+    size_t cap;            /* records at rec                       */
+    uint16_t n, m;         /* intervals: grid (n+1) x (m+1)        */
+    uint8_t flags;         /* IT2N_F_Z, IT2N_F_TYPE1               */
+} it2n_bspline_data;
+
+/*
+ * Start an empty data set of n x m intervals (1..IT2N_BSPLINE_MAX_N each)
+ * in rec[0..cap), which must hold IT2N_BSPLINE_DATA_RECS(n, m, flags)
+ * records. flags: IT2N_F_Z, IT2N_F_TYPE1. Returns IT2N_OK, IT2N_ERR_INVAL
+ * (bad size or flags: value, lo, hi say which limit) or IT2N_ERR_RANGE (cap
+ * too small: value is cap, lo the records needed); ds untouched on error.
+ */
+int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec,
+                           size_t cap, unsigned n, unsigned m, unsigned flags,
+                           it2n_errinfo *err);
+
+/*
+ * Store footprint fp of grid point (i, j), vals in Q24 as it2n_dataset_put
+ * (same checks and errors; with replace false a second put fails with
+ * IT2N_ERR_DUPLICATE). On error nothing changes.
+ */
+int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
+                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                          bool replace, it2n_errinfo *err);
+
+/* All channels of footprint fp at (i, j) into vals (Q24); zeros for an
+ * index, footprint or record not stored. */
+void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i,
+                           unsigned j, unsigned fp,
+                           it2n_val vals[IT2N_CH_COUNT]);
+
+/* Number of (i, j, footprint) entries the data set still lacks. */
+uint32_t it2n_bspline_data_missing(const it2n_bspline_data *ds);
+
+/*
+ * Full validation as it2n_dataset_check: every entry present, values in
+ * range, footprints nested on every coordinate axis. IT2N_OK or the first
+ * error in row-major order.
+ */
+int it2n_bspline_data_check(const it2n_bspline_data *ds, it2n_errinfo *err);
+
+/* A solved B-spline model: per footprint and channel a net of (n+3) x (m+3)
+ * int32 mantissas in the caller's coef array, block floating point as the
+ * Bezier model (coefficient = mantissa * 2^-frac[fp][ch], the net's largest
+ * |mantissa| in [2^30, 2^31)). Read coefficients with
+ * it2n_bspline_coef(). */
+typedef struct it2n_bspline_model {
+    int32_t *coef;       /* caller storage                           */
+    size_t cap;          /* int32 words at coef                      */
+    uint16_t n, m;       /* intervals of the data set solved         */
+    uint8_t flags;       /* its IT2N_F_*                             */
+    uint8_t solved;      /* 1 once solved                            */
+    uint32_t generation; /* bumped on every change                   */
+    int8_t frac[IT2N_FP_COUNT][IT2N_CH_COUNT];
+} it2n_bspline_model;
+
+/* An empty (unsolved) model over coef[0..cap). Always succeeds. */
+void it2n_bspline_model_init(it2n_bspline_model *mdl, int32_t *coef,
+                             size_t cap);
+
+/*
+ * Validate ds (it2n_bspline_data_check) and solve every net. Needs
+ * IT2N_BSPLINE_MODEL_WORDS(n, m, flags) words at mdl->coef (IT2N_ERR_RANGE,
+ * value = cap, lo = words needed). Atomic: on any error mdl is unchanged.
+ * Bumps mdl->generation. Cannot overflow: every coefficient is below 256
+ * times the net's largest |value| (docs/numerics.md).
+ */
+int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
+                       it2n_errinfo *err);
+
+/*
+ * Replace footprint fp of data point (i, j) in ds (the data set mdl was
+ * solved from) and solve that footprint's nets again, with exactly the
+ * arithmetic of it2n_bspline_solve: bit-identical to a full re-solve.
+ * Checks as it2n_bspline_data_put (replace) plus nesting with the other
+ * footprints of (i, j). IT2N_ERR_STATE if mdl is unsolved or was solved
+ * from a data set of other sizes or flags. Atomic: on error neither
+ * changes. Cost: the nets of one footprint, O(n m) each.
+ */
+int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                        unsigned i, unsigned j, unsigned fp,
+                        const it2n_val vals[IT2N_CH_COUNT],
+                        it2n_errinfo *err);
+
+/*
+ * Coefficient c_{r-1, s-1} (r in 0..n+2, s in 0..m+2) of footprint fp,
+ * channel ch in Q24, rounded to nearest; 0 outside the model.
+ */
+it2n_val it2n_bspline_coef(const it2n_bspline_model *mdl, unsigned r,
+                           unsigned s, unsigned fp, unsigned ch);
+
+/*
+ * Every footprint surface at (u, w) (Q32, within [0, 1]): values, interval
+ * summary and out_of_range as it2n_eval, same errors. Touches 4 x 4
+ * coefficients per net whatever n and m.
+ */
+int it2n_bspline_eval(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
+                      it2n_point *out, it2n_errinfo *err);
+
+/*
+ * Partial derivatives dS/du and dS/dw at (u, w) as it2n_deriv (only the v
+ * arrays are filled; IT2N_ERR_OVERFLOW names fp, ch if one does not fit
+ * Q39.24).
+ */
+int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
+                       it2n_point *du, it2n_point *dw, it2n_errinfo *err);
+
+/*
+ * For each footprint the (u, w) whose surface passes through (x, y), as
+ * it2n_locate (same method, statuses and errors): Newton from the best node
+ * of the (IT2N_LOCATE_GRID+1)^2 start grid. The start grid does not grow
+ * with the model: on a large grid folded in (x, y) Newton may stop in a
+ * local minimum (status noconv or outside).
+ */
+int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
+                        it2n_locate_result *out, it2n_errinfo *err);
+
+/*
+ * Evaluate on a uniform rows x cols parameter grid as it2n_sample (same
+ * callback, limits and errors); every node bit-identical to
+ * it2n_bspline_eval at the same (u, w).
+ */
+int it2n_bspline_sample(const it2n_bspline_model *mdl, unsigned rows,
+                        unsigned cols, it2n_sample_cb cb, void *ctx,
+                        it2n_errinfo *err);
 
 /* ---- Text conversion (no stdio; exact decimal rounding) ----------------- */
 

@@ -198,10 +198,15 @@ static bool apply(const it2n_model *mdl, unsigned fpmask, const int32_t *cu,
 
 void it2n__summarise(const it2n_model *mdl, it2n_point *out)
 {
+    it2n__summarise_flags(mdl->flags, out);
+}
+
+void it2n__summarise_flags(unsigned flags, it2n_point *out)
+{
     static const unsigned char upper[3] = {IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR};
     static const unsigned char lower[3] = {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL};
     unsigned k, f, fp;
-    bool type1 = (mdl->flags & IT2N_F_TYPE1) != 0u;
+    bool type1 = (flags & IT2N_F_TYPE1) != 0u;
     out->out_of_range = 0u;
     for (k = 0; k < 3u; k++) {
         unsigned ch = IT2N_CH_T + k;
@@ -217,7 +222,7 @@ void it2n__summarise(const it2n_model *mdl, it2n_point *out)
         }
         for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
             it2n_val v = out->v[fp][ch];
-            if (it2n_model_has_fp(mdl, fp) && (v < 0 || v > IT2N_VAL_ONE)) {
+            if ((!type1 || fp == IT2N_FP_D) && (v < 0 || v > IT2N_VAL_ONE)) {
                 out->out_of_range |= (uint32_t)1u << (fp * 3u + k);
             }
         }
@@ -231,16 +236,9 @@ static int check_args(const it2n_model *mdl, it2n_par u, it2n_par w,
     if (!mdl->solved) {
         return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (!it2n__par_ok(u) || !it2n__par_ok(w)) {
-        it2n_par bad = it2n__par_ok(u) ? w : u;
-        /* value in Q24 (parameters are Q32; saturate far-off values) */
-        it2n_val v = bad > ((int64_t)1 << 60) ? INT64_MAX >> 8
-                   : bad < -((int64_t)1 << 60) ? INT64_MIN >> 8 : bad >> 8;
-        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1,
-                          it2n__par_ok(u) ? 1 : 0, v, 0, IT2N_VAL_ONE);
-    }
-    return IT2N_OK;
+    return it2n__check_uw(u, w, err);
 }
+
 
 /* Values of every footprint at (u, w) into v (no summary). */
 static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w,

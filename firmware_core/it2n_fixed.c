@@ -64,7 +64,7 @@ uint64_t it2n__div_round(uint64_t num, uint64_t den, unsigned bits)
     return q + (r << 1 >= den ? 1u : 0u); /* half away from zero */
 }
 
-unsigned it2n_bitlen64(uint64_t v)
+unsigned it2n__bitlen64(uint64_t v)
 {
     unsigned k = 0;
     if (v >> 32) {
@@ -78,7 +78,7 @@ unsigned it2n_bitlen64(uint64_t v)
     return k;
 }
 
-it2n_i128 it2n_mul64(int64_t a, int64_t b)
+it2n_i128 it2n__mul64(int64_t a, int64_t b)
 {
     it2n_i128 r;
 #if IT2N_HAVE_INT128
@@ -114,7 +114,7 @@ static it2n_i128 ushr(it2n_i128 a, unsigned s)
 static it2n_i128 ashr(it2n_i128 a, unsigned s)
 {
     it2n_i128 r = ushr(a, s);
-    if (it2n_i128_neg_p(a)) {
+    if (it2n__i128_neg_p(a)) {
         if (s >= 64u) {
             r.hi = UINT64_MAX;
             r.lo |= s > 64u ? UINT64_MAX << (128u - s) : 0u;
@@ -140,7 +140,7 @@ static bool fits64(it2n_i128 a, int64_t *out)
     return false;
 }
 
-bool it2n_i128_round(it2n_i128 a, unsigned shift, int64_t *out)
+bool it2n__i128_round(it2n_i128 a, unsigned shift, int64_t *out)
 {
     it2n_i128 half = {0u, 0u};
     if (shift == 0u || shift > 126u) {
@@ -151,27 +151,27 @@ bool it2n_i128_round(it2n_i128 a, unsigned shift, int64_t *out)
     } else {
         half.lo = (uint64_t)1u << (shift - 1u);
     }
-    return fits64(ashr(it2n_i128_add(a, half), shift), out);
+    return fits64(ashr(it2n__i128_add(a, half), shift), out);
 }
 
-int64_t it2n_i128_round_fit(it2n_i128 a, unsigned shift)
+int64_t it2n__i128_round_fit(it2n_i128 a, unsigned shift)
 {
     int64_t r;
-    bool ok = it2n_i128_round(a, shift, &r);
+    bool ok = it2n__i128_round(a, shift, &r);
     IT2N_ASSERT(ok); /* callers proved the result fits */
     if (!ok) {
-        r = it2n_i128_neg_p(a) ? INT64_MIN : INT64_MAX;
+        r = it2n__i128_neg_p(a) ? INT64_MIN : INT64_MAX;
     }
     return r;
 }
 
-it2n_i128 it2n_i128_shl(int64_t num, unsigned shift)
+it2n_i128 it2n__i128_shl(int64_t num, unsigned shift)
 {
     uint64_t m = uabs64(num);
     it2n_i128 r;
     r.lo = m << shift;
     r.hi = shift ? m >> (64u - shift) : 0u;
-    return num < 0 ? it2n_i128_neg(r) : r;
+    return num < 0 ? it2n__i128_neg(r) : r;
 }
 
 static int ucmp(it2n_i128 a, it2n_i128 b)
@@ -187,18 +187,18 @@ static int ucmp(it2n_i128 a, it2n_i128 b)
 
 static it2n_i128 uabs128(it2n_i128 a)
 {
-    return it2n_i128_neg_p(a) ? it2n_i128_neg(a) : a;
+    return it2n__i128_neg_p(a) ? it2n__i128_neg(a) : a;
 }
 
-bool it2n_i128_abs_le(it2n_i128 a, it2n_i128 b)
+bool it2n__i128_abs_le(it2n_i128 a, it2n_i128 b)
 {
     return ucmp(uabs128(a), uabs128(b)) <= 0;
 }
 
-bool it2n_i128_div(it2n_i128 num, it2n_i128 den, int64_t *out)
+bool it2n__i128_div(it2n_i128 num, it2n_i128 den, int64_t *out)
 {
     /* Restoring binary long division on magnitudes: 128 fixed steps. */
-    bool neg = it2n_i128_neg_p(num) != it2n_i128_neg_p(den);
+    bool neg = it2n__i128_neg_p(num) != it2n__i128_neg_p(den);
     it2n_i128 n = uabs128(num), d = uabs128(den);
     it2n_i128 q = {0u, 0u}, r = {0u, 0u}, twice;
     unsigned k;
@@ -213,7 +213,7 @@ bool it2n_i128_div(it2n_i128 num, it2n_i128 den, int64_t *out)
         q.hi = (q.hi << 1) | (q.lo >> 63);
         q.lo <<= 1;
         if (ucmp(r, d) >= 0) {
-            r = it2n_i128_sub(r, d);
+            r = it2n__i128_sub(r, d);
             q.lo |= 1u;
         }
     }
@@ -221,20 +221,20 @@ bool it2n_i128_div(it2n_i128 num, it2n_i128 den, int64_t *out)
     twice.hi = (r.hi << 1) | (r.lo >> 63);
     twice.lo = r.lo << 1;
     if ((r.hi >> 63) != 0u || ucmp(twice, d) >= 0) {
-        q = it2n_i128_add(q, it2n_i128_from(1));
+        q = it2n__i128_add(q, it2n__i128_from(1));
     }
     if (neg) {
-        q = it2n_i128_neg(q);
+        q = it2n__i128_neg(q);
     }
     return fits64(q, out);
 }
 
-uint64_t it2n_i128_isqrt(it2n_i128 a)
+uint64_t it2n__i128_isqrt(it2n_i128 a)
 {
     /* Bitwise square root: 64 fixed steps, result bit by bit from the top. */
     uint64_t res = 0u;
     unsigned k;
-    if (it2n_i128_neg_p(a)) {
+    if (it2n__i128_neg_p(a)) {
         return 0u;
     }
     for (k = 64u; k-- > 0u;) {

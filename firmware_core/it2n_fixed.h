@@ -97,14 +97,14 @@ IT2N_STATIC_ASSERT(((int64_t)-5 >> 1) == -3 && ((int32_t)-5 >> 1) == -3,
                    arithmetic_right_shift);
 
 /* Zero. */
-static inline it2n_i128 it2n_i128_zero(void)
+static inline it2n_i128 it2n__i128_zero(void)
 {
     it2n_i128 r = {0u, 0u};
     return r;
 }
 
 /* Sign-extend an int64. */
-static inline it2n_i128 it2n_i128_from(int64_t v)
+static inline it2n_i128 it2n__i128_from(int64_t v)
 {
     it2n_i128 r;
     r.lo = (uint64_t)v;
@@ -113,7 +113,7 @@ static inline it2n_i128 it2n_i128_from(int64_t v)
 }
 
 /* a + b (wraps only beyond 2^127, which no caller can reach). */
-static inline it2n_i128 it2n_i128_add(it2n_i128 a, it2n_i128 b)
+static inline it2n_i128 it2n__i128_add(it2n_i128 a, it2n_i128 b)
 {
     it2n_i128 r;
     r.lo = a.lo + b.lo;
@@ -122,7 +122,7 @@ static inline it2n_i128 it2n_i128_add(it2n_i128 a, it2n_i128 b)
 }
 
 /* -a */
-static inline it2n_i128 it2n_i128_neg(it2n_i128 a)
+static inline it2n_i128 it2n__i128_neg(it2n_i128 a)
 {
     it2n_i128 r;
     r.lo = ~a.lo + 1u;
@@ -131,13 +131,13 @@ static inline it2n_i128 it2n_i128_neg(it2n_i128 a)
 }
 
 /* a - b */
-static inline it2n_i128 it2n_i128_sub(it2n_i128 a, it2n_i128 b)
+static inline it2n_i128 it2n__i128_sub(it2n_i128 a, it2n_i128 b)
 {
-    return it2n_i128_add(a, it2n_i128_neg(b));
+    return it2n__i128_add(a, it2n__i128_neg(b));
 }
 
 /* True when a < 0. */
-static inline bool it2n_i128_neg_p(it2n_i128 a)
+static inline bool it2n__i128_neg_p(it2n_i128 a)
 {
     return (a.hi >> 63) != 0u;
 }
@@ -145,18 +145,18 @@ static inline bool it2n_i128_neg_p(it2n_i128 a)
 /* Exact signed product a * b, from four 32 x 32 -> 64 products (out of
  * line: used by locate, chord parameters and the soft float, never in the
  * per-point loops). */
-it2n_i128 it2n_mul64(int64_t a, int64_t b);
+it2n_i128 it2n__mul64(int64_t a, int64_t b);
 
 /* acc + a * b */
 IT2N_INLINE it2n_i128 it2n_mac(it2n_i128 acc, int64_t a, int64_t b)
 {
-    return it2n_i128_add(acc, it2n_mul64(a, b));
+    return it2n__i128_add(acc, it2n__mul64(a, b));
 }
 
 /* *acc += a * b in place (no struct return: cheaper at -Os). */
 IT2N_INLINE void it2n_mac128(it2n_i128 *acc, int64_t a, int64_t b)
 {
-    it2n_i128 p = it2n_mul64(a, b);
+    it2n_i128 p = it2n__mul64(a, b);
     uint64_t lo = acc->lo + p.lo;
     acc->hi += p.hi + (lo < p.lo ? 1u : 0u);
     acc->lo = lo;
@@ -178,39 +178,39 @@ static inline uint64_t it2n__udiv_round(unsigned k, unsigned d)
 }
 
 /* Number of significant bits of v (0 for 0). */
-unsigned it2n_bitlen64(uint64_t v);
+unsigned it2n__bitlen64(uint64_t v);
 
 /*
  * round(a / 2^shift) to nearest (ties toward +inf), 1 <= shift <= 126.
  * Stores it in *out and returns true when it fits in int64; false otherwise
  * (*out untouched).
  */
-bool it2n_i128_round(it2n_i128 a, unsigned shift, int64_t *out) IT2N_WUR;
+bool it2n__i128_round(it2n_i128 a, unsigned shift, int64_t *out) IT2N_WUR;
 
 /*
  * round(num / den) to nearest, den != 0. Returns false (and leaves *out) when
  * the quotient does not fit in int64 or den == 0.
  */
-bool it2n_i128_div(it2n_i128 num, it2n_i128 den, int64_t *out) IT2N_WUR;
+bool it2n__i128_div(it2n_i128 num, it2n_i128 den, int64_t *out) IT2N_WUR;
 
 /* num * 2^shift as 128-bit (shift <= 62, |num| < 2^63). */
-it2n_i128 it2n_i128_shl(int64_t num, unsigned shift);
+it2n_i128 it2n__i128_shl(int64_t num, unsigned shift);
 
 /* Compare |a| <= |b|. */
-bool it2n_i128_abs_le(it2n_i128 a, it2n_i128 b);
+bool it2n__i128_abs_le(it2n_i128 a, it2n_i128 b);
 
 /* floor(sqrt(a)) for a >= 0 (fits in 64 bits). */
-uint64_t it2n_i128_isqrt(it2n_i128 a);
+uint64_t it2n__i128_isqrt(it2n_i128 a);
 
 /* round(a / 2^shift) where the caller has proved the result fits
  * (convex combinations, basis values); saturates rather than wraps if not. */
-int64_t it2n_i128_round_fit(it2n_i128 a, unsigned shift);
+int64_t it2n__i128_round_fit(it2n_i128 a, unsigned shift);
 
 /* round(a * b / 2^shift), a and b int64; false on overflow. */
 static inline bool IT2N_WUR it2n_mul_shift(int64_t a, int64_t b,
                                            unsigned shift, int64_t *out)
 {
-    return it2n_i128_round(it2n_mul64(a, b), shift, out);
+    return it2n__i128_round(it2n__mul64(a, b), shift, out);
 }
 
 /* a + b without wrap; false on overflow. */

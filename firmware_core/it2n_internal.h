@@ -98,12 +98,6 @@ static inline unsigned it2n__fp_mask(unsigned flags)
     return (flags & IT2N_F_TYPE1) ? (1u << IT2N_FP_D) : 0x7Fu;
 }
 
-/* Parameter within [0, 1] (Q32). */
-static inline bool it2n__par_ok(it2n_par t)
-{
-    return t >= 0 && t <= IT2N_PAR_ONE;
-}
-
 /* Values (v, may be NULL), dS/du and dS/dw (may be NULL) of the footprints
  * in fpmask at (u, w), flat [fp][ch] arrays. IT2N_ERR_OVERFLOW (err says
  * which fp, ch) if a derivative does not fit Q39.24. */
@@ -111,7 +105,41 @@ int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
                     it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw,
                     it2n_errinfo *err);
 
+/* it2n__eval_full for a B-spline model (values, d/du, d/dw of the
+ * footprints in fpmask, all three arrays required). */
+int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask,
+                            it2n_par u, it2n_par w, it2n_val *v,
+                            it2n_val *du, it2n_val *dw, it2n_errinfo *err);
+
 /* Fill out->sum and out->out_of_range from out->v. */
 void it2n__summarise(const it2n_model *mdl, it2n_point *out);
+/* The same for a model of either kind with these IT2N_F_* flags. */
+void it2n__summarise_flags(unsigned flags, it2n_point *out);
+
+/* Parameter within [0, 1] (Q32). */
+static inline bool it2n__par_ok(it2n_par t)
+{
+    return t >= 0 && t <= IT2N_PAR_ONE;
+}
+
+/* Common parameter check of the evaluation entry points: IT2N_ERR_RANGE
+ * (err->value the parameter in Q24, ch 0 for u, 1 for w) unless both are
+ * within [0, 1]. */
+static inline int it2n__check_uw(it2n_par u, it2n_par w, it2n_errinfo *err)
+{
+    if (!it2n__par_ok(u) || !it2n__par_ok(w)) {
+        it2n_par bad = it2n__par_ok(u) ? w : u;
+        /* value in Q24 (parameters are Q32; saturate far-off values) */
+        it2n_val v = bad > ((int64_t)1 << 60) ? INT64_MAX >> 8
+                   : bad < -((int64_t)1 << 60) ? INT64_MIN >> 8 : bad >> 8;
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1,
+                          it2n__par_ok(u) ? 1 : 0, v, 0, IT2N_VAL_ONE);
+    }
+    return IT2N_OK;
+}
+
+/* B-spline solve: round(2^32 / d_k), the reciprocal of pivot k of the
+ * (1, 4, 1) elimination (it2n_bspline.c; the tests recompute the table). */
+uint32_t it2n__bspline_pivot_inv(unsigned k);
 
 #endif /* IT2N_INTERNAL_H */

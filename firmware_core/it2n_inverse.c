@@ -14,27 +14,27 @@
 #if IT2N_CHORD
 
 /* Bernstein basis of degree deg at Q32 parameter t, by de Casteljau. */
-static void basis_xf(unsigned deg, it2n_par t, xf b[IT2N_DIM])
+static void basis_xf(unsigned deg, it2n_par t, it2n__xf b[IT2N_DIM])
 {
-    xf tx, sx, p, q;
+    it2n__xf tx, sx, p, q;
     unsigned k, i;
-    xf_set(&tx, t, -IT2N_PAR_FRAC);
-    xf_set(&sx, IT2N_PAR_ONE - t, -IT2N_PAR_FRAC);
-    xf_set(&b[0], 1, 0);
+    it2n__xf_set(&tx, t, -IT2N_PAR_FRAC);
+    it2n__xf_set(&sx, IT2N_PAR_ONE - t, -IT2N_PAR_FRAC);
+    it2n__xf_set(&b[0], 1, 0);
     for (k = 1; k <= deg; k++) {
-        xf_mul(&b[k], &tx, &b[k - 1u]);
+        it2n__xf_mul(&b[k], &tx, &b[k - 1u]);
         for (i = k - 1u; i >= 1u; i--) {
-            xf_mul(&p, &sx, &b[i]);
-            xf_mul(&q, &tx, &b[i - 1u]);
-            xf_add(&b[i], &p, &q);
+            it2n__xf_mul(&p, &sx, &b[i]);
+            it2n__xf_mul(&q, &tx, &b[i - 1u]);
+            it2n__xf_add(&b[i], &p, &q);
         }
-        xf_mul(&b[0], &sx, &b[0]);
+        it2n__xf_mul(&b[0], &sx, &b[0]);
     }
 }
 
-static void swap_xf(xf *a, xf *b)
+static void swap_xf(it2n__xf *a, it2n__xf *b)
 {
-    xf t = *a;
+    it2n__xf t = *a;
     *a = *b;
     *b = t;
 }
@@ -44,11 +44,11 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
                  int32_t lo[IT2N_DIM * IT2N_DIM], int *frac,
                  it2n_errinfo *err)
 {
-    xf a[IT2N_DIM][IT2N_DIM], rowmax, tiny, p, f, s;
+    it2n__xf a[IT2N_DIM][IT2N_DIM], rowmax, tiny, p, f, s;
     unsigned char perm[IT2N_DIM];
     unsigned n = deg + 1u, r, c, k;
     /* Pivots below 2^-24: the parameters (nearly) coincide. */
-    xf_set(&tiny, 1, -24);
+    it2n__xf_set(&tiny, 1, -24);
     for (r = 0; r < n; r++) {
         basis_xf(deg, t[r], a[r]);
     }
@@ -57,31 +57,31 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
     for (k = 0; k < n; k++) {
         unsigned piv = k;
         for (r = k + 1u; r < n; r++) {
-            if (xf_abs_lt(&a[piv][k], &a[r][k])) {
+            if (it2n__xf_abs_lt(&a[piv][k], &a[r][k])) {
                 piv = r;
             }
         }
         perm[k] = (unsigned char)piv;
-        if (xf_abs_lt(&a[piv][k], &tiny)) {
+        if (it2n__xf_abs_lt(&a[piv][k], &tiny)) {
             return it2n__fail(err, IT2N_ERR_SINGULAR, -1, -1, -1, -1, 0, 0, 0);
         }
         for (c = 0; c < n && piv != k; c++) {
             swap_xf(&a[k][c], &a[piv][c]);
         }
         p = a[k][k];
-        xf_set(&a[k][k], 1, 0);
+        it2n__xf_set(&a[k][k], 1, 0);
         for (c = 0; c < n; c++) {
-            xf_div(&a[k][c], &a[k][c], &p);
+            it2n__xf_div(&a[k][c], &a[k][c], &p);
         }
         for (r = 0; r < n; r++) {
             f = a[r][k];
             if (r == k || f.m == 0) {
                 continue;
             }
-            xf_set(&a[r][k], 0, 0);
+            it2n__xf_set(&a[r][k], 0, 0);
             for (c = 0; c < n; c++) {
-                xf_mul(&s, &f, &a[k][c]);
-                xf_sub(&a[r][c], &a[r][c], &s);
+                it2n__xf_mul(&s, &f, &a[k][c]);
+                it2n__xf_sub(&a[r][c], &a[r][c], &s);
             }
         }
     }
@@ -92,15 +92,15 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
     }
     /* Scale: largest row absolute sum < 2^(62 + e), so 2^(-8 - e) keeps
      * every rounded row sum below 2^55. */
-    xf_set(&rowmax, 0, 0);
+    it2n__xf_set(&rowmax, 0, 0);
     for (r = 0; r < n; r++) {
-        xf_set(&s, 0, 0);
+        it2n__xf_set(&s, 0, 0);
         for (c = 0; c < n; c++) {
-            xf e = a[r][c];
+            it2n__xf e = a[r][c];
             e.m = e.m < 0 ? -e.m : e.m;
-            xf_add(&s, &s, &e);
+            it2n__xf_add(&s, &s, &e);
         }
-        if (xf_abs_lt(&rowmax, &s)) {
+        if (it2n__xf_abs_lt(&rowmax, &s)) {
             rowmax = s;
         }
     }

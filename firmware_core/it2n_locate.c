@@ -14,6 +14,20 @@
 
 #define COORD_MAX ((it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC)
 
+/* The model being located on, of either kind, and the convergence
+ * tolerance per footprint. Its evaluation (values and derivatives of the
+ * footprints in fpmask) is a constant argument of the always-inlined
+ * search below: each entry point gets its own copy with direct calls, so
+ * an application using one kind links only that kind's code and the stack
+ * analysis sees every call. */
+typedef int (*loc_eval_fn)(const void *mdl, unsigned fpmask, it2n_par u,
+                           it2n_par w, it2n_val *v, it2n_val *du,
+                           it2n_val *dw);
+typedef struct loc_model {
+    const void *mdl;
+    int64_t tol[IT2N_FP_COUNT];
+} loc_model;
+
 typedef struct loc_state {
     it2n_par u, w;
     it2n_val v[IT2N_FP_COUNT][IT2N_CH_COUNT];
@@ -28,14 +42,15 @@ static int64_t abs64(int64_t v)
 }
 
 /* Evaluate footprint fp at (u, w) into st; false on derivative overflow. */
-static bool probe(const it2n_model *mdl, unsigned fp, it2n_par u, it2n_par w,
-                  it2n_val x, it2n_val y, loc_state *st)
+IT2N_INLINE bool probe(const loc_model *mdl, loc_eval_fn eval, unsigned fp,
+                       it2n_par u, it2n_par w, it2n_val x, it2n_val y,
+                       loc_state *st)
 {
     int64_t ax, ay;
     st->u = u;
     st->w = w;
-    if (it2n__eval_full(mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0],
-                        &st->dw[0][0], NULL) != IT2N_OK) {
+    if (eval(mdl->mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0],
+             &st->dw[0][0]) != IT2N_OK) {
         return false;
     }
     /* Surface points lie in the control net's hull (< 2^62): no overflow. */
@@ -70,30 +85,30 @@ static int64_t shr(int64_t v, unsigned s)
 static bool newton_step(const loc_state *st, unsigned fp, int64_t *su,
                         int64_t *sw)
 {
-    xf xu, xw, yu, yw, rx, ry, det, p, q;
-    xf_set(&xu, st->du[fp][IT2N_CH_X], 0);
-    xf_set(&xw, st->dw[fp][IT2N_CH_X], 0);
-    xf_set(&yu, st->du[fp][IT2N_CH_Y], 0);
-    xf_set(&yw, st->dw[fp][IT2N_CH_Y], 0);
-    xf_set(&rx, st->rx, 0);
-    xf_set(&ry, st->ry, 0);
-    xf_mul(&p, &xu, &yw);
-    xf_mul(&q, &xw, &yu);
-    xf_sub(&det, &p, &q);
+    it2n__xf xu, xw, yu, yw, rx, ry, det, p, q;
+    it2n__xf_set(&xu, st->du[fp][IT2N_CH_X], 0);
+    it2n__xf_set(&xw, st->dw[fp][IT2N_CH_X], 0);
+    it2n__xf_set(&yu, st->du[fp][IT2N_CH_Y], 0);
+    it2n__xf_set(&yw, st->dw[fp][IT2N_CH_Y], 0);
+    it2n__xf_set(&rx, st->rx, 0);
+    it2n__xf_set(&ry, st->ry, 0);
+    it2n__xf_mul(&p, &xu, &yw);
+    it2n__xf_mul(&q, &xw, &yu);
+    it2n__xf_sub(&det, &p, &q);
     if (det.m == 0) {
         return false;
     }
     /* du = (xw ry - yw rx) / det, dw = (yu rx - xu ry) / det */
-    xf_mul(&p, &xw, &ry);
-    xf_mul(&q, &yw, &rx);
-    xf_sub(&p, &p, &q);
-    xf_div(&p, &p, &det);
-    *su = xf_to_q32(&p);
-    xf_mul(&p, &yu, &rx);
-    xf_mul(&q, &xu, &ry);
-    xf_sub(&p, &p, &q);
-    xf_div(&p, &p, &det);
-    *sw = xf_to_q32(&p);
+    it2n__xf_mul(&p, &xw, &ry);
+    it2n__xf_mul(&q, &yw, &rx);
+    it2n__xf_sub(&p, &p, &q);
+    it2n__xf_div(&p, &p, &det);
+    *su = it2n__xf_to_q32(&p);
+    it2n__xf_mul(&p, &yu, &rx);
+    it2n__xf_mul(&q, &xu, &ry);
+    it2n__xf_sub(&p, &p, &q);
+    it2n__xf_div(&p, &p, &det);
+    *sw = it2n__xf_to_q32(&p);
     return true;
 }
 
@@ -110,7 +125,13 @@ static bool on_boundary(const loc_state *st)
 
 /* Convergence tolerance: ~1e-6 absolute plus ~1e-6 of the net's extent,
  * since basis rounding scales with the control points. */
-static int64_t tolerance(const it2n_model *mdl, unsigned fp)
+static int64_t tol_of(int64_t big)
+{
+    return 16 + (big >> 20);
+}
+
+/* The largest |Q24 control point| of the x and y nets of fp. */
+static int64_t bz_extent(const it2n_model *mdl, unsigned fp)
 {
     int64_t big = 0;
     unsigned k, ch, count = (mdl->n + 1u) * (mdl->m + 1u);
@@ -130,14 +151,40 @@ static int64_t tolerance(const it2n_model *mdl, unsigned fp)
         big = a > big ? a : big;
         big = b > big ? b : big;
     }
-    return 16 + (big >> 20);
+    return big;
 }
 
-static void locate_fp(const it2n_model *mdl, unsigned fp, it2n_val x,
-                      it2n_val y, it2n_locate_fp *out)
+/* The same bound for a B-spline model: a net's largest |mantissa| is in
+ * [2^30, 2^31) by construction, so 2^31 bounds it, O(1) whatever the grid.
+ * An all-zero net has exponent 0 (as have nets near 2^31 units): only then
+ * are its coefficients read. */
+static int64_t bs_extent(const it2n_bspline_model *mdl, unsigned fp)
+{
+    int64_t big = 0;
+    unsigned ch, r, c;
+    for (ch = IT2N_CH_X; ch <= IT2N_CH_Y; ch++) {
+        if (mdl->frac[fp][ch] != 0) {
+            int64_t a = it2n__shift_round(INT32_MAX, mdl->frac[fp][ch] - IT2N_VAL_FRAC);
+            big = a > big ? a : big;
+            continue;
+        }
+        for (r = 0; r <= mdl->n + 2u; r++) {
+            for (c = 0; c <= mdl->m + 2u; c++) {
+                it2n_val q = it2n_bspline_coef(mdl, r, c, fp, ch);
+                q = q < 0 ? -q : q;
+                big = q > big ? q : big;
+            }
+        }
+    }
+    return big;
+}
+
+IT2N_INLINE void locate_fp(const loc_model *mdl, loc_eval_fn eval,
+                           unsigned fp, it2n_val x, it2n_val y,
+                           it2n_locate_fp *out)
 {
     loc_state best, cand;
-    int64_t tol = tolerance(mdl, fp);
+    int64_t tol = mdl->tol[fp];
     unsigned a, b, it;
     uint8_t status = IT2N_LOC_NOCONV;
     bool have = false;
@@ -148,7 +195,7 @@ static void locate_fp(const it2n_model *mdl, unsigned fp, it2n_val x,
                                     IT2N_LOCATE_GRID);
             it2n_par w = (it2n_par)(((uint64_t)b << IT2N_PAR_FRAC) /
                                     IT2N_LOCATE_GRID);
-            if (probe(mdl, fp, u, w, x, y, &cand) &&
+            if (probe(mdl, eval, fp, u, w, x, y, &cand) &&
                 (!have || cand.res < best.res)) {
                 best = cand;
                 have = true;
@@ -181,7 +228,7 @@ static void locate_fp(const it2n_model *mdl, unsigned fp, it2n_val x,
         for (half = 0; half < 24u; half++) {
             it2n_par u = clamp01(best.u + su), w = clamp01(best.w + sw);
             if ((u != best.u || w != best.w) &&
-                probe(mdl, fp, u, w, x, y, &cand) && cand.res < best.res) {
+                probe(mdl, eval, fp, u, w, x, y, &cand) && cand.res < best.res) {
                 best = cand;
                 moved = true;
                 break;
@@ -205,16 +252,12 @@ static void locate_fp(const it2n_model *mdl, unsigned fp, it2n_val x,
     out->status = status;
 }
 
-int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
-                it2n_locate_result *out, it2n_errinfo *err)
+/* Both kinds: range checks, then every footprint the model carries. */
+IT2N_INLINE int locate_all(const loc_model *lm, loc_eval_fn eval,
+                           unsigned flags, it2n_val x, it2n_val y,
+                           it2n_locate_result *out, it2n_errinfo *err)
 {
     unsigned fp;
-    if (mdl == NULL || out == NULL) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
-    }
-    if (!mdl->solved) {
-        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
-    }
     if (x < -COORD_MAX || x > COORD_MAX) {
         return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, IT2N_CH_X, x,
                           -COORD_MAX, COORD_MAX);
@@ -224,12 +267,62 @@ int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
                           -COORD_MAX, COORD_MAX);
     }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        if (it2n_model_has_fp(mdl, fp)) {
-            locate_fp(mdl, fp, x, y, &out->fp[fp]);
+        if ((it2n__fp_mask(flags) & (1u << fp)) != 0u) {
+            locate_fp(lm, eval, fp, x, y, &out->fp[fp]);
         } else {
             memset(&out->fp[fp], 0, sizeof(out->fp[fp]));
             out->fp[fp].status = IT2N_LOC_NOCONV;
         }
     }
     return IT2N_OK;
+}
+
+static int bz_eval(const void *mdl, unsigned fpmask, it2n_par u, it2n_par w,
+                   it2n_val *v, it2n_val *du, it2n_val *dw)
+{
+    return it2n__eval_full((const it2n_model *)mdl, fpmask, u, w, v, du, dw, NULL);
+}
+
+static int bs_eval(const void *mdl, unsigned fpmask, it2n_par u, it2n_par w,
+                   it2n_val *v, it2n_val *du, it2n_val *dw)
+{
+    return it2n__bspline_eval_full((const it2n_bspline_model *)mdl, fpmask, u, w,
+                                   v, du, dw, NULL);
+}
+
+int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
+                it2n_locate_result *out, it2n_errinfo *err)
+{
+    loc_model lm;
+    unsigned fp;
+    if (mdl == NULL || out == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (!mdl->solved) {
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
+    }
+    lm.mdl = mdl;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        lm.tol[fp] = it2n_model_has_fp(mdl, fp) ? tol_of(bz_extent(mdl, fp)) : 0;
+    }
+    return locate_all(&lm, bz_eval, mdl->flags, x, y, out, err);
+}
+
+int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
+                        it2n_locate_result *out, it2n_errinfo *err)
+{
+    loc_model lm;
+    unsigned fp;
+    if (mdl == NULL || out == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (!mdl->solved || mdl->coef == NULL) {
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
+    }
+    lm.mdl = mdl;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        lm.tol[fp] = (it2n__fp_mask(mdl->flags) & (1u << fp)) != 0u
+                         ? tol_of(bs_extent(mdl, fp)) : 0;
+    }
+    return locate_all(&lm, bs_eval, mdl->flags, x, y, out, err);
 }

@@ -56,7 +56,7 @@ static void params_uniform(unsigned deg, it2n_par t[IT2N_DIM])
 static int64_t chord(const it2n_dataset *ds, unsigned i0, unsigned j0,
                      unsigned i1, unsigned j1)
 {
-    it2n_i128 sq = it2n_i128_zero();
+    it2n_i128 sq = it2n__i128_zero();
     unsigned ch;
     for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
         /* |difference| < 2^49 raw, square < 2^98: exact in 128 bits. */
@@ -64,7 +64,7 @@ static int64_t chord(const it2n_dataset *ds, unsigned i0, unsigned j0,
                     it2n_dataset_value(ds, i0, j0, IT2N_FP_D, ch);
         sq = it2n_mac(sq, d, d);
     }
-    return (int64_t)it2n_i128_isqrt(sq);
+    return (int64_t)it2n__i128_isqrt(sq);
 }
 
 /*
@@ -158,7 +158,7 @@ static unsigned rowsum_bits(const int32_t *hi, const int32_t *lo, unsigned deg)
         }
         best = s > best ? s : best;
     }
-    return it2n_bitlen64(best);
+    return it2n__bitlen64(best);
 }
 
 static void dir_uniform(unsigned deg, dir_inv *d)
@@ -183,7 +183,7 @@ static unsigned data_bits(const it2n_dataset *ds, unsigned fp, unsigned ch)
             big = a > big ? a : big;
         }
     }
-    return it2n_bitlen64(big);
+    return it2n__bitlen64(big);
 }
 
 /*
@@ -250,12 +250,12 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
         {
             /* rare path (coordinates of 64 and more): one exact 128-bit sum,
              * out-of-line products keep the code small */
-            it2n_i128 acc = it2n_i128_zero();
+            it2n_i128 acc = it2n__i128_zero();
             for (l = 0; l < m1; l++) {
                 int64_t c = (int64_t)(((uint64_t)(int64_t)hi[l] << 24) + (uint32_t)lo[l]);
                 it2n_mac128(&acc, it2n_dataset_value(ds, k, l, fp, ch), c);
             }
-            if (!it2n_i128_round(acc, 42u, &g[k])) {
+            if (!it2n__i128_round(acc, 42u, &g[k])) {
                 IT2N_ASSERT(false); /* |S| < 2^47 2^55: g < 2^60 */
             }
         }
@@ -367,7 +367,7 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
         big = (uint64_t)v > big ? (uint64_t)v : big;
     }
     /* Normalise: the largest mantissa in [2^30, 2^31). */
-    eh = it2n_bitlen64(big);
+    eh = it2n__bitlen64(big);
     s = (int)eh - 31;
     if (s > 0 && it2n__shift_round((int64_t)big, s) > INT32_MAX) {
         s++;

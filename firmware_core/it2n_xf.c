@@ -9,7 +9,7 @@
 #define XF_TOP ((int64_t)1 << 62)
 #define XF_LOW ((int64_t)1 << 61)
 
-void xf_set(xf *r, int64_t m, int32_t e)
+void it2n__xf_set(it2n__xf *r, int64_t m, int32_t e)
 {
     unsigned k;
     if (m == 0) {
@@ -30,23 +30,23 @@ void xf_set(xf *r, int64_t m, int32_t e)
     r->e = e;
 }
 
-void xf_mul(xf *r, const xf *a, const xf *b)
+void it2n__xf_mul(it2n__xf *r, const it2n__xf *a, const it2n__xf *b)
 {
     int64_t p = 0;
     /* |a.m * b.m| < 2^124: / 2^62 fits */
-    if (!it2n_i128_round(it2n_mul64(a->m, b->m), 62u, &p)) {
+    if (!it2n__i128_round(it2n__mul64(a->m, b->m), 62u, &p)) {
         IT2N_ASSERT(false);
     }
-    xf_set(r, p, a->e + b->e + 62);
+    it2n__xf_set(r, p, a->e + b->e + 62);
 }
 
 /* a + s b for s = +1 or -1 */
-static void add_signed(xf *r, const xf *a, const xf *b, int s)
+static void add_signed(it2n__xf *r, const it2n__xf *a, const it2n__xf *b, int s)
 {
     int64_t am = a->m, bm = s < 0 ? -b->m : b->m;
     int32_t ae = a->e, be = b->e, d;
     if (bm == 0 || am == 0) {
-        xf_set(r, am == 0 ? bm : am, am == 0 ? be : ae);
+        it2n__xf_set(r, am == 0 ? bm : am, am == 0 ? be : ae);
         return;
     }
     if (ae < be) {
@@ -59,20 +59,20 @@ static void add_signed(xf *r, const xf *a, const xf *b, int s)
     }
     d = ae - be;
     /* b below a's last bit beyond 63 places */
-    xf_set(r, am + (d > 63 ? 0 : it2n__shift_round(bm, (int)d)), ae);
+    it2n__xf_set(r, am + (d > 63 ? 0 : it2n__shift_round(bm, (int)d)), ae);
 }
 
-void xf_add(xf *r, const xf *a, const xf *b)
+void it2n__xf_add(it2n__xf *r, const it2n__xf *a, const it2n__xf *b)
 {
     add_signed(r, a, b, 1);
 }
 
-void xf_sub(xf *r, const xf *a, const xf *b)
+void it2n__xf_sub(it2n__xf *r, const it2n__xf *a, const it2n__xf *b)
 {
     add_signed(r, a, b, -1);
 }
 
-void xf_div(xf *r, const xf *a, const xf *b)
+void it2n__xf_div(it2n__xf *r, const it2n__xf *a, const it2n__xf *b)
 {
     int64_t q = 0;
     if (a->m != 0) {
@@ -82,10 +82,10 @@ void xf_div(xf *r, const xf *a, const xf *b)
         q = (int64_t)it2n__div_round(am, bm, 62u);
         q = (a->m < 0) != (b->m < 0) ? -q : q;
     }
-    xf_set(r, q, a->e - b->e - 62);
+    it2n__xf_set(r, q, a->e - b->e - 62);
 }
 
-bool xf_abs_lt(const xf *a, const xf *b)
+bool it2n__xf_abs_lt(const it2n__xf *a, const it2n__xf *b)
 {
     int64_t am = a->m < 0 ? -a->m : a->m, bm = b->m < 0 ? -b->m : b->m;
     if (am == 0 || bm == 0) {
@@ -94,7 +94,7 @@ bool xf_abs_lt(const xf *a, const xf *b)
     return a->e != b->e ? a->e < b->e : am < bm;
 }
 
-int64_t xf_to_q32(const xf *a)
+int64_t it2n__xf_to_q32(const it2n__xf *a)
 {
     int s = -(a->e + IT2N_PAR_FRAC);
     if (a->m == 0) {

@@ -11,21 +11,21 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-typedef struct xf {
+typedef struct it2n__xf {
     int64_t m;
     int32_t e;
-} xf;
+} it2n__xf;
 
 /* *r = m * 2^e normalised; |m| < 2^63. */
-void xf_set(xf *r, int64_t m, int32_t e);
+void it2n__xf_set(it2n__xf *r, int64_t m, int32_t e);
 /* *r = a * b, a + b, a - b, a / b (b != 0). */
-void xf_mul(xf *r, const xf *a, const xf *b);
-void xf_add(xf *r, const xf *a, const xf *b);
-void xf_sub(xf *r, const xf *a, const xf *b);
-void xf_div(xf *r, const xf *a, const xf *b);
+void it2n__xf_mul(it2n__xf *r, const it2n__xf *a, const it2n__xf *b);
+void it2n__xf_add(it2n__xf *r, const it2n__xf *a, const it2n__xf *b);
+void it2n__xf_sub(it2n__xf *r, const it2n__xf *a, const it2n__xf *b);
+void it2n__xf_div(it2n__xf *r, const it2n__xf *a, const it2n__xf *b);
 /* |a| < |b| */
-bool xf_abs_lt(const xf *a, const xf *b);
+bool it2n__xf_abs_lt(const it2n__xf *a, const it2n__xf *b);
 /* a in Q32, round to nearest; +-2^62 when |a| >= 2^30. */
-int64_t xf_to_q32(const xf *a);
+int64_t it2n__xf_to_q32(const it2n__xf *a);
 
 #endif /* IT2N_XF_H */

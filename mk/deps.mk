@@ -4,7 +4,8 @@
 DEB_PACKAGES := gcc make pkg-config valgrind libcmocka-dev libmodbus-dev libinih-dev \
   libusb-1.0-0-dev umockdev libumockdev-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
   qemu-system-arm mbpoll python3 python3-pymodbus python3-serial-asyncio cppcheck clang libclang-rt-14-dev \
-  systemd gnuplot-nox
+  systemd gnuplot-nox libmicrohttpd-dev prometheus \
+  libmosquitto-dev libprotobuf-c-dev protobuf-c-compiler libssl-dev mosquitto python3-paho-mqtt openssl
 
 deps: ## Install missing Debian packages (apt-get as root, else name them)
 	@missing=""; for p in $(DEB_PACKAGES); do \

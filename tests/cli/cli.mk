@@ -35,6 +35,20 @@ cli-test-corpus: $(CLI_T)/san/fuzz_csv
 cli-test-e2e: $(CLI_BIN) $(CLI_SAN_BIN)
 	python3 tests/cli/e2e.py $(CLI_BIN)
 	python3 tests/cli/e2e.py $(CLI_SAN_BIN)
+	python3 tests/cli/e2e_bspline.py $(CLI_BIN)
+	python3 tests/cli/e2e_bspline.py $(CLI_SAN_BIN)
+
+# examples/survey_64x64.csv is generated (exact arithmetic) and checked in.
+.PHONY: examples-survey examples-check
+examples-survey: ## Regenerate examples/survey_64x64.csv
+	/usr/bin/python3 examples/gen_survey.py > examples/survey_64x64.csv
+
+examples-check:
+	@/usr/bin/python3 examples/gen_survey.py | cmp -s - examples/survey_64x64.csv || \
+	  { echo "examples/survey_64x64.csv differs from examples/gen_survey.py: run 'make examples-survey'" >&2; exit 1; }
+	@echo "examples-check: examples/survey_64x64.csv matches its generator"
+
+TEST_TARGETS += examples-check
 
 # plot (gnuplot PNG/SVG checked as images), export (meshes parsed back and
 # compared with sample), sample --footprint; also the committed figures.

@@ -85,6 +85,61 @@ static void fuzz_csv(const uint8_t *data, size_t size)
     }
 }
 
+/* The B-spline reader on the same input, two chunkings: same result; on
+ * success a complete, checked data set that solves and evaluates. */
+static void fuzz_bspline(const uint8_t *data, size_t size)
+{
+    static it2n_bspline_rec *rec[2];
+    static uint32_t *lines[2];
+    static int32_t *coef;
+    it2n_bspline_data ds[2];
+    it2n_csv_error e[2];
+    it2n_errinfo info;
+    char msg[600];
+    int rc[2], t;
+    for (t = 0; t < 2; t++) {
+        size_t chunk = t == 0 ? (size > 0 ? size : 1u) : 1u + size % 53u, k;
+        if (rec[t] == NULL) {
+            rec[t] = malloc(IT2N_CSV_BSPLINE_RECS * sizeof(*rec[t]));
+            lines[t] = malloc(IT2N_CSV_BSPLINE_LINES * sizeof(*lines[t]));
+            REQUIRE(rec[t] != NULL && lines[t] != NULL);
+        }
+        it2n_csv_init_bspline(t == 0 ? &g_a : &g_b, rec[t], lines[t]);
+        rc[t] = IT2N_OK;
+        for (k = 0; k < size && rc[t] == IT2N_OK; k += chunk) {
+            size_t n = size - k < chunk ? size - k : chunk;
+            rc[t] = it2n_csv_feed(t == 0 ? &g_a : &g_b, (const char *)data + k, n, &e[t]);
+        }
+        if (rc[t] == IT2N_OK) {
+            rc[t] = it2n_csv_finish_bspline(t == 0 ? &g_a : &g_b, &ds[t], &e[t]);
+        }
+    }
+    REQUIRE(rc[0] == rc[1]);
+    if (rc[0] != IT2N_OK) {
+        REQUIRE(e[0].code == rc[0] && e[0].line == e[1].line);
+        REQUIRE(it2n_csv_message(&e[0], "fuzz.csv", msg, sizeof(msg)) > 0);
+        REQUIRE(strncmp(msg, "fuzz.csv", 8) == 0);
+        return;
+    }
+    REQUIRE(ds[0].n == ds[1].n && ds[0].m == ds[1].m && ds[0].flags == ds[1].flags);
+    REQUIRE(memcmp(rec[0], rec[1], IT2N_BSPLINE_DATA_RECS(ds[0].n, ds[0].m, ds[0].flags) *
+                                       sizeof(*rec[0])) == 0);
+    REQUIRE(it2n_bspline_data_missing(&ds[0]) == 0u);
+    REQUIRE(it2n_bspline_data_check(&ds[0], &info) == IT2N_OK);
+    {
+        size_t words = IT2N_BSPLINE_MODEL_WORDS(ds[0].n, ds[0].m, ds[0].flags);
+        it2n_bspline_model mdl;
+        it2n_point pt;
+        free(coef);
+        coef = malloc(words * sizeof(*coef));
+        REQUIRE(coef != NULL);
+        it2n_bspline_model_init(&mdl, coef, words);
+        REQUIRE(it2n_bspline_solve(&mdl, &ds[0], &info) == IT2N_OK);
+        REQUIRE(it2n_bspline_eval(&mdl, IT2N_PAR_ONE / 2, IT2N_PAR_ONE / 3, &pt,
+                                  NULL) == IT2N_OK);
+    }
+}
+
 static void fuzz_token(const char *s, size_t len)
 {
     it2n_val v, back;
@@ -110,6 +165,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     size_t start = 0, k;
     fuzz_csv(data, size);
+    fuzz_bspline(data, size);
     /* Tokens between separators, as the CSV reader and --at see them. */
     for (k = 0; k <= size; k++) {
         if (k == size || data[k] == ',' || data[k] == '\n') {

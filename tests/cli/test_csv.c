@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -398,6 +399,91 @@ static void test_solve_errors_map_to_lines(void **state)
     assert_int_equal(mdl.solved, 0);
 }
 
+/* The B-spline kind's reader: grids beyond the Bezier limit, records
+ * compacted in place to the file's grid, lines of late errors, limits. */
+static void test_bspline_reader(void **state)
+{
+    static it2n_bspline_rec *rec;
+    static uint32_t *lines;
+    it2n_bspline_data ds;
+    it2n_csv_error e;
+    it2n_val v[IT2N_CH_COUNT];
+    char msg[512];
+    size_t k, len;
+    int rc = IT2N_OK;
+    unsigned pass;
+    (void)state;
+    rec = malloc(IT2N_CSV_BSPLINE_RECS * sizeof(*rec));
+    lines = malloc(IT2N_CSV_BSPLINE_LINES * sizeof(*lines));
+    assert_true(rec != NULL && lines != NULL);
+    for (pass = 0; pass < 2; pass++) {
+        bool type1 = pass == 0;
+        gen(12, 9, type1, !type1);
+        len = strlen(g_text);
+        it2n_csv_init_bspline(&g_p, rec, lines);
+        for (k = 0; k < len && rc == IT2N_OK; k += 7) {
+            rc = it2n_csv_feed(&g_p, g_text + k, len - k < 7 ? len - k : 7, &e);
+        }
+        assert_int_equal(rc, IT2N_OK);
+        assert_int_equal(it2n_csv_finish_bspline(&g_p, &ds, &e), IT2N_OK);
+        assert_int_equal(ds.n, 12);
+        assert_int_equal(ds.m, 9);
+        assert_int_equal(ds.flags, type1 ? IT2N_F_TYPE1 : IT2N_F_Z);
+        assert_int_equal(it2n_bspline_data_missing(&ds), 0);
+        it2n_bspline_data_get(&ds, 11, 7, IT2N_FP_D, v);
+        assert_true(v[IT2N_CH_X] == 113 * IT2N_VAL_ONE);
+        assert_true(v[IT2N_CH_Y] == 73 * IT2N_VAL_ONE);
+        assert_true(v[IT2N_CH_I] == IT2N_VAL_ONE / 4);
+        if (!type1) {
+            it2n_bspline_data_get(&ds, 12, 9, IT2N_FP_RR, v);
+            assert_true(v[IT2N_CH_X] == 126 * IT2N_VAL_ONE);
+            assert_true(v[IT2N_CH_Z] == 3 * IT2N_VAL_ONE / 2);
+            /* (3,2,R) is on line 2 + (3*10+2)*7 + 4 */
+            {
+                it2n_errinfo info = {IT2N_ERR_ORDER, 3, 2, IT2N_FP_R,
+                                     IT2N_CH_Z, 0, 0, 0};
+                it2n_csv_locate(&g_p, &info, &e);
+                assert_int_equal(e.line, 2 + 32 * 7 + 4);
+                assert_int_equal(e.field, 6);
+            }
+        }
+    }
+    /* index limit and the Bezier reader's refusal of a B-spline read */
+    it2n_csv_init_bspline(&g_p, rec, lines);
+    strcpy(g_text, "i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0.5,0.5,0.5\n"
+                   "255,1,D,0,0,0.5,0.5,0.5\n256,0,D,0,0,0.5,0.5,0.5\n");
+    assert_int_equal(it2n_csv_feed(&g_p, g_text, strlen(g_text), &e),
+                     IT2N_CSV_ERR_INDEX);
+    assert_int_equal(e.line, 4);
+    it2n_csv_message(&e, "f.csv", msg, sizeof(msg));
+    assert_string_equal(msg, "f.csv:4: i='256' is not a grid index 0..255 "
+                             "(IT2N_BSPLINE_MAX_N)");
+    /* a missing row found at the end names its (i, j, footprint) */
+    it2n_csv_init_bspline(&g_p, rec, lines);
+    strcpy(g_text, "i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0.5,0.5,0.5\n"
+                   "0,1,D,0,1,0.5,0.5,0.5\n1,1,D,1,1,0.5,0.5,0.5\n");
+    assert_int_equal(it2n_csv_feed(&g_p, g_text, strlen(g_text), &e), IT2N_OK);
+    assert_int_equal(it2n_csv_finish_bspline(&g_p, &ds, &e), IT2N_ERR_MISSING);
+    it2n_csv_message(&e, "f.csv", msg, sizeof(msg));
+    assert_string_equal(msg, "f.csv: missing row at (i=1,j=0,D)");
+    /* every row with i = 0: a direction needs 2 points */
+    it2n_csv_init_bspline(&g_p, rec, lines);
+    strcpy(g_text, "i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0.5,0.5,0.5\n"
+                   "0,1,D,0,1,0.5,0.5,0.5\n");
+    assert_int_equal(it2n_csv_feed(&g_p, g_text, strlen(g_text), &e), IT2N_OK);
+    assert_int_equal(it2n_csv_finish_bspline(&g_p, &ds, &e), IT2N_CSV_ERR_DEGREE);
+    it2n_csv_message(&e, "f.csv", msg, sizeof(msg));
+    assert_string_equal(msg, "f.csv: every row has i=0: need 2 to 256 grid "
+                             "points per direction");
+    /* the kinds' finish calls do not mix */
+    it2n_csv_init(&g_p, 0);
+    assert_int_equal(it2n_csv_finish_bspline(&g_p, &ds, &e), IT2N_ERR_INVAL);
+    it2n_csv_init_bspline(&g_p, rec, lines);
+    assert_int_equal(it2n_csv_finish(&g_p, &g_ds, &e), IT2N_ERR_INVAL);
+    free(rec);
+    free(lines);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -410,6 +496,7 @@ int main(void)
         cmocka_unit_test(test_err_values),
         cmocka_unit_test(test_sticky_and_untouched),
         cmocka_unit_test(test_solve_errors_map_to_lines),
+        cmocka_unit_test(test_bspline_reader),
     };
     return cmocka_run_group_tests_name("cli_csv", tests, NULL, NULL);
 }

@@ -2,7 +2,7 @@
 # tests against the real daemon binary (normal and ASan+UBSan builds).
 DT := tests/daemon
 DTB := $(BUILD)/tests/daemon
-DT_UNITS := test_mb_map test_mb_req test_conf test_store test_links test_models test_loop
+DT_UNITS := test_mb_map test_mb_req test_conf test_store test_links test_models test_loop test_spb
 # Daemon modules the unit tests link (everything but main.c).
 DT_MODS := $(filter-out $(BUILD)/host/daemon/main.o,$(DAEMON_OBJ))
 DT_SAN_MODS := $(filter-out $(BUILD)/san/daemon/main.o,$(DAEMON_SAN_OBJ))
@@ -171,9 +171,9 @@ DT_SLOW_S ?= 20
 # with relaxed latency bounds and no figures.
 IT2ND_TSAN := $(BUILD)/tsan/it2nd
 DAEMON_SRC := $(wildcard daemon/*.c)
-$(IT2ND_TSAN): $(DAEMON_SRC) $(DAEMON_HDR) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c
+$(IT2ND_TSAN): $(DAEMON_SRC) $(DAEMON_HDR) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
 	@mkdir -p $(@D)
-	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(BUILD)/daemon/paper_data.c \
+	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(BUILD)/daemon/paper_data.c $(SPB_PB_C) \
 	  $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) -o $@ $(DAEMON_LIBS)
 daemon-slowdisk: $(IT2ND) $(IT2ND_SAN) $(IT2ND_TSAN) $(DT_FAILIO)
 	timeout 300 /usr/bin/python3 $(DT)/slowdisk_test.py --it2nd $(IT2ND) --failio $(DT_FAILIO) \
@@ -213,3 +213,25 @@ daemon-cppcheck:
 daemon-systemd: $(IT2ND)
 	@if command -v systemd-analyze >/dev/null; then \
 	  $(DT)/systemd_verify.sh $(IT2ND); else echo "skip suite: systemd-analyze not available (Debian package systemd)"; fi
+
+# Prometheus metrics (issue 18 item 5): a real Prometheus (Debian
+# prometheus) scrapes it2nd with daemon/prometheus.yml and the alert rules
+# daemon/it2nd.rules.yml (promtool check rules); its API values equal the
+# Modbus registers (generation, points, solved), the connections held, the
+# requests sent, one fsync per acknowledged write; a 1 byte/s HTTP client
+# and 8 silent ones never delay Modbus reads (tests/daemon/metrics_test.py,
+# ~20 s). The ASan+UBSan build runs the endpoint and slow-client part.
+.PHONY: daemon-metrics
+TEST_TARGETS += daemon-metrics
+daemon-metrics: $(IT2ND) $(IT2ND_SAN)
+	timeout 300 /usr/bin/python3 $(DT)/metrics_test.py --it2nd $(IT2ND)
+	ASAN_OPTIONS=verify_asan_link_order=0 timeout 300 /usr/bin/python3 $(DT)/metrics_test.py --it2nd $(IT2ND_SAN) --quick
+
+# Flags and --check-config (issue 18 items 2 and 4): it2nd --listen
+# --state-dir --metrics without a file and over one, a state directory the
+# daemon cannot write, ports in use (with and without the daemon holding
+# them), config typos with "did you mean" (tests/daemon/flags_test.sh, ~5 s).
+.PHONY: daemon-flags
+TEST_TARGETS += daemon-flags
+daemon-flags: $(IT2ND)
+	IT2ND=$(IT2ND) timeout 120 $(DT)/flags_test.sh

@@ -85,7 +85,10 @@ if [ $rc -ne 0 ] && echo "$msg" | grep -q "bad.conf:2: \[modbus\] coord_scale: e
 printf '[modbus]\nbogus = 1\n' > "$T/bad.conf"
 "$IT2ND" -c "$T/bad.conf" --check-config 2>&1 | grep -q "bad.conf:2: \[modbus\] bogus: unknown key" \
     && ok "unknown key rejected" || fail "unknown key accepted"
-"$IT2ND" -c "$ROOT/daemon/it2nd.conf.example" --check-config >/dev/null \
+# (a free port and a scratch state_dir: --check-config also binds the
+# listener and writes in state_dir)
+"$IT2ND" -c "$ROOT/daemon/it2nd.conf.example" --listen "127.0.0.1:$(free_port)" --state-dir "$T/example.state" \
+    --check-config >/dev/null \
     && ok "it2nd.conf.example validates" || fail "it2nd.conf.example does not validate"
 
 # ---- serving, with sd_notify on a test socket -------------------------------

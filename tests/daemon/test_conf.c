@@ -95,11 +95,12 @@ static void test_errors(void **st)
         const char *tail;
     } t[] = {
         { "[modbus]\ncoord_scale = 0\n", 2, "[modbus] coord_scale: expected 1..10000" },
-        { "[daemon]\n\n; c\nnope = 1\n", 4, "[daemon] nope: unknown key" },
+        { "[daemon]\n\n; c\nnope = 1\n", 4, "[daemon] nope: unknown key in this section (docs/daemon.md lists the keys)" },
         { "[model:1]\nn = 8\n", 2, "[model:1] n: expected 1..7" },
         { "[modbus]\nfloat_word_order = ABDC\n", 2, "[modbus] float_word_order: expected ABCD, CDAB, BADC or DCBA" },
         { "[link:x]\nusb = zz\n", 2, "[link:x] usb: expected VID:PID[:serial] in hex" },
-        { "[bogus]\na = 1\n", 2, "[bogus] a: unknown section" },
+        { "[bogus]\na = 1\n", 2, "[bogus] a: unknown section (known: [daemon], [modbus], [metrics], [listen:NAME], "
+          "[rtu:NAME], [model:ID], [link:NAME])" },
         { "[modbus]\ntcp_listen = nocolon\n", 2, "[modbus] tcp_listen: expected host:port, [v6addr]:port or :port" },
         { "[daemon]\n\nuser = it2n-no-such-user\n", 3, "[daemon] user: unknown user 'it2n-no-such-user'" },
         { "[modbus]\ntcp_listen = 127.0.0.1:0\n", 2,
@@ -122,7 +123,7 @@ static void test_errors(void **st)
     }
     /* The first error is the one reported (libinih reads on after it). */
     assert_int_equal(load("[dAemon]\nstate_dir = /x\nfsync = yes\n", &c, err, sizeof err), -1);
-    snprintf(want, sizeof want, "%s:2: [dAemon] state_dir: unknown section", path);
+    snprintf(want, sizeof want, "%s:2: [dAemon] state_dir: unknown section: did you mean [daemon]?", path);
     assert_string_equal(err, want);
     /* A line longer than libinih's buffer is refused, not split (its tail
      * would be parsed as a setting), and the line number is the file's. */
@@ -230,7 +231,7 @@ static void test_rs485(void **st)
         { "[rtu:a]\nrs485_rts_on_send=yes\n", 2, "[rtu:a] rs485_rts_on_send: expected high or low" },
         { "[rtu:a]\nrs485_termination=2\n", 2, "[rtu:a] rs485_termination: expected yes or no" },
         { "[rtu:a]\nrs485_strict=maybe\n", 2, "[rtu:a] rs485_strict: expected yes or no" },
-        { "[rtu:a]\nrs485_foo=1\n", 2, "[rtu:a] rs485_foo: unknown key" },
+        { "[rtu:a]\nrs485_foo=1\n", 2, "[rtu:a] rs485_foo: unknown key in this section (docs/daemon.md lists the keys)" },
         /* options without rs485 = yes: the first option's line */
         { "[rtu:a]\ndevice=/d\n\nrs485_rts=up\nrs485_rts_delay_us=10\n", 4,
           "[rtu:a] rs485_rts: needs rs485 = yes in this section" },
@@ -554,10 +555,175 @@ static void test_listen_acl(void **st)
     assert_int_equal(conf_parse_prefix("", &p, why, sizeof why), -1);
 }
 
+/* Issue 18 item 4: a misspelt key or section names the nearest known one;
+ * a key of another section says which; a line without '=' is named as
+ * such (not "syntax error", not an empty section). */
+static void test_suggestions(void **st)
+{
+    struct conf c, before;
+    char err[320], want[320];
+    (void)st;
+    static const struct {
+        const char *text;
+        int line;
+        const char *tail;
+    } t[] = {
+        { "[daemon]\nfsync = yes\nstat_dir = ./x\n", 3, "[daemon] stat_dir: unknown key: did you mean 'state_dir'?" },
+        { "[daemon]\nsnapshot_intervall = 5\n", 2,
+          "[daemon] snapshot_intervall: unknown key: did you mean 'snapshot_interval'?" },
+        { "[modbus]\nmax_client = 3\n", 2, "[modbus] max_client: unknown key: did you mean 'max_clients'?" },
+        { "[modbus]\nFloat_Word_Order = ABCD\n", 2,
+          "[modbus] Float_Word_Order: unknown key: did you mean 'float_word_order'?" },
+        { "[model:1]\nunitid = 3\n", 2, "[model:1] unitid: unknown key: did you mean 'unit_id'?" },
+        { "[model:1]\ntpye1 = yes\n", 2, "[model:1] tpye1: unknown key: did you mean 'type1'?" },
+        { "[link:a]\nbuad = 9600\n", 2, "[link:a] buad: unknown key: did you mean 'baud'?" },
+        { "[metrics]\nlisen = :9102\n", 2, "[metrics] lisen: unknown key: did you mean 'listen'?" },
+        { "[modbus]\nstate_dir = x\n", 2, "[modbus] state_dir: unknown key: 'state_dir' is a key of [daemon]" },
+        { "[daemon]\ntcp_listen = :1502\n", 2, "[daemon] tcp_listen: unknown key: 'tcp_listen' is a key of [modbus]" },
+        { "[model:1]\nx = 1\n", 2, "[model:1] x: unknown key in this section (docs/daemon.md lists the keys)" },
+        { "[modbsu]\nx = 1\n", 2, "[modbsu] x: unknown section: did you mean [modbus]?" },
+        { "[models:2]\nn = 2\n", 2, "[models:2] n: unknown section: did you mean [model:2]?" },
+        { "[metric]\nlisten = :9102\n", 2, "[metric] listen: unknown section: did you mean [metrics]?" },
+        /* no '=': named, with the key when the first word is one */
+        { "[daemon]\nstate_dir ./x\n", 2,
+          "[daemon] 'state_dir ./x': no '=' in this line: expected key = value (state_dir = ...?)" },
+        { "[modbus]\nmax_clients = 4\n\ncoord_scale 100\n", 4,
+          "[modbus] 'coord_scale 100': no '=' in this line: expected key = value (coord_scale = ...?)" },
+        { "[daemon]\nfsync = yes\nhello world\n", 3, "[daemon] 'hello world': no '=' in this line: expected key = value" },
+        { "oops\n[daemon]\nfsync = yes\n", 1, "[(no section)] 'oops': no '=' in this line: expected key = value" },
+    };
+    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
+        conf_default(&before);
+        assert_int_equal(load(t[k].text, &c, err, sizeof err), -1);
+        snprintf(want, sizeof want, "%s:%d: %s", path, t[k].line, t[k].tail);
+        assert_string_equal(err, want);
+        assert_memory_equal(&c, &before, sizeof c);
+    }
+    /* The suggestion table knows every key the parsers take (and no key
+     * it lists is "unknown"): each key with a nonsense value is refused
+     * for its value, never as unknown. */
+    static const char *const secs[] = { "daemon", "modbus", "metrics", "listen:a", "rtu:a", "model:1", "link:a" };
+    for (size_t k = 0; k < sizeof secs / sizeof secs[0]; k++) {
+        const char *const *keys = conf_section_keys(secs[k]);
+        char text[160];
+        assert_non_null(keys);
+        for (int j = 0; keys[j]; j++) {
+            snprintf(text, sizeof text, "[%s]\n%s = \x01nonsense\n", secs[k], keys[j]);
+            load(text, &c, err, sizeof err);
+            assert_null(strstr(err, "unknown key"));
+        }
+    }
+    assert_null(conf_section_keys("bogus"));
+}
+
+/* [metrics] listen: off by default, parsed like a listener, not on a
+ * Modbus listener's address. */
+static void test_metrics_section(void **st)
+{
+    struct conf c;
+    char err[320], want[320];
+    (void)st;
+    conf_default(&c);
+    assert_string_equal(c.metrics.port, "");
+    assert_int_equal(load("[metrics]\nlisten = 127.0.0.1:9102\n", &c, err, sizeof err), 0);
+    assert_string_equal(c.metrics.host, "127.0.0.1");
+    assert_string_equal(c.metrics.port, "9102");
+    assert_int_equal(c.metrics.line, 2);
+    assert_int_equal(load("[metrics]\nlisten = [::1]:9102\n", &c, err, sizeof err), 0);
+    assert_string_equal(c.metrics.host, "::1");
+    assert_int_equal(load("[metrics]\nlisten = none\n", &c, err, sizeof err), 0);
+    assert_string_equal(c.metrics.port, "");
+    assert_int_equal(load("[metrics]\nlisten = 9102\n", &c, err, sizeof err), -1);
+    snprintf(want, sizeof want, "%s:2: [metrics] listen: expected host:port, [v6addr]:port, :port or none", path);
+    assert_string_equal(err, want);
+    assert_int_equal(load("[metrics]\nlisten = :0\n", &c, err, sizeof err), -1);
+    assert_non_null(strstr(err, "port 0"));
+    assert_int_equal(load("[modbus]\ntcp_listen = 127.0.0.1:1600\n[metrics]\nlisten = 127.0.0.1:1600\n", &c, err,
+                          sizeof err), -1);
+    snprintf(want, sizeof want, "%s:4: [metrics] listen: 127.0.0.1:1600 is also a Modbus listener address (line 2): "
+             "the metrics endpoint needs a port of its own", path);
+    assert_string_equal(err, want);
+    assert_int_equal(load("[metrics]\nlisten = 127.0.0.1:1502\n", &c, err, sizeof err), -1);
+    assert_non_null(strstr(err, "(the built-in default)"));
+}
+
+/* it2nd --listen / --state-dir / --metrics over the defaults or a file. */
+static void test_override(void **st)
+{
+    struct conf c, before;
+    char err[320];
+    struct conf_override o;
+    (void)st;
+    memset(&o, 0, sizeof o);
+    conf_default(&c);
+    o.listen[0] = "127.0.0.1:15020";
+    o.listen[1] = "[::1]:15020";
+    o.nlisten = 2;
+    o.state_dir = "./state2";
+    o.metrics = "127.0.0.1:9102";
+    assert_int_equal(conf_apply_override(&c, &o, err, sizeof err), 0);
+    assert_int_equal(c.nlisten, 2);
+    assert_string_equal(c.listen[0].host, "127.0.0.1");
+    assert_string_equal(c.listen[0].port, "15020");
+    assert_string_equal(c.listen[1].host, "::1");
+    assert_string_equal(c.state_dir, "./state2");
+    assert_string_equal(c.metrics.port, "9102");
+    /* over a file: the file's listeners ([listen:NAME] too) are replaced,
+     * everything else kept */
+    assert_int_equal(load("[daemon]\nstate_dir = /var/x\nfsync = no\n[listen:a]\naddress = 0.0.0.0:502\n"
+                          "allow = 10.0.0.0/8\n[metrics]\nlisten = :9102\n", &c, err, sizeof err), 0);
+    memset(&o, 0, sizeof o);
+    o.listen[0] = ":15020";
+    o.nlisten = 1;
+    o.metrics = "none";
+    assert_int_equal(conf_apply_override(&c, &o, err, sizeof err), 0);
+    assert_int_equal(c.nlisten, 1);
+    assert_string_equal(c.listen[0].host, "");
+    assert_int_equal(c.listen[0].nallow, 0);
+    assert_string_equal(c.state_dir, "/var/x");
+    assert_int_equal(c.fsync, 0);
+    assert_string_equal(c.metrics.port, "");
+    /* errors: nothing changed */
+    static const struct {
+        const char *listen, *state_dir, *metrics, *msg;
+    } t[] = {
+        { "127.0.0.1", NULL, NULL, "--listen '127.0.0.1': expected HOST:PORT, [V6ADDR]:PORT or :PORT" },
+        { "127.0.0.1:0", NULL, NULL, "--listen '127.0.0.1:0': port 0: expected a port 1..65535" },
+        { "127.0.0.1:99999", NULL, NULL, "--listen '127.0.0.1:99999': expected HOST:PORT, [V6ADDR]:PORT or :PORT" },
+        { NULL, "", NULL, "--state-dir '': path empty or longer than 255 bytes" },
+        { NULL, NULL, "9102", "--metrics '9102': expected HOST:PORT, [V6ADDR]:PORT, :PORT or none" },
+        { "127.0.0.1:9102", NULL, "127.0.0.1:9102", "127.0.0.1:9102: the metrics endpoint and a Modbus listener on one "
+          "address; give --metrics (or [metrics] listen) a port of its own" },
+    };
+    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
+        conf_default(&c);
+        before = c;
+        memset(&o, 0, sizeof o);
+        if (t[k].listen) {
+            o.listen[0] = t[k].listen;
+            o.nlisten = 1;
+        }
+        o.state_dir = t[k].state_dir;
+        o.metrics = t[k].metrics;
+        assert_int_equal(conf_apply_override(&c, &o, err, sizeof err), -1);
+        assert_string_equal(err, t[k].msg);
+        assert_memory_equal(&c, &before, sizeof c);
+    }
+    conf_default(&c);
+    memset(&o, 0, sizeof o);
+    o.listen[0] = o.listen[1] = "127.0.0.1:15020";
+    o.nlisten = 2;
+    assert_int_equal(conf_apply_override(&c, &o, err, sizeof err), -1);
+    assert_string_equal(err, "--listen '127.0.0.1:15020': given twice");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_default),
+        cmocka_unit_test(test_suggestions),
+        cmocka_unit_test(test_metrics_section),
+        cmocka_unit_test(test_override),
         cmocka_unit_test(test_full),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_repeat_and_hosts),

@@ -56,7 +56,7 @@ def size_section(first, last=None, keep=None):
 
 
 STACK_KEEP = (r"^Worst-case|^  function|it2n_(model_solve|model_update|eval|deriv|sample|"
-              r"locate|dataset_check|link_pump|proto_selftest) ")
+              r"locate|dataset_check|link_pump|proto_selftest|bspline_solve|bspline_eval) ")
 
 def firmware_figures():
     """The instrument firmware's figures, from the committed bench/firmware.json
@@ -92,6 +92,7 @@ FIGURES = {
     "size-structs": lambda: size_section("== sizeof"),
     "accuracy": lambda: grep(f"{BUILD}/tests/core/test_accuracy", "[accuracy]"),
     "operations": lambda: grep(f"{BUILD}/tests/core/test_operations", "[operations]"),
+    "bspline": lambda: grep(f"{BUILD}/tests/core/test_bspline", "[bspline]"),
     "fw-figures": firmware_figures,
     "fw-budget": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py"),
     "fw-timing": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py --timing"),

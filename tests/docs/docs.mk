@@ -1,7 +1,8 @@
 # tests/docs/: figures in README.md and docs/ that come from the build
 # (docfig.py: `<!-- fig:NAME -->` blocks). docs-figures rewrites them;
 # docs-check (make test) fails if a committed figure differs from the build.
-DOCFIG_DEPS = cross $(BUILD)/tests/core/test_accuracy $(BUILD)/tests/core/test_operations
+DOCFIG_DEPS = cross $(BUILD)/tests/core/test_accuracy $(BUILD)/tests/core/test_operations \
+              $(BUILD)/tests/core/test_bspline
 
 .PHONY: docs-figures docs-check
 docs-figures: $(DOCFIG_DEPS) ## Regenerate the build figures quoted in README.md and docs/
@@ -9,6 +10,7 @@ docs-figures: $(DOCFIG_DEPS) ## Regenerate the build figures quoted in README.md
 
 docs-check: $(DOCFIG_DEPS)
 	@BUILD=$(BUILD) /usr/bin/python3 tests/docs/docfig.py --check
+	@/usr/bin/python3 tests/docs/design_check.py .
 
 TEST_TARGETS += docs-check
 

@@ -14,7 +14,10 @@
  *    cut short leaves); the one error without a line is that of the empty
  *    file. An input without its final newline is also run with one, so
  *    the parser behind that check is fuzzed as before;
- *  - a model id with removed = yes is never in the model list.
+ *  - a model id with removed = yes is never in the model list;
+ *  - a line without '=' is reported with its text, quoted from that line
+ *    (the message is told by its end: a section name may hold the marker;
+ *    corpus/conf/noeq_* are what the fuzzer found in this harness).
  * Found by this fuzzer and fixed in daemon/conf.c: corpus/conf/long_* and
  * first_error_line.conf (message of the first error with the key of the
  * last, libinih being built with INI_STOP_ON_FIRST_ERROR 0),
@@ -46,6 +49,22 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     return 0;
 }
 
+/* Where "': no '=' in this line: expected key = value" ends the message
+ * (alone or with " (KEY = ...?)"), the end of the quoted text; else NULL. */
+static const char *noeq_text(const char *msg)
+{
+    static const char mark[] = "': no '=' in this line: expected key = value";
+    const char *q = NULL, *x = msg;
+    while ((x = strstr(x, mark)) != NULL)
+        q = x++;
+    if (!q)
+        return NULL;
+    x = q + sizeof mark - 1;
+    if (*x == 0 || (x[0] == ' ' && x[1] == '(' && strlen(x) > 8 && !strcmp(x + strlen(x) - 8, " = ...?)")))
+        return q;
+    return NULL;
+}
+
 static int terminated(const char *s, size_t size)
 {
     return memchr(s, 0, size) != NULL;
@@ -63,6 +82,15 @@ static void check_ok(const struct conf *c)
         fuzz_check(terminated(l->host, sizeof l->host) && terminated(l->port, sizeof l->port), "listen strings");
         long port = strtol(l->port, NULL, 10);
         fuzz_check(port >= 1 && port <= 65535, "listen port range (0 refused)");
+    }
+    fuzz_check(terminated(c->metrics.host, sizeof c->metrics.host) && terminated(c->metrics.port, sizeof c->metrics.port),
+               "metrics strings");
+    if (c->metrics.port[0]) {
+        long port = strtol(c->metrics.port, NULL, 10);
+        fuzz_check(port >= 1 && port <= 65535, "metrics port range (0 refused)");
+        for (int k = 0; k < c->nlisten; k++)
+            fuzz_check(strcmp(c->listen[k].host, c->metrics.host) || strcmp(c->listen[k].port, c->metrics.port),
+                       "metrics address is not a Modbus listener's");
     }
     fuzz_check(c->max_clients >= 1 && c->max_clients <= 512, "max_clients range");
     fuzz_check(c->idle_timeout >= 1 && c->idle_timeout <= 86400, "idle_timeout range");
@@ -125,6 +153,18 @@ static void check_ok(const struct conf *c)
             fuzz_check(c->model[m].id != c->removed[k], "a removed model is not served");
     for (int m = 0; m < c->nmodels; m++)
         fuzz_check(!c->model[m].removed, "no model in the list is marked removed");
+    if (c->spb.enabled) {
+        const struct spb_conf *s = &c->spb;
+        const char *ids[] = { s->group_id, s->edge_node_id, s->client_id };
+        fuzz_check(terminated(s->host, sizeof s->host) && s->host[0], "sparkplug broker host");
+        fuzz_check(s->port >= 1 && s->port <= 65535, "sparkplug broker port");
+        for (int k = 0; k < 3; k++)
+            fuzz_check(terminated(ids[k], SPB_ID_MAX) && (k == 2 || ids[k][0]) && !strpbrk(ids[k], "/+# \t"),
+                       "sparkplug ids: one topic level, no wildcard");
+        fuzz_check(s->keepalive >= 5 && s->keepalive <= 3600, "sparkplug keepalive range");
+        fuzz_check(s->reconnect_max >= 1 && s->reconnect_max <= 3600, "sparkplug reconnect_max range");
+        fuzz_check(!s->password_set || s->username[0], "sparkplug password needs a username");
+    }
 }
 
 /* Start of physical line n (1-based) of data, or NULL past the end. */
@@ -198,6 +238,27 @@ static void check_err(const uint8_t *data, size_t size, const char *err, size_t 
         hdr[close - sec] = 0;
         const uint8_t *lp = line_at(data, size, line, &llen);
         fuzz_check(contains(lp, llen, hdr), "an empty section's error names its header line");
+    } else if (sec[0] == ' ' && sec[1] == '[' && noeq_text(sec)) {
+        /* "PATH:N: [section] 'TEXT': no '=' in this line: expected key =
+         * value[ (KEY = ...?)]": TEXT (cut to 48 bytes, then "...") is
+         * from line N. A section name may hold anything, the marker too:
+         * the message is told by its end (noeq_text). */
+        const char *q = noeq_text(sec), *t = q;
+        char k[64];
+        size_t n;
+        while (t > sec + 2 && !(t[-3] == ']' && t[-2] == ' ' && t[-1] == '\''))
+            t--;
+        n = (size_t)(q - t);
+        fuzz_check(n < sizeof k, "no '=' text length");
+        memcpy(k, t, n);
+        k[n] = 0;
+        const uint8_t *lp = line_at(data, size, line, &llen);
+        int found = contains(lp, llen, k);
+        if (!found && n >= 3 && !memcmp(k + n - 3, "...", 3)) { /* cut after 48 bytes */
+            k[n - 3] = 0;
+            found = contains(lp, llen, k);
+        }
+        fuzz_check(found, "a line without '=' is quoted from its line");
     } else if (sec[0] == ' ' && sec[1] == '[') {
         const char *close = strstr(sec, "] ");
         fuzz_check(close != NULL, "error: [section] key form");

@@ -10,22 +10,26 @@
 #   $(BUILD)/fuzz/fuzzd_X  clang libFuzzer+ASan+UBSan         make fuzz
 FZD := tests/fuzz_daemon
 FZD_B := $(BUILD)/tests/fuzz_daemon
-FZD_TARGETS := modbus rtu store conf links
+FZD_TARGETS := modbus rtu store conf links spbcmd
 FZD_PAPER := $(BUILD)/daemon/paper_data.c
 FZD_PKGS := $(shell pkg-config --cflags --libs libmodbus inih 2>/dev/null) -lm
 # No pending findings: every check of the harnesses is on (the FZD_STRICT
 # switch that pinned open findings 6-9 went with their fixes; see
 # docs/security.md, "Findings").
 FZD_DEFS :=
-FZD_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(FZD) $(FZD_DEFS)
+FZD_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(BUILD)/daemon -I$(FZD) $(FZD_DEFS)
 FZD_HDR := $(wildcard $(FZD)/*.h daemon/*.h) $(CORE_HDR) $(wildcard protocol/*.h)
 FZD_COMMON := $(FZD)/fake_env.c
 FZD_MB := daemon/mb_req.c daemon/mb_map.c daemon/it2n_regmap.c daemon/models.c daemon/store.c daemon/snapshot.c daemon/errs.c $(FZD_PAPER)
-FZD_SRC_modbus := daemon/mb_tcp.c daemon/acl.c $(FZD_MB)
+FZD_SRC_modbus := daemon/mb_tcp.c daemon/acl.c daemon/porthint.c $(FZD_MB)
 FZD_SRC_rtu := daemon/mb_rtu.c daemon/link_serial.c $(FZD_MB)
 FZD_SRC_store := daemon/store.c daemon/models.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
-FZD_SRC_conf := daemon/conf.c daemon/acl.c
+FZD_SRC_conf := daemon/conf.c daemon/acl.c daemon/spb_conf.c
 FZD_SRC_links := daemon/links.c daemon/link_serial.c daemon/models.c daemon/store.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
+# spbcmd: the Sparkplug NCMD/DCMD payload decoder (daemon/spb_payload.c and
+# the protoc-c code of daemon/spb.proto).
+FZD_SRC_spbcmd := daemon/spb_payload.c $(SPB_PB_C)
+FZD_LD_spbcmd := -lprotobuf-c
 FZD_SECONDS ?= $(FUZZ_SECONDS)
 # links: the harness takes the daemon's write()s to the link (fuzz_links.c).
 FZD_LD_links := -Wl,--wrap=write
@@ -44,7 +48,7 @@ $(FZD_B)/san/fuzz_$(1): $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) $(FZ
 $(BUILD)/fuzz/fuzzd_$(1): $(FZD)/fuzz_$(1).c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD_HDR) $(CORE_SRC) $(PROTO_SRC)
 	@mkdir -p $$(@D)
 	clang -std=c11 -D_GNU_SOURCE -O1 -g -fsanitize=fuzzer,address,undefined \
-	  -Ifirmware_core -Iprotocol -Idaemon -I$(FZD) $(FZD_DEFS) -o $$@ $(FZD)/fuzz_$(1).c \
+	  -Ifirmware_core -Iprotocol -Idaemon -I$(BUILD)/daemon -I$(FZD) $(FZD_DEFS) -o $$@ $(FZD)/fuzz_$(1).c \
 	  $(FZD_COMMON) $(FZD_SRC_$(1)) $(CORE_SRC) $(PROTO_SRC) $(FZD_PKGS) $(FZD_LD_$(1))
 
 .PHONY: fuzzd-fuzz-$(1)

@@ -48,7 +48,7 @@ for f in "$main" "$dev"; do
   [ "$(field "$f" Architecture)" = "$arch" ] || fail "$f: Architecture is not $arch"
 done
 deps=$(field "$main" Depends)
-for lib in libc6 libmodbus5 libinih1 libusb-1.0-0; do
+for lib in libc6 libmodbus5 libinih1 libusb-1.0-0 libmicrohttpd12; do
   grep -qE "(^|, )$lib( |,|$)" <<<"$deps" || fail "it2n Depends lacks $lib: $deps"
 done
 [ "$(field "$dev" Multi-Arch)" = same ] || fail "libit2n-dev is not Multi-Arch: same"

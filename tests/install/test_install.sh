@@ -160,6 +160,33 @@ abi_refused "IT2N_PROTO_RX_REORDER=0" - window16_payload1024_reorder0_degree7 \
 abi_refused "IT2N_PROTO_WINDOW=4" - window4_payload1024_reorder1_degree7 \
   $pc_cflags -UIT2N_PROTO_WINDOW -DIT2N_PROTO_WINDOW=4
 
+# ---- docs/packaging.md lists what is installed ------------------------------
+want_h=$(grep '^| headers ' docs/packaging.md | grep -o '`[a-z0-9_]*\.h`' | tr -d '`' | sort | tr '\n' ' ')
+got_h=$(ls "$r$P/include/it2n" | sort | tr '\n' ' ')
+[ "$want_h" = "$got_h" ] || fail "docs/packaging.md lists headers '$want_h', make install installs '$got_h'"
+for lib in libit2n.a libit2n_proto.a; do
+  [ -f "$r$P/lib/$lib" ] && grep -q "\`$lib\`" docs/packaging.md || fail "docs/packaging.md and the installed $lib disagree"
+done
+
+# ---- names: the libraries export only their own prefix -----------------------
+# Every global symbol of the installed libraries is it2n_ (public: declared
+# in an installed header, the ABI-tagged names by their base name) or
+# it2n__ (internal); nothing lands in a user's firmware under another name.
+n_sym=0
+for lib in "$r$P"/lib/libit2n.a "$r$P"/lib/libit2n_proto.a; do
+  while read -r sym; do
+    n_sym=$((n_sym + 1))
+    case $sym in
+      it2n__*) ;;
+      it2n_*) base=${sym%%_abi_*}
+              grep -qw -- "$base" "$r$P"/include/it2n/*.h ||
+                fail "${lib##*/}: $sym has the public prefix but no installed header declares $base (internal: it2n__)" ;;
+      *) fail "${lib##*/}: global symbol $sym lacks the it2n_ prefix" ;;
+    esac
+  done < <(nm -g --defined-only "$lib" | awk 'NF == 3 && $2 != "V" && $2 != "W" {print $3}' | sort -u)
+done
+[ "$n_sym" -gt 40 ] || fail "only $n_sym global symbols in the installed libraries"
+
 # ---- bash-completion finds the completions ---------------------------------
 for b in "$r$P"/bin/* "$r$P"/sbin/*; do
   b=${b##*/}
@@ -170,4 +197,4 @@ for b in "$r$P"/bin/* "$r$P"/sbin/*; do
 done
 echo "test-install: ok (PREFIX=$P, DESTDIR=scratch: $n_files files as expected, units in $unitdir," \
   "it2nd.conf kept on reinstall, pkg-config consumer = it2n eval, ABI guards: matching options link and run," \
-  "$n_abi mismatches refused at link time, completions load)"
+  "$n_abi mismatches refused at link time, $n_sym global symbols all it2n_ (public, declared) or it2n__, completions load)"

@@ -252,8 +252,11 @@ def check_config():
     check(p.returncode == 1 and f"{missing}: cannot open: No such file or directory" in p.stderr,
           f"missing config: {p.stderr.strip()!r}")
     good = os.path.join(T, "good.conf")
-    open(good, "w").write("[modbus]\ntcp_listen = localhost:1502\ntcp_listen = [::1]:1503\n"
-                          "int32_word_order = float\ndefault_model = 1\n")
+    # free ports and a scratch state_dir: --check-config also binds the
+    # ports and writes in state_dir (issue 18)
+    open(good, "w").write("[daemon]\nstate_dir = %s\n[modbus]\ntcp_listen = localhost:%d\ntcp_listen = [::1]:%d\n"
+                          "int32_word_order = float\ndefault_model = 1\n"
+                          % (os.path.join(T, "good.state"), free_port(), free_port()))
     p = subprocess.run([IT2ND, "-c", good, "--check-config"], capture_output=True, text=True, timeout=30)
     check(p.returncode == 0, f"localhost, a repeated tcp_listen, int32_word_order/default_model pass: {p.stderr!r}")
 

@@ -24,6 +24,13 @@ static const volatile it2n_any_fn it2n_api[] = {
     (it2n_any_fn)it2n_format_par, (it2n_any_fn)it2n_fp_name,
     (it2n_any_fn)it2n_fp_from_name, (it2n_any_fn)it2n_ch_name,
     (it2n_any_fn)it2n_strerror,
+    (it2n_any_fn)it2n_bspline_data_init, (it2n_any_fn)it2n_bspline_data_put,
+    (it2n_any_fn)it2n_bspline_data_get, (it2n_any_fn)it2n_bspline_data_missing,
+    (it2n_any_fn)it2n_bspline_data_check, (it2n_any_fn)it2n_bspline_model_init,
+    (it2n_any_fn)it2n_bspline_solve, (it2n_any_fn)it2n_bspline_update,
+    (it2n_any_fn)it2n_bspline_coef, (it2n_any_fn)it2n_bspline_eval,
+    (it2n_any_fn)it2n_bspline_deriv, (it2n_any_fn)it2n_bspline_sample,
+    (it2n_any_fn)it2n_bspline_locate,
 };
 
 void it2n_cross_entry(void)

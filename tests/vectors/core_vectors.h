@@ -9,7 +9,7 @@
 
 #include <stdint.h>
 
-#define IT2N_CORE_VECTORS_COUNT 5107u
+#define IT2N_CORE_VECTORS_COUNT 5363u
 
 static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     /* paper.init */
@@ -3596,6 +3596,468 @@ static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     1,
     /* fp_from_name.bad */
     -1,
+    /* bs.put */
+    0,
+    /* bs.solve */
+    0,
+    /* bs.hash */
+    6678456909819598588,
+    /* bs.coef */
+    5313474, 1173629295, 0, -6197855, 16864040, 10421812,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    6927959867918510493,
+    /* bs.eval_D_T */
+    3834712,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    7633784144219363865,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    3373561648729342926,
+    /* bs.eval_D_T */
+    7413975,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    3021303149262018094,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -4686783531654126714,
+    /* bs.eval_D_T */
+    5704444,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    8430111858199257265,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -5434884577796040813,
+    /* bs.eval_D_T */
+    1728366,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -3578700013748184557,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -3549212099878782296,
+    /* bs.eval_D_T */
+    6223435,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    5221773566465740398,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -3215145701549908790,
+    /* bs.eval_D_T */
+    4244423,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -758602701128527224,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    7916556511862454754,
+    /* bs.eval_D_T */
+    10015636,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    9091562610343079104,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    -7288779628044830406,
+    /* bs.sample */
+    0,
+    /* bs.sample_hash */
+    3124023533220879555,
+    /* bs.update */
+    0,
+    /* bs.update_hash */
+    -2809859130956669093,
+    /* bs.resolve */
+    0,
+    /* bs.same */
+    1,
+    /* bs.put */
+    0,
+    /* bs.solve */
+    0,
+    /* bs.hash */
+    4502884170174885907,
+    /* bs.coef */
+    -1675940, 3354245698, 0, -5688738, 14374471, 1214492,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -4390834830019898958,
+    /* bs.eval_D_T */
+    14173460,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -5936441590374604553,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    5231193161035736136,
+    /* bs.eval_D_T */
+    4299480,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    6054829713159272073,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -6907620171092049154,
+    /* bs.eval_D_T */
+    11308473,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -279836971035531109,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    6733544575850999603,
+    /* bs.eval_D_T */
+    12105045,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    724897664839422696,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    6590499559677610774,
+    /* bs.eval_D_T */
+    13014276,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -7217365588664749475,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    5971684184246109575,
+    /* bs.eval_D_T */
+    3123687,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -1431299883079535022,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    2162129187478565998,
+    /* bs.eval_D_T */
+    12131017,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -6967521059941740194,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    -4980468997849325641,
+    /* bs.sample */
+    0,
+    /* bs.sample_hash */
+    709831284322097394,
+    /* bs.update */
+    0,
+    /* bs.update_hash */
+    2820363305882782387,
+    /* bs.resolve */
+    0,
+    /* bs.same */
+    1,
+    /* bs.put */
+    0,
+    /* bs.solve */
+    0,
+    /* bs.hash */
+    1795485774807631686,
+    /* bs.coef */
+    -310791, 335258848, 0, 4018487, 10356110, 6840251,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -2801763458949163784,
+    /* bs.eval_D_T */
+    9412715,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -8654999135720768115,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -5366052614618413305,
+    /* bs.eval_D_T */
+    4688722,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -8184215418927635816,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    2390012284570387462,
+    /* bs.eval_D_T */
+    12867581,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    2561920883883375915,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -815031140842398591,
+    /* bs.eval_D_T */
+    12800510,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    8750746050500547071,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    3747770064536778478,
+    /* bs.eval_D_T */
+    10962267,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    6430252756934307756,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -6156727625321318544,
+    /* bs.eval_D_T */
+    2943936,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    7289256435443913712,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -8745775067716282596,
+    /* bs.eval_D_T */
+    11780706,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    7144163825002348976,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    -8010293872426980793,
+    /* bs.sample */
+    0,
+    /* bs.sample_hash */
+    -1291071691152905402,
+    /* bs.update */
+    0,
+    /* bs.update_hash */
+    -6845774634575335293,
+    /* bs.resolve */
+    0,
+    /* bs.same */
+    1,
+    /* bs.put */
+    0,
+    /* bs.solve */
+    0,
+    /* bs.hash */
+    7114578140716640195,
+    /* bs.coef */
+    -346217, 671984015, 0, -420886, 3739850, 13711592,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    332355258175448692,
+    /* bs.eval_D_T */
+    4651969,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -1482558725125661823,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    1028303753625521442,
+    /* bs.eval_D_T */
+    4475462,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    6262164278498907164,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    2858722592364496589,
+    /* bs.eval_D_T */
+    6871878,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    4039946497365548603,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    5691698044605782667,
+    /* bs.eval_D_T */
+    1112310,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    5940973443420813428,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    6660833704012815197,
+    /* bs.eval_D_T */
+    12313072,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    4646047657889524674,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    2256189324735321267,
+    /* bs.eval_D_T */
+    4442729,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    262339102294970575,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    5233541461016400434,
+    /* bs.eval_D_T */
+    2794823,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    8350329680531241278,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    -3501342731119136234,
+    /* bs.sample */
+    0,
+    /* bs.sample_hash */
+    1215939772744035901,
+    /* bs.update */
+    0,
+    /* bs.update_hash */
+    -4130786758630110989,
+    /* bs.resolve */
+    0,
+    /* bs.same */
+    1,
+    /* bs.put */
+    0,
+    /* bs.solve */
+    0,
+    /* bs.hash */
+    -1600081991179415093,
+    /* bs.coef */
+    525191050428416, -525191050428416, 278042321616896, 24961224, -8184008, 24961224,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -5875578314100358365,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -6040096949253910057,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    3355494592781923121,
+    /* bs.eval_D_T */
+    16777216,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -5397048444727600866,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -6249502463453814779,
+    /* bs.eval_D_T */
+    8388608,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -4427771051700269697,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -1385038111673340116,
+    /* bs.eval_D_T */
+    5868387,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    7805560659068014644,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -6665088129571554318,
+    /* bs.eval_D_T */
+    10863368,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -250794153098918096,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -4086296421866543689,
+    /* bs.eval_D_T */
+    16777216,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -963872396364515416,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -5023553970275560606,
+    /* bs.eval_D_T */
+    -3807035,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    4936832442831826185,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    7175155391192870736,
+    /* bs.sample */
+    0,
+    /* bs.sample_hash */
+    -9184389901691077548,
 };
 
 #endif /* IT2N_CORE_VECTORS_H */

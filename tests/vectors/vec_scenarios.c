@@ -712,6 +712,197 @@ static void scen_text(const vec_out *o)
     out(o, "fp_from_name.bad", it2n_fp_from_name("LX", 2));
 }
 
+/* ---- B-spline kind --------------------------------------------------- */
+
+/* Hash of a B-spline model's exponents and every coefficient mantissa. */
+static uint64_t hash_bs(const it2n_bspline_model *mdl)
+{
+    uint64_t h = VEC_FNV_INIT;
+    size_t k, words = IT2N_BSPLINE_MODEL_WORDS(mdl->n, mdl->m, mdl->flags);
+    unsigned fp, ch;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            h = hash_i64(h, mdl->frac[fp][ch]);
+        }
+    }
+    for (k = 0; k < words; k++) {
+        h = hash_i64(h, mdl->coef[k]);
+    }
+    return h;
+}
+
+/* As make_grid for the B-spline data set (n, m intervals); extreme
+ * alternates +-IT2N_COORD_LIMIT and memberships 0/1 instead. */
+static int make_bs_grid(it2n_vec_work *wk, unsigned n, unsigned m,
+                        unsigned flags, uint32_t seed, bool extreme)
+{
+    unsigned i, j, fp;
+    int rc = it2n_bspline_data_init(&wk->bs_ds, wk->bs_rec, VEC_BS_RECS, n, m,
+                                    flags, &wk->err);
+    for (i = 0; i <= n && rc == IT2N_OK; i++) {
+        for (j = 0; j <= m && rc == IT2N_OK; j++) {
+            it2n_val jx = (it2n_val)(lcg(&seed) >> 2) - ((it2n_val)1 << 21);
+            it2n_val jy = (it2n_val)(lcg(&seed) >> 2) - ((it2n_val)1 << 21);
+            it2n_val mem[3];
+            unsigned k;
+            for (k = 0; k < 3u; k++) {
+                mem[k] = extreme ? (it2n_val)((i + 2u * j + k) & 1u) * IT2N_VAL_ONE
+                                 : (IT2N_VAL_ONE / 20) + (((it2n_val)lcg(&seed) * 9) / 10);
+            }
+            for (fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
+                it2n_val v[IT2N_CH_COUNT];
+                it2n_val off = ((it2n_val)fp - IT2N_FP_D) * (3 * IT2N_VAL_ONE / 2);
+                if ((flags & IT2N_F_TYPE1) && fp != IT2N_FP_D) {
+                    continue;
+                }
+                if (extreme) {
+                    it2n_val lim = Q24(IT2N_COORD_LIMIT);
+                    v[IT2N_CH_X] = ((i + j) & 1u) ? lim : -lim;
+                    v[IT2N_CH_Y] = ((i + j + 1u) & 1u) ? lim : -lim;
+                    v[IT2N_CH_Z] = (i & 1u) ? lim : -lim;
+                } else {
+                    v[IT2N_CH_X] = Q24(10 * (int)i) + jx + off;
+                    v[IT2N_CH_Y] = Q24(10 * (int)j) + jy + off;
+                    v[IT2N_CH_Z] = Q24((int)(i * j)) / 4 + off / 3;
+                }
+                v[IT2N_CH_T] = mem[0];
+                v[IT2N_CH_I] = mem[1];
+                v[IT2N_CH_F] = mem[2];
+                rc = it2n_bspline_data_put(&wk->bs_ds, i, j, fp, v, false, &wk->err);
+            }
+        }
+    }
+    return rc;
+}
+
+/* it2n_bspline_sample sink: hash every node. */
+typedef struct bs_sample_state {
+    uint64_t hash;
+} bs_sample_state;
+
+static int bs_sample_cb(void *ctx, unsigned r, unsigned c, it2n_par u,
+                        it2n_par w, const it2n_point *pt)
+{
+    bs_sample_state *s = ctx;
+    unsigned fp, ch;
+    s->hash = hash_i64(s->hash, (int64_t)(r * 65536u + c));
+    s->hash = hash_i64(s->hash, u ^ w);
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            s->hash = hash_i64(s->hash, pt->v[fp][ch]);
+        }
+    }
+    s->hash = hash_i64(s->hash, (int64_t)pt->out_of_range);
+    return 0;
+}
+
+/* Solve, coefficients, queries (values, summary, derivatives) on several
+ * grids; one update against a full re-solve; the extremes. */
+static void scen_bspline_one(it2n_vec_work *wk, const vec_out *o, unsigned n,
+                             unsigned m, unsigned flags, uint32_t seed,
+                             bool extreme)
+{
+    static const uint32_t at[][4] = {{0, 1, 0, 1}, {1, 1, 1, 1}, {1, 2, 1, 3},
+                                     {5, 7, 2, 9}, {99, 100, 1, 100},
+                                     {1, 3, 1, 1}, {12, 13, 7, 11}};
+    bs_sample_state ss;
+    unsigned k, fp, ch;
+    int rc = make_bs_grid(wk, n, m, flags, seed, extreme);
+    out(o, "bs.put", rc);
+    it2n_bspline_model_init(&wk->bs_a, wk->bs_coef, VEC_BS_WORDS);
+    rc = it2n_bspline_solve(&wk->bs_a, &wk->bs_ds, &wk->err);
+    out(o, "bs.solve", rc);
+    if (rc != IT2N_OK) {
+        out_errinfo(o, rc, &wk->err);
+        return;
+    }
+    out(o, "bs.hash", as_i64(hash_bs(&wk->bs_a)));
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        out(o, "bs.coef", it2n_bspline_coef(&wk->bs_a, 1, m + 1u, IT2N_FP_D, ch));
+    }
+    for (k = 0; k < sizeof at / sizeof at[0]; k++) {
+        it2n_par u = par(at[k][0], at[k][1]), w = par(at[k][2], at[k][3]);
+        uint64_t h = VEC_FNV_INIT;
+        rc = it2n_bspline_eval(&wk->bs_a, u, w, &wk->pt, &wk->err);
+        out(o, "bs.eval", rc);
+        for (fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                h = hash_i64(h, wk->pt.v[fp][ch]);
+            }
+        }
+        for (ch = 0; ch < 3u && rc == IT2N_OK; ch++) {
+            h = hash_i64(h, wk->pt.sum.upper_min[ch]);
+            h = hash_i64(h, wk->pt.sum.upper_max[ch]);
+            h = hash_i64(h, wk->pt.sum.lower_min[ch]);
+            h = hash_i64(h, wk->pt.sum.lower_max[ch]);
+        }
+        out(o, "bs.eval_hash", as_i64(hash_i64(h, (int64_t)wk->pt.out_of_range)));
+        out(o, "bs.eval_D_T", wk->pt.v[IT2N_FP_D][IT2N_CH_T]);
+        rc = it2n_bspline_deriv(&wk->bs_a, u, w, &wk->du, &wk->dw, &wk->err);
+        out(o, "bs.deriv", rc);
+        h = VEC_FNV_INIT;
+        for (fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                h = hash_i64(h, wk->du.v[fp][ch]);
+                h = hash_i64(h, wk->dw.v[fp][ch]);
+            }
+        }
+        out(o, "bs.deriv_hash", as_i64(h));
+    }
+    /* locate the D point at (5/7, 2/9) */
+    rc = it2n_bspline_eval(&wk->bs_a, par(5, 7), par(2, 9), &wk->pt, &wk->err);
+    if (rc == IT2N_OK) {
+        uint64_t h = VEC_FNV_INIT;
+        rc = it2n_bspline_locate(&wk->bs_a, wk->pt.v[IT2N_FP_D][IT2N_CH_X],
+                                 wk->pt.v[IT2N_FP_D][IT2N_CH_Y], &wk->loc, &wk->err);
+        for (fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
+            h = hash_i64(h, wk->loc.fp[fp].u);
+            h = hash_i64(h, wk->loc.fp[fp].w);
+            h = hash_i64(h, wk->loc.fp[fp].residual);
+            h = hash_i64(h, wk->loc.fp[fp].status);
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                h = hash_i64(h, wk->loc.fp[fp].v[ch]);
+            }
+        }
+        out(o, "bs.locate", rc);
+        out(o, "bs.locate_hash", as_i64(h));
+    }
+    ss.hash = VEC_FNV_INIT;
+    rc = it2n_bspline_sample(&wk->bs_a, 9, 6, bs_sample_cb, &ss, &wk->err);
+    out(o, "bs.sample", rc);
+    out(o, "bs.sample_hash", as_i64(ss.hash));
+    if (extreme) {
+        return;
+    }
+    /* update one footprint of one point; compare with a full re-solve */
+    {
+        it2n_val v[IT2N_CH_COUNT];
+        unsigned fu = (flags & IT2N_F_TYPE1) ? IT2N_FP_D : IT2N_FP_L;
+        it2n_bspline_data_get(&wk->bs_ds, n / 2u, m / 3u, fu, v);
+        v[IT2N_CH_T] = IT2N_VAL_ONE - v[IT2N_CH_T];
+        v[IT2N_CH_X] += IT2N_VAL_ONE / 3;
+        rc = it2n_bspline_update(&wk->bs_a, &wk->bs_ds, n / 2u, m / 3u, fu, v,
+                                 &wk->err);
+        out(o, "bs.update", rc);
+        out(o, "bs.update_hash", as_i64(hash_bs(&wk->bs_a)));
+        it2n_bspline_model_init(&wk->bs_b, wk->bs_coef2, VEC_BS_WORDS);
+        rc = it2n_bspline_solve(&wk->bs_b, &wk->bs_ds, &wk->err);
+        out(o, "bs.resolve", rc);
+        out(o, "bs.same", hash_bs(&wk->bs_a) == hash_bs(&wk->bs_b) &&
+                          memcmp(wk->bs_coef, wk->bs_coef2,
+                                 IT2N_BSPLINE_MODEL_WORDS(n, m, flags) * 4u) == 0);
+    }
+}
+
+static void scen_bspline(it2n_vec_work *wk, const vec_out *o)
+{
+    scen_bspline_one(wk, o, 10, 7, 0, 21u, false);              /* type-2 */
+    scen_bspline_one(wk, o, 20, 20, IT2N_F_TYPE1 | IT2N_F_Z, 22u, false);
+    scen_bspline_one(wk, o, 1, 2, IT2N_F_Z, 23u, false);        /* line, parabola */
+    scen_bspline_one(wk, o, 3, 4, IT2N_F_TYPE1, 24u, false);    /* 4 points: a cubic */
+    scen_bspline_one(wk, o, 9, 5, IT2N_F_Z, 25u, true);         /* +-limit */
+}
+
 void it2n_vec_scenarios(it2n_vec_work *wk, it2n_vec_put put, void *state)
 {
     /* Degree pairs: the extremes, non-square grids, the default maximum. */
@@ -737,4 +928,6 @@ void it2n_vec_scenarios(it2n_vec_work *wk, it2n_vec_put put, void *state)
     scen_generated(wk, &o, 2, 5, IT2N_F_Z | IT2N_F_CHORD | IT2N_F_TYPE1, 10u);
     scen_errors(wk, &o);
     scen_text(&o);
+    /* appended (issue 21): the vectors before these are unchanged */
+    scen_bspline(wk, &o);
 }

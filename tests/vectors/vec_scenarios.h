@@ -21,6 +21,10 @@
  */
 typedef void (*it2n_vec_put)(void *state, const char *tag, int64_t value);
 
+/* B-spline scenario storage (records, coefficient words per model). */
+#define VEC_BS_RECS 640u
+#define VEC_BS_WORDS 4600u
+
 /* Working memory for one run. Large (two data sets and two models, about
  * 50 KB at IT2N_MAX_DEGREE 7): callers keep it in static storage (.bss),
  * never on a small embedded stack. */
@@ -31,6 +35,11 @@ typedef struct it2n_vec_work {
     it2n_locate_result loc;
     it2n_par u[IT2N_DIM], w[IT2N_DIM];
     it2n_errinfo err;
+    /* B-spline scenarios: up to 21 x 21 points type-1 or 11 x 8 type-2 */
+    it2n_bspline_rec bs_rec[VEC_BS_RECS];
+    int32_t bs_coef[VEC_BS_WORDS], bs_coef2[VEC_BS_WORDS];
+    it2n_bspline_data bs_ds;
+    it2n_bspline_model bs_a, bs_b;
 } it2n_vec_work;
 
 /* Run every scenario, streaming outputs to put(state, ...). */

@@ -8,6 +8,7 @@
 #define IT2N_LOCATE_GRID 4
 #define IT2N_LOCATE_MAX_ITER 20
 #define IT2N_CHORD 0
+#define IT2N_BSPLINE_MAX_N 15
 #define IT2N_ASSERT(c) ((c) ? (void)0 : __builtin_trap())
 
 #endif

@@ -1,0 +1,178 @@
+/* spb_conf.c — see spb_conf.h. */
+#include "spb_conf.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define ERR(...) do { snprintf(err, errsize, __VA_ARGS__); return -1; } while (0)
+
+void spb_conf_default(struct spb_conf *s)
+{
+    memset(s, 0, sizeof *s);
+    s->port = 1883;
+    s->keepalive = 30;
+    s->reconnect_max = 30;
+}
+
+static int parse_num(const char *v, long lo, long hi, int *out)
+{
+    char *end;
+    long x;
+    errno = 0;
+    x = strtol(v, &end, 10);
+    if (!*v || *end || errno || x < lo || x > hi)
+        return -1;
+    *out = (int)x;
+    return 0;
+}
+
+/* A Sparkplug id is one MQTT topic level: no '/', '+', '#' (the topic
+ * separators and wildcards, spec 4.1.1), and printable ASCII here so it
+ * reads the same in logs, topics and the docs. */
+static int valid_id(const char *v)
+{
+    if (!*v || strlen(v) >= SPB_ID_MAX)
+        return 0;
+    for (const char *c = v; *c; c++)
+        if (*c < 0x21 || *c > 0x7e || *c == '/' || *c == '+' || *c == '#')
+            return 0;
+    return 1;
+}
+
+/* "host:port", "[v6]:port" or "host" (port 1883). */
+static int parse_broker(struct spb_conf *s, const char *v)
+{
+    const char *colon = NULL;
+    size_t hlen;
+    if (v[0] == '[') {
+        const char *close = strchr(v, ']');
+        if (!close || (close[1] && close[1] != ':'))
+            return -1;
+        hlen = (size_t)(close - v - 1);
+        v++;
+        colon = close[1] ? close + 1 : NULL;
+    } else {
+        colon = strrchr(v, ':');
+        if (colon && strchr(v, ':') != colon)
+            return -1;  /* a bare IPv6 address needs [] */
+        hlen = colon ? (size_t)(colon - v) : strlen(v);
+    }
+    if (hlen == 0 || hlen >= sizeof s->host)
+        return -1;
+    memcpy(s->host, v, hlen);
+    s->host[hlen] = 0;
+    if (!colon)
+        s->port = 1883;  /* the MQTT port (IANA) */
+    else if (parse_num(colon + 1, 1, 65535, &s->port))
+        return -1;
+    return 0;
+}
+
+static int read_password(struct spb_conf *s, const char *path, char *err, size_t errsize)
+{
+    FILE *f = fopen(path, "r");
+    char *line = NULL;
+    size_t cap = 0;
+    ssize_t n;
+    if (!f)
+        ERR("cannot open '%s': %s", path, strerror(errno));
+    n = getline(&line, &cap, f);
+    fclose(f);
+    if (n < 0) {
+        free(line);
+        ERR("'%s' is empty: its first line is the password", path);
+    }
+    while (n > 0 && (line[n - 1] == '\n' || line[n - 1] == '\r'))
+        line[--n] = 0;
+    if (n == 0 || (size_t)n >= sizeof s->password) {
+        free(line);
+        ERR("the first line of '%s' must hold the password (1..%zu bytes)", path, sizeof s->password - 1);
+    }
+    memcpy(s->password, line, (size_t)n + 1);
+    memset(line, 0, cap);
+    free(line);
+    s->password_set = 1;
+    return 0;
+}
+
+int spb_conf_key(struct spb_conf *s, const char *name, const char *v, int line, char *err, size_t errsize)
+{
+    if (!s->enabled) {
+        s->enabled = 1;
+        s->first_line = line;
+        snprintf(s->first_key, sizeof s->first_key, "%s", name);
+    }
+    if (!strcmp(name, "broker")) {
+        if (parse_broker(s, v))
+            ERR("expected host:port, [v6addr]:port or host (port 1883)");
+    } else if (!strcmp(name, "group_id") || !strcmp(name, "edge_node_id") || !strcmp(name, "client_id")) {
+        char *dst = name[0] == 'g' ? s->group_id : name[0] == 'e' ? s->edge_node_id : s->client_id;
+        if (!valid_id(v))
+            ERR("expected 1..%d printable ASCII characters without '/', '+', '#' or blanks", SPB_ID_MAX - 1);
+        snprintf(dst, SPB_ID_MAX, "%s", v);
+    } else if (!strcmp(name, "keepalive")) {
+        if (parse_num(v, 5, 3600, &s->keepalive))
+            ERR("expected seconds 5..3600");
+    } else if (!strcmp(name, "reconnect_max")) {
+        if (parse_num(v, 1, 3600, &s->reconnect_max))
+            ERR("expected seconds 1..3600");
+    } else if (!strcmp(name, "username")) {
+        if (!*v || strlen(v) >= sizeof s->username)
+            ERR("expected 1..%zu characters", sizeof s->username - 1);
+        snprintf(s->username, sizeof s->username, "%s", v);
+    } else if (!strcmp(name, "password_file")) {
+        if (read_password(s, v, err, errsize))
+            return -1;
+        s->password_line = line;
+    } else if (!strcmp(name, "tls_ca") || !strcmp(name, "tls_cert") || !strcmp(name, "tls_key")) {
+        char *dst = name[4] == 'c' && name[5] == 'a' ? s->tls_ca : name[4] == 'c' ? s->tls_cert : s->tls_key;
+        int *l = dst == s->tls_ca ? &s->tls_ca_line : dst == s->tls_cert ? &s->tls_cert_line : &s->tls_key_line;
+        FILE *f;
+        if (!*v || strlen(v) >= sizeof s->tls_ca)
+            ERR("path empty or too long");
+        /* Readable now (the contents are checked by spb_conf_check_tls). */
+        if (!(f = fopen(v, "r")))
+            ERR("cannot open '%s': %s", v, strerror(errno));
+        fclose(f);
+        snprintf(dst, sizeof s->tls_ca, "%s", v);
+        *l = line;
+    } else if (!strcmp(name, "primary_host_id") || !strcmp(name, "store_forward_max")) {
+        ERR("not supported by this it2nd yet (docs/sparkplug.md, \"Not yet\"); remove the key");
+    } else {
+        ERR("unknown key");
+    }
+    return 0;
+}
+
+int spb_conf_check(const struct spb_conf *s, int *line, char *key, size_t keysize, char *err, size_t errsize)
+{
+    static const char *const need[] = { "broker", "group_id", "edge_node_id" };
+    const char *have[] = { s->host, s->group_id, s->edge_node_id };
+    if (!s->enabled)
+        return 0;
+    for (size_t k = 0; k < sizeof need / sizeof need[0]; k++)
+        if (!have[k][0]) {
+            *line = s->first_line;
+            snprintf(key, keysize, "%s", s->first_key);
+            ERR("%s is required in this section", need[k]);
+        }
+    if (!!s->tls_cert[0] != !!s->tls_key[0]) {
+        *line = s->tls_cert[0] ? s->tls_cert_line : s->tls_key_line;
+        snprintf(key, keysize, "%s", s->tls_cert[0] ? "tls_cert" : "tls_key");
+        ERR("needs %s in this section (a client certificate and its key go together)",
+            s->tls_cert[0] ? "tls_key" : "tls_cert");
+    }
+    if (s->tls_cert[0] && !s->tls_ca[0]) {
+        *line = s->tls_cert_line;
+        snprintf(key, keysize, "tls_cert");
+        ERR("needs tls_ca in this section (TLS verifies the broker's certificate)");
+    }
+    if (s->password_set && !s->username[0]) {
+        *line = s->password_line;
+        snprintf(key, keysize, "password_file");
+        ERR("needs username in this section");
+    }
+    return 0;
+}

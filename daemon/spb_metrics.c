@@ -1,0 +1,231 @@
+/* spb_metrics.c — see spb_metrics.h. */
+#include "spb_metrics.h"
+
+#include <stdio.h>
+#include <string.h>
+
+/* The metric list of a device, in this order (index K, alias
+ * (N + 1) * SPB_DEV_ALIAS + K):
+ *   Status/<name>         every field of the status block (registers 0..27)
+ *   Query/u, Query/w      the device's query (Float; written by DCMD)
+ *   Query/generation      model generation of the results (UInt32)
+ *   Query/Result/<FP>/<ch>, Query/Summary/<s>/<TIF>   results (Float)
+ *   Upload/<name>         the upload block (registers 40..51; written by
+ *                         DCMD as a whole, like FC16)
+ *   Sample Grid/r<R>/c<C>/<T|I|F>   the sample grid (Float) */
+
+#define N_QIN 2
+#define N_QGEN 1
+#define N_RES ((int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH) + 12)
+
+static const it2n_regmap_block *block_at(unsigned start)
+{
+    for (size_t k = 0; k < it2n_regmap_nblocks; k++)
+        if (it2n_regmap_blocks[k].start == start)
+            return &it2n_regmap_blocks[k];
+    return NULL;
+}
+
+static const it2n_regmap_block *status_block(void)
+{
+    return block_at(IT2N_REG_MAP_VERSION);
+}
+
+static const it2n_regmap_block *upload_block(void)
+{
+    return block_at(IT2N_REG_UP_I);
+}
+
+unsigned spb_metrics_upload_count(void)
+{
+    return (unsigned)upload_block()->nfields;
+}
+
+const it2n_regmap_field *spb_metrics_upload_field(int rel)
+{
+    return &upload_block()->fields[rel];
+}
+
+/* First index of each segment, and the count. */
+static int seg_start(int seg)
+{
+    int n = 0;
+    if (seg > SPB_SEG_STATUS)
+        n += (int)status_block()->nfields;
+    if (seg > SPB_SEG_QIN)
+        n += N_QIN;
+    if (seg > SPB_SEG_QGEN)
+        n += N_QGEN;
+    if (seg > SPB_SEG_RES)
+        n += N_RES;
+    if (seg > SPB_SEG_UPLOAD)
+        n += (int)upload_block()->nfields;
+    return n;
+}
+
+int spb_metrics_count(const struct mb_opts *o)
+{
+    return seg_start(SPB_SEG_GRID) + (int)(o->grid_rows * o->grid_cols) * 3;
+}
+
+/* The segment of idx, with idx made relative to it. */
+int spb_metrics_seg(int *idx)
+{
+    for (int seg = SPB_SEG_GRID; seg > SPB_SEG_STATUS; seg--)
+        if (*idx >= seg_start(seg)) {
+            *idx -= seg_start(seg);
+            return seg;
+        }
+    return SPB_SEG_STATUS;
+}
+
+static int field_type(int rt)
+{
+    switch (rt) {
+    case IT2N_RT_I16: return SPB_INT16;
+    case IT2N_RT_U32: return SPB_UINT32;
+    case IT2N_RT_I32: return SPB_INT32;
+    case IT2N_RT_F32: return SPB_FLOAT;
+    default: return SPB_UINT16;
+    }
+}
+
+int spb_metrics_type(int idx)
+{
+    switch (spb_metrics_seg(&idx)) {
+    case SPB_SEG_STATUS: return field_type(status_block()->fields[idx].type);
+    case SPB_SEG_QGEN: return SPB_UINT32;
+    case SPB_SEG_UPLOAD: return field_type(upload_block()->fields[idx].type);
+    default: return SPB_FLOAT;
+    }
+}
+
+static const char *const fp_names[IT2N_REGMAP_FP] = { "LL", "LR", "L", "D", "R", "RL", "RR" };
+static const char ch_names[IT2N_REGMAP_CH] = { 'x', 'y', 'z', 'T', 'I', 'F' };
+static const char *const sum_names[4] = { "upper_min", "upper_max", "lower_min", "lower_max" };
+
+/* Name, and the description and unit for the birth. */
+void spb_metrics_info(const struct mb_opts *o, int idx, char *name, size_t nsize, char *desc, size_t dsize,
+                      const char **unit)
+{
+    static const char *const chname[3] = { "Truth", "Indeterminacy", "Falsity" };
+    const it2n_regmap_field *f;
+    unsigned nd, k, r, c;
+    double u, w;
+    int seg = spb_metrics_seg(&idx);
+    *unit = NULL;
+    switch (seg) {
+    case SPB_SEG_STATUS:
+    case SPB_SEG_UPLOAD:
+        f = &(seg == SPB_SEG_STATUS ? status_block() : upload_block())->fields[idx];
+        snprintf(name, nsize, "%s/%s", seg == SPB_SEG_STATUS ? "Status" : "Upload", f->name);
+        snprintf(desc, dsize, "%s (Modbus register %u%s)", f->desc, (unsigned)f->addr,
+                 seg == SPB_SEG_UPLOAD ? "; a DCMD writes the 9 Upload metrics together" : "");
+        *unit = strcmp(f->unit, "-") ? f->unit : NULL;
+        return;
+    case SPB_SEG_QIN:
+        snprintf(name, nsize, "Query/%c", idx ? 'w' : 'u');
+        snprintf(desc, dsize, "Parameter %c in [0, 1] of this device's query (Modbus q_%c_f, register %u); a DCMD "
+                 "writing Query/u and/or Query/w evaluates the model there", idx ? 'w' : 'u', idx ? 'w' : 'u',
+                 idx ? IT2N_REG_Q_WF : IT2N_REG_Q_UF);
+        return;
+    case SPB_SEG_QGEN:
+        snprintf(name, nsize, "Query/generation");
+        snprintf(desc, dsize, "Model generation the query results were computed from (Modbus q_generation)");
+        return;
+    case SPB_SEG_RES:
+        if (idx < (int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH)) {
+            k = (unsigned)idx % IT2N_REGMAP_CH;
+            snprintf(name, nsize, "Query/Result/%s/%c", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k]);
+            snprintf(desc, dsize, "Surface value of footprint %s, channel %c at (Query/u, Query/w) (Modbus register "
+                     "%u, float32)", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k], IT2N_REG_RES_F32 + 2u * (unsigned)idx);
+            *unit = k < 3 ? "coord" : NULL;
+        } else {
+            idx -= (int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH);
+            snprintf(name, nsize, "Query/Summary/%s/%c", sum_names[idx / 3], "TIF"[idx % 3]);
+            snprintf(desc, dsize, "Interval summary %s of %c at (Query/u, Query/w) (Modbus register %u, float32)",
+                     sum_names[idx / 3], "TIF"[idx % 3], IT2N_REG_SUM_F32 + 2u * (unsigned)idx);
+        }
+        return;
+    default:
+        nd = (unsigned)idx / 3;
+        k = (unsigned)idx % 3;
+        r = nd / o->grid_cols;
+        c = nd % o->grid_cols;
+        u = o->grid_rows > 1 ? (double)r / (o->grid_rows - 1) : 0.0;
+        w = o->grid_cols > 1 ? (double)c / (o->grid_cols - 1) : 0.0;
+        snprintf(name, nsize, "Sample Grid/r%u/c%u/%c", r, c, "TIF"[k]);
+        snprintf(desc, dsize, "%s membership of footprint D at u = %.4g, w = %.4g (Modbus register %u, float32)",
+                 chname[k], u, w, IT2N_REG_GRID_F32 + (nd * 3 + k) * 2);
+        return;
+    }
+}
+
+/* Register fields of a block into metric values. */
+static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, struct spb_val *out)
+{
+    for (size_t k = 0; k < b->nfields; k++) {
+        const it2n_regmap_field *f = &b->fields[k];
+        const uint16_t *r = &regs[f->addr - b->start];
+        switch (f->type) {
+        case IT2N_RT_I16: out[k].u = (uint64_t)(int64_t)(int16_t)r[0]; break;
+        case IT2N_RT_U32: out[k].u = (uint32_t)r[0] << 16 | r[1]; break;
+        case IT2N_RT_I32: out[k].u = (uint64_t)(int64_t)(int32_t)((uint32_t)r[0] << 16 | r[1]); break;
+        case IT2N_RT_F32: out[k].f = mbmap_get_f32(r, IT2N_WO_ABCD); break;
+        default: out[k].u = r[0]; break;
+        }
+    }
+}
+
+static void set_null(struct spb_val *out, int n)
+{
+    for (int k = 0; k < n; k++)
+        out[k].null = 1;
+}
+
+/* The values a PLC reads now, through the same register map code, from
+ * the last durable state: the status block, this device's query (its own
+ * connection-like state) and results, the upload block, the float32
+ * sample grid. Null where Modbus answers an exception (not solved). */
+void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_opts *o, struct spb_val *out)
+{
+    static uint16_t regs[IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32];
+    const it2n_regmap_block *b = status_block(), *up = upload_block();
+    unsigned nodes = o->grid_rows * o->grid_cols;
+    int n = spb_metrics_count(o);
+    memset(out, 0, (size_t)n * sizeof *out);
+    if (mbmap_read(md, q, o, b->start, (unsigned)(b->end - b->start), regs) == MBX_OK)
+        fields_values(b, regs, out);
+    else
+        set_null(out, (int)b->nfields);
+    out += seg_start(SPB_SEG_QIN);
+    if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
+        out[0].f = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
+        out[1].f = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+    } else {
+        set_null(out, N_QIN);
+    }
+    out += N_QIN;
+    if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_GEN, 2, regs) == MBX_OK &&
+        mbmap_read(md, q, o, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MBX_OK) {
+        out[0].u = (uint32_t)regs[0] << 16 | regs[1];
+        for (int k = 0; k < N_RES; k++)
+            out[1 + k].f = mbmap_get_f32(&regs[2 + 2 * k], IT2N_WO_ABCD);
+    } else {
+        set_null(out, N_QGEN + N_RES);  /* no query yet, or not solved (06) */
+    }
+    out += N_QGEN + N_RES;
+    if (mbmap_read(md, q, o, up->start, (unsigned)(up->end - up->start), regs) == MBX_OK)
+        fields_values(up, regs, out);
+    else
+        set_null(out, (int)up->nfields);
+    out += up->nfields;
+    if (!nodes)
+        return;
+    if (mbmap_read(md, q, o, IT2N_REG_GRID_F32, nodes * 6u, regs) != MBX_OK) {
+        set_null(out, (int)nodes * 3);  /* not solved: no grid (Modbus answers 06) */
+        return;
+    }
+    for (unsigned k = 0; k < nodes * 3u; k++)
+        out[k].f = mbmap_get_f32(&regs[k * 2], IT2N_WO_ABCD);
+}

@@ -1,0 +1,246 @@
+/* spb_payload.c — see spb_payload.h. protobuf-c does the wire format; this
+ * file only lays out the message structs. */
+#include "spb_payload.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "spb.pb-c.h"
+
+#define SPB_PROPS 3
+
+/* One metric with everything it points to, so a builder is one array. */
+struct slot {
+    Spb__Payload__Metric m;
+    Spb__Payload__PropertySet ps;
+    Spb__Payload__PropertyValue pv[SPB_PROPS];
+    Spb__Payload__PropertyValue *pvp[SPB_PROPS];
+    char *keys[SPB_PROPS];
+    char *strs[2 * SPB_PROPS + 2];  /* owned copies: name, string value, props */
+    int nstrs;
+};
+
+struct spb_pl {
+    struct slot *s;
+    Spb__Payload__Metric **mp;
+    size_t n, cap;
+};
+
+int spb_val_equal(int type, const struct spb_val *a, const struct spb_val *b)
+{
+    if (a->null || b->null)
+        return a->null == b->null;
+    if (type == SPB_FLOAT)
+        return !memcmp(&a->f, &b->f, sizeof a->f);
+    if (type == SPB_STRING)
+        return a->s && b->s ? !strcmp(a->s, b->s) : a->s == b->s;
+    return a->u == b->u;
+}
+
+struct spb_pl *spb_pl_new(size_t cap)
+{
+    struct spb_pl *pl = calloc(1, sizeof *pl);
+    if (!pl)
+        return NULL;
+    pl->s = calloc(cap ? cap : 1, sizeof *pl->s);
+    pl->mp = calloc(cap ? cap : 1, sizeof *pl->mp);
+    if (!pl->s || !pl->mp) {
+        spb_pl_free(pl);
+        return NULL;
+    }
+    pl->cap = cap;
+    return pl;
+}
+
+void spb_pl_free(struct spb_pl *pl)
+{
+    if (!pl)
+        return;
+    for (size_t k = 0; k < pl->n; k++)
+        for (int j = 0; j < pl->s[k].nstrs; j++)
+            free(pl->s[k].strs[j]);
+    free(pl->s);
+    free(pl->mp);
+    free(pl);
+}
+
+static char *own(struct slot *s, const char *str)
+{
+    char *c;
+    if (s->nstrs == (int)(sizeof s->strs / sizeof s->strs[0]) || !(c = strdup(str)))
+        return NULL;
+    s->strs[s->nstrs++] = c;
+    return c;
+}
+
+int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, uint64_t ts, const struct spb_val *v)
+{
+    static const Spb__Payload__Metric init = SPB__PAYLOAD__METRIC__INIT;
+    struct slot *s;
+    Spb__Payload__Metric *m;
+    if (pl->n == pl->cap)
+        return -1;
+    s = &pl->s[pl->n];
+    memset(s, 0, sizeof *s);
+    m = &s->m;
+    *m = init;
+    if (name) {
+        if (!(m->name = own(s, name)))
+            return -1;
+        m->has_datatype = 1;
+        m->datatype = (uint32_t)type;
+    }
+    if (alias) {
+        m->has_alias = 1;
+        m->alias = alias;
+    }
+    m->has_timestamp = 1;
+    m->timestamp = ts;
+    if (v->null) {
+        m->has_is_null = 1;
+        m->is_null = 1;
+    } else {
+        switch (type) {
+        case SPB_INT16:
+        case SPB_INT32:
+        case SPB_UINT16:
+        case SPB_UINT32:
+            m->value_case = SPB__PAYLOAD__METRIC__VALUE_INT_VALUE;
+            m->int_value = (uint32_t)v->u;
+            break;
+        case SPB_INT64:
+        case SPB_UINT64:
+            m->value_case = SPB__PAYLOAD__METRIC__VALUE_LONG_VALUE;
+            m->long_value = v->u;
+            break;
+        case SPB_FLOAT:
+            m->value_case = SPB__PAYLOAD__METRIC__VALUE_FLOAT_VALUE;
+            m->float_value = v->f;
+            break;
+        case SPB_BOOLEAN:
+            m->value_case = SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE;
+            m->boolean_value = v->u != 0;
+            break;
+        case SPB_STRING:
+            m->value_case = SPB__PAYLOAD__METRIC__VALUE_STRING_VALUE;
+            if (!(m->string_value = own(s, v->s ? v->s : "")))
+                return -1;
+            break;
+        default:
+            return -1;
+        }
+    }
+    pl->mp[pl->n] = m;
+    return (int)pl->n++;
+}
+
+int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value)
+{
+    static const Spb__Payload__PropertySet ps_init = SPB__PAYLOAD__PROPERTY_SET__INIT;
+    static const Spb__Payload__PropertyValue pv_init = SPB__PAYLOAD__PROPERTY_VALUE__INIT;
+    struct slot *s;
+    size_t k;
+    if (idx < 0 || (size_t)idx >= pl->n)
+        return -1;
+    s = &pl->s[idx];
+    if (!s->m.properties) {
+        s->ps = ps_init;
+        s->ps.keys = s->keys;
+        s->ps.values = s->pvp;
+        s->m.properties = &s->ps;
+    }
+    k = s->ps.n_keys;
+    if (k == SPB_PROPS)
+        return -1;
+    s->pv[k] = pv_init;
+    s->pv[k].has_type = 1;
+    s->pv[k].type = SPB_STRING;
+    s->pv[k].value_case = SPB__PAYLOAD__PROPERTY_VALUE__VALUE_STRING_VALUE;
+    if (!(s->pv[k].string_value = own(s, value)) || !(s->keys[k] = own(s, key)))
+        return -1;
+    s->pvp[k] = &s->pv[k];
+    s->ps.n_keys = s->ps.n_values = k + 1;
+    return 0;
+}
+
+int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *len)
+{
+    Spb__Payload p = SPB__PAYLOAD__INIT;
+    size_t n;
+    p.has_timestamp = 1;
+    p.timestamp = ts;
+    p.n_metrics = pl->n;
+    p.metrics = pl->mp;
+    if (seq >= 0) {
+        p.has_seq = 1;
+        p.seq = (uint64_t)seq;
+    }
+    n = spb__payload__get_packed_size(&p);
+    if (!(*out = malloc(n ? n : 1)))
+        return -1;
+    *len = spb__payload__pack(&p, *out);
+    return 0;
+}
+
+int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_cmd *cmd, char *why,
+                  size_t whysize)
+{
+    Spb__Payload *p = spb__payload__unpack(NULL, len, buf);
+    int rc = 0;
+    memset(cmd, 0, sizeof *cmd);
+    if (!p) {
+        snprintf(why, whysize, "not a Sparkplug B payload (protobuf decoding failed, %zu bytes)", len);
+        return -1;
+    }
+    cmd->nmetrics = p->n_metrics > 1000000 ? 1000000 : (int)p->n_metrics;
+    for (size_t k = 0; k < p->n_metrics; k++) {
+        const Spb__Payload__Metric *m = p->metrics[k];
+        int is_rebirth = (m->name && !strcmp(m->name, "Node Control/Rebirth")) ||
+                         (!m->name && m->has_alias && rebirth_alias && m->alias == rebirth_alias);
+        if (!is_rebirth)
+            continue;
+        if (m->value_case != SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE ||
+            (m->has_datatype && m->datatype != SPB_BOOLEAN)) {
+            snprintf(why, whysize, "Node Control/Rebirth must be a Boolean");
+            rc = -1;
+            break;
+        }
+        if (m->boolean_value)
+            cmd->rebirth = 1;
+    }
+    spb__payload__free_unpacked(p, NULL);
+    return rc;
+}
+
+int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_in *m), void *ctx,
+                 char *why, size_t whysize)
+{
+    Spb__Payload *p = spb__payload__unpack(NULL, len, buf);
+    if (!p) {
+        snprintf(why, whysize, "not a Sparkplug B payload (protobuf decoding failed, %zu bytes)", len);
+        return -1;
+    }
+    for (size_t k = 0; k < p->n_metrics; k++) {
+        const Spb__Payload__Metric *m = p->metrics[k];
+        struct spb_in in;
+        memset(&in, 0, sizeof in);
+        in.name = m->name;
+        in.has_alias = m->has_alias;
+        in.alias = m->alias;
+        in.has_datatype = m->has_datatype;
+        in.datatype = m->datatype;
+        switch (m->value_case) {
+        case SPB__PAYLOAD__METRIC__VALUE_INT_VALUE: in.kind = SPB_IN_INT; in.u = m->int_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_LONG_VALUE: in.kind = SPB_IN_LONG; in.u = m->long_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_FLOAT_VALUE: in.kind = SPB_IN_FLOAT; in.d = m->float_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_DOUBLE_VALUE: in.kind = SPB_IN_FLOAT; in.d = m->double_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE: in.kind = SPB_IN_BOOL; in.u = m->boolean_value != 0; break;
+        case SPB__PAYLOAD__METRIC__VALUE__NOT_SET: in.kind = SPB_IN_NONE; break;
+        default: in.kind = SPB_IN_OTHER; break;
+        }
+        fn(ctx, &in);
+    }
+    spb__payload__free_unpacked(p, NULL);
+    return 0;
+}

@@ -1,0 +1,82 @@
+/* spb_payload — building and reading Sparkplug B payloads (daemon/spb.proto,
+ * compiled by protoc-c into spb.pb-c.c). A builder holds one payload's
+ * metrics with their names, values and string properties in memory it
+ * owns, so callers fill it from transient buffers and pack it once.
+ * Decoding is for NCMD/DCMD: spb_cmd_parse() accepts what the edge node
+ * acts on and says why anything else is refused. No I/O, no globals. */
+#ifndef IT2ND_SPB_PAYLOAD_H
+#define IT2ND_SPB_PAYLOAD_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Sparkplug datatypes used by it2nd (spec 6.4.16, spb.proto DataType). */
+enum spb_type {
+    SPB_INT16 = 2, SPB_INT32 = 3, SPB_INT64 = 4, SPB_UINT16 = 6, SPB_UINT32 = 7, SPB_UINT64 = 8,
+    SPB_FLOAT = 9, SPB_DOUBLE = 10, SPB_BOOLEAN = 11, SPB_STRING = 12
+};
+
+/* A metric value. Integers in u (signed ones as their two's complement,
+ * sign-extended to 64 bits), Float in f, Boolean in u (0/1), String in s
+ * (not owned). null: the value is unknown now (is_null, no value). */
+struct spb_val {
+    uint64_t u;
+    float f;
+    const char *s;
+    int null;
+};
+
+/* Equal as the host would see them (floats bit for bit). */
+int spb_val_equal(int type, const struct spb_val *a, const struct spb_val *b);
+
+struct spb_pl;
+
+/* A builder for up to cap metrics; NULL when out of memory. */
+struct spb_pl *spb_pl_new(size_t cap);
+void spb_pl_free(struct spb_pl *pl);
+
+/* Append a metric. name NULL: by alias only (DATA); alias 0: none; type
+ * is written when name is given (births); ts: ms UTC. Returns its index,
+ * or -1 when the builder is full or out of memory. */
+int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, uint64_t ts, const struct spb_val *v);
+
+/* Add a String property (key, value) to metric idx (at most 3 each). */
+int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value);
+
+/* Encode: payload timestamp ts, seq (< 0: none, as in NDEATH). *out is
+ * malloc'ed (free it). Returns 0 or -1 (out of memory). */
+int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *len);
+
+/* One metric of a command (NCMD/DCMD), as decoded: by name or by alias,
+ * and its value by protobuf field (kind). Valid during the callback. */
+enum spb_in_kind { SPB_IN_NONE = 0, SPB_IN_INT, SPB_IN_LONG, SPB_IN_FLOAT, SPB_IN_BOOL, SPB_IN_OTHER };
+struct spb_in {
+    const char *name;      /* NULL: by alias                          */
+    int has_alias;
+    uint64_t alias;
+    int has_datatype;
+    uint32_t datatype;
+    int kind;              /* enum spb_in_kind; float and double: FLOAT */
+    uint64_t u;            /* INT (uint32 as sent), LONG, BOOL (0/1)   */
+    double d;              /* FLOAT                                    */
+};
+
+/* Decode a command payload and call fn for each metric, in order.
+ * Returns 0, or -1 with why (not a Sparkplug B payload). */
+int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_in *m), void *ctx,
+                 char *why, size_t whysize);
+
+/* What an NCMD/DCMD asks for. */
+struct spb_cmd {
+    int rebirth;           /* "Node Control/Rebirth" = true             */
+    int nmetrics;          /* metrics in the payload                    */
+};
+
+/* Decode a command payload; rebirth_alias is the alias the NBIRTH gave
+ * "Node Control/Rebirth" (a command may name it or use the alias).
+ * Returns 0, or -1 with a reason in why (undecodable, or a Rebirth of a
+ * type other than Boolean). Unknown metrics are counted, not refused. */
+int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_cmd *cmd, char *why,
+                  size_t whysize);
+
+#endif

@@ -1,0 +1,360 @@
+/*
+ * B-spline kind: evaluation, derivatives and grid sampling.
+ *
+ * On uniform knots the span of u is k = floor(u n) and its local parameter
+ * t = u n - k, both exact from the Q32 parameter (one 32 x 32 product); the
+ * four basis values are fixed cubics of t, computed once per query in Q30
+ * and normalised to sum to exactly 2^30 (as the Bezier kind: constant data
+ * stay constant and a stage-1 sum stays within the net). Each surface value
+ * is then the Bezier kind's two short stages over a 4 x 4 window of the net:
+ * 20 multiply-adds whatever the grid size.
+ */
+#include <string.h>
+
+#include "it2n_internal.h"
+
+#define Q30_ONE ((int64_t)1 << 30)
+
+/* Span k (0..N-1) of u and t = u N - k in Q30 (0..2^30). */
+static unsigned span_of(it2n_par u, unsigned N, uint32_t *t30)
+{
+    uint64_t p;
+    unsigned k;
+    if (u >= IT2N_PAR_ONE) {
+        *t30 = (uint32_t)Q30_ONE;
+        return N - 1u;
+    }
+    p = it2n_umul32((uint32_t)u, N); /* u < 2^32 here */
+    k = (unsigned)(p >> 32);
+    *t30 = (uint32_t)(((p & 0xFFFFFFFFu) + 2u) >> 2);
+    return k;
+}
+
+/* round(a b / 2^30) for a, b in [0, 2^30]. */
+static uint32_t q30mul(uint32_t a, uint32_t b)
+{
+    return (uint32_t)((it2n_umul32(a, b) + (1u << 29)) >> 30);
+}
+
+/* round(x / 6) for x in [0, 2^30]: x round(2^32 / 6) / 2^32. */
+static int32_t div6(uint32_t x)
+{
+    return (int32_t)((it2n_umul32(x, 715827883u) + 0x80000000u) >> 32);
+}
+
+/*
+ * Uniform cubic B-spline basis at t (Q30) into b[0..3] (Q30, sum exactly
+ * 2^30): (1-t)^3/6, t^3/2 - t^2 + 2/3, the rest, t^3/6.
+ */
+static void basis(uint32_t t, int32_t b[4])
+{
+    uint32_t s = (uint32_t)Q30_ONE - t;
+    uint32_t t2 = q30mul(t, t), t3 = q30mul(t2, t);
+    uint32_t s3 = q30mul(q30mul(s, s), s);
+    b[0] = div6(s3);
+    b[3] = div6(t3);
+    b[1] = (int32_t)(715827883 - (int64_t)t2 + (int64_t)((t3 + 1u) >> 1));
+    b[2] = (int32_t)(Q30_ONE - b[0] - b[1] - b[3]);
+}
+
+/*
+ * Derivative basis d/dt at t (Q30), in Q30: -(1-t)^2/2, 3t^2/2 - 2t,
+ * the rest (they sum to 0), t^2/2. Absolute sum at most 1.5 (t = 1/2).
+ */
+static void dbasis(uint32_t t, int32_t db[4])
+{
+    uint32_t s = (uint32_t)Q30_ONE - t;
+    uint32_t t2 = q30mul(t, t), s2 = q30mul(s, s);
+    db[0] = -(int32_t)((s2 + 1u) >> 1);
+    db[3] = (int32_t)((t2 + 1u) >> 1);
+    db[1] = (int32_t)((int64_t)t2 + (int64_t)((t2 + 1u) >> 1) - 2 * (int64_t)t);
+    db[2] = -(db[0] + db[1] + db[3]);
+}
+
+/* Stage 1: q[s] = sum_r cu[r] net[r][s] over the 4 x 4 window at win
+ * (stride w), rounded by 2^s1: the mantissa scale for the basis (s1 = 30,
+ * a convex combination), half of it for derivative weights (s1 = 31: their
+ * absolute sum is at most 1.5 * 2^30). */
+static void stage1(const int32_t *win, unsigned w, const int32_t cu[4],
+                   int s1, int32_t q[4])
+{
+    unsigned r, s;
+    for (s = 0; s < 4u; s++) {
+        const int32_t *p = win + s;
+        int64_t acc = 0;
+        for (r = 0; r < 4u; r++, p += w) {
+            acc += it2n_smul32(cu[r], *p);
+        }
+        q[s] = (int32_t)((acc + ((int64_t)1 << (s1 - 1))) >> s1);
+    }
+}
+
+/* Stage 2 (convex weights cw): the surface value in Q24. */
+static it2n_val stage2(const int32_t q[4], const int32_t cw[4], int frac)
+{
+    int64_t acc = 0;
+    unsigned s;
+    for (s = 0; s < 4u; s++) {
+        acc += it2n_smul32(cw[s], q[s]);
+    }
+    /* frac >= 0 (nets below 2^31 units): a right shift by >= 6 */
+    return it2n__shift_round(acc, 30 + frac - IT2N_VAL_FRAC);
+}
+
+/* Net of footprint fp, channel ch (as it2n_bspline.c lays them out). */
+static const int32_t *net_of(const it2n_bspline_model *mdl, unsigned fp,
+                             unsigned ch)
+{
+    unsigned nch = IT2N_BSPLINE_NCH(mdl->flags);
+    unsigned slot = (mdl->flags & IT2N_F_TYPE1) ? 0u : fp;
+    unsigned c = (ch > IT2N_CH_Z && nch == 5u) ? ch - 1u : ch;
+    size_t size = (size_t)(mdl->n + 3u) * (mdl->m + 3u);
+    return mdl->coef + (slot * nch + c) * size;
+}
+
+static int check_model(const it2n_bspline_model *mdl, it2n_errinfo *err)
+{
+    if (!mdl->solved || mdl->coef == NULL) {
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
+    }
+    return IT2N_OK;
+}
+
+#if !IT2N_MUL_HALVES
+/* One surface value from the 4 x 4 window at p: the two stages written out
+ * (no loop overhead; SMLAL each on ARMv7-M). The same sums as stage1 and
+ * stage2, so the same bits. ARMv6-M keeps the loops (flash). */
+IT2N_INLINE it2n_val window(const int32_t *p, unsigned stride,
+                            const int32_t bu[4], const int32_t bw[4],
+                            int frac)
+{
+    const int32_t *p1 = p + stride, *p2 = p1 + stride, *p3 = p2 + stride;
+    int64_t acc = 0;
+    unsigned s;
+    for (s = 0; s < 4u; s++) {
+        int64_t q = it2n_smul32(bu[0], p[s]) + it2n_smul32(bu[1], p1[s]) +
+                    it2n_smul32(bu[2], p2[s]) + it2n_smul32(bu[3], p3[s]);
+        acc += it2n_smul32(bw[s], (int32_t)((q + ((int64_t)1 << 29)) >> 30));
+    }
+    return it2n__shift_round(acc, 30 + frac - IT2N_VAL_FRAC);
+}
+#endif
+
+/* Values of every net at (u, w) into out->v (unused channels 0). The nets
+ * are visited in storage order: footprint, then channel. */
+static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
+                        it2n_par w, it2n_point *out)
+{
+    int32_t bu[4], bw[4];
+    uint32_t tu, tw;
+    unsigned k = span_of(u, mdl->n, &tu), l = span_of(w, mdl->m, &tw);
+    unsigned stride = mdl->m + 3u, fp, ch, mask = it2n__fp_mask(mdl->flags);
+    size_t size = (size_t)(mdl->n + 3u) * stride;
+    const int32_t *win = mdl->coef + k * stride + l;
+    basis(tu, bu);
+    basis(tw, bw);
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            if (!(mask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
+                out->v[fp][ch] = 0;
+                continue;
+            }
+#if IT2N_MUL_HALVES
+            {
+                int32_t q[4];
+                stage1(win, stride, bu, 30, q);
+                out->v[fp][ch] = stage2(q, bw, mdl->frac[fp][ch]);
+            }
+#else
+            out->v[fp][ch] = window(win, stride, bu, bw, mdl->frac[fp][ch]);
+#endif
+            win += size;
+        }
+    }
+}
+
+int it2n_bspline_eval(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
+                      it2n_point *out, it2n_errinfo *err)
+{
+    int rc;
+    if (mdl == NULL || out == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    rc = check_model(mdl, err);
+    if (rc == IT2N_OK) {
+        rc = it2n__check_uw(u, w, err);
+    }
+    if (rc != IT2N_OK) {
+        return rc;
+    }
+    eval_values(mdl, u, w, out);
+    it2n__summarise_flags(mdl->flags, out);
+    return IT2N_OK;
+}
+
+/*
+ * One derivative value: sum_s cw[s] sum_r cu[r] net (cu the derivative
+ * weights when s1 = 31, else cw) times N, in Q24. Both stages stay within
+ * int64 (weights' absolute sums <= 1.5 * 2^30); the factor N is checked.
+ * False if the result does not fit Q39.24.
+ */
+static bool deriv_value(const int32_t *win, unsigned stride,
+                        const int32_t cu[4], const int32_t cw[4], int s1,
+                        int frac, unsigned N, it2n_val *out)
+{
+    int32_t q[4];
+    int64_t acc = 0, v;
+    unsigned s;
+    stage1(win, stride, cu, s1, q);
+    for (s = 0; s < 4u; s++) {
+        acc += it2n_smul32(cw[s], q[s]);
+    }
+    /* acc is 2^(60 - s1) times the derivative's mantissa; |v| <= 1.5
+     * max|coefficient| < 2^57 in Q24 */
+    v = it2n__shift_round(acc, 60 - s1 + frac - IT2N_VAL_FRAC);
+    {
+        /* |v| N from two 32 x 32 products (no 64-bit multiply or divide
+         * helper on ARMv6-M); N < 2^8 */
+        uint64_t a = v < 0 ? (uint64_t)0 - (uint64_t)v : (uint64_t)v;
+        uint64_t hi = it2n_umul32((uint32_t)(a >> 32), N);
+        uint64_t lo = it2n_umul32((uint32_t)a, N), p;
+        if (hi >> 31) {
+            return false;
+        }
+        p = (hi << 32) + lo;
+        if (p > (uint64_t)INT64_MAX) {
+            return false;
+        }
+        *out = v < 0 ? -(int64_t)p : (int64_t)p;
+    }
+    return true;
+}
+
+int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
+                       it2n_point *du, it2n_point *dw, it2n_errinfo *err)
+{
+    int32_t bu[4], bw[4], dbu[4], dbw[4];
+    uint32_t tu, tw;
+    unsigned k, l, stride, fp, ch, mask;
+    int rc;
+    if (mdl == NULL || du == NULL || dw == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    rc = check_model(mdl, err);
+    if (rc == IT2N_OK) {
+        rc = it2n__check_uw(u, w, err);
+    }
+    if (rc != IT2N_OK) {
+        return rc;
+    }
+    memset(du, 0, sizeof(*du));
+    memset(dw, 0, sizeof(*dw));
+    k = span_of(u, mdl->n, &tu);
+    l = span_of(w, mdl->m, &tw);
+    stride = mdl->m + 3u;
+    mask = it2n__fp_mask(mdl->flags);
+    basis(tu, bu);
+    basis(tw, bw);
+    dbasis(tu, dbu);
+    dbasis(tw, dbw);
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            const int32_t *win;
+            if (!(mask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
+                continue;
+            }
+            win = net_of(mdl, fp, ch) + k * stride + l;
+            if (!deriv_value(win, stride, dbu, bw, 31, mdl->frac[fp][ch],
+                             mdl->n, &du->v[fp][ch]) ||
+                !deriv_value(win, stride, bu, dbw, 30, mdl->frac[fp][ch],
+                             mdl->m, &dw->v[fp][ch])) {
+                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp,
+                                  (int)ch, 0, 0, 0);
+            }
+        }
+    }
+    return IT2N_OK;
+}
+
+int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask,
+                            it2n_par u, it2n_par w, it2n_val *v,
+                            it2n_val *du, it2n_val *dw, it2n_errinfo *err)
+{
+    int32_t bu[4], bw[4], dbu[4], dbw[4], q[4];
+    uint32_t tu, tw;
+    unsigned k = span_of(u, mdl->n, &tu), l = span_of(w, mdl->m, &tw);
+    unsigned stride = mdl->m + 3u, fp, ch;
+    basis(tu, bu);
+    basis(tw, bw);
+    dbasis(tu, dbu);
+    dbasis(tw, dbw);
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            unsigned at = fp * IT2N_CH_COUNT + ch;
+            const int32_t *win;
+            if (!(fpmask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
+                v[at] = du[at] = dw[at] = 0;
+                continue;
+            }
+            win = net_of(mdl, fp, ch) + k * stride + l;
+            stage1(win, stride, bu, 30, q);
+            v[at] = stage2(q, bw, mdl->frac[fp][ch]);
+            if (!deriv_value(win, stride, dbu, bw, 31, mdl->frac[fp][ch],
+                             mdl->n, &du[at]) ||
+                !deriv_value(win, stride, bu, dbw, 30, mdl->frac[fp][ch],
+                             mdl->m, &dw[at])) {
+                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp,
+                                  (int)ch, 0, 0, 0);
+            }
+        }
+    }
+    return IT2N_OK;
+}
+
+/* Grid parameter k / (count - 1) in Q32 (as it2n_sample). */
+static it2n_par grid_par(unsigned k, unsigned count)
+{
+    uint64_t d = count - 1u;
+    return (it2n_par)it2n__udiv64_32(((uint64_t)k << IT2N_PAR_FRAC) + d / 2u,
+                                     (uint32_t)d);
+}
+
+int it2n_bspline_sample(const it2n_bspline_model *mdl, unsigned rows,
+                        unsigned cols, it2n_sample_cb cb, void *ctx,
+                        it2n_errinfo *err)
+{
+    it2n_point pt;
+    unsigned r, c;
+    int rc;
+    if (mdl == NULL || cb == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    rc = check_model(mdl, err);
+    if (rc != IT2N_OK) {
+        return rc;
+    }
+    if (rows < 2u || rows > 65535u) {
+        return it2n__fail(err, IT2N_ERR_RANGE, (int)(rows > 32767u ? 32767u : rows),
+                          -1, -1, -1, (it2n_val)rows, 2, 65535);
+    }
+    if (cols < 2u || cols > 65535u) {
+        return it2n__fail(err, IT2N_ERR_RANGE, -1,
+                          (int)(cols > 32767u ? 32767u : cols), -1, -1,
+                          (it2n_val)cols, 2, 65535);
+    }
+    for (r = 0; r < rows; r++) {
+        it2n_par u = grid_par(r, rows);
+        for (c = 0; c < cols; c++) {
+            it2n_par w = grid_par(c, cols);
+            int stop;
+            /* the query itself: bit-identical to it2n_bspline_eval */
+            eval_values(mdl, u, w, &pt);
+            it2n__summarise_flags(mdl->flags, &pt);
+            stop = cb(ctx, r, c, u, w, &pt);
+            if (stop != 0) {
+                return stop;
+            }
+        }
+    }
+    return IT2N_OK;
+}
