@@ -228,6 +228,17 @@ static uint32_t backlog(const it2n_link *l)
     return l->line_free - l->clock;
 }
 
+/* A frame kept by it2n_link_send, not written yet? (A new frame never
+ * overtakes one: they are written in order.) */
+static bool any_kept(const it2n_link *l, const it2n_link_slot *but)
+{
+    unsigned k;
+    for (k = 0; k < W; k++)
+        if (l->slot[k].used && l->slot[k].tries == 0u && &l->slot[k] != but)
+            return true;
+    return false;
+}
+
 /* New frames are written while at most two maximum frames wait ahead. */
 static uint32_t backlog_max(const it2n_link *l)
 {
@@ -447,7 +458,7 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
     s->seq = l->tx_next++;
     s->len = (uint16_t)len;
     l->clock = now;
-    if (l->tx_synced && backlog(l) > backlog_max(l)) {
+    if (l->tx_synced && (backlog(l) > backlog_max(l) || any_kept(l, s))) {
         /* The line is busy for a while: keep the frame until it has room
          * (it2n_link_poll), so a retransmission is never queued behind a
          * window of new frames (docs/protocol.md 4.2 rule 3). */

@@ -1441,12 +1441,17 @@ static void test_new_frames_wait_for_line(void **st)
     uint32_t wait = it2n_link_next_timeout(&A->l, 10); /* room in ~1 frame time */
     assert_true(wait > 0 && wait <= 12);
     xfer(A, B, 10, 0);
+    /* the line has room again, but frames are kept: a new one waits
+     * behind them (never overtakes one) */
+    assert_true(it2n_link_send(&A->l, &m, 60) >= 0);
+    assert_int_equal(frames_in(A), 0);
     for (uint32_t t = 11; t < 100; t++) /* before the first RTO */
         it2n_link_poll(&A->l, t);
-    assert_int_equal(frames_in(A), 5); /* the rest, as the line frees */
+    assert_int_equal(frames_in(A), 6); /* the rest, in order, as the line frees */
     assert_int_equal(A->l.stats.tx_retx, 0);
     xfer(A, B, 100, 0);
-    assert_int_equal(B->nrx, 9);
+    assert_int_equal(B->nrx, 10);
+    assert_int_equal(B->l.stats.rx_buffered, 0); /* none arrived out of order */
 }
 
 /* Raw v1.1 frame into B (payload as given). */
