@@ -485,6 +485,13 @@ static int too_big(struct link *l, uint16_t seq, size_t size)
 static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint8_t fp, uint16_t rows, uint16_t cols)
 {
     struct model *md = models_by_id(model);
+    /* Checks in the order of protocol.md 5.8: the request alone (its size),
+     * then the model (MODEL), its state (STATE), its footprints (INVAL). */
+    if (kind == IT2N_MSG_SAMPLE && (uint32_t)rows * cols > IT2N_SAMPLE_NODES_MAX) {
+        /* bound the work one request can cause: value = nodes asked for */
+        it2n_errinfo e = detail(IT2N_ERR_RANGE, (int64_t)rows * cols, 4, IT2N_SAMPLE_NODES_MAX);
+        return refuse(l, seq, IT2N_ERR_RANGE, &e);
+    }
     if (!md)
         return refuse_model(l, seq, model);
     md = models_view(md);
@@ -494,11 +501,6 @@ static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint
         it2n_errinfo e = detail(IT2N_ERR_INVAL, fp, IT2N_FP_D, IT2N_FP_D);
         e.fp = (int8_t)fp;
         return refuse(l, seq, IT2N_ERR_INVAL, &e); /* type-1: only D */
-    }
-    if (kind == IT2N_MSG_SAMPLE && (uint32_t)rows * cols > IT2N_SAMPLE_NODES_MAX) {
-        /* bound the work one request can cause: value = nodes asked for */
-        it2n_errinfo e = detail(IT2N_ERR_RANGE, (int64_t)rows * cols, 4, IT2N_SAMPLE_NODES_MAX);
-        return refuse(l, seq, IT2N_ERR_RANGE, &e);
     }
     if (kind == IT2N_MSG_GET_NET && md->kind != MODEL_BEZIER) {
         /* NET_ROW carries a Bezier control net (up to 8 x 8): B-spline
@@ -940,6 +942,22 @@ static void on_poll(void *arg)
     struct link *l = arg;
     uint32_t now = now32();
     l->poll_timer = 0; /* this one has fired */
+    if (l->fd >= 0 && l->up) {
+        /* Read what has arrived first: on a loaded machine the answer to
+         * a frame due for retransmission may have come in since poll()
+         * returned; resending that frame would be spurious. Bounded: at
+         * most 4 reads of up to 4 KiB. */
+        uint8_t buf[4096];
+        for (int k = 0; k < 4 && l->fd >= 0; k++) {
+            ssize_t n = read(l->fd, buf, sizeof buf);
+            if (n <= 0)
+                break; /* EAGAIN, or a hang-up on_serial reports */
+            feed(l, buf, (size_t)n);
+        }
+        now = now32();
+        if (!l->up)
+            return;
+    }
     it2n_link_poll(&l->pl, now);
     if (l->cfg.peer_timeout_ms > 0 && it2n_link_stalled_ms(&l->pl, now) > (uint32_t)l->cfg.peer_timeout_ms) {
         /* The peer has not answered for peer_timeout_ms: declared down.
