@@ -39,6 +39,7 @@ static struct hook_ent hooks[8];
 static size_t nhooks;
 static long next_timer_id = 1;
 static int woken;
+static int deleted; /* entries marked by loop_del_fd, not yet compacted */
 
 uint64_t loop_now_us(void)
 {
@@ -110,6 +111,7 @@ void loop_del_fd(int fd)
     if (k != SIZE_MAX) {
         fds[k].fd = -1;
         fd_idx[fd] = SIZE_MAX;
+        deleted = 1;
     }
 }
 
@@ -162,6 +164,9 @@ void loop_wake(void)
 static void compact_fds(void)
 {
     size_t out = 0;
+    if (!deleted) /* nothing marked: the common iteration */
+        return;
+    deleted = 0;
     for (size_t k = 0; k < nfds; k++)
         if (fds[k].fd >= 0) {
             fd_idx[fds[k].fd] = out;
@@ -246,4 +251,5 @@ void loop_free(void)
     fd_idx = NULL;
     timers = NULL;
     nfds = capfds = cap_idx = ntimers = captimers = nhooks = 0;
+    deleted = 0;
 }
