@@ -51,9 +51,19 @@ static void frame_reply(struct mb_session *s, const uint8_t *req, int fc, const 
         k += 4;
     } else {
         r[k++] = (uint8_t)(n * 2u);
-        for (unsigned i = 0; i < n; i++) { /* big-endian; vectorised */
-            uint16_t be = (uint16_t)(regs[i] >> 8 | regs[i] << 8);
-            memcpy(r + k + 2u * i, &be, sizeof be);
+        unsigned i = 0;
+        /* Big-endian, four registers per step (a byte swap in each 16-bit
+         * lane of a 64-bit word): 108 registers are every FC 23 answer.
+         * Little-endian hosts; elsewhere the loop below does it all. */
+        for (; __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && i + 4u <= n; i += 4u) {
+            uint64_t x;
+            memcpy(&x, regs + i, sizeof x);
+            x = (x & 0x00FF00FF00FF00FFu) << 8 | (x >> 8 & 0x00FF00FF00FF00FFu);
+            memcpy(r + k + 2u * i, &x, sizeof x);
+        }
+        for (; i < n; i++) {
+            r[k + 2u * i] = (uint8_t)(regs[i] >> 8);
+            r[k + 2u * i + 1u] = (uint8_t)regs[i];
         }
         k += 2u * n;
     }
