@@ -21,7 +21,7 @@ __extension__ typedef __int128 i128;
 #define QIDX(a) ((a) - IT2N_REG_Q_U16)
 
 /* A 32-bit value into two registers in one of the four orders. */
-static void put32(uint16_t out[2], uint32_t b, int word_order)
+static inline void put32(uint16_t out[2], uint32_t b, int word_order)
 {
     uint16_t hi = (uint16_t)(b >> 16), lo = (uint16_t)b;
     uint16_t shi = (uint16_t)((hi >> 8) | (hi << 8)), slo = (uint16_t)((lo >> 8) | (lo << 8));
@@ -60,7 +60,7 @@ float mbmap_get_f32(const uint16_t in[2], int word_order)
     return f;
 }
 
-static float q24f(it2n_val v)
+static inline float q24f(it2n_val v)
 {
     /* v * 2^-24: exactly v / 2^24 (a power of two), without a division */
     return (float)((double)v * (1.0 / (double)IT2N_VAL_ONE));
@@ -164,6 +164,27 @@ static int query_result(struct model *md, struct mb_query *q)
     q->model_inst = md->instance;
     q->gen = md->gen;
     return MBX_OK;
+}
+
+/* n Q24 values as floats into 2n registers: the word order chosen once
+ * per run, not per value (the result block is read with every query). */
+static void put_f32s(uint16_t *out, const it2n_val *v, unsigned n, int word_order)
+{
+    uint32_t b;
+    float f;
+#define PUT_F32S(wo)                                                                                        \
+    for (unsigned k = 0; k < n; k++) {                                                                      \
+        f = q24f(v[k]);                                                                                     \
+        memcpy(&b, &f, sizeof b);                                                                           \
+        put32(&out[2 * k], b, wo);                                                                          \
+    }
+    switch (word_order) {
+    case IT2N_WO_CDAB: PUT_F32S(IT2N_WO_CDAB) break;
+    case IT2N_WO_BADC: PUT_F32S(IT2N_WO_BADC) break;
+    case IT2N_WO_DCBA: PUT_F32S(IT2N_WO_DCBA) break;
+    default: PUT_F32S(IT2N_WO_ABCD) break;
+    }
+#undef PUT_F32S
 }
 
 static it2n_val sum_value(const it2n_summary *s, unsigned idx)
@@ -349,12 +370,13 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
             return rc;
         if (q->kind == 0)
             return MBX_OK;
-        for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
-            for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++)
-                mbmap_put_f32(&buf[(fp * IT2N_CH_COUNT + ch) * 2], q24f(q->pt.v[fp][ch]), o->word_order);
-        for (unsigned s = 0; s < 12; s++)
-            mbmap_put_f32(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32 + s * 2], q24f(sum_value(&q->pt.sum, s)),
-                          o->word_order);
+        put_f32s(buf, &q->pt.v[0][0], IT2N_FP_COUNT * IT2N_CH_COUNT, o->word_order);
+        {
+            it2n_val sv[12];
+            for (unsigned s = 0; s < 12; s++)
+                sv[s] = sum_value(&q->pt.sum, s);
+            put_f32s(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32], sv, 12, o->word_order);
+        }
         return MBX_OK;
     case IT2N_REG_RES_SCALED:
         if ((rc = query_result(md, q)) != MBX_OK)
