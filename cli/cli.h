@@ -75,8 +75,37 @@ int cli_parse_pair(const char *s, bool par, cli_at *out, const char **why);
 bool cli_parse_grid(const char *s, unsigned *r, unsigned *c);
 bool cli_parse_fps(const char *s, unsigned *mask);
 
+/*
+ * A solved model of either kind, for plot and export (and it2nctl's live
+ * drawing): exactly one of bez, bsp is set. The data points are drawn from
+ * ds / bds where given (it2n), else from the surface at the parameter
+ * nodes, where it interpolates them (it2nctl; uniform parameters only).
+ */
+typedef struct cli_surface {
+    const it2n_model *bez;
+    const it2n_dataset *ds;         /* Bezier data, or NULL  */
+    const it2n_bspline_model *bsp;
+    const it2n_bspline_data *bds;   /* B-spline data, or NULL */
+} cli_surface;
+
+unsigned cli_surf_n(const cli_surface *s);     /* intervals (Bezier: degree) */
+unsigned cli_surf_m(const cli_surface *s);
+unsigned cli_surf_flags(const cli_surface *s);
+bool cli_surf_has_fp(const cli_surface *s, unsigned fp);
+int cli_surf_eval(const cli_surface *s, it2n_par u, it2n_par w, it2n_point *pt, it2n_errinfo *err);
+int cli_surf_locate(const cli_surface *s, it2n_val x, it2n_val y, it2n_locate_result *out, it2n_errinfo *err);
+int cli_surf_sample(const cli_surface *s, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx,
+                    it2n_errinfo *err);
+/* The net drawn by --nets: Bezier control points ((n+1) x (m+1)) or the
+ * B-spline coefficients ((n+3) x (m+3)), as coefficient (r, c) in Q24. */
+unsigned cli_surf_net_rows(const cli_surface *s);
+unsigned cli_surf_net_cols(const cli_surface *s);
+it2n_val cli_surf_coef(const cli_surface *s, unsigned r, unsigned c, unsigned fp, unsigned ch);
+/* Data point (i, j) of footprint fp into v: true if the data set has it. */
+bool cli_surf_point(const cli_surface *s, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT]);
+
 /* True if footprint fp is selected by --footprint (and in the model). */
-bool cli_fp_selected(const cli_opts *o, const it2n_model *mdl, unsigned fp);
+bool cli_fp_selected(const cli_opts *o, const cli_surface *mdl, unsigned fp);
 
 /* Exact decimal text of a Q24 value into buf (at least 48 bytes). */
 void cli_fmt_val(char *buf, size_t size, it2n_val v, unsigned decimals);
@@ -93,7 +122,7 @@ typedef struct cli_mesh {
 } cli_mesh;
 
 /* Fill mesh from it2n_sample; returns an exit status (message printed). */
-int cli_mesh_sample(cli_mesh *mesh, const it2n_model *mdl, unsigned rows,
+int cli_mesh_sample(cli_mesh *mesh, const cli_surface *mdl, unsigned rows,
                     unsigned cols);
 void cli_mesh_free(cli_mesh *mesh);
 
@@ -105,9 +134,15 @@ static inline it2n_val cli_mesh_at(const cli_mesh *m, unsigned r, unsigned c,
 }
 
 /* it2n plot and it2n export (plot.c, export.c); the model is solved. */
-int cli_plot(const cli_opts *o, const it2n_model *mdl,
-             const it2n_dataset *ds);
-int cli_export(const cli_opts *o, const it2n_model *mdl,
-               const it2n_dataset *ds);
+int cli_plot(const cli_opts *o, const cli_surface *mdl);
+int cli_export(const cli_opts *o, const cli_surface *mdl);
+
+/* The B-spline reader of it2n --kind bspline for it2nctl push: reads and
+ * solves o->path into heap storage (freed by cli_free_bspline); *bds,
+ * *bmdl and *csv (line numbers for messages) stay valid until then.
+ * Errors printed as FILE:LINE: ...; CLI_EXIT_OK or CLI_EXIT_DATA. */
+int cli_load_bspline(const cli_opts *o, const it2n_bspline_data **bds, const it2n_bspline_model **bmdl,
+                     const it2n_csv **csv);
+void cli_free_bspline(void);
 
 #endif /* IT2N_CLI_H */

@@ -33,7 +33,7 @@ $(CLI_SAN_BIN): $(CLI_SAN_OBJ) $(CORE_SAN_LIB)
 # lives (protocol/ today).
 CTL_REGMAP_INC := -Idaemon
 CTL_SRC := $(wildcard cli/ctl*.c)
-CTL_HDR := $(wildcard cli/ctl*.h) $(CLI_HDR)
+CTL_HDR := $(wildcard cli/ctl*.h) $(CLI_HDR) daemon/it2n_regmap.h # the map ctl_modbus.c speaks
 # it2nctl spb (ctl_spb.c): libmosquitto, and the Sparkplug payload code
 # protoc-c generates from daemon/spb.proto (daemon/daemon.mk).
 CTL_CFLAGS := $(HOST_CFLAGS) -Icli $(CTL_REGMAP_INC) -I$(BUILD)/daemon \

@@ -142,6 +142,23 @@ static int load_bspline(const cli_opts *o)
     return CLI_EXIT_OK;
 }
 
+static void free_bspline(void);
+
+int cli_load_bspline(const cli_opts *o, const it2n_bspline_data **bds, const it2n_bspline_model **bmdl,
+                     const it2n_csv **csv)
+{
+    int rc = load_bspline(o);
+    *bds = &g_bds;
+    *bmdl = &g_bmdl;
+    *csv = &g_csv;
+    return rc;
+}
+
+void cli_free_bspline(void)
+{
+    free_bspline();
+}
+
 static void free_bspline(void)
 {
     free(g_brec);
@@ -179,9 +196,83 @@ static bool fp_in_model(unsigned fp)
     return (g_flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;
 }
 
-bool cli_fp_selected(const cli_opts *o, const it2n_model *mdl, unsigned fp)
+unsigned cli_surf_n(const cli_surface *s)
 {
-    return it2n_model_has_fp(mdl, fp) &&
+    return s->bsp != NULL ? s->bsp->n : s->bez->n;
+}
+
+unsigned cli_surf_m(const cli_surface *s)
+{
+    return s->bsp != NULL ? s->bsp->m : s->bez->m;
+}
+
+unsigned cli_surf_flags(const cli_surface *s)
+{
+    return s->bsp != NULL ? s->bsp->flags : s->bez->flags;
+}
+
+bool cli_surf_has_fp(const cli_surface *s, unsigned fp)
+{
+    return (cli_surf_flags(s) & IT2N_F_TYPE1) ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;
+}
+
+int cli_surf_eval(const cli_surface *s, it2n_par u, it2n_par w, it2n_point *pt, it2n_errinfo *err)
+{
+    return s->bsp != NULL ? it2n_bspline_eval(s->bsp, u, w, pt, err) : it2n_eval(s->bez, u, w, pt, err);
+}
+
+int cli_surf_locate(const cli_surface *s, it2n_val x, it2n_val y, it2n_locate_result *out, it2n_errinfo *err)
+{
+    return s->bsp != NULL ? it2n_bspline_locate(s->bsp, x, y, out, err) : it2n_locate(s->bez, x, y, out, err);
+}
+
+int cli_surf_sample(const cli_surface *s, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx,
+                    it2n_errinfo *err)
+{
+    return s->bsp != NULL ? it2n_bspline_sample(s->bsp, rows, cols, cb, ctx, err)
+                          : it2n_sample(s->bez, rows, cols, cb, ctx, err);
+}
+
+unsigned cli_surf_net_rows(const cli_surface *s)
+{
+    return s->bsp != NULL ? s->bsp->n + 3u : s->bez->n + 1u;
+}
+
+unsigned cli_surf_net_cols(const cli_surface *s)
+{
+    return s->bsp != NULL ? s->bsp->m + 3u : s->bez->m + 1u;
+}
+
+it2n_val cli_surf_coef(const cli_surface *s, unsigned r, unsigned c, unsigned fp, unsigned ch)
+{
+    return s->bsp != NULL ? it2n_bspline_coef(s->bsp, r, c, fp, ch) : it2n_model_ctrl(s->bez, r, c, fp, ch);
+}
+
+bool cli_surf_point(const cli_surface *s, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT])
+{
+    if (s->bsp != NULL) {
+        const it2n_bspline_data *d = s->bds;
+        unsigned nfp;
+        if (d == NULL || i > d->n || j > d->m || !cli_surf_has_fp(s, fp)) {
+            return false;
+        }
+        nfp = IT2N_BSPLINE_NFP(d->flags);
+        if (!d->rec[((size_t)i * (d->m + 1u) + j) * nfp + (nfp == 1u ? 0u : fp)].present) {
+            return false;
+        }
+        it2n_bspline_data_get(d, i, j, fp, v);
+        return true;
+    }
+    if (s->ds == NULL || i > s->ds->n || j > s->ds->m || !s->ds->present[i][j]) {
+        return false;
+    }
+    it2n_dataset_get(s->ds, i, j, fp, v);
+    return true;
+}
+
+bool cli_fp_selected(const cli_opts *o, const cli_surface *mdl, unsigned fp)
+{
+    return cli_surf_has_fp(mdl, fp) &&
            (o->fpmask == 0u || (o->fpmask & (1u << fp)) != 0u);
 }
 
@@ -516,7 +607,7 @@ static int mesh_row(void *ctx, unsigned r, unsigned c, it2n_par u,
     return 0;
 }
 
-int cli_mesh_sample(cli_mesh *mesh, const it2n_model *mdl, unsigned rows,
+int cli_mesh_sample(cli_mesh *mesh, const cli_surface *mdl, unsigned rows,
                     unsigned cols)
 {
     size_t nodes = (size_t)rows * cols;
@@ -533,7 +624,7 @@ int cli_mesh_sample(cli_mesh *mesh, const it2n_model *mdl, unsigned rows,
         return CLI_EXIT_DATA;
     }
     ctx.mesh = mesh;
-    rc = it2n_sample(mdl, rows, cols, mesh_row, &ctx, NULL);
+    rc = cli_surf_sample(mdl, rows, cols, mesh_row, &ctx, NULL);
     if (rc != IT2N_OK) {
         cli_mesh_free(mesh);
         return core_fail("sample", rc);
@@ -575,11 +666,17 @@ static int run(const cli_opts *o)
             return CLI_EXIT_DATA;
         }
     }
-    if (strcmp(o->cmd, "plot") == 0) {
-        return cli_plot(o, &g_mdl, &g_ds);
-    }
-    if (strcmp(o->cmd, "export") == 0) {
-        return cli_export(o, &g_mdl, &g_ds);
+    if (strcmp(o->cmd, "plot") == 0 || strcmp(o->cmd, "export") == 0) {
+        cli_surface sf;
+        memset(&sf, 0, sizeof(sf));
+        if (g_bspline) {
+            sf.bsp = &g_bmdl;
+            sf.bds = &g_bds;
+        } else {
+            sf.bez = &g_mdl;
+            sf.ds = &g_ds;
+        }
+        return strcmp(o->cmd, "plot") == 0 ? cli_plot(o, &sf) : cli_export(o, &sf);
     }
     if (strcmp(o->cmd, "check") == 0) {
         return cmd_check(o);

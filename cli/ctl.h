@@ -34,6 +34,8 @@ typedef struct ctl_status {
     unsigned present, required;
     uint32_t generation;
     int last_error;       /* it2n error code, 0 none               */
+    unsigned kind;        /* 0 Bezier, 1 B-spline (IT2N_KIND_*)    */
+    unsigned net_rows, net_cols; /* of each solved net, 0 unsolved */
 } ctl_status;
 
 /* Locate status of one footprint. Modbus has one bit per footprint
@@ -86,6 +88,14 @@ typedef struct ctl_ops {
      * *st. Returns CTL_EXIT_OK (changed or not: compare st->generation). */
     int (*wait)(void *c, uint32_t gen, int timeout_ms, ctl_status *st);
     void (*close)(void *c);
+    /* The B-spline kind (NULL: the transport cannot carry it): push a
+     * data set as push does; read row `row` of net (fp, ch), st->net_cols
+     * coefficients in Q24, into out. */
+    int (*push_bspline)(void *c, const it2n_bspline_data *bds,
+                        ctl_progress_fn progress, void *pctx,
+                        it2n_errinfo *rej);
+    int (*coef_row)(void *c, const ctl_status *st, unsigned fp, unsigned ch,
+                    unsigned row, it2n_val *out);
 } ctl_ops;
 
 /* Connection options from the command line. */

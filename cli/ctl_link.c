@@ -340,6 +340,11 @@ static int lk_status(void *p, ctl_status *st)
     st->present = st->required > s->missing ? st->required - s->missing : 0u;
     st->generation = s->generation;
     st->last_error = s->last_error;
+    /* STATUS has no kind (protocol v1.x): sizes beyond the Bezier degrees
+     * can only be a B-spline model, whose nets the link does not carry */
+    st->kind = s->n > IT2N_MAX_DEGREE || s->m > IT2N_MAX_DEGREE ? 1u : 0u;
+    st->net_rows = st->state == CTL_ST_SOLVED && !st->kind ? s->n + 1u : 0u;
+    st->net_cols = st->state == CTL_ST_SOLVED && !st->kind ? s->m + 1u : 0u;
     return CTL_EXIT_OK;
 }
 
@@ -610,7 +615,7 @@ static void lk_close(void *p)
 
 static const ctl_ops lk_ops = {"link",   lk_status, lk_push, lk_eval,
                                lk_locate, lk_net,   lk_sample, lk_wait,
-                               lk_close};
+                               lk_close, NULL,      NULL};
 
 static speed_t baud_const(unsigned baud)
 {

@@ -23,7 +23,8 @@
 enum {
     O_AT_UW = 0x01, O_AT_XY = 0x02, O_SUMMARY = 0x04, O_GRID = 0x08,
     O_GRID_OPT = 0x10, O_FP = 0x20, O_DATA = 0x40, O_PLOT = 0x80,
-    O_COUNT = 0x100, O_CHORD = 0x200, O_INCOMPLETE = 0x400, O_FOLLOW = 0x800
+    O_COUNT = 0x100, O_CHORD = 0x200, O_INCOMPLETE = 0x400, O_FOLLOW = 0x800,
+    O_KIND = 0x1000
 };
 
 typedef struct ctl_cmd {
@@ -34,8 +35,9 @@ typedef struct ctl_cmd {
 static const ctl_cmd cmds[] = {
     {"status", "", "Print the model's state, degrees, points and generation",
      "One CSV row: model,state,n,m,type,coordinates,parameters,\n"
-     "points_present,points_required,generation,last_error. state is empty,\n"
-     "incomplete, solved or failed; last_error an it2n error code (0 none).\n",
+     "points_present,points_required,generation,last_error,kind. state is\n"
+     "empty, incomplete, solved or failed; last_error an it2n error code\n"
+     "(0 none); kind bezier or bspline (n, m: degrees or intervals).\n",
      0},
     {"push", "DATA.csv", "Configure the model, upload every point, commit",
      "Reads DATA.csv as 'it2n check' does (errors FILE:LINE, exit 2, nothing\n"
@@ -44,8 +46,12 @@ static const ctl_cmd cmds[] = {
      "goes to standard error when it is a terminal. Over Modbus every value\n"
      "must be exact in the map's scaled integers (memberships x10000,\n"
      "coordinates x coord_scale); --link carries any value exactly.\n"
-     "  --chord   chord-length parameters\n",
-     O_DATA | O_CHORD},
+     "  --chord   chord-length parameters\n"
+     "  --kind bezier|bspline\n"
+     "            bspline: read DATA.csv for the cubic B-spline kind (grids up\n"
+     "            to 256x256) and push it to a [model:ID] with kind = bspline\n"
+     "            (over Modbus; the default is bezier)\n",
+     O_DATA | O_CHORD | O_KIND},
     {"eval", "--at U,W [--at U,W ...]", "Evaluate every footprint at (u, w)",
      "As 'it2n eval', answered by the daemon: u,w,footprint,x,y[,z],T,I,F,\n"
      "out_of_range.\n"
@@ -385,18 +391,18 @@ static int solved_status(ctl_session *s, ctl_status *st)
 static void put_status_header(void)
 {
     puts("model,state,n,m,type,coordinates,parameters,points_present,"
-         "points_required,generation,last_error");
+         "points_required,generation,last_error,kind");
 }
 
 static void put_status_row(const ctl_status *st)
 {
-    printf("%u,%s,%u,%u,%s,%s,%s,%u,%u,%lu,%d\n", st->model,
+    printf("%u,%s,%u,%u,%s,%s,%s,%u,%u,%lu,%d,%s\n", st->model,
            ctl_state_name(st->state), st->n, st->m,
            (st->flags & IT2N_F_TYPE1) ? "type-1" : "type-2",
            (st->flags & IT2N_F_Z) ? "xyz" : "xy",
            (st->flags & IT2N_F_CHORD) ? "chord-length" : "uniform",
            st->present, st->required, (unsigned long)st->generation,
-           st->last_error);
+           st->last_error, st->kind ? "bspline" : "bezier");
 }
 
 static int cmd_status(ctl_session *s)
@@ -494,8 +500,21 @@ static const char *display_name(const char *path)
 }
 
 /* Read, check and solve DATA.csv exactly as it2n does (the same code). */
+static const it2n_bspline_data *g_bds;  /* push --kind bspline */
+static const it2n_csv *g_bcsv;
+
 static int load(const cli_opts *o)
 {
+    if (o->kind == CLI_KIND_BSPLINE) {
+        const it2n_bspline_model *bm;
+        if (o->flags & IT2N_F_CHORD) {
+            fprintf(stderr, "it2nctl push: --chord: the B-spline kind has "
+                            "uniform parameters only\n");
+            return CTL_EXIT_USAGE;
+        }
+        return cli_load_bspline(o, &g_bds, &bm, &g_bcsv) == CLI_EXIT_OK
+                   ? CTL_EXIT_OK : CTL_EXIT_DATA;
+    }
     return cli_load(o, &g_csv, &g_ds, &g_mdl) == CLI_EXIT_OK ? CTL_EXIT_OK : CTL_EXIT_DATA;
 }
 
@@ -524,8 +543,16 @@ static int cmd_push(ctl_session *s, const ctl_args *a)
     it2n_errinfo rej;
     ctl_status st;
     char msg[600];
-    int rc = s->ops->push(s->c, &g_ds, isatty(2) ? progress_bar : NULL, NULL,
-                          &rej);
+    int rc;
+    if (g_bds != NULL && s->ops->push_bspline == NULL) {
+        fprintf(stderr, "it2nctl: push --kind bspline: not over --%s (its "
+                        "messages carry Bezier degrees up to %d); push over "
+                        "Modbus (--tcp or --rtu)\n",
+                s->ops->kind, IT2N_MAX_DEGREE);
+        return CTL_EXIT_USAGE;
+    }
+    rc = g_bds != NULL ? s->ops->push_bspline(s->c, g_bds, isatty(2) ? progress_bar : NULL, NULL, &rej)
+                       : s->ops->push(s->c, &g_ds, isatty(2) ? progress_bar : NULL, NULL, &rej);
     if (g_bar_open) { /* failed midway: the message on its own line */
         fputc('\n', stderr);
         g_bar_open = false;
@@ -536,6 +563,12 @@ static int cmd_push(ctl_session *s, const ctl_args *a)
         if (rej.i >= 0 && rej.j >= 0 && rej.fp >= 0 && rej.i < IT2N_DIM &&
             rej.j < IT2N_DIM && rej.fp < IT2N_FP_COUNT) {
             line = g_csv.lines[rej.i][rej.j][rej.fp];
+        }
+        if (g_bds != NULL && rej.i >= 0 && rej.j >= 0 && rej.fp >= 0 &&
+            rej.i <= IT2N_BSPLINE_MAX_N && rej.j <= IT2N_BSPLINE_MAX_N &&
+            rej.fp < IT2N_FP_COUNT) {
+            line = g_bcsv->bs_lines[((size_t)rej.i * IT2N_CSV_BSPLINE_SIDE + (size_t)rej.j) * IT2N_FP_COUNT +
+                                    (size_t)rej.fp];
         }
         if (rej.code == IT2N_ERR_RANGE && rej.ch >= 0 &&
             strcmp(s->ops->kind, "modbus") == 0 && rej.lo > 0) {
@@ -552,7 +585,7 @@ static int cmd_push(ctl_session *s, const ctl_args *a)
             fprintf(stderr, "%s\n", msg);
             return CTL_EXIT_DATA;
         }
-        it2n_csv_locate(&g_csv, &rej, &e);
+        it2n_csv_locate(g_bds != NULL ? g_bcsv : &g_csv, &rej, &e);
         it2n_csv_message(&e, name, msg, sizeof(msg));
         fprintf(stderr, "%s (refused by it2nd at %s; the model is left "
                         "incomplete)\n",
@@ -649,6 +682,14 @@ static int cmd_net(ctl_session *s, const ctl_args *a)
     int rc = solved_status(s, &st);
     if (rc != CTL_EXIT_OK) {
         return rc;
+    }
+    if (st.kind != 0u) {
+        fprintf(stderr, "it2nctl: %s: net prints a Bezier control net; this "
+                        "model is a B-spline (its coefficients: the "
+                        "coef_page/coef_window registers, docs/registers.md; "
+                        "'it2n solve --kind bspline' prints them from the CSV)\n",
+                s->where);
+        return CTL_EXIT_DATA;
     }
     rc = s->ops->net(s->c, &st, &g_net);
     if (rc != CTL_EXIT_OK) {
@@ -753,21 +794,107 @@ static void net_to_model(const ctl_status *st, ctl_net *net,
     }
 }
 
+/* The live B-spline model for plotting: every net read row by row through
+ * the coefficient page, each in block floating point as net_to_model. The
+ * coefficients are the map's float32 (24 significant bits): close to the
+ * daemon's surface, enough for a drawing. */
+static int32_t *g_bcoef;
+static it2n_bspline_model g_bmdl;
+
+static int coef_to_model(ctl_session *s, const ctl_status *st)
+{
+    unsigned rows = st->net_rows, cols = st->net_cols, fp, ch, r, k;
+    size_t size = (size_t)rows * cols, words;
+    unsigned nch = (st->flags & IT2N_F_Z) ? 6u : 5u;
+    it2n_val *v;
+    if (s->ops->coef_row == NULL) {
+        fprintf(stderr, "it2nctl: %s: a B-spline model's coefficients are "
+                        "read over Modbus (--tcp or --rtu), not --%s\n",
+                s->where, s->ops->kind);
+        return CTL_EXIT_USAGE;
+    }
+    if (rows < 4u || cols < 4u || rows != st->n + 3u || cols != st->m + 3u) {
+        fprintf(stderr, "it2nctl: %s: net of %ux%u for a %ux%u B-spline "
+                        "model\n", s->where, rows, cols, st->n, st->m);
+        return CTL_EXIT_DATA;
+    }
+    words = IT2N_BSPLINE_MODEL_WORDS(st->n, st->m, st->flags);
+    free(g_bcoef);
+    g_bcoef = malloc(words * sizeof(*g_bcoef));
+    v = malloc(size * sizeof(*v));
+    if (g_bcoef == NULL || v == NULL) {
+        free(v);
+        fprintf(stderr, "it2nctl: out of memory for a %ux%u net\n", rows, cols);
+        return CTL_EXIT_DATA;
+    }
+    memset(&g_bmdl, 0, sizeof(g_bmdl));
+    g_bmdl.coef = g_bcoef;
+    g_bmdl.cap = words;
+    g_bmdl.n = (uint16_t)st->n;
+    g_bmdl.m = (uint16_t)st->m;
+    g_bmdl.flags = (uint8_t)st->flags;
+    g_bmdl.solved = 1;
+    g_bmdl.generation = st->generation;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        unsigned slot = (st->flags & IT2N_F_TYPE1) ? 0u : fp, c = 0;
+        if ((st->flags & IT2N_F_TYPE1) && fp != IT2N_FP_D) {
+            continue;
+        }
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            uint64_t big = 0;
+            int sh;
+            int32_t *net;
+            if (ch == IT2N_CH_Z && !(st->flags & IT2N_F_Z)) {
+                continue;
+            }
+            for (r = 0; r < rows; r++) {
+                int rc = s->ops->coef_row(s->c, st, fp, ch, r, &v[(size_t)r * cols]);
+                if (rc != CTL_EXIT_OK) {
+                    free(v);
+                    return rc;
+                }
+            }
+            for (k = 0; k < size; k++) {
+                uint64_t a = v[k] < 0 ? (uint64_t)0 - (uint64_t)v[k] : (uint64_t)v[k];
+                big = a > big ? a : big;
+            }
+            sh = (int)bitlen64(big) - 30;
+            g_bmdl.frac[fp][ch] = (int8_t)(IT2N_VAL_FRAC - sh);
+            net = g_bcoef + ((size_t)slot * nch + c) * size;
+            for (k = 0; k < size; k++) {
+                net[k] = (int32_t)(sh > 0 ? (v[k] + ((int64_t)1 << (sh - 1))) >> sh
+                                          : v[k] * ((int64_t)1 << -sh));
+            }
+            c++;
+        }
+    }
+    free(v);
+    return CTL_EXIT_OK;
+}
+
 /* Draw the model described by st (already read, solved) into o->output. */
 static int draw_live(ctl_session *s, const ctl_args *a, const ctl_status *st,
                      const char *output)
 {
     cli_opts o = a->o;
     char title[256];
-    int rc = s->ops->net(s->c, st, &g_net);
-    if (rc != CTL_EXIT_OK) {
-        return rc;
+    cli_surface sf;
+    int rc;
+    memset(&sf, 0, sizeof(sf));
+    if (st->kind == 1u) {
+        rc = coef_to_model(s, st);
+        if (rc != CTL_EXIT_OK) {
+            return rc;
+        }
+        sf.bsp = &g_bmdl;
+    } else {
+        rc = s->ops->net(s->c, st, &g_net);
+        if (rc != CTL_EXIT_OK) {
+            return rc;
+        }
+        net_to_model(st, &g_net, &g_mdl);
+        sf.bez = &g_mdl;
     }
-    net_to_model(st, &g_net, &g_mdl);
-    memset(&g_ds, 0, sizeof(g_ds));
-    g_ds.n = (uint8_t)st->n;
-    g_ds.m = (uint8_t)st->m;
-    g_ds.flags = (uint8_t)st->flags;
     /* The title names the source: no '/' so it is printed whole. */
     snprintf(title, sizeof(title), "it2nd %s %u generation %lu",
              a->conn.link != NULL ? "model" : "unit",
@@ -775,7 +902,7 @@ static int draw_live(ctl_session *s, const ctl_args *a, const ctl_status *st,
              (unsigned long)st->generation);
     o.path = title;
     o.output = output;
-    return cli_plot(&o, &g_mdl, &g_ds);
+    return cli_plot(&o, &sf);
 }
 
 /* --follow: each drawing goes to a hidden file beside FILE, renamed over it
@@ -865,7 +992,7 @@ enum {
     OPT_AT = 256, OPT_SUMMARY, OPT_GRID, OPT_CHORD, OPT_DECIMALS, OPT_HELP,
     OPT_VERSION, OPT_FP, OPT_MEMB, OPT_INTERVAL, OPT_SIZE, OPT_TCP, OPT_RTU,
     OPT_LINK, OPT_UNIT, OPT_MODEL, OPT_BAUD, OPT_PARITY, OPT_STOP,
-    OPT_TIMEOUT, OPT_COUNT, OPT_NETS, OPT_FOLLOW, OPT_INCOMPLETE,
+    OPT_TIMEOUT, OPT_COUNT, OPT_NETS, OPT_FOLLOW, OPT_INCOMPLETE, OPT_KIND,
     OPT_BROKER, OPT_GROUP, OPT_NODE
 };
 
@@ -898,6 +1025,7 @@ static int parse_args(int argc, char **argv, ctl_args *a)
         {"nets", no_argument, NULL, OPT_NETS},
         {"follow", no_argument, NULL, OPT_FOLLOW},
         {"incomplete", no_argument, NULL, OPT_INCOMPLETE},
+        {"kind", required_argument, NULL, OPT_KIND},
         {"broker", required_argument, NULL, OPT_BROKER},
         {"group", required_argument, NULL, OPT_GROUP},
         {"node", required_argument, NULL, OPT_NODE},
@@ -971,6 +1099,22 @@ static int parse_args(int argc, char **argv, ctl_args *a)
         case OPT_VERSION:
             printf("it2nctl %s\n", IT2N_CLI_VERSION);
             return CTL_EXIT_OK;
+        case OPT_KIND:
+            if (!(c->opts & O_KIND)) {
+                return usage_error(c->name, "--kind does not apply to %s "
+                                   "(the daemon's model has its kind)",
+                                   c->name);
+            }
+            if (strcmp(optarg, "bezier") == 0) {
+                o->kind = CLI_KIND_BEZIER;
+            } else if (strcmp(optarg, "bspline") == 0) {
+                o->kind = CLI_KIND_BSPLINE;
+            } else {
+                return usage_error(c->name,
+                                   "--kind '%s': expected bezier or bspline",
+                                   optarg);
+            }
+            break;
         case OPT_CHORD:
             if (!(c->opts & O_CHORD)) {
                 return usage_error(c->name, "--chord does not apply to %s",
@@ -1406,5 +1550,6 @@ int main(int argc, char **argv)
     }
     s.ops->close(s.c);
     free(a.o.at);
+    cli_free_bspline();
     return rc;
 }

@@ -187,6 +187,26 @@ static int mb_status(void *p, ctl_status *st)
     st->flags = r[IT2N_REG_FLAGS];
     st->present = r[IT2N_REG_PRESENT];
     st->required = r[IT2N_REG_REQUIRED];
+    {
+        /* kind, net size and u32 counts: absent from older daemons (02),
+         * which serve the Bezier kind only */
+        uint16_t k[IT2N_REG_STATUS_END - IT2N_REG_KIND], n32[4];
+        if (modbus_read_registers(c->ctx, IT2N_REG_KIND, IT2N_REG_STATUS_END - IT2N_REG_KIND, k) ==
+            (int)(IT2N_REG_STATUS_END - IT2N_REG_KIND)) {
+            st->kind = k[0];
+            st->net_rows = k[IT2N_REG_NET_ROWS - IT2N_REG_KIND];
+            st->net_cols = k[IT2N_REG_NET_COLS - IT2N_REG_KIND];
+            if (modbus_read_registers(c->ctx, IT2N_REG_PRESENT32, 4, n32) == 4) {
+                st->present = get32(&n32[0], r[IT2N_REG_INT32_ORDER] & 3);
+                st->required = get32(&n32[2], r[IT2N_REG_INT32_ORDER] & 3);
+            }
+        } else if (errno != EMBXILADD) {
+            return mb_fail(c, "read status");
+        } else {
+            st->net_rows = st->state == CTL_ST_SOLVED ? st->n + 1u : 0u;
+            st->net_cols = st->state == CTL_ST_SOLVED ? st->m + 1u : 0u;
+        }
+    }
     c->word_order = r[IT2N_REG_WORD_ORDER] & 3;
     c->int32_order = r[IT2N_REG_INT32_ORDER] & 3;
     st->generation = get32(&r[IT2N_REG_GENERATION], c->int32_order);
@@ -196,15 +216,53 @@ static int mb_status(void *p, ctl_status *st)
     return CTL_EXIT_OK;
 }
 
+/* The data pushed: a Bezier data set or a B-spline one. */
+typedef struct mb_src {
+    const it2n_dataset *ds;
+    const it2n_bspline_data *bds;
+} mb_src;
+
+static unsigned src_n(const mb_src *s)
+{
+    return s->bds != NULL ? s->bds->n : s->ds->n;
+}
+
+static unsigned src_m(const mb_src *s)
+{
+    return s->bds != NULL ? s->bds->m : s->ds->m;
+}
+
+static unsigned src_flags(const mb_src *s)
+{
+    return s->bds != NULL ? s->bds->flags : s->ds->flags;
+}
+
+static bool src_has(const mb_src *s, unsigned i, unsigned j, unsigned fp)
+{
+    if (s->bds != NULL) {
+        unsigned nfp = IT2N_BSPLINE_NFP(s->bds->flags);
+        if ((s->bds->flags & IT2N_F_TYPE1) && fp != IT2N_FP_D) {
+            return false;
+        }
+        return s->bds->rec[((size_t)i * (s->bds->m + 1u) + j) * nfp +
+                           (nfp == 1u ? 0u : fp)].present != 0u;
+    }
+    return (s->ds->present[i][j] & (1u << fp)) != 0u;
+}
+
 /* The upload block of entry (i, j, fp); false (rej filled) when a value
  * is not exactly representable in the map's scaled integers. */
-static bool upload_regs(const mb_conn *c, const it2n_dataset *ds, unsigned i,
+static bool upload_regs(const mb_conn *c, const mb_src *src, unsigned i,
                         unsigned j, unsigned fp, uint16_t r[12],
                         it2n_errinfo *rej)
 {
     it2n_val v[IT2N_CH_COUNT];
     unsigned ch;
-    it2n_dataset_get(ds, i, j, fp, v);
+    if (src->bds != NULL) {
+        it2n_bspline_data_get(src->bds, i, j, fp, v);
+    } else {
+        it2n_dataset_get(src->ds, i, j, fp, v);
+    }
     r[0] = (uint16_t)i;
     r[1] = (uint16_t)j;
     r[2] = (uint16_t)fp;
@@ -212,7 +270,7 @@ static bool upload_regs(const mb_conn *c, const it2n_dataset *ds, unsigned i,
         bool coord = ch < IT2N_CH_T;
         int64_t scale = coord ? c->coord_scale : IT2N_REGMAP_MEMB_SCALE;
         int64_t k;
-        if (ch == IT2N_CH_Z && !(ds->flags & IT2N_F_Z)) {
+        if (ch == IT2N_CH_Z && !(src_flags(src) & IT2N_F_Z)) {
             v[ch] = 0;
         }
         k = to_scaled(v[ch], scale);
@@ -252,23 +310,40 @@ static void refused_detail(mb_conn *c, it2n_errinfo *rej)
     }
 }
 
-static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
-                   void *pctx, it2n_errinfo *rej)
+static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
+                    void *pctx, it2n_errinfo *rej)
 {
-    mb_conn *c = p;
     uint16_t cfg[4], up[12];
-    unsigned i, j, fp, total = 0, done = 0;
+    unsigned i, j, fp, total = 0, done = 0, kind = 0;
+    uint16_t kreg;
     int rc = mb_map(c);
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
+    /* The unit's kind (a daemon without the register is Bezier only) */
+    if (modbus_read_registers(c->ctx, IT2N_REG_KIND, 1, &kreg) == 1) {
+        kind = kreg;
+    } else if (errno != EMBXILADD) {
+        return mb_fail(c, "read status");
+    }
+    if (kind != (src->bds != NULL ? IT2N_KIND_BSPLINE : IT2N_KIND_BEZIER)) {
+        fprintf(stderr,
+                "it2nctl: unit %d holds a %s model and the data are for the "
+                "%s kind: push --kind %s to a [model:ID] with kind = %s "
+                "(nothing was sent)\n",
+                modbus_get_slave(c->ctx), kind ? "bspline" : "bezier",
+                src->bds != NULL ? "bspline" : "bezier",
+                src->bds != NULL ? "bspline" : "bezier",
+                src->bds != NULL ? "bspline" : "bezier");
+        return CTL_EXIT_DATA;
+    }
     /* Everything representable before the first write: a refused push
      * changes nothing. */
-    for (i = 0; i <= ds->n; i++) {
-        for (j = 0; j <= ds->m; j++) {
+    for (i = 0; i <= src_n(src); i++) {
+        for (j = 0; j <= src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                if (ds->present[i][j] & (1u << fp)) {
-                    if (!upload_regs(c, ds, i, j, fp, up, rej)) {
+                if (src_has(src, i, j, fp)) {
+                    if (!upload_regs(c, src, i, j, fp, up, rej)) {
                         return CTL_REJECTED;
                     }
                     total++;
@@ -276,21 +351,21 @@ static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
             }
         }
     }
-    cfg[0] = ds->n;
-    cfg[1] = ds->m;
-    cfg[2] = ds->flags;
+    cfg[0] = (uint16_t)src_n(src);
+    cfg[1] = (uint16_t)src_m(src);
+    cfg[2] = (uint16_t)src_flags(src);
     cfg[3] = IT2N_CMD_CLEAR;
     rc = wr(c, IT2N_REG_CFG_N, 4, cfg, "configure");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    for (i = 0; i <= ds->n; i++) {
-        for (j = 0; j <= ds->m; j++) {
+    for (i = 0; i <= src_n(src); i++) {
+        for (j = 0; j <= src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                if (!(ds->present[i][j] & (1u << fp))) {
+                if (!src_has(src, i, j, fp)) {
                     continue;
                 }
-                (void)upload_regs(c, ds, i, j, fp, up, rej);
+                (void)upload_regs(c, src, i, j, fp, up, rej);
                 if (modbus_write_registers(c->ctx, IT2N_REG_UP_I, 12, up) !=
                     12) {
                     int e = errno;
@@ -319,6 +394,21 @@ static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
         return mb_fail(c, "commit");
     }
     return CTL_EXIT_OK;
+}
+
+static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
+                   void *pctx, it2n_errinfo *rej)
+{
+    mb_src src = {ds, NULL};
+    return push_src(p, &src, progress, pctx, rej);
+}
+
+static int mb_push_bspline(void *p, const it2n_bspline_data *bds,
+                           ctl_progress_fn progress, void *pctx,
+                           it2n_errinfo *rej)
+{
+    mb_src src = {NULL, bds};
+    return push_src(p, &src, progress, pctx, rej);
 }
 
 /* Parameter as the daemon reads q_u (x10000) — exact when it matches. */
@@ -532,9 +622,42 @@ static void mb_close(void *p)
     free(c);
 }
 
+/* One row of one net through the coefficient page (docs/registers.md):
+ * st->net_cols values into out, Q24 from float32. */
+static int mb_coef_row(void *p, const ctl_status *st, unsigned fp,
+                       unsigned ch, unsigned row, it2n_val *out)
+{
+    mb_conn *c = p;
+    uint16_t sel[3], r[2u * IT2N_REGMAP_WIN_COLS];
+    unsigned s, done = 0, total = 2u * st->net_cols;
+    int rc = mb_map(c);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    sel[0] = (uint16_t)fp;
+    sel[1] = (uint16_t)ch;
+    sel[2] = (uint16_t)row;
+    rc = wr(c, IT2N_REG_PG_FP, 3, sel, "select coefficient page");
+    if (rc != CTL_EXIT_OK) {
+        return rc;
+    }
+    while (done < total) {
+        unsigned cnt = total - done > 124u ? 124u : total - done;
+        rc = rd(c, IT2N_REG_WIN + done, cnt, &r[done], "read coefficients");
+        if (rc != CTL_EXIT_OK) {
+            return rc;
+        }
+        done += cnt;
+    }
+    for (s = 0; s < st->net_cols; s++) {
+        out[s] = f2q(get_f32(&r[2u * s], c->word_order));
+    }
+    return CTL_EXIT_OK;
+}
+
 static const ctl_ops mb_ops = {"modbus", mb_status, mb_push, mb_eval,
                                mb_locate, mb_net, mb_sample, mb_wait,
-                               mb_close};
+                               mb_close, mb_push_bspline, mb_coef_row};
 
 const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port,
                           size_t pn)

@@ -16,7 +16,7 @@ static const char *const memb_name[3] = {"T", "I", "F"};
 
 typedef struct exp_ctx {
     const cli_opts *o;
-    const it2n_model *mdl;
+    const cli_surface *mdl;
     const cli_mesh *mesh;
     FILE *f;
     bool z;
@@ -201,8 +201,7 @@ static void export_csv(exp_ctx *x)
     }
 }
 
-int cli_export(const cli_opts *o, const it2n_model *mdl,
-               const it2n_dataset *ds)
+int cli_export(const cli_opts *o, const cli_surface *mdl)
 {
     cli_mesh mesh;
     exp_ctx x;
@@ -213,7 +212,7 @@ int cli_export(const cli_opts *o, const it2n_model *mdl,
     memset(&x, 0, sizeof(x));
     x.o = o;
     x.mdl = mdl;
-    x.z = (ds->flags & IT2N_F_Z) != 0u;
+    x.z = (cli_surf_flags(mdl) & IT2N_F_Z) != 0u;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if (cli_fp_selected(o, mdl, fp)) {
             x.fps[x.nfp++] = fp;

@@ -37,7 +37,7 @@ static const char common_help[] =
     "Common options:\n"
     "  --kind K        bezier (default: one Bezier patch, grids up to 8x8)\n"
     "                  or bspline (cubic not-a-knot B-spline, grids up to\n"
-    "                  256x256; check, solve, eval, sample, deriv, locate)\n"
+    "                  256x256; every command)\n"
     "  --chord         chord-length parameters instead of uniform i/n, j/m\n"
     "  --decimals N    digits after the point, 0..9 (default 6)\n"
     "  -h, --help      this help\n"
@@ -442,14 +442,6 @@ int main(int argc, char **argv)
         return usage_error(c->name, "%s",
                            "--chord: the B-spline kind has uniform "
                            "parameters only");
-    }
-    if (o.kind == CLI_KIND_BSPLINE &&
-        (strcmp(c->name, "plot") == 0 || strcmp(c->name, "export") == 0)) {
-        free(o.at);
-        return usage_error(c->name,
-                           "%s --kind bspline: not available yet (check, "
-                           "solve, eval, sample, deriv and locate are)",
-                           c->name);
     }
     if ((c->opts & (CLI_O_AT_UW | CLI_O_AT_XY)) && o.nat == 0u) {
         free(o.at);

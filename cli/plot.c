@@ -182,22 +182,19 @@ static void put_row(FILE *f, const it2n_val v[IT2N_CH_COUNT],
 /* The data points of footprint fp: the data set's where it has them (it2n),
  * else the surfaces at the parameter nodes, where they interpolate the data
  * (it2nctl's live model; uniform parameters only). Returns how many. */
-static unsigned write_points(FILE *f, const it2n_model *mdl,
-                             const it2n_dataset *ds, unsigned fp,
-                             unsigned decimals, zspan *z)
+static unsigned write_points(FILE *f, const cli_surface *mdl,
+                             unsigned fp, unsigned decimals, zspan *z)
 {
-    unsigned i, j, k, count = 0;
+    unsigned i, j, k, count = 0, n = cli_surf_n(mdl), m = cli_surf_m(mdl);
     it2n_val v[IT2N_CH_COUNT];
-    for (i = 0; i <= mdl->n; i++) {
-        for (j = 0; j <= mdl->m; j++) {
-            if (ds != NULL && ds->present[i][j]) {
-                it2n_dataset_get(ds, i, j, fp, v);
-            } else {
+    for (i = 0; i <= n; i++) {
+        for (j = 0; j <= m; j++) {
+            if (!cli_surf_point(mdl, i, j, fp, v)) {
                 it2n_point pt;
-                if ((mdl->flags & IT2N_F_CHORD) ||
-                    it2n_eval(mdl, (it2n_par)(((uint64_t)i << 32) / mdl->n),
-                              (it2n_par)(((uint64_t)j << 32) / mdl->m), &pt,
-                              NULL) != IT2N_OK) {
+                if ((cli_surf_flags(mdl) & IT2N_F_CHORD) ||
+                    cli_surf_eval(mdl, (it2n_par)(((uint64_t)i << 32) / n),
+                                  (it2n_par)(((uint64_t)j << 32) / m), &pt,
+                                  NULL) != IT2N_OK) {
                     continue;
                 }
                 memcpy(v, pt.v[fp], sizeof(v));
@@ -214,8 +211,8 @@ static unsigned write_points(FILE *f, const it2n_model *mdl,
 
 /* Surfaces, data points and control nets: data blocks, one per selected
  * footprint in each file. */
-static int write_surfaces(const cli_opts *o, const it2n_model *mdl,
-                          const it2n_dataset *ds, tmpfiles *t, unsigned fps[],
+static int write_surfaces(const cli_opts *o, const cli_surface *mdl,
+                          tmpfiles *t, unsigned fps[],
                           unsigned *nfp, zspan *z, unsigned *npoints)
 {
     cli_mesh mesh;
@@ -264,13 +261,13 @@ static int write_surfaces(const cli_opts *o, const it2n_model *mdl,
         }
         fputs("\n", s);
         fprintf(p, "# data points %s: x y T I F\n", it2n_fp_name(fp));
-        *npoints += write_points(p, mdl, ds, fp, o->decimals, z);
+        *npoints += write_points(p, mdl, fp, o->decimals, z);
         fputs("\n\n", p);
         fprintf(n, "# control net %s: x y T I F\n", it2n_fp_name(fp));
-        for (r = 0; r <= mdl->n; r++) {
-            for (c = 0; c <= mdl->m; c++) {
+        for (r = 0; r < cli_surf_net_rows(mdl); r++) {
+            for (c = 0; c < cli_surf_net_cols(mdl); c++) {
                 for (k = 0; k < IT2N_CH_COUNT; k++) {
-                    v[k] = it2n_model_ctrl(mdl, r, c, fp, k);
+                    v[k] = cli_surf_coef(mdl, r, c, fp, k);
                 }
                 put_row(n, v, o->decimals);
                 for (k = 0; o->nets && k < 3u; k++) {
@@ -307,12 +304,12 @@ static void put_zrange(FILE *g, const zspan *z, unsigned k, unsigned decimals)
 
 /* One 3-D panel: membership k of every selected footprint, hidden lines
  * removed (hidden3d), data points and nets drawn on top. */
-static void put_panel(FILE *g, const cli_opts *o, const it2n_model *mdl,
+static void put_panel(FILE *g, const cli_opts *o, const cli_surface *mdl,
                       const unsigned fps[], unsigned nfp, unsigned k,
                       const zspan *z, unsigned npoints, const char *key)
 {
     bool cls_seen[CLS_COUNT] = {false, false, false, false};
-    bool type1 = (mdl->flags & IT2N_F_TYPE1) != 0u;
+    bool type1 = (cli_surf_flags(mdl) & IT2N_F_TYPE1) != 0u;
     unsigned a;
     fprintf(g, "set zlabel '%s %s' rotate parallel\n", memb_long[k],
             memb_short[k]);
@@ -371,8 +368,8 @@ static void plot_size(const cli_opts *o, unsigned *w, unsigned *h)
     }
 }
 
-static int script_surfaces(const cli_opts *o, const it2n_model *mdl,
-                           const it2n_dataset *ds, tmpfiles *t)
+static int script_surfaces(const cli_opts *o, const cli_surface *mdl,
+                           tmpfiles *t)
 {
     unsigned fps[IT2N_FP_COUNT], nfp, k, npoints;
     zspan z;
@@ -381,7 +378,7 @@ static int script_surfaces(const cli_opts *o, const it2n_model *mdl,
     int rc;
 
     memset(&z, 0, sizeof(z));
-    rc = write_surfaces(o, mdl, ds, t, fps, &nfp, &z, &npoints);
+    rc = write_surfaces(o, mdl, t, fps, &nfp, &z, &npoints);
     if (rc != CLI_EXIT_OK) {
         return rc;
     }
@@ -442,14 +439,14 @@ typedef struct xybox {
 /* The bands at one (x, y): every footprint located through it. ok[b] when
  * all three footprints of band b (upper LL, D, RR; lower LR, D, RL) pass
  * there; lo/hi their extremes of channel ch. */
-static int band_at(const it2n_model *mdl, it2n_val x, it2n_val y, unsigned ch,
+static int band_at(const cli_surface *mdl, it2n_val x, it2n_val y, unsigned ch,
                    bool ok[2], it2n_val lo[2], it2n_val hi[2])
 {
     static const unsigned set[2][3] = {{IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR},
                                        {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL}};
     it2n_locate_result res;
     unsigned b, s;
-    int rc = it2n_locate(mdl, x, y, &res, NULL);
+    int rc = cli_surf_locate(mdl, x, y, &res, NULL);
     if (rc != IT2N_OK) {
         fprintf(stderr, "it2n: locate failed: %s\n", it2n_strerror(rc));
         return CLI_EXIT_DATA;
@@ -475,7 +472,7 @@ static it2n_val grid_at(it2n_val a, it2n_val b, unsigned i, unsigned n)
 /* The box of the nodes of a rows x cols grid over *in where a band is known,
  * widened by one cell (the region's edge lies between nodes) and kept in
  * *in. Returns false if no node has a band. */
-static int band_region(const it2n_model *mdl, unsigned ch, const xybox *in,
+static int band_region(const cli_surface *mdl, unsigned ch, const xybox *in,
                        unsigned rows, unsigned cols, xybox *out, bool *any)
 {
     unsigned r, c;
@@ -518,7 +515,7 @@ static int band_region(const it2n_model *mdl, unsigned ch, const xybox *in,
 /* Interval band over (x, y): every footprint located through each node of
  * a grid over the region the bands cover (found on a coarse grid first, so
  * the map is not a small patch in a wide white frame). */
-static int script_interval(const cli_opts *o, const it2n_model *mdl,
+static int script_interval(const cli_opts *o, const cli_surface *mdl,
                            tmpfiles *t)
 {
     const unsigned k = (unsigned)o->membership, ch = IT2N_CH_T + k;
@@ -530,7 +527,7 @@ static int script_interval(const cli_opts *o, const it2n_model *mdl,
     FILE *d, *g;
     int rc;
 
-    if (mdl->flags & IT2N_F_TYPE1) {
+    if (cli_surf_flags(mdl) & IT2N_F_TYPE1) {
         fprintf(stderr,
                 "%s: --interval: a type-1 model (footprint D only) has no "
                 "interval\n",
@@ -713,8 +710,7 @@ static int run_gnuplot(const cli_opts *o, const char *script)
     return CLI_EXIT_OK;
 }
 
-int cli_plot(const cli_opts *o, const it2n_model *mdl,
-             const it2n_dataset *ds)
+int cli_plot(const cli_opts *o, const cli_surface *mdl)
 {
     const char *tmp = getenv("TMPDIR");
     tmpfiles t;
@@ -740,7 +736,7 @@ int cli_plot(const cli_opts *o, const it2n_model *mdl,
         return CLI_EXIT_DATA;
     }
     rc = o->interval ? script_interval(o, mdl, &t)
-                     : script_surfaces(o, mdl, ds, &t);
+                     : script_surfaces(o, mdl, &t);
     if (rc == CLI_EXIT_OK) {
         rc = run_gnuplot(o, t.path[t.n - 1u]);
     }

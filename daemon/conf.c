@@ -25,6 +25,7 @@ struct origin {
     int first_line;           /* its first key */
     char first_key[CONF_NAME];
     int unit_line, preload_line, removed_line;
+    int n_line, m_line, kind_line, chord_line; /* [model:] keys checked against kind */
 };
 
 /* Where an [rtu:] section's RS-485 options are, for the checks between
@@ -206,6 +207,14 @@ static void note(struct parse *p, struct origin *o, const char *name)
         o->preload_line = p->line;
     else if (!strcmp(name, "removed"))
         o->removed_line = p->line;
+    else if (!strcmp(name, "n"))
+        o->n_line = p->line;
+    else if (!strcmp(name, "m"))
+        o->m_line = p->line;
+    else if (!strcmp(name, "kind"))
+        o->kind_line = p->line;
+    else if (!strcmp(name, "chord"))
+        o->chord_line = p->line;
 }
 
 static void note_rs485(const struct parse *p, struct rs485_origin *o, const char *name)
@@ -439,14 +448,20 @@ static int key_model(struct parse *p, struct conf_model *m, const char *name, co
     if (!strcmp(name, "unit_id")) {
         if (parse_int(v, 1, 247, &m->unit))
             FAIL("expected 1..247");
-    } else if (!strcmp(name, "n")) {
-        if (parse_int(v, 1, IT2N_MAX_DEGREE, &m->n))
-            FAIL("expected 1..%d", IT2N_MAX_DEGREE);
-        m->set |= CONF_SET_N;
-    } else if (!strcmp(name, "m")) {
-        if (parse_int(v, 1, IT2N_MAX_DEGREE, &m->m))
-            FAIL("expected 1..%d", IT2N_MAX_DEGREE);
-        m->set |= CONF_SET_M;
+    } else if (!strcmp(name, "n") || !strcmp(name, "m")) {
+        /* The kind's own limit is checked once the section is read (kind
+         * may come after n and m). */
+        if (parse_int(v, 1, IT2N_BSPLINE_MAX_N, name[0] == 'n' ? &m->n : &m->m))
+            FAIL("expected 1..%d (bezier: 1..%d)", IT2N_BSPLINE_MAX_N, IT2N_MAX_DEGREE);
+        m->set |= name[0] == 'n' ? CONF_SET_N : CONF_SET_M;
+    } else if (!strcmp(name, "kind")) {
+        if (!strcmp(v, "bezier"))
+            m->kind = CONF_KIND_BEZIER;
+        else if (!strcmp(v, "bspline"))
+            m->kind = CONF_KIND_BSPLINE;
+        else
+            FAIL("expected bezier or bspline");
+        m->set |= CONF_SET_KIND;
     } else if (!strcmp(name, "z") || !strcmp(name, "type1") || !strcmp(name, "chord")) {
         unsigned bit = name[0] == 'z' ? IT2N_F_Z : name[0] == 't' ? IT2N_F_TYPE1 : IT2N_F_CHORD;
         if (parse_bool(v, &b))
@@ -815,6 +830,15 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
                       p->model[l].unit_line ? "unit_id" : o->first_key, "unit id %d (the model id) already used by model %d",
                       m->unit, c->model[l].id);
             }
+        if (m->kind == CONF_KIND_BEZIER && (m->n > IT2N_MAX_DEGREE || m->m > IT2N_MAX_DEGREE)) {
+            int ln = m->n > IT2N_MAX_DEGREE ? o->n_line : o->m_line;
+            VFAIL(ln, sec, m->n > IT2N_MAX_DEGREE ? "n" : "m",
+                  "%d exceeds the bezier kind's degree limit %d; use 1..%d, or kind = bspline for grids up to %d",
+                  m->n > IT2N_MAX_DEGREE ? m->n : m->m, IT2N_MAX_DEGREE, IT2N_MAX_DEGREE, IT2N_BSPLINE_MAX_N);
+        }
+        if (m->kind == CONF_KIND_BSPLINE && (m->flags & IT2N_F_CHORD))
+            VFAIL(o->chord_line ? o->chord_line : o->kind_line, sec, o->chord_line ? "chord" : "kind",
+                  "the bspline kind has uniform parameters only: chord = yes needs kind = bezier");
         if (m->preload && (m->n != 3 || m->m != 3 || (m->flags & (IT2N_F_Z | IT2N_F_TYPE1))))
             VFAIL(o->preload_line ? o->preload_line : o->first_line, sec, o->preload_line ? "preload" : o->first_key,
                   "the paper data set needs n = m = 3, no z, not type1");
@@ -1062,7 +1086,7 @@ not_regular:
 static const char *section_needs(const char *name)
 {
     if (!strncmp(name, "model:", 6))
-        return "a model needs at least one of unit_id, n, m, z, type1, chord, preload; "
+        return "a model needs at least one of unit_id, kind, n, m, z, type1, chord, preload; "
                "without any the section would be ignored";
     if (!strncmp(name, "rtu:", 4))
         return "device is required";

@@ -60,7 +60,8 @@ enum conf_rts { CONF_RTS_NONE = 0, CONF_RTS_UP = 1, CONF_RTS_DOWN = 2 };
 struct conf_model {
     int id;           /* 0..254, model id on the serial links */
     int unit;         /* Modbus unit id 1..247 */
-    int n, m;
+    int kind;         /* CONF_KIND_* (models.h enum model_kind) */
+    int n, m;         /* bezier: degrees 1..7; bspline: intervals 1..255 (its storage) */
     unsigned flags;   /* IT2N_F_* */
     int preload;      /* 1: the paper's 4x4 example data set */
     int write_protect; /* 1: no Modbus write may change it (links may) */
@@ -76,6 +77,11 @@ struct conf_model {
 #define CONF_SET_Z 4u
 #define CONF_SET_TYPE1 8u
 #define CONF_SET_CHORD 16u
+#define CONF_SET_KIND 32u
+
+/* [model:ID] kind (the values of models.h enum model_kind). */
+#define CONF_KIND_BEZIER 0
+#define CONF_KIND_BSPLINE 1
 
 enum conf_link_type { CONF_LINK_SERIAL = 0, CONF_LINK_USB = 1 };
 

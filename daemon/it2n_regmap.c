@@ -47,20 +47,51 @@ static const it2n_regmap_field status_fields[] = {
     F1(IT2N_REG_INT32_ORDER, IT2N_RT_U16, 1, "int32_word_order", "-",
        "Word and byte order of every u32/i32 register, coded as float_word_order "
        "([modbus] int32_word_order; by default the same as float_word_order, so a PLC sees one order)."),
+    F1(IT2N_REG_KIND, IT2N_RT_U16, 1, "kind", "-",
+       "Model kind ([model:ID] kind): 0 Bezier (n, m are degrees 1..7), 1 B-spline (cubic, not-a-knot; "
+       "n, m are intervals 1..255, a grid of (n+1) x (m+1) points)."),
+    F1(IT2N_REG_NET_ROWS, IT2N_RT_U16, 1, "net_rows", "-",
+       "Rows of each solved coefficient net: n+1 control points (Bezier), n+3 B-spline coefficients; "
+       "0 while not solved. Read them page by page (coef_page, coef_window)."),
+    F1(IT2N_REG_NET_COLS, IT2N_RT_U16, 1, "net_cols", "-",
+       "Columns of each solved coefficient net: m+1 (Bezier), m+3 (B-spline); 0 while not solved."),
+    F1(IT2N_REG_STATUS_RSV, IT2N_RT_U16, 1, "reserved", "-", "Reads 0."),
+};
+
+static const it2n_regmap_field counts_fields[] = {
+    F1(IT2N_REG_PRESENT32, IT2N_RT_U32, 1, "points_present32", "entries",
+       "points_present as u32 (registers 5 and 6 stop at 65535; a 256 x 256 type-2 grid needs 458752)."),
+    F1(IT2N_REG_REQUIRED32, IT2N_RT_U32, 1, "points_required32", "entries", "points_required as u32."),
+};
+
+static const it2n_regmap_field page_fields[] = {
+    F1(IT2N_REG_PG_FP, IT2N_RT_U16, 1, "coef_fp", "-", "Footprint of the coefficient page, 0 LL .. 6 RR."),
+    F1(IT2N_REG_PG_CH, IT2N_RT_U16, 1, "coef_ch", "-", "Channel of the page: 0 x, 1 y, 2 z, 3 T, 4 I, 5 F."),
+    F1(IT2N_REG_PG_ROW, IT2N_RT_U16, 1, "coef_row", "-",
+       "Row r of the net, 0..net_rows-1 (at most 257). Values above the limits answer 03."),
+};
+
+static const it2n_regmap_field win_fields[] = {
+    FN(IT2N_REG_WIN, IT2N_REGMAP_WIN_COLS, 2u, IT2N_RT_F32, 1, "coef[s]", "coord / 1",
+       "Coefficient (coef_row, s) of net (coef_fp, coef_ch) at 384 + s*2, s = 0..net_cols-1: a Bezier "
+       "control point, or the B-spline coefficient c(r-1, s-1) (the surface is sum c(k,l) N_k(u) N_l(w) "
+       "over the cubic B-splines of the uniform knots, docs/numerics.md). Columns past net_cols, rows past "
+       "net_rows and footprints the model does not carry read 0."),
 };
 
 static const it2n_regmap_field config_fields[] = {
     F1(IT2N_REG_CFG_N, IT2N_RT_U16, 1, "cfg_n", "-",
-       "Degree in u, 1..7. Writing a new configuration clears the model's points."),
-    F1(IT2N_REG_CFG_M, IT2N_RT_U16, 1, "cfg_m", "-", "Degree in w, 1..7."),
+       "Degree in u, 1..7 (B-spline kind: intervals, 1 up to the n of its [model:ID] section). "
+       "Writing a new configuration clears the model's points."),
+    F1(IT2N_REG_CFG_M, IT2N_RT_U16, 1, "cfg_m", "-", "Degree in w, 1..7 (B-spline: intervals, up to the configured m)."),
     F1(IT2N_REG_CFG_FLAGS, IT2N_RT_U16, 1, "cfg_flags", "bits",
-       "bit0 z, bit1 type-1, bit2 chord-length; other bits answer 03."),
+       "bit0 z, bit1 type-1, bit2 chord-length (Bezier only); other bits answer 03."),
     F1(IT2N_REG_COMMAND, IT2N_RT_U16, 1, "command", "-",
        "Write 1 = commit (solve now; 06 while points are missing, 04 if the solve fails), 2 = clear points. Reads 0."),
 };
 
 static const it2n_regmap_field upload_fields[] = {
-    F1(IT2N_REG_UP_I, IT2N_RT_U16, 1, "up_i", "-", "Grid row 0..n."),
+    F1(IT2N_REG_UP_I, IT2N_RT_U16, 1, "up_i", "-", "Grid row 0..n (up to 255 for the B-spline kind)."),
     F1(IT2N_REG_UP_J, IT2N_RT_U16, 1, "up_j", "-", "Grid column 0..m."),
     F1(IT2N_REG_UP_FP, IT2N_RT_U16, 1, "up_fp", "-", "Footprint 0 LL, 1 LR, 2 L, 3 D, 4 R, 5 RL, 6 RR."),
     F1(IT2N_REG_UP_X, IT2N_RT_I32, IT2N_REGMAP_SCALE_COORD, "up_x", "coord", "x coordinate."),
@@ -152,18 +183,30 @@ const it2n_regmap_block it2n_regmap_blocks[] = {
       query_fields, NF(query_fields) },
     { IT2N_REG_Q_KIND, IT2N_REG_QSTATUS_END, IT2N_RA_RO, 1u, "query_status",
       "Per-connection query status.", qstatus_fields, NF(qstatus_fields) },
+    { IT2N_REG_PRESENT32, IT2N_REG_COUNTS_END, IT2N_RA_RO, 0u, "counts",
+      "Entry counts of the current configuration as u32.", counts_fields, NF(counts_fields) },
+    { IT2N_REG_PG_FP, IT2N_REG_PAGE_END, IT2N_RA_RW, 1u, "coef_page",
+      "Per-connection page select of the coefficient window: one row of one net (footprint, channel). "
+      "Selecting a page changes no model (allowed on write-protected units and read-only listeners). "
+      "Nets of any size, both kinds: status registers 28..30 give the kind and the net's rows and columns.",
+      page_fields, NF(page_fields) },
     { IT2N_REG_RES_F32, IT2N_REG_SUM_F32 + 24u, IT2N_RA_RO, 1u, "results_f32",
       "Result of this connection's last query, float32 view (recomputed when the model changes). "
       "Answers 06 while the model is not solved.", res_f32_fields, NF(res_f32_fields) },
     { IT2N_REG_RES_SCALED, IT2N_REG_RESULTS_END, IT2N_RA_RO, 1u, "results_scaled",
       "Result of this connection's last query, scaled-integer view with saturation flags. "
       "Answers 06 while the model is not solved.", res_sc_fields, NF(res_sc_fields) },
+    { IT2N_REG_WIN, IT2N_REG_WIN_END, IT2N_RA_RO, 1u, "coef_window",
+      "The row coef_page selects, float32 (configured word order), read in as many requests as a PLC "
+      "needs (125 registers each at most): a 256 x 256 B-spline net row is 258 values. Answers 06 while "
+      "the model is not solved.", win_fields, NF(win_fields) },
     { IT2N_REG_GRID, IT2N_REG_GRID_END, IT2N_RA_RO, 0u, "sample_grid",
       "Precomputed sample grid (grid_rows x grid_cols, configured), refreshed on every generation. "
       "Answers 06 while the model is not solved.", grid_fields, NF(grid_fields) },
     { IT2N_REG_CTRL, IT2N_REG_CTRL_END, IT2N_RA_RO, 0u, "control_net",
       "Solved control nets, float32 only: control points of memberships are not bounded to [0, 1], so a "
-      "x10000 integer view would saturate. Answers 06 while the model is not solved.",
+      "x10000 integer view would saturate. Answers 06 while the model is not solved. Bezier kind only "
+      "(a B-spline model answers 02 here: read its coefficients through coef_window).",
       ctrl_fields, NF(ctrl_fields) },
     { IT2N_REG_GRID_F32, IT2N_REG_GRID_F32_END, IT2N_RA_RO, 0u, "sample_grid_f32",
       "The sample grid again, float32 view (same nodes and refresh as sample_grid). "

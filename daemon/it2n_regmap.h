@@ -52,7 +52,11 @@
 #define IT2N_REG_MODEL_ID 25u
 #define IT2N_REG_GRID_SAT 26u    /* grid values the x10000 view clamps */
 #define IT2N_REG_INT32_ORDER 27u /* word order of u32/i32 registers */
-#define IT2N_REG_STATUS_END 28u
+#define IT2N_REG_KIND 28u        /* enum it2n_regmap_kind */
+#define IT2N_REG_NET_ROWS 29u    /* coefficient rows of the solved net, 0 unsolved */
+#define IT2N_REG_NET_COLS 30u    /* coefficient columns */
+#define IT2N_REG_STATUS_RSV 31u  /* reads 0 */
+#define IT2N_REG_STATUS_END 32u
 
 /* ---- Model configuration (read/write) ---- */
 #define IT2N_REG_CFG_N 32u
@@ -84,6 +88,18 @@
 #define IT2N_REG_Q_YF 76u    /* f32 */
 #define IT2N_REG_QUERY_END 78u
 
+/* ---- Point counts as u32 (read-only): a B-spline grid may need more
+ * than the u16 status registers 5 and 6 hold ---- */
+#define IT2N_REG_PRESENT32 88u
+#define IT2N_REG_REQUIRED32 90u
+#define IT2N_REG_COUNTS_END 92u
+
+/* ---- Coefficient page select (read/write, per connection) ---- */
+#define IT2N_REG_PG_FP 96u
+#define IT2N_REG_PG_CH 97u
+#define IT2N_REG_PG_ROW 98u
+#define IT2N_REG_PAGE_END 99u
+
 /* ---- Query status (read-only, per connection) ---- */
 #define IT2N_REG_Q_KIND 80u     /* 0 none, 1 (u, w), 2 (x, y)        */
 #define IT2N_REG_Q_GEN 81u      /* u32 model generation of the result */
@@ -101,6 +117,13 @@
 #define IT2N_REG_SAT_SUM 339u      /* summary saturation mask, bit k */
 #define IT2N_REG_RESULTS_END 340u
 
+/* ---- Coefficient window (read-only, per connection): f32 coefficients
+ * of the selected row, up to IT2N_REGMAP_WIN_COLS ---- */
+#define IT2N_REGMAP_WIN_COLS 258u  /* a 256 x 256 B-spline net has 258 columns */
+#define IT2N_REGMAP_WIN_ROWS 258u
+#define IT2N_REG_WIN 384u
+#define IT2N_REG_WIN_END (IT2N_REG_WIN + 2u * IT2N_REGMAP_WIN_COLS)
+
 /* ---- Sample grid (read-only): D footprint T, I, F x10000 per node ---- */
 #define IT2N_REG_GRID 1024u
 #define IT2N_REG_GRID_END (IT2N_REG_GRID + 3u * IT2N_REGMAP_GRID_MAX_NODES)
@@ -116,6 +139,12 @@
 
 /* One past the highest address of the map. */
 #define IT2N_REG_MAP_END IT2N_REG_GRID_F32_END
+
+/* Values of IT2N_REG_KIND. */
+enum it2n_regmap_kind {
+    IT2N_KIND_BEZIER = 0,  /* one Bezier patch, degrees 1..7 */
+    IT2N_KIND_BSPLINE = 1  /* cubic B-spline, not-a-knot, 1..255 intervals */
+};
 
 /* Values of IT2N_REG_STATE. */
 enum it2n_regmap_state {

@@ -416,7 +416,7 @@ static void pump_rsp(struct link *l)
                 it2n_point pt;
                 it2n_par u = (it2n_par)(((uint64_t)r << IT2N_PAR_FRAC) / (d->rows - 1u));
                 it2n_par w = (it2n_par)(((uint64_t)c << IT2N_PAR_FRAC) / (d->cols - 1u));
-                if (it2n_eval(&md->mdl, u, w, &pt, NULL) != IT2N_OK) {
+                if (models_eval(md, u, w, &pt, NULL) != IT2N_OK) {
                     l->job.kind = 0;
                     return;
                 }
@@ -485,20 +485,28 @@ static int too_big(struct link *l, uint16_t seq, size_t size)
 static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint8_t fp, uint16_t rows, uint16_t cols)
 {
     struct model *md = models_by_id(model);
+    /* Checks in the order of protocol.md 5.8: the request alone (its size),
+     * then the model (MODEL), its state (STATE), its footprints (INVAL). */
+    if (kind == IT2N_MSG_SAMPLE && (uint32_t)rows * cols > IT2N_SAMPLE_NODES_MAX) {
+        /* bound the work one request can cause: value = nodes asked for */
+        it2n_errinfo e = detail(IT2N_ERR_RANGE, (int64_t)rows * cols, 4, IT2N_SAMPLE_NODES_MAX);
+        return refuse(l, seq, IT2N_ERR_RANGE, &e);
+    }
     if (!md)
         return refuse_model(l, seq, model);
     md = models_view(md);
     if (md->state != IT2N_RS_SOLVED)
         return IT2N_ERR_STATE;
-    if (!it2n_model_has_fp(&md->mdl, fp)) {
+    if (!models_has_fp(md, fp)) {
         it2n_errinfo e = detail(IT2N_ERR_INVAL, fp, IT2N_FP_D, IT2N_FP_D);
         e.fp = (int8_t)fp;
         return refuse(l, seq, IT2N_ERR_INVAL, &e); /* type-1: only D */
     }
-    if (kind == IT2N_MSG_SAMPLE && (uint32_t)rows * cols > IT2N_SAMPLE_NODES_MAX) {
-        /* bound the work one request can cause: value = nodes asked for */
-        it2n_errinfo e = detail(IT2N_ERR_RANGE, (int64_t)rows * cols, 4, IT2N_SAMPLE_NODES_MAX);
-        return refuse(l, seq, IT2N_ERR_RANGE, &e);
+    if (kind == IT2N_MSG_GET_NET && md->kind != MODEL_BEZIER) {
+        /* NET_ROW carries a Bezier control net (up to 8 x 8): B-spline
+         * coefficients are read over Modbus (paged, docs/registers.md). */
+        it2n_errinfo e = detail(IT2N_ERR_INVAL, md->kind, MODEL_BEZIER, MODEL_BEZIER);
+        return refuse(l, seq, IT2N_ERR_INVAL, &e);
     }
     if (kind == IT2N_MSG_GET_NET &&
         IT2N_NET_ROW_HDR + IT2N_SAMPLE_POINT * (md->mdl.m + 1u) > it2n_link_max_payload(&l->pl))
@@ -536,9 +544,9 @@ static void put_fresh(const struct model *md, const it2n_msg_put *p, it2n_msg_pu
     for (unsigned k = 0; k < p->count; k++) {
         const it2n_put_entry *e = &p->e[k];
         it2n_val have[IT2N_CH_COUNT];
-        if (e->i <= md->ds.n && e->j <= md->ds.m && (md->ds.present[e->i][e->j] & (1u << e->fp))) {
-            it2n_dataset_get(&md->ds, e->i, e->j, e->fp, have);
-            if (!(md->ds.flags & IT2N_F_Z))
+        if (models_point_present(md, e->i, e->j, e->fp)) {
+            models_point_get(md, e->i, e->j, e->fp, have);
+            if (!(models_flags(md) & IT2N_F_Z))
                 have[IT2N_CH_Z] = e->vals[IT2N_CH_Z]; /* z of a model without z: see do_put */
             if (!memcmp(have, e->vals, sizeof have))
                 continue;
@@ -559,7 +567,7 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
     }
     for (unsigned k = 0; k < p->count; k++) {
         const it2n_put_entry *e = &p->e[k];
-        if (!(md->ds.flags & IT2N_F_Z) && e->vals[IT2N_CH_Z] != 0) {
+        if (!(models_flags(md) & IT2N_F_Z) && e->vals[IT2N_CH_Z] != 0) {
             /* z given for a model without z: refused, never dropped */
             it2n_errinfo ez = detail(IT2N_ERR_RANGE, e->vals[IT2N_CH_Z], 0, 0);
             ez.i = e->i;
@@ -568,7 +576,7 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
             ez.ch = IT2N_CH_Z;
             return refuse(l, seq, IT2N_ERR_RANGE, &ez);
         }
-        if ((md->ds.flags & IT2N_F_TYPE1) && e->fp != IT2N_FP_D) {
+        if ((models_flags(md) & IT2N_F_TYPE1) && e->fp != IT2N_FP_D) {
             /* type-1 model: footprint D (3) only; lo..hi = 3..3 */
             it2n_errinfo et = detail(IT2N_ERR_INVAL, e->fp, IT2N_FP_D, IT2N_FP_D);
             et.i = e->i;
@@ -576,9 +584,9 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
             et.fp = (int8_t)e->fp;
             return refuse(l, seq, IT2N_ERR_INVAL, &et);
         }
-        if (e->i > md->ds.n || e->j > md->ds.m) {
-            it2n_errinfo ei = detail(IT2N_ERR_INVAL, e->i > md->ds.n ? e->i : e->j, 0,
-                                     e->i > md->ds.n ? md->ds.n : md->ds.m);
+        if (e->i > models_n(md) || e->j > models_m(md)) {
+            it2n_errinfo ei = detail(IT2N_ERR_INVAL, e->i > models_n(md) ? e->i : e->j, 0,
+                                     e->i > models_n(md) ? models_n(md) : models_m(md));
             ei.i = e->i;
             ei.j = e->j;
             ei.fp = (int8_t)e->fp;
@@ -645,10 +653,11 @@ static int serve(struct link *l, uint16_t seq, const it2n_msg *msg)
         rsp.u.status.re = seq;
         rsp.u.status.model = (uint8_t)md->id;
         rsp.u.status.state = (uint8_t)model_state(md);
-        rsp.u.status.n = md->ds.n;
-        rsp.u.status.m = md->ds.m;
-        rsp.u.status.flags = md->ds.flags;
-        rsp.u.status.missing = (uint16_t)it2n_dataset_missing(&md->ds);
+        rsp.u.status.n = (uint8_t)models_n(md);
+        rsp.u.status.m = (uint8_t)models_m(md);
+        rsp.u.status.flags = (uint8_t)models_flags(md);
+        /* u16 on the wire: a B-spline grid may lack more (saturated) */
+        rsp.u.status.missing = (uint16_t)(models_missing(md) > 0xFFFFu ? 0xFFFFu : models_missing(md));
         rsp.u.status.generation = md->gen;
         rsp.u.status.last_error = (int16_t)md->last_err.code;
         return respond(l, seq, &rsp, 15);
@@ -662,7 +671,7 @@ static int serve(struct link *l, uint16_t seq, const it2n_msg *msg)
             return IT2N_ERR_STATE;
         if (447 > it2n_link_max_payload(&l->pl))
             return too_big(l, seq, 447);
-        rc = it2n_eval(&md->mdl, it2n_par_from_wire(msg->u.query.u), it2n_par_from_wire(msg->u.query.w), &pt, NULL);
+        rc = models_eval(md, it2n_par_from_wire(msg->u.query.u), it2n_par_from_wire(msg->u.query.w), &pt, NULL);
         if (rc)
             return rc;
         rsp.type = IT2N_MSG_QUERY_RESULT;
@@ -685,7 +694,7 @@ static int serve(struct link *l, uint16_t seq, const it2n_msg *msg)
             return IT2N_ERR_STATE;
         if (474 > it2n_link_max_payload(&l->pl))
             return too_big(l, seq, 474);
-        rc = it2n_locate(&md->mdl, msg->u.locate.x, msg->u.locate.y, &lr, NULL);
+        rc = models_locate(md, msg->u.locate.x, msg->u.locate.y, &lr, NULL);
         if (rc)
             return rc;
         rsp.type = IT2N_MSG_LOCATE_RESULT;
@@ -933,6 +942,22 @@ static void on_poll(void *arg)
     struct link *l = arg;
     uint32_t now = now32();
     l->poll_timer = 0; /* this one has fired */
+    if (l->fd >= 0 && l->up) {
+        /* Read what has arrived first: on a loaded machine the answer to
+         * a frame due for retransmission may have come in since poll()
+         * returned; resending that frame would be spurious. Bounded: at
+         * most 4 reads of up to 4 KiB. */
+        uint8_t buf[4096];
+        for (int k = 0; k < 4 && l->fd >= 0; k++) {
+            ssize_t n = read(l->fd, buf, sizeof buf);
+            if (n <= 0)
+                break; /* EAGAIN, or a hang-up on_serial reports */
+            feed(l, buf, (size_t)n);
+        }
+        now = now32();
+        if (!l->up)
+            return;
+    }
     it2n_link_poll(&l->pl, now);
     if (l->cfg.peer_timeout_ms > 0 && it2n_link_stalled_ms(&l->pl, now) > (uint32_t)l->cfg.peer_timeout_ms) {
         /* The peer has not answered for peer_timeout_ms: declared down.

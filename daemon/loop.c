@@ -1,17 +1,27 @@
 /* loop.c — see loop.h. Timers are a small table scanned linearly (tens of
  * them). Fds can be thousands (pending TCP connections, mb_tcp.c): an
- * index by fd number makes add/mod/del O(1), and the poll array grows with
- * the table (no fixed cap: an fd beyond it would never be read). */
+ * index by fd number makes add/mod/del O(1). The wait is an epoll set,
+ * not poll(): the kernel keeps the watched set between iterations, so a
+ * wake-up costs what is ready, not every watched fd twice (the FC 23
+ * benchmark, issue 22). Each entry carries a serial number in its epoll
+ * data: an event queued for an fd deleted by an earlier callback (and
+ * perhaps added again under the same number) is recognised and dropped.
+ * An fd epoll refuses (EPERM: a regular file, always ready to poll()) is
+ * kept on a side list and dispatched every iteration as poll() would. */
 #include "loop.h"
 
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/epoll.h>
 #include <time.h>
+#include <unistd.h>
 
 struct fd_ent {
     int fd;
     short events;
+    int always;     /* not in the epoll set: ready for what it waits for */
+    uint32_t seq;   /* serial, in the epoll data with the fd */
     loop_fd_cb cb;
     void *arg;
 };
@@ -30,7 +40,9 @@ struct hook_ent {
 
 static struct fd_ent *fds;
 static size_t nfds, capfds;
-static struct pollfd *pfds;      /* capfds entries, filled per iteration */
+static int epfd = -1;
+static uint32_t next_seq;
+static size_t nalways;           /* entries with always set */
 static size_t *fd_idx;           /* fd number -> index in fds, SIZE_MAX none */
 static size_t cap_idx;
 static struct timer_ent *timers;
@@ -39,6 +51,7 @@ static struct hook_ent hooks[8];
 static size_t nhooks;
 static long next_timer_id = 1;
 static int woken;
+static int deleted; /* entries marked by loop_del_fd, not yet compacted */
 
 uint64_t loop_now_us(void)
 {
@@ -79,16 +92,30 @@ int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg)
         if (!p)
             return -1;
         fds = p;
-        struct pollfd *q = realloc(pfds, cap * sizeof *q);
-        if (!q)
-            return -1;
-        pfds = q;
         capfds = cap;
+    }
+    if (epfd < 0 && (epfd = epoll_create1(EPOLL_CLOEXEC)) < 0)
+        return -1;
+    uint32_t seq = ++next_seq;
+    struct epoll_event ev = { .events = (uint32_t)(unsigned short)events,
+                              .data.u64 = (uint64_t)seq << 32 | (uint32_t)fd };
+    int always = 0;
+    if (epoll_ctl(epfd, EPOLL_CTL_ADD, fd, &ev)) {
+        /* Still registered: closed without loop_del_fd while a duplicate
+         * keeps the file open. The new entry takes it over. */
+        if (errno == EEXIST && !epoll_ctl(epfd, EPOLL_CTL_MOD, fd, &ev))
+            ;
+        else if (errno == EPERM)
+            always = 1, nalways++;
+        else
+            return -1;
     }
     /* A deleted entry of the same fd may still be in the table (marked,
      * compacted at the end of the iteration): the index names the new one. */
     fds[nfds].fd = fd;
     fds[nfds].events = events;
+    fds[nfds].always = always;
+    fds[nfds].seq = seq;
     fds[nfds].cb = cb;
     fds[nfds].arg = arg;
     fd_idx[fd] = nfds;
@@ -99,8 +126,14 @@ int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg)
 void loop_mod_fd(int fd, short events)
 {
     size_t k = idx_of(fd);
-    if (k != SIZE_MAX)
-        fds[k].events = events;
+    if (k == SIZE_MAX || fds[k].events == events)
+        return;
+    fds[k].events = events;
+    if (!fds[k].always) {
+        struct epoll_event ev = { .events = (uint32_t)(unsigned short)events,
+                                  .data.u64 = (uint64_t)fds[k].seq << 32 | (uint32_t)fd };
+        epoll_ctl(epfd, EPOLL_CTL_MOD, fd, &ev);
+    }
 }
 
 void loop_del_fd(int fd)
@@ -108,8 +141,13 @@ void loop_del_fd(int fd)
     /* Mark only: the dispatcher may be iterating; compacted after. */
     size_t k = idx_of(fd);
     if (k != SIZE_MAX) {
+        if (fds[k].always)
+            nalways--;
+        else
+            epoll_ctl(epfd, EPOLL_CTL_DEL, fd, NULL); /* before the caller closes it */
         fds[k].fd = -1;
         fd_idx[fd] = SIZE_MAX;
+        deleted = 1;
     }
 }
 
@@ -162,6 +200,9 @@ void loop_wake(void)
 static void compact_fds(void)
 {
     size_t out = 0;
+    if (!deleted) /* nothing marked: the common iteration */
+        return;
+    deleted = 0;
     for (size_t k = 0; k < nfds; k++)
         if (fds[k].fd >= 0) {
             fd_idx[fds[k].fd] = out;
@@ -189,10 +230,11 @@ static void run_timers(void)
 
 int loop_run_once(int max_wait_ms)
 {
-    struct pollfd *pfd = pfds;
-    size_t n = nfds;
+    struct epoll_event evs[64];
+    int rc = 0;
     /* µs: timers are kept to the microsecond (the RTU inter-frame silence
-     * is 1.75 ms above 19200 Bd), so wait with ppoll, not poll. */
+     * is 1.75 ms above 19200 Bd), so wait with epoll_pwait2 (a timespec),
+     * not epoll_wait (ms). */
     int64_t timeout = max_wait_ms < 0 ? -1 : (int64_t)max_wait_ms * 1000;
     uint64_t now = loop_now_us();
     struct timespec ts;
@@ -203,28 +245,33 @@ int loop_run_once(int max_wait_ms)
         if (timeout < 0 || dd < timeout)
             timeout = dd;
     }
-    if (woken) {
+    if (woken || nalways) {
         timeout = 0;
         woken = 0;
     }
     ts.tv_sec = (time_t)(timeout / 1000000);
     ts.tv_nsec = (long)(timeout % 1000000) * 1000;
-    for (size_t k = 0; k < n; k++) {
-        pfd[k].fd = fds[k].fd;
-        pfd[k].events = fds[k].events;
-        pfd[k].revents = 0;
-    }
-    int rc = ppoll(pfd, n, timeout < 0 ? NULL : &ts, NULL);
+    if (epfd < 0 && (epfd = epoll_create1(EPOLL_CLOEXEC)) < 0)
+        return -1;
+    rc = epoll_pwait2(epfd, evs, (int)(sizeof evs / sizeof evs[0]), timeout < 0 ? NULL : &ts, NULL);
+    if (rc < 0 && errno == ENOSYS) /* before Linux 5.11: ms, rounded up */
+        rc = epoll_wait(epfd, evs, (int)(sizeof evs / sizeof evs[0]),
+                        timeout < 0 ? -1 : (int)((timeout + 999) / 1000));
     if (rc < 0 && errno != EINTR)
         return -1;
-    /* Entries 0..n-1 keep their places until compact_fds (callbacks only
-     * mark deletions and append): an entry deleted by an earlier callback
-     * is skipped, and revents never go to a new entry that reuses its fd
-     * number. pfds itself may move (an append that grows the table), so
-     * it is read through the global. */
-    for (size_t k = 0; rc > 0 && k < n; k++) {
-        short rev = pfds[k].revents;
-        if (rev && fds[k].fd >= 0 && fds[k].fd == pfds[k].fd)
+    /* An event whose entry was deleted by an earlier callback, or whose fd
+     * number a new entry took since, is dropped (the serial differs). A
+     * level-triggered fd not served this time is reported again. */
+    for (int e = 0; e < rc; e++) {
+        int fd = (int)(uint32_t)evs[e].data.u64;
+        size_t k = idx_of(fd);
+        if (k != SIZE_MAX && fds[k].seq == (uint32_t)(evs[e].data.u64 >> 32))
+            fds[k].cb(fds[k].arg, fd, (short)evs[e].events);
+    }
+    /* Fds epoll cannot watch (regular files): always ready, as to poll(). */
+    for (size_t k = 0, n = nfds; nalways && k < n; k++) {
+        short rev = (short)(fds[k].events & (POLLIN | POLLOUT));
+        if (fds[k].always && fds[k].fd >= 0 && rev)
             fds[k].cb(fds[k].arg, fds[k].fd, rev);
     }
     compact_fds();
@@ -238,12 +285,15 @@ int loop_run_once(int max_wait_ms)
 void loop_free(void)
 {
     free(fds);
-    free(pfds);
     free(fd_idx);
     free(timers);
+    if (epfd >= 0)
+        close(epfd);
+    epfd = -1;
+    nalways = 0;
     fds = NULL;
-    pfds = NULL;
     fd_idx = NULL;
     timers = NULL;
     nfds = capfds = cap_idx = ntimers = captimers = nhooks = 0;
+    deleted = 0;
 }

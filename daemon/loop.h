@@ -1,4 +1,4 @@
-/* loop — the daemon's single poll() event loop: fd handlers, one-shot
+/* loop — the daemon's single event loop (an epoll set): fd handlers, one-shot
  * timers on the monotonic clock, and post-iteration hooks (group commit).
  * Not thread-safe; callbacks may add and remove fds and timers freely. */
 #ifndef IT2ND_LOOP_H

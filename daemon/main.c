@@ -131,18 +131,19 @@ static int load_conf(struct conf *c)
 static void log_model(const struct model *md, const char *why)
 {
     static const char *const st[] = { "empty", "incomplete", "solved", "solve failed" };
-    unsigned need = (unsigned)(md->ds.n + 1u) * (md->ds.m + 1u) * ((md->ds.flags & IT2N_F_TYPE1) ? 1u : 7u);
-    unsigned missing = (unsigned)it2n_dataset_missing(&md->ds);
-    log_info("model %d on unit %d: %ux%u, flags %u, %s, %u/%u points, generation %u%s", md->id, md->unit,
-             (unsigned)md->ds.n, (unsigned)md->ds.m, (unsigned)md->ds.flags,
+    unsigned need = models_required(md);
+    unsigned missing = models_missing(md);
+    log_info("model %d on unit %d: %s %ux%u, flags %u, %s, %u/%u points, generation %u%s", md->id, md->unit,
+             models_kind_name(md->kind), models_n(md), models_m(md), models_flags(md),
              md->state >= 0 && md->state <= 3 ? st[md->state] : "?", need - missing, need, (unsigned)md->gen, why);
 }
 
 static int add_model(const struct conf_model *m, int at_start)
 {
-    struct model *md = models_add(m->id, m->unit, (unsigned)m->n, (unsigned)m->m, m->flags);
+    struct model *md = models_add(m->id, m->unit, m->kind, (unsigned)m->n, (unsigned)m->m, m->flags);
     if (!md) {
-        log_err("model %d: cannot create", m->id);
+        log_err("model %d: cannot create (%s %dx%d: %zu bytes)", m->id, models_kind_name(m->kind), m->n, m->m,
+                models_bytes(m->kind, (unsigned)m->n, (unsigned)m->m));
         return -1;
     }
     if (m->preload) {
@@ -422,6 +423,8 @@ static int reconfigures_refused(const struct conf *nc)
         size_t len = 0;
         if (!pts || !m || !old)
             continue;
+        if (old->kind != m->kind && !(m->set & CONF_SET_KIND))
+            len += (size_t)snprintf(lost + len, sizeof lost - len, "%skind", len ? ", " : "");
         if (old->n != m->n && !(m->set & CONF_SET_N))
             len += (size_t)snprintf(lost + len, sizeof lost - len, "%sn", len ? ", " : "");
         if (old->m != m->m && !(m->set & CONF_SET_M))
@@ -478,8 +481,20 @@ static void reload_models(const struct conf *nc)
         it2n_errinfo err;
         /* Only a change of the configuration file reconfigures: a model a
          * link or PLC reconfigured keeps its data while its section stays. */
-        if (!old || (old->n == m->n && old->m == m->m && old->flags == m->flags))
+        if (!old || (old->n == m->n && old->m == m->m && old->flags == m->flags && old->kind == m->kind))
             continue;
+        if (m->kind != md->kind || (md->kind == MODEL_BSPLINE && (m->n > (int)md->cap_n || m->m > (int)md->cap_m))) {
+            /* Another kind, or a B-spline grid beyond the model's storage:
+             * a new model in place of the old one (its points were cleared
+             * by a CONFIGURE anyway; the snapshot below drops its WAL
+             * records). */
+            log_notice("reload: model %d replaced by a %s model of %dx%d (%zu bytes): points cleared", md->id,
+                       models_kind_name(m->kind), m->n, m->m, models_bytes(m->kind, (unsigned)m->n, (unsigned)m->m));
+            models_remove(md);
+            k--;
+            removed++;
+            continue; /* added back below */
+        }
         if (models_configure(md, (unsigned)m->n, (unsigned)m->m, m->flags, &err) == IT2N_OK)
             log_notice("reload: model %d reconfigured to %dx%d, flags %u: points cleared (journaled CONFIGURE)",
                        md->id, m->n, m->m, m->flags);

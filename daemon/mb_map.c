@@ -21,7 +21,7 @@ __extension__ typedef __int128 i128;
 #define QIDX(a) ((a) - IT2N_REG_Q_U16)
 
 /* A 32-bit value into two registers in one of the four orders. */
-static void put32(uint16_t out[2], uint32_t b, int word_order)
+static inline void put32(uint16_t out[2], uint32_t b, int word_order)
 {
     uint16_t hi = (uint16_t)(b >> 16), lo = (uint16_t)b;
     uint16_t shi = (uint16_t)((hi >> 8) | (hi << 8)), slo = (uint16_t)((lo >> 8) | (lo << 8));
@@ -60,7 +60,7 @@ float mbmap_get_f32(const uint16_t in[2], int word_order)
     return f;
 }
 
-static float q24f(it2n_val v)
+static inline float q24f(it2n_val v)
 {
     /* v * 2^-24: exactly v / 2^24 (a power of two), without a division */
     return (float)((double)v * (1.0 / (double)IT2N_VAL_ONE));
@@ -96,6 +96,11 @@ static it2n_val from_scaled(int64_t raw, int64_t scale)
     return (it2n_val)((s >= 0 ? s + scale / 2 : s - scale / 2) / scale);
 }
 
+static uint16_t sat16(unsigned v)
+{
+    return (uint16_t)(v > 0xFFFFu ? 0xFFFFu : v);
+}
+
 /* Make sure q's cached result matches the model's current generation. */
 static int query_result(struct model *md, struct mb_query *q)
 {
@@ -108,17 +113,17 @@ static int query_result(struct model *md, struct mb_query *q)
     memset(&q->pt, 0, sizeof q->pt);
     q->locfail = 0;
     if (q->kind == 1) {
-        if (it2n_eval(&md->mdl, q->u, q->w, &q->pt, NULL) != IT2N_OK)
+        if (models_eval(md, q->u, q->w, &q->pt, NULL) != IT2N_OK)
             return MBX_DEVICE_FAILURE;
     } else {
         it2n_locate_result lr;
-        if (it2n_locate(&md->mdl, q->x, q->y, &lr, NULL) != IT2N_OK)
+        if (models_locate(md, q->x, q->y, &lr, NULL) != IT2N_OK)
             return MBX_DEVICE_FAILURE;
         it2n_val mn[4][3], mx[4][3];
         static const int up[3] = { IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR };
         static const int low[3] = { IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL };
         for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
-            if (!it2n_model_has_fp(&md->mdl, fp))
+            if (!models_has_fp(md, fp))
                 continue;
             memcpy(q->pt.v[fp], lr.fp[fp].v, sizeof q->pt.v[fp]);
             if (lr.fp[fp].status != IT2N_LOC_INSIDE)
@@ -137,7 +142,7 @@ static int query_result(struct model *md, struct mb_query *q)
                 it2n_val lo = 0, hi = 0;
                 int first = 1;
                 for (int e = 0; e < 3; e++) {
-                    if (!it2n_model_has_fp(&md->mdl, (unsigned)sets[s][e]))
+                    if (!models_has_fp(md, (unsigned)sets[s][e]))
                         continue;
                     it2n_val t = q->pt.v[sets[s][e]][IT2N_CH_T + k];
                     if (first || t < lo)
@@ -159,6 +164,27 @@ static int query_result(struct model *md, struct mb_query *q)
     q->model_inst = md->instance;
     q->gen = md->gen;
     return MBX_OK;
+}
+
+/* n Q24 values as floats into 2n registers: the word order chosen once
+ * per run, not per value (the result block is read with every query). */
+static void put_f32s(uint16_t *out, const it2n_val *v, unsigned n, int word_order)
+{
+    uint32_t b;
+    float f;
+#define PUT_F32S(wo)                                                                                        \
+    for (unsigned k = 0; k < n; k++) {                                                                      \
+        f = q24f(v[k]);                                                                                     \
+        memcpy(&b, &f, sizeof b);                                                                           \
+        put32(&out[2 * k], b, wo);                                                                          \
+    }
+    switch (word_order) {
+    case IT2N_WO_CDAB: PUT_F32S(IT2N_WO_CDAB) break;
+    case IT2N_WO_BADC: PUT_F32S(IT2N_WO_BADC) break;
+    case IT2N_WO_DCBA: PUT_F32S(IT2N_WO_DCBA) break;
+    default: PUT_F32S(IT2N_WO_ABCD) break;
+    }
+#undef PUT_F32S
 }
 
 static it2n_val sum_value(const it2n_summary *s, unsigned idx)
@@ -218,7 +244,7 @@ static const struct grid_cache *grid_of(const struct model *md, unsigned rows, u
     g->valid = 0;
     g->rows = rows;
     g->cols = cols;
-    if (rows * cols > IT2N_REGMAP_GRID_MAX_NODES || it2n_sample(&md->mdl, rows, cols, grid_cb, g, NULL) != IT2N_OK)
+    if (rows * cols > IT2N_REGMAP_GRID_MAX_NODES || models_sample(md, rows, cols, grid_cb, g, NULL) != IT2N_OK)
         return NULL;
     g->inst = md->instance;
     g->gen = md->gen;
@@ -270,11 +296,11 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         uint16_t *r = buf;
         r[IT2N_REG_MAP_VERSION] = IT2N_REGMAP_VERSION;
         r[IT2N_REG_STATE] = (uint16_t)md->state;
-        r[IT2N_REG_N] = md->ds.n;
-        r[IT2N_REG_M] = md->ds.m;
-        r[IT2N_REG_FLAGS] = md->ds.flags;
-        r[IT2N_REG_PRESENT] = (uint16_t)models_present(md);
-        r[IT2N_REG_REQUIRED] = (uint16_t)models_required(md);
+        r[IT2N_REG_N] = (uint16_t)models_n(md);
+        r[IT2N_REG_M] = (uint16_t)models_m(md);
+        r[IT2N_REG_FLAGS] = (uint16_t)models_flags(md);
+        r[IT2N_REG_PRESENT] = sat16(models_present(md));
+        r[IT2N_REG_REQUIRED] = sat16(models_required(md));
         put_u32(&r[IT2N_REG_GENERATION], md->gen);
         r[IT2N_REG_LAST_ERR] = (uint16_t)(int16_t)md->last_err.code;
         r[IT2N_REG_ERR_I] = (uint16_t)(md->last_err.code ? md->last_err.i : -1);
@@ -291,12 +317,33 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         r[IT2N_REG_MODEL_ID] = (uint16_t)md->id;
         r[IT2N_REG_GRID_SAT] = grid_saturated(md, o);
         r[IT2N_REG_INT32_ORDER] = (uint16_t)o->int32_order;
+        r[IT2N_REG_KIND] = md->kind == MODEL_BSPLINE ? IT2N_KIND_BSPLINE : IT2N_KIND_BEZIER;
+        r[IT2N_REG_NET_ROWS] = (uint16_t)(md->state == IT2N_RS_SOLVED ? models_net_rows(md) : 0u);
+        r[IT2N_REG_NET_COLS] = (uint16_t)(md->state == IT2N_RS_SOLVED ? models_net_cols(md) : 0u);
+        return MBX_OK;
+    }
+    case IT2N_REG_PRESENT32:
+        put_u32(&buf[0], models_present(md));
+        put_u32(&buf[IT2N_REG_REQUIRED32 - IT2N_REG_PRESENT32], models_required(md));
+        return MBX_OK;
+    case IT2N_REG_PG_FP:
+        memcpy(buf, q->page, sizeof q->page);
+        return MBX_OK;
+    case IT2N_REG_WIN: {
+        unsigned fp = q->page[0], ch = q->page[1], row = q->page[2], cols = models_net_cols(md);
+        unsigned first = (from - b->start) / 2, last = (to - b->start + 1) / 2;
+        if (md->state != IT2N_RS_SOLVED)
+            return MBX_BUSY;
+        if (row >= models_net_rows(md) || !models_has_fp(md, fp))
+            return MBX_OK; /* zeros */
+        for (unsigned s = first; s < last && s < cols; s++)
+            mbmap_put_f32(&buf[s * 2], q24f(models_coef(md, row, s, fp, ch)), o->word_order);
         return MBX_OK;
     }
     case IT2N_REG_CFG_N:
-        buf[0] = md->ds.n;
-        buf[1] = md->ds.m;
-        buf[2] = md->ds.flags;
+        buf[0] = (uint16_t)models_n(md);
+        buf[1] = (uint16_t)models_m(md);
+        buf[2] = (uint16_t)models_flags(md);
         buf[3] = 0;
         return MBX_OK;
     case IT2N_REG_UP_I:
@@ -323,12 +370,13 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
             return rc;
         if (q->kind == 0)
             return MBX_OK;
-        for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
-            for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++)
-                mbmap_put_f32(&buf[(fp * IT2N_CH_COUNT + ch) * 2], q24f(q->pt.v[fp][ch]), o->word_order);
-        for (unsigned s = 0; s < 12; s++)
-            mbmap_put_f32(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32 + s * 2], q24f(sum_value(&q->pt.sum, s)),
-                          o->word_order);
+        put_f32s(buf, &q->pt.v[0][0], IT2N_FP_COUNT * IT2N_CH_COUNT, o->word_order);
+        {
+            it2n_val sv[12];
+            for (unsigned s = 0; s < 12; s++)
+                sv[s] = sum_value(&q->pt.sum, s);
+            put_f32s(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32], sv, 12, o->word_order);
+        }
         return MBX_OK;
     case IT2N_REG_RES_SCALED:
         if ((rc = query_result(md, q)) != MBX_OK)
@@ -389,6 +437,8 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         return MBX_OK;
     }
     case IT2N_REG_CTRL: {
+        if (md->kind != MODEL_BEZIER)
+            return MBX_ILLEGAL_ADDRESS; /* its nets are read through coef_window */
         if (md->state != IT2N_RS_SOLVED)
             return MBX_BUSY;
         /* Only the requested span: the block is 5376 registers. */
@@ -462,7 +512,8 @@ void mbmap_refused(struct model *md, int exc)
 static int write_config(struct model *md, unsigned addr, unsigned count, const uint16_t *v,
                         int *persisted)
 {
-    unsigned n = md->ds.n, m = md->ds.m, flags = md->ds.flags, cmd = 0;
+    unsigned n = models_n(md), m = models_m(md), flags = models_flags(md), cmd = 0;
+    unsigned max = md->kind == MODEL_BSPLINE ? IT2N_BSPLINE_MAX_N : IT2N_MAX_DEGREE;
     it2n_errinfo err;
     int rc;
     for (unsigned k = 0; k < count; k++) {
@@ -476,14 +527,14 @@ static int write_config(struct model *md, unsigned addr, unsigned count, const u
         else
             cmd = v[k];
     }
-    if (n < 1 || n > IT2N_MAX_DEGREE || m < 1 || m > IT2N_MAX_DEGREE || (flags & ~IT2N_F_ALL) ||
-        cmd > IT2N_CMD_CLEAR)
+    if (n < 1 || n > max || m < 1 || m > max || (flags & ~IT2N_F_ALL) || cmd > IT2N_CMD_CLEAR)
         return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
-    if (cmd == IT2N_CMD_COMMIT && (n != md->ds.n || m != md->ds.m || flags != md->ds.flags))
+    int changed = n != models_n(md) || m != models_m(md) || flags != models_flags(md);
+    if (cmd == IT2N_CMD_COMMIT && changed)
         return refused(md, MBX_BUSY, IT2N_ERR_MISSING, -1, -1, -1); /* a fresh configuration has no points */
-    if (cmd == IT2N_CMD_COMMIT && it2n_dataset_missing(&md->ds) != 0)
+    if (cmd == IT2N_CMD_COMMIT && models_missing(md) != 0)
         return refused(md, MBX_BUSY, IT2N_ERR_MISSING, -1, -1, -1);
-    if (n != md->ds.n || m != md->ds.m || flags != md->ds.flags) {
+    if (changed) {
         rc = models_configure(md, n, m, flags, &err);
         if (rc)
             return refused_err(md, &err);
@@ -512,7 +563,7 @@ static int write_upload(struct model *md, const struct mb_opts *o, unsigned addr
         return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
 #define UP(a) v[(a) - IT2N_REG_UP_I]
     unsigned i = UP(IT2N_REG_UP_I), j = UP(IT2N_REG_UP_J), fp = UP(IT2N_REG_UP_FP);
-    if (i > md->ds.n || j > md->ds.m || fp >= IT2N_FP_COUNT)
+    if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT)
         return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, i > 0x7FFF ? -1 : (int)i, j > 0x7FFF ? -1 : (int)j,
                        fp >= IT2N_FP_COUNT ? -1 : (int)fp);
     for (unsigned c = 0; c < 3; c++)
@@ -640,7 +691,19 @@ static int write_query(struct model *md, struct mb_query *q, const struct mb_opt
 int mbmap_write_changes_model(unsigned addr, unsigned count)
 {
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
-    return b && b->access == IT2N_RA_RW && b->start != IT2N_REG_Q_U16;
+    return b && b->access == IT2N_RA_RW && !b->per_conn; /* per connection: query inputs, coefficient page */
+}
+
+/* Select a coefficient page: every value within its limit, or 03 and
+ * nothing changed. */
+static int write_page(struct mb_query *q, unsigned addr, unsigned count, const uint16_t *v)
+{
+    static const unsigned lim[] = { IT2N_REGMAP_FP, IT2N_REGMAP_CH, IT2N_REGMAP_WIN_ROWS };
+    for (unsigned k = 0; k < count; k++)
+        if (v[k] >= lim[addr - IT2N_REG_PG_FP + k])
+            return MBX_ILLEGAL_VALUE;
+    memcpy(&q->page[addr - IT2N_REG_PG_FP], v, count * sizeof *v);
+    return MBX_OK;
 }
 
 int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
@@ -657,6 +720,10 @@ int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, u
         return write_upload(md, o, addr, count, vals, persisted);
     case IT2N_REG_Q_U16: {
         int rc = write_query(md, q, o, addr, count, vals);
+        return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MBX_OK;
+    }
+    case IT2N_REG_PG_FP: {
+        int rc = write_page(q, addr, count, vals);
         return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MBX_OK;
     }
     default:

@@ -51,6 +51,8 @@ struct mb_query {
     uint32_t gen;
     it2n_point pt;
     uint16_t locfail;
+    /* The coefficient page selected (footprint, channel, row). */
+    uint16_t page[IT2N_REG_PAGE_END - IT2N_REG_PG_FP];
 };
 
 /* Encode a float into two registers in the given word order. */

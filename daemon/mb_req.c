@@ -4,6 +4,7 @@
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 
 #include "it2n_regmap.h"
 #include "errs.h"
@@ -14,9 +15,6 @@
 int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp)
 {
     memset(s, 0, sizeof *s);
-    s->map = modbus_mapping_new(0, 0, IT2N_REG_MAP_END, IT2N_REG_MAP_END);
-    if (!s->map)
-        return -1;
     s->ctx = ctx;
     s->is_tcp = is_tcp;
     return 0;
@@ -24,9 +22,72 @@ int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp)
 
 void mb_session_free(struct mb_session *s)
 {
-    if (s->map)
-        modbus_mapping_free(s->map);
-    s->map = NULL;
+    s->rsp_len = 0;
+}
+
+/* The reply to a request that succeeded, framed here into s->rsp as
+ * libmodbus' modbus_reply() would frame it (the daemon owns its framing:
+ * no scratch register mapping, no copy through it): TCP, the request's
+ * transaction id, protocol 0, the length, the request's unit; RTU, the
+ * slave address (the CRC is added when sent). FC 03/04/23 carry the
+ * registers read (regs, n), FC 06 echoes the request, FC 16 echoes its
+ * address and count. */
+static void frame_reply(struct mb_session *s, const uint8_t *req, int fc, const uint16_t *regs, unsigned n)
+{
+    uint8_t *r = s->rsp;
+    size_t hl = s->is_tcp ? 7u : 1u, k = hl;
+    const uint8_t *pdu = req + hl;
+    if (s->is_tcp) {
+        r[0] = req[0];
+        r[1] = req[1];
+        r[2] = r[3] = 0;
+        r[6] = req[6];
+    } else {
+        r[0] = req[0];
+    }
+    r[k++] = (uint8_t)fc;
+    if (fc == MODBUS_FC_WRITE_SINGLE_REGISTER || fc == MODBUS_FC_WRITE_MULTIPLE_REGISTERS) {
+        memcpy(r + k, pdu + 1, 4); /* address, value (06) or count (16) */
+        k += 4;
+    } else {
+        r[k++] = (uint8_t)(n * 2u);
+        unsigned i = 0;
+        /* Big-endian, four registers per step (a byte swap in each 16-bit
+         * lane of a 64-bit word): 108 registers are every FC 23 answer.
+         * Little-endian hosts; elsewhere the loop below does it all. */
+        for (; __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && i + 4u <= n; i += 4u) {
+            uint64_t x;
+            memcpy(&x, regs + i, sizeof x);
+            x = (x & 0x00FF00FF00FF00FFu) << 8 | (x >> 8 & 0x00FF00FF00FF00FFu);
+            memcpy(r + k + 2u * i, &x, sizeof x);
+        }
+        for (; i < n; i++) {
+            r[k + 2u * i] = (uint8_t)(regs[i] >> 8);
+            r[k + 2u * i + 1u] = (uint8_t)regs[i];
+        }
+        k += 2u * n;
+    }
+    if (s->is_tcp) {
+        r[4] = (uint8_t)((k - 6u) >> 8);
+        r[5] = (uint8_t)(k - 6u);
+    }
+    s->rsp_len = (int)k;
+}
+
+/* Send s->rsp: TCP, one send(); RTU through libmodbus (CRC, RS-485
+ * direction control), no reply to a broadcast (as modbus_reply). A short
+ * send is a failure, as in libmodbus. Returns 0 or -1. */
+static int send_reply(struct mb_session *s)
+{
+    int len = s->rsp_len;
+    s->rsp_len = 0;
+    if (!s->is_tcp) {
+        if (s->rsp[0] == MODBUS_BROADCAST_ADDRESS)
+            return 0;
+        return modbus_send_raw_request(s->ctx, s->rsp, len) < 0 ? -1 : 0;
+    }
+    ssize_t w = send(modbus_get_socket(s->ctx), s->rsp, (size_t)len, MSG_NOSIGNAL);
+    return w == (ssize_t)len ? 0 : -1;
 }
 
 /* Answer req with exception `code`. libmodbus builds the reply function as
@@ -75,7 +136,8 @@ static unsigned u16at(const uint8_t *p)
  * finding 8). A write refused before any change keeps its own report
  * (last_error). */
 static int write_req(struct mb_session *s, struct model *md, const struct mb_opts *o, unsigned waddr,
-                     unsigned wcount, const uint16_t *vals, unsigned raddr, unsigned rcount, int *persisted)
+                     unsigned wcount, const uint16_t *vals, unsigned raddr, unsigned rcount, uint16_t *regs,
+                     int *persisted)
 {
     int rc;
     *persisted = 0;
@@ -86,7 +148,7 @@ static int write_req(struct mb_session *s, struct model *md, const struct mb_opt
          * half reads like FC 04: the last durable state. */
         rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, persisted);
         if (rc == MBX_OK && rcount > 0)
-            rc = mbmap_read(models_view(md), &s->q, o, raddr, rcount, s->map->tab_registers + raddr);
+            rc = mbmap_read(models_view(md), &s->q, o, raddr, rcount, regs);
         return rc;
     }
     struct mb_query q = s->q;
@@ -97,8 +159,7 @@ static int write_req(struct mb_session *s, struct model *md, const struct mb_opt
      * (its reply waits for that change to be durable); a write that
      * changed nothing reads like FC 04, the last durable state. */
     if (rc == MBX_OK && rcount > 0)
-        rc = mbmap_read(*persisted ? md : models_view(md), &s->q, o, raddr, rcount,
-                        s->map->tab_registers + raddr);
+        rc = mbmap_read(*persisted ? md : models_view(md), &s->q, o, raddr, rcount, regs);
     if (rc != MBX_OK && *persisted) {
         it2n_errinfo why = md->last_err;
         models_txn_rollback(&t); /* the model and the WAL records queued since begin */
@@ -141,6 +202,9 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
     struct model *md;
     uint16_t vals[MODBUS_MAX_WR_WRITE_REGISTERS > MODBUS_MAX_WRITE_REGISTERS ? MODBUS_MAX_WR_WRITE_REGISTERS
                                                                           : MODBUS_MAX_WRITE_REGISTERS];
+    uint16_t regs[MODBUS_MAX_READ_REGISTERS > MODBUS_MAX_WR_READ_REGISTERS ? MODBUS_MAX_READ_REGISTERS
+                                                                         : MODBUS_MAX_WR_READ_REGISTERS];
+    unsigned nregs = 0;
     const uint8_t *pdu = req + hl;
     int plen = len - hl - (s->is_tcp ? 0 : 2); /* RTU: CRC (already checked) */
 
@@ -170,13 +234,12 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         unsigned addr = u16at(pdu + 1), count = u16at(pdu + 3);
         if (count < 1 || count > MODBUS_MAX_READ_REGISTERS)
             return exception(s, md, req, MBX_ILLEGAL_VALUE);
-        uint16_t *dst = fc == MODBUS_FC_READ_HOLDING_REGISTERS ? s->map->tab_registers
-                                                                : s->map->tab_input_registers;
         if (addr + count > IT2N_REG_MAP_END)
             return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
         /* Readers see the last durable state (models_view), never a
          * change whose batch is still being written. */
-        rc = mbmap_read(models_view(md), &s->q, o, addr, count, dst + addr);
+        rc = mbmap_read(models_view(md), &s->q, o, addr, count, regs);
+        nregs = count;
         break;
     }
     case MODBUS_FC_WRITE_SINGLE_REGISTER: {
@@ -185,7 +248,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         vals[0] = (uint16_t)u16at(pdu + 3);
         if (write_denied(s, unit, o, u16at(pdu + 1), 1))
             return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
-        rc = write_req(s, md, o, u16at(pdu + 1), 1, vals, 0, 0, &persisted);
+        rc = write_req(s, md, o, u16at(pdu + 1), 1, vals, 0, 0, NULL, &persisted);
         break;
     }
     case MODBUS_FC_WRITE_MULTIPLE_REGISTERS: {
@@ -198,7 +261,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < count; k++)
             vals[k] = (uint16_t)u16at(pdu + 6 + 2 * k);
-        rc = write_req(s, md, o, addr, count, vals, 0, 0, &persisted);
+        rc = write_req(s, md, o, addr, count, vals, 0, 0, NULL, &persisted);
         break;
     }
     case MODBUS_FC_WRITE_AND_READ_REGISTERS: {
@@ -216,16 +279,23 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
             return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < wcount; k++)
             vals[k] = (uint16_t)u16at(pdu + 10 + 2 * k);
-        rc = write_req(s, md, o, waddr, wcount, vals, raddr, rcount, &persisted);
-        /* modbus_reply stores the written values into the scratch map
-         * before reading, so an overlapping read echoes what was written. */
+        rc = write_req(s, md, o, waddr, wcount, vals, raddr, rcount, regs, &persisted);
+        /* As libmodbus' modbus_reply (which stored the written values
+         * before reading): an overlapping read echoes what was written. */
+        for (unsigned k = 0; rc == MBX_OK && k < wcount; k++)
+            if (waddr + k >= raddr && waddr + k < raddr + rcount)
+                regs[waddr + k - raddr] = vals[k];
+        nregs = rcount;
         break;
     }
     default:
         return exception(s, md, req, MBX_ILLEGAL_FUNCTION);
     }
+    if (rc == MBX_OK)
+        frame_reply(s, req, fc, regs, nregs);
     if (persisted) {
-        /* Held until the WAL commit. */
+        /* Held until the WAL commit (the reply framed now: the registers
+         * read with the write). */
         memcpy(s->held, req, (size_t)len);
         s->held_len = len;
         s->held_exc = rc;
@@ -236,7 +306,7 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
     if (rc != MBX_OK)
         return exception(s, md, req, rc);
     metrics_modbus_reply(fc, 0);
-    return modbus_reply(s->ctx, req, len, s->map) < 0 ? -1 : 0;
+    return send_reply(s);
 }
 
 int mb_req_release(struct mb_session *s, int commit_ok)
@@ -258,5 +328,5 @@ int mb_req_release(struct mb_session *s, int commit_ok)
     if (exc != MBX_OK)
         return exception(s, s->held_model, s->held, exc);
     metrics_modbus_reply(s->held[modbus_get_header_length(s->ctx)], 0);
-    return modbus_reply(s->ctx, s->held, len, s->map) < 0 ? -1 : 0;
+    return send_reply(s);
 }

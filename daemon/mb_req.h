@@ -1,6 +1,7 @@
 /* mb_req — one Modbus request (a complete ADU, TCP or RTU) against the
- * model table: decode, check counts, run mb_map, answer with libmodbus'
- * modbus_reply()/modbus_reply_exception() on the session's context. A
+ * model table: decode, check counts, run mb_map, answer: the reply framed
+ * here (as modbus_reply() frames it) and sent at once (TCP: one send();
+ * RTU: libmodbus adds the CRC), exceptions with modbus_reply_exception(). A
  * request that changed a model is held until the WAL commit (group commit)
  * and answered by mb_req_release(). */
 #ifndef IT2ND_MB_REQ_H
@@ -13,7 +14,6 @@
 
 struct mb_session {
     modbus_t *ctx;              /* one per connection / serial port */
-    modbus_mapping_t *map;      /* scratch registers for modbus_reply */
     int is_tcp;
     int read_only;              /* the listener is read-only */
     unsigned refused;           /* writes refused by access control */
@@ -24,9 +24,11 @@ struct mb_session {
     int held_exc;               /* exception to send instead, or 0 */
     struct model *held_model;
     uint64_t held_batch;        /* the WAL batch its reply waits for */
+    uint8_t rsp[MODBUS_TCP_MAX_ADU_LENGTH]; /* the reply, framed */
+    int rsp_len;
 };
 
-/* Create the scratch mapping and attach ctx. Returns 0 or -1. */
+/* Attach ctx (no allocation). Returns 0. */
 int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp);
 void mb_session_free(struct mb_session *s);
 

@@ -322,7 +322,6 @@ static int grant(struct conn *c, uint64_t now)
         if (ctx)
             modbus_free(ctx);
         c->s.ctx = NULL;
-        c->s.map = NULL;
         conn_close(c, "out of memory");
         return -1;
     }

@@ -3,7 +3,7 @@
  * 0.0.4 (libmicrohttpd); any other path is 404. Off by default.
  *
  * Threads: none of its own. libmicrohttpd runs in "external event loop"
- * mode on an epoll fd that the daemon's poll() loop watches, and every
+ * mode on an epoll fd that the daemon's event loop watches, and every
  * request is parsed, rendered and sent from the loop, non-blocking. So the
  * exposition reads models, connections, links and the store in the thread
  * that owns them, with no locks and no copies; a slow or stuck HTTP client

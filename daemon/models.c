@@ -48,6 +48,61 @@ struct undo_rec {
 static unsigned char *ulog;
 static size_t ulen, ucap, flight_end;
 
+/* The B-spline storage of a model: records, then coefficients, after
+ * the struct in the same allocation. */
+#define STORAGE_OFF (((sizeof(struct model) + 7u) & ~(size_t)7u))
+static size_t bs_recs(unsigned n, unsigned m)
+{
+    return IT2N_BSPLINE_DATA_RECS(n, m, 0u);
+}
+static size_t bs_words(unsigned n, unsigned m)
+{
+    return IT2N_BSPLINE_MODEL_WORDS(n, m, IT2N_F_Z);
+}
+
+size_t models_bytes(int kind, unsigned n, unsigned m)
+{
+    if (kind != MODEL_BSPLINE)
+        return sizeof(struct model);
+    return STORAGE_OFF + bs_recs(n, m) * sizeof(it2n_bspline_rec) + bs_words(n, m) * sizeof(int32_t);
+}
+
+const char *models_kind_name(int kind)
+{
+    return kind == MODEL_BSPLINE ? "bspline" : "bezier";
+}
+
+/* Point md's B-spline data set and model at md's own storage (after a
+ * copy of another model's bytes, e.g. the readers' view). */
+static void fix_storage(struct model *md)
+{
+    if (md->kind != MODEL_BSPLINE)
+        return;
+    md->bds.rec = (it2n_bspline_rec *)(void *)((unsigned char *)md + STORAGE_OFF);
+    md->bds.cap = bs_recs(md->cap_n, md->cap_m);
+    md->bmdl.coef = (int32_t *)(void *)((unsigned char *)md + STORAGE_OFF +
+                                        bs_recs(md->cap_n, md->cap_m) * sizeof(it2n_bspline_rec));
+    md->bmdl.cap = bs_words(md->cap_n, md->cap_m);
+}
+
+struct model *models_dup(const struct model *md)
+{
+    struct model *c = malloc(md->bytes);
+    if (c) {
+        memcpy(c, md, md->bytes);
+        fix_storage(c);
+    }
+    return c;
+}
+
+void models_copy(struct model *dst, const struct model *src)
+{
+    if (dst->bytes != src->bytes || dst->kind != src->kind)
+        return; /* not the same storage: left alone */
+    memcpy(dst, src, src->bytes);
+    fix_storage(dst);
+}
+
 int models_init(int max)
 {
     table = calloc((size_t)max, sizeof *table);
@@ -268,8 +323,9 @@ struct model *models_view(struct model *md)
     if (!s->view_ok) {
         /* md, then every record of it undone, newest first: md as it was
          * before the oldest batch not yet durable. */
-        memcpy(v, md, sizeof *v);
+        memcpy(v, md, md->bytes);
         undo_range(0, md, v);
+        fix_storage(v); /* the copied pointers point into md */
         s->view_ok = 1;
     }
     /* Counters and the last refusal are live, not transactional. */
@@ -366,14 +422,18 @@ static int jlog(const struct model_rec *rec)
 }
 
 
-struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flags)
+struct model *models_add(int id, int unit, int kind, unsigned n, unsigned m, unsigned flags)
 {
     struct model *md, *view;
     it2n_errinfo err;
-    if (nmodels == maxmodels || models_by_id(id) || models_by_unit(unit))
+    size_t bytes;
+    if (nmodels == maxmodels || models_by_id(id) || models_by_unit(unit) ||
+        (kind != MODEL_BEZIER && kind != MODEL_BSPLINE) || n < 1 || m < 1 ||
+        n > IT2N_BSPLINE_MAX_N || m > IT2N_BSPLINE_MAX_N)
         return NULL;
-    md = calloc(1, sizeof *md);
-    view = malloc(sizeof *view); /* the readers' view buffer: models_view cannot fail */
+    bytes = models_bytes(kind, n, m);
+    md = calloc(1, bytes);
+    view = malloc(bytes); /* the readers' view buffer: models_view cannot fail */
     if (!md || !view) {
         free(md);
         free(view);
@@ -381,8 +441,20 @@ struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flag
     }
     md->id = id;
     md->unit = unit;
+    md->kind = kind;
+    md->bytes = bytes;
     md->instance = ++instances;
-    if (it2n_dataset_init(&md->ds, n, m, flags, &err) != IT2N_OK) {
+    if (kind == MODEL_BSPLINE) {
+        md->cap_n = n;
+        md->cap_m = m;
+        fix_storage(md);
+        if (it2n_bspline_data_init(&md->bds, md->bds.rec, md->bds.cap, n, m, flags, &err) != IT2N_OK) {
+            free(md);
+            free(view);
+            return NULL;
+        }
+        it2n_bspline_model_init(&md->bmdl, md->bmdl.coef, md->bmdl.cap);
+    } else if (it2n_dataset_init(&md->ds, n, m, flags, &err) != IT2N_OK) {
         free(md);
         free(view);
         return NULL;
@@ -441,13 +513,123 @@ struct model *models_at(int k)
 
 unsigned models_required(const struct model *md)
 {
-    unsigned fps = (md->ds.flags & IT2N_F_TYPE1) ? 1u : IT2N_FP_COUNT;
-    return (md->ds.n + 1u) * (md->ds.m + 1u) * fps;
+    unsigned fps = (models_flags(md) & IT2N_F_TYPE1) ? 1u : IT2N_FP_COUNT;
+    return (models_n(md) + 1u) * (models_m(md) + 1u) * fps;
 }
 
 unsigned models_present(const struct model *md)
 {
-    return models_required(md) - it2n_dataset_missing(&md->ds);
+    return models_required(md) - models_missing(md);
+}
+
+unsigned models_n(const struct model *md)
+{
+    return md->kind == MODEL_BSPLINE ? md->bds.n : md->ds.n;
+}
+
+unsigned models_m(const struct model *md)
+{
+    return md->kind == MODEL_BSPLINE ? md->bds.m : md->ds.m;
+}
+
+unsigned models_flags(const struct model *md)
+{
+    return md->kind == MODEL_BSPLINE ? md->bds.flags : md->ds.flags;
+}
+
+unsigned models_missing(const struct model *md)
+{
+    return md->kind == MODEL_BSPLINE ? (unsigned)it2n_bspline_data_missing(&md->bds) : it2n_dataset_missing(&md->ds);
+}
+
+/* Index of footprint fp of (i, j) in the B-spline records (it2n.h's
+ * layout), or -1 outside the data set. */
+static long bs_index(const struct model *md, unsigned i, unsigned j, unsigned fp)
+{
+    const it2n_bspline_data *d = &md->bds;
+    unsigned nfp = IT2N_BSPLINE_NFP(d->flags);
+    if (i > d->n || j > d->m || fp >= IT2N_FP_COUNT || ((d->flags & IT2N_F_TYPE1) && fp != IT2N_FP_D))
+        return -1;
+    return (long)(((size_t)i * (d->m + 1u) + j) * nfp + (nfp == 1u ? 0u : fp));
+}
+
+/* Coefficient words the current sizes use. */
+static size_t bs_used_words(const struct model *md)
+{
+    return IT2N_BSPLINE_MODEL_WORDS(md->bds.n, md->bds.m, md->bds.flags);
+}
+
+int models_point_present(const struct model *md, unsigned i, unsigned j, unsigned fp)
+{
+    if (md->kind == MODEL_BSPLINE) {
+        long k = bs_index(md, i, j, fp);
+        return k >= 0 && md->bds.rec[k].present != 0;
+    }
+    return i <= md->ds.n && j <= md->ds.m && fp < IT2N_FP_COUNT && (md->ds.present[i][j] & (1u << fp)) != 0;
+}
+
+void models_point_get(const struct model *md, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT])
+{
+    if (md->kind == MODEL_BSPLINE)
+        it2n_bspline_data_get(&md->bds, i, j, fp, vals);
+    else if (models_point_present(md, i, j, fp))
+        it2n_dataset_get(&md->ds, i, j, fp, vals);
+    else
+        memset(vals, 0, sizeof(it2n_val) * IT2N_CH_COUNT);
+}
+
+int models_has_fp(const struct model *md, unsigned fp)
+{
+    if (md->kind == MODEL_BSPLINE)
+        return fp < IT2N_FP_COUNT && (!(md->bmdl.flags & IT2N_F_TYPE1) || fp == IT2N_FP_D);
+    return it2n_model_has_fp(&md->mdl, fp);
+}
+
+int models_eval(const struct model *md, it2n_par u, it2n_par w, it2n_point *out, it2n_errinfo *err)
+{
+    return md->kind == MODEL_BSPLINE ? it2n_bspline_eval(&md->bmdl, u, w, out, err)
+                                     : it2n_eval(&md->mdl, u, w, out, err);
+}
+
+int models_deriv(const struct model *md, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw,
+                 it2n_errinfo *err)
+{
+    return md->kind == MODEL_BSPLINE ? it2n_bspline_deriv(&md->bmdl, u, w, du, dw, err)
+                                     : it2n_deriv(&md->mdl, u, w, du, dw, err);
+}
+
+int models_locate(const struct model *md, it2n_val x, it2n_val y, it2n_locate_result *out, it2n_errinfo *err)
+{
+    return md->kind == MODEL_BSPLINE ? it2n_bspline_locate(&md->bmdl, x, y, out, err)
+                                     : it2n_locate(&md->mdl, x, y, out, err);
+}
+
+int models_sample(const struct model *md, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx,
+                  it2n_errinfo *err)
+{
+    return md->kind == MODEL_BSPLINE ? it2n_bspline_sample(&md->bmdl, rows, cols, cb, ctx, err)
+                                     : it2n_sample(&md->mdl, rows, cols, cb, ctx, err);
+}
+
+unsigned models_net_rows(const struct model *md)
+{
+    if (md->kind == MODEL_BSPLINE)
+        return md->bmdl.solved ? md->bmdl.n + 3u : 0u;
+    return md->mdl.solved ? md->mdl.n + 1u : 0u;
+}
+
+unsigned models_net_cols(const struct model *md)
+{
+    if (md->kind == MODEL_BSPLINE)
+        return md->bmdl.solved ? md->bmdl.m + 3u : 0u;
+    return md->mdl.solved ? md->mdl.m + 1u : 0u;
+}
+
+it2n_val models_coef(const struct model *md, unsigned r, unsigned s, unsigned fp, unsigned ch)
+{
+    if (md->kind == MODEL_BSPLINE)
+        return it2n_bspline_coef(&md->bmdl, r, s, fp, ch);
+    return it2n_model_ctrl(&md->mdl, r, s, fp, ch);
 }
 
 static void set_err(struct model *md, const it2n_errinfo *err)
@@ -467,9 +649,14 @@ static void op_undo(struct model *md, size_t mark)
         s->in_gathered = 0;
 }
 
-/* The bytes of data point (i, j, fp) in md->ds. */
+/* The bytes of data point (i, j, fp) in md->ds (B-spline: its record;
+ * indices already checked). */
 static int save_point(struct model *md, unsigned i, unsigned j, unsigned fp)
 {
+    if (md->kind == MODEL_BSPLINE) {
+        long k = bs_index(md, i, j, fp);
+        return k < 0 ? 0 : save(md, &md->bds.rec[k], sizeof md->bds.rec[k]);
+    }
     return save(md, md->ds.coord_lo[i][j][fp], sizeof md->ds.coord_lo[i][j][fp]) ||
            save(md, md->ds.memb[i][j][fp], sizeof md->ds.memb[i][j][fp]) ||
            save(md, md->ds.coord_hi[i][j][fp], sizeof md->ds.coord_hi[i][j][fp]) ||
@@ -481,6 +668,15 @@ static int save_point(struct model *md, unsigned i, unsigned j, unsigned fp)
  * footprint when chord-length parameters follow footprint D (it2n.h). */
 static int save_update(struct model *md, unsigned fp)
 {
+    if (md->kind == MODEL_BSPLINE) {
+        /* The model's header and the nets of footprint fp (contiguous:
+         * it2n.h's layout, per footprint slot nch nets of (n+3)(m+3)). */
+        unsigned nch = IT2N_BSPLINE_NCH(md->bmdl.flags);
+        unsigned slot = (md->bmdl.flags & IT2N_F_TYPE1) ? 0u : fp;
+        size_t size = (size_t)(md->bmdl.n + 3u) * (md->bmdl.m + 3u) * nch;
+        return save(md, &md->bmdl, sizeof md->bmdl) ||
+               save(md, md->bmdl.coef + slot * size, size * sizeof(int32_t));
+    }
     if ((md->ds.flags & IT2N_F_CHORD) && fp == IT2N_FP_D)
         return save(md, &md->mdl, sizeof md->mdl);
     return save(md, &md->mdl, offsetof(it2n_model, frac)) ||
@@ -488,10 +684,21 @@ static int save_update(struct model *md, unsigned fp)
            save(md, md->mdl.net[fp], sizeof md->mdl.net[fp]);
 }
 
+/* What a solve rewrites: the model (B-spline: its header and the
+ * coefficients of the current sizes). */
+static int save_model(struct model *md)
+{
+    if (md->kind == MODEL_BSPLINE)
+        return save(md, &md->bmdl, sizeof md->bmdl) ||
+               save(md, md->bmdl.coef, bs_used_words(md) * sizeof(int32_t));
+    return save(md, &md->mdl, sizeof md->mdl);
+}
+
 /* Solve md->ds into md->mdl. On failure md->mdl is unchanged. */
 static int solve(struct model *md, it2n_errinfo *err)
 {
-    int rc = it2n_model_solve(&md->mdl, &md->ds, err);
+    int rc = md->kind == MODEL_BSPLINE ? it2n_bspline_solve(&md->bmdl, &md->bds, err)
+                                       : it2n_model_solve(&md->mdl, &md->ds, err);
     if (rc != IT2N_OK) {
         set_err(md, err);
         return rc;
@@ -503,20 +710,69 @@ static int solve(struct model *md, it2n_errinfo *err)
     return IT2N_OK;
 }
 
-/* Configure and clear rewrite the whole data set and net. */
+/* Configure and clear rewrite the whole data set and net (B-spline:
+ * the records and coefficients in use, before and after). */
 static int save_all(struct model *md)
 {
+    if (md->kind == MODEL_BSPLINE)
+        return save(md, md, MODEL_HDR_BYTES) || save(md, &md->bds, sizeof md->bds) ||
+               save(md, &md->bmdl, sizeof md->bmdl) ||
+               save(md, md->bds.rec, md->bds.cap * sizeof *md->bds.rec) ||
+               save(md, md->bmdl.coef, md->bmdl.cap * sizeof *md->bmdl.coef);
     return save(md, md, MODEL_HDR_BYTES) || save(md, &md->ds, sizeof md->ds) || save(md, &md->mdl, sizeof md->mdl);
+}
+
+/* Start md's data set afresh as n x m with flags, empty model: IT2N_OK or
+ * the core's refusal (nothing changed). */
+static int reset_data(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err)
+{
+    if (md->kind == MODEL_BSPLINE) {
+        it2n_bspline_data d = md->bds;
+        int rc = it2n_bspline_data_init(&d, md->bds.rec, md->bds.cap, n, m, flags, err);
+        if (rc != IT2N_OK)
+            return rc;
+        md->bds = d;
+        it2n_bspline_model_init(&md->bmdl, md->bmdl.coef, md->bmdl.cap);
+        return IT2N_OK;
+    }
+    it2n_dataset ds;
+    int rc = it2n_dataset_init(&ds, n, m, flags, err);
+    if (rc != IT2N_OK)
+        return rc;
+    md->ds = ds;
+    it2n_model_init(&md->mdl);
+    return IT2N_OK;
 }
 
 int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err)
 {
-    it2n_dataset ds;
-    struct model_rec rec = { .op = MOP_CONFIG, .id = md->id, .n = n, .m = m, .flags = flags };
+    struct model_rec rec = { .op = MOP_CONFIG, .id = md->id, .n = n, .m = m, .flags = flags, .kind = (unsigned)md->kind };
     size_t mark = ulen;
-    int rc = it2n_dataset_init(&ds, n, m, flags, err);
-    if (rc != IT2N_OK)
-        return rc;
+    int rc;
+    /* Checked first (nothing recorded): the core's limits and, for a
+     * B-spline model, the storage the configuration gave it. */
+    if (md->kind == MODEL_BSPLINE) {
+        it2n_bspline_data d;
+        rc = it2n_bspline_data_init(&d, md->bds.rec, 0, n, m, flags, err);
+        if (rc == IT2N_ERR_RANGE && (n > md->cap_n || m > md->cap_m)) {
+            /* beyond the storage: say which size and the limit */
+            memset(err, 0, sizeof *err);
+            err->code = rc;
+            err->i = err->j = -1;
+            err->fp = -1;
+            err->ch = -1;
+            err->value = n > md->cap_n ? n : m;
+            err->lo = 1;
+            err->hi = n > md->cap_n ? md->cap_n : md->cap_m;
+            return rc;
+        }
+        if (rc != IT2N_ERR_RANGE)
+            return rc == IT2N_OK ? IT2N_ERR_INVAL : rc;
+    } else {
+        it2n_dataset ds;
+        if ((rc = it2n_dataset_init(&ds, n, m, flags, err)) != IT2N_OK)
+            return rc;
+    }
     if (save_all(md)) {
         op_undo(md, mark);
         return refuse(md, err, IT2ND_ERR_NOMEM);
@@ -525,8 +781,11 @@ int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, i
         op_undo(md, mark);
         return refuse(md, err, rc);
     }
-    md->ds = ds;
-    it2n_model_init(&md->mdl);
+    rc = reset_data(md, n, m, flags, err);
+    if (rc != IT2N_OK) { /* cannot happen: checked above */
+        op_undo(md, mark);
+        return rc;
+    }
     md->state = IT2N_RS_EMPTY;
     md->gen++;
     md->last_op = MOP_CONFIG;
@@ -547,12 +806,26 @@ int models_clear(struct model *md)
         op_undo(md, mark);
         return refuse(md, &err, rc);
     }
-    it2n_dataset_init(&md->ds, md->ds.n, md->ds.m, md->ds.flags, &err);
-    it2n_model_init(&md->mdl);
+    reset_data(md, models_n(md), models_m(md), models_flags(md), &err);
     md->state = IT2N_RS_EMPTY;
     md->gen++;
     md->last_op = MOP_CLEAR;
     return IT2N_OK;
+}
+
+/* The core's put (replace) and incremental update for md's kind. */
+static int core_put(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                    it2n_errinfo *err)
+{
+    return md->kind == MODEL_BSPLINE ? it2n_bspline_data_put(&md->bds, i, j, fp, vals, true, err)
+                                     : it2n_dataset_put(&md->ds, i, j, fp, vals, true, err);
+}
+
+static int core_update(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                       it2n_errinfo *err)
+{
+    return md->kind == MODEL_BSPLINE ? it2n_bspline_update(&md->bmdl, &md->bds, i, j, fp, vals, err)
+                                     : it2n_model_update(&md->mdl, &md->ds, i, j, fp, vals, err);
 }
 
 int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
@@ -563,10 +836,10 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
     int rc, jrc = 0;
     memcpy(rec.vals, vals, sizeof rec.vals);
 
-    if (i > md->ds.n || j > md->ds.m || fp >= IT2N_FP_COUNT) {
+    if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT) {
         /* Refused by the core before anything is looked at. */
-        rc = md->state == IT2N_RS_SOLVED ? it2n_model_update(&md->mdl, &md->ds, i, j, fp, vals, err)
-                                         : it2n_dataset_put(&md->ds, i, j, fp, vals, true, err);
+        rc = md->state == IT2N_RS_SOLVED ? core_update(md, i, j, fp, vals, err)
+                                         : core_put(md, i, j, fp, vals, err);
         if (rc == IT2N_OK) { /* cannot happen: the core checks the indices */
             memset(err, 0, sizeof *err);
             err->code = rc = IT2N_ERR_INVAL;
@@ -574,7 +847,7 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         set_err(md, err);
         return rc;
     }
-    if (!replace && (md->ds.present[i][j] & (1u << fp))) {
+    if (!replace && models_point_present(md, i, j, fp)) {
         memset(err, 0, sizeof *err);
         err->code = IT2N_ERR_DUPLICATE;
         err->i = (int16_t)i;
@@ -592,7 +865,7 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         /* Incremental: the core's update changes md->ds and md->mdl
          * together and is atomic on error; the undo records undo a
          * journal failure. */
-        rc = it2n_model_update(&md->mdl, &md->ds, i, j, fp, vals, err);
+        rc = core_update(md, i, j, fp, vals, err);
         if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0)
             rc = jrc;
         if (rc != IT2N_OK) {
@@ -608,10 +881,10 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         return IT2N_OK;
     }
 
-    rc = it2n_dataset_put(&md->ds, i, j, fp, vals, true, err);
-    if (rc == IT2N_OK && it2n_dataset_missing(&md->ds) == 0) {
+    rc = core_put(md, i, j, fp, vals, err);
+    if (rc == IT2N_OK && models_missing(md) == 0) {
         /* completion solves; a failure rejects the point */
-        if (save(md, &md->mdl, sizeof md->mdl)) {
+        if (save_model(md)) {
             op_undo(md, mark);
             return refuse(md, err, IT2ND_ERR_NOMEM);
         }
@@ -639,11 +912,11 @@ int models_commit(struct model *md, it2n_errinfo *err)
     size_t mark = ulen;
     int rc;
     memset(err, 0, sizeof *err);
-    if (it2n_dataset_missing(&md->ds) != 0) {
+    if (models_missing(md) != 0) {
         err->code = IT2N_ERR_MISSING;
         return IT2N_ERR_MISSING;
     }
-    if (save(md, md, MODEL_HDR_BYTES) || save(md, &md->mdl, sizeof md->mdl)) {
+    if (save(md, md, MODEL_HDR_BYTES) || save_model(md)) {
         op_undo(md, mark);
         return refuse(md, err, IT2ND_ERR_NOMEM);
     }
@@ -682,6 +955,10 @@ int models_apply(const struct model_rec *rec, it2n_errinfo *err)
     replaying = 1;
     switch (rec->op) {
     case MOP_CONFIG:
+        if (rec->kind != (unsigned)md->kind) { /* the configuration changed the kind since */
+            rc = err->code = IT2N_ERR_INVAL;
+            break;
+        }
         rc = models_configure(md, rec->n, rec->m, rec->flags, err);
         break;
     case MOP_POINT:

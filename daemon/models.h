@@ -31,10 +31,16 @@ struct model_modbus {
     uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
 };
 
+/* Model kinds ([model:ID] kind; Modbus status register kind). */
+enum model_kind { MODEL_BEZIER = 0, MODEL_BSPLINE = 1 };
+
 struct model {
     /* The header: every scalar of the model (an operation records it
      * whole in the undo log, MODEL_HDR_BYTES). */
     int id, unit;
+    int kind;                  /* enum model_kind, fixed by the configuration */
+    size_t bytes;              /* of the allocation (struct + B-spline storage) */
+    unsigned cap_n, cap_m;     /* B-spline: the largest grid the storage holds */
     uint32_t instance;         /* unique per models_add and batch rollback (cache keys) */
     int state;                 /* enum it2n_regmap_state              */
     uint32_t gen;              /* bumped on every solve and update    */
@@ -43,8 +49,15 @@ struct model {
     uint32_t points_rx, solves;
     struct model_modbus mb;
     /* The data. */
-    it2n_dataset ds;           /* current data (staging and solved)   */
-    it2n_model mdl;            /* valid when state == IT2N_RS_SOLVED  */
+    it2n_dataset ds;           /* Bezier: current data (staging and solved) */
+    it2n_model mdl;            /* Bezier: valid when state == IT2N_RS_SOLVED */
+    /* B-spline kind: data set and model over the storage that follows the
+     * struct in the same allocation (records, then coefficients; sized by
+     * the core's macros for cap_n x cap_m with every footprint and z), so
+     * the undo log's offsets from the model reach them too. Unused (zero)
+     * for a Bezier model. */
+    it2n_bspline_data bds;
+    it2n_bspline_model bmdl;
 };
 
 #define MODEL_HDR_BYTES offsetof(struct model, ds)
@@ -55,7 +68,7 @@ enum model_op { MOP_CONFIG = 1, MOP_POINT = 2, MOP_COMMIT = 3, MOP_CLEAR = 4 };
 struct model_rec {
     int op;
     int id;
-    unsigned n, m, flags;              /* MOP_CONFIG */
+    unsigned n, m, flags, kind;        /* MOP_CONFIG */
     unsigned i, j, fp;                 /* MOP_POINT  */
     it2n_val vals[IT2N_CH_COUNT];      /* MOP_POINT  */
     bool replace;                      /* MOP_POINT  */
@@ -71,8 +84,16 @@ int models_init(int max);
 void models_free(void);
 void models_set_journal(model_journal_fn fn, void *arg);
 
-/* Add a model (id unique, unit unique). Returns it, or NULL. */
-struct model *models_add(int id, int unit, unsigned n, unsigned m, unsigned flags);
+/* Add a model (id unique, unit unique) of kind (enum model_kind). A
+ * B-spline model's storage holds n x m intervals with every footprint and
+ * z (models_bytes): a later CONFIGURE may choose any size up to that.
+ * Returns it, or NULL. */
+struct model *models_add(int id, int unit, int kind, unsigned n, unsigned m, unsigned flags);
+/* Bytes one model of kind and n x m intervals takes in the daemon (its
+ * allocation; the readers' view buffer takes as much again). */
+size_t models_bytes(int kind, unsigned n, unsigned m);
+/* "bezier" or "bspline". */
+const char *models_kind_name(int kind);
 /* Remove a model from the table and free it (reload). Must not be called
  * with a pass in progress (models_pass_dirty()). */
 void models_remove(struct model *md);
@@ -134,6 +155,14 @@ void models_set_journal_marks(model_jmark_fn mark, model_jrewind_fn rewind);
  * undo log like every change. 0, or IT2ND_ERR_NOMEM (nothing changed). */
 int models_set_upload(struct model *md, const uint16_t regs[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I]);
 
+/* Tests and fuzzers, a model put back to a saved state: models_dup gives
+ * a copy of md in an allocation of its own (free() it; its B-spline
+ * pointers point into the copy); models_copy copies src's bytes over dst,
+ * which must be of the same kind and storage (models_add with the same
+ * sizes), and points dst's B-spline data at dst's own storage. */
+struct model *models_dup(const struct model *md);
+void models_copy(struct model *dst, const struct model *src);
+
 /* Bytes held by the undo log now (tests, statistics). */
 size_t models_undo_bytes(void);
 
@@ -181,5 +210,32 @@ int models_apply(const struct model_rec *rec, it2n_errinfo *err);
 /* Entries present / required of the current configuration. */
 unsigned models_present(const struct model *md);
 unsigned models_required(const struct model *md);
+
+/* The model whatever its kind: intervals (Bezier: degrees), flags, the
+ * data points, and the core's queries on the solved model (same contracts
+ * as it2n_eval, it2n_deriv, it2n_locate, it2n_sample and their
+ * it2n_bspline_* twins). */
+unsigned models_n(const struct model *md);
+unsigned models_m(const struct model *md);
+unsigned models_flags(const struct model *md);
+unsigned models_missing(const struct model *md);
+/* Is footprint fp of data point (i, j) stored? Its values (zeros if not). */
+int models_point_present(const struct model *md, unsigned i, unsigned j, unsigned fp);
+void models_point_get(const struct model *md, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
+/* Does the solved model carry footprint fp? */
+int models_has_fp(const struct model *md, unsigned fp);
+int models_eval(const struct model *md, it2n_par u, it2n_par w, it2n_point *out, it2n_errinfo *err);
+int models_deriv(const struct model *md, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw,
+                 it2n_errinfo *err);
+int models_locate(const struct model *md, it2n_val x, it2n_val y, it2n_locate_result *out, it2n_errinfo *err);
+int models_sample(const struct model *md, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx,
+                  it2n_errinfo *err);
+/* The solved model's net: rows x cols coefficients per footprint and
+ * channel (Bezier: control points, (n+1) x (m+1); B-spline: (n+3) x (m+3)
+ * B-spline coefficients), 0 x 0 while not solved. Coefficient (r, s) of
+ * footprint fp, channel ch in Q24 (0 outside). */
+unsigned models_net_rows(const struct model *md);
+unsigned models_net_cols(const struct model *md);
+it2n_val models_coef(const struct model *md, unsigned r, unsigned s, unsigned fp, unsigned ch);
 
 #endif

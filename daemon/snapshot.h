@@ -1,4 +1,4 @@
-/* snapshot — the portable snapshot format (version 2): every model's
+/* snapshot — the portable snapshot format (versions 2 and 3): every model's
  * configuration, state, counters and the data points present, values as
  * little-endian int64 Q24, CRC-32C protected. The control nets are derived
  * state and are re-solved on load, so a snapshot written by a build with
@@ -11,16 +11,20 @@
 #include <stdint.h>
 
 #define SNAP_MAGIC "IT2NSNP"   /* 8 bytes with the NUL */
-#define SNAP_VERSION 2u
+#define SNAP_VERSION 3u         /* written when a model is of the B-spline kind */
+#define SNAP_VERSION_BEZIER 2u  /* written otherwise (older builds read it) */
 #define SNAP_HDR 32u
 
 /* Encode every model of the table, covering the WAL up to seq. Returns a
  * malloc'd buffer (caller frees) and its length, or NULL (no memory). */
 uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view);
 
-/* The largest snapshot nmodels models can give (every grid point of the
- * largest degree with every footprint): the room a checkpoint needs. */
+/* The largest snapshot nmodels Bezier models can give (every grid point
+ * of the largest degree with every footprint), and what the B-spline
+ * models of the table add at most (their configured grids): the room a
+ * checkpoint needs. */
 size_t snap_max_size(int nmodels);
+size_t snap_max_size_bspline(void);
 
 /* snap_decode results. */
 #define SNAP_BAD (-1)       /* length, CRC-32C or structure: the file is damaged */
@@ -28,7 +32,7 @@ size_t snap_max_size(int nmodels);
 #define SNAP_NOMEM (-3)
 #define SNAP_UNCONFIGURED (-4) /* data of a model not configured, not to be dropped */
 
-/* Decode a version 2 file into the model table. The whole file is checked
+/* Decode a version 2 or 3 file into the model table. The whole file is checked
  * first (length, CRC-32C, structure): on failure SNAP_BAD and nothing
  * changed. Then each model is rebuilt and re-solved on its own; one that is
  * no longer configured (and holds no data points, or store_may_drop()

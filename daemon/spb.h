@@ -1,6 +1,6 @@
 /* spb — it2nd as a Sparkplug B 3.0 Edge Node on MQTT 3.1.1 (libmosquitto),
  * each model a Device "model-N" (docs/sparkplug.md). The MQTT client runs
- * inside the daemon's poll() loop: its socket is a loop fd, its keep-alive
+ * inside the daemon's event loop: its socket is a loop fd, its keep-alive
  * a loop timer, and every call is non-blocking (no thread, no lock; the
  * one wait is the bounded NDEATH hand-off at a graceful stop). Nothing
  * here runs unless the configuration has a [sparkplug] section. */

@@ -2,7 +2,10 @@
  *
  * WAL file "wal":  header "IT2NWAL\0" u32 version(1) u32 0, then records
  *   u32 len (of seq..payload), u32 crc32c (of seq..payload), u64 seq,
- *   u8 type, payload. All little-endian.
+ *   u8 type, payload. All little-endian. A CONFIG record of a B-spline
+ *   model carries a sixth payload byte, the kind (docs/daemon.md); every
+ *   other record is as version 1 always had it (i, j are one byte each,
+ *   so B-spline grids up to 256 x 256 fit).
  * Snapshot "snapshot": version 2 is the portable format of snapshot.c.
  *   Version 1 (raw struct dump tagged with the struct layout, written by
  *   it2nd 0.1; layout frozen in store.h) is still read when the layout
@@ -54,6 +57,10 @@ static uint64_t seq, dseq, wal_bytes;
  * could not be synced). Every write is refused until a checkpoint (snapshot
  * + new WAL, everything synced) succeeds. */
 static int degraded;
+/* What the B-spline models add to the checkpoint reserve
+ * (snap_max_size_bspline()): set on the loop's thread while no job is in
+ * flight, read by the writer. */
+static size_t bspline_reserve;
 static uint8_t *qbuf;
 static size_t qlen, qcap;
 static int qrecs;
@@ -133,6 +140,10 @@ static size_t encode_payload(const struct model_rec *r, uint8_t *p)
         p[n++] = (uint8_t)r->n;
         p[n++] = (uint8_t)r->m;
         p[n++] = (uint8_t)r->flags;
+        /* The kind only when not Bezier: a Bezier-only WAL stays byte for
+         * byte what older builds wrote and read. */
+        if (r->kind)
+            p[n++] = (uint8_t)r->kind;
         break;
     case MOP_POINT:
         p[n++] = (uint8_t)r->i;
@@ -158,11 +169,14 @@ static int decode_payload(int type, const uint8_t *p, size_t len, struct model_r
     r->id = p[0] | p[1] << 8;
     switch (type) {
     case MOP_CONFIG:
-        if (len != 5)
+        /* 5 bytes: a Bezier model (every version); 6: the kind follows
+         * (1 = B-spline; 0 is never written in this form). */
+        if (len != 5 && (len != 6 || p[5] != 1))
             return -1;
         r->n = p[2];
         r->m = p[3];
         r->flags = p[4];
+        r->kind = len == 6 ? p[5] : 0;
         return 0;
     case MOP_POINT:
         if (len != 5 + 8 * IT2N_CH_COUNT)
@@ -474,6 +488,7 @@ static int submit_checkpoint(int durable_view)
     }
     /* The durable state: the views (models.h) at dseq. Records gathered
      * meanwhile (seq > dseq) go to the new WAL after it. */
+    bspline_reserve = snap_max_size_bspline();
     buf = snap_encode(dseq, &size, durable_view);
     if (!buf) {
         log_err("snapshot failed (encode): %s", strerror(ENOMEM));
@@ -714,7 +729,7 @@ out:
  * room for the filesystem's own blocks, in whole 4 KiB blocks. */
 static off_t reserve_size(void)
 {
-    size_t n = snap_max_size(CONF_MAX_MODELS) + WAL_HDR + ((size_t)64 << 10);
+    size_t n = snap_max_size(CONF_MAX_MODELS) + bspline_reserve + WAL_HDR + ((size_t)64 << 10);
     return (off_t)((n + 4095) & ~(size_t)4095);
 }
 
@@ -790,8 +805,9 @@ int store_snapshot(void)
 }
 
 /* The snapshot is read whole; it holds at most CONF_MAX_MODELS models of
- * bounded size, far below this limit, so a larger file is not ours. */
-#define SNAP_FILE_MAX ((off_t)64 << 20)
+ * bounded size, far below this limit (plus what the configured B-spline
+ * grids may hold), so a larger file is not ours. */
+#define SNAP_FILE_MAX (((off_t)64 << 20) + (off_t)snap_max_size_bspline())
 
 /* Read a whole file. NULL with errno ENOENT when it does not exist, EFBIG
  * over max, or the I/O error; the caller decides (and logs) what follows. */
@@ -971,7 +987,7 @@ static int load_snapshot(uint64_t *seqp)
         free(buf);
         return keep_damaged("snapshot", "not a snapshot");
     }
-    if (get32(buf + 8) == SNAP_VERSION) {
+    if (get32(buf + 8) == SNAP_VERSION || get32(buf + 8) == SNAP_VERSION_BEZIER) {
         int drc = snap_decode(buf, len, &sseq);
         free(buf);
         if (drc == SNAP_UNCONFIGURED)
@@ -1018,6 +1034,14 @@ static int load_snapshot(uint64_t *seqp)
             log_warn("snapshot: model %d no longer configured; dropped", sm.id);
             continue;
         }
+        if (md->kind != MODEL_BEZIER) {
+            /* version 1 models are all Bezier */
+            log_err("snapshot: model %d is a Bezier model in the legacy snapshot, but [model:%d] says kind = %s; set "
+                    "the kind back (or remove the model with 'removed = yes'); refusing to start, files left as "
+                    "they are", sm.id, sm.id, models_kind_name(md->kind));
+            free(buf);
+            return -1;
+        }
         /* Never trust stored derived state: rebuild the data set entry by
          * entry through the core's checks and solve it again, as version 2
          * does (the stored control nets are ignored). */
@@ -1034,7 +1058,7 @@ static int load_snapshot(uint64_t *seqp)
         memcpy(md->mb.upload, sm.upload, sizeof md->mb.upload);
     }
     log_notice("snapshot: legacy version 1, %u model(s) loaded, seq %llu; the next one is written as version %u", n,
-               (unsigned long long)sseq, SNAP_VERSION);
+               (unsigned long long)sseq, SNAP_VERSION_BEZIER);
     free(buf);
     *seqp = sseq;
     return 0;
@@ -1456,6 +1480,7 @@ int store_open(const char *dir, int fsync_on)
     /* The checkpoint reserve, kept across restarts (a restart on a disk
      * the WAL filled needs it as much). Not having it is no reason to
      * refuse the start: logged, made at the next checkpoint if it can. */
+    bspline_reserve = snap_max_size_bspline();
     int re = reserve_make(1);
     reserve_held = re == 0;
     reserve_warned = !reserve_held;

@@ -220,6 +220,31 @@ static uint32_t rto_for(const it2n_link *l, unsigned tries)
     return rto;
 }
 
+/* With the line clock: ms the bytes written so far still take to leave. */
+static uint32_t backlog(const it2n_link *l)
+{
+    if (l->cfg.baud == 0u || due(l->clock, l->line_free))
+        return 0u;
+    return l->line_free - l->clock;
+}
+
+/* A frame kept by it2n_link_send, not written yet? (A new frame never
+ * overtakes one: they are written in order.) */
+static bool any_kept(const it2n_link *l, const it2n_link_slot *but)
+{
+    unsigned k;
+    for (k = 0; k < W; k++)
+        if (l->slot[k].used && l->slot[k].tries == 0u && &l->slot[k] != but)
+            return true;
+    return false;
+}
+
+/* New frames are written while at most two maximum frames wait ahead. */
+static uint32_t backlog_max(const it2n_link *l)
+{
+    return line_ms(2u * IT2N_FRAME_MAX_WIRE, l->cfg.baud);
+}
+
 static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
 {
     it2n_frame_hdr h;
@@ -245,6 +270,7 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
         l->stats.tx_retx++;
     else
         s->first = now;
+    s->held = 0; /* a new copy: only a later GAP says it is held */
     s->last = now;
     l->stats.tx_frames++;
     l->clock = now;
@@ -387,6 +413,7 @@ static void adopt(it2n_link *l, uint32_t t, uint32_t now)
         if (l->slot[k].used) {
             l->slot[k].tag = t;
             l->slot[k].flags = 0;
+            l->slot[k].held = 0; /* held by a receiver that is gone */
         }
     if (l->hello.used) {
         l->hello.used = 0;
@@ -404,7 +431,7 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
     int len;
 
     if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK ||
-        msg->type == IT2N_MSG_GAP)
+        msg->type == IT2N_MSG_GAP || msg->type == IT2N_MSG_RCVD)
         return IT2N_PROTO_ERR_TYPE; /* link-internal, never reliable */
     if (CLIENT(l) && l->tag == 0u && msg->type == IT2N_MSG_HELLO)
         return send_hello(l, msg, now);
@@ -423,12 +450,22 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
     s->used = 1;
     s->tries = 0;
     s->tmo = 0;
+    s->held = 0;
     s->ver = l->ver;
     s->tag = l->tag;
     s->type = msg->type;
     s->flags = l->tx_synced ? 0u : IT2N_FLAG_SYN;
     s->seq = l->tx_next++;
     s->len = (uint16_t)len;
+    l->clock = now;
+    if (l->tx_synced && (backlog(l) > backlog_max(l) || any_kept(l, s))) {
+        /* The line is busy for a while: keep the frame until it has room
+         * (it2n_link_poll), so a retransmission is never queued behind a
+         * window of new frames (docs/protocol.md 4.2 rule 3). */
+        s->first = s->last = s->gone = now;
+        s->deadline = now;
+        return (int32_t)s->seq;
+    }
     transmit(l, s, now);
     return (int32_t)s->seq;
 }
@@ -445,6 +482,15 @@ static void finish(it2n_link *l, it2n_link_slot *s, int code,
         l->cfg.on_done(l->cfg.app, seq, type, code, nack);
 }
 
+/* The receiver's reorder buffer is gone (it starts a new sequence): no
+ * frame of ours is held any more. */
+static void unhold_all(it2n_link *l)
+{
+    unsigned k;
+    for (k = 0; k < W; k++)
+        l->slot[k].held = 0;
+}
+
 /* Our SYN frame `seq` was answered. After a resync (the peer restarted and
  * took up the sequence at that frame) a frame after it may already have
  * been answered by the peer's previous life: the peer then waits for it
@@ -455,6 +501,7 @@ static void syn_answered(it2n_link *l, uint16_t seq, uint32_t now)
     it2n_link_slot *o = oldest_slot(l);
     if (o == NULL || o->seq == (uint16_t)(seq + 1u) || !l->tx_synced)
         return;
+    unhold_all(l);
     l->tx_synced = 0;
     o->flags |= IT2N_FLAG_SYN;
     transmit(l, o, now);
@@ -500,6 +547,7 @@ static void resync(it2n_link *l, uint32_t now)
     it2n_link_slot *old = oldest_slot(l);
     if (!l->tx_synced || old == NULL)
         return; /* already resyncing, or nothing to resync */
+    unhold_all(l);
     l->tx_synced = 0;
     l->stats.tx_resyncs++;
     old->flags |= IT2N_FLAG_SYN;
@@ -511,6 +559,7 @@ static void resync(it2n_link *l, uint32_t now)
 static void restart_seq(it2n_link *l, uint32_t now)
 {
     it2n_link_slot *old = oldest_slot(l);
+    unhold_all(l);
     l->tx_synced = 0;
     if (old == NULL)
         return;
@@ -518,29 +567,106 @@ static void restart_seq(it2n_link *l, uint32_t now)
     transmit(l, old, now);
 }
 
-/* GAP from the receiver: it just kept frame `have` but misses `seq`. If
- * our last copy of seq left no later than the copy of `have` it got (a
- * line keeps order), that copy was lost: send it again now rather than at
- * its timeout. A copy sent after `have` may still be on its way: wait. If
- * `have` is no longer in flight, a quarter RTO since the last copy. If seq
- * is not in flight but `have` is and seq comes before it, the receiver
- * waits for a frame we count as answered: its sequence is not ours (it
- * synced on a stale SYN copy), so we resync (docs/protocol.md 4.2 rule 6). */
-static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint32_t now)
+/* GAP from the receiver: it just kept frame `have` but misses `seq`, and
+ * holds the frames whose bits are set in `held` (bit k: seq + 1 + k; v1.1:
+ * `have` only). Held frames are marked: they are not resent on timeout
+ * while an older frame is missing (selective acknowledgement,
+ * docs/protocol.md 4.2 rule 4). Each missing frame from seq up to `have`
+ * whose last copy left no later than the copy of `have` it got (a line
+ * keeps order) was lost: it is sent again now rather than at its timeout.
+ * A copy sent after `have` may still be on its way: wait. If `have` is no
+ * longer in flight, a quarter RTO since the last copy. If seq is not in
+ * flight but `have` is and seq comes before it, the receiver waits for a
+ * frame we count as answered: its sequence is not ours (it synced on a
+ * stale SYN copy), so we resync (docs/protocol.md 4.2 rule 5). */
+static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
+                   uint32_t now)
 {
     it2n_link_slot *s = slot_of(l, seq), *h = slot_of(l, have);
-    if (!l->tx_synced || h == s)
+    uint16_t span = (uint16_t)(have - seq);
+    unsigned k;
+    if (!l->tx_synced || h == s || span == 0u || span >= 0x8000u)
         return;
     if (s == NULL) {
-        if (h != NULL && (uint16_t)(l->tx_next - seq) > (uint16_t)(l->tx_next - have) &&
-            (uint16_t)(have - seq) < 0x8000u)
+        if (h != NULL && (uint16_t)(l->tx_next - seq) > (uint16_t)(l->tx_next - have))
             resync(l, now);
         return;
     }
-    if (h != NULL ? (int32_t)(h->last - s->last) >= 0
-                  : (uint32_t)(now - s->last) >= (l->cfg.rto_ms + 3u) / 4u) {
-        l->stats.tx_fast_retx++;
-        transmit(l, s, now);
+    if (span <= 64u)
+        held |= (uint64_t)1u << (span - 1u); /* `have` itself */
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *o = &l->slot[k];
+        uint16_t d = (uint16_t)(o->seq - seq);
+        if (!o->used || d == 0u || d > 64u || !((held >> (d - 1u)) & 1u) ||
+            o->held)
+            continue;
+        o->held = 1;
+        l->stats.tx_held++;
+    }
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *o = &l->slot[k];
+        if (!o->used || o->held || (uint16_t)(o->seq - seq) >= span)
+            continue; /* answered, held, or not before `have` */
+        if (h != NULL ? (int32_t)(h->last - o->last) >= 0
+                      : (uint32_t)(now - o->last) >= (l->cfg.rto_ms + 3u) / 4u) {
+            l->stats.tx_fast_retx++;
+            transmit(l, o, now);
+        }
+    }
+}
+
+/* RCVD from the receiver: it has frame seq and will answer it later. No
+ * retransmission before twice the time the peer's deferred answers take
+ * lately (an fsync on a loaded machine), at least 2 RTO, at most
+ * rto_max_ms: the answer may still be lost, then a retransmission gets
+ * it repeated. */
+static void on_rcvd(it2n_link *l, uint16_t seq, uint32_t now)
+{
+    it2n_link_slot *s = slot_of(l, seq);
+    uint32_t w = l->defer_ms > l->cfg.rto_ms ? l->defer_ms : l->cfg.rto_ms;
+    uint32_t t;
+    w = w > l->cfg.rto_max_ms / 2u ? l->cfg.rto_max_ms : 2u * w;
+    t = now + w;
+    if (s == NULL || s->ver != V12 || s->tag != l->tag || !l->tx_synced)
+        return;
+    if (s->held != 2u) {
+        l->stats.rx_rcvd++;
+        s->rcvd = now;
+    }
+    s->held = 2u;
+    if (due(t, s->deadline))
+        s->deadline = t;
+}
+
+/* Is an older frame than s in flight and not held (missing at the
+ * receiver, or not yet known to be there)? */
+static bool older_missing(const it2n_link *l, const it2n_link_slot *s)
+{
+    unsigned k;
+    uint16_t age = (uint16_t)(l->tx_next - s->seq);
+    for (k = 0; k < W; k++) {
+        const it2n_link_slot *o = &l->slot[k];
+        if (o->used && !o->held && (uint16_t)(l->tx_next - o->seq) > age)
+            return true;
+    }
+    return false;
+}
+
+/* After an answer: a held frame with no older frame missing is being
+ * delivered by the receiver now; its own answer is due within an RTO, so
+ * its timer runs again from now. */
+static void release_held(it2n_link *l, uint32_t now)
+{
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *s = &l->slot[k];
+        uint32_t t;
+        if (!s->used || s->held != 1u || older_missing(l, s))
+            continue;
+        s->held = 0;
+        t = now + rto_for(l, s->tmo + 1u);
+        if (due(t, s->deadline))
+            s->deadline = t;
     }
 }
 
@@ -587,6 +713,45 @@ static void hello_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
                        m->u.nack.code, &m->u.nack);
 }
 
+/* Frame s is answered (ACK or NACK) at now. */
+static void answered(it2n_link *l, const it2n_link_slot *s, uint32_t now)
+{
+    l->stats.rx_acks++;
+    if (s->tries == 1u)
+        line_sync(l, s->gone, now);
+    if (s->held == 2u) { /* how long the peer took after its RCVD */
+        uint32_t d = now - s->rcvd;
+        l->defer_ms = d >= l->defer_ms ? d : l->defer_ms - (l->defer_ms - d) / 8u;
+    }
+}
+
+/* Frame s is ACKed. */
+static void acked(it2n_link *l, it2n_link_slot *s, uint32_t now)
+{
+    uint16_t seq = s->seq, age = (uint16_t)(l->tx_next - s->seq);
+    uint32_t acked_last = s->last;
+    bool syn = (s->flags & IT2N_FLAG_SYN) != 0u;
+    unsigned k;
+    answered(l, s, now);
+    l->stats.tx_acked++;
+    finish(l, s, IT2N_OK, NULL);
+    if (syn)
+        syn_answered(l, seq, now);
+    release_held(l, now);
+    /* Frames are delivered in order: an older frame still unanswered
+     * whose last copy left no later than the acknowledged one's was
+     * delivered too, and its answer was lost (or is deferred, then the
+     * copy is ignored): send it again now, not at its timeout. */
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *o = &l->slot[k];
+        if (o->used && l->tx_synced && (uint16_t)(l->tx_next - o->seq) > age &&
+            (int32_t)(acked_last - o->last) >= 0) {
+            l->stats.tx_fast_retx++;
+            transmit(l, o, now);
+        }
+    }
+}
+
 /* ACK or NACK m, framed in version ver with session tag (v1.2). */
 static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
                       uint32_t tag, uint32_t now)
@@ -602,6 +767,20 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
         ((ver == V12 && tag == 0u) || any)) {
         hello_answer(l, m, now);
         return;
+    }
+    if (m->type == IT2N_MSG_ACK && m->u.ack.acked != 0u && ver == V12) {
+        /* v1.2: the frames it names were ACKed too (their own ACK may have
+         * been lost): end them first, oldest first, as if ACKed. */
+        for (k = 64u; k-- > 0u;) {
+            it2n_link_slot *o;
+            if (!((m->u.ack.acked >> k) & 1u))
+                continue;
+            o = slot_of(l, (uint16_t)(seq - 1u - k));
+            if (o != NULL && o->ver == V12 && o->tag == tag) {
+                l->stats.rx_acks_implied++;
+                acked(l, o, now);
+            }
+        }
     }
     for (k = 0; k < W && s == NULL; k++)
         if (l->slot[k].used && l->slot[k].seq == seq &&
@@ -629,30 +808,12 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
         finish(l, s, IT2N_PROTO_ERR_SESSION, &m->u.nack);
         return;
     }
-    l->stats.rx_acks++;
-    if (s->tries == 1u)
-        line_sync(l, s->gone, now);
     if (m->type == IT2N_MSG_ACK) {
-        uint16_t age = (uint16_t)(l->tx_next - seq);
-        uint32_t acked_last = s->last;
-        bool syn = (s->flags & IT2N_FLAG_SYN) != 0u;
-        l->stats.tx_acked++;
-        finish(l, s, IT2N_OK, NULL);
-        if (syn)
-            syn_answered(l, seq, now);
-        /* Frames are delivered in order: an older frame still unanswered
-         * whose last copy left no later than the acknowledged one's was
-         * delivered too, and its answer was lost (or is deferred, then the
-         * copy is ignored): send it again now, not at its timeout. */
-        for (k = 0; k < W; k++) {
-            it2n_link_slot *o = &l->slot[k];
-            if (o->used && l->tx_synced && (uint16_t)(l->tx_next - o->seq) > age &&
-                (int32_t)(acked_last - o->last) >= 0) {
-                l->stats.tx_fast_retx++;
-                transmit(l, o, now);
-            }
-        }
-    } else if (m->u.nack.code == IT2N_PROTO_ERR_NOSYNC) {
+        acked(l, s, now);
+        return;
+    }
+    answered(l, s, now);
+    if (m->u.nack.code == IT2N_PROTO_ERR_NOSYNC) {
         /* Peer lost its state (restart) or holds another sequence. */
         resync(l, now);
     } else {
@@ -661,6 +822,7 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
         finish(l, s, m->u.nack.code, &m->u.nack);
         if (syn)
             syn_answered(l, seq, now);
+        release_held(l, now);
     }
 }
 
@@ -676,10 +838,34 @@ static bool reverse_busy(const it2n_link *l, uint32_t now)
     return l->rx_heard && (uint32_t)(now - l->rx_last) < quiet_ms(l);
 }
 
+/* Write the frames kept by it2n_link_send (never sent yet), oldest first,
+ * while the line has room. */
+static void send_kept(it2n_link *l, uint32_t now)
+{
+    unsigned n;
+    if (!l->tx_synced)
+        return; /* after the SYN frame is answered */
+    for (n = 0; n < W && backlog(l) <= backlog_max(l); n++) {
+        it2n_link_slot *o = NULL;
+        unsigned k;
+        for (k = 0; k < W; k++) {
+            it2n_link_slot *c = &l->slot[k];
+            if (c->used && c->tries == 0u &&
+                (o == NULL || (uint16_t)(l->tx_next - c->seq) > (uint16_t)(l->tx_next - o->seq)))
+                o = c;
+        }
+        if (o == NULL)
+            break;
+        transmit(l, o, now);
+        l->clock = now;
+    }
+}
+
 int it2n_link_poll(it2n_link *l, uint32_t now)
 {
     unsigned k;
     l->clock = now;
+    send_kept(l, now);
     if (l->hello.used && due(now, l->hello.deadline)) {
         if (l->cfg.max_tries != 0u && l->hello.tries >= l->cfg.max_tries) {
             l->hello.used = 0;
@@ -694,10 +880,16 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
     }
     for (k = 0; k < W; k++) {
         it2n_link_slot *s = &l->slot[k];
-        if (!s->used || !due(now, s->deadline))
-            continue;
+        if (!s->used || !due(now, s->deadline) || s->tries == 0u)
+            continue; /* not due, or kept for send_kept */
         if (CLIENT(l) && l->tag == 0u) {
             /* kept until the server's HELLO gives the session */
+            s->deadline = now + rto_for(l, s->tmo + 1u);
+            continue;
+        }
+        if (s->held == 1u && older_missing(l, s)) {
+            /* The receiver has it: only the missing frames before it are
+             * resent (selective acknowledgement). */
             s->deadline = now + rto_for(l, s->tmo + 1u);
             continue;
         }
@@ -748,7 +940,13 @@ uint32_t it2n_link_next_timeout(const it2n_link *l, uint32_t now)
         uint32_t left;
         if (!s->used)
             continue;
-        left = due(now, s->deadline) ? 0u : s->deadline - now;
+        if (s->tries == 0u) { /* kept: when the line has room */
+            uint32_t b = backlog(l), m = backlog_max(l);
+            uint32_t past = (uint32_t)(now - l->clock); /* clock is our last call */
+            b = b > past ? b - past : 0u;
+            left = b > m ? b - m : 0u;
+        } else
+            left = due(now, s->deadline) ? 0u : s->deadline - now;
         if (left < best)
             best = left;
     }
@@ -760,8 +958,8 @@ uint32_t it2n_link_next_timeout(const it2n_link *l, uint32_t now)
 /* Send ACK/NACK a, framed with version `ver` (ours, or an older peer's so
  * that it can read the refusal: ACK and NACK never change layout); in
  * v1.2 after the session `tag` of the frame answered. */
-static void send_answer_vt(it2n_link *l, const it2n_msg_nack *a, uint8_t ver,
-                           uint32_t tag)
+static void send_answer_acked(it2n_link *l, const it2n_msg_nack *a,
+                              uint8_t ver, uint32_t tag, uint64_t acked)
 {
     it2n_msg m;
     uint8_t buf[64 + SESS];
@@ -773,6 +971,7 @@ static void send_answer_vt(it2n_link *l, const it2n_msg_nack *a, uint8_t ver,
     if (a->code == 0) {
         m.type = IT2N_MSG_ACK;
         m.u.ack.seq = a->seq;
+        m.u.ack.acked = ver == V12 ? acked : 0u;
     } else {
         m.type = IT2N_MSG_NACK;
         m.u.nack = *a;
@@ -790,15 +989,58 @@ static void send_answer_vt(it2n_link *l, const it2n_msg_nack *a, uint8_t ver,
     (void)frame_out(l, &h, buf, h.len);
 }
 
+static void send_answer_vt(it2n_link *l, const it2n_msg_nack *a, uint8_t ver,
+                           uint32_t tag)
+{
+    send_answer_acked(l, a, ver, tag, 0u);
+}
+
 static void send_answer_v(it2n_link *l, const it2n_msg_nack *a, uint8_t ver)
 {
     send_answer_vt(l, a, ver, 0u);
 }
 
-/* An answer within the current receive sequence. */
+static it2n_link_hist *hist_find(it2n_link *l, uint16_t seq);
+
+/* An answer within the current receive sequence. A v1.2 ACK also names
+ * the frames of the last W that were ACKed (bit k: seq - 1 - k), so that
+ * one lost ACK costs no retransmission (docs/protocol.md 4.3). */
 static void send_answer(it2n_link *l, const it2n_msg_nack *a)
 {
-    send_answer_vt(l, a, l->rx_ver, l->peer_session);
+    uint64_t acked = 0;
+    unsigned k;
+    for (k = 0; a->code == 0 && l->rx_ver == V12 && k + 1u < WIN(l); k++) {
+        const it2n_link_hist *h = hist_find(l, (uint16_t)(a->seq - 1u - k));
+        if (h != NULL && h->state == H_ANSWERED && h->answer.code == 0)
+            acked |= (uint64_t)1u << k;
+    }
+    send_answer_acked(l, a, l->rx_ver, l->peer_session, acked);
+}
+
+/* v1.2: RCVD (docs/protocol.md 4.3 rule 3): frame seq of the current
+ * sequence was delivered and its answer is pending (the application
+ * deferred it: an fsync, a request queued behind a response run), so its
+ * sender stops resending it at each RTO. v1.1 peers never get it. */
+static void send_rcvd(it2n_link *l, uint16_t seq)
+{
+    it2n_msg m;
+    uint8_t buf[SESS + 2u];
+    it2n_frame_hdr h;
+    if (l->rx_ver != V12)
+        return;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_RCVD;
+    m.u.rcvd.seq = seq;
+    put_u32(buf, l->peer_session);
+    if (it2n_msg_pack(&m, buf + SESS, 2u, NULL) != 2)
+        return;
+    h.version = V12;
+    h.type = IT2N_MSG_RCVD;
+    h.flags = 0;
+    h.seq = 0;
+    h.len = (uint16_t)sizeof buf;
+    (void)frame_out(l, &h, buf, h.len);
+    l->stats.tx_rcvd++;
 }
 
 static void nack_plain(it2n_msg_nack *a, uint16_t seq, int code)
@@ -892,6 +1134,8 @@ static void deliver(it2n_link *l, uint16_t seq, uint8_t type,
     l->draining = was;
     if (r != IT2N_LINK_DEFER)
         (void)answer(l, seq, r, NULL);
+    else if (h->state == H_WAITING && h->seq == seq)
+        send_rcvd(l, seq); /* v1.2: the sender need not resend it */
 }
 
 /* Deliver kept frames that are now in order. Not re-entered: callbacks
@@ -928,6 +1172,41 @@ static void refuse_frame(it2n_link *l, const it2n_frame_hdr *fh, uint32_t tag,
     a.hi = hi;
     send_answer_vt(l, &a, fh->version, tag);
 }
+
+#if IT2N_PROTO_RX_REORDER
+/* GAP: we miss rx_next and have just kept `have`. In v1.2 it names every
+ * frame we hold beyond the gap (bit k: rx_next + 1 + k), so that the
+ * sender resends only the missing ones (docs/protocol.md 4.3 rule 4). */
+static void send_gap(it2n_link *l, uint16_t have)
+{
+    it2n_msg g;
+    uint8_t gb[SESS + IT2N_GAP12_LEN];
+    size_t off = l->rx_ver == V12 ? SESS : 0u;
+    it2n_frame_hdr gh;
+    unsigned k;
+    int n;
+    memset(&g, 0, sizeof g);
+    g.type = IT2N_MSG_GAP;
+    g.u.gap.seq = l->rx_next;
+    g.u.gap.have = have;
+    for (k = 1; l->rx_ver == V12 && k < WIN(l); k++) {
+        const it2n_link_rxbuf *b = &l->rxbuf[(uint16_t)(l->rx_next + k) & (WIN(l) - 1u)];
+        if (b->used && b->seq == (uint16_t)(l->rx_next + k))
+            g.u.gap.held |= (uint64_t)1u << (k - 1u);
+    }
+    put_u32(gb, l->peer_session);
+    n = it2n_msg_pack(&g, gb + off, sizeof gb - off, NULL);
+    if (n <= 0)
+        return;
+    gh.version = l->rx_ver;
+    gh.type = IT2N_MSG_GAP;
+    gh.flags = 0;
+    gh.seq = 0;
+    gh.len = (uint16_t)((size_t)n + off);
+    (void)frame_out(l, &gh, gb, gh.len);
+    l->stats.tx_gaps++;
+}
+#endif
 
 /* A new receive sequence at seq of session sess (history and kept frames
  * cleared). */
@@ -1103,6 +1382,8 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         l->stats.rx_dup++;
         if (h->state == H_ANSWERED)
             send_answer(l, &h->answer); /* our answer was lost: repeat it */
+        else
+            send_rcvd(l, fh->seq); /* v1.2: still pending (RCVD lost) */
         return;
     }
     ahead = (uint16_t)(fh->seq - l->rx_next);
@@ -1123,26 +1404,8 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
                 l->stats.rx_buffered++;
             }
             if (ahead > 0u && !(l->rxbuf[l->rx_next & (WIN(l) - 1u)].used &&
-                                l->rxbuf[l->rx_next & (WIN(l) - 1u)].seq == l->rx_next)) {
-                /* a gap: tell the sender which frame we miss */
-                it2n_msg g;
-                uint8_t gb[SESS + 4u];
-                size_t off = l->rx_ver == V12 ? SESS : 0u;
-                it2n_frame_hdr gh;
-                g.type = IT2N_MSG_GAP;
-                g.u.gap.seq = l->rx_next;
-                g.u.gap.have = fh->seq;
-                put_u32(gb, l->peer_session);
-                if (it2n_msg_pack(&g, gb + off, 4u, NULL) == 4) {
-                    gh.version = l->rx_ver;
-                    gh.type = IT2N_MSG_GAP;
-                    gh.flags = 0;
-                    gh.seq = 0;
-                    gh.len = (uint16_t)(4u + off);
-                    (void)frame_out(l, &gh, gb, gh.len);
-                    l->stats.tx_gaps++;
-                }
-            }
+                                l->rxbuf[l->rx_next & (WIN(l) - 1u)].seq == l->rx_next))
+                send_gap(l, fh->seq); /* tell the sender which frame we miss */
         }
         return;
     }
@@ -1224,14 +1487,27 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
     if (r != 1)
         return; /* damaged: counted by the decoder, sender retransmits */
     if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK ||
-        fh->type == IT2N_MSG_GAP) {
+        fh->type == IT2N_MSG_GAP || fh->type == IT2N_MSG_RCVD) {
         it2n_msg m;
-        if (it2n_msg_unpack(fh->type, p, len, &m, NULL) != IT2N_OK)
-            l->stats.rx_bad_msg++;
+        if (it2n_msg_unpack(fh->type, p, len, &m, NULL) != IT2N_OK ||
+            (fh->flags & IT2N_FLAG_REL) != 0u ||
+            (m.type == IT2N_MSG_ACK && fh->version != V12 && len != 2u))
+            l->stats.rx_bad_msg++; /* answers are never REL; v1.1 ACK: 2 bytes */
+        else if (m.type == IT2N_MSG_RCVD) {
+            /* v1.2 only, about our frames of that session only */
+            if (fh->version != V12)
+                l->stats.rx_bad_msg++;
+            else if (l->ver == V12 && tag == l->tag)
+                on_rcvd(l, m.u.rcvd.seq, now);
+        }
         else if (m.type == IT2N_MSG_GAP) {
-            /* about our frames of that session only */
-            if (fh->version == l->ver && (l->ver != V12 || tag == l->tag))
-                on_gap(l, m.u.gap.seq, m.u.gap.have, now);
+            /* about our frames of that session only; v1.2 GAPs name the
+             * frames held (12 bytes), v1.1 ones only `have` (4 bytes) */
+            if ((fh->version == V12) != (len == IT2N_GAP12_LEN) ||
+                (fh->version == V12 && m.u.gap.held == 0u))
+                l->stats.rx_bad_msg++;
+            else if (fh->version == l->ver && (l->ver != V12 || tag == l->tag))
+                on_gap(l, m.u.gap.seq, m.u.gap.have, m.u.gap.held, now);
         } else
             on_answer(l, &m, fh->version, tag, now);
         return;

@@ -37,6 +37,16 @@
  * never delivered. A server (cfg.new_session set) serves v1.2 and v1.1
  * peers alike, whichever a frame's version says.
  *
+ * Selective acknowledgement (docs/protocol.md 4.2 rule 4): frames a GAP
+ * names as held (v1.2: all of them, v1.1: `have`) are not resent on a
+ * timer while an older frame is missing; a v1.2 ACK also names the frames
+ * ACKed before it; a v1.2 receiver whose application defers an answer
+ * sends RCVD, after which the sender waits twice the deferral it has seen
+ * (at least 2 RTO) before resending. With cfg.baud a new frame is written
+ * only while at most two maximum frames wait on the line (the rest are
+ * written by it2n_link_poll), so a retransmission never queues behind a
+ * window of new frames.
+ *
  * Contexts are plain structs in caller memory; any number may coexist.
  * The callbacks may call it2n_link_send / it2n_link_complete on the same
  * context.
@@ -134,6 +144,12 @@ typedef struct it2n_link_stats {
                                answered NACK SESSION, not delivered */
     uint32_t tx_hellos;     /* v1.2 client: HELLOs sent for a session
                                (first and re-sent ones, not retries) */
+    uint32_t tx_held;       /* our frames a GAP named as held (each
+                               marked once): not resent on timeout  */
+    uint32_t tx_rcvd;       /* v1.2 RCVDs sent (answer deferred)    */
+    uint32_t rx_rcvd;       /* our frames a RCVD named (each once)  */
+    uint32_t rx_acks_implied; /* our frames ended by a v1.2 ACK of a
+                               later one (their own ACK was lost)   */
 } it2n_link_stats;
 
 /* One sender slot: a reliable frame in flight. The message starts at
@@ -147,7 +163,13 @@ typedef struct it2n_link_slot {
     uint8_t tmo;    /* retransmissions on timeout: the backoff exponent
                        (fast retransmissions do not back off)          */
     uint8_t ver;    /* wire version it is framed in                     */
+    uint8_t held;   /* 1: the receiver holds it beyond a gap (its GAP
+                       said so): no retransmission on timeout while an
+                       older frame is missing; 2: it was delivered, the
+                       answer is pending (RCVD, v1.2): no retransmission
+                       before rto_max_ms (docs/protocol.md 4.2 rule 4) */
     uint32_t tag;   /* v1.2: the session it belongs to                  */
+    uint32_t rcvd;  /* when its RCVD came (held 2)                      */
     uint8_t buf[IT2N_FRAME_MAX_LEN];
 } it2n_link_slot;
 
@@ -207,6 +229,10 @@ typedef struct it2n_link {
      * when the peer's bytes last arrived */
     uint32_t line_free, line_frac, clock, rx_last;
     uint8_t rx_heard; /* rx_last is set */
+    uint32_t defer_ms; /* how long the peer's deferred answers take after
+                          their RCVD (the largest lately, decaying): a
+                          frame with a RCVD is resent after twice that,
+                          at least 2 RTO (docs/protocol.md 4.2 rule 4) */
 } it2n_link;
 
 /*

@@ -91,6 +91,19 @@ static void c_u32(cur *c, uint32_t *v)
     }
 }
 
+static void c_u64(cur *c, uint64_t *v)
+{
+    uint8_t t[8];
+    unsigned k;
+    for (k = 0; k < 8u; k++)
+        t[k] = (uint8_t)((*v >> (8u * k)) & 0xFFu);
+    if (io(c, t, 8u) && !c->pack) {
+        *v = 0;
+        for (k = 0; k < 8u; k++)
+            *v |= (uint64_t)t[k] << (8u * k);
+    }
+}
+
 static void c_i64(cur *c, int64_t *v)
 {
     uint64_t u = (uint64_t)*v;
@@ -390,10 +403,24 @@ static void codec(cur *c, it2n_msg *m)
         c_fp(c, &m->u.get_net.fp);
         break;
     case IT2N_MSG_EVENT: c_event(c, &m->u.event); break;
-    case IT2N_MSG_ACK: c_u16(c, &m->u.ack.seq); break;
+    case IT2N_MSG_ACK:
+        c_u16(c, &m->u.ack.seq);
+        if (c->pack ? m->u.ack.acked != 0u : c->end == IT2N_ACK12_LEN) {
+            c_u64(c, &m->u.ack.acked);
+            /* one encoding: no earlier ACK is the 2-byte form */
+            need(c, c->err != 0 || m->u.ack.acked != 0u, 2u, 0, 1);
+        }
+        break;
+    case IT2N_MSG_RCVD: c_u16(c, &m->u.rcvd.seq); break;
     case IT2N_MSG_GAP:
         c_u16(c, &m->u.gap.seq);
         c_u16(c, &m->u.gap.have);
+        /* v1.2 (12 bytes): the frames held beyond the gap. v1.1: 4 bytes,
+         * packed so when held is 0. */
+        if (c->pack ? m->u.gap.held != 0u : c->end == IT2N_GAP12_LEN) {
+            c_u64(c, &m->u.gap.held);
+            need(c, c->err != 0 || m->u.gap.held != 0u, 4u, 0, 1);
+        }
         break;
     case IT2N_MSG_NACK: c_nack(c, &m->u.nack); break;
     case IT2N_MSG_QUERY_RESULT: c_query_result(c, &m->u.query_result); break;
@@ -442,8 +469,9 @@ static size_t expected_len(uint8_t type, const uint8_t *p, size_t len)
     case IT2N_MSG_SAMPLE: return 6u;
     case IT2N_MSG_GET_NET: return 2u;
     case IT2N_MSG_EVENT: return 8u;
-    case IT2N_MSG_ACK: return 2u;
-    case IT2N_MSG_GAP: return 4u;
+    case IT2N_MSG_ACK: return len == IT2N_ACK12_LEN ? IT2N_ACK12_LEN : 2u;
+    case IT2N_MSG_GAP: return len == IT2N_GAP12_LEN ? IT2N_GAP12_LEN : 4u;
+    case IT2N_MSG_RCVD: return 2u;
     case IT2N_MSG_NACK: return 34u;
     case IT2N_MSG_QUERY_RESULT: return 447u;
     case IT2N_MSG_LOCATE_RESULT: return 474u;
@@ -514,6 +542,7 @@ const char *it2n_msg_name(uint8_t type)
     case IT2N_MSG_EVENT: return "EVENT";
     case IT2N_MSG_ACK: return "ACK";
     case IT2N_MSG_GAP: return "GAP";
+    case IT2N_MSG_RCVD: return "RCVD";
     case IT2N_MSG_NACK: return "NACK";
     case IT2N_MSG_QUERY_RESULT: return "QUERY_RESULT";
     case IT2N_MSG_LOCATE_RESULT: return "LOCATE_RESULT";

@@ -29,6 +29,7 @@ enum it2n_msg_type {
     IT2N_MSG_ACK = 0x20,        /* reliable frame accepted (and durable)  */
     IT2N_MSG_NACK = 0x21,       /* reliable frame refused, with reason    */
     IT2N_MSG_GAP = 0x22,        /* v1.1: receiver misses a frame, holds later ones */
+    IT2N_MSG_RCVD = 0x23,       /* v1.2: frame received, its answer pending */
     IT2N_MSG_QUERY_RESULT = 0x45,
     IT2N_MSG_LOCATE_RESULT = 0x46,
     IT2N_MSG_SAMPLE_DATA = 0x47,
@@ -143,13 +144,27 @@ typedef struct it2n_msg_event {
 
 typedef struct it2n_msg_ack {
     uint16_t seq; /* sequence number acknowledged */
+    /* v1.2 ACK only: bit k set = frame seq - 1 - k was ACKed too (a lost
+     * ACK is covered by the next one). Packed as 10 bytes when non-zero,
+     * else as the 2-byte ACK. Always 0 in RCVD. */
+    uint64_t acked;
 } it2n_msg_ack;
 
+/* Payload bytes of a v1.2 ACK that names earlier ACKed frames. */
+#define IT2N_ACK12_LEN 10u
+
 /* GAP (v1.1, unreliable): the receiver misses `seq` and has just kept
- * `have`, a later frame. */
+ * `have`, a later frame. v1.2 adds `held` (selective acknowledgement,
+ * docs/protocol.md 4.3 rule 4): bit k set = frame seq + 1 + k is held by
+ * the receiver; never 0 in v1.2 (`have` is one of them). Packed as 12
+ * bytes when held != 0, else as the 4-byte v1.1 GAP. */
 typedef struct it2n_msg_gap {
     uint16_t seq, have;
+    uint64_t held;
 } it2n_msg_gap;
+
+/* Payload bytes of a v1.2 GAP (seq, have, held). */
+#define IT2N_GAP12_LEN 12u
 
 typedef struct it2n_msg_nack {
     uint16_t seq;  /* sequence number refused                       */
@@ -226,6 +241,7 @@ typedef struct it2n_msg {
         it2n_msg_event event;
         it2n_msg_ack ack;
         it2n_msg_gap gap;
+        it2n_msg_ack rcvd; /* RCVD: the frame received, answer pending */
         it2n_msg_nack nack;
         it2n_msg_query_result query_result;
         it2n_msg_locate_result locate_result;

@@ -159,7 +159,8 @@ def check_status(conn, csv, extra=()):
     got = {k: st.get(k) for k in want}
     check(got == want, f"status {conn}: {got} != {want}")
     want_xyz = "xyz" if m.group(6) == "x,y,z" else "xy"
-    check(st.get("coordinates") == want_xyz and len(st) == 11,
+    check(st.get("coordinates") == want_xyz and len(st) == 12 and
+          st.get("kind") == "bezier",
           f"status coordinates: {st}")
     return st
 
@@ -260,7 +261,7 @@ def main():
             time.sleep(0.05)
         link = ["--link", link_b]
         rtu = ["--rtu", rtu_b, "--unit", "3", "--baud", "115200"]
-        seed = random.randint(1, 10 ** 6)
+        seed = int(os.environ.get("CTL_SEED", "0")) or random.randint(1, 10 ** 6)  # CTL_SEED=N replays a run
         print(f"ctl e2e: port {port}, data seed {seed}")
 
         def gen(n, m, s, dec):
@@ -542,7 +543,7 @@ def main():
             rc, _, err = run("plot", "--membership", "T", "-o", mine, *c)
             run("plot", g_tcp, "--membership", "T", "-o", ref, binary=IT2N)
             pm, pr = svg_paths(mine), svg_paths(ref)
-            same = sum(same_path(a, b) for a, b in zip(pm, pr))
+            same = same_drawings(pm, pr)
             check(rc == 0 and len(pm) == len(pr) >= 50 and same == len(pr),
                   f"plot {label} vs it2n plot: rc {rc} {err} "
                   f"{same}/{len(pr)} paths equal ({len(pm)} drawn)")
@@ -566,7 +567,7 @@ def main():
         ref = os.path.join(tmp, "follow_ref.svg")
         run("plot", g_f, "--membership", "T", "-o", ref, binary=IT2N)
         pm, pr = svg_paths(fsvg), svg_paths(ref)
-        same = sum(same_path(a, b) for a, b in zip(pm, pr))
+        same = same_drawings(pm, pr)
         check(fp.returncode == 0 and len(gens) == 2 and gens[1] == int(st["generation"]) > gens[0]
               and len(pm) == len(pr) >= 50 and same == len(pr)
               and not [n for n in os.listdir(tmp) if ".part" in n],
@@ -641,9 +642,30 @@ def same_path(a, b):
 
 
 def svg_paths(path):
+    """Every drawn path as 'style|data' (its attributes before d= and its
+    data): what is drawn, how."""
     if not os.path.exists(path):
         return []
-    return re.findall(r"<path[^>]*\sd=[\"']([^\"']*)", open(path).read())
+    return ["%s|%s" % (re.sub(r"\s+", " ", st).strip(), d) for st, d in
+            re.findall(r"<path([^>]*?)\sd=[\"']([^\"']*)", open(path).read())]
+
+
+def same_drawings(pm, pr):
+    """How many paths of pr have a path in pm drawn alike (same_path), in
+    any order: hidden-line removal emits the same segments in an order
+    that tiny float32 differences of the live model can change."""
+    pool = {}
+    for a in pm:
+        pool.setdefault(NUM.sub("#", a), []).append(a)
+    same = 0
+    for b in pr:
+        cands = pool.get(NUM.sub("#", b), [])
+        for k, a in enumerate(cands):
+            if same_path(a, b):
+                same += 1
+                del cands[k]
+                break
+    return same
 
 
 def doc_blocks(path):

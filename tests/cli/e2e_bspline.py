@@ -316,8 +316,17 @@ def main():
           "bad kind: %d %s" % (rc, err))
     rc, out, err = run("check", "--kind", "bspline", "--chord", p65)
     check(rc == 1 and "uniform parameters only" in err, "chord: %s" % err)
-    rc, out, err = run("plot", "--kind", "bspline", p65, "-o", "x.png")
-    check(rc == 1 and "not available yet" in err, "plot: %s" % err)
+    # export samples the B-spline surface: every vertex of footprint D at
+    # the grid's nodes is the sample command's value there
+    rc, out, err = run("export", "--kind", "bspline", p65, "--format", "csv",
+                       "--grid", "3x3", "--footprint", "D", "--decimals", "6")
+    rc2, out2, err2 = run("sample", "--kind", "bspline", p65, "--grid", "3x3",
+                          "--footprint", "D", "--decimals", "6")
+    check(rc == 0 and rc2 == 0, "export/sample: %d %s %d %s" % (rc, err, rc2, err2))
+    xs = sorted(set(l.split(",")[-3] for l in out.splitlines()[1:] if l))
+    check(len(out.splitlines()) > 9 and xs and all(
+        any(x in l for l in out2.splitlines()) for x in xs),
+        "export values not those of sample: %s / %s" % (out[:300], out2[:300]))
 
     # locate: the (u, w) of a surface point of footprint D is found again
     u0, w0 = Fr(3, 10), Fr(3, 5)

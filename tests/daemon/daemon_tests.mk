@@ -83,7 +83,7 @@ daemon-regdoc: $(GEN_REGISTERS)
 	  { echo "docs/registers.md is stale: run 'make docs/registers.md'" >&2; exit 1; }
 	@echo "docs/registers.md is current"
 
-daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSYNC) $(BUILD)/host/it2n-instrument
+daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSYNC) $(BUILD)/host/it2n-instrument $(CLI_BIN)
 	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) INSTR=$(SIM_INSTR) PTY=$(SIM_PTY) \
 	  FAILSYNC=$(DT_FAILSYNC) EXINSTR=$(BUILD)/host/it2n-instrument \
 	  timeout 300 $(DT)/e2e.sh

@@ -84,6 +84,24 @@ static void test_full(void **st)
     assert_int_equal(c.model[0].set, CONF_SET_TYPE1);
 }
 
+/* kind = bspline: grids up to 255 intervals; bezier (the default) keeps
+ * its degrees 1..7 whatever the order of the keys. */
+static void test_kind(void **st)
+{
+    struct conf c;
+    char err[512];
+    (void)st;
+    assert_int_equal(load("[model:1]\nn = 255\nm = 64\nkind = bspline\nz = yes\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.nmodels, 1);
+    assert_int_equal(c.model[0].kind, CONF_KIND_BSPLINE);
+    assert_int_equal(c.model[0].n, 255);
+    assert_int_equal(c.model[0].m, 64);
+    assert_true(c.model[0].set & CONF_SET_KIND);
+    assert_int_equal(load("[model:1]\nn = 7\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.model[0].kind, CONF_KIND_BEZIER);
+    assert_false(c.model[0].set & CONF_SET_KIND);
+}
+
 static void test_errors(void **st)
 {
     struct conf c, before;
@@ -96,7 +114,15 @@ static void test_errors(void **st)
     } t[] = {
         { "[modbus]\ncoord_scale = 0\n", 2, "[modbus] coord_scale: expected 1..10000" },
         { "[daemon]\n\n; c\nnope = 1\n", 4, "[daemon] nope: unknown key in this section (docs/daemon.md lists the keys)" },
-        { "[model:1]\nn = 8\n", 2, "[model:1] n: expected 1..7" },
+        { "[model:1]\nn = 8\n", 2,
+          "[model:1] n: 8 exceeds the bezier kind's degree limit 7; use 1..7, or kind = bspline for grids up to 255" },
+        { "[model:1]\nkind = bezier\nm = 3\nm = 9\n", 4, "[model:1] m: duplicate key (first set on line 3)" },
+        { "[model:1]\nm = 9\nkind = bezier\n", 2,
+          "[model:1] m: 9 exceeds the bezier kind's degree limit 7; use 1..7, or kind = bspline for grids up to 255" },
+        { "[model:1]\nkind = bspline\nn = 256\n", 3, "[model:1] n: expected 1..255 (bezier: 1..7)" },
+        { "[model:1]\nkind = spline\n", 2, "[model:1] kind: expected bezier or bspline" },
+        { "[model:1]\nn = 9\nchord = yes\nkind = bspline\n", 3,
+          "[model:1] chord: the bspline kind has uniform parameters only: chord = yes needs kind = bezier" },
         { "[modbus]\nfloat_word_order = ABDC\n", 2, "[modbus] float_word_order: expected ABCD, CDAB, BADC or DCBA" },
         { "[link:x]\nusb = zz\n", 2, "[link:x] usb: expected VID:PID[:serial] in hex" },
         { "[bogus]\na = 1\n", 2, "[bogus] a: unknown section (known: [daemon], [modbus], [metrics], [listen:NAME], "
@@ -293,7 +319,7 @@ static void test_unreadable_and_empty(void **st)
         const char *tail;
     } t[] = {
         { "[model:5]\n", 1, "[model:5]: empty section: its required keys are missing (a model needs at least one of "
-                             "unit_id, n, m, z, type1, chord, preload; without any the section would be ignored)" },
+                             "unit_id, kind, n, m, z, type1, chord, preload; without any the section would be ignored)" },
         { "[daemon]\nfsync = no\n\n[rtu:a]\n; device = /dev/ttyS0\n[model:2]\nn = 2\n", 4,
           "[rtu:a]: empty section: its required keys are missing (device is required)" },
         { "[model:1]\nn = 2\n[link:x]\n", 3,
@@ -308,7 +334,7 @@ static void test_unreadable_and_empty(void **st)
         /* the first error in the file wins */
         { "[modbus]\nmax_clients = 0\n[model:5]\n", 2, "[modbus] max_clients: expected 1..512" },
         { "[model:5]\n[modbus]\nmax_clients = 0\n", 1, "[model:5]: empty section: its required keys are missing (a "
-          "model needs at least one of unit_id, n, m, z, type1, chord, preload; without any the section would be "
+          "model needs at least one of unit_id, kind, n, m, z, type1, chord, preload; without any the section would be "
           "ignored)" },
     };
     for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
@@ -726,6 +752,7 @@ int main(void)
         cmocka_unit_test(test_override),
         cmocka_unit_test(test_full),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_kind),
         cmocka_unit_test(test_repeat_and_hosts),
         cmocka_unit_test(test_rs485),
         cmocka_unit_test(test_unreadable_and_empty),

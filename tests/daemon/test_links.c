@@ -98,7 +98,7 @@ static int setup(void **st)
     char name[64];
     (void)st;
     assert_int_equal(models_init(4), 0);
-    struct model *md = models_add(1, 1, 3, 3, 0);
+    struct model *md = models_add(1, 1, MODEL_BEZIER, 3, 3, 0);
     assert_non_null(md);
     assert_int_equal(models_preload_paper(md), IT2N_OK);
     assert_int_equal(md->state, IT2N_RS_SOLVED);

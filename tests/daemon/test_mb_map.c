@@ -57,7 +57,7 @@ static int setup(void **st)
     (void)st;
     if (models_init(4))
         return -1;
-    md = models_add(1, 1, 3, 3, 0);
+    md = models_add(1, 1, MODEL_BEZIER, 3, 3, 0);
     return md && models_preload_paper(md) == IT2N_OK ? 0 : -1;
 }
 
@@ -80,8 +80,14 @@ static void test_status(void **st)
     assert_int_equal(r[IT2N_REG_PRESENT], 112);
     assert_int_equal(r[IT2N_REG_REQUIRED], 112);
     assert_int_equal(r[IT2N_REG_COORD_SCALE], 100);
+    assert_int_equal(r[IT2N_REG_KIND], IT2N_KIND_BEZIER);
+    assert_int_equal(r[IT2N_REG_NET_ROWS], 4);
+    assert_int_equal(r[IT2N_REG_NET_COLS], 4);
+    assert_int_equal(r[IT2N_REG_STATUS_RSV], 0);
     /* gaps and block-spanning reads */
-    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_STATUS_END, 1, r), MBX_ILLEGAL_ADDRESS);
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_CONFIG_END, 1, r), MBX_ILLEGAL_ADDRESS);
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_COUNTS_END, 1, r), MBX_ILLEGAL_ADDRESS);
+    assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_WIN_END, 1, r), MBX_ILLEGAL_ADDRESS);
     assert_int_equal(mbmap_read(md, &q, &opts, 20, 20, r), MBX_ILLEGAL_ADDRESS);
     assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_CTRL_END, 1, r), MBX_ILLEGAL_ADDRESS);
     assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_MAP_END, 1, r), MBX_ILLEGAL_ADDRESS);
@@ -197,7 +203,7 @@ static void test_rejected_writes_change_nothing(void **st)
 
 static void test_incomplete_is_busy(void **st)
 {
-    struct model *m2 = models_add(2, 2, 2, 2, IT2N_F_TYPE1);
+    struct model *m2 = models_add(2, 2, MODEL_BEZIER, 2, 2, IT2N_F_TYPE1);
     struct mb_query q;
     uint16_t r[8], one = IT2N_CMD_COMMIT;
     int persisted;
@@ -219,7 +225,7 @@ static void test_incomplete_is_busy(void **st)
 static void test_grid_saturation_flag(void **st)
 {
     /* A 7x7 checkerboard oscillates far outside [0, 1] at u, w = k/14. */
-    struct model *m3 = models_add(3, 3, 7, 7, IT2N_F_TYPE1);
+    struct model *m3 = models_add(3, 3, MODEL_BEZIER, 7, 7, IT2N_F_TYPE1);
     const struct mb_opts g15 = { IT2N_WO_ABCD, 100, 15, 15, { 0 }, IT2N_WO_ABCD, 0 };
     static uint16_t grid[15 * 15 * 3], gf[15 * 15 * 6];
     uint16_t r[IT2N_REG_STATUS_END];

@@ -36,7 +36,7 @@ static uint16_t tid;
 static struct model *open_table(void)
 {
     assert_int_equal(models_init(4), 0);
-    struct model *md = models_add(1, 1, 3, 3, 0);
+    struct model *md = models_add(1, 1, MODEL_BEZIER, 3, 3, 0);
     assert_non_null(md);
     assert_int_equal(models_preload_paper(md), IT2N_OK);
     models_set_journal(store_append, NULL);
@@ -297,6 +297,62 @@ static void test_fc23_query_touches_nothing(void **st)
  * model's last_error says so (-200), whatever the write touched: the
  * configuration here, the upload block or a point alike (issue 8 item 11;
  * seen in the soak: an 04 with last_error 0). */
+/* The daemon frames its replies itself (no modbus_reply, issue 22): every
+ * successful reply is byte for byte what libmodbus' modbus_reply() sends
+ * for the same request from a mapping holding the registers the map
+ * serves (the daemon's former way): transaction id, protocol, length,
+ * unit, FC 03/04/23 register bytes, FC 06/16 echoes, and an FC 23 read
+ * overlapping its write echoing the values written. */
+static void test_reply_framed_as_libmodbus(void **st)
+{
+    static const uint8_t pdus[][20] = {
+        { 0x03, 0x00, 0x00, 0x00, 0x10 },                                     /* status block */
+        { 0x06, 0x00, IT2N_REG_Q_U16, 0x13, 0x88 },                           /* q_u = 0.5 */
+        { 0x10, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04, 0x07, 0xD0, 0x1F, 0x40 }, /* q_u, q_w */
+        { 0x04, 0x00, 0x80, 0x00, 0x6C },                                     /* the results */
+        { 0x17, 0x00, 0x80, 0x00, 0x6C, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04, 0x27, 0x10, 0x00, 0x00 },
+        { 0x17, 0x00, IT2N_REG_Q_U16, 0x00, 0x03, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04, 0x0B, 0xB8, 0x00, 0x01 },
+        { 0x17, 0x00, 0x81, 0x00, 0x05, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04, 0x00, 0x00, 0x27, 0x10 },
+    };
+    static const int plens[] = { 5, 5, 10, 5, 14, 14, 14 };
+    int ref[2];
+    (void)st;
+    assert_int_equal(socketpair(AF_UNIX, SOCK_STREAM, 0, ref), 0);
+    modbus_t *lib = modbus_new_tcp_pi(NULL, "502");
+    modbus_mapping_t *map = modbus_mapping_new(0, 0, IT2N_REG_MAP_END, IT2N_REG_MAP_END);
+    assert_non_null(lib);
+    assert_non_null(map);
+    modbus_set_socket(lib, ref[0]);
+    for (size_t k = 0; k < sizeof plens / sizeof plens[0]; k++) {
+        uint8_t req[300], rep[300], want[300];
+        int held;
+        const uint8_t *pdu = pdus[k];
+        int n = run(pdu, plens[k], rep, &held);
+        assert_false(held);
+        if (rep[7] != pdu[0])
+            fprintf(stderr, "request %zu: exception %u\n", k, rep[8]);
+        assert_int_equal(rep[7], pdu[0]); /* not an exception */
+        /* The same request (same transaction id) through modbus_reply,
+         * its mapping filled from the map as the daemon filled it. */
+        tid--;
+        int len = adu(req, pdu, plens[k]);
+        if (pdu[0] == 0x03 || pdu[0] == 0x04 || pdu[0] == 0x17) {
+            unsigned addr = (unsigned)pdu[1] << 8 | pdu[2], count = (unsigned)pdu[3] << 8 | pdu[4];
+            uint16_t *tab = pdu[0] == 0x04 ? map->tab_input_registers : map->tab_registers;
+            assert_int_equal(mbmap_read(models_view(models_by_id(1)), &sess.q, &opts, addr, count, tab + addr),
+                             MBX_OK);
+        }
+        assert_true(modbus_reply(lib, req, len, map) > 0);
+        ssize_t m = read(ref[1], want, sizeof want);
+        assert_int_equal(m, n);
+        assert_memory_equal(rep, want, (size_t)n);
+    }
+    modbus_mapping_free(map);
+    modbus_free(lib);
+    close(ref[0]);
+    close(ref[1]);
+}
+
 static void test_refused_write_sets_last_error(void **st)
 {
     uint8_t req[300], rep[300];
@@ -322,6 +378,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_refused_write_sets_last_error, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_reply_framed_as_libmodbus, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fc23_all_or_nothing, setup, teardown),
         cmocka_unit_test_setup_teardown(test_readers_see_durable, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fc23_query_touches_nothing, setup, teardown),

@@ -13,6 +13,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -56,7 +57,7 @@ static void reset_journal(int at)
 
 static struct model *paper(int id, unsigned flags)
 {
-    struct model *md = models_add(id, id, 3, 3, flags);
+    struct model *md = models_add(id, id, MODEL_BEZIER, 3, 3, flags);
     assert_non_null(md);
     assert_int_equal(models_preload_paper(md), IT2N_OK);
     assert_int_equal(md->state, IT2N_RS_SOLVED);
@@ -362,6 +363,169 @@ static void test_batches(void **state)
 /* What a write records: a point into a solved model records its point,
  * the nets of its footprint and the model's header — a few KiB, not the
  * model (about 30 KiB). A query touches nothing. */
+/* ---- The B-spline kind: storage after the struct ----------------------- */
+
+/* Data point (i, j, fp) of a nested B-spline test grid (dt moves T). */
+static void bs_vals(unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT], it2n_val dt)
+{
+    v[IT2N_CH_X] = (it2n_val)i * IT2N_VAL_ONE + (it2n_val)fp * (IT2N_VAL_ONE / 64);
+    v[IT2N_CH_Y] = (it2n_val)j * IT2N_VAL_ONE + (it2n_val)fp * (IT2N_VAL_ONE / 64) + (it2n_val)(i * j % 3) * 4096;
+    v[IT2N_CH_Z] = (it2n_val)((i * 7 + j * 3) % 5) * IT2N_VAL_ONE + (it2n_val)fp * (IT2N_VAL_ONE / 32);
+    v[IT2N_CH_T] = (it2n_val)((i + 2 * j + fp) % 10) * (IT2N_VAL_ONE / 10) + dt;
+    v[IT2N_CH_I] = (it2n_val)((3 * i + j) % 7) * (IT2N_VAL_ONE / 8);
+    v[IT2N_CH_F] = (it2n_val)((i * j + fp) % 4) * (IT2N_VAL_ONE / 5);
+}
+
+/* md's whole allocation equals `before` but for the live fields. */
+static void assert_same_bytes(const struct model *md, const unsigned char *before, size_t len)
+{
+    unsigned char *now = malloc(len);
+    assert_non_null(now);
+    memcpy(now, md, len);
+    memcpy(now + offsetof(struct model, last_err), before + offsetof(struct model, last_err), sizeof md->last_err);
+    memcpy(now + offsetof(struct model, mb.requests), before + offsetof(struct model, mb.requests),
+           sizeof md->mb.requests + sizeof md->mb.exceptions);
+    for (size_t k = 0; k < len; k++)
+        if (now[k] != before[k])
+            fail_msg("B-spline model differs at byte %zu of %zu", k, len);
+    free(now);
+}
+
+/* The coefficients of md against a fresh core solve of the same points in
+ * storage of its own. */
+static void assert_core_solve(const struct model *md)
+{
+    unsigned n = models_n(md), m = models_m(md), flags = models_flags(md);
+    it2n_bspline_rec *rec = calloc(IT2N_BSPLINE_DATA_RECS(n, m, flags), sizeof *rec);
+    int32_t *coef = calloc(IT2N_BSPLINE_MODEL_WORDS(n, m, flags), sizeof *coef);
+    it2n_bspline_data d;
+    it2n_bspline_model bm;
+    it2n_errinfo err;
+    it2n_val v[IT2N_CH_COUNT];
+    assert_true(rec && coef);
+    assert_int_equal(it2n_bspline_data_init(&d, rec, IT2N_BSPLINE_DATA_RECS(n, m, flags), n, m, flags, &err), 0);
+    for (unsigned i = 0; i <= n; i++)
+        for (unsigned j = 0; j <= m; j++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
+                if (models_point_present(md, i, j, fp)) {
+                    models_point_get(md, i, j, fp, v);
+                    assert_int_equal(it2n_bspline_data_put(&d, i, j, fp, v, false, &err), IT2N_OK);
+                }
+    it2n_bspline_model_init(&bm, coef, IT2N_BSPLINE_MODEL_WORDS(n, m, flags));
+    assert_int_equal(it2n_bspline_solve(&bm, &d, &err), IT2N_OK);
+    assert_memory_equal(bm.frac, md->bmdl.frac, sizeof bm.frac);
+    assert_memory_equal(coef, md->bmdl.coef, IT2N_BSPLINE_MODEL_WORDS(n, m, flags) * sizeof *coef);
+    free(rec);
+    free(coef);
+}
+
+static void test_bspline(void **state)
+{
+    (void)state;
+    it2n_errinfo err;
+    it2n_val v[IT2N_CH_COUNT];
+    it2n_point p0, p1;
+    struct model_txn t;
+    struct model *md = models_add(5, 5, MODEL_BSPLINE, 9, 6, IT2N_F_Z);
+    memset(&p0, 0, sizeof p0); /* padding compared too */
+    memset(&p1, 0, sizeof p1);
+    assert_non_null(md);
+    assert_int_equal(md->bytes, models_bytes(MODEL_BSPLINE, 9, 6));
+    assert_true(md->bytes > sizeof *md + IT2N_BSPLINE_DATA_RECS(9, 6, 0) * sizeof(it2n_bspline_rec));
+    assert_int_equal(models_bytes(MODEL_BEZIER, 9, 6), sizeof *md);
+    /* beyond the storage the configuration gave it: refused, unchanged */
+    unsigned char *b = malloc(md->bytes);
+    memcpy(b, md, md->bytes);
+    assert_int_equal(models_configure(md, 10, 6, IT2N_F_Z, &err), IT2N_ERR_RANGE);
+    assert_int_equal(err.hi, 9);
+    assert_int_equal(models_configure(md, 4, 3, IT2N_F_CHORD, &err), IT2N_ERR_INVAL);
+    assert_same_bytes(md, b, md->bytes);
+    assert_int_equal(models_configure(md, 8, 5, IT2N_F_Z, &err), IT2N_OK);
+    models_pass_end(1, NULL, NULL);
+    assert_int_equal(models_required(md), 9u * 6u * 7u);
+    /* fill; the last point solves */
+    for (unsigned i = 0; i <= 8; i++)
+        for (unsigned j = 0; j <= 5; j++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                bs_vals(i, j, fp, v, 0);
+                assert_int_equal(models_put(md, i, j, fp, v, false, &err), IT2N_OK);
+            }
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(models_net_rows(md), 11);
+    assert_int_equal(models_net_cols(md), 8);
+    assert_core_solve(md);
+    models_pass_end(1, NULL, NULL);
+    assert_int_equal(models_eval(md, IT2N_PAR_ONE / 3, IT2N_PAR_ONE / 7, &p0, &err), IT2N_OK);
+
+    /* an update refused by the WAL, and one rolled back: bit for bit */
+    for (int way = 0; way < 2; way++) {
+        memcpy(b, md, md->bytes);
+        uint32_t inst = md->instance;
+        bs_vals(4, 2, IT2N_FP_L, v, IT2N_VAL_ONE / 20);
+        if (way == 0) {
+            reset_journal(1);
+            assert_int_equal(models_put(md, 4, 2, IT2N_FP_L, v, true, &err), IT2ND_ERR_IO);
+            assert_int_equal(models_undo_bytes(), 0);
+        } else {
+            reset_journal(0);
+            models_txn_begin(&t);
+            assert_int_equal(models_put(md, 4, 2, IT2N_FP_L, v, true, &err), IT2N_OK);
+            assert_int_equal(models_clear(md), IT2N_OK);
+            models_txn_rollback(&t);
+            assert_true(md->instance != inst);
+            memcpy(b + offsetof(struct model, instance), &md->instance, sizeof md->instance);
+        }
+        assert_same_bytes(md, b, md->bytes);
+        models_pass_end(1, NULL, NULL);
+    }
+    reset_journal(0);
+
+    /* an update: the core's full solve of the new points; readers see the
+     * old state until the batch is durable (their view has storage of its
+     * own: its pointers point into the view) */
+    bs_vals(4, 2, IT2N_FP_L, v, IT2N_VAL_ONE / 20);
+    assert_int_equal(models_put(md, 4, 2, IT2N_FP_L, v, true, &err), IT2N_OK);
+    assert_core_solve(md);
+    models_batch_submit();
+    struct model *view = models_view(md);
+    assert_ptr_not_equal(view, md);
+    assert_true((unsigned char *)view->bds.rec > (unsigned char *)view &&
+                (unsigned char *)view->bmdl.coef < (unsigned char *)view + md->bytes);
+    assert_int_equal(models_eval(view, IT2N_PAR_ONE / 3, IT2N_PAR_ONE / 7, &p1, &err), IT2N_OK);
+    assert_memory_equal(&p0, &p1, sizeof p0);
+    assert_int_equal(models_eval(md, IT2N_PAR_ONE / 3, IT2N_PAR_ONE / 7, &p1, &err), IT2N_OK);
+    assert_memory_not_equal(p0.v, p1.v, sizeof p0.v);
+    models_batch_done(1, NULL, NULL);
+    assert_ptr_equal(models_view(md), md);
+    free(b);
+}
+
+/* Memory per model in it2nd (docs/daemon.md quotes these lines: the
+ * docs-check figure "daemon-memory"): the allocation models_add makes, and
+ * as much again for the readers' view buffer. A B-spline model's storage
+ * is the core's macros for its configured grid with every footprint and z;
+ * checked against them here. */
+static void test_memory_figures(void **state)
+{
+    (void)state;
+    static const unsigned side[] = { 4, 16, 64, 128, 256 };
+    size_t bez = models_bytes(MODEL_BEZIER, 7, 7);
+    assert_int_equal(bez, sizeof(struct model));
+    print_message("[memory] %-9s %-19s %10s %16s\n", "kind", "grid", "bytes", "per grid point");
+    print_message("[memory] %-9s %-19s %10zu %16s\n", "bezier", "up to 8x8 (any)", bez, "-");
+    for (size_t k = 0; k < sizeof side / sizeof side[0]; k++) {
+        unsigned n = side[k] - 1;
+        size_t b = models_bytes(MODEL_BSPLINE, n, n);
+        size_t core = IT2N_BSPLINE_DATA_RECS(n, n, 0) * sizeof(it2n_bspline_rec) +
+                      IT2N_BSPLINE_MODEL_WORDS(n, n, IT2N_F_Z) * sizeof(int32_t);
+        char grid[32];
+        assert_true(b >= sizeof(struct model) + core && b < sizeof(struct model) + core + 8);
+        snprintf(grid, sizeof grid, "%ux%u (n=m=%u)", side[k], side[k], n);
+        print_message("[memory] %-9s %-19s %10zu %16zu\n", "bspline", grid, b,
+                      (b - sizeof(struct model)) / ((size_t)side[k] * side[k]));
+    }
+}
+
 static void test_undo_size(void **state)
 {
     (void)state;
@@ -387,6 +551,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_txn_rollback_keeps_batch, setup, teardown),
         cmocka_unit_test_setup_teardown(test_batches, setup, teardown),
         cmocka_unit_test_setup_teardown(test_undo_size, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_bspline, setup, teardown),
+        cmocka_unit_test(test_memory_figures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

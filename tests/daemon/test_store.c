@@ -31,7 +31,7 @@ static struct model *fresh(void)
 {
     models_free();
     assert_int_equal(models_init(4), 0);
-    struct model *md = models_add(1, 1, 1, 1, IT2N_F_TYPE1);
+    struct model *md = models_add(1, 1, MODEL_BEZIER, 1, 1, IT2N_F_TYPE1);
     assert_non_null(md);
     models_set_journal(store_append, NULL);
     models_set_journal_marks(store_jmark, store_jrewind);
@@ -225,6 +225,114 @@ static void test_wal_replay(void **st)
     assert_int_equal(fsize("wal"), 16 + (len - 16) / 4);
     free(dmg);
     store_close();
+}
+
+/* The B-spline kind in the state directory: a CONFIGURE record with its
+ * kind byte (6-byte payload) and the points replayed from the WAL; a
+ * snapshot of version 3 (kind, 32-bit point count) when a B-spline model
+ * exists, version 2 otherwise (older builds read it); the coefficients
+ * after each recovery bit-identical to the solve before it. A state
+ * directory whose model is now configured as another kind: refused with
+ * the files left as they are (points are never dropped unasked). */
+static struct model *fresh_cap(int kind, unsigned cap)
+{
+    models_free();
+    assert_int_equal(models_init(4), 0);
+    struct model *md = models_add(1, 1, kind, cap, cap, IT2N_F_TYPE1);
+    assert_non_null(md);
+    models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
+    return md;
+}
+
+static struct model *fresh_bs(int kind)
+{
+    models_free();
+    assert_int_equal(models_init(4), 0);
+    struct model *md = models_add(1, 1, kind, kind == MODEL_BSPLINE ? 9 : 3, kind == MODEL_BSPLINE ? 9 : 3, IT2N_F_TYPE1);
+    assert_non_null(md);
+    models_set_journal(store_append, NULL);
+    models_set_journal_marks(store_jmark, store_jrewind);
+    return md;
+}
+
+static void test_bspline(void **st)
+{
+    (void)st;
+    it2n_errinfo err;
+    wipe();
+    struct model *md = fresh_bs(MODEL_BSPLINE);
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(models_configure(md, 6, 5, IT2N_F_TYPE1, &err), IT2N_OK);
+    for (unsigned i = 0; i <= 6; i++)
+        for (unsigned j = 0; j <= 5; j++)
+            put(md, i, j, (int)(i * 10), (int)(j * 10 + i % 2), (int)((i + j) % 10));
+    assert_int_equal(store_commit(), 0);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    size_t words = IT2N_BSPLINE_MODEL_WORDS(6, 5, IT2N_F_TYPE1);
+    int32_t *want = malloc(words * sizeof *want);
+    memcpy(want, md->bmdl.coef, words * sizeof *want);
+    uint32_t gen = md->gen;
+    store_close(); /* "crash": WAL only */
+    {
+        long len;
+        uint8_t *w = slurp("wal", &len);
+        /* the first record: CONFIG (type 1) of 2 + 4 payload bytes */
+        assert_int_equal(w[16 + 16], MOP_CONFIG);
+        assert_int_equal(w[16] | w[17] << 8, 9 + 6);
+        assert_int_equal(w[16 + 17 + 5], MODEL_BSPLINE);
+        free(w);
+    }
+    md = fresh_bs(MODEL_BSPLINE);
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(models_n(md), 6);
+    assert_int_equal(md->gen, gen);
+    assert_memory_equal(md->bmdl.coef, want, words * sizeof *want);
+    assert_int_equal(store_snapshot(), 0);
+    store_close();
+    {
+        long len;
+        uint8_t *sn = slurp("snapshot", &len);
+        assert_int_equal(sn[8], 3); /* version 3 */
+        assert_int_equal(sn[32 + 44], MODEL_BSPLINE);
+        free(sn);
+    }
+    md = fresh_bs(MODEL_BSPLINE);
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->gen, gen);
+    assert_memory_equal(md->bmdl.coef, want, words * sizeof *want);
+    store_close();
+    /* configured as Bezier now: refused, both files kept */
+    long slen, slen2;
+    uint8_t *sn = slurp("snapshot", &slen);
+    md = fresh_bs(MODEL_BEZIER);
+    assert_int_equal(store_open(dir, 0), -1);
+    uint8_t *sn2 = slurp("snapshot", &slen2);
+    assert_int_equal(slen, slen2);
+    assert_memory_equal(sn, sn2, (size_t)slen);
+    /* configured with a smaller grid (storage for 5x5) than the 6x5 the
+     * snapshot holds: refused the same way */
+    md = fresh_cap(MODEL_BSPLINE, 5);
+    assert_int_equal(store_open(dir, 0), -1);
+    free(sn2);
+    sn2 = slurp("snapshot", &slen2);
+    assert_int_equal(slen, slen2);
+    assert_memory_equal(sn, sn2, (size_t)slen);
+    free(sn);
+    free(sn2);
+    free(want);
+    /* a Bezier-only table writes version 2 */
+    wipe();
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    put(md, 0, 0, 0, 0, 1);
+    assert_int_equal(store_snapshot(), 0);
+    store_close();
+    sn = slurp("snapshot", &slen);
+    assert_int_equal(sn[8], 2);
+    free(sn);
 }
 
 static void test_snapshot(void **st)
@@ -686,7 +794,7 @@ static void test_snapshot_foreign(void **st)
         unlink(p);
     }
     struct model *md = fresh();
-    struct model *md2 = models_add(2, 2, 2, 2, 0);
+    struct model *md2 = models_add(2, 2, MODEL_BEZIER, 2, 2, 0);
     assert_non_null(md2);
     assert_int_equal(store_open(dir, 0), 0);
     assert_int_equal(md->state, IT2N_RS_SOLVED);
@@ -801,7 +909,7 @@ static void only_model_2(void)
 {
     models_free();
     assert_int_equal(models_init(4), 0);
-    assert_non_null(models_add(2, 2, 1, 1, IT2N_F_TYPE1));
+    assert_non_null(models_add(2, 2, MODEL_BEZIER, 1, 1, IT2N_F_TYPE1));
 }
 
 static void test_drop_policy(void **st)
@@ -1033,6 +1141,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_wal_replay),
         cmocka_unit_test(test_snapshot),
+        cmocka_unit_test(test_bspline),
         cmocka_unit_test(test_wal_header),
         cmocka_unit_test(test_pass_rollback),
         cmocka_unit_test(test_batches),

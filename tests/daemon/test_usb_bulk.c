@@ -271,7 +271,7 @@ int main(void)
 
     snprintf(dir, sizeof dir, "/tmp/it2nd-test-usb.%d", (int)getpid());
     models_init(2);
-    struct model *md = models_add(1, 1, 1, 1, IT2N_F_TYPE1);
+    struct model *md = models_add(1, 1, MODEL_BEZIER, 1, 1, IT2N_F_TYPE1);
     CHECK(store_open(dir, 0) == 0, "store");
     models_set_journal(store_append, NULL);
     models_set_journal_marks(store_jmark, store_jrewind);

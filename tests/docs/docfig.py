@@ -93,6 +93,7 @@ FIGURES = {
     "accuracy": lambda: grep(f"{BUILD}/tests/core/test_accuracy", "[accuracy]"),
     "operations": lambda: grep(f"{BUILD}/tests/core/test_operations", "[operations]"),
     "bspline": lambda: grep(f"{BUILD}/tests/core/test_bspline", "[bspline]"),
+    "daemon-memory": lambda: grep(f"{BUILD}/tests/daemon/test_models", "[memory]"),
     "fw-figures": firmware_figures,
     "fw-budget": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py"),
     "fw-timing": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py --timing"),

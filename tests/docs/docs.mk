@@ -2,7 +2,7 @@
 # (docfig.py: `<!-- fig:NAME -->` blocks). docs-figures rewrites them;
 # docs-check (make test) fails if a committed figure differs from the build.
 DOCFIG_DEPS = cross $(BUILD)/tests/core/test_accuracy $(BUILD)/tests/core/test_operations \
-              $(BUILD)/tests/core/test_bspline
+              $(BUILD)/tests/core/test_bspline $(BUILD)/tests/daemon/test_models
 
 .PHONY: docs-figures docs-check
 docs-figures: $(DOCFIG_DEPS) ## Regenerate the build figures quoted in README.md and docs/
@@ -29,3 +29,17 @@ docs-snippets: all
 	else echo "docs snippets: a session run out of order is refused (self-test)"; fi
 
 TEST_TARGETS += docs-snippets
+
+# docs/protocol.md section 9: every rule names tests that exist and run in
+# make test, every question of section 4.4 has a row (conformance.py); the
+# self-test renames one test and must see the check fail.
+.PHONY: docs-conformance
+docs-conformance: ## Check the protocol conformance table against the test sources
+	@/usr/bin/python3 tests/docs/conformance.py
+	@mkdir -p $(BUILD)
+	@sed 's/test_seq_wraps/test_seq_wraps_renamed/' docs/protocol.md > $(BUILD)/conformance_drift.md
+	@if /usr/bin/python3 tests/docs/conformance.py $(BUILD)/conformance_drift.md > $(BUILD)/conformance_drift.log; then \
+	  echo "docs-conformance: a table naming a missing test passed"; exit 1; \
+	else echo "docs-conformance: a table naming a missing test is refused (self-test)"; fi
+
+TEST_TARGETS += docs-conformance

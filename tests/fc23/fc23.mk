@@ -2,7 +2,7 @@
 # (write q_u, q_w; read the 108 result registers) against a bare libmodbus
 # server answering FC 23 of the same sizes, same client load, one run.
 # `make bench-fc23` writes bench/fc23.json (ratios at 1, 8, 32 connections,
-# targets 1.0, whole 95 % intervals); `bench-fc23-smoke` (make test, ~3 s) checks every answer
+# targets 1.0, whole 95 % intervals; p99 latency, target at 32); `bench-fc23-smoke` (make test, ~3 s) checks every answer
 # under 8 concurrent connections, never a time.
 FC23_B := $(BUILD)/tests/fc23
 FC23_LOAD := $(FC23_B)/fc23_load

@@ -90,8 +90,8 @@ static void tty_drained(void)
     room_used = 0;
 }
 
-#define NMODELS 2
-static struct model pristine[NMODELS];
+#define NMODELS FUZZ_STANDARD_MODELS
+static struct model *pristine[NMODELS]; /* models_dup copies */
 static struct conf link_conf;
 static int journal_fails, commit_fails;
 
@@ -124,7 +124,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     (void)argv;
     fuzz_standard_models(4);
     for (int k = 0; k < NMODELS; k++)
-        pristine[k] = *models_at(k);
+        pristine[k] = models_dup(models_at(k));
     models_set_journal(journal, NULL);
     /* The pty stays open (master kept) so the device can be reopened. */
     fuzz_check(openpty(&master, &slave, name, NULL, NULL) == 0, "openpty");
@@ -230,7 +230,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     journal_fails = data[0] & 1;
     commit_fails = (data[0] >> 1) & 1;
     for (int k = 0; k < NMODELS; k++)
-        *models_at(k) = pristine[k];
+        models_copy(models_at(k), pristine[k]);
 
     fake_reset();
     fuzz_check(links_start(&link_conf) == 0 && fake_fd_last() != NULL, "links_start opens the link");

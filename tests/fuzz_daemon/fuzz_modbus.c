@@ -44,9 +44,9 @@ int LLVMFuzzerInitialize(int *argc, char ***argv);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 #define MBAP_MAX 254u /* MBAP length field: unit id + PDU of at most 253 */
-#define NUNITS 2
+#define NUNITS FUZZ_STANDARD_MODELS
 
-static struct model pristine[NUNITS];
+static struct model *pristine[NUNITS]; /* models_dup copies */
 static struct mb_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
 static struct mb_session sess;
 static int pair[2];            /* pass A: [0] daemon side, [1] harness side */
@@ -80,7 +80,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     (void)argv;
     fuzz_standard_models(4);
     for (int k = 0; k < NUNITS; k++)
-        pristine[k] = *models_at(k);
+        pristine[k] = models_dup(models_at(k));
     models_set_journal(journal, NULL);
 
     /* Pass A: a libmodbus TCP context on a socketpair. */
@@ -129,7 +129,7 @@ static int same_model(const struct model *a, const struct model *b)
     return a->id == b->id && a->unit == b->unit && a->state == b->state && a->gen == b->gen &&
            a->points_rx == b->points_rx && a->solves == b->solves &&
            memcmp(&a->ds, &b->ds, sizeof a->ds) == 0 && memcmp(&a->mdl, &b->mdl, sizeof a->mdl) == 0 &&
-           memcmp(a->mb.upload, b->mb.upload, sizeof a->mb.upload) == 0;
+           memcmp(a->mb.upload, b->mb.upload, sizeof a->mb.upload) == 0 && fuzz_bs_same(a, b);
 }
 
 /* Check one reply ADU against its request. Returns 1 for an exception. */
@@ -205,7 +205,7 @@ static long mbap_frame(const uint8_t *d, size_t n)
 
 static void pass_a(const uint8_t *d, size_t n)
 {
-    static struct model before;
+    static struct model *before;
     static uint8_t rep[1024];
     long len;
     memset(&sess.q, 0, sizeof sess.q);
@@ -213,8 +213,10 @@ static void pass_a(const uint8_t *d, size_t n)
     while ((len = mbap_frame(d, n)) > 0) {
         struct model *md = models_by_unit(d[6]);
         int ok = 1, rc;
-        if (md)
-            before = *md;
+        if (md) {
+            free(before);
+            before = models_dup(md);
+        }
         rc = mb_req_handle(&sess, d, (int)len, &opts);
         fuzz_check(rc == 0 || rc == 1, "mb_req_handle answers (send to a socketpair cannot fail)");
         if (rc == 1) {
@@ -235,7 +237,7 @@ static void pass_a(const uint8_t *d, size_t n)
         if (exc && md) {
             /* Also FC 23 whose read half failed after its write half was
              * applied: rolled back (security finding 8). */
-            fuzz_check(same_model(md, &before), "a request answered with an exception leaves the model unchanged");
+            fuzz_check(same_model(md, before), "a request answered with an exception leaves the model unchanged");
         }
         d += len;
         n -= (size_t)len;
@@ -331,10 +333,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     size_t chunk = (size_t)(data[0] >> 4) * 17u + 1u;
 
     for (int k = 0; k < NUNITS; k++)
-        *models_at(k) = pristine[k];
+        models_copy(models_at(k), pristine[k]);
     pass_a(data + 1, size - 1);
     for (int k = 0; k < NUNITS; k++)
-        *models_at(k) = pristine[k];
+        models_copy(models_at(k), pristine[k]);
     pass_b(data + 1, size - 1, chunk);
     (void)fake_log_errors();
     return 0;

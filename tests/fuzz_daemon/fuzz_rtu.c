@@ -42,8 +42,8 @@
 int LLVMFuzzerInitialize(int *argc, char ***argv);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-#define NUNITS 2
-static struct model pristine[NUNITS];
+#define NUNITS FUZZ_STANDARD_MODELS
+static struct model *pristine[NUNITS]; /* models_dup copies */
 static struct mb_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
 static struct conf rtu_conf;
 static int pty_master = -1;
@@ -80,7 +80,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     (void)argv;
     fuzz_standard_models(4);
     for (int k = 0; k < NUNITS; k++)
-        pristine[k] = *models_at(k);
+        pristine[k] = models_dup(models_at(k));
     models_set_journal(journal, NULL);
     /* A pty gives modbus_connect() a terminal to configure. */
     fuzz_check(openpty(&pty_master, &slave, name, NULL, NULL) == 0, "openpty");
@@ -182,7 +182,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     journal_fails = data[0] & 1;
     commit_fails = (data[0] >> 1) & 1;
     for (int k = 0; k < NUNITS; k++)
-        *models_at(k) = pristine[k];
+        models_copy(models_at(k), pristine[k]);
 
     /* Open the port the daemon's way, then swap the tty for a socket. */
     fake_reset();

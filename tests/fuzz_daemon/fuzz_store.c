@@ -1,7 +1,9 @@
 /* Fuzz target "store": arbitrary bytes as the WAL and snapshot files of the
  * state directory, then store_open() recovery into a configured model
- * table (model 1: the paper's data, solved; 2: type-1 2x2, empty; 3: chord
- * with z, 3x2, one point).
+ * table (model 1: the paper's data, solved; 2: type-1 2x2, empty; 3: the
+ * B-spline kind, 4x3 type-2, solved, so the baseline snapshot is version
+ * 3 and WAL CONFIG records of it carry the kind byte; 4: chord with z,
+ * 3x2, one point).
  *
  * Input: byte 0 selects how the rest becomes files (so the fuzzer gets
  * past the CRCs as well as attacking them):
@@ -47,7 +49,7 @@
 int LLVMFuzzerInitialize(int *argc, char ***argv);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-#define NMODELS 3
+#define NMODELS 4
 static char dir[128], wal_path[160], snap_path[160];
 static uint8_t *snap_base;
 static size_t snap_len;
@@ -58,6 +60,7 @@ struct saved {
     uint32_t gen;
     it2n_dataset ds;
     it2n_model mdl;
+    struct model *copy; /* models_dup: the B-spline data and model */
 };
 static struct saved first[NMODELS];
 
@@ -70,9 +73,11 @@ static void setup_models(void)
         fuzz_check(models_init(8) == 0, "models_init");
         for (int k = 0; k < NMODELS; k++) {
             const struct model *c = configured[k];
-            struct model *md = models_add(c->id, c->unit, c->ds.n, c->ds.m, c->ds.flags);
+            struct model *md = c->kind == MODEL_BSPLINE
+                                   ? models_add(c->id, c->unit, MODEL_BSPLINE, c->cap_n, c->cap_m, 0)
+                                   : models_add(c->id, c->unit, MODEL_BEZIER, c->ds.n, c->ds.m, c->ds.flags);
             fuzz_check(md != NULL, "models_add");
-            *md = *c;
+            models_copy(md, c);
         }
         models_set_journal(NULL, NULL);
         return;
@@ -80,10 +85,11 @@ static void setup_models(void)
     static const it2n_val pt[IT2N_CH_COUNT] = { 0, 0, 0, IT2N_VAL_ONE / 2, IT2N_VAL_ONE / 4, IT2N_VAL_ONE / 8 };
     it2n_errinfo err;
     fuzz_standard_models(8);
-    struct model *c = models_add(3, 3, 3, 2, IT2N_F_CHORD | IT2N_F_Z);
-    fuzz_check(c != NULL, "model 3");
+    struct model *c = models_add(4, 4, MODEL_BEZIER, 3, 2, IT2N_F_CHORD | IT2N_F_Z);
+    fuzz_check(c != NULL, "model 4");
     models_set_journal(NULL, NULL);
-    fuzz_check(models_put(c, 0, 0, IT2N_FP_D, pt, false, &err) == IT2N_OK, "model 3 point");
+    fuzz_check(models_put(c, 0, 0, IT2N_FP_D, pt, false, &err) == IT2N_OK, "model 4 point");
+    models_pass_end(1, NULL, NULL);
 }
 
 static void clear_dir(void)
@@ -188,9 +194,8 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     snap_base = slurp(snap_path, &snap_len);
     setup_models();
     for (int k = 0; k < NMODELS; k++) {
-        configured[k] = malloc(sizeof *configured[k]);
+        configured[k] = models_dup(models_at(k));
         fuzz_check(configured[k] != NULL, "malloc");
-        *configured[k] = *models_at(k);
     }
     models_free();
     snap_crc_fixable = snap_len > 4 && it2n_crc32c(snap_base, snap_len - 4) ==
@@ -240,16 +245,20 @@ static size_t frame_wal(const uint8_t *d, size_t n, uint8_t *out, size_t cap)
  * must ignore it and solve the data again. */
 static uint8_t *build_v1(size_t *len)
 {
-    size_t n = 32 + NMODELS * sizeof(struct store_v1_snap_model) + 4;
+    /* version 1 had Bezier models only: the B-spline one is left out */
+    size_t n = 32 + (NMODELS - 1) * sizeof(struct store_v1_snap_model) + 4;
+    size_t at = 0;
     uint8_t *b = calloc(1, n);
     fuzz_check(b != NULL, "v1 buffer");
     memcpy(b, "IT2NSNP", 8);
     put32(b + 8, 1);
     put32(b + 12, store_v1_layout_tag());
-    put32(b + 24, NMODELS);
+    put32(b + 24, NMODELS - 1);
     for (int k = 0; k < NMODELS; k++) {
         static struct store_v1_snap_model sm;
         const struct model *md = configured[k];
+        if (md->kind != MODEL_BEZIER)
+            continue;
         memset(&sm, 0, sizeof sm);
         sm.id = md->id;
         sm.state = md->state;
@@ -266,7 +275,7 @@ static uint8_t *build_v1(size_t *len)
                 for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
                     for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++)
                         sm.mdl.ctrl[i][j][fp][ch] = it2n_model_ctrl(&md->mdl, i, j, fp, ch);
-        memcpy(b + 32 + (size_t)k * sizeof sm, &sm, sizeof sm);
+        memcpy(b + 32 + at++ * sizeof sm, &sm, sizeof sm);
     }
     put32(b + n - 4, it2n_crc32c(b, n - 4));
     *len = n;
@@ -347,7 +356,7 @@ static int valid_rec(const uint8_t *p, size_t n, uint64_t *rseq)
         return 0;
     size_t pl = len - 9;
     int t = p[16];
-    if (!((t == 1 && pl == 5) || (t == 2 && pl == 5 + 8 * IT2N_CH_COUNT) || ((t == 3 || t == 4) && pl == 2)))
+    if (!((t == 1 && (pl == 5 || (pl == 6 && p[17 + 5] == 1))) || (t == 2 && pl == 5 + 8 * IT2N_CH_COUNT) || ((t == 3 || t == 4) && pl == 2)))
         return 0;
     *rseq = le64(p + 8);
     return 1;
@@ -427,6 +436,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         first[k].gen = md->gen;
         first[k].ds = md->ds;
         first[k].mdl = md->mdl;
+        free(first[k].copy);
+        first[k].copy = models_dup(md);
     }
     store_close();
     models_free();
@@ -439,7 +450,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fuzz_note("model %d: state %d/%d gen %u/%u", md->id, first[k].state, md->state, first[k].gen, md->gen);
         fuzz_check(first[k].state == md->state && first[k].gen == md->gen &&
                        memcmp(&first[k].ds, &md->ds, sizeof md->ds) == 0 &&
-                       memcmp(&first[k].mdl, &md->mdl, sizeof md->mdl) == 0,
+                       memcmp(&first[k].mdl, &md->mdl, sizeof md->mdl) == 0 &&
+                       fuzz_bs_same(first[k].copy, md),
                    "recovering twice gives the same models");
     }
     /* The recovered table keeps working: COMMIT each complete model

@@ -1225,6 +1225,301 @@ static void test_sessions_without_id(void **st)
     assert_int_equal(B->nrx, n + 3);
 }
 
+/* ---- selective acknowledgement (docs/protocol.md 4.2 rule 4, 4.3) ---- */
+
+static uint32_t srv_session(void *app)
+{
+    (void)app;
+    return 0xC0DE0001u;
+}
+
+static it2n_msg hello_msg(uint8_t vmax, uint8_t window)
+{
+    it2n_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = IT2N_MSG_HELLO;
+    m.u.hello.version_min = vmax;
+    m.u.hello.version_max = vmax;
+    m.u.hello.max_degree = 7;
+    m.u.hello.window = window;
+    m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
+    return m;
+}
+
+/* A: a v1.2 client, B: a server, both with window 16, the session open
+ * and a first CONFIGURE answered (A's sequence is synced). Time 0..3. */
+static void v12_pair(void)
+{
+    it2n_link_cfg c;
+    it2n_msg m;
+    memset(A, 0, sizeof *A);
+    memset(B, 0, sizeof *B);
+    A->os = mem_stream(&A->out);
+    B->os = mem_stream(&B->out);
+    memset(&c, 0, sizeof c);
+    c.out = &A->os;
+    c.on_rx = on_rx;
+    c.on_done = on_done;
+    c.app = A;
+    c.rto_ms = 100;
+    c.max_tries = 0;
+    c.first_seq = 1000;
+    c.window = 16;
+    c.version = IT2N_PROTO_VERSION_12;
+    assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
+    c.out = &B->os;
+    c.app = B;
+    c.first_seq = 7;
+    c.version = 0;
+    c.new_session = srv_session;
+    assert_int_equal(it2n_link_init(&B->l, &c), IT2N_OK);
+    m = hello_msg(IT2N_PROTO_VERSION_12, 16);
+    assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
+    xfer(A, B, 0, 0);
+    m.u.hello.version_min = IT2N_PROTO_VERSION;
+    assert_true(it2n_link_send(&B->l, &m, 1) >= 0); /* the server's HELLO */
+    xfer(B, A, 1, 0);
+    xfer(A, B, 2, 0);
+    xfer(B, A, 2, 0);
+    assert_int_equal(it2n_link_session(&A->l), 0xC0DE0001u);
+    it2n_link_set_peer(&A->l, 16, 0);
+    it2n_link_set_peer(&B->l, 16, 0);
+    m = cfg_msg(1);
+    assert_true(it2n_link_send(&A->l, &m, 3) >= 0);
+    xfer(A, B, 3, 0);
+    xfer(B, A, 3, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    A->nrx = B->nrx = A->ndone = B->ndone = 0;
+    A->l.stats = B->l.stats = (it2n_link_stats){0};
+}
+
+/* v1.2: the first of 8 frames is lost; the receiver's GAPs name the 7 it
+ * holds. The missing frame's fast retransmission is lost too: at the
+ * timeout only it is sent again, never the 7 held ones (before: all 8,
+ * issue 17 point 7). */
+static void test_sack_held_not_resent(void **st)
+{
+    (void)st;
+    v12_pair();
+    it2n_msg m = cfg_msg(2);
+    m.type = IT2N_MSG_COMMIT;
+    m.u.model.model = 2;
+    for (int k = 0; k < 8; k++) {
+        assert_true(it2n_link_send(&A->l, &m, 10) >= 0);
+        xfer(A, B, 10, k == 0);
+    }
+    assert_int_equal(B->nrx, 0);
+    assert_int_equal(B->l.stats.rx_buffered, 7);
+    xfer(B, A, 11, 0); /* 7 GAPs: the last names 7 frames held */
+    assert_int_equal(A->l.stats.tx_held, 7);
+    assert_int_equal(A->l.stats.tx_fast_retx, 1);
+    xfer(A, B, 11, 1); /* that copy is lost as well */
+    uint32_t retx = A->l.stats.tx_retx;
+    for (uint32_t t = 12; t < 400; t += 5)
+        it2n_link_poll(&A->l, t);
+    /* 11 + RTO, then backoff: 1001 only, never a held one */
+    assert_true(A->l.stats.tx_retx > retx);
+    for (unsigned k = 0; k < IT2N_PROTO_WINDOW; k++)
+        if (A->l.slot[k].used && A->l.slot[k].seq != 1001)
+            assert_int_equal(A->l.slot[k].tries, 1);
+    xfer(A, B, 400, 0); /* the gap is filled: all 8 delivered in order */
+    assert_int_equal(B->nrx, 8);
+    xfer(B, A, 401, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+/* v1.1 peers: the frame a GAP names as `have` was received (the only one
+ * a v1.1 GAP names): at the timeout only the missing frame goes again. */
+static void test_gap_have_is_held_v11(void **st)
+{
+    (void)st;
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(it2n_link_send(&A->l, &m, 10), 1001 + k);
+        xfer(A, B, 10, k == 0);
+    }
+    xfer(B, A, 11, 0); /* GAP have 1002, GAP have 1003 */
+    xfer(A, B, 11, 1); /* the fast retransmission of 1001 is lost */
+    uint32_t retx = A->l.stats.tx_retx;
+    it2n_link_poll(&A->l, 200);
+    assert_int_equal(A->l.stats.tx_retx, retx + 1); /* 1001 only */
+    assert_int_equal(slot_seq(A, 1002)->tries, 1);
+    assert_int_equal(slot_seq(A, 1003)->tries, 1);
+    xfer(A, B, 200, 0);
+    xfer(B, A, 201, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+/* v1.2: an ACK names the frames ACKed before it, so two lost ACKs cost
+ * no retransmission (before: both frames sent again, rule 4b). */
+static void test_ack_names_acked(void **st)
+{
+    (void)st;
+    v12_pair();
+    it2n_msg m = cfg_msg(1);
+    m.type = IT2N_MSG_COMMIT;
+    m.u.model.model = 1;
+    for (int k = 0; k < 3; k++)
+        assert_true(it2n_link_send(&A->l, &m, 10) >= 0);
+    xfer(A, B, 10, 0);
+    assert_int_equal(B->nrx, 3);
+    /* keep only B's last answer: the ACKs of the first two are lost */
+    size_t k = B->out.len - 1, n = 0;
+    while (k > 0 && n < 1)
+        n += B->out.buf[--k] == 0;
+    memmove(B->out.buf, B->out.buf + k + 1, B->out.len - k - 1);
+    B->out.len -= k + 1;
+    assert_int_equal(frames_in(B), 1);
+    xfer(B, A, 11, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(A->l.stats.rx_acks_implied, 2);
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    assert_int_equal(A->ndone, 3);
+    for (int j = 0; j < 3; j++)
+        assert_int_equal(A->done_code[j], 0);
+}
+
+/* v1.2: a receiver whose application defers its answer (an fsync, a
+ * request queued behind a response run) sends RCVD; the sender does not
+ * resend at the RTO (before: resent at each RTO, issue 17 point 11 and
+ * the spurious retransmissions under CPU load). */
+static void test_rcvd_stops_retransmission(void **st)
+{
+    (void)st;
+    v12_pair();
+    it2n_msg m = cfg_msg(1);
+    m.type = IT2N_MSG_COMMIT;
+    m.u.model.model = 1;
+    B->rx_ret = IT2N_LINK_DEFER;
+    uint16_t seq = (uint16_t)it2n_link_send(&A->l, &m, 10);
+    xfer(A, B, 10, 0);
+    assert_int_equal(B->nrx, 1);
+    assert_int_equal(B->l.stats.tx_rcvd, 1);
+    xfer(B, A, 11, 0);
+    assert_int_equal(A->l.stats.rx_rcvd, 1);
+    for (uint32_t t = 12; t <= 150; t++)
+        it2n_link_poll(&A->l, t); /* past the RTO (100) */
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    assert_int_equal(it2n_link_complete(&B->l, seq, 0, NULL), IT2N_OK);
+    xfer(B, A, 150, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    /* never answered: sent again after twice the deferral seen (139 ms:
+     * RCVD at 11, ACK at 150; its ACK may be lost), and the receiver says
+     * RCVD again */
+    seq = (uint16_t)it2n_link_send(&A->l, &m, 300);
+    xfer(A, B, 300, 0);
+    xfer(B, A, 300, 0);
+    it2n_link_poll(&A->l, 300 + 2 * 139 - 1);
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    it2n_link_poll(&A->l, 300 + 2 * 139 + 1);
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    xfer(A, B, 300 + 2 * 139 + 1, 0);
+    assert_int_equal(B->nrx, 2); /* not delivered again */
+    assert_int_equal(B->l.stats.tx_rcvd, 3);
+}
+
+/* With the line clock, a new frame is written only while at most two
+ * maximum frames wait ahead of it: a retransmission never waits behind a
+ * window of new frames (before: all written at once). */
+static void test_new_frames_wait_for_line(void **st)
+{
+    (void)st;
+    A->l.cfg.baud = 921600;
+    it2n_msg m = cfg_msg(1);
+    it2n_link_send(&A->l, &m, 0);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0);
+    it2n_link_set_peer(&A->l, 16, 0);
+    m = put_msg(19); /* 1 KB */
+    for (int k = 0; k < 8; k++)
+        assert_true(it2n_link_send(&A->l, &m, 10) >= 0);
+    assert_int_equal(frames_in(A), 3); /* two frame times queued, at most */
+    assert_int_equal(it2n_link_pending(&A->l), 8);
+    uint32_t wait = it2n_link_next_timeout(&A->l, 10); /* room in ~1 frame time */
+    assert_true(wait > 0 && wait <= 12);
+    xfer(A, B, 10, 0);
+    /* the line has room again, but frames are kept: a new one waits
+     * behind them (never overtakes one) */
+    assert_true(it2n_link_send(&A->l, &m, 60) >= 0);
+    assert_int_equal(frames_in(A), 0);
+    for (uint32_t t = 11; t < 100; t++) /* before the first RTO */
+        it2n_link_poll(&A->l, t);
+    assert_int_equal(frames_in(A), 6); /* the rest, in order, as the line frees */
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    xfer(A, B, 100, 0);
+    assert_int_equal(B->nrx, 10);
+    assert_int_equal(B->l.stats.rx_buffered, 0); /* none arrived out of order */
+}
+
+/* Raw v1.1 frame into B (payload as given). */
+static void raw_in(uint8_t type, uint8_t flags, uint16_t seq, const uint8_t *p, uint16_t len, uint32_t now)
+{
+    it2n_frame_hdr h = {IT2N_PROTO_VERSION, type, flags, seq, len};
+    uint8_t w[256];
+    int n = it2n_frame_encode(&h, p, len, w, sizeof w);
+    assert_true(n > 0);
+    assert_int_equal(it2n_link_input(&B->l, w, (size_t)n, now), IT2N_OK);
+}
+
+/* The answer B wrote last (ACK or NACK), decoded. */
+static it2n_msg b_answer(void)
+{
+    it2n_frame_decoder d;
+    it2n_msg m;
+    const uint8_t *q = B->out.buf, *pl = NULL;
+    size_t left = B->out.len;
+    memset(&m, 0, sizeof m);
+    it2n_frame_decoder_init(&d);
+    while (left) {
+        it2n_frame_hdr fh;
+        size_t used = 0;
+        if (it2n_frame_decode(&d, q, left, &used, &fh, &pl) == 1)
+            assert_int_equal(it2n_msg_unpack(fh.type, pl, fh.len, &m, NULL), IT2N_OK);
+        q += used;
+        left -= used;
+    }
+    B->out.len = 0;
+    return m;
+}
+
+/* Issue 17 points 1-4 and 17, answered in protocol.md 4.3 and 7: a SYN
+ * frame NACKed as malformed still starts the sequence, `lo` counts from
+ * the message (after the session id), a NACKed frame advances `next`, an
+ * unknown type gets TYPE with lo = hi = 0, a line duplicate of a kept
+ * frame gets no second GAP (a RETX copy does). */
+static void test_rules_left_open(void **st)
+{
+    (void)st;
+    uint8_t p[8] = {0x44, 0x33, 0x22, 0x11, 1, 0, 3, 0}; /* session, CONFIGURE n = 0 */
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL | IT2N_FLAG_SYN, 500, p, 8, 1);
+    it2n_msg a = b_answer();
+    assert_int_equal(a.type, IT2N_MSG_NACK);
+    assert_int_equal(a.u.nack.code, IT2N_PROTO_ERR_FIELD);
+    assert_true(a.u.nack.lo == 1); /* n: offset 1 of the message */
+    assert_int_equal(B->nrx, 0);
+    uint8_t ok[4] = {1, 3, 2, 0};
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL, 501, ok, 4, 2);
+    assert_int_equal(B->nrx, 1); /* the sequence started at 500 */
+    assert_int_equal(B->rx_seq[0], 501);
+    a = b_answer();
+    assert_int_equal(a.type, IT2N_MSG_ACK);
+    raw_in(0x30, IT2N_FLAG_REL, 502, ok, 1, 3); /* a type this receiver does not know */
+    a = b_answer();
+    assert_int_equal(a.u.nack.code, IT2N_PROTO_ERR_TYPE);
+    assert_true(a.u.nack.value == 0x30 && a.u.nack.lo == 0 && a.u.nack.hi == 0);
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL, 504, ok, 4, 4); /* 503 missing */
+    assert_int_equal(B->l.stats.tx_gaps, 1);
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL, 504, ok, 4, 5); /* line duplicate */
+    assert_int_equal(B->l.stats.tx_gaps, 1);
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL | IT2N_FLAG_RETX, 504, ok, 4, 6);
+    assert_int_equal(B->l.stats.tx_gaps, 2);
+    raw_in(IT2N_MSG_CONFIGURE, IT2N_FLAG_REL, 503, ok, 4, 7);
+    assert_int_equal(B->nrx, 3); /* 502 NACKed advanced `next` */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1257,6 +1552,12 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_gap, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_gap_lost, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fresh_receiver_on_stale_syn_beyond, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rules_left_open, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_sack_held_not_resent, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_gap_have_is_held_v11, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_ack_names_acked, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rcvd_stops_retransmission, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_new_frames_wait_for_line, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
 }

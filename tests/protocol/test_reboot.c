@@ -496,7 +496,22 @@ static int ex_srv_rx(void *app, uint16_t seq, const it2n_msg *m)
         it2n_link_send(ex_srv, &h, 0);
         return IT2N_LINK_DEFER;
     }
-    return 0;
+    /* a COMMIT of model 9: the answer is deferred (RCVD) */
+    return m->type == IT2N_MSG_COMMIT && m->u.model.model == 9 ? IT2N_LINK_DEFER : 0;
+}
+
+/* Frame k (0 = first) of out, as ex_out. */
+static void ex_frame(const mem_out *out, unsigned k)
+{
+    size_t a = 0, b;
+    for (; k > 0 && a < out->len; a++)
+        if (out->buf[a] == 0)
+            k--;
+    for (b = a; b < out->len && out->buf[b] != 0; b++)
+        ;
+    assert_true(b < out->len);
+    ex_out.len = b - a + 1;
+    memcpy(ex_out.buf, out->buf + a, ex_out.len);
 }
 
 static int ex_cl_rx(void *app, uint16_t seq, const it2n_msg *m)
@@ -573,7 +588,40 @@ static void test_v12_doc_example(void **st)
     ex_dump("server ACK (session 0x1D2C3B4A, seq 0x0100):");
     assert_int_equal(it2n_link_session(&S->l), 0x1D2C3B4Au);
     it2n_link_input(&C->l, so.buf, so.len, 6);
+    so.len = 0;
     assert_int_equal(it2n_link_pending(&C->l), 0);
+    /* selective acknowledgement: 0x0101 is lost, 0x0102 and 0x0103 kept */
+    m.u.model.model = 3;
+    for (unsigned k = 0; k < 3; k++) {
+        assert_int_equal(it2n_link_send(&C->l, &m, 7), 0x101 + (int)k);
+        if (k == 0)
+            co.len = 0;
+    }
+    it2n_link_input(&S->l, co.buf, co.len, 8);
+    co.len = 0;
+    ex_frame(&so, 1);
+    ex_dump("server GAP (0x0101 lost): misses 0x0101, has just kept 0x0103, holds 0x0102 and 0x0103 (held = 3):");
+    it2n_link_input(&C->l, so.buf, so.len, 9); /* the first GAP brings 0x0101 again */
+    so.len = 0;
+    ex_out = co;
+    ex_dump("client COMMIT 0x0101 again (RETX):");
+    it2n_link_input(&S->l, co.buf, co.len, 10);
+    co.len = 0;
+    ex_frame(&so, 2);
+    ex_dump("server ACK 0x0103, naming 0x0102, 0x0101, 0x0100 ACKed too (acked = 7):");
+    it2n_link_input(&C->l, so.buf, so.len, 11);
+    so.len = 0;
+    assert_int_equal(it2n_link_pending(&C->l), 0);
+    assert_int_equal(C->l.stats.tx_retx, 1);
+    m.u.model.model = 9;
+    assert_int_equal(it2n_link_send(&C->l, &m, 12), 0x104);
+    it2n_link_input(&S->l, co.buf, co.len, 13);
+    co.len = 0;
+    ex_out = so;
+    ex_dump("server RCVD 0x0104 (its answer deferred):");
+    it2n_link_input(&C->l, so.buf, so.len, 14);
+    so.len = 0;
+    assert_int_equal(C->l.stats.rx_rcvd, 1);
 
     /* the block of docs/protocol.md after its marker */
     FILE *f = fopen("docs/protocol.md", "r");

@@ -344,7 +344,7 @@ static int cmd_exceptions(void)
         uint8_t pdu[32];
         int len, code;
     } t[] = {
-        { "read gap after status", { 3, 0, IT2N_REG_STATUS_END, 0, 1 }, 5, 2 },
+        { "read gap after configuration", { 3, 0, IT2N_REG_CONFIG_END, 0, 1 }, 5, 2 },
         { "read past end", { 3, 0x1D, 0x00, 0, 1 }, 5, 2 },
         { "read spans blocks", { 3, 0, 24, 0, 10 }, 5, 2 },
         { "FC04 count 0", { 4, 0, 0, 0, 0 }, 5, 3 },
@@ -364,7 +364,7 @@ static int cmd_exceptions(void)
         { "upload i > n", { 16, 0, 40, 0, 12, 24, 0, 9, 0, 0, 0, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
                             0, 0, 0, 0, 0, 0 }, 30, 3 },
         { "FC16 byte count wrong", { 16, 0, 64, 0, 1, 4, 0, 1, 0, 1 }, 10, 3 },
-        { "FC23 read outside map", { 23, 0, IT2N_REG_STATUS_END, 0, 1, 0, 64, 0, 1, 2, 0, 1 }, 12, 2 },
+        { "FC23 read outside map", { 23, 0, IT2N_REG_CONFIG_END, 0, 1, 0, 64, 0, 1, 2, 0, 1 }, 12, 2 },
     };
     for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
         int code = raw(ctx, t[k].pdu, t[k].len);

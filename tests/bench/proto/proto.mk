@@ -21,12 +21,15 @@ $(PB_SESSION): tests/bench/proto/proto_session.c examples/instrument/synth.c exa
 PB_ENV = BUILD=$(abspath $(BUILD)) IT2ND=$(abspath $(IT2ND)) FAULTRELAY=$(abspath $(PB_RELAY)) \
          PROTO_SESSION=$(abspath $(PB_SESSION))
 
-.PHONY: bench-proto bench-proto-smoke
+.PHONY: bench-proto bench-proto-smoke bench-proto-sack
 bench-proto: $(PB_RELAY) $(PB_SESSION) $(IT2ND) ## Protocol session under 1 %/10 % line faults, durable ingest (bench/proto_loss.json)
 	$(PB_ENV) /usr/bin/python3 tests/bench/proto/bench_proto.py --out bench/proto_loss.json
+
+bench-proto-sack: $(PB_RELAY) $(PB_SESSION) $(IT2ND) ## v1.2 window 16: upload under 10 % faults vs clean, retransmissions under CPU load (bench/proto_sack.json)
+	$(PB_ENV) /usr/bin/python3 tests/bench/proto/bench_proto.py --sack --out bench/proto_sack.json
 
 bench-proto-smoke: $(PB_RELAY) $(PB_SESSION) $(IT2ND)
 	$(PB_ENV) /usr/bin/python3 tests/bench/proto/bench_proto.py --smoke --out $(BUILD)/bench/proto_loss_smoke.json
 
-BENCH_TARGETS += bench-proto
+BENCH_TARGETS += bench-proto bench-proto-sack
 TEST_TARGETS += bench-proto-smoke

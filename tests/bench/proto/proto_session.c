@@ -336,7 +336,13 @@ static int pump(unsigned max_ms)
                         lk.stats.rx_stale_acks - b.rx_stale_acks);
         }
     }
+    uint32_t retx0 = lk.stats.tx_retx;
     it2n_link_poll(&lk, now_ms());
+    if (trace > 2 && lk.stats.tx_retx != retx0)
+        for (unsigned k = 0; k < IT2N_PROTO_WINDOW; k++)
+            if (lk.slot[k].used && lk.slot[k].last == now_ms())
+                fprintf(stderr, "%9.3f retx seq %u tries %u held %u\n", (double)(now_us() - t_start) / 1e3,
+                        lk.slot[k].seq, lk.slot[k].tries, lk.slot[k].held);
     return 0;
 }
 
@@ -514,7 +520,7 @@ int main(int argc, char **argv)
 {
     const char *dev = NULL;
     unsigned n = 7, mdeg = 7, queries = 16, sample = 33, ingest = 0, rto = 0, baud = 0, tries = 100, timeout_s = 300;
-    unsigned window = 4, reconfigure = 0;
+    unsigned window = 4, reconfigure = 0, version = IT2N_PROTO_VERSION;
     int in_fd = -1;
     uint32_t seed = 2026;
     for (int k = 1; k < argc; k++) {
@@ -528,6 +534,7 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--fd")) in_fd = atoi(v);
         else if (!strcmp(a, "--reconfigure")) reconfigure = (unsigned)atoi(v);
         else if (!strcmp(a, "--window")) window = (unsigned)atoi(v);
+        else if (!strcmp(a, "--version")) version = (unsigned)atoi(v);
         else if (!strcmp(a, "--degree")) {
             if (sscanf(v, "%ux%u", &n, &mdeg) != 2) {
                 fprintf(stderr, "proto_session: --degree NxM\n");
@@ -551,10 +558,11 @@ int main(int argc, char **argv)
     if ((!dev) == (in_fd < 0) || window < IT2N_PROTO_WINDOW_MIN || window > IT2N_PROTO_WINDOW ||
         (window & (window - 1)) || n < 1 || n > IT2N_MAX_DEGREE || mdeg < 1 || mdeg > IT2N_MAX_DEGREE ||
         queries > MAX_QUERIES || (sample && (sample < 2 || sample * sample > MAX_NODES)) ||
-        tries < 1 || tries > 255 || model_id > 254) {
+        tries < 1 || tries > 255 || model_id > 254 ||
+        (version != IT2N_PROTO_VERSION && version != IT2N_PROTO_VERSION_12)) {
         fprintf(stderr, "usage: proto_session --device PATH | --fd N [--degree NxM] [--queries Q<=%u] [--sample S]\n"
                         "       [--ingest ROUNDS] [--window 4..%u] [--baud BD] [--rto MS] [--tries N]\n"
-                        "       [--rerequest-ms MS] [--timeout S]\n",
+                        "       [--rerequest-ms MS] [--timeout S] [--version 2|3]\n",
                 MAX_QUERIES, (unsigned)IT2N_PROTO_WINDOW);
         return 2;
     }
@@ -599,6 +607,8 @@ int main(int argc, char **argv)
     cfg.max_tries = (uint8_t)tries;
     cfg.window = (uint8_t)window;
     cfg.first_seq = (uint16_t)((now_us() ^ ((uint64_t)getpid() << 8)) & 0xFFFF);
+    /* --version 3: a v1.2 client (the daemon hands out the session) */
+    cfg.version = (uint8_t)version;
     /* A v1.1 session id (protocol.md 4.2): without one (0) every SYN copy
      * starts a new sequence, so a late duplicate of the first frame would
      * reset the daemon's receiver in the middle of the session. */
@@ -621,8 +631,8 @@ int main(int argc, char **argv)
     do {
         memset(&m, 0, sizeof m);
         m.type = IT2N_MSG_HELLO;
-        m.u.hello.version_min = 1;
-        m.u.hello.version_max = IT2N_PROTO_VERSION;
+        m.u.hello.version_min = version == IT2N_PROTO_VERSION_12 ? IT2N_PROTO_VERSION_12 : 1;
+        m.u.hello.version_max = (uint8_t)version;
         m.u.hello.max_degree = IT2N_MAX_DEGREE;
         m.u.hello.window = it2n_link_window(&lk);
         m.u.hello.caps = IT2N_CAP_INSTRUMENT;
@@ -693,7 +703,8 @@ out:;
            "\"digest\": \"%016llx\", \"mismatches\": %u, \"duplicate_points_differing\": %u, \"refused\": %u, "
            "\"host_rerequests\": %u, \"rerequests_stalled\": %u, \"rerequests_busy\": %u, "
            "\"rerequests_lost\": %u, \"busy_retries\": %u, \"link\": {\"tx_frames\": %u, \"tx_retx\": %u, \"tx_timeouts\": %u, "
-           "\"rx_delivered\": %u, \"rx_dup\": %u, \"rx_ahead\": %u, \"rx_nosync\": %u}, \"window\": %u, "
+           "\"rx_delivered\": %u, \"rx_dup\": %u, \"rx_ahead\": %u, \"rx_nosync\": %u, \"tx_fast_retx\": %u, "
+           "\"tx_resyncs\": %u, \"rx_stale_acks\": %u}, \"window\": %u, \"version\": %u, "
            "\"daemon_window\": %u, \"max_in_flight\": %u}\n",
            rc == 0 ? "true" : "false", rc, wall, t_upload ? (double)(t_upload - t0) / 1e6 : 0.0,
            t_queries ? (double)(t_queries - t_upload) / 1e6 : 0.0,
@@ -703,6 +714,7 @@ out:;
            (unsigned long long)digest, mismatches, dup_diff, refused,
            rereq_timeout + rereq_busy + rereq_lost, rereq_timeout, rereq_busy, rereq_lost,
            busy_retries, lk.stats.tx_frames, lk.stats.tx_retx, lk.stats.tx_timeouts, lk.stats.rx_delivered,
-           lk.stats.rx_dup, lk.stats.rx_ahead, lk.stats.rx_nosync, window, daemon_window, max_in_flight);
+           lk.stats.rx_dup, lk.stats.rx_ahead, lk.stats.rx_nosync, lk.stats.tx_fast_retx, lk.stats.tx_resyncs,
+           lk.stats.rx_stale_acks, window, version, daemon_window, max_in_flight);
     return rc;
 }
