@@ -15,45 +15,19 @@ import sys
 import tempfile
 from fractions import Fraction as Fr
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import e2e as base  # noqa: E402  (check, rows, load, FPS: one copy, tests/cli/e2e.py)
+from e2e import FPS, check, load, rows  # noqa: E402,F401
+
 BIN = sys.argv[1]
-FPS = ["LL", "LR", "L", "D", "R", "RL", "RR"]
 TOL_MEMB = 2e-7
-checks = 0
-failures = []
-
-
-def check(cond, what):
-    global checks
-    checks += 1
-    if not cond:
-        failures.append(what)
-        print("FAIL:", what, file=sys.stderr)
 
 
 def run(*args, stdin=None):
+    # the 256x256 cases need more than e2e.py's 60 s on a loaded machine
     p = subprocess.run([BIN, *args], capture_output=True, text=True,
                        input=stdin, timeout=120)
     return p.returncode, p.stdout, p.stderr
-
-
-def rows(out):
-    lines = out.strip().split("\n")
-    return lines[0], [ln.split(",") for ln in lines[1:]]
-
-
-def load(path):
-    data, hdr = {}, None
-    for line in open(path):
-        line = line.strip()
-        if not line or line.startswith("#"):
-            continue
-        if hdr is None:
-            hdr = line.split(",")
-            continue
-        f = line.split(",")
-        data[(int(f[0]), int(f[1]), f[2])] = {
-            h: Fr(v) for h, v in zip(hdr[3:], f[3:])}
-    return data, "z" in hdr
 
 
 # ---- Exact reference ------------------------------------------------------
@@ -349,8 +323,8 @@ def main():
     rc, out, err = run("check", sv)
     check(rc == 2 and "is not a grid index 0..7" in err, "bezier limit: %s" % err)
 
-    print("e2e_bspline: %d checks, %d failures" % (checks, len(failures)))
-    sys.exit(1 if failures else 0)
+    print("e2e_bspline: %d checks, %d failures" % (base.checks, len(base.failures)))
+    sys.exit(1 if base.failures else 0)
 
 
 if __name__ == "__main__":
