@@ -17,25 +17,17 @@
 #include <strings.h>
 
 #include "acl.h"
+#include "conf_schema.h"
 #include "it2n.h"
 #include "it2n_regmap.h"
 
-/* Where a section's settings came from, for cross-key errors. */
+/* Where a section's settings came from, for cross-key errors: its first
+ * key and the line of each of its keys (0: not in the file), indexed as
+ * the section's keys in the schema. */
 struct origin {
     int first_line;           /* its first key */
     char first_key[CONF_NAME];
-    int unit_line, preload_line, removed_line;
-    int n_line, m_line, kind_line, chord_line; /* [model:] keys checked against kind */
-};
-
-/* Where an [rtu:] section's RS-485 options are, for the checks between
- * them (an option without rs485 = yes, a kernel option with libmodbus RTS). */
-struct rs485_origin {
-    int opt_line;             /* the first rs485_* key */
-    char opt_key[CONF_NAME];
-    int rts_line, delay_us_line;
-    int kernel_line;          /* the first kernel-only key */
-    char kernel_key[CONF_NAME];
+    int line[CONF_SCHEMA_MAX_KEYS];
 };
 
 /* Longest line kept whole (libinih's own limit, INI_MAX_LINE, is 200):
@@ -48,6 +40,8 @@ struct parse {
     int models_set;      /* first [model:N] replaces the default */
     char err[256];
     char sec[64], key[64];  /* where the first error was raised */
+    const char *value;      /* the value refused, for "did you mean" */
+    const struct conf_key *err_key;
     int err_line, syntax;
     /* Lines are counted here (the reader), not by libinih, so a message
      * always names the physical line. */
@@ -68,11 +62,10 @@ struct parse {
     char sec_name[CONF_LINE_CAP]; /* whole: reader() refuses longer lines */
     int empty_line;           /* first empty section's header line     */
     char empty_name[CONF_LINE_CAP];
-    int max_models_line, grid_line, default_model_line;
-    char grid_key[CONF_NAME];
+    /* Origins: one per section of a single kind (by enum conf_sec), one
+     * per instance of the named kinds. */
+    struct origin single[CONF_SEC_METRICS + 1];
     struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS], listen[CONF_MAX_LISTEN];
-    int listen_addr_line[CONF_MAX_LISTEN]; /* 0: the listener has no address yet */
-    struct rs485_origin rs485[CONF_MAX_RTU];
     /* Every (section, key) set so far, for duplicate keys (heap, freed
      * with the parse). */
     struct seen_key { char sec[64], key[64]; int line; } *seen;
@@ -81,12 +74,10 @@ struct parse {
 
 /* A key given twice in one section (or in two sections of the same name)
  * would silently take the last value: an error naming the first line.
- * tcp_listen and allow add up and may repeat. Returns that first line. */
+ * Keys the schema marks repeatable add up instead. Returns that first
+ * line. */
 static int duplicate_key(struct parse *p, const char *section, const char *name)
 {
-    if ((!strcmp(section, "modbus") && !strcmp(name, "tcp_listen")) ||
-        (!strncmp(section, "listen:", 7) && !strcmp(name, "allow")))
-        return 0;
     for (int k = 0; k < p->nseen; k++)
         if (!strcmp(p->seen[k].sec, section) && !strcmp(p->seen[k].key, name))
             return p->seen[k].line;
@@ -107,21 +98,12 @@ static int duplicate_key(struct parse *p, const char *section, const char *name)
 static int parse_int(const char *v, long lo, long hi, int *out)
 {
     char *end;
-    long x = strtol(v, &end, 0);
-    if (!*v || *end || x < lo || x > hi)
+    long x;
+    errno = 0;
+    x = strtol(v, &end, 10);
+    if (!*v || *end || errno || x < lo || x > hi)
         return -1;
     *out = (int)x;
-    return 0;
-}
-
-static int parse_bool(const char *v, int *out)
-{
-    if (!strcasecmp(v, "yes") || !strcasecmp(v, "true") || !strcmp(v, "1") || !strcasecmp(v, "on"))
-        *out = 1;
-    else if (!strcasecmp(v, "no") || !strcasecmp(v, "false") || !strcmp(v, "0") || !strcasecmp(v, "off"))
-        *out = 0;
-    else
-        return -1;
     return 0;
 }
 
@@ -168,17 +150,6 @@ static int parse_listen(const char *v, struct conf_listen *l)
     return 0;
 }
 
-static int parse_order(const char *v, int *out)
-{
-    static const char *const names[] = { "ABCD", "CDAB", "BADC", "DCBA" };
-    for (int k = 0; k < 4; k++)
-        if (!strcasecmp(v, names[k])) {
-            *out = k;
-            return 0;
-        }
-    return -1;
-}
-
 static int parse_usb(const char *v, struct conf_link *l)
 {
     unsigned vid, pid;
@@ -194,361 +165,313 @@ static int parse_usb(const char *v, struct conf_link *l)
 }
 
 #define FAIL(...) do { snprintf(p->err, sizeof p->err, __VA_ARGS__); p->err_line = p->line; return 0; } while (0)
+#define WHY(...) do { snprintf(why, whysize, __VA_ARGS__); return -1; } while (0)
+#define PORT0_WHY "port 0: expected a port 1..65535 (0 would be a random port no client knows)"
 
-static void note(struct parse *p, struct origin *o, const char *name)
+/* The values of the compound types (a listener, an allow-list, ...) into
+ * their section's struct at base. 0, or -1 with the reason in why. */
+static int set_compound(struct parse *p, void *base, const struct conf_key *k, const char *v, int line, char *why,
+                        size_t whysize)
 {
-    if (!o->first_line) {
-        o->first_line = p->line;
-        snprintf(o->first_key, sizeof o->first_key, "%s", name);
-    }
-    if (!strcmp(name, "unit_id"))
-        o->unit_line = p->line;
-    else if (!strcmp(name, "preload"))
-        o->preload_line = p->line;
-    else if (!strcmp(name, "removed"))
-        o->removed_line = p->line;
-    else if (!strcmp(name, "n"))
-        o->n_line = p->line;
-    else if (!strcmp(name, "m"))
-        o->m_line = p->line;
-    else if (!strcmp(name, "kind"))
-        o->kind_line = p->line;
-    else if (!strcmp(name, "chord"))
-        o->chord_line = p->line;
-}
-
-static void note_rs485(const struct parse *p, struct rs485_origin *o, const char *name)
-{
-    if (strncmp(name, "rs485_", 6))
-        return;
-    if (!o->opt_line) {
-        o->opt_line = p->line;
-        snprintf(o->opt_key, sizeof o->opt_key, "%s", name);
-    }
-    if (!strcmp(name, "rs485_rts"))
-        o->rts_line = p->line;
-    else if (!strcmp(name, "rs485_rts_delay_us"))
-        o->delay_us_line = p->line;
-    else if (strcmp(name, "rs485_strict") && !o->kernel_line) {
-        o->kernel_line = p->line;
-        snprintf(o->kernel_key, sizeof o->kernel_key, "%s", name);
-    }
-}
-
-static int key_daemon(struct parse *p, const char *name, const char *v)
-{
-    struct conf *c = &p->c;
-    if (!strcmp(name, "state_dir")) {
-        if (copy_str(c->state_dir, sizeof c->state_dir, v))
-            FAIL("path empty or too long");
-    } else if (!strcmp(name, "snapshot_interval")) {
-        if (parse_int(v, 1, 86400, &c->snapshot_interval))
-            FAIL("expected seconds 1..86400");
-    } else if (!strcmp(name, "fsync")) {
-        if (parse_bool(v, &c->fsync))
-            FAIL("expected yes or no");
-    } else if (!strcmp(name, "max_models")) {
-        if (parse_int(v, 1, CONF_MAX_MODELS, &c->max_models))
-            FAIL("expected 1..%d", CONF_MAX_MODELS);
-    } else if (!strcmp(name, "link_backoff_max")) {
-        if (parse_int(v, 1, 3600, &c->link_backoff_max))
-            FAIL("expected seconds 1..3600");
-    } else if (!strcmp(name, "user")) {
-        /* Resolved now, so a typo is a config error with file:line rather
-         * than a failure after the sockets are open. */
-        const struct passwd *pw = getpwnam(v);
-        if (copy_str(c->user, sizeof c->user, v))
-            FAIL("name empty or too long");
-        if (!pw)
-            FAIL("unknown user '%s'", v);
-        c->uid = (unsigned)pw->pw_uid;
-        c->gid = (unsigned)pw->pw_gid;
-    } else {
-        FAIL("unknown key");
-    }
-    return 1;
-}
-
-static int key_modbus(struct parse *p, const char *name, const char *v)
-{
-    struct conf *c = &p->c;
-    if (!strcmp(name, "tcp_listen")) {
-        if (!p->listen_set) {
+    int rc;
+    switch (k->type) {
+    case CONF_T_LISTEN: { /* [modbus] tcp_listen: one more listener */
+        struct conf *c = base;
+        if (p && !p->listen_set) { /* the file's first replaces the default */
             c->nlisten = 0;
             p->listen_set = 1;
         }
         if (!strcasecmp(v, "none"))
-            return 1;
+            return 0;
         if (c->nlisten == CONF_MAX_LISTEN)
-            FAIL("more than %d listen addresses", CONF_MAX_LISTEN);
+            WHY("more than %d listen addresses", CONF_MAX_LISTEN);
         memset(&c->listen[c->nlisten], 0, sizeof c->listen[c->nlisten]);
-        int rc = parse_listen(v, &c->listen[c->nlisten]);
+        rc = parse_listen(v, &c->listen[c->nlisten]);
         if (rc == -2)
-            FAIL("port 0: expected a port 1..65535 (0 would be a random port no client knows)");
+            WHY(PORT0_WHY);
         if (rc)
-            FAIL("expected host:port, [v6addr]:port or :port");
-        c->listen[c->nlisten].line = p->line;
-        p->listen_addr_line[c->nlisten] = p->line;
-        c->nlisten++;
-    } else if (!strcmp(name, "max_clients")) {
-        if (parse_int(v, 1, 512, &c->max_clients))
-            FAIL("expected 1..512");
-    } else if (!strcmp(name, "max_pending")) {
-        if (parse_int(v, 16, 65536, &c->max_pending))
-            FAIL("expected 16..65536");
-    } else if (!strcmp(name, "idle_timeout")) {
-        if (parse_int(v, 1, 86400, &c->idle_timeout))
-            FAIL("expected seconds 1..86400");
-    } else if (!strcmp(name, "byte_timeout")) {
-        if (parse_int(v, 10, 60000, &c->byte_timeout))
-            FAIL("expected milliseconds 10..60000");
-    } else if (!strcmp(name, "tcp_keepalive")) {
-        if (parse_int(v, 0, 7200, &c->tcp_keepalive))
-            FAIL("expected seconds 0..7200 (0: off)");
-    } else if (!strcmp(name, "evict_idle")) {
-        if (parse_int(v, 0, 86400000, &c->evict_idle))
-            FAIL("expected milliseconds 0..86400000");
-    } else if (!strcmp(name, "float_word_order")) {
-        if (parse_order(v, &c->word_order))
-            FAIL("expected ABCD, CDAB, BADC or DCBA");
-    } else if (!strcmp(name, "int32_word_order")) {
-        if (!strcasecmp(v, "float"))
-            c->int32_word_order = -1;
-        else if (parse_order(v, &c->int32_word_order))
-            FAIL("expected float (as float_word_order), ABCD, CDAB, BADC or DCBA");
-    } else if (!strcmp(name, "default_model")) {
-        if (!strcasecmp(v, "auto"))
-            c->default_model = CONF_DEFAULT_AUTO;
-        else if (!strcasecmp(v, "none"))
-            c->default_model = CONF_DEFAULT_NONE;
-        else if (parse_int(v, 0, 254, &c->default_model))
-            FAIL("expected auto, none or a model id 0..254");
-        p->default_model_line = p->line;
-    } else if (!strcmp(name, "coord_scale")) {
-        if (parse_int(v, 1, 10000, &c->coord_scale))
-            FAIL("expected 1..10000");
-    } else if (!strcmp(name, "grid_rows")) {
-        if (parse_int(v, 2, 16, &c->grid_rows))
-            FAIL("expected 2..16");
-    } else if (!strcmp(name, "grid_cols")) {
-        if (parse_int(v, 2, 16, &c->grid_cols))
-            FAIL("expected 2..16");
-    } else {
-        FAIL("unknown key");
+            WHY("expected host:port, [v6addr]:port or :port");
+        c->listen[c->nlisten++].line = line;
+        return 0;
     }
-    return 1;
-}
-
-/* [listen:NAME]: one TCP listener with its access policy. */
-static int key_listen(struct parse *p, int k, const char *name, const char *v)
-{
-    struct conf_listen *l = &p->c.listen[k];
-    if (!strcmp(name, "address")) {
+    case CONF_T_ADDR: { /* [listen:NAME] address */
+        struct conf_listen *l = base;
         char nm[CONF_NAME];
         memcpy(nm, l->name, sizeof nm);
-        int rc = parse_listen(v, l);
-        if (rc == -2)
-            FAIL("port 0: expected a port 1..65535 (0 would be a random port no client knows)");
-        if (rc)
-            FAIL("expected host:port, [v6addr]:port or :port");
+        rc = parse_listen(v, l);
         memcpy(l->name, nm, sizeof nm);
-        l->line = p->line;
-        p->listen_addr_line[k] = p->line;
-    } else if (!strcmp(name, "allow")) {
-        char buf[256], *tok, *save = NULL, why[160];
-        snprintf(buf, sizeof buf, "%s", v);
-        if (!v[strspn(v, ", \t")]) /* "allow =" must not read as "everyone" */
-            FAIL("expected IPv4/IPv6 addresses or prefixes");
-        for (tok = strtok_r(buf, ", \t", &save); tok; tok = strtok_r(NULL, ", \t", &save)) {
-            if (l->nallow == CONF_MAX_ALLOW)
-                FAIL("more than %d allow entries in this section", CONF_MAX_ALLOW);
-            if (conf_parse_prefix(tok, &l->allow[l->nallow], why, sizeof why))
-                FAIL("%s", why);
-            l->nallow++;
-        }
-    } else if (!strcmp(name, "read_only")) {
-        if (parse_bool(v, &l->read_only))
-            FAIL("expected yes or no");
-    } else {
-        FAIL("unknown key");
+        if (rc == -2)
+            WHY(PORT0_WHY);
+        if (rc)
+            WHY("expected host:port, [v6addr]:port or :port");
+        l->line = line;
+        return 0;
     }
-    return 1;
-}
-
-static int key_rtu(struct parse *p, struct conf_rtu *r, const char *name, const char *v)
-{
-    if (!strcmp(name, "device")) {
-        if (copy_str(r->device, sizeof r->device, v))
-            FAIL("path empty or too long");
-        r->device_line = p->line;
-    } else if (!strcmp(name, "baud")) {
-        if (parse_int(v, 1200, 4000000, &r->baud))
-            FAIL("expected 1200..4000000");
-    } else if (!strcmp(name, "parity")) {
-        if (!strcasecmp(v, "none") || !strcasecmp(v, "N"))
-            r->parity = 'N';
-        else if (!strcasecmp(v, "even") || !strcasecmp(v, "E"))
-            r->parity = 'E';
-        else if (!strcasecmp(v, "odd") || !strcasecmp(v, "O"))
-            r->parity = 'O';
-        else
-            FAIL("expected none, even or odd");
-    } else if (!strcmp(name, "stop_bits")) {
-        if (parse_int(v, 1, 2, &r->stop_bits))
-            FAIL("expected 1 or 2");
-    } else if (!strcmp(name, "read_only")) {
-        if (parse_bool(v, &r->read_only))
-            FAIL("expected yes or no");
-    } else if (!strcmp(name, "t35_us")) {
-        if (!strcasecmp(v, "auto"))
-            r->t35_us = 0;
-        else if (parse_int(v, 500, 1000000, &r->t35_us))
-            FAIL("expected auto or microseconds 500..1000000");
-    } else if (!strcmp(name, "rs485")) {
-        if (parse_bool(v, &r->rs485))
-            FAIL("expected yes or no");
-    } else if (!strcmp(name, "rs485_rts")) {
-        if (!strcasecmp(v, "none"))
-            r->rts = CONF_RTS_NONE;
-        else if (!strcasecmp(v, "up"))
-            r->rts = CONF_RTS_UP;
-        else if (!strcasecmp(v, "down"))
-            r->rts = CONF_RTS_DOWN;
-        else
-            FAIL("expected none, up or down");
-    } else if (!strcmp(name, "rs485_rts_delay_us")) {
-        if (parse_int(v, 0, CONF_RTS_DELAY_US_MAX, &r->rts_delay_us))
-            FAIL("expected microseconds 0..%d", CONF_RTS_DELAY_US_MAX);
-    } else if (!strcmp(name, "rs485_rts_on_send")) {
-        if (!strcasecmp(v, "high"))
-            r->rts_on_send = 1;
-        else if (!strcasecmp(v, "low"))
-            r->rts_on_send = 0;
-        else
-            FAIL("expected high or low");
-    } else if (!strcmp(name, "rs485_delay_before_send_ms") || !strcmp(name, "rs485_delay_after_send_ms")) {
-        int *d = !strcmp(name, "rs485_delay_before_send_ms") ? &r->delay_before_ms : &r->delay_after_ms;
-        if (parse_int(v, 0, CONF_RS485_DELAY_MS_MAX, d))
-            FAIL("expected milliseconds 0..%d (the kernel's limit)", CONF_RS485_DELAY_MS_MAX);
-    } else if (!strcmp(name, "rs485_termination")) {
-        if (parse_bool(v, &r->termination))
-            FAIL("expected yes or no");
-    } else if (!strcmp(name, "rs485_strict")) {
-        if (parse_bool(v, &r->strict))
-            FAIL("expected yes or no");
-    } else {
-        FAIL("unknown key");
-    }
-    return 1;
-}
-
-static int key_model(struct parse *p, struct conf_model *m, const char *name, const char *v)
-{
-    int b;
-    if (!strcmp(name, "unit_id")) {
-        if (parse_int(v, 1, 247, &m->unit))
-            FAIL("expected 1..247");
-    } else if (!strcmp(name, "n") || !strcmp(name, "m")) {
-        /* The kind's own limit is checked once the section is read (kind
-         * may come after n and m). */
-        if (parse_int(v, 1, IT2N_BSPLINE_MAX_N, name[0] == 'n' ? &m->n : &m->m))
-            FAIL("expected 1..%d (bezier: 1..%d)", IT2N_BSPLINE_MAX_N, IT2N_MAX_DEGREE);
-        m->set |= name[0] == 'n' ? CONF_SET_N : CONF_SET_M;
-    } else if (!strcmp(name, "kind")) {
-        if (!strcmp(v, "bezier"))
-            m->kind = CONF_KIND_BEZIER;
-        else if (!strcmp(v, "bspline"))
-            m->kind = CONF_KIND_BSPLINE;
-        else
-            FAIL("expected bezier or bspline");
-        m->set |= CONF_SET_KIND;
-    } else if (!strcmp(name, "z") || !strcmp(name, "type1") || !strcmp(name, "chord")) {
-        unsigned bit = name[0] == 'z' ? IT2N_F_Z : name[0] == 't' ? IT2N_F_TYPE1 : IT2N_F_CHORD;
-        if (parse_bool(v, &b))
-            FAIL("expected yes or no");
-        m->flags = b ? (m->flags | bit) : (m->flags & ~bit);
-        m->set |= name[0] == 'z' ? CONF_SET_Z : name[0] == 't' ? CONF_SET_TYPE1 : CONF_SET_CHORD;
-    } else if (!strcmp(name, "write_protect")) {
-        if (parse_bool(v, &m->write_protect))
-            FAIL("expected yes or no");
-    } else if (!strcmp(name, "preload")) {
-        if (!strcmp(v, "paper"))
-            m->preload = 1;
-        else if (!strcmp(v, "none"))
-            m->preload = 0;
-        else
-            FAIL("expected paper or none");
-    } else if (!strcmp(name, "removed")) {
-        if (parse_bool(v, &m->removed))
-            FAIL("expected yes or no");
-    } else {
-        FAIL("unknown key");
-    }
-    return 1;
-}
-
-static int key_link(struct parse *p, struct conf_link *l, const char *name, const char *v)
-{
-    if (!strcmp(name, "type")) {
-        if (!strcmp(v, "serial"))
-            l->type = CONF_LINK_SERIAL;
-        else if (!strcmp(v, "usb"))
-            l->type = CONF_LINK_USB;
-        else
-            FAIL("expected serial or usb");
-    } else if (!strcmp(name, "device")) {
-        if (copy_str(l->device, sizeof l->device, v))
-            FAIL("path empty or too long");
-        l->device_line = p->line;
-    } else if (!strcmp(name, "baud")) {
-        if (parse_int(v, 1200, 4000000, &l->baud))
-            FAIL("expected 1200..4000000");
-    } else if (!strcmp(name, "usb")) {
-        if (parse_usb(v, l))
-            FAIL("expected VID:PID[:serial] in hex");
-    } else if (!strcmp(name, "rto_ms")) {
-        if (parse_int(v, 1, 60000, &l->rto_ms))
-            FAIL("expected 1..60000 (ms)");
-    } else if (!strcmp(name, "peer_timeout_ms")) {
-        if (parse_int(v, 100, 3600000, &l->peer_timeout_ms))
-            FAIL("expected 100..3600000 (ms)");
-    } else {
-        FAIL("unknown key");
-    }
-    return 1;
-}
-
-/* [metrics]: the Prometheus endpoint, off unless listen is given. */
-static int key_metrics(struct parse *p, const char *name, const char *v)
-{
-    struct conf_metrics *m = &p->c.metrics;
-    if (!strcmp(name, "listen")) {
+    case CONF_T_ENDPOINT: { /* [metrics] listen */
+        struct conf_metrics *m = base;
         struct conf_listen l;
-        int rc;
         memset(&l, 0, sizeof l);
         if (!strcasecmp(v, "none")) {
             memset(m, 0, sizeof *m);
-            return 1;
+            return 0;
         }
         rc = parse_listen(v, &l);
         if (rc == -2)
-            FAIL("port 0: expected a port 1..65535 (Prometheus must know where to scrape)");
+            WHY("port 0: expected a port 1..65535 (Prometheus must know where to scrape)");
         if (rc)
-            FAIL("expected host:port, [v6addr]:port, :port or none");
+            WHY("expected host:port, [v6addr]:port, :port or none");
         memcpy(m->host, l.host, sizeof m->host);
         memcpy(m->port, l.port, sizeof m->port);
-        m->line = p->line;
-    } else {
-        FAIL("unknown key");
+        return 0;
     }
-    return 1;
+    case CONF_T_ALLOW: {
+        struct conf_listen *l = base;
+        char buf[256], *tok, *save = NULL, reason[160];
+        snprintf(buf, sizeof buf, "%s", v);
+        if (!v[strspn(v, ", \t")]) /* "allow =" must not read as "everyone" */
+            WHY("expected IPv4/IPv6 addresses or prefixes");
+        for (tok = strtok_r(buf, ", \t", &save); tok; tok = strtok_r(NULL, ", \t", &save)) {
+            if (l->nallow == CONF_MAX_ALLOW)
+                WHY("more than %d allow entries in this section", CONF_MAX_ALLOW);
+            if (conf_parse_prefix(tok, &l->allow[l->nallow], reason, sizeof reason))
+                WHY("%s", reason);
+            l->nallow++;
+        }
+        return 0;
+    }
+    case CONF_T_USB:
+        if (parse_usb(v, base))
+            WHY("expected VID:PID[:serial] in hex");
+        return 0;
+    case CONF_T_USER: {
+        /* Resolved now, so a typo is a config error with file:line rather
+         * than a failure after the sockets are open. */
+        struct conf *c = base;
+        const struct passwd *pw = getpwnam(v);
+        if (copy_str(c->user, sizeof c->user, v))
+            WHY("name empty or too long");
+        if (!pw)
+            WHY("unknown user '%s'", v);
+        c->uid = (unsigned)pw->pw_uid;
+        c->gid = (unsigned)pw->pw_gid;
+        return 0;
+    }
+    case CONF_T_BROKER:
+        if (spb_conf_parse_broker(base, v))
+            WHY("expected host:port, [v6addr]:port or host (port 1883)");
+        return 0;
+    case CONF_T_SECRET:
+        return spb_conf_read_password(base, v, why, whysize);
+    default:
+        WHY("(no parser for this key's type)");
+    }
 }
 
-/* Named sections "kind:NAME": find or create the entry for NAME. */
+/* Store value v of key k into its section's struct at base: the one way
+ * every key of every section is read (and every default set). p is NULL
+ * for a default. 0, or -1 with the reason in why. */
+static int set_value(struct parse *p, const struct conf_section *s, void *base, const struct conf_key *k,
+                     const char *v, int line, char *why, size_t whysize)
+{
+    char *at = (char *)base + k->off;
+    long x;
+    switch (k->type) {
+    case CONF_T_INT:
+    case CONF_T_ENUM:
+    case CONF_T_BOOL:
+    case CONF_T_FLAG:
+        if (conf_schema_number(k, v, &x)) {
+            conf_schema_expect(k, why, whysize);
+            return -1;
+        }
+        if (k->type == CONF_T_FLAG) {
+            unsigned *u = (unsigned *)(void *)at;
+            *u = x ? (*u | k->bit) : (*u & ~k->bit);
+        } else if (k->size == sizeof(char)) {
+            *at = (char)x;
+        } else {
+            *(int *)(void *)at = (int)x;
+        }
+        break;
+    case CONF_T_STR:
+    case CONF_T_SPB_ID:
+        if (k->type == CONF_T_SPB_ID ? !spb_conf_valid_id(v) : copy_str(at, k->size, v))
+            WHY(k->type == CONF_T_SPB_ID ? "expected 1..%zu printable ASCII characters without '/', '+', '#' or blanks"
+                                         : "expected 1..%zu characters", k->size - 1);
+        snprintf(at, k->size, "%s", v);
+        break;
+    case CONF_T_PATH:
+    case CONF_T_FILE:
+        if (copy_str(at, k->size, v))
+            WHY("path empty or too long");
+        if (k->type == CONF_T_FILE && p) {
+            /* Readable now (what it holds is checked later, e.g. by
+             * spb_conf_check_tls). */
+            FILE *f = fopen(v, "r");
+            if (!f)
+                WHY("cannot open '%s': %s", v, strerror(errno));
+            fclose(f);
+        }
+        break;
+    default:
+        if (set_compound(p, base, k, v, line, why, whysize))
+            return -1;
+        break;
+    }
+    if (!p)
+        return 0;
+    if (k->line_off)
+        *(int *)(void *)((char *)base + k->line_off - 1) = line;
+    if (k->set && s->set_off)
+        *(unsigned *)(void *)((char *)base + s->set_off - 1) |= k->set;
+    return 0;
+}
+
+/* A new section instance (or the whole conf for the single kinds) gets
+ * each key's default from the schema. */
+static void set_defaults(const struct conf_section *s, void *base)
+{
+    char why[160];
+    for (int k = 0; k < s->nkeys; k++) {
+        const struct conf_key *key = &s->keys[k];
+        if (key->def)
+            set_value(NULL, s, base, key, key->def, 0, why, sizeof why);
+        else if (key->unset && (key->type == CONF_T_INT || key->type == CONF_T_ENUM || key->type == CONF_T_BOOL))
+            *(int *)(void *)((char *)base + key->off) = key->unset;
+    }
+}
+
+static const struct conf_section *section_of(enum conf_sec id)
+{
+    int n;
+    const struct conf_section *s = conf_schema_sections(&n);
+    for (int k = 0; k < n; k++)
+        if (s[k].id == id)
+            return &s[k];
+    return NULL;
+}
+
+/* The line of key `name` in a section with origin o (0: not given). */
+static int key_line(const struct origin *o, enum conf_sec id, const char *name)
+{
+    int idx = 0;
+    if (!conf_schema_key(section_of(id), name, &idx))
+        return 0;
+    return o->line[idx];
+}
+
+_Static_assert(offsetof(struct conf_listen, name) == 0 && offsetof(struct conf_rtu, name) == 0 &&
+               offsetof(struct conf_link, name) == 0, "named() finds an instance by the name it starts with");
+
+/* Index of the named instance `name` in names[0..*n) (a stride of `size`
+ * bytes), created with its defaults if new; -1 with p->err when full. */
+static int named(struct parse *p, const struct conf_section *s, void *array, size_t size, int *n, int max,
+                 const char *name, struct origin *org)
+{
+    char *a = array;
+    int k;
+    for (k = 0; k < *n; k++)
+        if (!strcmp(a + (size_t)k * size, name)) /* each struct starts with its name */
+            return k;
+    if (k == max) {
+        snprintf(p->err, sizeof p->err, "more than %d [%s%s] sections", max, s->name, s->arg);
+        p->err_line = p->line;
+        return -1;
+    }
+    memset(a + (size_t)k * size, 0, size);
+    if (copy_str(a + (size_t)k * size, CONF_NAME, name)) {
+        snprintf(p->err, sizeof p->err, "section name too long");
+        p->err_line = p->line;
+        return -1;
+    }
+    memset(&org[k], 0, sizeof org[k]);
+    set_defaults(s, a + (size_t)k * size);
+    (*n)++;
+    return k;
+}
+
+/* The struct the keys of section `section` (of kind s) go to, and its
+ * origin; NULL with p->err set when the section cannot be had. */
+static void *instance(struct parse *p, const struct conf_section *s, const char *section, struct origin **o)
+{
+    struct conf *c = &p->c;
+    const char *arg = section + strlen(s->name);
+    int k, id;
+    switch (s->id) {
+    case CONF_SEC_LISTEN:
+        if (!p->listen_set) { /* the first [listen:] replaces the default */
+            c->nlisten = 0;
+            p->listen_set = 1;
+        }
+        k = named(p, s, c->listen, sizeof c->listen[0], &c->nlisten, CONF_MAX_LISTEN, arg, p->listen);
+        if (k < 0)
+            return NULL;
+        *o = &p->listen[k];
+        return &c->listen[k];
+    case CONF_SEC_RTU:
+        if ((k = named(p, s, c->rtu, sizeof c->rtu[0], &c->nrtu, CONF_MAX_RTU, arg, p->rtu)) < 0)
+            return NULL;
+        *o = &p->rtu[k];
+        return &c->rtu[k];
+    case CONF_SEC_LINK:
+        if ((k = named(p, s, c->link, sizeof c->link[0], &c->nlinks, CONF_MAX_LINKS, arg, p->link)) < 0)
+            return NULL;
+        *o = &p->link[k];
+        return &c->link[k];
+    case CONF_SEC_MODEL:
+        if (parse_int(arg, 0, 254, &id)) {
+            snprintf(p->err, sizeof p->err, "model section must be [model:ID], ID 0..254 (the model id on the links)");
+            p->err_line = p->line;
+            return NULL;
+        }
+        if (!p->models_set) { /* the first [model:] replaces the default */
+            c->nmodels = 0;
+            p->models_set = 1;
+        }
+        for (k = 0; k < c->nmodels && c->model[k].id != id; k++)
+            ;
+        if (k == c->nmodels) {
+            if (k == CONF_MAX_MODELS) {
+                snprintf(p->err, sizeof p->err, "more than %d models", CONF_MAX_MODELS);
+                p->err_line = p->line;
+                return NULL;
+            }
+            memset(&c->model[k], 0, sizeof c->model[k]);
+            memset(&p->model[k], 0, sizeof p->model[k]);
+            set_defaults(s, &c->model[k]);
+            c->model[k].id = id;
+            c->model[k].unit = id >= 1 && id <= 247 ? id : 0;
+            c->nmodels++;
+        }
+        *o = &p->model[k];
+        return &c->model[k];
+    case CONF_SEC_SPARKPLUG:
+        if (!c->spb.enabled) {
+            c->spb.enabled = 1;
+            c->spb.first_line = p->line;
+            snprintf(c->spb.first_key, sizeof c->spb.first_key, "%.*s", (int)sizeof c->spb.first_key - 1, p->key);
+        }
+        *o = &p->single[s->id];
+        return &c->spb;
+    case CONF_SEC_METRICS:
+        *o = &p->single[s->id];
+        return &c->metrics;
+    default: /* [daemon], [modbus]: fields of struct conf itself */
+        *o = &p->single[s->id];
+        return c;
+    }
+}
+
+/* One "key = value" of the file: through the schema into the conf. */
 static int handler(void *user, const char *section, const char *name, const char *value)
 {
     struct parse *p = user;
-    struct conf *c = &p->c;
+    const struct conf_section *s;
+    const struct conf_key *k;
+    struct origin *o = NULL;
+    char why[200];
+    void *base;
+    int idx = 0;
     if (!name)  /* section start without keys (INI_CALL_HANDLER_ON_NEW_SECTION) */
         return 1;
     if (p->err[0])  /* libinih goes on after an error: keep the first */
@@ -559,154 +482,51 @@ static int handler(void *user, const char *section, const char *name, const char
     }
     snprintf(p->sec, sizeof p->sec, "%s", section);
     snprintf(p->key, sizeof p->key, "%s", name);
+    p->value = value;
     p->sec_keys++;
     p->nkeys++;
-    {
+    s = conf_schema_section(section);
+    k = conf_schema_key(s, name, &idx);
+    if (!k || !(k->flags & CONF_K_REPEAT)) {
         int first = duplicate_key(p, section, name);
         if (first)
             FAIL("duplicate key (first set on line %d)", first);
     }
-    if (!strcmp(section, "daemon")) {
-        if (!strcmp(name, "max_models"))
-            p->max_models_line = p->line;
-        return key_daemon(p, name, value);
+    if (!s)
+        FAIL("unknown section");
+    if (!(base = instance(p, s, section, &o)))
+        return 0;
+    if (!k)
+        FAIL("unknown key");
+    if (!o->first_line) {
+        o->first_line = p->line;
+        snprintf(o->first_key, sizeof o->first_key, "%s", name);
     }
-    if (!strcmp(section, "modbus")) {
-        if (!strcmp(name, "grid_rows") || !strcmp(name, "grid_cols")) {
-            p->grid_line = p->line;
-            snprintf(p->grid_key, sizeof p->grid_key, "%s", name);
-        }
-        return key_modbus(p, name, value);
+    if (set_value(p, s, base, k, value, p->line, why, sizeof why)) {
+        p->err_key = k;
+        FAIL("%s", why);
     }
-    if (!strcmp(section, "sparkplug")) {
-        if (spb_conf_key(&c->spb, name, value, p->line, p->err, sizeof p->err))
-            p->err_line = p->line;
-        return !p->err[0];
-    }
-    if (!strcmp(section, "metrics"))
-        return key_metrics(p, name, value);
-    if (!strncmp(section, "listen:", 7) && section[7]) {
-        int k;
-        if (!p->listen_set) {
-            c->nlisten = 0;
-            p->listen_set = 1;
-        }
-        for (k = 0; k < c->nlisten; k++)
-            if (!strcmp(c->listen[k].name, section + 7))
-                break;
-        if (k == c->nlisten) {
-            if (k == CONF_MAX_LISTEN)
-                FAIL("more than %d listen addresses", CONF_MAX_LISTEN);
-            memset(&c->listen[k], 0, sizeof c->listen[k]);
-            if (copy_str(c->listen[k].name, sizeof c->listen[k].name, section + 7))
-                FAIL("section name too long");
-            p->listen_addr_line[k] = 0;
-            memset(&p->listen[k], 0, sizeof p->listen[k]);
-            c->nlisten++;
-        }
-        note(p, &p->listen[k], name);
-        return key_listen(p, k, name, value);
-    }
-    if (!strncmp(section, "rtu:", 4) && section[4]) {
-        int k;
-        for (k = 0; k < c->nrtu; k++)
-            if (!strcmp(c->rtu[k].name, section + 4))
-                break;
-        if (k == c->nrtu) {
-            if (k == CONF_MAX_RTU)
-                FAIL("more than %d [rtu:] sections", CONF_MAX_RTU);
-            memset(&c->rtu[k], 0, sizeof c->rtu[k]);
-            if (copy_str(c->rtu[k].name, sizeof c->rtu[k].name, section + 4))
-                FAIL("section name too long");
-            c->rtu[k].baud = 19200;
-            c->rtu[k].parity = 'E';
-            c->rtu[k].stop_bits = 1;
-            c->rtu[k].rts_delay_us = -1;
-            c->rtu[k].rts_on_send = -1;
-            c->rtu[k].delay_before_ms = -1;
-            c->rtu[k].delay_after_ms = -1;
-            c->rtu[k].termination = -1;
-            c->nrtu++;
-        }
-        note(p, &p->rtu[k], name);
-        note_rs485(p, &p->rs485[k], name);
-        return key_rtu(p, &c->rtu[k], name, value);
-    }
-    if (!strncmp(section, "model:", 6)) {
-        int id, k;
-        if (parse_int(section + 6, 0, 254, &id))
-            FAIL("model section must be [model:ID], ID 0..254 (the model id on the links)");
-        if (!p->models_set) {
-            c->nmodels = 0;
-            p->models_set = 1;
-        }
-        for (k = 0; k < c->nmodels; k++)
-            if (c->model[k].id == id)
-                break;
-        if (k == c->nmodels) {
-            if (k == CONF_MAX_MODELS)
-                FAIL("more than %d models", CONF_MAX_MODELS);
-            memset(&c->model[k], 0, sizeof c->model[k]);
-            c->model[k].id = id;
-            c->model[k].unit = id >= 1 && id <= 247 ? id : 0;
-            c->model[k].n = 3;
-            c->model[k].m = 3;
-            c->nmodels++;
-        }
-        note(p, &p->model[k], name);
-        return key_model(p, &c->model[k], name, value);
-    }
-    if (!strncmp(section, "link:", 5) && section[5]) {
-        int k;
-        for (k = 0; k < c->nlinks; k++)
-            if (!strcmp(c->link[k].name, section + 5))
-                break;
-        if (k == c->nlinks) {
-            if (k == CONF_MAX_LINKS)
-                FAIL("more than %d links", CONF_MAX_LINKS);
-            memset(&c->link[k], 0, sizeof c->link[k]);
-            if (copy_str(c->link[k].name, sizeof c->link[k].name, section + 5))
-                FAIL("section name too long");
-            c->link[k].baud = 115200;
-            c->link[k].peer_timeout_ms = 30000;
-            c->nlinks++;
-        }
-        note(p, &p->link[k], name);
-        return key_link(p, &c->link[k], name, value);
-    }
-    FAIL("unknown section");
+    o->line[idx] = p->line;
+    return 1;
 }
 
 void conf_default(struct conf *c)
 {
     memset(c, 0, sizeof *c);
-    snprintf(c->state_dir, sizeof c->state_dir, "./state");
-    c->snapshot_interval = 60;
-    c->fsync = 1;
-    c->max_models = 8;
-    snprintf(c->listen[0].host, sizeof c->listen[0].host, "127.0.0.1");
-    snprintf(c->listen[0].port, sizeof c->listen[0].port, "1502");
-    c->nlisten = 1;
-    c->max_clients = 32;
-    c->max_pending = 1024;
-    c->idle_timeout = 300;
-    c->byte_timeout = 500;
-    c->tcp_keepalive = 60;
-    c->evict_idle = 500;
-    c->word_order = IT2N_WO_ABCD;
-    c->int32_word_order = -1;
-    c->default_model = CONF_DEFAULT_AUTO;
-    c->coord_scale = 100;
-    c->grid_rows = 5;
-    c->grid_cols = 5;
+    spb_conf_default(&c->spb);
+    /* Every key's default is the schema's (the single sections' keys are
+     * fields of struct conf, [sparkplug]'s of c->spb). */
+    set_defaults(section_of(CONF_SEC_DAEMON), c);
+    set_defaults(section_of(CONF_SEC_MODBUS), c);
+    set_defaults(section_of(CONF_SEC_SPARKPLUG), &c->spb);
+    set_defaults(section_of(CONF_SEC_METRICS), &c->metrics);
+    /* Without any [model:] section: model 1 on unit 1 with the paper's
+     * data set. */
+    set_defaults(section_of(CONF_SEC_MODEL), &c->model[0]);
     c->model[0].id = 1;
     c->model[0].unit = 1;
-    c->model[0].n = 3;
-    c->model[0].m = 3;
     c->model[0].preload = 1;
     c->nmodels = 1;
-    c->link_backoff_max = 30;
-    spb_conf_default(&c->spb);
 }
 
 /* Cross-key checks, done after the whole file is read. Each error names
@@ -742,7 +562,7 @@ static int split_removed(struct parse *p, int *line, char *sect, size_t sectsize
     if (last >= 0 && w == 0) {
         char sec[64];
         snprintf(sec, sizeof sec, "model:%d", c->model[last].id);
-        VFAIL(p->model[last].removed_line, sec, "removed",
+        VFAIL(key_line(&p->model[last], CONF_SEC_MODEL, "removed"), sec, "removed",
               "every [model:] section says removed = yes: at least one model must be served");
     }
     c->nmodels = w;
@@ -792,55 +612,87 @@ static int same_path(const struct dev_ref *x, const struct dev_ref *y)
 
 #define DEV_CONFLICT_WHY "one device serves one section (the other would find it locked by another process)"
 
+/* The first key of section id marked CONF_K_REQUIRED that origin o lacks,
+ * or NULL. */
+static const char *missing_key(const struct origin *o, enum conf_sec id)
+{
+    const struct conf_section *s = section_of(id);
+    for (int k = 0; k < s->nkeys; k++)
+        if ((s->keys[k].flags & CONF_K_REQUIRED) && !o->line[k])
+            return s->keys[k].name;
+    return NULL;
+}
+
+/* The key of section id with flag `flag` given first in the file (its line
+ * in *line), or NULL. */
+static const char *first_flagged(const struct origin *o, enum conf_sec id, unsigned flag, int *line)
+{
+    const struct conf_section *s = section_of(id);
+    const char *name = NULL;
+    *line = 0;
+    for (int k = 0; k < s->nkeys; k++)
+        if ((s->keys[k].flags & flag) && o->line[k] && (!*line || o->line[k] < *line)) {
+            *line = o->line[k];
+            name = s->keys[k].name;
+        }
+    return name;
+}
+
 static int validate(const struct parse *p, int *line, char *sect, size_t sectsize, char *key, size_t keysize,
                     char *err, size_t errsize)
 {
     const struct conf *c = &p->c;
+    const char *req;
     char sec[64];
+    const struct origin *dm = &p->single[CONF_SEC_MODBUS];
+    int max_models_line = key_line(&p->single[CONF_SEC_DAEMON], CONF_SEC_DAEMON, "max_models");
+    int rows_line = key_line(dm, CONF_SEC_MODBUS, "grid_rows"), cols_line = key_line(dm, CONF_SEC_MODBUS, "grid_cols");
     if (c->default_model >= 0) {
         int k = 0;
         while (k < c->nmodels && c->model[k].id != c->default_model)
             k++;
         if (k == c->nmodels)
-            VFAIL(p->default_model_line, "modbus", "default_model", "no [model:%d] is configured", c->default_model);
+            VFAIL(key_line(dm, CONF_SEC_MODBUS, "default_model"), "modbus", "default_model", "no [model:%d] is configured", c->default_model);
     }
     if (c->nmodels > c->max_models) {
         const struct origin *o = &p->model[c->max_models];
         snprintf(sec, sizeof sec, "model:%d", c->model[c->max_models].id);
-        if (p->max_models_line)
-            VFAIL(p->max_models_line > o->first_line ? p->max_models_line : o->first_line, "daemon", "max_models",
+        if (max_models_line)
+            VFAIL(max_models_line > o->first_line ? max_models_line : o->first_line, "daemon", "max_models",
                   "%d models configured, limit %d", c->nmodels, c->max_models);
         VFAIL(o->first_line, sec, o->first_key, "model %d of at most max_models = %d (the default; set max_models in [daemon])",
               c->max_models + 1, c->max_models);
     }
     if (c->grid_rows * c->grid_cols > (int)IT2N_REGMAP_GRID_MAX_NODES)
-        VFAIL(p->grid_line, "modbus", p->grid_key, "grid_rows x grid_cols = %d x %d exceeds %u nodes", c->grid_rows,
+        VFAIL(rows_line > cols_line ? rows_line : cols_line, "modbus", rows_line > cols_line ? "grid_rows" : "grid_cols", "grid_rows x grid_cols = %d x %d exceeds %u nodes", c->grid_rows,
               c->grid_cols, IT2N_REGMAP_GRID_MAX_NODES);
     for (int k = 0; k < c->nmodels; k++) {
         const struct conf_model *m = &c->model[k];
         const struct origin *o = &p->model[k];
+        int unit_line = key_line(o, CONF_SEC_MODEL, "unit_id"), preload_line = key_line(o, CONF_SEC_MODEL, "preload");
+        int chord_line = key_line(o, CONF_SEC_MODEL, "chord"), kind_line = key_line(o, CONF_SEC_MODEL, "kind");
         snprintf(sec, sizeof sec, "model:%d", m->id);
         if (m->unit < 1)
             VFAIL(o->first_line, sec, o->first_key, "unit_id is required for model ids 0 and above 247");
         for (int l = 0; l < k; l++)
             if (c->model[l].unit == m->unit) {
-                if (o->unit_line)
-                    VFAIL(o->unit_line, sec, "unit_id", "%d already used by model %d", m->unit, c->model[l].id);
-                VFAIL(p->model[l].unit_line ? p->model[l].unit_line : o->first_line, sec,
-                      p->model[l].unit_line ? "unit_id" : o->first_key, "unit id %d (the model id) already used by model %d",
+                int other = key_line(&p->model[l], CONF_SEC_MODEL, "unit_id");
+                if (unit_line)
+                    VFAIL(unit_line, sec, "unit_id", "%d already used by model %d", m->unit, c->model[l].id);
+                VFAIL(other ? other : o->first_line, sec, other ? "unit_id" : o->first_key, "unit id %d (the model id) already used by model %d",
                       m->unit, c->model[l].id);
             }
         if (m->kind == CONF_KIND_BEZIER && (m->n > IT2N_MAX_DEGREE || m->m > IT2N_MAX_DEGREE)) {
-            int ln = m->n > IT2N_MAX_DEGREE ? o->n_line : o->m_line;
+            int ln = key_line(o, CONF_SEC_MODEL, m->n > IT2N_MAX_DEGREE ? "n" : "m");
             VFAIL(ln, sec, m->n > IT2N_MAX_DEGREE ? "n" : "m",
                   "%d exceeds the bezier kind's degree limit %d; use 1..%d, or kind = bspline for grids up to %d",
                   m->n > IT2N_MAX_DEGREE ? m->n : m->m, IT2N_MAX_DEGREE, IT2N_MAX_DEGREE, IT2N_BSPLINE_MAX_N);
         }
         if (m->kind == CONF_KIND_BSPLINE && (m->flags & IT2N_F_CHORD))
-            VFAIL(o->chord_line ? o->chord_line : o->kind_line, sec, o->chord_line ? "chord" : "kind",
+            VFAIL(chord_line ? chord_line : kind_line, sec, chord_line ? "chord" : "kind",
                   "the bspline kind has uniform parameters only: chord = yes needs kind = bezier");
         if (m->preload && (m->n != 3 || m->m != 3 || (m->flags & (IT2N_F_Z | IT2N_F_TYPE1))))
-            VFAIL(o->preload_line ? o->preload_line : o->first_line, sec, o->preload_line ? "preload" : o->first_key,
+            VFAIL(preload_line ? preload_line : o->first_line, sec, preload_line ? "preload" : o->first_key,
                   "the paper data set needs n = m = 3, no z, not type1");
     }
     for (int k = 0; k < c->nlisten; k++) {
@@ -848,15 +700,15 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
         if (!l->name[0])
             continue;
         snprintf(sec, sizeof sec, "listen:%s", l->name);
-        if (!p->listen_addr_line[k])
-            VFAIL(p->listen[k].first_line, sec, p->listen[k].first_key, "address is required in this section");
+        if ((req = missing_key(&p->listen[k], CONF_SEC_LISTEN)) != NULL)
+            VFAIL(p->listen[k].first_line, sec, p->listen[k].first_key, "%s is required in this section", req);
     }
     for (int k = 0; k < c->nlisten; k++)
         for (int j = 0; j < k; j++)
             if (!strcmp(c->listen[k].host, c->listen[j].host) && !strcmp(c->listen[k].port, c->listen[j].port)) {
                 snprintf(sec, sizeof sec, "%s%s", c->listen[k].name[0] ? "listen:" : "modbus",
                          c->listen[k].name);
-                VFAIL(p->listen_addr_line[k], sec, c->listen[k].name[0] ? "address" : "tcp_listen",
+                VFAIL(c->listen[k].line, sec, c->listen[k].name[0] ? "address" : "tcp_listen",
                       "%s%s%s:%s is already a listener address", strchr(c->listen[k].host, ':') ? "[" : "",
                       c->listen[k].host, strchr(c->listen[k].host, ':') ? "]" : "", c->listen[k].port);
             }
@@ -867,18 +719,23 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
                   c->listen[k].line ? "line " : "the built-in default", c->listen[k].line);
     for (int k = 0; k < c->nrtu; k++) {
         const struct conf_rtu *r = &c->rtu[k];
-        const struct rs485_origin *o = &p->rs485[k];
+        const struct origin *o = &p->rtu[k];
+        const char *opt, *lib, *kern;
+        int opt_line, lib_line, kern_line;
         snprintf(sec, sizeof sec, "rtu:%s", r->name);
-        if (!r->device[0])
-            VFAIL(p->rtu[k].first_line, sec, p->rtu[k].first_key, "device is required in this section");
-        if (!r->rs485 && o->opt_line)
-            VFAIL(o->opt_line, sec, o->opt_key, "needs rs485 = yes in this section");
-        if (r->rts == CONF_RTS_NONE && o->delay_us_line)
-            VFAIL(o->delay_us_line, sec, "rs485_rts_delay_us", "needs rs485_rts = up or down (libmodbus switching RTS)");
-        if (r->rts != CONF_RTS_NONE && o->kernel_line)
-            VFAIL(o->kernel_line, sec, o->kernel_key,
+        if ((req = missing_key(o, CONF_SEC_RTU)) != NULL)
+            VFAIL(o->first_line, sec, o->first_key, "%s is required in this section", req);
+        opt = first_flagged(o, CONF_SEC_RTU, CONF_K_RS485, &opt_line);
+        lib = first_flagged(o, CONF_SEC_RTU, CONF_K_LIBMODBUS, &lib_line);
+        kern = first_flagged(o, CONF_SEC_RTU, CONF_K_KERNEL, &kern_line);
+        if (!r->rs485 && opt)
+            VFAIL(opt_line, sec, opt, "needs rs485 = yes in this section");
+        if (r->rts == CONF_RTS_NONE && lib)
+            VFAIL(lib_line, sec, lib, "needs rs485_rts = up or down (libmodbus switching RTS)");
+        if (r->rts != CONF_RTS_NONE && kern)
+            VFAIL(kern_line, sec, kern,
                   "a kernel RS-485 option, but rs485_rts = %s (line %d) has libmodbus switch RTS instead; "
-                  "use one or the other", r->rts == CONF_RTS_UP ? "up" : "down", o->rts_line);
+                  "use one or the other", r->rts == CONF_RTS_UP ? "up" : "down", key_line(o, CONF_SEC_RTU, "rs485_rts"));
     }
     for (int k = 0; k < c->nlinks; k++) {
         const struct conf_link *l = &c->link[k];
@@ -897,6 +754,8 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
                   d[b].device, d[a].kind, d[a].name, d[a].line);
         }
     }
+    if (c->spb.enabled && (req = missing_key(&p->single[CONF_SEC_SPARKPLUG], CONF_SEC_SPARKPLUG)) != NULL)
+        VFAIL(c->spb.first_line, "sparkplug", c->spb.first_key, "%s is required in this section", req);
     if (spb_conf_check(&c->spb, line, key, keysize, err, errsize)) {
         snprintf(sect, sectsize, "sparkplug");
         return -1;
@@ -1083,147 +942,46 @@ not_regular:
 }
 
 /* What an empty section of this kind lacks, for the error message. */
-static const char *section_needs(const char *name)
+static const char *empty_needs(const char *name)
 {
-    if (!strncmp(name, "model:", 6))
-        return "a model needs at least one of unit_id, kind, n, m, z, type1, chord, preload; "
-               "without any the section would be ignored";
-    if (!strncmp(name, "rtu:", 4))
-        return "device is required";
-    if (!strncmp(name, "link:", 5))
-        return "type and device (serial) or usb (usb) are required";
-    return "a section with no keys has no effect; remove it or add keys";
+    const struct conf_section *s = conf_schema_section(name);
+    return s ? s->needs : "a section with no keys has no effect; remove it or add keys";
 }
 
-/* The keys of every section, for "did you mean" (keep in step with the
- * key_* parsers above; tests/daemon/test_conf.c checks each is accepted). */
-static const char *const keys_daemon[] = { "state_dir", "snapshot_interval", "fsync", "max_models",
-                                           "link_backoff_max", "user", NULL };
-static const char *const keys_modbus[] = { "tcp_listen", "max_clients", "idle_timeout", "byte_timeout",
-                                           "tcp_keepalive", "evict_idle", "float_word_order", "int32_word_order",
-                                           "default_model", "coord_scale", "grid_rows", "grid_cols", NULL };
-static const char *const keys_listen[] = { "address", "allow", "read_only", NULL };
-static const char *const keys_rtu[] = { "device", "baud", "parity", "stop_bits", "read_only", "t35_us", "rs485",
-                                        "rs485_rts", "rs485_rts_delay_us", "rs485_rts_on_send",
-                                        "rs485_delay_before_send_ms", "rs485_delay_after_send_ms",
-                                        "rs485_termination", "rs485_strict", NULL };
-static const char *const keys_model[] = { "unit_id", "n", "m", "z", "type1", "chord", "write_protect", "preload",
-                                          "removed", NULL };
-static const char *const keys_link[] = { "type", "device", "baud", "usb", "rto_ms", "peer_timeout_ms", NULL };
-static const char *const keys_metrics[] = { "listen", NULL };
-
-static const struct {
-    const char *name;   /* "daemon", or "rtu:" for [rtu:NAME] */
-    const char *const *keys;
-} sections[] = {
-    { "daemon", keys_daemon }, { "modbus", keys_modbus }, { "metrics", keys_metrics }, { "listen:", keys_listen },
-    { "rtu:", keys_rtu },      { "model:", keys_model },   { "link:", keys_link },
-};
-
-const char *const *conf_section_keys(const char *section)
-{
-    for (size_t k = 0; k < sizeof sections / sizeof sections[0]; k++) {
-        size_t n = strlen(sections[k].name);
-        if (sections[k].name[n - 1] == ':' ? !strncmp(section, sections[k].name, n) : !strcmp(section, sections[k].name))
-            return sections[k].keys;
-    }
-    return NULL;
-}
-
-/* Edit distance with transpositions (optimal string alignment), case
- * folded; names longer than 40 characters are never close. */
-static int distance(const char *a, const char *b)
-{
-    int d[42][42];
-    int la = (int)strlen(a), lb = (int)strlen(b);
-    if (la > 40 || lb > 40)
-        return 99;
-    for (int i = 0; i <= la; i++)
-        d[i][0] = i;
-    for (int j = 0; j <= lb; j++)
-        d[0][j] = j;
-    for (int i = 1; i <= la; i++)
-        for (int j = 1; j <= lb; j++) {
-            int ca = tolower((unsigned char)a[i - 1]), cb = tolower((unsigned char)b[j - 1]);
-            int v = d[i - 1][j - 1] + (ca != cb);
-            if (d[i - 1][j] + 1 < v)
-                v = d[i - 1][j] + 1;
-            if (d[i][j - 1] + 1 < v)
-                v = d[i][j - 1] + 1;
-            if (i > 1 && j > 1 && ca == tolower((unsigned char)b[j - 2]) && tolower((unsigned char)a[i - 2]) == cb &&
-                d[i - 2][j - 2] + 1 < v)
-                v = d[i - 2][j - 2] + 1;
-            d[i][j] = v;
-        }
-    return d[la][lb];
-}
-
-/* Close enough to be a typo: one edit in a short name, two in a longer. */
-static int close_to(const char *name, const char *key, int *best)
-{
-    int d = distance(name, key), lim = strlen(key) <= 4 ? 1 : 2;
-    if (strlen(key) == 1 && strlen(name) == 1 && tolower((unsigned char)name[0]) != key[0])
-        return 0; /* "x" is not a typo of "n" */
-    if (d > lim || d >= *best)
-        return 0;
-    *best = d;
-    return 1;
-}
-
-const char *conf_suggest_key(const char *section, const char *name, const char **where)
-{
-    const char *const *keys = conf_section_keys(section);
-    const char *hit = NULL;
-    int best = 99;
-    *where = NULL;
-    for (int k = 0; keys && keys[k]; k++)
-        if (close_to(name, keys[k], &best))
-            hit = keys[k];
-    if (hit)
-        return hit;
-    /* A key of another section, written in the wrong one. */
-    for (size_t s = 0; s < sizeof sections / sizeof sections[0]; s++) {
-        if (sections[s].keys == keys)
-            continue;
-        for (int k = 0; sections[s].keys[k]; k++)
-            if (!strcasecmp(name, sections[s].keys[k])) {
-                *where = sections[s].name;
-                return sections[s].keys[k];
-            }
-    }
-    return NULL;
-}
-
-/* " (did you mean ...?)" for an unknown key or section, or "". */
+/* " (did you mean ...?)" for an unknown key or section, or a bad value of
+ * a key with listed values; or "". */
 static void suggest(const struct parse *p, char *out, size_t size)
 {
-    const char *where, *hit;
-    int best = 99;
+    const struct conf_section *s = conf_schema_section(p->sec), *where, *hit;
+    const char *key;
     out[0] = 0;
     if (!strcmp(p->err, "unknown key")) {
-        hit = conf_suggest_key(p->sec, p->key, &where);
-        if (hit && !where)
-            snprintf(out, size, ": did you mean '%s'?", hit);
-        else if (hit)
-            snprintf(out, size, ": '%s' is a key of [%s%s]", hit, where,
-                     where[strlen(where) - 1] == ':' ? "NAME" : "");
-        else if (conf_section_keys(p->sec))
-            snprintf(out, size, " in this section (docs/daemon.md lists the keys)");
+        key = conf_schema_suggest_key(s, p->key, &where);
+        if (key && !where)
+            snprintf(out, size, ": did you mean '%s'?", key);
+        else if (key)
+            snprintf(out, size, ": '%s' is a key of [%s%s]", key, where->name, where->arg ? where->arg : "");
+        else if (s)
+            snprintf(out, size, " in this section (it2nd --config-keys lists the keys)");
     } else if (!strcmp(p->err, "unknown section")) {
-        char kind[64];
         const char *colon = strchr(p->sec, ':');
-        snprintf(kind, sizeof kind, "%.*s", colon ? (int)(colon - p->sec + 1) : (int)strlen(p->sec), p->sec);
-        hit = NULL;
-        for (size_t s = 0; s < sizeof sections / sizeof sections[0]; s++)
-            if (close_to(kind, sections[s].name, &best))
-                hit = sections[s].name;
-        if (hit && hit[strlen(hit) - 1] == ':')
-            snprintf(out, size, ": did you mean [%s%s]?", hit, colon ? colon + 1 : "NAME");
+        hit = conf_schema_suggest_section(p->sec);
+        if (hit && hit->arg)
+            snprintf(out, size, ": did you mean [%s%s]?", hit->name, colon && colon[1] ? colon + 1 : hit->arg);
         else if (hit)
-            snprintf(out, size, ": did you mean [%s]?", hit);
-        else
-            snprintf(out, size, " (known: [daemon], [modbus], [metrics], [listen:NAME], [rtu:NAME], [model:ID], "
-                     "[link:NAME])");
+            snprintf(out, size, ": did you mean [%s]?", hit->name);
+        else {
+            int n;
+            const struct conf_section *all = conf_schema_sections(&n);
+            snprintf(out, size, " (known:");
+            for (int k = 0; k < n; k++) {
+                size_t len = strlen(out);
+                snprintf(out + len, size - len, "%s [%s%s]", k ? "," : "", all[k].name, all[k].arg ? all[k].arg : "");
+            }
+            snprintf(out + strlen(out), size - strlen(out), ")");
+        }
+    } else if (p->err_key && p->value && (key = conf_schema_suggest_word(p->err_key, p->value)) != NULL) {
+        snprintf(out, size, ": did you mean '%s'?", key);
     }
 }
 
@@ -1328,7 +1086,7 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
     } else if (p->empty_line && (!p->err[0] || p->empty_line < p->err_line) && (rc <= 0 || p->empty_line < rc) &&
                (!p->bad_line || p->empty_line < p->bad_line)) {
         snprintf(err, errsize, "%s:%d: [%s]: empty section: its required keys are missing (%s)", path,
-                 p->empty_line, p->empty_name, section_needs(p->empty_name));
+                 p->empty_line, p->empty_name, empty_needs(p->empty_name));
         rc = 1;
     } else if (p->err[0] && (rc <= 0 || p->err_line <= rc)) {
         /* The first error in the file: ours (a key) before any syntax error. */
@@ -1341,11 +1099,9 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
         rc = 1;
     } else if (rc > 0 && rc == p->noeq_line) {
         char word[64];
-        const char *const *keys = conf_section_keys(p->noeq_sec);
-        int known = 0;
+        int known;
         snprintf(word, sizeof word, "%.*s", (int)strcspn(p->noeq_text, " \t"), p->noeq_text);
-        for (int k = 0; keys && keys[k]; k++)
-            known |= !strcmp(word, keys[k]);
+        known = conf_schema_key(conf_schema_section(p->noeq_sec), word, NULL) != NULL;
         snprintf(err, errsize, "%s:%d: [%s] '%s': no '=' in this line: expected key = value%s%s%s", path, rc,
                  p->noeq_sec[0] ? p->noeq_sec : "(no section)", p->noeq_text, known ? " (" : "",
                  known ? word : "", known ? " = ...?)" : "");

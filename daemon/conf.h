@@ -1,6 +1,8 @@
 /* conf — it2nd configuration: built-in defaults, INI file (libinih), and
- * validation. Every key is documented in docs/daemon.md and
- * daemon/it2nd.conf.example. */
+ * validation. Every section and key, its type, range, default and help,
+ * is in the schema (conf_schema.h); conf.c reads every key through it.
+ * docs/daemon.md's key tables are generated from it; the commented example
+ * is daemon/it2nd.conf.example. */
 #ifndef IT2ND_CONF_H
 #define IT2ND_CONF_H
 
@@ -182,13 +184,6 @@ struct conf_override {
  * change as the file's keys are checked. Returns 0, or -1 with
  * "--flag 'VALUE': reason" in err and c unchanged. */
 int conf_apply_override(struct conf *c, const struct conf_override *o, char *err, size_t errsize);
-
-/* The known keys of a section ("daemon", "modbus", "model:1", ...), NULL
- * for an unknown section; and the key of that list (or of another
- * section, returned in *where) nearest to a misspelt name, or NULL when
- * none is close. For "did you mean" in conf_load's errors. */
-const char *const *conf_section_keys(const char *section);
-const char *conf_suggest_key(const char *section, const char *name, const char **where);
 
 /* Whether c removes model id with removed = yes. */
 int conf_removes(const struct conf *c, int id);

@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "conf.h"
+#include "conf_schema.h"
 #include "links.h"
 #include "log.h"
 #include "loop.h"
@@ -67,7 +68,8 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: it2nd [-c FILE] [--listen HOST:PORT] [--state-dir DIR] [--metrics HOST:PORT]\n"
-            "             [--check-config] [--accept-wal-loss] [--foreground] [-v...] [--help] [--version]\n"
+            "             [--check-config] [--config-keys[=FORMAT]] [--accept-wal-loss] [--foreground]\n"
+            "             [-v...] [--help] [--version]\n"
             "  -c, --config FILE     configuration (INI); default: built-in (Modbus TCP\n"
             "                        127.0.0.1:1502, model 1 on unit 1 with the paper data)\n"
             "  -l, --listen HOST:PORT  Modbus TCP address (repeatable); replaces the\n"
@@ -77,6 +79,9 @@ static void usage(FILE *f)
             "                        overrides [metrics] listen (default: off)\n"
             "  -t, --check-config    validate the configuration, check that the state\n"
             "                        directory is writable and the ports free, and exit\n"
+            "  --config-keys[=FORMAT]  print every section and key of the configuration\n"
+            "                        (type, range, default, reload, help) and exit; FORMAT\n"
+            "                        text (default), markdown or dict (a fuzzer dictionary)\n"
             "  --accept-wal-loss     the operator's act after damage inside the WAL: cut the\n"
             "                        WAL at the damaged record (the rest kept in wal.cut-*),\n"
             "                        log the records given up, and exit (docs/daemon.md)\n"
@@ -704,6 +709,7 @@ int main(int argc, char **argv)
         { "help", no_argument, NULL, 'h' },         { "version", no_argument, NULL, 'V' },
         { "accept-wal-loss", no_argument, NULL, 'A' }, { "listen", required_argument, NULL, 'l' },
         { "state-dir", required_argument, NULL, 's' }, { "metrics", required_argument, NULL, 'm' },
+        { "config-keys", optional_argument, NULL, 'K' },
         { NULL, 0, NULL, 0 }
     };
     int opt, check = 0, fg = 0, verbose = 0, accept_loss = 0;
@@ -724,6 +730,12 @@ int main(int argc, char **argv)
         case 'v': verbose++; break;
         case 'h': usage(stdout); return 0;
         case 'A': accept_loss = 1; break;
+        case 'K':
+            if (conf_schema_print(stdout, optarg ? optarg : "text")) {
+                fprintf(stderr, "it2nd: --config-keys=%s: expected text, markdown or dict\n", optarg);
+                return 2;
+            }
+            return fflush(stdout) ? 1 : 0;
         case 'V': printf("it2nd %s (register map %u)\n", IT2ND_VERSION, IT2N_REGMAP_VERSION); return 0;
         default: usage(stderr); return 2;
         }

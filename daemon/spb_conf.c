@@ -39,7 +39,7 @@ static int parse_num(const char *v, long lo, long hi, int *out)
 /* A Sparkplug id is one MQTT topic level: no '/', '+', '#' (the topic
  * separators and wildcards, spec 4.1.1), and printable ASCII here so it
  * reads the same in logs, topics and the docs. */
-static int valid_id(const char *v)
+int spb_conf_valid_id(const char *v)
 {
     if (!*v || strlen(v) >= SPB_ID_MAX)
         return 0;
@@ -49,8 +49,7 @@ static int valid_id(const char *v)
     return 1;
 }
 
-/* "host:port", "[v6]:port" or "host" (port 1883). */
-static int parse_broker(struct spb_conf *s, const char *v)
+int spb_conf_parse_broker(struct spb_conf *s, const char *v)
 {
     const char *colon = NULL;
     size_t hlen;
@@ -78,7 +77,7 @@ static int parse_broker(struct spb_conf *s, const char *v)
     return 0;
 }
 
-static int read_password(struct spb_conf *s, const char *path, char *err, size_t errsize)
+int spb_conf_read_password(struct spb_conf *s, const char *path, char *err, size_t errsize)
 {
     FILE *f = fopen(path, "r");
     char *line = NULL;
@@ -102,60 +101,6 @@ static int read_password(struct spb_conf *s, const char *path, char *err, size_t
     memset(line, 0, cap);
     free(line);
     s->password_set = 1;
-    return 0;
-}
-
-int spb_conf_key(struct spb_conf *s, const char *name, const char *v, int line, char *err, size_t errsize)
-{
-    if (!s->enabled) {
-        s->enabled = 1;
-        s->first_line = line;
-        snprintf(s->first_key, sizeof s->first_key, "%s", name);
-    }
-    if (!strcmp(name, "broker")) {
-        if (parse_broker(s, v))
-            ERR("expected host:port, [v6addr]:port or host (port 1883)");
-    } else if (!strcmp(name, "group_id") || !strcmp(name, "edge_node_id") || !strcmp(name, "client_id")) {
-        char *dst = name[0] == 'g' ? s->group_id : name[0] == 'e' ? s->edge_node_id : s->client_id;
-        if (!valid_id(v))
-            ERR("expected 1..%d printable ASCII characters without '/', '+', '#' or blanks", SPB_ID_MAX - 1);
-        snprintf(dst, SPB_ID_MAX, "%s", v);
-    } else if (!strcmp(name, "keepalive")) {
-        if (parse_num(v, 5, 3600, &s->keepalive))
-            ERR("expected seconds 5..3600");
-    } else if (!strcmp(name, "reconnect_max")) {
-        if (parse_num(v, 1, 3600, &s->reconnect_max))
-            ERR("expected seconds 1..3600");
-    } else if (!strcmp(name, "username")) {
-        if (!*v || strlen(v) >= sizeof s->username)
-            ERR("expected 1..%zu characters", sizeof s->username - 1);
-        snprintf(s->username, sizeof s->username, "%s", v);
-    } else if (!strcmp(name, "password_file")) {
-        if (read_password(s, v, err, errsize))
-            return -1;
-        s->password_line = line;
-    } else if (!strcmp(name, "tls_ca") || !strcmp(name, "tls_cert") || !strcmp(name, "tls_key")) {
-        char *dst = name[4] == 'c' && name[5] == 'a' ? s->tls_ca : name[4] == 'c' ? s->tls_cert : s->tls_key;
-        int *l = dst == s->tls_ca ? &s->tls_ca_line : dst == s->tls_cert ? &s->tls_cert_line : &s->tls_key_line;
-        FILE *f;
-        if (!*v || strlen(v) >= sizeof s->tls_ca)
-            ERR("path empty or too long");
-        /* Readable now (the contents are checked by spb_conf_check_tls). */
-        if (!(f = fopen(v, "r")))
-            ERR("cannot open '%s': %s", v, strerror(errno));
-        fclose(f);
-        snprintf(dst, sizeof s->tls_ca, "%s", v);
-        *l = line;
-    } else if (!strcmp(name, "primary_host_id")) {
-        if (!valid_id(v))
-            ERR("expected 1..%d printable ASCII characters without '/', '+', '#' or blanks", SPB_ID_MAX - 1);
-        snprintf(s->primary_host_id, sizeof s->primary_host_id, "%s", v);
-    } else if (!strcmp(name, "store_forward_max")) {
-        if (parse_num(v, 0, SPB_SF_LIMIT, &s->store_forward))
-            ERR("expected a number of stored changes 0..%d (0: none kept)", SPB_SF_LIMIT);
-    } else {
-        ERR("unknown key");
-    }
     return 0;
 }
 

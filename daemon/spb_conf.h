@@ -1,7 +1,8 @@
 /* spb_conf — the [sparkplug] section of the configuration (docs/sparkplug.md,
  * "Configuration"): the broker, the Sparkplug ids and the MQTT session
- * options. conf.c hands every key of the section to spb_conf_key() and
- * calls spb_conf_check() once the file is read. No I/O but the password
+ * options. conf.c parses the section's keys through the schema
+ * (conf_schema.c) with the parsers below and calls spb_conf_check() once
+ * the file is read. No I/O but the password
  * file, read at load so a bad one is a configuration error with its line. */
 #ifndef IT2ND_SPB_CONF_H
 #define IT2ND_SPB_CONF_H
@@ -44,9 +45,17 @@ struct spb_conf {
 /* The defaults of a configuration without the section (disabled). */
 void spb_conf_default(struct spb_conf *s);
 
-/* One key of [sparkplug]. Returns 0, or -1 with the reason (without
- * file, line or key: the caller adds them) in err. line is the key's. */
-int spb_conf_key(struct spb_conf *s, const char *name, const char *value, int line, char *err, size_t errsize);
+/* The value parsers of [sparkplug]'s own types (its keys, types and
+ * ranges are in daemon/conf_schema.c, which conf.c parses through). */
+/* A Sparkplug id (group_id, edge_node_id, ...): one MQTT topic level,
+ * 1..SPB_ID_MAX-1 printable ASCII bytes. 1 if v is one. */
+int spb_conf_valid_id(const char *v);
+/* broker: "host:port", "[v6]:port" or "host" (port 1883) into s->host,
+ * s->port. 0, or -1 (s->host, s->port may be written). */
+int spb_conf_parse_broker(struct spb_conf *s, const char *v);
+/* password_file: the first line of path into s->password. 0, or -1 with
+ * the reason in err. */
+int spb_conf_read_password(struct spb_conf *s, const char *path, char *err, size_t errsize);
 
 /* The store-and-forward bound in effect (0: off). */
 int spb_conf_sf_max(const struct spb_conf *s);

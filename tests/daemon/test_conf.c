@@ -16,6 +16,7 @@
 #include <sys/socket.h>
 
 #include "conf.h"
+#include "conf_schema.h"
 #include "it2n.h"
 
 static char path[64];
@@ -113,20 +114,20 @@ static void test_errors(void **st)
         const char *tail;
     } t[] = {
         { "[modbus]\ncoord_scale = 0\n", 2, "[modbus] coord_scale: expected 1..10000" },
-        { "[daemon]\n\n; c\nnope = 1\n", 4, "[daemon] nope: unknown key in this section (docs/daemon.md lists the keys)" },
+        { "[daemon]\n\n; c\nnope = 1\n", 4, "[daemon] nope: unknown key in this section (it2nd --config-keys lists the keys)" },
         { "[model:1]\nn = 8\n", 2,
           "[model:1] n: 8 exceeds the bezier kind's degree limit 7; use 1..7, or kind = bspline for grids up to 255" },
         { "[model:1]\nkind = bezier\nm = 3\nm = 9\n", 4, "[model:1] m: duplicate key (first set on line 3)" },
         { "[model:1]\nm = 9\nkind = bezier\n", 2,
           "[model:1] m: 9 exceeds the bezier kind's degree limit 7; use 1..7, or kind = bspline for grids up to 255" },
         { "[model:1]\nkind = bspline\nn = 256\n", 3, "[model:1] n: expected 1..255 (bezier: 1..7)" },
-        { "[model:1]\nkind = spline\n", 2, "[model:1] kind: expected bezier or bspline" },
+        { "[model:1]\nkind = spline\n", 2, "[model:1] kind: expected bezier or bspline: did you mean 'bspline'?" },
         { "[model:1]\nn = 9\nchord = yes\nkind = bspline\n", 3,
           "[model:1] chord: the bspline kind has uniform parameters only: chord = yes needs kind = bezier" },
-        { "[modbus]\nfloat_word_order = ABDC\n", 2, "[modbus] float_word_order: expected ABCD, CDAB, BADC or DCBA" },
+        { "[modbus]\nfloat_word_order = ABDC\n", 2, "[modbus] float_word_order: expected ABCD, CDAB, BADC or DCBA: did you mean 'ABCD'?" },
         { "[link:x]\nusb = zz\n", 2, "[link:x] usb: expected VID:PID[:serial] in hex" },
-        { "[bogus]\na = 1\n", 2, "[bogus] a: unknown section (known: [daemon], [modbus], [metrics], [listen:NAME], "
-          "[rtu:NAME], [model:ID], [link:NAME])" },
+        { "[bogus]\na = 1\n", 2, "[bogus] a: unknown section (known: [daemon], [modbus], [listen:NAME], [rtu:NAME], "
+          "[model:ID], [link:NAME], [sparkplug], [metrics])" },
         { "[modbus]\ntcp_listen = nocolon\n", 2, "[modbus] tcp_listen: expected host:port, [v6addr]:port or :port" },
         { "[daemon]\n\nuser = it2n-no-such-user\n", 3, "[daemon] user: unknown user 'it2n-no-such-user'" },
         { "[modbus]\ntcp_listen = 127.0.0.1:0\n", 2,
@@ -257,7 +258,7 @@ static void test_rs485(void **st)
         { "[rtu:a]\nrs485_rts_on_send=yes\n", 2, "[rtu:a] rs485_rts_on_send: expected high or low" },
         { "[rtu:a]\nrs485_termination=2\n", 2, "[rtu:a] rs485_termination: expected yes or no" },
         { "[rtu:a]\nrs485_strict=maybe\n", 2, "[rtu:a] rs485_strict: expected yes or no" },
-        { "[rtu:a]\nrs485_foo=1\n", 2, "[rtu:a] rs485_foo: unknown key in this section (docs/daemon.md lists the keys)" },
+        { "[rtu:a]\nrs485_foo=1\n", 2, "[rtu:a] rs485_foo: unknown key in this section (it2nd --config-keys lists the keys)" },
         /* options without rs485 = yes: the first option's line */
         { "[rtu:a]\ndevice=/d\n\nrs485_rts=up\nrs485_rts_delay_us=10\n", 4,
           "[rtu:a] rs485_rts: needs rs485 = yes in this section" },
@@ -606,7 +607,22 @@ static void test_suggestions(void **st)
         { "[metrics]\nlisen = :9102\n", 2, "[metrics] lisen: unknown key: did you mean 'listen'?" },
         { "[modbus]\nstate_dir = x\n", 2, "[modbus] state_dir: unknown key: 'state_dir' is a key of [daemon]" },
         { "[daemon]\ntcp_listen = :1502\n", 2, "[daemon] tcp_listen: unknown key: 'tcp_listen' is a key of [modbus]" },
-        { "[model:1]\nx = 1\n", 2, "[model:1] x: unknown key in this section (docs/daemon.md lists the keys)" },
+        { "[model:1]\nx = 1\n", 2, "[model:1] x: unknown key in this section (it2nd --config-keys lists the keys)" },
+        { "[sparkplg]\nbroker = x\n", 2, "[sparkplg] broker: unknown section: did you mean [sparkplug]?" },
+        { "[rtus:a]\nbaud = 9600\n", 2, "[rtus:a] baud: unknown section: did you mean [rtu:a]?" },
+        { "[sparkplug]\nbroker = x\ngroup_id = g\nedge_node_id = e\nkeepalive = 3\n", 5,
+          "[sparkplug] keepalive: expected seconds 5..3600" },
+        { "[sparkplug]\nkeepalve = 30\n", 2, "[sparkplug] keepalve: unknown key: did you mean 'keepalive'?" },
+        { "[model:1]\nlisten = :9102\n", 2, "[model:1] listen: unknown key: 'listen' is a key of [metrics]" },
+        { "[rtu:a]\ngroup_id = g\n", 2, "[rtu:a] group_id: unknown key: 'group_id' is a key of [sparkplug]" },
+        /* enum values: the nearest listed one */
+        { "[rtu:a]\ndevice = /dev/null\nparity = evn\n", 3, "[rtu:a] parity: expected none, even or odd: did you mean 'even'?" },
+        { "[modbus]\nfloat_word_order = CDBA\n", 2,
+          "[modbus] float_word_order: expected ABCD, CDAB, BADC or DCBA: did you mean 'CDAB'?" },
+        { "[modbus]\ndefault_model = atuo\n", 2,
+          "[modbus] default_model: expected auto, none or a model id 0..254: did you mean 'auto'?" },
+        { "[link:a]\ntype = serail\n", 2, "[link:a] type: expected serial or usb: did you mean 'serial'?" },
+        { "[model:1]\npreload = none\nkind = zzz\n", 3, "[model:1] kind: expected bezier or bspline" },
         { "[modbsu]\nx = 1\n", 2, "[modbsu] x: unknown section: did you mean [modbus]?" },
         { "[models:2]\nn = 2\n", 2, "[models:2] n: unknown section: did you mean [model:2]?" },
         { "[metric]\nlisten = :9102\n", 2, "[metric] listen: unknown section: did you mean [metrics]?" },
@@ -625,21 +641,24 @@ static void test_suggestions(void **st)
         assert_string_equal(err, want);
         assert_memory_equal(&c, &before, sizeof c);
     }
-    /* The suggestion table knows every key the parsers take (and no key
-     * it lists is "unknown"): each key with a nonsense value is refused
-     * for its value, never as unknown. */
-    static const char *const secs[] = { "daemon", "modbus", "metrics", "listen:a", "rtu:a", "model:1", "link:a" };
-    for (size_t k = 0; k < sizeof secs / sizeof secs[0]; k++) {
-        const char *const *keys = conf_section_keys(secs[k]);
-        char text[160];
-        assert_non_null(keys);
-        for (int j = 0; keys[j]; j++) {
-            snprintf(text, sizeof text, "[%s]\n%s = \x01nonsense\n", secs[k], keys[j]);
-            load(text, &c, err, sizeof err);
-            assert_null(strstr(err, "unknown key"));
-        }
+    /* Every key of the schema is a key of the parser (a nonsense value is
+     * refused for its value, never as unknown). */
+    {
+        int ns;
+        const struct conf_section *sec = conf_schema_sections(&ns);
+        for (int k = 0; k < ns; k++)
+            for (int j = 0; j < sec[k].nkeys; j++) {
+                char text[160];
+                snprintf(text, sizeof text, "[%s%s]\n%s = \x01nonsense\n", sec[k].name, sec[k].arg ? "1" : "",
+                         sec[k].keys[j].name);
+                err[0] = 0; /* username takes any text */
+                load(text, &c, err, sizeof err);
+                if (strstr(err, "unknown key") || strstr(err, "unknown section"))
+                    fail_msg("%s", err);
+            }
     }
-    assert_null(conf_section_keys("bogus"));
+    assert_null(conf_schema_section("bogus"));
+    assert_null(conf_schema_section("rtu:"));  /* a named kind needs its name */
 }
 
 /* [metrics] listen: off by default, parsed like a listener, not on a
@@ -743,6 +762,275 @@ static void test_override(void **st)
     assert_string_equal(err, "--listen '127.0.0.1:15020': given twice");
 }
 
+/* ---- the schema (daemon/conf_schema.c) ---- */
+
+/* The struct a section's keys are stored in, in a conf loaded from one
+ * section of that kind. */
+static void *section_base(struct conf *c, const struct conf_section *s)
+{
+    switch (s->id) {
+    case CONF_SEC_LISTEN: return &c->listen[0];
+    case CONF_SEC_RTU: return &c->rtu[0];
+    case CONF_SEC_MODEL: return &c->model[0];
+    case CONF_SEC_LINK: return &c->link[0];
+    case CONF_SEC_SPARKPLUG: return &c->spb;
+    case CONF_SEC_METRICS: return &c->metrics;
+    default: return c;
+    }
+}
+
+/* A file of one section s: `before` (what the section needs besides k),
+ * then "k = value", then `after` (other sections). */
+static int load_key(const struct conf_section *s, const struct conf_key *k, const char *value, struct conf *c,
+                    char *err, size_t size)
+{
+    char text[512], after[64] = "";
+    const char *before = "";
+    switch (s->id) {
+    case CONF_SEC_LISTEN: before = "address = 127.0.0.1:1600\n"; break;
+    case CONF_SEC_RTU:
+        before = k->flags & CONF_K_LIBMODBUS ? "device = /dev/null\nrs485 = yes\nrs485_rts = up\n" :
+                 k->flags & CONF_K_RS485 ? "device = /dev/null\nrs485 = yes\n" : "device = /dev/null\n";
+        break;
+    case CONF_SEC_LINK: before = "device = /dev/null\nusb = 1234:5678\n"; break;
+    case CONF_SEC_SPARKPLUG: /* the required keys, but k */
+        before = !strcmp(k->name, "broker") ? "group_id = g\nedge_node_id = e\n" :
+                 !strcmp(k->name, "group_id") ? "broker = localhost\nedge_node_id = e\n" :
+                 !strcmp(k->name, "edge_node_id") ? "broker = localhost\ngroup_id = g\n" :
+                 "broker = localhost\ngroup_id = g\nedge_node_id = e\n";
+        break;
+    case CONF_SEC_MODEL: before = "kind = bspline\n"; break;
+    default: break;
+    }
+    if (!strcmp(k->name, "default_model")) /* names a configured model */
+        snprintf(after, sizeof after, "[model:%s]\nunit_id = 9\n", value);
+    if (s->id == CONF_SEC_MODEL && !strcmp(k->name, "kind"))
+        before = "";
+    snprintf(text, sizeof text, "[%s%s]\n%s%s = %s\n%s", s->name, s->arg ? (s->id == CONF_SEC_MODEL ? "1" : "a") : "",
+             before, k->name, value, after);
+    return load(text, c, err, size);
+}
+
+/* The line of k in load_key's file. */
+static int key_line_in(const char *text_before)
+{
+    int n = 2;
+    for (const char *c = text_before; *c; c++)
+        n += *c == '\n';
+    return n;
+}
+
+static long stored(const void *base, const struct conf_key *k)
+{
+    const char *at = (const char *)base + k->off;
+    if (k->type == CONF_T_FLAG)
+        return (*(const unsigned *)(const void *)at & k->bit) != 0;
+    return k->size == 1 ? (long)*at : (long)*(const int *)(const void *)at;
+}
+
+/* Every INT key: both ends of its range are taken and stored where the
+ * schema says; one past either end is refused naming the range. */
+static void test_schema_ranges(void **st)
+{
+    struct conf c, before;
+    char err[320], want[320], v[32], expect[200];
+    int ns, nint = 0;
+    const struct conf_section *sec = conf_schema_sections(&ns);
+    (void)st;
+    for (int i = 0; i < ns; i++)
+        for (int j = 0; j < sec[i].nkeys; j++) {
+            const struct conf_key *k = &sec[i].keys[j];
+            if (k->type != CONF_T_INT)
+                continue;
+            nint++;
+            for (long x = k->lo; ; x = k->hi) {
+                snprintf(v, sizeof v, "%ld", x);
+                if (load_key(&sec[i], k, v, &c, err, sizeof err))
+                    fail_msg("[%s] %s = %ld refused: %s", sec[i].name, k->name, x, err);
+                assert_int_equal(stored(section_base(&c, &sec[i]), k), x);
+                if (x == k->hi)
+                    break;
+            }
+            conf_schema_expect(k, expect, sizeof expect);
+            for (int e = 0; e < 2; e++) {
+                conf_default(&before);
+                snprintf(v, sizeof v, "%ld", e ? k->hi + 1 : k->lo - 1);
+                assert_int_equal(load_key(&sec[i], k, v, &c, err, sizeof err), -1);
+                assert_memory_equal(&c, &before, sizeof c);
+                assert_non_null(strstr(err, "] "));
+                snprintf(want, sizeof want, "%s: %s", k->name, expect);
+                if (!strstr(err, want))
+                    fail_msg("[%s] %s = %s: '%s' lacks '%s'", sec[i].name, k->name, v, err, want);
+                (void)key_line_in;
+            }
+        }
+    assert_true(nint >= 25);
+    /* The messages the operators see, spelt out for a few. */
+    conf_schema_expect(conf_schema_key(conf_schema_section("modbus"), "tcp_keepalive", NULL), expect, sizeof expect);
+    assert_string_equal(expect, "expected seconds 0..7200 (0: off)");
+    conf_schema_expect(conf_schema_key(conf_schema_section("rtu:a"), "t35_us", NULL), expect, sizeof expect);
+    assert_string_equal(expect, "expected auto or microseconds 500..1000000");
+    conf_schema_expect(conf_schema_key(conf_schema_section("model:1"), "n", NULL), expect, sizeof expect);
+    assert_string_equal(expect, "expected 1..255 (bezier: 1..7)");
+}
+
+/* Every ENUM, BOOL and FLAG key: each listed word is taken and stored as
+ * its code; a word one letter off is refused with "did you mean" it. */
+static void test_schema_words(void **st)
+{
+    struct conf c;
+    char err[320], want[320], v[64];
+    int ns;
+    const struct conf_section *sec = conf_schema_sections(&ns);
+    static const struct conf_word yesno[] = { { "yes", 1, 0 }, { "no", 0, 0 }, { "on", 1, 1 }, { "off", 0, 1 },
+                                              { "true", 1, 1 }, { "FALSE", 0, 1 }, { "1", 1, 1 }, { "0", 0, 1 },
+                                              { NULL, 0, 0 } };
+    (void)st;
+    for (int i = 0; i < ns; i++)
+        for (int j = 0; j < sec[i].nkeys; j++) {
+            const struct conf_key *k = &sec[i].keys[j];
+            const struct conf_word *w = k->type == CONF_T_BOOL || k->type == CONF_T_FLAG ? yesno : k->words;
+            if (!w || (k->type == CONF_T_INT && !k->words))
+                continue;
+            for (; w->word; w++) {
+                if (!strcmp(k->name, "default_model") || (!strcmp(k->name, "chord") && w->code) ||
+                    (!strcmp(k->name, "kind") && 0))
+                    continue; /* cross-key rules: tested in test_errors */
+                if (!strcmp(k->name, "removed") && w->code)
+                    continue; /* the only model removed: test_removed */
+                if (load_key(&sec[i], k, w->word, &c, err, sizeof err))
+                    fail_msg("[%s] %s = %s refused: %s", sec[i].name, k->name, w->word, err);
+                assert_int_equal(stored(section_base(&c, &sec[i]), k), w->code);
+                if (w->hidden || strlen(w->word) < 2)
+                    continue;
+                /* one letter off: the last one changed to another */
+                snprintf(v, sizeof v, "%.*s%c", (int)strlen(w->word) - 1, w->word,
+                         w->word[strlen(w->word) - 1] == 'q' ? 'j' : 'q');
+                assert_int_equal(load_key(&sec[i], k, v, &c, err, sizeof err), -1);
+                if (k->type == CONF_T_BOOL || k->type == CONF_T_FLAG) {
+                    assert_non_null(strstr(err, ": expected yes or no"));
+                    continue;
+                }
+                snprintf(want, sizeof want, ": did you mean '%s'?", conf_schema_suggest_word(k, v));
+                assert_non_null(strstr(err, want));
+                assert_string_equal(conf_schema_suggest_word(k, v), w->word);
+            }
+        }
+    /* case is ignored; hidden aliases are taken but not offered */
+    assert_int_equal(load("[rtu:a]\ndevice = /dev/null\nparity = O\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.rtu[0].parity, 'O');
+    assert_int_equal(load("[modbus]\nfloat_word_order = cdab\n", &c, err, sizeof err), 0);
+    assert_int_equal(c.word_order, 1);
+    assert_null(conf_schema_suggest_word(conf_schema_key(conf_schema_section("rtu:a"), "parity", NULL), "X"));
+}
+
+/* Text keys: the longest value that fits is taken, one byte more is not. */
+static void test_schema_lengths(void **st)
+{
+    struct conf c;
+    char err[320], v[200];
+    const struct conf_section *sp = conf_schema_section("sparkplug");
+    (void)st;
+    static const char *const keys[] = { "username", "group_id", "client_id", "primary_host_id" };
+    for (size_t j = 0; j < sizeof keys / sizeof keys[0]; j++) {
+        const struct conf_key *k = conf_schema_key(sp, keys[j], NULL);
+        assert_non_null(k);
+        assert_true(k->size < sizeof v);
+        memset(v, 'x', k->size - 1);
+        v[k->size - 1] = 0;
+        if (load_key(sp, k, v, &c, err, sizeof err))
+            fail_msg("%s of %zu bytes refused: %s", keys[j], k->size - 1, err);
+        assert_string_equal((const char *)section_base(&c, sp) + k->off, v);
+        v[k->size - 1] = 'x';
+        v[k->size] = 0;
+        assert_int_equal(load_key(sp, k, v, &c, err, sizeof err), -1);
+        assert_non_null(strstr(err, "expected 1.."));
+    }
+}
+
+/* The table itself: unique names, help on every key, sound ranges, and
+ * defaults that are values of their keys, which conf_default applies. */
+static void test_schema_table(void **st)
+{
+    struct conf c;
+    int ns;
+    const struct conf_section *sec = conf_schema_sections(&ns);
+    (void)st;
+    conf_default(&c);
+    assert_int_equal(ns, 8);
+    for (int i = 0; i < ns; i++) {
+        assert_true(sec[i].nkeys >= 1 && sec[i].nkeys <= CONF_SCHEMA_MAX_KEYS);
+        assert_true(sec[i].needs && sec[i].needs[0] && sec[i].title);
+        assert_ptr_equal(conf_schema_section(sec[i].arg ? "x" : sec[i].name), sec[i].arg ? NULL : &sec[i]);
+        for (int l = 0; l < i; l++)
+            assert_string_not_equal(sec[i].name, sec[l].name);
+        for (int j = 0; j < sec[i].nkeys; j++) {
+            const struct conf_key *k = &sec[i].keys[j];
+            long x;
+            assert_true(k->help && k->help[0]);
+            assert_null(strchr(k->help, '\n'));
+            assert_null(strchr(k->help, '|')); /* a markdown table cell */
+            for (int l = 0; l < j; l++)
+                assert_string_not_equal(k->name, sec[i].keys[l].name);
+            if (k->type == CONF_T_INT)
+                assert_true(k->lo <= k->hi);
+            if (k->type == CONF_T_ENUM)
+                assert_non_null(k->words);
+            if (k->def && k->type <= CONF_T_FLAG) {
+                /* the default is a value of the key, and conf_default's
+                 * (the default model's for [model:]) */
+                assert_int_equal(conf_schema_number(k, k->def, &x), 0);
+                if (sec[i].id == CONF_SEC_DAEMON || sec[i].id == CONF_SEC_MODBUS || sec[i].id == CONF_SEC_MODEL ||
+                    sec[i].id == CONF_SEC_SPARKPLUG)
+                    assert_int_equal(stored(section_base(&c, &sec[i]), k),
+                                     strcmp(k->name, "preload") ? x : 1); /* the default model is the paper's */
+            }
+            if (!k->def && !k->def_doc)
+                assert_true(k->type >= CONF_T_STR); /* the docs say nothing: an optional text */
+        }
+    }
+}
+
+/* docs/daemon.md holds the schema's tables as it2nd --config-keys=markdown
+ * prints them (generated by `make docs-figures`; docs-check fails on a
+ * stale one too). */
+static void test_schema_docs(void **st)
+{
+    FILE *f = fopen("docs/daemon.md", "r"), *t = tmpfile();
+    static char doc[256 * 1024], ref[64 * 1024];
+    size_t n, m;
+    (void)st;
+    if (!f) {
+        print_message("test_schema_docs: skip: docs/daemon.md not found (run from the source tree)\n");
+        skip();
+    }
+    n = fread(doc, 1, sizeof doc - 1, f);
+    fclose(f);
+    doc[n] = 0;
+    assert_non_null(t);
+    assert_int_equal(conf_schema_print(t, "markdown"), 0);
+    rewind(t);
+    m = fread(ref, 1, sizeof ref - 1, t);
+    fclose(t);
+    ref[m] = 0;
+    assert_int_equal(conf_schema_print(stdout, "nonsense"), -1);
+    /* Each section's heading and table, verbatim. */
+    for (char *h = ref; (h = strstr(h, "### ")) != NULL;) {
+        char *end = strstr(h + 4, "\n### ");
+        char save = 0;
+        if (end) {
+            save = end[1];
+            end[1] = 0;
+        }
+        if (!strstr(doc, h))
+            fail_msg("docs/daemon.md lacks (or has another version of) this table; run make docs-figures:\n%s", h);
+        if (!end)
+            break;
+        end[1] = save;
+        h = end + 1;
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -760,6 +1048,11 @@ int main(void)
         cmocka_unit_test(test_removed),
         cmocka_unit_test(test_device_conflicts),
         cmocka_unit_test(test_listen_acl),
+        cmocka_unit_test(test_schema_table),
+        cmocka_unit_test(test_schema_ranges),
+        cmocka_unit_test(test_schema_words),
+        cmocka_unit_test(test_schema_lengths),
+        cmocka_unit_test(test_schema_docs),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
