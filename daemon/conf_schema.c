@@ -529,6 +529,10 @@ static void type_text(const struct conf_key *k, char *buf, size_t size)
                  k->note ? " (" : "", k->note ? k->note : "", k->note ? ")" : "");
         break;
     }
+    case CONF_T_STR:
+    case CONF_T_SPB_ID:
+        snprintf(buf, size, "%s, 1..%zu bytes", names[k->type], k->size - 1);
+        break;
     default:
         snprintf(buf, size, "%s", names[k->type]);
         break;

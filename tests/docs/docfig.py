@@ -4,8 +4,13 @@ between `<!-- fig:NAME -->` and `<!-- /fig:NAME -->` and is the verbatim
 output of one command (below), in a fenced block.
 
 usage: docfig.py --write   regenerate every block in place
-       docfig.py --check   exit 1 with a diff if a committed block differs
-                           (make test: a figure in the docs cannot drift)
+       docfig.py --check [FILE...]  exit 1 with a diff if a committed block
+                           differs (make test: a figure in the docs cannot
+                           drift); FILE: other files than README.md and docs/
+
+A figure whose name starts with "conf-keys-" is markdown, not a fenced
+block: the configuration reference of one section, as `it2nd
+--config-keys=markdown` prints it from daemon/conf_schema.c.
 """
 import difflib
 import glob
@@ -85,6 +90,20 @@ def firmware_figures():
     return "\n".join(out) + "\n"
 
 
+_CONF_KEYS = []
+
+
+def conf_keys(section):
+    """The `### [section]` heading and key table of it2nd --config-keys=markdown."""
+    if not _CONF_KEYS:
+        _CONF_KEYS.append(run(f"{BUILD}/host/it2nd --config-keys=markdown"))
+    for block in _CONF_KEYS[0].split("\n### "):
+        block = block if block.startswith("### ") else "### " + block
+        if block.startswith("### `[%s" % section):
+            return block.rstrip("\n") + "\n"
+    raise SystemExit(f"docfig.py: it2nd --config-keys has no section '{section}'")
+
+
 # name -> function returning the block's text
 FIGURES = {
     "size-flash": lambda: size_section("== Flash", "Worst-case"),
@@ -98,6 +117,8 @@ FIGURES = {
     "fw-budget": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py"),
     "fw-timing": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py --timing"),
 }
+for _sec in ("daemon", "modbus", "listen", "rtu", "model", "link", "sparkplug", "metrics"):
+    FIGURES["conf-keys-" + _sec] = (lambda s: lambda: conf_keys(s))(_sec)
 
 BLOCK = re.compile(r"(<!-- fig:([a-z0-9-]+) -->\n)(.*?)(<!-- /fig:\2 -->)", re.S)
 
@@ -105,13 +126,16 @@ BLOCK = re.compile(r"(<!-- fig:([a-z0-9-]+) -->\n)(.*?)(<!-- /fig:\2 -->)", re.S
 def render(name):
     if name not in FIGURES:
         raise SystemExit(f"docfig.py: unknown figure '{name}'")
+    if name.startswith("conf-keys-"):
+        return FIGURES[name]()
     return "```\n" + FIGURES[name]().rstrip("\n") + "\n```\n"
 
 
 def main():
     mode = sys.argv[1] if len(sys.argv) > 1 else "--check"
     cache, bad = {}, False
-    files = [os.path.join(ROOT, "README.md")] + sorted(glob.glob(os.path.join(ROOT, "docs", "*.md")))
+    files = [os.path.abspath(f) for f in sys.argv[2:]] or \
+        [os.path.join(ROOT, "README.md")] + sorted(glob.glob(os.path.join(ROOT, "docs", "*.md")))
     for path in files:
         with open(path, encoding="utf-8") as f:
             text = f.read()

@@ -2,7 +2,7 @@
 # (docfig.py: `<!-- fig:NAME -->` blocks). docs-figures rewrites them;
 # docs-check (make test) fails if a committed figure differs from the build.
 DOCFIG_DEPS = cross $(BUILD)/tests/core/test_accuracy $(BUILD)/tests/core/test_operations \
-              $(BUILD)/tests/core/test_bspline $(BUILD)/tests/daemon/test_models
+              $(BUILD)/tests/core/test_bspline $(BUILD)/tests/daemon/test_models $(IT2ND)
 
 .PHONY: docs-figures docs-check
 docs-figures: $(DOCFIG_DEPS) ## Regenerate the build figures quoted in README.md and docs/
@@ -11,6 +11,16 @@ docs-figures: $(DOCFIG_DEPS) ## Regenerate the build figures quoted in README.md
 docs-check: $(DOCFIG_DEPS)
 	@BUILD=$(BUILD) /usr/bin/python3 tests/docs/docfig.py --check
 	@/usr/bin/python3 tests/docs/design_check.py .
+	@# self-test: docs/daemon.md's key reference (generated from
+	@# daemon/conf_schema.c) with one range edited by hand must fail
+	@mkdir -p $(BUILD)
+	@sed 's/^| `max_clients` | 1\.\.512 |/| `max_clients` | 1..511 |/' docs/daemon.md > $(BUILD)/daemon_drift.md
+	@if cmp -s docs/daemon.md $(BUILD)/daemon_drift.md; then \
+	  echo "docs-check: self-test found no max_clients row to edit"; exit 1; fi
+	@if BUILD=$(BUILD) /usr/bin/python3 tests/docs/docfig.py --check $(BUILD)/daemon_drift.md \
+	    > $(BUILD)/daemon_drift.log 2>&1; then \
+	  echo "docs-check: a key table edited by hand passed"; exit 1; \
+	else echo "docs-check: a key table that differs from the schema is refused (self-test)"; fi
 
 TEST_TARGETS += docs-check
 

@@ -24,7 +24,11 @@ FZD_MB := daemon/mb_req.c daemon/mb_map.c daemon/it2n_regmap.c daemon/models.c d
 FZD_SRC_modbus := daemon/mb_tcp.c daemon/acl.c daemon/porthint.c $(FZD_MB)
 FZD_SRC_rtu := daemon/mb_rtu.c daemon/link_serial.c $(FZD_MB)
 FZD_SRC_store := daemon/store.c daemon/models.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
-FZD_SRC_conf := daemon/conf.c daemon/acl.c daemon/spb_conf.c
+FZD_SRC_conf := daemon/conf.c daemon/conf_schema.c daemon/acl.c daemon/spb_conf.c
+# conf: a dictionary of the schema's section headers, "key = " and words
+# (tests/fuzz_daemon/conf_dict.c), for libFuzzer (-dict=) and the plain
+# driver's token insertions (FUZZ_DICT).
+FZD_DICT_conf := $(FZD_B)/conf.dict
 FZD_SRC_links := daemon/links.c daemon/link_serial.c daemon/models.c daemon/store.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
 # spbcmd: the Sparkplug NCMD/DCMD payload decoder (daemon/spb_payload.c and
 # the protoc-c code of daemon/spb.proto).
@@ -54,25 +58,33 @@ $(BUILD)/fuzz/fuzzd_$(1): $(FZD)/fuzz_$(1).c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD
 	  $(FZD_COMMON) $(FZD_SRC_$(1)) $(CORE_SRC) $(PROTO_SRC) $(FZD_PKGS) $(FZD_LD_$(1))
 
 .PHONY: fuzzd-fuzz-$(1)
-fuzzd-fuzz-$(1): $(BUILD)/fuzz/fuzzd_$(1)
+fuzzd-fuzz-$(1): $(BUILD)/fuzz/fuzzd_$(1) $(FZD_DICT_$(1))
 	@rm -rf $(BUILD)/fuzz/fuzzd_$(1)_corpus; mkdir -p $(BUILD)/fuzz/fuzzd_$(1)_corpus
 	$(BUILD)/fuzz/fuzzd_$(1) -max_total_time=$(FZD_SECONDS) -timeout=10 -print_final_stats=1 \
-	  -artifact_prefix=$(BUILD)/fuzz/fuzzd_$(1)- \
+	  -artifact_prefix=$(BUILD)/fuzz/fuzzd_$(1)- $(if $(FZD_DICT_$(1)),-dict=$(FZD_DICT_$(1))) \
 	  -max_len=$(if $(filter store,$(1)),16384,4096) $(BUILD)/fuzz/fuzzd_$(1)_corpus $(FZD)/corpus/$(1)
 endef
 $(foreach t,$(FZD_TARGETS),$(eval $(call FZD_RULES,$(t))))
 
 FZD_BINS := $(FZD_TARGETS:%=$(FZD_B)/fuzz_%) $(FZD_TARGETS:%=$(FZD_B)/san/fuzz_%)
 
+$(FZD_B)/conf_dict: $(FZD)/conf_dict.c daemon/conf_schema.c $(FZD_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(FZD_CFLAGS) -o $@ $(FZD)/conf_dict.c daemon/conf_schema.c
+
+$(FZD_B)/conf.dict: $(FZD_B)/conf_dict
+	$< > $@.tmp && mv $@.tmp $@
+
 .PHONY: fuzzd-test fuzzd-fuzz fuzzd-cppcheck
 TEST_TARGETS += fuzzd-test fuzzd-cppcheck
 FUZZ_TARGETS += fuzzd-fuzz
 
 # Fixed corpus + seeded mutations, normal and sanitizer builds.
-fuzzd-test: $(FZD_BINS)
+fuzzd-test: $(FZD_BINS) $(FZD_DICT_conf)
 	@set -e; for t in $(FZD_TARGETS); do \
-	  $(FZD_B)/fuzz_$$t $(FZD)/corpus/$$t; \
-	  $(FZD_B)/san/fuzz_$$t $(FZD)/corpus/$$t; done
+	  d=$$(case $$t in conf) echo $(FZD_DICT_conf);; esac); \
+	  FUZZ_DICT=$$d $(FZD_B)/fuzz_$$t $(FZD)/corpus/$$t; \
+	  FUZZ_DICT=$$d $(FZD_B)/san/fuzz_$$t $(FZD)/corpus/$$t; done
 
 fuzzd-fuzz: $(FZD_TARGETS:%=fuzzd-fuzz-%)
 

@@ -2,7 +2,10 @@
  * LLVMFuzzerInitialize once, then each file of a corpus directory (or the
  * single file given) plus a fixed number of seeded mutations of it (flips,
  * byte sets, truncations, duplications), so `make test` repeats the same
- * inputs on every run. Usage: fuzz_X DIR|FILE [mutations per file]. */
+ * inputs on every run. Usage: fuzz_X DIR|FILE [mutations per file].
+ * FUZZ_DICT=FILE: a libFuzzer dictionary ("token" lines, \xNN \\ \"
+ * escapes, # comments); its tokens are also inserted by the mutations, and
+ * a malformed one is an error (libFuzzer would refuse it under make fuzz). */
 #include <dirent.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -24,6 +27,70 @@ static uint64_t rnd(void)
     return rng_state * 0x2545F4914F6CDD1Dull;
 }
 
+#define DICT_MAX 1024
+static char *dict[DICT_MAX];
+static size_t dict_len[DICT_MAX];
+static unsigned ndict;
+
+/* One "..." token of a dictionary line into dict[]; 0, or -1. */
+static int dict_token(const char *l)
+{
+    const char *q = strchr(l, '"');
+    char tok[256];
+    size_t n = 0;
+    if (!q || ndict == DICT_MAX)
+        return -1;
+    for (q++; *q && *q != '"'; q++) {
+        unsigned x;
+        if (n == sizeof tok)
+            return -1;
+        if (*q != '\\') {
+            tok[n++] = *q;
+        } else if (q[1] == '\\' || q[1] == '"') {
+            tok[n++] = *++q;
+        } else if (q[1] == 'x' && sscanf(q + 2, "%2x", &x) == 1 && strspn(q + 2, "0123456789abcdefABCDEF") >= 2) {
+            tok[n++] = (char)x;
+            q += 3;
+        } else {
+            return -1;
+        }
+    }
+    if (*q != '"' || q[1 + strspn(q + 1, " \t\r\n")] || n == 0)
+        return -1;
+    dict[ndict] = malloc(n);
+    if (!dict[ndict])
+        return -1;
+    memcpy(dict[ndict], tok, n);
+    dict_len[ndict++] = n;
+    return 0;
+}
+
+static void load_dict(const char *path)
+{
+    FILE *f = fopen(path, "r");
+    char line[512];
+    int no = 0;
+    if (!f) {
+        perror(path);
+        exit(1);
+    }
+    while (fgets(line, sizeof line, f)) {
+        const char *l = line + strspn(line, " \t");
+        no++;
+        if (*l == '#' || *l == '\n' || !*l)
+            continue;
+        if (dict_token(l)) {
+            fprintf(stderr, "%s:%d: not a dictionary entry (\"token\", \\xNN \\\\ \\\" escapes)\n", path, no);
+            exit(1);
+        }
+    }
+    fclose(f);
+    if (!ndict) {
+        fprintf(stderr, "%s: no token\n", path);
+        exit(1);
+    }
+}
+
 static unsigned run_file(const char *path, unsigned mutations)
 {
     static uint8_t buf[FUZZ_MAX_INPUT], mut[FUZZ_MAX_INPUT];
@@ -42,11 +109,21 @@ static unsigned run_file(const char *path, unsigned mutations)
         memcpy(mut, buf, n);
         unsigned ops = 1 + (unsigned)(rnd() % 4);
         for (unsigned o = 0; o < ops && m > 0; o++) {
-            switch (rnd() % 4) {
+            switch (rnd() % (ndict ? 5 : 4)) {
             case 0: mut[rnd() % m] ^= (uint8_t)(1u << (rnd() % 8)); break;
             case 1: mut[rnd() % m] = (uint8_t)rnd(); break;
             case 2: m = (size_t)(rnd() % m); break;
-            default:
+            case 4: { /* a dictionary token inserted anywhere */
+                unsigned t = (unsigned)(rnd() % ndict);
+                size_t at = (size_t)(rnd() % (m + 1));
+                if (m + dict_len[t] <= sizeof mut) {
+                    memmove(mut + at + dict_len[t], mut + at, m - at);
+                    memcpy(mut + at, dict[t], dict_len[t]);
+                    m += dict_len[t];
+                }
+                break;
+            }
+            case 3:
                 if (m < sizeof mut / 2) {
                     memcpy(mut + m, mut, m);
                     m *= 2;
@@ -68,6 +145,8 @@ int main(int argc, char **argv)
     struct stat st;
     char path[4096];
 
+    if (getenv("FUZZ_DICT") && *getenv("FUZZ_DICT"))
+        load_dict(getenv("FUZZ_DICT"));
     LLVMFuzzerInitialize(&argc, &argv);
     if (stat(arg, &st) == 0 && S_ISREG(st.st_mode)) {
         runs = run_file(arg, mutations);
@@ -89,6 +168,7 @@ int main(int argc, char **argv)
         }
         free(names);
     }
-    printf("%s: %u corpus file(s), %u runs, all invariants held\n", argv[0], files, runs);
+    printf("%s: %u corpus file(s), %u runs%s%.0u%s, all invariants held\n", argv[0], files, runs,
+           ndict ? " with " : "", ndict, ndict ? " dictionary tokens" : "");
     return files > 0 ? 0 : 1;
 }

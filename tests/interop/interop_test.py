@@ -239,7 +239,7 @@ def check_config():
          ":4: [modbus] coord_scale: duplicate key (first set on line 2)"),
         ("[modbus]\ndefault_model = 9\n", ":2: [modbus] default_model: no [model:9] is configured"),
         ("[modbus]\nint32_word_order = BE\n",
-         ":2: [modbus] int32_word_order: expected float (as float_word_order), ABCD, CDAB, BADC or DCBA"),
+         ":2: [modbus] int32_word_order: expected float, ABCD, CDAB, BADC or DCBA"),
     ]
     for k, (text, want) in enumerate(cases):
         path = os.path.join(T, f"bad{k}.conf")
