@@ -268,9 +268,11 @@ static int set_compound(struct parse *p, void *base, const struct conf_key *k, c
 }
 
 /* Store value v of key k into its section's struct at base: the one way
- * every key of every section is read (and every default set). p is NULL
- * for a default. 0, or -1 with the reason in why. */
-static int set_value(struct parse *p, const struct conf_section *s, void *base, const struct conf_key *k,
+ * every key of every section is read (and every default set: dflt, then
+ * nothing is checked against the system and no line is kept). p is the
+ * file's parse, NULL for a single key (conf_key). 0, or -1 with the
+ * reason in why. */
+static int set_value(struct parse *p, int dflt, const struct conf_section *s, void *base, const struct conf_key *k,
                      const char *v, int line, char *why, size_t whysize)
 {
     char *at = (char *)base + k->off;
@@ -304,7 +306,7 @@ static int set_value(struct parse *p, const struct conf_section *s, void *base, 
     case CONF_T_FILE:
         if (copy_str(at, k->size, v))
             WHY("path empty or too long");
-        if (k->type == CONF_T_FILE && p) {
+        if (k->type == CONF_T_FILE && !dflt) {
             /* Readable now (what it holds is checked later, e.g. by
              * spb_conf_check_tls). */
             FILE *f = fopen(v, "r");
@@ -318,7 +320,7 @@ static int set_value(struct parse *p, const struct conf_section *s, void *base, 
             return -1;
         break;
     }
-    if (!p)
+    if (dflt)
         return 0;
     if (k->line_off)
         *(int *)(void *)((char *)base + k->line_off - 1) = line;
@@ -335,7 +337,7 @@ static void set_defaults(const struct conf_section *s, void *base)
     for (int k = 0; k < s->nkeys; k++) {
         const struct conf_key *key = &s->keys[k];
         if (key->def)
-            set_value(NULL, s, base, key, key->def, 0, why, sizeof why);
+            set_value(NULL, 1, s, base, key, key->def, 0, why, sizeof why);
         else if (key->unset && (key->type == CONF_T_INT || key->type == CONF_T_ENUM || key->type == CONF_T_BOOL))
             *(int *)(void *)((char *)base + key->off) = key->unset;
     }
@@ -388,6 +390,17 @@ static int named(struct parse *p, const struct conf_section *s, void *array, siz
     set_defaults(s, a + (size_t)k * size);
     (*n)++;
     return k;
+}
+
+/* A key of [sparkplug]: the section is given (its first key is where
+ * spb_conf_check names a missing one). */
+static void spb_opened(struct spb_conf *spb, int line, const char *name)
+{
+    if (!spb->enabled) {
+        spb->enabled = 1;
+        spb->first_line = line;
+        snprintf(spb->first_key, sizeof spb->first_key, "%.*s", (int)sizeof spb->first_key - 1, name);
+    }
 }
 
 /* The struct the keys of section `section` (of kind s) go to, and its
@@ -446,11 +459,7 @@ static void *instance(struct parse *p, const struct conf_section *s, const char 
         *o = &p->model[k];
         return &c->model[k];
     case CONF_SEC_SPARKPLUG:
-        if (!c->spb.enabled) {
-            c->spb.enabled = 1;
-            c->spb.first_line = p->line;
-            snprintf(c->spb.first_key, sizeof c->spb.first_key, "%.*s", (int)sizeof c->spb.first_key - 1, p->key);
-        }
+        spb_opened(&c->spb, p->line, p->key);
         *o = &p->single[s->id];
         return &c->spb;
     case CONF_SEC_METRICS:
@@ -502,7 +511,7 @@ static int handler(void *user, const char *section, const char *name, const char
         o->first_line = p->line;
         snprintf(o->first_key, sizeof o->first_key, "%s", name);
     }
-    if (set_value(p, s, base, k, value, p->line, why, sizeof why)) {
+    if (set_value(p, 0, s, base, k, value, p->line, why, sizeof why)) {
         p->err_key = k;
         FAIL("%s", why);
     }
@@ -983,6 +992,20 @@ static void suggest(const struct parse *p, char *out, size_t size)
     } else if (p->err_key && p->value && (key = conf_schema_suggest_word(p->err_key, p->value)) != NULL) {
         snprintf(out, size, ": did you mean '%s'?", key);
     }
+}
+
+int conf_key(void *base, const char *section, const char *name, const char *value, int line, char *err,
+             size_t errsize)
+{
+    const struct conf_section *s = conf_schema_section(section);
+    const struct conf_key *k = conf_schema_key(s, name, NULL);
+    if (!s || !k) {
+        snprintf(err, errsize, "unknown %s", s ? "key" : "section");
+        return -1;
+    }
+    if (s->id == CONF_SEC_SPARKPLUG)
+        spb_opened(base, line, name);
+    return set_value(NULL, 0, s, base, k, value, line, err, errsize);
 }
 
 int conf_default_unit(const struct conf *c)

@@ -185,6 +185,14 @@ struct conf_override {
  * "--flag 'VALUE': reason" in err and c unchanged. */
 int conf_apply_override(struct conf *c, const struct conf_override *o, char *err, size_t errsize);
 
+/* One key of a section kind ("sparkplug", "rtu:a", ...) into that
+ * section's struct at base (a struct spb_conf, a struct conf_rtu, ...),
+ * read as conf_load reads it; line is kept where the section keeps lines.
+ * For tests of a section's own structs. 0, or -1 with the reason in err
+ * (without file, line or key). */
+int conf_key(void *base, const char *section, const char *name, const char *value, int line, char *err,
+             size_t errsize);
+
 /* Whether c removes model id with removed = yes. */
 int conf_removes(const struct conf *c, int id);
 

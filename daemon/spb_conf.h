@@ -67,7 +67,7 @@ int spb_conf_check(const struct spb_conf *s, int *line, char *key, size_t keysiz
 /* Load the TLS files as the MQTT client will (OpenSSL: the CA
  * certificates, the client certificate chain and key, and that they
  * match), so a bad one fails --check-config, start and reload with
- * "path:line: [sparkplug] key: reason". Kept out of spb_conf_key() so the
+ * "path:line: [sparkplug] key: reason". Kept out of the key parsers so the
  * parser (and its fuzzer) stays free of OpenSSL. 0 or -1 with err. */
 int spb_conf_check_tls(const struct spb_conf *s, const char *path, char *err, size_t errsize);
 

@@ -1018,15 +1018,15 @@ static void test_schema_docs(void **st)
     for (char *h = ref; (h = strstr(h, "### ")) != NULL;) {
         char *end = strstr(h + 4, "\n### ");
         char save = 0;
-        if (end) {
-            save = end[1];
-            end[1] = 0;
+        if (end) { /* up to the table's last line, without the blank line */
+            save = end[0];
+            end[0] = 0;
         }
         if (!strstr(doc, h))
             fail_msg("docs/daemon.md lacks (or has another version of) this table; run make docs-figures:\n%s", h);
         if (!end)
             break;
-        end[1] = save;
+        end[0] = save;
         h = end + 1;
     }
 }

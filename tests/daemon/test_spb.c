@@ -16,6 +16,7 @@
 #include <cmocka.h>
 #include <unistd.h>
 
+#include "conf.h"
 #include "spb.pb-c.h"
 #include "spb_conf.h"
 #include "spb_payload.h"
@@ -23,7 +24,7 @@
 static int key(struct spb_conf *s, const char *k, const char *v)
 {
     char err[256];
-    return spb_conf_key(s, k, v, 7, err, sizeof err);
+    return conf_key(s, "sparkplug", k, v, 7, err, sizeof err);
 }
 
 static void test_broker_forms(void **state)
@@ -105,7 +106,7 @@ static void test_password_file(void **state)
     assert_non_null(f);
     fputs("s3cret\r\nsecond line ignored\n", f);
     fclose(f);
-    assert_int_equal(spb_conf_key(&s, "password_file", path, 9, err, sizeof err), 0);
+    assert_int_equal(conf_key(&s, "sparkplug", "password_file", path, 9, err, sizeof err), 0);
     assert_string_equal(s.password, "s3cret");
     assert_int_equal(s.password_line, 9);
     assert_int_equal(key(&s, "broker", "h"), 0);
@@ -118,10 +119,10 @@ static void test_password_file(void **state)
     f = fopen(path, "w");
     assert_non_null(f);
     fclose(f);
-    assert_int_equal(spb_conf_key(&s, "password_file", path, 9, err, sizeof err), -1);
+    assert_int_equal(conf_key(&s, "sparkplug", "password_file", path, 9, err, sizeof err), -1);
     assert_non_null(strstr(err, "is empty"));
     unlink(path);
-    assert_int_equal(spb_conf_key(&s, "password_file", path, 9, err, sizeof err), -1);
+    assert_int_equal(conf_key(&s, "sparkplug", "password_file", path, 9, err, sizeof err), -1);
     assert_non_null(strstr(err, "cannot open"));
 }
 
