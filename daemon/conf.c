@@ -40,7 +40,7 @@ struct parse {
     int models_set;      /* first [model:N] replaces the default */
     char err[256];
     char sec[64], key[64];  /* where the first error was raised */
-    const char *value;      /* the value refused, for "did you mean" */
+    char value[CONF_LINE_CAP]; /* the value refused, for "did you mean" */
     const struct conf_key *err_key;
     int err_line, syntax;
     /* Lines are counted here (the reader), not by libinih, so a message
@@ -491,7 +491,6 @@ static int handler(void *user, const char *section, const char *name, const char
     }
     snprintf(p->sec, sizeof p->sec, "%s", section);
     snprintf(p->key, sizeof p->key, "%s", name);
-    p->value = value;
     p->sec_keys++;
     p->nkeys++;
     s = conf_schema_section(section);
@@ -512,7 +511,8 @@ static int handler(void *user, const char *section, const char *name, const char
         snprintf(o->first_key, sizeof o->first_key, "%s", name);
     }
     if (set_value(p, 0, s, base, k, value, p->line, why, sizeof why)) {
-        p->err_key = k;
+        p->err_key = k; /* libinih's buffer is gone when the error is reported */
+        snprintf(p->value, sizeof p->value, "%s", value);
         FAIL("%s", why);
     }
     o->line[idx] = p->line;
@@ -989,7 +989,7 @@ static void suggest(const struct parse *p, char *out, size_t size)
             }
             snprintf(out + strlen(out), size - strlen(out), ")");
         }
-    } else if (p->err_key && p->value && (key = conf_schema_suggest_word(p->err_key, p->value)) != NULL) {
+    } else if (p->err_key && (key = conf_schema_suggest_word(p->err_key, p->value)) != NULL) {
         snprintf(out, size, ": did you mean '%s'?", key);
     }
 }
