@@ -3,7 +3,10 @@
  * Invariants (abort on violation):
  *  - success: every field of the result is inside its documented limits
  *    (counts, ranges, unique unit ids, terminated strings), as the rest of
- *    the daemon assumes without checking again;
+ *    the daemon assumes without checking again; every number, word and
+ *    flag key of every section holds a value its schema entry allows
+ *    (daemon/conf_schema.c: the range, a word's code, or the value before
+ *    any key);
  *  - failure: the struct is untouched and the message names the file and a
  *    line "PATH:N: ..." with N a line of the file; when it names a key, that
  *    key occurs on line N or above (libinih continuation lines repeat the
@@ -31,6 +34,7 @@
 #include <string.h>
 
 #include "conf.h"
+#include "conf_schema.h"
 #include "fake_env.h"
 #include "fuzz_tmp.h"
 #include "it2n.h"
@@ -70,8 +74,55 @@ static int terminated(const char *s, size_t size)
     return memchr(s, 0, size) != NULL;
 }
 
+/* Whether key k of the struct at base holds a value the schema allows. */
+static int schema_value_ok(const void *base, const struct conf_key *k)
+{
+    const char *at = (const char *)base + k->off;
+    long v;
+    if (k->type == CONF_T_FLAG)
+        return 1; /* a bit: any value is one */
+    if (k->type != CONF_T_INT && k->type != CONF_T_ENUM && k->type != CONF_T_BOOL)
+        return 1;
+    v = k->size == 1 ? (long)*at : (long)*(const int *)(const void *)at;
+    if (!k->def && v == k->unset)
+        return 1;
+    if (k->type == CONF_T_BOOL)
+        return v == 0 || v == 1;
+    for (int w = 0; k->words && k->words[w].word; w++)
+        if (v == k->words[w].code)
+            return 1;
+    return k->type == CONF_T_INT && v >= k->lo && v <= k->hi;
+}
+
+/* Every section instance of c against the schema. */
+static void check_schema(const struct conf *c)
+{
+    int ns;
+    const struct conf_section *sec = conf_schema_sections(&ns);
+    for (int i = 0; i < ns; i++) {
+        const void *base[CONF_MAX_MODELS];
+        int n = 1;
+        switch (sec[i].id) {
+        case CONF_SEC_LISTEN: n = c->nlisten; for (int k = 0; k < n; k++) base[k] = &c->listen[k]; break;
+        case CONF_SEC_RTU: n = c->nrtu; for (int k = 0; k < n; k++) base[k] = &c->rtu[k]; break;
+        case CONF_SEC_MODEL: n = c->nmodels; for (int k = 0; k < n; k++) base[k] = &c->model[k]; break;
+        case CONF_SEC_LINK: n = c->nlinks; for (int k = 0; k < n; k++) base[k] = &c->link[k]; break;
+        case CONF_SEC_SPARKPLUG: base[0] = &c->spb; break;
+        case CONF_SEC_METRICS: base[0] = &c->metrics; break;
+        default: base[0] = c; break;
+        }
+        for (int k = 0; k < n; k++)
+            for (int j = 0; j < sec[i].nkeys; j++)
+                if (!schema_value_ok(base[k], &sec[i].keys[j])) {
+                    fuzz_note("[%s] %s out of its schema range", sec[i].name, sec[i].keys[j].name);
+                    fuzz_check(0, "a key's value is one its schema allows");
+                }
+    }
+}
+
 static void check_ok(const struct conf *c)
 {
+    check_schema(c);
     fuzz_check(terminated(c->state_dir, sizeof c->state_dir) && c->state_dir[0], "state_dir");
     fuzz_check(c->snapshot_interval >= 1 && c->snapshot_interval <= 86400, "snapshot_interval range");
     fuzz_check(c->fsync == 0 || c->fsync == 1, "fsync bool");
