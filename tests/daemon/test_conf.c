@@ -608,6 +608,9 @@ static void test_suggestions(void **st)
         { "[modbus]\nstate_dir = x\n", 2, "[modbus] state_dir: unknown key: 'state_dir' is a key of [daemon]" },
         { "[daemon]\ntcp_listen = :1502\n", 2, "[daemon] tcp_listen: unknown key: 'tcp_listen' is a key of [modbus]" },
         { "[model:1]\nx = 1\n", 2, "[model:1] x: unknown key in this section (it2nd --config-keys lists the keys)" },
+        /* keys the hand-kept suggestion list before the schema missed */
+        { "[modbus]\nmax_pendng = 20\n", 2, "[modbus] max_pendng: unknown key: did you mean 'max_pending'?" },
+        { "[model:1]\nkidn = bspline\n", 2, "[model:1] kidn: unknown key: did you mean 'kind'?" },
         { "[sparkplg]\nbroker = x\n", 2, "[sparkplg] broker: unknown section: did you mean [sparkplug]?" },
         { "[rtus:a]\nbaud = 9600\n", 2, "[rtus:a] baud: unknown section: did you mean [rtu:a]?" },
         { "[sparkplug]\nbroker = x\ngroup_id = g\nedge_node_id = e\nkeepalive = 3\n", 5,
@@ -970,8 +973,16 @@ static void test_schema_table(void **st)
             assert_true(k->help && k->help[0]);
             assert_null(strchr(k->help, '\n'));
             assert_null(strchr(k->help, '|')); /* a markdown table cell */
-            for (int l = 0; l < j; l++)
-                assert_string_not_equal(k->name, sec[i].keys[l].name);
+            for (int l = 0; l < j; l++) {
+                const struct conf_key *o = &sec[i].keys[l];
+                assert_string_not_equal(k->name, o->name);
+                /* two keys stored in one place: one would overwrite the
+                 * other (a copied entry with its offset left unchanged) */
+                if (k->size && o->size && k->off == o->off && k->bit == o->bit)
+                    fail_msg("[%s] %s and %s are stored in the same field", sec[i].name, o->name, k->name);
+                if (k->line_off && k->line_off == o->line_off)
+                    fail_msg("[%s] %s and %s keep their line in the same field", sec[i].name, o->name, k->name);
+            }
             if (k->type == CONF_T_INT)
                 assert_true(k->lo <= k->hi);
             if (k->type == CONF_T_ENUM)
