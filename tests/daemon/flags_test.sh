@@ -195,6 +195,23 @@ printf '[daemon]\nstate_dir ./x\n' > "$T/t2.conf"
 out=$("$IT2ND" -c "$T/t2.conf" -t 2>&1)
 [ $? = 1 ] && grep -q "t2.conf:2: \[daemon\] 'state_dir ./x': no '=' in this line: expected key = value (state_dir = ...?)" <<<"$out" &&
     ok "a line without '=': named as such" || fail "no '=': $out"
+printf '[rtu:bus]\ndevice = /dev/null\nparity = evn\n' > "$T/t3.conf"
+out=$("$IT2ND" -c "$T/t3.conf" -t 2>&1)
+[ $? = 1 ] && grep -q "t3.conf:3: \[rtu:bus\] parity: expected none, even or odd: did you mean 'even'?" <<<"$out" &&
+    ok "a misspelt value: did you mean" || fail "value typo: $out"
+
+# 8b. --config-keys prints the schema: every section, a key with its range
+# and default, and exits 0; an unknown format is a usage error (exit 2).
+out=$("$IT2ND" --config-keys 2>&1); rc=$?
+secs=$(grep -cE '^\[(daemon|modbus|listen:NAME|rtu:NAME|model:ID|link:NAME|sparkplug|metrics)\]' <<<"$out")
+[ $rc = 0 ] && [ "$secs" = 8 ] && grep -q "^  max_clients = 1..512  (default: 32)" <<<"$out" &&
+    ok "--config-keys: 8 sections, ranges and defaults" || fail "--config-keys: rc $rc, $secs sections: $out"
+out=$("$IT2ND" --config-keys=markdown 2>&1); rc=$?
+[ $rc = 0 ] && grep -q '^| `keepalive` | 5..3600 s | `30` | restart |' <<<"$out" &&
+    ok "--config-keys=markdown: the docs' tables" || fail "--config-keys=markdown: rc $rc: $out"
+out=$("$IT2ND" --config-keys=yaml 2>&1); rc=$?
+[ $rc = 2 ] && grep -q "expected text, markdown or dict" <<<"$out" && ok "--config-keys=yaml: exit 2, says what is known" ||
+    fail "--config-keys=yaml: rc $rc: $out"
 
 # 9. make run PORT= STATE= METRICS= passes the flags.
 out=$(make -s -n -C "$ROOT" run PORT=15020 STATE=./state2 METRICS=127.0.0.1:9102 2>&1 | grep "exec ")
