@@ -375,8 +375,10 @@ static void sf_store(int all)
             break;
         }
         spb_metrics_values(models_view(md), &d->q, &g.mbo, cur);
+        /* The nets (FloatArray) are derived from the points, which are
+         * kept: the host gets the nets of now in the birth it will have. */
         for (int j = 0; j < nm; j++)
-            if (!spb_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
+            if (spb_metrics_type(j) != SPB_FLOATARRAY && !spb_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
                 idx[n] = (uint16_t)j;
                 vals[n++] = cur[j];
             }
