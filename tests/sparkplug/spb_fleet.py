@@ -199,6 +199,19 @@ def rss_kib(pid):
     return None
 
 
+def private_kib(pid):
+    """Private_Clean + Private_Dirty: what this process alone costs."""
+    n = 0
+    try:
+        with open("/proc/%d/smaps_rollup" % pid) as f:
+            for line in f:
+                if line.startswith(("Private_Clean:", "Private_Dirty:")):
+                    n += int(line.split()[1])
+    except OSError:
+        return None
+    return n
+
+
 def pct(xs, q):
     xs = sorted(xs)
     return xs[min(len(xs) - 1, int(round(q * (len(xs) - 1))))]
@@ -299,6 +312,7 @@ def main():
             figs["ddata_p99_ms"] = pct(lat, 0.99) * 1000
             figs["ddata_per_s"] = dd_count / t_push
         rss2 = [rss_kib(procs[nm].pid) for nm in names]
+        priv = [x for x in (private_kib(procs[nm].pid) for nm in names) if x]
 
         # ---- broker restart: every node born again with a new bdSeq
         before = {nm: bd for nm, (bd, _, _) in got.items()}
@@ -347,6 +361,8 @@ def main():
             figs["rss_mean_kib"] = statistics.fmean(rss_ok)
             figs["rss_max_kib"] = max(rss_ok)
             figs["rss_births_mean_kib"] = statistics.fmean([x for x in rss if x])
+        if priv:
+            figs["private_mean_kib"] = statistics.fmean(priv)
         for k, v in figs.items():
             print("  %s = %.1f" % (k, v))
         if args.out:
@@ -360,6 +376,8 @@ def main():
                         round(figs["ddata_per_s"], 1)),
                     row("fleet RSS per it2nd node (mean, after the pushes)", "KiB", round(figs["rss_mean_kib"])),
                     row("fleet RSS per it2nd node (largest)", "KiB", figs["rss_max_kib"]),
+                    row("fleet private memory per it2nd node (mean, smaps_rollup)", "KiB",
+                        round(figs.get("private_mean_kib", 0))),
                     row("fleet broker restart: all %d nodes reborn (from the broker's start)" % n, "s",
                         round(figs["reborn_s"], 2), target=15),
                     row("fleet kill -9 of %d nodes: their NDEATHs (matching bdSeq) at the host" % nkill, "ms",
