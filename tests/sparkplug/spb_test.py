@@ -586,8 +586,9 @@ def check_dbirth(m, plc, unit, rows, cols, aliases):
     else:
         check(all(g and g.get("is_null") for g in grid), "%s DBIRTH: sample grid null while not solved" % dev)
     c32 = plc.read(unit, 88, 4)
-    check(value(tab["Status/points_present32"], UINT32) == c32[0] << 16 | c32[1] and
-          value(tab["Status/points_required32"], UINT32) == c32[2] << 16 | c32[3],
+    p32, r32 = tab.get("Status/points_present32"), tab.get("Status/points_required32")
+    check(p32 is not None and r32 is not None and value(p32, UINT32) == c32[0] << 16 | c32[1] and
+          value(r32, UINT32) == c32[2] << 16 | c32[3],
           "%s DBIRTH: Status/points_present32, points_required32 equal Modbus registers 88..91" % dev)
     check_nets(dev, tab, plc, unit, regs)
     check(p["size"] <= BIRTH_MAX, "%s DBIRTH: %d bytes (<= %d: every net above %d values goes by pages)"
@@ -618,8 +619,9 @@ def check_nets(dev, tab, plc, unit, regs):
     kind, nr, nc = regs[28], regs[29], regs[30]
     solved = regs[1] == 2
     nets = {(fp, ch): tab.get("Net/%s/%s" % (FPS[fp], "xyzTIF"[ch])) for fp in range(7) for ch in range(6)}
-    check(all(x is not None and x["datatype"] == FLOATARRAY for x in nets.values()),
-          "%s DBIRTH: 42 Net/<FP>/<ch> metrics (FloatArray)" % dev)
+    if not check(all(x is not None and x["datatype"] == FLOATARRAY for x in nets.values()),
+                 "%s DBIRTH: 42 Net/<FP>/<ch> metrics (FloatArray)" % dev):
+        return
     if not solved or nr * nc > NET_MAX:
         check(all(x is not None and x.get("is_null") for x in nets.values()),
               "%s DBIRTH: nets null (%s)" % (dev, "not solved" if not solved else "%d x %d > %d values: by pages"
@@ -642,8 +644,11 @@ def check_nets(dev, tab, plc, unit, regs):
                     bad.append("%s/%s" % (FPS[fp], "xyzTIF"[ch]))
         check(not bad, "%s DBIRTH: every net (%d x %d) bit-equal to Modbus %s %s" %
               (dev, nr, nc, "control_net (2048..)" if kind == 0 else "coef_window", bad[:3]))
-    pg = [value(tab["Net/Page/" + k], UINT16) for k in ("fp", "ch", "row")]
-    pv = tab["Net/Page/values"]
+    pg = [tab.get("Net/Page/" + k) for k in ("fp", "ch", "row")]
+    pv = tab.get("Net/Page/values")
+    if not check(None not in pg and pv is not None, "%s DBIRTH: Net/Page/fp, ch, row, values" % dev):
+        return
+    pg = [value(x, UINT16) for x in pg]
     if solved:
         want = modbus_window(plc, unit, pg[0], pg[1], pg[2], nc)
         got = pv.get("raw")
