@@ -259,6 +259,7 @@ def main():
             print("  missing: %s" % sorted(nodeset - set(got))[:10])
             return 1
         figs["births_s"] = max(t for _, t, _ in got.values()) - t0
+        figs["spawn_s"] = t_spawned  # part of births_s: starting 100 processes on a loaded machine
         check(all(bd == 0 for bd, _, _ in got.values()), "births: every first NBIRTH has bdSeq 0")
         aliases = {}
         for nm, (_, _, p) in got.items():
