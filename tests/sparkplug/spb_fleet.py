@@ -155,6 +155,35 @@ def free_port():
     return p
 
 
+_listen_ports = set()
+
+
+def listen_port():
+    """A free loopback port below the kernel's ephemeral range for a node's
+    Modbus listener: a port picked from the ephemeral range can be taken,
+    before the node binds it, by an outgoing connection (100 nodes open
+    100 to the broker), and the node then cannot listen. Unique per run."""
+    import random
+    try:
+        lo = int(open("/proc/sys/net/ipv4/ip_local_port_range").read().split()[0])
+    except (OSError, ValueError, IndexError):
+        lo = 32768
+    for _ in range(1000):
+        p = random.randrange(max(1024, lo - 12000), lo)
+        if p in _listen_ports:
+            continue
+        s = socket.socket()
+        try:
+            s.bind(("127.0.0.1", p))
+        except OSError:
+            continue
+        finally:
+            s.close()
+        _listen_ports.add(p)
+        return p
+    raise RuntimeError("no free port below %d" % lo)
+
+
 def node_conf(d, k, broker_port):
     sd = os.path.join(d, "node-%d" % k)
     os.makedirs(sd)
@@ -162,7 +191,7 @@ def node_conf(d, k, broker_port):
     with open(path, "w") as f:
         f.write("[daemon]\nstate_dir = %s/state\n[modbus]\ntcp_listen = 127.0.0.1:%d\ngrid_rows = 2\ngrid_cols = 2\n"
                 "[model:1]\nn = 1\nm = 1\n[sparkplug]\nbroker = 127.0.0.1:%d\ngroup_id = %s\nedge_node_id = node-%d\n"
-                "keepalive = 10\nreconnect_max = 2\n" % (sd, free_port(), broker_port, GROUP, k))
+                "keepalive = 10\nreconnect_max = 2\n" % (sd, listen_port(), broker_port, GROUP, k))
     return path
 
 
@@ -256,7 +285,10 @@ def main():
         check(len(got) == n, "births: NBIRTH + DBIRTH model-1 of %d/%d nodes (spawning took %.2f s)"
               % (len(got), n, t_spawned))
         if len(got) < n:
-            print("  missing: %s" % sorted(nodeset - set(got))[:10])
+            for nm in sorted(nodeset - set(got))[:5]:
+                print("  missing %s (%s); its log:" % (nm, "running" if procs[nm].poll() is None
+                                                       else "exited %d" % procs[nm].returncode))
+                print("    " + "    ".join(open(confs[nm] + ".log").readlines()[-8:]))
             return 1
         figs["births_s"] = max(t for _, t, _ in got.values()) - t0
         figs["spawn_s"] = t_spawned  # part of births_s: starting 100 processes on a loaded machine
