@@ -276,7 +276,9 @@ def main():
 
         # ---- births
         t0 = time.monotonic()
+        t_start = {}
         for nm in names:
+            t_start[nm] = time.monotonic()
             procs[nm] = subprocess.Popen([args.it2nd, "-c", confs[nm], "-f"], stdout=subprocess.DEVNULL,
                                          stderr=open(confs[nm] + ".log", "a"))
         t_spawned = time.monotonic() - t0
@@ -292,6 +294,7 @@ def main():
             return 1
         figs["births_s"] = max(t for _, t, _ in got.values()) - t0
         figs["spawn_s"] = t_spawned  # part of births_s: starting 100 processes on a loaded machine
+        figs["node_birth_max_s"] = max(t - t_start[nm] for nm, (_, t, _) in got.items())
         check(all(bd == 0 for bd, _, _ in got.values()), "births: every first NBIRTH has bdSeq 0")
         aliases = {}
         for nm, (_, _, p) in got.items():
@@ -401,6 +404,8 @@ def main():
         if args.out:
             rows = [row("fleet %d it2nd nodes: all NBIRTH + DBIRTH after start" % n, "s",
                         round(figs["births_s"], 2), target=10),
+                    row("fleet slowest node: its spawn to its DBIRTH at the host", "s",
+                        round(figs["node_birth_max_s"], 2)),
                     row("fleet DCMD data point -> DDATA at the host, p50 (%d pushes, %d at once)"
                         % (len(lat), n), "ms", round(figs["ddata_p50_ms"], 1)),
                     row("fleet DCMD data point -> DDATA at the host, p99 (%d pushes, %d at once)"
