@@ -195,6 +195,18 @@ def node_conf(d, k, broker_port):
     return path
 
 
+def explain(missing, procs, confs):
+    """What a node that did not answer was doing: running or its exit
+    status, and the end of its log (the first few such nodes)."""
+    for nm in missing[:5]:
+        print("  %s: %s; its log:" % (nm, "running" if procs[nm].poll() is None
+                                      else "exited %d" % procs[nm].returncode))
+        try:
+            print("    " + "    ".join(open(confs[nm] + ".log").readlines()[-8:]))
+        except OSError as e:
+            print("    (%s)" % e)
+
+
 def bdseq(p):
     for m in p["metrics"]:
         if m.get("name") == "bdSeq":
@@ -287,10 +299,7 @@ def main():
         check(len(got) == n, "births: NBIRTH + DBIRTH model-1 of %d/%d nodes (spawning took %.2f s)"
               % (len(got), n, t_spawned))
         if len(got) < n:
-            for nm in sorted(nodeset - set(got))[:5]:
-                print("  missing %s (%s); its log:" % (nm, "running" if procs[nm].poll() is None
-                                                       else "exited %d" % procs[nm].returncode))
-                print("    " + "    ".join(open(confs[nm] + ".log").readlines()[-8:]))
+            explain(sorted(nodeset - set(got)), procs, confs)
             return 1
         figs["births_s"] = max(t for _, t, _ in got.values()) - t0
         figs["spawn_s"] = t_spawned  # part of births_s: starting 100 processes on a loaded machine
@@ -338,8 +347,9 @@ def main():
                             if aliases[node].get(m.get("alias"), (None,))[0] == "Status/points_received" and \
                                     m.get("raw") == r + 1:
                                 got_r.setdefault(node, t)
-            check(len(got_r) == n, "push round %d: a DDATA of model-1 with points_received %d from %d/%d nodes"
-                  % (r + 1, r + 1, len(got_r), n))
+            if not check(len(got_r) == n, "push round %d: a DDATA of model-1 with points_received %d from %d/%d "
+                         "nodes" % (r + 1, r + 1, len(got_r), n)):
+                explain(sorted(nodeset - set(got_r)), procs, confs)
             lat += [t - sent[nm] for nm, t in got_r.items()]
             dd_count += sum(1 for _, kind, _, _, _ in host.msgs[start:] if kind == "DDATA")
         t_push = time.monotonic() - t_push0
@@ -358,7 +368,8 @@ def main():
         t_b = broker.start()
         reb = host.wait(lambda ms: len(births_after(ms, start, nodeset)) == n and births_after(ms, start, nodeset), 30)
         reb = reb or births_after(host.msgs, start, nodeset)
-        check(len(reb) == n, "broker restart: %d/%d nodes reborn (NBIRTH + DBIRTH model-1)" % (len(reb), n))
+        if not check(len(reb) == n, "broker restart: %d/%d nodes reborn (NBIRTH + DBIRTH model-1)" % (len(reb), n)):
+            explain(sorted(nodeset - set(reb)), procs, confs)
         badbd = [nm for nm, (bd, _, _) in reb.items() if not (bd is not None and 1 <= (bd - before[nm]) % 256 <= 20)]
         check(not badbd, "broker restart: every NBIRTH has a new bdSeq (%s)" % badbd[:5])
         if len(reb) == n:
