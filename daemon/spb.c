@@ -73,7 +73,7 @@ static struct {
     int use_host;              /* primary_host_id is set               */
     char t_state[160];
     int host_on;               /* its last STATE this session: online  */
-    uint64_t host_ts;          /* timestamp of the newest STATE taken  */
+    uint64_t host_ts;          /* timestamp of the last online STATE   */
     int leaving;               /* NDEATH + DISCONNECT: the host went offline */
     int sf_max;                /* store_forward_max in effect (0: off) */
     int sf_flushing;           /* stored changes are being published   */
@@ -375,8 +375,10 @@ static void sf_store(int all)
             break;
         }
         spb_metrics_values(models_view(md), &d->q, &g.mbo, cur);
+        /* The nets (FloatArray) are derived from the points, which are
+         * kept: the host gets the nets of now in the birth it will have. */
         for (int j = 0; j < nm; j++)
-            if (!spb_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
+            if (spb_metrics_type(j) != SPB_FLOATARRAY && !spb_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
                 idx[n] = (uint16_t)j;
                 vals[n++] = cur[j];
             }
@@ -713,8 +715,14 @@ static void on_dcmd(int id, const uint8_t *buf, size_t len)
 
 /* spBv1.0/STATE/<primary_host_id> (Sparkplug 3.0): online: born (and the
  * stored history published); offline: NDEATH and DISCONNECT, then wait
- * for it on a new connection. A STATE older than the newest taken is a
- * late copy and ignored (spec: compare the timestamps). */
+ * for it on a new connection. Only an offline STATE is compared: it is
+ * taken when its timestamp is >= that of the last online STATE
+ * (tck-id-operational-behavior-edge-node-termination-host-offline) and
+ * ignored when older: the late will of a host session already replaced
+ * (...-host-offline-timestamp). An online STATE is always taken
+ * (tck-id-operational-behavior-edge-node-birth-sequence-wait names no
+ * timestamp): a host restarted with its clock behind the last offline
+ * STATE is still the host. */
 static void on_state(const uint8_t *buf, size_t len)
 {
     int online;
@@ -724,12 +732,13 @@ static void on_state(const uint8_t *buf, size_t len)
         log_warn("sparkplug: STATE of %s refused: %s", g.sc.primary_host_id, why);
         return;
     }
-    if (ts < g.host_ts) {
-        log_info("sparkplug: STATE of %s (%s) older than the last one taken: ignored", g.sc.primary_host_id,
-                 online ? "online" : "offline");
+    if (!online && ts < g.host_ts) {
+        log_info("sparkplug: offline STATE of %s older than its last online STATE: ignored (a replaced session's "
+                 "will)", g.sc.primary_host_id);
         return;
     }
-    g.host_ts = ts;
+    if (online)
+        g.host_ts = ts;
     if (online && !g.host_on) {
         g.host_on = 1;
         log_notice("sparkplug: primary host %s online", g.sc.primary_host_id);

@@ -15,6 +15,10 @@ struct dcmd {
     const struct mb_opts *o;
     float q[2];
     int has_q[2];
+    float xy[2];
+    int has_xy[2];
+    uint16_t page[3];
+    int has_page[3];
     uint16_t up[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
     unsigned upmask;
     int bad;
@@ -71,6 +75,27 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
         }
         c->has_q[rel] = 1;
         return;
+    case SPB_SEG_QLOC:
+        if (m->kind == SPB_IN_FLOAT)
+            c->xy[rel] = (float)m->d;
+        else if (m->kind == SPB_IN_INT)
+            c->xy[rel] = (float)(int32_t)(uint32_t)m->u;
+        else if (m->kind == SPB_IN_LONG)
+            c->xy[rel] = (float)(int64_t)m->u;
+        else {
+            dcmd_refuse(c, label, "expected a Float");
+            return;
+        }
+        c->has_xy[rel] = 1;
+        return;
+    case SPB_SEG_PAGE:
+        if ((m->kind != SPB_IN_INT && m->kind != SPB_IN_LONG) || m->u > 65535) {
+            dcmd_refuse(c, label, "expected an integer 0..65535");
+            return;
+        }
+        c->page[rel] = (uint16_t)m->u;
+        c->has_page[rel] = 1;
+        return;
     case SPB_SEG_UPLOAD: {
         const it2n_regmap_field *f = spb_metrics_upload_field(rel);
         uint16_t *r = &c->up[f->addr - IT2N_REG_UP_I];
@@ -99,7 +124,8 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
         return;
     }
     default:
-        dcmd_refuse(c, label, "read-only (a DCMD may write Query/u, Query/w and the Upload metrics)");
+        dcmd_refuse(c, label, "read-only (a DCMD may write Query/u, Query/w, Query/x, Query/y, Net/Page/fp, "
+                              "Net/Page/ch, Net/Page/row and the Upload metrics)");
         return;
     }
 }
@@ -122,6 +148,8 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
     if (!c.bad && c.upmask && c.upmask != all)
         dcmd_refuse(&c, NULL, "the 9 Upload metrics are one data point and go together (as one FC16 of registers "
                                 "40..51)");
+    if (!c.bad && (c.has_q[0] || c.has_q[1]) && (c.has_xy[0] || c.has_xy[1]))
+        dcmd_refuse(&c, NULL, "a query is (u, w) or a locate (x, y), not both (as one Modbus write may not mix them)");
     if (!c.bad && c.upmask && ((o->write_protect[md->unit / 8] >> (md->unit % 8)) & 1))
         dcmd_refuse(&c, NULL, "the model is write-protected ([model:] write_protect)");
     if (c.bad) {
@@ -142,6 +170,34 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
         rc = mbmap_write(md, q, o, IT2N_REG_Q_UF, 4, regs, &persisted);
         if (rc != MBX_OK)
             log_warn("sparkplug: DCMD model-%d: query refused (u, w in [0, 1]): exception %02X", id, (unsigned)rc);
+    }
+    if (c.has_xy[0] || c.has_xy[1]) {
+        /* A locate, as a Modbus write of q_x_f and q_y_f: an axis not
+         * given keeps the value in use (0 before any locate). */
+        uint16_t regs[4];
+        float cur[2] = { 0.0f, 0.0f };
+        if (q->kind == 2 && mbmap_read(md, q, o, IT2N_REG_Q_XF, 4, regs) == MBX_OK) {
+            cur[0] = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
+            cur[1] = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+        }
+        mbmap_put_f32(&regs[0], c.has_xy[0] ? c.xy[0] : cur[0], IT2N_WO_ABCD);
+        mbmap_put_f32(&regs[2], c.has_xy[1] ? c.xy[1] : cur[1], IT2N_WO_ABCD);
+        rc = mbmap_write(md, q, o, IT2N_REG_Q_XF, 4, regs, &persisted);
+        if (rc != MBX_OK)
+            log_warn("sparkplug: DCMD model-%d: locate refused (x, y finite): exception %02X", id, (unsigned)rc);
+    }
+    if (c.has_page[0] || c.has_page[1] || c.has_page[2]) {
+        /* The page select, as a Modbus write of registers 96..98. */
+        uint16_t regs[3];
+        if (mbmap_read(md, q, o, IT2N_REG_PG_FP, 3, regs) == MBX_OK) {
+            for (int k = 0; k < 3; k++)
+                if (c.has_page[k])
+                    regs[k] = c.page[k];
+            rc = mbmap_write(md, q, o, IT2N_REG_PG_FP, 3, regs, &persisted);
+            if (rc != MBX_OK)
+                log_warn("sparkplug: DCMD model-%d: page select refused (fp 0..6, ch 0..5, row 0..257): exception %02X",
+                         id, (unsigned)rc);
+        }
     }
     if (c.upmask) {
         /* A data point: validated, journaled and made durable like a

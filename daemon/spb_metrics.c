@@ -12,11 +12,24 @@
  *   Query/Result/<FP>/<ch>, Query/Summary/<s>/<TIF>   results (Float)
  *   Upload/<name>         the upload block (registers 40..51; written by
  *                         DCMD as a whole, like FC16)
+ *   Status/points_present32, Status/points_required32   (registers 88..91)
+ *   Query/x, Query/y      a locate (Float; written by DCMD)
+ *   Query/kind, Query/locate_fail, Query/out_of_range   (registers 80..85)
+ *   Net/Page/fp|ch|row    the coefficient page select (registers 96..98;
+ *                         written by DCMD)
+ *   Net/Page/values       the selected row (FloatArray, registers 384..)
+ *   Net/<FP>/<ch>         whole nets up to SPB_NET_MAX values (FloatArray)
  *   Sample Grid/r<R>/c<C>/<T|I|F>   the sample grid (Float) */
 
 #define N_QIN 2
 #define N_QGEN 1
 #define N_RES ((int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH) + 12)
+#define N_COUNTS 2
+#define N_QLOC 2
+#define N_QSTAT 3
+#define N_PAGE 3
+#define N_PAGEROW 1
+#define N_NET ((int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH))
 
 static const it2n_regmap_block *block_at(unsigned start)
 {
@@ -60,6 +73,18 @@ static int seg_start(int seg)
         n += N_RES;
     if (seg > SPB_SEG_UPLOAD)
         n += (int)upload_block()->nfields;
+    if (seg > SPB_SEG_COUNTS)
+        n += N_COUNTS;
+    if (seg > SPB_SEG_QLOC)
+        n += N_QLOC;
+    if (seg > SPB_SEG_QSTAT)
+        n += N_QSTAT;
+    if (seg > SPB_SEG_PAGE)
+        n += N_PAGE;
+    if (seg > SPB_SEG_PAGEROW)
+        n += N_PAGEROW;
+    if (seg > SPB_SEG_NET)
+        n += N_NET;
     return n;
 }
 
@@ -96,6 +121,11 @@ int spb_metrics_type(int idx)
     case SPB_SEG_STATUS: return field_type(status_block()->fields[idx].type);
     case SPB_SEG_QGEN: return SPB_UINT32;
     case SPB_SEG_UPLOAD: return field_type(upload_block()->fields[idx].type);
+    case SPB_SEG_COUNTS: return SPB_UINT32;
+    case SPB_SEG_QSTAT: return idx == 2 ? SPB_UINT32 : SPB_UINT16;
+    case SPB_SEG_PAGE: return SPB_UINT16;
+    case SPB_SEG_PAGEROW:
+    case SPB_SEG_NET: return SPB_FLOATARRAY;
     default: return SPB_FLOAT;
     }
 }
@@ -147,6 +177,47 @@ void spb_metrics_info(const struct mb_opts *o, int idx, char *name, size_t nsize
                      sum_names[idx / 3], "TIF"[idx % 3], IT2N_REG_SUM_F32 + 2u * (unsigned)idx);
         }
         return;
+    case SPB_SEG_COUNTS:
+        f = &block_at(IT2N_REG_PRESENT32)->fields[idx];
+        snprintf(name, nsize, "Status/%s", f->name);
+        snprintf(desc, dsize, "%s (Modbus registers %u..%u)", f->desc, (unsigned)f->addr, f->addr + 1u);
+        *unit = f->unit;
+        return;
+    case SPB_SEG_QLOC:
+        snprintf(name, nsize, "Query/%c", idx ? 'y' : 'x');
+        snprintf(desc, dsize, "Locate: coordinate %c of this device's query (Modbus q_%c_f, register %u); a DCMD "
+                 "writing Query/x and/or Query/y locates (x, y) on every footprint (the results are the surface "
+                 "there); null unless the last query was a locate", idx ? 'y' : 'x', idx ? 'y' : 'x',
+                 idx ? IT2N_REG_Q_YF : IT2N_REG_Q_XF);
+        *unit = "coord";
+        return;
+    case SPB_SEG_QSTAT:
+        f = &block_at(IT2N_REG_Q_KIND)->fields[idx == 0 ? 0 : idx + 1];
+        snprintf(name, nsize, "Query/%s", idx == 0 ? "kind" : idx == 1 ? "locate_fail" : "out_of_range");
+        snprintf(desc, dsize, "%s (Modbus %s, register %u)", f->desc, f->name, (unsigned)f->addr);
+        *unit = strcmp(f->unit, "-") ? f->unit : NULL;
+        return;
+    case SPB_SEG_PAGE:
+        f = &block_at(IT2N_REG_PG_FP)->fields[idx];
+        snprintf(name, nsize, "Net/Page/%s", idx == 0 ? "fp" : idx == 1 ? "ch" : "row");
+        snprintf(desc, dsize, "%s (Modbus %s, register %u; a DCMD selects the page Net/Page/values shows)", f->desc,
+                 f->name, (unsigned)f->addr);
+        return;
+    case SPB_SEG_PAGEROW:
+        snprintf(name, nsize, "Net/Page/values");
+        snprintf(desc, dsize, "Row Net/Page/row of net (Net/Page/fp, Net/Page/ch): Status/net_cols float32 values, "
+                 "little-endian (Modbus coef_window, registers %u..); the control points of a Bezier model, the "
+                 "coefficients c(r-1, s-1) of a B-spline; null while not solved", IT2N_REG_WIN);
+        *unit = "coord / 1";
+        return;
+    case SPB_SEG_NET:
+        snprintf(name, nsize, "Net/%s/%c", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[idx % (int)IT2N_REGMAP_CH]);
+        snprintf(desc, dsize, "Whole net of footprint %s, channel %c, row by row (Status/net_rows x Status/net_cols "
+                 "float32, little-endian; Modbus control_net / coef_window); null while not solved, for a footprint "
+                 "the model does not carry, or above %u values (read those rows with Net/Page/...)",
+                 fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[idx % (int)IT2N_REGMAP_CH], SPB_NET_MAX);
+        *unit = idx % (int)IT2N_REGMAP_CH < 3 ? "coord" : NULL;
+        return;
     default:
         nd = (unsigned)idx / 3;
         k = (unsigned)idx % 3;
@@ -183,6 +254,57 @@ static void set_null(struct spb_val *out, int n)
         out[k].null = 1;
 }
 
+/* float32 registers (ABCD) into the packed little-endian bytes of a
+ * FloatArray, with the hash that stands for the value (FNV-1a, 64 bit). */
+static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct spb_val *out)
+{
+    uint64_t h = 14695981039346656037u;
+    for (unsigned k = 0; k < n; k++) {
+        float f = mbmap_get_f32(&regs[2 * k], IT2N_WO_ABCD);
+        uint32_t bits;
+        memcpy(&bits, &f, sizeof bits);
+        for (unsigned b = 0; b < 4; b++)
+            bytes[4 * k + b] = (uint8_t)(bits >> (8 * b));
+    }
+    for (unsigned k = 0; k < 4 * n; k++)
+        h = (h ^ bytes[k]) * 1099511628211u;
+    out->u = h ^ n;
+    out->b = bytes;
+    out->nb = 4u * n;
+}
+
+/* The nets: Net/Page/values and the whole nets, read through the
+ * coefficient window like a PLC, page by page (a scratch page select:
+ * the device's own stays as a DCMD set it). */
+static void net_values(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned rows, unsigned cols,
+                       struct spb_val *out)
+{
+    static uint16_t regs[2 * IT2N_REGMAP_WIN_COLS];
+    static uint8_t page_bytes[4 * IT2N_REGMAP_WIN_COLS];
+    static uint8_t net_bytes[N_NET][4 * SPB_NET_MAX];
+    struct mb_query scratch;
+    if (!cols || mbmap_read(md, q, o, IT2N_REG_WIN, 2u * cols, regs) != MBX_OK)
+        out[0].null = 1;
+    else
+        float_array(regs, cols, page_bytes, &out[0]);
+    out++;
+    for (int k = 0; k < N_NET; k++) {
+        unsigned fp = (unsigned)k / IT2N_REGMAP_CH, ch = (unsigned)k % IT2N_REGMAP_CH;
+        static uint16_t net[2 * SPB_NET_MAX];
+        int ok = rows && cols && rows * cols <= SPB_NET_MAX && models_has_fp(md, fp);
+        scratch = *q;
+        for (unsigned r = 0; ok && r < rows; r++) {
+            uint16_t page[3] = { (uint16_t)fp, (uint16_t)ch, (uint16_t)r };
+            memcpy(scratch.page, page, sizeof page);
+            ok = mbmap_read(md, &scratch, o, IT2N_REG_WIN, 2u * cols, &net[2 * r * cols]) == MBX_OK;
+        }
+        if (ok)
+            float_array(net, rows * cols, net_bytes[k], &out[k]);
+        else
+            out[k].null = 1;
+    }
+}
+
 /* The values a PLC reads now, through the same register map code, from
  * the last durable state: the status block, this device's query (its own
  * connection-like state) and results, the upload block, the float32
@@ -206,7 +328,7 @@ void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_op
         set_null(out, N_QIN);
     }
     out += N_QIN;
-    if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_GEN, 2, regs) == MBX_OK &&
+    if (q->kind && mbmap_read(md, q, o, IT2N_REG_Q_GEN, 2, regs) == MBX_OK &&
         mbmap_read(md, q, o, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MBX_OK) {
         out[0].u = (uint32_t)regs[0] << 16 | regs[1];
         for (int k = 0; k < N_RES; k++)
@@ -220,6 +342,46 @@ void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_op
     else
         set_null(out, (int)up->nfields);
     out += up->nfields;
+    if (mbmap_read(md, q, o, IT2N_REG_PRESENT32, 4, regs) == MBX_OK)
+        fields_values(block_at(IT2N_REG_PRESENT32), regs, out);
+    else
+        set_null(out, N_COUNTS);
+    out += N_COUNTS;
+    if (q->kind == 2 && mbmap_read(md, q, o, IT2N_REG_Q_XF, 4, regs) == MBX_OK) {
+        out[0].f = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
+        out[1].f = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+    } else {
+        set_null(out, N_QLOC);
+    }
+    out += N_QLOC;
+    /* q_kind reads while unsolved; the bits only with a result. */
+    memset(regs, 0, 6 * sizeof *regs);
+    if (mbmap_read(md, q, o, IT2N_REG_Q_KIND, 6, regs) == MBX_OK)
+        out[0].u = regs[0];
+    else
+        out[0].null = 1;
+    if (q->kind && mbmap_read(md, q, o, IT2N_REG_RES_F32, 2, regs + 8) == MBX_OK) {
+        out[1].u = regs[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND];
+        out[2].u = (uint32_t)regs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND] << 16 | regs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND + 1];
+    } else {
+        set_null(out + 1, 2);
+    }
+    out += N_QSTAT;
+    if (mbmap_read(md, q, o, IT2N_REG_PG_FP, 3, regs) == MBX_OK)
+        for (int k = 0; k < N_PAGE; k++)
+            out[k].u = regs[k];
+    else
+        set_null(out, N_PAGE);
+    out += N_PAGE;
+    {
+        unsigned rows = 0, cols = 0;
+        if (mbmap_read(md, q, o, IT2N_REG_NET_ROWS, 2, regs) == MBX_OK) {
+            rows = regs[0];
+            cols = regs[1];
+        }
+        net_values(md, q, o, rows, cols, out);
+    }
+    out += N_PAGEROW + N_NET;
     if (!nodes)
         return;
     if (mbmap_read(md, q, o, IT2N_REG_GRID_F32, nodes * 6u, regs) != MBX_OK) {

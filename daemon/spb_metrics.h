@@ -17,8 +17,27 @@
 /* Metric K of model N has the alias (N + 1) * SPB_DEV_ALIAS + K. */
 #define SPB_DEV_ALIAS 10000u
 
+/* Nets carried whole (the Net/<FP>/<ch> arrays) up to this many values
+ * (rows x columns): every Bezier net (8 x 8 at most) and B-spline nets up
+ * to 5 x 5 intervals. A birth then carries 42 x 64 x 4 bytes of nets at
+ * most; larger nets are read a row at a time (Net/Page/...). */
+#define SPB_NET_MAX 64u
+
 /* The segments of the list, in order. */
-enum spb_seg { SPB_SEG_STATUS, SPB_SEG_QIN, SPB_SEG_QGEN, SPB_SEG_RES, SPB_SEG_UPLOAD, SPB_SEG_GRID };
+enum spb_seg {
+    SPB_SEG_STATUS,   /* Status/<field>: registers 0..31           */
+    SPB_SEG_QIN,      /* Query/u, Query/w                          */
+    SPB_SEG_QGEN,     /* Query/generation                          */
+    SPB_SEG_RES,      /* Query/Result/..., Query/Summary/...       */
+    SPB_SEG_UPLOAD,   /* Upload/<field>: registers 40..51          */
+    SPB_SEG_COUNTS,   /* Status/points_present32, .._required32    */
+    SPB_SEG_QLOC,     /* Query/x, Query/y (a locate)               */
+    SPB_SEG_QSTAT,    /* Query/kind, locate_fail, out_of_range     */
+    SPB_SEG_PAGE,     /* Net/Page/fp, ch, row (the page select)    */
+    SPB_SEG_PAGEROW,  /* Net/Page/values (the coefficient window)  */
+    SPB_SEG_NET,      /* Net/<FP>/<ch>: whole nets, FloatArray     */
+    SPB_SEG_GRID      /* Sample Grid/r<R>/c<C>/<T|I|F>             */
+};
 
 /* Metrics of a device with o's grid size. */
 int spb_metrics_count(const struct mb_opts *o);

@@ -19,6 +19,7 @@ struct slot {
     char *keys[SPB_PROPS];
     char *strs[2 * SPB_PROPS + 2];  /* owned copies: name, string value, props */
     int nstrs;
+    uint8_t *bytes;                 /* owned copy of an array value */
 };
 
 struct spb_pl {
@@ -57,9 +58,11 @@ void spb_pl_free(struct spb_pl *pl)
 {
     if (!pl)
         return;
-    for (size_t k = 0; k < pl->n; k++)
+    for (size_t k = 0; k < pl->n; k++) {
         for (int j = 0; j < pl->s[k].nstrs; j++)
             free(pl->s[k].strs[j]);
+        free(pl->s[k].bytes);
+    }
     free(pl->s);
     free(pl->mp);
     free(pl);
@@ -126,6 +129,16 @@ int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, ui
             m->value_case = SPB__PAYLOAD__METRIC__VALUE_STRING_VALUE;
             if (!(m->string_value = own(s, v->s ? v->s : "")))
                 return -1;
+            break;
+        case SPB_FLOATARRAY:
+            m->value_case = SPB__PAYLOAD__METRIC__VALUE_BYTES_VALUE;
+            if (v->nb) {
+                if (!v->b || !(s->bytes = malloc(v->nb)))
+                    return -1;
+                memcpy(s->bytes, v->b, v->nb);
+            }
+            m->bytes_value.data = s->bytes;
+            m->bytes_value.len = v->nb;
             break;
         default:
             return -1;

@@ -13,16 +13,22 @@
 /* Sparkplug datatypes used by it2nd (spec 6.4.16, spb.proto DataType). */
 enum spb_type {
     SPB_INT16 = 2, SPB_INT32 = 3, SPB_INT64 = 4, SPB_UINT16 = 6, SPB_UINT32 = 7, SPB_UINT64 = 8,
-    SPB_FLOAT = 9, SPB_DOUBLE = 10, SPB_BOOLEAN = 11, SPB_STRING = 12
+    SPB_FLOAT = 9, SPB_DOUBLE = 10, SPB_BOOLEAN = 11, SPB_STRING = 12,
+    SPB_FLOATARRAY = 30  /* bytes_value: packed little-endian float32 (spec 6.4.17) */
 };
 
 /* A metric value. Integers in u (signed ones as their two's complement,
  * sign-extended to 64 bits), Float in f, Boolean in u (0/1), String in s
- * (not owned). null: the value is unknown now (is_null, no value). */
+ * (not owned). FloatArray: nb bytes at b (not owned, the packed wire form)
+ * and in u a hash of them that stands for the value when values are
+ * compared or kept (b is only read by spb_pl_add). null: the value is
+ * unknown now (is_null, no value). */
 struct spb_val {
     uint64_t u;
     float f;
     const char *s;
+    const uint8_t *b;
+    size_t nb;
     int null;
 };
 

@@ -200,6 +200,36 @@ static void test_payload_fields(void **state)
     spb_pl_free(pl);
 }
 
+/* A FloatArray (Net/...): the bytes as given, copied (the caller's buffer
+ * may change after spb_pl_add), datatype 30; an empty one has no bytes. */
+static void test_payload_float_array(void **state)
+{
+    struct spb_pl *pl = spb_pl_new(2);
+    struct spb_val v;
+    uint8_t bytes[8] = { 0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x00, 0xC0 };  /* 1.0f, -2.0f little-endian */
+    Spb__Payload *p;
+    (void)state;
+    memset(&v, 0, sizeof v);
+    v.b = bytes;
+    v.nb = sizeof bytes;
+    v.u = 42;
+    assert_int_equal(spb_pl_add(pl, "Net/D/T", 20125, SPB_FLOATARRAY, 5, &v), 0);
+    memset(bytes, 0xEE, sizeof bytes);
+    v.b = NULL;
+    v.nb = 0;
+    assert_int_equal(spb_pl_add(pl, NULL, 20126, SPB_FLOATARRAY, 5, &v), 1);
+    p = pack_unpack(pl, 1);
+    assert_true(p->metrics[0]->has_datatype && p->metrics[0]->datatype == 30);
+    assert_int_equal(p->metrics[0]->value_case, SPB__PAYLOAD__METRIC__VALUE_BYTES_VALUE);
+    assert_int_equal(p->metrics[0]->bytes_value.len, 8);
+    assert_memory_equal(p->metrics[0]->bytes_value.data,
+                        ((const uint8_t[]){ 0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x00, 0xC0 }), 8);
+    assert_int_equal(p->metrics[1]->value_case, SPB__PAYLOAD__METRIC__VALUE_BYTES_VALUE);
+    assert_int_equal(p->metrics[1]->bytes_value.len, 0);
+    spb__payload__free_unpacked(p, NULL);
+    spb_pl_free(pl);
+}
+
 static void test_val_equal(void **state)
 {
     struct spb_val a, b;
@@ -340,6 +370,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_broker_forms),  cmocka_unit_test(test_ids_and_ranges),
         cmocka_unit_test(test_password_file), cmocka_unit_test(test_payload_fields),
+        cmocka_unit_test(test_payload_float_array),
         cmocka_unit_test(test_val_equal),     cmocka_unit_test(test_cmd_parse),
         cmocka_unit_test(test_cmd_each),      cmocka_unit_test(test_state_parse),
     };

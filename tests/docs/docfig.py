@@ -104,6 +104,21 @@ def conf_keys(section):
     raise SystemExit(f"docfig.py: it2nd --config-keys has no section '{section}'")
 
 
+def fleet_figures():
+    """The fleet benchmark's figures, from the committed bench/fleet.json
+    (written by `make bench-fleet`, tests/sparkplug/spb_fleet.py)."""
+    import json
+    with open(os.path.join(ROOT, "bench", "fleet.json"), encoding="utf-8") as f:
+        fl = json.load(f)
+    c = fl["conditions"]
+    out = ["bench/fleet.json (%s, %d CPUs, load %.1f)" % (c["utc"], c["cpus"], c["loadavg_1min"])]
+    for r in fl["rows"]:
+        v = r["value"]
+        tgt = "" if r["target"] is None else "   target <= %g: %s" % (r["target"], "met" if r["met"] else "MISSED")
+        out.append("  %-78s %9s %s%s" % (r["name"], ("%g" % v), r["unit"], tgt))
+    return "\n".join(out) + "\n"
+
+
 # name -> function returning the block's text
 FIGURES = {
     "size-flash": lambda: size_section("== Flash", "Worst-case"),
@@ -114,6 +129,7 @@ FIGURES = {
     "bspline": lambda: grep(f"{BUILD}/tests/core/test_bspline", "[bspline]"),
     "daemon-memory": lambda: grep(f"{BUILD}/tests/daemon/test_models", "[memory]"),
     "fw-figures": firmware_figures,
+    "fleet": fleet_figures,
     "fw-budget": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py"),
     "fw-timing": lambda: run("/usr/bin/python3 tests/firmware/fw_budget.py --timing"),
 }

@@ -13,3 +13,19 @@ daemon-sparkplug: $(IT2ND) $(IT2ND_SAN) $(CTL_SAN_BIN)
 	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND) --doc docs/sparkplug.md
 	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND_SAN) --quick
 	timeout 60 /usr/bin/python3 tests/sparkplug/spb_sf_test.py --it2nd $(IT2ND_SAN) --it2nctl $(CTL_SAN_BIN)
+
+# A fleet on one broker (issue 16 item 7, docs/fleet.md): 10 it2nd nodes,
+# a host application with a persistent session, every birth, a DCMD data
+# point per node answered by DDATA (2 rounds), a broker restart (every node
+# reborn with a new bdSeq), kill -9 of 3 nodes (an NDEATH with the matching
+# bdSeq each) (tests/sparkplug/spb_fleet.py, ~5 s). bench-fleet: 100 nodes,
+# 5 rounds, kill -9 of 10, the figures into bench/fleet.json (~20 s).
+.PHONY: daemon-fleet bench-fleet
+TEST_TARGETS += daemon-fleet
+daemon-fleet: $(IT2ND)
+	timeout 120 /usr/bin/python3 tests/sparkplug/spb_fleet.py --it2nd $(IT2ND) --nodes 10 --kill 3 --rounds 2
+
+bench-fleet: $(IT2ND) ## 100 it2nd Sparkplug nodes on one mosquitto: births, DDATA p50/p99, rebirth, NDEATH (~20 s)
+	timeout 600 /usr/bin/python3 tests/sparkplug/spb_fleet.py --it2nd $(IT2ND) --nodes 100 --kill 10 --rounds 5 \
+	  --out bench/fleet.json
+BENCH_TARGETS += bench-fleet

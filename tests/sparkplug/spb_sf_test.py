@@ -311,9 +311,13 @@ def main():
         check(write_point(SF_MAX + 3), "host offline again: PLC write")
         msgs = drain(host, seq, 1.0)
         check(not [m for m in msgs if m[1] in ("NBIRTH", "DDATA")], "no data while the host is offline")
-        state(host, True, int(time.time() * 1000))
+        # Back with its clock a minute behind its own offline STATE: an
+        # online STATE is taken whatever its timestamp (only offline ones
+        # are compared, tck-id-operational-behavior-edge-node-birth-sequence-wait).
+        t_back = int(time.time() * 1000) - 60000
+        state(host, True, t_back)
         nb2 = host.wait("NBIRTH", 6)
-        if check(nb2 is not None, "host online again: NBIRTH"):
+        if check(nb2 is not None, "host online again (timestamp older than its offline STATE): NBIRTH"):
             seq.feed(nb2)
             bd2 = T.value(T.birth_table(nb2[3])["bdSeq"], T.INT64)
             check(bd is not None and bd2 > bd, "a new session: bdSeq %r > %r" % (bd2, bd))
@@ -321,6 +325,19 @@ def main():
         hist = [m for m in msgs if m[1] == "DDATA" and all(x.get("is_historical") for x in m[3]["metrics"])]
         ups = [T.ddata_values(m, aliases).get("Upload/up_T") for m in hist if m[2] == "model-2"]
         check(written[-1] in ups, "the write made while the host was offline comes as history (%r)" % ups)
+        # The late will of the session before (older than the online STATE
+        # just taken): no disconnect (...-host-offline-timestamp); an offline
+        # STATE with the online one's timestamp (its own will): NDEATH
+        # (>=, tck-id-operational-behavior-edge-node-termination-host-offline).
+        state(host, False, t_back - 1, retain=False)
+        msgs = drain(host, seq, 0.5)
+        check(not [m for m in msgs if m[1] == "NDEATH"], "an offline STATE older than the last online one: ignored")
+        bd2 = T.value(T.birth_table(nb2[3])["bdSeq"], T.INT64) if nb2 else None
+        state(host, False, t_back)
+        check(T.wait_death(host, seq, bd2, 5) is not None, "an offline STATE with the online one's timestamp: NDEATH")
+        state(host, True, int(time.time() * 1000))
+        nb2b = host.wait("NBIRTH", 6)
+        check(nb2b is not None, "host online: NBIRTH")
         # The broker goes away (its retained STATE with it): a write then is
         # kept too, and comes as history once broker and host are back.
         host.close()

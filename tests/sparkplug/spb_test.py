@@ -36,12 +36,13 @@ except ImportError:
     mqtt = None
 
 GROUP, NODE = "plant-a", "cell-7"
+BS_N = 6  # model-3: B-spline, 6 x 6 intervals, type-1: a 9 x 9 net (81 values: by pages)
 NODE_USER, NODE_PASSWORD = "cell-7", "correct horse battery"  # user = edge_node_id (the ACL)
 ACL = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
                    "examples", "sparkplug", "mosquitto.acl")
 NS = "spBv1.0"
 # Sparkplug datatypes (spec 6.4.16) the test names.
-INT16, INT32, INT64, UINT16, UINT32, FLOAT, BOOLEAN, STRING = 2, 3, 4, 6, 7, 9, 11, 12
+INT16, INT32, INT64, UINT16, UINT32, FLOAT, BOOLEAN, STRING, FLOATARRAY = 2, 3, 4, 6, 7, 9, 11, 12, 30
 
 failures = 0
 
@@ -139,11 +140,13 @@ def decode_metric(b):
             m["raw"] = bool(v)
         elif num == 15:
             m["raw"] = v.decode()
+        elif num == 16:
+            m["raw"] = bytes(v)
     return m
 
 
 def decode_payload(b):
-    p = {"metrics": [], "fields": []}
+    p = {"metrics": [], "fields": [], "size": len(b)}
     for num, wt, v in fields(b):
         p["fields"].append(num)
         if num == 1:
@@ -166,6 +169,11 @@ def value(m, dtype):
     if dtype == INT64:
         return raw - (1 << 64) if raw >= 1 << 63 else raw
     return raw
+
+
+def floats_le(b):
+    """A FloatArray's bytes_value: packed little-endian float32 (spec 6.4.17)."""
+    return list(struct.unpack("<%df" % (len(b) // 4), b))
 
 
 def key(num, wt):
@@ -224,9 +232,9 @@ def dcmd_payload(metrics):
 # ---- the worked examples of docs/sparkplug.md, rendered from the wire
 
 TYPE_NAMES = {INT16: "Int16", INT32: "Int32", INT64: "Int64", UINT16: "UInt16", UINT32: "UInt32",
-              FLOAT: "Float", BOOLEAN: "Boolean", STRING: "String"}
+              FLOAT: "Float", BOOLEAN: "Boolean", STRING: "String", FLOATARRAY: "FloatArray"}
 MFIELDS = {1: "name", 2: "alias", 3: "timestamp", 4: "datatype", 7: "is_null", 9: "properties", 10: "int_value",
-           11: "long_value", 12: "float_value", 14: "boolean_value", 15: "string_value"}
+           11: "long_value", 12: "float_value", 14: "boolean_value", 15: "string_value", 16: "bytes_value"}
 
 
 def render(topic, qos, retain, p, aliases=None, pick=None, props=True):
@@ -271,6 +279,10 @@ def render(topic, qos, retain, p, aliases=None, pick=None, props=True):
                 parts.append('"%s": %s' % (name, "true" if m["raw"] else "false"))
             elif f == 15:
                 parts.append('"%s": "%s"' % (name, m["raw"]))
+            elif f == 16:
+                fl = floats_le(m["raw"])
+                parts.append('"%s": <%d bytes: %s>' % (name, len(m["raw"]), ", ".join("%r" % x for x in fl[:4]) +
+                                                         (", ..." if len(fl) > 4 else "")))
             elif f in (10, 11):
                 v = value(m, dt)
                 parts.append('"%s": %d%s' % (name, m["raw"], "" if v == m["raw"] else " (%d)" % v))
@@ -516,14 +528,14 @@ class Plc:
 STATUS = ["map_version", "state", "n", "m", "flags", "points_present", "points_required", "generation",
           "last_error", "last_error_i", "last_error_j", "last_error_fp", "points_received", "solves", "requests",
           "exceptions", "float_word_order", "coord_scale", "grid_rows", "grid_cols", "model_id", "grid_saturated",
-          "int32_word_order"]
+          "int32_word_order", "kind", "net_rows", "net_cols", "points_present32", "points_required32"]
 # Register address and type of each status field (docs/registers.md).
 STATUS_REG = {"map_version": (0, "u16"), "state": (1, "u16"), "n": (2, "u16"), "m": (3, "u16"),
               "flags": (4, "u16"), "points_present": (5, "u16"), "points_required": (6, "u16"),
               "generation": (7, "u32"), "last_error": (9, "i16"), "last_error_i": (10, "i16"),
               "last_error_j": (11, "i16"), "last_error_fp": (12, "i16"), "points_received": (13, "u32"),
               "solves": (15, "u32"), "grid_rows": (23, "u16"), "grid_cols": (24, "u16"), "model_id": (25, "u16"),
-              "grid_saturated": (26, "u16")}
+              "grid_saturated": (26, "u16"), "kind": (28, "u16"), "net_rows": (29, "u16"), "net_cols": (30, "u16")}
 DTYPE = {"u16": UINT16, "i16": INT16, "u32": UINT32}
 
 
@@ -553,7 +565,7 @@ def check_dbirth(m, plc, unit, rows, cols, aliases):
     check(not dup, "%s DBIRTH: aliases unique on the node (%d metrics)" % (dev, len(p["metrics"])))
     check(m[4] == 0 and not m[5], "%s DBIRTH QoS 0, not retained" % dev)
     check(all("description" in x.get("props", {}) for x in p["metrics"]), "%s DBIRTH: a description per metric" % dev)
-    regs = plc.read(unit, 0, 28)
+    regs = plc.read(unit, 0, 32)
     bad = []
     for name, (a, t) in STATUS_REG.items():
         x = tab.get("Status/" + name)
@@ -573,7 +585,78 @@ def check_dbirth(m, plc, unit, rows, cols, aliases):
         check(got == want, "%s DBIRTH: sample grid bit-equal to Modbus float32 registers 8192.." % dev)
     else:
         check(all(g and g.get("is_null") for g in grid), "%s DBIRTH: sample grid null while not solved" % dev)
+    c32 = plc.read(unit, 88, 4)
+    p32, r32 = tab.get("Status/points_present32"), tab.get("Status/points_required32")
+    check(p32 is not None and r32 is not None and value(p32, UINT32) == c32[0] << 16 | c32[1] and
+          value(r32, UINT32) == c32[2] << 16 | c32[3],
+          "%s DBIRTH: Status/points_present32, points_required32 equal Modbus registers 88..91" % dev)
+    check_nets(dev, tab, plc, unit, regs)
+    check(p["size"] <= BIRTH_MAX, "%s DBIRTH: %d bytes (<= %d: every net above %d values goes by pages)"
+          % (dev, p["size"], BIRTH_MAX, NET_MAX))
     return tab
+
+
+FPS = ("LL", "LR", "L", "D", "R", "RL", "RR")
+NET_MAX = 64           # values of a net carried whole (docs/sparkplug.md, "Nets")
+BIRTH_MAX = 64 * 1024  # a DBIRTH stays below this whatever the model
+
+
+def modbus_window(plc, unit, fp, ch, row, cols):
+    """Row `row` of net (fp, ch) as float32 bytes (big-endian words, as
+    Modbus sends them) through the page select and the coefficient window."""
+    if not plc.write(unit, 96, [fp, ch, row]):
+        return None
+    r = plc.read(unit, 384, 2 * cols)
+    return r and [struct.pack(">HH", r[2 * k], r[2 * k + 1]) for k in range(cols)]
+
+
+def check_nets(dev, tab, plc, unit, regs):
+    """Net/<FP>/<ch> (FloatArray, row-major) bit-equal to what Modbus reads:
+    the control_net block (registers 2048.., Bezier) or the coefficient
+    window (B-spline); null while not solved, for a footprint the model
+    does not carry, and above NET_MAX values; Net/Page/values equal the
+    window of the same page."""
+    kind, nr, nc = regs[28], regs[29], regs[30]
+    solved = regs[1] == 2
+    nets = {(fp, ch): tab.get("Net/%s/%s" % (FPS[fp], "xyzTIF"[ch])) for fp in range(7) for ch in range(6)}
+    if not check(all(x is not None and x["datatype"] == FLOATARRAY for x in nets.values()),
+                 "%s DBIRTH: 42 Net/<FP>/<ch> metrics (FloatArray)" % dev):
+        return
+    if not solved or nr * nc > NET_MAX:
+        check(all(x is not None and x.get("is_null") for x in nets.values()),
+              "%s DBIRTH: nets null (%s)" % (dev, "not solved" if not solved else "%d x %d > %d values: by pages"
+                                             % (nr, nc, NET_MAX)))
+    else:
+        bad = []
+        for fp in range(7):
+            if kind == 0:
+                blk = plc.read(unit, 2048 + fp * 8 * 8 * 6 * 2, 8 * 8 * 6 * 2)
+            for ch in range(6):
+                x = nets[(fp, ch)]
+                if kind == 0:
+                    want = [struct.pack(">HH", *blk[((i * 8 + j) * 6 + ch) * 2:((i * 8 + j) * 6 + ch) * 2 + 2])
+                            for i in range(nr) for j in range(nc)]
+                else:
+                    want = sum((modbus_window(plc, unit, fp, ch, r, nc) for r in range(nr)), [])
+                got = x.get("raw")
+                got = [got[4 * k:4 * k + 4][::-1] for k in range(len(got) // 4)] if got is not None else None
+                if got != want and not (x.get("is_null") and not any(w != b"\0\0\0\0" for w in want)):
+                    bad.append("%s/%s" % (FPS[fp], "xyzTIF"[ch]))
+        check(not bad, "%s DBIRTH: every net (%d x %d) bit-equal to Modbus %s %s" %
+              (dev, nr, nc, "control_net (2048..)" if kind == 0 else "coef_window", bad[:3]))
+    pg = [tab.get("Net/Page/" + k) for k in ("fp", "ch", "row")]
+    pv = tab.get("Net/Page/values")
+    if not check(None not in pg and pv is not None, "%s DBIRTH: Net/Page/fp, ch, row, values" % dev):
+        return
+    pg = [value(x, UINT16) for x in pg]
+    if solved:
+        want = modbus_window(plc, unit, pg[0], pg[1], pg[2], nc)
+        got = pv.get("raw")
+        check(pv["datatype"] == FLOATARRAY and got is not None and
+              [got[4 * k:4 * k + 4][::-1] for k in range(len(got) // 4)] == want,
+              "%s DBIRTH: Net/Page/values (page %s) bit-equal to the Modbus coefficient window" % (dev, pg))
+    else:
+        check(pv.get("is_null"), "%s DBIRTH: Net/Page/values null while not solved" % dev)
 
 
 def expect_births(host, seq, plc, devs, rows, cols, bdseq, why, timeout=10, ask_if_missed=False, before=None):
@@ -607,11 +690,19 @@ def expect_births(host, seq, plc, devs, rows, cols, bdseq, why, timeout=10, ask_
     aliases = {x["alias"]: ("node", x["name"], x["datatype"]) for x in p["metrics"] if "alias" in x}
     check(len(aliases) == len(p["metrics"]), "%s: NBIRTH metrics each with an alias" % why)
     tabs, msgs = {}, {"NBIRTH": nb}
+    # One DBIRTH per device, in the node's order (a model added by a
+    # reload comes last).
+    got, end = {}, time.monotonic() + 5
+    while len(got) < len(devs) and time.monotonic() < end:
+        m = host.wait("DBIRTH", end - time.monotonic(), log=log)
+        if m is None:
+            break
+        got.setdefault(m[2], m)
+    for x in log[fed:]:
+        seq.feed(x)
+    fed = len(log)
     for dev, unit in devs:
-        m = host.wait("DBIRTH", 5, dev=dev, log=log)
-        for x in log[fed:]:
-            seq.feed(x)
-        fed = len(log)
+        m = got.get(dev)
         if check(m is not None, "%s: DBIRTH %s" % (why, dev)):
             tabs[dev] = check_dbirth(m, plc, unit, rows, cols, aliases)
             msgs[dev] = m
@@ -665,6 +756,83 @@ def ddata_values(m, aliases):
         dev, name, dt = aliases.get(x.get("alias"), (None, None, None))
         out[name] = value(x, dt) if dt is not None else "?"
     return out
+
+
+def f32_list(regs):
+    return [struct.unpack(">f", struct.pack(">HH", regs[2 * k], regs[2 * k + 1]))[0] for k in range(len(regs) // 2)]
+
+
+RESULT_NAMES = ["Query/Result/%s/%s" % (fp, ch) for fp in FPS for ch in "xyzTIF"] + \
+    ["Query/Summary/%s/%s" % (s_, k) for s_ in ("upper_min", "upper_max", "lower_min", "lower_max") for k in "TIF"]
+
+
+def locate_and_pages(args, host, seq, plc, aliases, tab1, m_query, conf, samples, topic):
+    """DCMD locate (Query/x, Query/y) on model-1 against a Modbus FC23 locate;
+    a (u, w) and (x, y) mix refused; model-3 (B-spline 6 x 6, type-1) filled
+    over Modbus, then a DCMD page select answered by Net/Page/values equal
+    to the Modbus coefficient window; a page out of range refused."""
+    known = {n: value(x, x["datatype"]) for n, x in tab1.items()}
+    if m_query is not None:
+        known.update(ddata_values(m_query, aliases))
+    # The (x, y) of footprint D at (u, w) = (0.6, 0.3), from Modbus.
+    rr = plc.c.readwrite_registers(read_address=128, read_count=108, write_address=66,
+                                   write_registers=list(struct.unpack(">4H", struct.pack(">ff", 0.6, 0.3))),
+                                   unit=1, slave=1)
+    lx, ly = f32_list(rr.registers)[18:20]
+    cmd = [("Query/x", None, FLOAT, lx), ("Query/y", None, FLOAT, ly)]
+    samples["DCMD_LOCATE"] = render("%s/%s/DCMD/%s/model-1" % (NS, GROUP, NODE), 0, False,
+                                    decode_payload(dcmd_payload(cmd)))
+    host.dcmd("model-1", cmd)
+    m = wait_ddata(host, seq, "model-1", aliases, "Query/x", 3)
+    if check(m is not None, "DCMD locate (x, y) = (%.4g, %.4g) on model-1: DDATA" % (lx, ly)):
+        v = ddata_values(m, aliases)
+        known.update(v)
+        rr = plc.c.readwrite_registers(read_address=128, read_count=108, write_address=74,
+                                       write_registers=list(struct.unpack(">4H", struct.pack(">ff", lx, ly))),
+                                       unit=1, slave=1)
+        want = f32_list(rr.registers)
+        qs = plc.read(1, 80, 6)
+        f32 = lambda x: struct.unpack("<f", struct.pack("<f", x))[0]  # noqa: E731
+        check(v.get("Query/kind") == 2 == qs[0] and v.get("Query/x") == f32(lx) and v.get("Query/y") == f32(ly) and
+              "Query/u" in v and v["Query/u"] is None, "DCMD locate: Query/kind 2, Query/x, Query/y as sent, "
+              "Query/u null (kind %r)" % v.get("Query/kind"))
+        got = [known.get(n) for n in RESULT_NAMES]
+        check(got == want, "DCMD locate: the 54 results equal a Modbus FC23 locate (q_x_f, q_y_f) (D: %r)"
+              % got[18:21])
+        check(known.get("Query/locate_fail") == qs[3] and known.get("Query/out_of_range") == qs[4] << 16 | qs[5],
+              "DCMD locate: Query/locate_fail %r, out_of_range %r equal Modbus registers 83..85"
+              % (known.get("Query/locate_fail"), known.get("Query/out_of_range")))
+    host.dcmd("model-1", [("Query/u", None, FLOAT, 0.1), ("Query/x", None, FLOAT, lx)])
+    time.sleep(0.3)
+    check("Query/x: " not in open(conf + ".log").read() and
+          "DCMD model-1 refused: a query is (u, w) or a locate (x, y), not both" in open(conf + ".log").read(),
+          "DCMD mixing (u, w) and (x, y): refused and logged")
+
+    # model-3: a B-spline, filled point by point over Modbus.
+    for i in range(BS_N + 1):
+        for j in range(BS_N + 1):
+            plc.write(3, 40, upload(i, j, 3, 2000 + 500 * i + 300 * j, 1000 + 100 * (i + j), 3000 - 100 * i))
+    m = wait_ddata(host, seq, "model-3", aliases, "Status/net_rows", 5)
+    if check(m is not None, "model-3 (B-spline %dx%d) filled over Modbus: DDATA with Status/net_rows" % (BS_N, BS_N)):
+        v = ddata_values(m, aliases)
+        check(v.get("Status/state") == 2 and v.get("Status/net_rows") == BS_N + 3 and
+              v.get("Status/net_cols") == BS_N + 3, "model-3: solved, a %d x %d coefficient net" % (BS_N + 3, BS_N + 3))
+    cmd = [("Net/Page/fp", None, UINT16, 3), ("Net/Page/ch", None, UINT16, 3), ("Net/Page/row", None, UINT16, 4)]
+    samples["DCMD_PAGE"] = render("%s/%s/DCMD/%s/model-3" % (NS, GROUP, NODE), 0, False,
+                                  decode_payload(dcmd_payload(cmd)))
+    host.dcmd("model-3", cmd)
+    m = wait_ddata(host, seq, "model-3", aliases, "Net/Page/values", 3)
+    if check(m is not None, "DCMD page select (D, T, row 4) on model-3: DDATA with Net/Page/values"):
+        samples["DDATA_PAGE"] = render(topic(m), m[4], m[5], m[3], aliases=aliases)
+        raw = [x.get("raw") for x in m[3]["metrics"] if aliases.get(x.get("alias"), (0, ""))[1] == "Net/Page/values"][0]
+        want = modbus_window(plc, 3, 3, 3, 4, BS_N + 3)
+        check(raw is not None and [raw[4 * k:4 * k + 4][::-1] for k in range(len(raw) // 4)] == want,
+              "DCMD page select: Net/Page/values (%d floats) bit-equal to the Modbus coefficient window of page "
+              "(3, 3, 4)" % (len(raw or b"") // 4))
+    host.dcmd("model-3", [("Net/Page/row", None, UINT16, 300)])
+    time.sleep(0.3)
+    check("DCMD model-3: page select refused" in open(conf + ".log").read(),
+          "DCMD page row 300 (> 257): refused and logged")
 
 
 def config_errors(args, d):
@@ -818,13 +986,15 @@ def main():
         def write_conf(model2=True):
             with open(conf, "w") as f:
                 f.write("[daemon]\nstate_dir = %s/state\n[modbus]\ntcp_listen = 127.0.0.1:%d\ngrid_rows = %d\n"
-                        "grid_cols = %d\n[model:1]\npreload = paper\n%s"
+                        "grid_cols = %d\n[model:1]\npreload = paper\n%s[model:3]\nkind = bspline\nn = %d\nm = %d\n"
+                        "type1 = yes\n"
                         "[sparkplug]\nbroker = 127.0.0.1:%d\ngroup_id = %s\nedge_node_id = %s\nkeepalive = 5\n"
                         "reconnect_max = 2\nusername = %s\npassword_file = %s\n"
-                        % (d, mbport, rows, cols, "[model:2]\nn = 2\nm = 2\n" if model2 else "[model:2]\nremoved = yes\n", broker.node_port,
+                        % (d, mbport, rows, cols, "[model:2]\nn = 2\nm = 2\n" if model2 else "[model:2]\nremoved = yes\n",
+                           BS_N, BS_N, broker.node_port,
                            GROUP, NODE, NODE_USER, pwfile))
         write_conf()
-        devs = [("model-1", 1), ("model-2", 2)]
+        devs = [("model-1", 1), ("model-2", 2), ("model-3", 3)]
         host = Host(broker.port)
         if not args.quick:
             wrong_password(args, d, broker, host)
@@ -846,13 +1016,16 @@ def main():
                 pick = None if name == "NBIRTH" else sorted(
                     list(range(9)) + [names.index(n) for n in ("Query/u", "Query/generation", "Query/Result/D/T",
                                                                "Upload/up_i", "Upload/up_T", "Sample Grid/r0/c0/T",
-                                                               "Sample Grid/r0/c0/I") if n in names])
+                                                               "Sample Grid/r0/c0/I", "Status/kind",
+                                                               "Status/net_rows", "Status/points_present32",
+                                                               "Query/x", "Query/kind", "Net/Page/fp",
+                                                               "Net/Page/values", "Net/D/T") if n in names])
                 samples[sample] = render(topic(m), m[4], m[5], m[3], pick=pick)
         samples["NCMD"] = render("%s/%s/NCMD/%s" % (NS, GROUP, NODE), 0, False, decode_payload(ncmd_rebirth()))
 
         # The reads of the DBIRTH checks moved the request counters: their
         # DDATA (the 1 s scan) first, so what follows is reproducible.
-        for dev in ("model-1", "model-2"):
+        for dev in ("model-1", "model-2", "model-3"):
             check(wait_ddata(host, seq, dev, aliases, "Status/requests", 3) is not None,
                   "%s: the request counters read by the test come as DDATA within the 1 s scan" % dev)
 
@@ -878,6 +1051,7 @@ def main():
                                                               ("Query/w", None, FLOAT, 0.5)])))
         host.dcmd("model-1", [("Query/u", None, FLOAT, 0.25), ("Query/w", None, FLOAT, 0.5)])
         m = wait_ddata(host, seq, "model-1", aliases, "Query/u", 3)
+        m_query = m
         if check(m is not None, "DCMD query (u, w) = (0.25, 0.5) on model-1: DDATA"):
             samples["DDATA_QUERY"] = render(topic(m), m[4], m[5], m[3], aliases=aliases, pick=list(range(8)))
             v = ddata_values(m, aliases)
@@ -921,6 +1095,8 @@ def main():
         check("DCMD model-2 refused: Status/state: read-only" in open(conf + ".log").read(),
               "DCMD to a read-only metric: refused and logged")
 
+        locate_and_pages(args, host, seq, plc, aliases, st["tabs"].get("model-1", {}), m_query, conf, samples, topic)
+
         # A clear of model 1 (command register 35 = 2): state 0, grid null.
         t1 = time.monotonic()
         check(plc.write(1, 35, [2]), "Modbus: clear model 1")
@@ -954,7 +1130,7 @@ def main():
                 seq.feed(x)
             check(m is not None and m[3].get("seq") is not None and not m[3]["metrics"],
                   "reload without model 2: DDEATH model-2 (seq, no metrics)")
-            expect_births(host, seq, plc, devs[:1], rows, cols, bd0, "reload without model 2")
+            expect_births(host, seq, plc, devs[:1] + devs[2:], rows, cols, bd0, "reload without model 2")
             check(host.wait("DBIRTH", 0.5, dev="model-2") is None, "reload without model 2: no DBIRTH model-2")
             write_conf()
             node.send_signal(signal.SIGHUP)
