@@ -49,53 +49,24 @@ include mk/install.mk
 
 all: $(ALL_TARGETS) ## Build the core, protocol, CLI and daemon
 
-# `make test` runs each TEST_TARGETS entry in turn as its own sub-make
-# (builds inside a suite still use -jN) with its output in
-# $(BUILD)/logs/SUITE.log, and prints one line per suite: name, ok/FAIL/skip,
-# seconds. A failing suite's log is printed in full; V=1 prints every log
-# as it runs. It stops at the first failure unless make runs with -k.
+# `make test` runs each TEST_TARGETS entry as its own sub-make with its
+# output in $(BUILD)/logs/SUITE.log and prints one line per suite: name,
+# ok/FAIL/skip, seconds (tests/run_suites.py). It first builds every suite's
+# prerequisites in one make -jTEST_JOBS, then runs up to TEST_JOBS suites at
+# once; suites in TEST_SOLO (timing and latency checks), suites whose recipe
+# runs make and suites depending on another suite run alone. A failing
+# suite's log is printed in full; V=1 prints every log. It starts no new
+# suite after the first failure unless make runs with -k.
 # Skips are never "ok": a suite that cannot run prints a line
 # "skip suite: REASON" and is listed as skip; a part of a suite that cannot
 # run prints "...: skip: REASON" and the suite's line names it. The summary
 # counts both, and ends with "suites: N passed, N failed, N skipped".
 V ?= 0
-test: deps ## Build and run every test, one line per suite (V=1: full output; logs in build/logs/)
-	@mkdir -p $(BUILD)/logs; failed=""; t0=$$(date +%s%N); npass=0; nskip=0; nparts=0; \
-	keep=$(if $(findstring k,$(firstword -$(MAKEFLAGS))),1,0); \
-	for t in $(TEST_TARGETS); do \
-	  log=$(BUILD)/logs/$$t.log; s=$$(date +%s%N); \
-	  if [ "$(V)" = 1 ]; then \
-	    echo "== $$t"; \
-	    $(MAKE) --no-print-directory $$t 2>&1 | tee $$log; rc=$${PIPESTATUS[0]}; \
-	  else \
-	    $(MAKE) --no-print-directory $$t > $$log 2>&1; rc=$$?; \
-	  fi; \
-	  ds=$$(( ($$(date +%s%N) - s) / 100000000 )); secs=$$((ds / 10)).$$((ds % 10)); \
-	  whole=$$(sed -n 's/^skip suite: //p' $$log | head -n 1); \
-	  parts=$$(grep -E '^[^ ].*: skip: ' $$log | sed 's/.*: skip: //' | paste -sd ';' -); \
-	  if [ $$rc = 0 ] && [ -n "$$whole" ]; then \
-	    printf '  %-26s skip %6.1f s  (%s)\n' $$t $$secs "$$whole"; nskip=$$((nskip + 1)); \
-	  elif [ $$rc = 0 ]; then \
-	    npass=$$((npass + 1)); \
-	    if [ -n "$$parts" ]; then \
-	      n=$$(grep -cE '^[^ ].*: skip: ' $$log); nparts=$$((nparts + n)); \
-	      printf '  %-26s ok   %6.1f s  (%s part(s) skipped: %s)\n' $$t $$secs $$n "$$parts"; \
-	    else printf '  %-26s ok   %6.1f s\n' $$t $$secs; fi; \
-	  else \
-	    [ "$(V)" = 1 ] || { echo "---- $$log"; cat $$log; echo "----"; }; \
-	    printf '  %-26s FAIL %6.1f s  (log: %s)\n' $$t $$secs $$log; \
-	    failed="$$failed $$t"; [ $$keep = 1 ] || break; \
-	  fi; \
-	done; \
-	secs=$$(( ($$(date +%s%N) - t0) / 1000000000 )); \
-	nfail=$$(echo $$failed | wc -w); \
-	skips=""; [ $$nskip = 0 ] && [ $$nparts = 0 ] || skips="; $$nskip suite(s) and $$nparts part(s) skipped"; \
-	if [ -n "$$failed" ]; then \
-	  printf '== FAILED:%s (%.0f s%s) ==\n' "$$failed" $$secs "$$skips"; \
-	  printf 'suites: %d passed, %d failed, %d skipped\n' $$npass $$nfail $$nskip; exit 1; \
-	fi; \
-	printf '== all tests passed (%.0f s%s) ==\n' $$secs "$$skips"; \
-	printf 'suites: %d passed, %d failed, %d skipped\n' $$npass $$nfail $$nskip
+TEST_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
+test: deps ## Build and run every test, one line per suite (V=1: full output; TEST_JOBS=1: one at a time; logs in build/logs/)
+	@/usr/bin/python3 tests/run_suites.py --make "$(MAKE)" --build $(BUILD) --jobs $(TEST_JOBS) \
+	  $(if $(findstring k,$(firstword -$(MAKEFLAGS))),--keep) $(if $(filter 1,$(V)),--verbose) \
+	  --solo "$(strip $(TEST_SOLO))" $(TEST_TARGETS)
 
 bench: $(BENCH_TARGETS) ## Run benchmarks (ratios from one run) into bench/*.json, bench/results.json, docs/performance.md
 	@$(MAKE) --no-print-directory bench-collect

@@ -1,0 +1,204 @@
+#!/usr/bin/python3
+"""run_suites.py -- `make test`'s runner: every TEST_TARGETS suite as its own
+sub-make, one line per suite (name, ok/FAIL/skip, seconds), logs in
+BUILD/logs/SUITE.log.
+
+  run_suites.py --make MAKE --build BUILD [--jobs N] [--keep] [--verbose]
+                [--solo "SUITE ..."] SUITE ...
+
+Why a runner and not a shell loop: CI machines have 2 cores and most suites
+spend their time waiting on daemons, links and brokers, so running them one
+after another left a core idle for most of `make test`. The runner
+
+  1. builds every prerequisite of every suite first, in one `make -jN -k`
+     (so two suites never build the same file at once; a prerequisite that
+     does not build is reported by the suite that needs it, whose own
+     sub-make retries it and logs the error);
+  2. then runs up to N suites at once. A suite runs alone ("solo") when it
+     measures latency or timing (the SOLO list, TEST_SOLO in the makefiles),
+     when its recipe runs make itself, or when it depends on another suite
+     (that one finishes first).
+
+Lines are printed as suites finish. Skips are never "ok": a suite that
+cannot run prints "skip suite: REASON" and is listed as skip; a part that
+cannot run prints "...: skip: REASON" and the suite's line names it. The
+summary counts both and ends with "suites: N passed, N failed, N skipped".
+Without --keep the runner starts no new suite after the first failure.
+"""
+import argparse
+import os
+import re
+import subprocess
+import sys
+import time
+
+
+def database(make):
+    """Rules of the makefile database: target -> (prerequisites, recipe)."""
+    env = dict(os.environ)
+    env.pop("MAKEFLAGS", None)
+    env.pop("MFLAGS", None)
+    out = subprocess.run([make, "-pq", "--no-print-directory"], env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.DEVNULL, text=True, errors="replace").stdout
+    rules, files, target = {}, False, None
+    for line in out.splitlines():
+        if line.startswith("# Files"):
+            files = True
+            continue
+        if not files:
+            continue
+        if line.startswith("\t") and target is not None:
+            rules[target][1].append(line[1:])
+            continue
+        if not line or line.startswith("#"):
+            target = None if not line else target
+            continue
+        m = re.match(r"^([^\s:=#][^:=]*?):(?!=)\s*(.*)$", line)
+        if m and " " not in m.group(1):
+            target = m.group(1)
+            prereqs = m.group(2).split("|")[0].split()
+            if target not in rules:
+                rules[target] = (prereqs, [])
+        else:
+            target = None
+    return rules
+
+
+def classify(suites, solo, rules):
+    """Each suite's build prerequisites, the suites it waits for and whether
+    it runs alone."""
+    info = {}
+    names = set(suites)
+    for s in suites:
+        prereqs, recipe = rules.get(s, ([], []))
+        after = [p for p in prereqs if p in names]
+        build = [p for p in prereqs if p not in names and p != "deps"]
+        makes = any(re.search(r"\$\(MAKE\)|\$\{MAKE\}|(^|[\s;&|(])make\s", r) for r in recipe)
+        info[s] = {"build": build, "after": after, "solo": s in solo or makes or bool(after)}
+    return info
+
+
+def summary_line(name, rc, secs, log):
+    text = open(log, encoding="utf-8", errors="replace").read() if os.path.exists(log) else ""
+    whole = re.search(r"^skip suite: (.*)$", text, re.M)
+    parts = re.findall(r"^[^ \n].*?: skip: (.*)$", text, re.M)
+    if rc == 0 and whole:
+        return "skip", "  %-26s skip %6.1f s  (%s)" % (name, secs, whole.group(1)), 0
+    if rc == 0:
+        if parts:
+            return "ok", "  %-26s ok   %6.1f s  (%d part(s) skipped: %s)" % (
+                name, secs, len(parts), ";".join(parts)), len(parts)
+        return "ok", "  %-26s ok   %6.1f s" % (name, secs), 0
+    return "FAIL", "  %-26s FAIL %6.1f s  (log: %s)" % (name, secs, log), 0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--make", default="make")
+    ap.add_argument("--build", default="build")
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--keep", action="store_true")
+    ap.add_argument("--verbose", action="store_true")
+    ap.add_argument("--solo", default="")
+    ap.add_argument("suites", nargs="+")
+    a = ap.parse_args()
+    logs = os.path.join(a.build, "logs")
+    os.makedirs(logs, exist_ok=True)
+    env = dict(os.environ)
+    for k in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL"):
+        env.pop(k, None)
+    t0 = time.monotonic()
+
+    info = classify(a.suites, set(a.solo.split()), database(a.make))
+    build = []
+    for s in a.suites:
+        build += [p for p in info[s]["build"] if p not in build]
+    jobs = max(1, a.jobs)
+    s = time.monotonic()
+    blog = os.path.join(logs, "_prerequisites.log")
+    with open(blog, "w") as f:
+        rc = subprocess.call([a.make, "--no-print-directory", "-k", "-j%d" % jobs] + build,
+                             stdout=f, stderr=subprocess.STDOUT, env=env)
+    print("  %-26s %-4s %6.1f s  (%d targets, -j%d%s)" % (
+        "(prerequisites)", "ok" if rc == 0 else "part", time.monotonic() - s, len(build), jobs,
+        "" if rc == 0 else "; what failed is reported by its suites, log: " + blog), flush=True)
+
+    pending = list(a.suites)
+    running = {}   # name -> (Popen, start, log, logfile)
+    done = {}      # name -> status
+    failed, npass, nskip, nparts = [], 0, 0, 0
+    stop = False
+
+    def start(name, solo):
+        log = os.path.join(logs, name + ".log")
+        lf = open(log, "w")
+        cmd = [a.make, "--no-print-directory"] + (["-j%d" % jobs] if solo else []) + [name]
+        if a.verbose:
+            print("== " + name, flush=True)
+        p = subprocess.Popen(cmd, stdout=lf, stderr=subprocess.STDOUT, env=env)
+        running[name] = (p, time.monotonic(), log, lf)
+
+    while pending or running:
+        # start what can start
+        while pending and not stop:
+            solo_running = any(info[n]["solo"] for n in running)
+            if solo_running or len(running) >= jobs:
+                break
+            nxt = None
+            for n in pending:
+                if all(d in done for d in info[n]["after"]):
+                    nxt = n
+                    break
+                if info[n]["solo"]:
+                    break   # keep the order of solo suites
+            if nxt is None:
+                break
+            if info[nxt]["solo"] and running:
+                break       # wait for the lane to drain
+            pending.remove(nxt)
+            start(nxt, info[nxt]["solo"] or jobs == 1)
+        if not running:
+            if pending and not stop:
+                continue
+            break
+        time.sleep(0.1)
+        for name in list(running):
+            p, st, log, lf = running[name]
+            rc = p.poll()
+            if rc is None:
+                continue
+            lf.close()
+            del running[name]
+            status, line, parts = summary_line(name, rc, time.monotonic() - st, log)
+            done[name] = status
+            if status == "FAIL":
+                if not a.verbose:
+                    print("---- " + log)
+                    sys.stdout.write(open(log, encoding="utf-8", errors="replace").read())
+                    print("----")
+                failed.append(name)
+                stop = stop or not a.keep
+            elif status == "skip":
+                nskip += 1
+            else:
+                npass += 1
+                nparts += parts
+            if a.verbose:
+                sys.stdout.write(open(log, encoding="utf-8", errors="replace").read())
+            print(line, flush=True)
+
+    secs = time.monotonic() - t0
+    skips = "" if nskip == 0 and nparts == 0 else "; %d suite(s) and %d part(s) skipped" % (nskip, nparts)
+    if failed or pending:
+        print("== FAILED: %s (%.0f s%s) ==" % (" ".join(failed), secs, skips))
+        if pending:
+            print("not run after the failure: " + " ".join(pending))
+        print("suites: %d passed, %d failed, %d skipped" % (npass, len(failed), nskip))
+        return 1
+    print("== all tests passed (%.0f s%s) ==" % (secs, skips))
+    print("suites: %d passed, %d failed, %d skipped" % (npass, len(failed), nskip))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
