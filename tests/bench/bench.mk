@@ -93,12 +93,17 @@ $(BMCU_B)/m4f/bspline.elf: $(call BSMCU_OBJ,m4f) tests/qemu/mps2_an385.ld
 	  -o $@ $(filter %.o,$^) -lc -lgcc
 
 .PHONY: bench-bspline-mcu
-bench-bspline-mcu: $(BMCU_B)/m0p/bspline.elf $(BMCU_B)/m4f/bspline.elf ## B-spline kind: solve/query instructions vs plain float on emulated M0+ and M4F
+bench-bspline-mcu: $(BMCU_B)/m0p/bspline.elf $(BMCU_B)/m4f/bspline.elf ## B-spline kind: solve/query instructions vs plain float on emulated M0+ and M4F, every magnitude set -> bench/bspline_mcu.json
 	@for t in m0p m4f; do \
 	  case $$t in m0p) mach=$(BMCU_MACHINE_m0p);; m4f) mach=$(BMCU_MACHINE_m4f);; esac; \
 	  timeout --kill-after=5 $(BMCU_TIMEOUT) qemu-system-arm -M $$mach -icount shift=0 -nographic \
 	    -monitor none -serial none -semihosting-config enable=on,target=native \
-	    -kernel $(BMCU_B)/$$t/bspline.elf </dev/null || exit 1; \
+	    -kernel $(BMCU_B)/$$t/bspline.elf </dev/null >$(BMCU_B)/bspline-$$t.log 2>&1 \
+	    || { cat $(BMCU_B)/bspline-$$t.log; exit 1; }; \
 	done
+	@mkdir -p bench
+	$(BMCU_PY) $(BMCU_DIR)/bspline_results.py mcu --m0p $(BMCU_B)/bspline-m0p.log \
+	  --m4f $(BMCU_B)/bspline-m4f.log --out bench/bspline_mcu.json
+	@$(MAKE) --no-print-directory bench-collect
 
 BENCH_TARGETS += bench-bspline-mcu
