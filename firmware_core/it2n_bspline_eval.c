@@ -121,22 +121,83 @@ static int check_model(const it2n_bspline_model *mdl, it2n_errinfo *err)
 }
 
 #if !IT2N_MUL_HALVES
-/* One surface value from the 4 x 4 window at p: the two stages written out
- * (no loop overhead; SMLAL each on ARMv7-M). The same sums as stage1 and
- * stage2, so the same bits. ARMv6-M keeps the loops (flash). */
-IT2N_INLINE it2n_val window(const int32_t *p, unsigned stride,
-                            const int32_t bu[4], const int32_t bw[4],
-                            int frac)
+/* Values of `count` consecutive nets (win, win + size, ...; their exponents
+ * frac[0..count)) into out[0..count): the same sums as stage1 and stage2,
+ * so the same bits, with the row weights loaded once per run. ARMv6-M
+ * keeps the loops (flash). */
+#if defined(__GNUC__) && defined(__thumb2__) && \
+    (defined(__ARM_ARCH_7M__) || defined(__ARM_ARCH_7EM__))
+/* ARMv7-M: one column of the window at p0 (rows p0, p0 + 4 sw, p2, p2 +
+ * 4 sw bytes, both pointers advanced by one word), q = (sum_r u_r c_r +
+ * 2^29) >> 30 (low word), then acc += bw q. GCC spills the column weights
+ * of the C version; this keeps all 13 operands in registers. */
+#define IT2N__ASM_COL(first, off)                                             \
+    "ldr   %[t], [%[p0], %[sw], lsl #2]\n\t"                                  \
+    "smull %[ql], %[qh], %[t], %[u1]\n\t"                                     \
+    "ldr   %[t], [%[p0]], #4\n\t"                                             \
+    "smlal %[ql], %[qh], %[t], %[u0]\n\t"                                     \
+    "ldr   %[t], [%[p2], %[sw], lsl #2]\n\t"                                  \
+    "smlal %[ql], %[qh], %[t], %[u3]\n\t"                                     \
+    "ldr   %[t], [%[p2]], #4\n\t"                                             \
+    "smlal %[ql], %[qh], %[t], %[u2]\n\t"                                     \
+    "adds  %[ql], %[ql], #0x20000000\n\t"                                     \
+    "adc   %[qh], %[qh], #0\n\t"                                              \
+    "lsrs  %[ql], %[ql], #30\n\t"                                             \
+    "orr   %[ql], %[ql], %[qh], lsl #2\n\t"                                   \
+    "ldr   %[t], [%[bw], #" off "]\n\t"                                       \
+    first " %[al], %[ah], %[t], %[ql]\n\t"
+
+IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0,
+                               int32_t u1, int32_t u2, int32_t u3,
+                               const int32_t bw[4])
 {
-    const int32_t *p1 = p + stride, *p2 = p1 + stride, *p3 = p2 + stride;
-    int64_t acc = 0;
-    unsigned s;
-    for (s = 0; s < 4u; s++) {
-        int64_t q = it2n_smul32(bu[0], p[s]) + it2n_smul32(bu[1], p1[s]) +
-                    it2n_smul32(bu[2], p2[s]) + it2n_smul32(bu[3], p3[s]);
-        acc += it2n_smul32(bw[s], (int32_t)((q + ((int64_t)1 << 29)) >> 30));
+    const int32_t *p0 = p, *p2 = p + 2u * stride;
+    uint32_t al, ah, ql, qh, t;
+    __asm__(IT2N__ASM_COL("smull", "0") IT2N__ASM_COL("smlal", "4")
+                IT2N__ASM_COL("smlal", "8") IT2N__ASM_COL("smlal", "12")
+            : [al] "=&r"(al), [ah] "=&r"(ah), [ql] "=&r"(ql), [qh] "=&r"(qh),
+              [t] "=&r"(t), [p0] "+&r"(p0), [p2] "+&r"(p2)
+            : [sw] "r"(stride), [u0] "r"(u0), [u1] "r"(u1), [u2] "r"(u2),
+              [u3] "r"(u3), [bw] "r"(bw)
+            : "cc", "memory");
+    return (int64_t)(((uint64_t)ah << 32) | al);
+}
+#undef IT2N__ASM_COL
+#else
+/* The two stages written out: the same sums as stage1 and stage2. */
+IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0,
+                               int32_t u1, int32_t u2, int32_t u3,
+                               const int32_t bw[4])
+{
+    const size_t st = stride;
+    int64_t acc;
+#define IT2N__COL(s)                                                          \
+    ((int32_t)((it2n_smul32(u0, p[s]) + it2n_smul32(u1, p[st + (s)]) +        \
+                it2n_smul32(u2, p[2u * st + (s)]) +                            \
+                it2n_smul32(u3, p[3u * st + (s)]) + ((int64_t)1 << 29)) >>     \
+               30))
+    acc = it2n_smul32(bw[0], IT2N__COL(0));
+    acc += it2n_smul32(bw[1], IT2N__COL(1));
+    acc += it2n_smul32(bw[2], IT2N__COL(2));
+    acc += it2n_smul32(bw[3], IT2N__COL(3));
+#undef IT2N__COL
+    return acc;
+}
+#endif
+
+static void window_run(const int32_t *win, size_t size, unsigned stride,
+                       const int32_t bu[4], const int32_t bw[4],
+                       const int8_t *frac, it2n_val *out, unsigned count)
+{
+    const int32_t u0 = bu[0], u1 = bu[1], u2 = bu[2], u3 = bu[3];
+    unsigned k;
+    for (k = 0; k < count; k++, win += size) {
+        int64_t acc = window_sum(win, stride, u0, u1, u2, u3, bw);
+        int sh = 30 + frac[k] - IT2N_VAL_FRAC; /* >= 6: frac >= 0 */
+        /* it2n__shift_round's (acc + 2^(sh-1)) >> sh as ((acc >> (sh-1)) +
+         * 1) >> 1: the same value, one variable 64-bit shift */
+        out[k] = sh >= 63 ? 0 : ((acc >> (sh - 1)) + 1) >> 1;
     }
-    return it2n__shift_round(acc, 30 + frac - IT2N_VAL_FRAC);
 }
 #endif
 
@@ -148,28 +209,51 @@ static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
     int32_t bu[4], bw[4];
     uint32_t tu, tw;
     unsigned k = span_of(u, mdl->n, &tu), l = span_of(w, mdl->m, &tw);
-    unsigned stride = mdl->m + 3u, fp, ch, mask = it2n__fp_mask(mdl->flags);
+    unsigned stride = mdl->m + 3u, fp, mask = it2n__fp_mask(mdl->flags);
     size_t size = (size_t)(mdl->n + 3u) * stride;
     const int32_t *win = mdl->coef + k * stride + l;
     basis(tu, bu);
     basis(tw, bw);
-    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            if (!(mask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
-                out->v[fp][ch] = 0;
-                continue;
-            }
-#if IT2N_MUL_HALVES
-            {
-                int32_t q[4];
-                stage1(win, stride, bu, 30, q);
-                out->v[fp][ch] = stage2(q, bw, mdl->frac[fp][ch]);
-            }
-#else
-            out->v[fp][ch] = window(win, stride, bu, bw, mdl->frac[fp][ch]);
+    if (mask != 0x7Fu) {
+        memset(out->v, 0, sizeof(out->v));
+    }
+#if !IT2N_MUL_HALVES
+    if (mdl->flags & IT2N_F_Z) {
+        /* every net in storage order is [fp][ch] order of frac and v too:
+         * one run over all of them */
+        fp = mask == 0x7Fu ? 0u : IT2N_FP_D;
+        window_run(win, size, stride, bu, bw, mdl->frac[fp], out->v[fp],
+                   (mask == 0x7Fu ? IT2N_FP_COUNT : 1u) * IT2N_CH_COUNT);
+        return;
+    }
 #endif
-            win += size;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        it2n_val *o = out->v[fp];
+        const int8_t *fr = mdl->frac[fp];
+        if (!(mask & (1u << fp))) {
+            continue;
         }
+#if IT2N_MUL_HALVES
+        {
+            unsigned ch;
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                int32_t q[4];
+                if (!it2n__ch_used(mdl->flags, ch)) {
+                    o[ch] = 0;
+                    continue;
+                }
+                stage1(win, stride, bu, 30, q);
+                o[ch] = stage2(q, bw, fr[ch]);
+                win += size;
+            }
+        }
+#else
+        /* x, y, then T, I, F: z is not stored */
+        window_run(win, size, stride, bu, bw, fr, o, 2u);
+        o[IT2N_CH_Z] = 0;
+        window_run(win + 2u * size, size, stride, bu, bw, fr + 3, o + 3, 3u);
+        win += 5u * size;
+#endif
     }
 }
 
