@@ -120,7 +120,28 @@ static int check_model(const it2n_bspline_model *mdl, it2n_errinfo *err)
     return IT2N_OK;
 }
 
-#if !IT2N_MUL_HALVES
+#if IT2N_MUL_HALVES
+/* stage1 (s1 = 30) then stage2 for the basis weights, which are never
+ * negative (0..2^30): each product signed x unsigned, one sign correction
+ * instead of two on ARMv6-M; the same exact products, so the same bits. */
+static it2n_val window_halves(const int32_t *win, unsigned stride,
+                              const int32_t bu[4], const int32_t bw[4],
+                              int frac)
+{
+    int64_t acc = 0;
+    unsigned r, s;
+    for (s = 0; s < 4u; s++) {
+        const int32_t *p = win + s;
+        int64_t q = 0;
+        for (r = 0; r < 4u; r++, p += stride) {
+            q += it2n_mul32su(*p, (uint32_t)bu[r]);
+        }
+        acc += it2n_mul32su((int32_t)((q + ((int64_t)1 << 29)) >> 30),
+                            (uint32_t)bw[s]);
+    }
+    return it2n__shift_round(acc, 30 + frac - IT2N_VAL_FRAC);
+}
+#else
 /* Values of `count` consecutive nets (win, win + size, ...; their exponents
  * frac[0..count)) into out[0..count): the same sums as stage1 and stage2,
  * so the same bits, with the row weights loaded once per run. ARMv6-M
@@ -215,7 +236,14 @@ static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
     basis(tu, bu);
     basis(tw, bw);
     if (mask != 0x7Fu) {
-        memset(out->v, 0, sizeof(out->v));
+        /* type-1: the other footprints are 0 (explicit stores: a memset
+         * call costs more than the six nets' values on ARMv7-M) */
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            it2n_val *o = out->v[fp];
+            if (fp != IT2N_FP_D) {
+                o[0] = o[1] = o[2] = o[3] = o[4] = o[5] = 0;
+            }
+        }
     }
 #if !IT2N_MUL_HALVES
     if (mdl->flags & IT2N_F_Z) {
@@ -237,13 +265,11 @@ static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
         {
             unsigned ch;
             for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                int32_t q[4];
                 if (!it2n__ch_used(mdl->flags, ch)) {
                     o[ch] = 0;
                     continue;
                 }
-                stage1(win, stride, bu, 30, q);
-                o[ch] = stage2(q, bw, fr[ch]);
+                o[ch] = window_halves(win, stride, bu, bw, fr[ch]);
                 win += size;
             }
         }

@@ -208,11 +208,24 @@ void it2n__summarise_flags(unsigned flags, it2n_point *out)
     unsigned k, f, fp;
     bool type1 = (flags & IT2N_F_TYPE1) != 0u;
     uint32_t oor = 0u;
+    if (type1) {
+        /* one footprint: every bound is its value */
+        for (k = 0; k < 3u; k++) {
+            it2n_val d = out->v[IT2N_FP_D][IT2N_CH_T + k];
+            out->sum.upper_min[k] = out->sum.upper_max[k] = d;
+            out->sum.lower_min[k] = out->sum.lower_max[k] = d;
+            if ((uint64_t)d > (uint64_t)IT2N_VAL_ONE) {
+                oor |= (uint32_t)1u << (IT2N_FP_D * 3u + k);
+            }
+        }
+        out->out_of_range = oor;
+        return;
+    }
     for (k = 0; k < 3u; k++) {
         unsigned ch = IT2N_CH_T + k;
         it2n_val d = out->v[IT2N_FP_D][ch];
         it2n_val umin = d, umax = d, lmin = d, lmax = d;
-        for (f = 0; f < 3u && !type1; f++) {
+        for (f = 0; f < 3u; f++) {
             it2n_val a = out->v[upper[f]][ch], b = out->v[lower[f]][ch];
             umin = a < umin ? a : umin;
             umax = a > umax ? a : umax;
@@ -224,7 +237,7 @@ void it2n__summarise_flags(unsigned flags, it2n_point *out)
         out->sum.lower_min[k] = lmin;
         out->sum.lower_max[k] = lmax;
         /* outside [0, 1]: one unsigned compare catches both sides */
-        for (fp = type1 ? IT2N_FP_D : 0u; fp < (type1 ? IT2N_FP_D + 1u : IT2N_FP_COUNT); fp++) {
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
             if ((uint64_t)out->v[fp][ch] > (uint64_t)IT2N_VAL_ONE) {
                 oor |= (uint32_t)1u << (fp * 3u + k);
             }
