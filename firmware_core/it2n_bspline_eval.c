@@ -148,10 +148,24 @@ static it2n_val window_halves(const int32_t *win, unsigned stride,
  * keeps the loops (flash). */
 #if defined(__GNUC__) && defined(__thumb2__) && \
     (defined(__ARM_ARCH_7M__) || defined(__ARM_ARCH_7EM__))
-/* ARMv7-M: one column of the window at p0 (rows p0, p0 + 4 sw, p2, p2 +
- * 4 sw bytes, both pointers advanced by one word), q = (sum_r u_r c_r +
- * 2^29) >> 30 (low word), then acc += bw q. GCC spills the column weights
- * of the C version; this keeps all 13 operands in registers. */
+#define IT2N__WINDOW_ASM 1
+/* ARMv7-M: every net of the run in one assembly loop. Per net, four
+ * columns of the window at p0 (rows p0, p0 + 4 sw, p2, p2 + 4 sw bytes,
+ * both pointers advanced one word per column): q = (sum_r u_r c_r + 2^29)
+ * >> 30 (low word), acc += bw_s q; then ((acc >> (sh - 1)) + 1) >> 1 with
+ * sh = 30 + frac - 24 (it2n__shift_round's value; ARM's register shifts
+ * fill with the sign from 32 on, so a shift beyond 62 gives 0 as it does).
+ * GCC spills the weights of the C version; here the 13 registers hold
+ * everything and the loop's state lives in ctx. */
+typedef struct window_ctx {
+    int32_t bw[4];        /*  0: column weights                 */
+    const int32_t *win;   /* 16: this net's window              */
+    uint32_t size;        /* 20: bytes from one net to the next */
+    const int8_t *frac;   /* 24: this net's exponent            */
+    it2n_val *out;        /* 28: this net's value               */
+    uint32_t count;       /* 32: nets left                      */
+} window_ctx;
+
 #define IT2N__ASM_COL(first, off)                                             \
     "ldr   %[t], [%[p0], %[sw], lsl #2]\n\t"                                  \
     "smull %[ql], %[qh], %[t], %[u1]\n\t"                                     \
@@ -165,23 +179,71 @@ static it2n_val window_halves(const int32_t *win, unsigned stride,
     "adc   %[qh], %[qh], #0\n\t"                                              \
     "lsrs  %[ql], %[ql], #30\n\t"                                             \
     "orr   %[ql], %[ql], %[qh], lsl #2\n\t"                                   \
-    "ldr   %[t], [%[bw], #" off "]\n\t"                                       \
+    "ldr   %[t], [%[cx], #" off "]\n\t"                                       \
     first " %[al], %[ah], %[t], %[ql]\n\t"
 
-IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0,
-                               int32_t u1, int32_t u2, int32_t u3,
-                               const int32_t bw[4])
+static void window_run(const int32_t *win, size_t size, unsigned stride,
+                       const int32_t bu[4], const int32_t bw[4],
+                       const int8_t *frac, it2n_val *out, unsigned count)
 {
-    const int32_t *p0 = p, *p2 = p + 2u * stride;
+    window_ctx ctx;
+    window_ctx *cx = &ctx;
+    const int32_t *p0, *p2;
     uint32_t al, ah, ql, qh, t;
-    __asm__(IT2N__ASM_COL("smull", "0") IT2N__ASM_COL("smlal", "4")
-                IT2N__ASM_COL("smlal", "8") IT2N__ASM_COL("smlal", "12")
-            : [al] "=&r"(al), [ah] "=&r"(ah), [ql] "=&r"(ql), [qh] "=&r"(qh),
-              [t] "=&r"(t), [p0] "+&r"(p0), [p2] "+&r"(p2)
-            : [sw] "r"(stride), [u0] "r"(u0), [u1] "r"(u1), [u2] "r"(u2),
-              [u3] "r"(u3), [bw] "r"(bw)
-            : "cc", "memory");
-    return (int64_t)(((uint64_t)ah << 32) | al);
+    if (count == 0u) {
+        return;
+    }
+    memcpy(ctx.bw, bw, sizeof(ctx.bw));
+    ctx.win = win;
+    ctx.size = (uint32_t)(size * sizeof(int32_t));
+    ctx.frac = frac;
+    ctx.out = out;
+    ctx.count = count;
+    __asm__ volatile(
+        "1:\n\t"
+        "ldr   %[p0], [%[cx], #16]\n\t"
+        "ldr   %[t], [%[cx], #20]\n\t"
+        "add   %[t], %[t], %[p0]\n\t"
+        "str   %[t], [%[cx], #16]\n\t"
+        "add   %[p2], %[p0], %[sw], lsl #3\n\t"
+        IT2N__ASM_COL("smull", "0") IT2N__ASM_COL("smlal", "4")
+        IT2N__ASM_COL("smlal", "8") IT2N__ASM_COL("smlal", "12")
+        /* t = sh - 1 = frac + 30 - 24 - 1 */
+        "ldr   %[p0], [%[cx], #24]\n\t"
+        "ldrsb %[t], [%[p0]], #1\n\t"
+        "str   %[p0], [%[cx], #24]\n\t"
+        "adds  %[t], %[t], #5\n\t"
+        /* (ah:al) >>= t, arithmetic, 0 < t */
+        "subs  %[ql], %[t], #32\n\t"
+        "bmi   2f\n\t"
+        "asr   %[al], %[ah], %[ql]\n\t"
+        "asr   %[ah], %[ah], #31\n\t"
+        "b     3f\n"
+        "2:\n\t"
+        "rsb   %[ql], %[t], #32\n\t"
+        "lsr   %[al], %[al], %[t]\n\t"
+        "lsl   %[qh], %[ah], %[ql]\n\t"
+        "orr   %[al], %[al], %[qh]\n\t"
+        "asr   %[ah], %[ah], %[t]\n"
+        "3:\n\t"
+        /* (+1) >> 1 */
+        "adds  %[al], %[al], #1\n\t"
+        "adc   %[ah], %[ah], #0\n\t"
+        "lsrs  %[al], %[al], #1\n\t"
+        "orr   %[al], %[al], %[ah], lsl #31\n\t"
+        "asr   %[ah], %[ah], #1\n\t"
+        "ldr   %[p0], [%[cx], #28]\n\t"
+        "strd  %[al], %[ah], [%[p0]], #8\n\t"
+        "str   %[p0], [%[cx], #28]\n\t"
+        "ldr   %[t], [%[cx], #32]\n\t"
+        "subs  %[t], %[t], #1\n\t"
+        "str   %[t], [%[cx], #32]\n\t"
+        "bne   1b\n\t"
+        : [al] "=&r"(al), [ah] "=&r"(ah), [ql] "=&r"(ql), [qh] "=&r"(qh),
+          [t] "=&r"(t), [p0] "=&r"(p0), [p2] "=&r"(p2)
+        : [sw] "r"(stride), [u0] "r"(bu[0]), [u1] "r"(bu[1]), [u2] "r"(bu[2]),
+          [u3] "r"(bu[3]), [cx] "r"(cx)
+        : "cc", "memory");
 }
 #undef IT2N__ASM_COL
 #else
@@ -204,7 +266,6 @@ IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0,
 #undef IT2N__COL
     return acc;
 }
-#endif
 
 static void window_run(const int32_t *win, size_t size, unsigned stride,
                        const int32_t bu[4], const int32_t bw[4],
@@ -220,6 +281,7 @@ static void window_run(const int32_t *win, size_t size, unsigned stride,
         out[k] = sh >= 63 ? 0 : ((acc >> (sh - 1)) + 1) >> 1;
     }
 }
+#endif
 #endif
 
 /* Values of every net at (u, w) into out->v (unused channels 0). The nets
