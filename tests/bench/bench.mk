@@ -82,6 +82,7 @@ include tests/bench/proto/proto.mk
 # instruction counts of solve and query against a plain float baseline
 # (tests/bench/mcu/bspline_image.c; issue 21's speed goals, measured).
 BSMCU_OBJ = $(BMCU_B)/$(1)/bench/bspline_image.o $(BMCU_B)/$(1)/bench/entry.o \
+            $(BMCU_B)/$(1)/bench/baseline_float.o \
             $(BMCU_B)/$(1)/bench/counter.o $(BMCU_B)/$(1)/qemu/startup.o \
             $(BMCU_B)/$(1)/qemu/semihost.o $(BMCU_CORE_SRC:%.c=$(BMCU_B)/$(1)/%.o)
 

@@ -17,6 +17,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "baseline.h"
 #include "counter.h"
 #include "it2n.h"
 #include "semihost.h"
@@ -255,7 +256,9 @@ static void fline(float *v, unsigned N)
     }
 }
 
-static void fsolve(unsigned pts, unsigned nets)
+/* The baseline's entry points are compiled on their own (noinline), so
+ * their code does not depend on the benchmark around the call. */
+__attribute__((noinline)) static void fsolve(unsigned pts, unsigned nets)
 {
     unsigned n = pts - 1u, net, i, j;
     for (net = 0; net < nets; net++) {
@@ -289,7 +292,7 @@ static void fbasis(float t, float b[4])
     b[3] = t * t * t / 6.0f;
 }
 
-static void fquery(unsigned pts, unsigned nets, float u, float w)
+__attribute__((noinline)) static void fquery(unsigned pts, unsigned nets, float u, float w)
 {
     unsigned n = pts - 1u, k, l, net, a, b;
     float bu[4], bw[4], x = u * (float)n, y = w * (float)n;
@@ -441,6 +444,89 @@ static void run_mem(const char *cfg, unsigned flags)
     put_list(cfg, "", v, 3u);
 }
 
+/* ---- Bezier solve at every magnitude (issue 21) --------------------------- */
+
+/* The Bezier kind's degree-7 x 7 solve (8 x 8 points, 7 footprints, x, y,
+ * T, I, F as tests/bench/mcu/driver.c) of each magnitude set against the
+ * float baseline of baseline.h (Gauss-Jordan inverses, two products):
+ *   R bs.bez7.<set>.solve IT2N FLOAT
+ * checked to compute the same surface at a few points. */
+static it2n_dataset bz_ds;
+static it2n_model bz_mdl;
+static blf_data bz_f;
+static blf_model bz_fm;
+static blf_point bz_fp;
+
+static int run_bezier(unsigned set)
+{
+    static const unsigned bz_ch[5] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F};
+    const unsigned n = 7u;
+    char key[32], *p;
+    uint32_t t0, t1, v[2], s = 4242u;
+    it2n_val maxc = 0;
+    unsigned i, j, fp, c, k;
+    int bad = it2n_dataset_init(&bz_ds, n, n, 0u, NULL) != IT2N_OK;
+    for (i = 0; i <= n && !bad; i++) {
+        for (j = 0; j <= n && !bad; j++) {
+            it2n_val base[2];
+            base[0] = coord(set, 0u, i, j, n, &s);
+            base[1] = coord(set, 1u, i, j, n, &s);
+            for (fp = 0; fp < IT2N_FP_COUNT && !bad; fp++) {
+                it2n_val off = ((it2n_val)fp - 3) * (IT2N_VAL_ONE / 4);
+                it2n_val val[IT2N_CH_COUNT] = {0, 0, 0, 0, 0, 0};
+                val[IT2N_CH_X] = base[0] + off;
+                val[IT2N_CH_Y] = base[1] + off;
+                for (c = 0; c < 3u; c++) {
+                    val[IT2N_CH_T + c] = set == SET_ROUGH ? (it2n_val)(lcg(&s) >> 8)
+                                                          : IT2N_VAL_ONE / 4 + (it2n_val)(i * 8u + j + c) * (IT2N_VAL_ONE / 256);
+                }
+                for (c = 0; c < 2u; c++) {
+                    it2n_val a = val[c] < 0 ? -val[c] : val[c];
+                    maxc = a > maxc ? a : maxc;
+                }
+                bad |= it2n_dataset_put(&bz_ds, i, j, fp, val, false, NULL) != IT2N_OK;
+                for (c = 0; c < 5u; c++) {
+                    bz_f[fp][c][i][j] = (float)val[bz_ch[c]] * (1.0f / 16777216.0f);
+                }
+            }
+        }
+    }
+    it2n_model_init(&bz_mdl);
+    t0 = bc_now();
+    bad |= it2n_model_solve(&bz_mdl, &bz_ds, NULL) != IT2N_OK;
+    t1 = bc_now();
+    v[0] = (uint32_t)bc_instr(t0, t1);
+    t0 = bc_now();
+    bad |= blf_solve(&bz_fm, n, n, (const blf_data *)&bz_f) != 0;
+    t1 = bc_now();
+    v[1] = (uint32_t)bc_instr(t0, t1);
+    for (k = 0; k < 4u && !bad; k++) {
+        it2n_par u = (it2n_par)(lcg(&s) >> 8) << 8, w = (it2n_par)(lcg(&s) >> 8) << 8;
+        float range = (float)maxc * (1.0f / 16777216.0f);
+        bad |= it2n_eval(&bz_mdl, u, w, &pt, NULL) != IT2N_OK;
+        blf_query(&bz_fm, (float)u * (1.0f / 4294967296.0f), (float)w * (1.0f / 4294967296.0f), &bz_fp);
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            for (c = 0; c < 5u; c++) {
+                float d = (float)pt.v[fp][bz_ch[c]] * (1.0f / 16777216.0f) - bz_fp.v[fp][c];
+                float r = c < 2u ? range : 1.0f;
+                if (d > 1e-4f * r || d < -1e-4f * r) {
+                    bad = 1;
+                }
+            }
+        }
+    }
+    p = put_s(key, "bez7.");
+    p = put_s(p, set_name[set]);
+    *p = '\0';
+    put_list(key, ".solve", v, 2u);
+    if (bad) {
+        it2n_sh_write0("MISMATCH: ");
+        it2n_sh_write0(key);
+        it2n_sh_write0("\n");
+    }
+    return bad ? -1 : 0;
+}
+
 int bench_main(void)
 {
     static const struct {
@@ -472,6 +558,9 @@ int bench_main(void)
         for (set = 0; set < NSETS; set++) {
             bad |= run_case(cases[c].pts, cases[c].flags, cases[c].name, set);
         }
+    }
+    for (set = 0; set < NSETS; set++) {
+        bad |= run_bezier(set);
     }
     bad |= run_grid(4u);
     bad |= run_grid(BIG_PTS);
