@@ -153,7 +153,7 @@ static it2n_val window_halves(const int32_t *win, unsigned stride,
  * columns of the window at p0 (rows p0, p0 + 4 sw, p2, p2 + 4 sw bytes,
  * both pointers advanced one word per column): q = (sum_r u_r c_r + 2^29)
  * >> 30 (low word), acc += bw_s q; then ((acc >> (sh - 1)) + 1) >> 1 with
- * sh = 30 + frac - 24 (it2n__shift_round's value; ARM's register shifts
+ * sh = 30 + frac - IT2N_VAL_FRAC (it2n__shift_round's value; ARM's register shifts
  * fill with the sign from 32 on, so a shift beyond 62 gives 0 as it does).
  * GCC spills the weights of the C version; here the 13 registers hold
  * everything and the loop's state lives in ctx. */
@@ -208,11 +208,11 @@ static void window_run(const int32_t *win, size_t size, unsigned stride,
         "add   %[p2], %[p0], %[sw], lsl #3\n\t"
         IT2N__ASM_COL("smull", "0") IT2N__ASM_COL("smlal", "4")
         IT2N__ASM_COL("smlal", "8") IT2N__ASM_COL("smlal", "12")
-        /* t = sh - 1 = frac + 30 - 24 - 1 */
+        /* t = sh - 1 = frac + 30 - IT2N_VAL_FRAC - 1 */
         "ldr   %[p0], [%[cx], #24]\n\t"
         "ldrsb %[t], [%[p0]], #1\n\t"
         "str   %[p0], [%[cx], #24]\n\t"
-        "adds  %[t], %[t], #5\n\t"
+        "adds  %[t], %[t], %[bias]\n\t"
         /* (ah:al) >>= t, arithmetic, 0 < t */
         "subs  %[ql], %[t], #32\n\t"
         "bmi   2f\n\t"
@@ -242,7 +242,7 @@ static void window_run(const int32_t *win, size_t size, unsigned stride,
         : [al] "=&r"(al), [ah] "=&r"(ah), [ql] "=&r"(ql), [qh] "=&r"(qh),
           [t] "=&r"(t), [p0] "=&r"(p0), [p2] "=&r"(p2)
         : [sw] "r"(stride), [u0] "r"(bu[0]), [u1] "r"(bu[1]), [u2] "r"(bu[2]),
-          [u3] "r"(bu[3]), [cx] "r"(cx)
+          [u3] "r"(bu[3]), [cx] "r"(cx), [bias] "i"(30 - IT2N_VAL_FRAC - 1)
         : "cc", "memory");
 }
 #undef IT2N__ASM_COL
