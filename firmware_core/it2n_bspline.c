@@ -226,6 +226,39 @@ static bool data_shape_ok(const it2n_bspline_data *ds)
            ds->cap >= IT2N_BSPLINE_DATA_RECS(ds->n, ds->m, ds->flags);
 }
 
+/* True when every record is present, in range and nested: one pass over
+ * the records with no error bookkeeping (the solve's common case, about a
+ * sixth of a 256x256 solve's instructions before); on false,
+ * it2n_bspline_data_check's full loop finds and reports the first problem
+ * exactly as before. Channels not used are skipped. */
+static bool data_all_ok(const it2n_bspline_data *ds)
+{
+    const it2n_bspline_rec *r = ds->rec;
+    size_t k, count = IT2N_BSPLINE_DATA_RECS(ds->n, ds->m, ds->flags);
+    unsigned nfp = nfp_of(ds->flags), ncoord = it2n__ncoord(ds->flags), fp = 0;
+    for (k = 0; k < count; k++, r++, fp = fp + 1u == nfp ? 0u : fp + 1u) {
+        unsigned ch;
+        if (!r->present) {
+            return false;
+        }
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            it2n_val v = rec_value(r, ch);
+            bool coord = ch <= IT2N_CH_Z;
+            if (!it2n__ch_used(ds->flags, ch)) {
+                continue;
+            }
+            if (coord ? (v < -COORD_MAX || v > COORD_MAX) : (v < 0 || v > IT2N_VAL_ONE)) {
+                return false;
+            }
+            /* nesting with footprint fp - 1 of the same point */
+            if (coord && ch < ncoord && fp > 0u && v < rec_value(r - 1, ch)) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
 int it2n_bspline_data_check(const it2n_bspline_data *ds, it2n_errinfo *err)
 {
     it2n_val vals[IT2N_CH_COUNT];
@@ -233,6 +266,9 @@ int it2n_bspline_data_check(const it2n_bspline_data *ds, it2n_errinfo *err)
     int rc;
     if (!data_shape_ok(ds)) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    if (data_all_ok(ds)) {
+        return IT2N_OK;
     }
     for (i = 0; i <= ds->n; i++) {
         for (j = 0; j <= ds->m; j++) {

@@ -120,24 +120,168 @@ static int check_model(const it2n_bspline_model *mdl, it2n_errinfo *err)
     return IT2N_OK;
 }
 
-#if !IT2N_MUL_HALVES
-/* One surface value from the 4 x 4 window at p: the two stages written out
- * (no loop overhead; SMLAL each on ARMv7-M). The same sums as stage1 and
- * stage2, so the same bits. ARMv6-M keeps the loops (flash). */
-IT2N_INLINE it2n_val window(const int32_t *p, unsigned stride,
-                            const int32_t bu[4], const int32_t bw[4],
-                            int frac)
+#if IT2N_MUL_HALVES
+/* stage1 (s1 = 30) then stage2 for the basis weights, which are never
+ * negative (0..2^30): each product signed x unsigned, one sign correction
+ * instead of two on ARMv6-M; the same exact products, so the same bits. */
+static it2n_val window_halves(const int32_t *win, unsigned stride,
+                              const int32_t bu[4], const int32_t bw[4],
+                              int frac)
 {
-    const int32_t *p1 = p + stride, *p2 = p1 + stride, *p3 = p2 + stride;
     int64_t acc = 0;
-    unsigned s;
+    unsigned r, s;
     for (s = 0; s < 4u; s++) {
-        int64_t q = it2n_smul32(bu[0], p[s]) + it2n_smul32(bu[1], p1[s]) +
-                    it2n_smul32(bu[2], p2[s]) + it2n_smul32(bu[3], p3[s]);
-        acc += it2n_smul32(bw[s], (int32_t)((q + ((int64_t)1 << 29)) >> 30));
+        const int32_t *p = win + s;
+        int64_t q = 0;
+        for (r = 0; r < 4u; r++, p += stride) {
+            q += it2n_mul32su(*p, (uint32_t)bu[r]);
+        }
+        acc += it2n_mul32su((int32_t)((q + ((int64_t)1 << 29)) >> 30),
+                            (uint32_t)bw[s]);
     }
     return it2n__shift_round(acc, 30 + frac - IT2N_VAL_FRAC);
 }
+#else
+/* Values of `count` consecutive nets (win, win + size, ...; their exponents
+ * frac[0..count)) into out[0..count): the same sums as stage1 and stage2,
+ * so the same bits, with the row weights loaded once per run. ARMv6-M
+ * keeps the loops (flash). */
+#if defined(__GNUC__) && defined(__thumb2__) && \
+    (defined(__ARM_ARCH_7M__) || defined(__ARM_ARCH_7EM__))
+#define IT2N__WINDOW_ASM 1
+/* ARMv7-M: every net of the run in one assembly loop. Per net, four
+ * columns of the window at p0 (rows p0, p0 + 4 sw, p2, p2 + 4 sw bytes,
+ * both pointers advanced one word per column): q = (sum_r u_r c_r + 2^29)
+ * >> 30 (low word), acc += bw_s q; then ((acc >> (sh - 1)) + 1) >> 1 with
+ * sh = 30 + frac - IT2N_VAL_FRAC (it2n__shift_round's value; ARM's register shifts
+ * fill with the sign from 32 on, so a shift beyond 62 gives 0 as it does).
+ * GCC spills the weights of the C version; here the 13 registers hold
+ * everything and the loop's state lives in ctx. */
+typedef struct window_ctx {
+    int32_t bw[4];        /*  0: column weights                 */
+    const int32_t *win;   /* 16: this net's window              */
+    uint32_t size;        /* 20: bytes from one net to the next */
+    const int8_t *frac;   /* 24: this net's exponent            */
+    it2n_val *out;        /* 28: this net's value               */
+    uint32_t count;       /* 32: nets left                      */
+} window_ctx;
+
+#define IT2N__ASM_COL(first, off)                                             \
+    "ldr   %[t], [%[p0], %[sw], lsl #2]\n\t"                                  \
+    "smull %[ql], %[qh], %[t], %[u1]\n\t"                                     \
+    "ldr   %[t], [%[p0]], #4\n\t"                                             \
+    "smlal %[ql], %[qh], %[t], %[u0]\n\t"                                     \
+    "ldr   %[t], [%[p2], %[sw], lsl #2]\n\t"                                  \
+    "smlal %[ql], %[qh], %[t], %[u3]\n\t"                                     \
+    "ldr   %[t], [%[p2]], #4\n\t"                                             \
+    "smlal %[ql], %[qh], %[t], %[u2]\n\t"                                     \
+    "adds  %[ql], %[ql], #0x20000000\n\t"                                     \
+    "adc   %[qh], %[qh], #0\n\t"                                              \
+    "lsrs  %[ql], %[ql], #30\n\t"                                             \
+    "orr   %[ql], %[ql], %[qh], lsl #2\n\t"                                   \
+    "ldr   %[t], [%[cx], #" off "]\n\t"                                       \
+    first " %[al], %[ah], %[t], %[ql]\n\t"
+
+static void window_run(const int32_t *win, size_t size, unsigned stride,
+                       const int32_t bu[4], const int32_t bw[4],
+                       const int8_t *frac, it2n_val *out, unsigned count)
+{
+    window_ctx ctx;
+    window_ctx *cx = &ctx;
+    const int32_t *p0, *p2;
+    uint32_t al, ah, ql, qh, t;
+    if (count == 0u) {
+        return;
+    }
+    memcpy(ctx.bw, bw, sizeof(ctx.bw));
+    ctx.win = win;
+    ctx.size = (uint32_t)(size * sizeof(int32_t));
+    ctx.frac = frac;
+    ctx.out = out;
+    ctx.count = count;
+    __asm__ volatile(
+        "1:\n\t"
+        "ldr   %[p0], [%[cx], #16]\n\t"
+        "ldr   %[t], [%[cx], #20]\n\t"
+        "add   %[t], %[t], %[p0]\n\t"
+        "str   %[t], [%[cx], #16]\n\t"
+        "add   %[p2], %[p0], %[sw], lsl #3\n\t"
+        IT2N__ASM_COL("smull", "0") IT2N__ASM_COL("smlal", "4")
+        IT2N__ASM_COL("smlal", "8") IT2N__ASM_COL("smlal", "12")
+        /* t = sh - 1 = frac + 30 - IT2N_VAL_FRAC - 1 */
+        "ldr   %[p0], [%[cx], #24]\n\t"
+        "ldrsb %[t], [%[p0]], #1\n\t"
+        "str   %[p0], [%[cx], #24]\n\t"
+        "adds  %[t], %[t], %[bias]\n\t"
+        /* (ah:al) >>= t, arithmetic, 0 < t */
+        "subs  %[ql], %[t], #32\n\t"
+        "bmi   2f\n\t"
+        "asr   %[al], %[ah], %[ql]\n\t"
+        "asr   %[ah], %[ah], #31\n\t"
+        "b     3f\n"
+        "2:\n\t"
+        "rsb   %[ql], %[t], #32\n\t"
+        "lsr   %[al], %[al], %[t]\n\t"
+        "lsl   %[qh], %[ah], %[ql]\n\t"
+        "orr   %[al], %[al], %[qh]\n\t"
+        "asr   %[ah], %[ah], %[t]\n"
+        "3:\n\t"
+        /* (+1) >> 1 */
+        "adds  %[al], %[al], #1\n\t"
+        "adc   %[ah], %[ah], #0\n\t"
+        "lsrs  %[al], %[al], #1\n\t"
+        "orr   %[al], %[al], %[ah], lsl #31\n\t"
+        "asr   %[ah], %[ah], #1\n\t"
+        "ldr   %[p0], [%[cx], #28]\n\t"
+        "strd  %[al], %[ah], [%[p0]], #8\n\t"
+        "str   %[p0], [%[cx], #28]\n\t"
+        "ldr   %[t], [%[cx], #32]\n\t"
+        "subs  %[t], %[t], #1\n\t"
+        "str   %[t], [%[cx], #32]\n\t"
+        "bne   1b\n\t"
+        : [al] "=&r"(al), [ah] "=&r"(ah), [ql] "=&r"(ql), [qh] "=&r"(qh),
+          [t] "=&r"(t), [p0] "=&r"(p0), [p2] "=&r"(p2)
+        : [sw] "r"(stride), [u0] "r"(bu[0]), [u1] "r"(bu[1]), [u2] "r"(bu[2]),
+          [u3] "r"(bu[3]), [cx] "r"(cx), [bias] "i"(30 - IT2N_VAL_FRAC - 1)
+        : "cc", "memory");
+}
+#undef IT2N__ASM_COL
+#else
+/* The two stages written out: the same sums as stage1 and stage2. */
+IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0,
+                               int32_t u1, int32_t u2, int32_t u3,
+                               const int32_t bw[4])
+{
+    const size_t st = stride;
+    int64_t acc;
+#define IT2N__COL(s)                                                          \
+    ((int32_t)((it2n_smul32(u0, p[s]) + it2n_smul32(u1, p[st + (s)]) +        \
+                it2n_smul32(u2, p[2u * st + (s)]) +                            \
+                it2n_smul32(u3, p[3u * st + (s)]) + ((int64_t)1 << 29)) >>     \
+               30))
+    acc = it2n_smul32(bw[0], IT2N__COL(0));
+    acc += it2n_smul32(bw[1], IT2N__COL(1));
+    acc += it2n_smul32(bw[2], IT2N__COL(2));
+    acc += it2n_smul32(bw[3], IT2N__COL(3));
+#undef IT2N__COL
+    return acc;
+}
+
+static void window_run(const int32_t *win, size_t size, unsigned stride,
+                       const int32_t bu[4], const int32_t bw[4],
+                       const int8_t *frac, it2n_val *out, unsigned count)
+{
+    const int32_t u0 = bu[0], u1 = bu[1], u2 = bu[2], u3 = bu[3];
+    unsigned k;
+    for (k = 0; k < count; k++, win += size) {
+        int64_t acc = window_sum(win, stride, u0, u1, u2, u3, bw);
+        int sh = 30 + frac[k] - IT2N_VAL_FRAC; /* >= 6: frac >= 0 */
+        /* it2n__shift_round's (acc + 2^(sh-1)) >> sh as ((acc >> (sh-1)) +
+         * 1) >> 1: the same value, one variable 64-bit shift */
+        out[k] = sh >= 63 ? 0 : ((acc >> (sh - 1)) + 1) >> 1;
+    }
+}
+#endif
 #endif
 
 /* Values of every net at (u, w) into out->v (unused channels 0). The nets
@@ -148,28 +292,56 @@ static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
     int32_t bu[4], bw[4];
     uint32_t tu, tw;
     unsigned k = span_of(u, mdl->n, &tu), l = span_of(w, mdl->m, &tw);
-    unsigned stride = mdl->m + 3u, fp, ch, mask = it2n__fp_mask(mdl->flags);
+    unsigned stride = mdl->m + 3u, fp, mask = it2n__fp_mask(mdl->flags);
     size_t size = (size_t)(mdl->n + 3u) * stride;
     const int32_t *win = mdl->coef + k * stride + l;
     basis(tu, bu);
     basis(tw, bw);
-    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            if (!(mask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
-                out->v[fp][ch] = 0;
-                continue;
+    if (mask != 0x7Fu) {
+        /* type-1: the other footprints are 0 (explicit stores: a memset
+         * call costs more than the six nets' values on ARMv7-M) */
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            it2n_val *o = out->v[fp];
+            if (fp != IT2N_FP_D) {
+                o[0] = o[1] = o[2] = o[3] = o[4] = o[5] = 0;
             }
-#if IT2N_MUL_HALVES
-            {
-                int32_t q[4];
-                stage1(win, stride, bu, 30, q);
-                out->v[fp][ch] = stage2(q, bw, mdl->frac[fp][ch]);
-            }
-#else
-            out->v[fp][ch] = window(win, stride, bu, bw, mdl->frac[fp][ch]);
-#endif
-            win += size;
         }
+    }
+#if !IT2N_MUL_HALVES
+    if (mdl->flags & IT2N_F_Z) {
+        /* every net in storage order is [fp][ch] order of frac and v too:
+         * one run over all of them */
+        fp = mask == 0x7Fu ? 0u : IT2N_FP_D;
+        window_run(win, size, stride, bu, bw, mdl->frac[fp], out->v[fp],
+                   (mask == 0x7Fu ? IT2N_FP_COUNT : 1u) * IT2N_CH_COUNT);
+        return;
+    }
+#endif
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        it2n_val *o = out->v[fp];
+        const int8_t *fr = mdl->frac[fp];
+        if (!(mask & (1u << fp))) {
+            continue;
+        }
+#if IT2N_MUL_HALVES
+        {
+            unsigned ch;
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                if (!it2n__ch_used(mdl->flags, ch)) {
+                    o[ch] = 0;
+                    continue;
+                }
+                o[ch] = window_halves(win, stride, bu, bw, fr[ch]);
+                win += size;
+            }
+        }
+#else
+        /* x, y, then T, I, F: z is not stored */
+        window_run(win, size, stride, bu, bw, fr, o, 2u);
+        o[IT2N_CH_Z] = 0;
+        window_run(win + 2u * size, size, stride, bu, bw, fr + 3, o + 3, 3u);
+        win += 5u * size;
+#endif
     }
 }
 

@@ -207,26 +207,43 @@ void it2n__summarise_flags(unsigned flags, it2n_point *out)
     static const unsigned char lower[3] = {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL};
     unsigned k, f, fp;
     bool type1 = (flags & IT2N_F_TYPE1) != 0u;
-    out->out_of_range = 0u;
+    uint32_t oor = 0u;
+    if (type1) {
+        /* one footprint: every bound is its value */
+        for (k = 0; k < 3u; k++) {
+            it2n_val d = out->v[IT2N_FP_D][IT2N_CH_T + k];
+            out->sum.upper_min[k] = out->sum.upper_max[k] = d;
+            out->sum.lower_min[k] = out->sum.lower_max[k] = d;
+            if ((uint64_t)d > (uint64_t)IT2N_VAL_ONE) {
+                oor |= (uint32_t)1u << (IT2N_FP_D * 3u + k);
+            }
+        }
+        out->out_of_range = oor;
+        return;
+    }
     for (k = 0; k < 3u; k++) {
         unsigned ch = IT2N_CH_T + k;
         it2n_val d = out->v[IT2N_FP_D][ch];
-        out->sum.upper_min[k] = out->sum.upper_max[k] = d;
-        out->sum.lower_min[k] = out->sum.lower_max[k] = d;
-        for (f = 0; f < 3u && !type1; f++) {
+        it2n_val umin = d, umax = d, lmin = d, lmax = d;
+        for (f = 0; f < 3u; f++) {
             it2n_val a = out->v[upper[f]][ch], b = out->v[lower[f]][ch];
-            if (a < out->sum.upper_min[k]) out->sum.upper_min[k] = a;
-            if (a > out->sum.upper_max[k]) out->sum.upper_max[k] = a;
-            if (b < out->sum.lower_min[k]) out->sum.lower_min[k] = b;
-            if (b > out->sum.lower_max[k]) out->sum.lower_max[k] = b;
+            umin = a < umin ? a : umin;
+            umax = a > umax ? a : umax;
+            lmin = b < lmin ? b : lmin;
+            lmax = b > lmax ? b : lmax;
         }
+        out->sum.upper_min[k] = umin;
+        out->sum.upper_max[k] = umax;
+        out->sum.lower_min[k] = lmin;
+        out->sum.lower_max[k] = lmax;
+        /* outside [0, 1]: one unsigned compare catches both sides */
         for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-            it2n_val v = out->v[fp][ch];
-            if ((!type1 || fp == IT2N_FP_D) && (v < 0 || v > IT2N_VAL_ONE)) {
-                out->out_of_range |= (uint32_t)1u << (fp * 3u + k);
+            if ((uint64_t)out->v[fp][ch] > (uint64_t)IT2N_VAL_ONE) {
+                oor |= (uint32_t)1u << (fp * 3u + k);
             }
         }
     }
+    out->out_of_range = oor;
 }
 
 /* Common argument checks of the evaluation entry points. */

@@ -248,16 +248,25 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
             continue;
         }
         {
-            /* rare path (coordinates of 64 and more): one exact 128-bit sum,
-             * out-of-line products keep the code small */
-            it2n_i128 acc = it2n__i128_zero();
+            /* coordinates of 64 and more: F = fh 2^24 + fl (fl in [0, 2^24),
+             * |fh| < 2^23), C = hi 2^24 + lo, so S = F C = A 2^48 + B 2^24
+             * + D with A = sum fh hi (< 2^55), B = sum fh lo + fl hi (<
+             * 2^56), D = sum fl lo (< 2^51, >= 0), each an exact int64 sum
+             * of 32 x 32 products. round(S / 2^42) (ties up, as
+             * it2n__i128_round) is then A 2^6 + (B + (D >> 24) + 2^17) >>
+             * 18 exactly: the same value as one 128-bit sum, without it. */
+            int64_t a = 0, b = 0, e;
+            uint64_t d = 0u;
             for (l = 0; l < m1; l++) {
-                int64_t c = (int64_t)(((uint64_t)(int64_t)hi[l] << 24) + (uint32_t)lo[l]);
-                it2n_mac128(&acc, it2n_dataset_value(ds, k, l, fp, ch), c);
+                it2n_val f = it2n_dataset_value(ds, k, l, fp, ch);
+                int32_t fh = (int32_t)(f >> 24);
+                uint32_t fl = (uint32_t)f & 0xFFFFFFu;
+                a += it2n_smul32(fh, hi[l]);
+                b += it2n_mul32su(fh, (uint32_t)lo[l]) + it2n_mul32su(hi[l], fl);
+                d += it2n_umul32(fl, (uint32_t)lo[l]);
             }
-            if (!it2n__i128_round(acc, 42u, &g[k])) {
-                IT2N_ASSERT(false); /* |S| < 2^47 2^55: g < 2^60 */
-            }
+            e = b + (int64_t)(d >> 24);
+            g[k] = (int64_t)((uint64_t)a << 6) + ((e + ((int64_t)1 << 17)) >> 18);
         }
     }
 }

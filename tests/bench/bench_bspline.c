@@ -5,6 +5,8 @@
  * (`make bench-bspline` runs it under callgrind: a query reads a 4x4 window,
  * so its instruction count must not grow with the grid).
  *   bench_bspline --time          solve and eval timings
+ *   bench_bspline --rows          solve times as "R host.solve_ms.<case> t1 .. t5"
+ *                                 lines (tests/bench/mcu/bspline_results.py)
  *   bench_bspline --eval N        build an N x N type-2 x,y,z model, then
  *                                 256 queries (what callgrind counts)
  */
@@ -119,8 +121,51 @@ static void time_one(unsigned pts, unsigned flags, const char *what)
     drop(&b);
 }
 
+/* Solve times of `runs` solves, in ms, as one R line. */
+static double cpu_now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
+}
+
+/* Wall-clock and thread CPU times of `runs` solves, in ms, as two R lines
+ * (the CPU time shows how much of the wall clock other jobs took). */
+static void rows_one(unsigned pts, unsigned flags, const char *key, int runs)
+{
+    bmodel b;
+    double wall[16], cpu[16];
+    int k;
+    build(&b, pts, flags);
+    for (k = 0; k < runs && k < 16; k++) {
+        double t0 = now(), c0 = cpu_now();
+        if (it2n_bspline_solve(&b.mdl, &b.ds, NULL) != IT2N_OK) {
+            fprintf(stderr, "bench_bspline: solve failed\n");
+            exit(1);
+        }
+        cpu[k] = (cpu_now() - c0) * 1e3;
+        wall[k] = (now() - t0) * 1e3;
+    }
+    printf("R host.solve_ms.%s", key);
+    for (k = 0; k < runs && k < 16; k++) {
+        printf(" %.3f", wall[k]);
+    }
+    printf("\nR host.solve_cpu_ms.%s", key);
+    for (k = 0; k < runs && k < 16; k++) {
+        printf(" %.3f", cpu[k]);
+    }
+    printf("\n");
+    drop(&b);
+}
+
 int main(int argc, char **argv)
 {
+    if (argc == 2 && strcmp(argv[1], "--rows") == 0) {
+        rows_one(64, IT2N_F_Z, "t2xyz64", 5);
+        rows_one(256, IT2N_F_TYPE1 | IT2N_F_Z, "t1xyz256", 5);
+        rows_one(256, IT2N_F_Z, "t2xyz256", 5);
+        return 0;
+    }
     if (argc == 3 && strcmp(argv[1], "--eval") == 0) {
         bmodel b;
         unsigned pts = (unsigned)atoi(argv[2]);
@@ -143,6 +188,6 @@ int main(int argc, char **argv)
         time_one(256, IT2N_F_Z, "type-2 x,y,z");
         return 0;
     }
-    fprintf(stderr, "usage: bench_bspline --time | --eval POINTS\n");
+    fprintf(stderr, "usage: bench_bspline --time | --rows | --eval POINTS\n");
     return 2;
 }

@@ -61,9 +61,11 @@ counts as met only when the whole interval meets it.
 
 **Where the rows come from.** The "bench" column names the file
 `bench/<bench>.json` that a benchmark target of `make bench` wrote (`mcu`:
-the figures above; the others: the daemon, the protocol, the firmware and
-the soak, each described by its target in `make help` and its own JSON,
-which keeps the conditions and raw samples). `tests/bench/collect.py`
+the figures above; `bspline_mcu` and `bspline_host`: the B-spline kind's
+solve, query and storage on emulated Cortex-M and x86-64, every magnitude
+set, described in docs/numerics.md; the others: the daemon, the protocol,
+the firmware and the soak, each described by its target in `make help` and
+its own JSON, which keeps the conditions and raw samples). `tests/bench/collect.py`
 merges their rows into `bench/results.json`; `make test` checks that the
 merged file and this page match the committed files.
 """
