@@ -151,7 +151,7 @@ def main():
         check(qrc == 0 and "PASS survey firmware" in log and m is not None and
               m.group(1, 2, 3, 4) == ("63", "63", "1", "28672"),
               f"firmware: the compiled-in survey parsed and solved on the core (n = m = 63, z, 28672 entries) "
-              f"(SysTick {m.group(5) if m else "?"} ms under qemu, not cycle-accurate), storage {m.group(6) if m else '?'} bytes")
+              f"(SysTick {m.group(5) if m else '?'} ms under qemu, not cycle-accurate), storage {m.group(6) if m else '?'} bytes")
         evals = len(re.findall(r"^EVAL ", log, re.M))
         check(evals == 320, f"firmware: {evals} evaluations (16 x 16 grid + 64 random)")
         shutil.copy(qlog, os.path.join(OUT, "qemu.log"))
