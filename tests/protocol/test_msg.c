@@ -248,6 +248,8 @@ static void test_configure_kinds(void **st)
     pack_vector(19);
     buf[5] = 0;
     expect_cfg(6, IT2N_PROTO_ERR_PAYLOAD, 5, 6, 5);
+    buf[4] = IT2N_CFG_BEZIER; /* ... and with kind 0, a Bezier one too long */
+    expect_cfg(6, IT2N_PROTO_ERR_PAYLOAD, 4, 6, 4);
     /* pack validates as unpack: a bad kind, CHORD, n = 0 are never sent */
     it2n_proto_vector(19, &(it2n_frame_hdr){0}, &m);
     m.u.configure.kind = 2;
