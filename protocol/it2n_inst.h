@@ -132,7 +132,6 @@ int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,
  * (NACK RANGE) and its kind (NACK INVAL: the model is Bezier). Returns as
  * it2n_inst_configure.
  */
-#define it2n_inst_configure_bspline IT2N_PROTO_ABI(it2n_inst_configure_bspline)
 int it2n_inst_configure_bspline(it2n_inst *ctx, uint8_t model, uint8_t n,
                                 uint8_t m, uint8_t flags);
 

@@ -73,6 +73,42 @@ def status_regs(port, unit):
     return r.registers if ok(r) else None
 
 
+def mcu_table():
+    """docs/firmware.md "B-spline grids on an MCU": every row recomputed from
+    the core's macros (IT2N_BSPLINE_DATA_RECS x 32 B + IT2N_BSPLINE_MODEL_WORDS
+    x 4 B). Returns the documented 64 x 64 type-2 x, y, z storage."""
+    text = open(os.path.join(ROOT, "docs", "firmware.md")).read()
+    body = text.split("<!-- bspline-mcu: tests/firmware/fw_survey.py -->", 1)[1].strip().split("\n")
+    rows = []
+    for ln in body[2:]:
+        if not ln.startswith("|"):
+            break  # the table ends
+        rows.append([c.strip() for c in ln.strip("|").split("|")])
+    kinds = {"type-1 x, y": (1, 5), "type-1 x, y, z": (1, 6), "type-2 x, y": (7, 5), "type-2 x, y, z": (7, 6)}
+
+    def size(n, nfp, nch):
+        return (n + 1) ** 2 * nfp * 32 + (n + 3) ** 2 * nfp * nch * 4
+
+    def largest(budget, nfp, nch):
+        n = 1
+        while size(n + 1, nfp, nch) <= budget:
+            n += 1
+        return f"{n + 1} × {n + 1} ({size(n, nfp, nch)} B)"
+
+    bad = []
+    for r in rows:
+        if r[0] not in kinds:
+            bad.append(f"unknown row {r[0]!r}")
+            continue
+        nfp, nch = kinds[r[0]]
+        want = [r[0], str(nfp * 32 + nfp * nch * 4), str(size(63, nfp, nch)),
+                largest(24 * 1024, nfp, nch), largest(112 * 1024, nfp, nch)]
+        if r != want:
+            bad.append(f"{r} != {want}")
+    check(len(rows) == 4 and not bad, "docs/firmware.md B-spline memory table: " + ("; ".join(bad) or "4 rows current"))
+    return size(63, 7, 6)
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="fw-survey-")
     os.makedirs(OUT, exist_ok=True)
@@ -152,6 +188,9 @@ def main():
               m.group(1, 2, 3, 4) == ("63", "63", "1", "28672"),
               f"firmware: the compiled-in survey parsed and solved on the core (n = m = 63, z, 28672 entries) "
               f"(SysTick {m.group(5) if m else '?'} ms under qemu, not cycle-accurate), storage {m.group(6) if m else '?'} bytes")
+        # the table's formula is the core's: the image's sizeof rec + coef
+        check(m is not None and int(m.group(6)) == mcu_table(),
+              f"firmware storage {m.group(6) if m else '?'} bytes = the documented 64 x 64 type-2 x, y, z figure")
         evals = len(re.findall(r"^EVAL ", log, re.M))
         check(evals == 320, f"firmware: {evals} evaluations (16 x 16 grid + 64 random)")
         shutil.copy(qlog, os.path.join(OUT, "qemu.log"))
