@@ -815,8 +815,8 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
     case IT2N_MSG_HELLO:
         return on_hello(l, seq, &msg->u.hello);
     case IT2N_MSG_CONFIGURE:
-        log_info("link %s: CONFIGURE model %u: %s %ux%u, flags %u", l->cfg.name, msg->u.configure.model,
-                 msg->u.configure.kind == IT2N_CFG_BSPLINE ? "bspline" : "bezier",
+        log_info("link %s: CONFIGURE model %u: %s%ux%u, flags %u", l->cfg.name, msg->u.configure.model,
+                 msg->u.configure.kind == IT2N_CFG_BSPLINE ? "bspline " : "",
                  msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags);
         md = models_by_id(msg->u.configure.model);
         if (!md)
