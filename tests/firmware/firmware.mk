@@ -102,10 +102,10 @@ $(FWS_B)/%.o: %.c $(FW_HDR) tests/firmware/firmware.mk
 	@mkdir -p $(@D)
 	arm-none-eabi-gcc $(FW_CPU) $(FWS_CFLAGS) -c $< -o $@
 
-# The survey in flash: its bytes, then a NUL (fw_survey_csv_end points at it).
+# The survey in flash: its bytes (fw_survey_csv) and their count (fw_survey_csv_len).
 $(FWS_B)/survey_csv.o: $(FW_SURVEY_CSV) tests/firmware/firmware.mk
 	@mkdir -p $(@D)
-	printf '.section .rodata.survey_csv,"a"\n.global fw_survey_csv\n.global fw_survey_csv_end\nfw_survey_csv:\n.incbin "%s"\nfw_survey_csv_end:\n.byte 0\n' \
+	printf '.section .rodata.survey_csv,"a"\n.global fw_survey_csv\n.global fw_survey_csv_len\nfw_survey_csv:\n.incbin "%s"\n1:\n.balign 4\nfw_survey_csv_len:\n.word 1b - fw_survey_csv\n' \
 	  "$(abspath $(FW_SURVEY_CSV))" > $(FWS_B)/survey_csv.S
 	arm-none-eabi-gcc $(FW_CPU) -c $(FWS_B)/survey_csv.S -o $@
 
