@@ -7,8 +7,9 @@ emulated Cortex-M3 (qemu mps2-an385, examples/firmware/survey.c: the same
 CSV compiled into flash, parsed and solved on the device), bit for bit at
 320 query points (a 16 x 16 grid with corners and edges, 64 random), and
 plotted. Also: a v1.2 peer's 4-byte CONFIGURE never turns the B-spline
-model into a Bezier one, and a B-spline push to a Bezier model is refused;
-both change nothing.
+model into a Bezier one, a B-spline push to a Bezier model and one beyond
+the model's storage are refused; none changes anything. And the memory
+table of docs/firmware.md is recomputed and checked against the image.
 
 usage: fw_survey.py   (env: IT2ND, CTL, PTY, FW_ELF, SURVEY, FW_OUT)"""
 
@@ -175,6 +176,20 @@ def main():
         check(rc == 2 and "holds a bezier model" in err and r2 is not None and r3 is not None and
               r3[1:5] + r3[7:9] == r2[1:5] + r2[7:9] and r2[1] == 2,
               f"a B-spline CONFIGURE to a Bezier model: refused, model unchanged ({rc} {err.strip()})")
+
+        # a grid beyond the model's storage (n = 69 > 63): RANGE with the
+        # largest size, nothing changed
+        big = os.path.join(tmp, "big.csv")
+        with open(big, "w") as f:
+            f.write("i,j,footprint,x,y,z,T,I,F\n")
+            for i in range(70):
+                for j in range(2):
+                    f.write(f"{i},{j},D,{i},{j},0,0.5,0.25,0.125\n")
+        rc, out, err = run("push", "--kind", "bspline", big, *link, "--model", "1")
+        r2 = status_regs(port, 1)
+        check(rc == 2 and "69 intervals, its model holds at most 63" in err and r2 is not None and
+              r2[1] == 2 and r2[2] == 63 and (r2[7] << 16 | r2[8]) == gen,
+              f"a CONFIGURE beyond the model's storage: RANGE, model unchanged ({rc} {err.strip()})")
 
         # the firmware's own solve of the same file on the emulated Cortex-M3
         try:
