@@ -41,6 +41,9 @@ typedef struct lk_conn {
     unsigned net_fp, net_rows;
     it2n_val (*samp)[IT2N_CH_COUNT];
     uint32_t samp_total, samp_got;
+    /* the daemon's HELLO: v1.3 (IT2N_CAP_BSPLINE) or older */
+    bool peer_hello;
+    uint32_t peer_caps;
     /* EVENTs of our model */
     bool event;
     uint32_t event_gen;
@@ -156,6 +159,8 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
     case IT2N_MSG_HELLO:
         /* The daemon's limits bind what we send (protocol.md, HELLO). */
         it2n_link_set_peer(&c->link, msg->u.hello.window, msg->u.hello.max_payload);
+        c->peer_hello = true;
+        c->peer_caps = msg->u.hello.caps;
         break;
     default:
         break; /* anything else: ACK */
@@ -361,28 +366,107 @@ static void nack_info(const lk_conn *c, it2n_errinfo *rej)
     rej->hi = c->nack.hi;
 }
 
-static int lk_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
-                   void *pctx, it2n_errinfo *rej)
+/* What a push uploads: a Bezier data set or (bds != NULL) a B-spline one. */
+typedef struct lk_src {
+    const it2n_dataset *ds;
+    const it2n_bspline_data *bds;
+} lk_src;
+
+static unsigned src_n(const lk_src *s)
 {
-    lk_conn *c = p;
+    return s->bds != NULL ? s->bds->n : s->ds->n;
+}
+
+static unsigned src_m(const lk_src *s)
+{
+    return s->bds != NULL ? s->bds->m : s->ds->m;
+}
+
+static unsigned src_flags(const lk_src *s)
+{
+    return s->bds != NULL ? s->bds->flags : s->ds->flags;
+}
+
+static bool src_has(const lk_src *s, unsigned i, unsigned j, unsigned fp)
+{
+    if (s->bds != NULL) {
+        const it2n_bspline_data *b = s->bds;
+        bool t1 = (b->flags & IT2N_F_TYPE1) != 0u;
+        if (t1 && fp != IT2N_FP_D) {
+            return false;
+        }
+        return b->rec[((size_t)i * (b->m + 1u) + j) * IT2N_BSPLINE_NFP(b->flags) + (t1 ? 0u : fp)].present != 0u;
+    }
+    return (s->ds->present[i][j] >> fp) & 1u;
+}
+
+static void src_get(const lk_src *s, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT])
+{
+    if (s->bds != NULL) {
+        it2n_bspline_data_get(s->bds, i, j, fp, v);
+    } else {
+        it2n_dataset_get(s->ds, i, j, fp, v);
+    }
+}
+
+static bool hello_seen(const lk_conn *c)
+{
+    return c->peer_hello;
+}
+
+/* CONFIGURE (the 5-byte v1.3 form for a B-spline), every entry in PUTs of
+ * as many as fit, COMMIT. */
+static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
+{
     static it2n_msg m;
     unsigned i, j, fp, total = 0, done = 0;
     int rc;
-    for (i = 0; i <= ds->n; i++) {
-        for (j = 0; j <= ds->m; j++) {
+    if (src->bds != NULL) {
+        /* v1.3: the daemon's HELLO (sent right after it ACKed ours) says
+         * whether it reads the B-spline CONFIGURE; a v1.2 daemon would
+         * refuse it as malformed */
+        if (run_until(c, hello_seen, c->timeout_ms) != 0 || !(c->peer_caps & IT2N_CAP_BSPLINE)) {
+            fprintf(stderr, "it2nctl: %s: push --kind bspline: %s (protocol v1.3, "
+                            "docs/protocol.md 5.3); push over Modbus (--tcp or --rtu) "
+                            "or upgrade it2nd (nothing was sent)\n",
+                    c->where, c->peer_hello ? "this it2nd's link speaks protocol v1.2, without the B-spline CONFIGURE"
+                                            : "it2nd did not say which protocol revision it speaks");
+            return CTL_EXIT_DATA;
+        }
+    }
+    for (i = 0; i <= src_n(src); i++) {
+        for (j = 0; j <= src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                total += (ds->present[i][j] >> fp) & 1u;
+                total += src_has(src, i, j, fp);
             }
         }
     }
     memset(&m, 0, sizeof(m));
     m.type = IT2N_MSG_CONFIGURE;
     m.u.configure.model = c->model;
-    m.u.configure.n = ds->n;
-    m.u.configure.m = ds->m;
-    m.u.configure.flags = ds->flags;
+    m.u.configure.n = (uint8_t)src_n(src);
+    m.u.configure.m = (uint8_t)src_m(src);
+    m.u.configure.flags = (uint8_t)src_flags(src);
+    m.u.configure.kind = src->bds != NULL ? IT2N_CFG_BSPLINE : IT2N_CFG_BEZIER;
     rc = request(c, &m, false, "configure");
     if (rc == CTL_REJECTED) {
+        if (c->nack.code == IT2N_ERR_INVAL && c->nack.value == m.u.configure.kind &&
+            c->nack.lo == c->nack.hi && c->nack.lo != c->nack.value) {
+            /* the model's configured kind is the other one (5.3) */
+            fprintf(stderr,
+                    "it2nctl: %s holds a %s model and the data are for the "
+                    "%s kind: push --kind %s to a [model:ID] with kind = %s "
+                    "(nothing was changed)\n",
+                    c->where, c->nack.lo ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier",
+                    src->bds != NULL ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier");
+            return CTL_EXIT_DATA;
+        }
+        if (c->nack.code == IT2N_ERR_RANGE && c->nack.i < 0) {
+            fprintf(stderr, "it2nctl: %s: configure refused by it2nd: %lld intervals, its model holds "
+                            "at most %lld (n, m of its [model:] section; nothing was changed)\n",
+                    c->where, (long long)c->nack.value, (long long)c->nack.hi);
+            return CTL_EXIT_DATA;
+        }
         return refused(c, "configure");
     }
     if (rc != CTL_EXIT_OK) {
@@ -391,19 +475,19 @@ static int lk_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
     memset(&m, 0, sizeof(m));
     m.type = IT2N_MSG_PUT;
     m.u.put.model = c->model;
-    for (i = 0; i <= ds->n; i++) {
-        for (j = 0; j <= ds->m; j++) {
+    for (i = 0; i <= src_n(src); i++) {
+        for (j = 0; j <= src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 it2n_put_entry *e;
-                if (!(ds->present[i][j] & (1u << fp))) {
+                if (!src_has(src, i, j, fp)) {
                     continue;
                 }
                 e = &m.u.put.e[m.u.put.count++];
                 e->i = (uint8_t)i;
                 e->j = (uint8_t)j;
                 e->fp = (uint8_t)fp;
-                it2n_dataset_get(ds, i, j, fp, e->vals);
-                if (!(ds->flags & IT2N_F_Z)) {
+                src_get(src, i, j, fp, e->vals);
+                if (!(src_flags(src) & IT2N_F_Z)) {
                     e->vals[IT2N_CH_Z] = 0;
                 }
                 if (m.u.put.count < IT2N_PUT_MAX &&
@@ -435,6 +519,22 @@ static int lk_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
         return CTL_REJECTED;
     }
     return rc;
+}
+
+static int lk_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
+                   void *pctx, it2n_errinfo *rej)
+{
+    lk_src src = {ds, NULL};
+    return push_src(p, &src, progress, pctx, rej);
+}
+
+/* protocol v1.3: the 5-byte CONFIGURE carries the kind and sizes to 255 */
+static int lk_push_bspline(void *p, const it2n_bspline_data *bds,
+                           ctl_progress_fn progress, void *pctx,
+                           it2n_errinfo *rej)
+{
+    lk_src src = {NULL, bds};
+    return push_src(p, &src, progress, pctx, rej);
 }
 
 static int lk_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
@@ -615,7 +715,7 @@ static void lk_close(void *p)
 
 static const ctl_ops lk_ops = {"link",   lk_status, lk_push, lk_eval,
                                lk_locate, lk_net,   lk_sample, lk_wait,
-                               lk_close, NULL,      NULL};
+                               lk_close, lk_push_bspline, NULL};
 
 static speed_t baud_const(unsigned baud)
 {

@@ -5,7 +5,9 @@
  *               daemon's own HELLO (type HELLO); a v1.2 peer's HELLO gets
  *               a new session id (links_new_session), carried by our HELLO
  *               and every later frame of that session
- *   CONFIGURE   (re)start collecting the model (clears its points)
+ *   CONFIGURE   (re)start collecting the model (clears its points); v1.3:
+ *               the 5-byte form names the kind, which must be the
+ *               model's configured one (NACK INVAL otherwise)
  *   PUT         all entries or none; REPLACE flag honoured; an entry equal
  *               to the stored one is an idempotent success (exactly once
  *               across restarts)
@@ -313,7 +315,8 @@ static void send_hello(struct link *l)
     m.u.hello.version_max = IT2N_PROTO_VERSION_MAX;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
     m.u.hello.window = it2n_link_window(&l->pl); /* what we accept in flight */
-    m.u.hello.caps = IT2N_CAP_SERVER | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1 | IT2N_CAP_EVENTS;
+    m.u.hello.caps = IT2N_CAP_SERVER | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1 | IT2N_CAP_EVENTS |
+                     IT2N_CAP_BSPLINE; /* v1.3 messages: the B-spline CONFIGURE */
     m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
     m.u.hello.max_models = (uint16_t)models_count(); /* ids served (configured) */
     memcpy(m.u.hello.node, "it2nd", 5);
@@ -812,11 +815,20 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
     case IT2N_MSG_HELLO:
         return on_hello(l, seq, &msg->u.hello);
     case IT2N_MSG_CONFIGURE:
-        log_info("link %s: CONFIGURE model %u: %ux%u, flags %u", l->cfg.name, msg->u.configure.model,
+        log_info("link %s: CONFIGURE model %u: %s%ux%u, flags %u", l->cfg.name, msg->u.configure.model,
+                 msg->u.configure.kind == IT2N_CFG_BSPLINE ? "bspline " : "",
                  msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags);
         md = models_by_id(msg->u.configure.model);
         if (!md)
             return refuse_model(l, seq, msg->u.configure.model);
+        if ((msg->u.configure.kind == IT2N_CFG_BSPLINE) != (md->kind == MODEL_BSPLINE)) {
+            /* The kind is the configuration's ([model:ID] kind): a 4-byte
+             * (Bezier) CONFIGURE of an older peer never turns a B-spline
+             * model into a Bezier one, nor the reverse (protocol.md 5.3). */
+            it2n_errinfo e = detail(IT2N_ERR_INVAL, msg->u.configure.kind, md->kind == MODEL_BSPLINE,
+                                    md->kind == MODEL_BSPLINE);
+            return refuse(l, seq, IT2N_ERR_INVAL, &e);
+        }
         rc = models_configure(md, msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags, &err);
         if (rc)
             return refuse(l, seq, rc, &err);

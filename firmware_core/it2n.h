@@ -75,8 +75,11 @@
 /* Largest number of intervals n, m per direction of a B-spline model (grid
  * up to (n+1) x (n+1) points, see "B-spline kind" below). Bounds the solve's
  * stack (about 11 bytes per interval on MCUs, 20 on 64-bit hosts, which
- * solve two lines at a time); MCU builds with small grids set it lower.
- * Storage itself is the caller's and sized per grid. */
+ * solve two lines at a time); MCU builds with small grids set it lower, to
+ * the largest grid their static storage holds (docs/firmware.md "B-spline
+ * grids on an MCU": bytes per grid point, the largest grid in 32 KiB and
+ * 128 KiB). Storage itself is the caller's and sized per grid. Part of the
+ * link-time names (ABI guard below): a plain decimal literal. */
 #ifndef IT2N_BSPLINE_MAX_N
 #define IT2N_BSPLINE_MAX_N 255
 #endif
@@ -108,6 +111,15 @@
 #define IT2N_CORE_ABI(f) IT2N_ABI_CORE(f, IT2N_MAX_DEGREE, IT2N_ABI_CHORD_)
 #define it2n_dataset_init IT2N_CORE_ABI(it2n_dataset_init)
 #define it2n_model_init IT2N_CORE_ABI(it2n_model_init)
+/* IT2N_BSPLINE_MAX_N sizes no struct (B-spline storage is the caller's),
+ * but a firmware sizes its storage for a largest grid and checks it
+ * against this limit at compile time (examples/firmware/survey.c): a
+ * library built with a smaller one would refuse that grid at run time. So
+ * it2n_bspline_data_init carries it too (..._abi_bspline63) and such a
+ * program fails to link instead. A plain decimal literal. */
+#define IT2N_ABI_BSPLINE_(f, n) f##_abi_bspline##n
+#define IT2N_ABI_BSPLINE(f, n) IT2N_ABI_BSPLINE_(f, n)
+#define it2n_bspline_data_init IT2N_ABI_BSPLINE(it2n_bspline_data_init, IT2N_BSPLINE_MAX_N)
 
 /* ---- Fixed-point formats ------------------------------------------------ */
 

@@ -184,7 +184,7 @@ static void hello(it2n_inst *ctx, it2n_msg *m)
     m->u.hello.max_degree = IT2N_MAX_DEGREE;
     m->u.hello.window = it2n_link_window(&ctx->link);
     m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_CHORD |
-                      IT2N_CAP_TYPE1;
+                      IT2N_CAP_TYPE1 | IT2N_CAP_BSPLINE;
     m->u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
     m->u.hello.max_models = 1;
     for (k = 0; ctx->cfg.node != NULL && k < sizeof m->u.hello.node &&
@@ -283,8 +283,8 @@ int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
     int r;
     if (ctx->err != 0)
         return ctx->err;
-    if (i > IT2N_MAX_DEGREE || j > IT2N_MAX_DEGREE || fp >= IT2N_FP_COUNT ||
-        model == IT2N_MODEL_ALL)
+    /* i, j: any u8 (v1.3: B-spline grids); the daemon bounds them by n, m */
+    if (fp >= IT2N_FP_COUNT || model == IT2N_MODEL_ALL)
         return IT2N_PROTO_ERR_FIELD;
     if (ctx->msg.type == IT2N_MSG_PUT &&
         (ctx->msg.u.put.model != model || ctx->msg.u.put.count >= put_max(ctx))) {
@@ -319,6 +319,29 @@ int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,
     c->u.configure.m = m;
     c->u.configure.flags = flags;
     r = send_scratch(ctx);
+    return r < 0 ? (int)r : IT2N_OK;
+}
+
+int it2n_inst_configure_bspline(it2n_inst *ctx, uint8_t model, uint8_t n,
+                                uint8_t m, uint8_t flags)
+{
+    it2n_msg *c;
+    int32_t r;
+    if (ctx->err != 0)
+        return ctx->err;
+    /* a v1.2 daemon would NACK the 5-byte form as malformed: say why here */
+    if (ctx->peer_hello && (ctx->hello.caps & IT2N_CAP_BSPLINE) == 0u)
+        return IT2N_PROTO_ERR_VERSION;
+    r = it2n_inst_flush(ctx);
+    if (r != 0)
+        return (int)r;
+    c = scratch(ctx, IT2N_MSG_CONFIGURE);
+    c->u.configure.model = model;
+    c->u.configure.n = n;
+    c->u.configure.m = m;
+    c->u.configure.flags = flags;
+    c->u.configure.kind = IT2N_CFG_BSPLINE;
+    r = send_scratch(ctx); /* a field error: nothing sent (the link packs) */
     return r < 0 ? (int)r : IT2N_OK;
 }
 

@@ -5,6 +5,8 @@
  *
  *   it2n_inst_open      start a session (HELLO; the daemon hands out its id)
  *   it2n_inst_configure start (or restart) a model: degrees n x m, flags
+ *   it2n_inst_configure_bspline  ... a B-spline model, up to 256 x 256
+ *                       points (v1.3 CONFIGURE; it2nd 1.3 or later)
  *   it2n_inst_put       one footprint of one grid point (batched for you)
  *   it2n_inst_commit    send what is batched, then COMMIT (solve)
  *   it2n_inst_query     evaluate the daemon's model at (u, w)
@@ -119,8 +121,24 @@ int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,
                         uint8_t flags);
 
 /*
+ * CONFIGURE model (0..254) as a cubic not-a-knot B-spline of n x m
+ * intervals (1..255 each: up to 256 x 256 points) with IT2N_F_Z and/or
+ * IT2N_F_TYPE1 (uniform parameters only: no IT2N_F_CHORD), the v1.3 form
+ * (docs/protocol.md 5.3). Its points are cleared; a barrier as
+ * it2n_inst_configure. Sent only to a daemon whose HELLO announced
+ * IT2N_CAP_BSPLINE: an older one (v1.2) gets nothing and the call returns
+ * IT2N_PROTO_ERR_VERSION (it would take the frame for a malformed
+ * CONFIGURE). The daemon checks the sizes against the model's storage
+ * (NACK RANGE) and its kind (NACK INVAL: the model is Bezier). Returns as
+ * it2n_inst_configure.
+ */
+int it2n_inst_configure_bspline(it2n_inst *ctx, uint8_t model, uint8_t n,
+                                uint8_t m, uint8_t flags);
+
+/*
  * One footprint fp (enum it2n_fp) of grid point (i, j) of model: vals are
- * x, y, z, T, I, F in Q24 (IT2N_VAL_ONE = 1.0). Batched: a PUT frame
+ * x, y, z, T, I, F in Q24 (IT2N_VAL_ONE = 1.0); i, j 0..255 (the
+ * daemon refuses those beyond the model's n, m: NACK INVAL). Batched: a PUT frame
  * leaves when full (as many entries as the daemon accepts), when another
  * model is addressed, or on it2n_inst_flush / it2n_inst_commit. Returns as
  * it2n_inst_configure; on IT2N_PROTO_ERR_BUSY the entry was NOT taken.

@@ -185,18 +185,37 @@ static void c_hello(cur *c, it2n_msg_hello *h)
 static void c_configure(cur *c, it2n_msg_configure *m)
 {
     size_t off = c->pos;
+    unsigned max;
     c_u8(c, &m->model);
     c_u8(c, &m->n);
     c_u8(c, &m->m);
     c_u8(c, &m->flags);
     if (c->err != 0)
         return;
-    need(c, m->model != IT2N_MODEL_ALL, off, m->model, IT2N_MODEL_ALL - 1);
-    need(c, m->n >= 1u && m->n <= IT2N_MAX_DEGREE, off + 1u, m->n,
-         IT2N_MAX_DEGREE);
-    need(c, m->m >= 1u && m->m <= IT2N_MAX_DEGREE, off + 2u, m->m,
-         IT2N_MAX_DEGREE);
+    /* v1.3: a fifth byte names the kind; its absence means Bezier (what
+     * every v1.1 / v1.2 peer sends). Kind 0 has only the 4-byte form, so
+     * every CONFIGURE has one encoding. */
+    if (c->pack ? m->kind != IT2N_CFG_BEZIER : c->pos < c->end) {
+        size_t ko = c->pos;
+        c_u8(c, &m->kind);
+        if (c->err != 0)
+            return;
+        need(c, m->model != IT2N_MODEL_ALL, off, m->model, IT2N_MODEL_ALL - 1);
+        /* kind 0 after 4 bytes: a Bezier CONFIGURE one byte too long */
+        if (m->kind == IT2N_CFG_BEZIER && !c->pack)
+            fail(c, IT2N_PROTO_ERR_PAYLOAD, ko, (int64_t)c->end, 4);
+        need(c, m->kind == IT2N_CFG_BSPLINE, ko, m->kind, IT2N_CFG_BSPLINE);
+    } else {
+        m->kind = IT2N_CFG_BEZIER;
+        need(c, m->model != IT2N_MODEL_ALL, off, m->model, IT2N_MODEL_ALL - 1);
+    }
+    max = m->kind == IT2N_CFG_BSPLINE ? 255u : IT2N_MAX_DEGREE;
+    need(c, m->n >= 1u && m->n <= max, off + 1u, m->n, max);
+    need(c, m->m >= 1u && m->m <= max, off + 2u, m->m, max);
     need(c, (m->flags & ~IT2N_F_ALL) == 0u, off + 3u, m->flags, IT2N_F_ALL);
+    /* the B-spline kind is uniform only: no chord-length parameters */
+    need(c, m->kind != IT2N_CFG_BSPLINE || (m->flags & IT2N_F_CHORD) == 0u,
+         off + 3u, m->flags, IT2N_F_ALL & ~IT2N_F_CHORD);
 }
 
 static void c_model(cur *c, uint8_t *model, bool all_ok)
@@ -222,13 +241,10 @@ static void c_put(cur *c, it2n_msg_put *p)
          IT2N_PUT_MAX);
     for (k = 0; k < p->count && c->err == 0; k++) {
         it2n_put_entry *e = &p->e[k];
-        size_t eo = c->pos;
+        /* i, j: any u8 since v1.3 (B-spline grids up to 256 x 256); the
+         * server checks them against the model's n, m */
         c_u8(c, &e->i);
         c_u8(c, &e->j);
-        need(c, c->err != 0 || e->i <= IT2N_MAX_DEGREE, eo, e->i,
-             IT2N_MAX_DEGREE);
-        need(c, c->err != 0 || e->j <= IT2N_MAX_DEGREE, eo + 1u, e->j,
-             IT2N_MAX_DEGREE);
         c_fp(c, &e->fp);
         c_reserved(c);
         c_vals(c, e->vals, IT2N_CH_COUNT);
@@ -459,7 +475,8 @@ static size_t expected_len(uint8_t type, const uint8_t *p, size_t len)
 {
     switch (type) {
     case IT2N_MSG_HELLO: return 28u;
-    case IT2N_MSG_CONFIGURE: return 4u;
+    case IT2N_MSG_CONFIGURE: /* v1.3: 5 bytes when byte 4 names a kind */
+        return len >= IT2N_CONFIGURE13_LEN && p[4] != IT2N_CFG_BEZIER ? IT2N_CONFIGURE13_LEN : 4u;
     case IT2N_MSG_PUT: return len >= 3u ? IT2N_PUT_HDR + IT2N_PUT_ENTRY * (size_t)p[2] : 0u;
     case IT2N_MSG_COMMIT:
     case IT2N_MSG_GET_STATUS:

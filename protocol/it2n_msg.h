@@ -16,7 +16,7 @@
 
 enum it2n_msg_type {
     IT2N_MSG_HELLO = 0x01,      /* version, capabilities, limits          */
-    IT2N_MSG_CONFIGURE = 0x02,  /* model degrees and flags                */
+    IT2N_MSG_CONFIGURE = 0x02,  /* model kind, sizes and flags            */
     IT2N_MSG_PUT = 0x03,        /* batch of grid point footprints         */
     IT2N_MSG_COMMIT = 0x04,     /* solve the model                        */
     IT2N_MSG_QUERY = 0x05,      /* evaluate at (u, w)                     */
@@ -50,6 +50,14 @@ enum it2n_msg_type {
 #define IT2N_CAP_CHORD 0x08u      /* supports IT2N_F_CHORD               */
 #define IT2N_CAP_TYPE1 0x10u      /* supports IT2N_F_TYPE1               */
 #define IT2N_CAP_EVENTS 0x20u     /* sends EVENT on model change         */
+/* v1.3: the sender speaks protocol v1.3 (docs/protocol.md 5.3): it reads
+ * the 5-byte CONFIGURE with a model kind, and PUT indices up to 255. A
+ * client sends the B-spline CONFIGURE only to a server announcing it. */
+#define IT2N_CAP_BSPLINE 0x40u
+
+/* Protocol revision of the messages (docs/protocol.md 6): 1.3 changes
+ * section 5 only (the 5-byte CONFIGURE); frames stay wire version 3. */
+#define IT2N_PROTO_REVISION_MINOR 3
 
 /* PUT flags. */
 #define IT2N_PUT_REPLACE 0x01u /* overwrite entries already present */
@@ -89,12 +97,27 @@ typedef struct it2n_msg_hello {
     char node[16];                    /* name, NUL-padded, not terminated if 16 long */
 } it2n_msg_hello;
 
+/* CONFIGURE model kinds (v1.3). */
+enum it2n_cfg_kind {
+    IT2N_CFG_BEZIER = 0, /* 4-byte CONFIGURE (every version): degrees 1..7 */
+    IT2N_CFG_BSPLINE = 1 /* 5-byte CONFIGURE (v1.3): cubic not-a-knot
+                            B-spline, n x m intervals, 1..255 each      */
+};
+
+/* Payload bytes of the v1.3 CONFIGURE that names a kind. */
+#define IT2N_CONFIGURE13_LEN 5u
+
 typedef struct it2n_msg_configure {
-    uint8_t model, n, m, flags; /* degrees 1..IT2N_MAX_DEGREE, IT2N_F_* */
+    uint8_t model, n, m, flags; /* Bezier: degrees 1..IT2N_MAX_DEGREE;
+                                   B-spline: intervals 1..255; IT2N_F_*  */
+    uint8_t kind;               /* enum it2n_cfg_kind: 0 packs as the
+                                   4-byte v1.1/v1.2 CONFIGURE, 1 as the
+                                   5-byte v1.3 one                      */
 } it2n_msg_configure;
 
 typedef struct it2n_put_entry {
-    uint8_t i, j, fp;               /* grid point, footprint (enum it2n_fp) */
+    uint8_t i, j, fp;               /* grid point (0..255: the model's n, m
+                                       bound it), footprint (enum it2n_fp) */
     it2n_val vals[IT2N_CH_COUNT];   /* x, y, z, T, I, F in Q24             */
 } it2n_put_entry;
 
@@ -277,7 +300,7 @@ int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
 #define IT2N_VECTOR_SESSION 0x1D2C3B4Au
 
 /* Number of golden vectors (one per message type). */
-#define IT2N_VECTOR_COUNT 19u
+#define IT2N_VECTOR_COUNT 20u
 
 /*
  * Golden vector k (0..IT2N_VECTOR_COUNT-1): fills the frame header and the

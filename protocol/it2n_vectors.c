@@ -107,6 +107,17 @@ static void fill(unsigned k, it2n_msg *m)
         m->u.event.code = 0;
         m->u.event.generation = 0x01020304u;
         break;
+    case 19:
+        /* v1.3: the 5-byte CONFIGURE of a B-spline model, 64 x 48
+         * intervals (65 x 49 points: both sizes beyond the Bezier 7),
+         * with z */
+        m->type = IT2N_MSG_CONFIGURE;
+        m->u.configure.model = 2;
+        m->u.configure.n = 64;
+        m->u.configure.m = 48;
+        m->u.configure.flags = IT2N_F_Z;
+        m->u.configure.kind = IT2N_CFG_BSPLINE;
+        break;
     case 18:
         m->type = IT2N_MSG_GAP;
         m->u.gap.seq = 0x0103;
@@ -208,7 +219,7 @@ const char *it2n_proto_vector(unsigned k, it2n_frame_hdr *hdr, it2n_msg *msg)
         "hello", "configure", "put", "commit", "query", "locate", "sample",
         "get_net", "get_status", "reset", "event", "ack", "nack",
         "query_result", "locate_result", "sample_data", "net_row", "status",
-        "gap"};
+        "gap", "configure_bspline"};
 
     if (k >= IT2N_VECTOR_COUNT)
         return NULL;

@@ -1,6 +1,6 @@
 /* ABI guard check (make test-install, make cmake-consumer): calls every
  * entry point whose structs are sized by a build option (it2n.h:
- * IT2N_MAX_DEGREE, IT2N_CHORD; it2n_proto.h: IT2N_PROTO_WINDOW,
+ * IT2N_MAX_DEGREE, IT2N_CHORD, IT2N_BSPLINE_MAX_N; it2n_proto.h: IT2N_PROTO_WINDOW,
  * IT2N_PROTO_MAX_PAYLOAD, IT2N_PROTO_RX_REORDER). Compiled with the
  * library's options it links and exits 0; compiled with any other value it
  * must fail to link, naming each entry point with the options it asked for.
@@ -44,6 +44,8 @@ static int check(void)
 {
     static it2n_dataset ds;
     static it2n_model mdl;
+    static it2n_bspline_rec brec[IT2N_BSPLINE_DATA_RECS(1u, 1u, 0u)];
+    it2n_bspline_data bds;
     static it2n_msg msg;
     static it2n_frame_decoder dec;
     static it2n_link link;
@@ -65,6 +67,10 @@ static int check(void)
     if (mdl.solved != 0u || it2n_dataset_missing(&ds) !=
             (IT2N_MAX_DEGREE + 1u) * (IT2N_MAX_DEGREE + 1u) * IT2N_FP_COUNT)
         return 2;
+    /* a B-spline data set (its init carries IT2N_BSPLINE_MAX_N) */
+    if (it2n_bspline_data_init(&bds, brec, sizeof brec / sizeof brec[0], 1u, 1u, 0u, &err) != IT2N_OK ||
+        it2n_bspline_data_missing(&bds) != 4u * IT2N_FP_COUNT)
+        return 7;
     /* messages: pack, unpack, a golden vector */
     memset(&msg, 0, sizeof msg);
     msg.type = IT2N_MSG_COMMIT;
@@ -96,8 +102,8 @@ static int check(void)
 int main(void)
 {
     int rc = check();
-    printf("abi_user: degree %d, chord %d, window %d, payload %d, reorder %d: %s (%d)\n",
-           IT2N_MAX_DEGREE, IT2N_CHORD, IT2N_PROTO_WINDOW, IT2N_PROTO_MAX_PAYLOAD,
+    printf("abi_user: degree %d, chord %d, bspline %d, window %d, payload %d, reorder %d: %s (%d)\n",
+           IT2N_MAX_DEGREE, IT2N_CHORD, IT2N_BSPLINE_MAX_N, IT2N_PROTO_WINDOW, IT2N_PROTO_MAX_PAYLOAD,
            IT2N_PROTO_RX_REORDER, rc == 0 ? "ok" : "FAIL", rc);
     return rc;
 }

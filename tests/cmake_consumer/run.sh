@@ -89,18 +89,19 @@ check_host_output "$work/consumer-host/consumer" "host consumer (find_package)"
 # runs; given another value of an option it must fail to link, naming each
 # entry point with the values it asked for. $1 = log, $2 = label, rest =
 # the undefined names expected (every other link error is a failure).
-abi_names() { # $1 = core suffix, $2 = protocol suffix ("-": that library matches)
+abi_names() { # $1 = core suffix, $2 = protocol suffix, $3 = B-spline suffix ("-" or none: that part matches)
   [ "$1" = - ] || for f in it2n_dataset_init it2n_model_init; do echo "${f}_abi_$1"; done
   [ "$2" = - ] || for f in it2n_msg_pack it2n_msg_unpack it2n_proto_vector it2n_frame_decoder_init \
                            it2n_link_init it2n_inst_open; do echo "${f}_abi_$2"; done
+  [ "${3:--}" = - ] || echo "it2n_bspline_data_init_abi_$3"
 }
-check_abi_refused() { # $1 = linker output, $2 = label, $3 = core suffix, $4 = protocol suffix
+check_abi_refused() { # $1 = linker output, $2 = label, $3 = core suffix, $4 = protocol suffix, $5 = B-spline suffix
   local s
-  for s in $(abi_names "$3" "$4"); do
+  for s in $(abi_names "$3" "$4" "${5:-}"); do
     grep -q "undefined reference to .$s'" "$1" ||
       { cat "$1" >&2; fail "ABI guard, $2: the link error does not name $s"; }
   done
-  [ "$(grep -c 'undefined reference' "$1")" = "$(abi_names "$3" "$4" | wc -l)" ] ||
+  [ "$(grep -c 'undefined reference' "$1")" = "$(abi_names "$3" "$4" "${5:-}" | wc -l)" ] ||
     { cat "$1" >&2; fail "ABI guard, $2: other link errors than the guarded names"; }
 }
 "$work/consumer-host/abi_user" >"$log" 2>&1 || { cat "$log" >&2; fail "abi_user (find_package) failed"; }
@@ -108,18 +109,19 @@ say "host abi_user (find_package, package options): $(cat "$log")"
 n_abi=0
 for defs in "IT2N_MAX_DEGREE=3:degree3_chord1:window4_payload1024_reorder1_degree3" \
             "IT2N_PROTO_WINDOW=16:-:window16_payload1024_reorder1_degree7" \
-            "IT2N_CHORD=0:degree7_chord0:-"; do
-  IFS=: read -r def core proto <<<"$defs"
+            "IT2N_CHORD=0:degree7_chord0:-" \
+            "IT2N_BSPLINE_MAX_N=63:-:-:bspline63"; do
+  IFS=: read -r def core proto bs <<<"$defs"
   quiet cmake -S "$src" -B "$work/consumer-abi" -DCMAKE_PREFIX_PATH="$work/host" \
     -DCMAKE_BUILD_TYPE=Release -DCONSUMER_ABI_DEFINES="$def"
   if cmake --build "$work/consumer-abi" --target abi_user >"$log" 2>&1; then
     fail "ABI guard: abi_user compiled with $def linked against the package (default options)"
   fi
-  check_abi_refused "$log" "find_package, $def" "$core" "$proto"
+  check_abi_refused "$log" "find_package, $def" "$core" "$proto" "$bs"
   n_abi=$((n_abi + 1))
 done
-say "host abi_user (find_package) compiled with IT2N_MAX_DEGREE=3, IT2N_PROTO_WINDOW=16 or" \
-  "IT2N_CHORD=0: $n_abi of $n_abi fail to link, naming every guarded entry point"
+say "host abi_user (find_package) compiled with IT2N_MAX_DEGREE=3, IT2N_PROTO_WINDOW=16," \
+  "IT2N_CHORD=0 or IT2N_BSPLINE_MAX_N=63: $n_abi of $n_abi fail to link, naming every guarded entry point"
 
 # ---- host consumer: it2n's source tree with add_subdirectory ------------------
 quiet cmake -S "$src" -B "$work/consumer-subdir" -DCONSUMER_IT2N_SOURCE="$root" -DCMAKE_BUILD_TYPE=Release

@@ -8,7 +8,7 @@ FW_B := $(BUILD)/fw-m3
 FW_CPU := -mcpu=cortex-m3 -mthumb
 FW_SRC := $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) \
           examples/instrument/synth.c examples/instrument/session.c \
-          tests/qemu/semihost.c $(wildcard examples/firmware/*.c)
+          tests/qemu/semihost.c $(filter-out examples/firmware/survey.c,$(wildcard examples/firmware/*.c))
 FW_HDR := $(wildcard firmware_core/*.h protocol/*.h protocol/*.inc examples/firmware/*.h) \
           examples/instrument/synth.h examples/instrument/session.h tests/qemu/semihost.h
 FW_CFLAGS := -ffreestanding -std=c99 -Os -g $(CORE_WARN) -ffunction-sections -fdata-sections \
@@ -80,3 +80,41 @@ bench-firmware: $(FW_ELF) $(IT2ND)
 	IT2ND=$(IT2ND) FW_ELF=$(FW_ELF) FW_MAP=$(FW_B)/it2n-firmware.map FW_OUT=$(CURDIR)/bench/firmware.json \
 	  tests/firmware/fw_e2e.sh
 BENCH_TARGETS += bench-firmware
+
+# ---- the survey image: issue 21's Done-when leg --------------------------
+# examples/firmware/survey.c: the survey CSV compiled into flash, parsed and
+# solved by the core on the device (static storage for FW_BSPLINE_MAX_N x
+# FW_BSPLINE_MAX_M intervals, IT2N_BSPLINE_MAX_N set to match: an MCU build
+# bounds the solve stack by its largest grid). fw-survey: the same file goes
+# through `it2nctl push --kind bspline --link` (protocol v1.3) into it2nd, a
+# PLC reads the daemon's answers over Modbus TCP and they must be bit for bit
+# the firmware's own evaluations at 320 points; then it2nctl plots it.
+FWS_B := $(BUILD)/fw-m3-survey
+FW_SURVEY_CSV ?= examples/survey_64x64.csv
+FWS_MAX ?= 63
+FWS_SRC := $(wildcard firmware_core/*.c) tests/qemu/semihost.c examples/firmware/startup.c \
+           examples/firmware/board.c examples/firmware/survey.c
+FWS_CFLAGS := $(FW_CFLAGS) -DIT2N_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_M=$(FWS_MAX)
+FWS_OBJ := $(FWS_SRC:%.c=$(FWS_B)/%.o) $(FWS_B)/survey_csv.o
+FWS_ELF := $(FWS_B)/it2n-survey.elf
+
+$(FWS_B)/%.o: %.c $(FW_HDR) tests/firmware/firmware.mk
+	@mkdir -p $(@D)
+	arm-none-eabi-gcc $(FW_CPU) $(FWS_CFLAGS) -c $< -o $@
+
+# The survey in flash: its bytes (fw_survey_csv) and their count (fw_survey_csv_len).
+$(FWS_B)/survey_csv.o: $(FW_SURVEY_CSV) tests/firmware/firmware.mk
+	@mkdir -p $(@D)
+	printf '.section .rodata.survey_csv,"a"\n.global fw_survey_csv\n.global fw_survey_csv_len\nfw_survey_csv:\n.incbin "%s"\n1:\n.balign 4\nfw_survey_csv_len:\n.word 1b - fw_survey_csv\n' \
+	  "$(abspath $(FW_SURVEY_CSV))" > $(FWS_B)/survey_csv.S
+	arm-none-eabi-gcc $(FW_CPU) -c $(FWS_B)/survey_csv.S -o $@
+
+$(FWS_ELF): $(FWS_OBJ) tests/qemu/mps2_an385.ld
+	arm-none-eabi-gcc $(FW_CPU) -nostdlib -T tests/qemu/mps2_an385.ld -Wl,--gc-sections \
+	  -Wl,-e,fw_reset_handler -Wl,-Map=$(FWS_B)/it2n-survey.map -o $@ $(FWS_OBJ) -lc -lgcc
+
+.PHONY: fw-survey
+TEST_TARGETS += fw-survey
+fw-survey: $(FWS_ELF) $(IT2ND) $(CTL_BIN) $(BUILD)/tests/sim/ptybridge ## 64x64 survey: CSV -> it2nctl push --link -> it2nd -> PLC, bit for bit with the core on emulated Cortex-M3; plotted
+	IT2ND=$(IT2ND) CTL=$(CTL_BIN) PTY=$(BUILD)/tests/sim/ptybridge FW_ELF=$(FWS_ELF) SURVEY=$(FW_SURVEY_CSV) \
+	  FW_OUT=$(abspath $(BUILD))/fw-survey timeout 300 /usr/bin/python3 tests/firmware/fw_survey.py

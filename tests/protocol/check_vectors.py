@@ -26,10 +26,17 @@ def cobs_decode(enc):
 SIZES = {0x01: 28, 0x02: 4, 0x03: None, 0x04: 1, 0x05: 9, 0x06: 17, 0x07: 6,
          0x08: 2, 0x09: 1, 0x0A: 1, 0x10: 8, 0x20: 2, 0x21: 34, 0x45: 447,
          0x46: 474, 0x47: None, 0x48: None, 0x49: 15, 0x22: 4}
+# v1.3: CONFIGURE is 4 bytes (Bezier) or 5 (byte 4 names the kind, 1 =
+# B-spline; sizes 1..255); one vector of each form.
+FORMS = {0x02: 2}
+
+def vector_count():
+    return sum(FORMS.get(t, 1) for t in SIZES)
 
 def main(vdir):
     files = sorted(glob.glob(os.path.join(vdir, "*.hex")))
-    assert len(files) == len(SIZES), f"expected {len(SIZES)} vectors, got {len(files)}"
+    assert len(files) == vector_count(), f"expected {vector_count()} vectors, got {len(files)}"
+    cfg_forms = set()
     seen = set()
     for f in files:
         hexs = "".join(l for l in open(f) if not l.startswith("#"))
@@ -47,6 +54,12 @@ def main(vdir):
             assert sess == 0x1D2C3B4A, f"{f}: session id {sess:#x}"
             p = p[4:]
         want = SIZES[typ]
+        if typ == 0x02 and len(p) == 5:
+            want = 5
+            assert p[4] == 1, f"{f}: CONFIGURE kind {p[4]} (5 bytes: 1 = B-spline)"
+            assert 1 <= p[1] and 1 <= p[2] and not p[3] & 4, f"{f}: B-spline sizes/flags"
+        if typ == 0x02:
+            cfg_forms.add(len(p))
         if typ == 0x03:
             want = 4 + 52 * p[2]
         elif typ == 0x47:
@@ -65,6 +78,7 @@ def main(vdir):
                     assert bit == (v < 0 or v > 1 << 24), f"{f}: out_of_range bit {3 * fp + k}"
         seen.add(typ)
     assert seen == set(SIZES), "a message type has no vector"
+    assert cfg_forms == {4, 5}, f"CONFIGURE forms with a vector: {cfg_forms}"
     doc = os.path.join(os.path.dirname(vdir.rstrip("/")), "..", "docs", "protocol.md")
     if os.path.exists(doc):  # Appendix A of the spec must show today's bytes
         text = open(doc).read()

@@ -56,8 +56,11 @@ int main(int argc, char **argv)
         f = fopen(path, "w");
         if (f == NULL)
             die("write", path);
-        fprintf(f, "# it2n protocol v1.1 (wire version %u) golden vector: %s (type 0x%02X), "
+        /* v1.3 changed messages only: its CONFIGURE travels in the frames
+         * of either wire version */
+        fprintf(f, "# it2n protocol %s (wire version %u) golden vector: %s (type 0x%02X), "
                    "flags 0x%02X, seq %u, payload %d bytes%s, wire %d bytes\n",
+                h.type == IT2N_MSG_CONFIGURE && len == (int)IT2N_CONFIGURE13_LEN ? "v1.3 message" : "v1.1",
                 IT2N_PROTO_VERSION, it2n_msg_name(h.type), h.type, h.flags,
                 h.seq, len, sess ? " (session id + message)" : "", wl);
         fprintf(f, "# message: see it2n_proto_vector(%u) in protocol/it2n_vectors.c\n", k);

@@ -23,6 +23,9 @@ typedef struct server {
     int cfg_open;
     uint16_t cfg_seq;
     unsigned past_barrier; /* frames delivered while a CONFIGURE is open */
+    int v13;               /* announce IT2N_CAP_BSPLINE (protocol v1.3) */
+    it2n_msg_configure last_cfg;
+    uint8_t max_i;         /* largest PUT row index delivered */
 } server;
 
 static server *S;
@@ -55,11 +58,12 @@ static int srv_rx(void *app, uint16_t seq, const it2n_msg *m)
         r.u.hello.window = (uint8_t)s->hello_window;
         r.u.hello.max_payload = s->hello_payload;
         r.u.hello.max_models = 1;
-        r.u.hello.caps = IT2N_CAP_SERVER;
+        r.u.hello.caps = IT2N_CAP_SERVER | (s->v13 ? IT2N_CAP_BSPLINE : 0u);
         assert_true(it2n_link_send(&s->l, &r, clock_ms) >= 0);
         return IT2N_LINK_DEFER;
     case IT2N_MSG_CONFIGURE:
         s->configures++;
+        s->last_cfg = m->u.configure;
         if (s->defer_cfg) {
             s->cfg_open = 1;
             s->cfg_seq = seq;
@@ -71,6 +75,9 @@ static int srv_rx(void *app, uint16_t seq, const it2n_msg *m)
         s->entries += m->u.put.count;
         if (m->u.put.count > s->max_count)
             s->max_count = m->u.put.count;
+        for (unsigned k = 0; k < m->u.put.count; k++)
+            if (m->u.put.e[k].i > s->max_i)
+                s->max_i = m->u.put.e[k].i;
         for (unsigned k = 0; k < m->u.put.count; k++)
             if (s->refuse_i7 && m->u.put.e[k].i == 7) {
                 it2n_errinfo e = {IT2N_ERR_RANGE, 7, 0, IT2N_FP_D, IT2N_CH_T, 5, 0, 3};
@@ -258,12 +265,58 @@ static void test_nack_detail_and_resync(void **st)
     assert_int_equal(it2n_inst_sync(I), IT2N_OK);
     assert_int_equal(S->commits, 1);
     /* bad arguments never leave */
-    assert_int_equal(it2n_inst_put(I, 1, 8, 0, IT2N_FP_D, v), IT2N_PROTO_ERR_FIELD);
+    assert_int_equal(it2n_inst_put(I, 1, 8, 0, IT2N_FP_COUNT, v), IT2N_PROTO_ERR_FIELD);
     assert_int_equal(it2n_inst_put(I, 0xFF, 0, 0, IT2N_FP_D, v), IT2N_PROTO_ERR_FIELD);
     assert_int_equal(it2n_inst_configure(I, 1, 0, 3, 0), IT2N_PROTO_ERR_FIELD);
     it2n_inst_cfg bad = c;
     bad.write = NULL;
     assert_int_equal(it2n_inst_open(I, &bad), IT2N_ERR_INVAL);
+}
+
+/* v1.3: a B-spline model configured and filled through the instrument
+ * API (the 5-byte CONFIGURE, row indices beyond 7); refused locally, with
+ * nothing sent, by a server that did not announce IT2N_CAP_BSPLINE. */
+static void test_configure_bspline(void **st)
+{
+    (void)st;
+    it2n_inst_cfg c = cfg(1);
+    it2n_val v[IT2N_CH_COUNT];
+    assert_int_equal(it2n_inst_open(I, &c), IT2N_OK);
+    for (int k = 0; k < 5 && !I->peer_hello; k++)
+        it2n_inst_poll(I);
+    assert_true(I->peer_hello);
+    /* a v1.2 server: VERSION, no frame */
+    assert_int_equal(it2n_inst_configure_bspline(I, 1, 63, 63, IT2N_F_Z), IT2N_PROTO_ERR_VERSION);
+    assert_int_equal(it2n_inst_sync(I), IT2N_OK);
+    assert_int_equal(S->configures, 0);
+    assert_int_equal(it2n_inst_error(I, NULL), 0); /* the context goes on */
+    /* a v1.3 server */
+    S->v13 = 1;
+    assert_int_equal(it2n_inst_resync(I, 100), IT2N_OK);
+    for (int k = 0; k < 5 && !(I->hello.caps & IT2N_CAP_BSPLINE); k++)
+        it2n_inst_poll(I);
+    /* field errors never leave: CHORD, size 0 */
+    assert_int_equal(it2n_inst_configure_bspline(I, 1, 63, 63, IT2N_F_CHORD), IT2N_PROTO_ERR_FIELD);
+    assert_int_equal(it2n_inst_configure_bspline(I, 1, 0, 63, 0), IT2N_PROTO_ERR_FIELD);
+    assert_int_equal(S->configures, 0);
+    assert_int_equal(it2n_inst_configure_bspline(I, 1, 255, 9, IT2N_F_Z | IT2N_F_TYPE1), IT2N_OK);
+    for (unsigned i = 250; i <= 255; i++) {
+        vals(v, i, 9);
+        assert_int_equal(it2n_inst_put(I, 1, (uint8_t)i, 9, IT2N_FP_D, v), IT2N_OK);
+    }
+    assert_int_equal(it2n_inst_commit(I, 1), IT2N_OK);
+    assert_int_equal(it2n_inst_sync(I), IT2N_OK);
+    assert_int_equal(S->configures, 1);
+    assert_int_equal(S->last_cfg.kind, IT2N_CFG_BSPLINE);
+    assert_int_equal(S->last_cfg.n, 255);
+    assert_int_equal(S->last_cfg.m, 9);
+    assert_int_equal(S->last_cfg.flags, IT2N_F_Z | IT2N_F_TYPE1);
+    assert_int_equal(S->entries, 6);
+    assert_int_equal(S->max_i, 255);
+    /* the Bezier call still sends the 4-byte form */
+    assert_int_equal(it2n_inst_configure(I, 1, 3, 3, 0), IT2N_OK);
+    assert_int_equal(it2n_inst_sync(I), IT2N_OK);
+    assert_int_equal(S->last_cfg.kind, IT2N_CFG_BEZIER);
 }
 
 /* One round in feed mode: the server runs, its bytes are fed to the
@@ -411,6 +464,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_feed_mode_busy_and_loss, setup, teardown),
         cmocka_unit_test_setup_teardown(test_silent_peer_times_out, setup, teardown),
         cmocka_unit_test_setup_teardown(test_configure_is_a_barrier, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_configure_bspline, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_inst", tests, NULL, NULL);
 }

@@ -33,7 +33,11 @@ static void test_length_must_be_exact(void **st)
             if (r == IT2N_PROTO_ERR_PAYLOAD) {
                 assert_true(e.value == cut);
                 int known = !((m.type == IT2N_MSG_PUT && cut < 3) || (m.type == IT2N_MSG_SAMPLE_DATA && cut < 13) ||
-                              (m.type == IT2N_MSG_NET_ROW && cut < 6));
+                              (m.type == IT2N_MSG_NET_ROW && cut < 6) ||
+                              /* v1.3: byte 4 tells a 5-byte CONFIGURE */
+                              (m.type == IT2N_MSG_CONFIGURE && cut < 5));
+                if (m.type == IT2N_MSG_CONFIGURE && cut < 4)
+                    assert_true(e.limit == 4);
                 if (known)
                     assert_true(e.limit == len);
             }
@@ -97,8 +101,6 @@ static void test_field_checks(void **st)
     expect_field(IT2N_MSG_PUT, 2, 0, IT2N_PUT_MAX);              /* count 0 */
     expect_field(IT2N_MSG_PUT, 3, 1, 0);                         /* reserved */
     expect_field(IT2N_MSG_PUT, 7, 0x80, 0);                      /* entry reserved */
-    expect_field(IT2N_MSG_PUT, 4, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE); /* i */
-    expect_field(IT2N_MSG_PUT, 5, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE); /* j */
     expect_field(IT2N_MSG_PUT, 6, IT2N_FP_COUNT, IT2N_FP_COUNT - 1);     /* fp */
     expect_field(IT2N_MSG_PUT, 4 + 52 + 2, 9, IT2N_FP_COUNT - 1);        /* 2nd fp */
     expect_field_at(IT2N_MSG_QUERY, 4, 0x41, IT2N_WIRE_PAR_ONE, 1); /* u > 1.0 */
@@ -165,6 +167,121 @@ static void test_max_put_fits(void **st)
     assert_true(back.u.put.e[0].vals[2] == -1);
 }
 
+/* Vector k's message, packed into buf; returns the length. */
+static int pack_vector(unsigned k)
+{
+    it2n_frame_hdr h;
+    assert_non_null(it2n_proto_vector(k, &h, &m));
+    return it2n_msg_pack(&m, buf, sizeof buf, NULL);
+}
+
+static void expect_cfg(int len, int code, size_t off, int64_t value, int64_t limit)
+{
+    it2n_proto_errinfo e;
+    int r = it2n_msg_unpack(IT2N_MSG_CONFIGURE, buf, (size_t)len, &back, &e);
+    if (r != code)
+        fail_msg("CONFIGURE %02x %02x %02x %02x %02x (len %d): got %d, want %d", buf[0], buf[1], buf[2],
+                 buf[3], buf[4], len, r, code);
+    assert_int_equal(e.code, code);
+    assert_int_equal(e.offset, off);
+    assert_true(e.value == value);
+    assert_true(e.limit == limit);
+}
+
+/* v1.3 (docs/protocol.md 5.3): the 5-byte CONFIGURE names the kind; the
+ * 4-byte one of every older peer is still Bezier; each invalid input gets
+ * the documented error. */
+static void test_configure_kinds(void **st)
+{
+    (void)st;
+    int len;
+    /* vector 01: 4 bytes, a v1.1/v1.2 peer's CONFIGURE: Bezier */
+    assert_int_equal(pack_vector(1), 4);
+    memset(&back, 0xA5, sizeof back);
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_CONFIGURE, buf, 4, &back, NULL), IT2N_OK);
+    assert_int_equal(back.u.configure.kind, IT2N_CFG_BEZIER);
+    assert_int_equal(back.u.configure.n, 3);
+    /* vector 19: 5 bytes, B-spline 64 x 48 with z, round trip */
+    len = pack_vector(19);
+    assert_int_equal(len, IT2N_CONFIGURE13_LEN);
+    static const uint8_t want[] = {2, 64, 48, IT2N_F_Z, IT2N_CFG_BSPLINE};
+    assert_memory_equal(buf, want, sizeof want);
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_CONFIGURE, buf, 5, &back, NULL), IT2N_OK);
+    assert_memory_equal(&back.u.configure, &m.u.configure, sizeof m.u.configure);
+    /* the largest grid, 256 x 256 points, and the smallest */
+    buf[1] = 255, buf[2] = 255;
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_CONFIGURE, buf, 5, &back, NULL), IT2N_OK);
+    assert_int_equal(back.u.configure.n, 255);
+    buf[1] = 1, buf[2] = 1, buf[3] = IT2N_F_TYPE1 | IT2N_F_Z;
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_CONFIGURE, buf, 5, &back, NULL), IT2N_OK);
+    /* its first four bytes alone: a Bezier CONFIGURE (n = 64 > 7: FIELD) */
+    pack_vector(19);
+    expect_cfg(4, IT2N_PROTO_ERR_FIELD, 1, 64, IT2N_MAX_DEGREE);
+    /* kind 0 has only the 4-byte form: 5 bytes are one too many */
+    pack_vector(19);
+    buf[4] = IT2N_CFG_BEZIER;
+    expect_cfg(5, IT2N_PROTO_ERR_PAYLOAD, 4, 5, 4);
+    /* an unknown kind */
+    buf[4] = 2;
+    expect_cfg(5, IT2N_PROTO_ERR_FIELD, 4, 2, IT2N_CFG_BSPLINE);
+    buf[4] = 0xFF;
+    expect_cfg(5, IT2N_PROTO_ERR_FIELD, 4, 0xFF, IT2N_CFG_BSPLINE);
+    /* sizes 0 */
+    pack_vector(19);
+    buf[1] = 0;
+    expect_cfg(5, IT2N_PROTO_ERR_FIELD, 1, 0, 255);
+    pack_vector(19);
+    buf[2] = 0;
+    expect_cfg(5, IT2N_PROTO_ERR_FIELD, 2, 0, 255);
+    /* chord-length parameters: uniform only */
+    pack_vector(19);
+    buf[3] = IT2N_F_CHORD;
+    expect_cfg(5, IT2N_PROTO_ERR_FIELD, 3, IT2N_F_CHORD, IT2N_F_Z | IT2N_F_TYPE1);
+    buf[3] = 0x08;
+    expect_cfg(5, IT2N_PROTO_ERR_FIELD, 3, 0x08, IT2N_F_ALL);
+    /* model 255 (all) is RESET's only; checked first */
+    pack_vector(19);
+    buf[0] = 0xFF;
+    buf[4] = 7;
+    expect_cfg(5, IT2N_PROTO_ERR_FIELD, 0, 0xFF, 0xFE);
+    /* 6 bytes: PAYLOAD, the type needs 5 */
+    pack_vector(19);
+    buf[5] = 0;
+    expect_cfg(6, IT2N_PROTO_ERR_PAYLOAD, 5, 6, 5);
+    buf[4] = IT2N_CFG_BEZIER; /* ... and with kind 0, a Bezier one too long */
+    expect_cfg(6, IT2N_PROTO_ERR_PAYLOAD, 4, 6, 4);
+    /* pack validates as unpack: a bad kind, CHORD, n = 0 are never sent */
+    it2n_proto_vector(19, &(it2n_frame_hdr){0}, &m);
+    m.u.configure.kind = 2;
+    assert_int_equal(it2n_msg_pack(&m, buf, sizeof buf, NULL), IT2N_PROTO_ERR_FIELD);
+    m.u.configure.kind = IT2N_CFG_BSPLINE;
+    m.u.configure.flags = IT2N_F_CHORD;
+    assert_int_equal(it2n_msg_pack(&m, buf, sizeof buf, NULL), IT2N_PROTO_ERR_FIELD);
+    m.u.configure.flags = 0;
+    m.u.configure.m = 0;
+    assert_int_equal(it2n_msg_pack(&m, buf, sizeof buf, NULL), IT2N_PROTO_ERR_FIELD);
+    /* Bezier sizes beyond 7 are still refused in the 4-byte form */
+    m.u.configure.kind = IT2N_CFG_BEZIER;
+    m.u.configure.m = IT2N_MAX_DEGREE + 1;
+    assert_int_equal(it2n_msg_pack(&m, buf, sizeof buf, NULL), IT2N_PROTO_ERR_FIELD);
+}
+
+/* v1.3: PUT indices 0..255 (the server bounds them by the model's n, m). */
+static void test_put_indices_255(void **st)
+{
+    (void)st;
+    int len = pack_vector(2);
+    buf[4] = 255;     /* i of entry 0 */
+    buf[5] = 200;     /* j */
+    buf[4 + 52] = 8;  /* i of entry 1: beyond a Bezier degree */
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_PUT, buf, (size_t)len, &back, NULL), IT2N_OK);
+    assert_int_equal(back.u.put.e[0].i, 255);
+    assert_int_equal(back.u.put.e[0].j, 200);
+    assert_int_equal(back.u.put.e[1].i, 8);
+    assert_int_equal(it2n_msg_pack(&back, buf + 512, 512, NULL), len);
+    assert_memory_equal(buf, buf + 512, (size_t)len);
+}
+
 static void test_par_conversion(void **st)
 {
     (void)st;
@@ -187,6 +304,8 @@ int main(void)
         cmocka_unit_test(test_pack_refuses_what_unpack_refuses),
         cmocka_unit_test(test_max_put_fits),
         cmocka_unit_test(test_par_conversion),
+        cmocka_unit_test(test_configure_kinds),
+        cmocka_unit_test(test_put_indices_255),
     };
     return cmocka_run_group_tests_name("proto_msg", tests, NULL, NULL);
 }
