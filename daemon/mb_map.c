@@ -12,89 +12,17 @@
 _Static_assert(IT2N_DIM <= IT2N_REGMAP_DIM, "control-net stride of the map too small");
 _Static_assert(IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32 <= IT2N_REG_CTRL_END - IT2N_REG_CTRL,
                "scratch buffer holds the largest block");
+_Static_assert(IT2N_VAL_FRAC == IT2N_REGMAP_Q24_FRAC && IT2N_PAR_FRAC == IT2N_REGMAP_PAR_FRAC,
+               "the map's codecs carry the core's fixed point");
 _Static_assert(IT2N_FP_COUNT == IT2N_REGMAP_FP && IT2N_CH_COUNT == IT2N_REGMAP_CH,
                "map footprint/channel counts");
 
-/* 128-bit intermediates for exact scaling (GCC/Clang extension). */
-__extension__ typedef __int128 i128;
-
 #define QIDX(a) ((a) - IT2N_REG_Q_U16)
-
-/* A 32-bit value into two registers in one of the four orders. */
-static inline void put32(uint16_t out[2], uint32_t b, int word_order)
-{
-    uint16_t hi = (uint16_t)(b >> 16), lo = (uint16_t)b;
-    uint16_t shi = (uint16_t)((hi >> 8) | (hi << 8)), slo = (uint16_t)((lo >> 8) | (lo << 8));
-    switch (word_order) {
-    case IT2N_WO_CDAB: out[0] = lo; out[1] = hi; break;
-    case IT2N_WO_BADC: out[0] = shi; out[1] = slo; break;
-    case IT2N_WO_DCBA: out[0] = slo; out[1] = shi; break;
-    default: out[0] = hi; out[1] = lo; break;
-    }
-}
-
-static uint32_t get32(const uint16_t in[2], int word_order)
-{
-    uint16_t hi, lo;
-    switch (word_order) {
-    case IT2N_WO_CDAB: hi = in[1]; lo = in[0]; break;
-    case IT2N_WO_BADC: hi = (uint16_t)((in[0] >> 8) | (in[0] << 8)); lo = (uint16_t)((in[1] >> 8) | (in[1] << 8)); break;
-    case IT2N_WO_DCBA: hi = (uint16_t)((in[1] >> 8) | (in[1] << 8)); lo = (uint16_t)((in[0] >> 8) | (in[0] << 8)); break;
-    default: hi = in[0]; lo = in[1]; break;
-    }
-    return ((uint32_t)hi << 16) | lo;
-}
-
-void mbmap_put_f32(uint16_t out[2], float f, int word_order)
-{
-    uint32_t b;
-    memcpy(&b, &f, sizeof b);
-    put32(out, b, word_order);
-}
-
-float mbmap_get_f32(const uint16_t in[2], int word_order)
-{
-    uint32_t b = get32(in, word_order);
-    float f;
-    memcpy(&f, &b, sizeof f);
-    return f;
-}
-
-static inline float q24f(it2n_val v)
-{
-    /* v * 2^-24: exactly v / 2^24 (a power of two), without a division */
-    return (float)((double)v * (1.0 / (double)IT2N_VAL_ONE));
-}
-
-int64_t mbmap_scale(it2n_val v, int64_t scale, int64_t lo, int64_t hi, int *sat)
-{
-    /* |v| < 2^47 after the core's limits and scale <= 10000 < 2^14: the
-     * product fits int64. Round half away from zero. */
-    i128 s = (i128)v * scale;
-    i128 half = IT2N_VAL_ONE / 2;
-    i128 q = (s >= 0 ? s + half : s - half) / IT2N_VAL_ONE;
-    if (q > hi) {
-        *sat = 1;
-        return hi;
-    }
-    if (q < lo) {
-        *sat = 1;
-        return lo;
-    }
-    return (int64_t)q;
-}
 
 /* u32/i32 registers follow int32_word_order ([modbus]; by default the
  * float order, so a CDAB PLC sees CDAB everywhere). */
-#define put_u32(out, v) put32((out), (v), o->int32_order)
-#define get_u32(in) get32((in), o->int32_order)
-
-/* Scaled integer (register = value * scale) to Q24, exact rounding. */
-static it2n_val from_scaled(int64_t raw, int64_t scale)
-{
-    i128 s = (i128)raw * IT2N_VAL_ONE;
-    return (it2n_val)((s >= 0 ? s + scale / 2 : s - scale / 2) / scale);
-}
+#define put_u32(out, v) it2n_regmap_put_u32((out), (v), (unsigned)o->int32_order)
+#define get_u32(in) it2n_regmap_get_u32((in), (unsigned)o->int32_order)
 
 static uint16_t sat16(unsigned v)
 {
@@ -164,27 +92,6 @@ static int query_result(struct model *md, struct mb_query *q)
     q->model_inst = md->instance;
     q->gen = md->gen;
     return MBX_OK;
-}
-
-/* n Q24 values as floats into 2n registers: the word order chosen once
- * per run, not per value (the result block is read with every query). */
-static void put_f32s(uint16_t *out, const it2n_val *v, unsigned n, int word_order)
-{
-    uint32_t b;
-    float f;
-#define PUT_F32S(wo)                                                                                        \
-    for (unsigned k = 0; k < n; k++) {                                                                      \
-        f = q24f(v[k]);                                                                                     \
-        memcpy(&b, &f, sizeof b);                                                                           \
-        put32(&out[2 * k], b, wo);                                                                          \
-    }
-    switch (word_order) {
-    case IT2N_WO_CDAB: PUT_F32S(IT2N_WO_CDAB) break;
-    case IT2N_WO_BADC: PUT_F32S(IT2N_WO_BADC) break;
-    case IT2N_WO_DCBA: PUT_F32S(IT2N_WO_DCBA) break;
-    default: PUT_F32S(IT2N_WO_ABCD) break;
-    }
-#undef PUT_F32S
 }
 
 static it2n_val sum_value(const it2n_summary *s, unsigned idx)
@@ -278,7 +185,7 @@ static uint16_t grid_saturated(struct model *md, const struct mb_opts *o)
     for (unsigned nd = 0; nd < nodes; nd++)
         for (unsigned k = 0; k < 3; k++) {
             int sat = 0;
-            (void)mbmap_scale(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+            (void)it2n_regmap_q24_to_scaled(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
             count += sat != 0;
         }
     return (uint16_t)(count > 65535u ? 65535u : count);
@@ -337,7 +244,7 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         if (row >= models_net_rows(md) || !models_has_fp(md, fp))
             return MBX_OK; /* zeros */
         for (unsigned s = first; s < last && s < cols; s++)
-            mbmap_put_f32(&buf[s * 2], q24f(models_coef(md, row, s, fp, ch)), o->word_order);
+            it2n_regmap_put_f32(&buf[s * 2], it2n_regmap_q24_to_f32(models_coef(md, row, s, fp, ch)), o->word_order);
         return MBX_OK;
     }
     case IT2N_REG_CFG_N:
@@ -370,12 +277,12 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
             return rc;
         if (q->kind == 0)
             return MBX_OK;
-        put_f32s(buf, &q->pt.v[0][0], IT2N_FP_COUNT * IT2N_CH_COUNT, o->word_order);
+        it2n_regmap_put_q24_f32s(buf, &q->pt.v[0][0], IT2N_FP_COUNT * IT2N_CH_COUNT, o->word_order);
         {
             it2n_val sv[12];
             for (unsigned s = 0; s < 12; s++)
                 sv[s] = sum_value(&q->pt.sum, s);
-            put_f32s(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32], sv, 12, o->word_order);
+            it2n_regmap_put_q24_f32s(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32], sv, 12, o->word_order);
         }
         return MBX_OK;
     case IT2N_REG_RES_SCALED:
@@ -388,13 +295,13 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
             uint16_t mask = 0;
             for (unsigned ch = 0; ch < 3; ch++) {
                 sat = 0;
-                int64_t v = mbmap_scale(q->pt.v[fp][ch], o->coord_scale, INT32_MIN, INT32_MAX, &sat);
+                int64_t v = it2n_regmap_q24_to_scaled(q->pt.v[fp][ch], o->coord_scale, INT32_MIN, INT32_MAX, &sat);
                 put_u32(&r[ch * 2], (uint32_t)(int32_t)v);
                 mask = (uint16_t)(mask | (sat ? 1u << ch : 0u));
             }
             for (unsigned k = 0; k < 3; k++) {
                 sat = 0;
-                int64_t v = mbmap_scale(q->pt.v[fp][IT2N_CH_T + k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+                int64_t v = it2n_regmap_q24_to_scaled(q->pt.v[fp][IT2N_CH_T + k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
                 r[6 + k] = (uint16_t)(int16_t)v;
                 mask = (uint16_t)(mask | (sat ? 1u << (3 + k) : 0u));
             }
@@ -404,7 +311,7 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
             uint16_t mask = 0;
             for (unsigned s = 0; s < 12; s++) {
                 sat = 0;
-                int64_t v = mbmap_scale(sum_value(&q->pt.sum, s), IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+                int64_t v = it2n_regmap_q24_to_scaled(sum_value(&q->pt.sum, s), IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
                 buf[IT2N_REG_SUM_SCALED - IT2N_REG_RES_SCALED + s] = (uint16_t)(int16_t)v;
                 mask = (uint16_t)(mask | (sat ? 1u << s : 0u));
             }
@@ -420,7 +327,7 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++) {
                 sat = 0;
-                buf[nd * 3 + k] = (uint16_t)(int16_t)mbmap_scale(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767,
+                buf[nd * 3 + k] = (uint16_t)(int16_t)it2n_regmap_q24_to_scaled(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767,
                                                                  32767, &sat);
             }
         return MBX_OK;
@@ -433,7 +340,7 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
             return ready;
         for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++)
-                mbmap_put_f32(&buf[(nd * 3 + k) * 2], q24f(g->v[nd][k]), o->word_order);
+                it2n_regmap_put_f32(&buf[(nd * 3 + k) * 2], it2n_regmap_q24_to_f32(g->v[nd][k]), o->word_order);
         return MBX_OK;
     }
     case IT2N_REG_CTRL: {
@@ -446,7 +353,7 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         for (unsigned e = first; e < last; e++) {
             unsigned ch = e % 6, j = (e / 6) % 8, i = (e / 48) % 8, fp = e / 384;
             if (i <= md->mdl.n && j <= md->mdl.m && it2n_model_has_fp(&md->mdl, fp))
-                mbmap_put_f32(&buf[e * 2], q24f(it2n_model_ctrl(&md->mdl, i, j, fp, ch)), o->word_order);
+                it2n_regmap_put_f32(&buf[e * 2], it2n_regmap_q24_to_f32(it2n_model_ctrl(&md->mdl, i, j, fp, ch)), o->word_order);
         }
         return MBX_OK;
     }
@@ -567,18 +474,18 @@ static int write_upload(struct model *md, const struct mb_opts *o, unsigned addr
         return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, i > 0x7FFF ? -1 : (int)i, j > 0x7FFF ? -1 : (int)j,
                        fp >= IT2N_FP_COUNT ? -1 : (int)fp);
     for (unsigned c = 0; c < 3; c++)
-        vals[c] = from_scaled((int32_t)get_u32(&UP(IT2N_REG_UP_X + 2 * c)), o->coord_scale);
+        vals[c] = it2n_regmap_q24_from_scaled((int32_t)get_u32(&UP(IT2N_REG_UP_X + 2 * c)), o->coord_scale);
     for (unsigned k = 0; k < 3; k++) {
         unsigned t = UP(IT2N_REG_UP_T + k);
         if (t > IT2N_REGMAP_MEMB_SCALE) {
             refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp);
             md->last_err.ch = (int8_t)(IT2N_CH_T + k);
-            md->last_err.value = from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
+            md->last_err.value = it2n_regmap_q24_from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
             md->last_err.lo = 0;
             md->last_err.hi = IT2N_VAL_ONE;
             return MBX_ILLEGAL_VALUE;
         }
-        vals[IT2N_CH_T + k] = from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
+        vals[IT2N_CH_T + k] = it2n_regmap_q24_from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
     }
 #undef UP
     rc = models_put(md, i, j, fp, vals, true, &err);
@@ -612,17 +519,17 @@ static void sync_views(struct mb_query *q, const struct mb_opts *o)
 {
     int sat = 0;
     if (q->kind == 1) {
-        q->regs[QIDX(IT2N_REG_Q_U16)] = (uint16_t)(((i128)q->u * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) / IT2N_PAR_ONE);
-        q->regs[QIDX(IT2N_REG_Q_W16)] = (uint16_t)(((i128)q->w * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) / IT2N_PAR_ONE);
-        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE), o->word_order);
-        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE), o->word_order);
+        q->regs[QIDX(IT2N_REG_Q_U16)] = it2n_regmap_par_to_u16(q->u);
+        q->regs[QIDX(IT2N_REG_Q_W16)] = it2n_regmap_par_to_u16(q->w);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE), o->word_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE), o->word_order);
     } else if (q->kind == 2) {
         put_u32(&q->regs[QIDX(IT2N_REG_Q_XS)],
-                (uint32_t)(int32_t)mbmap_scale(q->x, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
+                (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->x, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
         put_u32(&q->regs[QIDX(IT2N_REG_Q_YS)],
-                (uint32_t)(int32_t)mbmap_scale(q->y, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
-        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_XF)], q24f(q->x), o->word_order);
-        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_YF)], q24f(q->y), o->word_order);
+                (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->y, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_XF)], it2n_regmap_q24_to_f32(q->x), o->word_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_YF)], it2n_regmap_q24_to_f32(q->y), o->word_order);
     }
 }
 
@@ -646,28 +553,28 @@ static int write_query(struct model *md, struct mb_query *q, const struct mb_opt
         if (IN(IT2N_REG_Q_U16)) {
             if (nq.regs[QIDX(IT2N_REG_Q_U16)] > IT2N_REGMAP_MEMB_SCALE)
                 return MBX_ILLEGAL_VALUE;
-            nq.u = (it2n_par)(((i128)nq.regs[QIDX(IT2N_REG_Q_U16)] * IT2N_PAR_ONE + 5000) / 10000);
-        } else if (IN(IT2N_REG_Q_UF) && par_from_f32(mbmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_UF)], o->word_order), &nq.u)) {
+            nq.u = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REG_Q_U16)]);
+        } else if (IN(IT2N_REG_Q_UF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_UF)], o->word_order), &nq.u)) {
             return MBX_ILLEGAL_VALUE;
         }
         if (IN(IT2N_REG_Q_W16)) {
             if (nq.regs[QIDX(IT2N_REG_Q_W16)] > IT2N_REGMAP_MEMB_SCALE)
                 return MBX_ILLEGAL_VALUE;
-            nq.w = (it2n_par)(((i128)nq.regs[QIDX(IT2N_REG_Q_W16)] * IT2N_PAR_ONE + 5000) / 10000);
-        } else if (IN(IT2N_REG_Q_WF) && par_from_f32(mbmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_WF)], o->word_order), &nq.w)) {
+            nq.w = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REG_Q_W16)]);
+        } else if (IN(IT2N_REG_Q_WF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_WF)], o->word_order), &nq.w)) {
             return MBX_ILLEGAL_VALUE;
         }
         nq.kind = 1;
     } else {
         if (IN(IT2N_REG_Q_XS))
-            nq.x = from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_XS)]), o->coord_scale);
+            nq.x = it2n_regmap_q24_from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_XS)]), o->coord_scale);
         if (IN(IT2N_REG_Q_YS))
-            nq.y = from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_YS)]), o->coord_scale);
+            nq.y = it2n_regmap_q24_from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_YS)]), o->coord_scale);
         for (int c = 0; c < 2; c++) {
             unsigned a = c ? IT2N_REG_Q_YF : IT2N_REG_Q_XF;
             if (!IN(a))
                 continue;
-            float f = mbmap_get_f32(&nq.regs[QIDX(a)], o->word_order);
+            float f = it2n_regmap_get_f32(&nq.regs[QIDX(a)], o->word_order);
             if (!isfinite(f) || fabsf(f) > (float)IT2N_COORD_LIMIT)
                 return MBX_ILLEGAL_VALUE;
             it2n_val val = (it2n_val)llround((double)f * (double)IT2N_VAL_ONE);

@@ -1,4 +1,4 @@
-/* mb_map — serving the register map (daemon/it2n_regmap.h) for one model:
+/* mb_map — serving the register map (regmap/it2n_regmap.h) for one model:
  * reads fill registers from the model and the connection's query; writes
  * are validated completely before anything changes. Returns Modbus
  * exception codes so the transports only frame. No I/O here. */
@@ -54,14 +54,6 @@ struct mb_query {
     /* The coefficient page selected (footprint, channel, row). */
     uint16_t page[IT2N_REG_PAGE_END - IT2N_REG_PG_FP];
 };
-
-/* Encode a float into two registers in the given word order. */
-void mbmap_put_f32(uint16_t out[2], float f, int word_order);
-/* Decode two registers in the given word order. */
-float mbmap_get_f32(const uint16_t in[2], int word_order);
-
-/* Q24 to a scaled integer, rounded, clamped to [lo, hi]; *sat set on clamp. */
-int64_t mbmap_scale(it2n_val v, int64_t scale, int64_t lo, int64_t hi, int *sat);
 
 /* Read count registers from addr into out. Returns MBX_OK or an exception
  * (02 outside the map, 06 results while unsolved, 04 evaluation failure). */

@@ -134,11 +134,11 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
         uint16_t regs[4];
         float cur[2] = { 0.0f, 0.0f };
         if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
-            cur[0] = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
-            cur[1] = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+            cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
+            cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
         }
-        mbmap_put_f32(&regs[0], c.has_q[0] ? c.q[0] : cur[0], IT2N_WO_ABCD);
-        mbmap_put_f32(&regs[2], c.has_q[1] ? c.q[1] : cur[1], IT2N_WO_ABCD);
+        it2n_regmap_put_f32(&regs[0], c.has_q[0] ? c.q[0] : cur[0], IT2N_WO_ABCD);
+        it2n_regmap_put_f32(&regs[2], c.has_q[1] ? c.q[1] : cur[1], IT2N_WO_ABCD);
         rc = mbmap_write(md, q, o, IT2N_REG_Q_UF, 4, regs, &persisted);
         if (rc != MBX_OK)
             log_warn("sparkplug: DCMD model-%d: query refused (u, w in [0, 1]): exception %02X", id, (unsigned)rc);

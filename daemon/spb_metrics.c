@@ -169,9 +169,9 @@ static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, stru
         const uint16_t *r = &regs[f->addr - b->start];
         switch (f->type) {
         case IT2N_RT_I16: out[k].u = (uint64_t)(int64_t)(int16_t)r[0]; break;
-        case IT2N_RT_U32: out[k].u = (uint32_t)r[0] << 16 | r[1]; break;
-        case IT2N_RT_I32: out[k].u = (uint64_t)(int64_t)(int32_t)((uint32_t)r[0] << 16 | r[1]); break;
-        case IT2N_RT_F32: out[k].f = mbmap_get_f32(r, IT2N_WO_ABCD); break;
+        case IT2N_RT_U32: out[k].u = it2n_regmap_get_u32(r, IT2N_WO_ABCD); break;
+        case IT2N_RT_I32: out[k].u = (uint64_t)(int64_t)(int32_t)it2n_regmap_get_u32(r, IT2N_WO_ABCD); break;
+        case IT2N_RT_F32: out[k].f = it2n_regmap_get_f32(r, IT2N_WO_ABCD); break;
         default: out[k].u = r[0]; break;
         }
     }
@@ -200,8 +200,8 @@ void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_op
         set_null(out, (int)b->nfields);
     out += seg_start(SPB_SEG_QIN);
     if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
-        out[0].f = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
-        out[1].f = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+        out[0].f = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
+        out[1].f = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
     } else {
         set_null(out, N_QIN);
     }
@@ -210,7 +210,7 @@ void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_op
         mbmap_read(md, q, o, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MBX_OK) {
         out[0].u = (uint32_t)regs[0] << 16 | regs[1];
         for (int k = 0; k < N_RES; k++)
-            out[1 + k].f = mbmap_get_f32(&regs[2 + 2 * k], IT2N_WO_ABCD);
+            out[1 + k].f = it2n_regmap_get_f32(&regs[2 + 2 * k], IT2N_WO_ABCD);
     } else {
         set_null(out, N_QGEN + N_RES);  /* no query yet, or not solved (06) */
     }
@@ -227,5 +227,5 @@ void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_op
         return;
     }
     for (unsigned k = 0; k < nodes * 3u; k++)
-        out[k].f = mbmap_get_f32(&regs[k * 2], IT2N_WO_ABCD);
+        out[k].f = it2n_regmap_get_f32(&regs[k * 2], IT2N_WO_ABCD);
 }

@@ -1,5 +1,5 @@
-/* test_mb_map — register encoding golden vectors (every float word order),
- * scaled integers with saturation, and map semantics against a model
+/* test_mb_map — the register map served for a model (the codecs
+ * themselves: tests/regmap/test_regmap.c): map semantics against a model
  * solved from the paper data: reads, writes, exceptions, atomicity. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -13,41 +13,6 @@
 #include "it2n_regmap.h"
 #include "mb_map.h"
 #include "models.h"
-
-/* -123.456f = 0xC2F6E979: every byte distinct, so each order is visible. */
-static void test_f32_golden(void **st)
-{
-    static const uint16_t want[4][2] = {
-        { 0xC2F6, 0xE979 }, /* ABCD */
-        { 0xE979, 0xC2F6 }, /* CDAB */
-        { 0xF6C2, 0x79E9 }, /* BADC */
-        { 0x79E9, 0xF6C2 }, /* DCBA */
-    };
-    (void)st;
-    for (int o = 0; o < 4; o++) {
-        uint16_t r[2];
-        mbmap_put_f32(r, -123.456f, o);
-        assert_int_equal(r[0], want[o][0]);
-        assert_int_equal(r[1], want[o][1]);
-        assert_true(mbmap_get_f32(want[o], o) == -123.456f);
-    }
-}
-
-static void test_scale(void **st)
-{
-    int sat = 0;
-    (void)st;
-    /* 0.5 membership -> 5000; 1/3 rounds to 3333; -0.0000500… -> -1 (half away from zero) */
-    assert_int_equal(mbmap_scale(IT2N_VAL_ONE / 2, 10000, -32767, 32767, &sat), 5000);
-    assert_int_equal(mbmap_scale(IT2N_VAL_ONE / 3, 10000, -32767, 32767, &sat), 3333);
-    assert_int_equal(mbmap_scale(-(IT2N_VAL_ONE / 20000 + 1), 10000, -32767, 32767, &sat), -1);
-    assert_int_equal(sat, 0);
-    assert_int_equal(mbmap_scale(4 * IT2N_VAL_ONE, 10000, -32767, 32767, &sat), 32767);
-    assert_int_equal(sat, 1);
-    sat = 0;
-    assert_int_equal(mbmap_scale(-8000000 * IT2N_VAL_ONE, 1000, INT32_MIN, INT32_MAX, &sat), INT32_MIN);
-    assert_int_equal(sat, 1);
-}
 
 static struct model *md;
 static const struct mb_opts opts = { IT2N_WO_ABCD, 100, 5, 5, { 0 }, IT2N_WO_ABCD, 0 };
@@ -108,12 +73,12 @@ static void test_query_uw(void **st)
     assert_int_equal(it2n_eval(&md->mdl, IT2N_PAR_ONE / 4, IT2N_PAR_ONE / 2, &pt, NULL), IT2N_OK);
     for (int fp = 0; fp < 7; fp++)
         for (int ch = 0; ch < 6; ch++)
-            assert_true(mbmap_get_f32(&r[(fp * 6 + ch) * 2], IT2N_WO_ABCD) ==
+            assert_true(it2n_regmap_get_f32(&r[(fp * 6 + ch) * 2], IT2N_WO_ABCD) ==
                         (float)((double)pt.v[fp][ch] / IT2N_VAL_ONE));
     /* D footprint T in the scaled view */
     assert_int_equal(mbmap_read(md, &q, &opts, IT2N_REG_RES_SCALED, 84, r), MBX_OK);
     int sat = 0;
-    assert_int_equal((int16_t)r[3 * 9 + 6], mbmap_scale(pt.v[3][3], 10000, -32767, 32767, &sat));
+    assert_int_equal((int16_t)r[3 * 9 + 6], it2n_regmap_q24_to_scaled(pt.v[3][3], 10000, -32767, 32767, &sat));
     assert_int_equal(r[IT2N_REG_SAT - IT2N_REG_RES_SCALED + 3], 0);
 }
 
@@ -140,19 +105,19 @@ static void test_query_views_and_int32_order(void **st)
         int persisted;
         memset(&q, 0, sizeof q);
         /* q_u_f = 0.123456: q_u reads 1235, q_u_f the float as written */
-        mbmap_put_f32(in, 0.123456f, wo);
+        it2n_regmap_put_f32(in, 0.123456f, wo);
         assert_int_equal(mbmap_write(md, &q, &o, IT2N_REG_Q_UF, 2, in, &persisted), MBX_OK);
         assert_int_equal(mbmap_read(md, &q, &o, IT2N_REG_Q_U16, 14, r), MBX_OK);
         assert_int_equal(r[0], 1235);
-        assert_true(mbmap_get_f32(&r[IT2N_REG_Q_UF - IT2N_REG_Q_U16], wo) == 0.123456f);
+        assert_true(it2n_regmap_get_f32(&r[IT2N_REG_Q_UF - IT2N_REG_Q_U16], wo) == 0.123456f);
         /* q_w = 7500: q_w_f reads 0.75, u unchanged */
         in[0] = 7500;
         assert_int_equal(mbmap_write(md, &q, &o, IT2N_REG_Q_W16, 1, in, &persisted), MBX_OK);
         assert_int_equal(mbmap_read(md, &q, &o, IT2N_REG_Q_U16, 14, r), MBX_OK);
-        assert_true(mbmap_get_f32(&r[IT2N_REG_Q_WF - IT2N_REG_Q_U16], wo) == 0.75f);
+        assert_true(it2n_regmap_get_f32(&r[IT2N_REG_Q_WF - IT2N_REG_Q_U16], wo) == 0.75f);
         assert_int_equal(r[0], 1235);
         /* q_x_f = -17.5: q_x reads -1750 as i32 in int32_order */
-        mbmap_put_f32(in, -17.5f, wo);
+        it2n_regmap_put_f32(in, -17.5f, wo);
         assert_int_equal(mbmap_write(md, &q, &o, IT2N_REG_Q_XF, 2, in, &persisted), MBX_OK);
         assert_int_equal(mbmap_read(md, &q, &o, IT2N_REG_Q_U16, 14, r), MBX_OK);
         assert_int_equal((int32_t)reg32(&r[IT2N_REG_Q_XS - IT2N_REG_Q_U16], o.int32_order), -1750);
@@ -180,7 +145,7 @@ static void test_rejected_writes_change_nothing(void **st)
     assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_UF + 1, 1, good, &persisted), MBX_ILLEGAL_VALUE);
     /* f32 u = 1.5 */
     uint16_t f[2];
-    mbmap_put_f32(f, 1.5f, IT2N_WO_ABCD);
+    it2n_regmap_put_f32(f, 1.5f, IT2N_WO_ABCD);
     assert_int_equal(mbmap_write(md, &q, &opts, IT2N_REG_Q_UF, 2, f, &persisted), MBX_ILLEGAL_VALUE);
     assert_memory_equal(&q, &q0, sizeof q);
     /* degree 0 and 8, flags bit 3 */
@@ -389,8 +354,6 @@ static void test_query_cache_after_rollback(void **st)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_f32_golden),
-        cmocka_unit_test(test_scale),
         cmocka_unit_test(test_status),
         cmocka_unit_test(test_query_uw),
         cmocka_unit_test(test_query_views_and_int32_order),
