@@ -362,7 +362,7 @@ static int key_listen(struct parse *p, int k, const char *name, const char *v)
         for (tok = strtok_r(buf, ", \t", &save); tok; tok = strtok_r(NULL, ", \t", &save)) {
             if (l->nallow == CONF_MAX_ALLOW)
                 FAIL("more than %d allow entries in this section", CONF_MAX_ALLOW);
-            if (conf_parse_prefix(tok, &l->allow[l->nallow], why, sizeof why))
+            if (acl_parse_prefix(tok, &l->allow[l->nallow], why, sizeof why))
                 FAIL("%s", why);
             l->nallow++;
         }

@@ -12,7 +12,7 @@
 struct dcmd {
     int id;
     int nm;
-    const struct mb_opts *o;
+    const struct mb_map_opts *o;
     float q[2];
     int has_q[2];
     uint16_t up[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
@@ -104,7 +104,7 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
     }
 }
 
-void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *o, const uint8_t *buf, size_t len)
+void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const uint8_t *buf, size_t len)
 {
     struct dcmd c;
     int rc, persisted, id = md->id;
@@ -116,7 +116,7 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
     c.nm = spb_metrics_count(o);
     if (spb_cmd_each(buf, len, dcmd_metric, &c, why, sizeof why)) {
         log_warn("sparkplug: DCMD model-%d refused: %s", id, why);
-        mbmap_refused(md, MBX_ILLEGAL_VALUE);
+        mb_map_refused(md, MB_MAP_ILLEGAL_VALUE);
         return;
     }
     if (!c.bad && c.upmask && c.upmask != all)
@@ -127,20 +127,20 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
     if (c.bad) {
         /* Nothing changes; the refusal is the report, as for Modbus. */
         log_warn("sparkplug: DCMD model-%d refused: %s", id, c.why);
-        mbmap_refused(md, MBX_ILLEGAL_VALUE);
+        mb_map_refused(md, MB_MAP_ILLEGAL_VALUE);
         return;
     }
     if (c.has_q[0] || c.has_q[1]) {
         uint16_t regs[4];
         float cur[2] = { 0.0f, 0.0f };
-        if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
+        if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MB_MAP_OK) {
             cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
             cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
         }
         it2n_regmap_put_f32(&regs[0], c.has_q[0] ? c.q[0] : cur[0], IT2N_WO_ABCD);
         it2n_regmap_put_f32(&regs[2], c.has_q[1] ? c.q[1] : cur[1], IT2N_WO_ABCD);
-        rc = mbmap_write(md, q, o, IT2N_REG_Q_UF, 4, regs, &persisted);
-        if (rc != MBX_OK)
+        rc = mb_map_write(md, q, o, IT2N_REG_Q_UF, 4, regs, &persisted);
+        if (rc != MB_MAP_OK)
             log_warn("sparkplug: DCMD model-%d: query refused (u, w in [0, 1]): exception %02X", id, (unsigned)rc);
     }
     if (c.upmask) {
@@ -148,15 +148,15 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
          * Modbus upload (its DDATA follows the commit, on_model_changed). */
         struct model_txn t;
         models_txn_begin(&t);
-        rc = mbmap_write(md, q, o, IT2N_REG_UP_I, IT2N_REG_UPLOAD_END - IT2N_REG_UP_I, c.up, &persisted);
-        if (rc != MBX_OK && persisted) {
+        rc = mb_map_write(md, q, o, IT2N_REG_UP_I, IT2N_REG_UPLOAD_END - IT2N_REG_UP_I, c.up, &persisted);
+        if (rc != MB_MAP_OK && persisted) {
             it2n_errinfo e = md->last_err;
             models_txn_rollback(&t);
             md->last_err = e;
         } else {
             models_txn_commit(&t);
         }
-        if (rc != MBX_OK)
+        if (rc != MB_MAP_OK)
             log_warn("sparkplug: DCMD model-%d: data point refused: exception %02X, last_error %d", id, (unsigned)rc,
                      md->last_err.code);
     }

@@ -63,7 +63,7 @@ static int seg_start(int seg)
     return n;
 }
 
-int spb_metrics_count(const struct mb_opts *o)
+int spb_metrics_count(const struct mb_map_opts *o)
 {
     return seg_start(SPB_SEG_GRID) + (int)(o->grid_rows * o->grid_cols) * 3;
 }
@@ -105,7 +105,7 @@ static const char ch_names[IT2N_REGMAP_CH] = { 'x', 'y', 'z', 'T', 'I', 'F' };
 static const char *const sum_names[4] = { "upper_min", "upper_max", "lower_min", "lower_max" };
 
 /* Name, and the description and unit for the birth. */
-void spb_metrics_info(const struct mb_opts *o, int idx, char *name, size_t nsize, char *desc, size_t dsize,
+void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t nsize, char *desc, size_t dsize,
                       const char **unit)
 {
     static const char *const chname[3] = { "Truth", "Indeterminacy", "Falsity" };
@@ -187,27 +187,27 @@ static void set_null(struct spb_val *out, int n)
  * the last durable state: the status block, this device's query (its own
  * connection-like state) and results, the upload block, the float32
  * sample grid. Null where Modbus answers an exception (not solved). */
-void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_opts *o, struct spb_val *out)
+void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_val *out)
 {
     static uint16_t regs[IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32];
     const it2n_regmap_block *b = status_block(), *up = upload_block();
     unsigned nodes = o->grid_rows * o->grid_cols;
     int n = spb_metrics_count(o);
     memset(out, 0, (size_t)n * sizeof *out);
-    if (mbmap_read(md, q, o, b->start, (unsigned)(b->end - b->start), regs) == MBX_OK)
+    if (mb_map_read(md, q, o, b->start, (unsigned)(b->end - b->start), regs) == MB_MAP_OK)
         fields_values(b, regs, out);
     else
         set_null(out, (int)b->nfields);
     out += seg_start(SPB_SEG_QIN);
-    if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
+    if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MB_MAP_OK) {
         out[0].f = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
         out[1].f = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
     } else {
         set_null(out, N_QIN);
     }
     out += N_QIN;
-    if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_GEN, 2, regs) == MBX_OK &&
-        mbmap_read(md, q, o, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MBX_OK) {
+    if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REG_Q_GEN, 2, regs) == MB_MAP_OK &&
+        mb_map_read(md, q, o, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MB_MAP_OK) {
         out[0].u = (uint32_t)regs[0] << 16 | regs[1];
         for (int k = 0; k < N_RES; k++)
             out[1 + k].f = it2n_regmap_get_f32(&regs[2 + 2 * k], IT2N_WO_ABCD);
@@ -215,14 +215,14 @@ void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_op
         set_null(out, N_QGEN + N_RES);  /* no query yet, or not solved (06) */
     }
     out += N_QGEN + N_RES;
-    if (mbmap_read(md, q, o, up->start, (unsigned)(up->end - up->start), regs) == MBX_OK)
+    if (mb_map_read(md, q, o, up->start, (unsigned)(up->end - up->start), regs) == MB_MAP_OK)
         fields_values(up, regs, out);
     else
         set_null(out, (int)up->nfields);
     out += up->nfields;
     if (!nodes)
         return;
-    if (mbmap_read(md, q, o, IT2N_REG_GRID_F32, nodes * 6u, regs) != MBX_OK) {
+    if (mb_map_read(md, q, o, IT2N_REG_GRID_F32, nodes * 6u, regs) != MB_MAP_OK) {
         set_null(out, (int)nodes * 3);  /* not solved: no grid (Modbus answers 06) */
         return;
     }
