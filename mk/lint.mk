@@ -7,6 +7,6 @@ test-lint:
 	cppcheck --std=c99 $(CPPCHECK_FLAGS) -Iregmap firmware_core protocol regmap
 	@# Nothing outside the daemon includes daemon/ headers or passes -Idaemon.
 	/usr/bin/python3 tests/lint/layers.py
-	cppcheck --std=c11 $(CPPCHECK_FLAGS) -D_GNU_SOURCE $(wildcard cli daemon)
+	cppcheck --std=c11 $(CPPCHECK_FLAGS) -Iregmap -D_GNU_SOURCE $(wildcard cli daemon)
 
 TEST_TARGETS += test-lint
