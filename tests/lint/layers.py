@@ -11,7 +11,12 @@ test daemon modules and may include them; everything else reaches what it
 shares with the daemon through a library (firmware_core/, protocol/,
 regmap/).
 
-usage: layers.py [ROOT]
+With --make TARGETS it also asks make what it would run for those
+programs (make -n -B, nothing is built) and fails on any compile line of a
+source outside the daemon's areas that carries -Idaemon: a client built
+with the daemon's flags from inside a daemon fragment is caught too.
+
+usage: layers.py [--make "TARGET ..."] [ROOT]
 """
 import glob
 import os
@@ -19,7 +24,12 @@ import re
 import subprocess
 import sys
 
-root = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else ".")
+args = sys.argv[1:]
+make_targets = []
+if len(args) >= 2 and args[0] == "--make":
+    make_targets = args[1].split()
+    args = args[2:]
+root = os.path.abspath(args[0] if args else ".")
 # Areas that belong to the daemon: its sources, its unit tests, its fuzzers.
 DAEMON_AREAS = ("daemon/", "tests/daemon/", "tests/fuzz_daemon/")
 LIB_DIRS = ("firmware_core", "protocol", "regmap", "cli")
@@ -74,6 +84,22 @@ for f in files:
             m = build_re.search(code)
             if m:
                 fails.append(f"{f}:{n}: passes daemon/ as an include directory ({m.group(1).strip()})")
+
+if make_targets:
+    out = subprocess.run(["make", "-n", "-B", "--no-print-directory"] + make_targets, cwd=root,
+                         capture_output=True, text=True)
+    if out.returncode != 0:
+        fails.append(f"make -n {' '.join(make_targets)} failed: {out.stderr.strip()[-300:]}")
+    idaemon = re.compile(r"(^|\s)-I\s*(\./)?daemon/?(\s|$)")
+    for line in out.stdout.splitlines():
+        if not idaemon.search(line):
+            continue
+        srcs = [w for w in line.split() if w.endswith(".c")]
+        # the daemon's own sources, and the code generated from them in the
+        # build directory (BUILD/daemon/spb.pb-c.c, BUILD/daemon/paper_data.c)
+        alien = [w for w in srcs if not w.startswith(DAEMON_AREAS) and not re.match(r"^[^/]+/daemon/", w)]
+        if alien:
+            fails.append(f"make compiles {' '.join(alien)} with -Idaemon")
 
 for x in fails:
     print("FAIL:", x, file=sys.stderr)
