@@ -38,6 +38,7 @@ INSTALL_TARGETS :=
 include mk/deps.mk
 include firmware_core/core.mk
 -include protocol/protocol.mk
+include regmap/regmap.mk
 include cli/cli.mk
 -include daemon/daemon.mk
 include tests/tests.mk

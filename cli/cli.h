@@ -65,7 +65,7 @@ int cli_run(const cli_opts *o);
  * check it and solve it into mdl, as every it2n command does. Errors are
  * printed as FILE:LINE: ...; returns CLI_EXIT_OK or CLI_EXIT_DATA. Also
  * it2nctl's push, so both tools refuse a file alike. */
-int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl);
+int cli_load(const cli_opts *o, csv_reader *csv, it2n_dataset *ds, it2n_model *mdl);
 
 /* Option values (cli/args.c). cli_parse_pair: "A,B", both parameters in
  * [0,1] (par) or both values; 0, or an error with *why set. cli_parse_grid:
@@ -142,7 +142,7 @@ int cli_export(const cli_opts *o, const cli_surface *mdl);
  * *bmdl and *csv (line numbers for messages) stay valid until then.
  * Errors printed as FILE:LINE: ...; CLI_EXIT_OK or CLI_EXIT_DATA. */
 int cli_load_bspline(const cli_opts *o, const it2n_bspline_data **bds, const it2n_bspline_model **bmdl,
-                     const it2n_csv **csv);
+                     const csv_reader **csv);
 void cli_free_bspline(void);
 
 #endif /* IT2N_CLI_H */

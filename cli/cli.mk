@@ -29,14 +29,12 @@ $(CLI_SAN_BIN): $(CLI_SAN_OBJ) $(CORE_SAN_LIB)
 
 # it2nctl: client for a running it2nd (Modbus via libmodbus, the framing
 # protocol via protocol/). Links the CLI's CSV reader, plot and output code.
-# The register map header is included by name: CTL_REGMAP_INC is where it
-# lives (protocol/ today).
-CTL_REGMAP_INC := -Idaemon
+# The register map and its codecs: the regmap library (regmap/regmap.mk).
 CTL_SRC := $(wildcard cli/ctl*.c)
-CTL_HDR := $(wildcard cli/ctl*.h) $(CLI_HDR) daemon/it2n_regmap.h # the map ctl_modbus.c speaks
+CTL_HDR := $(wildcard cli/ctl*.h) $(CLI_HDR) $(REGMAP_HDR)
 # it2nctl spb (ctl_spb.c): libmosquitto, and the Sparkplug payload code
 # protoc-c generates from daemon/spb.proto (daemon/daemon.mk).
-CTL_CFLAGS := $(HOST_CFLAGS) -Icli $(CTL_REGMAP_INC) -I$(BUILD)/daemon \
+CTL_CFLAGS := $(HOST_CFLAGS) -Icli $(REGMAP_INC) -I$(BUILD)/daemon \
               $(shell pkg-config --cflags libmodbus libmosquitto libprotobuf-c 2>/dev/null)
 CTL_LIBS := $(shell pkg-config --libs libmodbus libmosquitto libprotobuf-c 2>/dev/null) -lm
 CTL_BIN := $(BUILD)/host/it2nctl
@@ -58,13 +56,13 @@ $(BUILD)/san/cli/ctl%.o: cli/ctl%.c $(CTL_HDR) $(CORE_HDR) $(PROTO_HDR)
 	@mkdir -p $(@D)
 	$(CC) $(CTL_CFLAGS) $(SAN_FLAGS) -c $< -o $@
 
-$(CTL_BIN): $(CTL_OBJ) $(CTL_CLI_OBJ) $(PROTO_LIB) $(CORE_LIB)
-	$(CC) $(HOST_CFLAGS) -o $@ $(CTL_OBJ) $(CTL_CLI_OBJ) $(PROTO_LIB) \
+$(CTL_BIN): $(CTL_OBJ) $(CTL_CLI_OBJ) $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB)
+	$(CC) $(HOST_CFLAGS) -o $@ $(CTL_OBJ) $(CTL_CLI_OBJ) $(REGMAP_LIB) $(PROTO_LIB) \
 	  $(CORE_LIB) $(CTL_LIBS)
 
-$(CTL_SAN_BIN): $(CTL_SAN_OBJ) $(CTL_CLI_SAN_OBJ) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
+$(CTL_SAN_BIN): $(CTL_SAN_OBJ) $(CTL_CLI_SAN_OBJ) $(REGMAP_SAN_LIB) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
 	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -o $@ $(CTL_SAN_OBJ) $(CTL_CLI_SAN_OBJ) \
-	  $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(CTL_LIBS)
+	  $(REGMAP_SAN_LIB) $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(CTL_LIBS)
 
 .PHONY: install-cli demo
 install-cli: $(CLI_BIN) $(CTL_BIN)

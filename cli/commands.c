@@ -12,7 +12,7 @@
 #include <string.h>
 
 /* Big structs live here rather than on the stack. */
-static it2n_csv g_csv;
+static csv_reader g_csv;
 static it2n_dataset g_ds;
 static it2n_model g_mdl;
 
@@ -26,10 +26,10 @@ static int32_t *g_bcoef;
 static bool g_bspline;
 static unsigned g_flags;
 
-static void report(const it2n_csv_error *e, const char *name)
+static void report(const csv_error *e, const char *name)
 {
     char msg[512];
-    it2n_csv_message(e, name, msg, sizeof(msg));
+    csv_message(e, name, msg, sizeof(msg));
     fprintf(stderr, "%s\n", msg);
 }
 
@@ -38,12 +38,12 @@ static const char *display_name(const cli_opts *o)
     return strcmp(o->path, "-") == 0 ? "<stdin>" : o->path;
 }
 
-int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl)
+int cli_load(const cli_opts *o, csv_reader *csv, it2n_dataset *ds, it2n_model *mdl)
 {
     const char *name = display_name(o);
     FILE *f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
     char chunk[4096];
-    it2n_csv_error e;
+    csv_error e;
     it2n_errinfo info;
     size_t got;
     int rc = IT2N_OK;
@@ -52,9 +52,9 @@ int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl
         fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
         return CLI_EXIT_DATA;
     }
-    it2n_csv_init(csv, o->flags);
+    csv_init(csv, o->flags);
     while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
-        rc = it2n_csv_feed(csv, chunk, got, &e);
+        rc = csv_feed(csv, chunk, got, &e);
     }
     if (rc == IT2N_OK && ferror(f)) {
         fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
@@ -67,7 +67,7 @@ int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl
         fclose(f);
     }
     if (rc == IT2N_OK) {
-        rc = it2n_csv_finish(csv, ds, &e);
+        rc = csv_finish(csv, ds, &e);
     }
     if (rc != IT2N_OK) {
         report(&e, name);
@@ -76,7 +76,7 @@ int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl
     it2n_model_init(mdl);
     rc = it2n_model_solve(mdl, ds, &info);
     if (rc != IT2N_OK) {
-        it2n_csv_locate(csv, &info, &e);
+        csv_locate(csv, &info, &e);
         report(&e, name);
         return CLI_EXIT_DATA;
     }
@@ -89,13 +89,13 @@ static int load_bspline(const cli_opts *o)
     const char *name = display_name(o);
     FILE *f;
     char chunk[4096];
-    it2n_csv_error e;
+    csv_error e;
     it2n_errinfo info;
     size_t got, words;
     int rc = IT2N_OK;
 
-    g_brec = malloc(IT2N_CSV_BSPLINE_RECS * sizeof(*g_brec));
-    g_blines = malloc(IT2N_CSV_BSPLINE_LINES * sizeof(*g_blines));
+    g_brec = malloc(CSV_BSPLINE_RECS * sizeof(*g_brec));
+    g_blines = malloc(CSV_BSPLINE_LINES * sizeof(*g_blines));
     if (g_brec == NULL || g_blines == NULL) {
         fprintf(stderr, "it2n: out of memory for a B-spline data set\n");
         return CLI_EXIT_DATA;
@@ -105,9 +105,9 @@ static int load_bspline(const cli_opts *o)
         fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
         return CLI_EXIT_DATA;
     }
-    it2n_csv_init_bspline(&g_csv, g_brec, g_blines);
+    csv_init_bspline(&g_csv, g_brec, g_blines);
     while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
-        rc = it2n_csv_feed(&g_csv, chunk, got, &e);
+        rc = csv_feed(&g_csv, chunk, got, &e);
     }
     if (rc == IT2N_OK && ferror(f)) {
         fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
@@ -120,7 +120,7 @@ static int load_bspline(const cli_opts *o)
         fclose(f);
     }
     if (rc == IT2N_OK) {
-        rc = it2n_csv_finish_bspline(&g_csv, &g_bds, &e);
+        rc = csv_finish_bspline(&g_csv, &g_bds, &e);
     }
     if (rc != IT2N_OK) {
         report(&e, name);
@@ -135,7 +135,7 @@ static int load_bspline(const cli_opts *o)
     it2n_bspline_model_init(&g_bmdl, g_bcoef, words);
     rc = it2n_bspline_solve(&g_bmdl, &g_bds, &info);
     if (rc != IT2N_OK) {
-        it2n_csv_locate(&g_csv, &info, &e);
+        csv_locate(&g_csv, &info, &e);
         report(&e, name);
         return CLI_EXIT_DATA;
     }
@@ -145,7 +145,7 @@ static int load_bspline(const cli_opts *o)
 static void free_bspline(void);
 
 int cli_load_bspline(const cli_opts *o, const it2n_bspline_data **bds, const it2n_bspline_model **bmdl,
-                     const it2n_csv **csv)
+                     const csv_reader **csv)
 {
     int rc = load_bspline(o);
     *bds = &g_bds;

@@ -1,7 +1,7 @@
 /*
  * Streaming reader for the it2n dataset CSV format, shared by the CLI and the
  * daemon. No heap, never prints or exits: errors come back as structs and
- * it2n_csv_message() turns one into text (the only libc use is snprintf).
+ * csv_message() turns one into text (the only libc use is snprintf).
  *
  * Format: '#' comment lines and blank lines anywhere; a header line
  *   i,j,footprint,x,y,T,I,F   or   i,j,footprint,x,y,z,T,I,F
@@ -11,19 +11,19 @@
  * footprint D, otherwise all seven footprints are required.
  *
  * Contract:
- *   it2n_csv_init(p, flags);                     flags: extra IT2N_F_* (CHORD)
- *   it2n_csv_feed(p, buf, len, &e) ...           any chunking, same result
- *   it2n_csv_finish(p, &ds, &e);                 builds and checks ds
+ *   csv_init(p, flags);                     flags: extra IT2N_F_* (CHORD)
+ *   csv_feed(p, buf, len, &e) ...           any chunking, same result
+ *   csv_finish(p, &ds, &e);                 builds and checks ds
  * or, for the B-spline kind (grids up to 256 x 256, caller storage):
- *   it2n_csv_init_bspline(p, scratch, lines);
- *   it2n_csv_feed(p, buf, len, &e) ...
- *   it2n_csv_finish_bspline(p, &bds, &e);        bds lives in scratch
+ *   csv_init_bspline(p, scratch, lines);
+ *   csv_feed(p, buf, len, &e) ...
+ *   csv_finish_bspline(p, &bds, &e);        bds lives in scratch
  * The first error is sticky: later feeds and finish return it again. The
  * parser keeps the line of every (i, j, footprint) so errors found later
- * (it2n_model_solve, ...) can be mapped back with it2n_csv_locate().
+ * (it2n_model_solve, ...) can be mapped back with csv_locate().
  */
-#ifndef IT2N_CSV_H
-#define IT2N_CSV_H
+#ifndef CSV_H
+#define CSV_H
 
 #include "it2n.h"
 
@@ -31,26 +31,26 @@
 #include <stdint.h>
 
 /* Longest accepted line, in bytes, without the line end. */
-#define IT2N_CSV_LINE_MAX 256
+#define CSV_LINE_MAX 256
 
 /* Reader errors; core errors (IT2N_ERR_*) are passed through unchanged. */
-enum it2n_csv_error_code {
-    IT2N_CSV_ERR_HEADER = -101,   /* header missing or not a known layout */
-    IT2N_CSV_ERR_FIELDS = -102,   /* wrong number of fields in a row      */
-    IT2N_CSV_ERR_NUMBER = -103,   /* field is not a decimal number        */
-    IT2N_CSV_ERR_INDEX = -104,    /* i or j not an integer in 0..MAX      */
-    IT2N_CSV_ERR_FOOTPRINT = -105,/* unknown footprint name               */
-    IT2N_CSV_ERR_LONG = -106,     /* line longer than IT2N_CSV_LINE_MAX   */
-    IT2N_CSV_ERR_EMPTY = -107,    /* no data rows                         */
-    IT2N_CSV_ERR_DEGREE = -108,   /* max i or max j is 0 (degree < 1)     */
-    IT2N_CSV_ERR_BINARY = -109,   /* NUL or other control byte in a line  */
-    IT2N_CSV_ERR_QUOTE = -110,    /* a "quoted" field with '"' or ',' in it */
-    IT2N_CSV_ERR_SEPARATOR = -111 /* header separated by ';' or tab, not ',' */
+enum csv_error_code {
+    CSV_ERR_HEADER = -101,   /* header missing or not a known layout */
+    CSV_ERR_FIELDS = -102,   /* wrong number of fields in a row      */
+    CSV_ERR_NUMBER = -103,   /* field is not a decimal number        */
+    CSV_ERR_INDEX = -104,    /* i or j not an integer in 0..MAX      */
+    CSV_ERR_FOOTPRINT = -105,/* unknown footprint name               */
+    CSV_ERR_LONG = -106,     /* line longer than CSV_LINE_MAX   */
+    CSV_ERR_EMPTY = -107,    /* no data rows                         */
+    CSV_ERR_DEGREE = -108,   /* max i or max j is 0 (degree < 1)     */
+    CSV_ERR_BINARY = -109,   /* NUL or other control byte in a line  */
+    CSV_ERR_QUOTE = -110,    /* a "quoted" field with '"' or ',' in it */
+    CSV_ERR_SEPARATOR = -111 /* header separated by ';' or tab, not ',' */
 };
 
 /* What went wrong and where. line is 1-based, 0 when no row is to blame. */
-typedef struct it2n_csv_error {
-    int code;                /* IT2N_CSV_ERR_* or IT2N_ERR_*              */
+typedef struct csv_error {
+    int code;                /* CSV_ERR_* or IT2N_ERR_*              */
     unsigned long line;      /* offending line, or 0                      */
     unsigned long other;     /* first line of a duplicate, or 0           */
     int field;               /* 1-based field number, or 0                */
@@ -58,27 +58,27 @@ typedef struct it2n_csv_error {
     char text[40];           /* offending field text (truncated), or ""   */
     it2n_errinfo info;       /* core detail (code, i, j, fp, ch, ...)     */
     uint8_t bspline;         /* read for the B-spline kind (index limits) */
-} it2n_csv_error;
+} csv_error;
 
 /* Storage of a B-spline read: scratch records and line numbers for the
  * largest grid, IT2N_BSPLINE_MAX_N + 1 points per side (type-2). */
-#define IT2N_CSV_BSPLINE_SIDE ((size_t)IT2N_BSPLINE_MAX_N + 1u)
-#define IT2N_CSV_BSPLINE_RECS                                                \
+#define CSV_BSPLINE_SIDE ((size_t)IT2N_BSPLINE_MAX_N + 1u)
+#define CSV_BSPLINE_RECS                                                \
     IT2N_BSPLINE_DATA_RECS(IT2N_BSPLINE_MAX_N, IT2N_BSPLINE_MAX_N, 0u)
-#define IT2N_CSV_BSPLINE_LINES                                               \
-    (IT2N_CSV_BSPLINE_SIDE * IT2N_CSV_BSPLINE_SIDE * IT2N_FP_COUNT)
+#define CSV_BSPLINE_LINES                                               \
+    (CSV_BSPLINE_SIDE * CSV_BSPLINE_SIDE * IT2N_FP_COUNT)
 
 /* Parser state; all memory is here (about 24 KiB). Treat as opaque. */
-typedef struct it2n_csv {
+typedef struct csv_reader {
     int error;                       /* sticky first error, or 0      */
-    it2n_csv_error err;              /* ... and its detail            */
+    csv_error err;              /* ... and its detail            */
     unsigned long line;              /* lines completed so far        */
     size_t len;                      /* bytes in buf                  */
     uint8_t overlong, cr, header, z; /* line state, header seen, z    */
     unsigned flags;                  /* extra IT2N_F_* from init      */
     unsigned rows, max_i, max_j;
     uint8_t non_d;                   /* a footprint other than D seen */
-    char buf[IT2N_CSV_LINE_MAX + 1];
+    char buf[CSV_LINE_MAX + 1];
     uint32_t lines[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT]; /* 0 = absent */
     /* Rows as read, validated by it2n_dataset_put on a maximal grid so
      * range errors are found (and named) on the line that has them. */
@@ -88,35 +88,35 @@ typedef struct it2n_csv {
     uint8_t bspline;
     uint32_t *bs_lines;
     it2n_bspline_data bs_scratch;
-} it2n_csv;
+} csv_reader;
 
 /* Start reading; flags are extra IT2N_F_* bits for the data set (CHORD). */
-void it2n_csv_init(it2n_csv *p, unsigned flags);
+void csv_init(csv_reader *p, unsigned flags);
 
 /*
  * Start reading a data set for the B-spline kind: grid indices 0..
  * IT2N_BSPLINE_MAX_N, uniform parameters only. scratch holds
- * IT2N_CSV_BSPLINE_RECS records, lines IT2N_CSV_BSPLINE_LINES words (both
+ * CSV_BSPLINE_RECS records, lines CSV_BSPLINE_LINES words (both
  * the caller's, about 15 MB and 1.8 MB at the default 255; the line
  * table is cleared here, the records need not be).
  */
-void it2n_csv_init_bspline(it2n_csv *p, it2n_bspline_rec *scratch,
+void csv_init_bspline(csv_reader *p, it2n_bspline_rec *scratch,
                            uint32_t *lines);
 
 /*
- * End of a B-spline read: as it2n_csv_finish, into *ds, whose records are
- * the scratch passed to it2n_csv_init_bspline (compacted in place to the
+ * End of a B-spline read: as csv_finish, into *ds, whose records are
+ * the scratch passed to csv_init_bspline (compacted in place to the
  * file's grid). ds is only written on success.
  */
-int it2n_csv_finish_bspline(it2n_csv *p, it2n_bspline_data *ds,
-                            it2n_csv_error *err);
+int csv_finish_bspline(csv_reader *p, it2n_bspline_data *ds,
+                            csv_error *err);
 
 /*
  * Consume len bytes (any split, even mid-line). Returns IT2N_OK or the first
  * error (also stored in *err when err is not NULL).
  */
-int it2n_csv_feed(it2n_csv *p, const char *data, size_t len,
-                  it2n_csv_error *err);
+int csv_feed(csv_reader *p, const char *data, size_t len,
+                  csv_error *err);
 
 /*
  * End of input: derive degrees, z and type-1, fill ds with
@@ -124,20 +124,20 @@ int it2n_csv_feed(it2n_csv *p, const char *data, size_t len,
  * it2n_dataset_check. Returns IT2N_OK or the first error with its line.
  * ds is only written on success.
  */
-int it2n_csv_finish(it2n_csv *p, it2n_dataset *ds, it2n_csv_error *err);
+int csv_finish(csv_reader *p, it2n_dataset *ds, csv_error *err);
 
 /*
  * Turn a core error found after parsing (it2n_model_solve, ...) into a
  * reader error naming the line of (info->i, info->j, info->fp) if known.
  */
-void it2n_csv_locate(const it2n_csv *p, const it2n_errinfo *info,
-                     it2n_csv_error *err);
+void csv_locate(const csv_reader *p, const it2n_errinfo *info,
+                     csv_error *err);
 
 /*
  * Describe err as "NAME:LINE: message" (NAME alone if no line) in buf, NUL
  * terminated, truncated to size. Returns the length snprintf would write.
  */
-int it2n_csv_message(const it2n_csv_error *err, const char *name, char *buf,
+int csv_message(const csv_error *err, const char *name, char *buf,
                      size_t size);
 
-#endif /* IT2N_CSV_H */
+#endif /* CSV_H */

@@ -21,8 +21,6 @@
 #include <string.h>
 #include <time.h>
 
-__extension__ typedef __int128 i128;
-
 typedef struct mb_conn {
     modbus_t *ctx;
     char where[160];     /* "127.0.0.1:1502 unit 1" for messages */
@@ -79,54 +77,6 @@ static int wr(mb_conn *c, unsigned addr, unsigned count, const uint16_t *v,
     return CTL_EXIT_OK;
 }
 
-/* 32 bits from two registers in word order `order` (IT2N_WO_*: A is the
- * most significant byte), and back. */
-static uint32_t get32(const uint16_t in[2], int order)
-{
-    uint16_t hi, lo;
-    switch (order) {
-    case IT2N_WO_CDAB: hi = in[1]; lo = in[0]; break;
-    case IT2N_WO_BADC:
-        hi = (uint16_t)((in[0] >> 8) | (in[0] << 8));
-        lo = (uint16_t)((in[1] >> 8) | (in[1] << 8));
-        break;
-    case IT2N_WO_DCBA:
-        hi = (uint16_t)((in[1] >> 8) | (in[1] << 8));
-        lo = (uint16_t)((in[0] >> 8) | (in[0] << 8));
-        break;
-    default: hi = in[0]; lo = in[1]; break;
-    }
-    return ((uint32_t)hi << 16) | lo;
-}
-
-static void put32(uint16_t out[2], uint32_t b, int order)
-{
-    uint16_t hi = (uint16_t)(b >> 16), lo = (uint16_t)b;
-    uint16_t shi = (uint16_t)((hi >> 8) | (hi << 8));
-    uint16_t slo = (uint16_t)((lo >> 8) | (lo << 8));
-    switch (order) {
-    case IT2N_WO_CDAB: out[0] = lo; out[1] = hi; break;
-    case IT2N_WO_BADC: out[0] = shi; out[1] = slo; break;
-    case IT2N_WO_DCBA: out[0] = slo; out[1] = shi; break;
-    default: out[0] = hi; out[1] = lo; break;
-    }
-}
-
-static float get_f32(const uint16_t in[2], int order)
-{
-    uint32_t b = get32(in, order);
-    float f;
-    memcpy(&f, &b, sizeof f);
-    return f;
-}
-
-static void put_f32(uint16_t out[2], float f, int order)
-{
-    uint32_t b;
-    memcpy(&b, &f, sizeof b);
-    put32(out, b, order);
-}
-
 /* A float32 result back to Q24 (exact: a float has at most 24 significant
  * bits, and |value| < 2^39 for anything the core produces). */
 static it2n_val f2q(float f)
@@ -138,18 +88,17 @@ static it2n_val f2q(float f)
     return (it2n_val)llround(d);
 }
 
-/* Scaled integer (register = value * scale) to Q24, as the daemon rounds. */
-static it2n_val from_scaled(int64_t raw, int64_t scale)
+/* v as the scaled integer register value the daemon reads back to exactly
+ * v (register = value * scale, i32); false when there is none. */
+static bool exact_scaled(it2n_val v, int64_t scale, int64_t *out)
 {
-    i128 s = (i128)raw * IT2N_VAL_ONE;
-    return (it2n_val)((s >= 0 ? s + scale / 2 : s - scale / 2) / scale);
-}
-
-/* Q24 to the nearest scaled integer (half away from zero). */
-static int64_t to_scaled(it2n_val v, int64_t scale)
-{
-    i128 s = (i128)v * scale, half = IT2N_VAL_ONE / 2;
-    return (int64_t)((s >= 0 ? s + half : s - half) / IT2N_VAL_ONE);
+    int sat = 0;
+    int64_t k = it2n_regmap_q24_to_scaled(v, (int32_t)scale, INT32_MIN, INT32_MAX, &sat);
+    if (sat || it2n_regmap_q24_from_scaled(k, (int32_t)scale) != v) {
+        return false;
+    }
+    *out = k;
+    return true;
 }
 
 /* Word order and coordinate scale from the status block (once). */
@@ -197,8 +146,8 @@ static int mb_status(void *p, ctl_status *st)
             st->net_rows = k[IT2N_REG_NET_ROWS - IT2N_REG_KIND];
             st->net_cols = k[IT2N_REG_NET_COLS - IT2N_REG_KIND];
             if (modbus_read_registers(c->ctx, IT2N_REG_PRESENT32, 4, n32) == 4) {
-                st->present = get32(&n32[0], r[IT2N_REG_INT32_ORDER] & 3);
-                st->required = get32(&n32[2], r[IT2N_REG_INT32_ORDER] & 3);
+                st->present = it2n_regmap_get_u32(&n32[0], r[IT2N_REG_INT32_ORDER] & 3);
+                st->required = it2n_regmap_get_u32(&n32[2], r[IT2N_REG_INT32_ORDER] & 3);
             }
         } else if (errno != EMBXILADD) {
             return mb_fail(c, "read status");
@@ -209,7 +158,7 @@ static int mb_status(void *p, ctl_status *st)
     }
     c->word_order = r[IT2N_REG_WORD_ORDER] & 3;
     c->int32_order = r[IT2N_REG_INT32_ORDER] & 3;
-    st->generation = get32(&r[IT2N_REG_GENERATION], c->int32_order);
+    st->generation = it2n_regmap_get_u32(&r[IT2N_REG_GENERATION], c->int32_order);
     st->last_error = (int16_t)r[IT2N_REG_LAST_ERR];
     c->coord_scale = r[IT2N_REG_COORD_SCALE] ? r[IT2N_REG_COORD_SCALE] : 100;
     c->have_map = true;
@@ -273,8 +222,7 @@ static bool upload_regs(const mb_conn *c, const mb_src *src, unsigned i,
         if (ch == IT2N_CH_Z && !(src_flags(src) & IT2N_F_Z)) {
             v[ch] = 0;
         }
-        k = to_scaled(v[ch], scale);
-        if (from_scaled(k, scale) != v[ch] || k > INT32_MAX || k < INT32_MIN) {
+        if (!exact_scaled(v[ch], scale, &k)) {
             memset(rej, 0, sizeof(*rej));
             rej->code = IT2N_ERR_RANGE;
             rej->i = (int16_t)i;
@@ -287,7 +235,7 @@ static bool upload_regs(const mb_conn *c, const mb_src *src, unsigned i,
             return false;
         }
         if (coord) {
-            put32(&r[3 + 2 * ch], (uint32_t)(int32_t)k, c->int32_order);
+            it2n_regmap_put_u32(&r[3 + 2 * ch], (uint32_t)(int32_t)k, c->int32_order);
         } else {
             r[9 + ch - IT2N_CH_T] = (uint16_t)k;
         }
@@ -414,12 +362,11 @@ static int mb_push_bspline(void *p, const it2n_bspline_data *bds,
 /* Parameter as the daemon reads q_u (x10000) — exact when it matches. */
 static bool par_scaled(it2n_par p, uint16_t *reg)
 {
-    int64_t k = (int64_t)(((i128)p * 10000 + IT2N_PAR_ONE / 2) >> 32);
-    if (k < 0 || k > 10000 ||
-        (it2n_par)(((i128)k * IT2N_PAR_ONE + 5000) / 10000) != p) {
+    uint16_t k = it2n_regmap_par_to_u16(p);
+    if (it2n_regmap_par_from_u16(k) != p) {
         return false;
     }
-    *reg = (uint16_t)k;
+    *reg = k;
     return true;
 }
 
@@ -429,16 +376,16 @@ static void read_results(const mb_conn *c, const uint16_t *r, it2n_point *pt)
     unsigned fp, ch, k;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            pt->v[fp][ch] = f2q(get_f32(&r[(fp * IT2N_CH_COUNT + ch) * 2],
+            pt->v[fp][ch] = f2q(it2n_regmap_get_f32(&r[(fp * IT2N_CH_COUNT + ch) * 2],
                                         c->word_order));
         }
     }
     for (k = 0; k < 3u; k++) {
         const uint16_t *s = &r[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32];
-        pt->sum.upper_min[k] = f2q(get_f32(&s[(0 * 3 + k) * 2], c->word_order));
-        pt->sum.upper_max[k] = f2q(get_f32(&s[(1 * 3 + k) * 2], c->word_order));
-        pt->sum.lower_min[k] = f2q(get_f32(&s[(2 * 3 + k) * 2], c->word_order));
-        pt->sum.lower_max[k] = f2q(get_f32(&s[(3 * 3 + k) * 2], c->word_order));
+        pt->sum.upper_min[k] = f2q(it2n_regmap_get_f32(&s[(0 * 3 + k) * 2], c->word_order));
+        pt->sum.upper_max[k] = f2q(it2n_regmap_get_f32(&s[(1 * 3 + k) * 2], c->word_order));
+        pt->sum.lower_min[k] = f2q(it2n_regmap_get_f32(&s[(2 * 3 + k) * 2], c->word_order));
+        pt->sum.lower_max[k] = f2q(it2n_regmap_get_f32(&s[(3 * 3 + k) * 2], c->word_order));
     }
 }
 
@@ -463,7 +410,7 @@ static int query(mb_conn *c, unsigned addr, unsigned count, const uint16_t *w,
     }
     memset(pt, 0, sizeof(*pt));
     read_results(c, r, pt);
-    pt->out_of_range = get32(&qs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND], c->int32_order);
+    pt->out_of_range = it2n_regmap_get_u32(&qs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND], c->int32_order);
     if (locfail != NULL) {
         *locfail = qs[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND];
     }
@@ -485,8 +432,8 @@ static int mb_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
     {
         float fu = (float)((double)*u / (double)IT2N_PAR_ONE);
         float fw = (float)((double)*w / (double)IT2N_PAR_ONE);
-        put_f32(&regs[0], fu, c->word_order);
-        put_f32(&regs[2], fw, c->word_order);
+        it2n_regmap_put_f32(&regs[0], fu, c->word_order);
+        it2n_regmap_put_f32(&regs[2], fw, c->word_order);
         *u = (it2n_par)llround((double)fu * (double)IT2N_PAR_ONE);
         *w = (it2n_par)llround((double)fw * (double)IT2N_PAR_ONE);
         return query(c, IT2N_REG_Q_UF, 4, regs, pt, NULL);
@@ -505,19 +452,15 @@ static int mb_locate(void *p, it2n_val *x, it2n_val *y,
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    kx = to_scaled(*x, c->coord_scale);
-    ky = to_scaled(*y, c->coord_scale);
-    if (from_scaled(kx, c->coord_scale) == *x &&
-        from_scaled(ky, c->coord_scale) == *y && kx <= INT32_MAX &&
-        kx >= INT32_MIN && ky <= INT32_MAX && ky >= INT32_MIN) {
-        put32(&regs[0], (uint32_t)(int32_t)kx, c->int32_order);
-        put32(&regs[2], (uint32_t)(int32_t)ky, c->int32_order);
+    if (exact_scaled(*x, c->coord_scale, &kx) && exact_scaled(*y, c->coord_scale, &ky)) {
+        it2n_regmap_put_u32(&regs[0], (uint32_t)(int32_t)kx, c->int32_order);
+        it2n_regmap_put_u32(&regs[2], (uint32_t)(int32_t)ky, c->int32_order);
         rc = query(c, IT2N_REG_Q_XS, 4, regs, &pt, &fail);
     } else {
         float fx = (float)((double)*x / (double)IT2N_VAL_ONE);
         float fy = (float)((double)*y / (double)IT2N_VAL_ONE);
-        put_f32(&regs[0], fx, c->word_order);
-        put_f32(&regs[2], fy, c->word_order);
+        it2n_regmap_put_f32(&regs[0], fx, c->word_order);
+        it2n_regmap_put_f32(&regs[2], fy, c->word_order);
         *x = f2q(fx);
         *y = f2q(fy);
         rc = query(c, IT2N_REG_Q_XF, 4, regs, &pt, &fail);
@@ -559,7 +502,7 @@ static int mb_net(void *p, const ctl_status *st, ctl_net *net)
             }
             for (j = 0; j <= st->m; j++) {
                 for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                    (*net)[fp][i][j][ch] = f2q(get_f32(
+                    (*net)[fp][i][j][ch] = f2q(it2n_regmap_get_f32(
                         &r[(j * IT2N_REGMAP_CH + ch) * 2], c->word_order));
                 }
             }
@@ -650,7 +593,7 @@ static int mb_coef_row(void *p, const ctl_status *st, unsigned fp,
         done += cnt;
     }
     for (s = 0; s < st->net_cols; s++) {
-        out[s] = f2q(get_f32(&r[2u * s], c->word_order));
+        out[s] = f2q(it2n_regmap_get_f32(&r[2u * s], c->word_order));
     }
     return CTL_EXIT_OK;
 }

@@ -19,7 +19,7 @@ static int parse_bits(const char *v, int max, int *out)
     return 0;
 }
 
-int conf_parse_prefix(const char *s, struct conf_prefix *p, char *why, size_t size)
+int acl_parse_prefix(const char *s, struct acl_prefix *p, char *why, size_t size)
 {
     char buf[64];
     const char *slash = strchr(s, '/');
@@ -60,7 +60,7 @@ int conf_parse_prefix(const char *s, struct conf_prefix *p, char *why, size_t si
     return 0;
 }
 
-int conf_allowed(const struct conf_listen *l, const struct sockaddr *sa)
+int acl_allowed(const struct conf_listen *l, const struct sockaddr *sa)
 {
     uint8_t a[16];
     int fam;
@@ -82,7 +82,7 @@ int conf_allowed(const struct conf_listen *l, const struct sockaddr *sa)
         return 0;
     }
     for (int k = 0; k < l->nallow; k++) {
-        const struct conf_prefix *p = &l->allow[k];
+        const struct acl_prefix *p = &l->allow[k];
         int b = p->bits, full = b / 8, rest = b % 8;
         if (p->family != fam || memcmp(a, p->addr, (size_t)full))
             continue;

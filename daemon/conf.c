@@ -233,7 +233,7 @@ static int set_compound(struct parse *p, void *base, const struct conf_key *k, c
         for (tok = strtok_r(buf, ", \t", &save); tok; tok = strtok_r(NULL, ", \t", &save)) {
             if (l->nallow == CONF_MAX_ALLOW)
                 WHY("more than %d allow entries in this section", CONF_MAX_ALLOW);
-            if (conf_parse_prefix(tok, &l->allow[l->nallow], reason, sizeof reason))
+            if (acl_parse_prefix(tok, &l->allow[l->nallow], reason, sizeof reason))
                 WHY("%s", reason);
             l->nallow++;
         }

@@ -27,7 +27,7 @@ struct conf_listen {
     int line;                /* config line of the address, 0 built-in */
     int read_only;           /* 1: no Modbus write may change a model */
     int nallow;              /* 0: every client address */
-    struct conf_prefix allow[CONF_MAX_ALLOW];
+    struct acl_prefix allow[CONF_MAX_ALLOW];
 };
 
 struct conf_rtu {

@@ -1,22 +1,21 @@
 # daemon/: it2nd, the Linux daemon (Modbus TCP/RTU, links, persistence).
 # Exports IT2ND (host build) and IT2ND_SAN (ASan+UBSan build).
 DAEMON_PKGS := libmodbus inih libusb-1.0 libmicrohttpd libmosquitto libprotobuf-c libssl libcrypto
-DAEMON_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(BUILD)/daemon $(shell pkg-config --cflags $(DAEMON_PKGS) 2>/dev/null)
+DAEMON_CFLAGS := $(HOST_CFLAGS) -Idaemon $(REGMAP_INC) -I$(BUILD)/daemon $(shell pkg-config --cflags $(DAEMON_PKGS) 2>/dev/null)
 DAEMON_LIBS := $(shell pkg-config --libs $(DAEMON_PKGS) 2>/dev/null) -lm -pthread
 DAEMON_SRC := $(wildcard daemon/*.c)
 # The Sparkplug B payload code, generated from daemon/spb.proto by protoc-c
 # (docs/sparkplug.md, "Encoding").
 SPB_PB_C := $(BUILD)/daemon/spb.pb-c.c
 SPB_PB_H := $(BUILD)/daemon/spb.pb-c.h
-DAEMON_HDR := $(wildcard daemon/*.h) $(CORE_HDR) $(wildcard protocol/it2n_*.h) $(SPB_PB_H)
+DAEMON_HDR := $(wildcard daemon/*.h) $(REGMAP_HDR) $(CORE_HDR) $(wildcard protocol/it2n_*.h) $(SPB_PB_H)
 DAEMON_GEN := $(BUILD)/daemon/paper_data.c
 DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/host/%.o) $(BUILD)/host/daemon/paper_data.o $(BUILD)/host/daemon/spb.pb-c.o
 DAEMON_SAN_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/san/%.o) $(BUILD)/san/daemon/paper_data.o $(BUILD)/san/daemon/spb.pb-c.o
 IT2ND := $(BUILD)/host/it2nd
 IT2ND_SAN := $(BUILD)/san/it2nd
-GEN_REGISTERS := $(BUILD)/host/gen_registers
 
-ALL_TARGETS += $(IT2ND) $(GEN_REGISTERS)
+ALL_TARGETS += $(IT2ND)
 INSTALL_TARGETS += install-daemon
 
 # The paper's example data set compiled in (the CLI's CSV reader lives in cli/).
@@ -53,19 +52,11 @@ $(BUILD)/san/daemon/%.o: daemon/%.c $(DAEMON_HDR)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) -c $< -o $@
 
-$(IT2ND): $(DAEMON_OBJ) $(PROTO_LIB) $(CORE_LIB)
-	$(CC) $(DAEMON_CFLAGS) $(DAEMON_OBJ) -o $@ $(PROTO_LIB) $(CORE_LIB) $(DAEMON_LIBS)
+$(IT2ND): $(DAEMON_OBJ) $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB)
+	$(CC) $(DAEMON_CFLAGS) $(DAEMON_OBJ) -o $@ $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB) $(DAEMON_LIBS)
 
-$(IT2ND_SAN): $(DAEMON_SAN_OBJ) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
-	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) $(DAEMON_SAN_OBJ) -o $@ $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(DAEMON_LIBS)
-
-# docs/registers.md is generated from daemon/it2n_regmap.c.
-$(GEN_REGISTERS): daemon/tools/gen_registers.c daemon/it2n_regmap.c daemon/it2n_regmap.h
-	@mkdir -p $(@D)
-	$(CC) $(HOST_CFLAGS) -Idaemon daemon/tools/gen_registers.c daemon/it2n_regmap.c -o $@
-
-docs/registers.md: $(GEN_REGISTERS)
-	$(GEN_REGISTERS) > $@.tmp && mv $@.tmp $@
+$(IT2ND_SAN): $(DAEMON_SAN_OBJ) $(REGMAP_SAN_LIB) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
+	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) $(DAEMON_SAN_OBJ) -o $@ $(REGMAP_SAN_LIB) $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(DAEMON_LIBS)
 
 # make run PORT=15020 STATE=./state2 METRICS=127.0.0.1:9102: the same as
 # it2nd --listen 127.0.0.1:15020 --state-dir ./state2 --metrics ... (PORT

@@ -38,7 +38,7 @@ static int sig_pipe[2] = { -1, -1 };
 static struct conf cfg;
 static const char *conf_path;
 static struct conf_override ovr;  /* --listen, --state-dir, --metrics */
-static struct mb_opts mbo;
+static struct mb_map_opts mbo;
 static long snap_timer, wd_timer, recover_timer;
 static int snap_due, recover_due;
 

@@ -12,89 +12,17 @@
 _Static_assert(IT2N_DIM <= IT2N_REGMAP_DIM, "control-net stride of the map too small");
 _Static_assert(IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32 <= IT2N_REG_CTRL_END - IT2N_REG_CTRL,
                "scratch buffer holds the largest block");
+_Static_assert(IT2N_VAL_FRAC == IT2N_REGMAP_Q24_FRAC && IT2N_PAR_FRAC == IT2N_REGMAP_PAR_FRAC,
+               "the map's codecs carry the core's fixed point");
 _Static_assert(IT2N_FP_COUNT == IT2N_REGMAP_FP && IT2N_CH_COUNT == IT2N_REGMAP_CH,
                "map footprint/channel counts");
 
-/* 128-bit intermediates for exact scaling (GCC/Clang extension). */
-__extension__ typedef __int128 i128;
-
 #define QIDX(a) ((a) - IT2N_REG_Q_U16)
-
-/* A 32-bit value into two registers in one of the four orders. */
-static inline void put32(uint16_t out[2], uint32_t b, int word_order)
-{
-    uint16_t hi = (uint16_t)(b >> 16), lo = (uint16_t)b;
-    uint16_t shi = (uint16_t)((hi >> 8) | (hi << 8)), slo = (uint16_t)((lo >> 8) | (lo << 8));
-    switch (word_order) {
-    case IT2N_WO_CDAB: out[0] = lo; out[1] = hi; break;
-    case IT2N_WO_BADC: out[0] = shi; out[1] = slo; break;
-    case IT2N_WO_DCBA: out[0] = slo; out[1] = shi; break;
-    default: out[0] = hi; out[1] = lo; break;
-    }
-}
-
-static uint32_t get32(const uint16_t in[2], int word_order)
-{
-    uint16_t hi, lo;
-    switch (word_order) {
-    case IT2N_WO_CDAB: hi = in[1]; lo = in[0]; break;
-    case IT2N_WO_BADC: hi = (uint16_t)((in[0] >> 8) | (in[0] << 8)); lo = (uint16_t)((in[1] >> 8) | (in[1] << 8)); break;
-    case IT2N_WO_DCBA: hi = (uint16_t)((in[1] >> 8) | (in[1] << 8)); lo = (uint16_t)((in[0] >> 8) | (in[0] << 8)); break;
-    default: hi = in[0]; lo = in[1]; break;
-    }
-    return ((uint32_t)hi << 16) | lo;
-}
-
-void mbmap_put_f32(uint16_t out[2], float f, int word_order)
-{
-    uint32_t b;
-    memcpy(&b, &f, sizeof b);
-    put32(out, b, word_order);
-}
-
-float mbmap_get_f32(const uint16_t in[2], int word_order)
-{
-    uint32_t b = get32(in, word_order);
-    float f;
-    memcpy(&f, &b, sizeof f);
-    return f;
-}
-
-static inline float q24f(it2n_val v)
-{
-    /* v * 2^-24: exactly v / 2^24 (a power of two), without a division */
-    return (float)((double)v * (1.0 / (double)IT2N_VAL_ONE));
-}
-
-int64_t mbmap_scale(it2n_val v, int64_t scale, int64_t lo, int64_t hi, int *sat)
-{
-    /* |v| < 2^47 after the core's limits and scale <= 10000 < 2^14: the
-     * product fits int64. Round half away from zero. */
-    i128 s = (i128)v * scale;
-    i128 half = IT2N_VAL_ONE / 2;
-    i128 q = (s >= 0 ? s + half : s - half) / IT2N_VAL_ONE;
-    if (q > hi) {
-        *sat = 1;
-        return hi;
-    }
-    if (q < lo) {
-        *sat = 1;
-        return lo;
-    }
-    return (int64_t)q;
-}
 
 /* u32/i32 registers follow int32_word_order ([modbus]; by default the
  * float order, so a CDAB PLC sees CDAB everywhere). */
-#define put_u32(out, v) put32((out), (v), o->int32_order)
-#define get_u32(in) get32((in), o->int32_order)
-
-/* Scaled integer (register = value * scale) to Q24, exact rounding. */
-static it2n_val from_scaled(int64_t raw, int64_t scale)
-{
-    i128 s = (i128)raw * IT2N_VAL_ONE;
-    return (it2n_val)((s >= 0 ? s + scale / 2 : s - scale / 2) / scale);
-}
+#define put_u32(out, v) it2n_regmap_put_u32((out), (v), (unsigned)o->int32_order)
+#define get_u32(in) it2n_regmap_get_u32((in), (unsigned)o->int32_order)
 
 static uint16_t sat16(unsigned v)
 {
@@ -102,23 +30,23 @@ static uint16_t sat16(unsigned v)
 }
 
 /* Make sure q's cached result matches the model's current generation. */
-static int query_result(struct model *md, struct mb_query *q)
+static int query_result(struct model *md, struct mb_map_query *q)
 {
     if (md->state != IT2N_RS_SOLVED)
-        return MBX_BUSY;
+        return MB_MAP_BUSY;
     if (q->kind == 0)
-        return MBX_OK;
+        return MB_MAP_OK;
     if (q->valid && q->model_inst == md->instance && q->gen == md->gen)
-        return MBX_OK;
+        return MB_MAP_OK;
     memset(&q->pt, 0, sizeof q->pt);
     q->locfail = 0;
     if (q->kind == 1) {
         if (models_eval(md, q->u, q->w, &q->pt, NULL) != IT2N_OK)
-            return MBX_DEVICE_FAILURE;
+            return MB_MAP_DEVICE_FAILURE;
     } else {
         it2n_locate_result lr;
         if (models_locate(md, q->x, q->y, &lr, NULL) != IT2N_OK)
-            return MBX_DEVICE_FAILURE;
+            return MB_MAP_DEVICE_FAILURE;
         it2n_val mn[4][3], mx[4][3];
         static const int up[3] = { IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR };
         static const int low[3] = { IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL };
@@ -163,28 +91,7 @@ static int query_result(struct model *md, struct mb_query *q)
     q->valid = 1;
     q->model_inst = md->instance;
     q->gen = md->gen;
-    return MBX_OK;
-}
-
-/* n Q24 values as floats into 2n registers: the word order chosen once
- * per run, not per value (the result block is read with every query). */
-static void put_f32s(uint16_t *out, const it2n_val *v, unsigned n, int word_order)
-{
-    uint32_t b;
-    float f;
-#define PUT_F32S(wo)                                                                                        \
-    for (unsigned k = 0; k < n; k++) {                                                                      \
-        f = q24f(v[k]);                                                                                     \
-        memcpy(&b, &f, sizeof b);                                                                           \
-        put32(&out[2 * k], b, wo);                                                                          \
-    }
-    switch (word_order) {
-    case IT2N_WO_CDAB: PUT_F32S(IT2N_WO_CDAB) break;
-    case IT2N_WO_BADC: PUT_F32S(IT2N_WO_BADC) break;
-    case IT2N_WO_DCBA: PUT_F32S(IT2N_WO_DCBA) break;
-    default: PUT_F32S(IT2N_WO_ABCD) break;
-    }
-#undef PUT_F32S
+    return MB_MAP_OK;
 }
 
 static it2n_val sum_value(const it2n_summary *s, unsigned idx)
@@ -255,37 +162,37 @@ static const struct grid_cache *grid_of(const struct model *md, unsigned rows, u
 /* A sample-grid read of `span` registers (regs_per_node per node) can be
  * answered: inside the configured nodes, model solved, grid cache current
  * (*g set). */
-static int grid_ready(struct model *md, const struct mb_opts *o, unsigned span, unsigned regs_per_node,
+static int grid_ready(struct model *md, const struct mb_map_opts *o, unsigned span, unsigned regs_per_node,
                       const struct grid_cache **g)
 {
     if (span > o->grid_rows * o->grid_cols * regs_per_node)
-        return MBX_ILLEGAL_ADDRESS;
+        return MB_MAP_ILLEGAL_ADDRESS;
     if (md->state != IT2N_RS_SOLVED)
-        return MBX_BUSY;
+        return MB_MAP_BUSY;
     if (!(*g = grid_of(md, o->grid_rows, o->grid_cols)))
-        return MBX_DEVICE_FAILURE;
-    return MBX_OK;
+        return MB_MAP_DEVICE_FAILURE;
+    return MB_MAP_OK;
 }
 
 /* Grid values the x10000 view clamps (the saturation flag of the scaled
  * sample grid); 0 while the model is not solved. */
-static uint16_t grid_saturated(struct model *md, const struct mb_opts *o)
+static uint16_t grid_saturated(struct model *md, const struct mb_map_opts *o)
 {
     unsigned nodes = o->grid_rows * o->grid_cols, count = 0;
     const struct grid_cache *g;
-    if (grid_ready(md, o, 0, 1u, &g) != MBX_OK)
+    if (grid_ready(md, o, 0, 1u, &g) != MB_MAP_OK)
         return 0;
     for (unsigned nd = 0; nd < nodes; nd++)
         for (unsigned k = 0; k < 3; k++) {
             int sat = 0;
-            (void)mbmap_scale(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+            (void)it2n_regmap_q24_to_scaled(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
             count += sat != 0;
         }
     return (uint16_t)(count > 65535u ? 65535u : count);
 }
 
 /* Fill registers [start, end) of one block into buf (indexed from start). */
-static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts *o,
+static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o,
                       const it2n_regmap_block *b, uint16_t *buf, unsigned from, unsigned to)
 {
     unsigned len = b->end - b->start;
@@ -320,43 +227,43 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         r[IT2N_REG_KIND] = md->kind == MODEL_BSPLINE ? IT2N_KIND_BSPLINE : IT2N_KIND_BEZIER;
         r[IT2N_REG_NET_ROWS] = (uint16_t)(md->state == IT2N_RS_SOLVED ? models_net_rows(md) : 0u);
         r[IT2N_REG_NET_COLS] = (uint16_t)(md->state == IT2N_RS_SOLVED ? models_net_cols(md) : 0u);
-        return MBX_OK;
+        return MB_MAP_OK;
     }
     case IT2N_REG_PRESENT32:
         put_u32(&buf[0], models_present(md));
         put_u32(&buf[IT2N_REG_REQUIRED32 - IT2N_REG_PRESENT32], models_required(md));
-        return MBX_OK;
+        return MB_MAP_OK;
     case IT2N_REG_PG_FP:
         memcpy(buf, q->page, sizeof q->page);
-        return MBX_OK;
+        return MB_MAP_OK;
     case IT2N_REG_WIN: {
         unsigned fp = q->page[0], ch = q->page[1], row = q->page[2], cols = models_net_cols(md);
         unsigned first = (from - b->start) / 2, last = (to - b->start + 1) / 2;
         if (md->state != IT2N_RS_SOLVED)
-            return MBX_BUSY;
+            return MB_MAP_BUSY;
         if (row >= models_net_rows(md) || !models_has_fp(md, fp))
-            return MBX_OK; /* zeros */
+            return MB_MAP_OK; /* zeros */
         for (unsigned s = first; s < last && s < cols; s++)
-            mbmap_put_f32(&buf[s * 2], q24f(models_coef(md, row, s, fp, ch)), o->word_order);
-        return MBX_OK;
+            it2n_regmap_put_f32(&buf[s * 2], it2n_regmap_q24_to_f32(models_coef(md, row, s, fp, ch)), o->word_order);
+        return MB_MAP_OK;
     }
     case IT2N_REG_CFG_N:
         buf[0] = (uint16_t)models_n(md);
         buf[1] = (uint16_t)models_m(md);
         buf[2] = (uint16_t)models_flags(md);
         buf[3] = 0;
-        return MBX_OK;
+        return MB_MAP_OK;
     case IT2N_REG_UP_I:
         memcpy(buf, md->mb.upload, sizeof md->mb.upload);
-        return MBX_OK;
+        return MB_MAP_OK;
     case IT2N_REG_Q_U16:
         memcpy(buf, q->regs, sizeof q->regs);
-        return MBX_OK;
+        return MB_MAP_OK;
     case IT2N_REG_Q_KIND:
         rc = query_result(md, q);
-        if (rc == MBX_BUSY) { /* status stays readable while unsolved */
+        if (rc == MB_MAP_BUSY) { /* status stays readable while unsolved */
             buf[0] = (uint16_t)q->kind;
-            return MBX_OK;
+            return MB_MAP_OK;
         }
         if (rc)
             return rc;
@@ -364,37 +271,37 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
         put_u32(&buf[IT2N_REG_Q_GEN - IT2N_REG_Q_KIND], q->kind ? q->gen : 0);
         buf[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND] = q->locfail;
         put_u32(&buf[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND], q->pt.out_of_range);
-        return MBX_OK;
+        return MB_MAP_OK;
     case IT2N_REG_RES_F32:
-        if ((rc = query_result(md, q)) != MBX_OK)
+        if ((rc = query_result(md, q)) != MB_MAP_OK)
             return rc;
         if (q->kind == 0)
-            return MBX_OK;
-        put_f32s(buf, &q->pt.v[0][0], IT2N_FP_COUNT * IT2N_CH_COUNT, o->word_order);
+            return MB_MAP_OK;
+        it2n_regmap_put_q24_f32s(buf, &q->pt.v[0][0], IT2N_FP_COUNT * IT2N_CH_COUNT, o->word_order);
         {
             it2n_val sv[12];
             for (unsigned s = 0; s < 12; s++)
                 sv[s] = sum_value(&q->pt.sum, s);
-            put_f32s(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32], sv, 12, o->word_order);
+            it2n_regmap_put_q24_f32s(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32], sv, 12, o->word_order);
         }
-        return MBX_OK;
+        return MB_MAP_OK;
     case IT2N_REG_RES_SCALED:
-        if ((rc = query_result(md, q)) != MBX_OK)
+        if ((rc = query_result(md, q)) != MB_MAP_OK)
             return rc;
         if (q->kind == 0)
-            return MBX_OK;
+            return MB_MAP_OK;
         for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
             uint16_t *r = &buf[fp * IT2N_REG_RES_SCALED_STRIDE];
             uint16_t mask = 0;
             for (unsigned ch = 0; ch < 3; ch++) {
                 sat = 0;
-                int64_t v = mbmap_scale(q->pt.v[fp][ch], o->coord_scale, INT32_MIN, INT32_MAX, &sat);
+                int64_t v = it2n_regmap_q24_to_scaled(q->pt.v[fp][ch], o->coord_scale, INT32_MIN, INT32_MAX, &sat);
                 put_u32(&r[ch * 2], (uint32_t)(int32_t)v);
                 mask = (uint16_t)(mask | (sat ? 1u << ch : 0u));
             }
             for (unsigned k = 0; k < 3; k++) {
                 sat = 0;
-                int64_t v = mbmap_scale(q->pt.v[fp][IT2N_CH_T + k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+                int64_t v = it2n_regmap_q24_to_scaled(q->pt.v[fp][IT2N_CH_T + k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
                 r[6 + k] = (uint16_t)(int16_t)v;
                 mask = (uint16_t)(mask | (sat ? 1u << (3 + k) : 0u));
             }
@@ -404,70 +311,70 @@ static int fill_block(struct model *md, struct mb_query *q, const struct mb_opts
             uint16_t mask = 0;
             for (unsigned s = 0; s < 12; s++) {
                 sat = 0;
-                int64_t v = mbmap_scale(sum_value(&q->pt.sum, s), IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+                int64_t v = it2n_regmap_q24_to_scaled(sum_value(&q->pt.sum, s), IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
                 buf[IT2N_REG_SUM_SCALED - IT2N_REG_RES_SCALED + s] = (uint16_t)(int16_t)v;
                 mask = (uint16_t)(mask | (sat ? 1u << s : 0u));
             }
             buf[IT2N_REG_SAT_SUM - IT2N_REG_RES_SCALED] = mask;
         }
-        return MBX_OK;
+        return MB_MAP_OK;
     case IT2N_REG_GRID: {
         unsigned nodes = o->grid_rows * o->grid_cols;
         const struct grid_cache *g;
         int ready = grid_ready(md, o, to - b->start, 3u, &g);
-        if (ready != MBX_OK)
+        if (ready != MB_MAP_OK)
             return ready;
         for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++) {
                 sat = 0;
-                buf[nd * 3 + k] = (uint16_t)(int16_t)mbmap_scale(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767,
+                buf[nd * 3 + k] = (uint16_t)(int16_t)it2n_regmap_q24_to_scaled(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767,
                                                                  32767, &sat);
             }
-        return MBX_OK;
+        return MB_MAP_OK;
     }
     case IT2N_REG_GRID_F32: {
         unsigned nodes = o->grid_rows * o->grid_cols;
         const struct grid_cache *g;
         int ready = grid_ready(md, o, to - b->start, 6u, &g);
-        if (ready != MBX_OK)
+        if (ready != MB_MAP_OK)
             return ready;
         for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++)
-                mbmap_put_f32(&buf[(nd * 3 + k) * 2], q24f(g->v[nd][k]), o->word_order);
-        return MBX_OK;
+                it2n_regmap_put_f32(&buf[(nd * 3 + k) * 2], it2n_regmap_q24_to_f32(g->v[nd][k]), o->word_order);
+        return MB_MAP_OK;
     }
     case IT2N_REG_CTRL: {
         if (md->kind != MODEL_BEZIER)
-            return MBX_ILLEGAL_ADDRESS; /* its nets are read through coef_window */
+            return MB_MAP_ILLEGAL_ADDRESS; /* its nets are read through coef_window */
         if (md->state != IT2N_RS_SOLVED)
-            return MBX_BUSY;
+            return MB_MAP_BUSY;
         /* Only the requested span: the block is 5376 registers. */
         unsigned first = (from - b->start) / 2, last = (to - b->start + 1) / 2;
         for (unsigned e = first; e < last; e++) {
             unsigned ch = e % 6, j = (e / 6) % 8, i = (e / 48) % 8, fp = e / 384;
             if (i <= md->mdl.n && j <= md->mdl.m && it2n_model_has_fp(&md->mdl, fp))
-                mbmap_put_f32(&buf[e * 2], q24f(it2n_model_ctrl(&md->mdl, i, j, fp, ch)), o->word_order);
+                it2n_regmap_put_f32(&buf[e * 2], it2n_regmap_q24_to_f32(it2n_model_ctrl(&md->mdl, i, j, fp, ch)), o->word_order);
         }
-        return MBX_OK;
+        return MB_MAP_OK;
     }
     default:
-        return MBX_ILLEGAL_ADDRESS;
+        return MB_MAP_ILLEGAL_ADDRESS;
     }
 }
 
-int mbmap_read(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
                unsigned count, uint16_t *out)
 {
     static uint16_t buf[IT2N_REG_CTRL_END - IT2N_REG_CTRL]; /* the largest block */
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     int rc;
     if (!b)
-        return MBX_ILLEGAL_ADDRESS;
+        return MB_MAP_ILLEGAL_ADDRESS;
     rc = fill_block(md, q, o, b, buf, addr, addr + count);
     if (rc)
         return rc;
     memcpy(out, &buf[addr - b->start], count * sizeof *out);
-    return MBX_OK;
+    return MB_MAP_OK;
 }
 
 static int map_core_err(int code)
@@ -476,11 +383,11 @@ static int map_core_err(int code)
     case IT2N_ERR_INVAL:
     case IT2N_ERR_RANGE:
     case IT2N_ERR_DUPLICATE:
-        return MBX_ILLEGAL_VALUE;
+        return MB_MAP_ILLEGAL_VALUE;
     case IT2N_ERR_MISSING:
-        return MBX_BUSY;
+        return MB_MAP_BUSY;
     default:
-        return MBX_DEVICE_FAILURE;
+        return MB_MAP_DEVICE_FAILURE;
     }
 }
 
@@ -504,9 +411,9 @@ static int refused_err(struct model *md, const it2n_errinfo *err)
     return map_core_err(err->code);
 }
 
-void mbmap_refused(struct model *md, int exc)
+void mb_map_refused(struct model *md, int exc)
 {
-    refused(md, exc, exc == MBX_BUSY ? IT2N_ERR_STATE : IT2N_ERR_INVAL, -1, -1, -1);
+    refused(md, exc, exc == MB_MAP_BUSY ? IT2N_ERR_STATE : IT2N_ERR_INVAL, -1, -1, -1);
 }
 
 static int write_config(struct model *md, unsigned addr, unsigned count, const uint16_t *v,
@@ -528,12 +435,12 @@ static int write_config(struct model *md, unsigned addr, unsigned count, const u
             cmd = v[k];
     }
     if (n < 1 || n > max || m < 1 || m > max || (flags & ~IT2N_F_ALL) || cmd > IT2N_CMD_CLEAR)
-        return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
+        return refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
     int changed = n != models_n(md) || m != models_m(md) || flags != models_flags(md);
     if (cmd == IT2N_CMD_COMMIT && changed)
-        return refused(md, MBX_BUSY, IT2N_ERR_MISSING, -1, -1, -1); /* a fresh configuration has no points */
+        return refused(md, MB_MAP_BUSY, IT2N_ERR_MISSING, -1, -1, -1); /* a fresh configuration has no points */
     if (cmd == IT2N_CMD_COMMIT && models_missing(md) != 0)
-        return refused(md, MBX_BUSY, IT2N_ERR_MISSING, -1, -1, -1);
+        return refused(md, MB_MAP_BUSY, IT2N_ERR_MISSING, -1, -1, -1);
     if (changed) {
         rc = models_configure(md, n, m, flags, &err);
         if (rc)
@@ -542,7 +449,7 @@ static int write_config(struct model *md, unsigned addr, unsigned count, const u
     }
     if (cmd == IT2N_CMD_CLEAR) {
         if ((rc = models_clear(md)) != 0)
-            return refused(md, MBX_DEVICE_FAILURE, rc, -1, -1, -1);
+            return refused(md, MB_MAP_DEVICE_FAILURE, rc, -1, -1, -1);
         *persisted = 1;
     } else if (cmd == IT2N_CMD_COMMIT) {
         rc = models_commit(md, &err);
@@ -550,35 +457,35 @@ static int write_config(struct model *md, unsigned addr, unsigned count, const u
             return refused_err(md, &err);
         *persisted = 1;
     }
-    return MBX_OK;
+    return MB_MAP_OK;
 }
 
-static int write_upload(struct model *md, const struct mb_opts *o, unsigned addr, unsigned count,
+static int write_upload(struct model *md, const struct mb_map_opts *o, unsigned addr, unsigned count,
                         const uint16_t *v, int *persisted)
 {
     it2n_val vals[IT2N_CH_COUNT] = { 0 };
     it2n_errinfo err;
     int rc;
     if (addr != IT2N_REG_UP_I || count != IT2N_REG_UPLOAD_END - IT2N_REG_UP_I)
-        return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
+        return refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
 #define UP(a) v[(a) - IT2N_REG_UP_I]
     unsigned i = UP(IT2N_REG_UP_I), j = UP(IT2N_REG_UP_J), fp = UP(IT2N_REG_UP_FP);
     if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT)
-        return refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_INVAL, i > 0x7FFF ? -1 : (int)i, j > 0x7FFF ? -1 : (int)j,
+        return refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_INVAL, i > 0x7FFF ? -1 : (int)i, j > 0x7FFF ? -1 : (int)j,
                        fp >= IT2N_FP_COUNT ? -1 : (int)fp);
     for (unsigned c = 0; c < 3; c++)
-        vals[c] = from_scaled((int32_t)get_u32(&UP(IT2N_REG_UP_X + 2 * c)), o->coord_scale);
+        vals[c] = it2n_regmap_q24_from_scaled((int32_t)get_u32(&UP(IT2N_REG_UP_X + 2 * c)), o->coord_scale);
     for (unsigned k = 0; k < 3; k++) {
         unsigned t = UP(IT2N_REG_UP_T + k);
         if (t > IT2N_REGMAP_MEMB_SCALE) {
-            refused(md, MBX_ILLEGAL_VALUE, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp);
+            refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp);
             md->last_err.ch = (int8_t)(IT2N_CH_T + k);
-            md->last_err.value = from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
+            md->last_err.value = it2n_regmap_q24_from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
             md->last_err.lo = 0;
             md->last_err.hi = IT2N_VAL_ONE;
-            return MBX_ILLEGAL_VALUE;
+            return MB_MAP_ILLEGAL_VALUE;
         }
-        vals[IT2N_CH_T + k] = from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
+        vals[IT2N_CH_T + k] = it2n_regmap_q24_from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
     }
 #undef UP
     rc = models_put(md, i, j, fp, vals, true, &err);
@@ -586,8 +493,8 @@ static int write_upload(struct model *md, const struct mb_opts *o, unsigned addr
         return refused_err(md, &err);
     *persisted = 1; /* a failure below: the caller's transaction undoes the point */
     if (models_set_upload(md, v))
-        return refused(md, MBX_DEVICE_FAILURE, IT2ND_ERR_NOMEM, -1, -1, -1);
-    return MBX_OK;
+        return refused(md, MB_MAP_DEVICE_FAILURE, IT2ND_ERR_NOMEM, -1, -1, -1);
+    return MB_MAP_OK;
 }
 
 /* Does [addr, addr+count) cut a 32-bit value starting at `a` in half? */
@@ -608,68 +515,68 @@ static int par_from_f32(float f, it2n_par *out)
 /* The two views of a query input say the same: after a write of q_u the
  * float q_u_f reads the new u and vice versa (likewise w, and x, y in
  * scaled and float form), each rounded from the value in use. */
-static void sync_views(struct mb_query *q, const struct mb_opts *o)
+static void sync_views(struct mb_map_query *q, const struct mb_map_opts *o)
 {
     int sat = 0;
     if (q->kind == 1) {
-        q->regs[QIDX(IT2N_REG_Q_U16)] = (uint16_t)(((i128)q->u * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) / IT2N_PAR_ONE);
-        q->regs[QIDX(IT2N_REG_Q_W16)] = (uint16_t)(((i128)q->w * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) / IT2N_PAR_ONE);
-        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE), o->word_order);
-        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE), o->word_order);
+        q->regs[QIDX(IT2N_REG_Q_U16)] = it2n_regmap_par_to_u16(q->u);
+        q->regs[QIDX(IT2N_REG_Q_W16)] = it2n_regmap_par_to_u16(q->w);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE), o->word_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE), o->word_order);
     } else if (q->kind == 2) {
         put_u32(&q->regs[QIDX(IT2N_REG_Q_XS)],
-                (uint32_t)(int32_t)mbmap_scale(q->x, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
+                (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->x, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
         put_u32(&q->regs[QIDX(IT2N_REG_Q_YS)],
-                (uint32_t)(int32_t)mbmap_scale(q->y, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
-        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_XF)], q24f(q->x), o->word_order);
-        mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_YF)], q24f(q->y), o->word_order);
+                (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->y, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_XF)], it2n_regmap_q24_to_f32(q->x), o->word_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_YF)], it2n_regmap_q24_to_f32(q->y), o->word_order);
     }
 }
 
-static int write_query(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+static int write_query(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
                        unsigned count, const uint16_t *v)
 {
-    struct mb_query nq = *q;
+    struct mb_map_query nq = *q;
     unsigned end = addr + count;
     static const unsigned wide[] = { IT2N_REG_Q_UF, IT2N_REG_Q_WF, IT2N_REG_Q_XS, IT2N_REG_Q_YS,
                                      IT2N_REG_Q_XF, IT2N_REG_Q_YF };
     (void)md;
     for (unsigned k = 0; k < sizeof wide / sizeof wide[0]; k++)
         if (cuts(addr, count, wide[k]))
-            return MBX_ILLEGAL_VALUE;
+            return MB_MAP_ILLEGAL_VALUE;
     int uv = addr < IT2N_REG_Q_XS, xy = end > IT2N_REG_Q_XS;
     if (uv && xy)
-        return MBX_ILLEGAL_VALUE;
+        return MB_MAP_ILLEGAL_VALUE;
     memcpy(&nq.regs[QIDX(addr)], v, count * sizeof *v);
 #define IN(a) (addr <= (a) && (a) < end)
     if (uv) {
         if (IN(IT2N_REG_Q_U16)) {
             if (nq.regs[QIDX(IT2N_REG_Q_U16)] > IT2N_REGMAP_MEMB_SCALE)
-                return MBX_ILLEGAL_VALUE;
-            nq.u = (it2n_par)(((i128)nq.regs[QIDX(IT2N_REG_Q_U16)] * IT2N_PAR_ONE + 5000) / 10000);
-        } else if (IN(IT2N_REG_Q_UF) && par_from_f32(mbmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_UF)], o->word_order), &nq.u)) {
-            return MBX_ILLEGAL_VALUE;
+                return MB_MAP_ILLEGAL_VALUE;
+            nq.u = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REG_Q_U16)]);
+        } else if (IN(IT2N_REG_Q_UF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_UF)], o->word_order), &nq.u)) {
+            return MB_MAP_ILLEGAL_VALUE;
         }
         if (IN(IT2N_REG_Q_W16)) {
             if (nq.regs[QIDX(IT2N_REG_Q_W16)] > IT2N_REGMAP_MEMB_SCALE)
-                return MBX_ILLEGAL_VALUE;
-            nq.w = (it2n_par)(((i128)nq.regs[QIDX(IT2N_REG_Q_W16)] * IT2N_PAR_ONE + 5000) / 10000);
-        } else if (IN(IT2N_REG_Q_WF) && par_from_f32(mbmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_WF)], o->word_order), &nq.w)) {
-            return MBX_ILLEGAL_VALUE;
+                return MB_MAP_ILLEGAL_VALUE;
+            nq.w = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REG_Q_W16)]);
+        } else if (IN(IT2N_REG_Q_WF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_WF)], o->word_order), &nq.w)) {
+            return MB_MAP_ILLEGAL_VALUE;
         }
         nq.kind = 1;
     } else {
         if (IN(IT2N_REG_Q_XS))
-            nq.x = from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_XS)]), o->coord_scale);
+            nq.x = it2n_regmap_q24_from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_XS)]), o->coord_scale);
         if (IN(IT2N_REG_Q_YS))
-            nq.y = from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_YS)]), o->coord_scale);
+            nq.y = it2n_regmap_q24_from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_YS)]), o->coord_scale);
         for (int c = 0; c < 2; c++) {
             unsigned a = c ? IT2N_REG_Q_YF : IT2N_REG_Q_XF;
             if (!IN(a))
                 continue;
-            float f = mbmap_get_f32(&nq.regs[QIDX(a)], o->word_order);
+            float f = it2n_regmap_get_f32(&nq.regs[QIDX(a)], o->word_order);
             if (!isfinite(f) || fabsf(f) > (float)IT2N_COORD_LIMIT)
-                return MBX_ILLEGAL_VALUE;
+                return MB_MAP_ILLEGAL_VALUE;
             it2n_val val = (it2n_val)llround((double)f * (double)IT2N_VAL_ONE);
             if (c)
                 nq.y = val;
@@ -678,17 +585,17 @@ static int write_query(struct model *md, struct mb_query *q, const struct mb_opt
         }
         if (nq.x > (it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE || nq.x < -(it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE ||
             nq.y > (it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE || nq.y < -(it2n_val)IT2N_COORD_LIMIT * IT2N_VAL_ONE)
-            return MBX_ILLEGAL_VALUE;
+            return MB_MAP_ILLEGAL_VALUE;
         nq.kind = 2;
     }
 #undef IN
     sync_views(&nq, o);
     nq.valid = 0;
     *q = nq;
-    return MBX_OK;
+    return MB_MAP_OK;
 }
 
-int mbmap_write_changes_model(unsigned addr, unsigned count)
+int mb_map_write_changes_model(unsigned addr, unsigned count)
 {
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     return b && b->access == IT2N_RA_RW && !b->per_conn; /* per connection: query inputs, coefficient page */
@@ -696,23 +603,23 @@ int mbmap_write_changes_model(unsigned addr, unsigned count)
 
 /* Select a coefficient page: every value within its limit, or 03 and
  * nothing changed. */
-static int write_page(struct mb_query *q, unsigned addr, unsigned count, const uint16_t *v)
+static int write_page(struct mb_map_query *q, unsigned addr, unsigned count, const uint16_t *v)
 {
     static const unsigned lim[] = { IT2N_REGMAP_FP, IT2N_REGMAP_CH, IT2N_REGMAP_WIN_ROWS };
     for (unsigned k = 0; k < count; k++)
         if (v[k] >= lim[addr - IT2N_REG_PG_FP + k])
-            return MBX_ILLEGAL_VALUE;
+            return MB_MAP_ILLEGAL_VALUE;
     memcpy(&q->page[addr - IT2N_REG_PG_FP], v, count * sizeof *v);
-    return MBX_OK;
+    return MB_MAP_OK;
 }
 
-int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
                 unsigned count, const uint16_t *vals, int *persisted)
 {
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     *persisted = 0;
     if (!b || b->access != IT2N_RA_RW)
-        return refused(md, MBX_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
+        return refused(md, MB_MAP_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
     switch (b->start) {
     case IT2N_REG_CFG_N:
         return write_config(md, addr, count, vals, persisted);
@@ -720,13 +627,13 @@ int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, u
         return write_upload(md, o, addr, count, vals, persisted);
     case IT2N_REG_Q_U16: {
         int rc = write_query(md, q, o, addr, count, vals);
-        return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MBX_OK;
+        return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MB_MAP_OK;
     }
     case IT2N_REG_PG_FP: {
         int rc = write_page(q, addr, count, vals);
-        return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MBX_OK;
+        return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MB_MAP_OK;
     }
     default:
-        return refused(md, MBX_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
+        return refused(md, MB_MAP_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
     }
 }

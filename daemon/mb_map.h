@@ -1,4 +1,4 @@
-/* mb_map — serving the register map (daemon/it2n_regmap.h) for one model:
+/* mb_map — serving the register map (regmap/it2n_regmap.h) for one model:
  * reads fill registers from the model and the connection's query; writes
  * are validated completely before anything changes. Returns Modbus
  * exception codes so the transports only frame. No I/O here. */
@@ -12,16 +12,16 @@
 
 /* Modbus exception codes used by the map. */
 enum {
-    MBX_OK = 0,
-    MBX_ILLEGAL_FUNCTION = 0x01,
-    MBX_ILLEGAL_ADDRESS = 0x02,
-    MBX_ILLEGAL_VALUE = 0x03,
-    MBX_DEVICE_FAILURE = 0x04,
-    MBX_BUSY = 0x06,
-    MBX_GATEWAY_TARGET = 0x0B
+    MB_MAP_OK = 0,
+    MB_MAP_ILLEGAL_FUNCTION = 0x01,
+    MB_MAP_ILLEGAL_ADDRESS = 0x02,
+    MB_MAP_ILLEGAL_VALUE = 0x03,
+    MB_MAP_DEVICE_FAILURE = 0x04,
+    MB_MAP_BUSY = 0x06,
+    MB_MAP_GATEWAY_TARGET = 0x0B
 };
 
-struct mb_opts {
+struct mb_map_opts {
     int word_order;      /* enum it2n_regmap_order */
     int32_t coord_scale; /* coordinates: register = value * scale */
     unsigned grid_rows, grid_cols;
@@ -36,10 +36,10 @@ struct mb_opts {
 
 /* Does a write of count registers at addr change the model (configuration
  * or upload block), as opposed to the per-connection query registers? */
-int mbmap_write_changes_model(unsigned addr, unsigned count);
+int mb_map_write_changes_model(unsigned addr, unsigned count);
 
 /* Per-connection query state. Zero-initialise. */
-struct mb_query {
+struct mb_map_query {
     uint16_t regs[IT2N_REG_QUERY_END - IT2N_REG_Q_U16]; /* inputs as written */
     int kind;            /* 0 none, 1 (u, w), 2 (x, y) */
     it2n_par u, w;
@@ -55,28 +55,20 @@ struct mb_query {
     uint16_t page[IT2N_REG_PAGE_END - IT2N_REG_PG_FP];
 };
 
-/* Encode a float into two registers in the given word order. */
-void mbmap_put_f32(uint16_t out[2], float f, int word_order);
-/* Decode two registers in the given word order. */
-float mbmap_get_f32(const uint16_t in[2], int word_order);
-
-/* Q24 to a scaled integer, rounded, clamped to [lo, hi]; *sat set on clamp. */
-int64_t mbmap_scale(it2n_val v, int64_t scale, int64_t lo, int64_t hi, int *sat);
-
-/* Read count registers from addr into out. Returns MBX_OK or an exception
+/* Read count registers from addr into out. Returns MB_MAP_OK or an exception
  * (02 outside the map, 06 results while unsolved, 04 evaluation failure). */
-int mbmap_read(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
                unsigned count, uint16_t *out);
 
 /* Write count registers. Validates fully first; on any exception nothing
  * changed but the model's last_error, which says why (an it2n code, or
  * the daemon's, errs.h). *persisted set to 1 when the model changed (the
  * reply must wait for the WAL commit). */
-int mbmap_write(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
+int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
                 unsigned count, const uint16_t *vals, int *persisted);
 
-/* A write request refused before mbmap_write (malformed PDU: exception
+/* A write request refused before mb_map_write (malformed PDU: exception
  * exc): set the model's last_error accordingly. */
-void mbmap_refused(struct model *md, int exc);
+void mb_map_refused(struct model *md, int exc);
 
 #endif

@@ -12,7 +12,7 @@
 #include "metrics.h"
 #include "store.h"
 
-int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp)
+int mb_req_session_init(struct mb_req_session *s, modbus_t *ctx, int is_tcp)
 {
     memset(s, 0, sizeof *s);
     s->ctx = ctx;
@@ -20,7 +20,7 @@ int mb_session_init(struct mb_session *s, modbus_t *ctx, int is_tcp)
     return 0;
 }
 
-void mb_session_free(struct mb_session *s)
+void mb_req_session_free(struct mb_req_session *s)
 {
     s->rsp_len = 0;
 }
@@ -32,7 +32,7 @@ void mb_session_free(struct mb_session *s)
  * slave address (the CRC is added when sent). FC 03/04/23 carry the
  * registers read (regs, n), FC 06 echoes the request, FC 16 echoes its
  * address and count. */
-static void frame_reply(struct mb_session *s, const uint8_t *req, int fc, const uint16_t *regs, unsigned n)
+static void frame_reply(struct mb_req_session *s, const uint8_t *req, int fc, const uint16_t *regs, unsigned n)
 {
     uint8_t *r = s->rsp;
     size_t hl = s->is_tcp ? 7u : 1u, k = hl;
@@ -77,7 +77,7 @@ static void frame_reply(struct mb_session *s, const uint8_t *req, int fc, const 
 /* Send s->rsp: TCP, one send(); RTU through libmodbus (CRC, RS-485
  * direction control), no reply to a broadcast (as modbus_reply). A short
  * send is a failure, as in libmodbus. Returns 0 or -1. */
-static int send_reply(struct mb_session *s)
+static int send_reply(struct mb_req_session *s)
 {
     int len = s->rsp_len;
     s->rsp_len = 0;
@@ -97,7 +97,7 @@ static int send_reply(struct mb_session *s)
  * unchanged (top bit already set, so it reads as an exception) by handing
  * libmodbus a copy with bit 7 cleared; header and transaction id are the
  * request's. */
-static int exception(struct mb_session *s, struct model *md, const uint8_t *req, int code)
+static int exception(struct mb_req_session *s, struct model *md, const uint8_t *req, int code)
 {
     int hl = modbus_get_header_length(s->ctx);
     if (md)
@@ -114,9 +114,9 @@ static int exception(struct mb_session *s, struct model *md, const uint8_t *req,
 }
 
 /* A write request refused before it reached the map: last_error too. */
-static int refuse_write(struct mb_session *s, struct model *md, const uint8_t *req, int code)
+static int refuse_write(struct mb_req_session *s, struct model *md, const uint8_t *req, int code)
 {
-    mbmap_refused(md, code);
+    mb_map_refused(md, code);
     return exception(s, md, req, code);
 }
 
@@ -135,37 +135,37 @@ static unsigned u16at(const uint8_t *p)
  * exception is answered at once: it means "nothing changed" (security
  * finding 8). A write refused before any change keeps its own report
  * (last_error). */
-static int write_req(struct mb_session *s, struct model *md, const struct mb_opts *o, unsigned waddr,
+static int write_req(struct mb_req_session *s, struct model *md, const struct mb_map_opts *o, unsigned waddr,
                      unsigned wcount, const uint16_t *vals, unsigned raddr, unsigned rcount, uint16_t *regs,
                      int *persisted)
 {
     int rc;
     *persisted = 0;
-    if (!mbmap_write_changes_model(waddr, wcount)) {
+    if (!mb_map_write_changes_model(waddr, wcount)) {
         /* Query registers: per connection, the model is not touched (no
          * transaction, no copy). write_query validates completely before
          * it changes s->q, so an exception leaves s->q as it was. The read
          * half reads like FC 04: the last durable state. */
-        rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, persisted);
-        if (rc == MBX_OK && rcount > 0)
-            rc = mbmap_read(models_view(md), &s->q, o, raddr, rcount, regs);
+        rc = mb_map_write(md, &s->q, o, waddr, wcount, vals, persisted);
+        if (rc == MB_MAP_OK && rcount > 0)
+            rc = mb_map_read(models_view(md), &s->q, o, raddr, rcount, regs);
         return rc;
     }
-    struct mb_query q = s->q;
+    struct mb_map_query q = s->q;
     struct model_txn t;
     models_txn_begin(&t);
-    rc = mbmap_write(md, &s->q, o, waddr, wcount, vals, persisted);
+    rc = mb_map_write(md, &s->q, o, waddr, wcount, vals, persisted);
     /* The read half of FC 23: a write reads the model it just changed
      * (its reply waits for that change to be durable); a write that
      * changed nothing reads like FC 04, the last durable state. */
-    if (rc == MBX_OK && rcount > 0)
-        rc = mbmap_read(*persisted ? md : models_view(md), &s->q, o, raddr, rcount, regs);
-    if (rc != MBX_OK && *persisted) {
+    if (rc == MB_MAP_OK && rcount > 0)
+        rc = mb_map_read(*persisted ? md : models_view(md), &s->q, o, raddr, rcount, regs);
+    if (rc != MB_MAP_OK && *persisted) {
         it2n_errinfo why = md->last_err;
         models_txn_rollback(&t); /* the model and the WAL records queued since begin */
         md->last_err = why;
-        if (rc == MBX_BUSY && !why.code) /* the read half: results of a model no longer solved */
-            mbmap_refused(md, rc);
+        if (rc == MB_MAP_BUSY && !why.code) /* the read half: results of a model no longer solved */
+            mb_map_refused(md, rc);
         s->q = q;
         *persisted = 0;
     } else {
@@ -182,10 +182,10 @@ static int write_req(struct mb_session *s, struct model *md, const struct mb_opt
  * client of the model) is left as it was. Query registers stay writable:
  * querying is reading. The first refusal per session is logged at notice
  * level, the rest at debug. */
-static int write_denied(struct mb_session *s, int unit, const struct mb_opts *o, unsigned addr, unsigned count)
+static int write_denied(struct mb_req_session *s, int unit, const struct mb_map_opts *o, unsigned addr, unsigned count)
 {
     int prot = (o->write_protect[unit / 8] >> (unit % 8)) & 1;
-    if ((!s->read_only && !prot) || !mbmap_write_changes_model(addr, count))
+    if ((!s->read_only && !prot) || !mb_map_write_changes_model(addr, count))
         return 0;
     int first = s->refused++ == 0;
     log_msg(first ? LOG_NOTICE : LOG_DEBUG, "%s: write to unit %d registers %u..%u refused: %s%s",
@@ -195,7 +195,7 @@ static int write_denied(struct mb_session *s, int unit, const struct mb_opts *o,
     return 1;
 }
 
-int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struct mb_opts *o)
+int mb_req_handle(struct mb_req_session *s, const uint8_t *req, int len, const struct mb_map_opts *o)
 {
     int hl = modbus_get_header_length(s->ctx);
     int unit, fc, rc, persisted = 0;
@@ -223,42 +223,42 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         /* RTU: another slave on the bus (or broadcast) — stay silent. */
         if (!s->is_tcp)
             return 0;
-        return exception(s, NULL, req, MBX_GATEWAY_TARGET);
+        return exception(s, NULL, req, MB_MAP_GATEWAY_TARGET);
     }
     md->mb.requests++;
     switch (fc) {
     case MODBUS_FC_READ_HOLDING_REGISTERS:
     case MODBUS_FC_READ_INPUT_REGISTERS: {
         if (plen != 5)
-            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+            return exception(s, md, req, MB_MAP_ILLEGAL_VALUE);
         unsigned addr = u16at(pdu + 1), count = u16at(pdu + 3);
         if (count < 1 || count > MODBUS_MAX_READ_REGISTERS)
-            return exception(s, md, req, MBX_ILLEGAL_VALUE);
+            return exception(s, md, req, MB_MAP_ILLEGAL_VALUE);
         if (addr + count > IT2N_REG_MAP_END)
-            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
+            return exception(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
         /* Readers see the last durable state (models_view), never a
          * change whose batch is still being written. */
-        rc = mbmap_read(models_view(md), &s->q, o, addr, count, regs);
+        rc = mb_map_read(models_view(md), &s->q, o, addr, count, regs);
         nregs = count;
         break;
     }
     case MODBUS_FC_WRITE_SINGLE_REGISTER: {
         if (plen != 5)
-            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MB_MAP_ILLEGAL_VALUE);
         vals[0] = (uint16_t)u16at(pdu + 3);
         if (write_denied(s, unit, o, u16at(pdu + 1), 1))
-            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
+            return exception(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
         rc = write_req(s, md, o, u16at(pdu + 1), 1, vals, 0, 0, NULL, &persisted);
         break;
     }
     case MODBUS_FC_WRITE_MULTIPLE_REGISTERS: {
         if (plen < 6)
-            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MB_MAP_ILLEGAL_VALUE);
         unsigned addr = u16at(pdu + 1), count = u16at(pdu + 3), bytes = pdu[5];
         if (count < 1 || count > MODBUS_MAX_WRITE_REGISTERS || bytes != count * 2 || plen != 6 + (int)bytes)
-            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MB_MAP_ILLEGAL_VALUE);
         if (write_denied(s, unit, o, addr, count))
-            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
+            return exception(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < count; k++)
             vals[k] = (uint16_t)u16at(pdu + 6 + 2 * k);
         rc = write_req(s, md, o, addr, count, vals, 0, 0, NULL, &persisted);
@@ -266,32 +266,32 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
     }
     case MODBUS_FC_WRITE_AND_READ_REGISTERS: {
         if (plen < 10)
-            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MB_MAP_ILLEGAL_VALUE);
         unsigned raddr = u16at(pdu + 1), rcount = u16at(pdu + 3);
         unsigned waddr = u16at(pdu + 5), wcount = u16at(pdu + 7), bytes = pdu[9];
         if (rcount < 1 || rcount > MODBUS_MAX_WR_READ_REGISTERS || wcount < 1 ||
             wcount > MODBUS_MAX_WR_WRITE_REGISTERS || bytes != wcount * 2 || plen != 10 + (int)bytes)
-            return refuse_write(s, md, req, MBX_ILLEGAL_VALUE);
+            return refuse_write(s, md, req, MB_MAP_ILLEGAL_VALUE);
         /* Check the read range before writing, so a bad read changes nothing. */
         if (!it2n_regmap_find(raddr, rcount))
-            return refuse_write(s, md, req, MBX_ILLEGAL_ADDRESS);
+            return refuse_write(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
         if (write_denied(s, unit, o, waddr, wcount))
-            return exception(s, md, req, MBX_ILLEGAL_ADDRESS);
+            return exception(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < wcount; k++)
             vals[k] = (uint16_t)u16at(pdu + 10 + 2 * k);
         rc = write_req(s, md, o, waddr, wcount, vals, raddr, rcount, regs, &persisted);
         /* As libmodbus' modbus_reply (which stored the written values
          * before reading): an overlapping read echoes what was written. */
-        for (unsigned k = 0; rc == MBX_OK && k < wcount; k++)
+        for (unsigned k = 0; rc == MB_MAP_OK && k < wcount; k++)
             if (waddr + k >= raddr && waddr + k < raddr + rcount)
                 regs[waddr + k - raddr] = vals[k];
         nregs = rcount;
         break;
     }
     default:
-        return exception(s, md, req, MBX_ILLEGAL_FUNCTION);
+        return exception(s, md, req, MB_MAP_ILLEGAL_FUNCTION);
     }
-    if (rc == MBX_OK)
+    if (rc == MB_MAP_OK)
         frame_reply(s, req, fc, regs, nregs);
     if (persisted) {
         /* Held until the WAL commit (the reply framed now: the registers
@@ -303,15 +303,15 @@ int mb_req_handle(struct mb_session *s, const uint8_t *req, int len, const struc
         s->held_batch = store_batch();
         return 1;
     }
-    if (rc != MBX_OK)
+    if (rc != MB_MAP_OK)
         return exception(s, md, req, rc);
     metrics_modbus_reply(fc, 0);
     return send_reply(s);
 }
 
-int mb_req_release(struct mb_session *s, int commit_ok)
+int mb_req_release(struct mb_req_session *s, int commit_ok)
 {
-    int len = s->held_len, exc = commit_ok ? s->held_exc : MBX_DEVICE_FAILURE;
+    int len = s->held_len, exc = commit_ok ? s->held_exc : MB_MAP_DEVICE_FAILURE;
     s->held_len = 0;
     if (len <= 0)
         return 0;
@@ -325,7 +325,7 @@ int mb_req_release(struct mb_session *s, int commit_ok)
         md->last_err.i = md->last_err.j = -1;
         md->last_err.fp = md->last_err.ch = -1;
     }
-    if (exc != MBX_OK)
+    if (exc != MB_MAP_OK)
         return exception(s, s->held_model, s->held, exc);
     metrics_modbus_reply(s->held[modbus_get_header_length(s->ctx)], 0);
     return send_reply(s);

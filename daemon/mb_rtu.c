@@ -36,7 +36,7 @@ struct rtu_port {
     struct conf_rtu cfg;
     modbus_t *ctx;
     int fd;
-    struct mb_session s;
+    struct mb_req_session s;
     uint8_t buf[MODBUS_RTU_MAX_ADU_LENGTH];
     size_t len;
     size_t checked;         /* candidates ending at or before this were checked */
@@ -53,7 +53,7 @@ _Static_assert(CONF_RTS_NONE == MODBUS_RTU_RTS_NONE && CONF_RTS_UP == MODBUS_RTU
 
 static struct rtu_port ports[CONF_MAX_RTU];
 static int nports;
-static struct mb_opts opts;
+static struct mb_map_opts opts;
 static uint16_t crc_table[256];
 
 static uint16_t crc16(const uint8_t *p, size_t n)
@@ -120,7 +120,7 @@ static void port_fail(struct rtu_port *p, const char *why)
     if (p->ctx) {
         modbus_close(p->ctx);
         modbus_free(p->ctx);
-        mb_session_free(&p->s);
+        mb_req_session_free(&p->s);
     }
     p->ctx = NULL;
     p->fd = -1;
@@ -423,7 +423,7 @@ static void port_open(void *arg)
         port_fail(p, "RS-485 set-up refused");
         return;
     }
-    if (mb_session_init(&p->s, p->ctx, 0)) {
+    if (mb_req_session_init(&p->s, p->ctx, 0)) {
         modbus_close(p->ctx);
         modbus_free(p->ctx);
         p->ctx = NULL;
@@ -452,7 +452,7 @@ static void close_port(struct rtu_port *p)
         loop_del_fd(p->fd);
         modbus_close(p->ctx);
         modbus_free(p->ctx);
-        mb_session_free(&p->s);
+        mb_req_session_free(&p->s);
     }
     memset(p, 0, sizeof *p);
     p->fd = -1;
@@ -470,7 +470,7 @@ static void open_all(const struct conf *c)
     }
 }
 
-int mb_rtu_start(const struct conf *c, const struct mb_opts *o)
+int mb_rtu_start(const struct conf *c, const struct mb_map_opts *o)
 {
     opts = *o;
     nports = 0;
@@ -478,7 +478,7 @@ int mb_rtu_start(const struct conf *c, const struct mb_opts *o)
     return 0;
 }
 
-int mb_rtu_reload(const struct conf *c, const struct mb_opts *o)
+int mb_rtu_reload(const struct conf *c, const struct mb_map_opts *o)
 {
     int same = c->nrtu == nports;
     opts = *o;

@@ -8,8 +8,8 @@
 #include "conf.h"
 #include "mb_map.h"
 
-int mb_rtu_start(const struct conf *c, const struct mb_opts *o);
-int mb_rtu_reload(const struct conf *c, const struct mb_opts *o);
+int mb_rtu_start(const struct conf *c, const struct mb_map_opts *o);
+int mb_rtu_reload(const struct conf *c, const struct mb_map_opts *o);
 void mb_rtu_release(int commit_ok);
 /* The same for the replies waiting for WAL batches up to `batch`. */
 void mb_rtu_release_upto(uint64_t batch, int commit_ok);

@@ -55,7 +55,7 @@ struct conn {
     int slot;               /* 1: holds a slot (s is set up) */
     int ready;              /* no slot yet, a complete request buffered */
     int ro;                 /* the listener is read-only (s.read_only once in a slot) */
-    struct mb_session s;
+    struct mb_req_session s;
     uint8_t buf[MODBUS_TCP_MAX_ADU_LENGTH * 2];
     size_t len;
     uint64_t accepted;      /* ms */
@@ -76,7 +76,7 @@ static int nlisten;
 static struct conn *conns, *conns_tail;
 static int nconns, npending, nready; /* in a slot; without one; of those, with a request */
 static int pending_cap;              /* max_pending within RLIMIT_NOFILE */
-static struct mb_opts opts;
+static struct mb_map_opts opts;
 static int max_clients, idle_ms, byte_ms, keepalive_s, evict_ms;
 static long sweep_timer, admit_timer, resume_timer;
 
@@ -189,7 +189,7 @@ static void conn_close(struct conn *c, const char *why)
     if (c->s.ctx) {
         modbus_close(c->s.ctx); /* closes c->fd */
         modbus_free(c->s.ctx);
-        mb_session_free(&c->s);
+        mb_req_session_free(&c->s);
     } else {
         close(c->fd);
     }
@@ -317,7 +317,7 @@ static struct conn *oldest_ready(void)
 static int grant(struct conn *c, uint64_t now)
 {
     modbus_t *ctx = modbus_new_tcp_pi(NULL, "502");
-    if (!ctx || mb_session_init(&c->s, ctx, 1)) {
+    if (!ctx || mb_req_session_init(&c->s, ctx, 1)) {
         log_err("tcp %s: out of memory", c->peer);
         if (ctx)
             modbus_free(ctx);
@@ -444,7 +444,7 @@ static void on_accept(void *arg, int lfd, short revents)
         getnameinfo((struct sockaddr *)&ss, sl, host, sizeof host, serv, sizeof serv,
                     NI_NUMERICHOST | NI_NUMERICSERV);
         listen_key(l, lk, sizeof lk);
-        if (!conf_allowed(l, (struct sockaddr *)&ss)) {
+        if (!acl_allowed(l, (struct sockaddr *)&ss)) {
             refusal_log("tcp %s:%s: refused: not in the allow-list of listener %s%s%s", host, serv,
                         l->name[0] ? l->name : "", l->name[0] ? " " : "", lk);
             close(fd);
@@ -609,7 +609,7 @@ static void fd_budget(const struct conf *c)
     }
 }
 
-static void set_opts(const struct conf *c, const struct mb_opts *o)
+static void set_opts(const struct conf *c, const struct mb_map_opts *o)
 {
     opts = *o;
     max_clients = c->max_clients;
@@ -645,7 +645,7 @@ static int open_listeners(const struct conf *c)
     return (c->nlisten == 0 || ok) ? 0 : -1;
 }
 
-int mb_tcp_start(const struct conf *c, const struct mb_opts *o)
+int mb_tcp_start(const struct conf *c, const struct mb_map_opts *o)
 {
     set_opts(c, o);
     if (open_listeners(c))
@@ -669,7 +669,7 @@ static void recheck_conns(const struct conf *cf)
             listen_key(&cf->listen[k], lk, sizeof lk);
             if (strcmp(lk, c->laddr))
                 continue;
-            if (!conf_allowed(&cf->listen[k], (const struct sockaddr *)&c->sa)) {
+            if (!acl_allowed(&cf->listen[k], (const struct sockaddr *)&c->sa)) {
                 log_notice("tcp %s: closed: no longer in the allow-list of listener %s", c->peer, lk);
                 conn_close(c, "not allowed after reload");
             } else {
@@ -681,7 +681,7 @@ static void recheck_conns(const struct conf *cf)
     }
 }
 
-int mb_tcp_reload(const struct conf *c, const struct mb_opts *o)
+int mb_tcp_reload(const struct conf *c, const struct mb_map_opts *o)
 {
     int same = c->nlisten == nlisten;
     for (int k = 0; same && k < nlisten; k++)

@@ -10,12 +10,12 @@
 #include "mb_map.h"
 
 /* Open the listeners of c. Returns 0, or -1 if none could be opened. */
-int mb_tcp_start(const struct conf *c, const struct mb_opts *o);
+int mb_tcp_start(const struct conf *c, const struct mb_map_opts *o);
 
 /* Apply a reloaded configuration: timeouts, limits, map options take
  * effect at once; listeners are reopened only if the addresses changed
  * (live connections are kept). Returns 0 or -1. */
-int mb_tcp_reload(const struct conf *c, const struct mb_opts *o);
+int mb_tcp_reload(const struct conf *c, const struct mb_map_opts *o);
 
 /* Answer requests held for the WAL commit (commit_ok 0: exception 04). */
 void mb_tcp_release(int commit_ok);

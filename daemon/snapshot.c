@@ -94,9 +94,9 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
     if (!buf)
         return NULL;
     memcpy(buf, SNAP_MAGIC, 8);
-    put32(buf + 8, version);
-    put64(buf + 16, seq);
-    put32(buf + 24, (uint32_t)n);
+    le_put32(buf + 8, version);
+    le_put64(buf + 16, seq);
+    le_put32(buf + 24, (uint32_t)n);
     off = SNAP_HDR;
     for (int k = 0; k < n; k++) {
         const struct model *md = durable_view ? models_view(models_at(k)) : models_at(k);
@@ -117,26 +117,26 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
                     if (mask & (1u << fp)) {
                         models_point_get(md, i, j, fp, v);
                         for (unsigned c = 0; c < IT2N_CH_COUNT; c++, off += 8)
-                            put64(buf + off, (uint64_t)v[c]);
+                            le_put64(buf + off, (uint64_t)v[c]);
                     }
             }
-        put16(h, (unsigned)md->id);
+        le_put16(h, (unsigned)md->id);
         h[2] = (uint8_t)models_n(md);
         h[3] = (uint8_t)models_m(md);
         h[4] = (uint8_t)models_flags(md);
         h[5] = (uint8_t)md->state;
-        put16(h + 6, points & 0xFFFFu);
+        le_put16(h + 6, points & 0xFFFFu);
         if (version == SNAP_VERSION) {
             h[44] = (uint8_t)md->kind;
-            put16(h + 46, points >> 16);
+            le_put16(h + 46, points >> 16);
         }
-        put32(h + 8, md->gen);
-        put32(h + 12, md->points_rx);
-        put32(h + 16, md->solves);
+        le_put32(h + 8, md->gen);
+        le_put32(h + 12, md->points_rx);
+        le_put32(h + 16, md->solves);
         for (unsigned w = 0; w < UPLOAD_WORDS; w++)
-            put16(h + 20 + 2 * w, md->mb.upload[w]);
+            le_put16(h + 20 + 2 * w, md->mb.upload[w]);
     }
-    put32(buf + off, it2n_crc32c(buf, off));
+    le_put32(buf + off, it2n_crc32c(buf, off));
     *len = off + 4;
     return buf;
 }
@@ -144,7 +144,7 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
 /* The point count of a model record. */
 static uint32_t model_points(const uint8_t *h, size_t mhdr)
 {
-    return get16(h + 6) | (mhdr == MODEL_HDR_V3 ? (uint32_t)get16(h + 46) << 16 : 0u);
+    return le_get16(h + 6) | (mhdr == MODEL_HDR_V3 ? (uint32_t)le_get16(h + 46) << 16 : 0u);
 }
 
 /* Walk the model records without using them: every length must add up. */
@@ -196,7 +196,7 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
             if (!(mask & (1u << fp)))
                 continue;
             for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
-                v[c] = (it2n_val)get64(p);
+                v[c] = (it2n_val)le_get64(p);
             rc = it2n_bspline_data_put(&ds, i, j, fp, v, false, err);
         }
     }
@@ -222,7 +222,7 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
  * SNAP_UNCONFIGURED. */
 static size_t load_model(const uint8_t *buf, size_t mhdr, int *result)
 {
-    unsigned id = get16(buf), n = buf[2], m = buf[3], flags = buf[4], state = buf[5];
+    unsigned id = le_get16(buf), n = buf[2], m = buf[3], flags = buf[4], state = buf[5];
     unsigned kind = mhdr == MODEL_HDR_V3 ? buf[44] : MODEL_BEZIER;
     uint32_t points = model_points(buf, mhdr);
     const uint8_t *p = buf + mhdr;
@@ -322,7 +322,7 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int *result)
             if (!(mask & (1u << fp)))
                 continue;
             for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
-                v[c] = (it2n_val)get64(p);
+                v[c] = (it2n_val)le_get64(p);
             rc = it2n_dataset_put(ds, i, j, fp, v, false, &err);
         }
     }
@@ -344,11 +344,11 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int *result)
     md->mdl = *mdl;
 counters:
     md->state = (int)state;
-    md->gen = get32(buf + 8);
-    md->points_rx = get32(buf + 12);
-    md->solves = get32(buf + 16);
+    md->gen = le_get32(buf + 8);
+    md->points_rx = le_get32(buf + 12);
+    md->solves = le_get32(buf + 16);
     for (unsigned w = 0; w < UPLOAD_WORDS; w++)
-        md->mb.upload[w] = (uint16_t)get16(buf + 20 + 2 * w);
+        md->mb.upload[w] = (uint16_t)le_get16(buf + 20 + 2 * w);
 out:
     if (why) {
         log_err("snapshot: model %u does not validate (%s at i %d j %d fp %d)", id, why, err.i, err.j, err.fp);
@@ -365,15 +365,15 @@ int snap_decode(const uint8_t *buf, size_t len, uint64_t *seq)
     size_t off = SNAP_HDR, mhdr;
     if (len < SNAP_HDR + 4 || memcmp(buf, SNAP_MAGIC, 8))
         return SNAP_BAD;
-    version = get32(buf + 8);
+    version = le_get32(buf + 8);
     if (version != SNAP_VERSION && version != SNAP_VERSION_BEZIER)
         return SNAP_BAD;
     mhdr = version == SNAP_VERSION ? MODEL_HDR_V3 : MODEL_HDR_V2;
-    if (get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
+    if (le_get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
         log_err("snapshot: truncated or checksum mismatch (%zu bytes)", len);
         return SNAP_BAD;
     }
-    n = get32(buf + 24);
+    n = le_get32(buf + 24);
     if (check_structure(buf, len, n, mhdr)) {
         log_err("snapshot: records do not add up to the file length");
         return SNAP_BAD;
@@ -384,7 +384,7 @@ int snap_decode(const uint8_t *buf, size_t len, uint64_t *seq)
         if (rc)
             return rc;
     }
-    *seq = get64(buf + 16);
+    *seq = le_get64(buf + 16);
     log_info("snapshot: version %u, %u model(s), seq %llu", version, n, (unsigned long long)*seq);
     return 0;
 }

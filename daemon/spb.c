@@ -41,7 +41,7 @@ struct dev {
     int dirty;                 /* a change was signalled: scan it      */
     int based;                 /* last holds values a host has or will have */
     struct spb_val *last;      /* values as last published             */
-    struct mb_query q;         /* its query (DCMD), like a Modbus connection's */
+    struct mb_map_query q;         /* its query (DCMD), like a Modbus connection's */
 };
 
 static struct {
@@ -65,7 +65,7 @@ static struct {
     int dropped;               /* on_disconnect since the last check   */
     int ndeath_mid, ndeath_acked;
     int need_birth;            /* a birth sequence is incomplete       */
-    struct mb_opts mbo;        /* the grid as Modbus serves it, ABCD   */
+    struct mb_map_opts mbo;        /* the grid as Modbus serves it, ABCD   */
     struct dev *devs;
     int ndevs;
     unsigned long births, ddata;

@@ -12,7 +12,7 @@
 struct dcmd {
     int id;
     int nm;
-    const struct mb_opts *o;
+    const struct mb_map_opts *o;
     float q[2];
     int has_q[2];
     float xy[2];
@@ -130,7 +130,7 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
     }
 }
 
-void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *o, const uint8_t *buf, size_t len)
+void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const uint8_t *buf, size_t len)
 {
     struct dcmd c;
     int rc, persisted, id = md->id;
@@ -142,7 +142,7 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
     c.nm = spb_metrics_count(o);
     if (spb_cmd_each(buf, len, dcmd_metric, &c, why, sizeof why)) {
         log_warn("sparkplug: DCMD model-%d refused: %s", id, why);
-        mbmap_refused(md, MBX_ILLEGAL_VALUE);
+        mb_map_refused(md, MB_MAP_ILLEGAL_VALUE);
         return;
     }
     if (!c.bad && c.upmask && c.upmask != all)
@@ -155,20 +155,20 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
     if (c.bad) {
         /* Nothing changes; the refusal is the report, as for Modbus. */
         log_warn("sparkplug: DCMD model-%d refused: %s", id, c.why);
-        mbmap_refused(md, MBX_ILLEGAL_VALUE);
+        mb_map_refused(md, MB_MAP_ILLEGAL_VALUE);
         return;
     }
     if (c.has_q[0] || c.has_q[1]) {
         uint16_t regs[4];
         float cur[2] = { 0.0f, 0.0f };
-        if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
-            cur[0] = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
-            cur[1] = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+        if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MB_MAP_OK) {
+            cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
+            cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
         }
-        mbmap_put_f32(&regs[0], c.has_q[0] ? c.q[0] : cur[0], IT2N_WO_ABCD);
-        mbmap_put_f32(&regs[2], c.has_q[1] ? c.q[1] : cur[1], IT2N_WO_ABCD);
-        rc = mbmap_write(md, q, o, IT2N_REG_Q_UF, 4, regs, &persisted);
-        if (rc != MBX_OK)
+        it2n_regmap_put_f32(&regs[0], c.has_q[0] ? c.q[0] : cur[0], IT2N_WO_ABCD);
+        it2n_regmap_put_f32(&regs[2], c.has_q[1] ? c.q[1] : cur[1], IT2N_WO_ABCD);
+        rc = mb_map_write(md, q, o, IT2N_REG_Q_UF, 4, regs, &persisted);
+        if (rc != MB_MAP_OK)
             log_warn("sparkplug: DCMD model-%d: query refused (u, w in [0, 1]): exception %02X", id, (unsigned)rc);
     }
     if (c.has_xy[0] || c.has_xy[1]) {
@@ -176,25 +176,25 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
          * given keeps the value in use (0 before any locate). */
         uint16_t regs[4];
         float cur[2] = { 0.0f, 0.0f };
-        if (q->kind == 2 && mbmap_read(md, q, o, IT2N_REG_Q_XF, 4, regs) == MBX_OK) {
-            cur[0] = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
-            cur[1] = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+        if (q->kind == 2 && mb_map_read(md, q, o, IT2N_REG_Q_XF, 4, regs) == MB_MAP_OK) {
+            cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
+            cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
         }
-        mbmap_put_f32(&regs[0], c.has_xy[0] ? c.xy[0] : cur[0], IT2N_WO_ABCD);
-        mbmap_put_f32(&regs[2], c.has_xy[1] ? c.xy[1] : cur[1], IT2N_WO_ABCD);
-        rc = mbmap_write(md, q, o, IT2N_REG_Q_XF, 4, regs, &persisted);
-        if (rc != MBX_OK)
+        it2n_regmap_put_f32(&regs[0], c.has_xy[0] ? c.xy[0] : cur[0], IT2N_WO_ABCD);
+        it2n_regmap_put_f32(&regs[2], c.has_xy[1] ? c.xy[1] : cur[1], IT2N_WO_ABCD);
+        rc = mb_map_write(md, q, o, IT2N_REG_Q_XF, 4, regs, &persisted);
+        if (rc != MB_MAP_OK)
             log_warn("sparkplug: DCMD model-%d: locate refused (x, y finite): exception %02X", id, (unsigned)rc);
     }
     if (c.has_page[0] || c.has_page[1] || c.has_page[2]) {
         /* The page select, as a Modbus write of registers 96..98. */
         uint16_t regs[3];
-        if (mbmap_read(md, q, o, IT2N_REG_PG_FP, 3, regs) == MBX_OK) {
+        if (mb_map_read(md, q, o, IT2N_REG_PG_FP, 3, regs) == MB_MAP_OK) {
             for (int k = 0; k < 3; k++)
                 if (c.has_page[k])
                     regs[k] = c.page[k];
-            rc = mbmap_write(md, q, o, IT2N_REG_PG_FP, 3, regs, &persisted);
-            if (rc != MBX_OK)
+            rc = mb_map_write(md, q, o, IT2N_REG_PG_FP, 3, regs, &persisted);
+            if (rc != MB_MAP_OK)
                 log_warn("sparkplug: DCMD model-%d: page select refused (fp 0..6, ch 0..5, row 0..257): exception %02X",
                          id, (unsigned)rc);
         }
@@ -204,15 +204,15 @@ void spb_dcmd_apply(struct model *md, struct mb_query *q, const struct mb_opts *
          * Modbus upload (its DDATA follows the commit, on_model_changed). */
         struct model_txn t;
         models_txn_begin(&t);
-        rc = mbmap_write(md, q, o, IT2N_REG_UP_I, IT2N_REG_UPLOAD_END - IT2N_REG_UP_I, c.up, &persisted);
-        if (rc != MBX_OK && persisted) {
+        rc = mb_map_write(md, q, o, IT2N_REG_UP_I, IT2N_REG_UPLOAD_END - IT2N_REG_UP_I, c.up, &persisted);
+        if (rc != MB_MAP_OK && persisted) {
             it2n_errinfo e = md->last_err;
             models_txn_rollback(&t);
             md->last_err = e;
         } else {
             models_txn_commit(&t);
         }
-        if (rc != MBX_OK)
+        if (rc != MB_MAP_OK)
             log_warn("sparkplug: DCMD model-%d: data point refused: exception %02X, last_error %d", id, (unsigned)rc,
                      md->last_err.code);
     }

@@ -88,7 +88,7 @@ static int seg_start(int seg)
     return n;
 }
 
-int spb_metrics_count(const struct mb_opts *o)
+int spb_metrics_count(const struct mb_map_opts *o)
 {
     return seg_start(SPB_SEG_GRID) + (int)(o->grid_rows * o->grid_cols) * 3;
 }
@@ -135,7 +135,7 @@ static const char ch_names[IT2N_REGMAP_CH] = { 'x', 'y', 'z', 'T', 'I', 'F' };
 static const char *const sum_names[4] = { "upper_min", "upper_max", "lower_min", "lower_max" };
 
 /* Name, and the description and unit for the birth. */
-void spb_metrics_info(const struct mb_opts *o, int idx, char *name, size_t nsize, char *desc, size_t dsize,
+void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t nsize, char *desc, size_t dsize,
                       const char **unit)
 {
     static const char *const chname[3] = { "Truth", "Indeterminacy", "Falsity" };
@@ -242,7 +242,7 @@ static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, stru
         case IT2N_RT_I16: out[k].u = (uint64_t)(int64_t)(int16_t)r[0]; break;
         case IT2N_RT_U32: out[k].u = (uint32_t)r[0] << 16 | r[1]; break;
         case IT2N_RT_I32: out[k].u = (uint64_t)(int64_t)(int32_t)((uint32_t)r[0] << 16 | r[1]); break;
-        case IT2N_RT_F32: out[k].f = mbmap_get_f32(r, IT2N_WO_ABCD); break;
+        case IT2N_RT_F32: out[k].f = it2n_regmap_get_f32(r, IT2N_WO_ABCD); break;
         default: out[k].u = r[0]; break;
         }
     }
@@ -260,7 +260,7 @@ static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct
 {
     uint64_t h = 14695981039346656037u;
     for (unsigned k = 0; k < n; k++) {
-        float f = mbmap_get_f32(&regs[2 * k], IT2N_WO_ABCD);
+        float f = it2n_regmap_get_f32(&regs[2 * k], IT2N_WO_ABCD);
         uint32_t bits;
         memcpy(&bits, &f, sizeof bits);
         for (unsigned b = 0; b < 4; b++)
@@ -276,14 +276,14 @@ static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct
 /* The nets: Net/Page/values and the whole nets, read through the
  * coefficient window like a PLC, page by page (a scratch page select:
  * the device's own stays as a DCMD set it). */
-static void net_values(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned rows, unsigned cols,
+static void net_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned rows, unsigned cols,
                        struct spb_val *out)
 {
     static uint16_t regs[2 * IT2N_REGMAP_WIN_COLS];
     static uint8_t page_bytes[4 * IT2N_REGMAP_WIN_COLS];
     static uint8_t net_bytes[N_NET][4 * SPB_NET_MAX];
-    struct mb_query scratch;
-    if (!cols || mbmap_read(md, q, o, IT2N_REG_WIN, 2u * cols, regs) != MBX_OK)
+    struct mb_map_query scratch;
+    if (!cols || mb_map_read(md, q, o, IT2N_REG_WIN, 2u * cols, regs) != MB_MAP_OK)
         out[0].null = 1;
     else
         float_array(regs, cols, page_bytes, &out[0]);
@@ -296,7 +296,7 @@ static void net_values(struct model *md, struct mb_query *q, const struct mb_opt
         for (unsigned r = 0; ok && r < rows; r++) {
             uint16_t page[3] = { (uint16_t)fp, (uint16_t)ch, (uint16_t)r };
             memcpy(scratch.page, page, sizeof page);
-            ok = mbmap_read(md, &scratch, o, IT2N_REG_WIN, 2u * cols, &net[2 * r * cols]) == MBX_OK;
+            ok = mb_map_read(md, &scratch, o, IT2N_REG_WIN, 2u * cols, &net[2 * r * cols]) == MB_MAP_OK;
         }
         if (ok)
             float_array(net, rows * cols, net_bytes[k], &out[k]);
@@ -309,65 +309,65 @@ static void net_values(struct model *md, struct mb_query *q, const struct mb_opt
  * the last durable state: the status block, this device's query (its own
  * connection-like state) and results, the upload block, the float32
  * sample grid. Null where Modbus answers an exception (not solved). */
-void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_opts *o, struct spb_val *out)
+void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_val *out)
 {
     static uint16_t regs[IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32];
     const it2n_regmap_block *b = status_block(), *up = upload_block();
     unsigned nodes = o->grid_rows * o->grid_cols;
     int n = spb_metrics_count(o);
     memset(out, 0, (size_t)n * sizeof *out);
-    if (mbmap_read(md, q, o, b->start, (unsigned)(b->end - b->start), regs) == MBX_OK)
+    if (mb_map_read(md, q, o, b->start, (unsigned)(b->end - b->start), regs) == MB_MAP_OK)
         fields_values(b, regs, out);
     else
         set_null(out, (int)b->nfields);
     out += seg_start(SPB_SEG_QIN);
-    if (q->kind == 1 && mbmap_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MBX_OK) {
-        out[0].f = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
-        out[1].f = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+    if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MB_MAP_OK) {
+        out[0].f = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
+        out[1].f = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
     } else {
         set_null(out, N_QIN);
     }
     out += N_QIN;
-    if (q->kind && mbmap_read(md, q, o, IT2N_REG_Q_GEN, 2, regs) == MBX_OK &&
-        mbmap_read(md, q, o, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MBX_OK) {
+    if (q->kind && mb_map_read(md, q, o, IT2N_REG_Q_GEN, 2, regs) == MB_MAP_OK &&
+        mb_map_read(md, q, o, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MB_MAP_OK) {
         out[0].u = (uint32_t)regs[0] << 16 | regs[1];
         for (int k = 0; k < N_RES; k++)
-            out[1 + k].f = mbmap_get_f32(&regs[2 + 2 * k], IT2N_WO_ABCD);
+            out[1 + k].f = it2n_regmap_get_f32(&regs[2 + 2 * k], IT2N_WO_ABCD);
     } else {
         set_null(out, N_QGEN + N_RES);  /* no query yet, or not solved (06) */
     }
     out += N_QGEN + N_RES;
-    if (mbmap_read(md, q, o, up->start, (unsigned)(up->end - up->start), regs) == MBX_OK)
+    if (mb_map_read(md, q, o, up->start, (unsigned)(up->end - up->start), regs) == MB_MAP_OK)
         fields_values(up, regs, out);
     else
         set_null(out, (int)up->nfields);
     out += up->nfields;
-    if (mbmap_read(md, q, o, IT2N_REG_PRESENT32, 4, regs) == MBX_OK)
+    if (mb_map_read(md, q, o, IT2N_REG_PRESENT32, 4, regs) == MB_MAP_OK)
         fields_values(block_at(IT2N_REG_PRESENT32), regs, out);
     else
         set_null(out, N_COUNTS);
     out += N_COUNTS;
-    if (q->kind == 2 && mbmap_read(md, q, o, IT2N_REG_Q_XF, 4, regs) == MBX_OK) {
-        out[0].f = mbmap_get_f32(&regs[0], IT2N_WO_ABCD);
-        out[1].f = mbmap_get_f32(&regs[2], IT2N_WO_ABCD);
+    if (q->kind == 2 && mb_map_read(md, q, o, IT2N_REG_Q_XF, 4, regs) == MB_MAP_OK) {
+        out[0].f = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
+        out[1].f = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
     } else {
         set_null(out, N_QLOC);
     }
     out += N_QLOC;
     /* q_kind reads while unsolved; the bits only with a result. */
     memset(regs, 0, 6 * sizeof *regs);
-    if (mbmap_read(md, q, o, IT2N_REG_Q_KIND, 6, regs) == MBX_OK)
+    if (mb_map_read(md, q, o, IT2N_REG_Q_KIND, 6, regs) == MB_MAP_OK)
         out[0].u = regs[0];
     else
         out[0].null = 1;
-    if (q->kind && mbmap_read(md, q, o, IT2N_REG_RES_F32, 2, regs + 8) == MBX_OK) {
+    if (q->kind && mb_map_read(md, q, o, IT2N_REG_RES_F32, 2, regs + 8) == MB_MAP_OK) {
         out[1].u = regs[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND];
         out[2].u = (uint32_t)regs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND] << 16 | regs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND + 1];
     } else {
         set_null(out + 1, 2);
     }
     out += N_QSTAT;
-    if (mbmap_read(md, q, o, IT2N_REG_PG_FP, 3, regs) == MBX_OK)
+    if (mb_map_read(md, q, o, IT2N_REG_PG_FP, 3, regs) == MB_MAP_OK)
         for (int k = 0; k < N_PAGE; k++)
             out[k].u = regs[k];
     else
@@ -375,7 +375,7 @@ void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_op
     out += N_PAGE;
     {
         unsigned rows = 0, cols = 0;
-        if (mbmap_read(md, q, o, IT2N_REG_NET_ROWS, 2, regs) == MBX_OK) {
+        if (mb_map_read(md, q, o, IT2N_REG_NET_ROWS, 2, regs) == MB_MAP_OK) {
             rows = regs[0];
             cols = regs[1];
         }
@@ -384,10 +384,10 @@ void spb_metrics_values(struct model *md, struct mb_query *q, const struct mb_op
     out += N_PAGEROW + N_NET;
     if (!nodes)
         return;
-    if (mbmap_read(md, q, o, IT2N_REG_GRID_F32, nodes * 6u, regs) != MBX_OK) {
+    if (mb_map_read(md, q, o, IT2N_REG_GRID_F32, nodes * 6u, regs) != MB_MAP_OK) {
         set_null(out, (int)nodes * 3);  /* not solved: no grid (Modbus answers 06) */
         return;
     }
     for (unsigned k = 0; k < nodes * 3u; k++)
-        out[k].f = mbmap_get_f32(&regs[k * 2], IT2N_WO_ABCD);
+        out[k].f = it2n_regmap_get_f32(&regs[k * 2], IT2N_WO_ABCD);
 }

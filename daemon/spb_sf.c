@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "it2n_proto.h"
+#include "le_bytes.h"
 #include "log.h"
 
 #define HDR 8u              /* len, crc                          */
@@ -23,13 +24,6 @@ static struct {
     uint64_t size;
     char path[4200];
 } s = { .fd = -1 };
-
-static void put16(uint8_t *p, uint32_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
-static void put32(uint8_t *p, uint32_t v) { put16(p, v); put16(p + 2, v >> 16); }
-static void put64(uint8_t *p, uint64_t v) { put32(p, (uint32_t)v); put32(p + 4, (uint32_t)(v >> 32)); }
-static uint32_t get16(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8; }
-static uint32_t get32(const uint8_t *p) { return get16(p) | get16(p + 2) << 16; }
-static uint64_t get64(const uint8_t *p) { return (uint64_t)get32(p) | (uint64_t)get32(p + 4) << 32; }
 
 static int full_pread(uint8_t *buf, size_t n, uint64_t off)
 {
@@ -53,11 +47,11 @@ static uint64_t rec_check(uint64_t off, uint8_t **body)
     uint8_t *b;
     if (off + HDR > s.size || full_pread(h, HDR, off))
         return 0;
-    len = get32(h);
+    len = le_get32(h);
     if (len < BODY_FIXED || len > BODY_FIXED + COUNT_MAX * VAL || off + HDR + len > s.size || !(b = malloc(len)))
         return 0;
-    if (full_pread(b, len, off + HDR) || get32(h + 4) != it2n_crc32c(b, len) ||
-        BODY_FIXED + get16(b + 10) * VAL != len) {
+    if (full_pread(b, len, off + HDR) || le_get32(h + 4) != it2n_crc32c(b, len) ||
+        BODY_FIXED + le_get16(b + 10) * VAL != len) {
         free(b);
         return 0;
     }
@@ -115,20 +109,20 @@ int spb_sf_append(int dev, uint64_t ts, int n, const uint16_t *idx, const struct
         return 1;
     if (!(b = malloc(HDR + len)))
         return -1;
-    put16(b + HDR, (uint32_t)dev);
-    put64(b + HDR + 2, ts);
-    put16(b + HDR + 10, (uint32_t)n);
+    le_put16(b + HDR, (uint32_t)dev);
+    le_put64(b + HDR + 2, ts);
+    le_put16(b + HDR + 10, (uint32_t)n);
     for (int k = 0; k < n; k++) {
         uint8_t *p = b + HDR + BODY_FIXED + (size_t)k * VAL;
         uint32_t fb;
         memcpy(&fb, &val[k].f, sizeof fb);
-        put16(p, idx[k]);
+        le_put16(p, idx[k]);
         p[2] = (uint8_t)(val[k].null != 0);
-        put32(p + 3, fb);
-        put64(p + 7, val[k].u);
+        le_put32(p + 3, fb);
+        le_put64(p + 7, val[k].u);
     }
-    put32(b, (uint32_t)len);
-    put32(b + 4, it2n_crc32c(b + HDR, len));
+    le_put32(b, (uint32_t)len);
+    le_put32(b + 4, it2n_crc32c(b + HDR, len));
     w = pwrite(s.fd, b, HDR + len, (off_t)s.size);
     free(b);
     if (w != (ssize_t)(HDR + len) || fdatasync(s.fd)) {
@@ -153,9 +147,9 @@ int spb_sf_read(uint64_t *off, struct spb_sf_rec *rec)
         return 0;
     if (!(n = rec_check(*off, &b)))
         return -1;
-    rec->dev = (int)get16(b);
-    rec->ts = get64(b + 2);
-    rec->n = (int)get16(b + 10);
+    rec->dev = (int)le_get16(b);
+    rec->ts = le_get64(b + 2);
+    rec->n = (int)le_get16(b + 10);
     rec->idx = calloc((size_t)rec->n, sizeof *rec->idx);
     rec->val = calloc((size_t)rec->n, sizeof *rec->val);
     if (!rec->idx || !rec->val) {
@@ -165,11 +159,11 @@ int spb_sf_read(uint64_t *off, struct spb_sf_rec *rec)
     }
     for (int k = 0; k < rec->n; k++) {
         const uint8_t *p = b + BODY_FIXED + (size_t)k * VAL;
-        uint32_t fb = get32(p + 3);
-        rec->idx[k] = (uint16_t)get16(p);
+        uint32_t fb = le_get32(p + 3);
+        rec->idx[k] = (uint16_t)le_get16(p);
         rec->val[k].null = p[2] != 0;
         memcpy(&rec->val[k].f, &fb, sizeof fb);
-        rec->val[k].u = get64(p + 7);
+        rec->val[k].u = le_get64(p + 7);
     }
     free(b);
     *off += n;

@@ -150,7 +150,7 @@ static size_t encode_payload(const struct model_rec *r, uint8_t *p)
         p[n++] = (uint8_t)r->j;
         p[n++] = (uint8_t)(r->fp | (r->replace ? 0x80u : 0u));
         for (int c = 0; c < IT2N_CH_COUNT; c++) {
-            put64(p + n, (uint64_t)r->vals[c]);
+            le_put64(p + n, (uint64_t)r->vals[c]);
             n += 8;
         }
         break;
@@ -186,7 +186,7 @@ static int decode_payload(int type, const uint8_t *p, size_t len, struct model_r
         r->fp = p[4] & 0x7Fu;
         r->replace = (p[4] & 0x80u) != 0;
         for (int c = 0; c < IT2N_CH_COUNT; c++)
-            r->vals[c] = (it2n_val)get64(p + 5 + 8 * c);
+            r->vals[c] = (it2n_val)le_get64(p + 5 + 8 * c);
         return 0;
     case MOP_COMMIT:
     case MOP_CLEAR:
@@ -206,10 +206,10 @@ int store_append(void *arg, const struct model_rec *rec)
     if (!wal_ok)
         return IT2ND_ERR_IO;
     plen = encode_payload(rec, rbuf + REC_HDR);
-    put64(rbuf + 8, seq + 1);
+    le_put64(rbuf + 8, seq + 1);
     rbuf[16] = (uint8_t)rec->op;
-    put32(rbuf, (uint32_t)(plen + 9));
-    put32(rbuf + 4, it2n_crc32c(rbuf + 8, plen + 9));
+    le_put32(rbuf, (uint32_t)(plen + 9));
+    le_put32(rbuf + 4, it2n_crc32c(rbuf + 8, plen + 9));
     if (qlen + REC_HDR + plen > qcap) {
         size_t cap = qcap ? qcap * 2 : 4096;
         uint8_t *p = realloc(qbuf, cap);
@@ -649,7 +649,7 @@ static int wal_reset(struct job *j)
     if (fd < 0)
         return -1;
     memcpy(h, WAL_MAGIC, 8);
-    put32(h + 8, FORMAT_VERSION);
+    le_put32(h + 8, FORMAT_VERSION);
     if (write_all(fd, h, sizeof h) || (do_fsync && wal_sync(fd, 0)) || renameat(dirfd_, "wal.tmp", dirfd_, "wal")) {
         int e = errno;
         close(fd);
@@ -987,7 +987,7 @@ static int load_snapshot(uint64_t *seqp)
         free(buf);
         return keep_damaged("snapshot", "not a snapshot");
     }
-    if (get32(buf + 8) == SNAP_VERSION || get32(buf + 8) == SNAP_VERSION_BEZIER) {
+    if (le_get32(buf + 8) == SNAP_VERSION || le_get32(buf + 8) == SNAP_VERSION_BEZIER) {
         int drc = snap_decode(buf, len, &sseq);
         free(buf);
         if (drc == SNAP_UNCONFIGURED)
@@ -1003,20 +1003,20 @@ static int load_snapshot(uint64_t *seqp)
         *seqp = sseq;
         return 0;
     }
-    if (get32(buf + 8) != FORMAT_VERSION || get32(buf + 12) != store_v1_layout_tag()) {
+    if (le_get32(buf + 8) != FORMAT_VERSION || le_get32(buf + 12) != store_v1_layout_tag()) {
         log_err("snapshot: %s/snapshot is version %u / layout %08x, which this build cannot read; refusing to "
-                "start, file left as it is", state_dir, get32(buf + 8), get32(buf + 12));
+                "start, file left as it is", state_dir, le_get32(buf + 8), le_get32(buf + 12));
         free(buf);
         return -1;
     }
-    uint32_t n = get32(buf + 24);
+    uint32_t n = le_get32(buf + 24);
     if (len != 32 + (size_t)n * sizeof(struct store_v1_snap_model) + 4 ||
-        get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
+        le_get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
         log_err("snapshot: truncated or checksum mismatch (%zu bytes)", len);
         free(buf);
         return keep_damaged("snapshot", "truncated or checksum mismatch");
     }
-    sseq = get64(buf + 16);
+    sseq = le_get64(buf + 16);
     for (uint32_t k = 0; k < n; k++) {
         struct store_v1_snap_model sm;
         it2n_errinfo err;
@@ -1080,11 +1080,11 @@ static int rec_valid(const uint8_t *p, size_t avail, uint64_t after, uint64_t *r
     struct model_rec rec;
     if (avail < 8)
         return 0;
-    uint32_t rlen = get32(p);
-    if (rlen < 9 || rlen > 9 + REC_MAX || 8u + rlen > avail || get32(p + 4) != it2n_crc32c(p + 8, rlen) ||
-        decode_payload(p[16], p + REC_HDR, rlen - 9, &rec) || get64(p + 8) <= after)
+    uint32_t rlen = le_get32(p);
+    if (rlen < 9 || rlen > 9 + REC_MAX || 8u + rlen > avail || le_get32(p + 4) != it2n_crc32c(p + 8, rlen) ||
+        decode_payload(p[16], p + REC_HDR, rlen - 9, &rec) || le_get64(p + 8) <= after)
         return 0;
-    *rseq = get64(p + 8);
+    *rseq = le_get64(p + 8);
     *wire = 8u + rlen;
     return 1;
 }
@@ -1239,7 +1239,7 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
         }
         off = base + pos;
         if (off == 0) {
-            if (have < WAL_HDR || memcmp(buf, WAL_MAGIC, 8) || get32(buf + 8) != FORMAT_VERSION) {
+            if (have < WAL_HDR || memcmp(buf, WAL_MAGIC, 8) || le_get32(buf + 8) != FORMAT_VERSION) {
                 /* Never dropped and overwritten (issue 8 item 4): its
                  * records may be intact behind a flipped header byte. */
                 log_err("wal: bad header (%llu bytes)", (unsigned long long)*total);
@@ -1256,18 +1256,18 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
             break;
         }
         const uint8_t *r = buf + pos;
-        uint32_t rlen = get32(r);
+        uint32_t rlen = le_get32(r);
         struct model_rec rec;
         it2n_errinfo err;
         if (rlen < 9 || rlen > 9 + REC_MAX || 8u + rlen > have - pos) {
             why = "truncated record";
             break;
         }
-        if (get32(r + 4) != it2n_crc32c(r + 8, rlen)) {
+        if (le_get32(r + 4) != it2n_crc32c(r + 8, rlen)) {
             why = "checksum mismatch";
             break;
         }
-        uint64_t rseq = get64(r + 8);
+        uint64_t rseq = le_get64(r + 8);
         if (decode_payload(r[16], r + REC_HDR, rlen - 9, &rec)) {
             why = "undecodable record";
             break;

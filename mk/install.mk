@@ -32,9 +32,9 @@ endif
 IT2N_VERSION := $(shell sed -n 's/^\#define IT2N_CLI_VERSION "\([0-9.]*\)".*/\1/p' cli/cli.h)
 
 # What the libraries' users include: as CMakeLists.txt installs it.
-INSTALL_HEADERS := firmware_core/it2n.h $(wildcard protocol/*.h)
+INSTALL_HEADERS := firmware_core/it2n.h $(wildcard protocol/*.h) $(REGMAP_HDR)
 # pkg-config files from CMake's templates (cmake/*.pc.in) with this PREFIX.
-INSTALL_PC := $(BUILD)/pkgconfig/it2n.pc $(BUILD)/pkgconfig/it2n-protocol.pc
+INSTALL_PC := $(BUILD)/pkgconfig/it2n.pc $(BUILD)/pkgconfig/it2n-protocol.pc $(BUILD)/pkgconfig/it2n-regmap.pc
 IT2N_INSTRUMENT := $(BUILD)/host/it2n-instrument
 
 INSTALL_TARGETS += install-lib install-instrument install-examples install-completion
@@ -52,9 +52,9 @@ $(BUILD)/pkgconfig/%.pc: cmake/%.pc.in cli/cli.h FORCE_PC
 FORCE_PC:
 
 .PHONY: install-lib install-instrument install-examples install-completion
-install-lib: $(CORE_LIB) $(PROTO_LIB) $(INSTALL_PC)
+install-lib: $(CORE_LIB) $(PROTO_LIB) $(REGMAP_LIB) $(INSTALL_PC)
 	install -d $(DESTDIR)$(LIBDIR) $(DESTDIR)$(INCLUDEDIR)/it2n $(DESTDIR)$(PKGCONFIGDIR)
-	install -m 0644 $(CORE_LIB) $(PROTO_LIB) $(DESTDIR)$(LIBDIR)/
+	install -m 0644 $(CORE_LIB) $(PROTO_LIB) $(REGMAP_LIB) $(DESTDIR)$(LIBDIR)/
 	install -m 0644 $(INSTALL_HEADERS) $(DESTDIR)$(INCLUDEDIR)/it2n/
 	install -m 0644 $(INSTALL_PC) $(DESTDIR)$(PKGCONFIGDIR)/
 

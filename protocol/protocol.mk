@@ -1,6 +1,6 @@
 # protocol/: serial framing protocol (portable C99, same rules as the core):
-# what an instrument needs. (The Modbus register map is the daemon's:
-# daemon/it2n_regmap.*.)
+# what an instrument needs. (The Modbus register map is a library of its own:
+# regmap/.)
 # Exports PROTO_SRC, PROTO_LIB, PROTO_SAN_LIB for the daemon and cross build.
 # Tests, fuzzer and the example instrument live here too (one fragment).
 PROTO_SRC := $(wildcard protocol/*.c)

@@ -76,7 +76,7 @@ def f32_bits(q):
 
 
 def scaled(q, scale, lo, hi):
-    """mbmap_scale: round half away from zero, clamped."""
+    """it2n_regmap_q24_to_scaled: round half away from zero, clamped."""
     s = q * scale
     half = 1 << 23
     v = (s + half if s >= 0 else s - half)

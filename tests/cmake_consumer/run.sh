@@ -45,9 +45,10 @@ quiet cmake --build "$work/lib-m0p" -j2
 quiet cmake --install "$work/lib-m0p"
 say "Cortex-M0+ libraries (IT2N_CONFIG=it2n_m0p_config.h) installed into a temporary prefix"
 
-for f in lib/libit2n.a lib/libit2n_proto.a include/it2n/it2n.h include/it2n/it2n_proto.h \
-         lib/cmake/it2n/it2nConfig.cmake lib/cmake/it2n/it2nConfigVersion.cmake \
-         lib/cmake/it2n/it2nTargets.cmake lib/pkgconfig/it2n.pc lib/pkgconfig/it2n-protocol.pc; do
+for f in lib/libit2n.a lib/libit2n_proto.a lib/libit2n_regmap.a include/it2n/it2n.h include/it2n/it2n_proto.h \
+         include/it2n/it2n_regmap.h lib/cmake/it2n/it2nConfig.cmake lib/cmake/it2n/it2nConfigVersion.cmake \
+         lib/cmake/it2n/it2nTargets.cmake lib/pkgconfig/it2n.pc lib/pkgconfig/it2n-protocol.pc \
+         lib/pkgconfig/it2n-regmap.pc; do
   [ -s "$work/host/$f" ] || fail "host prefix lacks $f"
   [ -s "$work/m0p/$f" ] || fail "M0+ prefix lacks $f"
 done
@@ -64,8 +65,10 @@ for a in host m0p; do
     fail "$a libit2n.a does not hold exactly firmware_core/*.c"
   diff <(objs "$work/$a/lib/libit2n_proto.a") <(srcs protocol) >/dev/null ||
     fail "$a libit2n_proto.a does not hold exactly protocol/*.c"
+  diff <(objs "$work/$a/lib/libit2n_regmap.a") <(srcs regmap) >/dev/null ||
+    fail "$a libit2n_regmap.a does not hold exactly regmap/*.c"
 done
-say "libit2n.a = firmware_core/*.c, libit2n_proto.a = protocol/*.c (host and M0+)"
+say "libit2n.a = firmware_core/*.c, libit2n_proto.a = protocol/*.c, libit2n_regmap.a = regmap/*.c (host and M0+)"
 
 # ---- expected value: the CLI on the D rows of the paper's example -------------
 { head -n 1 "$root/examples/paper_4x4.csv"; grep -E '^[0-9]+,[0-9]+,D,' "$root/examples/paper_4x4.csv"; } \
@@ -83,6 +86,8 @@ check_host_output() { # $1 = program, $2 = label
 quiet cmake -S "$src" -B "$work/consumer-host" -DCMAKE_PREFIX_PATH="$work/host" -DCMAKE_BUILD_TYPE=Release
 quiet cmake --build "$work/consumer-host"
 check_host_output "$work/consumer-host/consumer" "host consumer (find_package)"
+got=$("$work/consumer-host/regmap_user") || fail "regmap_user (it2n::regmap) exited with status $?"
+[ "$got" = "0000 3fc0 sample_grid 5000" ] || fail "regmap_user (it2n::regmap) printed '$got'"
 
 # ABI guards (it2n.h, it2n_proto.h): abi_user calls every entry point whose
 # structs a build option sizes. With the package's options it links and

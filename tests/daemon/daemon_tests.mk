@@ -7,22 +7,24 @@ DT_UNITS := test_mb_map test_mb_req test_conf test_store test_links test_models 
 DT_MODS := $(filter-out $(BUILD)/host/daemon/main.o,$(DAEMON_OBJ))
 DT_SAN_MODS := $(filter-out $(BUILD)/san/daemon/main.o,$(DAEMON_SAN_OBJ))
 
-$(DTB)/%: $(DT)/%.c $(DT_MODS) $(PROTO_LIB) $(CORE_LIB)
+$(DTB)/%: $(DT)/%.c $(DT_MODS) $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB)
 	@mkdir -p $(@D)
-	$(CC) $(DAEMON_CFLAGS) $< -o $@ $(DT_MODS) $(PROTO_LIB) $(CORE_LIB) $(DAEMON_LIBS) -lcmocka
+	$(CC) $(DAEMON_CFLAGS) $< -o $@ $(DT_MODS) $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB) $(DAEMON_LIBS) -lcmocka
 
-$(DTB)/san/%: $(DT)/%.c $(DT_SAN_MODS) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
+$(DTB)/san/%: $(DT)/%.c $(DT_SAN_MODS) $(REGMAP_SAN_LIB) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
 	@mkdir -p $(@D)
-	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) $< -o $@ $(DT_SAN_MODS) $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(DAEMON_LIBS) -lcmocka
+	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) $< -o $@ $(DT_SAN_MODS) $(REGMAP_SAN_LIB) $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(DAEMON_LIBS) -lcmocka
 
-# Simulators (tests/sim/).
-SIM_CFLAGS := $(DAEMON_CFLAGS) -Icli -Itests/sim
+# Simulators (tests/sim/): clients of the daemon, so they see what a PLC or
+# an instrument sees: the register map library, the protocol, the CLI's CSV
+# reader; no daemon header (tests/lint/layers.py).
+SIM_CFLAGS := $(HOST_CFLAGS) $(REGMAP_INC) -Icli -Itests/sim $(shell pkg-config --cflags libmodbus 2>/dev/null)
 SIM_PLC := $(BUILD)/tests/sim/plc
 SIM_INSTR := $(BUILD)/tests/sim/instrument
 
-$(SIM_PLC): tests/sim/plc.c tests/sim/simcommon.h $(CLI_CSV_OBJ) $(CORE_LIB)
+$(SIM_PLC): tests/sim/plc.c tests/sim/simcommon.h $(REGMAP_HDR) $(CLI_CSV_OBJ) $(REGMAP_LIB) $(CORE_LIB)
 	@mkdir -p $(@D)
-	$(CC) $(SIM_CFLAGS) $< -o $@ $(CLI_CSV_OBJ) $(CORE_LIB) $(DAEMON_LIBS)
+	$(CC) $(SIM_CFLAGS) $< -o $@ $(CLI_CSV_OBJ) $(REGMAP_LIB) $(CORE_LIB) $(shell pkg-config --libs libmodbus 2>/dev/null) -lm
 
 $(SIM_INSTR): tests/sim/instrument.c tests/sim/simcommon.h $(CLI_CSV_OBJ) $(PROTO_LIB) $(CORE_LIB)
 	@mkdir -p $(@D)
@@ -41,10 +43,10 @@ $(DT_USB): $(DT)/test_usb_umockdev.c daemon/link_usb.c daemon/loop.c daemon/log.
 	  daemon/loop.c daemon/log.c -o $@ $(shell pkg-config --libs umockdev-1.0 libusb-1.0 2>/dev/null)
 
 DT_USB_BULK := $(DTB)/test_usb_bulk
-$(DT_USB_BULK): $(DT)/test_usb_bulk.c $(DT_MODS) $(PROTO_LIB) $(CORE_LIB)
+$(DT_USB_BULK): $(DT)/test_usb_bulk.c $(DT_MODS) $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) $(shell pkg-config --cflags umockdev-1.0 2>/dev/null) $< -o $@ $(DT_MODS) \
-	  $(PROTO_LIB) $(CORE_LIB) $(DAEMON_LIBS) $(shell pkg-config --libs umockdev-1.0 2>/dev/null) -lpthread
+	  $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB) $(DAEMON_LIBS) $(shell pkg-config --libs umockdev-1.0 2>/dev/null) -lpthread
 
 # LD_PRELOAD shim making fsync/fdatasync fail on demand (e2e commit failures).
 DT_FAILSYNC := $(DTB)/failsync.so
@@ -67,8 +69,8 @@ $(DT_POWERCUT): $(DT)/powercut.c
 
 DT_UNIT_BINS := $(DT_UNITS:%=$(DTB)/%) $(DT_UNITS:%=$(DTB)/san/%)
 
-.PHONY: daemon-unit daemon-regdoc daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-cppcheck daemon-systemd
-TEST_TARGETS += daemon-unit daemon-regdoc daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-cppcheck daemon-systemd
+.PHONY: daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-cppcheck daemon-systemd
+TEST_TARGETS += daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-cppcheck daemon-systemd
 .PHONY: daemon-powercut
 TEST_TARGETS += daemon-powercut
 
@@ -76,12 +78,6 @@ daemon-unit: $(DT_UNIT_BINS) $(DT_USB) $(DT_USB_BULK)
 	@set -e; for b in $(DT_UNIT_BINS); do echo "== $$b"; $$b; done
 	@echo "== $(DT_USB) (umockdev-wrapper)"; timeout 60 umockdev-wrapper $(DT_USB)
 	@echo "== $(DT_USB_BULK) (umockdev-wrapper)"; timeout 60 umockdev-wrapper $(DT_USB_BULK)
-
-# docs/registers.md must be exactly what the generator prints.
-daemon-regdoc: $(GEN_REGISTERS)
-	@$(GEN_REGISTERS) | diff -u docs/registers.md - || \
-	  { echo "docs/registers.md is stale: run 'make docs/registers.md'" >&2; exit 1; }
-	@echo "docs/registers.md is current"
 
 daemon-e2e: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_PTY) $(SIM_INSTR) $(DT_FAILSYNC) $(BUILD)/host/it2n-instrument $(CLI_BIN)
 	IT2ND=$(IT2ND) IT2ND_SAN=$(IT2ND_SAN) PLC=$(SIM_PLC) INSTR=$(SIM_INSTR) PTY=$(SIM_PTY) \
@@ -171,9 +167,9 @@ DT_SLOW_S ?= 20
 # with relaxed latency bounds and no figures.
 IT2ND_TSAN := $(BUILD)/tsan/it2nd
 DAEMON_SRC := $(wildcard daemon/*.c)
-$(IT2ND_TSAN): $(DAEMON_SRC) $(DAEMON_HDR) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
+$(IT2ND_TSAN): $(DAEMON_SRC) $(DAEMON_HDR) $(REGMAP_SRC) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
 	@mkdir -p $(@D)
-	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(BUILD)/daemon/paper_data.c $(SPB_PB_C) \
+	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(REGMAP_SRC) $(BUILD)/daemon/paper_data.c $(SPB_PB_C) \
 	  $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) -o $@ $(DAEMON_LIBS)
 daemon-slowdisk: $(IT2ND) $(IT2ND_SAN) $(IT2ND_TSAN) $(DT_FAILIO)
 	timeout 300 /usr/bin/python3 $(DT)/slowdisk_test.py --it2nd $(IT2ND) --failio $(DT_FAILIO) \
@@ -208,7 +204,7 @@ daemon-powercut: $(IT2ND) $(SIM_INSTR) $(DT_POWERCUT)
 daemon-cppcheck:
 	cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \
 	  --suppress=missingIncludeSystem -D_GNU_SOURCE \
-	  -Ifirmware_core -Iprotocol -Idaemon daemon/ tests/sim/ tests/daemon/
+	  -Ifirmware_core -Iprotocol -Iregmap -Idaemon -Icli daemon/ tests/sim/ tests/daemon/
 
 daemon-systemd: $(IT2ND)
 	@if command -v systemd-analyze >/dev/null; then \

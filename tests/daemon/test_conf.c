@@ -509,7 +509,7 @@ static int allowed6(const struct conf_listen *l, const char *a)
     memset(&sa, 0, sizeof sa);
     sa.sin6_family = AF_INET6;
     assert_int_equal(inet_pton(AF_INET6, a, &sa.sin6_addr), 1);
-    return conf_allowed(l, (const struct sockaddr *)&sa);
+    return acl_allowed(l, (const struct sockaddr *)&sa);
 }
 
 static int allowed4(const struct conf_listen *l, const char *a)
@@ -518,7 +518,7 @@ static int allowed4(const struct conf_listen *l, const char *a)
     memset(&sa, 0, sizeof sa);
     sa.sin_family = AF_INET;
     assert_int_equal(inet_pton(AF_INET, a, &sa.sin_addr), 1);
-    return conf_allowed(l, (const struct sockaddr *)&sa);
+    return acl_allowed(l, (const struct sockaddr *)&sa);
 }
 
 /* [listen:NAME] sections, allow-lists (IPv4, IPv6, prefixes not on a byte
@@ -569,17 +569,17 @@ static void test_listen_acl(void **st)
     assert_true(allowed4(plain, "203.0.113.9"));    /* no allow entries: everyone */
     assert_true(allowed6(plain, "2001:db8::1"));
 
-    struct conf_prefix p;
+    struct acl_prefix p;
     char why[160];
-    assert_int_equal(conf_parse_prefix("0.0.0.0/0", &p, why, sizeof why), 0);
-    assert_int_equal(conf_parse_prefix("[2001:db8::]/32", &p, why, sizeof why), 0);
+    assert_int_equal(acl_parse_prefix("0.0.0.0/0", &p, why, sizeof why), 0);
+    assert_int_equal(acl_parse_prefix("[2001:db8::]/32", &p, why, sizeof why), 0);
     assert_int_equal(p.family, 6);
     assert_int_equal(p.bits, 32);
-    assert_int_equal(conf_parse_prefix("10.0.0.1/31", &p, why, sizeof why), -1);
-    assert_int_equal(conf_parse_prefix("2001:db8::/129", &p, why, sizeof why), -1);
-    assert_int_equal(conf_parse_prefix("10.0.0.0/", &p, why, sizeof why), -1);
-    assert_int_equal(conf_parse_prefix("10.0.0.0/8x", &p, why, sizeof why), -1);
-    assert_int_equal(conf_parse_prefix("", &p, why, sizeof why), -1);
+    assert_int_equal(acl_parse_prefix("10.0.0.1/31", &p, why, sizeof why), -1);
+    assert_int_equal(acl_parse_prefix("2001:db8::/129", &p, why, sizeof why), -1);
+    assert_int_equal(acl_parse_prefix("10.0.0.0/", &p, why, sizeof why), -1);
+    assert_int_equal(acl_parse_prefix("10.0.0.0/8x", &p, why, sizeof why), -1);
+    assert_int_equal(acl_parse_prefix("", &p, why, sizeof why), -1);
 }
 
 /* Issue 18 item 4: a misspelt key or section names the nearest known one;

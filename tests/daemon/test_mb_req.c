@@ -29,8 +29,8 @@
 
 static char dir[64];
 static int sp[2];
-static struct mb_session sess;
-static struct mb_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
+static struct mb_req_session sess;
+static struct mb_map_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
 static uint16_t tid;
 
 static struct model *open_table(void)
@@ -55,7 +55,7 @@ static int setup(void **st)
     assert_int_equal(fcntl(sp[1], F_SETFL, O_NONBLOCK), 0);
     modbus_t *ctx = modbus_new_tcp_pi(NULL, "502");
     assert_non_null(ctx);
-    assert_int_equal(mb_session_init(&sess, ctx, 1), 0);
+    assert_int_equal(mb_req_session_init(&sess, ctx, 1), 0);
     modbus_set_socket(ctx, sp[0]);
     return 0;
 }
@@ -65,7 +65,7 @@ static int teardown(void **st)
     char cmd[128];
     (void)st;
     modbus_t *ctx = sess.ctx;
-    mb_session_free(&sess);
+    mb_req_session_free(&sess);
     modbus_free(ctx);
     close(sp[0]);
     close(sp[1]);
@@ -125,7 +125,7 @@ static void test_fc23_all_or_nothing(void **st)
     n = run(bad, sizeof bad, rep, &held);
     assert_int_equal(n, 9);
     assert_int_equal(rep[7], 0x97);
-    assert_int_equal(rep[8], MBX_BUSY);
+    assert_int_equal(rep[8], MB_MAP_BUSY);
     assert_false(held); /* nothing to wait for: nothing changed */
     md = models_by_id(1);
     assert_int_equal(md->ds.n, 3);
@@ -166,7 +166,7 @@ static void test_fc23_all_or_nothing(void **st)
  * another connection and an FC 23 query (write q_u, q_w; read the query
  * status) still see the old generation; once the batch is durable and the
  * reply released, both see the new one. */
-static int ask(struct mb_session *s, int fd, const uint8_t *pdu, int plen, uint8_t *rep)
+static int ask(struct mb_req_session *s, int fd, const uint8_t *pdu, int plen, uint8_t *rep)
 {
     uint8_t req[300];
     int len = adu(req, pdu, plen);
@@ -177,7 +177,7 @@ static int ask(struct mb_session *s, int fd, const uint8_t *pdu, int plen, uint8
     return (int)n;
 }
 
-static uint32_t gen_fc04(struct mb_session *s, int fd)
+static uint32_t gen_fc04(struct mb_req_session *s, int fd)
 {
     static const uint8_t pdu[] = { 4, 0, 7, 0, 2 };
     uint8_t rep[300];
@@ -185,7 +185,7 @@ static uint32_t gen_fc04(struct mb_session *s, int fd)
     return (uint32_t)rep[9] << 24 | (uint32_t)rep[10] << 16 | (uint32_t)rep[11] << 8 | rep[12];
 }
 
-static uint32_t gen_fc23(struct mb_session *s, int fd)
+static uint32_t gen_fc23(struct mb_req_session *s, int fd)
 {
     /* read 80..82 (kind, generation), write q_u = q_w = 0.5 */
     static const uint8_t pdu[] = { 23, 0, 80, 0, 3, 0, 64, 0, 2, 4, 0x13, 0x88, 0x13, 0x88 };
@@ -198,7 +198,7 @@ static uint32_t gen_fc23(struct mb_session *s, int fd)
 static void test_readers_see_durable(void **st)
 {
     uint8_t req[300], rep[300];
-    struct mb_session rd;
+    struct mb_req_session rd;
     int rsp[2];
     (void)st;
     struct model *md = models_by_id(1);
@@ -206,7 +206,7 @@ static void test_readers_see_durable(void **st)
     assert_int_equal(socketpair(AF_UNIX, SOCK_STREAM, 0, rsp), 0);
     modbus_t *ctx = modbus_new_tcp_pi(NULL, "502");
     assert_non_null(ctx);
-    assert_int_equal(mb_session_init(&rd, ctx, 1), 0);
+    assert_int_equal(mb_req_session_init(&rd, ctx, 1), 0);
     modbus_set_socket(ctx, rsp[0]);
 
     /* FC 16: upload D(0,0) with T = 0.41 (paper: 0.40). */
@@ -232,7 +232,7 @@ static void test_readers_see_durable(void **st)
     assert_int_equal(gen_fc04(&rd, rsp[1]), gen + 1);
     assert_int_equal(gen_fc23(&rd, rsp[1]), gen + 1);
 
-    mb_session_free(&rd);
+    mb_req_session_free(&rd);
     modbus_free(ctx);
     close(rsp[0]);
     close(rsp[1]);
@@ -339,8 +339,8 @@ static void test_reply_framed_as_libmodbus(void **st)
         if (pdu[0] == 0x03 || pdu[0] == 0x04 || pdu[0] == 0x17) {
             unsigned addr = (unsigned)pdu[1] << 8 | pdu[2], count = (unsigned)pdu[3] << 8 | pdu[4];
             uint16_t *tab = pdu[0] == 0x04 ? map->tab_input_registers : map->tab_registers;
-            assert_int_equal(mbmap_read(models_view(models_by_id(1)), &sess.q, &opts, addr, count, tab + addr),
-                             MBX_OK);
+            assert_int_equal(mb_map_read(models_view(models_by_id(1)), &sess.q, &opts, addr, count, tab + addr),
+                             MB_MAP_OK);
         }
         assert_true(modbus_reply(lib, req, len, map) > 0);
         ssize_t m = read(ref[1], want, sizeof want);
@@ -368,7 +368,7 @@ static void test_refused_write_sets_last_error(void **st)
     ssize_t n = read(sp[1], rep, sizeof rep);
     assert_int_equal(n, 9);
     assert_int_equal(rep[7], 0x90);
-    assert_int_equal(rep[8], MBX_DEVICE_FAILURE);
+    assert_int_equal(rep[8], MB_MAP_DEVICE_FAILURE);
     md = models_by_id(1);
     assert_int_equal(md->last_err.code, IT2ND_ERR_IO);
     assert_int_equal(md->ds.n, 3); /* nothing changed */

@@ -8,13 +8,19 @@ FC23_B := $(BUILD)/tests/fc23
 FC23_LOAD := $(FC23_B)/fc23_load
 FC23_BARE := $(FC23_B)/fc23_bare
 
-$(FC23_LOAD): tests/fc23/fc23_load.c $(BUILD)/host/daemon/paper_data.o $(CORE_LIB)
+# Clients and a bare server: libmodbus, the core, the CLI's CSV reader for
+# the paper data (examples/paper_4x4.csv, what the daemon preloads); no
+# daemon header (tests/lint/layers.py).
+FC23_CFLAGS := $(HOST_CFLAGS) -Icli -Itests/sim $(shell pkg-config --cflags libmodbus 2>/dev/null)
+FC23_LIBS := $(shell pkg-config --libs libmodbus 2>/dev/null) -lm -pthread
+
+$(FC23_LOAD): tests/fc23/fc23_load.c tests/sim/simcommon.h $(CLI_CSV_OBJ) $(CORE_LIB)
 	@mkdir -p $(@D)
-	$(CC) $(DAEMON_CFLAGS) $< $(BUILD)/host/daemon/paper_data.o -o $@ $(CORE_LIB) $(DAEMON_LIBS)
+	$(CC) $(FC23_CFLAGS) $< $(CLI_CSV_OBJ) -o $@ $(CORE_LIB) $(FC23_LIBS)
 
 $(FC23_BARE): tests/fc23/fc23_bare.c
 	@mkdir -p $(@D)
-	$(CC) $(DAEMON_CFLAGS) $< -o $@ $(DAEMON_LIBS)
+	$(CC) $(FC23_CFLAGS) $< -o $@ $(FC23_LIBS)
 
 FC23_ARGS = --it2nd $(IT2ND) --bare $(FC23_BARE) --load $(FC23_LOAD)
 

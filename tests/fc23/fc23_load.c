@@ -30,7 +30,7 @@
 #include <time.h>
 
 #include "it2n.h"
-#include "paper_data.h"
+#include "simcommon.h"
 
 #define Q_ADDR 64
 #define R_ADDR 128
@@ -91,26 +91,13 @@ static void put_f32(uint16_t out[2], it2n_val v)
     out[1] = (uint16_t)b;
 }
 
-/* The paper data set solved with the core, as the daemon's preload does. */
+/* The paper data set solved with the core, as the daemon's preload does
+ * (it compiles in the same file, examples/paper_4x4.csv). */
 static int paper_model(it2n_model *mdl)
 {
     static it2n_dataset ds;
-    static const int ch[5] = { IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F };
     it2n_errinfo err;
-    if (it2n_dataset_init(&ds, 3, 3, 0, &err) != IT2N_OK)
-        return -1;
-    for (size_t k = 0; k < paper_nrows; k++) {
-        const struct paper_row *r = &paper_rows[k];
-        it2n_val v[IT2N_CH_COUNT] = { 0 };
-        int fp = it2n_fp_from_name(r->fp, strlen(r->fp));
-        if (fp < 0)
-            return -1;
-        for (int c = 0; c < 5; c++)
-            if (it2n_parse_val(r->val[c], strlen(r->val[c]), &v[ch[c]]) != IT2N_OK)
-                return -1;
-        if (it2n_dataset_put(&ds, r->i, r->j, (unsigned)fp, v, false, &err) != IT2N_OK)
-            return -1;
-    }
+    sim_load_csv("examples/paper_4x4.csv", 0, &ds);
     it2n_model_init(mdl);
     return it2n_model_solve(mdl, &ds, &err) == IT2N_OK ? 0 : -1;
 }

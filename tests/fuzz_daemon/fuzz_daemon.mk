@@ -17,10 +17,10 @@ FZD_PKGS := $(shell pkg-config --cflags --libs libmodbus inih 2>/dev/null) -lm
 # switch that pinned open findings 6-9 went with their fixes; see
 # docs/security.md, "Findings").
 FZD_DEFS :=
-FZD_CFLAGS := $(HOST_CFLAGS) -Idaemon -I$(BUILD)/daemon -I$(FZD) $(FZD_DEFS)
-FZD_HDR := $(wildcard $(FZD)/*.h daemon/*.h) $(CORE_HDR) $(wildcard protocol/*.h)
+FZD_CFLAGS := $(HOST_CFLAGS) -Idaemon $(REGMAP_INC) -I$(BUILD)/daemon -I$(FZD) $(FZD_DEFS)
+FZD_HDR := $(wildcard $(FZD)/*.h daemon/*.h) $(REGMAP_HDR) $(CORE_HDR) $(wildcard protocol/*.h)
 FZD_COMMON := $(FZD)/fake_env.c
-FZD_MB := daemon/mb_req.c daemon/mb_map.c daemon/it2n_regmap.c daemon/models.c daemon/store.c daemon/snapshot.c daemon/errs.c $(FZD_PAPER)
+FZD_MB := daemon/mb_req.c daemon/mb_map.c $(REGMAP_SRC) daemon/models.c daemon/store.c daemon/snapshot.c daemon/errs.c $(FZD_PAPER)
 FZD_SRC_modbus := daemon/mb_tcp.c daemon/acl.c daemon/porthint.c $(FZD_MB)
 FZD_SRC_rtu := daemon/mb_rtu.c daemon/link_serial.c $(FZD_MB)
 FZD_SRC_store := daemon/store.c daemon/models.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
@@ -54,7 +54,7 @@ $(FZD_B)/san/fuzz_$(1): $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) $(FZ
 $(BUILD)/fuzz/fuzzd_$(1): $(FZD)/fuzz_$(1).c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD_HDR) $(CORE_SRC) $(PROTO_SRC)
 	@mkdir -p $$(@D)
 	clang -std=c11 -D_GNU_SOURCE -O1 -g -fsanitize=fuzzer,address,undefined \
-	  -Ifirmware_core -Iprotocol -Idaemon -I$(BUILD)/daemon -I$(FZD) $(FZD_DEFS) -o $$@ $(FZD)/fuzz_$(1).c \
+	  -Ifirmware_core -Iprotocol -Idaemon $(REGMAP_INC) -I$(BUILD)/daemon -I$(FZD) $(FZD_DEFS) -o $$@ $(FZD)/fuzz_$(1).c \
 	  $(FZD_COMMON) $(FZD_SRC_$(1)) $(CORE_SRC) $(PROTO_SRC) $(FZD_PKGS) $(FZD_LD_$(1))
 
 .PHONY: fuzzd-fuzz-$(1)
@@ -90,4 +90,4 @@ fuzzd-fuzz: $(FZD_TARGETS:%=fuzzd-fuzz-%)
 
 fuzzd-cppcheck:
 	cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \
-	  -Ifirmware_core -Iprotocol -Idaemon $(FZD)/
+	  -Ifirmware_core -Iprotocol -Idaemon $(REGMAP_INC) $(FZD)/

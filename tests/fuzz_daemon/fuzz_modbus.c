@@ -47,8 +47,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 #define NUNITS FUZZ_STANDARD_MODELS
 
 static struct model *pristine[NUNITS]; /* models_dup copies */
-static struct mb_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
-static struct mb_session sess;
+static struct mb_map_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
+static struct mb_req_session sess;
 static int pair[2];            /* pass A: [0] daemon side, [1] harness side */
 static int tcp_listener = -1;  /* the fd mb_tcp registered its accept handler on */
 static int unix_listener = -1; /* what the accept handler is handed instead */
@@ -87,7 +87,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     fuzz_check(socketpair(AF_UNIX, SOCK_STREAM, 0, pair) == 0, "socketpair");
     nonblock(pair[1]);
     modbus_t *ctx = modbus_new_tcp_pi(NULL, "502");
-    fuzz_check(ctx != NULL && mb_session_init(&sess, ctx, 1) == 0, "session");
+    fuzz_check(ctx != NULL && mb_req_session_init(&sess, ctx, 1) == 0, "session");
     modbus_set_socket(ctx, pair[0]);
 
     /* Pass B: mb_tcp with one real listener on an ephemeral loopback
@@ -150,10 +150,10 @@ static int check_reply(const uint8_t *req, size_t reqlen, const uint8_t *rep, si
         unsigned code = rep[8];
         fuzz_check(rep[7] == (fc | 0x80u), "exception reply: the request function with bit 7 set");
         fuzz_check(replen == 9, "exception reply is 9 bytes");
-        fuzz_check(code == MBX_ILLEGAL_FUNCTION || code == MBX_ILLEGAL_ADDRESS || code == MBX_ILLEGAL_VALUE ||
-                       code == MBX_DEVICE_FAILURE || code == MBX_BUSY || code == MBX_GATEWAY_TARGET,
+        fuzz_check(code == MB_MAP_ILLEGAL_FUNCTION || code == MB_MAP_ILLEGAL_ADDRESS || code == MB_MAP_ILLEGAL_VALUE ||
+                       code == MB_MAP_DEVICE_FAILURE || code == MB_MAP_BUSY || code == MB_MAP_GATEWAY_TARGET,
                    "exception code is one the daemon defines");
-        fuzz_check(!(fc & 0x80u) || code == MBX_ILLEGAL_FUNCTION || code == MBX_GATEWAY_TARGET,
+        fuzz_check(!(fc & 0x80u) || code == MB_MAP_ILLEGAL_FUNCTION || code == MB_MAP_GATEWAY_TARGET,
                    "a function code >= 0x80 gets exception 01 (0B: unknown unit)");
         return 1;
     }

@@ -44,7 +44,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 #define NUNITS FUZZ_STANDARD_MODELS
 static struct model *pristine[NUNITS]; /* models_dup copies */
-static struct mb_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
+static struct mb_map_opts opts = { 0, 100, 5, 5, { 0 }, 0, 0 };
 static struct conf rtu_conf;
 static int pty_master = -1;
 static int journal_fails, commit_fails;
@@ -152,10 +152,10 @@ static unsigned check_replies(const uint8_t *r, size_t n)
              * 0x80 comes back unchanged with 01, security finding 6). */
             fuzz_check(crc_ok(f, 5), "exception reply CRC");
             unsigned fc = f[1] & 0x7Fu;
-            fuzz_check(fc == 3 || fc == 4 || fc == 6 || fc == 16 || fc == 23 || f[2] == MBX_ILLEGAL_FUNCTION,
+            fuzz_check(fc == 3 || fc == 4 || fc == 6 || fc == 16 || fc == 23 || f[2] == MB_MAP_ILLEGAL_FUNCTION,
                        "an unserved function gets exception 01");
-            fuzz_check(f[2] == MBX_ILLEGAL_FUNCTION || f[2] == MBX_ILLEGAL_ADDRESS || f[2] == MBX_ILLEGAL_VALUE ||
-                           f[2] == MBX_DEVICE_FAILURE || f[2] == MBX_BUSY,
+            fuzz_check(f[2] == MB_MAP_ILLEGAL_FUNCTION || f[2] == MB_MAP_ILLEGAL_ADDRESS || f[2] == MB_MAP_ILLEGAL_VALUE ||
+                           f[2] == MB_MAP_DEVICE_FAILURE || f[2] == MB_MAP_BUSY,
                        "exception code is one the daemon defines");
             len = 5;
         } else {
@@ -246,7 +246,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fake_advance_us(1);
         pump(port);
         an = drain(line, ans, sizeof ans);
-        fuzz_check(an == 5 && ans[0] == 1 && ans[1] == 0x91 && ans[2] == MBX_ILLEGAL_FUNCTION && crc_ok(ans, 5),
+        fuzz_check(an == 5 && ans[0] == 1 && ans[1] == 0x91 && ans[2] == MB_MAP_ILLEGAL_FUNCTION && crc_ok(ans, 5),
                    "exception 01 at t3.5 after a function framed by silence");
     }
     unsigned replies = check_replies(rep, got);

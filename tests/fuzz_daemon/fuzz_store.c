@@ -43,6 +43,7 @@
 #include "fuzz_tmp.h"
 #include "it2n.h"
 #include "it2n_proto.h"
+#include "le_bytes.h"
 #include "models.h"
 #include "store.h"
 
@@ -198,16 +199,8 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
         fuzz_check(configured[k] != NULL, "malloc");
     }
     models_free();
-    snap_crc_fixable = snap_len > 4 && it2n_crc32c(snap_base, snap_len - 4) ==
-                                           ((uint32_t)snap_base[snap_len - 4] | (uint32_t)snap_base[snap_len - 3] << 8 |
-                                            (uint32_t)snap_base[snap_len - 2] << 16 | (uint32_t)snap_base[snap_len - 1] << 24);
+    snap_crc_fixable = snap_len > 4 && it2n_crc32c(snap_base, snap_len - 4) == le_get32(snap_base + snap_len - 4);
     return 0;
-}
-
-static void put32(uint8_t *p, uint32_t v)
-{
-    for (int k = 0; k < 4; k++)
-        p[k] = (uint8_t)(v >> (8 * k));
 }
 
 /* Frame records from d (see the header comment) into a WAL file image. */
@@ -217,7 +210,7 @@ static size_t frame_wal(const uint8_t *d, size_t n, uint8_t *out, size_t cap)
     uint64_t seq = 1;
     memset(out, 0, 16);
     memcpy(out, "IT2NWAL", 8);
-    put32(out + 8, 1);
+    le_put32(out + 8, 1);
     while (pos + 2 <= n) {
         uint8_t t = d[pos], plen = d[pos + 1];
         pos += 2;
@@ -225,12 +218,12 @@ static size_t frame_wal(const uint8_t *d, size_t n, uint8_t *out, size_t cap)
             plen = (uint8_t)(n - pos);
         if (o + 17 + plen > cap)
             break;
-        put32(out + o, 9u + plen);
+        le_put32(out + o, 9u + plen);
         for (int k = 0; k < 8; k++)
             out[o + 8 + (size_t)k] = (uint8_t)(seq >> (8 * k));
         out[o + 16] = t & 0x7Fu;
         memcpy(out + o + 17, d + pos, plen);
-        put32(out + o + 4, it2n_crc32c(out + o + 8, 9u + plen) ^ (t & 0x80u ? 1u : 0u));
+        le_put32(out + o + 4, it2n_crc32c(out + o + 8, 9u + plen) ^ (t & 0x80u ? 1u : 0u));
         o += 17 + plen;
         pos += plen;
         seq++;
@@ -251,9 +244,9 @@ static uint8_t *build_v1(size_t *len)
     uint8_t *b = calloc(1, n);
     fuzz_check(b != NULL, "v1 buffer");
     memcpy(b, "IT2NSNP", 8);
-    put32(b + 8, 1);
-    put32(b + 12, store_v1_layout_tag());
-    put32(b + 24, NMODELS - 1);
+    le_put32(b + 8, 1);
+    le_put32(b + 12, store_v1_layout_tag());
+    le_put32(b + 24, NMODELS - 1);
     for (int k = 0; k < NMODELS; k++) {
         static struct store_v1_snap_model sm;
         const struct model *md = configured[k];
@@ -277,7 +270,7 @@ static uint8_t *build_v1(size_t *len)
                         sm.mdl.ctrl[i][j][fp][ch] = it2n_model_ctrl(&md->mdl, i, j, fp, ch);
         memcpy(b + 32 + at++ * sizeof sm, &sm, sizeof sm);
     }
-    put32(b + n - 4, it2n_crc32c(b, n - 4));
+    le_put32(b + n - 4, it2n_crc32c(b, n - 4));
     *len = n;
     return b;
 }
@@ -323,7 +316,7 @@ static void write_files(const uint8_t *data, size_t size)
             snap[off] ^= d[pos + 3];
         }
         if (pos < n && (d[pos++] & 1u) && (mode == 4 || snap_crc_fixable)) {
-            put32(snap + slen - 4, it2n_crc32c(snap, slen - 4));
+            le_put32(snap + slen - 4, it2n_crc32c(snap, slen - 4));
         }
         fuzz_write_file(snap_path, snap, slen);
         fuzz_write_file(wal_path, img, frame_wal(d + pos, n - pos, img, sizeof img));
@@ -335,30 +328,20 @@ static void write_files(const uint8_t *data, size_t size)
     }
 }
 
-static uint32_t le32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static uint64_t le64(const uint8_t *p)
-{
-    return le32(p) | (uint64_t)le32(p + 4) << 32;
-}
-
 /* A record store.c would replay at p (n bytes): length, CRC, a payload
  * length its type allows; *rseq its seq. */
 static int valid_rec(const uint8_t *p, size_t n, uint64_t *rseq)
 {
     if (n < 17)
         return 0;
-    uint32_t len = le32(p);
-    if (len < 11 || len > 9u + 128u || 8u + len > n || le32(p + 4) != it2n_crc32c(p + 8, len))
+    uint32_t len = le_get32(p);
+    if (len < 11 || len > 9u + 128u || 8u + len > n || le_get32(p + 4) != it2n_crc32c(p + 8, len))
         return 0;
     size_t pl = len - 9;
     int t = p[16];
     if (!((t == 1 && (pl == 5 || (pl == 6 && p[17 + 5] == 1))) || (t == 2 && pl == 5 + 8 * IT2N_CH_COUNT) || ((t == 3 || t == 4) && pl == 2)))
         return 0;
-    *rseq = le64(p + 8);
+    *rseq = le_get64(p + 8);
     return 1;
 }
 
@@ -368,14 +351,14 @@ static void check_cuts(void)
 {
     size_t wl = 0, sl = 0, cl;
     uint8_t *w = read_opt(wal_path, &wl), *sn = read_opt(snap_path, &sl);
-    uint64_t last = sn && sl >= 24 ? le64(sn + 16) : 0, rs;
+    uint64_t last = sn && sl >= 24 ? le_get64(sn + 16) : 0, rs;
     char p[400];
     DIR *d;
     for (size_t o = 16; w && o < wl;) {
         fuzz_check(valid_rec(w + o, wl - o, &rs), "the recovered WAL is valid to its end");
         if (rs > last)
             last = rs;
-        o += 8u + le32(w + o);
+        o += 8u + le_get32(w + o);
     }
     if ((d = opendir(dir)) != NULL) {
         const struct dirent *e;

@@ -19,7 +19,7 @@ COMPLETION_PROGS := it2n=$(CLI_BIN):cli/it2n.1 it2nd=$(IT2ND):daemon/it2nd.8 \
   it2nctl=$(if $(CTL_BIN),$(CTL_BIN):cli/it2nctl.1)
 
 .PHONY: test-install test-completion
-test-install: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB)
+test-install: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB) $(REGMAP_LIB)
 	@MAKE="$(MAKE)" CC="$(CC)" tests/install/test_install.sh
 
 test-completion: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CTL_BIN) ## Check the bash completions and man pages against each program's --help
@@ -28,7 +28,7 @@ test-completion: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CTL_BIN) ##
 TEST_TARGETS += test-install test-completion
 
 .PHONY: deb-smoke deb-check
-deb-smoke: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB)
+deb-smoke: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB) $(REGMAP_LIB)
 	@d=$$(mktemp -d); trap 'rm -rf $$d' EXIT; \
 	u=$$(pkg-config --variable=systemdsystemunitdir systemd 2>/dev/null); u=$${u:-/lib/systemd/system}; \
 	$(MAKE) --no-print-directory -s install DESTDIR=$$d PREFIX=/usr \

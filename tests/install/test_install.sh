@@ -15,6 +15,8 @@
 #   - the installed programs run; the man pages format without warnings;
 #   - a program built with `pkg-config --cflags --libs it2n-protocol` against
 #     the installed tree prints what the installed `it2n eval` prints;
+#   - a program built with `pkg-config --cflags --libs it2n-regmap` encodes
+#     and looks up through the installed register map library;
 #   - ABI guards: a program calling every entry point whose structs a build
 #     option sizes links and runs with the .pc flags, and fails to link
 #     (naming each entry point with its options) with any other window,
@@ -41,8 +43,8 @@ unitdir=${unitdir:-/lib/systemd/system}
   for f in $P/bin/it2n $P/bin/it2n-instrument $P/sbin/it2nd \
            $unitdir/it2nd.service $unitdir/it2nd@.service \
            /etc/it2n/it2nd.conf /etc/it2n/it2nd.conf.example \
-           $P/lib/libit2n.a $P/lib/libit2n_proto.a \
-           $P/lib/pkgconfig/it2n.pc $P/lib/pkgconfig/it2n-protocol.pc; do echo "$f"; done
+           $P/lib/libit2n.a $P/lib/libit2n_proto.a $P/lib/libit2n_regmap.a \
+           $P/lib/pkgconfig/it2n.pc $P/lib/pkgconfig/it2n-protocol.pc $P/lib/pkgconfig/it2n-regmap.pc; do echo "$f"; done
   # each program: its man page and its completion (it2nctl when it is built)
   for f in "$r$P"/bin/* "$r$P"/sbin/*; do
     b=${f##*/}
@@ -50,7 +52,7 @@ unitdir=${unitdir:-/lib/systemd/system}
     echo "$P/share/bash-completion/completions/$b"
     echo "${f#$r}"
   done
-  for f in firmware_core/it2n.h protocol/*.h; do echo "$P/include/it2n/${f##*/}"; done
+  for f in firmware_core/it2n.h protocol/*.h regmap/*.h; do echo "$P/include/it2n/${f##*/}"; done
   for f in examples/*.csv examples/firmware/*.[ch] examples/instrument/*.[ch] examples/instrument/README.md; do
     echo "$P/share/doc/it2n/$f"
   done
@@ -112,6 +114,12 @@ ${CC:-gcc} -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-protocol) \
 "$r$P/bin/it2n" eval "$d/d.csv" --at 0.25,0.75 --decimals 9 | cut -d, -f1-8 >"$d/want.csv"
 "$d/consumer" 0.25 0.75 >"$d/got.csv" || fail "the pkg-config consumer failed"
 diff -u "$d/want.csv" "$d/got.csv" >&2 || fail "the pkg-config consumer differs from the installed it2n eval"
+# The register map library on its own (it depends on nothing else).
+${CC:-gcc} -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-regmap) \
+  tests/install/regmap_user.c $(pkg-config --libs it2n-regmap) -o "$d/regmap_user" ||
+  fail "cannot build against the installed it2n-regmap"
+got=$("$d/regmap_user") || fail "the it2n-regmap consumer failed"
+[ "$got" = "0000 3fc0 sample_grid 5000" ] || fail "the it2n-regmap consumer printed '$got', not '0000 3fc0 sample_grid 5000'"
 # ABI guards: every entry point whose structs are sized by a build option
 # is named after the options (it2n.h, it2n_proto.h). The library here is
 # built with window 16 (the .pc file passes it on); abi_user calls each
@@ -164,7 +172,7 @@ abi_refused "IT2N_PROTO_WINDOW=4" - window4_payload1024_reorder1_degree7 \
 want_h=$(grep '^| headers ' docs/packaging.md | grep -o '`[a-z0-9_]*\.h`' | tr -d '`' | sort | tr '\n' ' ')
 got_h=$(ls "$r$P/include/it2n" | sort | tr '\n' ' ')
 [ "$want_h" = "$got_h" ] || fail "docs/packaging.md lists headers '$want_h', make install installs '$got_h'"
-for lib in libit2n.a libit2n_proto.a; do
+for lib in libit2n.a libit2n_proto.a libit2n_regmap.a; do
   [ -f "$r$P/lib/$lib" ] && grep -q "\`$lib\`" docs/packaging.md || fail "docs/packaging.md and the installed $lib disagree"
 done
 
@@ -173,7 +181,7 @@ done
 # in an installed header, the ABI-tagged names by their base name) or
 # it2n__ (internal); nothing lands in a user's firmware under another name.
 n_sym=0
-for lib in "$r$P"/lib/libit2n.a "$r$P"/lib/libit2n_proto.a; do
+for lib in "$r$P"/lib/libit2n.a "$r$P"/lib/libit2n_proto.a "$r$P"/lib/libit2n_regmap.a; do
   while read -r sym; do
     n_sym=$((n_sym + 1))
     case $sym in

@@ -1,12 +1,20 @@
 /*
- * it2n_regmap — the it2nd Modbus register map, defined once as data.
+ * it2n_regmap — the it2nd Modbus register map, defined once as data, and
+ * the codecs of the values it carries.
  *
  * Every address the daemon serves is listed in it2n_regmap_blocks[]; the
- * daemon decodes requests against it and daemon/tools/gen_registers prints
- * docs/registers.md from it. Addresses are 0-based protocol (PDU) addresses;
- * the documentation adds the 3xxxx / 4xxxx reference notation.
+ * daemon decodes requests against it, it2nctl and the PLC simulator read
+ * it, and regmap/tools/gen_registers prints docs/registers.md from it.
+ * Addresses are 0-based protocol (PDU) addresses; the documentation adds
+ * the 3xxxx / 4xxxx reference notation.
  *
- * Portable C99: pure data plus a lookup, no float, no heap, no state.
+ * The codecs (32-bit word orders, float32, scaled integers, parameters
+ * x10000) are the only copies in the tree: the daemon encodes with them,
+ * the clients decode with them.
+ *
+ * Portable C99: data, lookups and pure functions; no heap, no state, no
+ * I/O, no transport (the map knows registers, not Modbus frames), no
+ * dependency beyond <stdint.h>, <stddef.h> and <string.h>.
  */
 #ifndef IT2N_REGMAP_H
 #define IT2N_REGMAP_H
@@ -223,5 +231,55 @@ const char *it2n_regmap_type_name(unsigned type);
 
 /* Registers one value of `type` occupies (1 or 2). */
 unsigned it2n_regmap_type_words(unsigned type);
+
+/* ---- Codecs ----
+ * Fixed point as the it2n core carries it: values (coordinates,
+ * memberships) are Q24 in an int64_t (1.0 = 2^24), parameters u, w are
+ * Q32 (1.0 = 2^32). The map does not include the core: these are the
+ * formats, the daemon checks they match the core's at compile time. */
+#define IT2N_REGMAP_Q24_FRAC 24u
+#define IT2N_REGMAP_PAR_FRAC 32u
+
+/* 32 bits into two registers in word order `order` (enum
+ * it2n_regmap_order: A is the most significant byte, ABCD puts AB in the
+ * first register). Any other order is taken as ABCD. */
+void it2n_regmap_put_u32(uint16_t out[2], uint32_t v, unsigned order);
+
+/* The 32 bits two registers carry in word order `order` (as put_u32). */
+uint32_t it2n_regmap_get_u32(const uint16_t in[2], unsigned order);
+
+/* An IEEE-754 float32 into two registers in word order `order`. */
+void it2n_regmap_put_f32(uint16_t out[2], float f, unsigned order);
+
+/* The float32 two registers carry in word order `order`. */
+float it2n_regmap_get_f32(const uint16_t in[2], unsigned order);
+
+/* A Q24 value as float32: v / 2^24 rounded to nearest (exact for |v| up
+ * to 2^24 units, i.e. 24 significant bits). */
+float it2n_regmap_q24_to_f32(int64_t v);
+
+/* n Q24 values as float32 into 2n registers (the result, grid and
+ * coefficient blocks): the word order is chosen once per call, not per
+ * value. */
+void it2n_regmap_put_q24_f32s(uint16_t *out, const int64_t *v, size_t n, unsigned order);
+
+/* A Q24 value as a scaled integer register value: v * scale / 2^24
+ * rounded half away from zero, clamped to [lo, hi] (lo <= 0 <= hi). On a
+ * clamp *sat is set to 1; otherwise it is left as it was, so one flag can
+ * collect a whole block. scale >= 1. */
+int64_t it2n_regmap_q24_to_scaled(int64_t v, int32_t scale, int64_t lo, int64_t hi, int *sat);
+
+/* A scaled integer register value back to Q24: raw * 2^24 / scale
+ * rounded half away from zero (the inverse the daemon applies to writes).
+ * scale >= 1; results beyond +-2^62 saturate there. */
+int64_t it2n_regmap_q24_from_scaled(int64_t raw, int32_t scale);
+
+/* A parameter u or w (Q32, 0..2^32) as the x10000 register value
+ * (rounded half up; values outside [0, 1] clamp to 0 or 10000). */
+uint16_t it2n_regmap_par_to_u16(int64_t par);
+
+/* An x10000 register value as a parameter (Q32, rounded half up); values
+ * above 10000 give more than 1.0: the caller refuses them first. */
+int64_t it2n_regmap_par_from_u16(unsigned reg);
 
 #endif /* IT2N_REGMAP_H */

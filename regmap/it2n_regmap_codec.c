@@ -1,0 +1,146 @@
+/*
+ * it2n_regmap_codec.c — how values travel in registers: the four 32-bit
+ * word orders, float32, scaled integers and parameters x10000. The one
+ * copy of each: the daemon encodes with it, it2nctl and the simulator
+ * decode with it, and tests/regmap pins every byte against golden values.
+ *
+ * No 128-bit arithmetic: every product is split so it fits 64 bits, which
+ * keeps the library C99 for any compiler.
+ */
+#include "it2n_regmap.h"
+
+#include <string.h>
+
+static uint16_t swap16(uint16_t v)
+{
+    return (uint16_t)((unsigned)(v >> 8) | (unsigned)(v << 8));
+}
+
+void it2n_regmap_put_u32(uint16_t out[2], uint32_t v, unsigned order)
+{
+    uint16_t hi = (uint16_t)(v >> 16), lo = (uint16_t)v;
+    switch (order) {
+    case IT2N_WO_CDAB: out[0] = lo; out[1] = hi; break;
+    case IT2N_WO_BADC: out[0] = swap16(hi); out[1] = swap16(lo); break;
+    case IT2N_WO_DCBA: out[0] = swap16(lo); out[1] = swap16(hi); break;
+    default: out[0] = hi; out[1] = lo; break;
+    }
+}
+
+uint32_t it2n_regmap_get_u32(const uint16_t in[2], unsigned order)
+{
+    uint16_t hi, lo;
+    switch (order) {
+    case IT2N_WO_CDAB: hi = in[1]; lo = in[0]; break;
+    case IT2N_WO_BADC: hi = swap16(in[0]); lo = swap16(in[1]); break;
+    case IT2N_WO_DCBA: hi = swap16(in[1]); lo = swap16(in[0]); break;
+    default: hi = in[0]; lo = in[1]; break;
+    }
+    return ((uint32_t)hi << 16) | lo;
+}
+
+void it2n_regmap_put_f32(uint16_t out[2], float f, unsigned order)
+{
+    uint32_t b;
+    memcpy(&b, &f, sizeof b);
+    it2n_regmap_put_u32(out, b, order);
+}
+
+float it2n_regmap_get_f32(const uint16_t in[2], unsigned order)
+{
+    uint32_t b = it2n_regmap_get_u32(in, order);
+    float f;
+    memcpy(&f, &b, sizeof f);
+    return f;
+}
+
+float it2n_regmap_q24_to_f32(int64_t v)
+{
+    /* v * 2^-24: exactly v / 2^24 (a power of two), without a division */
+    return (float)((double)v * (1.0 / (double)((int64_t)1 << IT2N_REGMAP_Q24_FRAC)));
+}
+
+void it2n_regmap_put_q24_f32s(uint16_t *out, const int64_t *v, size_t n, unsigned order)
+{
+    size_t k;
+    /* One loop per order, so the order is a constant inside it (the result
+     * block is read with every query). */
+#define IT2N_REGMAP_PUT_F32S(wo)                                                    \
+    for (k = 0; k < n; k++)                                                         \
+        it2n_regmap_put_f32(&out[2 * k], it2n_regmap_q24_to_f32(v[k]), (wo))
+    switch (order) {
+    case IT2N_WO_CDAB: IT2N_REGMAP_PUT_F32S(IT2N_WO_CDAB); break;
+    case IT2N_WO_BADC: IT2N_REGMAP_PUT_F32S(IT2N_WO_BADC); break;
+    case IT2N_WO_DCBA: IT2N_REGMAP_PUT_F32S(IT2N_WO_DCBA); break;
+    default: IT2N_REGMAP_PUT_F32S(IT2N_WO_ABCD); break;
+    }
+#undef IT2N_REGMAP_PUT_F32S
+}
+
+/* Magnitudes beyond this saturate (2^62: a sum of two of them still fits). */
+#define MAG_LIMIT ((uint64_t)1 << 62)
+
+static uint64_t magnitude(int64_t v)
+{
+    return v < 0 ? (uint64_t)0 - (uint64_t)v : (uint64_t)v;
+}
+
+/* round(|v| * scale / 2^frac), half up, for frac <= 32 and scale < 2^31;
+ * MAG_LIMIT when larger. |v| = ip * 2^frac + fp: fp * scale < 2^63. */
+static uint64_t fixed_to_scaled(uint64_t a, unsigned frac, uint64_t scale)
+{
+    uint64_t ip = a >> frac, fp = a & (((uint64_t)1 << frac) - 1u);
+    uint64_t part = (fp * scale + ((uint64_t)1 << (frac - 1u))) >> frac;
+    if (ip != 0u && scale > (MAG_LIMIT - part) / ip)
+        return MAG_LIMIT;
+    return ip * scale + part;
+}
+
+/* round(|raw| * 2^frac / scale), half up (scale / 2 as the half, as the
+ * daemon always rounded); MAG_LIMIT when larger. |raw| = q * scale + r:
+ * r * 2^frac < 2^63. */
+static uint64_t scaled_to_fixed(uint64_t a, unsigned frac, uint64_t scale)
+{
+    uint64_t q = a / scale, r = a % scale;
+    uint64_t part = ((r << frac) + scale / 2u) / scale;
+    if (q >= (MAG_LIMIT >> frac))
+        return MAG_LIMIT;
+    return (q << frac) + part;
+}
+
+int64_t it2n_regmap_q24_to_scaled(int64_t v, int32_t scale, int64_t lo, int64_t hi, int *sat)
+{
+    uint64_t m = fixed_to_scaled(magnitude(v), IT2N_REGMAP_Q24_FRAC, (uint64_t)(scale > 0 ? scale : 1));
+    if (v < 0) {
+        if (m > magnitude(lo)) {
+            *sat = 1;
+            return lo;
+        }
+        return -(int64_t)m;
+    }
+    if (m > (uint64_t)hi) {
+        *sat = 1;
+        return hi;
+    }
+    return (int64_t)m;
+}
+
+int64_t it2n_regmap_q24_from_scaled(int64_t raw, int32_t scale)
+{
+    uint64_t m = scaled_to_fixed(magnitude(raw), IT2N_REGMAP_Q24_FRAC, (uint64_t)(scale > 0 ? scale : 1));
+    return raw < 0 ? -(int64_t)m : (int64_t)m;
+}
+
+uint16_t it2n_regmap_par_to_u16(int64_t par)
+{
+    if (par <= 0)
+        return 0u;
+    if (par >= (int64_t)1 << IT2N_REGMAP_PAR_FRAC)
+        return (uint16_t)IT2N_REGMAP_MEMB_SCALE;
+    return (uint16_t)fixed_to_scaled((uint64_t)par, IT2N_REGMAP_PAR_FRAC, IT2N_REGMAP_MEMB_SCALE);
+}
+
+int64_t it2n_regmap_par_from_u16(unsigned reg)
+{
+    return (int64_t)scaled_to_fixed(reg, IT2N_REGMAP_PAR_FRAC, IT2N_REGMAP_MEMB_SCALE);
+}
