@@ -111,6 +111,7 @@ int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
                                 ? UINT32_MAX
                                 : 8u * l->cfg.rto_ms;
     l->tx_next = cfg->first_seq;
+    l->rto = l->cfg.rto_ms; /* until round trips are measured */
     l->win = cfg->window != 0u ? cfg->window : (uint8_t)W;
     l->peer_window = IT2N_PROTO_WINDOW_MIN; /* until the peer's HELLO */
     l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
@@ -143,6 +144,11 @@ uint8_t it2n_link_send_window(const it2n_link *l)
 uint32_t it2n_link_session(const it2n_link *l)
 {
     return l->ver == V12 ? l->tag : l->peer_session;
+}
+
+uint32_t it2n_link_rto(const it2n_link *l)
+{
+    return l->rto;
 }
 
 uint16_t it2n_link_max_payload(const it2n_link *l)
@@ -206,7 +212,7 @@ uint32_t it2n_link_stalled_ms(const it2n_link *l, uint32_t now)
 
 static uint32_t rto_for(const it2n_link *l, unsigned tries)
 {
-    uint32_t rto = l->cfg.rto_ms;
+    uint32_t rto = l->rto; /* measured, within rto_ms .. rto_max_ms */
     /* Exponential backoff from the second retransmission on: rto, rto,
      * 2 rto, 4 rto ... up to rto_max_ms (one loss is not an outage). With
      * the line clock (baud known) our own queue never makes a timeout
@@ -266,10 +272,21 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
         p = s->buf;
         h.len = (uint16_t)(s->len + SESS);
     }
-    if (s->tries > 0u)
+    if (s->tries > 0u) {
+        unsigned k;
+        uint16_t age = (uint16_t)(l->tx_next - s->seq);
         l->stats.tx_retx++;
-    else
+        /* Frames sent after this one's first copy are delivered after it
+         * (in order): their answers may wait for this copy, so their round
+         * trips say nothing about the peer's (Karn's rule, extended). */
+        for (k = 0; k < W; k++)
+            if (l->slot[k].used && l->slot[k].tries > 0u &&
+                (uint16_t)(l->tx_next - l->slot[k].seq) < age)
+                l->slot[k].nosample = 1;
+    } else {
         s->first = now;
+        s->nosample = 0;
+    }
     s->held = 0; /* a new copy: only a later GAP says it is held */
     s->last = now;
     l->stats.tx_frames++;
@@ -615,6 +632,45 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
     }
 }
 
+/* A round-trip sample (docs/protocol.md 4.2 rule 3): the first answer
+ * (ACK, NACK or RCVD) to frame s, sent once (Karn's rule: the answer to a
+ * retransmitted frame may be the first copy's), not held by a GAP or
+ * deferred (RCVD) and not sent while an older frame was retransmitted.
+ * It runs from when the frame left the line (with the line clock) or was
+ * written. SRTT and RTTVAR as RFC 6298 (gains 1/8 and 1/4, integer ms,
+ * scaled by 8 and 4); the RTO is SRTT + max(1, 4 RTTVAR) within rto_ms ..
+ * rto_max_ms, so that a peer whose answers come late now and then (a
+ * loaded machine, a USB adapter's latency) is not taken for a lossy one. */
+static void rtt_sample(it2n_link *l, const it2n_link_slot *s, uint32_t now)
+{
+    uint32_t r, rto;
+    int32_t err;
+    if (s->tries != 1u || s->held != 0u || s->nosample)
+        return;
+    r = due(now, s->gone) ? now - s->gone : 0u;
+    if (r > l->cfg.rto_max_ms)
+        r = l->cfg.rto_max_ms; /* beyond the cap says nothing more */
+    if (r > 0x00FFFFFFu)
+        r = 0x00FFFFFFu; /* keep r x 8 within 32 bits */
+    if (!l->rtt_valid) {
+        l->srtt8 = r * 8u;
+        l->rttvar4 = r * 2u; /* RTTVAR = R / 2 */
+        l->rtt_valid = 1;
+    } else {
+        err = (int32_t)r - (int32_t)(l->srtt8 >> 3);
+        l->srtt8 = (uint32_t)((int32_t)l->srtt8 + err);
+        if (err < 0)
+            err = -err;
+        l->rttvar4 = (uint32_t)((int32_t)l->rttvar4 + err - (int32_t)(l->rttvar4 >> 2));
+    }
+    rto = (l->srtt8 >> 3) + (l->rttvar4 > 1u ? l->rttvar4 : 1u);
+    if (rto < l->cfg.rto_ms)
+        rto = l->cfg.rto_ms;
+    if (rto > l->cfg.rto_max_ms)
+        rto = l->cfg.rto_max_ms;
+    l->rto = rto;
+}
+
 /* RCVD from the receiver: it has frame seq and will answer it later. No
  * retransmission before twice the time the peer's deferred answers take
  * lately (an fsync on a loaded machine), at least 2 RTO, at most
@@ -623,13 +679,14 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
 static void on_rcvd(it2n_link *l, uint16_t seq, uint32_t now)
 {
     it2n_link_slot *s = slot_of(l, seq);
-    uint32_t w = l->defer_ms > l->cfg.rto_ms ? l->defer_ms : l->cfg.rto_ms;
+    uint32_t w = l->defer_ms > l->rto ? l->defer_ms : l->rto;
     uint32_t t;
     w = w > l->cfg.rto_max_ms / 2u ? l->cfg.rto_max_ms : 2u * w;
     t = now + w;
     if (s == NULL || s->ver != V12 || s->tag != l->tag || !l->tx_synced)
         return;
     if (s->held != 2u) {
+        rtt_sample(l, s, now); /* its delivery took a round trip */
         l->stats.rx_rcvd++;
         s->rcvd = now;
     }
@@ -808,6 +865,7 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
         finish(l, s, IT2N_PROTO_ERR_SESSION, &m->u.nack);
         return;
     }
+    rtt_sample(l, s, now); /* its own answer (not one implied by a later ACK) */
     if (m->type == IT2N_MSG_ACK) {
         acked(l, s, now);
         return;

@@ -13,7 +13,9 @@
  *
  * Sender: up to that many reliable frames in flight, each kept in
  * the context until ACKed or NACKed and retransmitted after the RTO, which
- * doubles on every retransmission up to rto_max_ms; after max_tries
+ * doubles on every retransmission up to rto_max_ms; the RTO itself follows
+ * the measured round trip (SRTT + 4 RTTVAR, RFC 6298 with Karn's rule),
+ * never below rto_ms nor above rto_max_ms; after max_tries
  * transmissions (0 = never) the frame is given up (IT2N_PROTO_ERR_TIMEOUT).
  * The first frame of a sequence carries IT2N_FLAG_SYN and the sender's
  * session id, and travels alone.
@@ -170,6 +172,9 @@ typedef struct it2n_link_slot {
                        before rto_max_ms (docs/protocol.md 4.2 rule 4) */
     uint32_t tag;   /* v1.2: the session it belongs to                  */
     uint32_t rcvd;  /* when its RCVD came (held 2)                      */
+    uint8_t nosample; /* 1: an older frame was retransmitted while this
+                       one was in flight, so its answer may have waited
+                       for that one: no round-trip sample (Karn)         */
     uint8_t buf[IT2N_FRAME_MAX_LEN];
 } it2n_link_slot;
 
@@ -233,6 +238,12 @@ typedef struct it2n_link {
                           their RCVD (the largest lately, decaying): a
                           frame with a RCVD is resent after twice that,
                           at least 2 RTO (docs/protocol.md 4.2 rule 4) */
+    /* Adaptive RTO (docs/protocol.md 4.2 rule 3, RFC 6298 with Karn's
+     * rule): smoothed round trip x 8 and its mean deviation x 4, in ms,
+     * from answers to frames sent once; rto is the current first timeout,
+     * within cfg.rto_ms .. cfg.rto_max_ms. */
+    uint32_t srtt8, rttvar4, rto;
+    uint8_t rtt_valid; /* a sample was taken */
 } it2n_link;
 
 /*
@@ -315,6 +326,11 @@ void it2n_link_set_peer(it2n_link *l, uint8_t window, uint16_t max_payload);
 /* The current session: v1.2 the id the server handed out (0 = none
  * yet), v1.1 the peer's session id of the current sequence. */
 uint32_t it2n_link_session(const it2n_link *l);
+
+/* The current first retransmission timeout (ms): the configured rto_ms
+ * until round trips are measured, then SRTT + 4 RTTVAR within rto_ms ..
+ * rto_max_ms (docs/protocol.md 4.2 rule 3). */
+uint32_t it2n_link_rto(const it2n_link *l);
 
 /* Largest message payload it2n_link_send accepts now (peer's limit). */
 uint16_t it2n_link_max_payload(const it2n_link *l);

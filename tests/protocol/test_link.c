@@ -1421,6 +1421,105 @@ static void test_rcvd_stops_retransmission(void **st)
     assert_int_equal(B->l.stats.tx_rcvd, 3);
 }
 
+/* One CONFIGURE from A, answered by B `delay` ms after it was written (A
+ * runs its timers every ms meanwhile; a copy it resends is dropped).
+ * Returns the time after the exchange. */
+static uint32_t exchange_after(uint32_t t, uint32_t delay)
+{
+    it2n_msg m = cfg_msg(1);
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    xfer(A, B, t, 0);
+    for (uint32_t u = t; u < t + delay; u++)
+        it2n_link_poll(&A->l, u);
+    A->out.len = 0;
+    xfer(B, A, t + delay, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    return t + delay + 1u;
+}
+
+static void rto_link(uint32_t rto, uint32_t rto_max)
+{
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, rto, 0, 1000, 0x5E551000u, rto_max, 0, 921600, 0, NULL};
+    assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
+    ep_init(B, 7, 5); /* a fresh receiver for each new sender */
+}
+
+/* Issue 17: a peer that does not run for 45 ms (a loaded machine) now and
+ * then is not a lossy one. With a fixed RTO of 32 ms (the default at
+ * 921 600 Bd) its answer after the stall came too late and the frame was
+ * resent (spurious); the RTO now follows the measured round trips (SRTT
+ * + 4 RTTVAR, docs/protocol.md 4.2 rule 3), and answers spread over
+ * 2..30 ms carry it past the stall. */
+static void test_rto_adapts_to_stalls(void **st)
+{
+    (void)st;
+    static const uint32_t d[] = {2, 24, 4, 28, 3, 26, 5, 30, 2, 25, 6, 29};
+    rto_link(32, 0);
+    uint32_t t = 0;
+    for (unsigned k = 0; k < sizeof d / sizeof d[0]; k++)
+        t = exchange_after(t, d[k]);
+    assert_int_equal(A->l.stats.tx_retx, 0); /* all within 32 ms */
+    t = exchange_after(t, 45);               /* the peer stalls */
+    assert_int_equal(A->l.stats.tx_retx, 0); /* was 1: resent at 32 ms */
+    /* a frame that is really lost is still resent (within the cap) */
+    it2n_msg m = cfg_msg(1);
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    A->out.len = 0; /* lost */
+    for (uint32_t u = t; u <= t + it2n_link_rto(&A->l); u++)
+        it2n_link_poll(&A->l, u);
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    assert_true(it2n_link_rto(&A->l) > 45 && it2n_link_rto(&A->l) <= 8u * 32u);
+}
+
+/* The adaptive RTO stays within the configured rto_ms .. rto_max_ms and
+ * learns nothing from the answer to a resent frame (Karn's rule), nor
+ * from a frame sent while an older one was resent (its answer waited). */
+static void test_rto_bounds_and_karn(void **st)
+{
+    (void)st;
+    rto_link(32, 0);
+    assert_int_equal(it2n_link_rto(&A->l), 32);
+    uint32_t t = 0;
+    for (unsigned k = 0; k < 8; k++)
+        t = exchange_after(t, 0); /* instant answers: never below rto_ms */
+    assert_int_equal(it2n_link_rto(&A->l), 32);
+    rto_link(32, 40);
+    t = 0;
+    for (unsigned k = 0; k < 8; k++)
+        t = exchange_after(t, k % 2 ? 31 : 1);
+    assert_int_equal(it2n_link_rto(&A->l), 40); /* never above rto_max_ms */
+    assert_int_equal(A->l.stats.tx_retx, 0);
+
+    /* Karn: frame resent at its timeout, the answer comes at 300 ms */
+    rto_link(32, 0);
+    t = exchange_after(0, 1); /* the SYN frame */
+    it2n_msg m = cfg_msg(1);
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    xfer(A, B, t, 0);
+    B->out.len = 0; /* its ACK is lost */
+    it2n_link_poll(&A->l, t + 40);
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    xfer(A, B, t + 40, 0); /* B repeats its ACK ... */
+    xfer(B, A, t + 300, 0); /* ... which is late */
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(it2n_link_rto(&A->l), 32);
+
+    /* a frame sent after one that is then resent: its answer may have
+     * waited for that copy, so no sample either */
+    t += 301;
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    A->out.len = 0; /* lost */
+    assert_true(it2n_link_send(&A->l, &m, t + 10) >= 0);
+    xfer(A, B, t + 10, 0); /* kept by B beyond the gap */
+    B->out.len = 0;        /* (its GAP lost) */
+    it2n_link_poll(&A->l, t + 33);
+    assert_int_equal(A->l.stats.tx_retx, 2); /* the first, at its timeout */
+    xfer(A, B, t + 200, 0);
+    xfer(B, A, t + 200, 0); /* both answered now */
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(it2n_link_rto(&A->l), 32);
+}
+
 /* With the line clock, a new frame is written only while at most two
  * maximum frames wait ahead of it: a retransmission never waits behind a
  * window of new frames (before: all written at once). */
@@ -1558,6 +1657,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_ack_names_acked, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rcvd_stops_retransmission, setup, teardown),
         cmocka_unit_test_setup_teardown(test_new_frames_wait_for_line, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rto_adapts_to_stalls, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rto_bounds_and_karn, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
 }
