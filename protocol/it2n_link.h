@@ -83,7 +83,9 @@ typedef struct it2n_link_cfg {
     it2n_link_rx_fn on_rx;  /* required                           */
     it2n_link_done_fn on_done; /* may be NULL                      */
     void *app;              /* passed to the callbacks             */
-    uint32_t rto_ms;        /* first retransmission timeout, >= 1  */
+    uint32_t rto_ms;        /* first retransmission timeout, >= 1;
+                               the minimum: the RTO adapts to the
+                               round trips measured above it       */
     uint8_t max_tries;      /* transmissions before giving up,
                                0 = retry until the app gives up    */
     uint16_t first_seq;     /* initial sequence number (random)    */
