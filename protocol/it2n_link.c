@@ -1146,7 +1146,7 @@ int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
 {
     int r = answer(l, seq, code, detail);
     if (r == IT2N_OK)
-        drain(l); /* a frame kept behind this answer may go on now */
+        drain(l); /* kept frames in order go on (none waits for an answer) */
     return r;
 }
 
@@ -1196,7 +1196,32 @@ static void deliver(it2n_link *l, uint16_t seq, uint8_t type,
         send_rcvd(l, seq); /* v1.2: the sender need not resend it */
 }
 
-/* Deliver kept frames that are now in order. Not re-entered: callbacks
+/* Frame seq = rx_next comes W after one still awaiting the application's
+ * answer (same history entry): its sender keeps more frames unanswered
+ * than the window allows (docs/protocol.md 4.2 rule 2). Refused with NACK
+ * BUSY, not delivered; `next` advances as for any NACK (4.3 rule 3). The
+ * history entry stays the older frame's: a retransmission of this one is
+ * recognised by it (refused_busy) and refused again. */
+static void refuse_busy(it2n_link *l, uint16_t seq)
+{
+    it2n_msg_nack a;
+    nack_plain(&a, seq, IT2N_PROTO_ERR_BUSY);
+    l->rx_next = (uint16_t)(seq + 1u);
+    l->stats.rx_busy++;
+    send_answer(l, &a);
+}
+
+/* Was seq (behind rx_next) refused BUSY? Its history entry then still
+ * holds the frame W before it, awaiting the application's answer. */
+static bool refused_busy(const it2n_link *l, uint16_t seq)
+{
+    const it2n_link_hist *h = &l->hist[seq & (WIN(l) - 1u)];
+    return (uint16_t)(l->rx_next - seq) - 1u < WIN(l) && h->state == H_WAITING &&
+           h->seq == (uint16_t)(seq - WIN(l));
+}
+
+/* Deliver kept frames that are now in order (one W after a frame still
+ * awaiting its answer is refused BUSY instead). Not re-entered: callbacks
  * that answer at once come back through it2n_link_complete. */
 static void drain(it2n_link *l)
 {
@@ -1207,9 +1232,13 @@ static void drain(it2n_link *l)
     l->draining = 1;
     for (guard = 0; guard < W; guard++) {
         it2n_link_rxbuf *b = &l->rxbuf[l->rx_next & (WIN(l) - 1u)];
-        if (!b->used || b->seq != l->rx_next || !can_deliver(l, b->seq))
+        if (!b->used || b->seq != l->rx_next)
             break;
         b->used = 0;
+        if (!can_deliver(l, b->seq)) {
+            refuse_busy(l, b->seq);
+            continue;
+        }
         deliver(l, b->seq, b->type, b->payload, b->len);
         l->draining = 1;
     }
@@ -1430,8 +1459,11 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         refuse_frame(l, fh, sess, IT2N_PROTO_ERR_NOSYNC, 0, 0);
         return;
     }
-    if (fh->seq == l->rx_next && can_deliver(l, fh->seq)) {
-        deliver(l, fh->seq, fh->type, p, len);
+    if (fh->seq == l->rx_next) {
+        if (can_deliver(l, fh->seq))
+            deliver(l, fh->seq, fh->type, p, len);
+        else
+            refuse_busy(l, fh->seq); /* the peer broke its window */
         drain(l);
         return;
     }
@@ -1445,9 +1477,16 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         return;
     }
     ahead = (uint16_t)(fh->seq - l->rx_next);
+    if (refused_busy(l, fh->seq)) {
+        /* a retransmission of a frame refused BUSY (our NACK was lost) */
+        nack_plain(&a, fh->seq, IT2N_PROTO_ERR_BUSY);
+        l->stats.rx_busy++;
+        send_answer(l, &a);
+        return;
+    }
 #if IT2N_PROTO_RX_REORDER
     if (ahead < WIN(l) && len <= IT2N_PROTO_MAX_PAYLOAD) {
-        /* Ahead of a gap (or behind an unanswered frame): keep it. */
+        /* Ahead of a gap: keep it. */
         it2n_link_rxbuf *b = &l->rxbuf[fh->seq & (WIN(l) - 1u)];
         bool again = b->used && b->seq == fh->seq;
         if (!again || (fh->flags & IT2N_FLAG_RETX)) {

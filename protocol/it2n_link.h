@@ -30,6 +30,9 @@
  * history: a restarted peer (new session id) always starts a new sequence.
  * Frames ahead of the expected sequence number (within the window) are
  * kept and delivered once the gap is filled (IT2N_PROTO_RX_REORDER).
+ * A frame W after one still awaiting the application's answer (its sender
+ * keeps more unanswered than the window) is refused NACK BUSY, not
+ * delivered (docs/protocol.md 4.3 rule 3).
  *
  * Sessions (docs/protocol.md 4.1): a v1.1 link's SYN frames carry its own
  * cfg.session. In v1.2 the server hands out the session id: a client
@@ -154,6 +157,9 @@ typedef struct it2n_link_stats {
     uint32_t rx_rcvd;       /* our frames a RCVD named (each once)  */
     uint32_t rx_acks_implied; /* our frames ended by a v1.2 ACK of a
                                later one (their own ACK was lost)   */
+    uint32_t rx_busy;       /* frames refused NACK BUSY: W after one
+                               still awaiting our application's
+                               answer (the peer broke its window)   */
 } it2n_link_stats;
 
 /* One sender slot: a reliable frame in flight. The message starts at

@@ -1520,6 +1520,65 @@ static void test_rto_bounds_and_karn(void **st)
     assert_int_equal(it2n_link_rto(&A->l), 32);
 }
 
+/* Issue 17 (docs/protocol.md 4.3 rule 3, 5.1, 7): a peer that keeps more
+ * frames unanswered than the window (breaking 4.2 rule 2) gets NACK BUSY
+ * for the frame W after one still awaiting the application's answer: not
+ * delivered, no effect, `next` advances; its retransmission gets BUSY
+ * again. (Before, the frame was kept silently and delivered later, while
+ * 5.1 promised BUSY.) */
+static void test_over_window_busy(void **st)
+{
+    (void)st;
+    it2n_link_cfg c = {&B->os, NULL, on_rx, on_done, B, 100, 5, 7, 0x5E550007u, 0, 4, 0, 0, NULL};
+    assert_int_equal(it2n_link_init(&B->l, &c), IT2N_OK); /* B's window: 4 */
+    it2n_msg m = cfg_msg(1);
+    m.type = IT2N_MSG_GET_STATUS;
+    m.u.model.model = 1;
+    assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0); /* the SYN frame, answered */
+    B->rx_ret = IT2N_LINK_DEFER; /* requests queued: answers come later */
+    for (uint16_t k = 1001; k <= 1004; k++)
+        assert_int_equal(it2n_link_send(&A->l, &m, 1), k);
+    assert_false(it2n_link_can_send(&A->l)); /* a sender within its window */
+    xfer(A, B, 1, 0);
+    xfer(B, A, 1, 0);
+    assert_int_equal(B->nrx, 5);
+    assert_int_equal(B->l.stats.rx_busy, 0);
+    /* A breaks the window: 1005 while 1001 awaits B's answer */
+    A->l.peer_window = 8;
+    assert_int_equal(it2n_link_send(&A->l, &m, 2), 1005);
+    uint8_t copy[256];
+    size_t n = A->out.len;
+    memcpy(copy, A->out.buf, n);
+    xfer(A, B, 2, 0);
+    assert_int_equal(B->nrx, 5); /* not delivered */
+    assert_int_equal(B->l.stats.rx_busy, 1);
+    assert_int_equal(B->l.rx_next, 1006); /* answered, as any NACK */
+    unsigned nd = A->ndone;
+    xfer(B, A, 2, 0);
+    assert_int_equal(A->ndone, nd + 1);
+    assert_int_equal(A->done_seq[nd % 64], 1005);
+    assert_int_equal(A->done_code[nd % 64], IT2N_PROTO_ERR_BUSY);
+    /* its retransmission (the NACK was lost): BUSY again, not delivered */
+    assert_int_equal(it2n_link_input(&B->l, copy, n, 3), IT2N_OK);
+    assert_int_equal(B->nrx, 5);
+    assert_int_equal(B->l.stats.rx_busy, 2);
+    assert_int_equal(B->out.len > 0, 1);
+    B->out.len = 0;
+    /* the queued requests are answered in turn; the next frame whose
+     * entry is free again is delivered */
+    assert_int_equal(it2n_link_complete(&B->l, 1001, 0, NULL), IT2N_OK);
+    assert_int_equal(it2n_link_complete(&B->l, 1002, 0, NULL), IT2N_OK);
+    xfer(B, A, 4, 0);
+    B->rx_ret = 0;
+    assert_int_equal(it2n_link_send(&A->l, &m, 5), 1006);
+    xfer(A, B, 5, 0);
+    assert_int_equal(B->nrx, 6);
+    assert_int_equal(B->rx_seq[5], 1006);
+    assert_int_equal(B->l.stats.rx_busy, 2);
+}
+
 /* With the line clock, a new frame is written only while at most two
  * maximum frames wait ahead of it: a retransmission never waits behind a
  * window of new frames (before: all written at once). */
@@ -1659,6 +1718,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_new_frames_wait_for_line, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rto_adapts_to_stalls, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rto_bounds_and_karn, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_over_window_busy, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
 }
