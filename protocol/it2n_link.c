@@ -618,6 +618,7 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
             o->held)
             continue;
         o->held = 1;
+        o->nosample = 1; /* its answer waits for the missing frame */
         l->stats.tx_held++;
     }
     for (k = 0; k < W; k++) {
