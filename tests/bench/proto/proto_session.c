@@ -335,11 +335,11 @@ static int pump(unsigned max_ms)
                 }
             }
             if (trace > 1)
-                fprintf(stderr, "%9.3f read %zd: dup %u ahead %u buffered %u gaps %u acks %u stale %u\n",
+                fprintf(stderr, "%9.3f read %zd: dup %u ahead %u buffered %u gaps %u acks %u stale %u rto %u\n",
                         (double)(now_us() - t_start) / 1e3, n, lk.stats.rx_dup - b.rx_dup,
                         lk.stats.rx_ahead - b.rx_ahead, lk.stats.rx_buffered - b.rx_buffered,
                         lk.stats.tx_gaps - b.tx_gaps, lk.stats.rx_acks - b.rx_acks,
-                        lk.stats.rx_stale_acks - b.rx_stale_acks);
+                        lk.stats.rx_stale_acks - b.rx_stale_acks, (unsigned)it2n_link_rto(&lk));
         }
     }
     uint32_t retx0 = lk.stats.tx_retx;
