@@ -288,6 +288,7 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
         s->nosample = 0;
     }
     s->held = 0; /* a new copy: only a later GAP says it is held */
+    s->probe_wait = 0;
     s->last = now;
     l->stats.tx_frames++;
     l->clock = now;
@@ -897,6 +898,51 @@ static bool reverse_busy(const it2n_link *l, uint32_t now)
     return l->rx_heard && (uint32_t)(now - l->rx_last) < quiet_ms(l);
 }
 
+/* One probe into silence (docs/protocol.md 4.2 rule 3): frame s is due,
+ * but an older frame (not held) was resent on timeout and nothing has
+ * come from the peer since that copy was written, or an older frame is
+ * due now too (it goes first). A stalled peer or line would otherwise
+ * cost a retransmission per frame in flight; as RFC 6298 (5.4) only the
+ * earliest is resent. s waits for that frame's next timeout; anything
+ * heard from the peer brings it back (it2n_link_input). True: s waits. */
+static bool probe_out(it2n_link *l, it2n_link_slot *s, uint32_t now)
+{
+    uint16_t age = (uint16_t)(l->tx_next - s->seq);
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        const it2n_link_slot *o = &l->slot[k];
+        if (!o->used || o->held != 0u || o->tries == 0u ||
+            (uint16_t)(l->tx_next - o->seq) <= age)
+            continue; /* not an older frame sent and not held */
+        if (due(now, o->deadline)) {
+            s->deadline = now; /* after it, on the next poll */
+            return true;
+        }
+        if (o->tmo > 0u && (!l->rx_heard || (int32_t)(l->rx_last - o->last) < 0)) {
+            s->deadline = o->deadline;
+            s->probe_wait = 1;
+            return true;
+        }
+    }
+    return false;
+}
+
+/* Something came from the peer: it runs again. The timers of frames
+ * waiting behind a probe start again from now (their answers, if they
+ * were delivered, follow; a peer that wakes from a stall may take a while
+ * to work through its input). */
+static void probe_heard(it2n_link *l, uint32_t now)
+{
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *s = &l->slot[k];
+        if (!s->used || !s->probe_wait)
+            continue;
+        s->probe_wait = 0;
+        s->deadline = now + rto_for(l, s->tmo + 1u);
+    }
+}
+
 /* Write the frames kept by it2n_link_send (never sent yet), oldest first,
  * while the line has room. */
 static void send_kept(it2n_link *l, uint32_t now)
@@ -952,6 +998,8 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
             s->deadline = now + rto_for(l, s->tmo + 1u);
             continue;
         }
+        if (probe_out(l, s, now))
+            continue; /* one probe into silence at a time */
         if (l->cfg.baud != 0u && reverse_busy(l, now)) {
             /* The peer's bytes are still arriving: its answer may be
              * queued behind them (at most a window of maximum frames).
@@ -1635,6 +1683,8 @@ int it2n_link_input(it2n_link *l, const uint8_t *data, size_t len,
         data += used;
         len -= used;
     }
+    if (l->rx_heard && l->rx_last == now)
+        probe_heard(l, now);
     return IT2N_OK;
 }
 

@@ -15,7 +15,8 @@
  * the context until ACKed or NACKed and retransmitted after the RTO, which
  * doubles on every retransmission up to rto_max_ms; the RTO itself follows
  * the measured round trip (SRTT + 4 RTTVAR, RFC 6298 with Karn's rule),
- * never below rto_ms nor above rto_max_ms; after max_tries
+ * never below rto_ms nor above rto_max_ms, and into a silence of the peer
+ * only the oldest frame is resent (one probe); after max_tries
  * transmissions (0 = never) the frame is given up (IT2N_PROTO_ERR_TIMEOUT).
  * The first frame of a sequence carries IT2N_FLAG_SYN and the sender's
  * session id, and travels alone.
@@ -180,6 +181,9 @@ typedef struct it2n_link_slot {
                        before rto_max_ms (docs/protocol.md 4.2 rule 4) */
     uint32_t tag;   /* v1.2: the session it belongs to                  */
     uint32_t rcvd;  /* when its RCVD came (held 2)                      */
+    uint8_t probe_wait; /* 1: its timeout fell due while an older frame's
+                       retransmission on timeout was unanswered and the
+                       peer silent: it waits (one probe into silence)   */
     uint8_t nosample; /* 1: an older frame was retransmitted while this
                        one was in flight, so its answer may have waited
                        for that one: no round-trip sample (Karn)         */

@@ -1520,6 +1520,57 @@ static void test_rto_bounds_and_karn(void **st)
     assert_int_equal(it2n_link_rto(&A->l), 32);
 }
 
+/* Issue 17: a peer (or line) that stalls while 3 frames are in flight
+ * cost 3 spurious retransmissions (one per frame timer); now only the
+ * oldest is resent into the silence (RFC 6298 5.4), the others wait for
+ * it, their timers starting again when the peer is heard again. */
+static void test_one_probe_into_silence(void **st)
+{
+    (void)st;
+    rto_link(32, 0);
+    uint32_t t = exchange_after(0, 1); /* the SYN frame */
+    it2n_msg m = cfg_msg(1);
+    for (uint32_t k = 0; k < 3; k++)
+        assert_true(it2n_link_send(&A->l, &m, t + k) >= 0);
+    xfer(A, B, t + 2, 0); /* B has them, but does not run for 60 ms */
+    uint8_t answers[256];
+    size_t n = B->out.len;
+    memcpy(answers, B->out.buf, n);
+    B->out.len = 0;
+    for (uint32_t u = t + 2; u < t + 60; u++)
+        it2n_link_poll(&A->l, u);
+    assert_int_equal(A->l.stats.tx_retx, 1); /* was 3 */
+    assert_int_equal(it2n_link_input(&A->l, answers, n, t + 60), IT2N_OK);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+
+    /* two frames really lost: the first is resent at its timeout; once
+     * its answer comes, the second's timer runs again from then */
+    t += 100;
+    A->out.len = 0;
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    A->out.len = 0; /* both lost */
+    unsigned r0 = A->l.stats.tx_retx;
+    uint32_t u = t;
+    for (; A->l.stats.tx_retx == r0; u++)
+        it2n_link_poll(&A->l, u);
+    assert_int_equal(A->l.stats.tx_retx, r0 + 1);
+    for (uint32_t v = u; v < u + 10; v++)
+        it2n_link_poll(&A->l, v);
+    assert_int_equal(A->l.stats.tx_retx, r0 + 1); /* the second waits */
+    xfer(A, B, u + 10, 0);
+    xfer(B, A, u + 10, 0); /* the answer to the first */
+    assert_int_equal(it2n_link_pending(&A->l), 1);
+    for (uint32_t v = u + 10; v < u + 10 + 32; v++)
+        it2n_link_poll(&A->l, v);
+    assert_int_equal(A->l.stats.tx_retx, r0 + 1);
+    it2n_link_poll(&A->l, u + 10 + 32);
+    assert_int_equal(A->l.stats.tx_retx, r0 + 2); /* an RTO after the answer */
+    xfer(A, B, u + 43, 0);
+    xfer(B, A, u + 43, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
 /* Issue 17 (docs/protocol.md 4.3 rule 3, 5.1, 7): a peer that keeps more
  * frames unanswered than the window (breaking 4.2 rule 2) gets NACK BUSY
  * for the frame W after one still awaiting the application's answer: not
@@ -1719,6 +1770,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_rto_adapts_to_stalls, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rto_bounds_and_karn, setup, teardown),
         cmocka_unit_test_setup_teardown(test_over_window_busy, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_one_probe_into_silence, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
 }
