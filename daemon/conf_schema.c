@@ -223,7 +223,9 @@ static const struct conf_key k_link[] = {
               "window, 16; protocol.md 4.2 rule 3; with the line clock a new frame is written only while at most "
               "two maximum frames wait on the line, rule 2); default 20 ms + the time one maximum frame (1046 "
               "bytes) takes at `baud`: 32 ms at 921600, 111 ms at 115200, 1110 ms at 9600; 100 ms on USB (from the "
-              "write). On a serial link the first 3 retransmissions keep it, on USB it doubles from the second; "
+              "write). It is the minimum: the link raises its RTO above it when the measured round trips call "
+              "for it (SRTT + 4 RTTVAR, answers to frames sent once only; protocol.md 4.2 rule 3). On a serial "
+              "link the first 3 retransmissions keep the RTO, on USB it doubles from the second; "
               "then it doubles each time up to 8 × `rto_ms`" },
     { .name = "peer_timeout_ms", .type = CONF_T_INT, .lo = 100, .hi = 3600000, .unit = "milliseconds",
       F(conf_link, peer_timeout_ms), .def = "30000",

@@ -19,7 +19,8 @@
  * SAMPLE_DATA / NET_ROW frames, produced as the send window frees. One
  * response (run) at a time; requests arriving meanwhile wait unanswered in
  * a queue (at most the peer's window) and are served in order after it —
- * never NACKed BUSY. Our frames are retransmitted with backoff until the
+ * never NACKed BUSY within the window (a frame over it is refused BUSY by
+ * the link, protocol.md 4.3 rule 3). Our frames are retransmitted with backoff until the
  * peer answers or the link is declared down (peer_timeout_ms); then they
  * are dropped and the peer session, when it speaks again, gets EVENT LOST
  * (if it said HELLO; a new session does not: the frames were not its). */
@@ -878,7 +879,9 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
             /* After the response in progress: unanswered until then, so
              * the peer's window bounds the queue (never BUSY). */
             if (l->nrq == (int)(sizeof l->rq / sizeof l->rq[0]))
-                return IT2N_PROTO_ERR_BUSY; /* a peer ignoring the window */
+                return IT2N_PROTO_ERR_BUSY; /* cannot happen: the link
+                                               refuses a frame over the
+                                               window (BUSY) first */
             l->rq[l->nrq].seq = seq;
             l->rq[l->nrq].req = *msg;
             l->nrq++;

@@ -111,6 +111,7 @@ int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
                                 ? UINT32_MAX
                                 : 8u * l->cfg.rto_ms;
     l->tx_next = cfg->first_seq;
+    l->rto = l->cfg.rto_ms; /* until round trips are measured */
     l->win = cfg->window != 0u ? cfg->window : (uint8_t)W;
     l->peer_window = IT2N_PROTO_WINDOW_MIN; /* until the peer's HELLO */
     l->peer_max_payload = IT2N_PROTO_MAX_PAYLOAD;
@@ -143,6 +144,11 @@ uint8_t it2n_link_send_window(const it2n_link *l)
 uint32_t it2n_link_session(const it2n_link *l)
 {
     return l->ver == V12 ? l->tag : l->peer_session;
+}
+
+uint32_t it2n_link_rto(const it2n_link *l)
+{
+    return l->rto;
 }
 
 uint16_t it2n_link_max_payload(const it2n_link *l)
@@ -206,7 +212,7 @@ uint32_t it2n_link_stalled_ms(const it2n_link *l, uint32_t now)
 
 static uint32_t rto_for(const it2n_link *l, unsigned tries)
 {
-    uint32_t rto = l->cfg.rto_ms;
+    uint32_t rto = l->rto; /* measured, within rto_ms .. rto_max_ms */
     /* Exponential backoff from the second retransmission on: rto, rto,
      * 2 rto, 4 rto ... up to rto_max_ms (one loss is not an outage). With
      * the line clock (baud known) our own queue never makes a timeout
@@ -266,11 +272,23 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
         p = s->buf;
         h.len = (uint16_t)(s->len + SESS);
     }
-    if (s->tries > 0u)
+    if (s->tries > 0u) {
+        unsigned k;
+        uint16_t age = (uint16_t)(l->tx_next - s->seq);
         l->stats.tx_retx++;
-    else
+        /* Frames sent after this one's first copy are delivered after it
+         * (in order): their answers may wait for this copy, so their round
+         * trips say nothing about the peer's (Karn's rule, extended). */
+        for (k = 0; k < W; k++)
+            if (l->slot[k].used && l->slot[k].tries > 0u &&
+                (uint16_t)(l->tx_next - l->slot[k].seq) < age)
+                l->slot[k].nosample = 1;
+    } else {
         s->first = now;
+        s->nosample = 0;
+    }
     s->held = 0; /* a new copy: only a later GAP says it is held */
+    s->probe_wait = 0;
     s->last = now;
     l->stats.tx_frames++;
     l->clock = now;
@@ -601,6 +619,7 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
             o->held)
             continue;
         o->held = 1;
+        o->nosample = 1; /* its answer waits for the missing frame */
         l->stats.tx_held++;
     }
     for (k = 0; k < W; k++) {
@@ -615,6 +634,45 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
     }
 }
 
+/* A round-trip sample (docs/protocol.md 4.2 rule 3): the first answer
+ * (ACK, NACK or RCVD) to frame s, sent once (Karn's rule: the answer to a
+ * retransmitted frame may be the first copy's), not held by a GAP or
+ * deferred (RCVD) and not sent while an older frame was retransmitted.
+ * It runs from when the frame left the line (with the line clock) or was
+ * written. SRTT and RTTVAR as RFC 6298 (gains 1/8 and 1/4, integer ms,
+ * scaled by 8 and 4); the RTO is SRTT + max(1, 4 RTTVAR) within rto_ms ..
+ * rto_max_ms, so that a peer whose answers come late now and then (a
+ * loaded machine, a USB adapter's latency) is not taken for a lossy one. */
+static void rtt_sample(it2n_link *l, const it2n_link_slot *s, uint32_t now)
+{
+    uint32_t r, rto;
+    int32_t err;
+    if (s->tries != 1u || s->held != 0u || s->nosample)
+        return;
+    r = due(now, s->gone) ? now - s->gone : 0u;
+    if (r > l->cfg.rto_max_ms)
+        r = l->cfg.rto_max_ms; /* beyond the cap says nothing more */
+    if (r > 0x00FFFFFFu)
+        r = 0x00FFFFFFu; /* keep r x 8 within 32 bits */
+    if (!l->rtt_valid) {
+        l->srtt8 = r * 8u;
+        l->rttvar4 = r * 2u; /* RTTVAR = R / 2 */
+        l->rtt_valid = 1;
+    } else {
+        err = (int32_t)r - (int32_t)(l->srtt8 >> 3);
+        l->srtt8 = (uint32_t)((int32_t)l->srtt8 + err);
+        if (err < 0)
+            err = -err;
+        l->rttvar4 = (uint32_t)((int32_t)l->rttvar4 + err - (int32_t)(l->rttvar4 >> 2));
+    }
+    rto = (l->srtt8 >> 3) + (l->rttvar4 > 1u ? l->rttvar4 : 1u);
+    if (rto < l->cfg.rto_ms)
+        rto = l->cfg.rto_ms;
+    if (rto > l->cfg.rto_max_ms)
+        rto = l->cfg.rto_max_ms;
+    l->rto = rto;
+}
+
 /* RCVD from the receiver: it has frame seq and will answer it later. No
  * retransmission before twice the time the peer's deferred answers take
  * lately (an fsync on a loaded machine), at least 2 RTO, at most
@@ -623,13 +681,14 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
 static void on_rcvd(it2n_link *l, uint16_t seq, uint32_t now)
 {
     it2n_link_slot *s = slot_of(l, seq);
-    uint32_t w = l->defer_ms > l->cfg.rto_ms ? l->defer_ms : l->cfg.rto_ms;
+    uint32_t w = l->defer_ms > l->rto ? l->defer_ms : l->rto;
     uint32_t t;
     w = w > l->cfg.rto_max_ms / 2u ? l->cfg.rto_max_ms : 2u * w;
     t = now + w;
     if (s == NULL || s->ver != V12 || s->tag != l->tag || !l->tx_synced)
         return;
     if (s->held != 2u) {
+        rtt_sample(l, s, now); /* its delivery took a round trip */
         l->stats.rx_rcvd++;
         s->rcvd = now;
     }
@@ -808,6 +867,7 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
         finish(l, s, IT2N_PROTO_ERR_SESSION, &m->u.nack);
         return;
     }
+    rtt_sample(l, s, now); /* its own answer (not one implied by a later ACK) */
     if (m->type == IT2N_MSG_ACK) {
         acked(l, s, now);
         return;
@@ -836,6 +896,51 @@ static uint32_t quiet_ms(const it2n_link *l)
 static bool reverse_busy(const it2n_link *l, uint32_t now)
 {
     return l->rx_heard && (uint32_t)(now - l->rx_last) < quiet_ms(l);
+}
+
+/* One probe into silence (docs/protocol.md 4.2 rule 3): frame s is due,
+ * but an older frame (not held) was resent on timeout and nothing has
+ * come from the peer since that copy was written, or an older frame is
+ * due now too (it goes first). A stalled peer or line would otherwise
+ * cost a retransmission per frame in flight; as RFC 6298 (5.4) only the
+ * earliest is resent. s waits for that frame's next timeout; anything
+ * heard from the peer brings it back (it2n_link_input). True: s waits. */
+static bool probe_out(it2n_link *l, it2n_link_slot *s, uint32_t now)
+{
+    uint16_t age = (uint16_t)(l->tx_next - s->seq);
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        const it2n_link_slot *o = &l->slot[k];
+        if (!o->used || o->held != 0u || o->tries == 0u ||
+            (uint16_t)(l->tx_next - o->seq) <= age)
+            continue; /* not an older frame sent and not held */
+        if (due(now, o->deadline)) {
+            s->deadline = now; /* after it, on the next poll */
+            return true;
+        }
+        if (o->tmo > 0u && (!l->rx_heard || (int32_t)(l->rx_last - o->last) < 0)) {
+            s->deadline = o->deadline;
+            s->probe_wait = 1;
+            return true;
+        }
+    }
+    return false;
+}
+
+/* Something came from the peer: it runs again. The timers of frames
+ * waiting behind a probe start again from now (their answers, if they
+ * were delivered, follow; a peer that wakes from a stall may take a while
+ * to work through its input). */
+static void probe_heard(it2n_link *l, uint32_t now)
+{
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *s = &l->slot[k];
+        if (!s->used || !s->probe_wait)
+            continue;
+        s->probe_wait = 0;
+        s->deadline = now + rto_for(l, s->tmo + 1u);
+    }
 }
 
 /* Write the frames kept by it2n_link_send (never sent yet), oldest first,
@@ -893,6 +998,8 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
             s->deadline = now + rto_for(l, s->tmo + 1u);
             continue;
         }
+        if (probe_out(l, s, now))
+            continue; /* one probe into silence at a time */
         if (l->cfg.baud != 0u && reverse_busy(l, now)) {
             /* The peer's bytes are still arriving: its answer may be
              * queued behind them (at most a window of maximum frames).
@@ -1088,7 +1195,7 @@ int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
 {
     int r = answer(l, seq, code, detail);
     if (r == IT2N_OK)
-        drain(l); /* a frame kept behind this answer may go on now */
+        drain(l); /* kept frames in order go on (none waits for an answer) */
     return r;
 }
 
@@ -1138,7 +1245,32 @@ static void deliver(it2n_link *l, uint16_t seq, uint8_t type,
         send_rcvd(l, seq); /* v1.2: the sender need not resend it */
 }
 
-/* Deliver kept frames that are now in order. Not re-entered: callbacks
+/* Frame seq = rx_next comes W after one still awaiting the application's
+ * answer (same history entry): its sender keeps more frames unanswered
+ * than the window allows (docs/protocol.md 4.2 rule 2). Refused with NACK
+ * BUSY, not delivered; `next` advances as for any NACK (4.3 rule 3). The
+ * history entry stays the older frame's: a retransmission of this one is
+ * recognised by it (refused_busy) and refused again. */
+static void refuse_busy(it2n_link *l, uint16_t seq)
+{
+    it2n_msg_nack a;
+    nack_plain(&a, seq, IT2N_PROTO_ERR_BUSY);
+    l->rx_next = (uint16_t)(seq + 1u);
+    l->stats.rx_busy++;
+    send_answer(l, &a);
+}
+
+/* Was seq (behind rx_next) refused BUSY? Its history entry then still
+ * holds the frame W before it, awaiting the application's answer. */
+static bool refused_busy(const it2n_link *l, uint16_t seq)
+{
+    const it2n_link_hist *h = &l->hist[seq & (WIN(l) - 1u)];
+    return (uint16_t)(l->rx_next - seq) - 1u < WIN(l) && h->state == H_WAITING &&
+           h->seq == (uint16_t)(seq - WIN(l));
+}
+
+/* Deliver kept frames that are now in order (one W after a frame still
+ * awaiting its answer is refused BUSY instead). Not re-entered: callbacks
  * that answer at once come back through it2n_link_complete. */
 static void drain(it2n_link *l)
 {
@@ -1149,9 +1281,13 @@ static void drain(it2n_link *l)
     l->draining = 1;
     for (guard = 0; guard < W; guard++) {
         it2n_link_rxbuf *b = &l->rxbuf[l->rx_next & (WIN(l) - 1u)];
-        if (!b->used || b->seq != l->rx_next || !can_deliver(l, b->seq))
+        if (!b->used || b->seq != l->rx_next)
             break;
         b->used = 0;
+        if (!can_deliver(l, b->seq)) {
+            refuse_busy(l, b->seq);
+            continue;
+        }
         deliver(l, b->seq, b->type, b->payload, b->len);
         l->draining = 1;
     }
@@ -1372,8 +1508,11 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         refuse_frame(l, fh, sess, IT2N_PROTO_ERR_NOSYNC, 0, 0);
         return;
     }
-    if (fh->seq == l->rx_next && can_deliver(l, fh->seq)) {
-        deliver(l, fh->seq, fh->type, p, len);
+    if (fh->seq == l->rx_next) {
+        if (can_deliver(l, fh->seq))
+            deliver(l, fh->seq, fh->type, p, len);
+        else
+            refuse_busy(l, fh->seq); /* the peer broke its window */
         drain(l);
         return;
     }
@@ -1387,9 +1526,16 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         return;
     }
     ahead = (uint16_t)(fh->seq - l->rx_next);
+    if (refused_busy(l, fh->seq)) {
+        /* a retransmission of a frame refused BUSY (our NACK was lost) */
+        nack_plain(&a, fh->seq, IT2N_PROTO_ERR_BUSY);
+        l->stats.rx_busy++;
+        send_answer(l, &a);
+        return;
+    }
 #if IT2N_PROTO_RX_REORDER
     if (ahead < WIN(l) && len <= IT2N_PROTO_MAX_PAYLOAD) {
-        /* Ahead of a gap (or behind an unanswered frame): keep it. */
+        /* Ahead of a gap: keep it. */
         it2n_link_rxbuf *b = &l->rxbuf[fh->seq & (WIN(l) - 1u)];
         bool again = b->used && b->seq == fh->seq;
         if (!again || (fh->flags & IT2N_FLAG_RETX)) {
@@ -1537,6 +1683,8 @@ int it2n_link_input(it2n_link *l, const uint8_t *data, size_t len,
         data += used;
         len -= used;
     }
+    if (l->rx_heard && l->rx_last == now)
+        probe_heard(l, now);
     return IT2N_OK;
 }
 

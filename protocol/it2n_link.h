@@ -13,7 +13,10 @@
  *
  * Sender: up to that many reliable frames in flight, each kept in
  * the context until ACKed or NACKed and retransmitted after the RTO, which
- * doubles on every retransmission up to rto_max_ms; after max_tries
+ * doubles on every retransmission up to rto_max_ms; the RTO itself follows
+ * the measured round trip (SRTT + 4 RTTVAR, RFC 6298 with Karn's rule),
+ * never below rto_ms nor above rto_max_ms, and into a silence of the peer
+ * only the oldest frame is resent (one probe); after max_tries
  * transmissions (0 = never) the frame is given up (IT2N_PROTO_ERR_TIMEOUT).
  * The first frame of a sequence carries IT2N_FLAG_SYN and the sender's
  * session id, and travels alone.
@@ -28,6 +31,9 @@
  * history: a restarted peer (new session id) always starts a new sequence.
  * Frames ahead of the expected sequence number (within the window) are
  * kept and delivered once the gap is filled (IT2N_PROTO_RX_REORDER).
+ * A frame W after one still awaiting the application's answer (its sender
+ * keeps more unanswered than the window) is refused NACK BUSY, not
+ * delivered (docs/protocol.md 4.3 rule 3).
  *
  * Sessions (docs/protocol.md 4.1): a v1.1 link's SYN frames carry its own
  * cfg.session. In v1.2 the server hands out the session id: a client
@@ -81,7 +87,9 @@ typedef struct it2n_link_cfg {
     it2n_link_rx_fn on_rx;  /* required                           */
     it2n_link_done_fn on_done; /* may be NULL                      */
     void *app;              /* passed to the callbacks             */
-    uint32_t rto_ms;        /* first retransmission timeout, >= 1  */
+    uint32_t rto_ms;        /* first retransmission timeout, >= 1;
+                               the minimum: the RTO adapts to the
+                               round trips measured above it       */
     uint8_t max_tries;      /* transmissions before giving up,
                                0 = retry until the app gives up    */
     uint16_t first_seq;     /* initial sequence number (random)    */
@@ -150,6 +158,9 @@ typedef struct it2n_link_stats {
     uint32_t rx_rcvd;       /* our frames a RCVD named (each once)  */
     uint32_t rx_acks_implied; /* our frames ended by a v1.2 ACK of a
                                later one (their own ACK was lost)   */
+    uint32_t rx_busy;       /* frames refused NACK BUSY: W after one
+                               still awaiting our application's
+                               answer (the peer broke its window)   */
 } it2n_link_stats;
 
 /* One sender slot: a reliable frame in flight. The message starts at
@@ -170,6 +181,12 @@ typedef struct it2n_link_slot {
                        before rto_max_ms (docs/protocol.md 4.2 rule 4) */
     uint32_t tag;   /* v1.2: the session it belongs to                  */
     uint32_t rcvd;  /* when its RCVD came (held 2)                      */
+    uint8_t probe_wait; /* 1: its timeout fell due while an older frame's
+                       retransmission on timeout was unanswered and the
+                       peer silent: it waits (one probe into silence)   */
+    uint8_t nosample; /* 1: an older frame was retransmitted while this
+                       one was in flight, so its answer may have waited
+                       for that one: no round-trip sample (Karn)         */
     uint8_t buf[IT2N_FRAME_MAX_LEN];
 } it2n_link_slot;
 
@@ -233,6 +250,12 @@ typedef struct it2n_link {
                           their RCVD (the largest lately, decaying): a
                           frame with a RCVD is resent after twice that,
                           at least 2 RTO (docs/protocol.md 4.2 rule 4) */
+    /* Adaptive RTO (docs/protocol.md 4.2 rule 3, RFC 6298 with Karn's
+     * rule): smoothed round trip x 8 and its mean deviation x 4, in ms,
+     * from answers to frames sent once; rto is the current first timeout,
+     * within cfg.rto_ms .. cfg.rto_max_ms. */
+    uint32_t srtt8, rttvar4, rto;
+    uint8_t rtt_valid; /* a sample was taken */
 } it2n_link;
 
 /*
@@ -315,6 +338,11 @@ void it2n_link_set_peer(it2n_link *l, uint8_t window, uint16_t max_payload);
 /* The current session: v1.2 the id the server handed out (0 = none
  * yet), v1.1 the peer's session id of the current sequence. */
 uint32_t it2n_link_session(const it2n_link *l);
+
+/* The current first retransmission timeout (ms): the configured rto_ms
+ * until round trips are measured, then SRTT + 4 RTTVAR within rto_ms ..
+ * rto_max_ms (docs/protocol.md 4.2 rule 3). */
+uint32_t it2n_link_rto(const it2n_link *l);
 
 /* Largest message payload it2n_link_send accepts now (peer's limit). */
 uint16_t it2n_link_max_payload(const it2n_link *l);

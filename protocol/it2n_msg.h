@@ -296,16 +296,22 @@ int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
 int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
                     it2n_proto_errinfo *err);
 
-/* Session id carried by the SYN golden vector (00_hello). */
+/* Session id carried by the SYN golden vector (00_hello) and by the v1.2
+ * ones (every v1.2 payload starts with the session). */
 #define IT2N_VECTOR_SESSION 0x1D2C3B4Au
 
-/* Number of golden vectors (one per message type). */
-#define IT2N_VECTOR_COUNT 20u
+/* Number of golden vectors: one per message type in v1.1 (wire version 2),
+ * the v1.3 B-spline CONFIGURE (19, in either wire version), then the v1.2 forms (wire version 3) a v1.1 vector does not show: GAP
+ * with its held bitmap, ACK naming earlier ACKs, RCVD. */
+#define IT2N_VECTOR_COUNT 23u
+/* The first v1.2 golden vector: k >= this is framed in version 3. */
+#define IT2N_VECTOR_FIRST_V12 20u
 
 /*
  * Golden vector k (0..IT2N_VECTOR_COUNT-1): fills the frame header and the
- * message whose encoding is protocol/vectors/<NN>_<name>.hex (a SYN frame's
- * payload is IT2N_VECTOR_SESSION, u32 little-endian, then the message) and returns
+ * message whose encoding is protocol/vectors/<NN>_<name>.hex (the payload of
+ * a SYN frame and of every v1.2 frame, hdr->version IT2N_PROTO_VERSION_12,
+ * is IT2N_VECTOR_SESSION, u32 little-endian, then the message) and returns
  * the name ("hello"), or NULL when k is out of range. Code, not a table, so
  * flash holds a few hundred bytes instead of 18 message structs.
  */

@@ -64,11 +64,12 @@ static int check_one(unsigned k, selftest_mem *t)
 
     if (it2n_proto_vector(k, &hdr, &t->msg) == NULL)
         return 1;
-    sess = (hdr.flags & IT2N_FLAG_SYN) ? IT2N_FRAME_SESSION_SIZE : 0u;
+    sess = ((hdr.flags & IT2N_FLAG_SYN) != 0u || hdr.version == IT2N_PROTO_VERSION_12)
+               ? IT2N_FRAME_SESSION_SIZE : 0u;
     len = it2n_msg_pack(&t->msg, t->payload + sess, IT2N_PROTO_MAX_PAYLOAD, NULL);
     if (len < 0)
         return 2;
-    for (b = 0; b < sess; b++) /* SYN frame: session id, then the message */
+    for (b = 0; b < sess; b++) /* SYN or v1.2 frame: session id, message */
         t->payload[b] = (uint8_t)((IT2N_VECTOR_SESSION >> (8u * b)) & 0xFFu);
     len += (int)sess;
     hdr.len = (uint16_t)len;
@@ -83,7 +84,7 @@ static int check_one(unsigned k, selftest_mem *t)
         return 3;
     it2n_frame_decoder_init(&t->dec);
     r = it2n_frame_decode(&t->dec, g->bytes, g->len, &used, &got, &p);
-    if (r != 1 || used != g->len || got.type != hdr.type ||
+    if (r != 1 || used != g->len || got.type != hdr.type || got.version != hdr.version ||
         got.seq != hdr.seq || got.flags != hdr.flags || got.len != hdr.len ||
         !same(p, t->payload, got.len))
         return 4;

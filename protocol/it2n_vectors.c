@@ -123,6 +123,22 @@ static void fill(unsigned k, it2n_msg *m)
         m->u.gap.seq = 0x0103;
         m->u.gap.have = 0x0105;
         break;
+    case 20: /* v1.2: misses 0x0103, has just kept 0x0106, holds 0x0104,
+              * 0x0106 and 0x0110 */
+        m->type = IT2N_MSG_GAP;
+        m->u.gap.seq = 0x0103;
+        m->u.gap.have = 0x0106;
+        m->u.gap.held = 0x1005u;
+        break;
+    case 21: /* v1.2: ACK of 0x0102, naming 0x0101, 0x0100 and 0x00FE */
+        m->type = IT2N_MSG_ACK;
+        m->u.ack.seq = 0x0102;
+        m->u.ack.acked = 0x000Bu;
+        break;
+    case 22: /* v1.2: 0x0104 delivered, its answer deferred */
+        m->type = IT2N_MSG_RCVD;
+        m->u.rcvd.seq = 0x0104;
+        break;
     case 11:
         m->type = IT2N_MSG_ACK;
         m->u.ack.seq = 0x0102;
@@ -219,16 +235,17 @@ const char *it2n_proto_vector(unsigned k, it2n_frame_hdr *hdr, it2n_msg *msg)
         "hello", "configure", "put", "commit", "query", "locate", "sample",
         "get_net", "get_status", "reset", "event", "ack", "nack",
         "query_result", "locate_result", "sample_data", "net_row", "status",
-        "gap", "configure_bspline"};
+        "gap", "configure_bspline", "gap_held", "ack_acked", "rcvd"};
 
     if (k >= IT2N_VECTOR_COUNT)
         return NULL;
     memset(msg, 0, sizeof *msg);
     fill(k, msg);
-    hdr->version = IT2N_PROTO_VERSION;
+    hdr->version = k >= IT2N_VECTOR_FIRST_V12 ? (uint8_t)IT2N_PROTO_VERSION_12
+                                              : (uint8_t)IT2N_PROTO_VERSION;
     hdr->type = msg->type;
     if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK ||
-        msg->type == IT2N_MSG_GAP) {
+        msg->type == IT2N_MSG_GAP || msg->type == IT2N_MSG_RCVD) {
         hdr->flags = 0;
         hdr->seq = 0;
     } else {

@@ -22,16 +22,19 @@ def cobs_decode(enc):
             out.append(0)
     return bytes(out)
 
-# Fixed payload sizes from docs/protocol.md (None: variable, checked below).
+# Fixed payload sizes from docs/protocol.md (None: variable, checked below),
+# by wire version: v1.1 (2) has a vector per message type; v1.2 (3) the
+# forms v1.1 lacks: GAP with `held`, ACK with `acked`, RCVD.
 SIZES = {0x01: 28, 0x02: 4, 0x03: None, 0x04: 1, 0x05: 9, 0x06: 17, 0x07: 6,
          0x08: 2, 0x09: 1, 0x0A: 1, 0x10: 8, 0x20: 2, 0x21: 34, 0x45: 447,
          0x46: 474, 0x47: None, 0x48: None, 0x49: 15, 0x22: 4}
 # v1.3: CONFIGURE is 4 bytes (Bezier) or 5 (byte 4 names the kind, 1 =
-# B-spline; sizes 1..255); one vector of each form.
+# B-spline; sizes 1..255); one vector of each form, both in wire version 2.
 FORMS = {0x02: 2}
+SIZES12 = {0x20: 10, 0x22: 12, 0x23: 2}
 
 def vector_count():
-    return sum(FORMS.get(t, 1) for t in SIZES)
+    return sum(FORMS.get(t, 1) for t in SIZES) + len(SIZES12)
 
 def main(vdir):
     files = sorted(glob.glob(os.path.join(vdir, "*.hex")))
@@ -44,16 +47,16 @@ def main(vdir):
         assert wire[-1] == 0 and 0 not in wire[:-1], f"{f}: delimiter"
         raw = cobs_decode(wire[:-1])
         ver, typ, flags, _res, seq, ln = struct.unpack_from("<BBBBHH", raw)
-        assert ver == 2, f"{f}: version {ver} (v1.1 is wire version 2)"
+        assert ver in (2, 3), f"{f}: version {ver} (v1.1 is wire version 2, v1.2 3)"
         assert ln == len(raw) - 12, f"{f}: length {ln} vs {len(raw) - 12}"
         (crc,) = struct.unpack_from("<I", raw, len(raw) - 4)
         assert crc == crc32c(raw[:-4]), f"{f}: CRC"
         p = raw[8:-4]
-        if flags & 2:  # SYN: u32 session id, then the message
+        if flags & 2 or ver == 3:  # SYN, or any v1.2 frame: u32 session, message
             (sess,) = struct.unpack_from("<I", p)
             assert sess == 0x1D2C3B4A, f"{f}: session id {sess:#x}"
             p = p[4:]
-        want = SIZES[typ]
+        want = (SIZES12 if ver == 3 else SIZES)[typ]
         if typ == 0x02 and len(p) == 5:
             want = 5
             assert p[4] == 1, f"{f}: CONFIGURE kind {p[4]} (5 bytes: 1 = B-spline)"
@@ -67,7 +70,13 @@ def main(vdir):
         elif typ == 0x48:
             want = 7 + 48 * (p[5] + 1)
         assert len(p) == want, f"{f}: payload {len(p)} != {want}"
-        rel = typ not in (0x20, 0x21, 0x22)
+        if ver == 3 and typ == 0x22:  # held: bit k = seq + 1 + k, never 0, has `have`
+            s, have, held = struct.unpack_from("<HHQ", p)
+            d = (have - s) & 0xFFFF
+            assert held and 1 <= d <= 64 and held >> (d - 1) & 1, f"{f}: held {held:#x}"
+        if ver == 3 and typ == 0x20:  # acked: bit k = seq - 1 - k, not 0 in the long form
+            assert struct.unpack_from("<Q", p, 2)[0] != 0, f"{f}: acked 0 (the 2-byte form)"
+        rel = typ not in (0x20, 0x21, 0x22, 0x23)
         assert bool(flags & 1) == rel, f"{f}: REL flag"
         if typ == 0x45:  # out_of_range bits agree with the memberships
             oor = struct.unpack_from("<I", p, 11)[0]
@@ -76,8 +85,8 @@ def main(vdir):
                     (v,) = struct.unpack_from("<q", p, 15 + 48 * fp + 8 * (3 + k))
                     bit = (oor >> (3 * fp + k)) & 1
                     assert bit == (v < 0 or v > 1 << 24), f"{f}: out_of_range bit {3 * fp + k}"
-        seen.add(typ)
-    assert seen == set(SIZES), "a message type has no vector"
+        seen.add((ver, typ))
+    assert seen == {(2, t) for t in SIZES} | {(3, t) for t in SIZES12}, "a message form has no vector"
     assert cfg_forms == {4, 5}, f"CONFIGURE forms with a vector: {cfg_forms}"
     doc = os.path.join(os.path.dirname(vdir.rstrip("/")), "..", "docs", "protocol.md")
     if os.path.exists(doc):  # Appendix A of the spec must show today's bytes
@@ -93,7 +102,7 @@ def main(vdir):
     print(f"check_vectors: {len(files)} vectors OK")
 
 APPX = "## Appendix A: golden vectors"
-APPX_END = "ACK, NACK and GAP have flags 0 and seq 0.\n"
+APPX_END = "ACK, NACK, GAP and RCVD have flags 0 and seq 0.\n"
 
 def update_doc(vdir, doc):
     """Rewrite Appendix A of docs/protocol.md from the vector files."""

@@ -224,6 +224,9 @@ typedef struct peer {
     uint32_t dat[2 * W];
     unsigned nd, max_unanswered;
     unsigned max_pending;         /* most of our frames in flight */
+    int32_t watch_seq;            /* >= 0: record the NACK code ... */
+    int watch_code;               /* ... the daemon sends for it (0: none) */
+    it2n_frame_decoder watch_dec;
 } peer;
 
 static void trace(peer *p, char c)
@@ -271,6 +274,21 @@ static void fault_frame(peer *p, const uint8_t *b, size_t n, int out)
         memcpy(p->held[p->nheld].b, tmp, n);
         p->nheld++;
         return;
+    }
+    if (!out && p->watch_seq >= 0) {
+        /* a NACK for a frame our link does not know it sent (written
+         * raw): the link drops it as stale, the test reads it here */
+        it2n_frame_hdr fh;
+        const uint8_t *pl = NULL;
+        size_t used = 0, off = 0;
+        while (off < n) {
+            it2n_msg m;
+            int r = it2n_frame_decode(&p->watch_dec, tmp + off, n - off, &used, &fh, &pl);
+            off += used;
+            if (r == 1 && fh.type == IT2N_MSG_NACK && fh.version == IT2N_PROTO_VERSION &&
+                it2n_msg_unpack(fh.type, pl, fh.len, &m, NULL) == IT2N_OK && m.u.nack.seq == (uint16_t)p->watch_seq)
+                p->watch_code = m.u.nack.code;
+        }
     }
     if (out)
         raw_write(tmp, n);
@@ -415,6 +433,8 @@ static void peer_init_w(peer *p, uint16_t first, uint32_t session, unsigned pct,
     p->os.write = os_write;
     p->os.state = p;
     p->want_re = -1;
+    p->watch_seq = -1;
+    it2n_frame_decoder_init(&p->watch_dec);
     memset(&c, 0, sizeof c);
     c.out = &p->os;
     c.on_rx = on_rx;
@@ -1046,6 +1066,59 @@ static void spec(unsigned unused)
                 lastS = P.trace + k;
         CHECK(P.nacked == nacked && t && lastS && t > lastS && memchr(P.trace, 'Q', P.ntrace),
               "requests during a SAMPLE run: %u NACKs, trace %.*s", P.nacked - nacked, (int)P.ntrace, P.trace);
+    }
+
+    /* A peer over its window (issue 17, docs/protocol.md 4.3 rule 3, 5.1):
+     * 16 requests wait behind a SAMPLE run (the daemon's window), a 17th
+     * sent while the first still waits is refused NACK BUSY and has no
+     * effect; the 16 are served in order after the run. */
+    peer_init_w(&P, (uint16_t)rnd(), rnd(), 0, 100, 16);
+    P.ref = &ref;
+    h = hello();
+    CHECK(request(&P, &h) == 0, "HELLO window 16");
+    for (uint32_t t0 = now_ms(); P.hellos == 0 && now_ms() - t0 < 2000;)
+        pump(&P, 2); /* the daemon's HELLO: its window */
+    CHECK(it2n_link_send_window(&P.l) == 16, "send window after the daemon's HELLO: %u",
+          (unsigned)it2n_link_send_window(&P.l));
+    settle(&P, 50);
+    P.ntrace = 0;
+    P.defer = 1;        /* the run waits for our answers ... */
+    P.defer_ms = 250;   /* ... long enough to queue the requests */
+    sm.u.sample.rows = sm.u.sample.cols = 33;
+    CHECK(send_msg(&P, &sm, 2000) >= 0, "SAMPLE (over-window test)");
+    for (unsigned k = 0; k < 16; k++)
+        CHECK(send_msg(&P, &gs, 2000) >= 0, "GET_STATUS %u of 16", k);
+    for (uint32_t t0 = now_ms(); P.acked < 2 && now_ms() - t0 < 300;)
+        pump(&P, 2); /* the HELLO and the SAMPLE are answered; 16 wait */
+    CHECK(!it2n_link_can_send(&P.l), "a 17th request fits the window");
+    {
+        /* break 4.2 rule 2 on purpose: the next number, written raw (the
+         * link has no 17th slot), and taken from the link's sequence */
+        it2n_frame_hdr fh;
+        uint8_t pl[8];
+        int n = it2n_msg_pack(&gs, pl, sizeof pl, NULL);
+        fh.version = IT2N_PROTO_VERSION;
+        fh.type = gs.type;
+        fh.flags = IT2N_FLAG_REL;
+        fh.seq = P.l.tx_next++;
+        fh.len = (uint16_t)n;
+        P.watch_seq = fh.seq;
+        P.watch_code = 0;
+        CHECK(n > 0 && it2n_frame_write(&P.os, &fh, pl, (size_t)n) > 0, "GET_STATUS 17 (over the window)");
+        for (uint32_t t0 = now_ms(); P.watch_code == 0 && now_ms() - t0 < 300;)
+            pump(&P, 2);
+        CHECK(P.watch_code == IT2N_PROTO_ERR_BUSY, "over the window: answer %d (want NACK BUSY)", P.watch_code);
+        P.watch_seq = -1;
+    }
+    P.defer = 0;
+    drain(&P, 10000);
+    settle(&P, 300);
+    {
+        unsigned ts = 0;
+        for (unsigned k = 0; k < P.ntrace; k++)
+            ts += P.trace[k] == 'T';
+        printf("spec: a peer over its window: NACK BUSY, %u STATUS for the 16 requests within it\n", ts);
+        CHECK(ts == 16, "STATUS responses: %u (want 16: the refused request had no effect)", ts);
     }
 
     /* Negotiated limits: window 1, max_payload 64 — SAMPLE_DATA of one

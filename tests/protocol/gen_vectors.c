@@ -37,7 +37,9 @@ int main(int argc, char **argv)
         it2n_msg m;
         uint8_t payload[IT2N_FRAME_MAX_LEN], wire[IT2N_FRAME_MAX_WIRE];
         const char *name = it2n_proto_vector(k, &h, &m);
-        size_t sess = (h.flags & IT2N_FLAG_SYN) ? IT2N_FRAME_SESSION_SIZE : 0u;
+        /* the session first: SYN frames, and every v1.2 frame */
+        size_t sess = ((h.flags & IT2N_FLAG_SYN) || h.version == IT2N_PROTO_VERSION_12)
+                          ? IT2N_FRAME_SESSION_SIZE : 0u;
         int len = it2n_msg_pack(&m, payload + sess, IT2N_PROTO_MAX_PAYLOAD, NULL);
         int wl;
         FILE *f;
@@ -45,7 +47,7 @@ int main(int argc, char **argv)
             fprintf(stderr, "gen_vectors: vector %u (%s) does not pack: %d\n", k, name, len);
             return 1;
         }
-        for (size_t b = 0; b < sess; b++) /* SYN: session id first */
+        for (size_t b = 0; b < sess; b++) /* session id first */
             payload[b] = (uint8_t)(IT2N_VECTOR_SESSION >> (8u * b));
         len += (int)sess;
         h.len = (uint16_t)len;
@@ -57,11 +59,12 @@ int main(int argc, char **argv)
         if (f == NULL)
             die("write", path);
         /* v1.3 changed messages only: its CONFIGURE travels in the frames
-         * of either wire version */
+         * of either wire version; the v1.2 forms are framed in version 3 */
         fprintf(f, "# it2n protocol %s (wire version %u) golden vector: %s (type 0x%02X), "
                    "flags 0x%02X, seq %u, payload %d bytes%s, wire %d bytes\n",
-                h.type == IT2N_MSG_CONFIGURE && len == (int)IT2N_CONFIGURE13_LEN ? "v1.3 message" : "v1.1",
-                IT2N_PROTO_VERSION, it2n_msg_name(h.type), h.type, h.flags,
+                h.version == IT2N_PROTO_VERSION_12 ? "v1.2"
+                : h.type == IT2N_MSG_CONFIGURE && len == (int)IT2N_CONFIGURE13_LEN ? "v1.3 message" : "v1.1",
+                h.version, it2n_msg_name(h.type), h.type, h.flags,
                 h.seq, len, sess ? " (session id + message)" : "", wl);
         fprintf(f, "# message: see it2n_proto_vector(%u) in protocol/it2n_vectors.c\n", k);
         fprintf(f, "# frame = COBS(header[8] payload[%d] crc32c[4]) 00\n", len);

@@ -1421,6 +1421,215 @@ static void test_rcvd_stops_retransmission(void **st)
     assert_int_equal(B->l.stats.tx_rcvd, 3);
 }
 
+/* One CONFIGURE from A, answered by B `delay` ms after it was written (A
+ * runs its timers every ms meanwhile; a copy it resends is dropped).
+ * Returns the time after the exchange. */
+static uint32_t exchange_after(uint32_t t, uint32_t delay)
+{
+    it2n_msg m = cfg_msg(1);
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    xfer(A, B, t, 0);
+    for (uint32_t u = t; u < t + delay; u++)
+        it2n_link_poll(&A->l, u);
+    A->out.len = 0;
+    xfer(B, A, t + delay, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    return t + delay + 1u;
+}
+
+static void rto_link(uint32_t rto, uint32_t rto_max)
+{
+    it2n_link_cfg c = {&A->os, NULL, on_rx, on_done, A, rto, 0, 1000, 0x5E551000u, rto_max, 0, 921600, 0, NULL};
+    assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
+    ep_init(B, 7, 5); /* a fresh receiver for each new sender */
+}
+
+/* Issue 17: a peer that does not run for 45 ms (a loaded machine) now and
+ * then is not a lossy one. With a fixed RTO of 32 ms (the default at
+ * 921 600 Bd) its answer after the stall came too late and the frame was
+ * resent (spurious); the RTO now follows the measured round trips (SRTT
+ * + 4 RTTVAR, docs/protocol.md 4.2 rule 3), and answers spread over
+ * 2..30 ms carry it past the stall. */
+static void test_rto_adapts_to_stalls(void **st)
+{
+    (void)st;
+    static const uint32_t d[] = {2, 24, 4, 28, 3, 26, 5, 30, 2, 25, 6, 29};
+    rto_link(32, 0);
+    uint32_t t = 0;
+    for (unsigned k = 0; k < sizeof d / sizeof d[0]; k++)
+        t = exchange_after(t, d[k]);
+    assert_int_equal(A->l.stats.tx_retx, 0); /* all within 32 ms */
+    t = exchange_after(t, 45);               /* the peer stalls */
+    assert_int_equal(A->l.stats.tx_retx, 0); /* was 1: resent at 32 ms */
+    /* a frame that is really lost is still resent (within the cap) */
+    it2n_msg m = cfg_msg(1);
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    A->out.len = 0; /* lost */
+    for (uint32_t u = t; u <= t + it2n_link_rto(&A->l); u++)
+        it2n_link_poll(&A->l, u);
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    assert_true(it2n_link_rto(&A->l) > 45 && it2n_link_rto(&A->l) <= 8u * 32u);
+}
+
+/* The adaptive RTO stays within the configured rto_ms .. rto_max_ms and
+ * learns nothing from the answer to a resent frame (Karn's rule), nor
+ * from a frame sent while an older one was resent (its answer waited). */
+static void test_rto_bounds_and_karn(void **st)
+{
+    (void)st;
+    rto_link(32, 0);
+    assert_int_equal(it2n_link_rto(&A->l), 32);
+    uint32_t t = 0;
+    for (unsigned k = 0; k < 8; k++)
+        t = exchange_after(t, 0); /* instant answers: never below rto_ms */
+    assert_int_equal(it2n_link_rto(&A->l), 32);
+    rto_link(32, 40);
+    t = 0;
+    for (unsigned k = 0; k < 8; k++)
+        t = exchange_after(t, k % 2 ? 31 : 1);
+    assert_int_equal(it2n_link_rto(&A->l), 40); /* never above rto_max_ms */
+    assert_int_equal(A->l.stats.tx_retx, 0);
+
+    /* Karn: frame resent at its timeout, the answer comes at 300 ms */
+    rto_link(32, 0);
+    t = exchange_after(0, 1); /* the SYN frame */
+    it2n_msg m = cfg_msg(1);
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    xfer(A, B, t, 0);
+    B->out.len = 0; /* its ACK is lost */
+    it2n_link_poll(&A->l, t + 40);
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    xfer(A, B, t + 40, 0); /* B repeats its ACK ... */
+    xfer(B, A, t + 300, 0); /* ... which is late */
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(it2n_link_rto(&A->l), 32);
+
+    /* a frame sent after one that is then resent: its answer may have
+     * waited for that copy, so no sample either */
+    t += 301;
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    A->out.len = 0; /* lost */
+    assert_true(it2n_link_send(&A->l, &m, t + 10) >= 0);
+    xfer(A, B, t + 10, 0); /* kept by B beyond the gap */
+    B->out.len = 0;        /* (its GAP lost) */
+    it2n_link_poll(&A->l, t + 33);
+    assert_int_equal(A->l.stats.tx_retx, 2); /* the first, at its timeout */
+    xfer(A, B, t + 200, 0);
+    xfer(B, A, t + 200, 0); /* both answered now */
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(it2n_link_rto(&A->l), 32);
+}
+
+/* Issue 17: a peer (or line) that stalls while 3 frames are in flight
+ * cost 3 spurious retransmissions (one per frame timer); now only the
+ * oldest is resent into the silence (RFC 6298 5.4), the others wait for
+ * it, their timers starting again when the peer is heard again. */
+static void test_one_probe_into_silence(void **st)
+{
+    (void)st;
+    rto_link(32, 0);
+    uint32_t t = exchange_after(0, 1); /* the SYN frame */
+    it2n_msg m = cfg_msg(1);
+    for (uint32_t k = 0; k < 3; k++)
+        assert_true(it2n_link_send(&A->l, &m, t + k) >= 0);
+    xfer(A, B, t + 2, 0); /* B has them, but does not run for 60 ms */
+    uint8_t answers[256];
+    size_t n = B->out.len;
+    memcpy(answers, B->out.buf, n);
+    B->out.len = 0;
+    for (uint32_t u = t + 2; u < t + 60; u++)
+        it2n_link_poll(&A->l, u);
+    assert_int_equal(A->l.stats.tx_retx, 1); /* was 3 */
+    assert_int_equal(it2n_link_input(&A->l, answers, n, t + 60), IT2N_OK);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+
+    /* two frames really lost: the first is resent at its timeout; once
+     * its answer comes, the second's timer runs again from then */
+    t += 100;
+    A->out.len = 0;
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    A->out.len = 0; /* both lost */
+    unsigned r0 = A->l.stats.tx_retx;
+    uint32_t u = t;
+    for (; A->l.stats.tx_retx == r0; u++)
+        it2n_link_poll(&A->l, u);
+    assert_int_equal(A->l.stats.tx_retx, r0 + 1);
+    for (uint32_t v = u; v < u + 10; v++)
+        it2n_link_poll(&A->l, v);
+    assert_int_equal(A->l.stats.tx_retx, r0 + 1); /* the second waits */
+    xfer(A, B, u + 10, 0);
+    xfer(B, A, u + 10, 0); /* the answer to the first */
+    assert_int_equal(it2n_link_pending(&A->l), 1);
+    for (uint32_t v = u + 10; v < u + 10 + 32; v++)
+        it2n_link_poll(&A->l, v);
+    assert_int_equal(A->l.stats.tx_retx, r0 + 1);
+    it2n_link_poll(&A->l, u + 10 + 32);
+    assert_int_equal(A->l.stats.tx_retx, r0 + 2); /* an RTO after the answer */
+    xfer(A, B, u + 43, 0);
+    xfer(B, A, u + 43, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+/* Issue 17 (docs/protocol.md 4.3 rule 3, 5.1, 7): a peer that keeps more
+ * frames unanswered than the window (breaking 4.2 rule 2) gets NACK BUSY
+ * for the frame W after one still awaiting the application's answer: not
+ * delivered, no effect, `next` advances; its retransmission gets BUSY
+ * again. (Before, the frame was kept silently and delivered later, while
+ * 5.1 promised BUSY.) */
+static void test_over_window_busy(void **st)
+{
+    (void)st;
+    it2n_link_cfg c = {&B->os, NULL, on_rx, on_done, B, 100, 5, 7, 0x5E550007u, 0, 4, 0, 0, NULL};
+    assert_int_equal(it2n_link_init(&B->l, &c), IT2N_OK); /* B's window: 4 */
+    it2n_msg m = cfg_msg(1);
+    m.type = IT2N_MSG_GET_STATUS;
+    m.u.model.model = 1;
+    assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
+    xfer(A, B, 0, 0);
+    xfer(B, A, 0, 0); /* the SYN frame, answered */
+    B->rx_ret = IT2N_LINK_DEFER; /* requests queued: answers come later */
+    for (uint16_t k = 1001; k <= 1004; k++)
+        assert_int_equal(it2n_link_send(&A->l, &m, 1), k);
+    assert_false(it2n_link_can_send(&A->l)); /* a sender within its window */
+    xfer(A, B, 1, 0);
+    xfer(B, A, 1, 0);
+    assert_int_equal(B->nrx, 5);
+    assert_int_equal(B->l.stats.rx_busy, 0);
+    /* A breaks the window: 1005 while 1001 awaits B's answer */
+    A->l.peer_window = 8;
+    assert_int_equal(it2n_link_send(&A->l, &m, 2), 1005);
+    uint8_t copy[256];
+    size_t n = A->out.len;
+    memcpy(copy, A->out.buf, n);
+    xfer(A, B, 2, 0);
+    assert_int_equal(B->nrx, 5); /* not delivered */
+    assert_int_equal(B->l.stats.rx_busy, 1);
+    assert_int_equal(B->l.rx_next, 1006); /* answered, as any NACK */
+    unsigned nd = A->ndone;
+    xfer(B, A, 2, 0);
+    assert_int_equal(A->ndone, nd + 1);
+    assert_int_equal(A->done_seq[nd % 64], 1005);
+    assert_int_equal(A->done_code[nd % 64], IT2N_PROTO_ERR_BUSY);
+    /* its retransmission (the NACK was lost): BUSY again, not delivered */
+    assert_int_equal(it2n_link_input(&B->l, copy, n, 3), IT2N_OK);
+    assert_int_equal(B->nrx, 5);
+    assert_int_equal(B->l.stats.rx_busy, 2);
+    assert_int_equal(B->out.len > 0, 1);
+    B->out.len = 0;
+    /* the queued requests are answered in turn; the next frame whose
+     * entry is free again is delivered */
+    assert_int_equal(it2n_link_complete(&B->l, 1001, 0, NULL), IT2N_OK);
+    assert_int_equal(it2n_link_complete(&B->l, 1002, 0, NULL), IT2N_OK);
+    xfer(B, A, 4, 0);
+    B->rx_ret = 0;
+    assert_int_equal(it2n_link_send(&A->l, &m, 5), 1006);
+    xfer(A, B, 5, 0);
+    assert_int_equal(B->nrx, 6);
+    assert_int_equal(B->rx_seq[5], 1006);
+    assert_int_equal(B->l.stats.rx_busy, 2);
+}
+
 /* With the line clock, a new frame is written only while at most two
  * maximum frames wait ahead of it: a retransmission never waits behind a
  * window of new frames (before: all written at once). */
@@ -1558,6 +1767,10 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_ack_names_acked, setup, teardown),
         cmocka_unit_test_setup_teardown(test_rcvd_stops_retransmission, setup, teardown),
         cmocka_unit_test_setup_teardown(test_new_frames_wait_for_line, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rto_adapts_to_stalls, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rto_bounds_and_karn, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_over_window_busy, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_one_probe_into_silence, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
 }

@@ -48,7 +48,9 @@ static void test_files_match_encoder(void **st)
         char path[512];
         const char *name = it2n_proto_vector(k, &h, &m);
         assert_non_null(name);
-        size_t sess = (h.flags & IT2N_FLAG_SYN) ? IT2N_FRAME_SESSION_SIZE : 0;
+        size_t sess = ((h.flags & IT2N_FLAG_SYN) || h.version == IT2N_PROTO_VERSION_12)
+                          ? IT2N_FRAME_SESSION_SIZE : 0;
+        assert_int_equal(h.version, k >= IT2N_VECTOR_FIRST_V12 ? IT2N_PROTO_VERSION_12 : IT2N_PROTO_VERSION);
         int len = it2n_msg_pack(&m, payload + sess, IT2N_PROTO_MAX_PAYLOAD, NULL);
         assert_true(len >= 0);
         for (size_t b = 0; b < sess; b++)
@@ -68,7 +70,7 @@ static void test_files_match_encoder(void **st)
         const uint8_t *p;
         it2n_frame_hdr got;
         assert_int_equal(it2n_frame_decode(&d, file, fl, &used, &got, &p), 1);
-        assert_int_equal(got.version, IT2N_PROTO_VERSION);
+        assert_int_equal(got.version, h.version);
         assert_int_equal(it2n_msg_unpack(got.type, p + sess, got.len - sess, &back, NULL), IT2N_OK);
         assert_memory_equal(&back.u, &m.u, sizeof m.u);
     }

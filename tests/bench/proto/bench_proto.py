@@ -173,15 +173,19 @@ REASONS = {
 # Why a row of the --sack run can miss its target (what its traces show).
 REASONS_SACK = {
     "under CPU load":
-        "the pipeline stops for longer than the RTO (32 ms): with a busy loop "
-        "per core on the shared 2-core machine, traces show 40-50 ms in "
-        "which nothing reaches the session, then the daemon's RCVDs and ACKs "
-        "arrive together: the daemon or the relay did not run. RCVD removes "
-        "the retransmissions of answers the daemon defers (fsync, requests "
-        "queued behind a response run) and the daemon reads its input before "
-        "retransmitting, but a peer that does not run for more than an RTO "
-        "cannot be told from a lost frame; 0 in some runs, up to about 20 "
-        "frames in others",
+        "the pipeline stops for longer than any round trip measured so far: "
+        "with the CPUs loaded, traces show 40-100 ms in which nothing reaches "
+        "the session, then the daemon's RCVDs and ACKs arrive together (the "
+        "daemon or the relay did not run). The RTO follows the measured round "
+        "trips (SRTT + 4 RTTVAR with Karn's rule, docs/protocol.md 4.2 rule 3; "
+        "rto_ms of each run is the session's at the end), only the oldest "
+        "frame is resent into a silence (one probe), the session and the "
+        "daemon read their input before their timers, RCVD covers deferred "
+        "answers: stalls within the spread seen lately cost nothing, but a "
+        "stall longer than any seen so far (early in a run, before the "
+        "samples show the load, or when other jobs load the machine beyond a "
+        "busy loop per core: loadavg_at_end) cannot be told from a lost frame "
+        "and costs one retransmission (harmless: the receiver's history)",
     "vs clean":
         "each loss at the end of a burst (the last PUTs, COMMIT) waits for a "
         "timeout, and a deferred answer whose ACK is lost for twice the "

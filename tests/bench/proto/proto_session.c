@@ -306,10 +306,16 @@ static int pump(unsigned max_ms)
     struct pollfd p = { fd, POLLIN, 0 };
     if (poll(&p, 1, (int)t) < 0 && errno != EINTR)
         return -1;
-    if (p.revents & POLLIN) {
+    /* Read everything waiting before the link's timers run: after a late
+     * wake-up (a loaded machine) the answers to frames now due for
+     * retransmission may be in the input already; resending those frames
+     * would be spurious. Bounded: at most 8 reads of 4 KiB. */
+    for (unsigned rd = 0; rd < 8 && (p.revents & POLLIN); rd++) {
         uint8_t buf[4096];
         ssize_t n = read(fd, buf, sizeof buf);
-        if (n > 0) {
+        if (n <= 0)
+            break; /* EAGAIN: nothing more now */
+        {
             it2n_link_stats b = lk.stats;
             it2n_link_input(&lk, buf, (size_t)n, now_ms());
             if (trace > 2) {
@@ -329,11 +335,11 @@ static int pump(unsigned max_ms)
                 }
             }
             if (trace > 1)
-                fprintf(stderr, "%9.3f read %zd: dup %u ahead %u buffered %u gaps %u acks %u stale %u\n",
+                fprintf(stderr, "%9.3f read %zd: dup %u ahead %u buffered %u gaps %u acks %u stale %u rto %u\n",
                         (double)(now_us() - t_start) / 1e3, n, lk.stats.rx_dup - b.rx_dup,
                         lk.stats.rx_ahead - b.rx_ahead, lk.stats.rx_buffered - b.rx_buffered,
                         lk.stats.tx_gaps - b.tx_gaps, lk.stats.rx_acks - b.rx_acks,
-                        lk.stats.rx_stale_acks - b.rx_stale_acks);
+                        lk.stats.rx_stale_acks - b.rx_stale_acks, (unsigned)it2n_link_rto(&lk));
         }
     }
     uint32_t retx0 = lk.stats.tx_retx;
@@ -341,8 +347,8 @@ static int pump(unsigned max_ms)
     if (trace > 2 && lk.stats.tx_retx != retx0)
         for (unsigned k = 0; k < IT2N_PROTO_WINDOW; k++)
             if (lk.slot[k].used && lk.slot[k].last == now_ms())
-                fprintf(stderr, "%9.3f retx seq %u tries %u held %u\n", (double)(now_us() - t_start) / 1e3,
-                        lk.slot[k].seq, lk.slot[k].tries, lk.slot[k].held);
+                fprintf(stderr, "%9.3f retx seq %u tries %u held %u rto %u\n", (double)(now_us() - t_start) / 1e3,
+                        lk.slot[k].seq, lk.slot[k].tries, lk.slot[k].held, (unsigned)it2n_link_rto(&lk));
     return 0;
 }
 
@@ -705,7 +711,7 @@ out:;
            "\"rerequests_lost\": %u, \"busy_retries\": %u, \"link\": {\"tx_frames\": %u, \"tx_retx\": %u, \"tx_timeouts\": %u, "
            "\"rx_delivered\": %u, \"rx_dup\": %u, \"rx_ahead\": %u, \"rx_nosync\": %u, \"tx_fast_retx\": %u, "
            "\"tx_resyncs\": %u, \"rx_stale_acks\": %u}, \"window\": %u, \"version\": %u, "
-           "\"daemon_window\": %u, \"max_in_flight\": %u}\n",
+           "\"daemon_window\": %u, \"max_in_flight\": %u, \"rto_ms\": %u}\n",
            rc == 0 ? "true" : "false", rc, wall, t_upload ? (double)(t_upload - t0) / 1e6 : 0.0,
            t_queries ? (double)(t_queries - t_upload) / 1e6 : 0.0,
            t_queries && ok ? (double)(t1 - t_queries) / 1e6 : 0.0, ds.n, ds.m, entries, queries, sample,
@@ -715,6 +721,6 @@ out:;
            rereq_timeout + rereq_busy + rereq_lost, rereq_timeout, rereq_busy, rereq_lost,
            busy_retries, lk.stats.tx_frames, lk.stats.tx_retx, lk.stats.tx_timeouts, lk.stats.rx_delivered,
            lk.stats.rx_dup, lk.stats.rx_ahead, lk.stats.rx_nosync, lk.stats.tx_fast_retx, lk.stats.tx_resyncs,
-           lk.stats.rx_stale_acks, window, version, daemon_window, max_in_flight);
+           lk.stats.rx_stale_acks, window, version, daemon_window, max_in_flight, (unsigned)it2n_link_rto(&lk));
     return rc;
 }
