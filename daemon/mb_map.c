@@ -3,6 +3,7 @@
 #include "mb_map.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -612,8 +613,9 @@ static void sync_views(struct mb_query *q, const struct mb_opts *o)
 {
     int sat = 0;
     if (q->kind == 1) {
-        q->regs[QIDX(IT2N_REG_Q_U16)] = (uint16_t)(((i128)q->u * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) / IT2N_PAR_ONE);
-        q->regs[QIDX(IT2N_REG_Q_W16)] = (uint16_t)(((i128)q->w * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) / IT2N_PAR_ONE);
+        /* u, w in [0, 2^32]: 64-bit products, a shift (no 128-bit division) */
+        q->regs[QIDX(IT2N_REG_Q_U16)] = (uint16_t)(((uint64_t)q->u * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) >> IT2N_PAR_FRAC);
+        q->regs[QIDX(IT2N_REG_Q_W16)] = (uint16_t)(((uint64_t)q->w * IT2N_REGMAP_MEMB_SCALE + IT2N_PAR_ONE / 2) >> IT2N_PAR_FRAC);
         mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE), o->word_order);
         mbmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE), o->word_order);
     } else if (q->kind == 2) {
@@ -629,8 +631,11 @@ static void sync_views(struct mb_query *q, const struct mb_opts *o)
 static int write_query(struct model *md, struct mb_query *q, const struct mb_opts *o, unsigned addr,
                        unsigned count, const uint16_t *v)
 {
-    struct mb_query nq = *q;
+    /* The inputs (the fields before `valid`) only: the cached result is
+     * not copied twice per query. */
+    struct mb_query nq;
     unsigned end = addr + count;
+    memcpy(&nq, q, offsetof(struct mb_query, valid));
     static const unsigned wide[] = { IT2N_REG_Q_UF, IT2N_REG_Q_WF, IT2N_REG_Q_XS, IT2N_REG_Q_YS,
                                      IT2N_REG_Q_XF, IT2N_REG_Q_YF };
     (void)md;
@@ -646,14 +651,15 @@ static int write_query(struct model *md, struct mb_query *q, const struct mb_opt
         if (IN(IT2N_REG_Q_U16)) {
             if (nq.regs[QIDX(IT2N_REG_Q_U16)] > IT2N_REGMAP_MEMB_SCALE)
                 return MBX_ILLEGAL_VALUE;
-            nq.u = (it2n_par)(((i128)nq.regs[QIDX(IT2N_REG_Q_U16)] * IT2N_PAR_ONE + 5000) / 10000);
+            /* at most 10000 * 2^32: 64-bit, a division by a constant */
+            nq.u = (it2n_par)(((uint64_t)nq.regs[QIDX(IT2N_REG_Q_U16)] * IT2N_PAR_ONE + 5000u) / 10000u);
         } else if (IN(IT2N_REG_Q_UF) && par_from_f32(mbmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_UF)], o->word_order), &nq.u)) {
             return MBX_ILLEGAL_VALUE;
         }
         if (IN(IT2N_REG_Q_W16)) {
             if (nq.regs[QIDX(IT2N_REG_Q_W16)] > IT2N_REGMAP_MEMB_SCALE)
                 return MBX_ILLEGAL_VALUE;
-            nq.w = (it2n_par)(((i128)nq.regs[QIDX(IT2N_REG_Q_W16)] * IT2N_PAR_ONE + 5000) / 10000);
+            nq.w = (it2n_par)(((uint64_t)nq.regs[QIDX(IT2N_REG_Q_W16)] * IT2N_PAR_ONE + 5000u) / 10000u);
         } else if (IN(IT2N_REG_Q_WF) && par_from_f32(mbmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_WF)], o->word_order), &nq.w)) {
             return MBX_ILLEGAL_VALUE;
         }
@@ -683,8 +689,8 @@ static int write_query(struct model *md, struct mb_query *q, const struct mb_opt
     }
 #undef IN
     sync_views(&nq, o);
-    nq.valid = 0;
-    *q = nq;
+    memcpy(q, &nq, offsetof(struct mb_query, valid));
+    q->valid = 0;
     return MBX_OK;
 }
 
