@@ -74,14 +74,28 @@ IT2N_INLINE void basis30(const unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
 void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
 {
 #ifdef IT2N_BASIS30_K
+    /* Only the degrees this build holds (IT2N_MAX_DEGREE): a constant
+     * beyond them would index past the arrays. */
     switch (deg) {
     IT2N_BASIS30_K(1);
+#if IT2N_MAX_DEGREE >= 2
     IT2N_BASIS30_K(2);
+#endif
+#if IT2N_MAX_DEGREE >= 3
     IT2N_BASIS30_K(3);
+#endif
+#if IT2N_MAX_DEGREE >= 4
     IT2N_BASIS30_K(4);
+#endif
+#if IT2N_MAX_DEGREE >= 5
     IT2N_BASIS30_K(5);
+#endif
+#if IT2N_MAX_DEGREE >= 6
     IT2N_BASIS30_K(6);
+#endif
+#if IT2N_MAX_DEGREE >= 7
     IT2N_BASIS30_K(7);
+#endif
     default:
         basis30(deg, t, b);
         break;
@@ -336,14 +350,27 @@ static void apply_values(const it2n_model *mdl, unsigned fpmask,
         we[b] = _mm_set_epi64x(c[2], c[0]);
         wo[b] = _mm_set_epi64x(c[3], c[1]);
     }
+    /* Row counts this build holds only (IT2N_DIM), as it2n__basis30. */
     switch (n1) {
     IT2N_VALUES_SSE2_K(2);
+#if IT2N_MAX_DEGREE >= 2
     IT2N_VALUES_SSE2_K(3);
+#endif
+#if IT2N_MAX_DEGREE >= 3
     IT2N_VALUES_SSE2_K(4);
+#endif
+#if IT2N_MAX_DEGREE >= 4
     IT2N_VALUES_SSE2_K(5);
+#endif
+#if IT2N_MAX_DEGREE >= 5
     IT2N_VALUES_SSE2_K(6);
+#endif
+#if IT2N_MAX_DEGREE >= 6
     IT2N_VALUES_SSE2_K(7);
+#endif
+#if IT2N_MAX_DEGREE >= 7
     IT2N_VALUES_SSE2_K(8);
+#endif
     default:
         values_sse2(mdl, fpmask, n1, m1, vu, we, wo, out);
         break;
