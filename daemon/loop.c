@@ -51,6 +51,7 @@ static struct hook_ent hooks[8];
 static size_t nhooks;
 static long next_timer_id = 1;
 static int woken;
+static uint64_t wake_us; /* loop_now_us() when the last wait returned, 0 before */
 static int deleted; /* entries marked by loop_del_fd, not yet compacted */
 
 uint64_t loop_now_us(void)
@@ -63,6 +64,16 @@ uint64_t loop_now_us(void)
 uint64_t loop_now_ms(void)
 {
     return loop_now_us() / 1000u;
+}
+
+uint64_t loop_wake_us(void)
+{
+    return wake_us ? wake_us : loop_now_us();
+}
+
+uint64_t loop_wake_ms(void)
+{
+    return loop_wake_us() / 1000u;
 }
 
 static size_t idx_of(int fd)
@@ -259,6 +270,7 @@ int loop_run_once(int max_wait_ms)
                         timeout < 0 ? -1 : (int)((timeout + 999) / 1000));
     if (rc < 0 && errno != EINTR)
         return -1;
+    wake_us = loop_now_us();
     /* An event whose entry was deleted by an earlier callback, or whose fd
      * number a new entry took since, is dropped (the serial differs). A
      * level-triggered fd not served this time is reported again. */
@@ -295,5 +307,6 @@ void loop_free(void)
     fd_idx = NULL;
     timers = NULL;
     nfds = capfds = cap_idx = ntimers = captimers = nhooks = 0;
+    wake_us = 0;
     deleted = 0;
 }

@@ -14,6 +14,11 @@ typedef void (*loop_hook_cb)(void *arg);
 /* Milliseconds / microseconds on CLOCK_MONOTONIC. */
 uint64_t loop_now_ms(void);
 uint64_t loop_now_us(void);
+/* The same, read once when the current wait returned (fresh before the
+ * first): per-request time stamps (idle and byte timeouts, eviction
+ * order) without a clock read per request. Never later than loop_now_*. */
+uint64_t loop_wake_ms(void);
+uint64_t loop_wake_us(void);
 
 /* Watch fd for `events` (POLLIN/POLLOUT). One handler per fd; 0 or -1. */
 int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg);

@@ -3,6 +3,7 @@
 #include "mb_map.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -536,8 +537,11 @@ static void sync_views(struct mb_map_query *q, const struct mb_map_opts *o)
 static int write_query(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
                        unsigned count, const uint16_t *v)
 {
-    struct mb_map_query nq = *q;
+    /* The inputs (the fields before `valid`) only: the cached result is
+     * not copied twice per query. */
+    struct mb_map_query nq;
     unsigned end = addr + count;
+    memcpy(&nq, q, offsetof(struct mb_map_query, valid));
     static const unsigned wide[] = { IT2N_REG_Q_UF, IT2N_REG_Q_WF, IT2N_REG_Q_XS, IT2N_REG_Q_YS,
                                      IT2N_REG_Q_XF, IT2N_REG_Q_YF };
     (void)md;

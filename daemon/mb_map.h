@@ -44,6 +44,7 @@ struct mb_map_query {
     int kind;            /* 0 none, 1 (u, w), 2 (x, y) */
     it2n_par u, w;
     it2n_val x, y;
+    /* (write_query copies the fields above, the inputs, up to `valid`.) */
     /* Cached result, valid when valid && the same model instance (not
      * just id: a model removed and added again by a reload) && gen. */
     int valid;

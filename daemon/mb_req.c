@@ -25,6 +25,10 @@ void mb_req_session_free(struct mb_req_session *s)
     s->rsp_len = 0;
 }
 
+/* Eight registers (GCC/Clang vector extension: SSE2 on x86-64, plain
+ * code elsewhere). */
+typedef uint16_t mb_u16x8 __attribute__((vector_size(16)));
+
 /* The reply to a request that succeeded, framed here into s->rsp as
  * libmodbus' modbus_reply() would frame it (the daemon owns its framing:
  * no scratch register mapping, no copy through it): TCP, the request's
@@ -52,9 +56,16 @@ static void frame_reply(struct mb_req_session *s, const uint8_t *req, int fc, co
     } else {
         r[k++] = (uint8_t)(n * 2u);
         unsigned i = 0;
-        /* Big-endian, four registers per step (a byte swap in each 16-bit
-         * lane of a 64-bit word): 108 registers are every FC 23 answer.
+        /* Big-endian, eight registers per step (a byte swap in each 16-bit
+         * lane of a 128-bit vector: three SSE2 instructions on x86-64),
+         * then four (a 64-bit word): 108 registers are every FC 23 answer.
          * Little-endian hosts; elsewhere the loop below does it all. */
+        for (; __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && i + 8u <= n; i += 8u) {
+            mb_u16x8 x;
+            memcpy(&x, regs + i, sizeof x);
+            x = (mb_u16x8)(x << 8 | x >> 8);
+            memcpy(r + k + 2u * i, &x, sizeof x);
+        }
         for (; __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && i + 4u <= n; i += 4u) {
             uint64_t x;
             memcpy(&x, regs + i, sizeof x);

@@ -8,7 +8,10 @@
  * mantissa scale) and sum_j B_j(w) q_j (rounded once to Q24), all 32 x 32 ->
  * 64 multiply-accumulates (SMLAL on ARMv7-M, four MULS on ARMv6-M) with a
  * few dozen bytes of stack. it2n_sample calls the same code per node, so a
- * sampled node is bit-identical to it2n_eval at the same (u, w).
+ * sampled node is bit-identical to it2n_eval at the same (u, w). x86-64
+ * hosts compute the same integers two products per instruction (SSE2,
+ * apply_values below; tests/core/test_eval_exact.c checks them against
+ * this definition).
  */
 #include <string.h>
 
@@ -27,7 +30,9 @@ static uint64_t q30mul(uint32_t a, uint32_t b)
     return it2n_umul32(a, b);
 }
 
-void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
+/* The recurrence for one degree (a constant where the host inlines it per
+ * degree: the loops unroll). */
+IT2N_INLINE void basis30(const unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
 {
     /* every value is in [0, 2^30]: unsigned products, no sign handling */
     uint32_t t30 = (uint32_t)((t + 2) >> 2), s30 = (uint32_t)Q30_ONE - t30;
@@ -55,6 +60,49 @@ void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
     for (i = 0; i <= deg; i++) {
         b[i] = (int32_t)v[i];
     }
+}
+
+#if !IT2N_MUL_HALVES && defined(__x86_64__)
+/* x86-64 hosts: one unrolled copy per degree (two per FC 23 query of
+ * it2nd); the same arithmetic, the same values. */
+#define IT2N_BASIS30_K(k)                                                      \
+    case k:                                                                    \
+        basis30(k, t, b);                                                      \
+        break
+#endif
+
+void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
+{
+#ifdef IT2N_BASIS30_K
+    /* Only the degrees this build holds (IT2N_MAX_DEGREE): a constant
+     * beyond them would index past the arrays. */
+    switch (deg) {
+    IT2N_BASIS30_K(1);
+#if IT2N_MAX_DEGREE >= 2
+    IT2N_BASIS30_K(2);
+#endif
+#if IT2N_MAX_DEGREE >= 3
+    IT2N_BASIS30_K(3);
+#endif
+#if IT2N_MAX_DEGREE >= 4
+    IT2N_BASIS30_K(4);
+#endif
+#if IT2N_MAX_DEGREE >= 5
+    IT2N_BASIS30_K(5);
+#endif
+#if IT2N_MAX_DEGREE >= 6
+    IT2N_BASIS30_K(6);
+#endif
+#if IT2N_MAX_DEGREE >= 7
+    IT2N_BASIS30_K(7);
+#endif
+    default:
+        basis30(deg, t, b);
+        break;
+    }
+#else
+    basis30(deg, t, b);
+#endif
 }
 
 /* Derivative basis in Q26: d/dt sum_i c_i B_i^deg(t) = sum_i c_i db[i], with
@@ -169,6 +217,167 @@ static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
     return true;
 }
 
+/* Hosted builds only: <emmintrin.h> includes <stdlib.h>. IT2N_NO_SIMD
+ * keeps the scalar path (the same values). */
+#if !IT2N_MUL_HALVES && defined(__x86_64__) && defined(__SSE2__) && \
+    defined(__GNUC__) && __STDC_HOSTED__ && !defined(IT2N_NO_SIMD)
+/*
+ * x86-64 hosts (it2nd answers every FC 23 query with this): the values of
+ * every net at once with SSE2's PMULUDQ, two 32 x 32 -> 64 products per
+ * instruction, unsigned. The basis values are unsigned and sum to 2^30
+ * exactly (it2n__basis30), so a net biased by 2^31 (its sign bit flipped:
+ * P + 2^31, unsigned) gives
+ *   sum_i B_i (P_ij + 2^31) = sum_i B_i P_ij + 2^61,
+ * and rounding that to the mantissa scale (2^61 is a multiple of 2^30)
+ * gives q_j + 2^31, the biased stage-1 value, below 2^32 because q_j is a
+ * convex combination of the net. Stage 2 the same way: the total is the
+ * exact signed sum plus 2^61, every partial sum below 2^62. The same
+ * integers as two_stages, so the results are bit-identical (core vectors);
+ * the derivative weights are signed and keep the scalar path.
+ */
+#include <emmintrin.h>
+#define IT2N_VALUES_SSE2 1
+
+/* Columns j.. of one row (cols of them, 1..3), biased; the missing ones
+ * read as 0 (their weight is 0 below). */
+IT2N_INLINE __m128i load_tail(const int32_t *p, unsigned cols)
+{
+    __m128i x;
+    if (cols == 3u) {
+        x = _mm_unpacklo_epi64(_mm_loadl_epi64((const __m128i *)(const void *)p),
+                               _mm_cvtsi32_si128(p[2]));
+    } else if (cols == 2u) {
+        x = _mm_loadl_epi64((const __m128i *)(const void *)p);
+    } else {
+        x = _mm_cvtsi32_si128(p[0]);
+    }
+    return _mm_xor_si128(x, _mm_set1_epi32(INT32_MIN));
+}
+
+/* The odd 32-bit elements of x into the even ones (PMULUDQ's operands). */
+#define ODD(x) _mm_shuffle_epi32((x), 0xF5)
+
+/* Stage 2 of one block of columns: ev / od hold the stage-1 sums of its
+ * even / odd columns (biased), bwe / bwo their weights. */
+IT2N_INLINE __m128i stage2(__m128i acc, __m128i ev, __m128i od, __m128i bwe,
+                           __m128i bwo)
+{
+    const __m128i half = _mm_set1_epi64x((int64_t)1 << 29);
+    ev = _mm_srli_epi64(_mm_add_epi64(ev, half), 30);
+    od = _mm_srli_epi64(_mm_add_epi64(od, half), 30);
+    acc = _mm_add_epi64(acc, _mm_mul_epu32(ev, bwe));
+    return _mm_add_epi64(acc, _mm_mul_epu32(od, bwo));
+}
+
+/* The values of every net in fpmask into out[fp][ch], n1 rows (a constant
+ * at each call: the row loop unrolls), m1 columns. bu[i] is B_i(u) in both
+ * 64-bit lanes, bwe[b] / bwo[b] B_j(w) of the even / odd columns of the
+ * 4-column block b (0 where a column is missing). */
+IT2N_INLINE void values_sse2(const it2n_model *mdl, unsigned fpmask,
+                             const unsigned n1, const unsigned m1, const __m128i *bu,
+                             const __m128i *bwe, const __m128i *bwo,
+                             it2n_val *out)
+{
+    const __m128i bias = _mm_set1_epi32(INT32_MIN);
+    unsigned fp, ch, i, j, b;
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            const int32_t *net = mdl->net[fp][ch];
+            it2n_val *o = &out[fp * IT2N_CH_COUNT + ch];
+            __m128i acc = _mm_setzero_si128(), ev, od;
+            int64_t v;
+            *o = 0;
+            if (!(fpmask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
+                continue;
+            }
+            for (j = 0, b = 0; j + 4u <= m1; j += 4u, b++) {
+                ev = od = _mm_setzero_si128();
+                TWO_STAGES_UNROLL
+                for (i = 0; i < n1; i++) {
+                    __m128i x = _mm_xor_si128(
+                        _mm_loadu_si128((const __m128i *)(const void *)(net + i * m1 + j)),
+                        bias);
+                    od = _mm_add_epi64(od, _mm_mul_epu32(ODD(x), bu[i]));
+                    ev = _mm_add_epi64(ev, _mm_mul_epu32(x, bu[i]));
+                }
+                acc = stage2(acc, ev, od, bwe[b], bwo[b]);
+            }
+            if (j < m1) {
+                ev = od = _mm_setzero_si128();
+                for (i = 0; i < n1; i++) {
+                    __m128i x = load_tail(net + i * m1 + j, m1 - j);
+                    od = _mm_add_epi64(od, _mm_mul_epu32(ODD(x), bu[i]));
+                    ev = _mm_add_epi64(ev, _mm_mul_epu32(x, bu[i]));
+                }
+                acc = stage2(acc, ev, od, bwe[b], bwo[b]);
+            }
+            acc = _mm_add_epi64(acc, _mm_unpackhi_epi64(acc, acc));
+            v = (int64_t)((uint64_t)_mm_cvtsi128_si64(acc) - ((uint64_t)1 << 61));
+            /* convex weights: the value is within the net, so it fits
+             * Q39.24 (a left shift for frac < -6 cannot overflow, as in
+             * it2n_sample) */
+            *o = it2n__shift_round(v, 30 + mdl->frac[fp][ch] - IT2N_VAL_FRAC);
+        }
+    }
+}
+
+/* Constant row counts (and the 4 columns of degree 3, the common bicubic
+ * surface): the loops unroll. */
+#define IT2N_VALUES_SSE2_K(k)                                                  \
+    case k:                                                                    \
+        if (m1 == 4u) {                                                        \
+            values_sse2(mdl, fpmask, k, 4u, vu, we, wo, out);                  \
+        } else {                                                               \
+            values_sse2(mdl, fpmask, k, m1, vu, we, wo, out);                  \
+        }                                                                      \
+        break
+
+/* The values of every net in fpmask (basis bu, bw: Q30, summing to 2^30)
+ * into out[fp][ch], as apply() with ufrac = wfrac = 30 computes them. */
+static void apply_values(const it2n_model *mdl, unsigned fpmask,
+                         const int32_t *bu, const int32_t *bw, it2n_val *out)
+{
+    __m128i vu[IT2N_DIM], we[(IT2N_DIM + 3) / 4], wo[(IT2N_DIM + 3) / 4];
+    unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u, i, b;
+    for (i = 0; i < n1; i++) {
+        vu[i] = _mm_set1_epi64x(bu[i]);
+    }
+    for (b = 0; b * 4u < m1; b++) {
+        int32_t c[4];
+        for (i = 0; i < 4u; i++) {
+            c[i] = b * 4u + i < m1 ? bw[b * 4u + i] : 0;
+        }
+        we[b] = _mm_set_epi64x(c[2], c[0]);
+        wo[b] = _mm_set_epi64x(c[3], c[1]);
+    }
+    /* Row counts this build holds only (IT2N_DIM), as it2n__basis30. */
+    switch (n1) {
+    IT2N_VALUES_SSE2_K(2);
+#if IT2N_MAX_DEGREE >= 2
+    IT2N_VALUES_SSE2_K(3);
+#endif
+#if IT2N_MAX_DEGREE >= 3
+    IT2N_VALUES_SSE2_K(4);
+#endif
+#if IT2N_MAX_DEGREE >= 4
+    IT2N_VALUES_SSE2_K(5);
+#endif
+#if IT2N_MAX_DEGREE >= 5
+    IT2N_VALUES_SSE2_K(6);
+#endif
+#if IT2N_MAX_DEGREE >= 6
+    IT2N_VALUES_SSE2_K(7);
+#endif
+#if IT2N_MAX_DEGREE >= 7
+    IT2N_VALUES_SSE2_K(8);
+#endif
+    default:
+        values_sse2(mdl, fpmask, n1, m1, vu, we, wo, out);
+        break;
+    }
+}
+#endif
+
 /*
  * One pair of weight vectors applied to every net in fpmask into
  * out[fp][ch]. Returns false (and names fp, ch in *bad) if a result does not
@@ -203,12 +412,9 @@ void it2n__summarise(const it2n_model *mdl, it2n_point *out)
 
 void it2n__summarise_flags(unsigned flags, it2n_point *out)
 {
-    static const unsigned char upper[3] = {IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR};
-    static const unsigned char lower[3] = {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL};
-    unsigned k, f, fp;
-    bool type1 = (flags & IT2N_F_TYPE1) != 0u;
+    unsigned k, fp;
     uint32_t oor = 0u;
-    if (type1) {
+    if ((flags & IT2N_F_TYPE1) != 0u) {
         /* one footprint: every bound is its value */
         for (k = 0; k < 3u; k++) {
             it2n_val d = out->v[IT2N_FP_D][IT2N_CH_T + k];
@@ -225,23 +431,30 @@ void it2n__summarise_flags(unsigned flags, it2n_point *out)
         unsigned ch = IT2N_CH_T + k;
         it2n_val d = out->v[IT2N_FP_D][ch];
         it2n_val umin = d, umax = d, lmin = d, lmax = d;
-        for (f = 0; f < 3u; f++) {
-            it2n_val a = out->v[upper[f]][ch], b = out->v[lower[f]][ch];
-            umin = a < umin ? a : umin;
-            umax = a > umax ? a : umax;
-            lmin = b < lmin ? b : lmin;
-            lmax = b > lmax ? b : lmax;
-        }
+        /* upper over LL, D, RR; lower over LR, D, RL */
+        it2n_val a0 = out->v[IT2N_FP_LL][ch], a1 = out->v[IT2N_FP_RR][ch];
+        it2n_val b0 = out->v[IT2N_FP_LR][ch], b1 = out->v[IT2N_FP_RL][ch];
+        umin = a0 < umin ? a0 : umin;
+        umin = a1 < umin ? a1 : umin;
+        umax = a0 > umax ? a0 : umax;
+        umax = a1 > umax ? a1 : umax;
+        lmin = b0 < lmin ? b0 : lmin;
+        lmin = b1 < lmin ? b1 : lmin;
+        lmax = b0 > lmax ? b0 : lmax;
+        lmax = b1 > lmax ? b1 : lmax;
         out->sum.upper_min[k] = umin;
         out->sum.upper_max[k] = umax;
         out->sum.lower_min[k] = lmin;
         out->sum.lower_max[k] = lmax;
-        /* outside [0, 1]: one unsigned compare catches both sides */
-        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-            if ((uint64_t)out->v[fp][ch] > (uint64_t)IT2N_VAL_ONE) {
-                oor |= (uint32_t)1u << (fp * 3u + k);
-            }
-        }
+    }
+    /* Bits fp*3 + k: v < 0 or v > 1 is one unsigned compare. */
+    TWO_STAGES_UNROLL
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        const it2n_val *v = &out->v[fp][IT2N_CH_T];
+        uint32_t g = (uint32_t)((uint64_t)v[0] > (uint64_t)IT2N_VAL_ONE) |
+                     (uint32_t)((uint64_t)v[1] > (uint64_t)IT2N_VAL_ONE) << 1 |
+                     (uint32_t)((uint64_t)v[2] > (uint64_t)IT2N_VAL_ONE) << 2;
+        oor |= g << (fp * 3u);
     }
     out->out_of_range = oor;
 }
@@ -265,9 +478,14 @@ static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w,
     unsigned bad;
     it2n__basis30(mdl->n, u, bu);
     it2n__basis30(mdl->m, w, bw);
+#ifdef IT2N_VALUES_SSE2
+    (void)bad;
+    apply_values(mdl, it2n__fp_mask(mdl->flags), bu, bw, v);
+#else
     if (!apply(mdl, it2n__fp_mask(mdl->flags), bu, 30, bw, 30, v, &bad)) {
         IT2N_ASSERT(false); /* convex weights: values are within the net */
     }
+#endif
 }
 
 int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out,
@@ -295,7 +513,11 @@ int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
     it2n__basis30(mdl->n, u, bu);
     it2n__basis30(mdl->m, w, bw);
     if (v != NULL) {
+#ifdef IT2N_VALUES_SSE2
+        apply_values(mdl, fpmask, bu, bw, v);
+#else
         (void)apply(mdl, fpmask, bu, 30, bw, 30, v, &bad);
+#endif
     }
     if (du != NULL) {
         dbasis26(mdl->n, u, d);

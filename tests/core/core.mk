@@ -4,7 +4,7 @@
 # against $(CORE_SAN_LIB). Targets: tests-core (both), tests-core-plain,
 # tests-core-san.
 TC_DIR := tests/core
-TC_PROGS := test_accuracy test_validation test_operations test_bspline
+TC_PROGS := test_accuracy test_validation test_operations test_bspline test_eval_exact
 TC_COMMON := $(TC_DIR)/ref.c $(TC_DIR)/tc_util.c
 TC_HDRS := $(TC_DIR)/ref.h $(TC_DIR)/tc_util.h $(CORE_HDR)
 TC_CFLAGS := $(HOST_CFLAGS) -I$(TC_DIR)

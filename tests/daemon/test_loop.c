@@ -123,11 +123,41 @@ static void test_reused_fd(void **st)
     loop_free();
 }
 
+/* loop_wake_us (issue 22: per-request stamps without a clock read) is the
+ * time the last wait returned: in a callback it is after the wait started
+ * (a 30 ms timer: at least 30 ms after) and never later than loop_now_us;
+ * it stays the same within one iteration; before any wait it is fresh. */
+static uint64_t cb_wake, cb_wake2, cb_now;
+
+static void on_timer(void *arg)
+{
+    (void)arg;
+    cb_wake = loop_wake_us();
+    cb_now = loop_now_us();
+    cb_wake2 = loop_wake_us();
+}
+
+static void test_wake_time(void **st)
+{
+    (void)st;
+    uint64_t t0 = loop_now_us();
+    assert_true(loop_wake_us() >= t0); /* before any wait: the clock */
+    assert_true(loop_add_timer(30, on_timer, NULL) > 0);
+    while (!cb_wake)
+        assert_int_equal(loop_run_once(1000), 0);
+    assert_true(cb_wake >= t0 + 30000u);
+    assert_true(cb_wake <= cb_now);
+    assert_true(cb_wake2 == cb_wake); /* one read per wake-up */
+    assert_true(loop_wake_ms() == cb_wake / 1000u);
+    loop_free();
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_many_fds),
         cmocka_unit_test(test_reused_fd),
+        cmocka_unit_test(test_wake_time),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
