@@ -47,7 +47,7 @@ static it2n_bspline_rec *rec_at(const it2n_bspline_data *ds, unsigned i,
     return &ds->rec[k];
 }
 
-/* Channel ch of a record in Q24. */
+/* Channel ch of a record as stored: Q24 coordinate, Q30 membership. */
 static it2n_val rec_value(const it2n_bspline_rec *r, unsigned ch)
 {
     if (ch >= 3u) {
@@ -128,9 +128,41 @@ static int check_where(const it2n_bspline_data *ds, unsigned i, unsigned j,
     return IT2N_OK;
 }
 
+/* Q24 values into the fine layout for the _fine functions: checked in
+ * Q24 first (errors as before), out-of-range memberships never widened. */
+static int q24_to_fine(unsigned flags, unsigned i, unsigned j, unsigned fp,
+                       const it2n_val vals[IT2N_CH_COUNT],
+                       it2n_val fine[IT2N_CH_COUNT], it2n_errinfo *err)
+{
+    int rc = it2n__check_vals(flags, i, j, fp, vals, err);
+    if (rc == IT2N_OK) {
+        it2n__vals_fine(vals, fine);
+    }
+    return rc;
+}
+
 int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
                           unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
                           bool replace, it2n_errinfo *err)
+{
+    it2n_val fine[IT2N_CH_COUNT];
+    int rc;
+    if (ds == NULL || ds->rec == NULL || vals == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    rc = check_where(ds, i, j, fp, err);
+    if (rc == IT2N_OK) {
+        rc = q24_to_fine(ds->flags, i, j, fp, vals, fine, err);
+    }
+    return rc != IT2N_OK ? rc
+                         : it2n_bspline_data_put_fine(ds, i, j, fp, fine,
+                                                      replace, err);
+}
+
+int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i,
+                               unsigned j, unsigned fp,
+                               const it2n_val vals[IT2N_CH_COUNT],
+                               bool replace, it2n_errinfo *err)
 {
     it2n_bspline_rec *r;
     int rc;
@@ -141,7 +173,7 @@ int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
     if (rc != IT2N_OK) {
         return rc;
     }
-    rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+    rc = it2n__check_vals_fine(ds->flags, i, j, fp, vals, err);
     if (rc != IT2N_OK) {
         return rc;
     }
@@ -157,6 +189,19 @@ int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
 void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i,
                            unsigned j, unsigned fp,
                            it2n_val vals[IT2N_CH_COUNT])
+{
+    unsigned ch;
+    it2n_bspline_data_get_fine(ds, i, j, fp, vals);
+    for (ch = IT2N_CH_T; ch < IT2N_CH_COUNT; ch++) {
+        /* in [0, 2^30]: Q24 rounded to nearest, ties up */
+        vals[ch] = (vals[ch] + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >>
+                   (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
+    }
+}
+
+void it2n_bspline_data_get_fine(const it2n_bspline_data *ds, unsigned i,
+                                unsigned j, unsigned fp,
+                                it2n_val vals[IT2N_CH_COUNT])
 {
     const it2n_bspline_rec *r;
     unsigned ch;
@@ -244,8 +289,8 @@ int it2n_bspline_data_check(const it2n_bspline_data *ds, it2n_errinfo *err)
                     return it2n__fail(err, IT2N_ERR_MISSING, (int)i, (int)j,
                                       (int)fp, -1, 0, 0, 0);
                 }
-                it2n_bspline_data_get(ds, i, j, fp, vals);
-                rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+                it2n_bspline_data_get_fine(ds, i, j, fp, vals);
+                rc = it2n__check_vals_fine(ds->flags, i, j, fp, vals, err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }
@@ -701,7 +746,7 @@ static int solve_cols(const it2n_bspline_model *mdl, unsigned fp, unsigned ch,
     /* value (Q24) = y 2^-f1; 6 g = row result; g = G 2^(rsh - f1) / 6;
      * column input 2^(tmax - 24 - f1) / 6 per unit; result 16 c / 36 ...:
      * c (Q24) = mantissa 2^(cmax + tmax - 28 - f1); frac counts real units */
-    frac = f1 + 28 - cmax - tmax + IT2N_VAL_FRAC;
+    frac = f1 + 28 - cmax - tmax + it2n__ch_frac(ch); /* Q30 memberships */
     IT2N_ASSERT(frac >= -1 && frac <= 127);
     return frac;
 }
@@ -771,6 +816,31 @@ int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
                         const it2n_val vals[IT2N_CH_COUNT],
                         it2n_errinfo *err)
 {
+    it2n_val fine[IT2N_CH_COUNT];
+    int rc;
+    if (mdl == NULL || vals == NULL || !data_shape_ok(ds)) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    /* errors in it2n_bspline_update_fine's order: state, index, range */
+    if (!mdl->solved || mdl->n != ds->n || mdl->m != ds->m ||
+        mdl->flags != ds->flags || mdl->coef == NULL ||
+        mdl->cap < IT2N_BSPLINE_MODEL_WORDS(ds->n, ds->m, ds->flags)) {
+        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
+    }
+    rc = check_where(ds, i, j, fp, err);
+    if (rc == IT2N_OK) {
+        rc = q24_to_fine(ds->flags, i, j, fp, vals, fine, err);
+    }
+    return rc != IT2N_OK ? rc
+                         : it2n_bspline_update_fine(mdl, ds, i, j, fp, fine,
+                                                    err);
+}
+
+int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                             unsigned i, unsigned j, unsigned fp,
+                             const it2n_val vals[IT2N_CH_COUNT],
+                             it2n_errinfo *err)
+{
     int rc;
     if (mdl == NULL || vals == NULL || !data_shape_ok(ds)) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
@@ -782,7 +852,7 @@ int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
     }
     rc = check_where(ds, i, j, fp, err);
     if (rc == IT2N_OK) {
-        rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+        rc = it2n__check_vals_fine(ds->flags, i, j, fp, vals, err);
     }
     if (rc == IT2N_OK) {
         rc = check_nesting(ds, i, j, fp, vals, err);

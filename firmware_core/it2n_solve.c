@@ -171,19 +171,25 @@ static void dir_uniform(unsigned deg, dir_inv *d)
     d->cs_bits = rowsum_bits(d->hi, d->lo, deg);
 }
 
-/* Largest |F| of one channel and its bit length. */
-static unsigned data_bits(const it2n_dataset *ds, unsigned fp, unsigned ch)
+/* Largest |F| of one channel (raw: Q24 coordinates, Q30 memberships). */
+static uint64_t data_max(const it2n_dataset *ds, unsigned fp, unsigned ch)
 {
     uint64_t big = 0u;
     unsigned k, l;
     for (k = 0; k <= ds->n; k++) {
         for (l = 0; l <= ds->m; l++) {
-            int64_t v = it2n_dataset_value(ds, k, l, fp, ch);
+            int64_t v = it2n_dataset_value_fine(ds, k, l, fp, ch);
             uint64_t a = (uint64_t)(v < 0 ? -v : v);
             big = a > big ? a : big;
         }
     }
-    return it2n__bitlen64(big);
+    return big;
+}
+
+/* ... and its bit length. */
+static unsigned data_bits(const it2n_dataset *ds, unsigned fp, unsigned ch)
+{
+    return it2n__bitlen64(data_max(ds, fp, ch));
 }
 
 /*
@@ -203,7 +209,7 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
                 continue;
             }
             eb = data_bits(ds, fp, ch);
-            bits = (int)(eb + du->cs_bits + dw->cs_bits) - IT2N_VAL_FRAC -
+            bits = (int)(eb + du->cs_bits + dw->cs_bits) - it2n__ch_frac(ch) -
                    du->frac - dw->frac;
             if (eb != 0u && bits > NET_LIMIT_BITS) {
                 return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp,
@@ -214,16 +220,17 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
     return IT2N_OK;
 }
 
-/* Data at or above 2^30 (coordinates of magnitude 64 and more) take the
- * wide stage-1 path. */
-#define SMALL_DATA_BITS 30
+/* Data beyond 2^30 (coordinates of magnitude above 64) take the wide
+ * stage-1 path; memberships (Q30, at most 2^30) never do. */
+#define SMALL_DATA_MAX ((uint64_t)1 << 30)
 
 /*
  * Stage 1 for column j: g[k] = sum_l F[k][l] C_m[j][l], rounded. Small data
- * (|F| < 2^30): F * (hi 2^24 + lo), g = S / 2^24 (frac of C_m). Wide data
- * (|F| < 2^47): exact 128-bit S, g = S / 2^42 (frac of C_m - 18).
- * Bounds (row sums of C below 2^55, so sum |hi| < 2^31 + 16, lo < 2^24):
- * every int64 partial sum stays below 2^62 and |g| < 2^62.
+ * (|F| <= 2^30): F * (hi 2^24 + lo), g = S / 2^24 (frac of C_m plus the
+ * data's beyond 24). Wide data (|F| < 2^47): exact 128-bit S, g = S / 2^42
+ * (frac of C_m - 18). Bounds (row sums of C below 2^55, so sum |hi| <
+ * 2^31 + 16, lo < 2^24): every int64 partial sum stays below 2^62 and
+ * |g| < 2^62.
  */
 static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
                    const dir_inv *dw, unsigned j, bool wide, int64_t *g)
@@ -236,7 +243,7 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
             /* one accumulator per loop: no register spills on ARMv6-M */
             int32_t f[IT2N_DIM];
             for (l = 0; l < m1; l++) {
-                f[l] = (int32_t)it2n_dataset_value(ds, k, l, fp, ch);
+                f[l] = (int32_t)it2n_dataset_value_fine(ds, k, l, fp, ch);
             }
             for (l = 0; l < m1; l++) {
                 a1 += it2n_smul32(f[l], hi[l]);
@@ -253,7 +260,7 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
             it2n_i128 acc = it2n__i128_zero();
             for (l = 0; l < m1; l++) {
                 int64_t c = (int64_t)(((uint64_t)(int64_t)hi[l] << 24) + (uint32_t)lo[l]);
-                it2n_mac128(&acc, it2n_dataset_value(ds, k, l, fp, ch), c);
+                it2n_mac128(&acc, it2n_dataset_value_fine(ds, k, l, fp, ch), c);
             }
             if (!it2n__i128_round(acc, 42u, &g[k])) {
                 IT2N_ASSERT(false); /* |S| < 2^47 2^55: g < 2^60 */
@@ -316,7 +323,7 @@ static void short_column(const it2n_dataset *ds, unsigned fp, unsigned ch,
     for (k = 0; k < n1; k++) {
         int64_t g = 0;
         for (l = 0; l < m1; l++) {
-            g += it2n_smul32((int32_t)it2n_dataset_value(ds, k, l, fp, ch), wm[l]);
+            g += it2n_smul32((int32_t)it2n_dataset_value_fine(ds, k, l, fp, ch), wm[l]);
         }
         gh[k] = (int32_t)(g >> 31);
         gl[k] = (int32_t)(g & 0x7FFFFFFF);
@@ -344,8 +351,9 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
 {
     int64_t p64[IT2N_DIM * IT2N_DIM], g[IT2N_DIM];
     unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, j, k, count = n1 * m1;
-    unsigned eb = data_bits(ds, fp, ch), eh;
-    bool wide = eb > SMALL_DATA_BITS;
+    uint64_t dmax = data_max(ds, fp, ch);
+    unsigned eb = it2n__bitlen64(dmax), eh;
+    bool wide = dmax > SMALL_DATA_MAX;
     bool shortp = !wide && du->w != NULL && dw->w != NULL;
     uint64_t big = 0u;
     int s, f;
@@ -372,10 +380,11 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
     if (s > 0 && it2n__shift_round((int64_t)big, s) > INT32_MAX) {
         s++;
     }
-    /* g has frac_m fractional bits (wide: frac_m - 18), p64 frac_n +
-     * frac_g - 55, the mantissas s fewer. */
-    f = shortp ? IT2N_VAL_FRAC + du->wfrac + dw->wfrac - 30 - s
-               : du->frac + dw->frac - 55 - (wide ? 18 : 0) - s;
+    /* g has frac_m + (data frac - 24) fractional bits (wide: 18 fewer),
+     * p64 frac_n + frac_g - 55, the mantissas s fewer. */
+    f = shortp ? it2n__ch_frac(ch) + du->wfrac + dw->wfrac - 30 - s
+               : du->frac + dw->frac - 55 - (wide ? 18 : 0) - s +
+                     (it2n__ch_frac(ch) - IT2N_VAL_FRAC);
     if (f > 127) { /* a net of values below 2^-96: keep the exponent */
         s += f - 127;
         f = 127;
@@ -515,6 +524,34 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
                       unsigned j, unsigned fp,
                       const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
 {
+    it2n_val fine[IT2N_CH_COUNT];
+    unsigned ch;
+    if (mdl == NULL || ds == NULL || vals == NULL) {
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
+    }
+    /* state and index errors come first, as it2n_model_update_fine reports
+     * them; then the range, in the caller's format */
+    if (mdl->solved && mdl->n == ds->n && mdl->m == ds->m &&
+        mdl->flags == ds->flags && i <= ds->n && j <= ds->m &&
+        fp < IT2N_FP_COUNT && ((1u << fp) & it2n__fp_mask(ds->flags)) != 0u) {
+        int rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+        if (rc != IT2N_OK) {
+            return rc;
+        }
+    }
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        it2n_val v = vals[ch];
+        fine[ch] = (ch >= IT2N_CH_T && (v < 0 || v > IT2N_VAL_ONE)) ? 0 : v;
+    }
+    it2n__vals_fine(fine, fine);
+    return it2n_model_update_fine(mdl, ds, i, j, fp, fine, err);
+}
+
+int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                           unsigned j, unsigned fp,
+                           const it2n_val vals[IT2N_CH_COUNT],
+                           it2n_errinfo *err)
+{
     it2n_val nv[IT2N_CH_COUNT], old[IT2N_CH_COUNT];
     unsigned ch, flags, mask;
     int rc;
@@ -537,7 +574,7 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
         return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
                           (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
     }
-    rc = it2n__check_vals(flags, i, j, fp, vals, err);
+    rc = it2n__check_vals_fine(flags, i, j, fp, vals, err);
     if (rc != IT2N_OK) {
         return rc;
     }
@@ -551,7 +588,7 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     /* Chord-length parameters follow footprint D: every net moves. */
     mask = ((flags & IT2N_F_CHORD) && fp == IT2N_FP_D) ? it2n__fp_mask(flags)
                                                        : 1u << fp;
-    it2n_dataset_get(ds, i, j, fp, old);
+    it2n_dataset_get_fine(ds, i, j, fp, old);
     it2n__dataset_store(ds, i, j, fp, nv);
     rc = solve_core(mdl, ds, mask, false, err);
     if (rc != IT2N_OK) {

@@ -260,11 +260,12 @@ static size_t vidx(const bcase *c, unsigned i, unsigned j, unsigned fp,
     return (((size_t)i * (c->m + 1u) + j) * NFP + fp) * NCH + ch;
 }
 
-/* x rounded to 6 decimals: exact value into *exact, Q24 (ties away). */
-static it2n_val dec6(long double x, long double *exact)
+/* x rounded to 6 decimals: exact value into *exact, channel ch's format in
+ * the fine layout (Q24 coordinates, Q30 memberships; ties away). */
+static it2n_val dec6(unsigned ch, long double x, long double *exact)
 {
     long long k = llroundl(x * 1e6L);
-    tb_i128 num = (tb_i128)k * 16777216, q;
+    tb_i128 num = (tb_i128)k * (ch >= IT2N_CH_T ? 1073741824 : 16777216), q;
     *exact = (long double)k / 1e6L;
     q = (num + (num >= 0 ? 500000 : -500000)) / 1000000;
     return (it2n_val)q;
@@ -338,7 +339,7 @@ static void bcase_gen(bcase *c, unsigned n, unsigned m, unsigned flags,
                     } else if (kind != GEN_EXTREME) {
                         x += 0.02L * ((long double)fp - 3);
                     }
-                    c->q[k] = dec6(x, &e);
+                    c->q[k] = dec6(ch, x, &e);
                     c->v[k] = e;
                     if (ch <= 2 && fabsl(e) > c->maxabs) {
                         c->maxabs = fabsl(e);
@@ -378,8 +379,8 @@ static void bcase_core(bcase *c)
                     continue;
                 }
                 bcase_vals(c, i, j, fp, vals);
-                assert_int_equal(it2n_bspline_data_put(&c->ds, i, j, fp, vals,
-                                                       false, &err), IT2N_OK);
+                assert_int_equal(it2n_bspline_data_put_fine(&c->ds, i, j, fp, vals,
+                                                            false, &err), IT2N_OK);
             }
         }
     }
@@ -512,7 +513,7 @@ static long double check_coefs(const bcase *c)
             }
             for (i = 0; i <= c->n; i++) {
                 for (j = 0; j <= c->m; j++) {
-                    f[i * (c->m + 1u) + j] = tc_ld(c->q[vidx(c, i, j, fp, ch)]);
+                    f[i * (c->m + 1u) + j] = tc_ldq(ch, c->q[vidx(c, i, j, fp, ch)]);
                 }
             }
             bref_net_solve(&r, c->n, c->m, f);
@@ -829,15 +830,21 @@ static void test_update_vs_solve(void **state)
         it2n_val vals[NCH], lo[NCH], hi[NCH];
         it2n_bspline_model m2;
         uint32_t gen = c.mdl.generation;
-        it2n_bspline_data_get(&c.ds, i, j, fp, vals);
-        if (fp > 0) it2n_bspline_data_get(&c.ds, i, j, fp - 1, lo);
-        if (fp + 1 < NFP) it2n_bspline_data_get(&c.ds, i, j, fp + 1, hi);
+        /* odd steps through the _fine entry points (Q30 memberships) */
+        bool fine = (k & 1u) != 0u;
+        void (*get)(const it2n_bspline_data *, unsigned, unsigned, unsigned,
+                    it2n_val *) = fine ? it2n_bspline_data_get_fine
+                                       : it2n_bspline_data_get;
+        get(&c.ds, i, j, fp, vals);
+        if (fp > 0) get(&c.ds, i, j, fp - 1, lo);
+        if (fp + 1 < NFP) get(&c.ds, i, j, fp + 1, hi);
         for (ch = 0; ch < NCH; ch++) {
             if (!has_ch(c.flags, ch)) {
                 continue;
             }
             if (ch >= IT2N_CH_T) {
-                vals[ch] = (it2n_val)(tc_rand(&s) % (IT2N_VAL_ONE + 1));
+                it2n_val one = fine ? IT2N_MEMB_ONE : IT2N_VAL_ONE;
+                vals[ch] = (it2n_val)(tc_rand(&s) % (uint64_t)(one + 1));
             } else {
                 /* anywhere between the neighbouring footprints */
                 it2n_val a = fp > 0 ? lo[ch] : vals[ch] - (IT2N_VAL_ONE << 3);
@@ -845,7 +852,8 @@ static void test_update_vs_solve(void **state)
                 vals[ch] = a + (it2n_val)(tc_rand(&s) % (uint64_t)(b - a + 1));
             }
         }
-        assert_int_equal(it2n_bspline_update(&c.mdl, &c.ds, i, j, fp, vals, NULL),
+        assert_int_equal((fine ? it2n_bspline_update_fine : it2n_bspline_update)(
+                             &c.mdl, &c.ds, i, j, fp, vals, NULL),
                          IT2N_OK);
         assert_true(c.mdl.generation != gen);
         it2n_bspline_model_init(&m2, fresh, words);
@@ -1078,7 +1086,7 @@ static void test_random_shapes(void **state)
                     if (ch >= 3 && x < 0) {
                         x = -x;
                     }
-                    q = dec6(x, &e);
+                    q = dec6(ch, x, &e);
                     for (fp = 0; fp < NFP; fp++) {
                         if (has_fp(flags, fp) && has_ch(flags, ch)) {
                             c.q[vidx(&c, i, j, fp, ch)] = q;
