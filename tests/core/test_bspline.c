@@ -7,7 +7,8 @@
  * spline), solved by dense Gaussian elimination with partial pivoting per
  * line length and evaluated with the textbook uniform cubic B-spline basis.
  * Data are exact 6-decimal numbers: the reference sees the decimals, the
- * core their Q24 rounding, so an error below includes input rounding.
+ * core their rounding (Q24 coordinates, Q30 memberships), so an error
+ * below includes input rounding.
  *
  * Goals (issue 21): memberships within 2e-7, coordinates within
  * 1e-6 max|coordinate| + 1e-7, for grids 2x2 .. 9x9 (every size pair), 64x64
@@ -245,7 +246,7 @@ static long double bref_eval(const bref_net *r, long double u, long double w,
 typedef struct bcase {
     unsigned n, m, flags;
     long double *v;        /* exact decimals [(i (m+1) + j) NFP + fp] NCH + ch */
-    it2n_val *q;           /* their Q24 rounding                              */
+    it2n_val *q;           /* their rounding, fine layout (Q30 T, I, F) */
     it2n_bspline_rec *rec;
     int32_t *coef;
     it2n_bspline_data ds;
@@ -496,7 +497,7 @@ static void check_case(const bcase *c, unsigned randoms, bool nodes,
 }
 
 /* Every coefficient against the exact solution of the data the core was
- * given (Q24): the solve's own error, relative to the net's largest
+ * given (Q24 coordinates, Q30 memberships): the solve's own error, relative to the net's largest
  * coefficient (plus the Q24 read-out's rounding). Returns the worst. */
 static long double check_coefs(const bcase *c)
 {
@@ -647,7 +648,7 @@ static void test_small_grids(void **state)
     report("1..8 x 1..8 smooth scale 10", &all);
     report("1..8 x 1..8 rough scale 1000", &rough);
     printf("[bspline] coefficients 1..8 x 1..8: worst err %.3Le of the net's max|c| "
-           "(vs the exact solution of the Q24 data)\n", coef_worst);
+           "(vs the exact solution of the data given)\n", coef_worst);
 }
 
 /* Data points are interpolated and the polynomial cases match exactly
