@@ -787,7 +787,7 @@ static void put_fine(struct model *md, unsigned i, unsigned j, int x, int y, it2
     assert_int_equal(models_put_fine(md, i, j, IT2N_FP_D, v, true, &err), IT2N_OK);
 }
 
-static void assert_same_data(const struct model *a, const it2n_val want[4][IT2N_CH_COUNT])
+static void assert_same_data(const struct model *a, it2n_val want[4][IT2N_CH_COUNT])
 {
     for (unsigned k = 0; k < 4; k++) {
         it2n_val v[IT2N_CH_COUNT];
