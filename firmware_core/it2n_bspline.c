@@ -98,16 +98,17 @@ int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec,
     return IT2N_OK;
 }
 
-/* Store checked values into a record. */
+/* Store checked values into a record (memberships with IT2N_MEMB_FRAC -
+ * shift fraction bits). */
 static void rec_store(it2n_bspline_rec *r, unsigned flags,
-                      const it2n_val vals[IT2N_CH_COUNT])
+                      const it2n_val vals[IT2N_CH_COUNT], unsigned shift)
 {
     unsigned ch;
     for (ch = 0; ch < 3u; ch++) {
         it2n_val v = it2n__ch_used(flags, ch) ? vals[ch] : 0;
         r->lo[ch] = (uint32_t)(uint64_t)v;
         r->hi[ch] = (int16_t)(v >> 32); /* |v| < 2^47 */
-        r->memb[ch] = (uint32_t)vals[3u + ch];
+        r->memb[ch] = (uint32_t)vals[3u + ch] << shift;
     }
     r->present = 1u;
 }
@@ -128,41 +129,10 @@ static int check_where(const it2n_bspline_data *ds, unsigned i, unsigned j,
     return IT2N_OK;
 }
 
-/* Q24 values into the fine layout for the _fine functions: checked in
- * Q24 first (errors as before), out-of-range memberships never widened. */
-static int q24_to_fine(unsigned flags, unsigned i, unsigned j, unsigned fp,
-                       const it2n_val vals[IT2N_CH_COUNT],
-                       it2n_val fine[IT2N_CH_COUNT], it2n_errinfo *err)
-{
-    int rc = it2n__check_vals(flags, i, j, fp, vals, err);
-    if (rc == IT2N_OK) {
-        it2n__vals_fine(vals, fine);
-    }
-    return rc;
-}
-
-int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
-                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                          bool replace, it2n_errinfo *err)
-{
-    it2n_val fine[IT2N_CH_COUNT];
-    int rc;
-    if (ds == NULL || ds->rec == NULL || vals == NULL) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
-    }
-    rc = check_where(ds, i, j, fp, err);
-    if (rc == IT2N_OK) {
-        rc = q24_to_fine(ds->flags, i, j, fp, vals, fine, err);
-    }
-    return rc != IT2N_OK ? rc
-                         : it2n_bspline_data_put_fine(ds, i, j, fp, fine,
-                                                      replace, err);
-}
-
-int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i,
-                               unsigned j, unsigned fp,
-                               const it2n_val vals[IT2N_CH_COUNT],
-                               bool replace, it2n_errinfo *err)
+/* it2n_bspline_data_put for memberships of mfrac fraction bits. */
+static int data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
+                    unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                    bool replace, int mfrac, it2n_errinfo *err)
 {
     it2n_bspline_rec *r;
     int rc;
@@ -173,7 +143,7 @@ int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i,
     if (rc != IT2N_OK) {
         return rc;
     }
-    rc = it2n__check_vals_fine(ds->flags, i, j, fp, vals, err);
+    rc = it2n__check_vals(ds->flags, i, j, fp, vals, mfrac, err);
     if (rc != IT2N_OK) {
         return rc;
     }
@@ -182,8 +152,23 @@ int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i,
         return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp,
                           -1, 0, 0, 0);
     }
-    rec_store(r, ds->flags, vals);
+    rec_store(r, ds->flags, vals, (unsigned)(IT2N_MEMB_FRAC - mfrac));
     return IT2N_OK;
+}
+
+int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
+                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                          bool replace, it2n_errinfo *err)
+{
+    return data_put(ds, i, j, fp, vals, replace, IT2N_VAL_FRAC, err);
+}
+
+int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i,
+                               unsigned j, unsigned fp,
+                               const it2n_val vals[IT2N_CH_COUNT],
+                               bool replace, it2n_errinfo *err)
+{
+    return data_put(ds, i, j, fp, vals, replace, IT2N_MEMB_FRAC, err);
 }
 
 void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i,
@@ -290,7 +275,8 @@ int it2n_bspline_data_check(const it2n_bspline_data *ds, it2n_errinfo *err)
                                       (int)fp, -1, 0, 0, 0);
                 }
                 it2n_bspline_data_get_fine(ds, i, j, fp, vals);
-                rc = it2n__check_vals_fine(ds->flags, i, j, fp, vals, err);
+                rc = it2n__check_vals(ds->flags, i, j, fp, vals,
+                                      IT2N_MEMB_FRAC, err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }
@@ -811,35 +797,11 @@ int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
     return IT2N_OK;
 }
 
-int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
-                        unsigned i, unsigned j, unsigned fp,
-                        const it2n_val vals[IT2N_CH_COUNT],
-                        it2n_errinfo *err)
-{
-    it2n_val fine[IT2N_CH_COUNT];
-    int rc;
-    if (mdl == NULL || vals == NULL || !data_shape_ok(ds)) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
-    }
-    /* errors in it2n_bspline_update_fine's order: state, index, range */
-    if (!mdl->solved || mdl->n != ds->n || mdl->m != ds->m ||
-        mdl->flags != ds->flags || mdl->coef == NULL ||
-        mdl->cap < IT2N_BSPLINE_MODEL_WORDS(ds->n, ds->m, ds->flags)) {
-        return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
-    }
-    rc = check_where(ds, i, j, fp, err);
-    if (rc == IT2N_OK) {
-        rc = q24_to_fine(ds->flags, i, j, fp, vals, fine, err);
-    }
-    return rc != IT2N_OK ? rc
-                         : it2n_bspline_update_fine(mdl, ds, i, j, fp, fine,
-                                                    err);
-}
-
-int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds,
-                             unsigned i, unsigned j, unsigned fp,
-                             const it2n_val vals[IT2N_CH_COUNT],
-                             it2n_errinfo *err)
+/* it2n_bspline_update for memberships of mfrac fraction bits. */
+static int bs_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                     unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+                     it2n_errinfo *err)
 {
     int rc;
     if (mdl == NULL || vals == NULL || !data_shape_ok(ds)) {
@@ -852,7 +814,7 @@ int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds,
     }
     rc = check_where(ds, i, j, fp, err);
     if (rc == IT2N_OK) {
-        rc = it2n__check_vals_fine(ds->flags, i, j, fp, vals, err);
+        rc = it2n__check_vals(ds->flags, i, j, fp, vals, mfrac, err);
     }
     if (rc == IT2N_OK) {
         rc = check_nesting(ds, i, j, fp, vals, err);
@@ -860,9 +822,26 @@ int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds,
     if (rc != IT2N_OK) {
         return rc;
     }
-    rec_store(rec_at(ds, i, j, fp), ds->flags, vals);
+    rec_store(rec_at(ds, i, j, fp), ds->flags, vals,
+              (unsigned)(IT2N_MEMB_FRAC - mfrac));
     solve_fps(mdl, ds, 1u << fp);
     return IT2N_OK;
+}
+
+int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                        unsigned i, unsigned j, unsigned fp,
+                        const it2n_val vals[IT2N_CH_COUNT],
+                        it2n_errinfo *err)
+{
+    return bs_update(mdl, ds, i, j, fp, vals, IT2N_VAL_FRAC, err);
+}
+
+int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                             unsigned i, unsigned j, unsigned fp,
+                             const it2n_val vals[IT2N_CH_COUNT],
+                             it2n_errinfo *err)
+{
+    return bs_update(mdl, ds, i, j, fp, vals, IT2N_MEMB_FRAC, err);
 }
 
 it2n_val it2n_bspline_coef(const it2n_bspline_model *mdl, unsigned r,

@@ -34,7 +34,8 @@ int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
 }
 
 int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
+                     const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+                     it2n_errinfo *err)
 {
     unsigned ch;
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
@@ -47,9 +48,15 @@ int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
             hi = COORD_MAX;
         } else {
             lo = 0;
-            hi = IT2N_VAL_ONE;
+            hi = (it2n_val)1 << mfrac;
         }
         if (v < lo || v > hi) {
+            if (ch > IT2N_CH_Z) {
+                /* to Q24: floor below 0, ceiling above 1 */
+                int s = mfrac - IT2N_VAL_FRAC;
+                v = (v >> s) + (v > 0 && (v & (((it2n_val)1 << s) - 1)) != 0 ? 1 : 0);
+                hi = IT2N_VAL_ONE;
+            }
             return it2n__fail(err, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp,
                               (int)ch, v, lo, hi);
         }
@@ -57,73 +64,10 @@ int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
     return IT2N_OK;
 }
 
-int it2n__check_vals_fine(unsigned flags, unsigned i, unsigned j,
-                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                          it2n_errinfo *err)
-{
-    const int sh = IT2N_MEMB_FRAC - IT2N_VAL_FRAC;
-    it2n_val q24[IT2N_CH_COUNT];
-    unsigned ch;
-    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        it2n_val v = vals[ch];
-        if (ch < IT2N_CH_T) {
-            q24[ch] = v;
-        } else if (v < 0) {
-            q24[ch] = v >> sh; /* floor: stays below 0 */
-        } else if (v > IT2N_MEMB_ONE) {
-            /* ceiling: stays above 1 */
-            q24[ch] = (v >> sh) + ((v & ((1 << sh) - 1)) != 0 ? 1 : 0);
-        } else {
-            q24[ch] = 0; /* in range: any value in [0, 1] passes */
-        }
-    }
-    return it2n__check_vals(flags, i, j, fp, q24, err);
-}
-
-void it2n__vals_fine(const it2n_val in[IT2N_CH_COUNT],
-                     it2n_val out[IT2N_CH_COUNT])
-{
-    unsigned ch;
-    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        /* a checked membership is in [0, 2^24]: the shift is exact */
-        out[ch] = ch < IT2N_CH_T ? in[ch]
-                                 : in[ch] * ((it2n_val)1 << (IT2N_MEMB_FRAC -
-                                                             IT2N_VAL_FRAC));
-    }
-}
-
-int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], bool replace,
-                     it2n_errinfo *err)
-{
-    it2n_val fine[IT2N_CH_COUNT];
-    unsigned ch;
-    int rc;
-    if (ds == NULL || vals == NULL) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
-    }
-    /* range first, in the caller's format (a value beyond 2^57 would not
-     * survive the widening) */
-    if (i <= ds->n && j <= ds->m && fp < IT2N_FP_COUNT &&
-        ((1u << fp) & it2n__fp_mask(ds->flags)) != 0u) {
-        rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
-        if (rc != IT2N_OK) {
-            return rc;
-        }
-    }
-    /* out-of-range memberships were refused; if the index is bad the
-     * widened values are not looked at beyond that error */
-    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        it2n_val v = vals[ch];
-        fine[ch] = (ch >= IT2N_CH_T && (v < 0 || v > IT2N_VAL_ONE)) ? 0 : v;
-    }
-    it2n__vals_fine(fine, fine);
-    return it2n_dataset_put_fine(ds, i, j, fp, fine, replace, err);
-}
-
-int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j,
-                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                          bool replace, it2n_errinfo *err)
+/* it2n_dataset_put for memberships of mfrac fraction bits. */
+static int dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                       const it2n_val vals[IT2N_CH_COUNT], bool replace,
+                       int mfrac, it2n_errinfo *err)
 {
     int rc;
     if (ds == NULL || vals == NULL) {
@@ -138,7 +82,7 @@ int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j,
         return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
                           (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
     }
-    rc = it2n__check_vals_fine(ds->flags, i, j, fp, vals, err);
+    rc = it2n__check_vals(ds->flags, i, j, fp, vals, mfrac, err);
     if (rc != IT2N_OK) {
         return rc;
     }
@@ -146,24 +90,39 @@ int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j,
         return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp,
                           -1, 0, 0, 0);
     }
-    it2n__dataset_store(ds, i, j, fp, vals);
+    it2n__dataset_store(ds, i, j, fp, vals, (unsigned)(IT2N_MEMB_FRAC - mfrac));
     ds->present[i][j] = (uint8_t)(ds->present[i][j] | (1u << fp));
     return IT2N_OK;
 }
 
+int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], bool replace,
+                     it2n_errinfo *err)
+{
+    return dataset_put(ds, i, j, fp, vals, replace, IT2N_VAL_FRAC, err);
+}
+
+int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j,
+                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                          bool replace, it2n_errinfo *err)
+{
+    return dataset_put(ds, i, j, fp, vals, replace, IT2N_MEMB_FRAC, err);
+}
+
 void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
-                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT])
+                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                         unsigned shift)
 {
     unsigned ch;
     for (ch = 0; ch < 3u; ch++) {
-        /* checked: |coordinate| < 2^47, membership in [0, 2^30] */
+        /* checked: |coordinate| < 2^47, membership in [0, 2^(30 - shift)] */
         uint64_t v = it2n__ch_used(ds->flags, ch) ? (uint64_t)vals[ch] : 0u;
         ds->coord_lo[i][j][fp][ch] = (uint32_t)v;
         ds->coord_hi[i][j][fp][ch] = (int16_t)((int64_t)vals[ch] >> 32);
         if (!it2n__ch_used(ds->flags, ch)) {
             ds->coord_hi[i][j][fp][ch] = 0;
         }
-        ds->memb[i][j][fp][ch] = (uint32_t)vals[3u + ch];
+        ds->memb[i][j][fp][ch] = (uint32_t)vals[3u + ch] << shift;
     }
 }
 
@@ -277,7 +236,8 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
                 }
                 /* Re-check ranges: the struct may have been filled by hand. */
                 it2n_dataset_get_fine(ds, i, j, fp, vals);
-                rc = it2n__check_vals_fine(ds->flags, i, j, fp, vals, err);
+                rc = it2n__check_vals(ds->flags, i, j, fp, vals,
+                                      IT2N_MEMB_FRAC, err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }

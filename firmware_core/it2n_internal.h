@@ -64,26 +64,19 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
                  int32_t lo[IT2N_DIM * IT2N_DIM], int *frac,
                  it2n_errinfo *err) IT2N_WUR;
 
-/* Store checked values (fine layout, vals[ch] in range) into the compact
- * layout. */
+/* Store checked values into the compact layout; memberships have
+ * IT2N_MEMB_FRAC - shift fraction bits (shift 6: Q24 input, 0: fine). */
 void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
-                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT]);
+                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                         unsigned shift);
 
-/* Validate one footprint's values (Q24) for a data set with `flags`. */
+/* Validate one footprint's values for a data set with `flags`:
+ * coordinates in Q24, memberships with mfrac fraction bits (IT2N_VAL_FRAC
+ * or IT2N_MEMB_FRAC). Errors report Q24, a finer membership rounded away
+ * from [0, 1] so the value shown is outside too. */
 int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
-    IT2N_WUR;
-
-/* The same for values in the fine layout (memberships Q30); errors report
- * Q24 as it2n__check_vals, a membership rounded away from [0, 1]. */
-int it2n__check_vals_fine(unsigned flags, unsigned i, unsigned j,
-                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                          it2n_errinfo *err) IT2N_WUR;
-
-/* Q24 values, already checked by it2n__check_vals, into the fine layout
- * (memberships times 2^6: exact). */
-void it2n__vals_fine(const it2n_val in[IT2N_CH_COUNT],
-                     it2n_val out[IT2N_CH_COUNT]);
+                     const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+                     it2n_errinfo *err) IT2N_WUR;
 
 /* Fraction bits channel ch has in a data set: Q24 coordinates, Q30
  * memberships. The solves scale each net's exponent by it. */

@@ -520,37 +520,11 @@ int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
     return IT2N_OK;
 }
 
-int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
-                      unsigned j, unsigned fp,
-                      const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
-{
-    it2n_val fine[IT2N_CH_COUNT];
-    unsigned ch;
-    if (mdl == NULL || ds == NULL || vals == NULL) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
-    }
-    /* state and index errors come first, as it2n_model_update_fine reports
-     * them; then the range, in the caller's format */
-    if (mdl->solved && mdl->n == ds->n && mdl->m == ds->m &&
-        mdl->flags == ds->flags && i <= ds->n && j <= ds->m &&
-        fp < IT2N_FP_COUNT && ((1u << fp) & it2n__fp_mask(ds->flags)) != 0u) {
-        int rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
-        if (rc != IT2N_OK) {
-            return rc;
-        }
-    }
-    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        it2n_val v = vals[ch];
-        fine[ch] = (ch >= IT2N_CH_T && (v < 0 || v > IT2N_VAL_ONE)) ? 0 : v;
-    }
-    it2n__vals_fine(fine, fine);
-    return it2n_model_update_fine(mdl, ds, i, j, fp, fine, err);
-}
-
-int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i,
-                           unsigned j, unsigned fp,
-                           const it2n_val vals[IT2N_CH_COUNT],
-                           it2n_errinfo *err)
+/* it2n_model_update for memberships of mfrac fraction bits. */
+static int model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                        unsigned j, unsigned fp,
+                        const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+                        it2n_errinfo *err)
 {
     it2n_val nv[IT2N_CH_COUNT], old[IT2N_CH_COUNT];
     unsigned ch, flags, mask;
@@ -574,12 +548,15 @@ int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i,
         return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
                           (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
     }
-    rc = it2n__check_vals_fine(flags, i, j, fp, vals, err);
+    rc = it2n__check_vals(flags, i, j, fp, vals, mfrac, err);
     if (rc != IT2N_OK) {
         return rc;
     }
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        nv[ch] = it2n__ch_used(flags, ch) ? vals[ch] : 0;
+        /* memberships in Q30, as stored (checked: the shift is exact) */
+        nv[ch] = !it2n__ch_used(flags, ch) ? 0
+               : ch < IT2N_CH_T ? vals[ch]
+                                : vals[ch] * ((it2n_val)1 << (IT2N_MEMB_FRAC - mfrac));
     }
     rc = it2n__check_nesting_point(ds, i, j, fp, nv, err);
     if (rc != IT2N_OK) {
@@ -589,15 +566,30 @@ int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     mask = ((flags & IT2N_F_CHORD) && fp == IT2N_FP_D) ? it2n__fp_mask(flags)
                                                        : 1u << fp;
     it2n_dataset_get_fine(ds, i, j, fp, old);
-    it2n__dataset_store(ds, i, j, fp, nv);
+    it2n__dataset_store(ds, i, j, fp, nv, 0u);
     rc = solve_core(mdl, ds, mask, false, err);
     if (rc != IT2N_OK) {
-        it2n__dataset_store(ds, i, j, fp, old);
+        it2n__dataset_store(ds, i, j, fp, old, 0u);
         return rc;
     }
     ds->present[i][j] = (uint8_t)(ds->present[i][j] | (1u << fp));
     mdl->generation++;
     return IT2N_OK;
+}
+
+int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                      unsigned j, unsigned fp,
+                      const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
+{
+    return model_update(mdl, ds, i, j, fp, vals, IT2N_VAL_FRAC, err);
+}
+
+int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                           unsigned j, unsigned fp,
+                           const it2n_val vals[IT2N_CH_COUNT],
+                           it2n_errinfo *err)
+{
+    return model_update(mdl, ds, i, j, fp, vals, IT2N_MEMB_FRAC, err);
 }
 
 it2n_val it2n_model_ctrl(const it2n_model *mdl, unsigned i, unsigned j,
