@@ -132,7 +132,7 @@ void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j,
     unsigned k;
     /* two loops, each within its own array's bounds */
     for (k = 0; k < 3u; k++) {
-        vals[k] = it2n_dataset_value(ds, i, j, fp, k);
+        vals[k] = it2n_dataset_value_fine(ds, i, j, fp, k);
     }
     for (k = 0; k < 3u; k++) {
         vals[3u + k] = it2n_dataset_value(ds, i, j, fp, 3u + k);
@@ -177,14 +177,14 @@ int it2n__check_nesting_point(const it2n_dataset *ds, unsigned i, unsigned j,
     /* in the order a full check reports: fp against fp - 1, then fp + 1
      * against fp (the rest of the chain is unchanged) */
     for (ch = 0; ch < it2n__ncoord(ds->flags) && fp > 0u; ch++) {
-        it2n_val prev = it2n_dataset_value(ds, i, j, fp - 1u, ch);
+        it2n_val prev = it2n_dataset_value_fine(ds, i, j, fp - 1u, ch);
         if (vals[ch] < prev) {
             return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp,
                               (int)ch, vals[ch], prev, vals[ch]);
         }
     }
     for (ch = 0; ch < it2n__ncoord(ds->flags) && fp + 1u < IT2N_FP_COUNT; ch++) {
-        it2n_val next = it2n_dataset_value(ds, i, j, fp + 1u, ch);
+        it2n_val next = it2n_dataset_value_fine(ds, i, j, fp + 1u, ch);
         if (next < vals[ch]) {
             return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
                               (int)fp + 1, (int)ch, next, vals[ch], next);
@@ -203,8 +203,8 @@ static int check_nesting_ds(const it2n_dataset *ds, unsigned i, unsigned j,
     }
     for (fp = 1; fp < IT2N_FP_COUNT; fp++) {
         for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
-            it2n_val prev = it2n_dataset_value(ds, i, j, fp - 1u, ch);
-            it2n_val v = it2n_dataset_value(ds, i, j, fp, ch);
+            it2n_val prev = it2n_dataset_value_fine(ds, i, j, fp - 1u, ch);
+            it2n_val v = it2n_dataset_value_fine(ds, i, j, fp, ch);
             if (v < prev) {
                 return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
                                   (int)fp, (int)ch, v, prev, v);

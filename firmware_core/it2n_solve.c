@@ -60,8 +60,8 @@ static int64_t chord(const it2n_dataset *ds, unsigned i0, unsigned j0,
     unsigned ch;
     for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
         /* |difference| < 2^49 raw, square < 2^98: exact in 128 bits. */
-        int64_t d = it2n_dataset_value(ds, i1, j1, IT2N_FP_D, ch) -
-                    it2n_dataset_value(ds, i0, j0, IT2N_FP_D, ch);
+        int64_t d = it2n_dataset_value_fine(ds, i1, j1, IT2N_FP_D, ch) -
+                    it2n_dataset_value_fine(ds, i0, j0, IT2N_FP_D, ch);
         sq = it2n_mac(sq, d, d);
     }
     return (int64_t)it2n__i128_isqrt(sq);
