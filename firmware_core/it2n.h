@@ -261,8 +261,8 @@ int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
  * it2n_dataset_put with vals in the fine layout (T, I, F in Q30, in
  * [0, IT2N_MEMB_ONE]): what a reader of decimal text uses, so memberships
  * keep 2^-30. Same checks and errors; err->value, lo, hi stay Q24 (an
- * out-of-range membership is reported rounded away from [0, 1], so the
- * value shown is outside too).
+ * out-of-range membership is reported rounded down to Q24, and one that
+ * would round to 1 as 1 + 2^-24, so the value shown is outside too).
  */
 int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j,
                           unsigned fp, const it2n_val vals[IT2N_CH_COUNT],

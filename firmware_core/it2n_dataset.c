@@ -52,9 +52,10 @@ int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
         }
         if (v < lo || v > hi) {
             if (ch > IT2N_CH_Z) {
-                /* to Q24: floor below 0, ceiling above 1 */
-                int s = mfrac - IT2N_VAL_FRAC;
-                v = (v >> s) + (v > 0 && (v & (((it2n_val)1 << s) - 1)) != 0 ? 1 : 0);
+                /* to Q24 (floor), kept outside [0, 1]: only 1 + 2^-30 ..
+                 * 1 + 63 2^-30 floor to 1 itself */
+                v >>= mfrac - IT2N_VAL_FRAC;
+                v += v == IT2N_VAL_ONE ? 1 : 0;
                 hi = IT2N_VAL_ONE;
             }
             return it2n__fail(err, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp,
@@ -130,12 +131,11 @@ void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j,
                       unsigned fp, it2n_val vals[IT2N_CH_COUNT])
 {
     unsigned k;
-    /* two loops, each within its own array's bounds */
-    for (k = 0; k < 3u; k++) {
-        vals[k] = it2n_dataset_value_fine(ds, i, j, fp, k);
-    }
-    for (k = 0; k < 3u; k++) {
-        vals[3u + k] = it2n_dataset_value(ds, i, j, fp, 3u + k);
+    it2n_dataset_get_fine(ds, i, j, fp, vals);
+    for (k = IT2N_CH_T; k < IT2N_CH_COUNT; k++) {
+        /* in [0, 2^30]: Q24 rounded to nearest, ties up */
+        vals[k] = (vals[k] + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >>
+                  (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
     }
 }
 

@@ -72,8 +72,8 @@ void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
 
 /* Validate one footprint's values for a data set with `flags`:
  * coordinates in Q24, memberships with mfrac fraction bits (IT2N_VAL_FRAC
- * or IT2N_MEMB_FRAC). Errors report Q24, a finer membership rounded away
- * from [0, 1] so the value shown is outside too. */
+ * or IT2N_MEMB_FRAC). Errors report Q24, a finer membership rounded down
+ * (1 + 2^-24 for one just above 1) so the value shown is outside too. */
 int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
                      const it2n_val vals[IT2N_CH_COUNT], int mfrac,
                      it2n_errinfo *err) IT2N_WUR;

@@ -171,8 +171,9 @@ static void dir_uniform(unsigned deg, dir_inv *d)
     d->cs_bits = rowsum_bits(d->hi, d->lo, deg);
 }
 
-/* Largest |F| of one channel (raw: Q24 coordinates, Q30 memberships). */
-static uint64_t data_max(const it2n_dataset *ds, unsigned fp, unsigned ch)
+/* Largest |F| of one channel (raw: Q24 coordinates, Q30 memberships) and
+ * its bit length. */
+static unsigned data_bits(const it2n_dataset *ds, unsigned fp, unsigned ch)
 {
     uint64_t big = 0u;
     unsigned k, l;
@@ -183,13 +184,7 @@ static uint64_t data_max(const it2n_dataset *ds, unsigned fp, unsigned ch)
             big = a > big ? a : big;
         }
     }
-    return big;
-}
-
-/* ... and its bit length. */
-static unsigned data_bits(const it2n_dataset *ds, unsigned fp, unsigned ch)
-{
-    return it2n__bitlen64(data_max(ds, fp, ch));
+    return it2n__bitlen64(big);
 }
 
 /*
@@ -220,9 +215,10 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
     return IT2N_OK;
 }
 
-/* Data beyond 2^30 (coordinates of magnitude above 64) take the wide
- * stage-1 path; memberships (Q30, at most 2^30) never do. */
-#define SMALL_DATA_MAX ((uint64_t)1 << 30)
+/* Data at or above 2^30 (coordinates of magnitude 64 and more) take the
+ * wide stage-1 path; memberships (Q30, at most 2^30: 31 bits, within the
+ * small path's bounds) never do. */
+#define SMALL_DATA_BITS 30
 
 /*
  * Stage 1 for column j: g[k] = sum_l F[k][l] C_m[j][l], rounded. Small data
@@ -351,9 +347,8 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
 {
     int64_t p64[IT2N_DIM * IT2N_DIM], g[IT2N_DIM];
     unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, j, k, count = n1 * m1;
-    uint64_t dmax = data_max(ds, fp, ch);
-    unsigned eb = it2n__bitlen64(dmax), eh;
-    bool wide = dmax > SMALL_DATA_MAX;
+    unsigned eb = data_bits(ds, fp, ch), eh;
+    bool wide = eb > SMALL_DATA_BITS + (ch >= IT2N_CH_T ? 1u : 0u);
     bool shortp = !wide && du->w != NULL && dw->w != NULL;
     uint64_t big = 0u;
     int s, f;
