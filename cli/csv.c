@@ -245,7 +245,10 @@ static int parse_row(csv_reader *p, const char *s, size_t len)
     memset(vals, 0, sizeof(vals));
     for (k = 3; k < want; k++) {
         int8_t ch = chs[k - 3];
-        rc = it2n_parse_val(f[k].s, f[k].len, &vals[ch]);
+        /* memberships at 2^-30 (it2n.h, IT2N_MEMB_FRAC): a degree-7 net
+         * amplifies their rounding up to 4.4e4 times */
+        rc = ch >= IT2N_CH_T ? it2n_parse_memb(f[k].s, f[k].len, &vals[ch])
+                             : it2n_parse_val(f[k].s, f[k].len, &vals[ch]);
         if (rc != IT2N_OK) {
             p->err.info.ch = ch;
             if (rc == IT2N_ERR_RANGE) {
@@ -270,10 +273,10 @@ static int parse_row(csv_reader *p, const char *s, size_t len)
         return p->error;
     }
     /* (duplicates were caught above: replace, the flags are not cleared) */
-    rc = p->bspline ? it2n_bspline_data_put(&p->bs_scratch, i, j, (unsigned)fp,
-                                            vals, true, &info)
-                    : it2n_dataset_put(&p->scratch, i, j, (unsigned)fp, vals,
-                                       false, &info);
+    rc = p->bspline ? it2n_bspline_data_put_fine(&p->bs_scratch, i, j, (unsigned)fp,
+                                                 vals, true, &info)
+                    : it2n_dataset_put_fine(&p->scratch, i, j, (unsigned)fp, vals,
+                                            false, &info);
     if (rc != IT2N_OK) {
         int field = 0;
         for (k = 3; k < want; k++) {
@@ -543,8 +546,8 @@ int csv_finish(csv_reader *p, it2n_dataset *ds, csv_error *err)
             for (fp = 0; rc == IT2N_OK && fp < IT2N_FP_COUNT; fp++) {
                 if (p->lines[i][j][fp] != 0u) {
                     it2n_val v[IT2N_CH_COUNT];
-                    it2n_dataset_get(&p->scratch, i, j, fp, v);
-                    rc = it2n_dataset_put(&out, i, j, fp, v, false, &info);
+                    it2n_dataset_get_fine(&p->scratch, i, j, fp, v);
+                    rc = it2n_dataset_put_fine(&out, i, j, fp, v, false, &info);
                 }
             }
         }

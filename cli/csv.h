@@ -8,7 +8,10 @@
  * then one row per grid point and footprint. Fields may be padded with
  * spaces or tabs; lines end in LF or CRLF. Degrees are n = max i, m = max j;
  * z is present iff the header has it; the model is type-1 iff every row is
- * footprint D, otherwise all seven footprints are required.
+ * footprint D, otherwise all seven footprints are required. Numbers are
+ * read exactly rounded: coordinates to Q24, memberships T, I, F to Q30
+ * (it2n_parse_memb; stored with it2n_dataset_put_fine, so a degree-7 net
+ * is not moved by Q24 input rounding).
  *
  * Contract:
  *   csv_init(p, flags);                     flags: extra IT2N_F_* (CHORD)

@@ -101,6 +101,22 @@ static bool exact_scaled(it2n_val v, int64_t scale, int64_t *out)
     return true;
 }
 
+/* A Q30 membership (how the CSV reader stores it) to the nearest scaled
+ * integer, and whether that is exact: the daemon's Q24 value of the
+ * register is then the Q24 rounding of the decimal itself (rounding the
+ * Q30 value to Q24 first could move a tie by one LSB and refuse a 4-decimal
+ * membership). */
+static int64_t memb_scaled(it2n_val q30, int64_t scale, bool *exact)
+{
+    const i128 one = (i128)1 << IT2N_MEMB_FRAC;
+    i128 s = (i128)q30 * scale, back;
+    int64_t k = (int64_t)((s >= 0 ? s + one / 2 : s - one / 2) / one);
+    back = (i128)k * one;
+    back = (back >= 0 ? back + scale / 2 : back - scale / 2) / scale;
+    *exact = back == (i128)q30;
+    return k;
+}
+
 /* Word order and coordinate scale from the status block (once). */
 static int mb_map(mb_conn *c)
 {
@@ -205,12 +221,14 @@ static bool upload_regs(const mb_conn *c, const mb_src *src, unsigned i,
                         unsigned j, unsigned fp, uint16_t r[12],
                         it2n_errinfo *rej)
 {
-    it2n_val v[IT2N_CH_COUNT];
+    it2n_val v[IT2N_CH_COUNT], fine[IT2N_CH_COUNT];
     unsigned ch;
     if (src->bds != NULL) {
         it2n_bspline_data_get(src->bds, i, j, fp, v);
+        it2n_bspline_data_get_fine(src->bds, i, j, fp, fine);
     } else {
         it2n_dataset_get(src->ds, i, j, fp, v);
+        it2n_dataset_get_fine(src->ds, i, j, fp, fine);
     }
     r[0] = (uint16_t)i;
     r[1] = (uint16_t)j;
@@ -222,7 +240,14 @@ static bool upload_regs(const mb_conn *c, const mb_src *src, unsigned i,
         if (ch == IT2N_CH_Z && !(src_flags(src) & IT2N_F_Z)) {
             v[ch] = 0;
         }
-        if (!exact_scaled(v[ch], scale, &k)) {
+        bool exact;
+        if (coord) {
+            exact = exact_scaled(v[ch], scale, &k);
+        } else {
+            k = memb_scaled(fine[ch], scale, &exact);
+            exact = exact && k <= INT32_MAX && k >= INT32_MIN;
+        }
+        if (!exact) {
             memset(rej, 0, sizeof(*rej));
             rej->code = IT2N_ERR_RANGE;
             rej->i = (int16_t)i;

@@ -476,6 +476,8 @@ static int write_upload(struct model *md, const struct mb_map_opts *o, unsigned 
                        fp >= IT2N_FP_COUNT ? -1 : (int)fp);
     for (unsigned c = 0; c < 3; c++)
         vals[c] = it2n_regmap_q24_from_scaled((int32_t)get_u32(&UP(IT2N_REG_UP_X + 2 * c)), o->coord_scale);
+    /* memberships into Q30 (the fine layout): round(t 2^30 / 10000), the
+     * value 'it2n' reads from the same 4-decimal CSV */
     for (unsigned k = 0; k < 3; k++) {
         unsigned t = UP(IT2N_REG_UP_T + k);
         if (t > IT2N_REGMAP_MEMB_SCALE) {
@@ -486,10 +488,10 @@ static int write_upload(struct model *md, const struct mb_map_opts *o, unsigned 
             md->last_err.hi = IT2N_VAL_ONE;
             return MB_MAP_ILLEGAL_VALUE;
         }
-        vals[IT2N_CH_T + k] = it2n_regmap_q24_from_scaled(t, IT2N_REGMAP_MEMB_SCALE);
+        vals[IT2N_CH_T + k] = ((it2n_val)t * IT2N_MEMB_ONE + IT2N_REGMAP_MEMB_SCALE / 2) / IT2N_REGMAP_MEMB_SCALE;
     }
 #undef UP
-    rc = models_put(md, i, j, fp, vals, true, &err);
+    rc = models_put_fine(md, i, j, fp, vals, true, &err);
     if (rc)
         return refused_err(md, &err);
     *persisted = 1; /* a failure below: the caller's transaction undoes the point */

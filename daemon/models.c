@@ -578,6 +578,17 @@ void models_point_get(const struct model *md, unsigned i, unsigned j, unsigned f
         memset(vals, 0, sizeof(it2n_val) * IT2N_CH_COUNT);
 }
 
+void models_point_get_fine(const struct model *md, unsigned i, unsigned j, unsigned fp,
+                           it2n_val vals[IT2N_CH_COUNT])
+{
+    if (md->kind == MODEL_BSPLINE)
+        it2n_bspline_data_get_fine(&md->bds, i, j, fp, vals);
+    else if (models_point_present(md, i, j, fp))
+        it2n_dataset_get_fine(&md->ds, i, j, fp, vals);
+    else
+        memset(vals, 0, sizeof(it2n_val) * IT2N_CH_COUNT);
+}
+
 int models_has_fp(const struct model *md, unsigned fp)
 {
     if (md->kind == MODEL_BSPLINE)
@@ -813,33 +824,56 @@ int models_clear(struct model *md)
     return IT2N_OK;
 }
 
-/* The core's put (replace) and incremental update for md's kind. */
+/* The core's put (replace) and incremental update for md's kind; fine:
+ * vals in the fine layout (T, I, F in Q30). */
 static int core_put(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                    it2n_errinfo *err)
+                    bool fine, it2n_errinfo *err)
 {
+    if (fine)
+        return md->kind == MODEL_BSPLINE ? it2n_bspline_data_put_fine(&md->bds, i, j, fp, vals, true, err)
+                                         : it2n_dataset_put_fine(&md->ds, i, j, fp, vals, true, err);
     return md->kind == MODEL_BSPLINE ? it2n_bspline_data_put(&md->bds, i, j, fp, vals, true, err)
                                      : it2n_dataset_put(&md->ds, i, j, fp, vals, true, err);
 }
 
 static int core_update(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                       it2n_errinfo *err)
+                       bool fine, it2n_errinfo *err)
 {
+    if (fine)
+        return md->kind == MODEL_BSPLINE ? it2n_bspline_update_fine(&md->bmdl, &md->bds, i, j, fp, vals, err)
+                                         : it2n_model_update_fine(&md->mdl, &md->ds, i, j, fp, vals, err);
     return md->kind == MODEL_BSPLINE ? it2n_bspline_update(&md->bmdl, &md->bds, i, j, fp, vals, err)
                                      : it2n_model_update(&md->mdl, &md->ds, i, j, fp, vals, err);
 }
 
+static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], bool replace, bool fine, it2n_errinfo *err);
+
 int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
                const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err)
 {
-    struct model_rec rec = { .op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp, .replace = replace };
+    return put_point(md, i, j, fp, vals, replace, false, err);
+}
+
+int models_put_fine(struct model *md, unsigned i, unsigned j, unsigned fp,
+                    const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err)
+{
+    return put_point(md, i, j, fp, vals, replace, true, err);
+}
+
+static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], bool replace, bool fine, it2n_errinfo *err)
+{
+    struct model_rec rec = { .op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp, .replace = replace,
+                             .fine = fine };
     size_t mark = ulen;
     int rc, jrc = 0;
     memcpy(rec.vals, vals, sizeof rec.vals);
 
     if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT) {
         /* Refused by the core before anything is looked at. */
-        rc = md->state == IT2N_RS_SOLVED ? core_update(md, i, j, fp, vals, err)
-                                         : core_put(md, i, j, fp, vals, err);
+        rc = md->state == IT2N_RS_SOLVED ? core_update(md, i, j, fp, vals, fine, err)
+                                         : core_put(md, i, j, fp, vals, fine, err);
         if (rc == IT2N_OK) { /* cannot happen: the core checks the indices */
             memset(err, 0, sizeof *err);
             err->code = rc = IT2N_ERR_INVAL;
@@ -865,7 +899,7 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         /* Incremental: the core's update changes md->ds and md->mdl
          * together and is atomic on error; the undo records undo a
          * journal failure. */
-        rc = core_update(md, i, j, fp, vals, err);
+        rc = core_update(md, i, j, fp, vals, fine, err);
         if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0)
             rc = jrc;
         if (rc != IT2N_OK) {
@@ -881,7 +915,7 @@ int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
         return IT2N_OK;
     }
 
-    rc = core_put(md, i, j, fp, vals, err);
+    rc = core_put(md, i, j, fp, vals, fine, err);
     if (rc == IT2N_OK && models_missing(md) == 0) {
         /* completion solves; a failure rejects the point */
         if (save_model(md)) {
@@ -962,7 +996,8 @@ int models_apply(const struct model_rec *rec, it2n_errinfo *err)
         rc = models_configure(md, rec->n, rec->m, rec->flags, err);
         break;
     case MOP_POINT:
-        rc = models_put(md, rec->i, rec->j, rec->fp, rec->vals, rec->replace, err);
+        rc = rec->fine ? models_put_fine(md, rec->i, rec->j, rec->fp, rec->vals, rec->replace, err)
+                       : models_put(md, rec->i, rec->j, rec->fp, rec->vals, rec->replace, err);
         break;
     case MOP_COMMIT:
         rc = models_commit(md, err);
@@ -994,10 +1029,12 @@ int models_preload_paper(struct model *md)
             rc = fp;
             break;
         }
+        /* memberships at 2^-30 as 'it2n' reads examples/paper_4x4.csv */
         for (int c = 0; c < 5 && rc == IT2N_OK; c++)
-            rc = it2n_parse_val(r->val[c], strlen(r->val[c]), &v[ch[c]]);
+            rc = c < 2 ? it2n_parse_val(r->val[c], strlen(r->val[c]), &v[ch[c]])
+                       : it2n_parse_memb(r->val[c], strlen(r->val[c]), &v[ch[c]]);
         if (rc == IT2N_OK)
-            rc = models_put(md, r->i, r->j, (unsigned)fp, v, false, &err);
+            rc = models_put_fine(md, r->i, r->j, (unsigned)fp, v, false, &err);
     }
     replaying = 0;
     ulen = mark;

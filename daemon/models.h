@@ -70,8 +70,9 @@ struct model_rec {
     int id;
     unsigned n, m, flags, kind;        /* MOP_CONFIG */
     unsigned i, j, fp;                 /* MOP_POINT  */
-    it2n_val vals[IT2N_CH_COUNT];      /* MOP_POINT  */
+    it2n_val vals[IT2N_CH_COUNT];      /* MOP_POINT: Q24, or the fine layout */
     bool replace;                      /* MOP_POINT  */
+    bool fine;                         /* MOP_POINT: T, I, F in Q30 (it2n.h) */
 };
 
 /* Called for every accepted change; a non-zero return (a negative
@@ -112,9 +113,16 @@ int models_preload_paper(struct model *md);
  * last_error set. After a failed group commit models_pass_end(0) sets
  * last_error to IT2ND_ERR_IO on every model it puts back. */
 int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err);
-/* replace false: an entry already present fails with IT2N_ERR_DUPLICATE. */
+/* replace false: an entry already present fails with IT2N_ERR_DUPLICATE.
+ * vals in Q24 (what the serial protocol carries). */
 int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
                const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err);
+/* The same with vals in the core's fine layout (T, I, F in Q30,
+ * it2n_dataset_put_fine): the Modbus upload (x 10000 memberships) and the
+ * paper's decimals, so the daemon holds what 'it2n' reads from the same
+ * CSV. Journaled as such (store.c). */
+int models_put_fine(struct model *md, unsigned i, unsigned j, unsigned fp,
+                    const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err);
 int models_commit(struct model *md, it2n_errinfo *err);
 int models_clear(struct model *md);
 
@@ -222,6 +230,9 @@ unsigned models_missing(const struct model *md);
 /* Is footprint fp of data point (i, j) stored? Its values (zeros if not). */
 int models_point_present(const struct model *md, unsigned i, unsigned j, unsigned fp);
 void models_point_get(const struct model *md, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
+/* The same in the fine layout (T, I, F in Q30, as stored). */
+void models_point_get_fine(const struct model *md, unsigned i, unsigned j, unsigned fp,
+                           it2n_val vals[IT2N_CH_COUNT]);
 /* Does the solved model carry footprint fp? */
 int models_has_fp(const struct model *md, unsigned fp);
 int models_eval(const struct model *md, it2n_par u, it2n_par w, it2n_point *out, it2n_errinfo *err);

@@ -1,18 +1,21 @@
 /* snapshot.c — see snapshot.h.
  *
  * File: header (32 bytes)
- *   0 "IT2NSNP\0", 8 u32 version (2 or 3), 12 u32 0, 16 u64 seq,
+ *   0 "IT2NSNP\0", 8 u32 version (2, 3 or 4), 12 u32 0, 16 u64 seq,
  *   24 u32 models, 28 u32 0
- * per model (version 2: 44 bytes, version 3: 48, then its points)
+ * per model (version 2: 44 bytes, versions 3, 4: 48, then its points)
  *   0 u16 id, 2 u8 n, 3 u8 m, 4 u8 flags, 5 u8 state, 6 u16 points,
  *   8 u32 generation, 12 u32 points_rx, 16 u32 solves, 20 12 x u16 upload,
- *   version 3 only: 44 u8 kind (0 Bezier, 1 B-spline), 45 u8 0,
+ *   versions 3, 4: 44 u8 kind (0 Bezier, 1 B-spline), 45 u8 0,
  *   46 u16 points (high half: a 256 x 256 grid has 65536)
  * Version 3 is written only when a model is of the B-spline kind, so a
- * Bezier-only state directory stays readable by older builds.
+ * Bezier-only state directory stays readable by older builds; version 4
+ * (as 3, memberships in Q30) only when a stored membership is not
+ * Q24-exact (uploaded over Modbus, the paper's preload), so state that
+ * older builds could hold is still written for them.
  * per grid point holding at least one footprint
  *   0 u8 i, 1 u8 j, 2 u8 mask (bit fp), then for each fp in mask, in
- *   order, 6 x i64 (x, y, z, T, I, F) Q24
+ *   order, 6 x i64 (x, y, z, T, I, F) Q24 (version 4: T, I, F Q30)
  * trailer: u32 CRC-32C of everything before it. All little-endian. */
 #include "snapshot.h"
 
@@ -68,6 +71,23 @@ static unsigned point_mask(const struct model *md, unsigned i, unsigned j)
     return mask;
 }
 
+/* A membership of md that Q24 cannot hold exactly. */
+static int needs_fine(const struct model *md)
+{
+    for (unsigned i = 0; i <= models_n(md); i++)
+        for (unsigned j = 0; j <= models_m(md); j++)
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                it2n_val v[IT2N_CH_COUNT];
+                if (!models_point_present(md, i, j, fp))
+                    continue;
+                models_point_get_fine(md, i, j, fp, v);
+                for (unsigned c = IT2N_CH_T; c < IT2N_CH_COUNT; c++)
+                    if (v[c] & ((1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC)) - 1))
+                        return 1;
+            }
+    return 0;
+}
+
 /* durable_view: encode models_view() of each model (the last durable
  * state, while a batch is gathered or in flight), else the models. */
 uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
@@ -79,7 +99,10 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
     for (int k = 0; k < n; k++)
         if (models_at(k)->kind != MODEL_BEZIER)
             version = SNAP_VERSION;
-    mhdr = version == SNAP_VERSION ? MODEL_HDR_V3 : MODEL_HDR_V2;
+    for (int k = 0; k < n && version != SNAP_VERSION_FINE; k++)
+        if (needs_fine(durable_view ? models_view(models_at(k)) : models_at(k)))
+            version = SNAP_VERSION_FINE;
+    mhdr = version == SNAP_VERSION_BEZIER ? MODEL_HDR_V2 : MODEL_HDR_V3;
     for (int k = 0; k < n; k++) {
         const struct model *md = durable_view ? models_view(models_at(k)) : models_at(k);
         size += mhdr;
@@ -115,7 +138,10 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
                 buf[off++] = (uint8_t)mask;
                 for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
                     if (mask & (1u << fp)) {
-                        models_point_get(md, i, j, fp, v);
+                        if (version == SNAP_VERSION_FINE)
+                            models_point_get_fine(md, i, j, fp, v);
+                        else
+                            models_point_get(md, i, j, fp, v); /* exact */
                         for (unsigned c = 0; c < IT2N_CH_COUNT; c++, off += 8)
                             le_put64(buf + off, (uint64_t)v[c]);
                     }
@@ -126,7 +152,7 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
         h[4] = (uint8_t)models_flags(md);
         h[5] = (uint8_t)md->state;
         le_put16(h + 6, points & 0xFFFFu);
-        if (version == SNAP_VERSION) {
+        if (version != SNAP_VERSION_BEZIER) {
             h[44] = (uint8_t)md->kind;
             le_put16(h + 46, points >> 16);
         }
@@ -175,7 +201,7 @@ static int check_structure(const uint8_t *buf, size_t len, uint32_t nmodels, siz
  * scratch copy of md's storage, solved if state says so, then copied in.
  * IT2N_OK or the core's refusal (md unchanged). */
 static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags, unsigned state,
-                        uint32_t points, const uint8_t *p, it2n_errinfo *err)
+                        uint32_t points, const uint8_t *p, int fine, it2n_errinfo *err)
 {
     it2n_bspline_rec *rec = malloc(md->bds.cap * sizeof *rec);
     int32_t *coef = malloc(md->bmdl.cap * sizeof *coef);
@@ -197,7 +223,8 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
                 continue;
             for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
                 v[c] = (it2n_val)le_get64(p);
-            rc = it2n_bspline_data_put(&ds, i, j, fp, v, false, err);
+            rc = fine ? it2n_bspline_data_put_fine(&ds, i, j, fp, v, false, err)
+                      : it2n_bspline_data_put(&ds, i, j, fp, v, false, err);
         }
     }
     it2n_bspline_model_init(&mdl, coef, md->bmdl.cap);
@@ -220,7 +247,7 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
 /* Rebuild one model from its record at buf (structure already checked).
  * Returns the record's length; *rc = 0, SNAP_BAD_MODEL, SNAP_NOMEM or
  * SNAP_UNCONFIGURED. */
-static size_t load_model(const uint8_t *buf, size_t mhdr, int *result)
+static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
 {
     unsigned id = le_get16(buf), n = buf[2], m = buf[3], flags = buf[4], state = buf[5];
     unsigned kind = mhdr == MODEL_HDR_V3 ? buf[44] : MODEL_BEZIER;
@@ -294,7 +321,7 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int *result)
         goto out;
     }
     if (kind == MODEL_BSPLINE) {
-        rc = load_bspline(md, n, m, flags, state, points, p, &err);
+        rc = load_bspline(md, n, m, flags, state, points, p, fine, &err);
         if (rc == SNAP_NOMEM) {
             log_err("snapshot: model %u: no memory to rebuild it", id);
             *result = SNAP_NOMEM;
@@ -323,7 +350,8 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int *result)
                 continue;
             for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
                 v[c] = (it2n_val)le_get64(p);
-            rc = it2n_dataset_put(ds, i, j, fp, v, false, &err);
+            rc = fine ? it2n_dataset_put_fine(ds, i, j, fp, v, false, &err)
+                      : it2n_dataset_put(ds, i, j, fp, v, false, &err);
         }
     }
     if (rc != IT2N_OK) {
@@ -366,9 +394,9 @@ int snap_decode(const uint8_t *buf, size_t len, uint64_t *seq)
     if (len < SNAP_HDR + 4 || memcmp(buf, SNAP_MAGIC, 8))
         return SNAP_BAD;
     version = le_get32(buf + 8);
-    if (version != SNAP_VERSION && version != SNAP_VERSION_BEZIER)
+    if (version != SNAP_VERSION && version != SNAP_VERSION_BEZIER && version != SNAP_VERSION_FINE)
         return SNAP_BAD;
-    mhdr = version == SNAP_VERSION ? MODEL_HDR_V3 : MODEL_HDR_V2;
+    mhdr = version == SNAP_VERSION_BEZIER ? MODEL_HDR_V2 : MODEL_HDR_V3;
     if (le_get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
         log_err("snapshot: truncated or checksum mismatch (%zu bytes)", len);
         return SNAP_BAD;
@@ -380,7 +408,7 @@ int snap_decode(const uint8_t *buf, size_t len, uint64_t *seq)
     }
     for (uint32_t k = 0; k < n; k++) {
         int rc;
-        off += load_model(buf + off, mhdr, &rc);
+        off += load_model(buf + off, mhdr, version == SNAP_VERSION_FINE, &rc);
         if (rc)
             return rc;
     }

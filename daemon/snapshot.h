@@ -1,6 +1,7 @@
-/* snapshot — the portable snapshot format (versions 2 and 3): every model's
- * configuration, state, counters and the data points present, values as
- * little-endian int64 Q24, CRC-32C protected. The control nets are derived
+/* snapshot — the portable snapshot format (versions 2, 3 and 4): every
+ * model's configuration, state, counters and the data points present,
+ * values as little-endian int64 Q24 (version 4: memberships in Q30),
+ * CRC-32C protected. The control nets are derived
  * state and are re-solved on load, so a snapshot written by a build with
  * another IT2N_MAX_DEGREE (or another struct layout) loads as long as its
  * models fit. The byte layout is documented in docs/daemon.md. */
@@ -11,7 +12,8 @@
 #include <stdint.h>
 
 #define SNAP_MAGIC "IT2NSNP"   /* 8 bytes with the NUL */
-#define SNAP_VERSION 3u         /* written when a model is of the B-spline kind */
+#define SNAP_VERSION_FINE 4u    /* written when a membership is not Q24-exact */
+#define SNAP_VERSION 3u         /* else when a model is of the B-spline kind */
 #define SNAP_VERSION_BEZIER 2u  /* written otherwise (older builds read it) */
 #define SNAP_HDR 32u
 

@@ -3,7 +3,9 @@
  * WAL file "wal":  header "IT2NWAL\0" u32 version(1) u32 0, then records
  *   u32 len (of seq..payload), u32 crc32c (of seq..payload), u64 seq,
  *   u8 type, payload. All little-endian. A CONFIG record of a B-spline
- *   model carries a sixth payload byte, the kind (docs/daemon.md); every
+ *   model carries a sixth payload byte, the kind (docs/daemon.md); a POINT
+ *   record whose memberships are not Q24-exact has bit 0x40 of its
+ *   footprint byte set and T, I, F in Q30 (it2n.h, IT2N_MEMB_FRAC); every
  *   other record is as version 1 always had it (i, j are one byte each,
  *   so B-spline grids up to 256 x 256 fit).
  * Snapshot "snapshot": version 2 is the portable format of snapshot.c.
@@ -44,6 +46,9 @@
 #define WAL_HDR 16u
 #define REC_HDR 17u        /* len, crc, seq, type */
 #define REC_MAX 128u
+/* POINT record: T, I, F in Q30 (footprints are 0..6, so the bit is free
+ * in every record older builds wrote). */
+#define WAL_FINE 0x40u
 
 static int dirfd_ = -1, walfd = -1, lockfd = -1, do_fsync = 1;
 /* The operator accepted the loss of the WAL behind a damaged record
@@ -145,15 +150,27 @@ static size_t encode_payload(const struct model_rec *r, uint8_t *p)
         if (r->kind)
             p[n++] = (uint8_t)r->kind;
         break;
-    case MOP_POINT:
+    case MOP_POINT: {
+        /* Memberships in Q30 (the fine layout, bit 0x40 of the footprint
+         * byte) only when they need it: a point whose memberships are
+         * Q24-exact is written in Q24, byte for byte what older builds
+         * wrote and read. */
+        int fine = 0;
+        for (int c = IT2N_CH_T; c < IT2N_CH_COUNT && r->fine; c++)
+            if (r->vals[c] & ((1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC)) - 1))
+                fine = 1;
         p[n++] = (uint8_t)r->i;
         p[n++] = (uint8_t)r->j;
-        p[n++] = (uint8_t)(r->fp | (r->replace ? 0x80u : 0u));
+        p[n++] = (uint8_t)(r->fp | (r->replace ? 0x80u : 0u) | (fine ? WAL_FINE : 0u));
         for (int c = 0; c < IT2N_CH_COUNT; c++) {
-            le_put64(p + n, (uint64_t)r->vals[c]);
+            it2n_val v = r->vals[c];
+            if (c >= IT2N_CH_T && r->fine && !fine)
+                v >>= IT2N_MEMB_FRAC - IT2N_VAL_FRAC; /* exact: checked above */
+            le_put64(p + n, (uint64_t)v);
             n += 8;
         }
         break;
+    }
     default:
         break;
     }
@@ -183,8 +200,9 @@ static int decode_payload(int type, const uint8_t *p, size_t len, struct model_r
             return -1;
         r->i = p[2];
         r->j = p[3];
-        r->fp = p[4] & 0x7Fu;
+        r->fp = p[4] & ~(0x80u | WAL_FINE);
         r->replace = (p[4] & 0x80u) != 0;
+        r->fine = (p[4] & WAL_FINE) != 0;
         for (int c = 0; c < IT2N_CH_COUNT; c++)
             r->vals[c] = (it2n_val)le_get64(p + 5 + 8 * c);
         return 0;
@@ -987,7 +1005,8 @@ static int load_snapshot(uint64_t *seqp)
         free(buf);
         return keep_damaged("snapshot", "not a snapshot");
     }
-    if (le_get32(buf + 8) == SNAP_VERSION || le_get32(buf + 8) == SNAP_VERSION_BEZIER) {
+    if (le_get32(buf + 8) == SNAP_VERSION || le_get32(buf + 8) == SNAP_VERSION_BEZIER ||
+        le_get32(buf + 8) == SNAP_VERSION_FINE) {
         int drc = snap_decode(buf, len, &sseq);
         free(buf);
         if (drc == SNAP_UNCONFIGURED)

@@ -124,10 +124,25 @@
 /* ---- Fixed-point formats ------------------------------------------------ */
 
 /* it2n_val: coordinates, memberships, control points, results, derivatives.
- * Signed Q39.24 in int64_t: value = raw / 2^24. */
+ * Signed Q39.24 in int64_t: value = raw / 2^24. Every function takes and
+ * returns this format unless its name ends in _fine (below). */
 typedef int64_t it2n_val;
 #define IT2N_VAL_FRAC 24
 #define IT2N_VAL_ONE ((it2n_val)1 << IT2N_VAL_FRAC)
+
+/* Memberships T, I, F as data sets store them: Q30, raw / 2^30 in
+ * [0, 2^30] (uint32_t in the data sets). A degree-7 Bezier inverse
+ * amplifies input rounding up to 4.4e4 times: Q24 input (rounding up to
+ * 3e-8) moves a control net by up to 1.3e-3, Q30 by up to 2e-5 (measured on
+ * 6-decimal data: 5e-4 and 7e-6). The _fine functions (it2n_dataset_put_fine,
+ * ..., it2n_parse_memb) take and give memberships in this format, x, y, z
+ * still in Q24: an array vals[IT2N_CH_COUNT] "in the fine layout" is
+ * x, y, z in Q24 and T, I, F in Q30. The Q24 functions convert at the edge:
+ * a Q24 membership is stored exactly (times 2^6), a stored one is read back
+ * rounded to Q24 (to nearest, ties up). Results (evaluation, control points,
+ * coefficients) stay Q24: their rounding, 3e-8, is within every goal. */
+#define IT2N_MEMB_FRAC 30
+#define IT2N_MEMB_ONE ((it2n_val)1 << IT2N_MEMB_FRAC)
 
 /* it2n_par: surface parameters u, w and basis values. Q31.32 in int64_t:
  * value = raw / 2^32, so 1.0 is exactly representable. */
@@ -186,11 +201,11 @@ typedef struct it2n_errinfo {
 #define IT2N_F_ALL (IT2N_F_Z | IT2N_F_TYPE1 | (IT2N_CHORD ? IT2N_F_CHORD : 0u))
 
 /* Grid data being assembled. present[i][j] is a bit mask of the footprints
- * given. Values are Q24 stored compactly (read them with it2n_dataset_get or
- * it2n_dataset_value): a coordinate (|x| < 2^47) as its low 32 bits in
- * coord_lo and high 16 bits in coord_hi, a membership (in [0, 2^24]) in
- * memb. Unused z channels are zero. 30 bytes per grid point and footprint
- * instead of 48. */
+ * given. Values are stored compactly (read them with it2n_dataset_get,
+ * it2n_dataset_get_fine or it2n_dataset_value): a coordinate in Q24
+ * (|x| < 2^47) as its low 32 bits in coord_lo and high 16 bits in coord_hi,
+ * a membership in Q30 (IT2N_MEMB_FRAC, in [0, 2^30]) in memb. Unused z
+ * channels are zero. 30 bytes per grid point and footprint instead of 48. */
 typedef struct it2n_dataset {
     uint32_t coord_lo[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][3]; /* x, y, z */
     uint32_t memb[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][3];     /* T, I, F */
@@ -200,11 +215,12 @@ typedef struct it2n_dataset {
     uint8_t present[IT2N_DIM][IT2N_DIM];
 } it2n_dataset;
 
-/* Channel ch of footprint fp at grid point (i, j), Q24 (no bounds checks:
- * i, j < IT2N_DIM, fp < IT2N_FP_COUNT, ch < IT2N_CH_COUNT). */
-static inline it2n_val it2n_dataset_value(const it2n_dataset *ds, unsigned i,
-                                          unsigned j, unsigned fp,
-                                          unsigned ch)
+/* Channel ch of footprint fp at grid point (i, j) in the fine layout: a
+ * coordinate in Q24, a membership in Q30 (no bounds checks: i, j <
+ * IT2N_DIM, fp < IT2N_FP_COUNT, ch < IT2N_CH_COUNT). */
+static inline it2n_val it2n_dataset_value_fine(const it2n_dataset *ds,
+                                               unsigned i, unsigned j,
+                                               unsigned fp, unsigned ch)
 {
     if (ch >= 3u) {
         return (it2n_val)ds->memb[i][j][fp][ch - 3u];
@@ -213,9 +229,28 @@ static inline it2n_val it2n_dataset_value(const it2n_dataset *ds, unsigned i,
                       ds->coord_lo[i][j][fp][ch]);
 }
 
-/* All channels of footprint fp at (i, j) into vals (Q24). */
+/* The same in Q24 for every channel (a membership rounded to nearest, ties
+ * up). */
+static inline it2n_val it2n_dataset_value(const it2n_dataset *ds, unsigned i,
+                                          unsigned j, unsigned fp,
+                                          unsigned ch)
+{
+    it2n_val v = it2n_dataset_value_fine(ds, i, j, fp, ch);
+    if (ch >= 3u) {
+        return (v + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >>
+               (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
+    }
+    return v;
+}
+
+/* All channels of footprint fp at (i, j) into vals (Q24; memberships
+ * rounded to nearest, ties up). */
 void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j,
                       unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
+
+/* The same in the fine layout (memberships in Q30, exactly as stored). */
+void it2n_dataset_get_fine(const it2n_dataset *ds, unsigned i, unsigned j,
+                           unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
 
 /*
  * Start an empty data set of degrees n x m (1..IT2N_MAX_DEGREE each) with
@@ -233,6 +268,17 @@ int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
 int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
                      const it2n_val vals[IT2N_CH_COUNT], bool replace,
                      it2n_errinfo *err);
+
+/*
+ * it2n_dataset_put with vals in the fine layout (T, I, F in Q30, in
+ * [0, IT2N_MEMB_ONE]): what a reader of decimal text uses, so memberships
+ * keep 2^-30. Same checks and errors; err->value, lo, hi stay Q24 (an
+ * out-of-range membership is reported rounded down to Q24, and one that
+ * would round to 1 as 1 + 2^-24, so the value shown is outside too).
+ */
+int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j,
+                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                          bool replace, it2n_errinfo *err);
 
 /* Number of (i, j, footprint) entries the data set still lacks. */
 unsigned it2n_dataset_missing(const it2n_dataset *ds);
@@ -285,6 +331,12 @@ int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
 int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
                       unsigned j, unsigned fp,
                       const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err);
+
+/* it2n_model_update with vals in the fine layout (T, I, F in Q30). */
+int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                           unsigned j, unsigned fp,
+                           const it2n_val vals[IT2N_CH_COUNT],
+                           it2n_errinfo *err);
 
 /*
  * Control point (i, j) of footprint fp, channel ch in Q24, rounded to
@@ -425,12 +477,12 @@ int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
     ((size_t)((n) + 3u) * ((m) + 3u) * IT2N_BSPLINE_NFP(flags) *             \
      IT2N_BSPLINE_NCH(flags))
 
-/* One footprint of one grid point, Q24 as it2n_dataset: a coordinate as
- * its low 32 bits (lo) and high 16 bits (hi), a membership in memb. 32
- * bytes. Read it with it2n_bspline_data_get. */
+/* One footprint of one grid point as it2n_dataset: a coordinate in Q24 as
+ * its low 32 bits (lo) and high 16 bits (hi), a membership in Q30 in memb.
+ * 32 bytes. Read it with it2n_bspline_data_get(_fine). */
 typedef struct it2n_bspline_rec {
     uint32_t lo[3];   /* x, y, z: low 32 bits of Q24   */
-    uint32_t memb[3]; /* T, I, F: Q24 in [0, 2^24]     */
+    uint32_t memb[3]; /* T, I, F: Q30 in [0, 2^30]     */
     int16_t hi[3];    /* x, y, z: bits 32..47 of Q24   */
     uint16_t present; /* 1 once stored                 */
 } it2n_bspline_rec;
@@ -465,11 +517,24 @@ int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
                           unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
                           bool replace, it2n_errinfo *err);
 
-/* All channels of footprint fp at (i, j) into vals (Q24); zeros for an
- * index, footprint or record not stored. */
+/* it2n_bspline_data_put with vals in the fine layout (T, I, F in Q30), as
+ * it2n_dataset_put_fine. */
+int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i,
+                               unsigned j, unsigned fp,
+                               const it2n_val vals[IT2N_CH_COUNT],
+                               bool replace, it2n_errinfo *err);
+
+/* All channels of footprint fp at (i, j) into vals (Q24, memberships
+ * rounded to nearest, ties up); zeros for an index, footprint or record not
+ * stored. */
 void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i,
                            unsigned j, unsigned fp,
                            it2n_val vals[IT2N_CH_COUNT]);
+
+/* The same in the fine layout (memberships in Q30, exactly as stored). */
+void it2n_bspline_data_get_fine(const it2n_bspline_data *ds, unsigned i,
+                                unsigned j, unsigned fp,
+                                it2n_val vals[IT2N_CH_COUNT]);
 
 /* Number of (i, j, footprint) entries the data set still lacks. */
 uint32_t it2n_bspline_data_missing(const it2n_bspline_data *ds);
@@ -524,6 +589,12 @@ int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
                         const it2n_val vals[IT2N_CH_COUNT],
                         it2n_errinfo *err);
 
+/* it2n_bspline_update with vals in the fine layout (T, I, F in Q30). */
+int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                             unsigned i, unsigned j, unsigned fp,
+                             const it2n_val vals[IT2N_CH_COUNT],
+                             it2n_errinfo *err);
+
 /*
  * Coefficient c_{r-1, s-1} (r in 0..n+2, s in 0..m+2) of footprint fp,
  * channel ch in Q24, rounded to nearest; 0 outside the model.
@@ -574,6 +645,14 @@ int it2n_bspline_sample(const it2n_bspline_model *mdl, unsigned rows,
  * (not a number) or IT2N_ERR_RANGE (|value| beyond IT2N_COORD_LIMIT).
  */
 int it2n_parse_val(const char *s, size_t len, it2n_val *out);
+
+/*
+ * Parse a decimal membership into Q30 (IT2N_MEMB_FRAC), rounded as
+ * it2n_parse_val. Accepts the magnitudes it2n_parse_val does (same errors):
+ * the [0, 1] check is the data set's (it2n_dataset_put_fine), so a reader
+ * reports a membership out of range like any other value.
+ */
+int it2n_parse_memb(const char *s, size_t len, it2n_val *out);
 
 /* Parse a decimal parameter into Q32; must lie within [0, 1]. */
 int it2n_parse_par(const char *s, size_t len, it2n_par *out);

@@ -47,7 +47,7 @@ static it2n_bspline_rec *rec_at(const it2n_bspline_data *ds, unsigned i,
     return &ds->rec[k];
 }
 
-/* Channel ch of a record in Q24. */
+/* Channel ch of a record as stored: Q24 coordinate, Q30 membership. */
 static it2n_val rec_value(const it2n_bspline_rec *r, unsigned ch)
 {
     if (ch >= 3u) {
@@ -98,16 +98,17 @@ int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec,
     return IT2N_OK;
 }
 
-/* Store checked values into a record. */
+/* Store checked values into a record (memberships with IT2N_MEMB_FRAC -
+ * shift fraction bits). */
 static void rec_store(it2n_bspline_rec *r, unsigned flags,
-                      const it2n_val vals[IT2N_CH_COUNT])
+                      const it2n_val vals[IT2N_CH_COUNT], unsigned shift)
 {
     unsigned ch;
     for (ch = 0; ch < 3u; ch++) {
         it2n_val v = it2n__ch_used(flags, ch) ? vals[ch] : 0;
         r->lo[ch] = (uint32_t)(uint64_t)v;
         r->hi[ch] = (int16_t)(v >> 32); /* |v| < 2^47 */
-        r->memb[ch] = (uint32_t)vals[3u + ch];
+        r->memb[ch] = (uint32_t)vals[3u + ch] << shift;
     }
     r->present = 1u;
 }
@@ -128,9 +129,10 @@ static int check_where(const it2n_bspline_data *ds, unsigned i, unsigned j,
     return IT2N_OK;
 }
 
-int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
-                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                          bool replace, it2n_errinfo *err)
+/* it2n_bspline_data_put for memberships of mfrac fraction bits. */
+static int data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
+                    unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                    bool replace, int mfrac, it2n_errinfo *err)
 {
     it2n_bspline_rec *r;
     int rc;
@@ -141,7 +143,7 @@ int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
     if (rc != IT2N_OK) {
         return rc;
     }
-    rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+    rc = it2n__check_vals(ds->flags, i, j, fp, vals, mfrac, err);
     if (rc != IT2N_OK) {
         return rc;
     }
@@ -150,13 +152,41 @@ int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
         return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp,
                           -1, 0, 0, 0);
     }
-    rec_store(r, ds->flags, vals);
+    rec_store(r, ds->flags, vals, (unsigned)(IT2N_MEMB_FRAC - mfrac));
     return IT2N_OK;
+}
+
+int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
+                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                          bool replace, it2n_errinfo *err)
+{
+    return data_put(ds, i, j, fp, vals, replace, IT2N_VAL_FRAC, err);
+}
+
+int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i,
+                               unsigned j, unsigned fp,
+                               const it2n_val vals[IT2N_CH_COUNT],
+                               bool replace, it2n_errinfo *err)
+{
+    return data_put(ds, i, j, fp, vals, replace, IT2N_MEMB_FRAC, err);
 }
 
 void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i,
                            unsigned j, unsigned fp,
                            it2n_val vals[IT2N_CH_COUNT])
+{
+    unsigned ch;
+    it2n_bspline_data_get_fine(ds, i, j, fp, vals);
+    for (ch = IT2N_CH_T; ch < IT2N_CH_COUNT; ch++) {
+        /* in [0, 2^30]: Q24 rounded to nearest, ties up */
+        vals[ch] = (vals[ch] + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >>
+                   (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
+    }
+}
+
+void it2n_bspline_data_get_fine(const it2n_bspline_data *ds, unsigned i,
+                                unsigned j, unsigned fp,
+                                it2n_val vals[IT2N_CH_COUNT])
 {
     const it2n_bspline_rec *r;
     unsigned ch;
@@ -280,8 +310,9 @@ int it2n_bspline_data_check(const it2n_bspline_data *ds, it2n_errinfo *err)
                     return it2n__fail(err, IT2N_ERR_MISSING, (int)i, (int)j,
                                       (int)fp, -1, 0, 0, 0);
                 }
-                it2n_bspline_data_get(ds, i, j, fp, vals);
-                rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+                it2n_bspline_data_get_fine(ds, i, j, fp, vals);
+                rc = it2n__check_vals(ds->flags, i, j, fp, vals,
+                                      IT2N_MEMB_FRAC, err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }
@@ -737,7 +768,7 @@ static int solve_cols(const it2n_bspline_model *mdl, unsigned fp, unsigned ch,
     /* value (Q24) = y 2^-f1; 6 g = row result; g = G 2^(rsh - f1) / 6;
      * column input 2^(tmax - 24 - f1) / 6 per unit; result 16 c / 36 ...:
      * c (Q24) = mantissa 2^(cmax + tmax - 28 - f1); frac counts real units */
-    frac = f1 + 28 - cmax - tmax + IT2N_VAL_FRAC;
+    frac = f1 + 28 - cmax - tmax + it2n__ch_frac(ch); /* Q30 memberships */
     IT2N_ASSERT(frac >= -1 && frac <= 127);
     return frac;
 }
@@ -802,10 +833,11 @@ int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
     return IT2N_OK;
 }
 
-int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
-                        unsigned i, unsigned j, unsigned fp,
-                        const it2n_val vals[IT2N_CH_COUNT],
-                        it2n_errinfo *err)
+/* it2n_bspline_update for memberships of mfrac fraction bits. */
+static int bs_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                     unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+                     it2n_errinfo *err)
 {
     int rc;
     if (mdl == NULL || vals == NULL || !data_shape_ok(ds)) {
@@ -818,7 +850,7 @@ int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
     }
     rc = check_where(ds, i, j, fp, err);
     if (rc == IT2N_OK) {
-        rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+        rc = it2n__check_vals(ds->flags, i, j, fp, vals, mfrac, err);
     }
     if (rc == IT2N_OK) {
         rc = check_nesting(ds, i, j, fp, vals, err);
@@ -826,9 +858,26 @@ int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
     if (rc != IT2N_OK) {
         return rc;
     }
-    rec_store(rec_at(ds, i, j, fp), ds->flags, vals);
+    rec_store(rec_at(ds, i, j, fp), ds->flags, vals,
+              (unsigned)(IT2N_MEMB_FRAC - mfrac));
     solve_fps(mdl, ds, 1u << fp);
     return IT2N_OK;
+}
+
+int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                        unsigned i, unsigned j, unsigned fp,
+                        const it2n_val vals[IT2N_CH_COUNT],
+                        it2n_errinfo *err)
+{
+    return bs_update(mdl, ds, i, j, fp, vals, IT2N_VAL_FRAC, err);
+}
+
+int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds,
+                             unsigned i, unsigned j, unsigned fp,
+                             const it2n_val vals[IT2N_CH_COUNT],
+                             it2n_errinfo *err)
+{
+    return bs_update(mdl, ds, i, j, fp, vals, IT2N_MEMB_FRAC, err);
 }
 
 it2n_val it2n_bspline_coef(const it2n_bspline_model *mdl, unsigned r,

@@ -34,7 +34,8 @@ int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
 }
 
 int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
+                     const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+                     it2n_errinfo *err)
 {
     unsigned ch;
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
@@ -47,9 +48,16 @@ int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
             hi = COORD_MAX;
         } else {
             lo = 0;
-            hi = IT2N_VAL_ONE;
+            hi = (it2n_val)1 << mfrac;
         }
         if (v < lo || v > hi) {
+            if (ch > IT2N_CH_Z) {
+                /* to Q24 (floor), kept outside [0, 1]: only 1 + 2^-30 ..
+                 * 1 + 63 2^-30 floor to 1 itself */
+                v >>= mfrac - IT2N_VAL_FRAC;
+                v += v == IT2N_VAL_ONE ? 1 : 0;
+                hi = IT2N_VAL_ONE;
+            }
             return it2n__fail(err, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp,
                               (int)ch, v, lo, hi);
         }
@@ -57,9 +65,10 @@ int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
     return IT2N_OK;
 }
 
-int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], bool replace,
-                     it2n_errinfo *err)
+/* it2n_dataset_put for memberships of mfrac fraction bits. */
+static int dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                       const it2n_val vals[IT2N_CH_COUNT], bool replace,
+                       int mfrac, it2n_errinfo *err)
 {
     int rc;
     if (ds == NULL || vals == NULL) {
@@ -74,7 +83,7 @@ int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
         return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
                           (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
     }
-    rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+    rc = it2n__check_vals(ds->flags, i, j, fp, vals, mfrac, err);
     if (rc != IT2N_OK) {
         return rc;
     }
@@ -82,24 +91,39 @@ int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
         return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp,
                           -1, 0, 0, 0);
     }
-    it2n__dataset_store(ds, i, j, fp, vals);
+    it2n__dataset_store(ds, i, j, fp, vals, (unsigned)(IT2N_MEMB_FRAC - mfrac));
     ds->present[i][j] = (uint8_t)(ds->present[i][j] | (1u << fp));
     return IT2N_OK;
 }
 
+int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], bool replace,
+                     it2n_errinfo *err)
+{
+    return dataset_put(ds, i, j, fp, vals, replace, IT2N_VAL_FRAC, err);
+}
+
+int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j,
+                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                          bool replace, it2n_errinfo *err)
+{
+    return dataset_put(ds, i, j, fp, vals, replace, IT2N_MEMB_FRAC, err);
+}
+
 void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
-                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT])
+                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                         unsigned shift)
 {
     unsigned ch;
     for (ch = 0; ch < 3u; ch++) {
-        /* checked: |coordinate| < 2^47, membership in [0, 2^24] */
+        /* checked: |coordinate| < 2^47, membership in [0, 2^(30 - shift)] */
         uint64_t v = it2n__ch_used(ds->flags, ch) ? (uint64_t)vals[ch] : 0u;
         ds->coord_lo[i][j][fp][ch] = (uint32_t)v;
         ds->coord_hi[i][j][fp][ch] = (int16_t)((int64_t)vals[ch] >> 32);
         if (!it2n__ch_used(ds->flags, ch)) {
             ds->coord_hi[i][j][fp][ch] = 0;
         }
-        ds->memb[i][j][fp][ch] = (uint32_t)vals[3u + ch];
+        ds->memb[i][j][fp][ch] = (uint32_t)vals[3u + ch] << shift;
     }
 }
 
@@ -107,9 +131,20 @@ void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j,
                       unsigned fp, it2n_val vals[IT2N_CH_COUNT])
 {
     unsigned k;
-    /* two loops, each within its own array's bounds */
+    it2n_dataset_get_fine(ds, i, j, fp, vals);
+    for (k = IT2N_CH_T; k < IT2N_CH_COUNT; k++) {
+        /* in [0, 2^30]: Q24 rounded to nearest, ties up */
+        vals[k] = (vals[k] + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >>
+                  (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
+    }
+}
+
+void it2n_dataset_get_fine(const it2n_dataset *ds, unsigned i, unsigned j,
+                           unsigned fp, it2n_val vals[IT2N_CH_COUNT])
+{
+    unsigned k;
     for (k = 0; k < 3u; k++) {
-        vals[k] = it2n_dataset_value(ds, i, j, fp, k);
+        vals[k] = it2n_dataset_value_fine(ds, i, j, fp, k);
     }
     for (k = 0; k < 3u; k++) {
         vals[3u + k] = (it2n_val)ds->memb[i][j][fp][k];
@@ -142,14 +177,14 @@ int it2n__check_nesting_point(const it2n_dataset *ds, unsigned i, unsigned j,
     /* in the order a full check reports: fp against fp - 1, then fp + 1
      * against fp (the rest of the chain is unchanged) */
     for (ch = 0; ch < it2n__ncoord(ds->flags) && fp > 0u; ch++) {
-        it2n_val prev = it2n_dataset_value(ds, i, j, fp - 1u, ch);
+        it2n_val prev = it2n_dataset_value_fine(ds, i, j, fp - 1u, ch);
         if (vals[ch] < prev) {
             return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp,
                               (int)ch, vals[ch], prev, vals[ch]);
         }
     }
     for (ch = 0; ch < it2n__ncoord(ds->flags) && fp + 1u < IT2N_FP_COUNT; ch++) {
-        it2n_val next = it2n_dataset_value(ds, i, j, fp + 1u, ch);
+        it2n_val next = it2n_dataset_value_fine(ds, i, j, fp + 1u, ch);
         if (next < vals[ch]) {
             return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
                               (int)fp + 1, (int)ch, next, vals[ch], next);
@@ -168,8 +203,8 @@ static int check_nesting_ds(const it2n_dataset *ds, unsigned i, unsigned j,
     }
     for (fp = 1; fp < IT2N_FP_COUNT; fp++) {
         for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
-            it2n_val prev = it2n_dataset_value(ds, i, j, fp - 1u, ch);
-            it2n_val v = it2n_dataset_value(ds, i, j, fp, ch);
+            it2n_val prev = it2n_dataset_value_fine(ds, i, j, fp - 1u, ch);
+            it2n_val v = it2n_dataset_value_fine(ds, i, j, fp, ch);
             if (v < prev) {
                 return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
                                   (int)fp, (int)ch, v, prev, v);
@@ -200,8 +235,9 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
                                       (int)fp, -1, 0, 0, 0);
                 }
                 /* Re-check ranges: the struct may have been filled by hand. */
-                it2n_dataset_get(ds, i, j, fp, vals);
-                rc = it2n__check_vals(ds->flags, i, j, fp, vals, err);
+                it2n_dataset_get_fine(ds, i, j, fp, vals);
+                rc = it2n__check_vals(ds->flags, i, j, fp, vals,
+                                      IT2N_MEMB_FRAC, err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }

@@ -64,14 +64,26 @@ int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
                  int32_t lo[IT2N_DIM * IT2N_DIM], int *frac,
                  it2n_errinfo *err) IT2N_WUR;
 
-/* Store checked values (vals[ch] in range) into the compact layout. */
+/* Store checked values into the compact layout; memberships have
+ * IT2N_MEMB_FRAC - shift fraction bits (shift 6: Q24 input, 0: fine). */
 void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
-                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT]);
+                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                         unsigned shift);
 
-/* Validate one footprint's values for a data set with `flags`. */
+/* Validate one footprint's values for a data set with `flags`:
+ * coordinates in Q24, memberships with mfrac fraction bits (IT2N_VAL_FRAC
+ * or IT2N_MEMB_FRAC). Errors report Q24, a finer membership rounded down
+ * (1 + 2^-24 for one just above 1) so the value shown is outside too. */
 int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
-    IT2N_WUR;
+                     const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+                     it2n_errinfo *err) IT2N_WUR;
+
+/* Fraction bits channel ch has in a data set: Q24 coordinates, Q30
+ * memberships. The solves scale each net's exponent by it. */
+static inline int it2n__ch_frac(unsigned ch)
+{
+    return ch >= IT2N_CH_T ? IT2N_MEMB_FRAC : IT2N_VAL_FRAC;
+}
 
 /* Check that vals (the new values of footprint fp at (i, j)) nest with the
  * stored footprints fp - 1 and fp + 1 on every coordinate axis (no-op for

@@ -60,8 +60,8 @@ static int64_t chord(const it2n_dataset *ds, unsigned i0, unsigned j0,
     unsigned ch;
     for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
         /* |difference| < 2^49 raw, square < 2^98: exact in 128 bits. */
-        int64_t d = it2n_dataset_value(ds, i1, j1, IT2N_FP_D, ch) -
-                    it2n_dataset_value(ds, i0, j0, IT2N_FP_D, ch);
+        int64_t d = it2n_dataset_value_fine(ds, i1, j1, IT2N_FP_D, ch) -
+                    it2n_dataset_value_fine(ds, i0, j0, IT2N_FP_D, ch);
         sq = it2n_mac(sq, d, d);
     }
     return (int64_t)it2n__i128_isqrt(sq);
@@ -171,14 +171,15 @@ static void dir_uniform(unsigned deg, dir_inv *d)
     d->cs_bits = rowsum_bits(d->hi, d->lo, deg);
 }
 
-/* Largest |F| of one channel and its bit length. */
+/* Largest |F| of one channel (raw: Q24 coordinates, Q30 memberships) and
+ * its bit length. */
 static unsigned data_bits(const it2n_dataset *ds, unsigned fp, unsigned ch)
 {
     uint64_t big = 0u;
     unsigned k, l;
     for (k = 0; k <= ds->n; k++) {
         for (l = 0; l <= ds->m; l++) {
-            int64_t v = it2n_dataset_value(ds, k, l, fp, ch);
+            int64_t v = it2n_dataset_value_fine(ds, k, l, fp, ch);
             uint64_t a = (uint64_t)(v < 0 ? -v : v);
             big = a > big ? a : big;
         }
@@ -203,7 +204,7 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
                 continue;
             }
             eb = data_bits(ds, fp, ch);
-            bits = (int)(eb + du->cs_bits + dw->cs_bits) - IT2N_VAL_FRAC -
+            bits = (int)(eb + du->cs_bits + dw->cs_bits) - it2n__ch_frac(ch) -
                    du->frac - dw->frac;
             if (eb != 0u && bits > NET_LIMIT_BITS) {
                 return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp,
@@ -215,15 +216,17 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
 }
 
 /* Data at or above 2^30 (coordinates of magnitude 64 and more) take the
- * wide stage-1 path. */
+ * wide stage-1 path; memberships (Q30, at most 2^30: 31 bits, within the
+ * small path's bounds) never do. */
 #define SMALL_DATA_BITS 30
 
 /*
  * Stage 1 for column j: g[k] = sum_l F[k][l] C_m[j][l], rounded. Small data
- * (|F| < 2^30): F * (hi 2^24 + lo), g = S / 2^24 (frac of C_m). Wide data
- * (|F| < 2^47): exact 128-bit S, g = S / 2^42 (frac of C_m - 18).
- * Bounds (row sums of C below 2^55, so sum |hi| < 2^31 + 16, lo < 2^24):
- * every int64 partial sum stays below 2^62 and |g| < 2^62.
+ * (|F| <= 2^30): F * (hi 2^24 + lo), g = S / 2^24 (frac of C_m plus the
+ * data's beyond 24). Wide data (|F| < 2^47): exact 128-bit S, g = S / 2^42
+ * (frac of C_m - 18). Bounds (row sums of C below 2^55, so sum |hi| <
+ * 2^31 + 16, lo < 2^24): every int64 partial sum stays below 2^62 and
+ * |g| < 2^62.
  */
 static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
                    const dir_inv *dw, unsigned j, bool wide, int64_t *g)
@@ -236,7 +239,7 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
             /* one accumulator per loop: no register spills on ARMv6-M */
             int32_t f[IT2N_DIM];
             for (l = 0; l < m1; l++) {
-                f[l] = (int32_t)it2n_dataset_value(ds, k, l, fp, ch);
+                f[l] = (int32_t)it2n_dataset_value_fine(ds, k, l, fp, ch);
             }
             for (l = 0; l < m1; l++) {
                 a1 += it2n_smul32(f[l], hi[l]);
@@ -325,7 +328,7 @@ static void short_column(const it2n_dataset *ds, unsigned fp, unsigned ch,
     for (k = 0; k < n1; k++) {
         int64_t g = 0;
         for (l = 0; l < m1; l++) {
-            g += it2n_smul32((int32_t)it2n_dataset_value(ds, k, l, fp, ch), wm[l]);
+            g += it2n_smul32((int32_t)it2n_dataset_value_fine(ds, k, l, fp, ch), wm[l]);
         }
         gh[k] = (int32_t)(g >> 31);
         gl[k] = (int32_t)(g & 0x7FFFFFFF);
@@ -354,7 +357,7 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
     int64_t p64[IT2N_DIM * IT2N_DIM], g[IT2N_DIM];
     unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, j, k, count = n1 * m1;
     unsigned eb = data_bits(ds, fp, ch), eh;
-    bool wide = eb > SMALL_DATA_BITS;
+    bool wide = eb > SMALL_DATA_BITS + (ch >= IT2N_CH_T ? 1u : 0u);
     bool shortp = !wide && du->w != NULL && dw->w != NULL;
     uint64_t big = 0u;
     int s, f;
@@ -381,10 +384,11 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
     if (s > 0 && it2n__shift_round((int64_t)big, s) > INT32_MAX) {
         s++;
     }
-    /* g has frac_m fractional bits (wide: frac_m - 18), p64 frac_n +
-     * frac_g - 55, the mantissas s fewer. */
-    f = shortp ? IT2N_VAL_FRAC + du->wfrac + dw->wfrac - 30 - s
-               : du->frac + dw->frac - 55 - (wide ? 18 : 0) - s;
+    /* g has frac_m + (data frac - 24) fractional bits (wide: 18 fewer),
+     * p64 frac_n + frac_g - 55, the mantissas s fewer. */
+    f = shortp ? it2n__ch_frac(ch) + du->wfrac + dw->wfrac - 30 - s
+               : du->frac + dw->frac - 55 - (wide ? 18 : 0) - s +
+                     (it2n__ch_frac(ch) - IT2N_VAL_FRAC);
     if (f > 127) { /* a net of values below 2^-96: keep the exponent */
         s += f - 127;
         f = 127;
@@ -520,9 +524,11 @@ int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
     return IT2N_OK;
 }
 
-int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
-                      unsigned j, unsigned fp,
-                      const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
+/* it2n_model_update for memberships of mfrac fraction bits. */
+static int model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                        unsigned j, unsigned fp,
+                        const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+                        it2n_errinfo *err)
 {
     it2n_val nv[IT2N_CH_COUNT], old[IT2N_CH_COUNT];
     unsigned ch, flags, mask;
@@ -546,12 +552,15 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
         return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
                           (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
     }
-    rc = it2n__check_vals(flags, i, j, fp, vals, err);
+    rc = it2n__check_vals(flags, i, j, fp, vals, mfrac, err);
     if (rc != IT2N_OK) {
         return rc;
     }
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        nv[ch] = it2n__ch_used(flags, ch) ? vals[ch] : 0;
+        /* memberships in Q30, as stored (checked: the shift is exact) */
+        nv[ch] = !it2n__ch_used(flags, ch) ? 0
+               : ch < IT2N_CH_T ? vals[ch]
+                                : vals[ch] * ((it2n_val)1 << (IT2N_MEMB_FRAC - mfrac));
     }
     rc = it2n__check_nesting_point(ds, i, j, fp, nv, err);
     if (rc != IT2N_OK) {
@@ -560,16 +569,31 @@ int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     /* Chord-length parameters follow footprint D: every net moves. */
     mask = ((flags & IT2N_F_CHORD) && fp == IT2N_FP_D) ? it2n__fp_mask(flags)
                                                        : 1u << fp;
-    it2n_dataset_get(ds, i, j, fp, old);
-    it2n__dataset_store(ds, i, j, fp, nv);
+    it2n_dataset_get_fine(ds, i, j, fp, old);
+    it2n__dataset_store(ds, i, j, fp, nv, 0u);
     rc = solve_core(mdl, ds, mask, false, err);
     if (rc != IT2N_OK) {
-        it2n__dataset_store(ds, i, j, fp, old);
+        it2n__dataset_store(ds, i, j, fp, old, 0u);
         return rc;
     }
     ds->present[i][j] = (uint8_t)(ds->present[i][j] | (1u << fp));
     mdl->generation++;
     return IT2N_OK;
+}
+
+int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                      unsigned j, unsigned fp,
+                      const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
+{
+    return model_update(mdl, ds, i, j, fp, vals, IT2N_VAL_FRAC, err);
+}
+
+int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i,
+                           unsigned j, unsigned fp,
+                           const it2n_val vals[IT2N_CH_COUNT],
+                           it2n_errinfo *err)
+{
+    return model_update(mdl, ds, i, j, fp, vals, IT2N_MEMB_FRAC, err);
 }
 
 it2n_val it2n_model_ctrl(const it2n_model *mdl, unsigned i, unsigned j,

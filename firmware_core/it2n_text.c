@@ -20,7 +20,8 @@
 #define TEXT_EXP_CAP 1000
 
 typedef char text_frac_digits_fit[(TEXT_FRAC_DIGITS >= IT2N_PAR_FRAC + 1 &&
-                                   TEXT_FRAC_DIGITS >= IT2N_VAL_FRAC + 1)
+                                   TEXT_FRAC_DIGITS >= IT2N_VAL_FRAC + 1 &&
+                                   TEXT_FRAC_DIGITS >= IT2N_MEMB_FRAC + 1)
                                       ? 1
                                       : -1];
 
@@ -193,7 +194,8 @@ static bool text_exceeds(const text_dec *d, uint64_t limit)
 }
 
 /* Parse into raw / 2^frac, |value| <= limit; negatives only if allowed
- * (a negative zero is zero). Shared by values (Q24) and parameters (Q32). */
+ * (a negative zero is zero). Shared by values (Q24), memberships (Q30) and
+ * parameters (Q32). */
 static int text_parse(const char *s, size_t len, unsigned frac, uint64_t limit,
                       bool allow_neg, int64_t *out)
 {
@@ -220,6 +222,13 @@ static int text_parse(const char *s, size_t len, unsigned frac, uint64_t limit,
 int it2n_parse_val(const char *s, size_t len, it2n_val *out)
 {
     return text_parse(s, len, IT2N_VAL_FRAC, (uint64_t)IT2N_COORD_LIMIT, true,
+                      out);
+}
+
+/* IT2N_COORD_LIMIT < 2^23: |raw| < 2^53 in Q30, no overflow. */
+int it2n_parse_memb(const char *s, size_t len, it2n_val *out)
+{
+    return text_parse(s, len, IT2N_MEMB_FRAC, (uint64_t)IT2N_COORD_LIMIT, true,
                       out);
 }
 

@@ -154,6 +154,17 @@ static void fuzz_token(const char *s, size_t len)
         REQUIRE(it2n_parse_val(buf, (size_t)n, &back) == IT2N_OK);
         REQUIRE(back == v);
     }
+    {
+        /* a membership parses iff a value does, to the same number at 2^-30:
+         * its Q24 rounding is within one Q24 step of the Q24 parse */
+        it2n_val q30;
+        int rm = it2n_parse_memb(s, len, &q30), rv = it2n_parse_val(s, len, &back);
+        REQUIRE(rm == rv);
+        if (rm == IT2N_OK) {
+            it2n_val r24 = (q30 + 32) >> 6;
+            REQUIRE(r24 - back >= -1 && r24 - back <= 1);
+        }
+    }
     if (it2n_parse_par(s, len, &p) == IT2N_OK) {
         REQUIRE(p >= 0 && p <= IT2N_PAR_ONE);
         n = it2n_format_par(buf, sizeof(buf), p, 6);

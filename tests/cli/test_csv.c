@@ -317,6 +317,51 @@ static void test_err_lines(void **state)
            "(degree 1..7)");
 }
 
+/* Memberships are read to 2^-30 (it2n.h, IT2N_MEMB_FRAC), coordinates to
+ * 2^-24: 9-decimal memberships keep their digits, and one Q30 step above 1
+ * is out of range. */
+static void test_memb_q30(void **state)
+{
+    csv_error e;
+    (void)state;
+    gen(1, 1, true, false);
+    replace_row("1,0,D,", "1,0,D,10,0,0.123456789,0.000000001,0.9999999995");
+    assert_int_equal(parse(g_text, 4096, &e), IT2N_OK);
+    /* round(0.123456789 2^30) = 132560718 (Q24 would keep 2071261 * 64) */
+    assert_true(it2n_dataset_value_fine(&g_ds, 1, 0, IT2N_FP_D, IT2N_CH_T) == 132560718);
+    assert_true(it2n_dataset_value_fine(&g_ds, 1, 0, IT2N_FP_D, IT2N_CH_I) == 1);
+    assert_true(it2n_dataset_value_fine(&g_ds, 1, 0, IT2N_FP_D, IT2N_CH_F) ==
+                IT2N_MEMB_ONE - 1);
+    /* the Q24 view rounds to nearest */
+    assert_true(it2n_dataset_value(&g_ds, 1, 0, IT2N_FP_D, IT2N_CH_T) == 2071261);
+    assert_true(it2n_dataset_value(&g_ds, 1, 0, IT2N_FP_D, IT2N_CH_F) == IT2N_VAL_ONE);
+    /* 1 + 1e-10 rounds to 1 at 2^-30; 1 + 1e-9 does not */
+    replace_row("1,0,D,", "1,0,D,10,0,1.0000000001,0,0");
+    assert_int_equal(parse(g_text, 4096, &e), IT2N_OK);
+    replace_row("1,0,D,", "1,0,D,10,0,1.000000001,0,0");
+    expect(g_text, IT2N_ERR_RANGE, 4,
+           "f.csv:4: T=1.000000001 outside [0,1] at (i=1,j=0,D)");
+    /* the B-spline reader stores them alike */
+    {
+        it2n_bspline_rec *scratch = malloc(CSV_BSPLINE_RECS * sizeof(*scratch));
+        uint32_t *lines = malloc(CSV_BSPLINE_LINES * sizeof(*lines));
+        it2n_bspline_data bds;
+        assert_true(scratch != NULL && lines != NULL);
+        it2n_val v[IT2N_CH_COUNT];
+        replace_row("1,0,D,", "1,0,D,10,0,0.123456789,0.000000001,0.9999999995");
+        csv_init_bspline(&g_p, scratch, lines);
+        assert_int_equal(csv_feed(&g_p, g_text, strlen(g_text), &e), IT2N_OK);
+        assert_int_equal(csv_finish_bspline(&g_p, &bds, &e), IT2N_OK);
+        it2n_bspline_data_get_fine(&bds, 1, 0, IT2N_FP_D, v);
+        assert_true(v[IT2N_CH_T] == 132560718 && v[IT2N_CH_I] == 1 &&
+                    v[IT2N_CH_F] == IT2N_MEMB_ONE - 1);
+        it2n_bspline_data_get(&bds, 1, 0, IT2N_FP_D, v);
+        assert_true(v[IT2N_CH_T] == 2071261 && v[IT2N_CH_F] == IT2N_VAL_ONE);
+        free(scratch);
+        free(lines);
+    }
+}
+
 static void test_err_values(void **state)
 {
     (void)state;
@@ -493,6 +538,7 @@ int main(void)
         cmocka_unit_test(test_quotes_and_separators),
         cmocka_unit_test(test_err_rows),
         cmocka_unit_test(test_err_lines),
+        cmocka_unit_test(test_memb_q30),
         cmocka_unit_test(test_err_values),
         cmocka_unit_test(test_sticky_and_untouched),
         cmocka_unit_test(test_solve_errors_map_to_lines),

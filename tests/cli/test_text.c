@@ -104,6 +104,57 @@ static void test_parse_val_bad(void **state)
     }
 }
 
+/* Memberships in Q30: the same decimal rounding at 2^-30, the same
+ * magnitudes and errors as it2n_parse_val (the [0, 1] check is the data
+ * set's). */
+static void test_parse_memb(void **state)
+{
+    static const struct {
+        const char *s;
+        it2n_val raw;
+    } cases[] = {
+        {"0", 0},
+        {"1", IT2N_MEMB_ONE},
+        {"0.5", IT2N_MEMB_ONE / 2},
+        {"0.1", 107374182},              /* 107374182.4 */
+        {"0.7", 751619277},              /* 751619276.8 */
+        {"0.123456789", 132560718},      /* 132560717.81 */
+        {"0.000000001", 1},              /* 1.07 */
+        {"0.0000000004656612873077392578125", 1}, /* 2^-31: a tie, away */
+        {"-0.0000000004656612873077392578125", -1},
+        {"0.00000000046566128730773925781249", 0},
+        {"1.2", 1288490189},             /* 1288490188.8 */
+        {"-8388607", -(it2n_val)8388607 * IT2N_MEMB_ONE},
+    };
+    static const char *const range[] = {"8388608", "-8388607.0000001", "1e12"};
+    size_t k;
+    (void)state;
+    for (k = 0; k < sizeof(cases) / sizeof(cases[0]); k++) {
+        it2n_val v = 12345;
+        int rc = it2n_parse_memb(cases[k].s, strlen(cases[k].s), &v);
+        if (rc != IT2N_OK || v != cases[k].raw) {
+            print_error("case '%s': rc %d raw %lld, want %lld\n", cases[k].s,
+                        rc, (long long)v, (long long)cases[k].raw);
+        }
+        assert_int_equal(rc, IT2N_OK);
+        assert_true(v == cases[k].raw);
+    }
+    for (k = 0; k < sizeof(range) / sizeof(range[0]); k++) {
+        it2n_val v = 777;
+        assert_int_equal(it2n_parse_memb(range[k], strlen(range[k]), &v),
+                         IT2N_ERR_RANGE);
+        assert_true(v == 777);
+    }
+    {
+        it2n_val v = 777;
+        assert_int_equal(it2n_parse_memb("0.5x", 4, &v), IT2N_ERR_INVAL);
+        assert_int_equal(it2n_parse_memb("", 0, &v), IT2N_ERR_INVAL);
+        assert_int_equal(it2n_parse_memb(NULL, 1, &v), IT2N_ERR_INVAL);
+        assert_true(v == 777);
+        assert_int_equal(it2n_parse_memb("0.5", 3, NULL), IT2N_ERR_INVAL);
+    }
+}
+
 static void test_parse_par(void **state)
 {
     it2n_par p = 0;
@@ -234,6 +285,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_parse_val_exact),
         cmocka_unit_test(test_parse_val_bad),
+        cmocka_unit_test(test_parse_memb),
         cmocka_unit_test(test_parse_par),
         cmocka_unit_test(test_format),
         cmocka_unit_test(test_round_trip),

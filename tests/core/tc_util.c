@@ -24,6 +24,20 @@ it2n_val tc_q24(const char *s)
     return expect;
 }
 
+it2n_val tc_q30(const char *s)
+{
+    long double x = strtold(s, NULL);
+    it2n_val expect = (it2n_val)llroundl(x * TC_Q30);
+#ifndef TC_NO_TEXT
+    it2n_val got = 0;
+    int rc = it2n_parse_memb(s, strlen(s), &got);
+    if (rc != IT2N_OK || got != expect)
+        fail_msg("it2n_parse_memb(\"%s\") = %d, %lld; expected 0, %lld", s, rc,
+                 (long long)got, (long long)expect);
+#endif
+    return expect;
+}
+
 it2n_par tc_q32(const char *s)
 {
     long double x = strtold(s, NULL);
@@ -48,10 +62,22 @@ it2n_val tc_q24_dec6(long double x, long double *exact)
     return tc_q24(buf);
 }
 
+it2n_val tc_fine_dec6(unsigned ch, long double x, long double *exact)
+{
+    char buf[64];
+    if (ch < IT2N_CH_T)
+        return tc_q24_dec6(x, exact);
+    snprintf(buf, sizeof buf, "%.6Lf", x);
+    if (strcmp(buf, "-0.000000") == 0)
+        strcpy(buf, "0.000000");
+    *exact = strtold(buf, NULL);
+    return tc_q30(buf);
+}
+
 void tc_set(tc_case *c, unsigned i, unsigned j, unsigned fp, unsigned ch,
             long double x)
 {
-    c->q[i][j][fp][ch] = tc_q24_dec6(x, &c->v[i][j][fp][ch]);
+    c->q[i][j][fp][ch] = tc_fine_dec6(ch, x, &c->v[i][j][fp][ch]);
 }
 
 void tc_init(tc_case *c, unsigned n, unsigned m, unsigned flags)
@@ -158,6 +184,12 @@ long double tc_maxabs(const tc_case *c)
     return mx;
 }
 
+void tc_q24_vals(const it2n_val fine[IT2N_CH_COUNT], it2n_val out[IT2N_CH_COUNT])
+{
+    for (unsigned ch = 0; ch < IT2N_CH_COUNT; ch++)
+        out[ch] = ch < IT2N_CH_T ? fine[ch] : (fine[ch] + 32) >> 6;
+}
+
 void tc_dataset(const tc_case *c, it2n_dataset *ds)
 {
     it2n_errinfo err;
@@ -168,7 +200,7 @@ void tc_dataset(const tc_case *c, it2n_dataset *ds)
             for (unsigned fp = 0; fp < REF_FP; fp++) {
                 if (!tc_has_fp(c, fp))
                     continue;
-                rc = it2n_dataset_put(ds, i, j, fp, c->q[i][j][fp], false, &err);
+                rc = it2n_dataset_put_fine(ds, i, j, fp, c->q[i][j][fp], false, &err);
                 if (rc != IT2N_OK)
                     fail_msg("put (%u,%u,%u) -> %d (ch %d)", i, j, fp, rc, err.ch);
             }

@@ -12,7 +12,8 @@
 #define TC_Q24 16777216.0L   /* 2^24 */
 #define TC_Q32 4294967296.0L /* 2^32 */
 
-/* One data set: v[] are the exact decimals, q[] what the core is given. */
+/* One data set: v[] are the exact decimals, q[] what the core is given, in
+ * the fine layout (x, y, z Q24, T, I, F Q30: it2n_dataset_put_fine). */
 typedef struct tc_case {
     unsigned n, m, flags;
     long double v[REF_D][REF_D][REF_FP][REF_CH];
@@ -23,10 +24,22 @@ typedef struct tc_case {
  * against llroundl(strtold(s) * 2^k) (exact for <= 6 decimals). */
 it2n_val tc_q24(const char *s);
 it2n_par tc_q32(const char *s);
+/* Decimal string -> Q30 membership through it2n_parse_memb, cross-checked
+ * likewise. */
+it2n_val tc_q30(const char *s);
 /* Round x to 6 decimals; store the decimal in *exact and return Q24. */
 it2n_val tc_q24_dec6(long double x, long double *exact);
+/* The same in channel ch's format in q[] (Q30 for T, I, F). */
+it2n_val tc_fine_dec6(unsigned ch, long double x, long double *exact);
+
+#define TC_Q30 1073741824.0L /* 2^30 */
 
 static inline long double tc_ld(it2n_val v) { return (long double)v / TC_Q24; }
+/* A value of q[] (channel ch) as a number. */
+static inline long double tc_ldq(unsigned ch, it2n_val v)
+{
+    return (long double)v / (ch >= IT2N_CH_T ? TC_Q30 : TC_Q24);
+}
 static inline long double tc_ldp(it2n_par p) { return (long double)p / TC_Q32; }
 
 /* Set one value of a case (rounded to 6 decimals). */
@@ -47,6 +60,10 @@ void tc_extreme(tc_case *c);
 bool tc_has_fp(const tc_case *c, unsigned fp);
 /* Largest |coordinate| in the case. */
 long double tc_maxabs(const tc_case *c);
+
+/* Values of q[] (fine layout) in Q24, memberships rounded as
+ * it2n_dataset_get does, for the Q24 entry points. */
+void tc_q24_vals(const it2n_val fine[IT2N_CH_COUNT], it2n_val out[IT2N_CH_COUNT]);
 
 /* Build the core data set (cmocka-asserts every call succeeds). */
 void tc_dataset(const tc_case *c, it2n_dataset *ds);

@@ -248,7 +248,7 @@ static void acc_case(const tc_case *c, acc_stats *st, uint64_t seed,
 
 /*
  * Control nets against the exact solution of the data the core was given
- * (Q24 values, the core's own parameters): every control point within
+ * (Q24 coordinates, Q30 memberships, the core's own parameters): every control point within
  * 1e-6 * max|control point of its net| + 1e-7 (issue 7). Returns the worst
  * err / tolerance ratio.
  */
@@ -269,7 +269,7 @@ static long double net_case(const tc_case *c, const char *label,
         for (unsigned j = 0; j <= c->m; j++)
             for (unsigned fp = 0; fp < REF_FP; fp++)
                 for (unsigned ch = 0; ch < REF_CH; ch++)
-                    r.data[i][j][fp][ch] = tc_ld(c->q[i][j][fp][ch]);
+                    r.data[i][j][fp][ch] = tc_ldq(ch, c->q[i][j][fp][ch]);
     for (unsigned k = 0; k <= c->n; k++)
         r.u[k] = tc_ldp(u[k]);
     for (unsigned k = 0; k <= c->m; k++)
@@ -331,6 +331,110 @@ static void test_control_nets(void **state)
     printf("  [accuracy] control nets: %u models, worst err %.3Le of the net's "
            "max|P|, %.3Lf of the tolerance 1e-6 max|P| + 1e-7\n",
            cases, worst_rel, worst);
+}
+
+/*
+ * Issue 21: memberships are parsed and stored at 2^-30 so that the degree-7
+ * control nets of memberships come within 1e-5 of the exact solution of
+ * the decimal data (input rounding included; with Q24 input it was up to
+ * 5e-4). Every membership control point of 7x7 models (smooth data with
+ * and without z, type-1, chord-length; the paper's values on a 7x7 grid;
+ * the alternating 0/1 worst case) against the exact decimals solved with
+ * the core's own parameters (so coordinates' rounding does not enter
+ * through chord-length parameters). Returns the worst |error|.
+ */
+static long double memb_net_case(const tc_case *c, const char *label,
+                                 long double *big_max)
+{
+    static it2n_model mdl;
+    static ref_model r;
+    it2n_par u[REF_D], w[REF_D];
+    long double worst = 0.0L;
+    tc_model(c, &mdl);
+    tc_params(c, u, w);
+    memset(&r, 0, sizeof r);
+    r.n = c->n;
+    r.m = c->m;
+    r.flags = c->flags;
+    memcpy(r.data, c->v, sizeof r.data);
+    for (unsigned k = 0; k <= c->n; k++)
+        r.u[k] = tc_ldp(u[k]);
+    for (unsigned k = 0; k <= c->m; k++)
+        r.w[k] = tc_ldp(w[k]);
+    assert_int_equal(ref_solve_params(&r), 0);
+    for (unsigned fp = 0; fp < REF_FP; fp++) {
+        if (!tc_has_fp(c, fp))
+            continue;
+        for (unsigned ch = IT2N_CH_T; ch <= IT2N_CH_F; ch++) {
+            long double big = 0.0L;
+            for (unsigned i = 0; i <= c->n; i++)
+                for (unsigned j = 0; j <= c->m; j++)
+                    big = fmaxl(big, fabsl(r.ctrl[i][j][fp][ch]));
+            /* 1e-5, plus the nets' own relative precision (31-bit
+             * mantissas, 2^-30 of max|P| with the solve's roundings), which
+             * only matters for nets beyond 1e3 (the alternating case) */
+            long double tol = 1e-5L + 1e-9L * big;
+            if (big > *big_max)
+                *big_max = big;
+            for (unsigned i = 0; i <= c->n; i++)
+                for (unsigned j = 0; j <= c->m; j++) {
+                    long double got = tc_ld(it2n_model_ctrl(&mdl, i, j, fp, ch));
+                    long double e = fabsl(got - r.ctrl[i][j][fp][ch]);
+                    worst = fmaxl(worst, e);
+                    if (!(e <= tol))
+                        fail_msg("%s %ux%u flags %u: P[%u][%u] %s.%s = %.9Lf, exact "
+                                 "solution of the decimal data %.9Lf (err %.3Le > %.3Le)",
+                                 label, c->n, c->m, c->flags, i, j,
+                                 it2n_fp_name(fp), it2n_ch_name(ch), got,
+                                 r.ctrl[i][j][fp][ch], e, tol);
+                }
+        }
+    }
+    return worst;
+}
+
+static void test_memb_nets_decimal(void **state)
+{
+    (void)state;
+    static tc_case c;
+    static const unsigned flagsets[] = {0u, IT2N_F_Z, IT2N_F_CHORD, IT2N_F_TYPE1,
+                                        IT2N_F_CHORD | IT2N_F_Z | IT2N_F_TYPE1};
+    static const char *const memb[] = {"0.4", "0.7", "0.2", "0.9", "0.3", "0.1",
+                                       "0.5", "0.6", "0.8"};
+    long double worst = 0.0L, big = 0.0L, xbig = 0.0L, xworst;
+    unsigned cases = 0;
+    if (IT2N_MAX_DEGREE < 7) {
+        printf("test_memb_nets_decimal: skip: IT2N_MAX_DEGREE %d < 7\n",
+               IT2N_MAX_DEGREE);
+        return;
+    }
+    for (unsigned f = 0; f < sizeof flagsets / sizeof flagsets[0]; f++)
+        for (unsigned seed = 0; seed < 4; seed++) {
+            tc_smooth(&c, 7, 7, flagsets[f], 10.0L, 1000u + seed * 7u + f);
+            worst = fmaxl(worst, memb_net_case(&c, "smooth", &big));
+            cases++;
+        }
+    /* the paper's membership values (one decimal) spread over 7x7 */
+    tc_init(&c, 7, 7, 0);
+    for (unsigned i = 0; i <= 7; i++)
+        for (unsigned j = 0; j <= 7; j++)
+            for (unsigned fp = 0; fp < REF_FP; fp++) {
+                tc_set(&c, i, j, fp, IT2N_CH_X, 10.0L * i + 0.5L * fp);
+                tc_set(&c, i, j, fp, IT2N_CH_Y, 10.0L * j + 0.5L * fp);
+                for (unsigned k = 0; k < 3; k++)
+                    tc_set(&c, i, j, fp, IT2N_CH_T + k,
+                           strtold(memb[(i * 5u + j * 3u + k * 2u + fp) % 9u], NULL));
+            }
+    worst = fmaxl(worst, memb_net_case(&c, "paper values 7x7", &big));
+    cases++;
+    /* exact data (0, 0.5, 1): no input rounding, nets of 8.8e3 */
+    tc_extreme(&c);
+    xworst = memb_net_case(&c, "alternating 0/1", &xbig);
+    printf("  [accuracy] degree-7 membership nets vs the decimal data: %u models "
+           "(max|P| %.0Lf), worst |err| %.3Le (goal 1e-5); alternating 0/1 "
+           "(max|P| %.0Lf) %.3Le\n", cases, big, worst, xbig, xworst);
+    if (!(worst <= 1e-5L))
+        fail_msg("membership nets: worst %.3Le > 1e-5", worst);
 }
 
 static void acc_report(const char *what, const acc_stats *st)
@@ -573,6 +677,7 @@ int main(void)
         cmocka_unit_test(test_sweep_chord),
         cmocka_unit_test(test_affine),
         cmocka_unit_test(test_control_nets),
+        cmocka_unit_test(test_memb_nets_decimal),
         cmocka_unit_test(test_extreme_coordinates),
         cmocka_unit_test(test_print_summary),
     };

@@ -7,7 +7,8 @@
  * spline), solved by dense Gaussian elimination with partial pivoting per
  * line length and evaluated with the textbook uniform cubic B-spline basis.
  * Data are exact 6-decimal numbers: the reference sees the decimals, the
- * core their Q24 rounding, so an error below includes input rounding.
+ * core their rounding (Q24 coordinates, Q30 memberships), so an error
+ * below includes input rounding.
  *
  * Goals (issue 21): memberships within 2e-7, coordinates within
  * 1e-6 max|coordinate| + 1e-7, for grids 2x2 .. 9x9 (every size pair), 64x64
@@ -245,7 +246,7 @@ static long double bref_eval(const bref_net *r, long double u, long double w,
 typedef struct bcase {
     unsigned n, m, flags;
     long double *v;        /* exact decimals [(i (m+1) + j) NFP + fp] NCH + ch */
-    it2n_val *q;           /* their Q24 rounding                              */
+    it2n_val *q;           /* their rounding, fine layout (Q30 T, I, F) */
     it2n_bspline_rec *rec;
     int32_t *coef;
     it2n_bspline_data ds;
@@ -260,11 +261,12 @@ static size_t vidx(const bcase *c, unsigned i, unsigned j, unsigned fp,
     return (((size_t)i * (c->m + 1u) + j) * NFP + fp) * NCH + ch;
 }
 
-/* x rounded to 6 decimals: exact value into *exact, Q24 (ties away). */
-static it2n_val dec6(long double x, long double *exact)
+/* x rounded to 6 decimals: exact value into *exact, channel ch's format in
+ * the fine layout (Q24 coordinates, Q30 memberships; ties away). */
+static it2n_val dec6(unsigned ch, long double x, long double *exact)
 {
     long long k = llroundl(x * 1e6L);
-    tb_i128 num = (tb_i128)k * 16777216, q;
+    tb_i128 num = (tb_i128)k * (ch >= IT2N_CH_T ? 1073741824 : 16777216), q;
     *exact = (long double)k / 1e6L;
     q = (num + (num >= 0 ? 500000 : -500000)) / 1000000;
     return (it2n_val)q;
@@ -338,7 +340,7 @@ static void bcase_gen(bcase *c, unsigned n, unsigned m, unsigned flags,
                     } else if (kind != GEN_EXTREME) {
                         x += 0.02L * ((long double)fp - 3);
                     }
-                    c->q[k] = dec6(x, &e);
+                    c->q[k] = dec6(ch, x, &e);
                     c->v[k] = e;
                     if (ch <= 2 && fabsl(e) > c->maxabs) {
                         c->maxabs = fabsl(e);
@@ -378,8 +380,8 @@ static void bcase_core(bcase *c)
                     continue;
                 }
                 bcase_vals(c, i, j, fp, vals);
-                assert_int_equal(it2n_bspline_data_put(&c->ds, i, j, fp, vals,
-                                                       false, &err), IT2N_OK);
+                assert_int_equal(it2n_bspline_data_put_fine(&c->ds, i, j, fp, vals,
+                                                            false, &err), IT2N_OK);
             }
         }
     }
@@ -495,7 +497,7 @@ static void check_case(const bcase *c, unsigned randoms, bool nodes,
 }
 
 /* Every coefficient against the exact solution of the data the core was
- * given (Q24): the solve's own error, relative to the net's largest
+ * given (Q24 coordinates, Q30 memberships): the solve's own error, relative to the net's largest
  * coefficient (plus the Q24 read-out's rounding). Returns the worst. */
 static long double check_coefs(const bcase *c)
 {
@@ -512,7 +514,7 @@ static long double check_coefs(const bcase *c)
             }
             for (i = 0; i <= c->n; i++) {
                 for (j = 0; j <= c->m; j++) {
-                    f[i * (c->m + 1u) + j] = tc_ld(c->q[vidx(c, i, j, fp, ch)]);
+                    f[i * (c->m + 1u) + j] = tc_ldq(ch, c->q[vidx(c, i, j, fp, ch)]);
                 }
             }
             bref_net_solve(&r, c->n, c->m, f);
@@ -646,7 +648,7 @@ static void test_small_grids(void **state)
     report("1..8 x 1..8 smooth scale 10", &all);
     report("1..8 x 1..8 rough scale 1000", &rough);
     printf("[bspline] coefficients 1..8 x 1..8: worst err %.3Le of the net's max|c| "
-           "(vs the exact solution of the Q24 data)\n", coef_worst);
+           "(vs the exact solution of the data given)\n", coef_worst);
 }
 
 /* Data points are interpolated and the polynomial cases match exactly
@@ -829,15 +831,21 @@ static void test_update_vs_solve(void **state)
         it2n_val vals[NCH], lo[NCH], hi[NCH];
         it2n_bspline_model m2;
         uint32_t gen = c.mdl.generation;
-        it2n_bspline_data_get(&c.ds, i, j, fp, vals);
-        if (fp > 0) it2n_bspline_data_get(&c.ds, i, j, fp - 1, lo);
-        if (fp + 1 < NFP) it2n_bspline_data_get(&c.ds, i, j, fp + 1, hi);
+        /* odd steps through the _fine entry points (Q30 memberships) */
+        bool fine = (k & 1u) != 0u;
+        void (*get)(const it2n_bspline_data *, unsigned, unsigned, unsigned,
+                    it2n_val *) = fine ? it2n_bspline_data_get_fine
+                                       : it2n_bspline_data_get;
+        get(&c.ds, i, j, fp, vals);
+        if (fp > 0) get(&c.ds, i, j, fp - 1, lo);
+        if (fp + 1 < NFP) get(&c.ds, i, j, fp + 1, hi);
         for (ch = 0; ch < NCH; ch++) {
             if (!has_ch(c.flags, ch)) {
                 continue;
             }
             if (ch >= IT2N_CH_T) {
-                vals[ch] = (it2n_val)(tc_rand(&s) % (IT2N_VAL_ONE + 1));
+                it2n_val one = fine ? IT2N_MEMB_ONE : IT2N_VAL_ONE;
+                vals[ch] = (it2n_val)(tc_rand(&s) % (uint64_t)(one + 1));
             } else {
                 /* anywhere between the neighbouring footprints */
                 it2n_val a = fp > 0 ? lo[ch] : vals[ch] - (IT2N_VAL_ONE << 3);
@@ -845,7 +853,8 @@ static void test_update_vs_solve(void **state)
                 vals[ch] = a + (it2n_val)(tc_rand(&s) % (uint64_t)(b - a + 1));
             }
         }
-        assert_int_equal(it2n_bspline_update(&c.mdl, &c.ds, i, j, fp, vals, NULL),
+        assert_int_equal((fine ? it2n_bspline_update_fine : it2n_bspline_update)(
+                             &c.mdl, &c.ds, i, j, fp, vals, NULL),
                          IT2N_OK);
         assert_true(c.mdl.generation != gen);
         it2n_bspline_model_init(&m2, fresh, words);
@@ -1078,7 +1087,7 @@ static void test_random_shapes(void **state)
                     if (ch >= 3 && x < 0) {
                         x = -x;
                     }
-                    q = dec6(x, &e);
+                    q = dec6(ch, x, &e);
                     for (fp = 0; fp < NFP; fp++) {
                         if (has_fp(flags, fp) && has_ch(flags, ch)) {
                             c.q[vidx(&c, i, j, fp, ch)] = q;

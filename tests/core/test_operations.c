@@ -232,7 +232,7 @@ static void test_update_vs_resolve(void **state)
                 long double dx = c2.v[i][j][lo][IT2N_CH_X] - c.v[i][j][lo][IT2N_CH_X];
                 for (unsigned k = lo; k <= hi; k++) {
                     unsigned f = dx > 0 ? hi - (k - lo) : k;
-                    int rc = it2n_model_update(&inc, &ids, i, j, f, c2.q[i][j][f], &err);
+                    int rc = it2n_model_update_fine(&inc, &ids, i, j, f, c2.q[i][j][f], &err);
                     if (rc != IT2N_OK)
                         fail_msg("update %ux%u (%u,%u,%u) -> %d", c.n, c.m, i, j, f, rc);
                 }
@@ -270,7 +270,7 @@ static void test_update_chain(void **state)
         c2 = c;
         for (unsigned ch = IT2N_CH_T; ch <= IT2N_CH_F; ch++)
             tc_set(&c2, i, j, IT2N_FP_D, ch, (long double)(tc_rand(&s) % 1000001u) * 1e-6L);
-        assert_int_equal(it2n_model_update(&inc, &ids, i, j, IT2N_FP_D,
+        assert_int_equal(it2n_model_update_fine(&inc, &ids, i, j, IT2N_FP_D,
                                            c2.q[i][j][IT2N_FP_D], &err), IT2N_OK);
         c = c2;
         tc_model_ds(&c, &full, &fds);
@@ -311,7 +311,7 @@ static void test_update_chord(void **state)
                 c3.q[i][j][IT2N_FP_D][ch] = c2.q[i][j][IT2N_FP_D][ch];
             }
             uint32_t gen = inc.generation;
-            assert_int_equal(it2n_model_update(&inc, &ids, i, j, IT2N_FP_D,
+            assert_int_equal(it2n_model_update_fine(&inc, &ids, i, j, IT2N_FP_D,
                                                c3.q[i][j][IT2N_FP_D], &err), IT2N_OK);
             assert_true(inc.generation != gen);
             tc_model_ds(&c3, &full, &fds);
@@ -674,7 +674,7 @@ static void test_generation(void **state)
     /* read-only operations leave it */
     assert_int_equal(it2n_eval(&mdl, 0, 0, &pt, NULL), IT2N_OK);
     assert_true(mdl.generation == g1);
-    assert_int_equal(it2n_model_update(&mdl, &ds, 1, 1, IT2N_FP_D,
+    assert_int_equal(it2n_model_update_fine(&mdl, &ds, 1, 1, IT2N_FP_D,
                                        c.q[1][1][IT2N_FP_D], &err), IT2N_OK);
     uint32_t g2 = mdl.generation;
     assert_true(g2 != g1);
@@ -685,7 +685,7 @@ static void test_generation(void **state)
     memcpy(v, c.q[0][0][IT2N_FP_D], sizeof v);
     v[IT2N_CH_T] = -5;
     uint32_t g3 = mdl.generation;
-    assert_int_equal(it2n_model_update(&mdl, &ds, 0, 0, IT2N_FP_D, v, &err), IT2N_ERR_RANGE);
+    assert_int_equal(it2n_model_update_fine(&mdl, &ds, 0, 0, IT2N_FP_D, v, &err), IT2N_ERR_RANGE);
     assert_true(mdl.generation == g3);
 }
 
@@ -753,7 +753,7 @@ static void test_extreme_operations(void **state)
     }
     copy = mdl;
     dscopy = ds;
-    rc = it2n_model_update(&mdl, &ds, 3, 4, IT2N_FP_LL, c2.q[3][4][IT2N_FP_LL], &err);
+    rc = it2n_model_update_fine(&mdl, &ds, 3, 4, IT2N_FP_LL, c2.q[3][4][IT2N_FP_LL], &err);
     printf("  [operations] extreme 7x7 update to -limit: %d (%s)\n", rc,
            it2n_strerror(rc));
     if (rc == IT2N_ERR_OVERFLOW) {

@@ -240,8 +240,8 @@ static void test_missing(void **state)
                 if ((i == 2 && j == 1 && fp == IT2N_FP_RL) ||
                     (i == 3 && j == 2 && fp == IT2N_FP_LL))
                     continue;
-                assert_int_equal(it2n_dataset_put(&ds, i, j, fp, c.q[i][j][fp],
-                                                  false, &err), IT2N_OK);
+                assert_int_equal(it2n_dataset_put_fine(&ds, i, j, fp, c.q[i][j][fp],
+                                                       false, &err), IT2N_OK);
             }
     assert_int_equal(it2n_dataset_missing(&ds), 2u);
     memset(&err, 0, sizeof err);
@@ -347,7 +347,7 @@ static void test_update_atomic(void **state)
         unsigned fp = (flags & IT2N_F_TYPE1) ? IT2N_FP_D : IT2N_FP_L;
 
         /* membership out of range */
-        memcpy(v, c.q[2][1][fp], sizeof v);
+        tc_q24_vals(c.q[2][1][fp], v);
         v[IT2N_CH_F] = ONE + 1;
         memset(&err, 0, sizeof err);
         rc = it2n_model_update(&mdl, &ds, 2, 1, fp, v, &err);
@@ -356,8 +356,24 @@ static void test_update_atomic(void **state)
         assert_memory_equal(&mdl, &copy, sizeof mdl);
         assert_memory_equal(&ds, &dscopy, sizeof ds);
 
-        /* coordinate beyond the limit */
+        /* the same in the fine layout: one Q30 step above 1, shown in Q24
+         * above 1 as well */
         memcpy(v, c.q[2][1][fp], sizeof v);
+        v[IT2N_CH_F] = IT2N_MEMB_ONE + 1;
+        memset(&err, 0, sizeof err);
+        rc = it2n_model_update_fine(&mdl, &ds, 2, 1, fp, v, &err);
+        assert_int_equal(rc, IT2N_ERR_RANGE);
+        expect_err(&err, IT2N_ERR_RANGE, 2, 1, (int)fp, IT2N_CH_F);
+        assert_true(err.value == ONE + 1 && err.hi == ONE);
+        v[IT2N_CH_F] = -1;
+        rc = it2n_model_update_fine(&mdl, &ds, 2, 1, fp, v, &err);
+        assert_int_equal(rc, IT2N_ERR_RANGE);
+        assert_true(err.value == -1 && err.lo == 0);
+        assert_memory_equal(&mdl, &copy, sizeof mdl);
+        assert_memory_equal(&ds, &dscopy, sizeof ds);
+
+        /* coordinate beyond the limit */
+        tc_q24_vals(c.q[2][1][fp], v);
         v[IT2N_CH_Y] = -LIM - 1;
         rc = it2n_model_update(&mdl, &ds, 2, 1, fp, v, &err);
         assert_int_equal(rc, IT2N_ERR_RANGE);
@@ -366,7 +382,7 @@ static void test_update_atomic(void **state)
         assert_memory_equal(&ds, &dscopy, sizeof ds);
 
         /* bad index / footprint */
-        memcpy(v, c.q[2][1][fp], sizeof v);
+        tc_q24_vals(c.q[2][1][fp], v);
         assert_int_equal(it2n_model_update(&mdl, &ds, 5, 1, fp, v, &err), IT2N_ERR_INVAL);
         assert_int_equal(it2n_model_update(&mdl, &ds, 1, 4, fp, v, &err), IT2N_ERR_INVAL);
         assert_int_equal(it2n_model_update(&mdl, &ds, 1, 1, IT2N_FP_COUNT, v, &err),
@@ -379,7 +395,7 @@ static void test_update_atomic(void **state)
 
         /* nesting broken by the new value */
         if (!(flags & IT2N_F_TYPE1)) {
-            memcpy(v, c.q[2][1][fp], sizeof v);
+            tc_q24_vals(c.q[2][1][fp], v);
             v[IT2N_CH_X] = c.q[2][1][IT2N_FP_D][IT2N_CH_X] + 1; /* L > D */
             memset(&err, 0, sizeof err);
             rc = it2n_model_update(&mdl, &ds, 2, 1, fp, v, &err);
@@ -392,7 +408,7 @@ static void test_update_atomic(void **state)
         assert_memory_equal(&ds, &dscopy, sizeof ds);
         }
         /* a good update does change it (the copy is meaningful) */
-        memcpy(v, c.q[2][1][fp], sizeof v);
+        tc_q24_vals(c.q[2][1][fp], v);
         v[IT2N_CH_T] = ONE / 3;
         assert_int_equal(it2n_model_update(&mdl, &ds, 2, 1, fp, v, &err), IT2N_OK);
         assert_memory_not_equal(&mdl, &copy, sizeof mdl);
@@ -455,7 +471,7 @@ static void test_update_chord_degenerate_atomic(void **state)
     copy = mdl;
     dscopy = ds;
     it2n_val v[IT2N_CH_COUNT];
-    memcpy(v, c.q[1][0][IT2N_FP_D], sizeof v);
+    tc_q24_vals(c.q[1][0][IT2N_FP_D], v);
     v[IT2N_CH_Y] = c.q[0][0][IT2N_FP_D][IT2N_CH_Y]; /* D(1,0) onto D(0,0) */
     memset(&err, 0, sizeof err);
     assert_int_equal(it2n_model_update(&mdl, &ds, 1, 0, IT2N_FP_D, v, &err),
@@ -486,12 +502,22 @@ static void test_hand_filled_dataset(void **state)
     tc_model(&c, &mdl);
     copy = mdl;
 
+    /* memberships are stored in Q30; errors report Q24 */
     bad = ds;
-    bad.memb[1][2][IT2N_FP_RL][IT2N_CH_T - 3] = (uint32_t)tc_q24("1.2");
+    bad.memb[1][2][IT2N_FP_RL][IT2N_CH_T - 3] = (uint32_t)tc_q24("1.2") << 6;
     memset(&err, 0, sizeof err);
     assert_int_equal(it2n_dataset_check(&bad, &err), IT2N_ERR_RANGE);
     expect_err(&err, IT2N_ERR_RANGE, 1, 2, IT2N_FP_RL, IT2N_CH_T);
     assert_true(err.value == tc_q24("1.2") && err.lo == 0 && err.hi == ONE);
+    assert_int_equal(it2n_model_solve(&mdl, &bad, &err), IT2N_ERR_RANGE);
+    assert_memory_equal(&mdl, &copy, sizeof mdl);
+
+    /* one Q30 step above 1 is refused and shown above 1 in Q24 too */
+    bad = ds;
+    bad.memb[2][0][IT2N_FP_D][IT2N_CH_F - 3] = (uint32_t)IT2N_MEMB_ONE + 1u;
+    assert_int_equal(it2n_dataset_check(&bad, &err), IT2N_ERR_RANGE);
+    expect_err(&err, IT2N_ERR_RANGE, 2, 0, IT2N_FP_D, IT2N_CH_F);
+    assert_true(err.value == ONE + 1 && err.lo == 0 && err.hi == ONE);
     assert_int_equal(it2n_model_solve(&mdl, &bad, &err), IT2N_ERR_RANGE);
     assert_memory_equal(&mdl, &copy, sizeof mdl);
 

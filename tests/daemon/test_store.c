@@ -770,6 +770,120 @@ static void test_snapshot_format(void **st)
     store_close();
 }
 
+/* Memberships in Q30 (issue 21): a point put in the fine layout whose
+ * memberships are not Q24-exact is journaled with bit 0x40 of its
+ * footprint byte and T, I, F in Q30, one whose memberships are Q24-exact
+ * as older builds wrote it; replay and a snapshot (then version 4) give
+ * back the same values and control nets bit for bit; once every membership
+ * is Q24-exact again the snapshot is version 2. */
+static void put_fine(struct model *md, unsigned i, unsigned j, int x, int y, it2n_val t30)
+{
+    it2n_val v[IT2N_CH_COUNT] = { 0 };
+    it2n_errinfo err;
+    v[IT2N_CH_X] = (it2n_val)x * IT2N_VAL_ONE;
+    v[IT2N_CH_Y] = (it2n_val)y * IT2N_VAL_ONE;
+    v[IT2N_CH_T] = t30;
+    v[IT2N_CH_I] = IT2N_MEMB_ONE / 4;
+    assert_int_equal(models_put_fine(md, i, j, IT2N_FP_D, v, true, &err), IT2N_OK);
+}
+
+static void assert_same_data(const struct model *a, it2n_val want[4][IT2N_CH_COUNT])
+{
+    for (unsigned k = 0; k < 4; k++) {
+        it2n_val v[IT2N_CH_COUNT];
+        models_point_get_fine(a, k >> 1, k & 1u, IT2N_FP_D, v);
+        assert_memory_equal(v, want[k], sizeof v);
+    }
+}
+
+static void test_fine_memberships(void **st)
+{
+    (void)st;
+    wipe();
+    struct model *md = fresh();
+    it2n_val data[4][IT2N_CH_COUNT];
+    assert_int_equal(store_open(dir, 0), 0);
+    models_clear(md);
+    put_fine(md, 0, 0, 0, 0, 107374182);          /* 0.1: Q30, not Q24-exact */
+    put_fine(md, 0, 1, 0, 10, IT2N_MEMB_ONE / 2);  /* Q24-exact */
+    put_fine(md, 1, 0, 10, 0, 1);                  /* 2^-30 */
+    put(md, 1, 1, 10, 10, 4);                      /* Q24 (a link PUT) */
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(store_commit(), 0);
+    it2n_model want = md->mdl;
+    for (unsigned k = 0; k < 4; k++)
+        models_point_get_fine(md, k >> 1, k & 1u, IT2N_FP_D, data[k]);
+    assert_true(data[0][IT2N_CH_T] == 107374182 && data[2][IT2N_CH_T] == 1);
+    store_close();
+
+    /* The WAL: the footprint byte of each POINT record (after the header,
+     * records of len u32 crc u32 seq u64 type u8 id u16 i u8 j u8 fp u8) */
+    {
+        long len;
+        uint8_t *w = slurp("wal", &len);
+        long off = 16;
+        unsigned seen = 0, flags[4] = { 0 };
+        int64_t t[4] = { 0 };
+        while (off + 8 <= len) {
+            uint32_t rlen = (uint32_t)w[off] | (uint32_t)w[off + 1] << 8 | (uint32_t)w[off + 2] << 16 |
+                            (uint32_t)w[off + 3] << 24;
+            const uint8_t *r = w + off + 8;
+            if (r[8] == MOP_POINT && seen < 4) {
+                uint64_t u = 0;
+                for (int b = 7; b >= 0; b--)
+                    u = u << 8 | r[9 + 5 + 8 * IT2N_CH_T + b];
+                flags[seen] = r[9 + 4] & 0xC0u;
+                t[seen++] = (int64_t)u;
+            }
+            off += 8 + (long)rlen;
+        }
+        free(w);
+        assert_int_equal(seen, 4);
+        /* replace bit 0x80 on all; 0x40 only where Q30 is needed */
+        assert_int_equal(flags[0], 0xC0);
+        assert_true(t[0] == 107374182);
+        assert_int_equal(flags[1], 0x80);
+        assert_true(t[1] == IT2N_VAL_ONE / 2);
+        assert_int_equal(flags[2], 0xC0);
+        assert_true(t[2] == 1);
+        assert_int_equal(flags[3], 0x80);
+        assert_true(t[3] == 4 * IT2N_VAL_ONE / 10);
+    }
+
+    /* replayed: the same values at 2^-30 and the same nets */
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_same_data(md, data);
+    assert_same_nets(&md->mdl, &want);
+    /* snapshot: version 4, read back alike */
+    assert_int_equal(store_snapshot(), 0);
+    {
+        long len;
+        uint8_t *sn = slurp("snapshot", &len);
+        assert_int_equal(sn[8], SNAP_VERSION_FINE);
+        free(sn);
+    }
+    store_close();
+    md = fresh();
+    assert_int_equal(store_open(dir, 0), 0);
+    assert_same_data(md, data);
+    assert_same_nets(&md->mdl, &want);
+
+    /* every membership Q24-exact again: version 2, as older builds read */
+    put_fine(md, 0, 0, 0, 0, IT2N_MEMB_ONE / 8);
+    put_fine(md, 1, 0, 10, 0, 0);
+    assert_int_equal(store_commit(), 0);
+    assert_int_equal(store_snapshot(), 0);
+    {
+        long len;
+        uint8_t *sn = slurp("snapshot", &len);
+        assert_int_equal(sn[8], SNAP_VERSION_BEZIER);
+        free(sn);
+    }
+    store_close();
+}
+
 static void test_snapshot_foreign(void **st)
 {
     struct wbuf w;
@@ -1147,6 +1261,7 @@ int main(void)
         cmocka_unit_test(test_batches),
         cmocka_unit_test(test_writer_thread),
         cmocka_unit_test(test_snapshot_format),
+        cmocka_unit_test(test_fine_memberships),
         cmocka_unit_test(test_snapshot_foreign),
         cmocka_unit_test(test_snapshot_v1),
         cmocka_unit_test(test_wal_large),

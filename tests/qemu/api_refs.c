@@ -31,6 +31,10 @@ static const volatile it2n_any_fn it2n_api[] = {
     (it2n_any_fn)it2n_bspline_coef, (it2n_any_fn)it2n_bspline_eval,
     (it2n_any_fn)it2n_bspline_deriv, (it2n_any_fn)it2n_bspline_sample,
     (it2n_any_fn)it2n_bspline_locate,
+    (it2n_any_fn)it2n_dataset_put_fine, (it2n_any_fn)it2n_dataset_get_fine,
+    (it2n_any_fn)it2n_model_update_fine, (it2n_any_fn)it2n_bspline_data_put_fine,
+    (it2n_any_fn)it2n_bspline_data_get_fine, (it2n_any_fn)it2n_bspline_update_fine,
+    (it2n_any_fn)it2n_parse_memb,
 };
 
 void it2n_cross_entry(void)

@@ -275,8 +275,10 @@ int main(int argc, char **argv)
     }
     if (!link_path || (!csv && !evlog) || batch < 1 || batch > IT2N_PUT_MAX)
         return 2;
-    if (csv)
+    if (csv) {
         sim_load_csv(csv, 0, &ds);
+        sim_round_q24(&ds); /* what the PUTs carry: the local reference alike */
+    }
     {
         it2n_errinfo e;
         it2n_model_init(&local);

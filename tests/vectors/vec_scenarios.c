@@ -368,9 +368,12 @@ static int make_grid(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
             it2n_val mem[3];
             unsigned k;
             for (k = 0; k < 3u; k++) {
-                /* 0.05 + 0.9 * r, r in [0, 1) with 24 bits */
+                /* 0.05 + 0.9 * r, r in [0, 1) with 24 bits, then in Q30
+                 * with 6 more bits (no further draw: the stream of the
+                 * coordinates stays as it was) */
                 mem[k] = (IT2N_VAL_ONE / 20) +
                          (((it2n_val)lcg(&seed) * 9) / 10);
+                mem[k] = mem[k] * 64 + (it2n_val)((k * 21u + i * 7u + j * 13u) & 63u);
             }
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 it2n_val v[IT2N_CH_COUNT];
@@ -384,7 +387,7 @@ static int make_grid(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
                 v[IT2N_CH_T] = mem[0];
                 v[IT2N_CH_I] = mem[1];
                 v[IT2N_CH_F] = mem[2];
-                rc = it2n_dataset_put(ds, i, j, fp, v, false, err);
+                rc = it2n_dataset_put_fine(ds, i, j, fp, v, false, err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }
@@ -689,6 +692,14 @@ static void scen_text(const vec_out *o)
             out(o, "parse_val.value", v);
         }
     }
+    for (k = 0; k < sizeof num / sizeof num[0]; k++) {
+        it2n_val v = 0;
+        int rc = it2n_parse_memb(num[k], vec_len(num[k]), &v);
+        out(o, "parse_memb.rc", rc);
+        if (rc == IT2N_OK) {
+            out(o, "parse_memb.value", v);
+        }
+    }
     for (k = 0; k < sizeof fmt / sizeof fmt[0]; k++) {
         for (d = 0; d <= 9u; d += 3u) {
             uint64_t h = VEC_FNV_INIT;
@@ -746,8 +757,10 @@ static int make_bs_grid(it2n_vec_work *wk, unsigned n, unsigned m,
             it2n_val mem[3];
             unsigned k;
             for (k = 0; k < 3u; k++) {
-                mem[k] = extreme ? (it2n_val)((i + 2u * j + k) & 1u) * IT2N_VAL_ONE
-                                 : (IT2N_VAL_ONE / 20) + (((it2n_val)lcg(&seed) * 9) / 10);
+                /* Q30 as generated data sets above */
+                mem[k] = extreme ? (it2n_val)((i + 2u * j + k) & 1u) * IT2N_MEMB_ONE
+                                 : ((IT2N_VAL_ONE / 20) + (((it2n_val)lcg(&seed) * 9) / 10)) * 64 +
+                                       (it2n_val)((k * 21u + i * 7u + j * 13u) & 63u);
             }
             for (fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
                 it2n_val v[IT2N_CH_COUNT];
@@ -768,7 +781,7 @@ static int make_bs_grid(it2n_vec_work *wk, unsigned n, unsigned m,
                 v[IT2N_CH_T] = mem[0];
                 v[IT2N_CH_I] = mem[1];
                 v[IT2N_CH_F] = mem[2];
-                rc = it2n_bspline_data_put(&wk->bs_ds, i, j, fp, v, false, &wk->err);
+                rc = it2n_bspline_data_put_fine(&wk->bs_ds, i, j, fp, v, false, &wk->err);
             }
         }
     }
@@ -878,11 +891,11 @@ static void scen_bspline_one(it2n_vec_work *wk, const vec_out *o, unsigned n,
     {
         it2n_val v[IT2N_CH_COUNT];
         unsigned fu = (flags & IT2N_F_TYPE1) ? IT2N_FP_D : IT2N_FP_L;
-        it2n_bspline_data_get(&wk->bs_ds, n / 2u, m / 3u, fu, v);
-        v[IT2N_CH_T] = IT2N_VAL_ONE - v[IT2N_CH_T];
+        it2n_bspline_data_get_fine(&wk->bs_ds, n / 2u, m / 3u, fu, v);
+        v[IT2N_CH_T] = IT2N_MEMB_ONE - v[IT2N_CH_T];
         v[IT2N_CH_X] += IT2N_VAL_ONE / 3;
-        rc = it2n_bspline_update(&wk->bs_a, &wk->bs_ds, n / 2u, m / 3u, fu, v,
-                                 &wk->err);
+        rc = it2n_bspline_update_fine(&wk->bs_a, &wk->bs_ds, n / 2u, m / 3u, fu, v,
+                                      &wk->err);
         out(o, "bs.update", rc);
         out(o, "bs.update_hash", as_i64(hash_bs(&wk->bs_a)));
         it2n_bspline_model_init(&wk->bs_b, wk->bs_coef2, VEC_BS_WORDS);
