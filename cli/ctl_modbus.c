@@ -106,6 +106,8 @@ static bool exact_scaled(it2n_val v, int64_t scale, int64_t *out)
  * register is then the Q24 rounding of the decimal itself (rounding the
  * Q30 value to Q24 first could move a tie by one LSB and refuse a 4-decimal
  * membership). */
+__extension__ typedef __int128 i128; /* host tool: |q30 * scale| needs 62 bits plus rounding */
+
 static int64_t memb_scaled(it2n_val q30, int64_t scale, bool *exact)
 {
     const i128 one = (i128)1 << IT2N_MEMB_FRAC;
