@@ -16,7 +16,7 @@ $(DTB)/san/%: $(DT)/%.c $(DT_SAN_MODS) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
 	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) $< -o $@ $(DT_SAN_MODS) $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(DAEMON_LIBS) -lcmocka
 
 # Simulators (tests/sim/).
-SIM_CFLAGS := $(DAEMON_CFLAGS) -Icli -Itests/sim
+SIM_CFLAGS := $(DAEMON_CFLAGS) -Icli/common -Itests/sim
 SIM_PLC := $(BUILD)/tests/sim/plc
 SIM_INSTR := $(BUILD)/tests/sim/instrument
 
