@@ -8,6 +8,7 @@
 
 #include "csv.h"
 #include "it2n.h"
+#include "opt.h"
 
 #include <stdbool.h>
 #include <stddef.h>
@@ -67,7 +68,50 @@ int cli_run(const cli_opts *o);
  * it2nctl's push, so both tools refuse a file alike. */
 int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl);
 
-/* Option values (cli/args.c). cli_parse_pair: "A,B", both parameters in
+/*
+ * The options both programs share (common_opts.c), in one cli_opt table:
+ * each command of either program says which apply by these bits
+ * (cli_opt.cmds); a program's own bits start at CLI_O_PROG.
+ */
+enum {
+    CLI_O_AT_UW = 0x01u,    /* --at U,W (required)                  */
+    CLI_O_AT_XY = 0x02u,    /* --at X,Y (required)                  */
+    CLI_O_SUMMARY = 0x04u,  /* --summary                            */
+    CLI_O_GRID = 0x08u,     /* --grid required                      */
+    CLI_O_GRID_OPT = 0x10u, /* --grid optional (default 21x21)      */
+    CLI_O_FP = 0x20u,       /* --footprint                          */
+    CLI_O_OUT = 0x40u,      /* -o FILE                              */
+    CLI_O_MEMB = 0x80u,     /* --membership                         */
+    CLI_O_PLOT = 0x100u,    /* --interval, --nets, --size; -o needed */
+    CLI_O_CHORD = 0x200u,   /* --chord                              */
+    CLI_O_KIND = 0x400u,    /* --kind                               */
+    CLI_O_PROG = 0x10000u   /* first bit of a program's own          */
+};
+
+/* Ids of the shared options; a program's own ids start at CLI_OPT_PROG. */
+enum {
+    CLI_OPT_KIND = 0, CLI_OPT_CHORD, CLI_OPT_DECIMALS, CLI_OPT_HELP,
+    CLI_OPT_VERSION, CLI_OPT_AT, CLI_OPT_SUMMARY, CLI_OPT_GRID, CLI_OPT_FP,
+    CLI_OPT_OUTPUT, CLI_OPT_MEMB, CLI_OPT_INTERVAL, CLI_OPT_NETS,
+    CLI_OPT_SIZE, CLI_OPT_PROG = 24
+};
+
+/* The shared table (its labels are it2n's "Common options" of --help). */
+extern const cli_optset cli_common_opts;
+
+/* Defaults of cli_opts before parsing (decimals 6, membership -1). */
+void cli_opts_init(cli_opts *o);
+
+/* Store shared option v (one of cli_common_opts, not help or version)
+ * into o. Returns -1 to go on, or an exit status after its message. */
+int cli_common_take(const cli_parser *p, const cli_optval *v, cli_opts *o);
+
+/* After the last option: what the command's bits require of the shared
+ * options (--at, --grid, -o FILE.png|svg, --interval's limits) and the
+ * defaults that depend on others (grid size, membership). -1 or a status. */
+int cli_common_finish(const cli_parser *p, cli_opts *o);
+
+/* Option values (cli/common/args.c). cli_parse_pair: "A,B", both parameters in
  * [0,1] (par) or both values; 0, or an error with *why set. cli_parse_grid:
  * "RxC", R and C in 2..65535. cli_parse_fps: "D", "LL,RR", ... or'ed into
  * *mask as bits of IT2N_FP_*. */

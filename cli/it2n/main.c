@@ -5,44 +5,39 @@
  */
 #include "cli.h"
 
-#include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 typedef struct cli_cmd {
     const char *name;
     const char *args;     /* synopsis after DATA.csv         */
     const char *summary;  /* one line for `it2n --help`      */
     const char *help;     /* details for `it2n CMD --help`   */
-    unsigned opts;        /* CLI_O_* accepted                */
+    unsigned opts;        /* CLI_O_* and O_* accepted        */
 } cli_cmd;
 
-#define CLI_O_AT_UW 0x01u
-#define CLI_O_AT_XY 0x02u
-#define CLI_O_SUMMARY 0x04u
-#define CLI_O_GRID 0x08u     /* --grid required                  */
-#define CLI_O_GRID_OPT 0x10u /* --grid optional (default 21x21)  */
-#define CLI_O_FP 0x20u       /* --footprint                      */
-#define CLI_O_OUT 0x40u      /* -o FILE                          */
-#define CLI_O_MEMB 0x80u     /* --membership                     */
-#define CLI_O_PLOT 0x100u    /* --interval, --size               */
-#define CLI_O_FORMAT 0x200u  /* --format                         */
+/* it2n's own option bits and ids (the shared ones: cli.h). */
+#define O_FORMAT CLI_O_PROG /* --format (export) */
+#define O_ALL (CLI_O_CHORD | CLI_O_KIND) /* every command */
+enum { OPT_FORMAT = CLI_OPT_PROG };
 
-#define CLI_MEMB_UNSET (-2)
-#define CLI_GRID_DEFAULT 21u
+static const cli_opt own_opts[] = {
+    {"format", 0, CLI_ARG_WORD, OPT_FORMAT, O_FORMAT, 0, 0, "vtk|obj|csv",
+     "expected vtk, obj or csv", NULL, NULL, NULL},
+};
 
-static const char common_help[] =
-    "Common options:\n"
-    "  --kind K        bezier (default: one Bezier patch, grids up to 8x8)\n"
-    "                  or bspline (cubic not-a-knot B-spline, grids up to\n"
-    "                  256x256; every command)\n"
-    "  --chord         chord-length parameters instead of uniform i/n, j/m\n"
-    "  --decimals N    digits after the point, 0..9 (default 6)\n"
-    "  -h, --help      this help\n"
+/* After the option list of the shared table (cli_common_opts). */
+static const char common_tail[] =
     "DATA.csv is '-' for standard input. Exit status: 0 ok, 1 usage error,\n"
     "2 data error (message on stderr as FILE:LINE: ...).\n";
+
+static void common_help(FILE *out)
+{
+    fputs("Common options:\n", out);
+    cli_opt_help(out, cli_common_opts.opts, cli_common_opts.count, 0u, 16u);
+    fputs(common_tail, out);
+}
 
 static const cli_cmd cmds[] = {
     {"check", "", "validate the dataset (and that it solves)",
@@ -50,11 +45,11 @@ static const cli_cmd cmds[] = {
      "T,I,F in [0,1], coordinates within range, footprints nested\n"
      "LL<=LR<=L<=D<=R<=RL<=RR on every axis, and that the model solves.\n"
      "Prints one summary line on success.\n",
-     0u},
+     O_ALL},
     {"solve", "", "print the control nets",
      "Print the Bezier control points of every footprint surface as CSV\n"
      "with the input's columns: i,j,footprint,x,y[,z],T,I,F.\n",
-     0u},
+     O_ALL},
     {"eval", "--at U,W [--at U,W ...] [--summary]",
      "evaluate the surfaces at parameters (u,w)",
      "Evaluate every footprint surface at each (u,w) in [0,1]^2.\n"
@@ -64,7 +59,7 @@ static const cli_cmd cmds[] = {
      "  --summary    after each point, rows upper_min, upper_max (over\n"
      "               LL,D,RR) and lower_min, lower_max (over LR,D,RL) with\n"
      "               empty coordinates and the T,I,F bounds\n",
-     CLI_O_AT_UW | CLI_O_SUMMARY},
+     O_ALL | CLI_O_AT_UW | CLI_O_SUMMARY},
     {"sample", "--grid RxC [--summary] [--footprint FP[,FP...]]",
      "evaluate on a uniform RxC parameter grid",
      "Like eval on u = r/(R-1), w = c/(C-1), row-major; R, C in 2..65535.\n"
@@ -73,20 +68,20 @@ static const cli_cmd cmds[] = {
      "                    footprints)\n"
      "  --footprint LIST  only these footprints (LL,LR,L,D,R,RL,RR; comma-\n"
      "                    separated, repeatable; default all)\n",
-     CLI_O_GRID | CLI_O_SUMMARY | CLI_O_FP},
+     O_ALL | CLI_O_GRID | CLI_O_SUMMARY | CLI_O_FP},
     {"locate", "--at X,Y [--at X,Y ...]",
      "find each footprint's (u,w) through a location (x,y)",
      "For each footprint find (u,w) whose surface passes through (x,y) and\n"
      "print the memberships there. Header x,y,footprint,u,w[,z],T,I,F,status\n"
      "with status inside, outside (nearest boundary point) or noconv.\n"
      "  --at X,Y     location, repeatable\n",
-     CLI_O_AT_XY},
+     O_ALL | CLI_O_AT_XY},
     {"deriv", "--at U,W [--at U,W ...]",
      "partial derivatives dS/du and dS/dw",
      "Print dS/du (wrt=u) and dS/dw (wrt=w) of every surface at each (u,w).\n"
      "Header u,w,footprint,wrt,x,y[,z],T,I,F.\n"
      "  --at U,W     parameters, repeatable\n",
-     CLI_O_AT_UW},
+     O_ALL | CLI_O_AT_UW},
     {"plot",
      "-o FILE.png|FILE.svg [--membership T|I|F|all] [--interval]\n"
      "       [--nets] [--grid RxC] [--footprint LIST] [--size WxH]",
@@ -113,7 +108,7 @@ static const cli_cmd cmds[] = {
      "                      all: 1500x600; --interval: 1000x500)\n"
      "gnuplot must be on PATH (Debian: gnuplot-nox), or named by the\n"
      "IT2N_GNUPLOT environment variable.\n",
-     CLI_O_GRID_OPT | CLI_O_FP | CLI_O_OUT | CLI_O_MEMB | CLI_O_PLOT},
+     O_ALL | CLI_O_GRID_OPT | CLI_O_FP | CLI_O_OUT | CLI_O_MEMB | CLI_O_PLOT},
     {"export",
      "--format vtk|obj|csv [-o FILE] [--grid RxC] [--membership T|I|F|all]\n"
      "       [--footprint LIST]",
@@ -132,7 +127,7 @@ static const cli_cmd cmds[] = {
      "  --grid RxC          2..1001 each (default 21x21)\n"
      "  --membership M      T, I, F or all (default all)\n"
      "  --footprint LIST    only these footprints (default all)\n",
-     CLI_O_GRID_OPT | CLI_O_FP | CLI_O_OUT | CLI_O_MEMB | CLI_O_FORMAT},
+     O_ALL | CLI_O_GRID_OPT | CLI_O_FP | CLI_O_OUT | CLI_O_MEMB | O_FORMAT},
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
 
@@ -149,23 +144,15 @@ static void usage_all(FILE *out)
     fprintf(out,
             "\nDATA.csv: header i,j,footprint,x,y[,z],T,I,F then one row per\n"
             "grid point and footprint (LL,LR,L,D,R,RL,RR, or D only).\n"
-            "'it2n COMMAND --help' for details; 'it2n --version'.\n\n%s",
-            common_help);
+            "'it2n COMMAND --help' for details; 'it2n --version'.\n\n");
+    common_help(out);
 }
 
 static void usage_cmd(const cli_cmd *c)
 {
-    printf("Usage: it2n %s DATA.csv%s%s [--kind K] [--chord] [--decimals N]\n\n%s\n%s",
-           c->name, c->args[0] ? " " : "", c->args, c->help, common_help);
-}
-
-static int usage_error(const char *cmd, const char *fmt, const char *arg)
-{
-    fprintf(stderr, "it2n: ");
-    fprintf(stderr, fmt, arg);
-    fprintf(stderr, "\nTry 'it2n %s%s--help'.\n", cmd ? cmd : "",
-            cmd ? " " : "");
-    return CLI_EXIT_USAGE;
+    printf("Usage: it2n %s DATA.csv%s%s [--kind K] [--chord] [--decimals N]\n\n%s\n",
+           c->name, c->args[0] ? " " : "", c->args, c->help);
+    common_help(stdout);
 }
 
 static const cli_cmd *find_cmd(const char *name)
@@ -179,37 +166,18 @@ static const cli_cmd *find_cmd(const char *name)
     return NULL;
 }
 
-int main(int argc, char **argv)
+/* --help, --version and the command word; returns the command, or NULL
+ * with *rc the exit status when there is nothing more to do. */
+static const cli_cmd *first_word(int argc, char **argv, int *rc)
 {
-    static const struct option longopts[] = {
-        {"at", required_argument, NULL, 'a'},
-        {"summary", no_argument, NULL, 's'},
-        {"grid", required_argument, NULL, 'g'},
-        {"chord", no_argument, NULL, 'c'},
-        {"decimals", required_argument, NULL, 'd'},
-        {"help", no_argument, NULL, 'h'},
-        {"version", no_argument, NULL, 'V'},
-        {"footprint", required_argument, NULL, 'f'},
-        {"output", required_argument, NULL, 'o'},
-        {"membership", required_argument, NULL, 'm'},
-        {"interval", no_argument, NULL, 'i'},
-        {"format", required_argument, NULL, 'F'},
-        {"size", required_argument, NULL, 'S'},
-        {"nets", no_argument, NULL, 'N'},
-        {"kind", required_argument, NULL, 'K'},
-        {NULL, 0, NULL, 0}};
-    cli_opts o;
+    const char *names[NCMDS], *near;
     const cli_cmd *c;
-    bool grid = false, fmt = false;
-    int opt, rc;
-
-    memset(&o, 0, sizeof(o));
-    o.decimals = 6;
-    o.membership = CLI_MEMB_UNSET;
-    o.format = -1;
+    size_t k;
+    *rc = CLI_EXIT_OK;
     if (argc < 2) {
         usage_all(stderr);
-        return CLI_EXIT_USAGE;
+        *rc = CLI_EXIT_USAGE;
+        return NULL;
     }
     if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
         strcmp(argv[1], "help") == 0) {
@@ -218,282 +186,82 @@ int main(int argc, char **argv)
         } else {
             usage_all(stdout);
         }
-        return CLI_EXIT_OK;
+        return NULL;
     }
     if (strcmp(argv[1], "--version") == 0) {
         printf("it2n %s (IT2N_MAX_DEGREE %d)\n", IT2N_CLI_VERSION,
                IT2N_MAX_DEGREE);
-        return CLI_EXIT_OK;
+        return NULL;
     }
     c = find_cmd(argv[1]);
     if (c == NULL) {
-        return usage_error(NULL, "unknown command '%s'", argv[1]);
+        for (k = 0; k < NCMDS; k++) {
+            names[k] = cmds[k].name;
+        }
+        near = cli_did_you_mean(argv[1], names, NCMDS);
+        *rc = near ? cli_usage_error("it2n", NULL, "unknown command '%s' (did you mean '%s'?)",
+                                     argv[1], near)
+                   : cli_usage_error("it2n", NULL, "unknown command '%s'", argv[1]);
     }
-    o.cmd = c->name;
+    return c;
+}
 
-    /* getopt_long permutes, so options may come before or after DATA. */
-    optind = 2;
-    opterr = 0;
-    while ((opt = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
-        const char *why = NULL;
-        char *end;
-        unsigned long d;
-        switch (opt) {
-        case 'h':
+/* The options and DATA.csv of command c into o; -1 to go on, else the
+ * exit status (help printed, or a usage error). */
+static int parse_cmd(const cli_cmd *c, int argc, char **argv, cli_opts *o)
+{
+    const cli_optset sets[2] = {cli_common_opts, CLI_OPTSET(own_opts)};
+    cli_parser p;
+    cli_optval v;
+    char **ops;
+    int id, nops, rc;
+
+    cli_opt_init(&p, "it2n", c->name, c->opts, sets, 2, argc, argv, 2);
+    while ((id = cli_opt_next(&p, &v)) != CLI_OPT_END) {
+        if (id == CLI_OPT_ERROR) {
+            return CLI_EXIT_USAGE;
+        } else if (id == CLI_OPT_HELP) {
             usage_cmd(c);
-            free(o.at);
             return CLI_EXIT_OK;
-        case 'V':
+        } else if (id == CLI_OPT_VERSION) {
             printf("it2n %s\n", IT2N_CLI_VERSION);
-            free(o.at);
             return CLI_EXIT_OK;
-        case 'c':
-            o.flags |= IT2N_F_CHORD;
-            break;
-        case 'K':
-            if (strcmp(optarg, "bezier") == 0) {
-                o.kind = CLI_KIND_BEZIER;
-            } else if (strcmp(optarg, "bspline") == 0) {
-                o.kind = CLI_KIND_BSPLINE;
-            } else {
-                free(o.at);
-                return usage_error(c->name,
-                                   "--kind '%s': expected bezier or bspline",
-                                   optarg);
-            }
-            break;
-        case 'd':
-            d = strtoul(optarg, &end, 10);
-            if (*optarg < '0' || *optarg > '9' || *end != '\0' || d > 9) {
-                free(o.at);
-                return usage_error(c->name, "--decimals '%s': expected 0..9",
-                                   optarg);
-            }
-            o.decimals = (unsigned)d;
-            break;
-        case 's':
-            if (!(c->opts & CLI_O_SUMMARY)) {
-                free(o.at);
-                return usage_error(c->name, "--summary does not apply to %s",
-                                   c->name);
-            }
-            o.summary = true;
-            break;
-        case 'f':
-            if (!(c->opts & CLI_O_FP)) {
-                free(o.at);
-                return usage_error(c->name, "--footprint does not apply to %s",
-                                   c->name);
-            }
-            if (!cli_parse_fps(optarg, &o.fpmask)) {
-                free(o.at);
-                return usage_error(c->name,
-                                   "--footprint '%s': expected names from "
-                                   "LL,LR,L,D,R,RL,RR separated by commas",
-                                   optarg);
-            }
-            break;
-        case 'o':
-            if (!(c->opts & CLI_O_OUT)) {
-                free(o.at);
-                return usage_error(c->name, "-o does not apply to %s",
-                                   c->name);
-            }
-            o.output = optarg;
-            break;
-        case 'm':
-            if (!(c->opts & CLI_O_MEMB)) {
-                free(o.at);
-                return usage_error(c->name,
-                                   "--membership does not apply to %s",
-                                   c->name);
-            }
-            if (strcmp(optarg, "T") == 0) {
-                o.membership = 0;
-            } else if (strcmp(optarg, "I") == 0) {
-                o.membership = 1;
-            } else if (strcmp(optarg, "F") == 0) {
-                o.membership = 2;
-            } else if (strcmp(optarg, "all") == 0) {
-                o.membership = -1;
-            } else {
-                free(o.at);
-                return usage_error(c->name,
-                                   "--membership '%s': expected T, I, F or all",
-                                   optarg);
-            }
-            break;
-        case 'i':
-            if (!(c->opts & CLI_O_PLOT)) {
-                free(o.at);
-                return usage_error(c->name, "--interval does not apply to %s",
-                                   c->name);
-            }
-            o.interval = true;
-            break;
-        case 'N':
-            if (!(c->opts & CLI_O_PLOT)) {
-                free(o.at);
-                return usage_error(c->name, "--nets does not apply to %s",
-                                   c->name);
-            }
-            o.nets = true;
-            break;
-        case 'S':
-            if (!(c->opts & CLI_O_PLOT)) {
-                free(o.at);
-                return usage_error(c->name, "--size does not apply to %s",
-                                   c->name);
-            }
-            if (!cli_parse_grid(optarg, &o.width, &o.height) || o.width < 200u ||
-                o.height < 200u || o.width > 8000u || o.height > 8000u) {
-                free(o.at);
-                return usage_error(c->name,
-                                   "--size '%s': expected WxH with W, H in "
-                                   "200..8000",
-                                   optarg);
-            }
-            break;
-        case 'F':
-            if (!(c->opts & CLI_O_FORMAT)) {
-                free(o.at);
-                return usage_error(c->name, "--format does not apply to %s",
-                                   c->name);
-            }
-            if (strcmp(optarg, "vtk") == 0) {
-                o.format = CLI_FMT_VTK;
-            } else if (strcmp(optarg, "obj") == 0) {
-                o.format = CLI_FMT_OBJ;
-            } else if (strcmp(optarg, "csv") == 0) {
-                o.format = CLI_FMT_CSV;
-            } else {
-                free(o.at);
-                return usage_error(c->name,
-                                   "--format '%s': expected vtk, obj or csv",
-                                   optarg);
-            }
-            fmt = true;
-            break;
-        case 'g':
-            if (!(c->opts & (CLI_O_GRID | CLI_O_GRID_OPT))) {
-                free(o.at);
-                return usage_error(c->name, "--grid does not apply to %s",
-                                   c->name);
-            }
-            if (!cli_parse_grid(optarg, &o.rows, &o.cols)) {
-                free(o.at);
-                return usage_error(c->name,
-                                   "--grid '%s': expected RxC with R, C in "
-                                   "2..65535",
-                                   optarg);
-            }
-            if ((c->opts & CLI_O_GRID_OPT) && (o.rows > CLI_GRID_MAX_MESH ||
-                                               o.cols > CLI_GRID_MAX_MESH)) {
-                free(o.at);
-                return usage_error(c->name,
-                                   "--grid '%s': at most 1001x1001 here",
-                                   optarg);
-            }
-            grid = true;
-            break;
-        case 'a': {
-            cli_at *n;
-            if (!(c->opts & (CLI_O_AT_UW | CLI_O_AT_XY))) {
-                free(o.at);
-                return usage_error(c->name, "--at does not apply to %s",
-                                   c->name);
-            }
-            n = realloc(o.at, (o.nat + 1u) * sizeof(*o.at));
-            if (n == NULL) {
-                free(o.at);
-                fprintf(stderr, "it2n: out of memory\n");
-                return CLI_EXIT_DATA;
-            }
-            o.at = n;
-            if (cli_parse_pair(optarg, (c->opts & CLI_O_AT_UW) != 0u,
-                           &o.at[o.nat], &why) != 0) {
-                fprintf(stderr, "it2n: --at '%s': %s\n", optarg, why);
-                fprintf(stderr, "Try 'it2n %s --help'.\n", c->name);
-                free(o.at);
-                return CLI_EXIT_USAGE;
-            }
-            o.nat++;
-            break;
-        }
-        case ':':
-            free(o.at);
-            return usage_error(c->name, "option '%s' needs an argument",
-                               argv[optind - 1]);
-        default:
-            free(o.at);
-            return usage_error(c->name, "unknown option '%s'",
-                               argv[optind - 1]);
+        } else if (id == OPT_FORMAT) {
+            o->format = (int)v.num; /* CLI_FMT_* in the order of words */
+        } else if ((rc = cli_common_take(&p, &v, o)) >= 0) {
+            return rc;
         }
     }
-    if (optind != argc - 1) {
-        free(o.at);
-        return usage_error(c->name, "%s", optind >= argc
-                                              ? "missing DATA.csv"
-                                              : "expected exactly one DATA.csv");
+    nops = cli_opt_operands(&p, &ops);
+    if (nops != 1) {
+        return cli_usage_error("it2n", c->name, "%s",
+                               nops == 0 ? "missing DATA.csv" : "expected exactly one DATA.csv");
     }
-    o.path = argv[optind];
-    if (o.kind == CLI_KIND_BSPLINE && (o.flags & IT2N_F_CHORD)) {
-        free(o.at);
-        return usage_error(c->name, "%s",
-                           "--chord: the B-spline kind has uniform "
-                           "parameters only");
+    o->path = ops[0];
+    if (o->kind == CLI_KIND_BSPLINE && (o->flags & IT2N_F_CHORD)) {
+        return cli_usage_error("it2n", c->name, "%s",
+                               "--chord: the B-spline kind has uniform parameters only");
     }
-    if ((c->opts & (CLI_O_AT_UW | CLI_O_AT_XY)) && o.nat == 0u) {
-        free(o.at);
-        return usage_error(c->name, "%s needs at least one --at", c->name);
+    if ((c->opts & O_FORMAT) && !cli_opt_seen(&p, OPT_FORMAT)) {
+        return cli_usage_error("it2n", c->name, "%s needs --format vtk|obj|csv", c->name);
     }
-    if ((c->opts & CLI_O_GRID) && !grid) {
-        free(o.at);
-        return usage_error(c->name, "%s needs --grid RxC", c->name);
+    return cli_common_finish(&p, o);
+}
+
+int main(int argc, char **argv)
+{
+    cli_opts o;
+    int rc;
+    const cli_cmd *c = first_word(argc, argv, &rc);
+    if (c == NULL) {
+        return rc;
     }
-    if ((c->opts & CLI_O_GRID_OPT) && !grid) {
-        o.rows = o.cols = (c->opts & CLI_O_PLOT) && o.interval
-                              ? CLI_GRID_INTERVAL
-                              : CLI_GRID_DEFAULT;
+    cli_opts_init(&o);
+    o.cmd = c->name;
+    rc = parse_cmd(c, argc, argv, &o);
+    if (rc < 0) {
+        rc = cli_run(&o);
     }
-    if ((c->opts & CLI_O_FORMAT) && !fmt) {
-        free(o.at);
-        return usage_error(c->name, "%s needs --format vtk|obj|csv", c->name);
-    }
-    if (c->opts & CLI_O_PLOT) {
-        const char *dot = o.output ? strrchr(o.output, '.') : NULL;
-        if (o.output == NULL) {
-            free(o.at);
-            return usage_error(c->name, "%s needs -o FILE.png or -o FILE.svg",
-                               c->name);
-        }
-        if (dot == NULL || (strcasecmp(dot, ".png") != 0 &&
-                            strcasecmp(dot, ".svg") != 0)) {
-            free(o.at);
-            return usage_error(c->name,
-                               "-o '%s': the name must end in .png or .svg",
-                               o.output);
-        }
-        if (o.interval && o.membership == -1) {
-            free(o.at);
-            return usage_error(c->name, "%s",
-                               "--interval needs one membership: "
-                               "--membership T, I or F");
-        }
-        if (o.interval && o.fpmask != 0u) {
-            free(o.at);
-            return usage_error(c->name, "%s",
-                               "--interval uses LL, LR, D, RL, RR: "
-                               "no --footprint");
-        }
-        if (o.membership == CLI_MEMB_UNSET) {
-            o.membership = o.interval ? 0 : -1;
-        }
-    }
-    if (o.membership == CLI_MEMB_UNSET) {
-        o.membership = -1;
-    }
-    rc = cli_run(&o);
     free(o.at);
     return rc;
 }

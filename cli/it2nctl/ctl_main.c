@@ -10,21 +10,21 @@
 #include "ctl.h"
 
 #include <errno.h>
-#include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <time.h>
 #include <unistd.h>
 
 #define CTL_GRID_DEFAULT 21u
 
+/* it2nctl's own command bits (the shared ones, CLI_O_*: cli.h). */
 enum {
-    O_AT_UW = 0x01, O_AT_XY = 0x02, O_SUMMARY = 0x04, O_GRID = 0x08,
-    O_GRID_OPT = 0x10, O_FP = 0x20, O_DATA = 0x40, O_PLOT = 0x80,
-    O_COUNT = 0x100, O_CHORD = 0x200, O_INCOMPLETE = 0x400, O_FOLLOW = 0x800,
-    O_KIND = 0x1000
+    O_DATA = CLI_O_PROG,            /* DATA.csv operand          */
+    O_COUNT = CLI_O_PROG << 1,      /* --count N                 */
+    O_INCOMPLETE = CLI_O_PROG << 2, /* --incomplete              */
+    O_FOLLOW = CLI_O_PROG << 3,     /* --follow                  */
+    O_PLOT = CLI_O_PLOT | CLI_O_OUT | CLI_O_MEMB
 };
 
 typedef struct ctl_cmd {
@@ -51,19 +51,19 @@ static const ctl_cmd cmds[] = {
      "            bspline: read DATA.csv for the cubic B-spline kind (grids up\n"
      "            to 256x256) and push it to a [model:ID] with kind = bspline\n"
      "            (over Modbus; the default is bezier)\n",
-     O_DATA | O_CHORD | O_KIND},
+     O_DATA | CLI_O_CHORD | CLI_O_KIND},
     {"eval", "--at U,W [--at U,W ...]", "Evaluate every footprint at (u, w)",
      "As 'it2n eval', answered by the daemon: u,w,footprint,x,y[,z],T,I,F,\n"
      "out_of_range.\n"
      "  --at U,W    parameters in [0,1] (repeatable)\n"
      "  --summary   add upper/lower interval bound rows\n",
-     O_AT_UW | O_SUMMARY},
+     CLI_O_AT_UW | CLI_O_SUMMARY},
     {"locate", "--at X,Y [--at X,Y ...]", "Find (u, w) of location (x, y)",
      "As 'it2n locate': x,y,footprint,u,w[,z],T,I,F,status. Over Modbus the\n"
      "register map carries no u, w (left empty) and one bit per footprint:\n"
      "status is inside or outside|noconv.\n"
      "  --at X,Y    location (repeatable)\n",
-     O_AT_XY},
+     CLI_O_AT_XY},
     {"net", "", "Print the solved control nets",
      "As 'it2n solve': i,j,footprint,x,y[,z],T,I,F.\n", 0},
     {"sample", "--grid RxC", "Evaluate on an RxC parameter grid",
@@ -71,7 +71,7 @@ static const ctl_cmd cmds[] = {
      "  --grid RxC          R, C in 2..65535\n"
      "  --summary           add interval bound rows\n"
      "  --footprint LIST    only these footprints\n",
-     O_GRID | O_SUMMARY | O_FP},
+     CLI_O_GRID | CLI_O_SUMMARY | CLI_O_FP},
     {"watch", "[--count N] [--incomplete]",
      "Print a status row for each new generation",
      "Prints the status row now and again whenever the model's generation\n"
@@ -98,31 +98,73 @@ static const ctl_cmd cmds[] = {
      "                     file is replaced whole, never seen half written);\n"
      "                     one line 'generation G: FILE' per drawing\n"
      "  --count N          with --follow: stop after N drawings\n",
-     O_PLOT | O_GRID_OPT | O_FP | O_COUNT | O_FOLLOW},
+     O_PLOT | CLI_O_GRID_OPT | CLI_O_FP | O_COUNT | O_FOLLOW},
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
 
-static const char conn_help[] =
-    "Connection (default Modbus TCP 127.0.0.1:1502, unit 1):\n"
-    "  --tcp HOST[:PORT]   Modbus TCP (PORT default 1502; [v6addr]:PORT)\n"
-    "  --rtu DEVICE        Modbus RTU on a serial device\n"
-    "  --baud N            RTU (default 19200) or link (default 115200)\n"
-    "  --parity none|even|odd   RTU (default even), --stop-bits 1|2\n"
-    "  --unit N            Modbus unit id 0..255 (default 1; on TCP 0 and 255\n"
-    "                      reach the default model)\n"
-    "  --link DEVICE       framing protocol on a serial line or pty wired to\n"
-    "                      one of the daemon's [link:] devices\n"
-    "  --model ID          model id on a link, 0..254 (default 1)\n"
-    "  --timeout MS        per request (default 3000)\n"
-    "  --broker HOST:PORT  'it2nctl spb status|eval': through a Sparkplug B\n"
-    "                      edge node's DCMD query on this MQTT broker (PORT\n"
-    "                      default 1883), with --group G --node N; --model ID\n"
-    "                      is the device model-ID (default 1)\n"
-    "Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
-    "127.0.0.1:1502.\n"
-    "Common: --decimals N (0..9, default 6), --help.\n"
-    "Exit status: 0 ok, 1 usage error, 2 data error or refused by the\n"
-    "daemon, 3 daemon unreachable or not answering.\n";
+/* it2nctl's own options; the labelled ones are the "Connection" list of
+ * --help. */
+enum {
+    OPT_TCP = CLI_OPT_PROG, OPT_RTU, OPT_LINK, OPT_UNIT, OPT_MODEL, OPT_BAUD,
+    OPT_PARITY, OPT_STOP, OPT_TIMEOUT, OPT_COUNT, OPT_FOLLOW, OPT_INCOMPLETE,
+    OPT_BROKER, OPT_GROUP, OPT_NODE
+};
+
+static const cli_opt own_opts[] = {
+    {"tcp", 0, CLI_ARG_TEXT, OPT_TCP, 0, 0, 0, NULL, NULL, NULL,
+     "--tcp HOST[:PORT]", "Modbus TCP (PORT default 1502; [v6addr]:PORT)"},
+    {"rtu", 0, CLI_ARG_TEXT, OPT_RTU, 0, 0, 0, NULL, NULL, NULL,
+     "--rtu DEVICE", "Modbus RTU on a serial device"},
+    {"baud", 0, CLI_ARG_UINT, OPT_BAUD, 0, 1200, 4000000, NULL,
+     "expected 1200..4000000", NULL, "--baud N",
+     "RTU (default 19200) or link (default 115200)"},
+    {"parity", 0, CLI_ARG_WORD, OPT_PARITY, 0, 0, 0, "none|even|odd",
+     "expected none, even or odd", NULL, "--parity none|even|odd",
+     "RTU (default even), --stop-bits 1|2"},
+    {"stop-bits", 0, CLI_ARG_UINT, OPT_STOP, 0, 1, 2, NULL, "expected 1 or 2",
+     NULL, NULL, NULL},
+    {"unit", 0, CLI_ARG_UINT, OPT_UNIT, 0, 0, 255, NULL, "expected 0..255",
+     NULL, "--unit N",
+     "Modbus unit id 0..255 (default 1; on TCP 0 and 255\n"
+     "reach the default model)"},
+    {"link", 0, CLI_ARG_TEXT, OPT_LINK, 0, 0, 0, NULL, NULL, NULL,
+     "--link DEVICE",
+     "framing protocol on a serial line or pty wired to\n"
+     "one of the daemon's [link:] devices"},
+    {"model", 0, CLI_ARG_UINT, OPT_MODEL, 0, 0, 254, NULL, "expected 0..254",
+     NULL, "--model ID", "model id on a link, 0..254 (default 1)"},
+    {"timeout", 0, CLI_ARG_UINT, OPT_TIMEOUT, 0, 10, 600000, NULL,
+     "expected 10..600000 ms", NULL, "--timeout MS",
+     "per request (default 3000)"},
+    {"broker", 0, CLI_ARG_TEXT, OPT_BROKER, 0, 0, 0, NULL, NULL, NULL,
+     "--broker HOST:PORT",
+     "'it2nctl spb status|eval': through a Sparkplug B\n"
+     "edge node's DCMD query on this MQTT broker (PORT\n"
+     "default 1883), with --group G --node N; --model ID\n"
+     "is the device model-ID (default 1)"},
+    {"group", 0, CLI_ARG_TEXT, OPT_GROUP, 0, 0, 0, NULL, NULL, NULL, NULL,
+     NULL},
+    {"node", 0, CLI_ARG_TEXT, OPT_NODE, 0, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"count", 0, CLI_ARG_UINT, OPT_COUNT, O_COUNT, 1, 1000000000, NULL,
+     "expected 1 or more", NULL, NULL, NULL},
+    {"follow", 0, CLI_ARG_NONE, OPT_FOLLOW, O_FOLLOW, 0, 0, NULL, NULL, NULL,
+     NULL, NULL},
+    {"incomplete", 0, CLI_ARG_NONE, OPT_INCOMPLETE, O_INCOMPLETE, 0, 0, NULL,
+     NULL, NULL, NULL, NULL},
+};
+
+static void conn_help(FILE *out)
+{
+    fputs("Connection (default Modbus TCP 127.0.0.1:1502, unit 1):\n", out);
+    cli_opt_help(out, own_opts, sizeof(own_opts) / sizeof(own_opts[0]), 0u,
+                 20u);
+    fputs("Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
+          "127.0.0.1:1502.\n"
+          "Common: --decimals N (0..9, default 6), --help.\n"
+          "Exit status: 0 ok, 1 usage error, 2 data error or refused by the\n"
+          "daemon, 3 daemon unreachable or not answering.\n",
+          out);
+}
 
 typedef struct ctl_args {
     const ctl_cmd *cmd;
@@ -145,24 +187,18 @@ static void usage_all(FILE *out)
     fprintf(out, "  %-7s %s\n", "spb",
             "Sparkplug B host mode: spb watch, spb status, spb eval");
     fprintf(out, "\n'it2nctl COMMAND --help' for details; 'it2nctl "
-                 "--version'.\n\n%s",
-            conn_help);
+                 "--version'.\n\n");
+    conn_help(out);
 }
 
 static void usage_cmd(const ctl_cmd *c)
 {
-    printf("Usage: it2nctl %s%s%s [CONNECTION] [--decimals N]\n\n%s\n%s",
-           c->name, c->args[0] ? " " : "", c->args, c->help, conn_help);
+    printf("Usage: it2nctl %s%s%s [CONNECTION] [--decimals N]\n\n%s\n",
+           c->name, c->args[0] ? " " : "", c->args, c->help);
+    conn_help(stdout);
 }
 
-static int usage_error(const char *cmd, const char *fmt, const char *arg)
-{
-    fprintf(stderr, "it2nctl: ");
-    fprintf(stderr, fmt, arg);
-    fprintf(stderr, "\nTry 'it2nctl %s%s--help'.\n", cmd ? cmd : "",
-            cmd ? " " : "");
-    return CTL_EXIT_USAGE;
-}
+#define usage_error(...) cli_usage_error("it2nctl", __VA_ARGS__)
 
 /* ---- output, as it2n prints it (cli/commands.c) ------------------------ */
 
@@ -971,70 +1007,43 @@ static const ctl_cmd *find_cmd(const char *name)
     return NULL;
 }
 
-static bool parse_uint(const char *s, unsigned long lo, unsigned long hi,
-                       unsigned *out)
+static const cli_optset opt_sets[2] = {CLI_OPTSET(own_opts), {NULL, 0}};
+
+/* Options may come before the command (it2nctl --tcp H:P status): the
+ * first word that is not an option or an option's value is moved to the
+ * front, the rest keep their order. Returns -1, or an exit status. */
+static int command_first(int argc, char **argv)
 {
-    char *end;
-    unsigned long v;
-    if (*s < '0' || *s > '9') {
-        return false;
+    cli_optset sets[2] = {cli_common_opts, opt_sets[0]};
+    char *cmd;
+    int i = 1;
+    while (i < argc && argv[i][0] == '-') {
+        const cli_opt *lo = NULL;
+        if (argv[i][1] == '-' && strchr(argv[i], '=') == NULL) {
+            lo = cli_opt_find(sets, 2, argv[i] + 2);
+        }
+        i += (lo != NULL && lo->arg != CLI_ARG_NONE) ||
+                     strcmp(argv[i], "-o") == 0
+                 ? 2
+                 : 1;
     }
-    errno = 0;
-    v = strtoul(s, &end, 10);
-    if (*end != '\0' || errno != 0 || v < lo || v > hi) {
-        return false;
+    if (i >= argc) {
+        return usage_error(NULL, "%s", "no command given (it may stand "
+                                       "before or after the options)");
     }
-    *out = (unsigned)v;
-    return true;
+    cmd = argv[i];
+    memmove(&argv[2], &argv[1], (size_t)(i - 1) * sizeof(argv[0]));
+    argv[1] = cmd;
+    return -1;
 }
 
-enum {
-    OPT_AT = 256, OPT_SUMMARY, OPT_GRID, OPT_CHORD, OPT_DECIMALS, OPT_HELP,
-    OPT_VERSION, OPT_FP, OPT_MEMB, OPT_INTERVAL, OPT_SIZE, OPT_TCP, OPT_RTU,
-    OPT_LINK, OPT_UNIT, OPT_MODEL, OPT_BAUD, OPT_PARITY, OPT_STOP,
-    OPT_TIMEOUT, OPT_COUNT, OPT_NETS, OPT_FOLLOW, OPT_INCOMPLETE, OPT_KIND,
-    OPT_BROKER, OPT_GROUP, OPT_NODE
-};
-
-/* Parse argv into a; returns -1 to go on, else an exit status. */
-static int parse_args(int argc, char **argv, ctl_args *a)
+/* --help, --version and the command word into a->cmd; -1 to go on. */
+static int first_word(int argc, char **argv, ctl_args *a)
 {
-    static const struct option longopts[] = {
-        {"at", required_argument, NULL, OPT_AT},
-        {"summary", no_argument, NULL, OPT_SUMMARY},
-        {"grid", required_argument, NULL, OPT_GRID},
-        {"chord", no_argument, NULL, OPT_CHORD},
-        {"decimals", required_argument, NULL, OPT_DECIMALS},
-        {"help", no_argument, NULL, OPT_HELP},
-        {"version", no_argument, NULL, OPT_VERSION},
-        {"footprint", required_argument, NULL, OPT_FP},
-        {"output", required_argument, NULL, 'o'},
-        {"membership", required_argument, NULL, OPT_MEMB},
-        {"interval", no_argument, NULL, OPT_INTERVAL},
-        {"size", required_argument, NULL, OPT_SIZE},
-        {"tcp", required_argument, NULL, OPT_TCP},
-        {"rtu", required_argument, NULL, OPT_RTU},
-        {"link", required_argument, NULL, OPT_LINK},
-        {"unit", required_argument, NULL, OPT_UNIT},
-        {"model", required_argument, NULL, OPT_MODEL},
-        {"baud", required_argument, NULL, OPT_BAUD},
-        {"parity", required_argument, NULL, OPT_PARITY},
-        {"stop-bits", required_argument, NULL, OPT_STOP},
-        {"timeout", required_argument, NULL, OPT_TIMEOUT},
-        {"count", required_argument, NULL, OPT_COUNT},
-        {"nets", no_argument, NULL, OPT_NETS},
-        {"follow", no_argument, NULL, OPT_FOLLOW},
-        {"incomplete", no_argument, NULL, OPT_INCOMPLETE},
-        {"kind", required_argument, NULL, OPT_KIND},
-        {"broker", required_argument, NULL, OPT_BROKER},
-        {"group", required_argument, NULL, OPT_GROUP},
-        {"node", required_argument, NULL, OPT_NODE},
-        {NULL, 0, NULL, 0}};
+    const char *names[NCMDS + 1u], *near;
     const ctl_cmd *c;
-    cli_opts *o = &a->o;
-    bool grid = false, baud = false, memb = false;
-    int opt, nconn = 0;
-
+    size_t k;
+    int rc;
     if (argc < 2) {
         usage_all(stderr);
         return CTL_EXIT_USAGE;
@@ -1053,386 +1062,133 @@ static int parse_args(int argc, char **argv, ctl_args *a)
                IT2N_MAX_DEGREE);
         return CTL_EXIT_OK;
     }
-    if (argv[1][0] == '-') {
-        /* Options may come before the command (it2nctl --tcp H:P status):
-         * the first word that is not an option or an option's value is
-         * moved to the front, the rest keep their order. */
-        int i = 1;
-        while (i < argc && argv[i][0] == '-') {
-            const struct option *lo = NULL;
-            if (argv[i][1] == '-' && strchr(argv[i], '=') == NULL) {
-                for (lo = longopts; lo->name != NULL; lo++) {
-                    if (strcmp(lo->name, argv[i] + 2) == 0) {
-                        break;
-                    }
-                }
-            }
-            i += (lo != NULL && lo->name != NULL &&
-                  lo->has_arg == required_argument) ||
-                         strcmp(argv[i], "-o") == 0
-                     ? 2
-                     : 1;
-        }
-        if (i >= argc) {
-            return usage_error(NULL, "%s", "no command given (it may stand "
-                                           "before or after the options)");
-        }
-        char *cmd = argv[i];
-        memmove(&argv[2], &argv[1], (size_t)(i - 1) * sizeof(argv[0]));
-        argv[1] = cmd;
+    if (argv[1][0] == '-' && (rc = command_first(argc, argv)) >= 0) {
+        return rc;
     }
-    c = find_cmd(argv[1]);
-    if (c == NULL) {
-        return usage_error(NULL, "unknown command '%s'", argv[1]);
-    }
-    a->cmd = c;
-    o->cmd = c->name;
-    optind = 2;
-    opterr = 0;
-    while ((opt = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
-        const char *why = NULL;
-        switch (opt) {
-        case 'h':
-        case OPT_HELP:
-            usage_cmd(c);
-            return CTL_EXIT_OK;
-        case OPT_VERSION:
-            printf("it2nctl %s\n", IT2N_CLI_VERSION);
-            return CTL_EXIT_OK;
-        case OPT_KIND:
-            if (!(c->opts & O_KIND)) {
-                return usage_error(c->name, "--kind does not apply to %s "
-                                   "(the daemon's model has its kind)",
-                                   c->name);
-            }
-            if (strcmp(optarg, "bezier") == 0) {
-                o->kind = CLI_KIND_BEZIER;
-            } else if (strcmp(optarg, "bspline") == 0) {
-                o->kind = CLI_KIND_BSPLINE;
-            } else {
-                return usage_error(c->name,
-                                   "--kind '%s': expected bezier or bspline",
-                                   optarg);
-            }
-            break;
-        case OPT_CHORD:
-            if (!(c->opts & O_CHORD)) {
-                return usage_error(c->name, "--chord does not apply to %s",
-                                   c->name);
-            }
-            o->flags |= IT2N_F_CHORD;
-            break;
-        case OPT_DECIMALS:
-            if (!parse_uint(optarg, 0, 9, &o->decimals)) {
-                return usage_error(c->name, "--decimals '%s': expected 0..9",
-                                   optarg);
-            }
-            break;
-        case OPT_SUMMARY:
-            if (!(c->opts & O_SUMMARY)) {
-                return usage_error(c->name, "--summary does not apply to %s",
-                                   c->name);
-            }
-            o->summary = true;
-            break;
-        case OPT_FP:
-            if (!(c->opts & O_FP)) {
-                return usage_error(c->name,
-                                   "--footprint does not apply to %s",
-                                   c->name);
-            }
-            if (!cli_parse_fps(optarg, &o->fpmask)) {
-                return usage_error(c->name,
-                                   "--footprint '%s': expected names from "
-                                   "LL,LR,L,D,R,RL,RR separated by commas",
-                                   optarg);
-            }
-            break;
-        case 'o':
-            if (!(c->opts & O_PLOT)) {
-                return usage_error(c->name, "-o does not apply to %s",
-                                   c->name);
-            }
-            o->output = optarg;
-            break;
-        case OPT_MEMB:
-            if (!(c->opts & O_PLOT)) {
-                return usage_error(c->name,
-                                   "--membership does not apply to %s",
-                                   c->name);
-            }
-            if (strcmp(optarg, "T") == 0) {
-                o->membership = 0;
-            } else if (strcmp(optarg, "I") == 0) {
-                o->membership = 1;
-            } else if (strcmp(optarg, "F") == 0) {
-                o->membership = 2;
-            } else if (strcmp(optarg, "all") == 0) {
-                o->membership = -1;
-            } else {
-                return usage_error(c->name,
-                                   "--membership '%s': expected T, I, F or "
-                                   "all",
-                                   optarg);
-            }
-            memb = true;
-            break;
-        case OPT_NETS:
-            if (!(c->opts & O_PLOT)) {
-                return usage_error(c->name, "--nets does not apply to %s",
-                                   c->name);
-            }
-            o->nets = true;
-            break;
-        case OPT_FOLLOW:
-            if (!(c->opts & O_FOLLOW)) {
-                return usage_error(c->name, "--follow does not apply to %s",
-                                   c->name);
-            }
-            a->follow = true;
-            break;
-        case OPT_INCOMPLETE:
-            if (!(c->opts & O_INCOMPLETE)) {
-                return usage_error(c->name,
-                                   "--incomplete does not apply to %s",
-                                   c->name);
-            }
-            a->incomplete = true;
-            break;
-        case OPT_INTERVAL:
-            if (!(c->opts & O_PLOT)) {
-                return usage_error(c->name,
-                                   "--interval does not apply to %s",
-                                   c->name);
-            }
-            o->interval = true;
-            break;
-        case OPT_SIZE:
-            if (!(c->opts & O_PLOT)) {
-                return usage_error(c->name, "--size does not apply to %s",
-                                   c->name);
-            }
-            if (!cli_parse_grid(optarg, &o->width, &o->height) ||
-                o->width < 200u || o->height < 200u || o->width > 8000u ||
-                o->height > 8000u) {
-                return usage_error(c->name,
-                                   "--size '%s': expected WxH with W, H in "
-                                   "200..8000",
-                                   optarg);
-            }
-            break;
-        case OPT_GRID:
-            if (!(c->opts & (O_GRID | O_GRID_OPT))) {
-                return usage_error(c->name, "--grid does not apply to %s",
-                                   c->name);
-            }
-            if (!cli_parse_grid(optarg, &o->rows, &o->cols)) {
-                return usage_error(c->name,
-                                   "--grid '%s': expected RxC with R, C in "
-                                   "2..65535",
-                                   optarg);
-            }
-            if ((c->opts & O_GRID_OPT) && (o->rows > CLI_GRID_MAX_MESH ||
-                                           o->cols > CLI_GRID_MAX_MESH)) {
-                return usage_error(c->name,
-                                   "--grid '%s': at most 1001x1001 here",
-                                   optarg);
-            }
-            grid = true;
-            break;
-        case OPT_AT: {
-            cli_at *n;
-            if (!(c->opts & (O_AT_UW | O_AT_XY))) {
-                return usage_error(c->name, "--at does not apply to %s",
-                                   c->name);
-            }
-            n = realloc(o->at, (o->nat + 1u) * sizeof(*o->at));
-            if (n == NULL) {
-                fprintf(stderr, "it2nctl: out of memory\n");
-                return CTL_EXIT_DATA;
-            }
-            o->at = n;
-            if (cli_parse_pair(optarg, (c->opts & O_AT_UW) != 0u, &o->at[o->nat],
-                           &why) != 0) {
-                fprintf(stderr, "it2nctl: --at '%s': %s\n", optarg, why);
-                fprintf(stderr, "Try 'it2nctl %s --help'.\n", c->name);
-                return CTL_EXIT_USAGE;
-            }
-            o->nat++;
-            break;
+    a->cmd = find_cmd(argv[1]);
+    if (a->cmd == NULL) {
+        for (k = 0; k < NCMDS; k++) {
+            names[k] = cmds[k].name;
         }
-        case OPT_COUNT:
-            if (!(c->opts & O_COUNT)) {
-                return usage_error(c->name, "--count does not apply to %s",
-                                   c->name);
-            }
-            if (!parse_uint(optarg, 1, 1000000000, &a->count)) {
-                return usage_error(c->name, "--count '%s': expected 1 or more",
-                                   optarg);
-            }
-            break;
-        case OPT_TCP: {
-            char host[128], port[16];
-            const char *bad = ctl_tcp_split(optarg, host, sizeof(host), port,
-                                            sizeof(port));
-            if (bad != NULL) {
-                char msg[320];
-                snprintf(msg, sizeof(msg), "--tcp '%.200s': %s", optarg, bad);
-                return usage_error(c->name, "%s", msg);
-            }
-            a->conn.tcp = optarg;
-            nconn++;
-            break;
-        }
-        case OPT_RTU:
-            a->conn.rtu = optarg;
-            nconn++;
-            break;
-        case OPT_LINK:
-            a->conn.link = optarg;
-            nconn++;
-            break;
-        case OPT_UNIT:
-            if (!parse_uint(optarg, 0, 255, &a->conn.unit)) {
-                return usage_error(c->name, "--unit '%s': expected 0..255",
-                                   optarg);
-            }
-            break;
-        case OPT_MODEL:
-            if (!parse_uint(optarg, 0, 254, &a->conn.model)) {
-                return usage_error(c->name, "--model '%s': expected 0..254",
-                                   optarg);
-            }
-            break;
-        case OPT_BAUD:
-            if (!parse_uint(optarg, 1200, 4000000, &a->conn.baud)) {
-                return usage_error(c->name,
-                                   "--baud '%s': expected 1200..4000000",
-                                   optarg);
-            }
-            baud = true;
-            break;
-        case OPT_PARITY:
-            if (strcmp(optarg, "none") == 0) {
-                a->conn.parity = 'N';
-            } else if (strcmp(optarg, "even") == 0) {
-                a->conn.parity = 'E';
-            } else if (strcmp(optarg, "odd") == 0) {
-                a->conn.parity = 'O';
-            } else {
-                return usage_error(c->name,
-                                   "--parity '%s': expected none, even or odd",
-                                   optarg);
-            }
-            break;
-        case OPT_STOP:
-            if (!parse_uint(optarg, 1, 2, &a->conn.stop_bits)) {
-                return usage_error(c->name, "--stop-bits '%s': expected 1 or 2",
-                                   optarg);
-            }
-            break;
-        case OPT_TIMEOUT:
-            if (!parse_uint(optarg, 10, 600000, &a->conn.timeout_ms)) {
-                return usage_error(c->name,
-                                   "--timeout '%s': expected 10..600000 ms",
-                                   optarg);
-            }
-            break;
-        case OPT_BROKER: /* it2nctl spb (ctl_spb.c) */
-            a->conn.broker = optarg;
-            nconn++;
-            break;
-        case OPT_GROUP:
-            a->conn.group = optarg;
-            break;
-        case OPT_NODE:
-            a->conn.node = optarg;
-            break;
-        case ':':
-            return usage_error(c->name, "option '%s' needs an argument",
-                               argv[optind - 1]);
-        default:
-            return usage_error(c->name, "unknown option '%s'",
-                               argv[optind - 1]);
-        }
+        names[NCMDS] = "spb";
+        near = cli_did_you_mean(argv[1], names, NCMDS + 1u);
+        return near ? usage_error(NULL, "unknown command '%s' (did you mean '%s'?)",
+                                  argv[1], near)
+                    : usage_error(NULL, "unknown command '%s'", argv[1]);
     }
-    if (nconn > 1) {
-        return usage_error(c->name, "%s",
-                           "give one of --tcp, --rtu and --link");
-    }
-    if (nconn == 0 && getenv("IT2NCTL_TCP") != NULL &&
-        getenv("IT2NCTL_TCP")[0] != '\0') {
-        char host[128], port[16], msg[320];
-        const char *bad;
-        a->conn.tcp = getenv("IT2NCTL_TCP");
-        bad = ctl_tcp_split(a->conn.tcp, host, sizeof(host), port,
-                            sizeof(port));
+    a->o.cmd = a->cmd->name;
+    return -1;
+}
+
+/* One of it2nctl's own options into a; -1, or an exit status. */
+static int take_own(const cli_parser *p, const cli_optval *v, ctl_args *a)
+{
+    static const char parity[3] = {'N', 'E', 'O'};
+    char host[128], port[16];
+    const char *bad;
+    switch (v->opt->id) {
+    case OPT_TCP:
+        bad = ctl_tcp_split(v->text, host, sizeof(host), port, sizeof(port));
         if (bad != NULL) {
-            snprintf(msg, sizeof(msg), "IT2NCTL_TCP='%.200s': %s",
-                     a->conn.tcp, bad);
-            return usage_error(c->name, "%s", msg);
+            return usage_error(p->cmd, "--tcp '%.200s': %s", v->text, bad);
+        }
+        a->conn.tcp = v->text;
+        break;
+    case OPT_RTU: a->conn.rtu = v->text; break;
+    case OPT_LINK: a->conn.link = v->text; break;
+    case OPT_UNIT: a->conn.unit = (unsigned)v->num; break;
+    case OPT_MODEL: a->conn.model = (unsigned)v->num; break;
+    case OPT_BAUD: a->conn.baud = (unsigned)v->num; break;
+    case OPT_PARITY: a->conn.parity = parity[v->num]; break;
+    case OPT_STOP: a->conn.stop_bits = (unsigned)v->num; break;
+    case OPT_TIMEOUT: a->conn.timeout_ms = (unsigned)v->num; break;
+    case OPT_COUNT: a->count = (unsigned)v->num; break;
+    case OPT_FOLLOW: a->follow = true; break;
+    case OPT_INCOMPLETE: a->incomplete = true; break;
+    case OPT_BROKER: a->conn.broker = v->text; break; /* it2nctl spb */
+    case OPT_GROUP: a->conn.group = v->text; break;
+    case OPT_NODE: a->conn.node = v->text; break;
+    default: break;
+    }
+    return -1;
+}
+
+/* One transport at most; $IT2NCTL_TCP; RTU unit ids; the baud default. */
+static int finish_conn(const cli_parser *p, ctl_args *a)
+{
+    int nconn = cli_opt_seen(p, OPT_TCP) + cli_opt_seen(p, OPT_RTU) +
+                cli_opt_seen(p, OPT_LINK) + cli_opt_seen(p, OPT_BROKER);
+    const char *env = getenv("IT2NCTL_TCP");
+    if (nconn > 1) {
+        return usage_error(p->cmd, "%s", "give one of --tcp, --rtu and --link");
+    }
+    if (nconn == 0 && env != NULL && env[0] != '\0') {
+        char host[128], port[16];
+        const char *bad = ctl_tcp_split(env, host, sizeof(host), port,
+                                        sizeof(port));
+        a->conn.tcp = env;
+        if (bad != NULL) {
+            return usage_error(p->cmd, "IT2NCTL_TCP='%.200s': %s", env, bad);
         }
     }
     if (a->conn.rtu != NULL && a->conn.unit > 247) {
-        return usage_error(c->name, "%s",
+        return usage_error(p->cmd, "%s",
                            "--unit: RTU unit ids are 0..247 (248..255 are "
                            "reserved on a serial line; 255 reaches the "
                            "default model on TCP only)");
     }
-    if (!baud) {
+    if (!cli_opt_seen(p, OPT_BAUD)) {
         a->conn.baud = a->conn.link != NULL ? 115200u : 19200u;
     }
-    if (c->opts & O_DATA) {
-        if (optind != argc - 1) {
-            return usage_error(c->name, "%s",
-                               optind >= argc ? "missing DATA.csv"
-                                              : "expected exactly one DATA.csv");
+    return -1;
+}
+
+/* Parse argv into a; returns -1 to go on, else an exit status. */
+static int parse_args(int argc, char **argv, ctl_args *a)
+{
+    cli_optset sets[2] = {cli_common_opts, opt_sets[0]};
+    const ctl_cmd *c;
+    cli_parser p;
+    cli_optval v;
+    char **ops;
+    int id, nops, rc = first_word(argc, argv, a);
+    if (rc >= 0) {
+        return rc;
+    }
+    c = a->cmd;
+    cli_opt_init(&p, "it2nctl", c->name, c->opts, sets, 2, argc, argv, 2);
+    while ((id = cli_opt_next(&p, &v)) != CLI_OPT_END) {
+        if (id == CLI_OPT_ERROR) {
+            return CTL_EXIT_USAGE;
+        } else if (id == CLI_OPT_HELP) {
+            usage_cmd(c);
+            return CTL_EXIT_OK;
+        } else if (id == CLI_OPT_VERSION) {
+            printf("it2nctl %s\n", IT2N_CLI_VERSION);
+            return CTL_EXIT_OK;
         }
-        o->path = argv[optind];
-    } else if (optind != argc) {
-        return usage_error(c->name, "unexpected argument '%s'", argv[optind]);
+        rc = id >= CLI_OPT_PROG ? take_own(&p, &v, a)
+                                : cli_common_take(&p, &v, &a->o);
+        if (rc >= 0) {
+            return rc;
+        }
     }
-    if ((c->opts & (O_AT_UW | O_AT_XY)) && o->nat == 0u) {
-        return usage_error(c->name, "%s needs at least one --at", c->name);
+    if ((rc = finish_conn(&p, a)) >= 0) {
+        return rc;
     }
-    if ((c->opts & O_GRID) && !grid) {
-        return usage_error(c->name, "%s needs --grid RxC", c->name);
+    nops = cli_opt_operands(&p, &ops);
+    if ((c->opts & O_DATA) && nops != 1) {
+        return usage_error(c->name, "%s", nops == 0 ? "missing DATA.csv"
+                                                    : "expected exactly one DATA.csv");
     }
-    if ((c->opts & O_GRID_OPT) && !grid) {
-        o->rows = o->cols = (c->opts & O_PLOT) && o->interval
-                                ? CLI_GRID_INTERVAL
-                                : CTL_GRID_DEFAULT;
+    if (!(c->opts & O_DATA) && nops != 0) {
+        return usage_error(c->name, "unexpected argument '%s'", ops[0]);
     }
+    a->o.path = (c->opts & O_DATA) ? ops[0] : NULL;
     if ((c->opts & O_FOLLOW) && a->count != 0u && !a->follow) {
         return usage_error(c->name, "%s", "--count needs --follow");
     }
-    if (c->opts & O_PLOT) {
-        const char *dot = o->output ? strrchr(o->output, '.') : NULL;
-        if (o->output == NULL) {
-            return usage_error(c->name, "%s needs -o FILE.png or -o FILE.svg",
-                               c->name);
-        }
-        if (dot == NULL || (strcasecmp(dot, ".png") != 0 &&
-                            strcasecmp(dot, ".svg") != 0)) {
-            return usage_error(c->name,
-                               "-o '%s': the name must end in .png or .svg",
-                               o->output);
-        }
-        if (o->interval && memb && o->membership == -1) {
-            return usage_error(c->name, "%s",
-                               "--interval needs one membership: "
-                               "--membership T, I or F");
-        }
-        if (o->interval && o->fpmask != 0u) {
-            return usage_error(c->name, "%s",
-                               "--interval uses LL, LR, D, RL, RR: "
-                               "no --footprint");
-        }
-        if (!memb) {
-            o->membership = o->interval ? 0 : -1;
-        }
-    }
-    return -1;
+    return cli_common_finish(&p, &a->o);
 }
 
 /* `it2nctl spb watch ...` runs here; `it2nctl spb status|eval ...` go on
@@ -1497,8 +1253,7 @@ int main(int argc, char **argv)
     int rc;
     memset(&a, 0, sizeof(a));
     memset(&s, 0, sizeof(s));
-    a.o.decimals = 6;
-    a.o.membership = -1;
+    cli_opts_init(&a.o);
     a.conn.unit = 1;
     a.conn.model = 1;
     a.conn.parity = 'E';
