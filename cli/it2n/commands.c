@@ -5,6 +5,7 @@
  */
 #include "cli.h"
 #include "csv.h"
+#include "out.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -184,13 +185,6 @@ static int load(const cli_opts *o)
     return rc;
 }
 
-/* Footprint fp is in the loaded model and selected by --footprint. */
-static bool fp_selected(const cli_opts *o, unsigned fp)
-{
-    bool in = (g_flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;
-    return in && (o->fpmask == 0u || (o->fpmask & (1u << fp)) != 0u);
-}
-
 static bool fp_in_model(unsigned fp)
 {
     return (g_flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;
@@ -284,62 +278,8 @@ void cli_fmt_val(char *buf, size_t size, it2n_val v, unsigned decimals)
     }
 }
 
-static void put_val(it2n_val v, unsigned decimals)
-{
-    char buf[48];
-    if (it2n_format_val(buf, sizeof(buf), v, decimals) < 0) {
-        fputs("?", stdout); /* cannot happen: buf fits any int64 */
-        return;
-    }
-    fputs(buf, stdout);
-}
-
-/* Parameters keep at least CLI_PAR_DECIMALS digits: --decimals below that
- * shortens values, never the (u, w) a row is about. */
-static void put_par(it2n_par p, unsigned decimals)
-{
-    char buf[48];
-    if (decimals < CLI_PAR_DECIMALS) {
-        decimals = CLI_PAR_DECIMALS;
-    }
-    if (it2n_format_par(buf, sizeof(buf), p, decimals) < 0) {
-        fputs("?", stdout);
-        return;
-    }
-    fputs(buf, stdout);
-}
-
-static bool has_z(void)
-{
-    return (g_flags & IT2N_F_Z) != 0u;
-}
-
-/* ",x,y[,z],T,I,F" from a channel vector. */
-static void put_channels(const it2n_val *v, unsigned decimals)
-{
-    unsigned ch;
-    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        if (ch == IT2N_CH_Z && !has_z()) {
-            continue;
-        }
-        putchar(',');
-        put_val(v[ch], decimals);
-    }
-}
-
-static void put_header(const char *lead, const char *tail)
-{
-    printf("%s,x,y%s,T,I,F%s\n", lead, has_z() ? ",z" : "", tail);
-}
-
-static int finish_output(void)
-{
-    if (fflush(stdout) != 0 || ferror(stdout)) {
-        fprintf(stderr, "it2n: write error: %s\n", strerror(errno));
-        return CLI_EXIT_DATA;
-    }
-    return CLI_EXIT_OK;
-}
+/* The rows' options and the loaded model's z and type (set by run). */
+static cli_out g_out;
 
 static int cmd_check(const cli_opts *o)
 {
@@ -349,17 +289,17 @@ static int cmd_check(const cli_opts *o)
            "parameters%s\n",
            display_name(o), n + 1u, m + 1u, n, m,
            t1 ? "type-1 (footprint D)" : "type-2 (7 footprints)",
-           has_z() ? "x,y,z" : "x,y",
+           g_out.z ? "x,y,z" : "x,y",
            (g_flags & IT2N_F_CHORD) ? "chord-length" : "uniform",
            g_bspline ? ", cubic B-spline (not-a-knot)" : "");
-    return finish_output();
+    return cli_finish_output("it2n");
 }
 
 /* B-spline coefficients c_{i,j}, i = -1..n+1, j = -1..m+1. */
-static int cmd_solve_bspline(const cli_opts *o)
+static int cmd_solve_bspline(void)
 {
     unsigned r, c, fp, ch;
-    put_header("i,j,footprint", "");
+    cli_put_header(&g_out, "i,j,footprint", "");
     for (r = 0; r <= g_bds.n + 2u; r++) {
         for (c = 0; c <= g_bds.m + 2u; c++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
@@ -367,113 +307,39 @@ static int cmd_solve_bspline(const cli_opts *o)
                 if (!fp_in_model(fp)) {
                     continue;
                 }
-                printf("%d,%d,%s", (int)r - 1, (int)c - 1, it2n_fp_name(fp));
                 for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
                     v[ch] = it2n_bspline_coef(&g_bmdl, r, c, fp, ch);
                 }
-                put_channels(v, o->decimals);
-                putchar('\n');
+                cli_put_net_row(&g_out, (int)r - 1, (int)c - 1, fp, v);
             }
         }
     }
-    return finish_output();
+    return cli_finish_output("it2n");
 }
 
-static int cmd_solve(const cli_opts *o)
+static int cmd_solve(void)
 {
     unsigned i, j, fp;
     if (g_bspline) {
-        return cmd_solve_bspline(o);
+        return cmd_solve_bspline();
     }
-    put_header("i,j,footprint", "");
+    cli_put_header(&g_out, "i,j,footprint", "");
     for (i = 0; i <= g_ds.n; i++) {
         for (j = 0; j <= g_ds.m; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 if (!it2n_model_has_fp(&g_mdl, fp)) {
                     continue;
                 }
-                printf("%u,%u,%s", i, j, it2n_fp_name(fp));
                 it2n_val v[IT2N_CH_COUNT];
                 unsigned ch;
                 for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
                     v[ch] = it2n_model_ctrl(&g_mdl, i, j, fp, ch);
                 }
-                put_channels(v, o->decimals);
-                putchar('\n');
+                cli_put_net_row(&g_out, (int)i, (int)j, fp, v);
             }
         }
     }
-    return finish_output();
-}
-
-/* Names of the memberships of fp flagged out of [0, 1], or "-". */
-static void put_flags(uint32_t oor, unsigned fp)
-{
-    static const char *const tif[3] = {"T", "I", "F"};
-    bool any = false;
-    unsigned k;
-    putchar(',');
-    for (k = 0; k < 3u; k++) {
-        if (oor & ((uint32_t)1 << (fp * 3u + k))) {
-            printf("%s%s", any ? "|" : "", tif[k]);
-            any = true;
-        }
-    }
-    if (!any) {
-        putchar('-');
-    }
-}
-
-/* A summary row: coordinates empty, T,I,F filled, flags from the values. */
-static void put_summary_row(it2n_par u, it2n_par w, const char *what,
-                            const it2n_val tif[3], unsigned decimals)
-{
-    static const char *const names[3] = {"T", "I", "F"};
-    bool any = false;
-    unsigned k;
-    put_par(u, decimals);
-    putchar(',');
-    put_par(w, decimals);
-    printf(",%s,,%s", what, has_z() ? "," : ""); /* x, y (, z) empty */
-    for (k = 0; k < 3u; k++) {
-        putchar(',');
-        put_val(tif[k], decimals);
-    }
-    putchar(',');
-    for (k = 0; k < 3u; k++) {
-        if (tif[k] < 0 || tif[k] > IT2N_VAL_ONE) {
-            printf("%s%s", any ? "|" : "", names[k]);
-            any = true;
-        }
-    }
-    if (!any) {
-        putchar('-');
-    }
-    putchar('\n');
-}
-
-static void put_point(it2n_par u, it2n_par w, const it2n_point *pt,
-                      const cli_opts *o)
-{
-    unsigned fp;
-    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        if (!fp_selected(o, fp)) {
-            continue;
-        }
-        put_par(u, o->decimals);
-        putchar(',');
-        put_par(w, o->decimals);
-        printf(",%s", it2n_fp_name(fp));
-        put_channels(pt->v[fp], o->decimals);
-        put_flags(pt->out_of_range, fp);
-        putchar('\n');
-    }
-    if (o->summary) {
-        put_summary_row(u, w, "upper_min", pt->sum.upper_min, o->decimals);
-        put_summary_row(u, w, "upper_max", pt->sum.upper_max, o->decimals);
-        put_summary_row(u, w, "lower_min", pt->sum.lower_min, o->decimals);
-        put_summary_row(u, w, "lower_max", pt->sum.lower_max, o->decimals);
-    }
+    return cli_finish_output("it2n");
 }
 
 static int core_fail(const char *what, int rc)
@@ -486,7 +352,7 @@ static int cmd_eval(const cli_opts *o)
 {
     it2n_point pt;
     size_t k;
-    put_header("u,w,footprint", ",out_of_range");
+    cli_put_header(&g_out, "u,w,footprint", ",out_of_range");
     for (k = 0; k < o->nat; k++) {
         int rc = g_bspline
                      ? it2n_bspline_eval(&g_bmdl, o->at[k].a, o->at[k].b, &pt, NULL)
@@ -494,9 +360,9 @@ static int cmd_eval(const cli_opts *o)
         if (rc != IT2N_OK) {
             return core_fail("eval", rc);
         }
-        put_point(o->at[k].a, o->at[k].b, &pt, o);
+        cli_put_point(&g_out, o->at[k].a, o->at[k].b, &pt);
     }
-    return finish_output();
+    return cli_finish_output("it2n");
 }
 
 static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
@@ -504,14 +370,15 @@ static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
 {
     (void)r;
     (void)c;
-    put_point(u, w, pt, (const cli_opts *)ctx);
+    (void)ctx;
+    cli_put_point(&g_out, u, w, pt);
     return ferror(stdout) ? 1 : 0;
 }
 
 static int cmd_sample(const cli_opts *o)
 {
     int rc;
-    put_header("u,w,footprint", ",out_of_range");
+    cli_put_header(&g_out, "u,w,footprint", ",out_of_range");
     rc = g_bspline ? it2n_bspline_sample(&g_bmdl, o->rows, o->cols, sample_row,
                                          (void *)o, NULL)
                    : it2n_sample(&g_mdl, o->rows, o->cols, sample_row,
@@ -519,7 +386,7 @@ static int cmd_sample(const cli_opts *o)
     if (rc < 0) {
         return core_fail("sample", rc);
     }
-    return finish_output();
+    return cli_finish_output("it2n");
 }
 
 static int cmd_deriv(const cli_opts *o)
@@ -527,7 +394,7 @@ static int cmd_deriv(const cli_opts *o)
     it2n_point du, dw;
     size_t k;
     unsigned fp;
-    put_header("u,w,footprint,wrt", "");
+    cli_put_header(&g_out, "u,w,footprint,wrt", "");
     for (k = 0; k < o->nat; k++) {
         int rc = g_bspline ? it2n_bspline_deriv(&g_bmdl, o->at[k].a, o->at[k].b,
                                                 &du, &dw, NULL)
@@ -542,16 +409,16 @@ static int cmd_deriv(const cli_opts *o)
                 continue;
             }
             for (d = 0; d < 2; d++) {
-                put_par(o->at[k].a, o->decimals);
+                cli_put_par(o->at[k].a, o->decimals);
                 putchar(',');
-                put_par(o->at[k].b, o->decimals);
+                cli_put_par(o->at[k].b, o->decimals);
                 printf(",%s,%s", it2n_fp_name(fp), d == 0 ? "u" : "w");
-                put_channels(d == 0 ? du.v[fp] : dw.v[fp], o->decimals);
+                cli_put_channels(&g_out, d == 0 ? du.v[fp] : dw.v[fp]);
                 putchar('\n');
             }
         }
     }
-    return finish_output();
+    return cli_finish_output("it2n");
 }
 
 static int cmd_locate(const cli_opts *o)
@@ -560,7 +427,7 @@ static int cmd_locate(const cli_opts *o)
     it2n_locate_result res;
     size_t k;
     unsigned fp;
-    printf("x,y,footprint,u,w%s,T,I,F,status\n", has_z() ? ",z" : "");
+    printf("x,y,footprint,u,w%s,T,I,F,status\n", g_out.z ? ",z" : "");
     for (k = 0; k < o->nat; k++) {
         int rc = g_bspline ? it2n_bspline_locate(&g_bmdl, o->at[k].a, o->at[k].b,
                                                  &res, NULL)
@@ -570,26 +437,15 @@ static int cmd_locate(const cli_opts *o)
         }
         for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
             const it2n_locate_fp *r = &res.fp[fp];
-            unsigned ch;
+            const it2n_par uw[2] = {r->u, r->w};
             if (!fp_in_model(fp)) {
                 continue;
             }
-            put_val(o->at[k].a, o->decimals);
-            putchar(',');
-            put_val(o->at[k].b, o->decimals);
-            printf(",%s,", it2n_fp_name(fp));
-            put_par(r->u, o->decimals);
-            putchar(',');
-            put_par(r->w, o->decimals);
-            for (ch = has_z() ? IT2N_CH_Z : IT2N_CH_T; ch < IT2N_CH_COUNT;
-                 ch++) {
-                putchar(',');
-                put_val(r->v[ch], o->decimals);
-            }
-            printf(",%s\n", r->status < 3u ? status[r->status] : "?");
+            cli_put_locate_row(&g_out, o->at[k].a, o->at[k].b, fp, uw, r->v,
+                               r->status < 3u ? status[r->status] : "?");
         }
     }
-    return finish_output();
+    return cli_finish_output("it2n");
 }
 
 typedef struct mesh_ctx {
@@ -657,6 +513,7 @@ static int run(const cli_opts *o)
     if (rc != CLI_EXIT_OK) {
         return rc;
     }
+    cli_out_init(&g_out, g_flags, o->decimals, o->fpmask, o->summary);
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if ((o->fpmask & (1u << fp)) && !fp_in_model(fp)) {
             fprintf(stderr,
@@ -682,7 +539,7 @@ static int run(const cli_opts *o)
         return cmd_check(o);
     }
     if (strcmp(o->cmd, "solve") == 0) {
-        return cmd_solve(o);
+        return cmd_solve();
     }
     if (strcmp(o->cmd, "eval") == 0) {
         return cmd_eval(o);

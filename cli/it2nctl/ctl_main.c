@@ -8,6 +8,7 @@
 #include "cli.h"
 #include "csv.h"
 #include "ctl.h"
+#include "out.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -200,130 +201,14 @@ static void usage_cmd(const ctl_cmd *c)
 
 #define usage_error(...) cli_usage_error("it2nctl", __VA_ARGS__)
 
-/* ---- output, as it2n prints it (cli/commands.c) ------------------------ */
+/* ---- output: it2n's rows (cli/common/out.c) ----------------------------- */
 
-static void put_val(it2n_val v, unsigned decimals)
-{
-    char buf[48];
-    cli_fmt_val(buf, sizeof(buf), v, decimals);
-    fputs(buf, stdout);
-}
-
-/* As it2n: parameters keep at least CLI_PAR_DECIMALS digits. */
-static void put_par(it2n_par p, unsigned decimals)
-{
-    char buf[48];
-    if (decimals < CLI_PAR_DECIMALS) {
-        decimals = CLI_PAR_DECIMALS;
-    }
-    if (it2n_format_par(buf, sizeof(buf), p, decimals) < 0) {
-        fputs("?", stdout);
-        return;
-    }
-    fputs(buf, stdout);
-}
-
-static bool g_z;      /* the model has z                 */
-static bool g_type1;  /* the model is type-1             */
+/* The rows' options, and the model's z and type once its status is read. */
+static cli_out g_out;
 
 static bool has_fp(unsigned fp)
 {
-    return g_type1 ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;
-}
-
-static bool fp_selected(const cli_opts *o, unsigned fp)
-{
-    return has_fp(fp) && (o->fpmask == 0u || (o->fpmask & (1u << fp)));
-}
-
-static void put_channels(const it2n_val *v, unsigned decimals)
-{
-    unsigned ch;
-    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        if (ch == IT2N_CH_Z && !g_z) {
-            continue;
-        }
-        putchar(',');
-        put_val(v[ch], decimals);
-    }
-}
-
-static void put_header(const char *lead, const char *tail)
-{
-    printf("%s,x,y%s,T,I,F%s\n", lead, g_z ? ",z" : "", tail);
-}
-
-static void put_flags_list(bool t, bool i, bool f)
-{
-    bool any = false;
-    putchar(',');
-    if (t) {
-        fputs("T", stdout);
-        any = true;
-    }
-    if (i) {
-        printf("%sI", any ? "|" : "");
-        any = true;
-    }
-    if (f) {
-        printf("%sF", any ? "|" : "");
-        any = true;
-    }
-    if (!any) {
-        putchar('-');
-    }
-}
-
-static void put_summary_row(it2n_par u, it2n_par w, const char *what,
-                            const it2n_val tif[3], unsigned decimals)
-{
-    unsigned k;
-    bool out[3];
-    put_par(u, decimals);
-    putchar(',');
-    put_par(w, decimals);
-    printf(",%s,,%s", what, g_z ? "," : ""); /* x, y (, z) empty */
-    for (k = 0; k < 3u; k++) {
-        putchar(',');
-        put_val(tif[k], decimals);
-        out[k] = tif[k] < 0 || tif[k] > IT2N_VAL_ONE;
-    }
-    put_flags_list(out[0], out[1], out[2]);
-    putchar('\n');
-}
-
-static void put_point(it2n_par u, it2n_par w, const it2n_point *pt,
-                      const cli_opts *o)
-{
-    unsigned fp;
-    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        uint32_t b = pt->out_of_range >> (fp * 3u);
-        if (!fp_selected(o, fp)) {
-            continue;
-        }
-        put_par(u, o->decimals);
-        putchar(',');
-        put_par(w, o->decimals);
-        printf(",%s", it2n_fp_name(fp));
-        put_channels(pt->v[fp], o->decimals);
-        put_flags_list(b & 1u, (b >> 1) & 1u, (b >> 2) & 1u);
-        putchar('\n');
-    }
-    if (o->summary) {
-        put_summary_row(u, w, "upper_min", pt->sum.upper_min, o->decimals);
-        put_summary_row(u, w, "upper_max", pt->sum.upper_max, o->decimals);
-        put_summary_row(u, w, "lower_min", pt->sum.lower_min, o->decimals);
-        put_summary_row(u, w, "lower_max", pt->sum.lower_max, o->decimals);
-    }
-}
-
-static int finish_output(void)
-{
-    if (fflush(stdout) != 0 || ferror(stdout)) {
-        fprintf(stderr, "it2nctl: write error: %s\n", strerror(errno));
-        return CTL_EXIT_DATA;
-    }
-    return CTL_EXIT_OK;
+    return cli_out_has_fp(&g_out, fp);
 }
 
 /* ---- shared helpers ----------------------------------------------------- */
@@ -407,8 +292,8 @@ static int solved_status(ctl_session *s, ctl_status *st)
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    g_z = (st->flags & IT2N_F_Z) != 0u;
-    g_type1 = (st->flags & IT2N_F_TYPE1) != 0u;
+    g_out.z = (st->flags & IT2N_F_Z) != 0u;
+    g_out.type1 = (st->flags & IT2N_F_TYPE1) != 0u;
     if (st->state != CTL_ST_SOLVED) {
         fprintf(stderr,
                 "it2nctl: %s: the model is not solved (state %s, %u of %u "
@@ -450,7 +335,7 @@ static int cmd_status(ctl_session *s)
     }
     put_status_header();
     put_status_row(&st);
-    return finish_output();
+    return cli_finish_output("it2nctl");
 }
 
 /* Wait for the next generation after gen worth a row or a drawing: a solved
@@ -513,10 +398,10 @@ static int cmd_watch(ctl_session *s, const ctl_args *a)
         put_status_row(&st);
         fflush(stdout);
         if (ferror(stdout)) {
-            return finish_output();
+            return cli_finish_output("it2nctl");
         }
         if (a->count != 0u && ++rows >= a->count) {
-            return finish_output();
+            return cli_finish_output("it2nctl");
         }
         gen = st.generation;
         rc = next_generation(s, a->incomplete, gen, &st);
@@ -638,7 +523,7 @@ static int cmd_push(ctl_session *s, const ctl_args *a)
     printf("%s: pushed %u points to %s: %s, %ux%u grid, generation %lu\n",
            name, st.present, s->where, ctl_state_name(st.state), st.n + 1u,
            st.m + 1u, (unsigned long)st.generation);
-    return finish_output();
+    return cli_finish_output("it2nctl");
 }
 
 static int cmd_eval(ctl_session *s, const ctl_args *a)
@@ -649,7 +534,7 @@ static int cmd_eval(ctl_session *s, const ctl_args *a)
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    put_header("u,w,footprint", ",out_of_range");
+    cli_put_header(&g_out, "u,w,footprint", ",out_of_range");
     for (k = 0; k < a->o.nat; k++) {
         it2n_par u = a->o.at[k].a, w = a->o.at[k].b;
         it2n_point pt;
@@ -658,9 +543,9 @@ static int cmd_eval(ctl_session *s, const ctl_args *a)
         if (rc != CTL_EXIT_OK) {
             return rc;
         }
-        put_point(u, w, &pt, &a->o);
+        cli_put_point(&g_out, u, w, &pt);
     }
-    return finish_output();
+    return cli_finish_output("it2nctl");
 }
 
 static int cmd_locate(ctl_session *s, const ctl_args *a)
@@ -670,12 +555,12 @@ static int cmd_locate(ctl_session *s, const ctl_args *a)
     ctl_status st;
     ctl_loc res[IT2N_FP_COUNT];
     size_t k;
-    unsigned fp, ch;
+    unsigned fp;
     int rc = solved_status(s, &st);
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    printf("x,y,footprint,u,w%s,T,I,F,status\n", g_z ? ",z" : "");
+    printf("x,y,footprint,u,w%s,T,I,F,status\n", g_out.z ? ",z" : "");
     for (k = 0; k < a->o.nat; k++) {
         it2n_val x = a->o.at[k].a, y = a->o.at[k].b;
         rc = s->ops->locate(s->c, &x, &y, res);
@@ -686,32 +571,20 @@ static int cmd_locate(ctl_session *s, const ctl_args *a)
             if (!has_fp(fp)) {
                 continue;
             }
-            put_val(x, a->o.decimals);
-            putchar(',');
-            put_val(y, a->o.decimals);
-            printf(",%s,", it2n_fp_name(fp));
-            if (res[fp].has_uw) {
-                put_par(res[fp].u, a->o.decimals);
-                putchar(',');
-                put_par(res[fp].w, a->o.decimals);
-            } else {
-                putchar(',');
-            }
-            for (ch = g_z ? IT2N_CH_Z : IT2N_CH_T; ch < IT2N_CH_COUNT; ch++) {
-                putchar(',');
-                put_val(res[fp].v[ch], a->o.decimals);
-            }
-            printf(",%s\n", res[fp].status >= 0 && res[fp].status < 4
-                                ? status[res[fp].status]
-                                : "?");
+            const it2n_par uw[2] = {res[fp].u, res[fp].w};
+            cli_put_locate_row(&g_out, x, y, fp, res[fp].has_uw ? uw : NULL,
+                               res[fp].v,
+                               res[fp].status >= 0 && res[fp].status < 4
+                                   ? status[res[fp].status]
+                                   : "?");
         }
     }
-    return finish_output();
+    return cli_finish_output("it2nctl");
 }
 
 static ctl_net g_net;
 
-static int cmd_net(ctl_session *s, const ctl_args *a)
+static int cmd_net(ctl_session *s)
 {
     ctl_status st;
     unsigned i, j, fp;
@@ -731,20 +604,18 @@ static int cmd_net(ctl_session *s, const ctl_args *a)
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    put_header("i,j,footprint", "");
+    cli_put_header(&g_out, "i,j,footprint", "");
     for (i = 0; i <= st.n; i++) {
         for (j = 0; j <= st.m; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 if (!has_fp(fp)) {
                     continue;
                 }
-                printf("%u,%u,%s", i, j, it2n_fp_name(fp));
-                put_channels(g_net[fp][i][j], a->o.decimals);
-                putchar('\n');
+                cli_put_net_row(&g_out, (int)i, (int)j, fp, g_net[fp][i][j]);
             }
         }
     }
-    return finish_output();
+    return cli_finish_output("it2nctl");
 }
 
 static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
@@ -752,7 +623,8 @@ static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
 {
     (void)r;
     (void)c;
-    put_point(u, w, pt, (const cli_opts *)ctx);
+    (void)ctx;
+    cli_put_point(&g_out, u, w, pt);
     return ferror(stdout) ? CTL_EXIT_DATA : 0;
 }
 
@@ -773,13 +645,13 @@ static int cmd_sample(ctl_session *s, const ctl_args *a)
             return CTL_EXIT_DATA;
         }
     }
-    put_header("u,w,footprint", ",out_of_range");
+    cli_put_header(&g_out, "u,w,footprint", ",out_of_range");
     rc = s->ops->sample(s->c, &st, a->o.rows, a->o.cols, sample_row,
                         (void *)&a->o);
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    return finish_output();
+    return cli_finish_output("it2nctl");
 }
 
 static unsigned bitlen64(uint64_t v)
@@ -967,7 +839,7 @@ static int follow_plot(ctl_session *s, const ctl_args *a, ctl_status *st)
         printf("generation %lu: %s\n", (unsigned long)st->generation, out);
         fflush(stdout);
         if (a->count != 0u && ++drawn >= a->count) {
-            return finish_output();
+            return cli_finish_output("it2nctl");
         }
         do { /* the next solved generation; pushes in progress skipped */
             rc = next_generation(s, false, st->generation, st);
@@ -985,7 +857,7 @@ static int cmd_plot(ctl_session *s, const ctl_args *a)
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    if (a->o.interval && g_type1) {
+    if (a->o.interval && g_out.type1) {
         fprintf(stderr, "it2nctl: %s: --interval needs a type-2 model\n",
                 s->where);
         return CTL_EXIT_DATA;
@@ -1266,6 +1138,7 @@ int main(int argc, char **argv)
         }
     }
     rc = parse_args(argc, argv, &a);
+    cli_out_init(&g_out, 0u, a.o.decimals, a.o.fpmask, a.o.summary);
     if (rc < 0) {
         rc = ctl_spb_check(&a, argv[0]);
     }
@@ -1295,7 +1168,7 @@ int main(int argc, char **argv)
     } else if (strcmp(a.cmd->name, "locate") == 0) {
         rc = cmd_locate(&s, &a);
     } else if (strcmp(a.cmd->name, "net") == 0) {
-        rc = cmd_net(&s, &a);
+        rc = cmd_net(&s);
     } else if (strcmp(a.cmd->name, "sample") == 0) {
         rc = cmd_sample(&s, &a);
     } else if (strcmp(a.cmd->name, "watch") == 0) {
