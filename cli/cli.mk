@@ -53,8 +53,8 @@ CTL_SAN_BIN := $(BUILD)/san/it2nctl
 CTL_OBJ := $(CTL_SRC:%.c=$(BUILD)/host/%.o) $(BUILD)/host/daemon/spb.pb-c.o
 CTL_SAN_OBJ := $(CTL_SRC:%.c=$(BUILD)/san/%.o) $(BUILD)/san/daemon/spb.pb-c.o
 # The shared front end it2nctl links.
-CTL_CLI_OBJ := $(CLI_COMMON_OBJ) $(BUILD)/host/cli/it2n/commands.o
-CTL_CLI_SAN_OBJ := $(CLI_COMMON_SAN_OBJ) $(BUILD)/san/cli/it2n/commands.o
+CTL_CLI_OBJ := $(CLI_COMMON_OBJ)
+CTL_CLI_SAN_OBJ := $(CLI_COMMON_SAN_OBJ)
 ALL_TARGETS += $(CTL_BIN)
 
 $(BUILD)/host/cli/it2nctl/ctl_spb.o $(BUILD)/san/cli/it2nctl/ctl_spb.o: $(BUILD)/daemon/spb.pb-c.h

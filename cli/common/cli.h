@@ -59,6 +59,9 @@ enum { CLI_FMT_VTK = 0, CLI_FMT_OBJ, CLI_FMT_CSV };
  * heat map's cells are smaller than the lines of the surfaces plot. */
 #define CLI_GRID_INTERVAL 81u
 
+/* "<stdin>" for "-", else path: how messages name DATA.csv. */
+const char *cli_display_name(const char *path);
+
 /* Run the subcommand in o; returns an exit status. */
 int cli_run(const cli_opts *o);
 

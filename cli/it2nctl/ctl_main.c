@@ -415,11 +415,6 @@ static it2n_csv g_csv;
 static it2n_dataset g_ds;
 static it2n_model g_mdl;
 
-static const char *display_name(const char *path)
-{
-    return strcmp(path, "-") == 0 ? "<stdin>" : path;
-}
-
 /* Read, check and solve DATA.csv exactly as it2n does (the same code). */
 static const it2n_bspline_data *g_bds;  /* push --kind bspline */
 static const it2n_csv *g_bcsv;
@@ -460,7 +455,7 @@ static void progress_bar(void *ctx, unsigned done, unsigned total)
 
 static int cmd_push(ctl_session *s, const ctl_args *a)
 {
-    const char *name = display_name(a->o.path);
+    const char *name = cli_display_name(a->o.path);
     it2n_errinfo rej;
     ctl_status st;
     char msg[600];
@@ -879,14 +874,12 @@ static const ctl_cmd *find_cmd(const char *name)
     return NULL;
 }
 
-static const cli_optset opt_sets[2] = {CLI_OPTSET(own_opts), {NULL, 0}};
-
 /* Options may come before the command (it2nctl --tcp H:P status): the
  * first word that is not an option or an option's value is moved to the
  * front, the rest keep their order. Returns -1, or an exit status. */
 static int command_first(int argc, char **argv)
 {
-    cli_optset sets[2] = {cli_common_opts, opt_sets[0]};
+    const cli_optset sets[2] = {cli_common_opts, CLI_OPTSET(own_opts)};
     char *cmd;
     int i = 1;
     while (i < argc && argv[i][0] == '-') {
@@ -1018,7 +1011,7 @@ static int finish_conn(const cli_parser *p, ctl_args *a)
 /* Parse argv into a; returns -1 to go on, else an exit status. */
 static int parse_args(int argc, char **argv, ctl_args *a)
 {
-    cli_optset sets[2] = {cli_common_opts, opt_sets[0]};
+    const cli_optset sets[2] = {cli_common_opts, CLI_OPTSET(own_opts)};
     const ctl_cmd *c;
     cli_parser p;
     cli_optval v;

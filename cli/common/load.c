@@ -1,0 +1,165 @@
+/*
+ * Reading and solving DATA.csv for both programs (it2n's commands and
+ * it2nctl push), so a file is refused alike by either: errors as
+ * FILE:LINE: ... on stderr.
+ */
+#include "cli.h"
+#include "csv.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The B-spline kind's storage (up to 256 x 256 points) on the heap, and
+ * its reader state (line numbers for messages). */
+static it2n_csv g_csv;
+static it2n_bspline_data g_bds;
+static it2n_bspline_model g_bmdl;
+static it2n_bspline_rec *g_brec;
+static uint32_t *g_blines;
+static int32_t *g_bcoef;
+
+const char *cli_display_name(const char *path)
+{
+    return strcmp(path, "-") == 0 ? "<stdin>" : path;
+}
+
+static void report(const it2n_csv_error *e, const char *name)
+{
+    char msg[512];
+    it2n_csv_message(e, name, msg, sizeof(msg));
+    fprintf(stderr, "%s\n", msg);
+}
+
+int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl)
+{
+    const char *name = cli_display_name(o->path);
+    FILE *f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
+    char chunk[4096];
+    it2n_csv_error e;
+    it2n_errinfo info;
+    size_t got;
+    int rc = IT2N_OK;
+
+    if (f == NULL) {
+        fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
+        return CLI_EXIT_DATA;
+    }
+    it2n_csv_init(csv, o->flags);
+    while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
+        rc = it2n_csv_feed(csv, chunk, got, &e);
+    }
+    if (rc == IT2N_OK && ferror(f)) {
+        fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
+        if (f != stdin) {
+            fclose(f);
+        }
+        return CLI_EXIT_DATA;
+    }
+    if (f != stdin) {
+        fclose(f);
+    }
+    if (rc == IT2N_OK) {
+        rc = it2n_csv_finish(csv, ds, &e);
+    }
+    if (rc != IT2N_OK) {
+        report(&e, name);
+        return CLI_EXIT_DATA;
+    }
+    it2n_model_init(mdl);
+    rc = it2n_model_solve(mdl, ds, &info);
+    if (rc != IT2N_OK) {
+        it2n_csv_locate(csv, &info, &e);
+        report(&e, name);
+        return CLI_EXIT_DATA;
+    }
+    return CLI_EXIT_OK;
+}
+
+/* cli_load for the B-spline kind into g_bds, g_bmdl. */
+static int load_bspline(const cli_opts *o)
+{
+    const char *name = cli_display_name(o->path);
+    FILE *f;
+    char chunk[4096];
+    it2n_csv_error e;
+    it2n_errinfo info;
+    size_t got, words;
+    int rc = IT2N_OK;
+
+    g_brec = malloc(IT2N_CSV_BSPLINE_RECS * sizeof(*g_brec));
+    g_blines = malloc(IT2N_CSV_BSPLINE_LINES * sizeof(*g_blines));
+    if (g_brec == NULL || g_blines == NULL) {
+        fprintf(stderr, "it2n: out of memory for a B-spline data set\n");
+        return CLI_EXIT_DATA;
+    }
+    f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
+    if (f == NULL) {
+        fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
+        return CLI_EXIT_DATA;
+    }
+    it2n_csv_init_bspline(&g_csv, g_brec, g_blines);
+    while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
+        rc = it2n_csv_feed(&g_csv, chunk, got, &e);
+    }
+    if (rc == IT2N_OK && ferror(f)) {
+        fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
+        if (f != stdin) {
+            fclose(f);
+        }
+        return CLI_EXIT_DATA;
+    }
+    if (f != stdin) {
+        fclose(f);
+    }
+    if (rc == IT2N_OK) {
+        rc = it2n_csv_finish_bspline(&g_csv, &g_bds, &e);
+    }
+    if (rc != IT2N_OK) {
+        report(&e, name);
+        return CLI_EXIT_DATA;
+    }
+    words = IT2N_BSPLINE_MODEL_WORDS(g_bds.n, g_bds.m, g_bds.flags);
+    g_bcoef = malloc(words * sizeof(*g_bcoef));
+    if (g_bcoef == NULL) {
+        fprintf(stderr, "it2n: out of memory for a B-spline model\n");
+        return CLI_EXIT_DATA;
+    }
+    it2n_bspline_model_init(&g_bmdl, g_bcoef, words);
+    rc = it2n_bspline_solve(&g_bmdl, &g_bds, &info);
+    if (rc != IT2N_OK) {
+        it2n_csv_locate(&g_csv, &info, &e);
+        report(&e, name);
+        return CLI_EXIT_DATA;
+    }
+    return CLI_EXIT_OK;
+}
+
+static void free_bspline(void);
+
+int cli_load_bspline(const cli_opts *o, const it2n_bspline_data **bds, const it2n_bspline_model **bmdl,
+                     const it2n_csv **csv)
+{
+    int rc = load_bspline(o);
+    *bds = &g_bds;
+    *bmdl = &g_bmdl;
+    *csv = &g_csv;
+    return rc;
+}
+
+void cli_free_bspline(void)
+{
+    free_bspline();
+}
+
+static void free_bspline(void)
+{
+    free(g_brec);
+    free(g_blines);
+    free(g_bcoef);
+    g_brec = NULL;
+    g_blines = NULL;
+    g_bcoef = NULL;
+}
+
