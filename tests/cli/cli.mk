@@ -14,7 +14,18 @@ $(CLI_T)/san/%: tests/cli/%.c $(CLI_CSV_SAN_OBJ) $(CORE_SAN_LIB) $(CLI_HDR) $(CO
 	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -Icli/common -o $@ $< $(CLI_CSV_SAN_OBJ) \
 	  $(CORE_SAN_LIB) $(CLI_T_LIBS)
 
-CLI_T_UNITS := test_text test_csv
+# The front ends' shared code (option parser, output layer) with its tests.
+CLI_T_FRONT := test_opt test_out
+$(addprefix $(CLI_T)/,$(CLI_T_FRONT)): $(CLI_T)/%: tests/cli/%.c $(CLI_COMMON_OBJ) $(CORE_LIB) $(CLI_HDR) $(CORE_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -Icli/common -o $@ $< $(CLI_COMMON_OBJ) $(CORE_LIB) $(CLI_T_LIBS)
+
+$(addprefix $(CLI_T)/san/,$(CLI_T_FRONT)): $(CLI_T)/san/%: tests/cli/%.c $(CLI_COMMON_SAN_OBJ) $(CORE_SAN_LIB) $(CLI_HDR) $(CORE_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -Icli/common -o $@ $< \
+	  $(CLI_COMMON_SAN_OBJ) $(CORE_SAN_LIB) $(CLI_T_LIBS)
+
+CLI_T_UNITS := test_text test_csv $(CLI_T_FRONT)
 CLI_T_BINS := $(addprefix $(CLI_T)/,$(CLI_T_UNITS)) \
               $(addprefix $(CLI_T)/san/,$(CLI_T_UNITS) fuzz_csv)
 
