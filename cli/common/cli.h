@@ -102,6 +102,27 @@ enum {
 /* The shared table (its labels are it2n's "Common options" of --help). */
 extern const cli_optset cli_common_opts;
 
+/*
+ * A program's command words for cli_first_word: its table of commands
+ * (entries of `stride` bytes, each starting with its name, a const char *)
+ * and its help printers.
+ */
+typedef struct cli_prog {
+    const char *name;           /* "it2n", for messages and --version     */
+    const void *cmds;           /* the command table                      */
+    size_t ncmds, stride;
+    void (*usage_all)(FILE *out);      /* `PROG --help`                   */
+    void (*usage_cmd)(const void *cmd); /* `PROG --help CMD`              */
+    /* Options before the command (NULL: not allowed): move the command to
+     * argv[1]; -1, or an exit status after a message. */
+    int (*reorder)(int argc, char **argv);
+} cli_prog;
+
+/* The command of argv[1] (help, version and a missing or unknown command,
+ * with a "did you mean", handled here alike for both programs). Returns
+ * its entry, or NULL with *rc the exit status when there is no more to do. */
+const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc);
+
 /* Defaults of cli_opts before parsing (decimals 6, membership -1). */
 void cli_opts_init(cli_opts *o);
 

@@ -195,3 +195,72 @@ int cli_common_finish(const cli_parser *p, cli_opts *o)
     }
     return -1;
 }
+
+static const char *cmd_name(const cli_prog *pg, size_t k)
+{
+    return *(const char *const *)(const void *)((const char *)pg->cmds +
+                                                 k * pg->stride);
+}
+
+static const void *find_cmd(const cli_prog *pg, const char *name)
+{
+    size_t k;
+    for (k = 0; k < pg->ncmds; k++) {
+        if (strcmp(cmd_name(pg, k), name) == 0) {
+            return (const char *)pg->cmds + k * pg->stride;
+        }
+    }
+    return NULL;
+}
+
+/* "unknown command 'X'", with the nearest command when one is close. */
+static int unknown_command(const cli_prog *pg, const char *word)
+{
+    const char *names[32], *near;
+    size_t k, n = pg->ncmds < 32u ? pg->ncmds : 32u;
+    for (k = 0; k < n; k++) {
+        names[k] = cmd_name(pg, k);
+    }
+    near = cli_did_you_mean(word, names, n);
+    if (near != NULL) {
+        return cli_usage_error(pg->name, NULL,
+                               "unknown command '%s' (did you mean '%s'?)",
+                               word, near);
+    }
+    return cli_usage_error(pg->name, NULL, "unknown command '%s'", word);
+}
+
+const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc)
+{
+    const void *c;
+    *rc = 0;
+    if (argc < 2) {
+        pg->usage_all(stderr);
+        *rc = 1;
+        return NULL;
+    }
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
+        strcmp(argv[1], "help") == 0) {
+        if (argc > 2 && (c = find_cmd(pg, argv[2])) != NULL) {
+            pg->usage_cmd(c);
+        } else {
+            pg->usage_all(stdout);
+        }
+        return NULL;
+    }
+    if (strcmp(argv[1], "--version") == 0) {
+        printf("%s %s (IT2N_MAX_DEGREE %d)\n", pg->name, IT2N_CLI_VERSION,
+               IT2N_MAX_DEGREE);
+        return NULL;
+    }
+    if (argv[1][0] == '-' && pg->reorder != NULL &&
+        (*rc = pg->reorder(argc, argv)) >= 0) {
+        return NULL;
+    }
+    *rc = 0;
+    c = find_cmd(pg, argv[1]);
+    if (c == NULL) {
+        *rc = unknown_command(pg, argv[1]);
+    }
+    return c;
+}

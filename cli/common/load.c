@@ -32,33 +32,44 @@ static void report(const it2n_csv_error *e, const char *name)
     fprintf(stderr, "%s\n", msg);
 }
 
-int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl)
+/* Feed the file at path ("-": stdin) to csv; *rc the reader's answer.
+ * CLI_EXIT_DATA after "NAME: cannot open/read error: why" on stderr. */
+static int feed_file(const char *path, it2n_csv *csv, it2n_csv_error *e,
+                     int *rc)
 {
-    const char *name = cli_display_name(o->path);
-    FILE *f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
+    const char *name = cli_display_name(path);
+    FILE *f = strcmp(path, "-") == 0 ? stdin : fopen(path, "rb");
     char chunk[4096];
-    it2n_csv_error e;
-    it2n_errinfo info;
     size_t got;
-    int rc = IT2N_OK;
-
+    bool bad;
     if (f == NULL) {
         fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
         return CLI_EXIT_DATA;
     }
-    it2n_csv_init(csv, o->flags);
-    while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
-        rc = it2n_csv_feed(csv, chunk, got, &e);
+    *rc = IT2N_OK;
+    while (*rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
+        *rc = it2n_csv_feed(csv, chunk, got, e);
     }
-    if (rc == IT2N_OK && ferror(f)) {
+    bad = *rc == IT2N_OK && ferror(f);
+    if (bad) {
         fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
-        if (f != stdin) {
-            fclose(f);
-        }
-        return CLI_EXIT_DATA;
     }
     if (f != stdin) {
         fclose(f);
+    }
+    return bad ? CLI_EXIT_DATA : CLI_EXIT_OK;
+}
+
+int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl)
+{
+    const char *name = cli_display_name(o->path);
+    it2n_csv_error e;
+    it2n_errinfo info;
+    int rc;
+
+    it2n_csv_init(csv, o->flags);
+    if (feed_file(o->path, csv, &e, &rc) != CLI_EXIT_OK) {
+        return CLI_EXIT_DATA;
     }
     if (rc == IT2N_OK) {
         rc = it2n_csv_finish(csv, ds, &e);
@@ -81,12 +92,10 @@ int cli_load(const cli_opts *o, it2n_csv *csv, it2n_dataset *ds, it2n_model *mdl
 static int load_bspline(const cli_opts *o)
 {
     const char *name = cli_display_name(o->path);
-    FILE *f;
-    char chunk[4096];
     it2n_csv_error e;
     it2n_errinfo info;
-    size_t got, words;
-    int rc = IT2N_OK;
+    size_t words;
+    int rc;
 
     g_brec = malloc(IT2N_CSV_BSPLINE_RECS * sizeof(*g_brec));
     g_blines = malloc(IT2N_CSV_BSPLINE_LINES * sizeof(*g_blines));
@@ -94,24 +103,9 @@ static int load_bspline(const cli_opts *o)
         fprintf(stderr, "it2n: out of memory for a B-spline data set\n");
         return CLI_EXIT_DATA;
     }
-    f = strcmp(o->path, "-") == 0 ? stdin : fopen(o->path, "rb");
-    if (f == NULL) {
-        fprintf(stderr, "%s: cannot open: %s\n", name, strerror(errno));
-        return CLI_EXIT_DATA;
-    }
     it2n_csv_init_bspline(&g_csv, g_brec, g_blines);
-    while (rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
-        rc = it2n_csv_feed(&g_csv, chunk, got, &e);
-    }
-    if (rc == IT2N_OK && ferror(f)) {
-        fprintf(stderr, "%s: read error: %s\n", name, strerror(errno));
-        if (f != stdin) {
-            fclose(f);
-        }
+    if (feed_file(o->path, &g_csv, &e, &rc) != CLI_EXIT_OK) {
         return CLI_EXIT_DATA;
-    }
-    if (f != stdin) {
-        fclose(f);
     }
     if (rc == IT2N_OK) {
         rc = it2n_csv_finish_bspline(&g_csv, &g_bds, &e);

@@ -148,62 +148,12 @@ static void usage_all(FILE *out)
     common_help(out);
 }
 
-static void usage_cmd(const cli_cmd *c)
+static void usage_cmd(const void *cmd)
 {
+    const cli_cmd *c = cmd;
     printf("Usage: it2n %s DATA.csv%s%s [--kind K] [--chord] [--decimals N]\n\n%s\n",
            c->name, c->args[0] ? " " : "", c->args, c->help);
     common_help(stdout);
-}
-
-static const cli_cmd *find_cmd(const char *name)
-{
-    size_t k;
-    for (k = 0; k < NCMDS; k++) {
-        if (strcmp(cmds[k].name, name) == 0) {
-            return &cmds[k];
-        }
-    }
-    return NULL;
-}
-
-/* --help, --version and the command word; returns the command, or NULL
- * with *rc the exit status when there is nothing more to do. */
-static const cli_cmd *first_word(int argc, char **argv, int *rc)
-{
-    const char *names[NCMDS], *near;
-    const cli_cmd *c;
-    size_t k;
-    *rc = CLI_EXIT_OK;
-    if (argc < 2) {
-        usage_all(stderr);
-        *rc = CLI_EXIT_USAGE;
-        return NULL;
-    }
-    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
-        strcmp(argv[1], "help") == 0) {
-        if (argc > 2 && (c = find_cmd(argv[2])) != NULL) {
-            usage_cmd(c);
-        } else {
-            usage_all(stdout);
-        }
-        return NULL;
-    }
-    if (strcmp(argv[1], "--version") == 0) {
-        printf("it2n %s (IT2N_MAX_DEGREE %d)\n", IT2N_CLI_VERSION,
-               IT2N_MAX_DEGREE);
-        return NULL;
-    }
-    c = find_cmd(argv[1]);
-    if (c == NULL) {
-        for (k = 0; k < NCMDS; k++) {
-            names[k] = cmds[k].name;
-        }
-        near = cli_did_you_mean(argv[1], names, NCMDS);
-        *rc = near ? cli_usage_error("it2n", NULL, "unknown command '%s' (did you mean '%s'?)",
-                                     argv[1], near)
-                   : cli_usage_error("it2n", NULL, "unknown command '%s'", argv[1]);
-    }
-    return c;
 }
 
 /* The options and DATA.csv of command c into o; -1 to go on, else the
@@ -252,7 +202,9 @@ int main(int argc, char **argv)
 {
     cli_opts o;
     int rc;
-    const cli_cmd *c = first_word(argc, argv, &rc);
+    static const cli_prog prog = {"it2n", cmds, NCMDS, sizeof(cmds[0]),
+                                  usage_all, usage_cmd, NULL};
+    const cli_cmd *c = cli_first_word(&prog, argc, argv, &rc);
     if (c == NULL) {
         return rc;
     }

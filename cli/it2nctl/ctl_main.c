@@ -179,8 +179,9 @@ static void usage_all(FILE *out)
     conn_help(out);
 }
 
-static void usage_cmd(const ctl_cmd *c)
+static void usage_cmd(const void *cmd)
 {
+    const ctl_cmd *c = cmd;
     printf("Usage: it2nctl %s%s%s [CONNECTION] [--decimals N]\n\n%s\n",
            c->name, c->args[0] ? " " : "", c->args, c->help);
     conn_help(stdout);
@@ -216,17 +217,6 @@ static int open_session(const ctl_args *a, ctl_session *s)
 
 /* ---- options ------------------------------------------------------------ */
 
-static const ctl_cmd *find_cmd(const char *name)
-{
-    size_t k;
-    for (k = 0; k < NCMDS; k++) {
-        if (strcmp(cmds[k].name, name) == 0) {
-            return &cmds[k];
-        }
-    }
-    return NULL;
-}
-
 /* Options may come before the command (it2nctl --tcp H:P status): the
  * first word that is not an option or an option's value is moved to the
  * front, the rest keep their order. Returns -1, or an exit status. */
@@ -258,41 +248,12 @@ static int command_first(int argc, char **argv)
 /* --help, --version and the command word into a->cmd; -1 to go on. */
 static int first_word(int argc, char **argv, ctl_args *a)
 {
-    const char *names[NCMDS + 1u], *near;
-    const ctl_cmd *c;
-    size_t k;
+    static const cli_prog prog = {"it2nctl", cmds, NCMDS, sizeof(cmds[0]),
+                                  usage_all, usage_cmd, command_first};
     int rc;
-    if (argc < 2) {
-        usage_all(stderr);
-        return CTL_EXIT_USAGE;
-    }
-    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
-        strcmp(argv[1], "help") == 0) {
-        if (argc > 2 && (c = find_cmd(argv[2])) != NULL) {
-            usage_cmd(c);
-        } else {
-            usage_all(stdout);
-        }
-        return CTL_EXIT_OK;
-    }
-    if (strcmp(argv[1], "--version") == 0) {
-        printf("it2nctl %s (IT2N_MAX_DEGREE %d)\n", IT2N_CLI_VERSION,
-               IT2N_MAX_DEGREE);
-        return CTL_EXIT_OK;
-    }
-    if (argv[1][0] == '-' && (rc = command_first(argc, argv)) >= 0) {
-        return rc;
-    }
-    a->cmd = find_cmd(argv[1]);
+    a->cmd = cli_first_word(&prog, argc, argv, &rc);
     if (a->cmd == NULL) {
-        for (k = 0; k < NCMDS; k++) {
-            names[k] = cmds[k].name;
-        }
-        names[NCMDS] = "spb";
-        near = cli_did_you_mean(argv[1], names, NCMDS + 1u);
-        return near ? usage_error(NULL, "unknown command '%s' (did you mean '%s'?)",
-                                  argv[1], near)
-                    : usage_error(NULL, "unknown command '%s'", argv[1]);
+        return rc;
     }
     a->o.cmd = a->cmd->name;
     return -1;
