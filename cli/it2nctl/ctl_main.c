@@ -6,19 +6,13 @@
  * decimal text, FILE:LINE errors, exit 1 usage, 2 data, 3 connection.
  */
 #include "cli.h"
-#include "csv.h"
 #include "ctl.h"
 #include "ctl_cmds.h"
 #include "out.h"
 
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-#include <unistd.h>
-
-#define CTL_GRID_DEFAULT 21u
 
 /* it2nctl's own command bits (the shared ones, CLI_O_*: cli.h). */
 enum {
