@@ -7,14 +7,25 @@ FUZZ_SECONDS ?= 60
 
 $(CLI_T)/%: tests/cli/%.c $(CLI_CSV_OBJ) $(CORE_LIB) $(CLI_HDR) $(CORE_HDR)
 	@mkdir -p $(@D)
-	$(CC) $(HOST_CFLAGS) -Icli -o $@ $< $(CLI_CSV_OBJ) $(CORE_LIB) $(CLI_T_LIBS)
+	$(CC) $(HOST_CFLAGS) -Icli/common -o $@ $< $(CLI_CSV_OBJ) $(CORE_LIB) $(CLI_T_LIBS)
 
 $(CLI_T)/san/%: tests/cli/%.c $(CLI_CSV_SAN_OBJ) $(CORE_SAN_LIB) $(CLI_HDR) $(CORE_HDR)
 	@mkdir -p $(@D)
-	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -Icli -o $@ $< $(CLI_CSV_SAN_OBJ) \
+	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -Icli/common -o $@ $< $(CLI_CSV_SAN_OBJ) \
 	  $(CORE_SAN_LIB) $(CLI_T_LIBS)
 
-CLI_T_UNITS := test_text test_csv
+# The front ends' shared code (option parser, output layer) with its tests.
+CLI_T_FRONT := test_opt test_out
+$(addprefix $(CLI_T)/,$(CLI_T_FRONT)): $(CLI_T)/%: tests/cli/%.c $(CLI_COMMON_OBJ) $(CORE_LIB) $(CLI_HDR) $(CORE_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -Icli/common -o $@ $< $(CLI_COMMON_OBJ) $(CORE_LIB) $(CLI_T_LIBS)
+
+$(addprefix $(CLI_T)/san/,$(CLI_T_FRONT)): $(CLI_T)/san/%: tests/cli/%.c $(CLI_COMMON_SAN_OBJ) $(CORE_SAN_LIB) $(CLI_HDR) $(CORE_HDR)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -Icli/common -o $@ $< \
+	  $(CLI_COMMON_SAN_OBJ) $(CORE_SAN_LIB) $(CLI_T_LIBS)
+
+CLI_T_UNITS := test_text test_csv $(CLI_T_FRONT)
 CLI_T_BINS := $(addprefix $(CLI_T)/,$(CLI_T_UNITS)) \
               $(addprefix $(CLI_T)/san/,$(CLI_T_UNITS) fuzz_csv)
 
@@ -61,20 +72,25 @@ cli-test-plot: $(CLI_BIN) $(CLI_SAN_BIN)
 # docs/cli.md and the EXAMPLES of it2n(1), run as written with build/host
 # first on PATH.
 cli-test-docs: $(CLI_BIN)
-	/usr/bin/python3 tests/cli/doc_cmds.py $(CLI_BIN) README.md docs/cli.md cli/it2n.1
+	/usr/bin/python3 tests/cli/doc_cmds.py $(CLI_BIN) README.md docs/cli.md cli/it2n/it2n.1
 
+# ... and no function of the front ends over 100 lines (tests/cli/fn_length.py;
+# the --allow ones are in files other work is changing: split them next).
+CLI_FN_ALLOW := --allow cli/common/csv.c:csv_message \
+                --allow cli/it2nctl/ctl_spb.c:w_message
 cli-cppcheck:
 	cppcheck --std=c11 --enable=warning,portability,performance \
-	  --error-exitcode=1 -q -Ifirmware_core -Icli \
+	  --error-exitcode=1 -q -Ifirmware_core -Icli/common -Icli/it2nctl \
 	  cli/ tests/cli/ firmware_core/it2n_text.c
+	/usr/bin/python3 tests/cli/fn_length.py --max 100 $(CLI_FN_ALLOW) $(sort $(wildcard cli/*/*.c))
 
 # libFuzzer build: clang instruments the core and the reader too.
 CLI_FUZZ_BIN := $(BUILD)/fuzz/cli_fuzz_csv
-$(CLI_FUZZ_BIN): tests/cli/fuzz_csv.c cli/csv.c $(CORE_SRC) $(CLI_HDR) $(CORE_HDR)
+$(CLI_FUZZ_BIN): tests/cli/fuzz_csv.c cli/common/csv.c $(CORE_SRC) $(CLI_HDR) $(CORE_HDR)
 	@mkdir -p $(@D)
 	clang -std=c11 -D_GNU_SOURCE -DFUZZ_LIBFUZZER -O1 -g \
-	  -fsanitize=fuzzer,address,undefined -Ifirmware_core -Icli \
-	  -o $@ tests/cli/fuzz_csv.c cli/csv.c $(CORE_SRC)
+	  -fsanitize=fuzzer,address,undefined -Ifirmware_core -Icli/common \
+	  -o $@ tests/cli/fuzz_csv.c cli/common/csv.c $(CORE_SRC)
 
 cli-fuzz: $(CLI_FUZZ_BIN)
 	@rm -rf $(BUILD)/fuzz/cli_corpus; mkdir -p $(BUILD)/fuzz/cli_corpus

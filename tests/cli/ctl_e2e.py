@@ -627,7 +627,7 @@ def main():
                    os.path.dirname(IT2N) + os.pathsep + os.environ["PATH"])
         blocks = doc_blocks(os.path.join(ROOT, "docs", "it2nctl.md"))
         blocks += doc_blocks(os.path.join(ROOT, "README.md"))
-        blocks += man_examples(os.path.join(ROOT, "cli", "it2nctl.1"))
+        blocks += man_examples(os.path.join(ROOT, "cli", "it2nctl", "it2nctl.1"))
         check(len(blocks) >= 2, "docs: no marked blocks")
         scratch = os.path.join(tmp, "docs")
         os.mkdir(scratch)

@@ -1,5 +1,5 @@
 /*
- * Fuzz target for the CSV reader (cli/csv.c) and the text conversion
+ * Fuzz target for the CSV reader (cli/common/csv.c) and the text conversion
  * (firmware_core/it2n_text.c). Built two ways:
  *   - with clang -fsanitize=fuzzer (FUZZ_LIBFUZZER defined): `make fuzz`;
  *   - as a plain program (with ASan/UBSan) whose main() runs every file of

@@ -1,5 +1,5 @@
 /*
- * cmocka tests of the streaming CSV reader (cli/csv.c): accepted layouts,
+ * cmocka tests of the streaming CSV reader (cli/common/csv.c): accepted layouts,
  * chunking independence, and every error class with its message and line.
  */
 #include <setjmp.h>

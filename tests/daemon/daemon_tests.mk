@@ -18,7 +18,7 @@ $(DTB)/san/%: $(DT)/%.c $(DT_SAN_MODS) $(REGMAP_SAN_LIB) $(PROTO_SAN_LIB) $(CORE
 # Simulators (tests/sim/): clients of the daemon, so they see what a PLC or
 # an instrument sees: the register map library, the protocol, the CLI's CSV
 # reader; no daemon header (tests/lint/layers.py).
-SIM_CFLAGS := $(HOST_CFLAGS) $(REGMAP_INC) -Icli -Itests/sim $(shell pkg-config --cflags libmodbus 2>/dev/null)
+SIM_CFLAGS := $(HOST_CFLAGS) $(REGMAP_INC) -Icli/common -Itests/sim $(shell pkg-config --cflags libmodbus 2>/dev/null)
 SIM_PLC := $(BUILD)/tests/sim/plc
 SIM_INSTR := $(BUILD)/tests/sim/instrument
 
@@ -204,7 +204,7 @@ daemon-powercut: $(IT2ND) $(SIM_INSTR) $(DT_POWERCUT)
 daemon-cppcheck:
 	cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \
 	  --suppress=missingIncludeSystem -D_GNU_SOURCE \
-	  -Ifirmware_core -Iprotocol -Iregmap -Idaemon -Icli daemon/ tests/sim/ tests/daemon/
+	  -Ifirmware_core -Iprotocol -Iregmap -Idaemon -Icli/common daemon/ tests/sim/ tests/daemon/
 
 daemon-systemd: $(IT2ND)
 	@if command -v systemd-analyze >/dev/null; then \

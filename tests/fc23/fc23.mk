@@ -11,7 +11,7 @@ FC23_BARE := $(FC23_B)/fc23_bare
 # Clients and a bare server: libmodbus, the core, the CLI's CSV reader for
 # the paper data (examples/paper_4x4.csv, what the daemon preloads); no
 # daemon header (tests/lint/layers.py).
-FC23_CFLAGS := $(HOST_CFLAGS) -Icli -Itests/sim $(shell pkg-config --cflags libmodbus 2>/dev/null)
+FC23_CFLAGS := $(HOST_CFLAGS) -Icli/common -Itests/sim $(shell pkg-config --cflags libmodbus 2>/dev/null)
 FC23_LIBS := $(shell pkg-config --libs libmodbus 2>/dev/null) -lm -pthread
 
 $(FC23_LOAD): tests/fc23/fc23_load.c tests/sim/simcommon.h $(CLI_CSV_OBJ) $(CORE_LIB)

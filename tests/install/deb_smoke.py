@@ -9,7 +9,7 @@ debian/tmp. Checks, as dh_install and dh_missing will:
     (and UNITDIR, which debian/rules adds to it2n) matches something;
   - every staged file goes to exactly one package;
   - libit2n-dev gets the libraries, headers and pkg-config files only;
-and that debian/changelog's version is cli/cli.h's IT2N_CLI_VERSION.
+and that debian/changelog's version is cli/common/cli.h's IT2N_CLI_VERSION.
 """
 import glob
 import os
@@ -23,9 +23,9 @@ def main():
     errors = []
     ver = subprocess.run(["dpkg-parsechangelog", "-l", "debian/changelog", "-S", "Version"],
                          capture_output=True, text=True, check=True).stdout.strip()
-    cli = re.search(r'^#define IT2N_CLI_VERSION "([^"]+)"', open("cli/cli.h").read(), re.M).group(1)
+    cli = re.search(r'^#define IT2N_CLI_VERSION "([^"]+)"', open("cli/common/cli.h").read(), re.M).group(1)
     if ver != cli:
-        errors.append(f"debian/changelog version {ver} is not cli/cli.h's {cli} (dch -v {cli})")
+        errors.append(f"debian/changelog version {ver} is not cli/common/cli.h's {cli} (dch -v {cli})")
     staged = set()
     for d, _, fs in os.walk(root):
         for f in fs:

@@ -64,7 +64,7 @@ fi
 n_files=$(wc -l <"$d/got")
 
 # the man pages and the examples the CLI's man page names are installed
-for ex in $(grep -oE 'examples/[A-Za-z0-9_]+\.csv' cli/it2n.1 | sort -u); do
+for ex in $(grep -oE 'examples/[A-Za-z0-9_]+\.csv' cli/it2n/it2n.1 | sort -u); do
   [ -s "$r$P/share/doc/it2n/$ex" ] || fail "it2n.1 names $ex, not installed"
 done
 
@@ -104,7 +104,7 @@ done
 
 # ---- the library through pkg-config ----------------------------------------
 export PKG_CONFIG_SYSROOT_DIR=$r PKG_CONFIG_LIBDIR=$r$P/lib/pkgconfig PKG_CONFIG_PATH=
-[ "$(pkg-config --modversion it2n)" = "$(sed -n 's/^#define IT2N_CLI_VERSION "\(.*\)"/\1/p' cli/cli.h)" ] ||
+[ "$(pkg-config --modversion it2n)" = "$(sed -n 's/^#define IT2N_CLI_VERSION "\(.*\)"/\1/p' cli/common/cli.h)" ] ||
   fail "it2n.pc version is not the CLI's"
 src=tests/cmake_consumer
 ${CC:-gcc} -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-protocol) \

@@ -1,5 +1,5 @@
 /* simcommon — helpers shared by the simulated PLC and instrument: CSV
- * loading through the CLI's reader (cli/csv.h) and small checks. */
+ * loading through the CLI's reader (cli/common/csv.h) and small checks. */
 #ifndef IT2N_SIMCOMMON_H
 #define IT2N_SIMCOMMON_H
 

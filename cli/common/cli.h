@@ -8,6 +8,7 @@
 
 #include "csv.h"
 #include "it2n.h"
+#include "opt.h"
 
 #include <stdbool.h>
 #include <stddef.h>
@@ -58,6 +59,9 @@ enum { CLI_FMT_VTK = 0, CLI_FMT_OBJ, CLI_FMT_CSV };
  * heat map's cells are smaller than the lines of the surfaces plot. */
 #define CLI_GRID_INTERVAL 81u
 
+/* "<stdin>" for "-", else path: how messages name DATA.csv. */
+const char *cli_display_name(const char *path);
+
 /* Run the subcommand in o; returns an exit status. */
 int cli_run(const cli_opts *o);
 
@@ -67,7 +71,71 @@ int cli_run(const cli_opts *o);
  * it2nctl's push, so both tools refuse a file alike. */
 int cli_load(const cli_opts *o, csv_reader *csv, it2n_dataset *ds, it2n_model *mdl);
 
-/* Option values (cli/args.c). cli_parse_pair: "A,B", both parameters in
+/*
+ * The options both programs share (common_opts.c), in one cli_opt table:
+ * each command of either program says which apply by these bits
+ * (cli_opt.cmds); a program's own bits start at CLI_O_PROG.
+ */
+enum {
+    CLI_O_AT_UW = 0x01u,    /* --at U,W (required)                  */
+    CLI_O_AT_XY = 0x02u,    /* --at X,Y (required)                  */
+    CLI_O_SUMMARY = 0x04u,  /* --summary                            */
+    CLI_O_GRID = 0x08u,     /* --grid required                      */
+    CLI_O_GRID_OPT = 0x10u, /* --grid optional (default 21x21)      */
+    CLI_O_FP = 0x20u,       /* --footprint                          */
+    CLI_O_OUT = 0x40u,      /* -o FILE                              */
+    CLI_O_MEMB = 0x80u,     /* --membership                         */
+    CLI_O_PLOT = 0x100u,    /* --interval, --nets, --size; -o needed */
+    CLI_O_CHORD = 0x200u,   /* --chord                              */
+    CLI_O_KIND = 0x400u,    /* --kind                               */
+    CLI_O_PROG = 0x10000u   /* first bit of a program's own          */
+};
+
+/* Ids of the shared options; a program's own ids start at CLI_OPT_PROG. */
+enum {
+    CLI_OPT_KIND = 0, CLI_OPT_CHORD, CLI_OPT_DECIMALS, CLI_OPT_HELP,
+    CLI_OPT_VERSION, CLI_OPT_AT, CLI_OPT_SUMMARY, CLI_OPT_GRID, CLI_OPT_FP,
+    CLI_OPT_OUTPUT, CLI_OPT_MEMB, CLI_OPT_INTERVAL, CLI_OPT_NETS,
+    CLI_OPT_SIZE, CLI_OPT_PROG = 24
+};
+
+/* The shared table (its labels are it2n's "Common options" of --help). */
+extern const cli_optset cli_common_opts;
+
+/*
+ * A program's command words for cli_first_word: its table of commands
+ * (entries of `stride` bytes, each starting with its name, a const char *)
+ * and its help printers.
+ */
+typedef struct cli_prog {
+    const char *name;           /* "it2n", for messages and --version     */
+    const void *cmds;           /* the command table                      */
+    size_t ncmds, stride;
+    void (*usage_all)(FILE *out);      /* `PROG --help`                   */
+    void (*usage_cmd)(const void *cmd); /* `PROG --help CMD`              */
+    /* Options before the command (NULL: not allowed): move the command to
+     * argv[1]; -1, or an exit status after a message. */
+    int (*reorder)(int argc, char **argv);
+} cli_prog;
+
+/* The command of argv[1] (help, version and a missing or unknown command,
+ * with a "did you mean", handled here alike for both programs). Returns
+ * its entry, or NULL with *rc the exit status when there is no more to do. */
+const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc);
+
+/* Defaults of cli_opts before parsing (decimals 6, membership -1). */
+void cli_opts_init(cli_opts *o);
+
+/* Store shared option v (one of cli_common_opts, not help or version)
+ * into o. Returns -1 to go on, or an exit status after its message. */
+int cli_common_take(const cli_parser *p, const cli_optval *v, cli_opts *o);
+
+/* After the last option: what the command's bits require of the shared
+ * options (--at, --grid, -o FILE.png|svg, --interval's limits) and the
+ * defaults that depend on others (grid size, membership). -1 or a status. */
+int cli_common_finish(const cli_parser *p, cli_opts *o);
+
+/* Option values (cli/common/args.c). cli_parse_pair: "A,B", both parameters in
  * [0,1] (par) or both values; 0, or an error with *why set. cli_parse_grid:
  * "RxC", R and C in 2..65535. cli_parse_fps: "D", "LL,RR", ... or'ed into
  * *mask as bits of IT2N_FP_*. */

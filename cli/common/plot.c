@@ -512,57 +512,72 @@ static int band_region(const cli_surface *mdl, unsigned ch, const xybox *in,
     return CLI_EXIT_OK;
 }
 
-/* Interval band over (x, y): every footprint located through each node of
- * a grid over the region the bands cover (found on a coarse grid first, so
- * the map is not a small patch in a wide white frame). */
-static int script_interval(const cli_opts *o, const cli_surface *mdl,
-                           tmpfiles *t)
+/* Extent in (x, y) of every footprint surface, sampled on a 21x21 grid. */
+static int xy_extent(const cli_surface *mdl, xybox *all)
 {
-    const unsigned k = (unsigned)o->membership, ch = IT2N_CH_T + k;
-    it2n_val wmax = 0;
-    xybox all, box;
-    unsigned r, c, fp, known = 0;
-    bool any;
+    unsigned r, c, fp;
     cli_mesh mesh;
-    FILE *d, *g;
-    int rc;
-
-    if (cli_surf_flags(mdl) & IT2N_F_TYPE1) {
-        fprintf(stderr,
-                "%s: --interval: a type-1 model (footprint D only) has no "
-                "interval\n",
-                strcmp(o->path, "-") == 0 ? "<stdin>" : o->path);
-        return CLI_EXIT_DATA;
-    }
-    /* Extent in (x, y): every footprint surface sampled on the grid. */
-    rc = cli_mesh_sample(&mesh, mdl, 21u, 21u);
+    int rc = cli_mesh_sample(&mesh, mdl, 21u, 21u);
     if (rc != CLI_EXIT_OK) {
         return rc;
     }
-    all.x0 = all.x1 = cli_mesh_at(&mesh, 0, 0, 0, IT2N_CH_X);
-    all.y0 = all.y1 = cli_mesh_at(&mesh, 0, 0, 0, IT2N_CH_Y);
+    all->x0 = all->x1 = cli_mesh_at(&mesh, 0, 0, 0, IT2N_CH_X);
+    all->y0 = all->y1 = cli_mesh_at(&mesh, 0, 0, 0, IT2N_CH_Y);
     for (r = 0; r < mesh.rows; r++) {
         for (c = 0; c < mesh.cols; c++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 it2n_val x = cli_mesh_at(&mesh, r, c, fp, IT2N_CH_X);
                 it2n_val y = cli_mesh_at(&mesh, r, c, fp, IT2N_CH_Y);
-                all.x0 = x < all.x0 ? x : all.x0;
-                all.x1 = x > all.x1 ? x : all.x1;
-                all.y0 = y < all.y0 ? y : all.y0;
-                all.y1 = y > all.y1 ? y : all.y1;
+                all->x0 = x < all->x0 ? x : all->x0;
+                all->x1 = x > all->x1 ? x : all->x1;
+                all->y0 = y < all->y0 ? y : all->y0;
+                all->y1 = y > all->y1 ? y : all->y1;
             }
         }
     }
     cli_mesh_free(&mesh);
-    rc = band_region(mdl, ch, &all, 41u, 41u, &box, &any);
-    if (rc != CLI_EXIT_OK) {
-        return rc;
-    }
-    if (!any) {
-        box = all; /* the fine grid may still find some: it says if not */
-    }
+    return CLI_EXIT_OK;
+}
 
-    d = tmp_open(t, "band.dat");
+/* One line of band.dat: x y, the two band widths, their bounds ('?' where
+ * a band's footprints do not all pass through (x, y)). */
+static void put_band_line(FILE *d, it2n_val x, it2n_val y, const bool ok[2],
+                          const it2n_val lo[2], const it2n_val hi[2],
+                          unsigned decimals)
+{
+    unsigned b;
+    put_val(d, x, decimals);
+    fputc(' ', d);
+    put_val(d, y, decimals);
+    for (b = 0; b < 2u; b++) {
+        fputc(' ', d);
+        if (ok[b]) {
+            put_val(d, hi[b] - lo[b], decimals);
+        } else {
+            fputc('?', d);
+        }
+    }
+    for (b = 0; b < 2u; b++) {
+        fputc(' ', d);
+        if (ok[b]) {
+            put_val(d, lo[b], decimals);
+            fputc(' ', d);
+            put_val(d, hi[b], decimals);
+        } else {
+            fputs("? ?", d);
+        }
+    }
+    fputc('\n', d);
+}
+
+/* band.dat over box: *wmax the widest band, *known the nodes with one. */
+static int write_band_data(const cli_opts *o, const cli_surface *mdl,
+                           const xybox *box, tmpfiles *t, it2n_val *wmax,
+                           unsigned *known)
+{
+    const unsigned k = (unsigned)o->membership, ch = IT2N_CH_T + k;
+    unsigned r, c, b;
+    FILE *d = tmp_open(t, "band.dat");
     if (d == NULL) {
         return CLI_EXIT_DATA;
     }
@@ -570,75 +585,47 @@ static int script_interval(const cli_opts *o, const cli_surface *mdl,
                "lower_max of %s ('?': not every footprint passes here)\n",
             memb_short[k]);
     for (r = 0; r < o->rows; r++) {
-        it2n_val y = grid_at(box.y0, box.y1, r, o->rows);
+        it2n_val y = grid_at(box->y0, box->y1, r, o->rows);
         for (c = 0; c < o->cols; c++) {
-            it2n_val x = grid_at(box.x0, box.x1, c, o->cols);
+            it2n_val x = grid_at(box->x0, box->x1, c, o->cols);
             it2n_val lo[2], hi[2];
             bool ok[2];
-            unsigned b;
-            rc = band_at(mdl, x, y, ch, ok, lo, hi);
+            int rc = band_at(mdl, x, y, ch, ok, lo, hi);
             if (rc != CLI_EXIT_OK) {
                 fclose(d);
                 return rc;
             }
             for (b = 0; b < 2u; b++) {
-                if (ok[b] && hi[b] - lo[b] > wmax) {
-                    wmax = hi[b] - lo[b];
+                if (ok[b] && hi[b] - lo[b] > *wmax) {
+                    *wmax = hi[b] - lo[b];
                 }
             }
-            known += ok[0] || ok[1];
-            put_val(d, x, o->decimals);
-            fputc(' ', d);
-            put_val(d, y, o->decimals);
-            for (b = 0; b < 2u; b++) {
-                fputc(' ', d);
-                if (ok[b]) {
-                    put_val(d, hi[b] - lo[b], o->decimals);
-                } else {
-                    fputc('?', d);
-                }
-            }
-            for (b = 0; b < 2u; b++) {
-                fputc(' ', d);
-                if (ok[b]) {
-                    put_val(d, lo[b], o->decimals);
-                    fputc(' ', d);
-                    put_val(d, hi[b], o->decimals);
-                } else {
-                    fputs("? ?", d);
-                }
-            }
-            fputc('\n', d);
+            *known += ok[0] || ok[1];
+            put_band_line(d, x, y, ok, lo, hi, o->decimals);
         }
         fputc('\n', d);
     }
-    rc = tmp_close(d);
-    if (rc != CLI_EXIT_OK) {
-        return rc;
-    }
-    if (known == 0u) {
-        fprintf(stderr,
-                "it2n: --interval: no (x, y) node on the %ux%u grid lies on "
-                "all of LL, D, RR or LR, D, RL\n",
-                o->rows, o->cols);
-        return CLI_EXIT_DATA;
-    }
+    return tmp_close(d);
+}
 
-    g = tmp_open(t, "plot.gp");
+/* plot.gp: the two heat maps of band.dat side by side. */
+static int write_band_script(const cli_opts *o, const xybox *box,
+                             it2n_val wmax, tmpfiles *t)
+{
+    const unsigned k = (unsigned)o->membership;
+    char title[512];
+    FILE *g = tmp_open(t, "plot.gp");
     if (g == NULL) {
         return CLI_EXIT_DATA;
     }
     put_terminal(g, o);
-    {
-        char title[512];
-        snprintf(title, sizeof(title),
-                 "%s: interval of the %s membership %s over (x, y), "
-                 "%ux%u nodes",
-                 base_name(o), memb_long[k], memb_short[k], o->rows, o->cols);
-        fputs("set multiplot layout 1,2 margins 0.06,0.87,0.1,0.86 "
-              "spacing 0.16 title ", g);
-        put_quoted(g, title);
-    }
+    snprintf(title, sizeof(title),
+             "%s: interval of the %s membership %s over (x, y), "
+             "%ux%u nodes",
+             base_name(o), memb_long[k], memb_short[k], o->rows, o->cols);
+    fputs("set multiplot layout 1,2 margins 0.06,0.87,0.1,0.86 "
+          "spacing 0.16 title ", g);
+    put_quoted(g, title);
     fprintf(g,
             "\nset datafile missing '?'\nset view map\nset size ratio -1\n"
             "set xlabel 'x'\nset ylabel 'y'\nset key off\n"
@@ -649,13 +636,13 @@ static int script_interval(const cli_opts *o, const cli_surface *mdl,
     fprintf(g, "]\nset cblabel 'band width of %s' rotate\n"
                "set xrange [",
             memb_short[k]);
-    put_val(g, box.x0, o->decimals);
+    put_val(g, box->x0, o->decimals);
     fputc(':', g);
-    put_val(g, box.x1, o->decimals);
+    put_val(g, box->x1, o->decimals);
     fputs("]\nset yrange [", g);
-    put_val(g, box.y0, o->decimals);
+    put_val(g, box->y0, o->decimals);
     fputc(':', g);
-    put_val(g, box.y1, o->decimals);
+    put_val(g, box->y1, o->decimals);
     fputs("]\nband = ", g);
     put_quoted(g, t->path[0]);
     fprintf(g,
@@ -665,6 +652,51 @@ static int script_interval(const cli_opts *o, const cli_surface *mdl,
             "splot band using 1:2:4 with pm3d\nunset multiplot\n",
             memb_short[k], memb_short[k]);
     return tmp_close(g);
+}
+
+/* Interval band over (x, y): every footprint located through each node of
+ * a grid over the region the bands cover (found on a coarse grid first, so
+ * the map is not a small patch in a wide white frame). */
+static int script_interval(const cli_opts *o, const cli_surface *mdl,
+                           tmpfiles *t)
+{
+    const unsigned ch = IT2N_CH_T + (unsigned)o->membership;
+    it2n_val wmax = 0;
+    xybox all, box;
+    unsigned known = 0;
+    bool any;
+    int rc;
+
+    if (cli_surf_flags(mdl) & IT2N_F_TYPE1) {
+        fprintf(stderr,
+                "%s: --interval: a type-1 model (footprint D only) has no "
+                "interval\n",
+                cli_display_name(o->path));
+        return CLI_EXIT_DATA;
+    }
+    rc = xy_extent(mdl, &all);
+    if (rc != CLI_EXIT_OK) {
+        return rc;
+    }
+    rc = band_region(mdl, ch, &all, 41u, 41u, &box, &any);
+    if (rc != CLI_EXIT_OK) {
+        return rc;
+    }
+    if (!any) {
+        box = all; /* the fine grid may still find some: it says if not */
+    }
+    rc = write_band_data(o, mdl, &box, t, &wmax, &known);
+    if (rc != CLI_EXIT_OK) {
+        return rc;
+    }
+    if (known == 0u) {
+        fprintf(stderr,
+                "it2n: --interval: no (x, y) node on the %ux%u grid lies on "
+                "all of LL, D, RR or LR, D, RL\n",
+                o->rows, o->cols);
+        return CLI_EXIT_DATA;
+    }
+    return write_band_script(o, &box, wmax, t);
 }
 
 /* Run gnuplot on the script; its own messages go to stderr. */
