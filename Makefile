@@ -1,5 +1,9 @@
-# it2n — top-level Makefile. Each directory owns a fragment (*.mk) that adds
-# its objects, programs and test targets; this file holds the shared flags.
+# it2n — top-level Makefile. Each product directory owns a fragment
+# (<dir>/<dir>.mk, core.mk for firmware_core/) with its objects, libraries
+# and programs; each test area tests/<area>/<area>.mk its suites
+# (tests/tests.mk lists them); mk/ what belongs to no one directory. This
+# file holds the shared flags. Every fragment is included with `include`:
+# a missing one stops make instead of dropping an area silently.
 #   make run   build and start the daemon on its built-in default
 #   make test  install missing Debian packages, build, run all tests
 .DEFAULT_GOAL := all
@@ -37,12 +41,12 @@ INSTALL_TARGETS :=
 
 include mk/deps.mk
 include firmware_core/core.mk
--include protocol/protocol.mk
+include protocol/protocol.mk
 include regmap/regmap.mk
 include cli/cli.mk
--include daemon/daemon.mk
+include daemon/daemon.mk
 include tests/tests.mk
--include mk/cross.mk
+include mk/cross.mk
 include mk/lint.mk
 include mk/install.mk
 

@@ -12,10 +12,7 @@ TC_LIBS := -lcmocka -lm
 TC_BIN := $(TC_PROGS:%=$(BUILD)/tests/core/%)
 TC_SAN_BIN := $(TC_PROGS:%=$(BUILD)/tests/core/san/%)
 
-# Only once the core has sources (the header lands first).
-ifneq ($(strip $(CORE_SRC)),)
 TEST_TARGETS += tests-core
-endif
 
 .PHONY: tests-core tests-core-plain tests-core-san
 
@@ -50,3 +47,13 @@ tests-core-config: $(TC_CONFIG_BIN)
 	@$<
 
 TEST_TARGETS += tests-core-config
+
+# The checked-in uniform inverse tables are what their generator prints
+# (firmware_core/core.mk: make core-tables).
+.PHONY: core-tables-check
+core-tables-check:
+	@/usr/bin/python3 firmware_core/gen/gen_uniform_inv.py | diff -u firmware_core/it2n_uniform_inv.c - >/dev/null || \
+	  { echo "firmware_core/it2n_uniform_inv.c differs from its generator: run 'make core-tables'" >&2; exit 1; }
+	@echo "core-tables-check: firmware_core/it2n_uniform_inv.c matches its generator"
+
+TEST_TARGETS += core-tables-check

@@ -1,7 +1,94 @@
+# tests/protocol/: the serial protocol (protocol/).
+#   proto-test       unit, golden vector, lossy-channel and fixed-corpus fuzz
+#                    runs (cmocka), each built normally and with ASan+UBSan
+#   proto-e2e        the example instrument over a lossy pty
+#   proto-daemon     protocol v1.1/v1.2 against the real it2nd over a pty
+#   proto-inst-size  the instrument API's Cortex-M0+ size in docs/instrument.md
+#   proto-fuzz       libFuzzer (make fuzz)
+FUZZ_SECONDS ?= 60
+PROTO_T := tests/protocol
+PROTO_TB := $(BUILD)/tests/protocol
+PROTO_TESTS := test_proto test_msg test_link test_inst test_reboot test_vectors lossy fuzz_plain
+PROTO_THDR := $(wildcard $(PROTO_T)/*.h)
+
+$(PROTO_TB)/%: $(PROTO_T)/%.c $(PROTO_THDR) $(PROTO_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -I$(PROTO_T) $< -o $@ $(PROTO_LIB) -lcmocka
+
+$(PROTO_TB)/san/%: $(PROTO_T)/%.c $(PROTO_THDR) $(PROTO_SAN_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -I$(PROTO_T) $< -o $@ $(PROTO_SAN_LIB) -lcmocka
+
+$(PROTO_TB)/fuzz_plain: $(PROTO_T)/fuzz_proto.c $(PROTO_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -DIT2N_FUZZ_MAIN $< -o $@ $(PROTO_LIB)
+
+$(PROTO_TB)/san/fuzz_plain: $(PROTO_T)/fuzz_proto.c $(PROTO_SAN_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -DIT2N_FUZZ_MAIN $< -o $@ $(PROTO_SAN_LIB)
+
+PROTO_TEST_BINS := $(PROTO_TESTS:%=$(PROTO_TB)/%) $(PROTO_TESTS:%=$(PROTO_TB)/san/%)
+
+.PHONY: proto-test proto-cppcheck proto-fuzz proto-vectors
+TEST_TARGETS += proto-test proto-cppcheck
+
+# Unit, golden vector, lossy-channel and fixed-corpus fuzz runs, each built
+# normally and with ASan+UBSan.
+proto-test: $(PROTO_TEST_BINS)
+	@set -e; for t in $(PROTO_TESTS); do \
+	  for b in $(PROTO_TB)/$$t $(PROTO_TB)/san/$$t; do \
+	    echo "== $$b"; $$b $(PROTO_T)/corpus protocol/vectors; done; done
+	python3 $(PROTO_T)/check_vectors.py protocol/vectors
+
+proto-cppcheck:
+	cppcheck --std=c99 --enable=warning,portability --error-exitcode=1 -q \
+	  -Ifirmware_core -Iprotocol protocol/
+
+# Regenerate protocol/vectors/*.hex and protocol/it2n_vectors.inc from the
+# message table (only after an intended wire change; review the diff).
+proto-vectors: $(PROTO_TB)/gen_vectors ## Regenerate protocol/vectors/ after an intended wire change
+	$(PROTO_TB)/gen_vectors protocol/vectors protocol/it2n_vectors.inc $(PROTO_T)/corpus
+	python3 $(PROTO_T)/check_vectors.py --update-doc protocol/vectors
+
+# End to end: the example instrument over a lossy pty against a receiver
+# built from the link and the core (needs the core library).
+PROTO_E2E_DEPS := $(PROTO_T)/test_instrument.c examples/instrument/synth.c \
+  examples/instrument/synth.h $(PROTO_THDR)
+$(PROTO_TB)/e2e/test_instrument: $(PROTO_E2E_DEPS) $(PROTO_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) -I$(PROTO_T) -Iexamples/instrument $(PROTO_T)/test_instrument.c \
+	  examples/instrument/synth.c -o $@ $(PROTO_LIB) $(CORE_LIB) -lcmocka
+
+$(PROTO_TB)/e2e/san/test_instrument: $(PROTO_E2E_DEPS) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) -I$(PROTO_T) -Iexamples/instrument $(PROTO_T)/test_instrument.c \
+	  examples/instrument/synth.c -o $@ $(PROTO_SAN_LIB) $(CORE_SAN_LIB) -lcmocka
+
+.PHONY: proto-e2e
+TEST_TARGETS += proto-e2e
+proto-e2e: $(PROTO_TB)/e2e/test_instrument $(PROTO_TB)/e2e/san/test_instrument $(BUILD)/host/it2n-instrument
+	$(PROTO_TB)/e2e/test_instrument $(BUILD)/host/it2n-instrument
+	$(PROTO_TB)/e2e/san/test_instrument $(BUILD)/host/it2n-instrument
+
+# ---- libFuzzer (clang) ----------------------------------------------------
+PROTO_FUZZ := $(BUILD)/fuzz/proto_fuzz
+FUZZ_TARGETS += proto-fuzz
+
+$(PROTO_FUZZ): $(PROTO_T)/fuzz_proto.c $(PROTO_SRC) $(PROTO_HDR)
+	@mkdir -p $(@D)
+	clang -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined \
+	  -Ifirmware_core -Iprotocol $(PROTO_T)/fuzz_proto.c $(PROTO_SRC) -o $@
+
+proto-fuzz: $(PROTO_FUZZ)
+	@mkdir -p $(BUILD)/fuzz/proto_corpus
+	$(PROTO_FUZZ) -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
+	  $(BUILD)/fuzz/proto_corpus $(PROTO_T)/corpus
+
+# ---- against it2nd ----------------------------------------------------------
 # Protocol v1.1 against the real daemon over a pty (issue 11): sessions
 # that cannot collide, exactly once across kill -9, a lossy line with 0
 # host re-requests (tests/protocol/daemon_link.c). Included after
-# daemon/daemon.mk (tests/tests.mk), so $(IT2ND) is known here.
+# daemon/daemon.mk (Makefile), so $(IT2ND) is known here.
 PROTO_DL := $(BUILD)/tests/protocol/daemon_link
 # The worked example of docs/instrument.md, extracted verbatim, compiled
 # with the core's warnings (it is firmware code) and run by scenario `doc`.
