@@ -1,5 +1,5 @@
 # tests/protocol/: the serial protocol (protocol/).
-#   proto-test       unit, golden vector, lossy-channel and fixed-corpus fuzz
+#   proto-unit       unit, golden vector, lossy-channel and fixed-corpus fuzz
 #                    runs (cmocka), each built normally and with ASan+UBSan
 #   proto-e2e        the example instrument over a lossy pty
 #   proto-daemon     protocol v1.1/v1.2 against the real it2nd over a pty
@@ -29,12 +29,12 @@ $(PROTO_TB)/san/fuzz_plain: $(PROTO_T)/fuzz_proto.c $(PROTO_SAN_LIB)
 
 PROTO_TEST_BINS := $(PROTO_TESTS:%=$(PROTO_TB)/%) $(PROTO_TESTS:%=$(PROTO_TB)/san/%)
 
-.PHONY: proto-test proto-cppcheck proto-fuzz proto-vectors
-TEST_TARGETS += proto-test proto-cppcheck
+.PHONY: proto-unit proto-cppcheck proto-fuzz proto-vectors
+TEST_TARGETS += proto-unit proto-cppcheck
 
 # Unit, golden vector, lossy-channel and fixed-corpus fuzz runs, each built
 # normally and with ASan+UBSan.
-proto-test: $(PROTO_TEST_BINS)
+proto-unit: $(PROTO_TEST_BINS)
 	@set -e; for t in $(PROTO_TESTS); do \
 	  for b in $(PROTO_TB)/$$t $(PROTO_TB)/san/$$t; do \
 	    echo "== $$b"; $$b $(PROTO_T)/corpus protocol/vectors; done; done
