@@ -69,8 +69,8 @@ $(DT_POWERCUT): $(DT)/powercut.c
 
 DT_UNIT_BINS := $(DT_UNITS:%=$(DTB)/%) $(DT_UNITS:%=$(DTB)/san/%)
 
-.PHONY: daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-cppcheck daemon-systemd
-TEST_TARGETS += daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-cppcheck daemon-systemd
+.PHONY: daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-systemd
+TEST_TARGETS += daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-systemd
 .PHONY: daemon-powercut
 TEST_TARGETS += daemon-powercut
 
@@ -201,10 +201,9 @@ daemon-powercut: $(IT2ND) $(SIM_INSTR) $(DT_POWERCUT)
 	timeout 300 /usr/bin/python3 $(DT)/powercut_test.py --it2nd $(IT2ND) --instrument $(SIM_INSTR) \
 	  --shim $(DT_POWERCUT) --cycles $(DT_PC_CYCLES) --out $(BUILD)/daemon_powercut.json
 
-daemon-cppcheck:
-	cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \
-	  --suppress=missingIncludeSystem -D_GNU_SOURCE \
-	  -Ifirmware_core -Iprotocol -Iregmap -Idaemon -Icli daemon/ tests/sim/ tests/daemon/
+# make lint (mk/lint.mk) runs this: cppcheck over the daemon's tests and
+# the simulators, with the daemon's include paths.
+LINT_DAEMON_TESTS = $(LINT_TESTS) -D_GNU_SOURCE -Idaemon -Icli tests/sim tests/daemon
 
 daemon-systemd: $(IT2ND)
 	@if command -v systemd-analyze >/dev/null; then \

@@ -25,11 +25,9 @@ $(FW_ELF): $(FW_OBJ) tests/qemu/mps2_an385.ld
 	arm-none-eabi-gcc $(FW_CPU) -nostdlib -T tests/qemu/mps2_an385.ld -Wl,--gc-sections \
 	  -Wl,-e,fw_reset_handler -Wl,-Map=$(FW_B)/it2n-firmware.map -o $@ $(FW_OBJ) -lc -lgcc
 
-.PHONY: fw-image fw-e2e fw-cppcheck
-TEST_TARGETS += fw-e2e fw-cppcheck
+.PHONY: fw-image fw-e2e
+TEST_TARGETS += fw-e2e
 
-fw-cppcheck:
-	cppcheck --std=c99 $(CPPCHECK_FLAGS) -Iexamples/instrument -Iexamples/firmware -Itests/qemu examples/firmware
 fw-image: $(FW_ELF) ## Build only the emulated instrument firmware (build/fw-m3/it2n-firmware.elf)
 
 fw-e2e: $(FW_ELF) $(IT2ND)

@@ -75,8 +75,8 @@ $(FZD_B)/conf_dict: $(FZD)/conf_dict.c daemon/conf_schema.c $(FZD_HDR)
 $(FZD_B)/conf.dict: $(FZD_B)/conf_dict
 	$< > $@.tmp && mv $@.tmp $@
 
-.PHONY: fuzzd-corpus fuzzd-fuzz fuzzd-cppcheck
-TEST_TARGETS += fuzzd-corpus fuzzd-cppcheck
+.PHONY: fuzzd-corpus fuzzd-fuzz
+TEST_TARGETS += fuzzd-corpus
 FUZZ_TARGETS += fuzzd-fuzz
 
 # Fixed corpus + seeded mutations, normal and sanitizer builds.
@@ -88,6 +88,5 @@ fuzzd-corpus: $(FZD_BINS) $(FZD_DICT_conf)
 
 fuzzd-fuzz: $(FZD_TARGETS:%=fuzzd-fuzz-%)
 
-fuzzd-cppcheck:
-	cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \
-	  -Ifirmware_core -Iprotocol -Idaemon $(REGMAP_INC) $(FZD)/
+# make lint (mk/lint.mk) runs this: cppcheck over the harnesses.
+LINT_FUZZD = $(LINT_TESTS) -Idaemon $(FZD)

@@ -29,8 +29,8 @@ $(PROTO_TB)/san/fuzz_plain: $(PROTO_T)/fuzz_proto.c $(PROTO_SAN_LIB)
 
 PROTO_TEST_BINS := $(PROTO_TESTS:%=$(PROTO_TB)/%) $(PROTO_TESTS:%=$(PROTO_TB)/san/%)
 
-.PHONY: proto-unit proto-cppcheck proto-fuzz proto-vectors
-TEST_TARGETS += proto-unit proto-cppcheck
+.PHONY: proto-unit proto-fuzz proto-vectors
+TEST_TARGETS += proto-unit
 
 # Unit, golden vector, lossy-channel and fixed-corpus fuzz runs, each built
 # normally and with ASan+UBSan.
@@ -39,10 +39,6 @@ proto-unit: $(PROTO_TEST_BINS)
 	  for b in $(PROTO_TB)/$$t $(PROTO_TB)/san/$$t; do \
 	    echo "== $$b"; $$b $(PROTO_T)/corpus protocol/vectors; done; done
 	python3 $(PROTO_T)/check_vectors.py protocol/vectors
-
-proto-cppcheck:
-	cppcheck --std=c99 --enable=warning,portability --error-exitcode=1 -q \
-	  -Ifirmware_core -Iprotocol protocol/
 
 # Regenerate protocol/vectors/*.hex and protocol/it2n_vectors.inc from the
 # message table (only after an intended wire change; review the diff).
