@@ -31,6 +31,16 @@ PROTO_HOST_DEFS := -DIT2N_PROTO_WINDOW=16
 CORE_CFLAGS += $(PROTO_HOST_DEFS)
 HOST_CFLAGS += $(PROTO_HOST_DEFS)
 SAN_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+# The user's flags (make CFLAGS=... CPPFLAGS=... LDFLAGS=..., or from the
+# environment, as dpkg-buildflags sets them) come after the required ones
+# on every host compile and link: they add to -std, the warnings and
+# -Werror, they do not replace them. LDFLAGS ride along on compile lines
+# too (every host link line carries CORE_CFLAGS or HOST_CFLAGS; gcc ignores
+# linker options when it only compiles). Cross and MCU builds take none of
+# them. pkg-cflags (tests/install/install.mk) checks every $(CC) line.
+USER_FLAGS := $(strip $(CPPFLAGS) $(CFLAGS) $(LDFLAGS))
+CORE_CFLAGS += $(USER_FLAGS)
+HOST_CFLAGS += $(USER_FLAGS)
 
 # Fragments append to these.
 ALL_TARGETS :=

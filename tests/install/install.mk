@@ -7,6 +7,8 @@
 #   deb-check        (in make test, about 30 s to 2 min) builds the .debs
 #                    with `make deb`, checks them with dpkg-deb and lintian
 #   deb-smoke        (in make test) debian/ agrees with make install and cli.h
+#   pkg-cflags       make CFLAGS=/CPPFLAGS=/LDFLAGS= reach every host compile
+#                    and link, after the required flags
 # docs/packaging.md describes the layout and the package.
 # bash-completion (pkg-completion), dpkg-dev (dpkg-parsechangelog,
 # dpkg-architecture: deb-smoke), man-db (man page warnings: pkg-install).
@@ -26,6 +28,18 @@ pkg-completion: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CTL_BIN) ## 
 	@/usr/bin/python3 tests/install/test_completion.py completions $(COMPLETION_PROGS)
 
 TEST_TARGETS += pkg-install pkg-completion
+
+# make CFLAGS=... CPPFLAGS=... LDFLAGS=... reaches every host compile and
+# link (Makefile, USER_FLAGS): make -n of the programs, the libraries and
+# the test programs of each area (tests/install/cflags_check.sh).
+PKG_CFLAGS_TARGETS = all $(CORE_SAN_LIB) $(TC_BIN) $(TC_CONFIG_BIN) $(PROTO_TEST_BINS) \
+  $(DT_UNIT_BINS) $(FZD_BINS) $(CLI_SAN_BIN) $(CTL_SAN_BIN) $(IT2ND_SAN) $(SIM_PLC) $(SIM_INSTR) \
+  $(VEC_B)/host_check $(RM_TB)/test_regmap
+.PHONY: pkg-cflags
+pkg-cflags:
+	@MAKE="$(MAKE)" tests/install/cflags_check.sh "$(CC)" $(PKG_CFLAGS_TARGETS)
+
+TEST_TARGETS += pkg-cflags
 
 .PHONY: deb-smoke deb-check
 deb-smoke: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB) $(REGMAP_LIB)
