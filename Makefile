@@ -31,6 +31,16 @@ PROTO_HOST_DEFS := -DIT2N_PROTO_WINDOW=16
 CORE_CFLAGS += $(PROTO_HOST_DEFS)
 HOST_CFLAGS += $(PROTO_HOST_DEFS)
 SAN_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+# One version for everything (the file VERSION): it2n, it2nctl and it2nd
+# --version (-DIT2N_VERSION), the pkg-config files (mk/install.mk), the
+# CMake package (CMakeLists.txt); library.json and debian/changelog repeat
+# it, and pkg-version (tests/install/install.mk) checks they all agree.
+IT2N_VERSION := $(file <VERSION)
+ifeq ($(shell echo '$(IT2N_VERSION)' | grep -xE '[0-9]+\.[0-9]+\.[0-9]+'),)
+$(error VERSION: "$(IT2N_VERSION)" is not a version X.Y.Z)
+endif
+HOST_CFLAGS += -DIT2N_VERSION='"$(IT2N_VERSION)"'
+
 # The user's flags (make CFLAGS=... CPPFLAGS=... LDFLAGS=..., or from the
 # environment, as dpkg-buildflags sets them) come after the required ones
 # on every host compile and link: they add to -std, the warnings and

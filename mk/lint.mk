@@ -9,8 +9,9 @@ CPPCHECK_FLAGS := --enable=warning,portability,performance --error-exitcode=1 -q
   --inline-suppr --suppress=missingIncludeSystem -Ifirmware_core -Iprotocol
 # Portable C99: the core, the protocol, the register map; the example firmware.
 LINT_C99 := cppcheck --std=c99 $(CPPCHECK_FLAGS)
-# Host code (C11 + POSIX): the CLI and the daemon.
-LINT_C11 := cppcheck --std=c11 $(CPPCHECK_FLAGS) -D_GNU_SOURCE
+# Host code (C11 + POSIX): the CLI and the daemon, with the version the
+# build passes (without it their sources stop with #error).
+LINT_C11 := cppcheck --std=c11 $(CPPCHECK_FLAGS) -D_GNU_SOURCE -DIT2N_VERSION='"$(IT2N_VERSION)"'
 # The daemon's tests, simulators and fuzz harnesses: warning and portability
 # only (their flags before there was one lint target); their include paths
 # are the daemon's, so the commands live in the daemon's test areas

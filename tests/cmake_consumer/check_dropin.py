@@ -35,7 +35,7 @@ def exists(rel):
 MAKE_SOURCES = sorted(os.path.relpath(p, ROOT) for d in ("firmware_core", "protocol")
                       for p in glob.glob(os.path.join(ROOT, d, "*.c")))
 CORE_SOURCES = [s for s in MAKE_SOURCES if s.startswith("firmware_core/")]
-VERSION = re.search(r'#define IT2N_CLI_VERSION "([0-9.]+)"', read("cli/cli.h")).group(1)
+VERSION = read("VERSION").strip()
 
 
 # ---- it2n.h options --------------------------------------------------------
@@ -178,7 +178,7 @@ def check_pio():
     if lib.get("name") != "it2n":
         err("library.json: name is not it2n")
     if lib.get("version") != VERSION:
-        err(f"library.json: version {lib.get('version')}, cli/cli.h says {VERSION}")
+        err(f"library.json: version {lib.get('version')}, VERSION says {VERSION}")
     b = lib.get("build", {})
     src_dir = b.get("srcDir", "src")
     if not os.path.isdir(os.path.join(ROOT, src_dir)):

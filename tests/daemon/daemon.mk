@@ -167,7 +167,7 @@ DT_SLOW_S ?= 20
 # with relaxed latency bounds and no figures.
 IT2ND_TSAN := $(BUILD)/tsan/it2nd
 DAEMON_SRC := $(wildcard daemon/*.c)
-$(IT2ND_TSAN): $(DAEMON_SRC) $(DAEMON_HDR) $(REGMAP_SRC) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
+$(IT2ND_TSAN): VERSION $(DAEMON_SRC) $(DAEMON_HDR) $(REGMAP_SRC) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(REGMAP_SRC) $(BUILD)/daemon/paper_data.c $(SPB_PB_C) \
 	  $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) -o $@ $(DAEMON_LIBS)

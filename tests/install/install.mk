@@ -6,7 +6,9 @@
 #                    agree with each program's --help
 #   deb-check        (in make test, about 30 s to 2 min) builds the .debs
 #                    with `make deb`, checks them with dpkg-deb and lintian
-#   deb-smoke        (in make test) debian/ agrees with make install and cli.h
+#   deb-smoke        (in make test) debian/ agrees with make install and VERSION
+#   pkg-version      VERSION = library.json = debian/changelog = --version of
+#                    it2n, it2nctl, it2nd = the .pc files of make and CMake
 #   pkg-cflags       make CFLAGS=/CPPFLAGS=/LDFLAGS= reach every host compile
 #                    and link, after the required flags
 # docs/packaging.md describes the layout and the package.
@@ -40,6 +42,20 @@ pkg-cflags:
 	@MAKE="$(MAKE)" tests/install/cflags_check.sh "$(CC)" $(PKG_CFLAGS_TARGETS)
 
 TEST_TARGETS += pkg-cflags
+
+# VERSION is the version of every program, library, package and manifest
+# (tests/install/version_check.py); the self-test compares against 9.9.9
+# and must see every place disagree.
+.PHONY: pkg-version
+pkg-version: $(CLI_BIN) $(CTL_BIN) $(IT2ND) $(addprefix $(BUILD)/pkgconfig/,it2n.pc it2n-protocol.pc it2n-regmap.pc)
+	@/usr/bin/python3 tests/install/version_check.py --build $(BUILD) $(CLI_BIN) $(CTL_BIN) $(IT2ND)
+	@mkdir -p $(BUILD); echo 9.9.9 > $(BUILD)/version_drift
+	@if /usr/bin/python3 tests/install/version_check.py --version-file $(BUILD)/version_drift --build $(BUILD) \
+	    $(CLI_BIN) $(CTL_BIN) $(IT2ND) > $(BUILD)/version_drift.log 2>&1; then \
+	  echo "pkg-version: a VERSION no other place says passed"; exit 1; \
+	else echo "pkg-version: a VERSION the others disagree with is refused (self-test: $$(grep -c FAIL $(BUILD)/version_drift.log) mismatches)"; fi
+
+TEST_TARGETS += pkg-version
 
 .PHONY: deb-smoke deb-check
 deb-smoke: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB) $(REGMAP_LIB)

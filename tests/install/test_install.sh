@@ -104,7 +104,7 @@ done
 
 # ---- the library through pkg-config ----------------------------------------
 export PKG_CONFIG_SYSROOT_DIR=$r PKG_CONFIG_LIBDIR=$r$P/lib/pkgconfig PKG_CONFIG_PATH=
-[ "$(pkg-config --modversion it2n)" = "$(sed -n 's/^#define IT2N_CLI_VERSION "\(.*\)"/\1/p' cli/cli.h)" ] ||
+[ "$(pkg-config --modversion it2n)" = "$(cat VERSION)" ] ||
   fail "it2n.pc version is not the CLI's"
 src=tests/cmake_consumer
 ${CC:-gcc} -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-protocol) \
