@@ -52,6 +52,13 @@ USER_FLAGS := $(strip $(CPPFLAGS) $(CFLAGS) $(LDFLAGS))
 CORE_CFLAGS += $(USER_FLAGS)
 HOST_CFLAGS += $(USER_FLAGS)
 
+# $(call src_list,DIR): the C sources of a library, DIR/sources.txt (one
+# file name per line), the one list CMakeLists.txt reads too. Make stops
+# when it is not exactly DIR/*.c (a source added but not listed, or gone).
+src_list = $(or $(call src_check,$(1),$(addprefix $(1)/,$(file <$(1)/sources.txt))),$(addprefix $(1)/,$(file <$(1)/sources.txt)))
+src_check = $(if $(filter-out $(sort $(2)),$(sort $(wildcard $(1)/*.c)))$(filter-out $(sort $(wildcard $(1)/*.c)),$(sort $(2))),$(error $(1)/sources.txt: \
+  not listed: $(or $(filter-out $(sort $(2)),$(sort $(wildcard $(1)/*.c))),none); listed but absent: $(or $(filter-out $(sort $(wildcard $(1)/*.c)),$(sort $(2))),none)))
+
 # Fragments append to these.
 ALL_TARGETS :=
 TEST_TARGETS :=

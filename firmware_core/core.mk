@@ -1,5 +1,5 @@
 # firmware_core: portable fixed-point library.
-CORE_SRC := $(wildcard firmware_core/*.c)
+CORE_SRC := $(call src_list,firmware_core)
 CORE_HDR := $(wildcard firmware_core/*.h)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/host/%.o)
 CORE_LIB := $(BUILD)/host/libit2n.a

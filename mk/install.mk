@@ -67,10 +67,9 @@ install-examples:
 	  echo "install -D -m 0644 $$f $(DESTDIR)$(EXAMPLESDIR)/$${f#examples/}"; \
 	  install -D -m 0644 $$f $(DESTDIR)$(EXAMPLESDIR)/$${f#examples/}; done
 
-# One file per program, named after it (bash-completion loads it on demand);
-# it2nctl's when this tree builds it2nctl (CTL_BIN, cli/cli.mk).
+# One file per program, named after it (bash-completion loads it on demand).
 INSTALL_COMPLETIONS := completions/it2n completions/it2nd completions/it2n-instrument \
-  $(if $(CTL_BIN),completions/it2nctl)
+  completions/it2nctl
 install-completion:
 	install -d $(DESTDIR)$(BASHCOMPDIR)
 	install -m 0644 $(INSTALL_COMPLETIONS) $(DESTDIR)$(BASHCOMPDIR)/

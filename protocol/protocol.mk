@@ -4,7 +4,7 @@
 # Exports PROTO_SRC, PROTO_HDR, PROTO_LIB, PROTO_SAN_LIB for the daemon, the
 # cross build and the tests (tests/protocol/protocol.mk), and builds the
 # example instrument (examples/instrument/).
-PROTO_SRC := $(wildcard protocol/*.c)
+PROTO_SRC := $(call src_list,protocol)
 PROTO_HDR := $(wildcard protocol/*.h) protocol/it2n_vectors.inc $(CORE_HDR)
 PROTO_OBJ := $(PROTO_SRC:%.c=$(BUILD)/host/%.o)
 PROTO_LIB := $(BUILD)/host/libit2n_proto.a

@@ -32,8 +32,9 @@ def exists(rel):
     return os.path.exists(os.path.join(ROOT, rel))
 
 
-MAKE_SOURCES = sorted(os.path.relpath(p, ROOT) for d in ("firmware_core", "protocol")
-                      for p in glob.glob(os.path.join(ROOT, d, "*.c")))
+# The sources the Makefile and CMakeLists.txt build: DIR/sources.txt.
+MAKE_SOURCES = sorted(d + "/" + n for d in ("firmware_core", "protocol")
+                      for n in read(d + "/sources.txt").split())
 CORE_SOURCES = [s for s in MAKE_SOURCES if s.startswith("firmware_core/")]
 VERSION = read("VERSION").strip()
 

@@ -167,10 +167,10 @@ DT_SLOW_S ?= 20
 # with relaxed latency bounds and no figures.
 IT2ND_TSAN := $(BUILD)/tsan/it2nd
 DAEMON_SRC := $(wildcard daemon/*.c)
-$(IT2ND_TSAN): VERSION $(DAEMON_SRC) $(DAEMON_HDR) $(REGMAP_SRC) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
+$(IT2ND_TSAN): VERSION $(DAEMON_SRC) $(DAEMON_HDR) $(REGMAP_SRC) $(CORE_SRC) $(CORE_HDR) $(PROTO_SRC) $(PROTO_HDR) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(REGMAP_SRC) $(BUILD)/daemon/paper_data.c $(SPB_PB_C) \
-	  $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) -o $@ $(DAEMON_LIBS)
+	  $(CORE_SRC) $(PROTO_SRC) -o $@ $(DAEMON_LIBS)
 daemon-slowdisk: $(IT2ND) $(IT2ND_SAN) $(IT2ND_TSAN) $(DT_FAILIO)
 	timeout 300 /usr/bin/python3 $(DT)/slowdisk_test.py --it2nd $(IT2ND) --failio $(DT_FAILIO) \
 	  --delay-ms $(DT_SLOW_MS) --seconds $(DT_SLOW_S) --out $(BUILD)/daemon_slowdisk.json

@@ -6,7 +6,7 @@
 #   make bench-firmware  the same, writing the committed bench/firmware.json
 FW_B := $(BUILD)/fw-m3
 FW_CPU := -mcpu=cortex-m3 -mthumb
-FW_SRC := $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) \
+FW_SRC := $(CORE_SRC) $(PROTO_SRC) \
           examples/instrument/synth.c examples/instrument/session.c \
           tests/qemu/semihost.c $(filter-out examples/firmware/survey.c,$(wildcard examples/firmware/*.c))
 FW_HDR := $(wildcard firmware_core/*.h protocol/*.h protocol/*.inc examples/firmware/*.h) \
@@ -90,7 +90,7 @@ BENCH_TARGETS += bench-firmware
 FWS_B := $(BUILD)/fw-m3-survey
 FW_SURVEY_CSV ?= examples/survey_64x64.csv
 FWS_MAX ?= 63
-FWS_SRC := $(wildcard firmware_core/*.c) tests/qemu/semihost.c examples/firmware/startup.c \
+FWS_SRC := $(CORE_SRC) tests/qemu/semihost.c examples/firmware/startup.c \
            examples/firmware/board.c examples/firmware/survey.c
 FWS_CFLAGS := $(FW_CFLAGS) -DIT2N_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_M=$(FWS_MAX)
 FWS_OBJ := $(FWS_SRC:%.c=$(FWS_B)/%.o) $(FWS_B)/survey_csv.o

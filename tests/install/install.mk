@@ -17,10 +17,9 @@
 DEB_PACKAGES += bash-completion dpkg-dev man-db
 
 # Every program that has a completion file, with its binary and man page
-# (it2nctl: "it2nctl=" = not built by this tree, its completion is skipped).
 COMPLETION_PROGS := it2n=$(CLI_BIN):cli/it2n.1 it2nd=$(IT2ND):daemon/it2nd.8 \
   it2n-instrument=$(BUILD)/host/it2n-instrument:examples/instrument/it2n-instrument.1 \
-  it2nctl=$(if $(CTL_BIN),$(CTL_BIN):cli/it2nctl.1)
+  it2nctl=$(CTL_BIN):cli/it2nctl.1
 
 .PHONY: pkg-install pkg-completion
 pkg-install: $(CLI_BIN) $(IT2ND) $(BUILD)/host/it2n-instrument $(CORE_LIB) $(PROTO_LIB) $(REGMAP_LIB)
