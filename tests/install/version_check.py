@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """make pkg-version: one version (the file VERSION) everywhere it appears.
 
-Compares VERSION with library.json (PlatformIO), debian/changelog, what
-`it2n --version`, `it2nctl --version` and `it2nd --version` print, the
+Compares VERSION with library.json (PlatformIO), debian/changelog, the man
+pages whose footer names a version, what `it2n --version`, `it2nctl
+--version` and `it2nd --version` print, the
 pkg-config files the Makefile generates and the ones CMake configures
 (project(VERSION) of CMakeLists.txt). Exit 1 and one line per mismatch.
 usage: version_check.py [--version-file F] --build BUILD IT2N IT2NCTL IT2ND
@@ -40,6 +41,11 @@ def main():
         out = subprocess.run([prog, "--version"], capture_output=True, text=True, timeout=30).stdout
         m = re.match(r"%s ([^\s]+)" % re.escape(name), out)
         seen[f"{name} --version"] = m.group(1) if m else out.strip()[:60]
+    # man pages whose .TH footer carries a version ("it2n X.Y.Z")
+    for man in sorted(glob.glob(os.path.join(ROOT, "*", "*.[18]")) + glob.glob(os.path.join(ROOT, "examples", "*", "*.[18]"))):
+        m = re.match(r'\.TH \S+ \d+ "[^"]*" "it2n ([^"]+)"', open(man).readline())
+        if m:
+            seen[os.path.relpath(man, ROOT)] = m.group(1)
     pcs = sorted(glob.glob(os.path.join(a.build, "pkgconfig", "*.pc")))
     if not pcs:
         errs.append(f"no pkg-config files under {a.build}/pkgconfig (make generates them for install-lib)")
