@@ -61,6 +61,17 @@ uint64_t loop_now_us(void)
     return now_us;
 }
 
+/* The fake clock has no waits: the wake time is the current time. */
+uint64_t loop_wake_ms(void)
+{
+    return now_us / 1000u;
+}
+
+uint64_t loop_wake_us(void)
+{
+    return now_us;
+}
+
 int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg)
 {
     fuzz_check(fake_fd_find(fd) == NULL, "loop_add_fd: fd watched twice");
