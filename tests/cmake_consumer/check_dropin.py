@@ -138,7 +138,10 @@ def check_zephyr():
     for rel in listed:
         if not exists(rel):
             err(f"zephyr/CMakeLists.txt: {rel} does not exist")
-    srcs = sorted(r for r in listed if r.endswith(".c"))
+    # a listed DIR/sources.txt stands for the sources it names
+    srcs = sorted([r for r in listed if r.endswith(".c")] +
+                  [os.path.dirname(r) + "/" + n for r in listed if r.endswith("/sources.txt") and exists(r)
+                   for n in read(r).split()])
     if srcs != MAKE_SOURCES:
         err("zephyr/CMakeLists.txt: sources differ from the Makefile's: "
             f"missing {sorted(set(MAKE_SOURCES) - set(srcs))}, extra {sorted(set(srcs) - set(MAKE_SOURCES))}")
