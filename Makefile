@@ -1,5 +1,9 @@
-# it2n — top-level Makefile. Each directory owns a fragment (*.mk) that adds
-# its objects, programs and test targets; this file holds the shared flags.
+# it2n — top-level Makefile. Each product directory owns a fragment
+# (<dir>/<dir>.mk, core.mk for firmware_core/) with its objects, libraries
+# and programs; each test area tests/<area>/<area>.mk its suites
+# (tests/tests.mk lists them); mk/ what belongs to no one directory. This
+# file holds the shared flags. Every fragment is included with `include`:
+# a missing one stops make instead of dropping an area silently.
 #   make run   build and start the daemon on its built-in default
 #   make test  install missing Debian packages, build, run all tests
 .DEFAULT_GOAL := all
@@ -27,6 +31,33 @@ PROTO_HOST_DEFS := -DIT2N_PROTO_WINDOW=16
 CORE_CFLAGS += $(PROTO_HOST_DEFS)
 HOST_CFLAGS += $(PROTO_HOST_DEFS)
 SAN_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+# One version for everything (the file VERSION): it2n, it2nctl and it2nd
+# --version (-DIT2N_VERSION), the pkg-config files (mk/install.mk), the
+# CMake package (CMakeLists.txt); library.json and debian/changelog repeat
+# it, and pkg-version (tests/install/install.mk) checks they all agree.
+IT2N_VERSION := $(file <VERSION)
+ifeq ($(shell echo '$(IT2N_VERSION)' | grep -xE '[0-9]+\.[0-9]+\.[0-9]+'),)
+$(error VERSION: "$(IT2N_VERSION)" is not a version X.Y.Z)
+endif
+HOST_CFLAGS += -DIT2N_VERSION='"$(IT2N_VERSION)"'
+
+# The user's flags (make CFLAGS=... CPPFLAGS=... LDFLAGS=..., or from the
+# environment, as dpkg-buildflags sets them) come after the required ones
+# on every host compile and link: they add to -std, the warnings and
+# -Werror, they do not replace them. LDFLAGS ride along on compile lines
+# too (every host link line carries CORE_CFLAGS or HOST_CFLAGS; gcc ignores
+# linker options when it only compiles). Cross and MCU builds take none of
+# them. pkg-cflags (tests/install/install.mk) checks every $(CC) line.
+USER_FLAGS := $(strip $(CPPFLAGS) $(CFLAGS) $(LDFLAGS))
+CORE_CFLAGS += $(USER_FLAGS)
+HOST_CFLAGS += $(USER_FLAGS)
+
+# $(call src_list,DIR): the C sources of a library, DIR/sources.txt (one
+# file name per line), the one list CMakeLists.txt reads too. Make stops
+# when it is not exactly DIR/*.c (a source added but not listed, or gone).
+src_list = $(or $(call src_check,$(1),$(addprefix $(1)/,$(file <$(1)/sources.txt))),$(addprefix $(1)/,$(file <$(1)/sources.txt)))
+src_check = $(if $(filter-out $(sort $(2)),$(sort $(wildcard $(1)/*.c)))$(filter-out $(sort $(wildcard $(1)/*.c)),$(sort $(2))),$(error $(1)/sources.txt: \
+  not listed: $(or $(filter-out $(sort $(2)),$(sort $(wildcard $(1)/*.c))),none); listed but absent: $(or $(filter-out $(sort $(wildcard $(1)/*.c)),$(sort $(2))),none)))
 
 # Fragments append to these.
 ALL_TARGETS :=
@@ -37,12 +68,12 @@ INSTALL_TARGETS :=
 
 include mk/deps.mk
 include firmware_core/core.mk
--include protocol/protocol.mk
+include protocol/protocol.mk
 include regmap/regmap.mk
 include cli/cli.mk
--include daemon/daemon.mk
+include daemon/daemon.mk
 include tests/tests.mk
--include mk/cross.mk
+include mk/cross.mk
 include mk/lint.mk
 include mk/install.mk
 

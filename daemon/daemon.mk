@@ -44,6 +44,10 @@ $(BUILD)/san/daemon/spb.pb-c.o: $(SPB_PB_C) $(SPB_PB_H)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) $(SAN_FLAGS) -c $< -o $@
 
+# --version and the metrics' build_info carry VERSION (-DIT2N_VERSION).
+$(BUILD)/host/daemon/main.o $(BUILD)/san/daemon/main.o $(BUILD)/host/daemon/metrics.o \
+  $(BUILD)/san/daemon/metrics.o: VERSION
+
 $(BUILD)/host/daemon/%.o: daemon/%.c $(DAEMON_HDR)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) -c $< -o $@

@@ -29,9 +29,11 @@
 #include "porthint.h"
 #include "store.h"
 
-#ifndef IT2ND_VERSION
-#define IT2ND_VERSION "0.1.0"
+/* The project's version, from the file VERSION (the Makefile passes it). */
+#ifndef IT2N_VERSION
+#error "IT2N_VERSION undefined: build with the top-level Makefile (-DIT2N_VERSION from VERSION)"
 #endif
+#define IT2ND_VERSION IT2N_VERSION
 
 static volatile sig_atomic_t sig_stop, sig_reload;
 static int sig_pipe[2] = { -1, -1 };

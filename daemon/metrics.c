@@ -21,9 +21,11 @@
 #include "porthint.h"
 #include "store.h"
 
-#ifndef IT2ND_VERSION
-#define IT2ND_VERSION "0.1.0"
+/* The project's version, from the file VERSION (the Makefile passes it). */
+#ifndef IT2N_VERSION
+#error "IT2N_VERSION undefined: build with the top-level Makefile (-DIT2N_VERSION from VERSION)"
 #endif
+#define IT2ND_VERSION IT2N_VERSION
 
 /* A scrape is a few kB; these bound what HTTP clients may hold. */
 #define METRICS_MAX_CONNS 8

@@ -1,5 +1,5 @@
 # firmware_core: portable fixed-point library.
-CORE_SRC := $(wildcard firmware_core/*.c)
+CORE_SRC := $(call src_list,firmware_core)
 CORE_HDR := $(wildcard firmware_core/*.h)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/host/%.o)
 CORE_LIB := $(BUILD)/host/libit2n.a
@@ -23,14 +23,8 @@ $(CORE_SAN_LIB): $(CORE_SAN_OBJ)
 	@rm -f $@; ar rcs $@ $^
 
 # The uniform inverse tables are generated (exact rationals) and checked in:
-# a firmware build needs no Python. make test regenerates and compares.
-.PHONY: core-tables core-tables-check
+# a firmware build needs no Python. core-tables-check (tests/core/core.mk)
+# regenerates and compares.
+.PHONY: core-tables
 core-tables: ## Regenerate firmware_core/it2n_uniform_inv.c
 	/usr/bin/python3 firmware_core/gen/gen_uniform_inv.py > firmware_core/it2n_uniform_inv.c
-
-core-tables-check:
-	@/usr/bin/python3 firmware_core/gen/gen_uniform_inv.py | diff -u firmware_core/it2n_uniform_inv.c - >/dev/null || \
-	  { echo "firmware_core/it2n_uniform_inv.c differs from its generator: run 'make core-tables'" >&2; exit 1; }
-	@echo "core-tables-check: firmware_core/it2n_uniform_inv.c matches its generator"
-
-TEST_TARGETS += core-tables-check

@@ -11,8 +11,7 @@ CROSS_SIZE := arm-none-eabi-size
 CROSS_DIR  := $(BUILD)/cross
 CROSS_TOOLS := tests/qemu
 
-# Evaluated lazily so protocol/ is picked up as soon as it lands.
-CROSS_SRC = $(wildcard firmware_core/*.c) $(wildcard protocol/*.c)
+CROSS_SRC := $(CORE_SRC) $(PROTO_SRC)
 CROSS_HDR = $(wildcard firmware_core/*.h) $(wildcard protocol/*.h) $(wildcard protocol/*.inc)
 CROSS_CFLAGS := -ffreestanding -std=c99 -Os -g $(CORE_WARN) \
                 -ffunction-sections -fdata-sections -fstack-usage -fcallgraph-info=su \

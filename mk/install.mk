@@ -27,10 +27,6 @@ ifeq ($(origin UNITDIR),undefined)
 UNITDIR := $(or $(shell pkg-config --variable=systemdsystemunitdir systemd 2>/dev/null),/lib/systemd/system)
 endif
 
-# The version of the CLI (cli/common/cli.h) is the version of the libraries
-# (CMakeLists.txt reads it from there too).
-IT2N_VERSION := $(shell sed -n 's/^\#define IT2N_CLI_VERSION "\([0-9.]*\)".*/\1/p' cli/common/cli.h)
-
 # What the libraries' users include: as CMakeLists.txt installs it.
 INSTALL_HEADERS := firmware_core/it2n.h $(wildcard protocol/*.h) $(REGMAP_HDR)
 # pkg-config files from CMake's templates (cmake/*.pc.in) with this PREFIX.
@@ -41,7 +37,7 @@ INSTALL_TARGETS += install-lib install-instrument install-examples install-compl
 
 # ${prefix}/lib rather than /usr/lib where the directory is under PREFIX.
 pc_rel = $(patsubst $(PREFIX)/%,$${prefix}/%,$(1))
-$(BUILD)/pkgconfig/%.pc: cmake/%.pc.in cli/common/cli.h FORCE_PC
+$(BUILD)/pkgconfig/%.pc: cmake/%.pc.in VERSION FORCE_PC
 	@mkdir -p $(@D)
 	@sed -e 's|@IT2N_PC_PREFIX@|$(PREFIX)|' -e 's|@IT2N_PC_LIBDIR@|$(call pc_rel,$(LIBDIR))|' \
 	  -e 's|@IT2N_PC_INCLUDEDIR@|$(call pc_rel,$(INCLUDEDIR))|' -e 's|@IT2N_PC_CFLAGS@||' \
@@ -71,10 +67,9 @@ install-examples:
 	  echo "install -D -m 0644 $$f $(DESTDIR)$(EXAMPLESDIR)/$${f#examples/}"; \
 	  install -D -m 0644 $$f $(DESTDIR)$(EXAMPLESDIR)/$${f#examples/}; done
 
-# One file per program, named after it (bash-completion loads it on demand);
-# it2nctl's when this tree builds it2nctl (CTL_BIN, cli/cli.mk).
+# One file per program, named after it (bash-completion loads it on demand).
 INSTALL_COMPLETIONS := completions/it2n completions/it2nd completions/it2n-instrument \
-  $(if $(CTL_BIN),completions/it2nctl)
+  completions/it2nctl
 install-completion:
 	install -d $(DESTDIR)$(BASHCOMPDIR)
 	install -m 0644 $(INSTALL_COMPLETIONS) $(DESTDIR)$(BASHCOMPDIR)/

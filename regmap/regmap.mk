@@ -3,9 +3,9 @@
 # lookups and the value codecs (word orders, float32, scaled integers).
 # The daemon serves it, it2nctl and the PLC simulator read it, and
 # gen_registers prints docs/registers.md from it. Nothing outside daemon/
-# reaches into daemon/ for it (test-lint checks: tests/lint/layers.py).
+# reaches into daemon/ for it (lint checks: tests/lint/layers.py).
 # Exports REGMAP_INC, REGMAP_HDR, REGMAP_LIB, REGMAP_SAN_LIB, GEN_REGISTERS.
-REGMAP_SRC := $(wildcard regmap/*.c)
+REGMAP_SRC := $(call src_list,regmap)
 REGMAP_HDR := $(wildcard regmap/*.h)
 REGMAP_INC := -Iregmap
 REGMAP_OBJ := $(REGMAP_SRC:%.c=$(BUILD)/host/%.o)

@@ -13,7 +13,11 @@
 #include <stdbool.h>
 #include <stddef.h>
 
-#define IT2N_CLI_VERSION "0.1.0"
+/* The project's version, from the file VERSION (the Makefile passes it). */
+#ifndef IT2N_VERSION
+#error "IT2N_VERSION undefined: build with the top-level Makefile (-DIT2N_VERSION from VERSION)"
+#endif
+#define IT2N_CLI_VERSION IT2N_VERSION
 
 /* Exit statuses (documented in docs/cli.md and it2n.1). */
 enum {

@@ -1,4 +1,4 @@
-/* ABI guard check (make test-install, make cmake-consumer): calls every
+/* ABI guard check (make pkg-install, make cmake-consumer): calls every
  * entry point whose structs are sized by a build option (it2n.h:
  * IT2N_MAX_DEGREE, IT2N_CHORD, IT2N_BSPLINE_MAX_N; it2n_proto.h: IT2N_PROTO_WINDOW,
  * IT2N_PROTO_MAX_PAYLOAD, IT2N_PROTO_RX_REORDER). Compiled with the

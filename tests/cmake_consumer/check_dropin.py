@@ -32,10 +32,11 @@ def exists(rel):
     return os.path.exists(os.path.join(ROOT, rel))
 
 
-MAKE_SOURCES = sorted(os.path.relpath(p, ROOT) for d in ("firmware_core", "protocol")
-                      for p in glob.glob(os.path.join(ROOT, d, "*.c")))
+# The sources the Makefile and CMakeLists.txt build: DIR/sources.txt.
+MAKE_SOURCES = sorted(d + "/" + n for d in ("firmware_core", "protocol")
+                      for n in read(d + "/sources.txt").split())
 CORE_SOURCES = [s for s in MAKE_SOURCES if s.startswith("firmware_core/")]
-VERSION = re.search(r'#define IT2N_CLI_VERSION "([0-9.]+)"', read("cli/common/cli.h")).group(1)
+VERSION = read("VERSION").strip()
 
 
 # ---- it2n.h options --------------------------------------------------------
@@ -137,7 +138,10 @@ def check_zephyr():
     for rel in listed:
         if not exists(rel):
             err(f"zephyr/CMakeLists.txt: {rel} does not exist")
-    srcs = sorted(r for r in listed if r.endswith(".c"))
+    # a listed DIR/sources.txt stands for the sources it names
+    srcs = sorted([r for r in listed if r.endswith(".c")] +
+                  [os.path.dirname(r) + "/" + n for r in listed if r.endswith("/sources.txt") and exists(r)
+                   for n in read(r).split()])
     if srcs != MAKE_SOURCES:
         err("zephyr/CMakeLists.txt: sources differ from the Makefile's: "
             f"missing {sorted(set(MAKE_SOURCES) - set(srcs))}, extra {sorted(set(srcs) - set(MAKE_SOURCES))}")
@@ -178,7 +182,7 @@ def check_pio():
     if lib.get("name") != "it2n":
         err("library.json: name is not it2n")
     if lib.get("version") != VERSION:
-        err(f"library.json: version {lib.get('version')}, cli/common/cli.h says {VERSION}")
+        err(f"library.json: version {lib.get('version')}, VERSION says {VERSION}")
     b = lib.get("build", {})
     src_dir = b.get("srcDir", "src")
     if not os.path.isdir(os.path.join(ROOT, src_dir)):

@@ -1,8 +1,8 @@
 # tests/core: reference tests of firmware_core against a long-double
 # Bernstein-collocation reference (accuracy, validation, operations).
 # Each program is built twice: against $(CORE_LIB) and, with $(SAN_FLAGS),
-# against $(CORE_SAN_LIB). Targets: tests-core (both), tests-core-plain,
-# tests-core-san.
+# against $(CORE_SAN_LIB). Targets: core-unit (both), core-unit-plain,
+# core-unit-san.
 TC_DIR := tests/core
 TC_PROGS := test_accuracy test_validation test_operations test_bspline test_eval_exact
 TC_COMMON := $(TC_DIR)/ref.c $(TC_DIR)/tc_util.c
@@ -12,14 +12,11 @@ TC_LIBS := -lcmocka -lm
 TC_BIN := $(TC_PROGS:%=$(BUILD)/tests/core/%)
 TC_SAN_BIN := $(TC_PROGS:%=$(BUILD)/tests/core/san/%)
 
-# Only once the core has sources (the header lands first).
-ifneq ($(strip $(CORE_SRC)),)
-TEST_TARGETS += tests-core
-endif
+TEST_TARGETS += core-unit
 
-.PHONY: tests-core tests-core-plain tests-core-san
+.PHONY: core-unit core-unit-plain core-unit-san
 
-tests-core: tests-core-plain tests-core-san
+core-unit: core-unit-plain core-unit-san
 
 $(BUILD)/tests/core/%: $(TC_DIR)/%.c $(TC_COMMON) $(TC_HDRS) $(CORE_LIB)
 	@mkdir -p $(@D)
@@ -30,10 +27,10 @@ $(BUILD)/tests/core/san/%: $(TC_DIR)/%.c $(TC_COMMON) $(TC_HDRS) $(CORE_SAN_LIB)
 	$(CC) $(TC_CFLAGS) $(SAN_FLAGS) $< $(TC_COMMON) $(CORE_SAN_LIB) $(TC_LIBS) -o $@
 
 # Run every program even when one fails, then fail if any did.
-tests-core-plain: $(TC_BIN)
+core-unit-plain: $(TC_BIN)
 	@rc=0; for t in $(TC_BIN); do echo "== $$t"; $$t || rc=1; done; exit $$rc
 
-tests-core-san: $(TC_SAN_BIN)
+core-unit-san: $(TC_SAN_BIN)
 	@rc=0; for t in $(TC_SAN_BIN); do echo "== $$t"; \
 	  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 $$t || rc=1; \
 	done; exit $$rc
@@ -45,8 +42,18 @@ $(TC_CONFIG_BIN): $(TC_DIR)/test_config.c $(TC_DIR)/config/it2n_test_config.h $(
 	$(CC) $(CORE_CFLAGS) -DIT2N_CONFIG=it2n_test_config.h -I$(TC_DIR)/config \
 	  $(TC_DIR)/test_config.c $(CORE_SRC) -o $@
 
-.PHONY: tests-core-config
-tests-core-config: $(TC_CONFIG_BIN)
+.PHONY: core-config
+core-config: $(TC_CONFIG_BIN)
 	@$<
 
-TEST_TARGETS += tests-core-config
+TEST_TARGETS += core-config
+
+# The checked-in uniform inverse tables are what their generator prints
+# (firmware_core/core.mk: make core-tables).
+.PHONY: core-tables-check
+core-tables-check:
+	@/usr/bin/python3 firmware_core/gen/gen_uniform_inv.py | diff -u firmware_core/it2n_uniform_inv.c - >/dev/null || \
+	  { echo "firmware_core/it2n_uniform_inv.c differs from its generator: run 'make core-tables'" >&2; exit 1; }
+	@echo "core-tables-check: firmware_core/it2n_uniform_inv.c matches its generator"
+
+TEST_TARGETS += core-tables-check

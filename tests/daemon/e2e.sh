@@ -326,7 +326,7 @@ def read(addr, n, tid=[0]):
 assert read(21, 1) == (0,)
 conf = open(tdir + "/it2nd.conf").read()
 # Floats CDAB, integers kept high word first (the rest of this script reads
-# generations that way; int32 following CDAB, the default, is interop-test's).
+# generations that way; int32 following CDAB, the default, is interop-modbus's).
 open(tdir + "/it2nd.conf", "w").write(conf.replace("[modbus]\n", "[modbus]\nfloat_word_order = CDAB\nint32_word_order = ABCD\n"))
 os.kill(pid, signal.SIGHUP)
 for _ in range(40):

@@ -5,7 +5,7 @@ test, and every question id of section 4.4 (Q1..) has a row.
 
 A test is `path:name`: in a cmocka file a function registered with
 cmocka_unit_test*; in tests/protocol/daemon_link.c a mode (strcmp'd in its
-main) that tests/protocol/proto_daemon.mk runs in proto-daemon; elsewhere a
+main) that tests/protocol/protocol.mk runs in proto-daemon; elsewhere a
 function defined in the file. `make X`: X is in some TEST_TARGETS.
 usage: conformance.py [protocol.md]"""
 import glob
@@ -34,7 +34,7 @@ def test_targets():
 
 
 def dl_modes_run():
-    mk = rd("tests/protocol/proto_daemon.mk")
+    mk = rd("tests/protocol/protocol.mk")
     words = set()
     for line in mk.splitlines():
         if "$(PROTO_DL)" in line and "proto-daemon-long" not in line or line.startswith("PROTO_DL_ARGS"):

@@ -6,7 +6,7 @@
 #   make bench-firmware  the same, writing the committed bench/firmware.json
 FW_B := $(BUILD)/fw-m3
 FW_CPU := -mcpu=cortex-m3 -mthumb
-FW_SRC := $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) \
+FW_SRC := $(CORE_SRC) $(PROTO_SRC) \
           examples/instrument/synth.c examples/instrument/session.c \
           tests/qemu/semihost.c $(filter-out examples/firmware/survey.c,$(wildcard examples/firmware/*.c))
 FW_HDR := $(wildcard firmware_core/*.h protocol/*.h protocol/*.inc examples/firmware/*.h) \
@@ -25,11 +25,9 @@ $(FW_ELF): $(FW_OBJ) tests/qemu/mps2_an385.ld
 	arm-none-eabi-gcc $(FW_CPU) -nostdlib -T tests/qemu/mps2_an385.ld -Wl,--gc-sections \
 	  -Wl,-e,fw_reset_handler -Wl,-Map=$(FW_B)/it2n-firmware.map -o $@ $(FW_OBJ) -lc -lgcc
 
-.PHONY: fw-image fw-e2e fw-cppcheck
-TEST_TARGETS += fw-e2e fw-cppcheck
+.PHONY: fw-image fw-e2e
+TEST_TARGETS += fw-e2e
 
-fw-cppcheck:
-	cppcheck --std=c99 $(CPPCHECK_FLAGS) -Iexamples/instrument -Iexamples/firmware -Itests/qemu examples/firmware
 fw-image: $(FW_ELF) ## Build only the emulated instrument firmware (build/fw-m3/it2n-firmware.elf)
 
 fw-e2e: $(FW_ELF) $(IT2ND)
@@ -92,7 +90,7 @@ BENCH_TARGETS += bench-firmware
 FWS_B := $(BUILD)/fw-m3-survey
 FW_SURVEY_CSV ?= examples/survey_64x64.csv
 FWS_MAX ?= 63
-FWS_SRC := $(wildcard firmware_core/*.c) tests/qemu/semihost.c examples/firmware/startup.c \
+FWS_SRC := $(CORE_SRC) tests/qemu/semihost.c examples/firmware/startup.c \
            examples/firmware/board.c examples/firmware/survey.c
 FWS_CFLAGS := $(FW_CFLAGS) -DIT2N_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_M=$(FWS_MAX)
 FWS_OBJ := $(FWS_SRC:%.c=$(FWS_B)/%.o) $(FWS_B)/survey_csv.o

@@ -1,7 +1,7 @@
 /* conf_dict — prints the config fuzzer's dictionary (section headers,
  * "key = " of every key, enum words and range ends) from the schema
  * (daemon/conf_schema.c), so the dictionary cannot miss a key the parser
- * takes. Used by fuzzd-test (the plain driver's token mutations) and
+ * takes. Used by fuzzd-corpus (the plain driver's token mutations) and
  * fuzzd-fuzz-conf (libFuzzer -dict=). */
 #include <stdio.h>
 

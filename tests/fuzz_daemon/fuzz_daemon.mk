@@ -75,12 +75,12 @@ $(FZD_B)/conf_dict: $(FZD)/conf_dict.c daemon/conf_schema.c $(FZD_HDR)
 $(FZD_B)/conf.dict: $(FZD_B)/conf_dict
 	$< > $@.tmp && mv $@.tmp $@
 
-.PHONY: fuzzd-test fuzzd-fuzz fuzzd-cppcheck
-TEST_TARGETS += fuzzd-test fuzzd-cppcheck
+.PHONY: fuzzd-corpus fuzzd-fuzz
+TEST_TARGETS += fuzzd-corpus
 FUZZ_TARGETS += fuzzd-fuzz
 
 # Fixed corpus + seeded mutations, normal and sanitizer builds.
-fuzzd-test: $(FZD_BINS) $(FZD_DICT_conf)
+fuzzd-corpus: $(FZD_BINS) $(FZD_DICT_conf)
 	@set -e; for t in $(FZD_TARGETS); do \
 	  d=$$(case $$t in conf) echo $(FZD_DICT_conf);; esac); \
 	  FUZZ_DICT=$$d $(FZD_B)/fuzz_$$t $(FZD)/corpus/$$t; \
@@ -88,6 +88,5 @@ fuzzd-test: $(FZD_BINS) $(FZD_DICT_conf)
 
 fuzzd-fuzz: $(FZD_TARGETS:%=fuzzd-fuzz-%)
 
-fuzzd-cppcheck:
-	cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \
-	  -Ifirmware_core -Iprotocol -Idaemon $(REGMAP_INC) $(FZD)/
+# make lint (mk/lint.mk) runs this: cppcheck over the harnesses.
+LINT_FUZZD = $(LINT_TESTS) -Idaemon $(FZD)

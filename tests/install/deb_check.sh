@@ -2,7 +2,7 @@
 # make deb-check: the packages `make deb` built, checked the way an
 # installation meets them (without installing them on this machine: the
 # .debs are unpacked into a scratch directory).
-#   - dpkg-deb -I: name, version (= debian/changelog = cli/common/cli.h), the
+#   - dpkg-deb -I: name, version (= debian/changelog = VERSION), the
 #     architecture, the shared libraries it2nd links (shlibs), conffiles
 #     (/etc/it2n/it2nd.conf and the .example), maintainer scripts that
 #     enable and start it2nd.service (dh_installsystemd) and leave the
@@ -31,8 +31,8 @@ w=$(mktemp -d "${TMPDIR:-/tmp}/it2n-debcheck.XXXXXX")
 trap 'rm -rf "$w"' EXIT
 
 ver=$(dpkg-parsechangelog -l debian/changelog -S Version)
-cli_ver=$(sed -n 's/^#define IT2N_CLI_VERSION "\(.*\)"/\1/p' cli/common/cli.h)
-[ "$ver" = "$cli_ver" ] || fail "debian/changelog says $ver, cli/common/cli.h $cli_ver"
+cli_ver=$(cat VERSION)
+[ "$ver" = "$cli_ver" ] || fail "debian/changelog says $ver, VERSION $cli_ver"
 arch=$(dpkg --print-architecture)
 triplet=$(dpkg-architecture -qDEB_HOST_MULTIARCH)
 main=$out/it2n_${ver}_$arch.deb

@@ -9,7 +9,7 @@ debian/tmp. Checks, as dh_install and dh_missing will:
     (and UNITDIR, which debian/rules adds to it2n) matches something;
   - every staged file goes to exactly one package;
   - libit2n-dev gets the libraries, headers and pkg-config files only;
-and that debian/changelog's version is cli/common/cli.h's IT2N_CLI_VERSION.
+and that debian/changelog's version is the file VERSION's.
 """
 import glob
 import os
@@ -23,9 +23,9 @@ def main():
     errors = []
     ver = subprocess.run(["dpkg-parsechangelog", "-l", "debian/changelog", "-S", "Version"],
                          capture_output=True, text=True, check=True).stdout.strip()
-    cli = re.search(r'^#define IT2N_CLI_VERSION "([^"]+)"', open("cli/common/cli.h").read(), re.M).group(1)
+    cli = open("VERSION").read().strip()
     if ver != cli:
-        errors.append(f"debian/changelog version {ver} is not cli/common/cli.h's {cli} (dch -v {cli})")
+        errors.append(f"debian/changelog version {ver} is not VERSION's {cli} (dch -v {cli})")
     staged = set()
     for d, _, fs in os.walk(root):
         for f in fs:
@@ -58,7 +58,7 @@ def main():
             print("deb-smoke: FAIL: " + e, file=sys.stderr)
         sys.exit(1)
     n = {p: sum(1 for s in owner.values() if p in s) for p in ("it2n", "libit2n-dev")}
-    print(f"deb-smoke: debian/ version {ver} = cli.h; make install PREFIX=/usr: {len(staged)} files, "
+    print(f"deb-smoke: debian/ version {ver} = VERSION; make install PREFIX=/usr: {len(staged)} files, "
           f"{n['it2n']} to it2n, {n['libit2n-dev']} to libit2n-dev, none left out or twice")
 
 

@@ -1,5 +1,5 @@
 /* regmap_user — a consumer of the installed register map library
- * (pkg-config it2n-regmap, test-install): encodes a value the way a PLC
+ * (pkg-config it2n-regmap, pkg-install): encodes a value the way a PLC
  * reads it and finds a block by address, printing what it got. */
 #include <stdio.h>
 

@@ -1,5 +1,5 @@
 #!/bin/bash
-# make test-install: `make install` into a scratch DESTDIR with
+# make pkg-install: `make install` into a scratch DESTDIR with
 # PREFIX=/opt/it2n, then everything is checked the way a user would meet it:
 #   - the layout: every program in PREFIX/bin and PREFIX/sbin has a man page
 #     and a bash completion (and every man page and completion a program);
@@ -29,7 +29,7 @@ root=$PWD
 P=/opt/it2n
 d=$(mktemp -d "${TMPDIR:-/tmp}/it2n-install.XXXXXX")
 trap 'rm -rf "$d"' EXIT
-fail() { echo "test-install: FAIL: $*" >&2; exit 1; }
+fail() { echo "pkg-install: FAIL: $*" >&2; exit 1; }
 log=$d/make.log
 $MAKE --no-print-directory -s install DESTDIR="$d/root" PREFIX=$P >"$log" 2>&1 ||
   { cat "$log" >&2; fail "make install DESTDIR=... PREFIX=$P"; }
@@ -104,7 +104,7 @@ done
 
 # ---- the library through pkg-config ----------------------------------------
 export PKG_CONFIG_SYSROOT_DIR=$r PKG_CONFIG_LIBDIR=$r$P/lib/pkgconfig PKG_CONFIG_PATH=
-[ "$(pkg-config --modversion it2n)" = "$(sed -n 's/^#define IT2N_CLI_VERSION "\(.*\)"/\1/p' cli/common/cli.h)" ] ||
+[ "$(pkg-config --modversion it2n)" = "$(cat VERSION)" ] ||
   fail "it2n.pc version is not the CLI's"
 src=tests/cmake_consumer
 ${CC:-gcc} -std=c99 -Wall -Wextra -Werror $(pkg-config --cflags it2n-protocol) \
@@ -203,6 +203,6 @@ for b in "$r$P"/bin/* "$r$P"/sbin/*; do
     >"$d/spec" 2>&1 || { cat "$d/spec" >&2; fail "bash-completion does not load the completion of $b"; }
   grep -q -- "-F _" "$d/spec" || fail "completion of $b: $(cat "$d/spec")"
 done
-echo "test-install: ok (PREFIX=$P, DESTDIR=scratch: $n_files files as expected, units in $unitdir," \
+echo "pkg-install: ok (PREFIX=$P, DESTDIR=scratch: $n_files files as expected, units in $unitdir," \
   "it2nd.conf kept on reinstall, pkg-config consumer = it2n eval, ABI guards: matching options link and run," \
   "$n_abi mismatches refused at link time, $n_sym global symbols all it2n_ (public, declared) or it2n__, completions load)"

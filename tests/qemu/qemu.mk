@@ -1,5 +1,5 @@
-# tests/qemu/: the core test vectors (and the protocol self-test, once
-# protocol/it2n_selftest.c exists) on emulated Cortex-M parts, semihosting:
+# tests/qemu/: the core test vectors and the protocol self-test
+# (protocol/it2n_selftest.c) on emulated Cortex-M parts, semihosting:
 #   qemu-system-arm -M mps2-an385 -semihosting-config enable=on,target=native
 # Freestanding image: startup.c (vectors, reset), mps2_an385.ld, semihost.c.
 # The model structs live in .bss (4 MB SSRAM), the 64 KB stack below them.
@@ -10,16 +10,13 @@
 #         m4  Cortex-M4 code on mps2-an386 (same memory map).
 QEMU_DIR := tests/qemu
 QEMU_TIMEOUT ?= 120
-QEMU_HAVE_SELFTEST := $(wildcard protocol/it2n_selftest.c)
-QEMU_SRC := $(wildcard firmware_core/*.c) \
+QEMU_SRC := $(CORE_SRC) $(PROTO_SRC) \
             tests/vectors/core_vectors.c tests/vectors/vec_scenarios.c tests/vectors/vec_paper.c \
-            $(QEMU_DIR)/main.c $(QEMU_DIR)/startup.c $(QEMU_DIR)/semihost.c \
-            $(if $(QEMU_HAVE_SELFTEST),$(wildcard protocol/*.c))
+            $(QEMU_DIR)/main.c $(QEMU_DIR)/startup.c $(QEMU_DIR)/semihost.c
 QEMU_HDR := $(wildcard firmware_core/*.h protocol/*.h protocol/*.inc tests/vectors/*.h $(QEMU_DIR)/*.h)
 QEMU_CFLAGS := -ffreestanding -std=c99 -Os -g $(CORE_WARN) \
                -ffunction-sections -fdata-sections \
-               -Ifirmware_core -Iprotocol -Itests/vectors -I$(QEMU_DIR) \
-               $(if $(QEMU_HAVE_SELFTEST),-DIT2N_HAVE_PROTO_SELFTEST)
+               -Ifirmware_core -Iprotocol -Itests/vectors -I$(QEMU_DIR) -DIT2N_HAVE_PROTO_SELFTEST
 
 QEMU_VARIANTS := m3 m0p m4
 QEMU_CPU_m3  := -mcpu=cortex-m3 -mthumb

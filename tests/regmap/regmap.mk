@@ -1,5 +1,5 @@
 # tests/regmap/: the register map library (regmap/).
-#   regmap-test  codecs against golden bytes and a 128-bit reference, the
+#   regmap-unit  codecs against golden bytes and a 128-bit reference, the
 #                table's invariants (cmocka; host and ASan+UBSan builds)
 #   regmap-doc   docs/registers.md is exactly what gen_registers prints
 RM_T := tests/regmap
@@ -13,10 +13,10 @@ $(RM_TB)/san/test_regmap: $(RM_T)/test_regmap.c $(REGMAP_HDR) $(REGMAP_SAN_LIB)
 	@mkdir -p $(@D)
 	$(CC) $(HOST_CFLAGS) $(SAN_FLAGS) $(REGMAP_INC) $< -o $@ $(REGMAP_SAN_LIB) -lcmocka
 
-.PHONY: regmap-test regmap-doc
-TEST_TARGETS += regmap-test regmap-doc
+.PHONY: regmap-unit regmap-doc
+TEST_TARGETS += regmap-unit regmap-doc
 
-regmap-test: $(RM_TB)/test_regmap $(RM_TB)/san/test_regmap
+regmap-unit: $(RM_TB)/test_regmap $(RM_TB)/san/test_regmap
 	$(RM_TB)/test_regmap
 	$(RM_TB)/san/test_regmap
 

@@ -6,7 +6,7 @@
 # failures, flat RSS and fd counts. tests/soak/soak.py; docs/daemon.md "Soak".
 SOAK_SECONDS ?= 300
 SOAK_SMOKE_SECONDS ?= 30
-# (tests/daemon/daemon_tests.mk builds these; named by path, so the order in
+# (tests/daemon/daemon.mk builds these; named by path, so the order in
 # which the fragments are read does not matter)
 SOAK_INSTR := $(BUILD)/tests/sim/instrument
 SOAK_FAILIO := $(BUILD)/tests/daemon/failio.so

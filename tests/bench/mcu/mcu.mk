@@ -17,7 +17,7 @@ BMCU_PY := /usr/bin/python3
 BMCU_TIMEOUT ?= 600
 BMCU_MODE = $(if $(BENCH_QUICK),quick,full)
 BMCU_HDR = $(wildcard $(BMCU_DIR)/*.h) $(CORE_HDR) tests/qemu/semihost.h
-BMCU_CORE_SRC = $(wildcard firmware_core/*.c)
+BMCU_CORE_SRC = $(CORE_SRC)
 
 $(BMCU_B)/datasets.c: $(BMCU_DIR)/datasets.py examples/paper_4x4.csv
 	@mkdir -p $(@D)

@@ -69,8 +69,8 @@ $(DT_POWERCUT): $(DT)/powercut.c
 
 DT_UNIT_BINS := $(DT_UNITS:%=$(DTB)/%) $(DT_UNITS:%=$(DTB)/san/%)
 
-.PHONY: daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-cppcheck daemon-systemd
-TEST_TARGETS += daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-cppcheck daemon-systemd
+.PHONY: daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-systemd
+TEST_TARGETS += daemon-unit daemon-e2e daemon-durability daemon-conn daemon-slowdisk daemon-systemd
 .PHONY: daemon-powercut
 TEST_TARGETS += daemon-powercut
 
@@ -167,10 +167,10 @@ DT_SLOW_S ?= 20
 # with relaxed latency bounds and no figures.
 IT2ND_TSAN := $(BUILD)/tsan/it2nd
 DAEMON_SRC := $(wildcard daemon/*.c)
-$(IT2ND_TSAN): $(DAEMON_SRC) $(DAEMON_HDR) $(REGMAP_SRC) $(wildcard firmware_core/*.c firmware_core/*.h protocol/*.c protocol/*.h) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
+$(IT2ND_TSAN): VERSION $(DAEMON_SRC) $(DAEMON_HDR) $(REGMAP_SRC) $(CORE_SRC) $(CORE_HDR) $(PROTO_SRC) $(PROTO_HDR) $(BUILD)/daemon/paper_data.c $(SPB_PB_C)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(REGMAP_SRC) $(BUILD)/daemon/paper_data.c $(SPB_PB_C) \
-	  $(wildcard firmware_core/*.c) $(wildcard protocol/*.c) -o $@ $(DAEMON_LIBS)
+	  $(CORE_SRC) $(PROTO_SRC) -o $@ $(DAEMON_LIBS)
 daemon-slowdisk: $(IT2ND) $(IT2ND_SAN) $(IT2ND_TSAN) $(DT_FAILIO)
 	timeout 300 /usr/bin/python3 $(DT)/slowdisk_test.py --it2nd $(IT2ND) --failio $(DT_FAILIO) \
 	  --delay-ms $(DT_SLOW_MS) --seconds $(DT_SLOW_S) --out $(BUILD)/daemon_slowdisk.json
@@ -201,10 +201,9 @@ daemon-powercut: $(IT2ND) $(SIM_INSTR) $(DT_POWERCUT)
 	timeout 300 /usr/bin/python3 $(DT)/powercut_test.py --it2nd $(IT2ND) --instrument $(SIM_INSTR) \
 	  --shim $(DT_POWERCUT) --cycles $(DT_PC_CYCLES) --out $(BUILD)/daemon_powercut.json
 
-daemon-cppcheck:
-	cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \
-	  --suppress=missingIncludeSystem -D_GNU_SOURCE \
-	  -Ifirmware_core -Iprotocol -Iregmap -Idaemon -Icli/common daemon/ tests/sim/ tests/daemon/
+# make lint (mk/lint.mk) runs this: cppcheck over the daemon's tests and
+# the simulators, with the daemon's include paths.
+LINT_DAEMON_TESTS = $(LINT_TESTS) -D_GNU_SOURCE -Idaemon -Icli/common tests/sim tests/daemon
 
 daemon-systemd: $(IT2ND)
 	@if command -v systemd-analyze >/dev/null; then \
