@@ -86,7 +86,7 @@ demo: $(CLI_BIN) ## Print the paper model's memberships at a few parameters
 	  --at 0,0 --at 0.25,0.75 --at 0.5,0.5 --at 1,1
 
 # The README's pictures of the paper example, drawn by `it2n plot` (gnuplot).
-# tests/cli: cli-test-plot checks the committed files are still valid images
+# tests/cli: cli-plot checks the committed files are still valid images
 # of this size (bytes vary with the gnuplot and cairo versions).
 CLI_FIGURES := docs/img/paper_T.png docs/img/paper_band_T.png
 .PHONY: figures
@@ -95,3 +95,7 @@ figures: $(CLI_BIN) ## Regenerate docs/img/*.png (the paper example drawn by it2
 	$(CLI_BIN) plot examples/paper_4x4.csv --membership T -o docs/img/paper_T.png
 	$(CLI_BIN) plot examples/paper_4x4.csv --interval --membership T \
 	  -o docs/img/paper_band_T.png
+
+# --version prints VERSION (-DIT2N_VERSION, cli/common/cli.h): every object
+# of the two programs is rebuilt when it changes.
+$(CLI_OBJ) $(CLI_SAN_OBJ) $(CTL_SRC:%.c=$(BUILD)/host/%.o) $(CTL_SRC:%.c=$(BUILD)/san/%.o): VERSION

@@ -2,6 +2,7 @@
 #   cppcheck over every C directory (product code, the test programs and
 #   the example firmware), each set of directories with its C standard,
 #   defines and include paths; nothing may be reported
+#   tests/cli/fn_length.py: no front-end function over 100 lines
 #   tests/lint/layers.py: nothing outside daemon/ includes a daemon/ header
 #   or passes -Idaemon (the layers of docs/design.md)
 # (clang-tidy is not used.)
@@ -23,8 +24,9 @@ LINT_TESTS := cppcheck --std=c11 --enable=warning,portability --error-exitcode=1
 lint: ## Static checks: cppcheck over all C code, tests/lint/layers.py
 	$(LINT_C99) -Iregmap firmware_core protocol regmap
 	$(LINT_C99) -Iexamples/instrument -Iexamples/firmware -Itests/qemu examples/firmware
-	$(LINT_C11) -Iregmap cli daemon
-	$(LINT_C11) -Icli tests/cli firmware_core/it2n_text.c
+	$(LINT_C11) -Iregmap -Icli/common -Icli/it2nctl cli daemon
+	$(LINT_C11) -Icli/common -Icli/it2nctl tests/cli firmware_core/it2n_text.c
+	$(LINT_CLI_FN)
 	$(LINT_DAEMON_TESTS)
 	$(LINT_FUZZD)
 	@# Nothing outside the daemon includes daemon/ headers or passes -Idaemon.

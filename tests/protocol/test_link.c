@@ -1016,7 +1016,7 @@ static void test_stale_syn_copy(void **st)
     assert_int_equal(B->nrx, n + 1);
 }
 
-/* Bug (ctl-test lossy link, 1 run in 4): a fresh receiver that reads a
+/* Bug (ctl-e2e lossy link, 1 run in 4): a fresh receiver that reads a
  * stale copy of an old SYN frame first (left in a tty or relay buffer)
  * starts its sequence there, ACKs it (stale for the sender) and then waits
  * for a frame the sender counts as answered: it kept the sender's next
