@@ -1,0 +1,7 @@
+# tests/lib: the helpers shared by the Python and shell test scripts
+# (it2ntest/, testlib.sh) and their self-test (a failing check fails the
+# script, skips are said as skips, ports, Daemon, testlib.sh), ~3 s.
+TEST_TARGETS += tests-lib
+.PHONY: tests-lib
+tests-lib:
+	timeout 120 /usr/bin/python3 tests/lib/test_lib.py
