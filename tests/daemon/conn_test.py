@@ -24,34 +24,14 @@ import threading
 import time
 import tty
 
-FAILS = []
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
+
+R = report.Report("conn")  # admit_test.py, which imports these helpers, renames it
+ok, fail, check = R.ok, R.fail, R.check
+FAILS = R.fails
 FIGS = {}
-PREFIX = "conn"  # admit_test.py, which imports these helpers, sets its own
-
-
-def ok(msg):
-    print("%s: ok: %s" % (PREFIX, msg), flush=True)
-
-
-def fail(msg):
-    print("%s: FAIL: %s" % (PREFIX, msg), file=sys.stderr, flush=True)
-    FAILS.append(msg)
-
-
-def check(cond, msg, detail=""):
-    if cond:
-        ok(msg)
-    else:
-        fail(msg + (": " + detail if detail else ""))
-    return cond
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
 
 
 class Daemon:
@@ -514,7 +494,6 @@ def flood(port):
                          "client_failures": len(stats["fails"]),
                          "client_latency_max_ms": round(lat[-1] * 1000, 2) if lat else None,
                          "client_latency_p99_ms": round(p99, 2)}
-
 
 
 # ---- Modbus RTU on ptys -------------------------------------------------------

@@ -7,22 +7,17 @@
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 PAPER=$ROOT/examples/paper_4x4.csv
-T=$(mktemp -d /tmp/it2nd-e2e.XXXXXX)
+. "$ROOT/tests/lib/testlib.sh"
+tl_init e2e it2nd-e2e
 PID=
-FAILS=0
-trap 'cleanup' EXIT
 
-cleanup() {
+tl_on_exit() {
     [ -n "$PID" ] && kill -9 "$PID" 2>/dev/null
     [ -n "${NPID:-}" ] && kill "$NPID" 2>/dev/null
     [ -n "${BPID:-}" ] && kill "$BPID" 2>/dev/null
     [ -n "${BPID485:-}" ] && kill "$BPID485" 2>/dev/null
     [ -n "${EPID:-}" ] && kill -CONT "$EPID" 2>/dev/null && kill "$EPID" 2>/dev/null
-    if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "e2e: logs kept in $T" >&2; fi
 }
-fail() { echo "e2e: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
-ok() { echo "e2e: ok: $*"; }
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 
 PORT=$(free_port)
 STATE=$T/state

@@ -8,19 +8,14 @@
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 PAPER=$ROOT/examples/paper_4x4.csv
-T=$(mktemp -d /tmp/it2nd-dur.XXXXXX)
+. "$ROOT/tests/lib/testlib.sh"
+tl_init durability it2nd-dur
 PID=
-FAILS=0
-trap 'cleanup' EXIT
 
-cleanup() {
+tl_on_exit() {
     [ -n "$PID" ] && kill -9 "$PID" 2>/dev/null
     [ -n "${PID2:-}" ] && kill -9 "$PID2" 2>/dev/null
-    if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "durability: logs kept in $T" >&2; fi
 }
-fail() { echo "durability: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
-ok() { echo "durability: ok: $*"; }
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 
 PORT=$(free_port)
 STATE=$T/state

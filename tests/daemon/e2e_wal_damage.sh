@@ -11,17 +11,12 @@
 # recovered silently. Env: IT2ND, IT2ND_SAN, PLC (paths).
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
-T=$(mktemp -d /tmp/it2nd-waldmg.XXXXXX)
+. "$ROOT/tests/lib/testlib.sh"
+tl_init wal-damage it2nd-waldmg
 PID=
-FAILS=0
-trap 'cleanup' EXIT
-cleanup() {
+tl_on_exit() {
     [ -n "$PID" ] && kill -9 "$PID" 2>/dev/null
-    if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "wal-damage: logs kept in $T" >&2; fi
 }
-fail() { echo "wal-damage: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
-ok() { echo "wal-damage: ok: $*"; }
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 
 PORT=$(free_port)
 STATE=$T/state

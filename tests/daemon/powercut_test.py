@@ -68,14 +68,19 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "soak"))
+sys.path.insert(0, os.path.join(HERE, "..", "lib"))
 sys.path.insert(0, HERE)
 import powercut_image as pci  # noqa: E402
 from soak import Conn, csv_text, diff, dump, gen_points, status_key, tif, up_regs  # noqa: E402
+from it2ntest import report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 
 MB_UNITS = (1, 2)
 LINK_UNIT = 7
 UNITS = list(MB_UNITS) + [LINK_UNIT]
-FAILS = []
+R = report.Report("powercut")
+fail = R.fail
+FAILS = R.fails
 STARTED = []
 
 CKPT_EVENTS = [("pre-fsync:snapshot.tmp", 0), ("post-fsync:snapshot.tmp", 0), ("post-renameat:snapshot", 0),
@@ -94,11 +99,6 @@ def now():
 
 def say(msg):
     print("powercut: " + msg, flush=True)
-
-
-def fail(msg):
-    print("powercut: FAIL: " + msg, file=sys.stderr, flush=True)
-    FAILS.append(msg)
 
 
 def paper_points():
@@ -121,15 +121,6 @@ def conf_text(state, port, tmp, fsync=True, link=True):
     if link:
         t += "[link:l%d]\ntype = serial\ndevice = %s\nbaud = 115200\n" % (LINK_UNIT, os.path.join(tmp, "link"))
     return t
-
-
-def free_port():
-    import socket
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
 
 
 class Daemon:

@@ -33,37 +33,17 @@ import sys
 import tempfile
 import threading
 import time
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 
-FAILS = []
+R = report.Report("reload")
+ok, fail, check = R.ok, R.fail, R.check
+FAILS = R.fails
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PAPER = os.path.join(ROOT, "examples", "paper_4x4.csv")
 READ_BOUND_S = 0.100     # every read answered within this, during reloads
 CHECK_BOUND_S = 2.0      # --check-config returns within this
-
-
-def ok(msg):
-    print("reload: ok: " + msg, flush=True)
-
-
-def fail(msg):
-    print("reload: FAIL: " + msg, file=sys.stderr, flush=True)
-    FAILS.append(msg)
-
-
-def check(cond, msg, detail=""):
-    if cond:
-        ok(msg)
-    else:
-        fail(msg + (": " + detail if detail else ""))
-    return cond
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
 
 
 def listening_ports(pid):

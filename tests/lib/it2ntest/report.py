@@ -39,7 +39,7 @@ class Report:
         else:
             d = "" if detail is None or detail == "" else ": " + str(detail)
             self.fail(what + d)
-        return bool(cond)
+        return cond
 
     def skip(self, reason):
         """A part that cannot run here: said, counted, never ok."""
