@@ -9,4 +9,5 @@ ports   free loopback ports below the kernel's ephemeral range, unique per run
 report  ok/FAIL/skip lines in the runner's conventions and the exit status
 proc    run() with a timeout, wait_port() for a listener
 daemon  one it2nd process: start, wait until it listens, stop, kill -9, its log
+broker  mosquitto on its own configuration: start, wait for its listeners, stop
 """
