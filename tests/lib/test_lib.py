@@ -14,7 +14,7 @@ import tempfile
 
 LIB = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, LIB)
-from it2ntest import daemon, ports, proc, report  # noqa: E402
+from it2ntest import broker, daemon, ports, proc, report  # noqa: E402
 
 R = report.Report("tests-lib")
 T = tempfile.mkdtemp(prefix="it2n-tlib.")
@@ -85,7 +85,7 @@ with open(fake, "w") as f:
     f.write("#!%s\nimport socket, sys, time\nconf = open(sys.argv[sys.argv.index('-c') + 1]).read()\n"
             "port = int(conf.split('tcp_listen = 127.0.0.1:')[1].split()[0])\n"
             "if 'die' in conf: print('bad config', flush=True); sys.exit(1)\n"
-            "time.sleep(0.3)\ns = socket.socket()\ns.bind(('127.0.0.1', port))\ns.listen()\n"
+            "time.sleep(0.3)\ns = socket.socket()\ns.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)\ns.bind(('127.0.0.1', port))\ns.listen()\n"
             "print('listening', port, flush=True)\nwhile True: s.accept()[0].close()\n" % PY)
 os.chmod(fake, 0o755)
 d = daemon.start_simple(fake, T, "d1")
@@ -101,6 +101,19 @@ try:
     R.fail("Daemon: one that exits at start was taken as started")
 except RuntimeError as e:
     R.check("bad config" in str(e), "Daemon: one that exits at start raises with its log", e)
+
+# ---- broker
+if broker.MOSQUITTO:
+    bd = os.path.join(T, "mqtt")
+    os.mkdir(bd)
+    bp = ports.free_port()
+    b = broker.Broker(bd, bp, "persistence false\nlistener %d 127.0.0.1\nallow_anonymous true\n" % bp)
+    b.start()
+    R.check(proc.wait_port(bp, timeout=1), "Broker: start returns once mosquitto listens")
+    b.stop()
+    R.check(b.p is None and not proc.wait_port(bp, timeout=0.3), "Broker: stop ends it")
+else:
+    R.skip("Broker: mosquitto is not installed (Debian package mosquitto)")
 
 # ---- testlib.sh
 sh = os.path.join(T, "child.sh")

@@ -2,6 +2,7 @@
 #   . "$(dirname "$0")/../lib/testlib.sh"
 #   tl_init NAME [TMP-PREFIX]     # T (temp dir), FAILS=0, exit trap
 #   tl_on_exit() { kill ...; }    # optional: run first by the exit trap
+#   TL_KEEP=1                     # keep $T even when every check passed
 #   ok WHAT / fail WHAT / skip REASON / skip_suite REASON
 #   PORT=$(free_port)             # below the ephemeral range, unique per run
 #   wait_port PORT [PID] [TRIES]  # until 127.0.0.1:PORT accepts (0.05 s apart)
@@ -20,7 +21,7 @@ tl_init() { # name [temp-dir prefix]
 }
 tl_cleanup() {
     if declare -F tl_on_exit >/dev/null; then tl_on_exit; fi
-    if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "$TL_NAME: logs kept in $T" >&2; fi
+    if [ "$FAILS" = 0 ] && [ -z "${TL_KEEP:-}" ]; then rm -rf "$T"; else echo "$TL_NAME: logs kept in $T" >&2; fi
 }
 ok() { echo "$TL_NAME: ok: $*"; TL_CHECKS=$((TL_CHECKS + 1)); }
 fail() { echo "$TL_NAME: FAIL: $*" >&2; FAILS=$((FAILS + 1)); TL_CHECKS=$((TL_CHECKS + 1)); }
