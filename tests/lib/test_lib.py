@@ -3,8 +3,9 @@
 exit status non-zero, a script that checked nothing does not pass, skips are
 said in the runner's words and never as ok, free ports are below the
 ephemeral range and never handed out twice, Daemon starts, waits for its
-listener, stops, kills -9 and keeps its log, and testlib.sh does the same for
-shell scripts."""
+listener, stops, kills -9 and keeps its log, Broker runs mosquitto, and
+testlib.sh does the same for shell scripts (TL_FAIL_FAST: the first failure
+exits 1)."""
 import os
 import re
 import socket
@@ -132,6 +133,10 @@ tdir = re.search(r"^T=(.*)$", out, re.M).group(1)
 R.check("hook ran" in out and os.path.isdir(tdir) and "logs kept in " + tdir in err,
         "testlib.sh: on failure tl_on_exit runs and the temp dir is kept", err)
 R.check(PART_SKIP.findall(out) == ["no tool"], "testlib.sh: skip in the runner's words", out)
+rc, out, err = proc.run(["bash", sh, "fail"], timeout=60, env=dict(os.environ, TL_FAIL_FAST="1"))
+R.check(rc == 1 and "c: FAIL: second" in err and "two ports" not in out, "testlib.sh: TL_FAIL_FAST: exit 1 at the first failure",
+        "%d %s" % (rc, out))
+subprocess.run(["rm", "-rf", re.search(r"logs kept in (\S+)", err).group(1)])
 rc, out, err = proc.run(["bash", sh, "pass"], timeout=60)
 tdir2 = re.search(r"^T=(.*)$", out, re.M).group(1)
 R.check(rc == 0 and "c: ok: listened" in out and "c: ok: P2 free" in out and "c: ok: two ports" in out,

@@ -3,7 +3,8 @@
 #   tl_init NAME [TMP-PREFIX]     # T (temp dir), FAILS=0, exit trap
 #   tl_on_exit() { kill ...; }    # optional: run first by the exit trap
 #   TL_KEEP=1                     # keep $T even when every check passed
-#   ok WHAT / fail WHAT / skip REASON / skip_suite REASON
+#   ok WHAT / fail WHAT / skip REASON / skip_suite REASON / say TEXT
+#   TL_FAIL_FAST=1                # fail exits 1 at once (scripts that stop at the first)
 #   PORT=$(free_port)             # below the ephemeral range, unique per run
 #   wait_port PORT [PID] [TRIES]  # until 127.0.0.1:PORT accepts (0.05 s apart)
 #   tl_finish                     # exit 1 (logs kept) if any check failed
@@ -16,7 +17,7 @@ TL_CHECKS=0
 
 tl_init() { # name [temp-dir prefix]
     TL_NAME=$1
-    T=$(mktemp -d "/tmp/${2:-it2n-$1}.XXXXXX")
+    T=$(mktemp -d "${TMPDIR:-/tmp}/${2:-it2n-$1}.XXXXXX")
     trap 'tl_cleanup' EXIT
 }
 tl_cleanup() {
@@ -24,7 +25,14 @@ tl_cleanup() {
     if [ "$FAILS" = 0 ] && [ -z "${TL_KEEP:-}" ]; then rm -rf "$T"; else echo "$TL_NAME: logs kept in $T" >&2; fi
 }
 ok() { echo "$TL_NAME: ok: $*"; TL_CHECKS=$((TL_CHECKS + 1)); }
-fail() { echo "$TL_NAME: FAIL: $*" >&2; FAILS=$((FAILS + 1)); TL_CHECKS=$((TL_CHECKS + 1)); }
+fail() { # with TL_FAIL_FAST set, the first failure ends the script (exit 1)
+    echo "$TL_NAME: FAIL: $*" >&2
+    FAILS=$((FAILS + 1))
+    TL_CHECKS=$((TL_CHECKS + 1))
+    if [ -n "${TL_FAIL_FAST:-}" ]; then exit 1; fi
+    return 0
+}
+say() { echo "$TL_NAME: $*"; }
 skip() { echo "$TL_NAME: skip: $*"; }
 skip_suite() { echo "skip suite: $*"; exit 0; }
 free_port() { # the ports given so far are kept in $T/.ports: $(free_port) is a subshell
