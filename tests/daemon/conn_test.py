@@ -26,6 +26,8 @@ import tty
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
 from it2ntest import report  # noqa: E402
+from it2ntest.modbus import connect, mbap, read_regs, write_regs  # noqa: E402  (admit and slowdisk use them too)
+from it2ntest.modbus import request as tcp_request  # noqa: E402
 from it2ntest.ports import free_port  # noqa: E402
 
 R = report.Report("conn")  # admit_test.py, which imports these helpers, renames it
@@ -100,56 +102,6 @@ class Daemon:
 
 
 # ---- Modbus TCP -------------------------------------------------------------
-
-def mbap(tid, unit, pdu):
-    return struct.pack(">HHHB", tid, 0, len(pdu) + 1, unit) + pdu
-
-
-def recv_exact(s, n):
-    b = b""
-    while len(b) < n:
-        c = s.recv(n - len(b))
-        if not c:
-            raise ConnectionError("closed after %d of %d bytes" % (len(b), n))
-        b += c
-    return b
-
-
-def tcp_request(s, unit, pdu, tid=1):
-    """Send one request, return ("exc", code) or the reply PDU."""
-    s.sendall(mbap(tid, unit, pdu))
-    hdr = recv_exact(s, 7)
-    t, proto, length, u = struct.unpack(">HHHB", hdr)
-    body = recv_exact(s, length - 1)
-    if t != tid or proto != 0 or u != unit:
-        raise ValueError("bad reply header %r" % hdr)
-    if body[0] & 0x80:
-        return ("exc", body[1])
-    return body
-
-
-def read_regs(s, unit, addr, count, tid=1, fc=4):
-    r = tcp_request(s, unit, struct.pack(">BHH", fc, addr, count), tid)
-    if isinstance(r, tuple):
-        return r
-    return struct.unpack(">%dH" % count, r[2:2 + 2 * count])
-
-
-def write_regs(s, unit, addr, vals, tid=1):
-    r = tcp_request(s, unit, struct.pack(">BHHB", 16, addr, len(vals), 2 * len(vals))
-                    + struct.pack(">%dH" % len(vals), *vals), tid)
-    return r if isinstance(r, tuple) else "ok"
-
-
-def connect(port, host="127.0.0.1", src=None, timeout=3.0):
-    fam = socket.AF_INET6 if ":" in host else socket.AF_INET
-    s = socket.socket(fam, socket.SOCK_STREAM)
-    s.settimeout(timeout)
-    if src:
-        s.bind((src, 0))
-    s.connect((host, port))
-    return s
-
 
 def closed_by_peer(s, wait=0.0):
     """True when the daemon closed s (EOF or reset) within wait seconds."""

@@ -27,7 +27,6 @@ import argparse
 import os
 import signal
 import socket
-import struct
 import subprocess
 import sys
 import tempfile
@@ -35,6 +34,7 @@ import threading
 import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
 from it2ntest import report  # noqa: E402
+from it2ntest.modbus import read_regs as read_input  # noqa: E402  (FC 04)
 from it2ntest.ports import free_port  # noqa: E402
 
 R = report.Report("reload")
@@ -148,25 +148,6 @@ class Daemon:
 
 
 # ---- Modbus TCP ---------------------------------------------------------------
-
-def recv_exact(s, n):
-    b = b""
-    while len(b) < n:
-        c = s.recv(n - len(b))
-        if not c:
-            raise ConnectionError("closed")
-        b += c
-    return b
-
-
-def read_input(s, unit, addr, count, tid=1):
-    """FC04: a tuple of registers, or ("exc", code)."""
-    s.sendall(struct.pack(">HHHBBHH", tid, 0, 6, unit, 4, addr, count))
-    hdr = recv_exact(s, 9)
-    if hdr[7] & 0x80:
-        return ("exc", hdr[8])
-    return struct.unpack(">%dH" % count, recv_exact(s, hdr[8]))
-
 
 class Reader(threading.Thread):
     """Polls unit 5's status block on one connection, every 5 ms, and

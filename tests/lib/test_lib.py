@@ -3,7 +3,8 @@
 exit status non-zero, a script that checked nothing does not pass, skips are
 said in the runner's words and never as ok, free ports are below the
 ephemeral range and never handed out twice, Daemon starts, waits for its
-listener, stops, kills -9 and keeps its log, Broker runs mosquitto, and
+listener, stops, kills -9 and keeps its log, Broker runs mosquitto, the raw Modbus TCP helpers decode replies and
+exceptions and refuse a mismatched reply, and
 testlib.sh does the same for shell scripts (TL_FAIL_FAST: the first failure
 exits 1)."""
 import os
@@ -11,11 +12,13 @@ import re
 import socket
 import subprocess
 import sys
+import struct
 import tempfile
+import threading
 
 LIB = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, LIB)
-from it2ntest import broker, daemon, ports, proc, report  # noqa: E402
+from it2ntest import broker, daemon, modbus, ports, proc, report  # noqa: E402
 
 R = report.Report("tests-lib")
 T = tempfile.mkdtemp(prefix="it2n-tlib.")
@@ -115,6 +118,45 @@ if broker.MOSQUITTO:
     R.check(b.p is None and not proc.wait_port(bp, timeout=0.3), "Broker: stop ends it")
 else:
     R.skip("Broker: mosquitto is not installed (Debian package mosquitto)")
+
+# ---- modbus: against a stand-in server that answers FC 04 with registers
+# addr..addr+count-1, FC 16 with its echo, unit 9 with exception 0B, tid 99
+# with a wrong tid
+srv = socket.socket()
+srv.bind(("127.0.0.1", 0))
+srv.listen()
+
+
+def serve():
+    c = srv.accept()[0]
+    try:
+        while True:
+            tid, _, length, unit = struct.unpack(">HHHB", modbus.recv_exact(c, 7))
+            pdu = modbus.recv_exact(c, length - 1)
+            if unit == 9:
+                out = bytes([pdu[0] | 0x80, 0x0B])
+            elif pdu[0] == 4:
+                a, n = struct.unpack(">HH", pdu[1:5])
+                out = bytes([4, 2 * n]) + struct.pack(">%dH" % n, *range(a, a + n))
+            else:
+                out = pdu[:5]
+            c.sendall(modbus.mbap(tid + (1 if tid == 99 else 0), unit, out))
+    except ConnectionError:
+        c.close()
+
+
+threading.Thread(target=serve, daemon=True).start()
+ms = modbus.connect(srv.getsockname()[1])
+R.check(modbus.read_regs(ms, 1, 10, 3, tid=5) == (10, 11, 12), "modbus: FC 04 read decoded")
+R.check(modbus.write_regs(ms, 1, 40, [1, 2], tid=6) == "ok", "modbus: FC 16 write acknowledged")
+R.check(modbus.read_regs(ms, 9, 0, 1, tid=7) == ("exc", 0x0B), "modbus: an exception reply is (exc, code)")
+try:
+    modbus.read_regs(ms, 1, 0, 1, tid=99)
+    R.fail("modbus: a reply with another transaction id was taken")
+except ValueError:
+    R.ok("modbus: a reply with another transaction id raises ValueError")
+ms.close()
+srv.close()
 
 # ---- testlib.sh
 sh = os.path.join(T, "child.sh")

@@ -69,7 +69,9 @@ import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon"))
-from conn_test import Daemon, recv_exact, mbap  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from conn_test import Daemon  # noqa: E402
+from it2ntest.modbus import request  # noqa: E402
 import powercut_image as pci  # noqa: E402
 
 RSS_TOL_KIB = 2048
@@ -117,18 +119,6 @@ class Daemon(Daemon):  # noqa: F811 -- conn_test's, remembering what it started
         finally:
             if self.proc:
                 STARTED.append(self.proc)
-
-
-def request(s, unit, pdu, tid):
-    s.sendall(mbap(tid, unit, pdu))
-    hdr = recv_exact(s, 7)
-    t, proto, length, u = struct.unpack(">HHHB", hdr)
-    body = recv_exact(s, length - 1)
-    if t != tid or proto != 0 or u != unit:
-        raise ValueError("bad reply header %r" % hdr)
-    if body[0] & 0x80:
-        return ("exc", body[1])
-    return body
 
 
 def regs_of(body, count):
