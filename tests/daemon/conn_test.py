@@ -12,7 +12,6 @@ check passed. See docs/daemon.md ("Connection slots", "RTU framing",
 import argparse
 import json
 import os
-import signal
 import socket
 import statistics
 import struct
@@ -25,6 +24,7 @@ import time
 import tty
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import daemon as it2nd_proc  # noqa: E402
 from it2ntest import report  # noqa: E402
 from it2ntest.modbus import connect, mbap, read_regs, write_regs  # noqa: E402  (admit and slowdisk use them too)
 from it2ntest.modbus import request as tcp_request  # noqa: E402
@@ -36,69 +36,33 @@ FAILS = R.fails
 FIGS = {}
 
 
-class Daemon:
+class Daemon(it2nd_proc.Daemon):
     """One it2nd process on a configuration written to tmp."""
 
     def __init__(self, binary, tmp, name):
-        self.binary, self.tmp, self.name = binary, tmp, name
-        self.conf = os.path.join(tmp, name + ".conf")
-        self.log = os.path.join(tmp, name + ".log")
-        self.proc = None
+        super().__init__(binary, os.path.join(tmp, name + ".conf"), os.path.join(tmp, name + ".log"), name=name)
+        self.tmp = tmp
 
     def write(self, text):
-        with open(self.conf, "w") as f:
-            f.write(text)
+        self.write_conf(text)
 
     def start(self, text, ready, prefix=(), nofile=None, verbose=True):
+        """Write text as its configuration, start it, return once ready is
+        in its log."""
         self.write(text)
-        logf = open(self.log, "a")
         limit = None
         if nofile:
             import resource
 
             def limit():
                 resource.setrlimit(resource.RLIMIT_NOFILE, (nofile, nofile))
-        self.proc = subprocess.Popen(list(prefix) + [self.binary, "-c", self.conf, "-f"] + (["-v"] if verbose else []),
-                                     stdout=logf, stderr=subprocess.STDOUT, preexec_fn=limit)
-        logf.close()
-        deadline = time.time() + 10
-        while time.time() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError("%s exited: %s" % (self.name, self.logtext()[-2000:]))
-            if ready in self.logtext():
-                return
-            time.sleep(0.02)
-        raise RuntimeError("%s not ready: %s" % (self.name, self.logtext()[-2000:]))
-
-    def logtext(self):
-        try:
-            with open(self.log, errors="replace") as f:
-                return f.read()
-        except OSError:
-            return ""
-
-    def wait_log(self, text, timeout=5.0):
-        deadline = time.time() + timeout
-        while time.time() < deadline:
-            if text in self.logtext():
-                return True
-            time.sleep(0.02)
-        return False
-
-    def hup(self):
-        self.proc.send_signal(signal.SIGHUP)
+        self.args = ["-v"] if verbose else []
+        super().start(ready=ready, prefix=prefix, preexec_fn=limit)
 
     def stop(self):
-        if self.proc and self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        rc = self.proc.returncode if self.proc else 0
+        rc = super().stop()
         self.proc = None
-        return rc
+        return 0 if rc is None else rc
 
 
 # ---- Modbus TCP -------------------------------------------------------------

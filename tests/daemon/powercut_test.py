@@ -72,6 +72,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "lib"))
 sys.path.insert(0, HERE)
 import powercut_image as pci  # noqa: E402
 from soak import Conn, csv_text, diff, dump, gen_points, status_key, tif, up_regs  # noqa: E402
+from it2ntest import daemon as it2nd_proc  # noqa: E402
 from it2ntest import report  # noqa: E402
 from it2ntest.ports import free_port  # noqa: E402
 
@@ -123,10 +124,9 @@ def conf_text(state, port, tmp, fsync=True, link=True):
     return t
 
 
-class Daemon:
-    def __init__(self, binary, conf, log):
-        self.binary, self.conf, self.log = binary, conf, log
-        self.proc = None
+class Daemon(it2nd_proc.Daemon):
+    """start() says whether it got ready or died in start-up; stop() and
+    kill9() are tests/lib's."""
 
     def start(self, extra_env=None, timeout=10.0):
         """'ready', or 'died' (before it was ready: a cut in start-up)."""
@@ -151,22 +151,7 @@ class Daemon:
         raise RuntimeError("it2nd not ready after %.0f s" % timeout)
 
     def kill(self):
-        if self.proc and self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGKILL)
-        if self.proc:
-            self.proc.wait()
-            return self.proc.returncode
-        return None
-
-    def stop(self):
-        if self.proc and self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        return self.proc.returncode if self.proc else None
+        return self.kill9()
 
     def tail(self, n=1500):
         with open(self.log, errors="replace") as f:

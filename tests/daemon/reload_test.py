@@ -33,6 +33,7 @@ import tempfile
 import threading
 import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import daemon as it2nd_proc  # noqa: E402
 from it2ntest import report  # noqa: E402
 from it2ntest.modbus import read_regs as read_input  # noqa: E402  (FC 04)
 from it2ntest.ports import free_port  # noqa: E402
@@ -79,12 +80,11 @@ def file_sig(path):
         return None
 
 
-class Daemon:
+class Daemon(it2nd_proc.Daemon):
     def __init__(self, binary, tmp, port, state):
-        self.binary, self.tmp, self.port, self.state = binary, tmp, port, state
-        self.conf = os.path.join(tmp, "it2nd.conf")
-        self.log = os.path.join(tmp, "daemon.log")
-        self.proc = None
+        super().__init__(binary, os.path.join(tmp, "it2nd.conf"), os.path.join(tmp, "daemon.log"), port=port,
+                         cwd=tmp)
+        self.tmp, self.state = tmp, state
 
     def run(self, conf=None, timeout=10):
         """A start expected to fail: (exit status, its log lines)."""
@@ -96,28 +96,6 @@ class Daemon:
             except subprocess.TimeoutExpired:
                 rc = "timeout"
         return rc, self.logtext()[before:]
-
-    def start(self):
-        with open(self.log, "a") as logf:
-            self.proc = subprocess.Popen([self.binary, "-c", self.conf, "-f", "-v"], stdout=logf,
-                                         stderr=subprocess.STDOUT, cwd=self.tmp)
-        deadline = time.time() + 10
-        while time.time() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError("it2nd exited: " + self.logtext()[-2000:])
-            try:
-                socket.create_connection(("127.0.0.1", self.port), timeout=0.5).close()
-                return
-            except OSError:
-                time.sleep(0.03)
-        raise RuntimeError("it2nd not ready: " + self.logtext()[-2000:])
-
-    def logtext(self):
-        try:
-            with open(self.log, errors="replace") as f:
-                return f.read()
-        except OSError:
-            return ""
 
     def hup_and_wait(self, text, timeout=5.0):
         """SIGHUP, then wait for text in the log lines written after it."""
@@ -132,19 +110,13 @@ class Daemon:
         return None
 
     def stop(self, sig=signal.SIGTERM):
-        if self.proc and self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        rc = self.proc.returncode if self.proc else 0
-        if self.proc and sig == signal.SIGTERM and rc != 0:
+        started = self.proc is not None
+        rc = super().stop(sig=sig)
+        if started and sig == signal.SIGTERM and rc != 0:
             # a clean stop exits 0; the sanitizer build exits non-zero on a leak or an error
             fail("exit status %s after SIGTERM: %s" % (rc, self.logtext()[-1500:]))
         self.proc = None
-        return rc
+        return 0 if rc is None else rc
 
 
 # ---- Modbus TCP ---------------------------------------------------------------

@@ -90,6 +90,7 @@ with open(fake, "w") as f:
             "port = int(conf.split('tcp_listen = 127.0.0.1:')[1].split()[0])\n"
             "if 'die' in conf: print('bad config', flush=True); sys.exit(1)\n"
             "time.sleep(0.3)\ns = socket.socket()\ns.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)\ns.bind(('127.0.0.1', port))\ns.listen()\n"
+            "import signal\nsignal.signal(signal.SIGHUP, lambda *a: print('reloaded', flush=True))\n"
             "print('listening', port, flush=True)\nwhile True: s.accept()[0].close()\n" % PY)
 os.chmod(fake, 0o755)
 d = daemon.start_simple(fake, T, "d1")
@@ -100,6 +101,13 @@ R.check(rc == -15 and not d.alive(), "Daemon: stop sends SIGTERM and waits", rc)
 d.start()
 R.check(d.kill9() == -9, "Daemon: kill9 is SIGKILL")
 R.check(d.text().count("listening") == 2, "Daemon: the log is appended to across restarts", d.text())
+d.start(ready="listening %d" % d.port, timeout=5)
+R.check(d.text().count("listening") == 3, "Daemon: start(ready=) waits for the text written by this start",
+        d.text())
+d.hup()
+R.check(d.wait_log("reloaded", timeout=3) and not d.wait_log("reloaded", timeout=0.1, since=len(d.text())),
+        "Daemon: hup and wait_log (since: only what came after)")
+d.stop()
 try:
     daemon.start_simple(fake, T, "d2", body="die = yes\n")
     R.fail("Daemon: one that exits at start was taken as started")

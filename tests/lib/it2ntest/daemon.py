@@ -3,6 +3,7 @@ until it listens, stop it (SIGTERM, then SIGKILL), kill -9 it, read its log."""
 import os
 import signal
 import subprocess
+import time
 
 from . import ports
 from .proc import wait_port
@@ -16,30 +17,51 @@ def basic_conf(state_dir, port, body="", daemon_extra=""):
 
 
 class Daemon:
-    """it2nd -c CONF -f [args] with stdout and stderr appended to LOG."""
+    """it2nd -c CONF -f [args] with stdout and stderr appended to the file
+    log; self.proc is its Popen (kept after it exits, for the status)."""
 
-    def __init__(self, binary, conf, log, args=("-v",), env=None, port=None):
-        self.binary, self.conf, self.logpath = binary, conf, log
-        self.args, self.env, self.port = list(args), env, port
+    def __init__(self, binary, conf, log, args=("-v",), env=None, port=None, cwd=None, name="it2nd"):
+        self.binary, self.conf, self.log = binary, conf, log
+        self.args, self.env, self.port, self.cwd, self.name = list(args), env, port, cwd, name
         self.proc = None
 
     def write_conf(self, text):
         with open(self.conf, "w") as f:
             f.write(text)
 
-    def start(self, timeout=10.0, wait=True):
-        """Start it; with wait, return once it accepts on self.port. Raises
-        RuntimeError with the log when it exits or does not listen in time."""
-        with open(self.logpath, "a") as logf:
-            self.proc = subprocess.Popen([self.binary, "-c", self.conf, "-f"] + self.args, stdout=logf,
-                                         stderr=subprocess.STDOUT, env=self.env)
-        if wait and self.port is not None and not wait_port(self.port, self.proc, timeout):
+    def start(self, timeout=10.0, wait=True, ready=None, prefix=(), preexec_fn=None):
+        """Start it (prefix: a wrapper command before the binary). With wait,
+        return once it accepts on self.port or, with ready, once ready
+        appears in the log it writes from now on. RuntimeError with the log
+        when it exits first or is not ready in time."""
+        since = len(self.text())
+        with open(self.log, "a") as logf:
+            self.proc = subprocess.Popen(list(prefix) + [self.binary, "-c", self.conf, "-f"] + self.args,
+                                         stdout=logf, stderr=subprocess.STDOUT, env=self.env, cwd=self.cwd,
+                                         preexec_fn=preexec_fn)
+        if not wait:
+            return self
+        if ready is not None:
+            end = time.time() + timeout
+            while time.time() < end:
+                if ready in self.text()[since:]:
+                    return self
+                if self.proc.poll() is not None:
+                    raise RuntimeError("%s exited: %s" % (self.name, self.text()[-2000:]))
+                time.sleep(0.02)
+            raise RuntimeError("%s not ready: %s" % (self.name, self.text()[-2000:]))
+        if self.port is not None and not wait_port(self.port, self.proc, timeout):
+            exited = self.proc.poll() is not None
             self.stop()
-            raise RuntimeError("it2nd did not start listening on %d:\n%s" % (self.port, self.text()))
+            raise RuntimeError("%s %s: %s" % (self.name, "exited" if exited else "not listening on %d" % self.port,
+                                              self.text()[-2000:]))
         return self
 
     def alive(self):
         return self.proc is not None and self.proc.poll() is None
+
+    def hup(self):
+        self.proc.send_signal(signal.SIGHUP)
 
     def stop(self, timeout=10.0, sig=signal.SIGTERM):
         """Signal it and wait; SIGKILL if it outlives timeout. Its exit status
@@ -56,16 +78,27 @@ class Daemon:
         return self.proc.returncode
 
     def kill9(self):
-        """kill -9 (a power cut as the process sees it)."""
+        """kill -9 (a power cut as the process sees it); its exit status."""
         return self.stop(timeout=10.0, sig=signal.SIGKILL)
 
     def text(self):
-        """The whole log so far."""
+        """The whole log so far ("" before it exists)."""
         try:
-            with open(self.logpath, errors="replace") as f:
+            with open(self.log, errors="replace") as f:
                 return f.read()
         except OSError:
             return ""
+
+    logtext = text
+
+    def wait_log(self, text, timeout=5.0, since=0):
+        """True once text is in the log (from character since on)."""
+        end = time.time() + timeout
+        while time.time() < end:
+            if text in self.text()[since:]:
+                return True
+            time.sleep(0.02)
+        return False
 
 
 def start_simple(binary, tmp, name, body="", daemon_extra="", args=("-v",), timeout=10.0):
