@@ -71,6 +71,7 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon"))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
 from conn_test import Daemon  # noqa: E402
+from it2ntest import report  # noqa: E402
 from it2ntest.modbus import request  # noqa: E402
 import powercut_image as pci  # noqa: E402
 
@@ -91,7 +92,9 @@ QUERIES = [(0, 0), (2500, 7500), (5000, 5000), (10000, 3333)]
 
 T0 = time.time()
 LOCK = threading.Lock()
-FAILS = []
+R = report.Report("soak")
+fail = R.fail
+FAILS = R.fails
 
 
 def now():
@@ -100,12 +103,6 @@ def now():
 
 def say(msg):
     print("soak: [%6.1f] %s" % (now(), msg), flush=True)
-
-
-def fail(msg):
-    with LOCK:
-        FAILS.append(msg)
-    print("soak: FAIL: " + msg, file=sys.stderr, flush=True)
 
 
 class ModbusError(Exception):
