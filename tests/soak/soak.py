@@ -73,6 +73,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from conn_test import Daemon  # noqa: E402
 from it2ntest import report  # noqa: E402
 from it2ntest.modbus import request  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 import powercut_image as pci  # noqa: E402
 
 RSS_TOL_KIB = 2048
@@ -865,22 +866,6 @@ def conf_text(state, port, tmp, idle, links=True, fsync=True):
     return t
 
 
-def pick_port(rnd, avoid=()):
-    for _ in range(200):
-        p = rnd.randint(26000, 26999)
-        if p in avoid:
-            continue
-        s = socket.socket()
-        try:
-            s.bind(("127.0.0.1", p))
-            return p
-        except OSError:
-            continue
-        finally:
-            s.close()
-    raise RuntimeError("no free port in 26000-26999")
-
-
 def proc_sample(pid):
     try:
         with open("/proc/%d/status" % pid) as f:
@@ -909,7 +894,7 @@ def main():
     state = os.path.join(tmp, "state")
     shadow = os.path.join(tmp, "powercut-shadow")
     os.mkdir(shadow)
-    port = pick_port(rnd)
+    port = free_port()
     say("seed %d, %.0f s, port %d, logs in %s" % (seed, args.seconds, port, tmp))
     flag = os.path.join(tmp, "fault-flag")
     inc = [0]
@@ -1060,7 +1045,7 @@ def main():
     if rc != 0:
         fail("restarted daemon: SIGTERM exit status %s" % rc)
     lost_kill = diff(before, after)
-    ref_port = pick_port(rnd, avoid=(port,))
+    ref_port = free_port()
     ref = Daemon(args.it2nd, tmp, "reference")
     ref.start(conf_text(os.path.join(tmp, "ref-state"), ref_port, tmp, idle[0], links=False, fsync=False), " ready (")
     rerr = replay(ref_port)
