@@ -35,18 +35,14 @@ start() { # [binary]: start on $CONF, wait until it serves
     local bin=${1:-$IT2ND}
     ${PRELOAD:+env LD_PRELOAD=$PRELOAD} "$bin" -c "${CONF:-$T/it2nd.conf}" -f -v >> "$LOG" 2>&1 &
     PID=$!
-    for _ in $(seq 100); do
-        "$PLC" --tcp 127.0.0.1:$PORT read 0 1 >/dev/null 2>&1 && return 0
-        kill -0 "$PID" 2>/dev/null || break
-        sleep 0.05
-    done
+    tl_wait_served "$PID" && return 0
     fail "daemon did not start"; tail -20 "$LOG" >&2; exit 1
 }
 
 stop() { # [signal]: returns the exit status
-    kill -"${1:-TERM}" "$PID"
-    wait "$PID" 2>/dev/null
-    local rc=$?
+    local rc
+    tl_stop "$PID" "${1:-TERM}"
+    rc=$?
     PID=
     return $rc
 }

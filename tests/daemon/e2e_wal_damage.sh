@@ -30,14 +30,10 @@ gen() { plc --unit 1 read 7 2 | awk '{print $1 * 65536 + $2}'; }
 start() { # [binary]: start, wait until it serves
     "${1:-$IT2ND}" -c "$CONF" -f -v >> "$LOG" 2>&1 &
     PID=$!
-    for _ in $(seq 100); do
-        plc read 0 1 >/dev/null 2>&1 && return 0
-        kill -0 "$PID" 2>/dev/null || break
-        sleep 0.05
-    done
+    tl_wait_served "$PID" && return 0
     fail "daemon did not start: $(tail -3 "$LOG")"; exit 1
 }
-stop() { kill -"${1:-TERM}" "$PID"; wait "$PID" 2>/dev/null; PID=; }
+stop() { tl_stop "$PID" "${1:-TERM}"; PID=; }
 start_refused() { # pattern: exit 1 within 10 s, pattern in its log, port never served
     local before rc; before=$(wc -l < "$LOG")
     timeout 10 "$IT2ND" -c "$CONF" -f >> "$LOG" 2>&1; rc=$?

@@ -7,6 +7,8 @@
 #   TL_FAIL_FAST=1                # fail exits 1 at once (scripts that stop at the first)
 #   PORT=$(free_port)             # below the ephemeral range, unique per run
 #   wait_port PORT [PID] [TRIES]  # until 127.0.0.1:PORT accepts (0.05 s apart)
+#   tl_wait_served PID            # until $PLC reads from it2nd on $PORT (0), or PID died (1)
+#   tl_stop PID [SIGNAL]          # kill -SIGNAL (TERM), wait: its exit status
 #   tl_finish                     # exit 1 (logs kept) if any check failed
 # Output follows `make test`'s runner (tests/run_suites.py): "NAME: ok: ...",
 # "NAME: FAIL: ..." on stderr, "NAME: skip: reason", "skip suite: reason".
@@ -50,6 +52,20 @@ wait_port() { # port [pid] [tries]: 0 once it accepts, 1 if pid exits or after t
         sleep 0.05
     done
     return 1
+}
+# it2nd helpers (need $PLC, the simulated PLC, and $PORT, its Modbus TCP port)
+tl_wait_served() { # pid: 0 once $PLC reads register 0 on 127.0.0.1:$PORT; 1 if pid exits first or after ~5 s
+    local i
+    for ((i = 0; i < 100; i++)); do
+        "$PLC" --tcp "127.0.0.1:$PORT" read 0 1 >/dev/null 2>&1 && return 0
+        kill -0 "$1" 2>/dev/null || return 1
+        sleep 0.05
+    done
+    return 1
+}
+tl_stop() { # pid [signal, default TERM]: signal it, wait; its exit status
+    kill -"${2:-TERM}" "$1"
+    wait "$1" 2>/dev/null
 }
 tl_finish() { # exit status of the script: 1 if any check failed
     if [ "$FAILS" != 0 ]; then echo "$TL_NAME: $FAILS failure(s)" >&2; exit 1; fi
