@@ -3,5 +3,5 @@
 # script, skips are said as skips, ports, Daemon, testlib.sh), ~3 s.
 TEST_TARGETS += tests-lib
 .PHONY: tests-lib
-tests-lib:
+tests-lib: ## Self-test of the shared test helpers tests/lib (it2ntest, testlib.sh)
 	timeout 120 /usr/bin/python3 tests/lib/test_lib.py
