@@ -4,7 +4,7 @@
 # that is not listed is refused (no area dropped or added by a wildcard).
 # The order is alphabetical (the fragments name each other's files by path).
 TEST_AREAS := bench cli cmake_consumer core daemon docs fc23 firmware fuzz_daemon \
-              install interop protocol qemu regmap soak sparkplug vectors
+              install interop lib protocol qemu regmap soak sparkplug vectors
 # it2nctl's suites (tests/cli/ctl.mk) are read with the CLI's.
 TEST_MK := $(foreach a,$(TEST_AREAS),tests/$(a)/$(a).mk $(if $(filter cli,$(a)),tests/cli/ctl.mk))
 TEST_MK_UNLISTED := $(filter-out $(TEST_MK),$(wildcard tests/*/*.mk))

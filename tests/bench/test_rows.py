@@ -24,16 +24,12 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "mcu"))
 from results import precise, ratio_interval, row, validate  # noqa: E402
 
-fails = []
+sys.path.insert(0, os.path.join(HERE, "..", "lib"))
+from it2ntest import report  # noqa: E402
 
-
-NCHECKS = [0]
-
-
-def check(cond, what):
-    NCHECKS[0] += 1
-    if not cond:
-        fails.append(what)
+R = report.Report("bench-rows", quiet_ok=True)  # thousands of checks: failures only
+check = R.check
+fails = R.fails
 
 
 def old_row(name, value, baseline, digits):
@@ -104,7 +100,4 @@ check(any("does not hold" in x for x in validate([dict(r, interval=[0.95, 0.99])
 
 print(f"bench rows: {len(rows)} random rows accepted, {caught} built the old way refused, "
       f"interval coverage {hits / trials:.3f}")
-for f in fails:
-    print("FAIL:", f)
-print(f"{NCHECKS[0] - len(fails)} passed, {len(fails)} failed")
-sys.exit(1 if fails else 0)
+sys.exit(R.finish())

@@ -13,10 +13,8 @@ usage: ctl_bspline_e2e.py IT2NCTL IT2N IT2ND"""
 
 import logging
 import os
-import random
 import shutil
 import signal
-import socket
 import struct
 import subprocess
 import sys
@@ -25,6 +23,10 @@ import time
 from fractions import Fraction as Fr
 
 from pymodbus.client import ModbusTcpClient
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest.ports import free_port  # noqa: E402
+from it2ntest.proc import wait_port  # noqa: E402
 
 logging.disable(logging.CRITICAL)  # pymodbus 3.0.0 logs about unit=
 
@@ -50,18 +52,6 @@ def run(binary, *args, timeout=120):
     p = subprocess.run([binary, *args], capture_output=True, text=True,
                        timeout=timeout)
     return p.returncode, p.stdout, p.stderr
-
-
-def free_port():
-    for _ in range(200):
-        port = random.randint(24000, 24999)
-        with socket.socket() as s:
-            try:
-                s.bind(("127.0.0.1", port))
-                return port
-            except OSError:
-                continue
-    raise RuntimeError("no free port")
 
 
 def q24(text):
@@ -113,14 +103,7 @@ class Daemon:
         self.p = subprocess.Popen([IT2ND, "-c", self.conf, "-f"],
                                   stdout=open(self.log, "a"),
                                   stderr=subprocess.STDOUT)
-        for _ in range(200):
-            with socket.socket() as s:
-                if s.connect_ex(("127.0.0.1", port)) == 0:
-                    return True
-            if self.p.poll() is not None:
-                return False
-            time.sleep(0.05)
-        return False
+        return wait_port(port, self.p, timeout=10.0)
 
     def stop(self, sig):
         """Stop with sig; for SIGTERM the exit status must be 0 (a clean

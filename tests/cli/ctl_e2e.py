@@ -46,6 +46,9 @@ CTL, IT2N, IT2ND, PTY = (os.path.abspath(a) for a in sys.argv[1:5])
 sys.argv[1:] = [IT2N]  # plot_export reads its binary from argv
 from plot_export import png_info  # noqa: E402
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest.ports import free_port  # noqa: E402
+
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 GEN = os.path.join(ROOT, "tests", "daemon", "gen_dataset.py")
 checks = 0
@@ -64,20 +67,6 @@ def run(*args, env=None, binary=None, timeout=60):
     p = subprocess.run([binary or CTL, *args], capture_output=True,
                        text=True, timeout=timeout, env=env)
     return p.returncode, p.stdout, p.stderr
-
-
-def free_port():
-    for _ in range(200):
-        port = random.randint(23000, 23999)
-        s = socket.socket()
-        try:
-            s.bind(("127.0.0.1", port))
-            return port
-        except OSError:
-            continue
-        finally:
-            s.close()
-    raise RuntimeError("no free port in 23000..23999")
 
 
 def pty_pair(procs):

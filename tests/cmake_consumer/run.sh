@@ -26,11 +26,11 @@ root=$PWD
 src=$root/tests/cmake_consumer
 tc=$root/cmake/arm-none-eabi.cmake
 U=0.25 W=0.75
-work=$(mktemp -d "${TMPDIR:-/tmp}/it2n-cmake.XXXXXX")
-trap 'rm -rf "$work"' EXIT
+. "$(dirname "$0")/../lib/testlib.sh"
+TL_FAIL_FAST=1
+tl_init cmake-consumer it2n-cmake
+work=$T
 log=$work/log
-say() { echo "cmake-consumer: $*"; }
-fail() { echo "cmake-consumer: FAIL: $*" >&2; exit 1; }
 # Run quietly; show the output only when the step fails.
 quiet() { "$@" >"$log" 2>&1 || { cat "$log" >&2; fail "$*"; }; }
 

@@ -46,7 +46,7 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import conn_test as ct  # noqa: E402  (helpers: Daemon, check, pymodbus_read, ...)
 
-ct.PREFIX = "admit"
+ct.R.name = "admit"
 
 TICK_DETECT = os.environ.get("ADMIT_DETECT", "event") == "tick"
 REQ = ct.mbap(7, 1, struct.pack(">BHH", 4, 0, 2))  # 12 bytes: FC 04, map_version and state

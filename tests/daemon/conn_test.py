@@ -12,7 +12,6 @@ check passed. See docs/daemon.md ("Connection slots", "RTU framing",
 import argparse
 import json
 import os
-import signal
 import socket
 import statistics
 import struct
@@ -24,152 +23,49 @@ import threading
 import time
 import tty
 
-FAILS = []
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import daemon as it2nd_proc  # noqa: E402
+from it2ntest import report  # noqa: E402
+from it2ntest.modbus import connect, mbap, read_regs, write_regs  # noqa: E402  (admit and slowdisk use them too)
+from it2ntest.modbus import request as tcp_request  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
+
+R = report.Report("conn")  # admit_test.py, which imports these helpers, renames it
+ok, fail, check = R.ok, R.fail, R.check
+FAILS = R.fails
 FIGS = {}
-PREFIX = "conn"  # admit_test.py, which imports these helpers, sets its own
 
 
-def ok(msg):
-    print("%s: ok: %s" % (PREFIX, msg), flush=True)
-
-
-def fail(msg):
-    print("%s: FAIL: %s" % (PREFIX, msg), file=sys.stderr, flush=True)
-    FAILS.append(msg)
-
-
-def check(cond, msg, detail=""):
-    if cond:
-        ok(msg)
-    else:
-        fail(msg + (": " + detail if detail else ""))
-    return cond
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-class Daemon:
+class Daemon(it2nd_proc.Daemon):
     """One it2nd process on a configuration written to tmp."""
 
     def __init__(self, binary, tmp, name):
-        self.binary, self.tmp, self.name = binary, tmp, name
-        self.conf = os.path.join(tmp, name + ".conf")
-        self.log = os.path.join(tmp, name + ".log")
-        self.proc = None
+        super().__init__(binary, os.path.join(tmp, name + ".conf"), os.path.join(tmp, name + ".log"), name=name)
+        self.tmp = tmp
 
     def write(self, text):
-        with open(self.conf, "w") as f:
-            f.write(text)
+        self.write_conf(text)
 
     def start(self, text, ready, prefix=(), nofile=None, verbose=True):
+        """Write text as its configuration, start it, return once ready is
+        in its log."""
         self.write(text)
-        logf = open(self.log, "a")
         limit = None
         if nofile:
             import resource
 
             def limit():
                 resource.setrlimit(resource.RLIMIT_NOFILE, (nofile, nofile))
-        self.proc = subprocess.Popen(list(prefix) + [self.binary, "-c", self.conf, "-f"] + (["-v"] if verbose else []),
-                                     stdout=logf, stderr=subprocess.STDOUT, preexec_fn=limit)
-        logf.close()
-        deadline = time.time() + 10
-        while time.time() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError("%s exited: %s" % (self.name, self.logtext()[-2000:]))
-            if ready in self.logtext():
-                return
-            time.sleep(0.02)
-        raise RuntimeError("%s not ready: %s" % (self.name, self.logtext()[-2000:]))
-
-    def logtext(self):
-        try:
-            with open(self.log, errors="replace") as f:
-                return f.read()
-        except OSError:
-            return ""
-
-    def wait_log(self, text, timeout=5.0):
-        deadline = time.time() + timeout
-        while time.time() < deadline:
-            if text in self.logtext():
-                return True
-            time.sleep(0.02)
-        return False
-
-    def hup(self):
-        self.proc.send_signal(signal.SIGHUP)
+        self.args = ["-v"] if verbose else []
+        super().start(ready=ready, prefix=prefix, preexec_fn=limit)
 
     def stop(self):
-        if self.proc and self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        rc = self.proc.returncode if self.proc else 0
+        rc = super().stop()
         self.proc = None
-        return rc
+        return 0 if rc is None else rc
 
 
 # ---- Modbus TCP -------------------------------------------------------------
-
-def mbap(tid, unit, pdu):
-    return struct.pack(">HHHB", tid, 0, len(pdu) + 1, unit) + pdu
-
-
-def recv_exact(s, n):
-    b = b""
-    while len(b) < n:
-        c = s.recv(n - len(b))
-        if not c:
-            raise ConnectionError("closed after %d of %d bytes" % (len(b), n))
-        b += c
-    return b
-
-
-def tcp_request(s, unit, pdu, tid=1):
-    """Send one request, return ("exc", code) or the reply PDU."""
-    s.sendall(mbap(tid, unit, pdu))
-    hdr = recv_exact(s, 7)
-    t, proto, length, u = struct.unpack(">HHHB", hdr)
-    body = recv_exact(s, length - 1)
-    if t != tid or proto != 0 or u != unit:
-        raise ValueError("bad reply header %r" % hdr)
-    if body[0] & 0x80:
-        return ("exc", body[1])
-    return body
-
-
-def read_regs(s, unit, addr, count, tid=1, fc=4):
-    r = tcp_request(s, unit, struct.pack(">BHH", fc, addr, count), tid)
-    if isinstance(r, tuple):
-        return r
-    return struct.unpack(">%dH" % count, r[2:2 + 2 * count])
-
-
-def write_regs(s, unit, addr, vals, tid=1):
-    r = tcp_request(s, unit, struct.pack(">BHHB", 16, addr, len(vals), 2 * len(vals))
-                    + struct.pack(">%dH" % len(vals), *vals), tid)
-    return r if isinstance(r, tuple) else "ok"
-
-
-def connect(port, host="127.0.0.1", src=None, timeout=3.0):
-    fam = socket.AF_INET6 if ":" in host else socket.AF_INET
-    s = socket.socket(fam, socket.SOCK_STREAM)
-    s.settimeout(timeout)
-    if src:
-        s.bind((src, 0))
-    s.connect((host, port))
-    return s
-
 
 def closed_by_peer(s, wait=0.0):
     """True when the daemon closed s (EOF or reset) within wait seconds."""
@@ -514,7 +410,6 @@ def flood(port):
                          "client_failures": len(stats["fails"]),
                          "client_latency_max_ms": round(lat[-1] * 1000, 2) if lat else None,
                          "client_latency_p99_ms": round(p99, 2)}
-
 
 
 # ---- Modbus RTU on ptys -------------------------------------------------------

@@ -18,10 +18,13 @@ the real it2nd on a small filesystem: a 4 MiB tmpfs mounted for the test
    file removed, writes acknowledged again within 5 s without a restart;
    kill -9 and restart: the acknowledged state.
 
-Prints "skip: <reason>" and exits 0 when neither a mount nor the shim is
+Prints "skip suite: <reason>" and exits 0 when neither a mount nor the shim is
 available.
 usage: diskfull_test.py --it2nd PATH [--failio PATH] [--mode auto|tmpfs|shim]"""
 import argparse, os, shutil, signal, socket, struct, subprocess, sys, tempfile, threading, time
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--it2nd", required=True)
@@ -30,14 +33,9 @@ ap.add_argument("--mode", default="auto", choices=("auto", "tmpfs", "shim"))
 ap.add_argument("--keep", action="store_true", help="keep the log and state (path printed)")
 args = ap.parse_args()
 
-FAILS = []
-def ok(msg): print("diskfull: ok: " + msg, flush=True)
-def fail(msg):
-    print("diskfull: FAIL: " + msg, file=sys.stderr, flush=True)
-    FAILS.append(msg)
-
-def free_port():
-    s = socket.socket(); s.bind(("127.0.0.1", 0)); p = s.getsockname()[1]; s.close(); return p
+R = report.Report("diskfull")
+ok, fail = R.ok, R.fail
+FAILS = R.fails
 
 T = tempfile.mkdtemp(prefix="it2nd-diskfull.")
 MNT = os.path.join(T, "mnt")
@@ -49,14 +47,14 @@ if args.mode in ("auto", "tmpfs") and os.geteuid() == 0:
     if r.returncode == 0:
         mode = "tmpfs"
     elif args.mode == "tmpfs":
-        print("skip: mount of a tmpfs refused: " + r.stderr.strip()); sys.exit(0)
+        R.skip_suite("mount of a tmpfs refused: " + r.stderr.strip())
 if mode is None and args.mode in ("auto", "shim"):
     if args.failio and os.path.exists(args.failio):
         mode = "shim"
     else:
-        print("skip: no tmpfs mount (not root or not allowed) and no failio.so for the byte budget"); sys.exit(0)
+        R.skip_suite("no tmpfs mount (not root or not allowed) and no failio.so for the byte budget")
 if mode is None:
-    print("skip: no tmpfs mount (not root) and --mode tmpfs"); sys.exit(0)
+    R.skip_suite("no tmpfs mount (not root) and --mode tmpfs")
 
 STATE = os.path.join(MNT, "state")
 LOG = os.path.join(T, "daemon.log")

@@ -7,22 +7,17 @@
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 PAPER=$ROOT/examples/paper_4x4.csv
-T=$(mktemp -d /tmp/it2nd-e2e.XXXXXX)
+. "$ROOT/tests/lib/testlib.sh"
+tl_init e2e it2nd-e2e
 PID=
-FAILS=0
-trap 'cleanup' EXIT
 
-cleanup() {
+tl_on_exit() {
     [ -n "$PID" ] && kill -9 "$PID" 2>/dev/null
     [ -n "${NPID:-}" ] && kill "$NPID" 2>/dev/null
     [ -n "${BPID:-}" ] && kill "$BPID" 2>/dev/null
     [ -n "${BPID485:-}" ] && kill "$BPID485" 2>/dev/null
     [ -n "${EPID:-}" ] && kill -CONT "$EPID" 2>/dev/null && kill "$EPID" 2>/dev/null
-    if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "e2e: logs kept in $T" >&2; fi
 }
-fail() { echo "e2e: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
-ok() { echo "e2e: ok: $*"; }
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 
 PORT=$(free_port)
 STATE=$T/state
@@ -59,18 +54,14 @@ start() { # binary
     local bin=${1:-$IT2ND}
     "$bin" -c "${CONF:-$T/it2nd.conf}" -f -v >> "$T/daemon.log" 2>&1 &
     PID=$!
-    for _ in $(seq 100); do
-        "$PLC" --tcp 127.0.0.1:$PORT read 0 1 >/dev/null 2>&1 && return 0
-        kill -0 "$PID" 2>/dev/null || break
-        sleep 0.05
-    done
+    tl_wait_served "$PID" && return 0
     fail "daemon did not start"; cat "$T/daemon.log" >&2; exit 1
 }
 
 stop() { # signal
-    kill -"${1:-TERM}" "$PID"
-    wait "$PID" 2>/dev/null
-    local rc=$?
+    local rc
+    tl_stop "$PID" "${1:-TERM}"
+    rc=$?
     PID=
     return $rc
 }

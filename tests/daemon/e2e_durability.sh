@@ -8,19 +8,14 @@
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 PAPER=$ROOT/examples/paper_4x4.csv
-T=$(mktemp -d /tmp/it2nd-dur.XXXXXX)
+. "$ROOT/tests/lib/testlib.sh"
+tl_init durability it2nd-dur
 PID=
-FAILS=0
-trap 'cleanup' EXIT
 
-cleanup() {
+tl_on_exit() {
     [ -n "$PID" ] && kill -9 "$PID" 2>/dev/null
     [ -n "${PID2:-}" ] && kill -9 "$PID2" 2>/dev/null
-    if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "durability: logs kept in $T" >&2; fi
 }
-fail() { echo "durability: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
-ok() { echo "durability: ok: $*"; }
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 
 PORT=$(free_port)
 STATE=$T/state
@@ -40,18 +35,14 @@ start() { # [binary]: start on $CONF, wait until it serves
     local bin=${1:-$IT2ND}
     ${PRELOAD:+env LD_PRELOAD=$PRELOAD} "$bin" -c "${CONF:-$T/it2nd.conf}" -f -v >> "$LOG" 2>&1 &
     PID=$!
-    for _ in $(seq 100); do
-        "$PLC" --tcp 127.0.0.1:$PORT read 0 1 >/dev/null 2>&1 && return 0
-        kill -0 "$PID" 2>/dev/null || break
-        sleep 0.05
-    done
+    tl_wait_served "$PID" && return 0
     fail "daemon did not start"; tail -20 "$LOG" >&2; exit 1
 }
 
 stop() { # [signal]: returns the exit status
-    kill -"${1:-TERM}" "$PID"
-    wait "$PID" 2>/dev/null
-    local rc=$?
+    local rc
+    tl_stop "$PID" "${1:-TERM}"
+    rc=$?
     PID=
     return $rc
 }

@@ -11,17 +11,12 @@
 # recovered silently. Env: IT2ND, IT2ND_SAN, PLC (paths).
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
-T=$(mktemp -d /tmp/it2nd-waldmg.XXXXXX)
+. "$ROOT/tests/lib/testlib.sh"
+tl_init wal-damage it2nd-waldmg
 PID=
-FAILS=0
-trap 'cleanup' EXIT
-cleanup() {
+tl_on_exit() {
     [ -n "$PID" ] && kill -9 "$PID" 2>/dev/null
-    if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "wal-damage: logs kept in $T" >&2; fi
 }
-fail() { echo "wal-damage: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
-ok() { echo "wal-damage: ok: $*"; }
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 
 PORT=$(free_port)
 STATE=$T/state
@@ -35,14 +30,10 @@ gen() { plc --unit 1 read 7 2 | awk '{print $1 * 65536 + $2}'; }
 start() { # [binary]: start, wait until it serves
     "${1:-$IT2ND}" -c "$CONF" -f -v >> "$LOG" 2>&1 &
     PID=$!
-    for _ in $(seq 100); do
-        plc read 0 1 >/dev/null 2>&1 && return 0
-        kill -0 "$PID" 2>/dev/null || break
-        sleep 0.05
-    done
+    tl_wait_served "$PID" && return 0
     fail "daemon did not start: $(tail -3 "$LOG")"; exit 1
 }
-stop() { kill -"${1:-TERM}" "$PID"; wait "$PID" 2>/dev/null; PID=; }
+stop() { tl_stop "$PID" "${1:-TERM}"; PID=; }
 start_refused() { # pattern: exit 1 within 10 s, pattern in its log, port never served
     local before rc; before=$(wc -l < "$LOG")
     timeout 10 "$IT2ND" -c "$CONF" -f >> "$LOG" 2>&1; rc=$?

@@ -16,20 +16,15 @@
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 IT2ND=$(realpath "$IT2ND")
-T=$(mktemp -d /tmp/it2nd-flags.XXXXXX)
+. "$ROOT/tests/lib/testlib.sh"
+tl_init flags it2nd-flags
 PY=/usr/bin/python3
 PIDS=()
-FAILS=0
-trap 'cleanup' EXIT
 
-cleanup() {
+tl_on_exit() {
     for p in "${PIDS[@]}"; do kill "$p" 2>/dev/null; done
     wait 2>/dev/null
-    if [ "$FAILS" = 0 ]; then rm -rf "$T"; else echo "flags: logs kept in $T" >&2; fi
 }
-fail() { echo "flags: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
-ok() { echo "flags: ok: $*"; }
-free_port() { $PY -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 serves() { # port: the status block answers over Modbus TCP (unit 1)
     $PY - "$1" <<'EOF'
 import sys
@@ -39,13 +34,6 @@ ok = c.connect() and not c.read_input_registers(0, 2, slave=1).isError()
 c.close()
 sys.exit(0 if ok else 1)
 EOF
-}
-wait_port() { # port
-    for _ in $(seq 100); do
-        $PY -c "import socket,sys; socket.create_connection(('127.0.0.1',$1),0.2)" 2>/dev/null && return 0
-        sleep 0.05
-    done
-    return 1
 }
 start() { # log args...: start it2nd in the background, PID in $PID
     local log=$1

@@ -48,52 +48,20 @@ import urllib.parse
 import urllib.request
 
 from pymodbus.client import ModbusTcpClient
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
+from it2ntest.proc import wait_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PROM_YML = os.path.join(ROOT, "daemon", "prometheus.yml")
 RULES_YML = os.path.join(ROOT, "daemon", "it2nd.rules.yml")
-FAILS = []
+R = report.Report("metrics")
+ok, fail, check = R.ok, R.fail, R.check
+FAILS = R.fails
 REQUIRED = ["it2nd_build_info", "it2nd_model_generation", "it2nd_model_points", "it2nd_model_solved",
             "it2nd_modbus_requests_total", "it2nd_wal_fsync_duration_seconds", "it2nd_connections",
             "it2nd_store_degraded"]
-
-
-def ok(msg):
-    print("metrics: ok: " + msg, flush=True)
-
-
-def fail(msg):
-    print("metrics: FAIL: " + msg, file=sys.stderr, flush=True)
-    FAILS.append(msg)
-
-
-def check(cond, msg, detail=""):
-    if cond:
-        ok(msg)
-    else:
-        fail(msg + (": " + str(detail) if detail != "" else ""))
-    return cond
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-def wait_port(port, proc, timeout=10.0):
-    end = time.time() + timeout
-    while time.time() < end:
-        if proc.poll() is not None:
-            return False
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=0.5).close()
-            return True
-        except OSError:
-            time.sleep(0.05)
-    return False
 
 
 def http_get(url, timeout=5.0):

@@ -68,14 +68,20 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "soak"))
+sys.path.insert(0, os.path.join(HERE, "..", "lib"))
 sys.path.insert(0, HERE)
 import powercut_image as pci  # noqa: E402
 from soak import Conn, csv_text, diff, dump, gen_points, status_key, tif, up_regs  # noqa: E402
+from it2ntest import daemon as it2nd_proc  # noqa: E402
+from it2ntest import report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 
 MB_UNITS = (1, 2)
 LINK_UNIT = 7
 UNITS = list(MB_UNITS) + [LINK_UNIT]
-FAILS = []
+R = report.Report("powercut")
+fail = R.fail
+FAILS = R.fails
 STARTED = []
 
 CKPT_EVENTS = [("pre-fsync:snapshot.tmp", 0), ("post-fsync:snapshot.tmp", 0), ("post-renameat:snapshot", 0),
@@ -94,11 +100,6 @@ def now():
 
 def say(msg):
     print("powercut: " + msg, flush=True)
-
-
-def fail(msg):
-    print("powercut: FAIL: " + msg, file=sys.stderr, flush=True)
-    FAILS.append(msg)
 
 
 def paper_points():
@@ -123,19 +124,9 @@ def conf_text(state, port, tmp, fsync=True, link=True):
     return t
 
 
-def free_port():
-    import socket
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-class Daemon:
-    def __init__(self, binary, conf, log):
-        self.binary, self.conf, self.log = binary, conf, log
-        self.proc = None
+class Daemon(it2nd_proc.Daemon):
+    """start() says whether it got ready or died in start-up; stop() and
+    kill9() are tests/lib's."""
 
     def start(self, extra_env=None, timeout=10.0):
         """'ready', or 'died' (before it was ready: a cut in start-up)."""
@@ -160,22 +151,7 @@ class Daemon:
         raise RuntimeError("it2nd not ready after %.0f s" % timeout)
 
     def kill(self):
-        if self.proc and self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGKILL)
-        if self.proc:
-            self.proc.wait()
-            return self.proc.returncode
-        return None
-
-    def stop(self):
-        if self.proc and self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        return self.proc.returncode if self.proc else None
+        return self.kill9()
 
     def tail(self, n=1500):
         with open(self.log, errors="replace") as f:

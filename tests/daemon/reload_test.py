@@ -27,43 +27,24 @@ import argparse
 import os
 import signal
 import socket
-import struct
 import subprocess
 import sys
 import tempfile
 import threading
 import time
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import daemon as it2nd_proc  # noqa: E402
+from it2ntest import report  # noqa: E402
+from it2ntest.modbus import read_regs as read_input  # noqa: E402  (FC 04)
+from it2ntest.ports import free_port  # noqa: E402
 
-FAILS = []
+R = report.Report("reload")
+ok, fail, check = R.ok, R.fail, R.check
+FAILS = R.fails
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PAPER = os.path.join(ROOT, "examples", "paper_4x4.csv")
 READ_BOUND_S = 0.100     # every read answered within this, during reloads
 CHECK_BOUND_S = 2.0      # --check-config returns within this
-
-
-def ok(msg):
-    print("reload: ok: " + msg, flush=True)
-
-
-def fail(msg):
-    print("reload: FAIL: " + msg, file=sys.stderr, flush=True)
-    FAILS.append(msg)
-
-
-def check(cond, msg, detail=""):
-    if cond:
-        ok(msg)
-    else:
-        fail(msg + (": " + detail if detail else ""))
-    return cond
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
 
 
 def listening_ports(pid):
@@ -99,12 +80,11 @@ def file_sig(path):
         return None
 
 
-class Daemon:
+class Daemon(it2nd_proc.Daemon):
     def __init__(self, binary, tmp, port, state):
-        self.binary, self.tmp, self.port, self.state = binary, tmp, port, state
-        self.conf = os.path.join(tmp, "it2nd.conf")
-        self.log = os.path.join(tmp, "daemon.log")
-        self.proc = None
+        super().__init__(binary, os.path.join(tmp, "it2nd.conf"), os.path.join(tmp, "daemon.log"), port=port,
+                         cwd=tmp)
+        self.tmp, self.state = tmp, state
 
     def run(self, conf=None, timeout=10):
         """A start expected to fail: (exit status, its log lines)."""
@@ -116,28 +96,6 @@ class Daemon:
             except subprocess.TimeoutExpired:
                 rc = "timeout"
         return rc, self.logtext()[before:]
-
-    def start(self):
-        with open(self.log, "a") as logf:
-            self.proc = subprocess.Popen([self.binary, "-c", self.conf, "-f", "-v"], stdout=logf,
-                                         stderr=subprocess.STDOUT, cwd=self.tmp)
-        deadline = time.time() + 10
-        while time.time() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError("it2nd exited: " + self.logtext()[-2000:])
-            try:
-                socket.create_connection(("127.0.0.1", self.port), timeout=0.5).close()
-                return
-            except OSError:
-                time.sleep(0.03)
-        raise RuntimeError("it2nd not ready: " + self.logtext()[-2000:])
-
-    def logtext(self):
-        try:
-            with open(self.log, errors="replace") as f:
-                return f.read()
-        except OSError:
-            return ""
 
     def hup_and_wait(self, text, timeout=5.0):
         """SIGHUP, then wait for text in the log lines written after it."""
@@ -152,41 +110,16 @@ class Daemon:
         return None
 
     def stop(self, sig=signal.SIGTERM):
-        if self.proc and self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        rc = self.proc.returncode if self.proc else 0
-        if self.proc and sig == signal.SIGTERM and rc != 0:
+        started = self.proc is not None
+        rc = super().stop(sig=sig)
+        if started and sig == signal.SIGTERM and rc != 0:
             # a clean stop exits 0; the sanitizer build exits non-zero on a leak or an error
             fail("exit status %s after SIGTERM: %s" % (rc, self.logtext()[-1500:]))
         self.proc = None
-        return rc
+        return 0 if rc is None else rc
 
 
 # ---- Modbus TCP ---------------------------------------------------------------
-
-def recv_exact(s, n):
-    b = b""
-    while len(b) < n:
-        c = s.recv(n - len(b))
-        if not c:
-            raise ConnectionError("closed")
-        b += c
-    return b
-
-
-def read_input(s, unit, addr, count, tid=1):
-    """FC04: a tuple of registers, or ("exc", code)."""
-    s.sendall(struct.pack(">HHHBBHH", tid, 0, 6, unit, 4, addr, count))
-    hdr = recv_exact(s, 9)
-    if hdr[7] & 0x80:
-        return ("exc", hdr[8])
-    return struct.unpack(">%dH" % count, recv_exact(s, hdr[8]))
-
 
 class Reader(threading.Thread):
     """Polls unit 5's status block on one connection, every 5 ms, and

@@ -47,26 +47,14 @@ import threading
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from conn_test import Daemon, connect, free_port, read_regs, write_regs  # noqa: E402
+from conn_test import Daemon, connect, read_regs, write_regs  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 
-FAILS = []
-
-
-def ok(msg):
-    print("slowdisk: ok: " + msg, flush=True)
-
-
-def fail(msg):
-    print("slowdisk: FAIL: " + msg, file=sys.stderr, flush=True)
-    FAILS.append(msg)
-
-
-def check(cond, msg, detail=""):
-    if cond:
-        ok(msg)
-    else:
-        fail(msg + (": " + detail if detail else ""))
-    return cond
+R = report.Report("slowdisk")
+ok, fail, check = R.ok, R.fail, R.check
+FAILS = R.fails
 
 
 def conf(state, port, snap):

@@ -48,12 +48,13 @@ import glob
 import os
 import re
 import shutil
-import signal
-import socket
 import subprocess
 import sys
 import tempfile
-import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import daemon as it2nd_proc  # noqa: E402  (local names "daemon" below are processes)
+from it2ntest.ports import free_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BUILD = os.path.join(ROOT, os.environ.get("BUILD", "build"))
@@ -105,51 +106,14 @@ def parse(path):
     return out
 
 
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
-class Daemon:
+class Daemon(it2nd_proc.Daemon):
     """A fresh it2nd with the built-in default model on a free port."""
 
     def __init__(self, tmp):
-        self.port = free_port()
-        conf = os.path.join(tmp, "it2nd-snippet.conf")
-        with open(conf, "w") as f:
-            f.write(f"[daemon]\nstate_dir = {tmp}/state\nfsync = no\n"
-                    f"[modbus]\ntcp_listen = 127.0.0.1:{self.port}\n")
-        self.log = open(os.path.join(tmp, "it2nd.log"), "w+")
-        self.proc = subprocess.Popen([os.path.join(HOST, "it2nd"), "-c", conf,
-                                      "-f"], stdout=self.log,
-                                     stderr=subprocess.STDOUT)
-        deadline = time.time() + 10
-        while time.time() < deadline:
-            try:
-                socket.create_connection(("127.0.0.1", self.port), 0.2).close()
-                return
-            except OSError:
-                if self.proc.poll() is not None:
-                    break
-                time.sleep(0.05)
-        self.stop()
-        raise RuntimeError("it2nd did not start:\n" + self.text())
-
-    def text(self):
-        self.log.seek(0)
-        return self.log.read()
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+        super().__init__(os.path.join(HOST, "it2nd"), os.path.join(tmp, "it2nd-snippet.conf"),
+                         os.path.join(tmp, "it2nd.log"), args=(), port=free_port())
+        self.write_conf(it2nd_proc.basic_conf(f"{tmp}/state", self.port))
+        self.start()
 
 
 def scratch():

@@ -28,6 +28,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest.ports import free_port  # noqa: E402
+
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bench", "mcu"))
 from results import precise, ratio_interval, row  # noqa: E402
 
@@ -53,19 +56,6 @@ REASON = ("it2nd evaluates the query in the core (about 3 100 instructions per r
           "(one recv, one send; one wait per wake-up), the kernel being most of either's CPU time; with the "
           "client on the same 2 cores, other jobs too (load_average), the per-round ratios spread widely "
           "(round_ratios in bench/fc23.json)")
-
-
-def free_port(lo, hi):
-    for p in range(lo, hi):
-        s = socket.socket()
-        try:
-            s.bind(("127.0.0.1", p))
-            return p
-        except OSError:
-            pass
-        finally:
-            s.close()
-    raise SystemExit("fc23: no free port in %d..%d" % (lo, hi))
 
 
 def cpu_seconds(pid):
@@ -151,7 +141,7 @@ def main():
     tmp = tempfile.mkdtemp(prefix="fc23.", dir=os.environ.get("TMPDIR"))
     bare = Bare(a.bare)
     recv = None if a.smoke else Bare(a.bare, "receive")
-    d = It2nd(a.it2nd, tmp, free_port(23100, 23900), max(conns))
+    d = It2nd(a.it2nd, tmp, free_port(), max(conns))
     results, slow, spread, intervals, lat = {}, {}, {}, {}, {}
     try:
         # Warm-up, not counted: first connections, page faults, caches.

@@ -9,11 +9,11 @@
 # Env: IT2ND, FW_ELF, FW_MAP; FW_TIMEOUT (s, default 120).
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
-T=$(mktemp -d /tmp/it2n-fw.XXXXXX)
+. "$ROOT/tests/lib/testlib.sh"
+tl_init fw-e2e it2n-fw
+TL_KEEP=${FW_KEEP:-}
 QPID='' DPID='' RPID=''
-FAILS=0
 LIMIT=${FW_TIMEOUT:-120}
-trap cleanup EXIT
 
 stop_pids() {
     local p
@@ -22,13 +22,7 @@ stop_pids() {
     done
     QPID='' DPID='' RPID=''
 }
-cleanup() {
-    stop_pids
-    if [ "$FAILS" = 0 ] && [ -z "${FW_KEEP:-}" ]; then rm -rf "$T"; else echo "fw-e2e: logs kept in $T" >&2; fi
-}
-fail() { echo "fw-e2e: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
-ok() { echo "fw-e2e: ok: $*"; }
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
+tl_on_exit() { stop_pids; }
 
 # run NAME DROP_PPM (bytes dropped per million, each direction): one firmware run against a fresh daemon.
 run() {

@@ -18,13 +18,13 @@
 # fw-reboot-legacy): then the test passes only if the checks fail.
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
-T=$(mktemp -d /tmp/it2n-fwr.XXXXXX)
+. "$ROOT/tests/lib/testlib.sh"
+tl_init fw-reboot it2n-fwr
+TL_KEEP=${FW_KEEP:-}
 QPID='' DPID=''
-FAILS=0
 N=${FW_REBOOTS:-30}
 EXPECT_FAIL=${FW_EXPECT_FAIL:-0} # 1: an image with the old handshake, which must fail
 ELF=$(realpath "$FW_ELF")
-trap cleanup EXIT
 
 stop_pids() {
     local p
@@ -33,10 +33,7 @@ stop_pids() {
     done
     QPID='' DPID=''
 }
-cleanup() {
-    stop_pids
-    if [ "$FAILS" = 0 ] && [ -z "${FW_KEEP:-}" ]; then rm -rf "$T"; else echo "fw-reboot: logs kept in $T" >&2; fi
-}
+tl_on_exit() { stop_pids; }
 # The verdict: checks failed or not, against what was expected.
 finish() {
     stop_pids
@@ -50,9 +47,6 @@ finish() {
     if [ "$FAILS" != 0 ]; then echo "fw-reboot: $FAILS failure(s)" >&2; exit 1; fi
     echo "fw-reboot: passed"; exit 0
 }
-fail() { echo "fw-reboot: FAIL: $*" >&2; FAILS=$((FAILS + 1)); }
-ok() { echo "fw-reboot: ok: $*"; }
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 count() { grep -c "$1" "$2" 2>/dev/null || true; }
 
 mkdir -p "$T/state"

@@ -14,7 +14,6 @@ table of docs/firmware.md is recomputed and checked against the image.
 usage: fw_survey.py   (env: IT2ND, CTL, PTY, FW_ELF, SURVEY, FW_OUT)"""
 
 import os
-import random
 import re
 import shutil
 import signal
@@ -26,39 +25,22 @@ import time
 
 from pymodbus.client import ModbusTcpClient
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
+
 IT2ND, CTL, PTY, FW_ELF = (os.path.abspath(os.environ[k]) for k in ("IT2ND", "CTL", "PTY", "FW_ELF"))
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 SURVEY = os.path.abspath(os.environ.get("SURVEY", os.path.join(ROOT, "examples", "survey_64x64.csv")))
 OUT = os.environ.get("FW_OUT", os.path.join(ROOT, "build", "fw-survey"))
-checks = 0
-failures = []
-
-
-def check(cond, what):
-    global checks
-    checks += 1
-    if cond:
-        print("fw-survey: ok:", what)
-    else:
-        failures.append(what)
-        print("fw-survey: FAIL:", what, file=sys.stderr)
+R = report.Report("fw-survey", quiet_ok=False)
+check = R.check
+failures = R.fails
 
 
 def run(*args, timeout=120):
     p = subprocess.run([CTL, *args], capture_output=True, text=True, timeout=timeout)
     return p.returncode, p.stdout, p.stderr
-
-
-def free_port():
-    for _ in range(200):
-        port = random.randint(25000, 25999)
-        with socket.socket() as s:
-            try:
-                s.bind(("127.0.0.1", port))
-                return port
-            except OSError:
-                continue
-    raise RuntimeError("no free port")
 
 
 def ok(r):
@@ -235,7 +217,7 @@ def main():
             except OSError:
                 pass
         shutil.rmtree(tmp, ignore_errors=True)
-    print(f"fw-survey: {checks - len(failures)}/{checks} checks passed")
+    print(f"fw-survey: {R.checks - len(failures)}/{R.checks} checks passed")
     return 1 if failures else 0
 
 

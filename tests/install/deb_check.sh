@@ -25,10 +25,10 @@ set -euo pipefail
 MAKE=${MAKE:-make}
 out=$1
 doc=docs/packaging.md
-fail() { echo "deb-check: FAIL: $*" >&2; exit 1; }
-say() { echo "deb-check: $*"; }
-w=$(mktemp -d "${TMPDIR:-/tmp}/it2n-debcheck.XXXXXX")
-trap 'rm -rf "$w"' EXIT
+. "$(dirname "$0")/../lib/testlib.sh"
+TL_FAIL_FAST=1
+tl_init deb-check it2n-debcheck
+w=$T
 
 ver=$(dpkg-parsechangelog -l debian/changelog -S Version)
 cli_ver=$(cat VERSION)

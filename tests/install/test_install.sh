@@ -27,9 +27,10 @@ set -euo pipefail
 MAKE=${MAKE:-make}
 root=$PWD
 P=/opt/it2n
-d=$(mktemp -d "${TMPDIR:-/tmp}/it2n-install.XXXXXX")
-trap 'rm -rf "$d"' EXIT
-fail() { echo "pkg-install: FAIL: $*" >&2; exit 1; }
+. "$(dirname "$0")/../lib/testlib.sh"
+TL_FAIL_FAST=1
+tl_init pkg-install it2n-install
+d=$T
 log=$d/make.log
 $MAKE --no-print-directory -s install DESTDIR="$d/root" PREFIX=$P >"$log" 2>&1 ||
   { cat "$log" >&2; fail "make install DESTDIR=... PREFIX=$P"; }

@@ -20,72 +20,43 @@ usage: interop_test.py IT2ND SIM_INSTRUMENT
 import logging
 import os
 import shutil
-import signal
-import socket
 import struct
 import subprocess
 import sys
 import tempfile
-import time
 
 from pymodbus.client import ModbusTcpClient
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import daemon, report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 
 logging.disable(logging.CRITICAL)  # pymodbus 3.0.0 logs about unit=
 IT2ND, INSTR = (os.path.abspath(a) for a in sys.argv[1:3])
 PAPER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..",
                      "examples", "paper_4x4.csv")
 T = tempfile.mkdtemp(prefix="it2n-interop.")
-FAILS, CHECKS = [], 0
+R = report.Report("interop", quiet_ok=True)  # only failures are printed
+check = R.check
 
 
-def check(cond, what):
-    global CHECKS
-    CHECKS += 1
-    if not cond:
-        FAILS.append(what)
-        print("interop: FAIL: " + what, file=sys.stderr)
+class Daemon(daemon.Daemon):
+    """A fresh it2nd (state T/NAME.state unless given) with body after
+    [modbus], listening, and a pymodbus client connected to it."""
 
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-class Daemon:
     def __init__(self, body, name, state=None):
-        self.port = free_port()
-        self.conf = os.path.join(T, name + ".conf")
+        super().__init__(IT2ND, os.path.join(T, name + ".conf"), os.path.join(T, name + ".log"),
+                         port=free_port())
         self.state = state or os.path.join(T, name + ".state")
-        with open(self.conf, "w") as f:
-            f.write(f"[daemon]\nstate_dir = {self.state}\nfsync = no\n"
-                    f"snapshot_interval = 3600\nlink_backoff_max = 1\n"
-                    f"[modbus]\ntcp_listen = 127.0.0.1:{self.port}\n{body}")
-        self.logpath = os.path.join(T, name + ".log")
-        self.log = open(self.logpath, "a")
-        self.p = subprocess.Popen([IT2ND, "-c", self.conf, "-f", "-v"],
-                                  stdout=self.log, stderr=subprocess.STDOUT)
-        for _ in range(200):
-            try:
-                socket.create_connection(("127.0.0.1", self.port), 0.2).close()
-                break
-            except OSError:
-                if self.p.poll() is not None:
-                    raise RuntimeError(open(self.logpath).read())
-                time.sleep(0.05)
+        self.write_conf(daemon.basic_conf(self.state, self.port, body,
+                                          "snapshot_interval = 3600\nlink_backoff_max = 1\n"))
+        self.start()
         self.c = ModbusTcpClient("127.0.0.1", port=self.port)
         self.c.connect()
 
-    def text(self):
-        return open(self.logpath).read()
-
     def stop(self):
         self.c.close()
-        self.p.send_signal(signal.SIGTERM)
-        self.p.wait(20)
-        self.log.close()
+        return super().stop(20)
 
 
 def regs(r):
@@ -292,10 +263,9 @@ def main():
         try:
             part()
         except Exception as e:  # a daemon that did not start, a timeout
-            FAILS.append(f"{part.__name__}: {e!r}")
-            print(f"interop: FAIL: {part.__name__}: {e!r}", file=sys.stderr)
-    print(f"interop: {CHECKS - len(FAILS)}/{CHECKS} checks passed")
-    if FAILS:
+            R.fail(f"{part.__name__}: {e!r}")
+    print(f"interop: {R.checks - len(R.fails)}/{R.checks} checks passed")
+    if R.fails:
         print(f"interop: logs kept in {T}", file=sys.stderr)
         return 1
     shutil.rmtree(T, ignore_errors=True)

@@ -69,7 +69,11 @@ import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon"))
-from conn_test import Daemon, recv_exact, mbap  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from conn_test import Daemon  # noqa: E402
+from it2ntest import report  # noqa: E402
+from it2ntest.modbus import request  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 import powercut_image as pci  # noqa: E402
 
 RSS_TOL_KIB = 2048
@@ -89,7 +93,9 @@ QUERIES = [(0, 0), (2500, 7500), (5000, 5000), (10000, 3333)]
 
 T0 = time.time()
 LOCK = threading.Lock()
-FAILS = []
+R = report.Report("soak")
+fail = R.fail
+FAILS = R.fails
 
 
 def now():
@@ -98,12 +104,6 @@ def now():
 
 def say(msg):
     print("soak: [%6.1f] %s" % (now(), msg), flush=True)
-
-
-def fail(msg):
-    with LOCK:
-        FAILS.append(msg)
-    print("soak: FAIL: " + msg, file=sys.stderr, flush=True)
 
 
 class ModbusError(Exception):
@@ -117,18 +117,6 @@ class Daemon(Daemon):  # noqa: F811 -- conn_test's, remembering what it started
         finally:
             if self.proc:
                 STARTED.append(self.proc)
-
-
-def request(s, unit, pdu, tid):
-    s.sendall(mbap(tid, unit, pdu))
-    hdr = recv_exact(s, 7)
-    t, proto, length, u = struct.unpack(">HHHB", hdr)
-    body = recv_exact(s, length - 1)
-    if t != tid or proto != 0 or u != unit:
-        raise ValueError("bad reply header %r" % hdr)
-    if body[0] & 0x80:
-        return ("exc", body[1])
-    return body
 
 
 def regs_of(body, count):
@@ -878,22 +866,6 @@ def conf_text(state, port, tmp, idle, links=True, fsync=True):
     return t
 
 
-def pick_port(rnd, avoid=()):
-    for _ in range(200):
-        p = rnd.randint(26000, 26999)
-        if p in avoid:
-            continue
-        s = socket.socket()
-        try:
-            s.bind(("127.0.0.1", p))
-            return p
-        except OSError:
-            continue
-        finally:
-            s.close()
-    raise RuntimeError("no free port in 26000-26999")
-
-
 def proc_sample(pid):
     try:
         with open("/proc/%d/status" % pid) as f:
@@ -922,7 +894,7 @@ def main():
     state = os.path.join(tmp, "state")
     shadow = os.path.join(tmp, "powercut-shadow")
     os.mkdir(shadow)
-    port = pick_port(rnd)
+    port = free_port()
     say("seed %d, %.0f s, port %d, logs in %s" % (seed, args.seconds, port, tmp))
     flag = os.path.join(tmp, "fault-flag")
     inc = [0]
@@ -1073,7 +1045,7 @@ def main():
     if rc != 0:
         fail("restarted daemon: SIGTERM exit status %s" % rc)
     lost_kill = diff(before, after)
-    ref_port = pick_port(rnd, avoid=(port,))
+    ref_port = free_port()
     ref = Daemon(args.it2nd, tmp, "reference")
     ref.start(conf_text(os.path.join(tmp, "ref-state"), ref_port, tmp, idle[0], links=False, fsync=False), " ready (")
     rerr = replay(ref_port)

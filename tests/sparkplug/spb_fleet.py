@@ -31,8 +31,6 @@ import argparse
 import json
 import os
 import shutil
-import signal
-import socket
 import statistics
 import subprocess
 import sys
@@ -43,56 +41,37 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "bench", "mcu"))
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "lib"))
 import spb_test as spb  # noqa: E402
 from results import row  # noqa: E402
+from it2ntest import broker, report  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 
 GROUP = "fleet"
 NS = "spBv1.0"
-failures = 0
+R = report.Report("fleet")
+check = R.check
 
 
-def check(cond, what):
-    global failures
-    print("%s %s" % ("ok  " if cond else "FAIL", what))
-    if not cond:
-        failures += 1
-    return cond
-
-
-class Broker:
+class Broker(broker.Broker):
     """mosquitto on one loopback port; persistence in its own directory so
     the host's persistent session (and the QoS 0 births queued for it while
     it reconnects) outlive a restart, as a site's host would configure it."""
 
     def __init__(self, d, port):
-        self.port, self.conf, self.log = port, os.path.join(d, "mosquitto.conf"), os.path.join(d, "mosquitto.log")
         pdir = os.path.join(d, "mqtt-db")
         os.makedirs(pdir)
         os.chmod(d, 0o755)
         os.chmod(pdir, 0o777)  # mosquitto started as root writes it as user mosquitto
-        with open(self.conf, "w") as f:
-            f.write("listener %d 127.0.0.1\nallow_anonymous true\npersistence true\npersistence_location %s/\n"
-                    "queue_qos0_messages true\nmax_queued_messages 100000\nmax_inflight_messages 0\n"
-                    % (port, pdir))
-        self.p = None
+        super().__init__(d, port, "listener %d 127.0.0.1\nallow_anonymous true\npersistence true\n"
+                         "persistence_location %s/\nqueue_qos0_messages true\nmax_queued_messages 100000\n"
+                         "max_inflight_messages 0\n" % (port, pdir))
 
     def start(self):
-        self.p = subprocess.Popen([spb.MOSQUITTO, "-c", self.conf], stdout=open(self.log, "a"),
-                                  stderr=subprocess.STDOUT)
-        end = time.monotonic() + 10
-        while time.monotonic() < end:
-            try:
-                socket.create_connection(("127.0.0.1", self.port), 0.2).close()
-                return time.monotonic()
-            except OSError:
-                time.sleep(0.02)
-        raise RuntimeError("mosquitto did not start (see %s)" % self.log)
+        return super().start(timeout=10.0)
 
     def stop(self):
-        if self.p and self.p.poll() is None:
-            self.p.terminate()
-            self.p.wait(10)
-        self.p = None
+        return super().stop(timeout=10.0)
 
 
 class Host:
@@ -147,43 +126,6 @@ class Host:
         self.c.disconnect()
 
 
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-_listen_ports = set()
-
-
-def listen_port():
-    """A free loopback port below the kernel's ephemeral range for a node's
-    Modbus listener: a port picked from the ephemeral range can be taken,
-    before the node binds it, by an outgoing connection (100 nodes open
-    100 to the broker), and the node then cannot listen. Unique per run."""
-    import random
-    try:
-        lo = int(open("/proc/sys/net/ipv4/ip_local_port_range").read().split()[0])
-    except (OSError, ValueError, IndexError):
-        lo = 32768
-    for _ in range(1000):
-        p = random.randrange(max(1024, lo - 12000), lo)
-        if p in _listen_ports:
-            continue
-        s = socket.socket()
-        try:
-            s.bind(("127.0.0.1", p))
-        except OSError:
-            continue
-        finally:
-            s.close()
-        _listen_ports.add(p)
-        return p
-    raise RuntimeError("no free port below %d" % lo)
-
-
 def node_conf(d, k, broker_port):
     sd = os.path.join(d, "node-%d" % k)
     os.makedirs(sd)
@@ -191,7 +133,7 @@ def node_conf(d, k, broker_port):
     with open(path, "w") as f:
         f.write("[daemon]\nstate_dir = %s/state\n[modbus]\ntcp_listen = 127.0.0.1:%d\ngrid_rows = 2\ngrid_cols = 2\n"
                 "[model:1]\nn = 1\nm = 1\n[sparkplug]\nbroker = 127.0.0.1:%d\ngroup_id = %s\nedge_node_id = node-%d\n"
-                "keepalive = 10\nreconnect_max = 2\n" % (sd, listen_port(), broker_port, GROUP, k))
+                "keepalive = 10\nreconnect_max = 2\n" % (sd, free_port(), broker_port, GROUP, k))
     return path
 
 
@@ -460,13 +402,13 @@ def main():
         if host:
             host.close()
         broker.stop()
-        if failures:
+        if R.fails:
             print("---- %s (tail)" % broker.log)
             print(open(broker.log).read()[-1500:])
         shutil.rmtree(d, ignore_errors=True)
-    print("fleet: %s (%d nodes, %d failure%s)" % ("FAIL" if failures else "ok", n, failures,
-                                                   "" if failures == 1 else "s"))
-    return 1 if failures else 0
+    nf = len(R.fails)
+    print("fleet: %s (%d nodes, %d failure%s)" % ("FAIL" if nf else "ok", n, nf, "" if nf == 1 else "s"))
+    return 1 if nf else 0
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ live DDATA after it not historical; a stale STATE (older timestamp) is
 ignored; the host offline -> the node's NDEATH (its bdSeq) and silence, a
 write meanwhile, online again -> a new session (bdSeq + 1) and that write as
 history; the broker stopped, a write, broker and host back -> that write as
-history; it2nctl spb watch/status/eval (--it2nctl). Prints "skip: why"
+history; it2nctl spb watch/status/eval (--it2nctl). Prints "skip suite: why"
 without mosquitto or paho-mqtt."""
 import argparse
 import json
@@ -31,35 +31,15 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import spb_test as T  # noqa: E402  (the decoder, Host, Plc, helpers)
 
+T.R.name = "spb-sf"
+
 HOST_ID = "scada-1"
 SF_MAX = 6
 
 
-class Broker:
+class Broker(T.broker.Broker):
     def __init__(self, d, port):
-        self.conf = os.path.join(d, "mosquitto.conf")
-        self.log = os.path.join(d, "mosquitto.log")
-        self.port = port
-        with open(self.conf, "w") as f:
-            f.write("persistence false\nlistener %d 127.0.0.1\nallow_anonymous true\n" % port)
-        self.p = None
-
-    def start(self):
-        self.p = subprocess.Popen([T.MOSQUITTO, "-c", self.conf], stdout=open(self.log, "a"),
-                                  stderr=subprocess.STDOUT)
-        t = time.monotonic() + 5
-        while time.monotonic() < t:
-            try:
-                T.socket.create_connection(("127.0.0.1", self.port), 0.2).close()
-                return
-            except OSError:
-                time.sleep(0.05)
-        raise RuntimeError("mosquitto did not start (see %s)" % self.log)
-
-    def stop(self):
-        if self.p and self.p.poll() is None:
-            self.p.terminate()
-            self.p.wait(5)
+        super().__init__(d, port, "persistence false\nlistener %d 127.0.0.1\nallow_anonymous true\n" % port)
 
 
 def state(host, online, ts, retain=True):
@@ -188,10 +168,10 @@ def main():
     ap.add_argument("--it2nctl", help="also check it2nctl spb watch/status/eval")
     args = ap.parse_args()
     if not T.MOSQUITTO:
-        print("skip: mosquitto is not installed (Debian package mosquitto; make deps)")
+        print("skip suite: mosquitto is not installed (Debian package mosquitto; make deps)")
         return 0
     if T.mqtt is None:
-        print("skip: paho-mqtt is not installed (Debian package python3-paho-mqtt; make deps)")
+        print("skip suite: paho-mqtt is not installed (Debian package python3-paho-mqtt; make deps)")
         return 0
     d = tempfile.mkdtemp(prefix="spb-sf-test-")
     broker = Broker(d, T.free_port())
@@ -368,15 +348,16 @@ def main():
         if host:
             host.close()
         broker.stop()
-        if T.failures:
+        if T.R.fails:
             print("--- it2nd log ---")
             try:
                 sys.stdout.write(open(os.path.join(d, "it2nd.conf.log")).read()[-4000:])
             except OSError:
                 pass
         shutil.rmtree(d, ignore_errors=True)
-    print("spb_sf_test: %s" % ("FAILED (%d)" % T.failures if T.failures else "ok"))
-    return 1 if T.failures else 0
+    n = len(T.R.fails)
+    print("spb_sf_test: %s" % ("FAILED (%d)" % n if n else "ok"))
+    return 1 if n else 0
 
 
 if __name__ == "__main__":

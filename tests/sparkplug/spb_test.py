@@ -15,7 +15,7 @@ broker restart -> reconnect and rebirth, SIGTERM -> one NDEATH then
 DISCONNECT (no will after it), configuration errors with file:line.
 
 usage: spb_test.py --it2nd PATH [--quick]   (--quick: births, DDATA, rebirth,
-SIGTERM only; for the sanitizer build). Prints "skip: why" and exits 0 when
+SIGTERM only; for the sanitizer build). Prints "skip suite: why" and exits 0 when
 mosquitto or paho-mqtt is missing."""
 import argparse
 import os
@@ -29,7 +29,10 @@ import sys
 import tempfile
 import time
 
-MOSQUITTO = shutil.which("mosquitto") or ("/usr/sbin/mosquitto" if os.path.exists("/usr/sbin/mosquitto") else None)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import broker, report  # noqa: E402
+from it2ntest.broker import MOSQUITTO  # noqa: E402
+from it2ntest.ports import free_port  # noqa: E402
 try:
     import paho.mqtt.client as mqtt
 except ImportError:
@@ -44,17 +47,8 @@ NS = "spBv1.0"
 # Sparkplug datatypes (spec 6.4.16) the test names.
 INT16, INT32, INT64, UINT16, UINT32, FLOAT, BOOLEAN, STRING, FLOATARRAY = 2, 3, 4, 6, 7, 9, 11, 12, 30
 
-failures = 0
-
-
-def check(cond, what):
-    global failures
-    if cond:
-        print("ok   %s" % what)
-    else:
-        print("FAIL %s" % what)
-        failures += 1
-    return cond
+R = report.Report("sparkplug")  # spb_sf_test.py, which imports these helpers, renames it
+check = R.check
 
 
 # ---- protobuf wire format, from the encoding spec: (field << 3) | wire type
@@ -323,14 +317,6 @@ def doc_blocks(path, samples, write):
 
 # ---- processes
 
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
 def make_certs(d):
     """A test CA, a broker certificate for 127.0.0.1 and a client
     certificate signed by it, and a second CA that signed neither (EC keys:
@@ -356,48 +342,26 @@ def make_certs(d):
     return c
 
 
-class Broker:
+class Broker(broker.Broker):
     """mosquitto with three loopback listeners: `port` anonymous (the host
     application), `node_port` for user NODE_USER with a password only,
     `tls_port` TLS with a client certificate required."""
 
     def __init__(self, d, port, node_port, tls_port, certs):
-        self.conf = os.path.join(d, "mosquitto.conf")
-        self.log = os.path.join(d, "mosquitto.log")
-        self.port, self.node_port, self.tls_port = port, node_port, tls_port
+        self.node_port, self.tls_port = node_port, tls_port
         pw = os.path.join(d, "passwd")
         open(pw, "w").close()
         subprocess.run(["mosquitto_passwd", "-b", pw, NODE_USER, NODE_PASSWORD], check=True)
         # mosquitto started as root reads it as user mosquitto (a test secret)
         os.chmod(d, 0o755)
         os.chmod(pw, 0o644)
-        with open(self.conf, "w") as f:
-            f.write("per_listener_settings true\npersistence false\n"
-                    "listener %d 127.0.0.1\nallow_anonymous true\n"
-                    "listener %d 127.0.0.1\nallow_anonymous false\npassword_file %s\nacl_file %s\n"
-                    "listener %d 127.0.0.1\nallow_anonymous true\ncafile %s\ncertfile %s\nkeyfile %s\n"
-                    "require_certificate true\n" % (port, node_port, pw, ACL, tls_port, certs["ca.crt"],
-                                                   certs["server.crt"], certs["server.key"]))
-        self.p = None
-
-    def start(self):
-        self.p = subprocess.Popen([MOSQUITTO, "-c", self.conf], stdout=open(self.log, "a"), stderr=subprocess.STDOUT)
-        t = time.monotonic() + 5
-        while time.monotonic() < t:
-            try:
-                socket.create_connection(("127.0.0.1", self.port), 0.2).close()
-                socket.create_connection(("127.0.0.1", self.node_port), 0.2).close()
-                return
-            except OSError:
-                time.sleep(0.05)
-        raise RuntimeError("mosquitto did not start (see %s)" % self.log)
-
-    def stop(self):
-        if self.p and self.p.poll() is None:
-            self.p.send_signal(signal.SIGCONT)
-            self.p.terminate()
-            self.p.wait(5)
-        self.p = None
+        super().__init__(d, port, "per_listener_settings true\npersistence false\n"
+                         "listener %d 127.0.0.1\nallow_anonymous true\n"
+                         "listener %d 127.0.0.1\nallow_anonymous false\npassword_file %s\nacl_file %s\n"
+                         "listener %d 127.0.0.1\nallow_anonymous true\ncafile %s\ncertfile %s\nkeyfile %s\n"
+                         "require_certificate true\n" % (port, node_port, pw, ACL, tls_port, certs["ca.crt"],
+                                                        certs["server.crt"], certs["server.key"]),
+                         wait_ports=(port, node_port), binary=MOSQUITTO)
 
 
 class Host:
@@ -962,10 +926,10 @@ def main():
     ap.add_argument("--write-doc", action="store_true", help="rewrite them instead")
     args = ap.parse_args()
     if not MOSQUITTO:
-        print("skip: mosquitto is not installed (Debian package mosquitto; make deps)")
+        print("skip suite: mosquitto is not installed (Debian package mosquitto; make deps)")
         return 0
     if mqtt is None:
-        print("skip: paho-mqtt is not installed (Debian package python3-paho-mqtt; make deps)")
+        print("skip suite: paho-mqtt is not installed (Debian package python3-paho-mqtt; make deps)")
         return 0
     d = tempfile.mkdtemp(prefix="spb-test-")
     certs = make_certs(d)
@@ -1244,14 +1208,15 @@ def main():
         if host:
             host.close()
         broker.stop()
-        if failures:
+        if R.fails:
             for f in (os.path.join(d, "it2nd.conf.log"), broker.log):
                 if os.path.exists(f):
                     print("---- %s" % f)
                     print(open(f).read()[-3000:])
         shutil.rmtree(d, ignore_errors=True)
-    print("sparkplug: %s (%d failure%s)" % ("FAIL" if failures else "ok", failures, "" if failures == 1 else "s"))
-    return 1 if failures else 0
+    n = len(R.fails)
+    print("sparkplug: %s (%d failure%s)" % ("FAIL" if n else "ok", n, "" if n == 1 else "s"))
+    return 1 if n else 0
 
 
 if __name__ == "__main__":

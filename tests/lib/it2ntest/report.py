@@ -1,0 +1,68 @@
+"""ok / FAIL / skip lines and the exit status, in `make test`'s conventions
+(tests/run_suites.py): "NAME: ok: what", "NAME: FAIL: what" (on stderr),
+"NAME: skip: reason" for a part that could not run, "skip suite: reason" when
+nothing could run. A skip is never printed as ok.
+
+    R = report.Report("reload")
+    R.check(cond, "what was asserted", detail)
+    ...
+    sys.exit(R.finish())
+"""
+import sys
+
+
+class Report:
+    def __init__(self, name, quiet_ok=False):
+        """name prefixes every line; quiet_ok: print only failures and skips
+        (scripts with thousands of checks)."""
+        self.name = name
+        self.quiet_ok = quiet_ok
+        self.checks = 0
+        self.fails = []
+        self.skips = []
+
+    def ok(self, what):
+        self.checks += 1
+        if not self.quiet_ok:
+            print("%s: ok: %s" % (self.name, what), flush=True)
+
+    def fail(self, what):
+        self.checks += 1
+        self.fails.append(what)
+        sys.stdout.flush()
+        print("%s: FAIL: %s" % (self.name, what), file=sys.stderr, flush=True)
+
+    def check(self, cond, what, detail=""):
+        """ok when cond is true, FAIL (with detail) when not; returns cond."""
+        if cond:
+            self.ok(what)
+        else:
+            d = "" if detail is None or detail == "" else ": " + str(detail)
+            self.fail(what + d)
+        return cond
+
+    def skip(self, reason):
+        """A part that cannot run here: said, counted, never ok."""
+        self.skips.append(reason)
+        print("%s: skip: %s" % (self.name, reason), flush=True)
+
+    def skip_suite(self, reason):
+        """Nothing of the suite can run here: say so and exit 0."""
+        print("skip suite: %s" % reason, flush=True)
+        sys.exit(0)
+
+    def finish(self, summary=True):
+        """Exit status for sys.exit(): 1 when a check failed, or when no check
+        ran and nothing was skipped (a script that asserted nothing has not
+        passed); 0 otherwise."""
+        if not self.checks and not self.skips:
+            self.fail("no check ran")
+        if summary:
+            if self.fails:
+                print("%s: %d of %d check(s) FAILED" % (self.name, len(self.fails), self.checks),
+                      file=sys.stderr, flush=True)
+            else:
+                print("%s: all %d check(s) passed%s" % (
+                    self.name, self.checks, "; %d part(s) skipped" % len(self.skips) if self.skips else ""),
+                    flush=True)
+        return 1 if self.fails else 0
