@@ -14,10 +14,11 @@ after another left a core idle for most of `make test`. The runner
      (so two suites never build the same file at once; a prerequisite that
      does not build is reported by the suite that needs it, whose own
      sub-make retries it and logs the error);
-  2. then runs up to N suites at once. A suite runs alone ("solo") when it
-     measures latency or timing (the SOLO list, TEST_SOLO in the makefiles),
-     when its recipe runs make itself, or when it depends on another suite
-     (that one finishes first).
+  2. then runs the suites that may share the machine, up to N at once, and
+     after them the solo ones, one at a time. A suite runs alone ("solo")
+     when it measures latency or timing (the SOLO list, TEST_SOLO in the
+     makefiles), when its recipe runs make itself, or when it depends on
+     another suite (that one finishes first).
 
 Lines are printed as suites finish. Skips are never "ok": a suite that
 cannot run prints "skip suite: REASON" and is listed as skip; a part that
@@ -139,22 +140,20 @@ def main():
         running[name] = (p, time.monotonic(), log, lf)
 
     while pending or running:
-        # start what can start
+        # start what can start: the suites that may share the machine
+        # first, up to `jobs` at once (in TEST_TARGETS order); the solo
+        # ones after them, one at a time with nothing else running.
         while pending and not stop:
-            solo_running = any(info[n]["solo"] for n in running)
-            if solo_running or len(running) >= jobs:
+            if any(info[n]["solo"] for n in running) or len(running) >= jobs:
                 break
-            nxt = None
-            for n in pending:
-                if all(d in done for d in info[n]["after"]):
-                    nxt = n
-                    break
-                if info[n]["solo"]:
-                    break   # keep the order of solo suites
-            if nxt is None:
+            ready = [n for n in pending if all(d in done for d in info[n]["after"])]
+            shared = [n for n in ready if not info[n]["solo"]]
+            if shared:
+                nxt = shared[0]
+            elif ready and not running and not any(not info[n]["solo"] for n in pending):
+                nxt = ready[0]
+            else:
                 break
-            if info[nxt]["solo"] and running:
-                break       # wait for the lane to drain
             pending.remove(nxt)
             start(nxt, info[nxt]["solo"] or jobs == 1)
         if not running:
