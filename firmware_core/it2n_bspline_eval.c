@@ -264,6 +264,7 @@ typedef struct t1_ctx {
     uint32_t adv;    /* 32: bytes from the end of one window to the next net's */
     uint32_t stride; /* 36: words per row                            */
     const int8_t *frac; /* 40: D's exponents by channel              */
+    uint32_t has_z;  /* 44: nets x, y, z, T, I, F (else x, y, T, I, F, z = 0) */
 } t1_ctx;
 
 IT2N_STATIC_ASSERT(IT2N_FP_D == 3 && IT2N_CH_COUNT == 6 && IT2N_FP_COUNT == 7 &&
@@ -277,13 +278,12 @@ IT2N_STATIC_ASSERT(offsetof(it2n_point, sum) == 336 &&
                    t1_asm_point);
 IT2N_STATIC_ASSERT(offsetof(t1_ctx, bu) == 16 && offsetof(t1_ctx, adv) == 32 &&
                        offsetof(t1_ctx, stride) == 36 &&
-                       offsetof(t1_ctx, frac) == 40,
+                       offsetof(t1_ctx, frac) == 40 &&
+                       offsetof(t1_ctx, has_z) == 44,
                    t1_asm_ctx);
 
-/* win: D's x window; v: &out->v[0][0]; has_z: nets x, y, z, T, I, F (else
- * x, y, T, I, F and z = 0). */
-void it2n__bspline_t1_v7m(const int32_t *win, const t1_ctx *cx, it2n_val *v,
-                          unsigned has_z);
+/* win: D's x window; v: &out->v[0][0]. */
+void it2n__bspline_t1_v7m(const int32_t *win, const t1_ctx *cx, it2n_val *v);
 
 __asm__(
     ".syntax unified\n\t"
@@ -371,21 +371,19 @@ __asm__(
     "stmia r12!, {r4-r11}\n\t"
     "stmia r12!, {r4-r11}\n\t"
     "stmia r12!, {r4-r7}\n\t"
-    "cmp   r3, #0\n\t"
     "ldr   r3, [r1, #36]\n\t"
     "add   r12, r1, #16\n\t"
     "ldmia r12, {r4-r7}\n\t"
     "add   r8, r0, r3, lsl #3\n\t"
-    "beq   4f\n\t"
     "it2n__t1net 0, 1\n\t"
     "it2n__t1net 1, 1\n\t"
+    "ldr   r9, [r1, #44]\n\t"
+    "cmp   r9, #0\n\t"
+    "beq   4f\n\t"
     "it2n__t1net 2, 1\n\t"
     "b     5f\n"
     "4:\n\t"
-    "it2n__t1net 0, 1\n\t"
-    "it2n__t1net 1, 1\n\t"
-    "movs  r9, #0\n\t"
-    "movs  r10, #0\n\t"
+    "movs  r10, #0\n\t" /* z = 0 (r9 is) */
     "strd  r9, r10, [r2, #16]\n"
     "5:\n\t"
     "it2n__t1net 3, 1\n\t"
@@ -521,8 +519,8 @@ static void eval_type1(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
     /* the kernel's row pointers end 4 words into the window */
     cx.adv = (uint32_t)((mdl->n + 3u) * stride * sizeof(int32_t) - 16u);
     cx.frac = mdl->frac[IT2N_FP_D];
-    it2n__bspline_t1_v7m(mdl->coef + k * stride + l, &cx, &out->v[0][0],
-                         mdl->flags & IT2N_F_Z);
+    cx.has_z = mdl->flags & IT2N_F_Z;
+    it2n__bspline_t1_v7m(mdl->coef + k * stride + l, &cx, &out->v[0][0]);
     out->out_of_range = (uint32_t)((uint64_t)d[0] > one) << (IT2N_FP_D * 3u) |
                         (uint32_t)((uint64_t)d[1] > one) << (IT2N_FP_D * 3u + 1u) |
                         (uint32_t)((uint64_t)d[2] > one) << (IT2N_FP_D * 3u + 2u);

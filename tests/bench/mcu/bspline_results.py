@@ -45,17 +45,17 @@ HOST_SOLVE_LIMIT_MS = 50.0
 # Why a target row can miss (only used when it does; perfdoc.py requires one).
 REASONS = {
     "M4F query": "the core evaluates every net as two exact integer stages (16 then 4 32 x 32 -> 64 "
-                 "products with a rounding between, bit-identical on every target; on ARMv7-M one "
-                 "inline-assembly kernel of about 60 instructions per net) where the FPU baseline "
-                 "does 20 single-precision multiply-adds per net; a query also pays a fixed cost the "
-                 "baseline does not (parameter checks, two Q30 bases, zeroing the unused footprints "
-                 "of a type-1 model, the interval summary), which dominates with type-1's 6 nets.",
+                 "products with a rounding between, bit-identical on every target; on ARMv7-M "
+                 "inline assembly of about 75 instructions per net, a type-1 query one unrolled "
+                 "function with store-multiple zeroing and summary) where the FPU baseline does 20 "
+                 "single-precision multiply-adds per net; a query also pays a fixed cost the "
+                 "baseline does not (parameter checks, two Q30 bases, the interval summary).",
     "M0+ query": "on ARMv6-M each 32 x 32 -> 64 product is built from four 16 x 16 MULS with carries; "
                  "the type-2 query's 42 nets x 20 products are within 7 % of the target.",
     "bezier": "coordinates of 64 and more (every set here) take the wide stage 1: each data value "
-              "split into 24-bit halves, four 32 x 32 -> 64 products per term (built from 16-bit MULS "
-              "on ARMv6-M) where data below 2^30 need two; the float baseline's Gauss-Jordan inverse "
-              "and products cost the same at every magnitude.",
+              "split into 24-bit halves (once per net), four 32 x 32 -> 64 products per term (built "
+              "from 16-bit MULS on ARMv6-M) where data below 2^30 need two; the float baseline's "
+              "Gauss-Jordan inverse and products cost less on some data sets (the rough one).",
     "solve": "the solve keeps 64-bit values and rounds each pivot product exactly; see docs/numerics.md.",
     "host": "process CPU time (CLOCK_PROCESS_CPUTIME_ID; the wall clock row next to it also counts "
             "the other jobs of the shared 2-core machine); the solve does 2 x 42 x 257 line solves "
