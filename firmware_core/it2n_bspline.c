@@ -649,29 +649,13 @@ static void store_row(const it2n_bspline_model *mdl, unsigned fp,
 
 static void solve_rows(const it2n_bspline_model *mdl,
                        const it2n_bspline_data *ds, unsigned fp,
-                       solve_fp_state *st)
+                       const uint64_t amax[IT2N_CH_COUNT], solve_fp_state *st)
 {
     int64_t v[LINE_MAX];
 #if LINE_PAIRS
     int64_t v2[LINE_MAX];
 #endif
-    uint64_t amax[IT2N_CH_COUNT] = {0, 0, 0, 0, 0, 0};
     unsigned n = ds->n, m = ds->m, i, ch;
-    {
-        /* the footprint's records in storage order, nfp apart: every
-         * |value| per channel (memberships are never negative) */
-        const it2n_bspline_rec *r = rec_at(ds, 0, 0, fp);
-        size_t nfp = IT2N_BSPLINE_NFP(ds->flags), k;
-        size_t count = (size_t)(n + 1u) * (m + 1u);
-        for (k = 0; k < count; k++, r += nfp) {
-            for (ch = 0; ch < 3u; ch++) {
-                uint64_t a = uabs(rec_value(r, ch));
-                uint64_t b = r->memb[ch];
-                amax[ch] = a > amax[ch] ? a : amax[ch];
-                amax[ch + 3u] = b > amax[ch + 3u] ? b : amax[ch + 3u];
-            }
-        }
-    }
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
         st->f1[ch] = amax[ch] == 0u || !it2n__ch_used(ds->flags, ch)
                          ? -1
@@ -814,12 +798,35 @@ static void solve_fps(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
                       unsigned fpmask)
 {
     solve_fp_state st;
+    uint64_t amax[IT2N_FP_COUNT][IT2N_CH_COUNT];
     unsigned fp, ch;
+    {
+        /* every footprint's largest |value| per channel in one pass over
+         * the records in storage order (footprints interleave: a pass per
+         * footprint reads the whole data set each time); memberships are
+         * never negative */
+        const it2n_bspline_rec *r = ds->rec;
+        size_t nfp = IT2N_BSPLINE_NFP(ds->flags), k;
+        size_t count = (size_t)(ds->n + 1u) * (ds->m + 1u);
+        memset(amax, 0, sizeof(amax));
+        for (k = 0; k < count; k++) {
+            unsigned slot;
+            for (slot = 0; slot < nfp; slot++, r++) {
+                uint64_t *am = amax[nfp == 1u ? IT2N_FP_D : slot];
+                for (ch = 0; ch < 3u; ch++) {
+                    uint64_t a = uabs(rec_value(r, ch));
+                    uint64_t b = r->memb[ch];
+                    am[ch] = a > am[ch] ? a : am[ch];
+                    am[ch + 3u] = b > am[ch + 3u] ? b : am[ch + 3u];
+                }
+            }
+        }
+    }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if (!(fpmask & (1u << fp))) {
             continue;
         }
-        solve_rows(mdl, ds, fp, &st);
+        solve_rows(mdl, ds, fp, amax[fp], &st);
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
             if (it2n__ch_used(ds->flags, ch)) {
                 mdl->frac[fp][ch] = (int8_t)solve_cols(mdl, fp, ch, &st);

@@ -58,11 +58,11 @@ REASONS = {
               "Gauss-Jordan inverse and products cost less on some data sets (the rough one).",
     "solve": "the solve keeps 64-bit values and rounds each pivot product exactly; see docs/numerics.md.",
     "host": "process CPU time (CLOCK_PROCESS_CPUTIME_ID; the wall clock row next to it also counts "
-            "the other jobs of the shared 2-core machine); the solve does 2 x 42 x 257 line solves "
-            "of 257 points with two 32 x 32 -> 64 products per elimination step (hosts interleave "
-            "two lines); the column pass reads the model with a stride of one row, and a type-2 "
-            "256 x 256 model and data set (25 MB) do not fit the cache, so other jobs' cache use "
-            "raises the CPU time too: a blocked column pass is the next step.",
+            "the other jobs of the shared 2-core machine); the solve is bound by memory traffic, "
+            "not instructions: a type-2 256 x 256 model and data set (25 MB) do not fit the cache, "
+            "the footprints' records interleave, and the row pass still reads the data set once per "
+            "footprint (the largest-value scan reads it once for all), so other jobs' cache and "
+            "memory use raise the CPU time too.",
 }
 
 
