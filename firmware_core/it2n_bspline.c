@@ -351,9 +351,10 @@ static int64_t mulq32(int64_t a, uint32_t b)
  * a_{k-2}, a_{-1} = 1, a_0 = 4); from k = 7 on they round to the limit
  * 2^32 (2 - sqrt 3). tests/core/test_bspline.c recomputes them. */
 #define PIVOTS 8u
+#define PIVOT_LIM 1150833018u /* the limit, from k = PIVOTS - 1 on */
 static const uint32_t inv_pivot[PIVOTS] = {
     1073741824u, 1145324612u, 1150437669u, 1150804634u,
-    1150830981u, 1150832872u, 1150833008u, 1150833018u};
+    1150830981u, 1150832872u, 1150833008u, PIVOT_LIM};
 
 uint32_t it2n__bspline_pivot_inv(unsigned k)
 {
@@ -413,33 +414,10 @@ static void line_begin(const int64_t *v, unsigned N, line_ends *e)
     e->zn1 = MUL8(e->yb) - e->ya - e->yc;
 }
 
-/* Forward elimination step k of the (1, 4, 1) system for z_2..z_{N-2}
- * (at v[3..N-1]), right-hand sides 36 y_k with z_1 and z_{N-1} moved
- * over: the new v[k + 3]. */
-IT2N_INLINE int64_t line_fwd(const int64_t *v, unsigned k, unsigned M,
-                             const line_ends *e)
-{
-    int64_t r = MUL36(v[k + 3u]);
-    if (k == 0u) {
-        r -= e->z1;
-    } else {
-        r -= mulq32(v[k + 2u], it2n__bspline_pivot_inv(k - 1u));
-    }
-    if (k + 1u == M) {
-        r -= e->zn1;
-    }
-    return r;
-}
-
-/* Back substitution step k: the new v[k + 3]. */
-IT2N_INLINE int64_t line_back(const int64_t *v, unsigned k, unsigned M)
-{
-    int64_t r = v[k + 3u];
-    if (k + 1u < M) {
-        r -= v[k + 4u];
-    }
-    return mulq32(r, it2n__bspline_pivot_inv(k));
-}
+/* Forward elimination (1, 4, 1) for z_2..z_{N-2} (at v[3..N-1]),
+ * right-hand sides 36 y_k with z_1 and z_{N-1} moved over, then back
+ * substitution, in line_solve and line_solve2; pivot k's reciprocal is
+ * inv_pivot[k], PIVOT_LIM from k = PIVOTS - 1 on. */
 
 /* The ends from the interpolation equations at u_0, u_1 and u_{N-1}, u_N. */
 static void line_finish(int64_t *v, unsigned N, const line_ends *e)
@@ -470,11 +448,28 @@ static void line_solve(int64_t *v, unsigned N)
     }
     line_begin(v, N, &e);
     M = N - 3u;
-    for (k = 0; k < M; k++) {
-        v[k + 3u] = line_fwd(v, k, M, &e);
-    }
-    for (k = M; k-- > 0u;) {
-        v[k + 3u] = line_back(v, k, M);
+    if (M > 0u) {
+        /* line_fwd and line_back with their first and last steps peeled
+         * and the pivots' table part split off: the same values */
+        unsigned kk = M < PIVOTS ? M : PIVOTS;
+        v[3] = MUL36(v[3]) - e.z1;
+        for (k = 1u; k < kk; k++) {
+            v[k + 3u] = MUL36(v[k + 3u]) - mulq32(v[k + 2u], inv_pivot[k - 1u]);
+        }
+        for (; k < M; k++) {
+            v[k + 3u] = MUL36(v[k + 3u]) - mulq32(v[k + 2u], PIVOT_LIM);
+        }
+        v[M + 2u] -= e.zn1;
+        k = M - 1u;
+        v[k + 3u] = mulq32(v[k + 3u], it2n__bspline_pivot_inv(k));
+        while (k > PIVOTS - 1u) {
+            k--;
+            v[k + 3u] = mulq32(v[k + 3u] - v[k + 4u], PIVOT_LIM);
+        }
+        while (k > 0u) {
+            k--;
+            v[k + 3u] = mulq32(v[k + 3u] - v[k + 4u], inv_pivot[k]);
+        }
     }
     line_finish(v, N, &e);
 }
@@ -497,15 +492,37 @@ static void line_solve2(int64_t *a, int64_t *b, unsigned N)
     line_begin(a, N, &ea);
     line_begin(b, N, &eb);
     M = N - 3u;
-    for (k = 0; k < M; k++) {
-        int64_t ra = line_fwd(a, k, M, &ea), rb = line_fwd(b, k, M, &eb);
-        a[k + 3u] = ra;
-        b[k + 3u] = rb;
-    }
-    for (k = M; k-- > 0u;) {
-        int64_t ra = line_back(a, k, M), rb = line_back(b, k, M);
-        a[k + 3u] = ra;
-        b[k + 3u] = rb;
+    if (M > 0u) {
+        /* as line_solve, the two chains interleaved */
+        unsigned kk = M < PIVOTS ? M : PIVOTS;
+        uint32_t p;
+        a[3] = MUL36(a[3]) - ea.z1;
+        b[3] = MUL36(b[3]) - eb.z1;
+        for (k = 1u; k < kk; k++) {
+            p = inv_pivot[k - 1u];
+            a[k + 3u] = MUL36(a[k + 3u]) - mulq32(a[k + 2u], p);
+            b[k + 3u] = MUL36(b[k + 3u]) - mulq32(b[k + 2u], p);
+        }
+        for (; k < M; k++) {
+            a[k + 3u] = MUL36(a[k + 3u]) - mulq32(a[k + 2u], PIVOT_LIM);
+            b[k + 3u] = MUL36(b[k + 3u]) - mulq32(b[k + 2u], PIVOT_LIM);
+        }
+        a[M + 2u] -= ea.zn1;
+        b[M + 2u] -= eb.zn1;
+        k = M - 1u;
+        p = it2n__bspline_pivot_inv(k);
+        a[k + 3u] = mulq32(a[k + 3u], p);
+        b[k + 3u] = mulq32(b[k + 3u], p);
+        while (k > PIVOTS - 1u) {
+            k--;
+            a[k + 3u] = mulq32(a[k + 3u] - a[k + 4u], PIVOT_LIM);
+            b[k + 3u] = mulq32(b[k + 3u] - b[k + 4u], PIVOT_LIM);
+        }
+        while (k > 0u) {
+            k--;
+            a[k + 3u] = mulq32(a[k + 3u] - a[k + 4u], inv_pivot[k]);
+            b[k + 3u] = mulq32(b[k + 3u] - b[k + 4u], inv_pivot[k]);
+        }
     }
     line_finish(a, N, &ea);
     line_finish(b, N, &eb);
@@ -632,23 +649,13 @@ static void store_row(const it2n_bspline_model *mdl, unsigned fp,
 
 static void solve_rows(const it2n_bspline_model *mdl,
                        const it2n_bspline_data *ds, unsigned fp,
-                       solve_fp_state *st)
+                       const uint64_t amax[IT2N_CH_COUNT], solve_fp_state *st)
 {
     int64_t v[LINE_MAX];
 #if LINE_PAIRS
     int64_t v2[LINE_MAX];
 #endif
-    uint64_t amax[IT2N_CH_COUNT] = {0, 0, 0, 0, 0, 0};
-    unsigned n = ds->n, m = ds->m, i, j, ch;
-    for (i = 0; i <= n; i++) {
-        for (j = 0; j <= m; j++) {
-            const it2n_bspline_rec *r = rec_at(ds, i, j, fp);
-            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                uint64_t a = uabs(rec_value(r, ch));
-                amax[ch] = a > amax[ch] ? a : amax[ch];
-            }
-        }
-    }
+    unsigned n = ds->n, m = ds->m, i, ch;
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
         st->f1[ch] = amax[ch] == 0u || !it2n__ch_used(ds->flags, ch)
                          ? -1
@@ -791,12 +798,35 @@ static void solve_fps(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
                       unsigned fpmask)
 {
     solve_fp_state st;
+    uint64_t amax[IT2N_FP_COUNT][IT2N_CH_COUNT];
     unsigned fp, ch;
+    {
+        /* every footprint's largest |value| per channel in one pass over
+         * the records in storage order (footprints interleave: a pass per
+         * footprint reads the whole data set each time); memberships are
+         * never negative */
+        const it2n_bspline_rec *r = ds->rec;
+        size_t nfp = IT2N_BSPLINE_NFP(ds->flags), k;
+        size_t count = (size_t)(ds->n + 1u) * (ds->m + 1u);
+        memset(amax, 0, sizeof(amax));
+        for (k = 0; k < count; k++) {
+            unsigned slot;
+            for (slot = 0; slot < nfp; slot++, r++) {
+                uint64_t *am = amax[nfp == 1u ? IT2N_FP_D : slot];
+                for (ch = 0; ch < 3u; ch++) {
+                    uint64_t a = uabs(rec_value(r, ch));
+                    uint64_t b = r->memb[ch];
+                    am[ch] = a > am[ch] ? a : am[ch];
+                    am[ch + 3u] = b > am[ch + 3u] ? b : am[ch + 3u];
+                }
+            }
+        }
+    }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if (!(fpmask & (1u << fp))) {
             continue;
         }
-        solve_rows(mdl, ds, fp, &st);
+        solve_rows(mdl, ds, fp, amax[fp], &st);
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
             if (it2n__ch_used(ds->flags, ch)) {
                 mdl->frac[fp][ch] = (int8_t)solve_cols(mdl, fp, ch, &st);

@@ -9,6 +9,7 @@
  * is then the Bezier kind's two short stages over a 4 x 4 window of the net:
  * 20 multiply-adds whatever the grid size.
  */
+#include <stddef.h>
 #include <string.h>
 
 #include "it2n_internal.h"
@@ -246,6 +247,161 @@ static void window_run(const int32_t *win, size_t size, unsigned stride,
         : "cc", "memory");
 }
 #undef IT2N__ASM_COL
+
+/*
+ * Type-1 on ARMv7-M: the whole query of footprint D in one assembly
+ * function, registers fixed (r0 window, r1 ctx, r2 &v[D][0], r3 stride in
+ * words, r4-r7 row weights, r8 row 2, r9 scratch, r10:r11 stage 1, r12:lr
+ * stage 2). Per net the same sums and roundings as window_run, so the same
+ * bits; the nets are unrolled (no loop state in memory), the six other
+ * footprints are zeroed with store-multiples and the summary (every bound
+ * is D's value) is D's T, I, F copied four times. A type-1 query's fixed
+ * cost otherwise outweighs its five or six nets.
+ */
+typedef struct t1_ctx {
+    int32_t bw[4];   /*  0: column weights                          */
+    int32_t bu[4];   /* 16: row weights                             */
+    uint32_t adv;    /* 32: bytes from the end of one window to the next net's */
+    uint32_t stride; /* 36: words per row                            */
+    const int8_t *frac; /* 40: D's exponents by channel              */
+    uint32_t has_z;  /* 44: nets x, y, z, T, I, F (else x, y, T, I, F, z = 0) */
+} t1_ctx;
+
+IT2N_STATIC_ASSERT(IT2N_FP_D == 3 && IT2N_CH_COUNT == 6 && IT2N_FP_COUNT == 7 &&
+                       IT2N_CH_T == 3 && IT2N_VAL_FRAC == 24 &&
+                       sizeof(it2n_val) == 8,
+                   t1_asm_layout);
+IT2N_STATIC_ASSERT(offsetof(it2n_point, sum) == 336 &&
+                       offsetof(it2n_summary, upper_max) == 24 &&
+                       offsetof(it2n_summary, lower_min) == 48 &&
+                       offsetof(it2n_summary, lower_max) == 72,
+                   t1_asm_point);
+IT2N_STATIC_ASSERT(offsetof(t1_ctx, bu) == 16 && offsetof(t1_ctx, adv) == 32 &&
+                       offsetof(t1_ctx, stride) == 36 &&
+                       offsetof(t1_ctx, frac) == 40 &&
+                       offsetof(t1_ctx, has_z) == 44,
+                   t1_asm_ctx);
+
+/* win: D's x window; v: &out->v[0][0]. */
+void it2n__bspline_t1_v7m(const int32_t *win, const t1_ctx *cx, it2n_val *v);
+
+__asm__(
+    ".syntax unified\n\t"
+    ".section .text.it2n__bspline_t1_v7m,\"ax\",%progbits\n\t"
+    ".align 2\n\t"
+    ".global it2n__bspline_t1_v7m\n\t"
+    ".hidden it2n__bspline_t1_v7m\n\t"
+    ".thumb\n\t"
+    ".thumb_func\n\t"
+    ".type it2n__bspline_t1_v7m, %function\n"
+    /* one column s: stage 1 over the four rows, rounded, times bw[s] */
+    ".macro it2n__t1col mul, off\n\t"
+    "ldr   r9, [r0, r3, lsl #2]\n\t"
+    "smull r10, r11, r9, r5\n\t"
+    "ldr   r9, [r0], #4\n\t"
+    "smlal r10, r11, r9, r4\n\t"
+    "ldr   r9, [r8, r3, lsl #2]\n\t"
+    "smlal r10, r11, r9, r7\n\t"
+    "ldr   r9, [r8], #4\n\t"
+    "smlal r10, r11, r9, r6\n\t"
+    "adds  r10, r10, #0x20000000\n\t"
+    "adc   r11, r11, #0\n\t"
+    "lsrs  r10, r10, #30\n\t"
+    "orr   r10, r10, r11, lsl #2\n\t"
+    "ldr   r9, [r1, #\\off]\n\t"
+    "\\mul r12, lr, r9, r10\n\t"
+    ".endm\n"
+    /* one net into slot ch of D: shift by sh = 30 + frac - 24 rounding to
+     * nearest as ((acc >> (sh - 1)) + 1) >> 1 (sh - 1 >= 32: from the high
+     * word, |acc| < 2^62 so 32 bits hold it); then (next) on to the next
+     * net's window */
+    ".macro it2n__t1net ch, next\n\t"
+    "it2n__t1col smull, 0\n\t"
+    "it2n__t1col smlal, 4\n\t"
+    "it2n__t1col smlal, 8\n\t"
+    "it2n__t1col smlal, 12\n\t"
+    "ldr   r9, [r1, #40]\n\t"
+    "ldrsb r9, [r9, #\\ch]\n\t"
+    "adds  r9, r9, #5\n\t"
+    "subs  r10, r9, #32\n\t"
+    "bmi   2f\n\t"
+    "asr   r12, lr, r10\n\t"
+    "adds  r12, r12, #1\n\t"
+    "asr   r12, r12, #1\n\t"
+    "asr   lr, r12, #31\n\t"
+    "b     3f\n"
+    "2:\n\t"
+    "rsb   r10, r9, #32\n\t"
+    "lsr   r12, r12, r9\n\t"
+    "lsl   r11, lr, r10\n\t"
+    "orr   r12, r12, r11\n\t"
+    "asr   lr, lr, r9\n\t"
+    "adds  r12, r12, #1\n\t"
+    "adc   lr, lr, #0\n\t"
+    "lsrs  r12, r12, #1\n\t"
+    "orr   r12, r12, lr, lsl #31\n\t"
+    "asr   lr, lr, #1\n"
+    "3:\n\t"
+    "strd  r12, lr, [r2, #(8 * \\ch)]\n\t"
+    ".if \\next\n\t"
+    "ldr   r9, [r1, #32]\n\t"
+    "add   r0, r0, r9\n\t"
+    "add   r8, r0, r3, lsl #3\n\t"
+    ".endif\n\t"
+    ".endm\n"
+    "it2n__bspline_t1_v7m:\n\t"
+    "push  {r4-r11, lr}\n\t"
+    /* footprints LL, LR, L (bytes 0..143) and R, RL, RR (192..335) = 0 */
+    "movs  r4, #0\n\t"
+    "movs  r5, #0\n\t"
+    "movs  r6, #0\n\t"
+    "movs  r7, #0\n\t"
+    "mov   r8, r4\n\t"
+    "mov   r9, r4\n\t"
+    "mov   r10, r4\n\t"
+    "mov   r11, r4\n\t"
+    "stmia r2!, {r4-r11}\n\t"
+    "stmia r2!, {r4-r11}\n\t"
+    "stmia r2!, {r4-r11}\n\t"
+    "stmia r2!, {r4-r11}\n\t"
+    "stmia r2!, {r4-r7}\n\t"
+    "add   r12, r2, #48\n\t"
+    "stmia r12!, {r4-r11}\n\t"
+    "stmia r12!, {r4-r11}\n\t"
+    "stmia r12!, {r4-r11}\n\t"
+    "stmia r12!, {r4-r11}\n\t"
+    "stmia r12!, {r4-r7}\n\t"
+    "ldr   r3, [r1, #36]\n\t"
+    "add   r12, r1, #16\n\t"
+    "ldmia r12, {r4-r7}\n\t"
+    "add   r8, r0, r3, lsl #3\n\t"
+    "it2n__t1net 0, 1\n\t"
+    "it2n__t1net 1, 1\n\t"
+    "ldr   r9, [r1, #44]\n\t"
+    "cmp   r9, #0\n\t"
+    "beq   4f\n\t"
+    "it2n__t1net 2, 1\n\t"
+    "b     5f\n"
+    "4:\n\t"
+    "movs  r10, #0\n\t" /* z = 0 (r9 is) */
+    "strd  r9, r10, [r2, #16]\n"
+    "5:\n\t"
+    "it2n__t1net 3, 1\n\t"
+    "it2n__t1net 4, 1\n\t"
+    "it2n__t1net 5, 0\n\t"
+    /* the summary: upper_min, upper_max, lower_min, lower_max = T, I, F */
+    "add   r9, r2, #24\n\t"
+    "ldmia r9, {r3-r8}\n\t"
+    "add   r9, r2, #192\n\t"
+    "stmia r9!, {r3-r8}\n\t"
+    "stmia r9!, {r3-r8}\n\t"
+    "stmia r9!, {r3-r8}\n\t"
+    "stmia r9!, {r3-r8}\n\t"
+    "pop   {r4-r11, pc}\n\t"
+    ".purgem it2n__t1net\n\t"
+    ".purgem it2n__t1col\n\t"
+    ".size it2n__bspline_t1_v7m, . - it2n__bspline_t1_v7m\n\t"
+    ".text\n");
 #else
 /* The two stages written out: the same sums as stage1 and stage2. */
 IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0,
@@ -345,6 +501,32 @@ static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
     }
 }
 
+#if defined(IT2N__WINDOW_ASM)
+/* A type-1 query on ARMv7-M (it2n__bspline_t1_v7m): the values, summary and
+ * out_of_range of eval_values + it2n__summarise_flags, bit for bit. */
+static void eval_type1(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
+                       it2n_point *out)
+{
+    t1_ctx cx;
+    uint32_t tu, tw;
+    unsigned k = span_of(u, mdl->n, &tu), l = span_of(w, mdl->m, &tw);
+    unsigned stride = mdl->m + 3u;
+    const uint64_t one = (uint64_t)IT2N_VAL_ONE;
+    const it2n_val *d = &out->v[IT2N_FP_D][IT2N_CH_T];
+    basis(tu, cx.bu);
+    basis(tw, cx.bw);
+    cx.stride = stride;
+    /* the kernel's row pointers end 4 words into the window */
+    cx.adv = (uint32_t)((mdl->n + 3u) * stride * sizeof(int32_t) - 16u);
+    cx.frac = mdl->frac[IT2N_FP_D];
+    cx.has_z = mdl->flags & IT2N_F_Z;
+    it2n__bspline_t1_v7m(mdl->coef + k * stride + l, &cx, &out->v[0][0]);
+    out->out_of_range = (uint32_t)((uint64_t)d[0] > one) << (IT2N_FP_D * 3u) |
+                        (uint32_t)((uint64_t)d[1] > one) << (IT2N_FP_D * 3u + 1u) |
+                        (uint32_t)((uint64_t)d[2] > one) << (IT2N_FP_D * 3u + 2u);
+}
+#endif
+
 int it2n_bspline_eval(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
                       it2n_point *out, it2n_errinfo *err)
 {
@@ -359,6 +541,12 @@ int it2n_bspline_eval(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
     if (rc != IT2N_OK) {
         return rc;
     }
+#if defined(IT2N__WINDOW_ASM)
+    if (mdl->flags & IT2N_F_TYPE1) {
+        eval_type1(mdl, u, w, out);
+        return IT2N_OK;
+    }
+#endif
     eval_values(mdl, u, w, out);
     it2n__summarise_flags(mdl->flags, out);
     return IT2N_OK;

@@ -228,19 +228,17 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
  * 2^31 + 16, lo < 2^24): every int64 partial sum stays below 2^62 and
  * |g| < 2^62.
  */
-static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
-                   const dir_inv *dw, unsigned j, bool wide, int64_t *g)
+static void stage1(unsigned n1, unsigned m1, const int32_t *fa,
+                   const uint32_t *fb, const dir_inv *dw, unsigned j,
+                   bool wide, int64_t *g)
 {
-    unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, k, l;
+    unsigned k, l;
     const int32_t *hi = &dw->hi[j * m1], *lo = &dw->lo[j * m1];
-    for (k = 0; k < n1; k++) {
+    for (k = 0; k < n1; k++, fa += m1, fb += m1) {
         int64_t a1 = 0, a2 = 0;
         if (!wide) {
             /* one accumulator per loop: no register spills on ARMv6-M */
-            int32_t f[IT2N_DIM];
-            for (l = 0; l < m1; l++) {
-                f[l] = (int32_t)it2n_dataset_value_fine(ds, k, l, fp, ch);
-            }
+            const int32_t *f = fa;
             for (l = 0; l < m1; l++) {
                 a1 += it2n_smul32(f[l], hi[l]);
             }
@@ -261,9 +259,8 @@ static void stage1(const it2n_dataset *ds, unsigned fp, unsigned ch,
             int64_t a = 0, b = 0, e;
             uint64_t d = 0u;
             for (l = 0; l < m1; l++) {
-                it2n_val f = it2n_dataset_value(ds, k, l, fp, ch);
-                int32_t fh = (int32_t)(f >> 24);
-                uint32_t fl = (uint32_t)f & 0xFFFFFFu;
+                int32_t fh = fa[l];
+                uint32_t fl = fb[l];
                 a += it2n_smul32(fh, hi[l]);
                 b += it2n_mul32su(fh, (uint32_t)lo[l]) + it2n_mul32su(hi[l], fl);
                 d += it2n_umul32(fl, (uint32_t)lo[l]);
@@ -318,17 +315,17 @@ static void stage2(const dir_inv *du, unsigned n1, const int64_t *g,
  * moves a control point by at most 1.7e-7 of max|F| <= max|P| (the data
  * are convex combinations of the net), within the 1e-6 max|P| goal.
  */
-static void short_column(const it2n_dataset *ds, unsigned fp, unsigned ch,
+static void short_column(unsigned n1, unsigned m1, const int32_t *fa,
                          const dir_inv *du, const dir_inv *dw, unsigned j,
                          int64_t *p, unsigned stride)
 {
-    unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, i, k, l;
+    unsigned i, k, l;
     const int32_t *wm = &dw->w[j * m1];
     int32_t gh[IT2N_DIM], gl[IT2N_DIM];
-    for (k = 0; k < n1; k++) {
+    for (k = 0; k < n1; k++, fa += m1) {
         int64_t g = 0;
         for (l = 0; l < m1; l++) {
-            g += it2n_smul32((int32_t)it2n_dataset_value_fine(ds, k, l, fp, ch), wm[l]);
+            g += it2n_smul32(fa[l], wm[l]);
         }
         gh[k] = (int32_t)(g >> 31);
         gl[k] = (int32_t)(g & 0x7FFFFFFF);
@@ -350,11 +347,38 @@ static void short_column(const it2n_dataset *ds, unsigned fp, unsigned ch,
  * Solve one net (fp, ch) of ds into net[] (int32 mantissas, compact
  * (n+1)(m+1)) and *frac. Cannot fail once check_bound passed.
  */
+/*
+ * The data of net (fp, ch), read once per net instead of once per column
+ * of stage 1 (on ARMv6-M each read is a call with index arithmetic): small
+ * data as int32 in fa; wide data split F = fh 2^24 + fl, fh in fa and fl
+ * (in [0, 2^24)) in fb. Row k at k (m+1).
+ */
+static void load_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
+                     bool wide, int32_t *fa, uint32_t *fb)
+{
+    unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, k, l;
+    for (k = 0; k < n1; k++) {
+        for (l = 0; l < m1; l++, fa++, fb++) {
+            if (!wide) {
+                *fa = (int32_t)it2n_dataset_value_fine(ds, k, l, fp, ch);
+                continue;
+            }
+            {
+                it2n_val f = it2n_dataset_value(ds, k, l, fp, ch);
+                *fa = (int32_t)(f >> 24);
+                *fb = (uint32_t)f & 0xFFFFFFu;
+            }
+        }
+    }
+}
+
 static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
                       const dir_inv *du, const dir_inv *dw, int32_t *net,
                       int8_t *frac)
 {
     int64_t p64[IT2N_DIM * IT2N_DIM], g[IT2N_DIM];
+    int32_t fa[IT2N_DIM * IT2N_DIM];
+    uint32_t fb[IT2N_DIM * IT2N_DIM];
     unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, j, k, count = n1 * m1;
     unsigned eb = data_bits(ds, fp, ch), eh;
     bool wide = eb > SMALL_DATA_BITS + (ch >= IT2N_CH_T ? 1u : 0u);
@@ -366,12 +390,13 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
         *frac = 0;
         return;
     }
+    load_net(ds, fp, ch, wide, fa, fb);
     for (j = 0; j < m1; j++) {
         if (shortp) {
-            short_column(ds, fp, ch, du, dw, j, &p64[j], m1);
+            short_column(n1, m1, fa, du, dw, j, &p64[j], m1);
             continue;
         }
-        stage1(ds, fp, ch, dw, j, wide, g);
+        stage1(n1, m1, fa, fb, dw, j, wide, g);
         stage2(du, n1, g, &p64[j], m1);
     }
     for (k = 0; k < count; k++) {

@@ -9,7 +9,7 @@
 
 #include <stdint.h>
 
-#define IT2N_CORE_VECTORS_COUNT 5393u
+#define IT2N_CORE_VECTORS_COUNT 5549u
 
 static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     /* paper.init */
@@ -4106,6 +4106,288 @@ static const int64_t it2n_core_vectors_expected[IT2N_CORE_VECTORS_COUNT] = {
     0,
     /* bs.sample_hash */
     -9184389901691077548,
+    /* bs.put */
+    0,
+    /* bs.solve */
+    0,
+    /* bs.hash */
+    4016417089305247260,
+    /* bs.coef */
+    3033484, 1000742375, 0, 0, 0, 0,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -168616553462120875,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    5517191473438335380,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -6469632420487122125,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -4943138720464540606,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -8918090278508079763,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -5726947942722137384,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -2836112551760742933,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -5993076114188466389,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -2546556720333844725,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    1043018975426622688,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    2098612670546471760,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -4735696630564150631,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -5304733430054782217,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    7497026150278235487,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    4382558174534920730,
+    /* bs.sample */
+    0,
+    /* bs.sample_hash */
+    -7254749572096171357,
+    /* bs.update */
+    0,
+    /* bs.update_hash */
+    719301501224392861,
+    /* bs.resolve */
+    0,
+    /* bs.same */
+    1,
+    /* bs.put */
+    0,
+    /* bs.solve */
+    0,
+    /* bs.hash */
+    -3519191444412332311,
+    /* bs.coef */
+    -1477483, 668835848, 0, 0, 0, 0,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    3684640989542565251,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    6298236082096686882,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    2885154458728922961,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -6325991711605960029,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -7513703408673753304,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -5526690038038442172,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -8130185207555598780,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -1326271675404032242,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    2780615684158778252,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    2123982293021684574,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -6294495127872591743,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    2652230205037294159,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    6447904307721451412,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    2864227213067901308,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    6878783952843826647,
+    /* bs.sample */
+    0,
+    /* bs.sample_hash */
+    2820436400629270182,
+    /* bs.update */
+    0,
+    /* bs.update_hash */
+    4192073432785509389,
+    /* bs.resolve */
+    0,
+    /* bs.same */
+    1,
+    /* bs.put */
+    0,
+    /* bs.solve */
+    0,
+    /* bs.hash */
+    6351291439834800476,
+    /* bs.coef */
+    1636225, 840661048, 0, 0, 0, 0,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -1509450102659342455,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    147113648820264684,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    1238926742684516434,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -7566302832515931773,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -4076660825443276482,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -3225132112375482781,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    -5721646795760556265,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -8732813952135043466,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    5216611693763403824,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -3728659778548891442,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    8142858481034515630,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    5223695603118508157,
+    /* bs.eval */
+    0,
+    /* bs.eval_hash */
+    2850308155809905725,
+    /* bs.eval_D_T */
+    0,
+    /* bs.deriv */
+    0,
+    /* bs.deriv_hash */
+    -8026859693678883612,
+    /* bs.locate */
+    0,
+    /* bs.locate_hash */
+    8639068638248488601,
+    /* bs.sample */
+    0,
+    /* bs.sample_hash */
+    3447442757482777353,
+    /* bs.update */
+    0,
+    /* bs.update_hash */
+    -3661389719015541898,
+    /* bs.resolve */
+    0,
+    /* bs.same */
+    1,
 };
 
 #endif /* IT2N_CORE_VECTORS_H */

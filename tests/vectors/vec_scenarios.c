@@ -743,9 +743,11 @@ static uint64_t hash_bs(const it2n_bspline_model *mdl)
 }
 
 /* As make_grid for the B-spline data set (n, m intervals); extreme
- * alternates +-IT2N_COORD_LIMIT and memberships 0/1 instead. */
+ * alternates +-IT2N_COORD_LIMIT and memberships 0/1 instead; faint
+ * memberships are a few units of 2^-30 (nets of exponent 27 and more: the
+ * ARMv7-M kernels' shift from the high word). */
 static int make_bs_grid(it2n_vec_work *wk, unsigned n, unsigned m,
-                        unsigned flags, uint32_t seed, bool extreme)
+                        unsigned flags, uint32_t seed, bool extreme, bool faint)
 {
     unsigned i, j, fp;
     int rc = it2n_bspline_data_init(&wk->bs_ds, wk->bs_rec, VEC_BS_RECS, n, m,
@@ -759,6 +761,7 @@ static int make_bs_grid(it2n_vec_work *wk, unsigned n, unsigned m,
             for (k = 0; k < 3u; k++) {
                 /* Q30 as generated data sets above */
                 mem[k] = extreme ? (it2n_val)((i + 2u * j + k) & 1u) * IT2N_MEMB_ONE
+                         : faint ? (it2n_val)(lcg(&seed) >> 26) << k
                                  : ((IT2N_VAL_ONE / 20) + (((it2n_val)lcg(&seed) * 9) / 10)) * 64 +
                                        (it2n_val)((k * 21u + i * 7u + j * 13u) & 63u);
             }
@@ -813,14 +816,14 @@ static int bs_sample_cb(void *ctx, unsigned r, unsigned c, it2n_par u,
  * grids; one update against a full re-solve; the extremes. */
 static void scen_bspline_one(it2n_vec_work *wk, const vec_out *o, unsigned n,
                              unsigned m, unsigned flags, uint32_t seed,
-                             bool extreme)
+                             bool extreme, bool faint)
 {
     static const uint32_t at[][4] = {{0, 1, 0, 1}, {1, 1, 1, 1}, {1, 2, 1, 3},
                                      {5, 7, 2, 9}, {99, 100, 1, 100},
                                      {1, 3, 1, 1}, {12, 13, 7, 11}};
     bs_sample_state ss;
     unsigned k, fp, ch;
-    int rc = make_bs_grid(wk, n, m, flags, seed, extreme);
+    int rc = make_bs_grid(wk, n, m, flags, seed, extreme, faint);
     out(o, "bs.put", rc);
     it2n_bspline_model_init(&wk->bs_a, wk->bs_coef, VEC_BS_WORDS);
     rc = it2n_bspline_solve(&wk->bs_a, &wk->bs_ds, &wk->err);
@@ -909,11 +912,15 @@ static void scen_bspline_one(it2n_vec_work *wk, const vec_out *o, unsigned n,
 
 static void scen_bspline(it2n_vec_work *wk, const vec_out *o)
 {
-    scen_bspline_one(wk, o, 10, 7, 0, 21u, false);              /* type-2 */
-    scen_bspline_one(wk, o, 20, 20, IT2N_F_TYPE1 | IT2N_F_Z, 22u, false);
-    scen_bspline_one(wk, o, 1, 2, IT2N_F_Z, 23u, false);        /* line, parabola */
-    scen_bspline_one(wk, o, 3, 4, IT2N_F_TYPE1, 24u, false);    /* 4 points: a cubic */
-    scen_bspline_one(wk, o, 9, 5, IT2N_F_Z, 25u, true);         /* +-limit */
+    scen_bspline_one(wk, o, 10, 7, 0, 21u, false, false);              /* type-2 */
+    scen_bspline_one(wk, o, 20, 20, IT2N_F_TYPE1 | IT2N_F_Z, 22u, false, false);
+    scen_bspline_one(wk, o, 1, 2, IT2N_F_Z, 23u, false, false);        /* line, parabola */
+    scen_bspline_one(wk, o, 3, 4, IT2N_F_TYPE1, 24u, false, false);    /* 4 points: a cubic */
+    scen_bspline_one(wk, o, 9, 5, IT2N_F_Z, 25u, true, false);         /* +-limit */
+    /* faint memberships, both kinds and both type-1 layouts */
+    scen_bspline_one(wk, o, 5, 6, IT2N_F_TYPE1 | IT2N_F_Z, 26u, false, true);
+    scen_bspline_one(wk, o, 6, 4, IT2N_F_TYPE1, 27u, false, true);
+    scen_bspline_one(wk, o, 4, 5, IT2N_F_Z, 28u, false, true);
 }
 
 void it2n_vec_scenarios(it2n_vec_work *wk, it2n_vec_put put, void *state)
