@@ -97,6 +97,7 @@ struct link {
     uint32_t rto_ms;
     int peer;                 /* a HELLO came from the peer since the open */
     uint32_t hello_session;   /* ... in this peer session (EVENTs go to it) */
+    int hello_due;            /* our HELLO answer waits for room in the window */
     it2n_msg_event evq[EVQ_MAX];
     int nev;
     uint32_t ev_sent, ev_merged;
@@ -310,6 +311,15 @@ static unsigned send_window_cap(const struct link *l)
 static void send_hello(struct link *l)
 {
     it2n_msg m;
+    /* A window full of frames for a previous peer (v1.1 sends them on to
+     * the new session) must not swallow the answer: it goes out first
+     * when there is room (pump_events), and a client waiting for our caps
+     * (BSPLINE, FINE) gets them. */
+    if (!can_send(l)) {
+        l->hello_due = 1;
+        return;
+    }
+    l->hello_due = 0;
     memset(&m, 0, sizeof m);
     m.type = IT2N_MSG_HELLO;
     m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
@@ -366,7 +376,9 @@ static void arm_poll(struct link *l)
 /* Send the queued EVENTs that fit the window, oldest first. */
 static void pump_events(struct link *l)
 {
-    while (l->nev && can_send(l)) {
+    if (l->hello_due)
+        send_hello(l);
+    while (!l->hello_due && l->nev && can_send(l)) {
         it2n_msg m;
         memset(&m, 0, sizeof m);
         m.type = IT2N_MSG_EVENT;
