@@ -356,7 +356,9 @@ plc --unit 2 upload "$PAPER" && plc --unit 2 verify "$PAPER" 3 >/dev/null \
     && ok "stream completed after restart" || fail "complete after restart"
 
 # kill -9 while an instrument streams: every ACKed entry survives.
-instr --csv "$PAPER" --model 5 --batch 2 --ack-log "$T/iacked" > /dev/null 2>&1 &
+# (timeout itself in the background, not the instr function's subshell:
+# killing that left the instrument streaming into the restarted daemon)
+timeout 60 "$INSTR" --link "$T/inst0" --csv "$PAPER" --model 5 --batch 2 --ack-log "$T/iacked" > /dev/null 2>&1 &
 IPID=$!
 for _ in $(seq 300); do [ "$(tail -n1 "$T/iacked" 2>/dev/null)" -ge 30 ] 2>/dev/null && break; sleep 0.01; done
 kill -9 "$PID"; wait "$PID" 2>/dev/null; PID=
