@@ -2,7 +2,8 @@
  * it2n — protocol messages: plain structs and their pack/unpack.
  *
  * Every multi-byte field is little-endian. Values are fixed point:
- * coordinates, memberships and results are int64 Q24 (it2n_val, raw/2^24);
+ * coordinates, memberships and results are int64 Q24 (it2n_val, raw/2^24;
+ * a PUT with IT2N_PUT_FINE carries its memberships in Q30, raw/2^30);
  * parameters u, w are uint32 Q2.30 on the wire (1.0 = 0x40000000). Unpacked
  * structs hold it2n_val directly so the daemon can hand them to the core.
  * Byte layouts: docs/protocol.md.
@@ -60,7 +61,8 @@ enum it2n_msg_type {
 #define IT2N_CAP_FINE 0x80u
 
 /* Protocol revision of the messages (docs/protocol.md 6): 1.3 changes
- * section 5 only (the 5-byte CONFIGURE); frames stay wire version 3. */
+ * section 5 only (the 5-byte CONFIGURE, PUT FINE); frames stay wire
+ * version 3. */
 #define IT2N_PROTO_REVISION_MINOR 3
 
 /* PUT flags. */
