@@ -410,6 +410,16 @@ static void src_get_fine(const lk_src *s, unsigned i, unsigned j, unsigned fp, i
     }
 }
 
+/* Entry (i, j, fp) as a PUT carries it: memberships in Q30 (fine) or
+ * Q24 (exact: push_format checked). */
+static void src_get_wire(const lk_src *s, unsigned i, unsigned j, unsigned fp, bool fine, it2n_val v[IT2N_CH_COUNT])
+{
+    src_get_fine(s, i, j, fp, v);
+    for (unsigned ch = IT2N_CH_T; !fine && ch <= IT2N_CH_F; ch++) {
+        v[ch] /= (it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
+    }
+}
+
 /* A membership finer than Q24 in the source: what a PUT without FINE
  * would round (its (i, j, fp) in *at), or false. */
 static bool src_finer_than_q24(const lk_src *s, unsigned at[3])
@@ -440,18 +450,16 @@ static bool hello_seen(const lk_conn *c)
     return c->peer_hello;
 }
 
-/* CONFIGURE (the 5-byte v1.3 form for a B-spline), every entry in PUTs of
- * as many as fit, COMMIT. */
-static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
+/* What the daemon's HELLO (sent right after it ACKed ours) allows for
+ * src: CTL_EXIT_OK with *fine set when memberships may travel in Q30 (PUT
+ * FINE), or CTL_EXIT_DATA with the reason printed, nothing sent. */
+static int push_format(lk_conn *c, const lk_src *src, bool *fine)
 {
-    static it2n_msg m;
-    unsigned i, j, fp, total = 0, done = 0, at[3];
-    bool fine = false;
-    int rc;
+    unsigned at[3];
+    *fine = false;
     if (src->bds != NULL) {
-        /* v1.3: the daemon's HELLO (sent right after it ACKed ours) says
-         * whether it reads the B-spline CONFIGURE; a v1.2 daemon would
-         * refuse it as malformed */
+        /* v1.3: a v1.2 daemon would refuse the B-spline CONFIGURE as
+         * malformed */
         if (run_until(c, hello_seen, c->timeout_ms) != 0 || !(c->peer_caps & IT2N_CAP_BSPLINE)) {
             fprintf(stderr, "it2nctl: %s: push --kind bspline: %s (protocol v1.3, "
                             "docs/protocol.md 5.3); push over Modbus (--tcp or --rtu) "
@@ -466,7 +474,7 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
      * without FINE gets Q24 only when that is exact; otherwise rounding
      * would give it another model: refused, nothing sent. */
     if (run_until(c, hello_seen, c->timeout_ms) == 0 && (c->peer_caps & IT2N_CAP_FINE)) {
-        fine = true;
+        *fine = true;
     } else if (src_finer_than_q24(src, at)) {
         fprintf(stderr, "it2nctl: %s: push: the membership of (i=%u, j=%u, %s) is finer than 2^-24 and %s "
                         "(PUT FINE, protocol v1.3, docs/protocol.md 5.4); rounding would give it another model "
@@ -475,6 +483,20 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
                 c->peer_hello ? "this it2nd's link carries memberships in Q24 only"
                               : "it2nd did not say whether its link carries Q30 memberships");
         return CTL_EXIT_DATA;
+    }
+    return CTL_EXIT_OK;
+}
+
+/* CONFIGURE (the 5-byte v1.3 form for a B-spline), every entry in PUTs of
+ * as many as fit (FINE when the daemon reads it), COMMIT. */
+static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
+{
+    static it2n_msg m;
+    unsigned i, j, fp, total = 0, done = 0;
+    bool fine;
+    int rc = push_format(c, src, &fine);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
     }
     for (i = 0; i <= src_n(src); i++) {
         for (j = 0; j <= src_m(src); j++) {
@@ -529,12 +551,7 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
                 e->i = (uint8_t)i;
                 e->j = (uint8_t)j;
                 e->fp = (uint8_t)fp;
-                src_get_fine(src, i, j, fp, e->vals);
-                if (!fine) { /* exact: checked above */
-                    for (unsigned ch = IT2N_CH_T; ch <= IT2N_CH_F; ch++) {
-                        e->vals[ch] /= (it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
-                    }
-                }
+                src_get_wire(src, i, j, fp, fine, e->vals);
                 if (!(src_flags(src) & IT2N_F_Z)) {
                     e->vals[IT2N_CH_Z] = 0;
                 }
