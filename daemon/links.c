@@ -97,6 +97,7 @@ struct link {
     uint32_t rto_ms;
     int peer;                 /* a HELLO came from the peer since the open */
     uint32_t hello_session;   /* ... in this peer session (EVENTs go to it) */
+    int hello_due;            /* our HELLO answer waits for room in the window */
     it2n_msg_event evq[EVQ_MAX];
     int nev;
     uint32_t ev_sent, ev_merged;
@@ -310,6 +311,15 @@ static unsigned send_window_cap(const struct link *l)
 static void send_hello(struct link *l)
 {
     it2n_msg m;
+    /* A window full of frames for a previous peer (v1.1 sends them on to
+     * the new session) must not swallow the answer: it goes out first
+     * when there is room (pump_events), and a client waiting for our caps
+     * (BSPLINE, FINE) gets them. */
+    if (!can_send(l)) {
+        l->hello_due = 1;
+        return;
+    }
+    l->hello_due = 0;
     memset(&m, 0, sizeof m);
     m.type = IT2N_MSG_HELLO;
     m.u.hello.version_min = IT2N_PROTO_VERSION_MIN;
@@ -317,7 +327,8 @@ static void send_hello(struct link *l)
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
     m.u.hello.window = it2n_link_window(&l->pl); /* what we accept in flight */
     m.u.hello.caps = IT2N_CAP_SERVER | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1 | IT2N_CAP_EVENTS |
-                     IT2N_CAP_BSPLINE; /* v1.3 messages: the B-spline CONFIGURE */
+                     IT2N_CAP_BSPLINE | /* v1.3 messages: the B-spline CONFIGURE */
+                     IT2N_CAP_FINE;     /* ... and PUT FINE (Q30 memberships) */
     m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
     m.u.hello.max_models = (uint16_t)models_count(); /* ids served (configured) */
     memcpy(m.u.hello.node, "it2nd", 5);
@@ -365,7 +376,9 @@ static void arm_poll(struct link *l)
 /* Send the queued EVENTs that fit the window, oldest first. */
 static void pump_events(struct link *l)
 {
-    while (l->nev && can_send(l)) {
+    if (l->hello_due)
+        send_hello(l);
+    while (!l->hello_due && l->nev && can_send(l)) {
         it2n_msg m;
         memset(&m, 0, sizeof m);
         m.type = IT2N_MSG_EVENT;
@@ -549,7 +562,11 @@ static void put_fresh(const struct model *md, const it2n_msg_put *p, it2n_msg_pu
         const it2n_put_entry *e = &p->e[k];
         it2n_val have[IT2N_CH_COUNT];
         if (models_point_present(md, e->i, e->j, e->fp)) {
-            models_point_get(md, e->i, e->j, e->fp, have);
+            /* compared in the layout sent: Q30 memberships with FINE */
+            if (p->flags & IT2N_PUT_FINE)
+                models_point_get_fine(md, e->i, e->j, e->fp, have);
+            else
+                models_point_get(md, e->i, e->j, e->fp, have);
             if (!(models_flags(md) & IT2N_F_Z))
                 have[IT2N_CH_Z] = e->vals[IT2N_CH_Z]; /* z of a model without z: see do_put */
             if (!memcmp(have, e->vals, sizeof have))
@@ -565,8 +582,8 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
     it2n_errinfo err;
     it2n_msg_put fresh;
     int rc = IT2N_OK;
-    if (p->flags & ~IT2N_PUT_REPLACE) { /* unknown flag bits: refused (protocol.md 5.4) */
-        it2n_errinfo e = detail(IT2N_PROTO_ERR_FIELD, p->flags, 1, IT2N_PUT_REPLACE);
+    if (p->flags & ~IT2N_PUT_FLAGS) { /* unknown flag bits: refused (protocol.md 5.4) */
+        it2n_errinfo e = detail(IT2N_PROTO_ERR_FIELD, p->flags, 1, IT2N_PUT_FLAGS);
         return refuse(l, seq, IT2N_PROTO_ERR_FIELD, &e);
     }
     for (unsigned k = 0; k < p->count; k++) {
@@ -622,8 +639,14 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
         p = &fresh;
     }
     models_txn_begin(&t);
+    /* FINE (v1.3): memberships in Q30, stored as sent (what 'it2n' reads
+     * from the same CSV); else Q24, stored exactly (x 2^6) */
     for (unsigned k = 0; k < p->count && rc == IT2N_OK; k++)
-        rc = models_put(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals, (p->flags & IT2N_PUT_REPLACE) != 0, &err);
+        rc = (p->flags & IT2N_PUT_FINE)
+                 ? models_put_fine(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals,
+                                   (p->flags & IT2N_PUT_REPLACE) != 0, &err)
+                 : models_put(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals,
+                              (p->flags & IT2N_PUT_REPLACE) != 0, &err);
     if (rc != IT2N_OK) {
         /* All or nothing: the model and the WAL queue go back. */
         it2n_errinfo keep = md->last_err;
@@ -836,10 +859,11 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         hold(l, seq, store_batch());
         return IT2N_LINK_DEFER;
     case IT2N_MSG_PUT:
-        log_info("link %s: PUT model %u: %u point(s) from (i=%u,j=%u,%s)%s", l->cfg.name, msg->u.put.model,
+        log_info("link %s: PUT model %u: %u point(s) from (i=%u,j=%u,%s)%s%s", l->cfg.name, msg->u.put.model,
                  msg->u.put.count, msg->u.put.count ? msg->u.put.e[0].i : 0u, msg->u.put.count ? msg->u.put.e[0].j : 0u,
                  msg->u.put.count && it2n_fp_name(msg->u.put.e[0].fp) ? it2n_fp_name(msg->u.put.e[0].fp) : "-",
-                 (msg->u.put.flags & IT2N_PUT_REPLACE) ? ", replace" : "");
+                 (msg->u.put.flags & IT2N_PUT_REPLACE) ? ", replace" : "",
+                 (msg->u.put.flags & IT2N_PUT_FINE) ? ", Q30 memberships" : "");
         md = models_by_id(msg->u.put.model);
         if (!md)
             return refuse_model(l, seq, msg->u.put.model);

@@ -275,20 +275,19 @@ static unsigned put_max(const it2n_inst *ctx)
     return k < IT2N_PUT_MAX ? k : IT2N_PUT_MAX;
 }
 
-int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
-                  uint8_t fp, const it2n_val vals[IT2N_CH_COUNT])
+/* Take one entry into the PUT batch of layout `flags` (0 or
+ * IT2N_PUT_FINE); a batch of another model or layout, or a full one, is
+ * sent first. */
+static int put_entry(it2n_inst *ctx, uint8_t model, uint8_t flags, uint8_t i,
+                     uint8_t j, uint8_t fp, const it2n_val vals[IT2N_CH_COUNT])
 {
     it2n_put_entry *e;
     unsigned ch;
     int r;
-    if (ctx->err != 0)
-        return ctx->err;
-    /* i, j: any u8 (v1.3: B-spline grids); the daemon bounds them by n, m */
-    if (fp >= IT2N_FP_COUNT || model == IT2N_MODEL_ALL)
-        return IT2N_PROTO_ERR_FIELD;
     if (ctx->msg.type == IT2N_MSG_PUT &&
-        (ctx->msg.u.put.model != model || ctx->msg.u.put.count >= put_max(ctx))) {
-        r = it2n_inst_flush(ctx); /* full or another model: send it */
+        (ctx->msg.u.put.model != model || ctx->msg.u.put.flags != flags ||
+         ctx->msg.u.put.count >= put_max(ctx))) {
+        r = it2n_inst_flush(ctx); /* full, another model or layout: send it */
         if (r != 0)
             return r;
     }
@@ -296,6 +295,7 @@ int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
         memset(&ctx->msg, 0, sizeof ctx->msg);
         ctx->msg.type = IT2N_MSG_PUT;
         ctx->msg.u.put.model = model;
+        ctx->msg.u.put.flags = flags;
     }
     e = &ctx->msg.u.put.e[ctx->msg.u.put.count++];
     e->i = i;
@@ -304,6 +304,42 @@ int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
     for (ch = 0; ch < IT2N_CH_COUNT; ch++)
         e->vals[ch] = vals[ch];
     return IT2N_OK;
+}
+
+int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
+                  uint8_t fp, const it2n_val vals[IT2N_CH_COUNT])
+{
+    if (ctx->err != 0)
+        return ctx->err;
+    /* i, j: any u8 (v1.3: B-spline grids); the daemon bounds them by n, m */
+    if (fp >= IT2N_FP_COUNT || model == IT2N_MODEL_ALL)
+        return IT2N_PROTO_ERR_FIELD;
+    return put_entry(ctx, model, 0u, i, j, fp, vals);
+}
+
+int it2n_inst_put_fine(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
+                       uint8_t fp, const it2n_val vals[IT2N_CH_COUNT])
+{
+    it2n_val q24[IT2N_CH_COUNT];
+    unsigned ch;
+    const unsigned shift = IT2N_MEMB_FRAC - IT2N_VAL_FRAC;
+    if (ctx->err != 0)
+        return ctx->err;
+    if (fp >= IT2N_FP_COUNT || model == IT2N_MODEL_ALL)
+        return IT2N_PROTO_ERR_FIELD;
+    if (ctx->peer_hello && (ctx->hello.caps & IT2N_CAP_FINE) != 0u)
+        return put_entry(ctx, model, IT2N_PUT_FINE, i, j, fp, vals);
+    /* A daemon without FINE (v1.2, or whose HELLO has not arrived) reads
+     * Q24 memberships only: sent so when that is exact (the same model),
+     * refused otherwise, nothing taken (docs/protocol.md 5.4). */
+    for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+        if (ch >= IT2N_CH_T &&
+            ((uint64_t)vals[ch] & (((uint64_t)1 << shift) - 1u)) != 0u)
+            return IT2N_PROTO_ERR_VERSION;
+        q24[ch] = ch >= IT2N_CH_T ? vals[ch] / ((it2n_val)1 << shift)
+                                  : vals[ch];
+    }
+    return put_entry(ctx, model, 0u, i, j, fp, q24);
 }
 
 int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,

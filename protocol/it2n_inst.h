@@ -8,6 +8,7 @@
  *   it2n_inst_configure_bspline  ... a B-spline model, up to 256 x 256
  *                       points (v1.3 CONFIGURE; it2nd 1.3 or later)
  *   it2n_inst_put       one footprint of one grid point (batched for you)
+ *   it2n_inst_put_fine  ... with memberships in Q30 (v1.3 PUT FINE)
  *   it2n_inst_commit    send what is batched, then COMMIT (solve)
  *   it2n_inst_query     evaluate the daemon's model at (u, w)
  *   it2n_inst_sync      wait until everything sent is acknowledged
@@ -145,6 +146,22 @@ int it2n_inst_configure_bspline(it2n_inst *ctx, uint8_t model, uint8_t n,
  */
 int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
                   uint8_t fp, const it2n_val vals[IT2N_CH_COUNT]);
+
+/*
+ * it2n_inst_put with vals in the core's fine layout: x, y, z in Q24, T, I,
+ * F in Q30 (IT2N_MEMB_ONE = 1.0), what it2n_parse_memb gives, so the
+ * daemon stores exactly what 'it2n' reads from the same text. Sent in a
+ * PUT with IT2N_PUT_FINE (protocol v1.3) to a daemon whose HELLO announced
+ * IT2N_CAP_FINE. To an older daemon (or before its HELLO arrived) the
+ * entry goes as Q24 when every membership is a multiple of 2^-24 (exact:
+ * the same model), else nothing is taken and the call returns
+ * IT2N_PROTO_ERR_VERSION (the daemon would refuse the flag, and rounding
+ * would give another model than 'it2n'). Batched as it2n_inst_put (a
+ * batch holds one layout: changing it sends the batch). Returns as
+ * it2n_inst_put.
+ */
+int it2n_inst_put_fine(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
+                       uint8_t fp, const it2n_val vals[IT2N_CH_COUNT]);
 
 /* Send the PUT batch now, if any. Returns as it2n_inst_configure. */
 int it2n_inst_flush(it2n_inst *ctx);

@@ -235,8 +235,9 @@ static void c_put(cur *c, it2n_msg_put *p)
     c_reserved(c);
     if (c->err != 0)
         return;
-    need(c, (p->flags & ~IT2N_PUT_REPLACE) == 0u, off + 1u, p->flags,
-         IT2N_PUT_REPLACE);
+    /* v1.3: FINE (memberships in Q30); the server bounds them */
+    need(c, (p->flags & ~IT2N_PUT_FLAGS) == 0u, off + 1u, p->flags,
+         IT2N_PUT_FLAGS);
     need(c, p->count >= 1u && p->count <= IT2N_PUT_MAX, off + 2u, p->count,
          IT2N_PUT_MAX);
     for (k = 0; k < p->count && c->err == 0; k++) {

@@ -2,7 +2,8 @@
  * it2n — protocol messages: plain structs and their pack/unpack.
  *
  * Every multi-byte field is little-endian. Values are fixed point:
- * coordinates, memberships and results are int64 Q24 (it2n_val, raw/2^24);
+ * coordinates, memberships and results are int64 Q24 (it2n_val, raw/2^24;
+ * a PUT with IT2N_PUT_FINE carries its memberships in Q30, raw/2^30);
  * parameters u, w are uint32 Q2.30 on the wire (1.0 = 0x40000000). Unpacked
  * structs hold it2n_val directly so the daemon can hand them to the core.
  * Byte layouts: docs/protocol.md.
@@ -54,13 +55,24 @@ enum it2n_msg_type {
  * the 5-byte CONFIGURE with a model kind, and PUT indices up to 255. A
  * client sends the B-spline CONFIGURE only to a server announcing it. */
 #define IT2N_CAP_BSPLINE 0x40u
+/* v1.3: the server reads PUT flag IT2N_PUT_FINE (memberships in Q30,
+ * docs/protocol.md 5.4). A client sends that flag only to a server
+ * announcing it; an older server refuses it (FIELD, offset 1). */
+#define IT2N_CAP_FINE 0x80u
 
 /* Protocol revision of the messages (docs/protocol.md 6): 1.3 changes
- * section 5 only (the 5-byte CONFIGURE); frames stay wire version 3. */
+ * section 5 only (the 5-byte CONFIGURE, PUT FINE); frames stay wire
+ * version 3. */
 #define IT2N_PROTO_REVISION_MINOR 3
 
 /* PUT flags. */
 #define IT2N_PUT_REPLACE 0x01u /* overwrite entries already present */
+/* v1.3: T, I, F of every entry are Q30 (IT2N_MEMB_FRAC, 1.0 = 2^30), the
+ * core's fine layout, so a membership keeps 2^-30 over the wire. Only to
+ * a server whose HELLO set IT2N_CAP_FINE. */
+#define IT2N_PUT_FINE 0x02u
+/* PUT flags this codec reads. */
+#define IT2N_PUT_FLAGS (IT2N_PUT_REPLACE | IT2N_PUT_FINE)
 
 /* Wire sizes. */
 #define IT2N_PUT_HDR 4u
@@ -118,7 +130,8 @@ typedef struct it2n_msg_configure {
 typedef struct it2n_put_entry {
     uint8_t i, j, fp;               /* grid point (0..255: the model's n, m
                                        bound it), footprint (enum it2n_fp) */
-    it2n_val vals[IT2N_CH_COUNT];   /* x, y, z, T, I, F in Q24             */
+    it2n_val vals[IT2N_CH_COUNT];   /* x, y, z, T, I, F in Q24; T, I, F in
+                                       Q30 with IT2N_PUT_FINE              */
 } it2n_put_entry;
 
 typedef struct it2n_msg_put {
@@ -301,9 +314,11 @@ int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
 #define IT2N_VECTOR_SESSION 0x1D2C3B4Au
 
 /* Number of golden vectors: one per message type in v1.1 (wire version 2),
- * the v1.3 B-spline CONFIGURE (19, in either wire version), then the v1.2 forms (wire version 3) a v1.1 vector does not show: GAP
- * with its held bitmap, ACK naming earlier ACKs, RCVD. */
-#define IT2N_VECTOR_COUNT 23u
+ * the v1.3 B-spline CONFIGURE (19, in either wire version), then the v1.2
+ * forms (wire version 3) a v1.1 vector does not show: GAP with its held
+ * bitmap, ACK naming earlier ACKs, RCVD; then the v1.3 PUT FINE (23, Q30
+ * memberships, framed in version 3). */
+#define IT2N_VECTOR_COUNT 24u
 /* The first v1.2 golden vector: k >= this is framed in version 3. */
 #define IT2N_VECTOR_FIRST_V12 20u
 

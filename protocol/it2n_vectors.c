@@ -139,6 +139,27 @@ static void fill(unsigned k, it2n_msg *m)
         m->type = IT2N_MSG_RCVD;
         m->u.rcvd.seq = 0x0104;
         break;
+    case 23: /* v1.3 in a v1.2 frame: PUT FINE, T, I, F in Q30 (0.9, 0.3
+              * and 0.1 rounded to 2^-30: what 'it2n' reads, which Q24
+              * would round); i = 200 beyond a Bezier degree */
+        m->type = IT2N_MSG_PUT;
+        m->u.put.model = 2;
+        m->u.put.flags = IT2N_PUT_FINE;
+        m->u.put.count = 2;
+        m->u.put.e[0].i = 200;
+        m->u.put.e[0].j = 1;
+        m->u.put.e[0].fp = IT2N_FP_LL;
+        m->u.put.e[0].vals[IT2N_CH_X] = -23 * IT2N_VAL_ONE;
+        m->u.put.e[0].vals[IT2N_CH_Y] = IT2N_VAL_ONE;
+        m->u.put.e[0].vals[IT2N_CH_T] = 966367642;
+        m->u.put.e[0].vals[IT2N_CH_I] = 322122547;
+        m->u.put.e[0].vals[IT2N_CH_F] = 107374182;
+        m->u.put.e[1] = m->u.put.e[0];
+        m->u.put.e[1].fp = IT2N_FP_RR;
+        m->u.put.e[1].vals[IT2N_CH_X] = -11 * IT2N_VAL_ONE;
+        m->u.put.e[1].vals[IT2N_CH_Y] = 13 * IT2N_VAL_ONE;
+        m->u.put.e[1].vals[IT2N_CH_T] = (it2n_val)1 << 30; /* 1.0 */
+        break;
     case 11:
         m->type = IT2N_MSG_ACK;
         m->u.ack.seq = 0x0102;
@@ -235,7 +256,8 @@ const char *it2n_proto_vector(unsigned k, it2n_frame_hdr *hdr, it2n_msg *msg)
         "hello", "configure", "put", "commit", "query", "locate", "sample",
         "get_net", "get_status", "reset", "event", "ack", "nack",
         "query_result", "locate_result", "sample_data", "net_row", "status",
-        "gap", "configure_bspline", "gap_held", "ack_acked", "rcvd"};
+        "gap", "configure_bspline", "gap_held", "ack_acked", "rcvd",
+        "put_fine"};
 
     if (k >= IT2N_VECTOR_COUNT)
         return NULL;

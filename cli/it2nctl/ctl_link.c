@@ -41,7 +41,7 @@ typedef struct lk_conn {
     unsigned net_fp, net_rows;
     it2n_val (*samp)[IT2N_CH_COUNT];
     uint32_t samp_total, samp_got;
-    /* the daemon's HELLO: v1.3 (IT2N_CAP_BSPLINE) or older */
+    /* the daemon's HELLO: v1.3 (IT2N_CAP_BSPLINE, IT2N_CAP_FINE) or older */
     bool peer_hello;
     uint32_t peer_caps;
     /* EVENTs of our model */
@@ -400,13 +400,49 @@ static bool src_has(const lk_src *s, unsigned i, unsigned j, unsigned fp)
     return (s->ds->present[i][j] >> fp) & 1u;
 }
 
-static void src_get(const lk_src *s, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT])
+/* Entry (i, j, fp) as stored: memberships in Q30 (the fine layout). */
+static void src_get_fine(const lk_src *s, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT])
 {
     if (s->bds != NULL) {
-        it2n_bspline_data_get(s->bds, i, j, fp, v);
+        it2n_bspline_data_get_fine(s->bds, i, j, fp, v);
     } else {
-        it2n_dataset_get(s->ds, i, j, fp, v);
+        it2n_dataset_get_fine(s->ds, i, j, fp, v);
     }
+}
+
+/* Entry (i, j, fp) as a PUT carries it: memberships in Q30 (fine) or
+ * Q24 (exact: push_format checked). */
+static void src_get_wire(const lk_src *s, unsigned i, unsigned j, unsigned fp, bool fine, it2n_val v[IT2N_CH_COUNT])
+{
+    src_get_fine(s, i, j, fp, v);
+    for (unsigned ch = IT2N_CH_T; !fine && ch <= IT2N_CH_F; ch++) {
+        v[ch] /= (it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
+    }
+}
+
+/* A membership finer than Q24 in the source: what a PUT without FINE
+ * would round (its (i, j, fp) in *at), or false. */
+static bool src_finer_than_q24(const lk_src *s, unsigned at[3])
+{
+    const it2n_val low = ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC)) - 1;
+    for (unsigned i = 0; i <= src_n(s); i++) {
+        for (unsigned j = 0; j <= src_m(s); j++) {
+            for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
+                it2n_val v[IT2N_CH_COUNT];
+                if (!src_has(s, i, j, fp)) {
+                    continue;
+                }
+                src_get_fine(s, i, j, fp, v);
+                if ((v[IT2N_CH_T] & low) || (v[IT2N_CH_I] & low) || (v[IT2N_CH_F] & low)) {
+                    at[0] = i;
+                    at[1] = j;
+                    at[2] = fp;
+                    return true;
+                }
+            }
+        }
+    }
+    return false;
 }
 
 static bool hello_seen(const lk_conn *c)
@@ -414,17 +450,16 @@ static bool hello_seen(const lk_conn *c)
     return c->peer_hello;
 }
 
-/* CONFIGURE (the 5-byte v1.3 form for a B-spline), every entry in PUTs of
- * as many as fit, COMMIT. */
-static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
+/* What the daemon's HELLO (sent right after it ACKed ours) allows for
+ * src: CTL_EXIT_OK with *fine set when memberships may travel in Q30 (PUT
+ * FINE), or CTL_EXIT_DATA with the reason printed, nothing sent. */
+static int push_format(lk_conn *c, const lk_src *src, bool *fine)
 {
-    static it2n_msg m;
-    unsigned i, j, fp, total = 0, done = 0;
-    int rc;
+    unsigned at[3];
+    *fine = false;
     if (src->bds != NULL) {
-        /* v1.3: the daemon's HELLO (sent right after it ACKed ours) says
-         * whether it reads the B-spline CONFIGURE; a v1.2 daemon would
-         * refuse it as malformed */
+        /* v1.3: a v1.2 daemon would refuse the B-spline CONFIGURE as
+         * malformed */
         if (run_until(c, hello_seen, c->timeout_ms) != 0 || !(c->peer_caps & IT2N_CAP_BSPLINE)) {
             fprintf(stderr, "it2nctl: %s: push --kind bspline: %s (protocol v1.3, "
                             "docs/protocol.md 5.3); push over Modbus (--tcp or --rtu) "
@@ -433,6 +468,35 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
                                             : "it2nd did not say which protocol revision it speaks");
             return CTL_EXIT_DATA;
         }
+    }
+    /* v1.3: memberships travel in Q30 (PUT FINE) when the daemon reads
+     * them, so it holds what 'it2n' reads from the same CSV. A daemon
+     * without FINE gets Q24 only when that is exact; otherwise rounding
+     * would give it another model: refused, nothing sent. */
+    if (run_until(c, hello_seen, c->timeout_ms) == 0 && (c->peer_caps & IT2N_CAP_FINE)) {
+        *fine = true;
+    } else if (src_finer_than_q24(src, at)) {
+        fprintf(stderr, "it2nctl: %s: push: the membership of (i=%u, j=%u, %s) is finer than 2^-24 and %s "
+                        "(PUT FINE, protocol v1.3, docs/protocol.md 5.4); rounding would give it another model "
+                        "than 'it2n': push over Modbus (--tcp or --rtu) or upgrade it2nd (nothing was sent)\n",
+                c->where, at[0], at[1], it2n_fp_name(at[2]) ? it2n_fp_name(at[2]) : "?",
+                c->peer_hello ? "this it2nd's link carries memberships in Q24 only"
+                              : "it2nd did not say whether its link carries Q30 memberships");
+        return CTL_EXIT_DATA;
+    }
+    return CTL_EXIT_OK;
+}
+
+/* CONFIGURE (the 5-byte v1.3 form for a B-spline), every entry in PUTs of
+ * as many as fit (FINE when the daemon reads it), COMMIT. */
+static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
+{
+    static it2n_msg m;
+    unsigned i, j, fp, total = 0, done = 0;
+    bool fine;
+    int rc = push_format(c, src, &fine);
+    if (rc != CTL_EXIT_OK) {
+        return rc;
     }
     for (i = 0; i <= src_n(src); i++) {
         for (j = 0; j <= src_m(src); j++) {
@@ -475,6 +539,7 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
     memset(&m, 0, sizeof(m));
     m.type = IT2N_MSG_PUT;
     m.u.put.model = c->model;
+    m.u.put.flags = fine ? IT2N_PUT_FINE : 0u;
     for (i = 0; i <= src_n(src); i++) {
         for (j = 0; j <= src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
@@ -486,7 +551,7 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
                 e->i = (uint8_t)i;
                 e->j = (uint8_t)j;
                 e->fp = (uint8_t)fp;
-                src_get(src, i, j, fp, e->vals);
+                src_get_wire(src, i, j, fp, fine, e->vals);
                 if (!(src_flags(src) & IT2N_F_Z)) {
                     e->vals[IT2N_CH_Z] = 0;
                 }

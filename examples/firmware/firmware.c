@@ -199,9 +199,11 @@ static int send_model(void)
                 it2n_val v[IT2N_CH_COUNT];
                 if (!(ds.present[i][j] & (1u << fp)))
                     continue;
-                it2n_dataset_get(&ds, i, j, fp, v);
-                r = it2n_inst_put(&inst, FW_MODEL, (uint8_t)i, (uint8_t)j,
-                                  (uint8_t)fp, v);
+                /* as stored (memberships in Q30): PUT FINE to a v1.3
+                 * daemon, so its model is this one bit for bit */
+                it2n_dataset_get_fine(&ds, i, j, fp, v);
+                r = it2n_inst_put_fine(&inst, FW_MODEL, (uint8_t)i, (uint8_t)j,
+                                       (uint8_t)fp, v);
             }
     if (r == 0)
         r = it2n_inst_commit(&inst, FW_MODEL);

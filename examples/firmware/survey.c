@@ -7,10 +7,11 @@
  * over Modbus. The integrator ships the survey file itself in the image:
  * the CSV that `it2nctl push --kind bspline` uploads to the daemon is
  * compiled into flash (FW_SURVEY_CSV, .incbin), parsed here with the
- * core's own decimal parser (it2n_parse_val, as the host tools parse it)
- * and solved by the core on the device. No link is needed for the map and
- * the device's copy cannot drift from the file; both sides hold the same
- * Q24 data, so the device's evaluations are the daemon's bit for bit
+ * core's own decimal parsers (it2n_parse_val, memberships it2n_parse_memb
+ * to 2^-30, as the host tools parse them) and solved by the core on the
+ * device. No link is needed for the map and the device's copy cannot drift
+ * from the file; both sides hold the same data (the push carries Q30
+ * memberships, PUT FINE), so the device's evaluations are the daemon's bit for bit
  * (tests/firmware/fw_survey.sh compares them with the daemon's Modbus
  * answers).
  *
@@ -203,15 +204,18 @@ static int walk(int pass, unsigned *n, unsigned *m, unsigned *flags)
                 *flags &= ~(unsigned)IT2N_F_TYPE1;
             continue;
         }
+        /* x, y, z in Q24, T, I, F in Q30 (it2n_parse_memb): the fine
+         * layout 'it2n' reads and it2nctl pushes (PUT FINE) */
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            rc = it2n_parse_val(f[3u + ch].s, f[3u + ch].len, &v[ch]);
+            rc = ch >= IT2N_CH_T ? it2n_parse_memb(f[3u + ch].s, f[3u + ch].len, &v[ch])
+                                 : it2n_parse_val(f[3u + ch].s, f[3u + ch].len, &v[ch]);
             if (rc != IT2N_OK) {
                 memset(&e, 0, sizeof e);
                 e.code = rc;
                 return fail("bad number", lineno, &e);
             }
         }
-        rc = it2n_bspline_data_put(&ds, i, j, (unsigned)fp, v, false, &e);
+        rc = it2n_bspline_data_put_fine(&ds, i, j, (unsigned)fp, v, false, &e);
         if (rc != IT2N_OK)
             return fail("point refused", lineno, &e);
     }

@@ -10,8 +10,10 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
      * cut to fit). EVENTs need no action here; ACK them so the peer does
      * not retransmit. */
     (void)seq;
-    if (msg->type == IT2N_MSG_HELLO)
+    if (msg->type == IT2N_MSG_HELLO) {
         it2n_link_set_peer(&s->link, msg->u.hello.window, msg->u.hello.max_payload);
+        s->peer_caps = msg->u.hello.caps;
+    }
     return 0;
 }
 
@@ -69,13 +71,21 @@ static bool next_put(session *s, it2n_msg *m)
     memset(m, 0, sizeof *m);
     m->type = IT2N_MSG_PUT;
     p->model = s->model;
+    /* v1.3: memberships as stored (Q30) when the daemon reads PUT FINE,
+     * so its model is the CSV's as 'it2n' reads it; else (a v1.2 daemon,
+     * one-way mode) Q24, rounded */
+    if (s->peer_caps & IT2N_CAP_FINE)
+        p->flags = IT2N_PUT_FINE;
     while (s->i <= s->ds->n && p->count < max) {
         if (s->ds->present[s->i][s->j] & (1u << s->fp)) {
             it2n_put_entry *e = &p->e[p->count++];
             e->i = (uint8_t)s->i;
             e->j = (uint8_t)s->j;
             e->fp = (uint8_t)s->fp;
-            it2n_dataset_get(s->ds, s->i, s->j, s->fp, e->vals);
+            if (p->flags & IT2N_PUT_FINE)
+                it2n_dataset_get_fine(s->ds, s->i, s->j, s->fp, e->vals);
+            else
+                it2n_dataset_get(s->ds, s->i, s->j, s->fp, e->vals);
         }
         if (++s->fp == IT2N_FP_COUNT) {
             s->fp = 0;

@@ -31,6 +31,8 @@ typedef struct session {
     it2n_msg_nack nack;
     it2n_ostream *out;
     it2n_frame_hdr ow_hdr; /* one-way mode: frame counter */
+    uint32_t peer_caps;    /* the daemon's HELLO caps: IT2N_CAP_FINE lets
+                              PUTs carry Q30 memberships (v1.3)       */
 } session;
 
 /* Start a session sending ds as model `model` through out/in, in protocol

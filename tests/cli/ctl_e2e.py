@@ -13,8 +13,8 @@ as a user would:
   0.06 % of the bytes each way) and over RTU, and compares every
   answer (status, eval at several points with and without --summary,
   locate, net, sample with --summary/--footprint) with `it2n` run on the
-  same file: over the link the text must be identical (values are exact
-  Q24 on the wire; parameters Q2.30, so locate's u, w may differ by 1e-6);
+  same file: over the link the text must be identical (memberships travel
+  in Q30, PUT FINE, results exact Q24 on the wire; parameters Q2.30, so locate's u, w may differ by 1e-6);
   over Modbus memberships in [-1, 1] must be identical (float32 carries
   them exactly) and coordinates and memberships beyond 1 equal to float32
   precision, locate has no u, w and reports outside|noconv;
@@ -39,7 +39,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from fractions import Fraction as Fr
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 CTL, IT2N, IT2ND, PTY = (os.path.abspath(a) for a in sys.argv[1:5])
@@ -211,43 +210,6 @@ def compare_all(label, conn, csv, mode, extra=(), grids=("5x5", "3x9")):
             compare(f"{label} sample {grid} --decimals 9", got, want, mode)
 
 
-def as_link(csv, tmp):
-    """The CSV as a link PUT carries it: memberships rounded to Q24 the way
-    it2nctl does (the reader's Q30 value, then to nearest Q24, ties up;
-    docs/it2nctl.md), written as exact decimals. 'it2n' on this file is the
-    reference for a model pushed over a link; over Modbus the original."""
-    out = os.path.join(tmp, "q24_" + os.path.basename(csv))
-    rows, cols = [], None
-    for line in open(csv).read().splitlines():
-        f = [x.strip() for x in line.split(",")]
-        if cols is None and f and f[0] == "i":
-            cols = [k for k, name in enumerate(f) if name in ("T", "I", "F")]
-        elif cols and len(f) > max(cols) and not line.lstrip().startswith("#"):
-            for k in cols:
-                d = Fr(f[k])
-                q30 = int(d * 2 ** 30 + Fr(1, 2)) if d >= 0 else -int(-d * 2 ** 30 + Fr(1, 2))
-                q24 = (q30 + 32) >> 6
-                f[k] = exact_decimal(Fr(q24, 2 ** 24))
-            line = ",".join(f)
-        rows.append(line)
-    with open(out, "w") as fh:
-        fh.write("\n".join(rows) + "\n")
-    return out
-
-
-def exact_decimal(x):
-    """A dyadic rational as its exact decimal expansion."""
-    sign, x = ("-" if x < 0 else ""), abs(x)
-    whole, frac = divmod(x.numerator, x.denominator)
-    digits = ""
-    num = frac
-    while num:
-        num *= 10
-        digits += str(num // x.denominator)
-        num %= x.denominator
-    return f"{sign}{whole}" + (f".{digits}" if digits else "")
-
-
 def push(label, conn, csv, extra=()):
     rc, out, err = run("push", csv, *extra, *conn)
     check(rc == 0 and ": pushed " in out and "solved" in out,
@@ -313,13 +275,13 @@ def main():
         g_link = gen(3, 5, seed + 1, 4)
         push("link", link, g_link)
         check_status(link, g_link)
-        # a link carries memberships in Q24: the reference is 'it2n' on the
-        # CSV rounded alike (docs/it2nctl.md)
-        compare_all("link", link, as_link(g_link, tmp), "link", grids=("5x5", "4x4", "7x3"))
+        # memberships travel in Q30 (PUT FINE, protocol v1.3): the
+        # reference is 'it2n' on the very CSV
+        compare_all("link", link, g_link, "link", grids=("5x5", "4x4", "7x3"))
         t1 = os.path.join(ROOT, "examples/type1_4x3.csv")
         push("link type-1", link, t1)
         check_status(link, t1)
-        compare_all("link type-1", link, as_link(t1, tmp), "link", grids=("5x5",))
+        compare_all("link type-1", link, t1, "link", grids=("5x5",))
 
         # -- the link again through a relay dropping bytes both ways -----
         t_lossy = time.time()
@@ -343,7 +305,7 @@ def main():
             rc, got, err = run(*cmd, *lossy)
             check(rc == 0, f"lossy {cmd}: rc {rc} {err}")
             compare(f"lossy link {cmd}", got,
-                    run(ref[0], as_link(g_lossy, tmp), *ref[1:], binary=IT2N)[1], "link")
+                    run(ref[0], g_lossy, *ref[1:], binary=IT2N)[1], "link")
         relay.terminate()
         relay.wait()
         procs.remove(relay)

@@ -183,21 +183,21 @@ echo "$out" | grep -q '^\[1024\]:[[:space:]]*4000$' && echo "$out" | grep -q '^\
     && ok "pymodbus client" || fail "pymodbus client"
 
 # ---- instrument links (pty, protocol/ framing) -------------------------------
-# A PUT carries memberships in Q24 (docs/protocol.md), so a model filled over
-# the link is checked against the CSV's data rounded to Q24 (plc --memb q24);
-# Modbus uploads and the preload hold them as the CSV reader does (Q30).
+# The instrument's PUTs carry memberships in Q30 (PUT FINE, docs/protocol.md
+# 5.4): a model filled over the link is checked against the CSV as the
+# reader holds it, as Modbus uploads and the preload are.
 instr --csv "$PAPER" --model 5 --garbage 15 --drop 15 --dup 15 --seed 7 --sample 3 12 9 --net 0 --query 0.25 0.75 \
-    && plc --unit 5 --memb q24 verify "$PAPER" 4 >/dev/null \
+    && plc --unit 5 verify "$PAPER" 4 >/dev/null \
     && ok "instrument with garbage/drops/duplicates streamed the paper data; SAMPLE/GET_NET/QUERY over the link and Modbus match the core" \
     || fail "instrument stream with faults"
-instr --csv "$T/gen66.csv" --model 6 --drop 10 --seed 3 >/dev/null && plc --unit 6 --memb q24 verify "$T/gen66.csv" 4 >/dev/null \
+instr --csv "$T/gen66.csv" --model 6 --drop 10 --seed 3 >/dev/null && plc --unit 6 verify "$T/gen66.csv" 4 >/dev/null \
     && ok "generated 6x6 data set streamed by the instrument (CONFIGURE to 6x6) and verified" || fail "generated 6x6 stream"
 # A v1.1 instrument (its own session id, fixed first sequence) is still
 # served exactly as before, then a v1.2 one with the same numbers.
 instr --csv "$PAPER" --model 5 --v11 --session 0x1D --first-seq 77 --drop 10 --seed 4 >/dev/null \
-    && plc --unit 5 --memb q24 verify "$PAPER" 4 >/dev/null \
+    && plc --unit 5 verify "$PAPER" 4 >/dev/null \
     && instr --csv "$PAPER" --model 5 --first-seq 77 --drop 10 --seed 4 >/dev/null \
-    && plc --unit 5 --memb q24 verify "$PAPER" 4 >/dev/null \
+    && plc --unit 5 verify "$PAPER" 4 >/dev/null \
     && ok "a v1.1 instrument (session 0x1D) and a v1.2 one (daemon's session) on the same link, both verified" \
     || fail "v1.1 / v1.2 instruments on one link"
 # Interleaved: the instrument re-sends every point (REPLACE, incremental
@@ -205,7 +205,7 @@ instr --csv "$PAPER" --model 5 --v11 --session 0x1D --first-seq 77 --drop 10 --s
 gen0=$(plc --unit 5 read 7 2 | awk '{print $1 * 65536 + $2}')
 instr --csv "$PAPER" --model 5 --no-configure --replace --batch 1 > "$T/instr.out" &
 IPID=$!
-plc concurrent 8 "$PAPER" >/dev/null && plc --unit 5 --memb q24 verify "$PAPER" 3 >/dev/null; pr=$?
+plc concurrent 8 "$PAPER" >/dev/null && plc --unit 5 verify "$PAPER" 3 >/dev/null; pr=$?
 wait $IPID; ir=$?
 gen1=$(plc --unit 5 read 7 2 | awk '{print $1 * 65536 + $2}')
 if [ $pr = 0 ] && [ $ir = 0 ] && [ "$gen1" -ge $((gen0 + 112)) ]; then
@@ -214,7 +214,7 @@ else fail "interleaved streaming/polling: plc $pr instrument $ir gen $gen0 -> $g
 # Hang-up mid-stream: Modbus keeps serving, the link reopens with backoff.
 instr --csv "$PAPER" --model 5 --hangup-after 20 > /dev/null; hr=$?
 plc read 0 2 >/dev/null && [ $hr = 4 ] && ok "instrument hung up; Modbus still serving" || fail "hang-up ($hr)"
-instr --csv "$PAPER" --model 5 >/dev/null && plc --unit 5 --memb q24 verify "$PAPER" 3 >/dev/null \
+instr --csv "$PAPER" --model 5 >/dev/null && plc --unit 5 verify "$PAPER" 3 >/dev/null \
     && ok "link reopened after hang-up, stream completed" || fail "link reopen"
 grep -q "link inst: hang-up; reopening" "$T/daemon.log" && ok "hang-up logged, reopen with backoff" || fail "hang-up log"
 
@@ -347,7 +347,9 @@ plc --unit 2 upload "$PAPER" && plc --unit 2 verify "$PAPER" 3 >/dev/null \
     && ok "stream completed after restart" || fail "complete after restart"
 
 # kill -9 while an instrument streams: every ACKed entry survives.
-instr --csv "$PAPER" --model 5 --batch 2 --ack-log "$T/iacked" > /dev/null 2>&1 &
+# (timeout itself in the background, not the instr function's subshell:
+# killing that left the instrument streaming into the restarted daemon)
+timeout 60 "$INSTR" --link "$T/inst0" --csv "$PAPER" --model 5 --batch 2 --ack-log "$T/iacked" > /dev/null 2>&1 &
 IPID=$!
 for _ in $(seq 300); do [ "$(tail -n1 "$T/iacked" 2>/dev/null)" -ge 30 ] 2>/dev/null && break; sleep 0.01; done
 kill -9 "$PID"; wait "$PID" 2>/dev/null; PID=
@@ -358,7 +360,7 @@ present=$(plc --unit 5 read 5 1)
 if [ "$iacked" -ge 1 ] && [ "$present" -ge "$iacked" ] && [ "$present" -le $((iacked + 8)) ]; then
     ok "kill -9 during instrument stream: $iacked entries ACKed, $present present after restart"
 else fail "instrument kill -9: acked $iacked present $present"; fi
-instr --csv "$PAPER" --model 5 >/dev/null && plc --unit 5 --memb q24 verify "$PAPER" 3 >/dev/null \
+instr --csv "$PAPER" --model 5 >/dev/null && plc --unit 5 verify "$PAPER" 3 >/dev/null \
     && ok "instrument re-stream after restart" || fail "re-stream after restart"
 
 # Clean stop writes a snapshot; restart from it.
@@ -387,7 +389,7 @@ grep -q "wal: write failed: Input/output error" "$T/daemon.log" && ok "failed co
 instr --csv "$PAPER" --model 5 --no-configure --replace --batch 4 > "$T/nack.out" 2>&1; rc=$?
 g5b=$(gen 5)
 [ $rc = 1 ] && grep -qE "PUT seq .* refused: -20[02] " "$T/nack.out" && [ "$g5b" = "$g5" ] \
-    && plc --unit 5 --memb q24 verify "$PAPER" 3 >/dev/null \
+    && plc --unit 5 verify "$PAPER" 3 >/dev/null \
     && ok "instrument PUT NACKed while fsync fails; model 5 unchanged (generation $g5)" \
     || fail "instrument PUT on a failing disk: rc $rc gen $g5 -> $g5b: $(cat "$T/nack.out")"
 # The store is degraded after the failed commit: writes are refused until a

@@ -31,7 +31,8 @@ SIZES = {0x01: 28, 0x02: 4, 0x03: None, 0x04: 1, 0x05: 9, 0x06: 17, 0x07: 6,
 # v1.3: CONFIGURE is 4 bytes (Bezier) or 5 (byte 4 names the kind, 1 =
 # B-spline; sizes 1..255); one vector of each form, both in wire version 2.
 FORMS = {0x02: 2}
-SIZES12 = {0x20: 10, 0x22: 12, 0x23: 2}
+# v1.3 PUT FINE (flags 0x02: T, I, F in Q30, [0, 2^30]), in a v1.2 frame.
+SIZES12 = {0x20: 10, 0x22: 12, 0x23: 2, 0x03: None}
 
 def vector_count():
     return sum(FORMS.get(t, 1) for t in SIZES) + len(SIZES12)
@@ -70,6 +71,15 @@ def main(vdir):
         elif typ == 0x48:
             want = 7 + 48 * (p[5] + 1)
         assert len(p) == want, f"{f}: payload {len(p)} != {want}"
+        if typ == 0x03:  # entry k: i, j, fp, reserved, then x, y, z, T, I, F
+            assert p[1] & ~3 == 0 and p[3] == 0, f"{f}: PUT flags {p[1]:#x} (REPLACE 1, FINE 2)"
+            frac = 30 if p[1] & 2 else 24
+            memb = [struct.unpack_from("<q", p, 4 + 52 * e + 4 + 8 * c)[0]
+                    for e in range(p[2]) for c in (3, 4, 5)]
+            assert all(0 <= v <= 1 << frac for v in memb), f"{f}: memberships outside [0, 2^{frac}]"
+            # the FINE vector shows what Q24 could not carry
+            assert frac == 24 or any(v % 64 for v in memb), f"{f}: FINE without a membership finer than Q24"
+            assert (ver == 3) == (frac == 30), f"{f}: the FINE vector is the v1.2-framed PUT"
         if ver == 3 and typ == 0x22:  # held: bit k = seq + 1 + k, never 0, has `have`
             s, have, held = struct.unpack_from("<HHQ", p)
             d = (have - s) & 0xFFFF

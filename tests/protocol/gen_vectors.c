@@ -58,11 +58,13 @@ int main(int argc, char **argv)
         f = fopen(path, "w");
         if (f == NULL)
             die("write", path);
-        /* v1.3 changed messages only: its CONFIGURE travels in the frames
-         * of either wire version; the v1.2 forms are framed in version 3 */
+        /* v1.3 changed messages only: its CONFIGURE and PUT FINE travel in
+         * the frames of either wire version (the vectors: CONFIGURE in 2,
+         * PUT FINE in 3); the v1.2 forms are framed in version 3 */
         fprintf(f, "# it2n protocol %s (wire version %u) golden vector: %s (type 0x%02X), "
                    "flags 0x%02X, seq %u, payload %d bytes%s, wire %d bytes\n",
-                h.version == IT2N_PROTO_VERSION_12 ? "v1.2"
+                h.type == IT2N_MSG_PUT && h.version == IT2N_PROTO_VERSION_12 ? "v1.3 message"
+                : h.version == IT2N_PROTO_VERSION_12 ? "v1.2"
                 : h.type == IT2N_MSG_CONFIGURE && len == (int)IT2N_CONFIGURE13_LEN ? "v1.3 message" : "v1.1",
                 h.version, it2n_msg_name(h.type), h.type, h.flags,
                 h.seq, len, sess ? " (session id + message)" : "", wl);

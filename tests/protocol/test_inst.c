@@ -26,6 +26,9 @@ typedef struct server {
     int v13;               /* announce IT2N_CAP_BSPLINE (protocol v1.3) */
     it2n_msg_configure last_cfg;
     uint8_t max_i;         /* largest PUT row index delivered */
+    int fine;              /* announce IT2N_CAP_FINE (PUT FINE, v1.3) */
+    uint8_t last_put_flags;
+    it2n_val last_vals[IT2N_CH_COUNT]; /* of the last entry delivered */
 } server;
 
 static server *S;
@@ -58,7 +61,8 @@ static int srv_rx(void *app, uint16_t seq, const it2n_msg *m)
         r.u.hello.window = (uint8_t)s->hello_window;
         r.u.hello.max_payload = s->hello_payload;
         r.u.hello.max_models = 1;
-        r.u.hello.caps = IT2N_CAP_SERVER | (s->v13 ? IT2N_CAP_BSPLINE : 0u);
+        r.u.hello.caps = IT2N_CAP_SERVER | (s->v13 ? IT2N_CAP_BSPLINE : 0u) |
+                         (s->fine ? IT2N_CAP_FINE : 0u);
         assert_true(it2n_link_send(&s->l, &r, clock_ms) >= 0);
         return IT2N_LINK_DEFER;
     case IT2N_MSG_CONFIGURE:
@@ -71,6 +75,14 @@ static int srv_rx(void *app, uint16_t seq, const it2n_msg *m)
         }
         return 0;
     case IT2N_MSG_PUT:
+        if ((m->u.put.flags & IT2N_PUT_FINE) && !s->fine) {
+            /* what a server without FINE answers (protocol.md 5.4) */
+            it2n_errinfo e = {IT2N_PROTO_ERR_FIELD, -1, -1, -1, -1, m->u.put.flags, 1, IT2N_PUT_REPLACE};
+            it2n_link_complete(&s->l, seq, IT2N_PROTO_ERR_FIELD, &e);
+            return IT2N_LINK_DEFER;
+        }
+        s->last_put_flags = m->u.put.flags;
+        memcpy(s->last_vals, m->u.put.e[m->u.put.count - 1].vals, sizeof s->last_vals);
         s->puts++;
         s->entries += m->u.put.count;
         if (m->u.put.count > s->max_count)
@@ -319,6 +331,66 @@ static void test_configure_bspline(void **st)
     assert_int_equal(S->last_cfg.kind, IT2N_CFG_BEZIER);
 }
 
+/* v1.3 PUT FINE: memberships in Q30 reach a server announcing
+ * IT2N_CAP_FINE bit for bit; one without it gets Q24 when that is exact,
+ * and nothing (VERSION, entry not taken) when it is not. */
+static void test_put_fine(void **st)
+{
+    (void)st;
+    it2n_inst_cfg c = cfg(1);
+    it2n_val v[IT2N_CH_COUNT];
+    assert_int_equal(it2n_inst_open(I, &c), IT2N_OK);
+    for (int k = 0; k < 5 && !I->peer_hello; k++)
+        it2n_inst_poll(I);
+    assert_true(I->peer_hello);
+    /* a server without FINE: 0.5 in Q30 is exact in Q24 -> sent as Q24 */
+    vals(v, 1, 2);
+    v[IT2N_CH_T] = IT2N_MEMB_ONE / 2;
+    v[IT2N_CH_F] = IT2N_MEMB_ONE;
+    assert_int_equal(it2n_inst_put_fine(I, 1, 1, 2, IT2N_FP_D, v), IT2N_OK);
+    assert_int_equal(it2n_inst_flush(I), IT2N_OK);
+    assert_int_equal(it2n_inst_sync(I), IT2N_OK);
+    assert_int_equal(S->entries, 1);
+    assert_int_equal(S->last_put_flags, 0);
+    assert_true(S->last_vals[IT2N_CH_T] == IT2N_VAL_ONE / 2);
+    assert_true(S->last_vals[IT2N_CH_F] == IT2N_VAL_ONE);
+    assert_true(S->last_vals[IT2N_CH_X] == v[IT2N_CH_X]);
+    /* 0.9 rounded to 2^-30 is not a multiple of 2^-24: refused, nothing
+     * taken, the context goes on */
+    v[IT2N_CH_I] = 966367642;
+    assert_int_equal(it2n_inst_put_fine(I, 1, 1, 3, IT2N_FP_D, v), IT2N_PROTO_ERR_VERSION);
+    assert_int_equal(it2n_inst_flush(I), IT2N_OK);
+    assert_int_equal(it2n_inst_sync(I), IT2N_OK);
+    assert_int_equal(S->entries, 1);
+    assert_int_equal(S->puts, 1);
+    assert_int_equal(it2n_inst_error(I, NULL), 0);
+    /* field errors: nothing taken */
+    assert_int_equal(it2n_inst_put_fine(I, 1, 0, 0, IT2N_FP_COUNT, v), IT2N_PROTO_ERR_FIELD);
+    assert_int_equal(it2n_inst_put_fine(I, 0xFF, 0, 0, IT2N_FP_D, v), IT2N_PROTO_ERR_FIELD);
+    /* a server announcing FINE: Q30 as is, in a FINE PUT */
+    S->fine = 1;
+    assert_int_equal(it2n_inst_resync(I, 300), IT2N_OK);
+    for (int k = 0; k < 5 && !(I->hello.caps & IT2N_CAP_FINE); k++)
+        it2n_inst_poll(I);
+    assert_true(I->hello.caps & IT2N_CAP_FINE);
+    assert_int_equal(it2n_inst_put_fine(I, 1, 1, 3, IT2N_FP_D, v), IT2N_OK);
+    assert_int_equal(it2n_inst_flush(I), IT2N_OK);
+    assert_int_equal(it2n_inst_sync(I), IT2N_OK);
+    assert_int_equal(S->entries, 2);
+    assert_int_equal(S->last_put_flags, IT2N_PUT_FINE);
+    assert_memory_equal(S->last_vals, v, sizeof S->last_vals);
+    /* a Q24 entry after a fine one: another layout, another PUT */
+    unsigned puts = S->puts;
+    assert_int_equal(it2n_inst_put_fine(I, 1, 2, 3, IT2N_FP_D, v), IT2N_OK);
+    vals(v, 3, 3);
+    assert_int_equal(it2n_inst_put(I, 1, 3, 3, IT2N_FP_D, v), IT2N_OK);
+    assert_int_equal(it2n_inst_commit(I, 1), IT2N_OK);
+    assert_int_equal(it2n_inst_sync(I), IT2N_OK);
+    assert_int_equal(S->puts, puts + 2);
+    assert_int_equal(S->last_put_flags, 0);
+    assert_true(S->last_vals[IT2N_CH_T] == 1 << 23);
+}
+
 /* One round in feed mode: the server runs, its bytes are fed to the
  * instrument, which then polls. */
 static void feed_round(void)
@@ -465,6 +537,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_silent_peer_times_out, setup, teardown),
         cmocka_unit_test_setup_teardown(test_configure_is_a_barrier, setup, teardown),
         cmocka_unit_test_setup_teardown(test_configure_bspline, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_put_fine, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_inst", tests, NULL, NULL);
 }

@@ -106,7 +106,7 @@ static void test_field_checks(void **st)
     expect_field(IT2N_MSG_CONFIGURE, 1, 0, IT2N_MAX_DEGREE);     /* n = 0 */
     expect_field(IT2N_MSG_CONFIGURE, 2, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE);
     expect_field(IT2N_MSG_CONFIGURE, 3, 0x08, IT2N_F_ALL);       /* unknown flag */
-    expect_field(IT2N_MSG_PUT, 1, 0x02, IT2N_PUT_REPLACE);       /* unknown flag */
+    expect_field(IT2N_MSG_PUT, 1, 0x04, IT2N_PUT_FLAGS);         /* unknown flag */
     expect_field(IT2N_MSG_PUT, 2, 0, IT2N_PUT_MAX);              /* count 0 */
     expect_field(IT2N_MSG_PUT, 3, 1, 0);                         /* reserved */
     expect_field(IT2N_MSG_PUT, 7, 0x80, 0);                      /* entry reserved */
@@ -291,6 +291,73 @@ static void test_put_indices_255(void **st)
     assert_memory_equal(buf, buf + 512, (size_t)len);
 }
 
+/* v1.3 PUT FINE (docs/protocol.md 5.4): flag 0x02, memberships in Q30
+ * carried bit for bit; every invalid input gets its error in the order of
+ * the table; pack refuses what unpack refuses. */
+static void expect_put(int len, int code, size_t off, int64_t value, int64_t limit)
+{
+    it2n_proto_errinfo e;
+    int r = it2n_msg_unpack(IT2N_MSG_PUT, buf, (size_t)len, &back, &e);
+    if (r != code)
+        fail_msg("PUT %02x %02x %02x %02x (len %d): got %d, want %d", buf[0], buf[1], buf[2], buf[3], len,
+                 r, code);
+    assert_int_equal(e.offset, off);
+    assert_int_equal(e.value, value);
+    assert_int_equal(e.limit, limit);
+}
+
+static void test_put_fine(void **st)
+{
+    (void)st;
+    it2n_proto_errinfo e;
+    int len = pack_vector(23);
+    assert_int_equal(IT2N_PUT_FINE, 0x02);
+    assert_int_equal(IT2N_CAP_FINE, 0x80);
+    assert_int_equal(len, 4 + 2 * 52);
+    assert_int_equal(buf[1], IT2N_PUT_FINE);
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_PUT, buf, (size_t)len, &back, NULL), IT2N_OK);
+    assert_int_equal(back.u.put.flags, IT2N_PUT_FINE);
+    /* Q30, finer than Q24: carried bit for bit */
+    assert_true(back.u.put.e[0].vals[IT2N_CH_T] == 966367642);
+    assert_true(back.u.put.e[0].vals[IT2N_CH_T] % 64 != 0);
+    assert_true(back.u.put.e[1].vals[IT2N_CH_T] == IT2N_MEMB_ONE);
+    assert_int_equal(back.u.put.e[0].i, 200);
+    /* REPLACE | FINE */
+    buf[1] = IT2N_PUT_REPLACE | IT2N_PUT_FINE;
+    assert_int_equal(it2n_msg_unpack(IT2N_MSG_PUT, buf, (size_t)len, &back, NULL), IT2N_OK);
+    assert_int_equal(back.u.put.flags, 3);
+    assert_int_equal(it2n_msg_pack(&back, buf + 512, 512, NULL), len);
+    assert_memory_equal(buf, buf + 512, (size_t)len);
+    /* order of checks: model 255, then (before the flags) reserved byte 3 */
+    buf[0] = 0xFF;
+    buf[1] = 0x80;
+    buf[3] = 1;
+    expect_put(len, IT2N_PROTO_ERR_FIELD, 0, 0xFF, 0xFE);
+    expect_put(2, IT2N_PROTO_ERR_FIELD, 0, 0xFF, 0xFE); /* even when short */
+    buf[0] = 2;
+    expect_put(2, IT2N_PROTO_ERR_PAYLOAD, 2, 2, 3);     /* shorter than 4 */
+    expect_put(len, IT2N_PROTO_ERR_FIELD, 3, 1, 0);
+    buf[3] = 0;
+    /* every flag bit beyond REPLACE | FINE: FIELD at 1, hi = 3 */
+    for (unsigned f = 4; f < 256; f += 4) {
+        buf[1] = (uint8_t)(f | IT2N_PUT_FINE);
+        expect_put(len, IT2N_PROTO_ERR_FIELD, 1, (int64_t)(f | IT2N_PUT_FINE), IT2N_PUT_FLAGS);
+    }
+    buf[1] = IT2N_PUT_FINE;
+    buf[2] = 0;
+    expect_put(len, IT2N_PROTO_ERR_FIELD, 2, 0, IT2N_PUT_MAX); /* count 0 */
+    buf[2] = 3;
+    expect_put(len, IT2N_PROTO_ERR_PAYLOAD, (size_t)len, len, 4 + 3 * 52); /* truncated */
+    buf[2] = 2;
+    expect_put(len - 1, IT2N_PROTO_ERR_PAYLOAD, (size_t)len - 8, len - 1, len);
+    /* pack refuses a flag unpack refuses, and nothing beyond */
+    assert_non_null(it2n_proto_vector(23, &(it2n_frame_hdr){0}, &m));
+    m.u.put.flags = 0x04 | IT2N_PUT_FINE;
+    assert_int_equal(it2n_msg_pack(&m, buf, sizeof buf, &e), IT2N_PROTO_ERR_FIELD);
+    assert_int_equal(e.offset, 1);
+    assert_int_equal(e.limit, IT2N_PUT_FLAGS);
+}
+
 static void test_par_conversion(void **st)
 {
     (void)st;
@@ -315,6 +382,7 @@ int main(void)
         cmocka_unit_test(test_par_conversion),
         cmocka_unit_test(test_configure_kinds),
         cmocka_unit_test(test_put_indices_255),
+        cmocka_unit_test(test_put_fine),
     };
     return cmocka_run_group_tests_name("proto_msg", tests, NULL, NULL);
 }

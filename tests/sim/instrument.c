@@ -112,12 +112,19 @@ static int os_write(it2n_ostream *s, const uint8_t *buf, size_t len)
 /* Host-side checks of the daemon's responses against a local solve. */
 static it2n_model local;
 static unsigned got_points, got_rows, got_results, mismatches;
+/* The daemon's HELLO: its caps say whether PUT FINE (Q30 memberships,
+ * protocol v1.3) may be sent. */
+static int peer_hello;
+static uint32_t peer_caps;
 
 static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
 {
     (void)app;
     (void)seq;
-    if (msg->type == IT2N_MSG_EVENT && evlog) {
+    if (msg->type == IT2N_MSG_HELLO) {
+        peer_hello = 1;
+        peer_caps = msg->u.hello.caps;
+    } else if (msg->type == IT2N_MSG_EVENT && evlog) {
         fprintf(evlog, "%u %u %d %u\n", msg->u.event.model, msg->u.event.kind, msg->u.event.code,
                 (unsigned)msg->u.event.generation);
         fflush(evlog);
@@ -275,10 +282,8 @@ int main(int argc, char **argv)
     }
     if (!link_path || (!csv && !evlog) || batch < 1 || batch > IT2N_PUT_MAX)
         return 2;
-    if (csv) {
+    if (csv) /* kept as read (memberships in Q30): what PUT FINE carries */
         sim_load_csv(csv, 0, &ds);
-        sim_round_q24(&ds); /* what the PUTs carry: the local reference alike */
-    }
     {
         it2n_errinfo e;
         it2n_model_init(&local);
@@ -308,7 +313,7 @@ int main(int argc, char **argv)
 
     /* v1.2: HELLO first in any case (it brings the session); v1.1 without
      * CONFIGURE starts with the PUTs (HELLO is optional there) */
-    unsigned step = configure || !v11 ? 0 : 2, i = 0, j = 0, fp = 0;
+    unsigned step = configure || !v11 ? 0 : 2, i = 0, j = 0, fp = 0, hello_sent = 0;
     uint32_t start = now_ms();
     while (!failed) {
         uint32_t now = now_ms();
@@ -347,7 +352,10 @@ int main(int argc, char **argv)
         }
         /* CONFIGURE is a barrier (docs/protocol.md 4.2 rule 7): alone in
          * flight, answered before the first PUT goes out. */
+        /* the first PUT waits for the daemon's HELLO (if ours went out):
+         * its caps decide the membership format */
         while (step < 4 && (step == 0 || it2n_link_can_send(&l)) &&
+               !(step == 2 && hello_sent && !peer_hello) &&
                ((step != 1 && !(step == 2 && i == 0 && j == 0 && fp == 0)) || it2n_link_pending(&l) == 0)) {
             memset(&m, 0, sizeof m);
             if (step == 0) {
@@ -361,6 +369,7 @@ int main(int argc, char **argv)
                 m.u.hello.max_models = 1;
                 memcpy(m.u.hello.node, evlog ? "sim-peer" : "sim-instrument", evlog ? 8 : 14);
                 step = evlog ? 100 : configure ? 1 : 2;
+                hello_sent = 1;
             } else if (step == 1) {
                 m.type = IT2N_MSG_CONFIGURE;
                 m.u.configure.model = (uint8_t)model;
@@ -371,14 +380,27 @@ int main(int argc, char **argv)
             } else if (step == 2) {
                 m.type = IT2N_MSG_PUT;
                 m.u.put.model = (uint8_t)model;
-                m.u.put.flags = replace ? IT2N_PUT_REPLACE : 0;
+                m.u.put.flags = (uint8_t)((replace ? IT2N_PUT_REPLACE : 0u) |
+                                          ((peer_caps & IT2N_CAP_FINE) ? IT2N_PUT_FINE : 0u));
                 while (i <= ds.n && m.u.put.count < batch) {
                     if (ds.present[i][j] & (1u << fp)) {
                         it2n_put_entry *e = &m.u.put.e[m.u.put.count++];
                         e->i = (uint8_t)i;
                         e->j = (uint8_t)j;
                         e->fp = (uint8_t)fp;
-                        it2n_dataset_get(&ds, i, j, fp, e->vals);
+                        it2n_dataset_get_fine(&ds, i, j, fp, e->vals);
+                        if (!(m.u.put.flags & IT2N_PUT_FINE)) {
+                            /* a daemon without FINE: Q24 only if exact */
+                            for (unsigned ch = IT2N_CH_T; ch <= IT2N_CH_F; ch++) {
+                                if (e->vals[ch] % 64 != 0) {
+                                    fprintf(stderr, "instrument: (%u,%u,%u): a membership finer than "
+                                                    "2^-24 and the daemon did not announce FINE\n",
+                                            i, j, fp);
+                                    return 2;
+                                }
+                                e->vals[ch] /= 64;
+                            }
+                        }
                     }
                     if (++fp == IT2N_FP_COUNT) {
                         fp = 0;

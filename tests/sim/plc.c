@@ -4,9 +4,9 @@
  * the core's own results for the same data.
  *
  *   plc (--tcp HOST:PORT | --rtu DEV) [--unit U] [--order ABCD] [--scale S]
- *       [--memb q24|q30] CMD ...
- *   (--memb q24: the model's data came over a serial link, memberships in
- *   Q24; default q30, as a Modbus upload or the CSV reader stores them)
+ *       CMD ...
+ *   (the model's memberships as the CSV reader stores them, in Q30: what a
+ *   Modbus upload, the preload and a link's PUT FINE give)
  *   CMD: verify CSV [STEPS]   FC23 queries on a STEPSxSTEPS grid, results,
  *                             sample grid and control nets vs the core
  *        upload CSV [commit]  configure + upload every point via the map
@@ -124,18 +124,11 @@ static void check_point(const uint16_t *rf, const uint16_t *rs, const it2n_point
         }
 }
 
-/* --memb q24: the model was filled over a serial link, which carries
- * memberships in Q24; else (Modbus upload, preload) as the CSV reader
- * stores them, in Q30. */
-static int memb_q24;
-
 static void solve_local(const char *csv, it2n_model *m)
 {
     static it2n_dataset ds;
     it2n_errinfo err;
     sim_load_csv(csv, 0, &ds);
-    if (memb_q24)
-        sim_round_q24(&ds);
     it2n_model_init(m);
     if (it2n_model_solve(m, &ds, &err) != IT2N_OK) {
         fprintf(stderr, "plc: local solve failed: %s\n", it2n_strerror(err.code));
@@ -487,9 +480,6 @@ int main(int argc, char **argv)
             rtu_dev = argv[k + 1];
         } else if (!strcmp(argv[k], "--unit")) {
             unit = atoi(argv[k + 1]);
-        } else if (!strcmp(argv[k], "--memb") && k + 1 < argc &&
-                   (!strcmp(argv[k + 1], "q24") || !strcmp(argv[k + 1], "q30"))) {
-            memb_q24 = !strcmp(argv[k + 1], "q24");
         } else {
             return 2;
         }
