@@ -18,5 +18,5 @@ include $(TEST_MK)
 TEST_SOLO += daemon-slowdisk daemon-admit daemon-conn daemon-powercut daemon-diskfull \
              daemon-reload daemon-durability daemon-e2e daemon-sparkplug daemon-fleet \
              daemon-waldamage daemon-metrics proto-daemon proto-e2e fw-e2e fw-reboot fw-survey \
-             ctl-e2e ctl-bspline bench-proto-smoke bench-fc23-smoke soak-smoke cli-plot \
+             ctl-e2e ctl-bspline bench-proto-smoke bench-fc23-smoke soak-smoke \
              docs-snippets
