@@ -25,6 +25,7 @@ from fractions import Fraction as Fr
 from pymodbus.client import ModbusTcpClient
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
 from it2ntest.ports import free_port  # noqa: E402
 from it2ntest.proc import wait_port  # noqa: E402
 
@@ -36,16 +37,8 @@ SURVEY = os.path.join(ROOT, "examples", "survey_64x64.csv")
 FPS = ["LL", "LR", "L", "D", "R", "RL", "RR"]
 CHS = ["x", "y", "z", "T", "I", "F"]
 COORD_SCALE = 1000
-checks = 0
-failures = []
-
-
-def check(cond, what):
-    global checks
-    checks += 1
-    if not cond:
-        failures.append(what)
-        print("FAIL:", what, file=sys.stderr)
+R = report.Report("ctl-bspline", quiet_ok=True)  # ~100 checks: failures only
+check = R.check
 
 
 def run(binary, *args, timeout=120):
@@ -419,15 +412,14 @@ def main():
         c.close()
     finally:
         d.stop(signal.SIGTERM)
-        if failures:
+        if R.fails:
             try:
                 print(open(os.path.join(tmp, "it2nd.log")).read()[-3000:],
                       file=sys.stderr)
             except OSError:
                 pass
         shutil.rmtree(tmp, ignore_errors=True)
-    print(f"ctl-bspline: {checks - len(failures)}/{checks} checks passed")
-    return 1 if failures else 0
+    return R.finish()
 
 
 if __name__ == "__main__":

@@ -46,20 +46,13 @@ sys.argv[1:] = [IT2N]  # plot_export reads its binary from argv
 from plot_export import png_info  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
 from it2ntest.ports import free_port  # noqa: E402
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 GEN = os.path.join(ROOT, "tests", "daemon", "gen_dataset.py")
-checks = 0
-failures = []
-
-
-def check(cond, what):
-    global checks
-    checks += 1
-    if not cond:
-        failures.append(what)
-        print("FAIL:", what, file=sys.stderr)
+R = report.Report("ctl-e2e", quiet_ok=True)  # ~200 checks: failures only
+check = R.check
 
 
 def run(*args, env=None, binary=None, timeout=60):
@@ -601,12 +594,11 @@ def main():
         for p in procs:
             p.terminate()
             p.wait()
-        if failures:
+        if R.fails:
             print(f"ctl e2e: logs kept in {tmp}", file=sys.stderr)
         else:
             shutil.rmtree(tmp, ignore_errors=True)
-    print(f"it2nctl e2e: {checks - len(failures)}/{checks} checks passed")
-    return 1 if failures else 0
+    return R.finish()
 
 
 def read_reg(port, addr, unit=1):

@@ -14,19 +14,15 @@ import sys
 import tempfile
 from fractions import Fraction as Fr
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+
 BIN = sys.argv[1]
 FPS = ["LL", "LR", "L", "D", "R", "RL", "RR"]
 TOL_MEMB = 2e-5
-checks = 0
-failures = []
-
-
-def check(cond, what):
-    global checks
-    checks += 1
-    if not cond:
-        failures.append(what)
-        print("FAIL:", what, file=sys.stderr)
+# thousands of checks: only failures, skips and the summary are printed
+R = report.Report("cli-e2e", quiet_ok=True)
+check = R.check
 
 
 def run(*args, stdin=None):
@@ -450,8 +446,7 @@ def main():
     hdr, _ = rows(out)
     check(hdr == "x,y,footprint,u,w,z,T,I,F,status", "locate z header")
 
-    print(f"cli e2e: {checks - len(failures)}/{checks} checks passed")
-    return 1 if failures else 0
+    return R.finish()
 
 
 if __name__ == "__main__":

@@ -16,11 +16,13 @@ import tempfile
 from fractions import Fraction as Fr
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import e2e as base  # noqa: E402  (check, rows, load, FPS: one copy, tests/cli/e2e.py)
-from e2e import FPS, check, load, rows  # noqa: E402,F401
+from e2e import FPS, load, rows  # noqa: E402,F401  (one copy, tests/cli/e2e.py)
+from it2ntest import report  # noqa: E402  (on the path since e2e's import)
 
 BIN = sys.argv[1]
 TOL_MEMB = 2e-7
+R = report.Report("cli-e2e-bspline", quiet_ok=True)  # hundreds of checks: failures only
+check = R.check
 
 
 def run(*args, stdin=None):
@@ -323,8 +325,7 @@ def main():
     rc, out, err = run("check", sv)
     check(rc == 2 and "is not a grid index 0..7" in err, "bezier limit: %s" % err)
 
-    print("e2e_bspline: %d checks, %d failures" % (base.checks, len(base.failures)))
-    sys.exit(1 if base.failures else 0)
+    sys.exit(R.finish())
 
 
 if __name__ == "__main__":

@@ -21,21 +21,16 @@ import tempfile
 import xml.etree.ElementTree as ET
 import zlib
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+
 BIN = os.path.abspath(sys.argv[1])
 FIGURES = [sys.argv[k + 1] for k, a in enumerate(sys.argv) if a == "--figure"]
 PAPER = "examples/paper_4x4.csv"
 FPS = ["LL", "LR", "L", "D", "R", "RL", "RR"]
 MEMB = ["T", "I", "F"]
-checks = 0
-failures = []
-
-
-def check(cond, what):
-    global checks
-    checks += 1
-    if not cond:
-        failures.append(what)
-        print("FAIL:", what, file=sys.stderr)
+R = report.Report("cli-plot", quiet_ok=True)  # hundreds of checks: failures only
+check = R.check
 
 
 def run(*args, env=None):
@@ -514,8 +509,7 @@ def main():
     test_sample_footprint()
     for fig in FIGURES:
         check_png(fig, *((1000, 500) if "band" in fig else (900, 700)), f"committed figure {fig}")
-    print(f"cli plot/export: {checks - len(failures)}/{checks} checks passed")
-    return 1 if failures else 0
+    return R.finish()
 
 
 if __name__ == "__main__":
