@@ -559,6 +559,9 @@ static void reload(void)
         nc.gid = cfg.gid;
     }
     reload_models(&nc);
+    if (nc.fsync != cfg.fsync)
+        log_notice("reload: fsync %s", nc.fsync ? "on: WAL writes are fsynced again" : "off (tests only)");
+    store_set_fsync(nc.fsync);
     cfg = nc;
     fill_opts();
     mb_tcp_reload(&cfg, &mbo);

@@ -1435,6 +1435,15 @@ static int sync_parent(const char *dir)
     return rc;
 }
 
+void store_set_fsync(int on)
+{
+    /* Under the writer's lock: the writer reads do_fsync in the job it
+     * takes after this (a reload runs with no job in progress). */
+    pthread_mutex_lock(&wmu);
+    do_fsync = on;
+    pthread_mutex_unlock(&wmu);
+}
+
 int store_open(const char *dir, int fsync_on)
 {
     uint64_t good, total;

@@ -26,6 +26,10 @@
  * if the directory cannot be used. */
 int store_open(const char *dir, int fsync);
 
+/* fsync on (1) or off (0) from the next WAL write or checkpoint on: the
+ * [daemon] fsync key at a reload. Called with no job in progress. */
+void store_set_fsync(int on);
+
 /* Data in the state directory for a model the configuration does not
  * have (a section lost in a rewrite of the file, or removed on purpose).
  * Without a policy (unit tests, fuzzers) they are dropped with a log line.
