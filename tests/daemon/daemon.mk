@@ -94,14 +94,20 @@ daemon-durability: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC) $(SIM_INSTR) $(DT_FAILIO)
 # A reload is all or nothing (issue 20 items 2, 6): empty, cut, FIFO,
 # /dev/zero and device-conflicting configurations refused by --check-config,
 # start and SIGHUP (running configuration kept, reads answered within
-# 100 ms), model removal only with removed = yes, at reload and at start.
-# tests/daemon/reload_test.py, ~5 s per build (normal, then ASan+UBSan).
+# 100 ms), model removal only with removed = yes, at reload and at start
+# (tests/daemon/reload_test.py, ~5 s per build); what a reload does per key
+# ("yes" applied, "restart" logged and kept, [sparkplug]) and a bad file
+# with valid changes applying none of them (reload_keys_test.py, ~7 s per
+# build). Normal build, then ASan+UBSan.
 .PHONY: daemon-reload
 TEST_TARGETS += daemon-reload
 daemon-reload: $(IT2ND) $(IT2ND_SAN) $(SIM_PLC)
 	timeout 300 /usr/bin/python3 $(DT)/reload_test.py --it2nd $(IT2ND) --plc $(SIM_PLC)
 	ASAN_OPTIONS=verify_asan_link_order=0 timeout 300 /usr/bin/python3 $(DT)/reload_test.py --it2nd $(IT2ND_SAN) \
 	  --plc $(SIM_PLC)
+	timeout 120 /usr/bin/python3 $(DT)/reload_keys_test.py --it2nd $(IT2ND) --plc $(SIM_PLC)
+	ASAN_OPTIONS=verify_asan_link_order=0 timeout 120 /usr/bin/python3 $(DT)/reload_keys_test.py \
+	  --it2nd $(IT2ND_SAN) --plc $(SIM_PLC)
 
 # Damage inside the WAL never served as complete; torn tails still
 # recovered; the operator's --accept-wal-loss (issue 20 item 3).
