@@ -17,6 +17,11 @@ import re
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+
+R = report.Report("deb-smoke")
+
 
 def main():
     root, unitdir = sys.argv[1], sys.argv[2]
@@ -53,13 +58,13 @@ def main():
     for s, p in owner.items():
         if "libit2n-dev" in p and not dev_ok.match(s):
             errors.append(f"libit2n-dev would get {s}")
-    if errors:
-        for e in errors:
-            print("deb-smoke: FAIL: " + e, file=sys.stderr)
-        sys.exit(1)
-    n = {p: sum(1 for s in owner.values() if p in s) for p in ("it2n", "libit2n-dev")}
-    print(f"deb-smoke: debian/ version {ver} = VERSION; make install PREFIX=/usr: {len(staged)} files, "
-          f"{n['it2n']} to it2n, {n['libit2n-dev']} to libit2n-dev, none left out or twice")
+    for e in errors:
+        R.fail(e)
+    if not errors:
+        n = {p: sum(1 for s in owner.values() if p in s) for p in ("it2n", "libit2n-dev")}
+        R.ok(f"debian/ version {ver} = VERSION; make install PREFIX=/usr: {len(staged)} files, "
+             f"{n['it2n']} to it2n, {n['libit2n-dev']} to libit2n-dev, none left out or twice")
+    sys.exit(R.finish(summary=False))
 
 
 if __name__ == "__main__":

@@ -27,6 +27,11 @@ import subprocess
 import sys
 import tempfile
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+
+R = report.Report("pkg-completion")
+
 OPT = r"--?[A-Za-z][A-Za-z0-9-]*"
 BASH_COMPLETION = "/usr/share/bash-completion/bash_completion"
 FILES = ("data.csv", "notes.txt")
@@ -231,26 +236,23 @@ def main():
         name, _, rest = a.partition("=")
         path, _, man = rest.partition(":")
         progs[name] = (path, man or None)
-    errors = []
     files = sorted(os.listdir(compdir))
     for f in files:
         if f not in progs:
-            errors.append(f"{compdir}/{f}: no such program given (a completion for nothing?)")
+            R.fail(f"{compdir}/{f}: no such program given (a completion for nothing?)")
     for name, (path, man) in sorted(progs.items()):
         cf = os.path.abspath(os.path.join(compdir, name))
         if not path:
-            print(f"test_completion: {name}: not built by this tree, its completion is not checked")
+            R.skip(f"{name}: not built by this tree, its completion is not checked")
             continue
         if not os.path.isfile(cf):
-            errors.append(f"{name}: no completion file {cf}")
+            R.fail(f"{name}: no completion file {cf}")
             continue
+        errors = []
         cmds, nopts, checks = check_program(name, path, man, cf, errors)
-        print(f"test_completion: {name}: {len(cmds)} commands, {nopts} options, {checks} checks"
-              f"{' + man page' if man else ''} (with bash-completion and alone)")
-    if errors:
-        for e in errors:
-            print("test_completion: FAIL: " + e, file=sys.stderr)
-        sys.exit(1)
+        R.check(not errors, f"{name}: {len(cmds)} commands, {nopts} options, {checks} checks"
+                f"{' + man page' if man else ''} (with bash-completion and alone)", "; ".join(errors))
+    sys.exit(R.finish())
 
 
 if __name__ == "__main__":

@@ -18,6 +18,11 @@ import subprocess
 import sys
 import tempfile
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+
+R = report.Report("pkg-version")
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
@@ -66,11 +71,10 @@ def main():
         if v != want:
             errs.append(f"{k}: {v!r}, VERSION says {want!r}")
     for e in errs:
-        print("pkg-version: FAIL: " + e, file=sys.stderr)
-    if errs:
-        return 1
-    print(f"pkg-version: ok ({want} in VERSION and {len(seen)} places: {', '.join(seen)})")
-    return 0
+        R.fail(e)
+    if not errs:
+        R.ok(f"{want} in VERSION and {len(seen)} places: {', '.join(seen)}")
+    return R.finish(summary=False)
 
 
 if __name__ == "__main__":
