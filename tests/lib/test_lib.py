@@ -58,6 +58,15 @@ rc, out, err = child('R = report.Report("c", quiet_ok=True)\nR.check(True, "a")\
                      'sys.exit(R.finish())\n')
 R.check(rc == 1 and "c: ok: a" not in out and "c: FAIL: b" in err, "quiet_ok: failures still said and counted",
         out + err)
+for cond, want in (("True", "removed"), ("False", "kept")):
+    d = tempfile.mkdtemp(dir=T)
+    with open(os.path.join(d, "x.log"), "w") as f:
+        f.write("early\n" + "late line\n")
+    rc, out, err = child('R = report.Report("c", quiet_ok=True)\nR.check(%s, "a")\nR.tidy(%r, %r, tail=10)\n'
+                         % (cond, d, os.path.join(d, "x.log")))
+    R.check(os.path.isdir(d) == (want == "kept") and (("late line" in err and "early" not in err
+                                                         and "c: logs kept in " + d in err) == (want == "kept")),
+            "tidy: temp dir %s %s" % (want, "(the log's tail shown)" if want == "kept" else "when all passed"), err)
 
 # ---- ports
 lo = ports.ephemeral_low()
@@ -107,12 +116,30 @@ R.check(d.text().count("listening") == 3, "Daemon: start(ready=) waits for the t
 d.hup()
 R.check(d.wait_log("reloaded", timeout=3) and not d.wait_log("reloaded", timeout=0.1, since=len(d.text())),
         "Daemon: hup and wait_log (since: only what came after)")
+new = d.hup_and_wait("reloaded", timeout=3)
+R.check(new is not None and new.count("reloaded") == 1, "Daemon: hup_and_wait: the log after this SIGHUP", new)
+R.check(d.hup_and_wait("never logged", timeout=0.2) is None, "Daemon: hup_and_wait: None when the text does not come")
 d.stop()
 try:
     daemon.start_simple(fake, T, "d2", body="die = yes\n")
     R.fail("Daemon: one that exits at start was taken as started")
 except RuntimeError as e:
     R.check("bad config" in str(e), "Daemon: one that exits at start raises with its log", e)
+
+sf = os.path.join(T, "state-file")
+R.check(daemon.file_sig(sf) is None, "file_sig: None for no file")
+with open(sf, "w") as f:
+    f.write("a")
+s0 = daemon.file_sig(sf)
+with open(sf + ".new", "w") as f:
+    f.write("a")
+os.replace(sf + ".new", sf)
+R.check(s0 is not None and daemon.file_sig(sf) != s0, "file_sig: a file replaced by one of the same size differs")
+d.conf = os.path.join(T, "atomic.conf")
+os.symlink(sf, d.conf)
+d.write_conf("x = 1\n", atomic=True)
+R.check(not os.path.islink(d.conf) and open(d.conf).read() == "x = 1\n" and open(sf).read() == "a",
+        "write_conf(atomic=True): renamed over the path (the old file untouched)")
 
 # ---- broker
 if broker.MOSQUITTO:
@@ -192,5 +219,13 @@ tdir2 = re.search(r"^T=(.*)$", out, re.M).group(1)
 R.check(rc == 0 and "c: ok: listened" in out and "c: ok: P2 free" in out and "c: ok: two ports" in out,
         "testlib.sh: all passed: exit 0, free_port twice distinct, wait_port", "%d %s %s" % (rc, out, err))
 R.check(not os.path.exists(tdir2), "testlib.sh: temp dir removed when all passed")
+for body, want_rc, what in (("", 1, "no check and no skip: exit 1, 'no check ran'"),
+                            ('skip "no tool"\n', 0, "only a skipped part: exit 0, said as a skip")):
+    with open(sh, "w") as f:
+        f.write(". %s/testlib.sh\ntl_init z\n%s echo T=$T\ntl_finish\n" % (LIB, body))
+    rc, out, err = proc.run(["bash", sh], timeout=60)
+    R.check(rc == want_rc and (("z: FAIL: no check ran" in err) == (want_rc == 1)), "testlib.sh: tl_finish, " + what,
+            "%d %s %s" % (rc, out, err))
+    subprocess.run(["rm", "-rf", re.search(r"^T=(.*)$", out, re.M).group(1)])
 subprocess.run(["rm", "-rf", T, tdir])
 sys.exit(R.finish())

@@ -9,13 +9,14 @@
 #   wait_port PORT [PID] [TRIES]  # until 127.0.0.1:PORT accepts (0.05 s apart)
 #   tl_wait_served PID            # until $PLC reads from it2nd on $PORT (0), or PID died (1)
 #   tl_stop PID [SIGNAL]          # kill -SIGNAL (TERM), wait: its exit status
-#   tl_finish                     # exit 1 (logs kept) if any check failed
+#   tl_finish [LOG [LINES]]       # exit 1 (logs kept, LOG's tail shown) if a check failed or none ran
 # Output follows `make test`'s runner (tests/run_suites.py): "NAME: ok: ...",
 # "NAME: FAIL: ..." on stderr, "NAME: skip: reason", "skip suite: reason".
 TL_LIB=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 TL_PY=/usr/bin/python3
 FAILS=0
 TL_CHECKS=0
+TL_SKIPS=0
 
 tl_init() { # name [temp-dir prefix]
     TL_NAME=$1
@@ -35,7 +36,7 @@ fail() { # with TL_FAIL_FAST set, the first failure ends the script (exit 1)
     return 0
 }
 say() { echo "$TL_NAME: $*"; }
-skip() { echo "$TL_NAME: skip: $*"; }
+skip() { echo "$TL_NAME: skip: $*"; TL_SKIPS=$((TL_SKIPS + 1)); }
 skip_suite() { echo "skip suite: $*"; exit 0; }
 free_port() { # the ports given so far are kept in $T/.ports: $(free_port) is a subshell
     local p
@@ -67,7 +68,14 @@ tl_stop() { # pid [signal, default TERM]: signal it, wait; its exit status
     kill -"${2:-TERM}" "$1"
     wait "$1" 2>/dev/null
 }
-tl_finish() { # exit status of the script: 1 if any check failed
-    if [ "$FAILS" != 0 ]; then echo "$TL_NAME: $FAILS failure(s)" >&2; exit 1; fi
+tl_finish() { # [LOG [LINES]]: exit 1 if any check failed (then LOG's last LINES, 40, on stderr) or none
+    # ran and nothing was skipped (a script that asserted nothing has not passed); else 0
+    if [ "$TL_CHECKS" = 0 ] && [ "$TL_SKIPS" = 0 ]; then fail "no check ran"; fi
+    if [ "$FAILS" != 0 ]; then
+        if [ -n "${1:-}" ]; then tail -n "${2:-40}" "$1" >&2; fi
+        echo "$TL_NAME: $FAILS of $TL_CHECKS check(s) FAILED" >&2
+        exit 1
+    fi
+    echo "$TL_NAME: all $TL_CHECKS check(s) passed$([ "$TL_SKIPS" = 0 ] || echo "; $TL_SKIPS part(s) skipped")"
     exit 0
 }

@@ -16,6 +16,16 @@ def basic_conf(state_dir, port, body="", daemon_extra=""):
             % (state_dir, daemon_extra, port, body))
 
 
+def file_sig(path):
+    """(inode, size, mtime in ns) of a file, None if there is none: whether
+    the daemon rewrote or replaced a state file (snapshot, wal) meanwhile."""
+    try:
+        st = os.stat(path)
+        return (st.st_ino, st.st_size, st.st_mtime_ns)
+    except FileNotFoundError:
+        return None
+
+
 class Daemon:
     """it2nd -c CONF -f [args] with stdout and stderr appended to the file
     log; self.proc is its Popen (kept after it exits, for the status)."""
@@ -25,9 +35,14 @@ class Daemon:
         self.args, self.env, self.port, self.cwd, self.name = list(args), env, port, cwd, name
         self.proc = None
 
-    def write_conf(self, text):
-        with open(self.conf, "w") as f:
+    def write_conf(self, text, atomic=False):
+        """The configuration file; atomic: written aside and renamed over
+        it (a reload never sees it half written)."""
+        path = self.conf + ".new" if atomic else self.conf
+        with open(path, "w") as f:
             f.write(text)
+        if atomic:
+            os.replace(path, self.conf)
 
     def start(self, timeout=10.0, wait=True, ready=None, prefix=(), preexec_fn=None):
         """Start it (prefix: a wrapper command before the binary). With wait,
@@ -62,6 +77,15 @@ class Daemon:
 
     def hup(self):
         self.proc.send_signal(signal.SIGHUP)
+
+    def hup_and_wait(self, text, timeout=5.0):
+        """SIGHUP, then wait for text in the log written after it: that
+        part of the log, or None when text did not come in time."""
+        since = len(self.text())
+        self.hup()
+        if not self.wait_log(text, timeout, since):
+            return None
+        return self.text()[since:]
 
     def stop(self, timeout=10.0, sig=signal.SIGTERM):
         """Signal it and wait; SIGKILL if it outlives timeout. Its exit status

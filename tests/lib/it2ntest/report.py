@@ -8,6 +8,7 @@ nothing could run. A skip is never printed as ok.
     ...
     sys.exit(R.finish())
 """
+import shutil
 import sys
 
 
@@ -50,6 +51,20 @@ class Report:
         """Nothing of the suite can run here: say so and exit 0."""
         print("skip suite: %s" % reason, flush=True)
         sys.exit(0)
+
+    def tidy(self, tmp, log=None, tail=3000):
+        """After a run: on a failure, the last tail characters of log (a
+        path) on stderr and tmp kept (said); otherwise tmp removed."""
+        if not self.fails:
+            shutil.rmtree(tmp, ignore_errors=True)
+            return
+        if log:
+            try:
+                with open(log, errors="replace") as f:
+                    sys.stderr.write(f.read()[-tail:])
+            except OSError:
+                pass
+        print("%s: logs kept in %s" % (self.name, tmp), file=sys.stderr, flush=True)
 
     def finish(self, summary=True):
         """Exit status for sys.exit(): 1 when a check failed, or when no check
