@@ -575,5 +575,4 @@ else
         && ok "unknown user: fatal config error with file:line" || fail "unknown user accepted"
 fi
 
-if [ "$FAILS" != 0 ]; then echo "e2e: $FAILS failure(s)"; tail -50 "$T/daemon.log"; exit 1; fi
-echo "e2e: all passed"
+tl_finish "$T/daemon.log" 50

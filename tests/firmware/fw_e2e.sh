@@ -55,12 +55,7 @@ run() {
         "$dev" >> "$d/it2nd.conf"
     "$IT2ND" -c "$d/it2nd.conf" -f -v >"$d/daemon.log" 2>&1 &
     DPID=$!
-    for _ in $(seq 100); do
-        python3 -c 'import socket,sys; socket.create_connection(("127.0.0.1", int(sys.argv[1])), 0.2)' \
-            "$port" 2>/dev/null && break
-        kill -0 "$DPID" 2>/dev/null || break
-        sleep 0.05
-    done
+    wait_port "$port" "$DPID"
     kill -0 "$DPID" 2>/dev/null || { fail "$name: it2nd did not start"; cat "$d/daemon.log" >&2; stop_pids; return; }
     sleep 0.2
     python3 "$ROOT/tests/firmware/qemu_cont.py" "$d/mon.sock" \
@@ -148,5 +143,4 @@ open(out, "a").write("\n")
 PY
     [ "$FAILS" = 0 ] && echo "fw-e2e: figures in $FW_OUT"
 fi
-if [ "$FAILS" != 0 ]; then echo "fw-e2e: $FAILS failure(s)" >&2; exit 1; fi
-echo "fw-e2e: passed"
+tl_finish

@@ -44,8 +44,7 @@ finish() {
         fi
         echo "fw-reboot: FAIL: the v1.1 handshake passed: the test cannot tell" >&2; FAILS=1; exit 1
     fi
-    if [ "$FAILS" != 0 ]; then echo "fw-reboot: $FAILS failure(s)" >&2; exit 1; fi
-    echo "fw-reboot: passed"; exit 0
+    tl_finish
 }
 count() { grep -c "$1" "$2" 2>/dev/null || true; }
 
@@ -70,12 +69,7 @@ printf '[model:1]\nunit_id = 1\nn = 3\nm = 3\n[link:fw]\ntype = serial\ndevice =
     "$pty" >> "$T/it2nd.conf"
 "$IT2ND" -c "$T/it2nd.conf" -f -v >"$T/daemon.log" 2>&1 &
 DPID=$!
-for _ in $(seq 100); do
-    python3 -c 'import socket,sys; socket.create_connection(("127.0.0.1", int(sys.argv[1])), 0.2)' \
-        "$port" 2>/dev/null && break
-    kill -0 "$DPID" 2>/dev/null || break
-    sleep 0.05
-done
+wait_port "$port" "$DPID"
 kill -0 "$DPID" 2>/dev/null || { fail "it2nd did not start"; cat "$T/daemon.log" >&2; exit 1; }
 sleep 0.2
 
