@@ -13,7 +13,6 @@ usage: ctl_bspline_e2e.py IT2NCTL IT2N IT2ND"""
 
 import logging
 import os
-import shutil
 import signal
 import struct
 import subprocess
@@ -412,13 +411,7 @@ def main():
         c.close()
     finally:
         d.stop(signal.SIGTERM)
-        if R.fails:
-            try:
-                print(open(os.path.join(tmp, "it2nd.log")).read()[-3000:],
-                      file=sys.stderr)
-            except OSError:
-                pass
-        shutil.rmtree(tmp, ignore_errors=True)
+        R.tidy(tmp, os.path.join(tmp, "it2nd.log"))
     return R.finish()
 
 

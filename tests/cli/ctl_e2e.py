@@ -594,10 +594,7 @@ def main():
         for p in procs:
             p.terminate()
             p.wait()
-        if R.fails:
-            print(f"ctl e2e: logs kept in {tmp}", file=sys.stderr)
-        else:
-            shutil.rmtree(tmp, ignore_errors=True)
+        R.tidy(tmp)
     return R.finish()
 
 

@@ -26,11 +26,10 @@ reload_test.py tests the all-or-nothing rule on damaged files and the
 removal rule; this script the decisions per key.
 """
 import argparse
+import importlib.util
 import os
 import queue
 import re
-import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -39,6 +38,7 @@ import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
 from it2ntest import daemon as it2nd_proc  # noqa: E402
+from it2ntest.daemon import file_sig  # noqa: E402
 from it2ntest import report  # noqa: E402
 from it2ntest.broker import MOSQUITTO, Broker  # noqa: E402
 from it2ntest.modbus import connect, read_regs, write_regs  # noqa: E402
@@ -65,28 +65,12 @@ def conf(state, port, mport, daemon="", modbus="", models=None, extra=""):
             % (state, daemon, port, modbus, mport, models, extra))
 
 
-def sig(path):
-    try:
-        st = os.stat(path)
-        return (st.st_ino, st.st_size, st.st_mtime_ns)
-    except FileNotFoundError:
-        return None
-
-
 class Daemon(it2nd_proc.Daemon):
     def reload(self, text, want, timeout=5.0):
-        """Write the file (atomically), SIGHUP, wait for want in the lines
-        written after it: those lines, or None."""
-        tmp = self.conf + ".new"
-        with open(tmp, "w") as f:
-            f.write(text)
-        os.replace(tmp, self.conf)
-        since = len(self.text())
-        self.hup()
-        if not self.wait_log(want, timeout, since):
-            return None
-        time.sleep(0.05)  # the lines logged with it
-        return self.text()[since:]
+        """The file written (atomically), SIGHUP: the log lines up to want,
+        or None."""
+        self.write_conf(text, atomic=True)
+        return self.hup_and_wait(want, timeout)
 
 
 def plc(args, *cmd, unit=1):
@@ -141,24 +125,24 @@ def daemon_keys(args, d, state, base):
 
     # snapshot_interval 3600 -> 1: a snapshot follows a write within seconds.
     snap = os.path.join(state, "snapshot")
-    s0 = sig(snap)
+    s0 = file_sig(snap)
     new = d.reload(base.replace("snapshot_interval = 3600\n", "snapshot_interval = 1\n"), RELOADED)
     ok6 = write6(args)
     end = time.monotonic() + 5
-    while sig(snap) == s0 and time.monotonic() < end:
+    while file_sig(snap) == s0 and time.monotonic() < end:
         time.sleep(0.05)
-    check(new is not None and ok6 and sig(snap) != s0, "SIGHUP to snapshot_interval = 1: a snapshot follows a write",
-          "reload %s, write %s, snapshot %s -> %s" % (new is not None, ok6, s0, sig(snap)))
+    check(new is not None and ok6 and file_sig(snap) != s0, "SIGHUP to snapshot_interval = 1: a snapshot follows a write",
+          "reload %s, write %s, snapshot %s -> %s" % (new is not None, ok6, s0, file_sig(snap)))
     d.reload(base, RELOADED)
 
     # state_dir and user: restart keys, logged, the running values kept.
     other = state + "-new"
     text = base.replace("state_dir = %s\n" % state, "state_dir = %s\nuser = nobody\n" % other)
-    wal0 = sig(os.path.join(state, "wal"))
+    wal0 = file_sig(os.path.join(state, "wal"))
     uid0 = proc_uid(d.proc.pid)
     new = d.reload(text, RELOADED)
     ok6 = write6(args)
-    wal1 = sig(os.path.join(state, "wal"))
+    wal1 = file_sig(os.path.join(state, "wal"))
     check(new is not None and "reload: state_dir change (%s -> %s) takes effect at restart" % (state, other) in new
           and "reload: user change takes effect at restart" in new,
           "SIGHUP with another state_dir and user: both logged as taking effect at restart", new)
@@ -321,9 +305,7 @@ class Host:
 
 
 def sparkplug(args, tmp, d, base):
-    try:
-        import paho.mqtt.client  # noqa: F401
-    except ImportError:
+    if importlib.util.find_spec("paho") is None:
         R.skip("[sparkplug] on reload: no paho-mqtt (python3-paho-mqtt)")
         return
     if not MOSQUITTO:
@@ -403,10 +385,7 @@ def main():
     finally:
         rc = d.stop()
         check(rc == 0, "SIGTERM exits 0 (under ASan: no error, no leak)", "%s: %s" % (rc, d.text()[-1500:]))
-    if R.fails:
-        print("reload-keys: logs kept in %s" % tmp, file=sys.stderr)
-    else:
-        shutil.rmtree(tmp, ignore_errors=True)
+    R.tidy(tmp)
     sys.exit(R.finish())
 
 

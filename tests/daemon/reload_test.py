@@ -34,13 +34,13 @@ import threading
 import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
 from it2ntest import daemon as it2nd_proc  # noqa: E402
+from it2ntest.daemon import file_sig  # noqa: E402
 from it2ntest import report  # noqa: E402
 from it2ntest.modbus import read_regs as read_input  # noqa: E402  (FC 04)
 from it2ntest.ports import free_port  # noqa: E402
 
 R = report.Report("reload")
 ok, fail, check = R.ok, R.fail, R.check
-FAILS = R.fails
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PAPER = os.path.join(ROOT, "examples", "paper_4x4.csv")
 READ_BOUND_S = 0.100     # every read answered within this, during reloads
@@ -72,14 +72,6 @@ def listening_ports(pid):
     return ports
 
 
-def file_sig(path):
-    try:
-        st = os.stat(path)
-        return (st.st_ino, st.st_size, st.st_mtime_ns)
-    except FileNotFoundError:
-        return None
-
-
 class Daemon(it2nd_proc.Daemon):
     def __init__(self, binary, tmp, port, state):
         super().__init__(binary, os.path.join(tmp, "it2nd.conf"), os.path.join(tmp, "daemon.log"), port=port,
@@ -96,18 +88,6 @@ class Daemon(it2nd_proc.Daemon):
             except subprocess.TimeoutExpired:
                 rc = "timeout"
         return rc, self.logtext()[before:]
-
-    def hup_and_wait(self, text, timeout=5.0):
-        """SIGHUP, then wait for text in the log lines written after it."""
-        before = len(self.logtext())
-        self.proc.send_signal(signal.SIGHUP)
-        deadline = time.time() + timeout
-        while time.time() < deadline:
-            new = self.logtext()[before:]
-            if text in new:
-                return new
-            time.sleep(0.02)
-        return None
 
     def stop(self, sig=signal.SIGTERM):
         started = self.proc is not None
@@ -381,11 +361,8 @@ def main():
         d.stop(signal.SIGKILL)
         os.close(master)
         os.close(slave)
-    if FAILS:
-        print("reload: %d failure(s); logs in %s" % (len(FAILS), tmp), file=sys.stderr)
-        sys.exit(1)
-    subprocess.run(["rm", "-rf", tmp])
-    print("reload: all passed")
+    R.tidy(tmp)
+    sys.exit(R.finish())
 
 
 if __name__ == "__main__":

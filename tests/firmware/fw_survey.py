@@ -35,7 +35,6 @@ SURVEY = os.path.abspath(os.environ.get("SURVEY", os.path.join(ROOT, "examples",
 OUT = os.environ.get("FW_OUT", os.path.join(ROOT, "build", "fw-survey"))
 R = report.Report("fw-survey", quiet_ok=False)
 check = R.check
-failures = R.fails
 
 
 def run(*args, timeout=120):
@@ -211,14 +210,8 @@ def main():
                     pr.wait(timeout=20)
                 except subprocess.TimeoutExpired:
                     pr.kill()
-        if failures:
-            try:
-                print(open(os.path.join(tmp, "it2nd.log")).read()[-3000:], file=sys.stderr)
-            except OSError:
-                pass
-        shutil.rmtree(tmp, ignore_errors=True)
-    print(f"fw-survey: {R.checks - len(failures)}/{R.checks} checks passed")
-    return 1 if failures else 0
+        R.tidy(tmp, os.path.join(tmp, "it2nd.log"))
+    return R.finish()
 
 
 if __name__ == "__main__":
