@@ -16,6 +16,9 @@ import subprocess
 import sys
 import tempfile
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+
 BIN = os.path.abspath(sys.argv[1])
 MARK = "<!-- run: it2n -->"
 
@@ -50,14 +53,11 @@ def main():
     root = os.getcwd()
     env = dict(os.environ, PATH=os.path.dirname(BIN) + os.pathsep +
                os.environ.get("PATH", ""))
-    total, bad = 0, 0
+    R = report.Report("cli-docs")
     for path in sys.argv[2:]:
         for line, text in blocks(path):
-            total += 1
             if text is None:
-                print(f"FAIL: {path}:{line}: {MARK} not followed by a "
-                      "```sh block", file=sys.stderr)
-                bad += 1
+                R.fail(f"{path}:{line}: {MARK} not followed by a ```sh block")
                 continue
             with tempfile.TemporaryDirectory() as tmp:
                 os.symlink(os.path.join(root, "examples"),
@@ -68,15 +68,9 @@ def main():
                                    cwd=tmp, env=env, capture_output=True,
                                    text=True, timeout=300)
                 which = p.stderr.split("\n")[0]
-                if p.returncode != 0 or which != BIN:
-                    print(f"FAIL: {path}:{line}: block exits {p.returncode} "
-                          f"(it2n is {which})\n{p.stderr}", file=sys.stderr)
-                    bad += 1
-    if total == 0:
-        print("FAIL: no marked blocks found", file=sys.stderr)
-        return 1
-    print(f"cli docs: {total - bad}/{total} command blocks ran")
-    return 1 if bad else 0
+                R.check(p.returncode == 0 and which == BIN, f"{path}:{line}: command block ran",
+                        f"exits {p.returncode} (it2n is {which})\n{p.stderr}")
+    return R.finish()  # no marked block at all: no check ran, a failure
 
 
 if __name__ == "__main__":

@@ -13,8 +13,12 @@ printed either way). --allow names a function let through for now; the
 check fails when an allowed one is no longer over the limit, so the list
 only shrinks.
 """
+import os
 import re
 import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
 
 args = sys.argv[1:]
 limit = 100
@@ -53,13 +57,10 @@ for path in args:
         i += 1
 found.sort(reverse=True)
 over = [f for f in found if f[0] > limit and f"{f[1]}:{f[3]}" not in allowed]
-for n, path, line, name in over:
-    print(f"FAIL: {path}:{line}: {name} is {n} lines (at most {limit}: split it)")
+problems = [f"{path}:{line}: {name} is {n} lines (at most {limit}: split it)" for n, path, line, name in over]
 long_names = {f"{f[1]}:{f[3]}" for f in found if f[0] > limit}
-for a in sorted(allowed - long_names):
-    print(f"FAIL: --allow {a}: no such function over {limit} lines any more (drop it from the list)")
-    over.append(a)
-print(f"fn_length: {len(found)} functions, longest " +
-      ", ".join(f"{name} {n}" for n, _, _, name in found[:3]) +
-      f"; {len(over)} over {limit} lines")
-sys.exit(1 if over else 0)
+problems += [f"--allow {a}: no such function over {limit} lines any more (drop it from the list)"
+             for a in sorted(allowed - long_names)]
+sys.exit(report.Report("fn_length").verdict(
+    problems, f"{len(found)} functions, longest " + ", ".join(f"{name} {n}" for n, _, _, name in found[:3]) +
+    f"; none over {limit} lines but the {len(allowed)} allowed"))

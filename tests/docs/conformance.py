@@ -13,6 +13,9 @@ import os
 import re
 import sys
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
@@ -101,12 +104,8 @@ def main():
     for q in sorted(set(re.findall(r"^\| (Q\d+) \|", sec44, re.M)), key=lambda x: int(x[1:])):
         if q not in ids:
             errors.append("%s (section 4.4) has no row in the conformance table" % q)
-    for e in errors:
-        print("conformance: FAIL: " + e)
-    if errors:
-        return 1
-    print("conformance: %d rules, %d test references, all exist and run in make test" % (len(rows), ntests))
-    return 0
+    return report.Report("conformance").verdict(
+        errors, "%d rules, %d test references, all exist and run in make test" % (len(rows), ntests))
 
 
 if __name__ == "__main__":

@@ -12,6 +12,9 @@ import os
 import re
 import sys
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+
 root = sys.argv[1] if len(sys.argv) > 1 else "."
 text = open(os.path.join(root, "docs", "design.md"), encoding="utf-8").read()
 fails = []
@@ -25,7 +28,5 @@ for m in modules:
     rel = os.path.relpath(m, root)
     if rel not in named:
         fails.append(f"{rel} is not named in docs/design.md (add it to a module table)")
-for f in fails:
-    print("FAIL:", f, file=sys.stderr)
-print(f"design_check: {len(named)} paths named, {len(modules)} modules, {len(fails)} problems")
-sys.exit(1 if fails else 0)
+sys.exit(report.Report("design_check").verdict(
+    fails, f"{len(named)} paths named, {len(modules)} modules, each named in docs/design.md and existing"))

@@ -48,7 +48,7 @@ docs-conformance: ## Check the protocol conformance table against the test sourc
 	@/usr/bin/python3 tests/docs/conformance.py
 	@mkdir -p $(BUILD)
 	@sed 's/test_seq_wraps/test_seq_wraps_renamed/' docs/protocol.md > $(BUILD)/conformance_drift.md
-	@if /usr/bin/python3 tests/docs/conformance.py $(BUILD)/conformance_drift.md > $(BUILD)/conformance_drift.log; then \
+	@if /usr/bin/python3 tests/docs/conformance.py $(BUILD)/conformance_drift.md > $(BUILD)/conformance_drift.log 2>&1; then \
 	  echo "docs-conformance: a table naming a missing test passed"; exit 1; \
 	else echo "docs-conformance: a table naming a missing test is refused (self-test)"; fi
 

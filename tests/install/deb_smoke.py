@@ -58,13 +58,9 @@ def main():
     for s, p in owner.items():
         if "libit2n-dev" in p and not dev_ok.match(s):
             errors.append(f"libit2n-dev would get {s}")
-    for e in errors:
-        R.fail(e)
-    if not errors:
-        n = {p: sum(1 for s in owner.values() if p in s) for p in ("it2n", "libit2n-dev")}
-        R.ok(f"debian/ version {ver} = VERSION; make install PREFIX=/usr: {len(staged)} files, "
-             f"{n['it2n']} to it2n, {n['libit2n-dev']} to libit2n-dev, none left out or twice")
-    sys.exit(R.finish(summary=False))
+    n = {p: sum(1 for s in owner.values() if p in s) for p in ("it2n", "libit2n-dev")}
+    sys.exit(R.verdict(errors, f"debian/ version {ver} = VERSION; make install PREFIX=/usr: {len(staged)} files, "
+                       f"{n['it2n']} to it2n, {n['libit2n-dev']} to libit2n-dev, none left out or twice"))
 
 
 if __name__ == "__main__":

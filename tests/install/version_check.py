@@ -70,11 +70,7 @@ def main():
     for k, v in seen.items():
         if v != want:
             errs.append(f"{k}: {v!r}, VERSION says {want!r}")
-    for e in errs:
-        R.fail(e)
-    if not errs:
-        R.ok(f"{want} in VERSION and {len(seen)} places: {', '.join(seen)}")
-    return R.finish(summary=False)
+    return R.verdict(errs, f"{want} in VERSION and {len(seen)} places: {', '.join(seen)}")
 
 
 if __name__ == "__main__":

@@ -58,6 +58,12 @@ rc, out, err = child('R = report.Report("c", quiet_ok=True)\nR.check(True, "a")\
                      'sys.exit(R.finish())\n')
 R.check(rc == 1 and "c: ok: a" not in out and "c: FAIL: b" in err, "quiet_ok: failures still said and counted",
         out + err)
+rc, out, err = child('sys.exit(report.Report("c").verdict(["x is wrong", "y is wrong"], "all fine"))\n')
+R.check(rc == 1 and "c: FAIL: x is wrong" in err and "c: FAIL: y is wrong" in err and "all fine" not in out,
+        "verdict: each problem a FAIL, exit 1", "%d %s %s" % (rc, out, err))
+rc, out, err = child('sys.exit(report.Report("c").verdict([], "all fine"))\n')
+R.check(rc == 0 and out == "c: ok: all fine\n", "verdict: no problem: the summary as one ok line, exit 0",
+        "%d %r %s" % (rc, out, err))
 for cond, want in (("True", "removed"), ("False", "kept")):
     d = tempfile.mkdtemp(dir=T)
     with open(os.path.join(d, "x.log"), "w") as f:

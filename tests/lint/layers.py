@@ -24,6 +24,9 @@ import re
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
+
 args = sys.argv[1:]
 make_targets = []
 if len(args) >= 2 and args[0] == "--make":
@@ -101,7 +104,4 @@ if make_targets:
         if alien:
             fails.append(f"make compiles {' '.join(alien)} with -Idaemon")
 
-for x in fails:
-    print("FAIL:", x, file=sys.stderr)
-print(f"layers: {len(files)} files, {len(fails)} reach into daemon/ from outside")
-sys.exit(1 if fails else 0)
+sys.exit(report.Report("layers").verdict(fails, f"{len(files)} files, none reaches into daemon/ from outside"))

@@ -52,6 +52,16 @@ class Report:
         print("skip suite: %s" % reason, flush=True)
         sys.exit(0)
 
+    def verdict(self, problems, summary):
+        """For a checker that collects problems (lint, docs, packaging):
+        each one a FAIL, or, when there are none, summary as the one ok.
+        The exit status (finish without its summary line)."""
+        for p in problems:
+            self.fail(p)
+        if not problems:
+            self.ok(summary)
+        return self.finish(summary=False)
+
     def tidy(self, tmp, log=None, tail=3000):
         """After a run: on a failure, the last tail characters of log (a
         path) on stderr and tmp kept (said); otherwise tmp removed."""
