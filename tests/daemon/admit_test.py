@@ -341,15 +341,9 @@ def main():
             with open(args.out, "w") as f:
                 json.dump(ct.FIGS, f, indent=2, sort_keys=True)
                 f.write("\n")
-        if not ct.FAILS:
-            subprocess.call(["rm", "-rf", args.tmp])
-        else:
-            print("admit: logs kept in %s" % args.tmp, file=sys.stderr)
+        ct.R.tidy(args.tmp)
     print("admit: %.1f s" % (time.monotonic() - t0))
-    if ct.FAILS:
-        print("admit: %d failure(s)" % len(ct.FAILS), file=sys.stderr)
-        sys.exit(1)
-    print("admit: all passed")
+    sys.exit(ct.R.finish())
 
 
 if __name__ == "__main__":

@@ -32,7 +32,6 @@ from it2ntest.ports import free_port  # noqa: E402
 
 R = report.Report("conn")  # admit_test.py, which imports these helpers, renames it
 ok, fail, check = R.ok, R.fail, R.check
-FAILS = R.fails
 FIGS = {}
 
 
@@ -852,14 +851,8 @@ def main():
             with open(args.out, "w") as f:
                 json.dump(old, f, indent=2, sort_keys=True)
                 f.write("\n")
-        if not FAILS:
-            subprocess.call(["rm", "-rf", args.tmp])
-        else:
-            print("conn: logs kept in %s" % args.tmp, file=sys.stderr)
-    if FAILS:
-        print("conn: %d failure(s)" % len(FAILS), file=sys.stderr)
-        sys.exit(1)
-    print("conn: all passed")
+        R.tidy(args.tmp)
+    sys.exit(R.finish())
 
 
 if __name__ == "__main__":

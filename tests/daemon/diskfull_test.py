@@ -21,7 +21,7 @@ the real it2nd on a small filesystem: a 4 MiB tmpfs mounted for the test
 Prints "skip suite: <reason>" and exits 0 when neither a mount nor the shim is
 available.
 usage: diskfull_test.py --it2nd PATH [--failio PATH] [--mode auto|tmpfs|shim]"""
-import argparse, os, shutil, signal, socket, struct, subprocess, sys, tempfile, threading, time
+import argparse, os, signal, socket, struct, subprocess, sys, tempfile, threading, time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
 from it2ntest import report  # noqa: E402
 from it2ntest.ports import free_port  # noqa: E402
@@ -262,13 +262,10 @@ def finish():
     if proc is not None: kill9()
     hog_stop.set()
     if mode == "tmpfs": subprocess.run(["umount", "-l", MNT])
-    if FAILS:
-        print("diskfull: %d failure(s); log %s" % (len(FAILS), LOG)); print(open(LOG).read()[-3000:])
-        sys.exit(1)
-    if args.keep: print("diskfull: kept " + T)
-    else: shutil.rmtree(T, ignore_errors=True)
-    print("diskfull: all passed (%s)" % mode)
-    sys.exit(0)
+    if args.keep and not FAILS: print("diskfull: kept " + T)
+    else: R.tidy(T, LOG)
+    print("diskfull: %s" % mode)
+    sys.exit(R.finish())
 
 def on_term(signum, frame):
     fail("stopped by signal %d (timeout?)" % signum)

@@ -466,11 +466,7 @@ def main():
                 d.log.seek(0)
                 sys.stderr.write(d.log.read()[-3000:])
         shutil.rmtree(tmp, ignore_errors=True)
-    if FAILS:
-        print("metrics: %d check(s) failed" % len(FAILS), file=sys.stderr)
-        return 1
-    print("metrics: all checks passed")
-    return 0
+    return R.finish()
 
 
 if __name__ == "__main__":

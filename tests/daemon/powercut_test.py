@@ -702,12 +702,11 @@ def main():
             json.dump(result, f, indent=2, sort_keys=True)
             f.write("\n")
     say("link: %s; %.1f s" % (json.dumps(link.stats, sort_keys=True), now() - t0))
-    if FAILS:
-        print("powercut: FAILED (%d); logs in %s" % (len(FAILS), tmp), file=sys.stderr)
-        sys.exit(1)
-    if not args.keep:
-        shutil.rmtree(tmp, ignore_errors=True)
-    print("powercut: all passed")
+    if args.keep and not FAILS:
+        print("powercut: kept %s" % tmp)
+    else:
+        R.tidy(tmp)
+    sys.exit(R.finish())
 
 
 def cleanup():

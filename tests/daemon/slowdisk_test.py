@@ -40,7 +40,6 @@ import signal
 import socket
 import statistics
 import struct
-import subprocess
 import sys
 import tempfile
 import threading
@@ -374,11 +373,8 @@ def main():
         with open(args.out, "w") as f:
             json.dump(old, f, indent=2, sort_keys=True)
             f.write("\n")
-    if FAILS:
-        print("slowdisk: %d check(s) failed; logs in %s" % (len(FAILS), tmp), file=sys.stderr)
-        sys.exit(1)
-    subprocess.call(["rm", "-rf", tmp])
-    print("slowdisk: all passed")
+    R.tidy(tmp)
+    sys.exit(R.finish())
 
 
 if __name__ == "__main__":

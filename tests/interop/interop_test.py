@@ -19,7 +19,6 @@ usage: interop_test.py IT2ND SIM_INSTRUMENT
 """
 import logging
 import os
-import shutil
 import struct
 import subprocess
 import sys
@@ -264,12 +263,8 @@ def main():
             part()
         except Exception as e:  # a daemon that did not start, a timeout
             R.fail(f"{part.__name__}: {e!r}")
-    print(f"interop: {R.checks - len(R.fails)}/{R.checks} checks passed")
-    if R.fails:
-        print(f"interop: logs kept in {T}", file=sys.stderr)
-        return 1
-    shutil.rmtree(T, ignore_errors=True)
-    return 0
+    R.tidy(T)
+    return R.finish()
 
 
 if __name__ == "__main__":

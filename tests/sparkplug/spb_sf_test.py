@@ -355,9 +355,7 @@ def main():
             except OSError:
                 pass
         shutil.rmtree(d, ignore_errors=True)
-    n = len(T.R.fails)
-    print("spb_sf_test: %s" % ("FAILED (%d)" % n if n else "ok"))
-    return 1 if n else 0
+    return T.R.finish()
 
 
 if __name__ == "__main__":

@@ -1214,9 +1214,7 @@ def main():
                     print("---- %s" % f)
                     print(open(f).read()[-3000:])
         shutil.rmtree(d, ignore_errors=True)
-    n = len(R.fails)
-    print("sparkplug: %s (%d failure%s)" % ("FAIL" if n else "ok", n, "" if n == 1 else "s"))
-    return 1 if n else 0
+    return R.finish()
 
 
 if __name__ == "__main__":
