@@ -54,6 +54,7 @@ import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
 from it2ntest import daemon as it2nd_proc  # noqa: E402  (local names "daemon" below are processes)
+from it2ntest import report  # noqa: E402
 from it2ntest.ports import free_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -341,12 +342,11 @@ def main(argv):
                 failures.append(f"{b.where()}: {b.lang} block: {err}")
         if session:
             session.close()
-    for f in failures:
-        print("FAIL: " + f, file=sys.stderr)
-    print(f"docs snippets: {counts['run']} checked, {counts['quote']} quotes, "
-          f"{counts['delegated']} run by their tool's test, {counts['skip']} "
-          f"skipped (with reasons), {len(failures)} failures in {len(files)} files")
-    return 1 if failures else 0
+    if not counts["run"] and not listing:
+        failures.append("no block checked")
+    return report.Report("docs-snippets").verdict(
+        failures, f"{counts['run']} checked, {counts['quote']} quotes, {counts['delegated']} run by their tool's "
+        f"test, {counts['skip']} not run (marked, with reasons) in {len(files)} files")
 
 
 if __name__ == "__main__":

@@ -6,19 +6,20 @@
 # runs $CC must carry all three markers and still -std= and -Werror.
 # usage: cflags_check.sh CC TARGET...   (MAKE from the environment)
 set -u
+. "$(dirname "$0")/../lib/testlib.sh"
+tl_init pkg-cflags
 cc=$1; shift
 marks="-DIT2N_TEST_CFLAGS_MARK -DIT2N_TEST_CPPFLAGS_MARK -LIT2N_TEST_LDFLAGS_MARK"
 out=$(${MAKE:-make} --no-print-directory -n -B CFLAGS=-DIT2N_TEST_CFLAGS_MARK \
       CPPFLAGS=-DIT2N_TEST_CPPFLAGS_MARK LDFLAGS=-LIT2N_TEST_LDFLAGS_MARK "$@" 2>&1) ||
-  { printf '%s\n' "$out" >&2; echo "pkg-cflags: FAIL: make -n failed" >&2; exit 1; }
+  { printf '%s\n' "$out" >&2; TL_FAIL_FAST=1 fail "make -n failed"; }
 lines=$(printf '%s\n' "$out" | grep -E "^$cc " || true)
 n=$(printf '%s' "$lines" | grep -c . || true)
-[ "$n" -ge 20 ] || { echo "pkg-cflags: FAIL: only $n '$cc' command lines in make -n $*" >&2; exit 1; }
-bad=0
+[ "$n" -ge 20 ] || TL_FAIL_FAST=1 fail "only $n '$cc' command lines in make -n $*"
 while IFS= read -r l; do
   for m in $marks -Werror -std=; do
-    case " $l" in *" $m"*) ;; *) echo "pkg-cflags: FAIL: no $m in: ${l:0:200}" >&2; bad=$((bad + 1)); break;; esac
+    case " $l" in *" $m"*) ;; *) fail "no $m in: ${l:0:200}"; break;; esac
   done
 done <<< "$lines"
-[ "$bad" -eq 0 ] || { echo "pkg-cflags: FAIL: $bad of $n compile/link lines lack the user's flags or the required ones" >&2; exit 1; }
-echo "pkg-cflags: ok ($n $cc compile and link lines carry CFLAGS, CPPFLAGS, LDFLAGS after -std and -Werror)"
+[ "$FAILS" != 0 ] || ok "$n $cc compile and link lines carry CFLAGS, CPPFLAGS, LDFLAGS after -std and -Werror"
+tl_finish
