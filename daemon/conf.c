@@ -1262,3 +1262,21 @@ fail:
     free(n);
     return -1;
 }
+
+int conf_rtu_same(const struct conf_rtu *a, const struct conf_rtu *b)
+{
+    struct conf_rtu x, y;
+    memcpy(&x, a, sizeof x); /* memcpy, not assignment: the padding too */
+    memcpy(&y, b, sizeof y);
+    x.device_line = y.device_line = 0;
+    return !memcmp(&x, &y, sizeof x);
+}
+
+int conf_link_same(const struct conf_link *a, const struct conf_link *b)
+{
+    struct conf_link x, y;
+    memcpy(&x, a, sizeof x);
+    memcpy(&y, b, sizeof y);
+    x.device_line = y.device_line = 0;
+    return !memcmp(&x, &y, sizeof x);
+}

@@ -206,4 +206,11 @@ int conf_removes(const struct conf *c, int id);
  * ..." naming both sections in err. */
 int conf_check_devices(const struct conf *c, const char *path, char *err, size_t errsize);
 
+/* Whether two [rtu:] (or [link:]) sections say the same, wherever they
+ * stand in the file: a reload reopens a port or link only when its
+ * section changed, not when a line above it moved it (device_line is
+ * where, not what). 1 or 0. */
+int conf_rtu_same(const struct conf_rtu *a, const struct conf_rtu *b);
+int conf_link_same(const struct conf_link *a, const struct conf_link *b);
+
 #endif

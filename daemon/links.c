@@ -1146,7 +1146,7 @@ int links_reload(const struct conf *c)
     int same = c->nlinks == nlinks;
     backoff_max_ms = c->link_backoff_max * 1000;
     for (int k = 0; same && k < nlinks; k++)
-        same = !memcmp(&c->link[k], &links[k].cfg, sizeof c->link[k]);
+        same = conf_link_same(&c->link[k], &links[k].cfg);
     if (same)
         return 0;
     /* Simple and safe: reopen all (unacknowledged frames are retransmitted

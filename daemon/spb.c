@@ -953,7 +953,7 @@ void spb_reload(const struct conf *c)
             log_warn("reload: [sparkplug] added; takes effect at restart");
         return;
     }
-    if (memcmp(&c->spb, &g.sc, sizeof g.sc))
+    if (!spb_conf_same(&c->spb, &g.sc))
         log_warn("reload: [sparkplug] changes take effect at restart");
     if ((unsigned)c->grid_rows != g.mbo.grid_rows || (unsigned)c->grid_cols != g.mbo.grid_cols)
         changed = 1;

@@ -17,6 +17,20 @@ void spb_conf_default(struct spb_conf *s)
     s->store_forward = -1;
 }
 
+int spb_conf_same(const struct spb_conf *a, const struct spb_conf *b)
+{
+    struct spb_conf x, y;
+    struct spb_conf *v[2] = { &x, &y };
+    memcpy(&x, a, sizeof x); /* memcpy, not assignment: the padding too */
+    memcpy(&y, b, sizeof y);
+    for (int k = 0; k < 2; k++) {
+        v[k]->first_line = v[k]->password_line = 0;
+        v[k]->tls_ca_line = v[k]->tls_cert_line = v[k]->tls_key_line = 0;
+        memset(v[k]->first_key, 0, sizeof v[k]->first_key);
+    }
+    return !memcmp(&x, &y, sizeof x);
+}
+
 int spb_conf_sf_max(const struct spb_conf *s)
 {
     if (s->store_forward >= 0)

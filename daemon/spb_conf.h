@@ -57,6 +57,11 @@ int spb_conf_parse_broker(struct spb_conf *s, const char *v);
  * the reason in err. */
 int spb_conf_read_password(struct spb_conf *s, const char *path, char *err, size_t errsize);
 
+/* Whether two [sparkplug] sections say the same, wherever their keys
+ * stand in the file (the lines and the first key's name are where, not
+ * what): a reload logs a change only when there is one. 1 or 0. */
+int spb_conf_same(const struct spb_conf *a, const struct spb_conf *b);
+
 /* The store-and-forward bound in effect (0: off). */
 int spb_conf_sf_max(const struct spb_conf *s);
 

@@ -222,6 +222,31 @@ def models_and_listener(args, d, state, base):
         live.close()
 
 
+# ---- [rtu:] and [link:] sections -----------------------------------------------
+
+def serial_sections(args, d, base):
+    """Reopened only if their sections changed: not when only their lines
+    moved (a comment or a section added above them)."""
+    ptys = [os.openpty() for _ in range(2)]
+    try:
+        serial = ("[rtu:bus]\ndevice = %s\nbaud = 19200\n[link:inst]\ntype = serial\ndevice = %s\nbaud = 115200\n"
+                  % (os.ttyname(ptys[0][1]), os.ttyname(ptys[1][1])))
+        new = d.reload(base + serial, RELOADED)
+        check(new is not None and "rtu: ports changed; reopening" in new and "links changed; reopening" in new,
+              "SIGHUP adding [rtu:bus] and [link:inst]: both opened", new)
+        new = d.reload("# a comment moves every line below it\n" + base + serial, RELOADED)
+        check(new is not None and "reopening" not in new,
+              "SIGHUP with the same sections on other lines (a comment above): neither reopened", new)
+        new = d.reload(base + serial.replace("19200", "38400").replace("115200", "57600"), RELOADED)
+        check(new is not None and "rtu: ports changed; reopening" in new and "links changed; reopening" in new,
+              "SIGHUP with another baud in each: both reopened", new)
+        d.reload(base, RELOADED)
+    finally:
+        for m, s in ptys:
+            os.close(m)
+            os.close(s)
+
+
 # ---- all or nothing ---------------------------------------------------------
 
 def all_or_nothing(args, d, state, base):
@@ -335,6 +360,9 @@ def sparkplug(args, tmp, d, base):
         node.start()
         seen = host.topics(5.0, until="DBIRTH/e1/model-1")
         check("spBv1.0/g/NBIRTH/e1" in seen, "node e1 born", seen)
+        new = node.reload("# a comment moves every line below it\n" + text, RELOADED)
+        check(new is not None and "[sparkplug]" not in new,
+              "SIGHUP with the same [sparkplug] on other lines: no change logged", new)
         two = one + "[model:2]\nunit_id = 2\npreload = paper\n"
         new = node.reload(conf(state, port, mport, models=two, extra=spb.replace("e1", "e2")), RELOADED)
         seen = host.topics(5.0, until="DBIRTH/e1/model-2")
@@ -377,6 +405,7 @@ def main():
         daemon_keys(args, d, state, base)
         sparkplug(args, tmp, d, base)
         models_and_listener(args, d, state, base)
+        serial_sections(args, d, base)
         all_or_nothing(args, d, state, base)  # last: it changes the models
     except (OSError, ConnectionError, RuntimeError, subprocess.TimeoutExpired, queue.Empty) as e:
         import traceback

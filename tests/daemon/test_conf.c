@@ -696,6 +696,36 @@ static void test_metrics_section(void **st)
 }
 
 /* it2nd --listen / --state-dir / --metrics over the defaults or a file. */
+/* A reload reopens a port or link, or logs a [sparkplug] change, only when
+ * the section says something else: not when lines above moved it or its
+ * keys were reordered (the line fields are where, not what). */
+static void test_same_sections(void **st)
+{
+    static struct conf a, b;
+    char err[256];
+    const char *text = "[rtu:bus]\ndevice = /dev/it2n-test-rtu\nbaud = 19200\n"
+                       "[link:inst]\ntype = serial\ndevice = /dev/it2n-test-link\n"
+                       "[sparkplug]\nbroker = 127.0.0.1\ngroup_id = g\nedge_node_id = e\n";
+    char moved[512];
+    (void)st;
+    assert_int_equal(load(text, &a, err, sizeof err), 0);
+    snprintf(moved, sizeof moved, "# a comment\n\n%s", text);
+    assert_int_equal(load(moved, &b, err, sizeof err), 0);
+    assert_int_not_equal(a.rtu[0].device_line, b.rtu[0].device_line);
+    assert_true(conf_rtu_same(&a.rtu[0], &b.rtu[0]));
+    assert_true(conf_link_same(&a.link[0], &b.link[0]));
+    assert_true(spb_conf_same(&a.spb, &b.spb));
+    assert_int_equal(load("[rtu:bus]\ndevice = /dev/it2n-test-rtu\nbaud = 38400\n"
+                          "[link:inst]\ntype = serial\ndevice = /dev/it2n-test-link\nbaud = 57600\n"
+                          "[sparkplug]\nedge_node_id = e\ngroup_id = g\nbroker = 127.0.0.1\nkeepalive = 60\n",
+                          &b, err, sizeof err), 0);
+    assert_false(conf_rtu_same(&a.rtu[0], &b.rtu[0]));
+    assert_false(conf_link_same(&a.link[0], &b.link[0]));
+    assert_false(spb_conf_same(&a.spb, &b.spb));
+    b.spb.keepalive = a.spb.keepalive; /* keys in another order, else the same */
+    assert_true(spb_conf_same(&a.spb, &b.spb));
+}
+
 static void test_override(void **st)
 {
     struct conf c, before;
@@ -1077,6 +1107,7 @@ int main(void)
         cmocka_unit_test(test_default),
         cmocka_unit_test(test_suggestions),
         cmocka_unit_test(test_metrics_section),
+        cmocka_unit_test(test_same_sections),
         cmocka_unit_test(test_override),
         cmocka_unit_test(test_full),
         cmocka_unit_test(test_errors),
