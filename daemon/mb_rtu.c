@@ -483,7 +483,7 @@ int mb_rtu_reload(const struct conf *c, const struct mb_map_opts *o)
     int same = c->nrtu == nports;
     opts = *o;
     for (int k = 0; same && k < nports; k++)
-        same = !memcmp(&c->rtu[k], &ports[k].cfg, sizeof c->rtu[k]);
+        same = conf_rtu_same(&c->rtu[k], &ports[k].cfg);
     if (same)
         return 0;
     log_notice("rtu: ports changed; reopening");
