@@ -25,7 +25,6 @@ docs/sparkplug.md promise, against the real it2nd on loopback TCP.
 reload_test.py tests the all-or-nothing rule on damaged files and the
 removal rule; this script the decisions per key.
 """
-import argparse
 import importlib.util
 import os
 import queue
@@ -386,11 +385,7 @@ def sparkplug(args, tmp, d, base):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--it2nd", required=True)
-    ap.add_argument("--plc", required=True)
-    args = ap.parse_args()
-    args.it2nd, args.plc = os.path.abspath(args.it2nd), os.path.abspath(args.plc)
+    args = it2nd_proc.arg_parser("it2nd", "plc").parse_args()
     tmp = tempfile.mkdtemp(prefix="it2nd-reload-keys.")
     args.port, args.mport = free_port(), free_port()
     state = os.path.join(tmp, "state")

@@ -23,7 +23,6 @@ tested against the real it2nd process on loopback TCP and a pty.
 Every daemon started is stopped before the script exits. Exit status 0
 when every check passed. See docs/daemon.md ("Reload (SIGHUP)").
 """
-import argparse
 import os
 import signal
 import socket
@@ -212,11 +211,7 @@ def reload_case(d, s, plc, name, kind, text, want, status0, status6, snap0):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--it2nd", required=True)
-    ap.add_argument("--plc", required=True)
-    args = ap.parse_args()
-    args.it2nd, args.plc = os.path.abspath(args.it2nd), os.path.abspath(args.plc)
+    args = it2nd_proc.arg_parser("it2nd", "plc").parse_args()
     # The 100 ms bound is about the daemon's loop, not about the other
     # processes of a shared machine: when allowed, this script and what it
     # starts (the daemon, the reader) run at a higher priority than they do.

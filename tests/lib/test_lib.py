@@ -132,6 +132,8 @@ try:
 except RuntimeError as e:
     R.check("bad config" in str(e), "Daemon: one that exits at start raises with its log", e)
 
+a = daemon.arg_parser("it2nd", "plc").parse_args(["--it2nd", "x/it2nd", "--plc", "/bin/plc"])
+R.check((a.it2nd, a.plc) == (os.path.abspath("x/it2nd"), "/bin/plc"), "arg_parser: --NAME PATH, absolute", a)
 sf = os.path.join(T, "state-file")
 R.check(daemon.file_sig(sf) is None, "file_sig: None for no file")
 with open(sf, "w") as f:

@@ -1,5 +1,6 @@
 """One it2nd process for a test: write its configuration, start it, wait
 until it listens, stop it (SIGTERM, then SIGKILL), kill -9 it, read its log."""
+import argparse
 import os
 import signal
 import subprocess
@@ -14,6 +15,16 @@ def basic_conf(state_dir, port, body="", daemon_extra=""):
     127.0.0.1:port; daemon_extra goes into [daemon], body after [modbus]."""
     return ("[daemon]\nstate_dir = %s\nfsync = no\n%s[modbus]\ntcp_listen = 127.0.0.1:%d\n%s"
             % (state_dir, daemon_extra, port, body))
+
+
+def arg_parser(*programs):
+    """An ArgumentParser with a required --NAME PATH for each program
+    ("it2nd", "plc", ...); parse_args() gives them as absolute paths (the
+    tests start them from other directories)."""
+    ap = argparse.ArgumentParser()
+    for p in programs:
+        ap.add_argument("--" + p, required=True, type=os.path.abspath)
+    return ap
 
 
 def file_sig(path):
