@@ -80,7 +80,7 @@ MB_UNITS = (1, 2)
 LINK_UNIT = 7
 UNITS = list(MB_UNITS) + [LINK_UNIT]
 R = report.Report("powercut")
-fail = R.fail
+fail, check = R.fail, R.check
 FAILS = R.fails
 STARTED = []
 
@@ -499,8 +499,8 @@ class Harness:
             self.stats["lost"] += lost
             self.stats["fabricated"] += fab
             self.stats["compare_mismatches"] += mism
-            if lost or fab or mism:
-                fail("%s: %s" % (label, "; ".join(notes)))
+            check(not (lost or fab or mism), "%s: every acknowledged operation there, nothing fabricated, the "
+                  "registers equal the reference's" % label, "; ".join(notes))
         return lost, fab, mism, notes
 
     def rebaseline(self, writers):
@@ -585,8 +585,9 @@ def main():
             cyc, ev or "at a random moment", "namespace prefix %d/%d" % (desc["ops_kept"], desc["ops_pending"])
             if prefix else "strict namespace", ", torn %r" % desc["torn"] if desc["torn"] else "",
             "" if desc["dir"] else ", NO state directory", acked_now, desc["files"]))
-        if cyc == 1 and not desc["dir"]:
-            fail("cycle 1: the state directory's creation was never made durable (its parent not fsynced)")
+        if cyc == 1:
+            check(desc["dir"], "cycle 1: the state directory's creation made durable",
+                  "never made durable (its parent not fsynced)")
     h.start_with_recovery_cuts(last_desc, allow=False)
     h.check(writers, link, "final")
     say("%d cycles: %d cuts (%d random, %d inside checkpoints, %d between a WAL write and its fdatasync, %d inside "
@@ -639,18 +640,15 @@ def main():
         if r != "ready":
             controls[name] = {"mode": mode, "caught": True, "how": "the daemon refused to start",
                               "log": h.d.tail(300)}
-            say("control %s: caught (the daemon refused the rolled-back state)" % name)
+            R.ok("control %s: caught (the daemon refused the rolled-back state)" % name)
             h.d.kill()
             return
         lost, fab, mism, notes = h.check(writers, link, "control " + name, control=True)
         caught = lost > 0
         controls[name] = {"mode": mode, "acked": acked, "lost": lost, "fabricated": fab, "mismatches": mism,
                           "caught": caught, "notes": notes[:4], "image": desc["files"], "dir": desc["dir"]}
-        if caught:
-            say("control %s (%s): caught by the checker: %s" % (name, mode, "; ".join(notes[:3])))
-        else:
-            fail("control %s (%s): the checker did not report the loss (%d acknowledged, notes %r)"
-                 % (name, mode, acked, notes))
+        check(caught, "control %s (%s): caught by the checker: %s" % (name, mode, "; ".join(notes[:3])),
+              "the checker did not report the loss (%d acknowledged, notes %r)" % (acked, notes))
 
     # (d) the comparison itself can fail: an upload the daemon applied whose
     # logged value differs by 1e-4 in T (the counters agree, only the data
@@ -666,11 +664,9 @@ def main():
     lost, fab, mism, notes = h.check(writers, link, "control d", control=True)
     controls["d-value-changed"] = {"lost": lost, "fabricated": fab, "mismatches": mism, "caught": mism > 0,
                                    "notes": notes[:3]}
-    if mism > 0 and not lost:
-        say("control d (one applied value differs from the logged one by 1e-4): caught by the comparison: %s"
-            % notes[0])
-    else:
-        fail("control d: the comparison did not see a changed value (lost %d, mismatches %d)" % (lost, mism))
+    check(mism > 0 and not lost, "control d (one applied value differs from the logged one by 1e-4): caught by "
+          "the comparison: %s" % (notes[:1],), "the comparison did not see a changed value (lost %d, mismatches %d)"
+          % (lost, mism))
     control("a-ack-without-fsync", "nosync")
     control("b-no-directory-fsync", "nodirsync")
     control("c-mkdir-not-durable", "noparentsync", fresh=True)
@@ -684,16 +680,14 @@ def main():
         say("link sessions failed outside cuts (not durability failures; checked like the others): %d, e.g. %s"
             % (len(link.failures), link.failures[0]))
     for w in writers:
-        if w.errors:
-            fail("unit %d: %d write(s) refused: %s" % (w.unit, len(w.errors), w.errors[:3]))
-    if main_stats["cuts"] < 30:
-        fail("only %d cuts" % main_stats["cuts"])
-    if main_stats["cuts_in_checkpoint"] == 0 or main_stats["cuts_in_recovery"] == 0:
-        fail("no cut inside a checkpoint or inside recovery (%d, %d)" % (main_stats["cuts_in_checkpoint"],
-                                                                         main_stats["cuts_in_recovery"]))
-    if main_stats["modbus_acked"] == 0 or main_stats["link_entries_acked"] == 0:
-        fail("no load: %d Modbus writes, %d link entries acknowledged" % (main_stats["modbus_acked"],
-                                                                          main_stats["link_entries_acked"]))
+        check(not w.errors, "unit %d: no write refused" % w.unit, "%d refused: %s" % (len(w.errors), w.errors[:3]))
+    check(main_stats["cuts"] >= 30, "%d cuts (at least 30)" % main_stats["cuts"])
+    check(main_stats["cuts_in_checkpoint"] and main_stats["cuts_in_recovery"],
+          "cuts inside a checkpoint (%d) and inside recovery (%d)" % (main_stats["cuts_in_checkpoint"],
+                                                                     main_stats["cuts_in_recovery"]))
+    check(main_stats["modbus_acked"] and main_stats["link_entries_acked"],
+          "load: %d Modbus writes, %d link entries acknowledged" % (main_stats["modbus_acked"],
+                                                                  main_stats["link_entries_acked"]))
     result = {"seed": seed, "seconds": round(now() - t0, 1), "cycles": args.cycles, "stats": main_stats,
               "link": link.stats, "controls": controls, "failures": FAILS}
     if args.out:
