@@ -217,15 +217,24 @@ const size_t it2n_regmap_nblocks = NF(it2n_regmap_blocks);
 
 const it2n_regmap_block *it2n_regmap_find(unsigned addr, unsigned count)
 {
-    size_t k;
+    /* The table is in address order (tests/regmap checks it): a binary
+     * search for the last block starting at or below addr (it2nd looks up
+     * every request's range, FC 23 twice). */
+    size_t lo = 0, hi = it2n_regmap_nblocks;
+    const it2n_regmap_block *b;
     if (count == 0u)
         return NULL;
-    for (k = 0; k < it2n_regmap_nblocks; k++) {
-        const it2n_regmap_block *b = &it2n_regmap_blocks[k];
-        if (addr >= b->start && addr < b->end)
-            return (count <= (unsigned)(b->end - addr)) ? b : NULL;
+    while (hi - lo > 1u) {
+        size_t mid = lo + (hi - lo) / 2u;
+        if (it2n_regmap_blocks[mid].start <= addr)
+            lo = mid;
+        else
+            hi = mid;
     }
-    return NULL;
+    b = &it2n_regmap_blocks[lo];
+    if (addr < b->start || addr >= b->end)
+        return NULL;
+    return (count <= (unsigned)(b->end - addr)) ? b : NULL;
 }
 
 const char *it2n_regmap_type_name(unsigned type)
