@@ -217,22 +217,16 @@ const size_t it2n_regmap_nblocks = NF(it2n_regmap_blocks);
 
 const it2n_regmap_block *it2n_regmap_find(unsigned addr, unsigned count)
 {
-    /* The table is in address order (tests/regmap checks it): a binary
-     * search for the last block starting at or below addr (it2nd looks up
-     * every request's range, FC 23 twice). */
-    size_t lo = 0, hi = it2n_regmap_nblocks;
-    const it2n_regmap_block *b;
+    /* The table is in address order (tests/regmap checks it): the first
+     * block ending above addr is the only one that can hold it (one
+     * compare per block passed: it2nd looks up every request's range, the
+     * FC 23 query's blocks are the 4th and 8th). */
+    const it2n_regmap_block *b = it2n_regmap_blocks, *end = b + it2n_regmap_nblocks;
     if (count == 0u)
         return NULL;
-    while (hi - lo > 1u) {
-        size_t mid = lo + (hi - lo) / 2u;
-        if (it2n_regmap_blocks[mid].start <= addr)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    b = &it2n_regmap_blocks[lo];
-    if (addr < b->start || addr >= b->end)
+    while (b < end && addr >= b->end)
+        b++;
+    if (b == end || addr < b->start)
         return NULL;
     return (count <= (unsigned)(b->end - addr)) ? b : NULL;
 }
