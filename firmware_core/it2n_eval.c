@@ -355,16 +355,23 @@ IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask
 {
     const __m128i bias = _mm_set1_epi32(INT32_MIN);
     const __m256i half = _mm256_set1_epi64x((int64_t)1 << 29);
+    const unsigned flags = mdl->flags;
     unsigned fp, ch, i, j, b;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if (!(fpmask & (1u << fp))) {
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                out[fp * IT2N_CH_COUNT + ch] = 0;
+            }
+            continue;
+        }
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
             const int32_t *net = mdl->net[fp][ch];
             it2n_val *o = &out[fp * IT2N_CH_COUNT + ch];
             __m256i acc = _mm256_setzero_si256();
             __m128i t;
             int64_t v;
-            *o = 0;
-            if (!(fpmask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
+            if (!it2n__ch_used(flags, ch)) {
+                *o = 0;
                 continue;
             }
             for (j = 0, b = 0; j < m1; j += 4u, b++) {
