@@ -350,13 +350,27 @@ IT2N_INLINE void values_sse2(const it2n_model *mdl, unsigned fpmask,
 
 IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask,
                                           const unsigned n1, const unsigned m1,
-                                          const __m256i *bu, const __m256i *bw,
+                                          const int32_t *cu, const int32_t *cw,
                                           it2n_val *out)
 {
+    /* The weights as vectors (registers where n1 is a constant: no
+     * 32-byte-aligned arrays on the stack). bw[b]: B_j(w) of the columns
+     * of block b, 0 for a missing tail column. */
+    __m256i bu[IT2N_DIM], bw[(IT2N_DIM + 3) / 4];
     const __m128i bias = _mm_set1_epi32(INT32_MIN);
     const __m256i half = _mm256_set1_epi64x((int64_t)1 << 29);
     const unsigned flags = mdl->flags;
     unsigned fp, ch, i, j, b;
+    for (i = 0; i < n1; i++) {
+        bu[i] = _mm256_set1_epi64x(cu[i]);
+    }
+    for (b = 0; b * 4u < m1; b++) {
+        int32_t c[4];
+        for (i = 0; i < 4u; i++) {
+            c[i] = b * 4u + i < m1 ? cw[b * 4u + i] : 0;
+        }
+        bw[b] = _mm256_set_epi64x(c[3], c[2], c[1], c[0]);
+    }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if (!(fpmask & (1u << fp))) {
             for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
@@ -398,9 +412,9 @@ IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask
 #define IT2N_VALUES_AVX2_K(k)                                                  \
     case k:                                                                    \
         if (m1 == 4u) {                                                        \
-            values_avx2(mdl, fpmask, k, 4u, vu, vw, out);                      \
+            values_avx2(mdl, fpmask, k, 4u, bu, bw, out);                      \
         } else {                                                               \
-            values_avx2(mdl, fpmask, k, m1, vu, vw, out);                      \
+            values_avx2(mdl, fpmask, k, m1, bu, bw, out);                      \
         }                                                                      \
         break
 
@@ -409,18 +423,7 @@ IT2N_AVX2_FN static void apply_values_avx2(const it2n_model *mdl, unsigned fpmas
                                            const int32_t *bu, const int32_t *bw,
                                            it2n_val *out)
 {
-    __m256i vu[IT2N_DIM], vw[(IT2N_DIM + 3) / 4];
-    unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u, i, b;
-    for (i = 0; i < n1; i++) {
-        vu[i] = _mm256_set1_epi64x(bu[i]);
-    }
-    for (b = 0; b * 4u < m1; b++) {
-        int32_t c[4];
-        for (i = 0; i < 4u; i++) {
-            c[i] = b * 4u + i < m1 ? bw[b * 4u + i] : 0;
-        }
-        vw[b] = _mm256_set_epi64x(c[3], c[2], c[1], c[0]);
-    }
+    unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u;
     switch (n1) {
     IT2N_VALUES_AVX2_K(2);
 #if IT2N_MAX_DEGREE >= 2
@@ -442,25 +445,18 @@ IT2N_AVX2_FN static void apply_values_avx2(const it2n_model *mdl, unsigned fpmas
     IT2N_VALUES_AVX2_K(8);
 #endif
     default:
-        values_avx2(mdl, fpmask, n1, m1, vu, vw, out);
+        values_avx2(mdl, fpmask, n1, m1, bu, bw, out);
         break;
     }
 }
 #endif
 
-/* The values of every net in fpmask (basis bu, bw: Q30, summing to 2^30)
- * into out[fp][ch], as apply() with ufrac = wfrac = 30 computes them. */
-static void apply_values(const it2n_model *mdl, unsigned fpmask,
-                         const int32_t *bu, const int32_t *bw, it2n_val *out)
+/* apply_values with SSE2. */
+static void apply_values_sse2(const it2n_model *mdl, unsigned fpmask,
+                              const int32_t *bu, const int32_t *bw, it2n_val *out)
 {
     __m128i vu[IT2N_DIM], we[(IT2N_DIM + 3) / 4], wo[(IT2N_DIM + 3) / 4];
     unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u, i, b;
-#ifdef IT2N_VALUES_AVX2
-    if (__builtin_cpu_supports("avx2")) {
-        apply_values_avx2(mdl, fpmask, bu, bw, out);
-        return;
-    }
-#endif
     for (i = 0; i < n1; i++) {
         vu[i] = _mm_set1_epi64x(bu[i]);
     }
@@ -497,6 +493,22 @@ static void apply_values(const it2n_model *mdl, unsigned fpmask,
         values_sse2(mdl, fpmask, n1, m1, vu, we, wo, out);
         break;
     }
+}
+
+/* The values of every net in fpmask (basis bu, bw: Q30, summing to 2^30)
+ * into out[fp][ch], as apply() with ufrac = wfrac = 30 computes them:
+ * AVX2 where the CPU has it, else SSE2 (a call of its own each, so neither
+ * one's vectors are on the other's stack). */
+static void apply_values(const it2n_model *mdl, unsigned fpmask,
+                         const int32_t *bu, const int32_t *bw, it2n_val *out)
+{
+#ifdef IT2N_VALUES_AVX2
+    if (__builtin_cpu_supports("avx2")) {
+        apply_values_avx2(mdl, fpmask, bu, bw, out);
+        return;
+    }
+#endif
+    apply_values_sse2(mdl, fpmask, bu, bw, out);
 }
 #endif
 
