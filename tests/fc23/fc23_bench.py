@@ -44,10 +44,10 @@ LAT_TARGET = 1.0
 LAT_CONNS = 32
 # Why a ratio can fall short (callgrind, per request at 8 connections,
 # issue 22: valgrind --tool=callgrind on each server under fc23_load): it2nd
-# runs about 4 400 user-space instructions per FC 23 request (was 5 800
+# runs about 4 300 user-space instructions per FC 23 request (was 5 800
 # before the AVX2 evaluation, the 4-per-step float conversion and the
 # cheaper register lookups), the bare server about 1 200: the core's
-# evaluation of the query is about 2 450 of them (35 of the 42 surfaces
+# evaluation of the query is about 2 370 of them (35 of the 42 surfaces
 # carry data, AVX2 where the CPU has it; the bare server evaluates
 # nothing), the float conversion of the 54 results about 360, framing,
 # map and request handling the rest. Both servers make the same system
@@ -58,8 +58,8 @@ LAT_CONNS = 32
 # /proc, is in cpu_split). The query points vary: each connection cycles
 # through 256 (u, w) points over [0, 1]^2, consecutive requests differ,
 # so every request is evaluated (fc23_load.c).
-REASON = ("it2nd runs about 4 400 user-space instructions per request (callgrind, 8 connections) where "
-          "the bare server runs about 1 200: the core evaluates the query (about 2 450: 35 surfaces with "
+REASON = ("it2nd runs about 4 300 user-space instructions per request (callgrind, 8 connections) where "
+          "the bare server runs about 1 200: the core evaluates the query (about 2 370: 35 surfaces with "
           "data, AVX2), the 54 results are converted to float (about 360), framed and mapped; both make "
           "the same system calls per request (one recv, one send, one wait per wake-up), the kernel "
           "being most of either's CPU time; this run's user + kernel CPU per request (/proc clock ticks, coarse): %s; with the "
