@@ -18,6 +18,16 @@ _Static_assert(IT2N_VAL_FRAC == IT2N_REGMAP_Q24_FRAC && IT2N_PAR_FRAC == IT2N_RE
 _Static_assert(IT2N_FP_COUNT == IT2N_REGMAP_FP && IT2N_CH_COUNT == IT2N_REGMAP_CH,
                "map footprint/channel counts");
 
+/* The float result block is it2n_point's values then its summary in
+ * sum_value order, contiguous in the struct: converted in one call. */
+#define RES_F32_VALUES (IT2N_FP_COUNT * IT2N_CH_COUNT + 12)
+_Static_assert(IT2N_REG_SUM_F32 - IT2N_REG_RES_F32 == 2 * IT2N_FP_COUNT * IT2N_CH_COUNT &&
+                   offsetof(it2n_point, sum) == sizeof(it2n_val) * IT2N_FP_COUNT * IT2N_CH_COUNT &&
+                   offsetof(it2n_summary, upper_min) == 0 && offsetof(it2n_summary, upper_max) == 3 * sizeof(it2n_val) &&
+                   offsetof(it2n_summary, lower_min) == 6 * sizeof(it2n_val) &&
+                   offsetof(it2n_summary, lower_max) == 9 * sizeof(it2n_val),
+               "results_f32 is it2n_point's v then sum, in sum_value order");
+
 #define QIDX(a) ((a) - IT2N_REG_Q_U16)
 
 /* u32/i32 registers follow int32_word_order ([modbus]; by default the
@@ -39,12 +49,13 @@ static int query_result(struct model *md, struct mb_map_query *q)
         return MB_MAP_OK;
     if (q->valid && q->model_inst == md->instance && q->gen == md->gen)
         return MB_MAP_OK;
-    memset(&q->pt, 0, sizeof q->pt);
     q->locfail = 0;
     if (q->kind == 1) {
+        /* it2n_eval writes every value, the summary and the flags */
         if (models_eval(md, q->u, q->w, &q->pt, NULL) != IT2N_OK)
             return MB_MAP_DEVICE_FAILURE;
     } else {
+        memset(&q->pt, 0, sizeof q->pt);
         it2n_locate_result lr;
         if (models_locate(md, q->x, q->y, &lr, NULL) != IT2N_OK)
             return MB_MAP_DEVICE_FAILURE;
@@ -278,13 +289,9 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
             return rc;
         if (q->kind == 0)
             return MB_MAP_OK;
-        it2n_regmap_put_q24_f32s(buf, &q->pt.v[0][0], IT2N_FP_COUNT * IT2N_CH_COUNT, o->word_order);
-        {
-            it2n_val sv[12];
-            for (unsigned s = 0; s < 12; s++)
-                sv[s] = sum_value(&q->pt.sum, s);
-            it2n_regmap_put_q24_f32s(&buf[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32], sv, 12, o->word_order);
-        }
+        /* The values then the summary, as they lie in it2n_point: one
+         * conversion of 54 (asserted at the top of the file). */
+        it2n_regmap_put_q24_f32s(buf, &q->pt.v[0][0], RES_F32_VALUES, o->word_order);
         return MB_MAP_OK;
     case IT2N_REG_RES_SCALED:
         if ((rc = query_result(md, q)) != MB_MAP_OK)
@@ -596,8 +603,10 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
     }
 #undef IN
     sync_views(&nq, o);
-    nq.valid = 0;
-    *q = nq;
+    /* The inputs back, the cached result invalid; the rest of *q (the
+     * coefficient page) is not nq's to give: it was never copied in. */
+    memcpy(q, &nq, offsetof(struct mb_map_query, valid));
+    q->valid = 0;
     return MB_MAP_OK;
 }
 

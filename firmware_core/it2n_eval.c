@@ -332,10 +332,128 @@ IT2N_INLINE void values_sse2(const it2n_model *mdl, unsigned fpmask,
         }                                                                      \
         break
 
-/* The values of every net in fpmask (basis bu, bw: Q30, summing to 2^30)
- * into out[fp][ch], as apply() with ufrac = wfrac = 30 computes them. */
-static void apply_values(const it2n_model *mdl, unsigned fpmask,
-                         const int32_t *bu, const int32_t *bw, it2n_val *out)
+#if defined(__GNUC__) && !defined(IT2N_NO_AVX2)
+/*
+ * x86-64 hosts with AVX2 (chosen at run time, __builtin_cpu_supports):
+ * the same biased sums four columns per instruction. A 4-column block of
+ * row i, biased, is widened to four 64-bit lanes (VPMOVZXDQ) and
+ * multiplied by B_i(u) in every lane: the lanes hold the stage-1 sums of
+ * the block's columns, the very integers values_sse2 holds in its even and
+ * odd lanes; stage 2 multiplies each by its B_j(w) (0 for a missing tail
+ * column) and the lanes are added. Every partial sum is below 2^62, so the
+ * order of the additions does not matter: bit-identical to values_sse2 and
+ * two_stages (tests/core/test_eval_exact.c runs both SIMD paths).
+ */
+#include <immintrin.h>
+#define IT2N_VALUES_AVX2 1
+#define IT2N_AVX2_FN __attribute__((target("avx2")))
+
+IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask,
+                                          const unsigned n1, const unsigned m1,
+                                          const int32_t *cu, const int32_t *cw,
+                                          it2n_val *out)
+{
+    /* The weights as vectors (registers where n1 is a constant: no
+     * 32-byte-aligned arrays on the stack). bw[b]: B_j(w) of the columns
+     * of block b, 0 for a missing tail column. */
+    __m256i bu[IT2N_DIM], bw[(IT2N_DIM + 3) / 4];
+    const __m128i bias = _mm_set1_epi32(INT32_MIN);
+    const __m256i half = _mm256_set1_epi64x((int64_t)1 << 29);
+    const unsigned flags = mdl->flags;
+    unsigned fp, ch, i, j, b;
+    for (i = 0; i < n1; i++) {
+        bu[i] = _mm256_set1_epi64x(cu[i]);
+    }
+    for (b = 0; b * 4u < m1; b++) {
+        int32_t c[4];
+        for (i = 0; i < 4u; i++) {
+            c[i] = b * 4u + i < m1 ? cw[b * 4u + i] : 0;
+        }
+        bw[b] = _mm256_set_epi64x(c[3], c[2], c[1], c[0]);
+    }
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if (!(fpmask & (1u << fp))) {
+            for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+                out[fp * IT2N_CH_COUNT + ch] = 0;
+            }
+            continue;
+        }
+        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
+            const int32_t *net = mdl->net[fp][ch];
+            it2n_val *o = &out[fp * IT2N_CH_COUNT + ch];
+            __m256i acc = _mm256_setzero_si256();
+            __m128i t;
+            int64_t v;
+            if (!it2n__ch_used(flags, ch)) {
+                *o = 0;
+                continue;
+            }
+            for (j = 0, b = 0; j < m1; j += 4u, b++) {
+                __m256i q = _mm256_setzero_si256();
+                TWO_STAGES_UNROLL
+                for (i = 0; i < n1; i++) {
+                    const int32_t *p = net + i * m1 + j;
+                    __m128i x = m1 - j >= 4u
+                                    ? _mm_xor_si128(_mm_loadu_si128((const __m128i *)(const void *)p), bias)
+                                    : load_tail(p, m1 - j);
+                    q = _mm256_add_epi64(q, _mm256_mul_epu32(_mm256_cvtepu32_epi64(x), bu[i]));
+                }
+                q = _mm256_srli_epi64(_mm256_add_epi64(q, half), 30);
+                acc = _mm256_add_epi64(acc, _mm256_mul_epu32(q, bw[b]));
+            }
+            t = _mm_add_epi64(_mm256_castsi256_si128(acc), _mm256_extracti128_si256(acc, 1));
+            t = _mm_add_epi64(t, _mm_unpackhi_epi64(t, t));
+            v = (int64_t)((uint64_t)_mm_cvtsi128_si64(t) - ((uint64_t)1 << 61));
+            *o = it2n__shift_round(v, 30 + mdl->frac[fp][ch] - IT2N_VAL_FRAC);
+        }
+    }
+}
+
+#define IT2N_VALUES_AVX2_K(k)                                                  \
+    case k:                                                                    \
+        if (m1 == 4u) {                                                        \
+            values_avx2(mdl, fpmask, k, 4u, bu, bw, out);                      \
+        } else {                                                               \
+            values_avx2(mdl, fpmask, k, m1, bu, bw, out);                      \
+        }                                                                      \
+        break
+
+/* apply_values with AVX2 (the caller checked the CPU has it). */
+IT2N_AVX2_FN static void apply_values_avx2(const it2n_model *mdl, unsigned fpmask,
+                                           const int32_t *bu, const int32_t *bw,
+                                           it2n_val *out)
+{
+    unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u;
+    switch (n1) {
+    IT2N_VALUES_AVX2_K(2);
+#if IT2N_MAX_DEGREE >= 2
+    IT2N_VALUES_AVX2_K(3);
+#endif
+#if IT2N_MAX_DEGREE >= 3
+    IT2N_VALUES_AVX2_K(4);
+#endif
+#if IT2N_MAX_DEGREE >= 4
+    IT2N_VALUES_AVX2_K(5);
+#endif
+#if IT2N_MAX_DEGREE >= 5
+    IT2N_VALUES_AVX2_K(6);
+#endif
+#if IT2N_MAX_DEGREE >= 6
+    IT2N_VALUES_AVX2_K(7);
+#endif
+#if IT2N_MAX_DEGREE >= 7
+    IT2N_VALUES_AVX2_K(8);
+#endif
+    default:
+        values_avx2(mdl, fpmask, n1, m1, bu, bw, out);
+        break;
+    }
+}
+#endif
+
+/* apply_values with SSE2. */
+static void apply_values_sse2(const it2n_model *mdl, unsigned fpmask,
+                              const int32_t *bu, const int32_t *bw, it2n_val *out)
 {
     __m128i vu[IT2N_DIM], we[(IT2N_DIM + 3) / 4], wo[(IT2N_DIM + 3) / 4];
     unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u, i, b;
@@ -375,6 +493,22 @@ static void apply_values(const it2n_model *mdl, unsigned fpmask,
         values_sse2(mdl, fpmask, n1, m1, vu, we, wo, out);
         break;
     }
+}
+
+/* The values of every net in fpmask (basis bu, bw: Q30, summing to 2^30)
+ * into out[fp][ch], as apply() with ufrac = wfrac = 30 computes them:
+ * AVX2 where the CPU has it, else SSE2 (a call of its own each, so neither
+ * one's vectors are on the other's stack). */
+static void apply_values(const it2n_model *mdl, unsigned fpmask,
+                         const int32_t *bu, const int32_t *bw, it2n_val *out)
+{
+#ifdef IT2N_VALUES_AVX2
+    if (__builtin_cpu_supports("avx2")) {
+        apply_values_avx2(mdl, fpmask, bu, bw, out);
+        return;
+    }
+#endif
+    apply_values_sse2(mdl, fpmask, bu, bw, out);
 }
 #endif
 

@@ -217,15 +217,18 @@ const size_t it2n_regmap_nblocks = NF(it2n_regmap_blocks);
 
 const it2n_regmap_block *it2n_regmap_find(unsigned addr, unsigned count)
 {
-    size_t k;
+    /* The table is in address order (tests/regmap checks it): the first
+     * block ending above addr is the only one that can hold it (one
+     * compare per block passed: it2nd looks up every request's range, the
+     * FC 23 query's blocks are the 4th and 8th). */
+    const it2n_regmap_block *b = it2n_regmap_blocks, *end = b + it2n_regmap_nblocks;
     if (count == 0u)
         return NULL;
-    for (k = 0; k < it2n_regmap_nblocks; k++) {
-        const it2n_regmap_block *b = &it2n_regmap_blocks[k];
-        if (addr >= b->start && addr < b->end)
-            return (count <= (unsigned)(b->end - addr)) ? b : NULL;
-    }
-    return NULL;
+    while (b < end && addr >= b->end)
+        b++;
+    if (b == end || addr < b->start)
+        return NULL;
+    return (count <= (unsigned)(b->end - addr)) ? b : NULL;
 }
 
 const char *it2n_regmap_type_name(unsigned type)

@@ -129,6 +129,24 @@ static void test_query_views_and_int32_order(void **st)
     }
 }
 
+/* A query write changes the query inputs only: the coefficient page the
+ * connection selected, and the result of a later read, stay its own. */
+static void test_query_write_keeps_page(void **st)
+{
+    struct mb_map_query q;
+    uint16_t page[3] = { 2, 3, 1 }, in[2] = { 2500, 5000 }, r[3];
+    int persisted;
+    (void)st;
+    memset(&q, 0, sizeof q);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_PG_FP, 3, page, &persisted), MB_MAP_OK);
+    for (int k = 0; k < 3; k++) {
+        in[0] = (uint16_t)(1000 + 3000 * k);
+        assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_Q_U16, 2, in, &persisted), MB_MAP_OK);
+        assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_PG_FP, 3, r), MB_MAP_OK);
+        assert_memory_equal(r, page, sizeof page);
+    }
+}
+
 static void test_rejected_writes_change_nothing(void **st)
 {
     struct mb_map_query q, q0;
@@ -357,6 +375,7 @@ int main(void)
         cmocka_unit_test(test_status),
         cmocka_unit_test(test_query_uw),
         cmocka_unit_test(test_query_views_and_int32_order),
+        cmocka_unit_test(test_query_write_keeps_page),
         cmocka_unit_test(test_rejected_writes_change_nothing),
         cmocka_unit_test(test_incomplete_is_busy),
         cmocka_unit_test(test_grid_saturation_flag),

@@ -43,25 +43,42 @@ CPU_TARGET = 1.0
 LAT_TARGET = 1.0
 LAT_CONNS = 32
 # Why a ratio can fall short (callgrind, per request at 8 connections,
-# issue 22): it2nd runs about 5 700 user-space instructions, the bare
-# server about 1 200: the core's evaluation of the query is about 3 100 of
-# them (42 surfaces, SSE2; the bare server evaluates nothing), the register
-# conversion, map and framing about 2 600. Both servers make the same
-# system calls per request (one recv, one send; one wait per wake-up), and
-# the kernel is most of both servers' CPU time; with the client on the
-# same 2 cores, other jobs too, the per-round ratios spread widely.
-REASON = ("it2nd evaluates the query in the core (about 3 100 instructions per request, callgrind: 42 "
-          "surfaces, SSE2) and converts, maps and frames 108 registers (about 2 600) where the bare server "
-          "copies a mapping (about 1 200 instructions in all); both make the same system calls per request "
-          "(one recv, one send; one wait per wake-up), the kernel being most of either's CPU time; with the "
-          "client on the same 2 cores, other jobs too (load_average), the per-round ratios spread widely "
-          "(round_ratios in bench/fc23.json)")
+# issue 22: valgrind --tool=callgrind on each server under fc23_load): it2nd
+# runs about 4 300 user-space instructions per FC 23 request (was 5 800
+# before the AVX2 evaluation, the 4-per-step float conversion and the
+# cheaper register lookups), the bare server about 1 200: the core's
+# evaluation of the query is about 2 370 of them (35 of the 42 surfaces
+# carry data, AVX2 where the CPU has it; the bare server evaluates
+# nothing), the float conversion of the 54 results about 360, framing,
+# map and request handling the rest. Both servers make the same system
+# calls per request (strace -c -f: one recv, one send, and one wait per
+# wake-up: 1.0 per request at 1 connection, 0.15-0.2 at 8, 0.03-0.04 at
+# 32, no epoll_ctl, clock or other call per request); the kernel is most
+# of both servers' CPU time (the user/kernel split of each side, from
+# /proc, is in cpu_split). The query points vary: each connection cycles
+# through 256 (u, w) points over [0, 1]^2, consecutive requests differ,
+# so every request is evaluated (fc23_load.c).
+REASON = ("it2nd runs about 4 300 user-space instructions per request (callgrind, 8 connections) where "
+          "the bare server runs about 1 200: the core evaluates the query (about 2 370: 35 surfaces with "
+          "data, AVX2), the 54 results are converted to float (about 360), framed and mapped; both make "
+          "the same system calls per request (one recv, one send, one wait per wake-up), the kernel "
+          "being most of either's CPU time; this run's user + kernel CPU per request (/proc clock ticks, coarse): %s; with the "
+          "client on the same 2 cores, other jobs too (load_average), the per-round ratios spread "
+          "widely (round_ratios in bench/fc23.json)")
 
 
-def cpu_seconds(pid):
+def cpu_split_text(split):
+    return "; ".join("%s connection(s): it2nd %.2f + %.2f us, bare %.2f + %.2f us"
+                     % (n, v["it2nd"][0], v["it2nd"][1], v["bare"][0], v["bare"][1])
+                     for n, v in sorted(split.items(), key=lambda kv: int(kv[0])))
+
+
+def cpu_times(pid):
+    """User and system CPU seconds of process pid (every thread)."""
     with open("/proc/%d/stat" % pid) as f:
         fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    tck = os.sysconf("SC_CLK_TCK")
+    return int(fields[11]) / tck, int(fields[12]) / tck
 
 
 class Bare:
@@ -108,11 +125,15 @@ class It2nd:
             raise SystemExit("fc23: it2nd exited %d" % rc)
 
 
-def load(exe, port, conns, seconds, expect, pid):
-    c0 = cpu_seconds(pid)
+def load(exe, port, conns, seconds, expect, pid, split=None):
+    u0, s0 = cpu_times(pid)
     r = subprocess.run([exe, "--port", str(port), "--conns", str(conns), "--seconds", str(seconds),
                         "--expect", expect], capture_output=True, text=True, timeout=seconds + 60)
-    cpu = cpu_seconds(pid) - c0
+    u1, s1 = cpu_times(pid)
+    cpu = (u1 - u0) + (s1 - s0)
+    if split is not None:  # [user s, system s] summed over the rounds
+        split[0] += u1 - u0
+        split[1] += s1 - s0
     out = r.stdout.split()
     if r.returncode != 0 or len(out) < 10:
         sys.stderr.write(r.stderr)
@@ -142,13 +163,14 @@ def main():
     bare = Bare(a.bare)
     recv = None if a.smoke else Bare(a.bare, "receive")
     d = It2nd(a.it2nd, tmp, free_port(), max(conns))
-    results, slow, spread, intervals, lat = {}, {}, {}, {}, {}
+    results, slow, spread, intervals, lat, cpu_split = {}, {}, {}, {}, {}, {}
     try:
         # Warm-up, not counted: first connections, page faults, caches.
         load(a.load, bare.port, 8, 1.0, "pattern", bare.p.pid)
         load(a.load, d.port, 8, 1.0, "model", d.p.pid)
         for n in conns:
             rb, ri, rr, cb, ci, nb, ni = [], [], [], [], [], 0, 0
+            sb, si = [0.0, 0.0], [0.0, 0.0]  # user, system CPU seconds over the rounds
             lb, li = [], []  # p99 latency per round (us)
             pairs = []
             # The p99 latency ratio has a target at LAT_CONNS only: there it
@@ -163,13 +185,13 @@ def main():
                 # drifts, both sides see the same drift.
                 for side in (("bare", "it2nd") if r % 2 == 0 else ("it2nd", "bare")):
                     if side == "bare":
-                        rate, req, cpu, p99 = load(a.load, bare.port, n, a.seconds, "pattern", bare.p.pid)
+                        rate, req, cpu, p99 = load(a.load, bare.port, n, a.seconds, "pattern", bare.p.pid, sb)
                         rb.append(rate)
                         lb.append(p99)
                         nb += req
                         cb.append(cpu / max(req, 1) * 1e6)
                     else:
-                        rate, req, cpu, p99 = load(a.load, d.port, n, a.seconds, "model", d.p.pid)
+                        rate, req, cpu, p99 = load(a.load, d.port, n, a.seconds, "model", d.p.pid, si)
                         ri.append(rate)
                         li.append(p99)
                         ni += req
@@ -182,6 +204,8 @@ def main():
                     rate, req, cpu, _ = load(a.load, recv.port, n, a.seconds, "pattern", recv.p.pid)
                     rr.append(rate)
             spread[n] = pairs
+            cpu_split[str(n)] = {"it2nd": [round(x / max(ni, 1) * 1e6, 2) for x in si],
+                                 "bare": [round(x / max(nb, 1) * 1e6, 2) for x in sb]}
             if len(ri) >= 2:
                 vi, vb, lo, hi = ratio_interval(ri, rb)
                 ui, ub, clo, chi = ratio_interval(ci, cb)
@@ -235,21 +259,28 @@ def main():
                  "(host build, paper model, fsync on) and a bare libmodbus server (modbus_mapping + "
                  "modbus_reply, the same poll loop and framing as it2nd: one recv, every complete ADU; "
                  "informational rows: the same server reading with modbus_receive) answering FC 23 of the same sizes; same load generator "
-                 "(tests/fc23/fc23_load.c: N threads, one connection each, every answer checked), "
+                 "(tests/fc23/fc23_load.c: N threads, one connection each, every answer checked; each connection "
+                 "cycles through 256 (u, w) points over [0, 1]^2, consecutive requests differ, so it2nd evaluates "
+                 "every request), "
                  "1 s warm-up of each server, then %g s per run, rounds (bare and it2nd back to back, order alternating) until the "
                  "throughput and CPU ratios' 95 %% intervals (and at %d connections the p99 latency ratio's) lie within +-5 %% "
                  "(at most %d), geometric mean per side, ratio = "
                  "their quotient; round_ratios: each round's "
                  "it2nd / bare; client and servers share the machine's cores, other jobs too "
                  "(load_average); p99 latency: each run's 99th percentile over all connections (request sent to answer "
-                 "checked, fc23_load)" % (a.seconds, LAT_CONNS, a.rounds)),
+                 "checked, fc23_load); cpu_split: each side's [user, kernel] CPU us per request over all rounds"
+                 % (a.seconds, LAT_CONNS, a.rounds)),
         "cpus": os.cpu_count(),
         "load_average": os.getloadavg()[0],
         "round_ratios": {str(n): spread[n] for n in conns},
+        # Server CPU per request split into user and kernel time (us, from
+        # /proc/PID/stat over all rounds: clock ticks, so coarse per round
+        # but summed over thousands of requests).
+        "cpu_split": cpu_split,
         "rows": rows,
         # An unmet target says why (tests/bench/collect.py passes it on to
         # docs/performance.md, which refuses an unexplained miss).
-        "reasons": {r["name"]: REASON for r in rows if r["met"] is False},
+        "reasons": {r["name"]: REASON % cpu_split_text(cpu_split) for r in rows if r["met"] is False},
     }
     if a.out:
         os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)

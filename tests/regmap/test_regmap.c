@@ -98,6 +98,49 @@ static void test_q24_f32s(void **st)
     }
 }
 
+/* The bulk encoder's fast path (SSE2 on x86-64: two values per step,
+ * exact below 2^51 in magnitude, else all values the scalar way) writes
+ * what the single encoder does: rounding ties and the values next to
+ * 2^51, at every length and position, in every order. */
+static void test_q24_f32s_edges(void **st)
+{
+    static int64_t v[64];
+    const int64_t b51 = (int64_t)1 << 51;
+    const int64_t edge[] = { b51 - 1, -b51, b51, -b51 - 1, INT64_MAX, INT64_MIN, ((int64_t)1 << 25) + 1,
+                             ((int64_t)1 << 25) + 3, -(((int64_t)1 << 26) + 2), ((int64_t)1 << 53) + 1, 1, -1 };
+    uint64_t x = 0x9E3779B97F4A7C15u;
+    (void)st;
+    for (unsigned k = 0; k < 64; k++) {
+        x = x * 6364136223846793005u + 1442695040888963407u;
+        /* magnitudes from 2^0 to 2^63: every exponent, both signs */
+        v[k] = (int64_t)(x >> (k % 64u));
+    }
+    for (unsigned e = 0; e < sizeof edge / sizeof edge[0]; e++)
+        for (unsigned pos = 0; pos < 9; pos++)
+            for (unsigned n = pos + 1u; n <= 10u; n++) {
+                int64_t w[10];
+                for (unsigned k = 0; k < 10; k++)
+                    w[k] = v[(e * 7u + k) % 64u] >> 13; /* below 2^51: the fast path */
+                w[pos] = edge[e];
+                for (unsigned o = 0; o < 4; o++) {
+                    uint16_t bulk[20], one[2];
+                    it2n_regmap_put_q24_f32s(bulk, w, n, o);
+                    for (unsigned k = 0; k < n; k++) {
+                        it2n_regmap_put_f32(one, it2n_regmap_q24_to_f32(w[k]), o);
+                        assert_memory_equal(&bulk[2 * k], one, sizeof one);
+                    }
+                }
+            }
+    for (unsigned o = 0; o < 4; o++) {
+        uint16_t bulk[128], one[2];
+        it2n_regmap_put_q24_f32s(bulk, v, 64, o);
+        for (unsigned k = 0; k < 64; k++) {
+            it2n_regmap_put_f32(one, it2n_regmap_q24_to_f32(v[k]), o);
+            assert_memory_equal(&bulk[2 * k], one, sizeof one);
+        }
+    }
+}
+
 static void test_scaled(void **st)
 {
     const int64_t one = (int64_t)1 << 24;
@@ -191,6 +234,17 @@ static void test_table(void **st)
         assert_ptr_equal(it2n_regmap_find(bl->end - 1u, 1), bl);
         assert_null(it2n_regmap_find(bl->start, bl->end - bl->start + 1u));
     }
+    /* it2n_regmap_find searches the table by address: in address order,
+     * and every address finds the block holding it (or none, in a gap). */
+    for (size_t b = 1; b < it2n_regmap_nblocks; b++)
+        assert_true(it2n_regmap_blocks[b - 1u].end <= it2n_regmap_blocks[b].start);
+    for (unsigned a = 0; a <= IT2N_REG_MAP_END; a++) {
+        const it2n_regmap_block *want = NULL;
+        for (size_t b = 0; b < it2n_regmap_nblocks; b++)
+            if (a >= it2n_regmap_blocks[b].start && a < it2n_regmap_blocks[b].end)
+                want = &it2n_regmap_blocks[b];
+        assert_ptr_equal(it2n_regmap_find(a, 1), want);
+    }
     assert_null(it2n_regmap_find(IT2N_REG_MAP_VERSION, 0));
     assert_null(it2n_regmap_find(IT2N_REG_MAP_END, 1));
     assert_null(it2n_regmap_find(IT2N_REG_STATUS_END - 1u, 2)); /* spans status and configuration */
@@ -203,6 +257,7 @@ int main(void)
         cmocka_unit_test(test_u32_golden),
         cmocka_unit_test(test_f32_golden),
         cmocka_unit_test(test_q24_f32s),
+        cmocka_unit_test(test_q24_f32s_edges),
         cmocka_unit_test(test_scaled),
         cmocka_unit_test(test_scaled_reference),
         cmocka_unit_test(test_par),
