@@ -19,12 +19,12 @@
 #define STR(x) STR_(x)
 
 static const struct conf_word w_order[] = {
-    { "ABCD", IT2N_WO_ABCD, 0 }, { "CDAB", IT2N_WO_CDAB, 0 }, { "BADC", IT2N_WO_BADC, 0 }, { "DCBA", IT2N_WO_DCBA, 0 },
+    { "ABCD", IT2N_REGMAP_WO_ABCD, 0 }, { "CDAB", IT2N_REGMAP_WO_CDAB, 0 }, { "BADC", IT2N_REGMAP_WO_BADC, 0 }, { "DCBA", IT2N_REGMAP_WO_DCBA, 0 },
     { NULL, 0, 0 }
 };
 static const struct conf_word w_order32[] = {
-    { "float", -1, 0 }, { "ABCD", IT2N_WO_ABCD, 0 }, { "CDAB", IT2N_WO_CDAB, 0 }, { "BADC", IT2N_WO_BADC, 0 },
-    { "DCBA", IT2N_WO_DCBA, 0 }, { NULL, 0, 0 }
+    { "float", -1, 0 }, { "ABCD", IT2N_REGMAP_WO_ABCD, 0 }, { "CDAB", IT2N_REGMAP_WO_CDAB, 0 }, { "BADC", IT2N_REGMAP_WO_BADC, 0 },
+    { "DCBA", IT2N_REGMAP_WO_DCBA, 0 }, { NULL, 0, 0 }
 };
 static const struct conf_word w_default_model[] = {
     { "auto", CONF_DEFAULT_AUTO, 0 }, { "none", CONF_DEFAULT_NONE, 0 }, { NULL, 0, 0 }

@@ -460,7 +460,7 @@ struct model *models_add(int id, int unit, int kind, unsigned n, unsigned m, uns
         return NULL;
     }
     it2n_model_init(&md->mdl);
-    md->state = IT2N_RS_EMPTY;
+    md->state = IT2N_REGMAP_STATE_EMPTY;
     memset(&slots[nmodels], 0, sizeof slots[nmodels]);
     slots[nmodels].view = view;
     table[nmodels++] = md;
@@ -714,7 +714,7 @@ static int solve(struct model *md, it2n_errinfo *err)
         set_err(md, err);
         return rc;
     }
-    md->state = IT2N_RS_SOLVED;
+    md->state = IT2N_REGMAP_STATE_SOLVED;
     md->gen++;
     md->solves++;
     memset(&md->last_err, 0, sizeof md->last_err);
@@ -797,7 +797,7 @@ int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, i
         op_undo(md, mark);
         return rc;
     }
-    md->state = IT2N_RS_EMPTY;
+    md->state = IT2N_REGMAP_STATE_EMPTY;
     md->gen++;
     md->last_op = MOP_CONFIG;
     return IT2N_OK;
@@ -818,7 +818,7 @@ int models_clear(struct model *md)
         return refuse(md, &err, rc);
     }
     reset_data(md, models_n(md), models_m(md), models_flags(md), &err);
-    md->state = IT2N_RS_EMPTY;
+    md->state = IT2N_REGMAP_STATE_EMPTY;
     md->gen++;
     md->last_op = MOP_CLEAR;
     return IT2N_OK;
@@ -872,7 +872,7 @@ static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
 
     if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT) {
         /* Refused by the core before anything is looked at. */
-        rc = md->state == IT2N_RS_SOLVED ? core_update(md, i, j, fp, vals, fine, err)
+        rc = md->state == IT2N_REGMAP_STATE_SOLVED ? core_update(md, i, j, fp, vals, fine, err)
                                          : core_put(md, i, j, fp, vals, fine, err);
         if (rc == IT2N_OK) { /* cannot happen: the core checks the indices */
             memset(err, 0, sizeof *err);
@@ -891,11 +891,11 @@ static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
         return IT2N_ERR_DUPLICATE;
     }
     if (save(md, md, MODEL_HDR_BYTES) || save_point(md, i, j, fp) ||
-        (md->state == IT2N_RS_SOLVED && save_update(md, fp))) {
+        (md->state == IT2N_REGMAP_STATE_SOLVED && save_update(md, fp))) {
         op_undo(md, mark);
         return refuse(md, err, IT2ND_ERR_NOMEM);
     }
-    if (md->state == IT2N_RS_SOLVED) {
+    if (md->state == IT2N_REGMAP_STATE_SOLVED) {
         /* Incremental: the core's update changes md->ds and md->mdl
          * together and is atomic on error; the undo records undo a
          * journal failure. */
@@ -933,8 +933,8 @@ static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
         set_err(md, err);
         return rc;
     }
-    if (md->state != IT2N_RS_SOLVED)
-        md->state = IT2N_RS_INCOMPLETE;
+    if (md->state != IT2N_REGMAP_STATE_SOLVED)
+        md->state = IT2N_REGMAP_STATE_INCOMPLETE;
     md->points_rx++;
     md->last_op = MOP_POINT;
     return IT2N_OK;
@@ -961,14 +961,14 @@ int models_commit(struct model *md, it2n_errinfo *err)
         op_undo(md, mark);
         return refuse(md, err, rc);
     }
-    if (rc != IT2N_OK && md->state != IT2N_RS_SOLVED)
-        md->state = IT2N_RS_FAILED;
+    if (rc != IT2N_OK && md->state != IT2N_REGMAP_STATE_SOLVED)
+        md->state = IT2N_REGMAP_STATE_FAILED;
     if (rc == IT2N_OK)
         md->last_op = MOP_COMMIT;
     return rc;
 }
 
-int models_set_upload(struct model *md, const uint16_t regs[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I])
+int models_set_upload(struct model *md, const uint16_t regs[IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I])
 {
     if (save(md, md->mb.upload, sizeof md->mb.upload))
         return IT2ND_ERR_NOMEM;

@@ -30,7 +30,7 @@
 
 #define MODEL_HDR_V2 44u
 #define MODEL_HDR_V3 48u
-#define UPLOAD_WORDS (IT2N_REG_UPLOAD_END - IT2N_REG_UP_I)
+#define UPLOAD_WORDS (IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I)
 #define FP_BYTES (8u * IT2N_CH_COUNT)
 
 _Static_assert(UPLOAD_WORDS == 12, "snapshot model header holds 12 upload registers");
@@ -228,7 +228,7 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
         }
     }
     it2n_bspline_model_init(&mdl, coef, md->bmdl.cap);
-    if (rc == IT2N_OK && state == IT2N_RS_SOLVED)
+    if (rc == IT2N_OK && state == IT2N_REGMAP_STATE_SOLVED)
         rc = it2n_bspline_solve(&mdl, &ds, err);
     if (rc == IT2N_OK) {
         memcpy(md->bds.rec, rec, md->bds.cap * sizeof *rec);
@@ -311,12 +311,12 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
                 IT2N_MAX_DEGREE);
         return rlen;
     }
-    if (state > IT2N_RS_FAILED) { /* IT2N_RS_EMPTY is 0 */
+    if (state > IT2N_REGMAP_STATE_FAILED) { /* IT2N_REGMAP_STATE_EMPTY is 0 */
         log_err("snapshot: model %u has unknown state %u", id, state);
         *result = SNAP_BAD_MODEL;
         return rlen;
     }
-    if (state == IT2N_RS_EMPTY && points) {
+    if (state == IT2N_REGMAP_STATE_EMPTY && points) {
         why = "points in an empty model";
         goto out;
     }
@@ -359,7 +359,7 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
         goto out;
     }
     it2n_model_init(mdl);
-    if (state == IT2N_RS_SOLVED) {
+    if (state == IT2N_REGMAP_STATE_SOLVED) {
         /* The control nets are derived: solve again (bit-identical to the
          * incremental updates that produced them). */
         rc = it2n_model_solve(mdl, ds, &err);

@@ -832,8 +832,8 @@ static void on_hook(void *arg)
 static void opts_from(const struct conf *c)
 {
     memset(&g.mbo, 0, sizeof g.mbo);
-    g.mbo.word_order = IT2N_WO_ABCD;
-    g.mbo.int32_order = IT2N_WO_ABCD;
+    g.mbo.word_order = IT2N_REGMAP_WO_ABCD;
+    g.mbo.int32_order = IT2N_REGMAP_WO_ABCD;
     g.mbo.coord_scale = c->coord_scale;
     /* The Modbus grid size, so the register map's grid cache serves both. */
     g.mbo.grid_rows = (unsigned)c->grid_rows;

@@ -1064,8 +1064,8 @@ static int load_snapshot(uint64_t *seqp)
         /* Never trust stored derived state: rebuild the data set entry by
          * entry through the core's checks and solve it again, as version 2
          * does (the stored control nets are ignored). */
-        if (sm.state < IT2N_RS_EMPTY || sm.state > IT2N_RS_FAILED ||
-            v1_rebuild(md, &sm.ds, sm.state == IT2N_RS_SOLVED, &err) != IT2N_OK) {
+        if (sm.state < IT2N_REGMAP_STATE_EMPTY || sm.state > IT2N_REGMAP_STATE_FAILED ||
+            v1_rebuild(md, &sm.ds, sm.state == IT2N_REGMAP_STATE_SOLVED, &err) != IT2N_OK) {
             log_err("snapshot: model %d fails validation (%s)", sm.id, it2n_strerror(err.code));
             free(buf);
             return keep_damaged("snapshot", "a model record does not validate");
