@@ -308,7 +308,7 @@ static int set_value(struct parse *p, int dflt, const struct conf_section *s, vo
             WHY("path empty or too long");
         if (k->type == CONF_T_FILE && !dflt) {
             /* Readable now (what it holds is checked later, e.g. by
-             * spb_conf_check_tls). */
+             * spb_tls_check). */
             FILE *f = fopen(v, "r");
             if (!f)
                 WHY("cannot open '%s': %s", v, strerror(errno));

@@ -466,7 +466,7 @@ static void pump_rsp(struct link *l)
 /* NACK with detail now; the callback's answer is then DEFER. */
 static int refuse(struct link *l, uint16_t seq, int code, const it2n_errinfo *err)
 {
-    log_info("link %s: seq %u refused: %s", l->cfg.name, seq, it2nd_strerror(code));
+    log_info("link %s: seq %u refused: %s", l->cfg.name, seq, errs_strerror(code));
     it2n_link_complete(&l->pl, seq, code, err);
     return IT2N_LINK_DEFER;
 }
@@ -1200,7 +1200,7 @@ void links_stop(void)
     free(links);
     links = NULL;
     nlinks = 0;
-    link_usb_exit();
+    link_usb_free();
 }
 
 void links_event(const struct model *md, int old_state)

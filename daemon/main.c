@@ -120,7 +120,7 @@ static int load_conf(struct conf *c)
     for (int k = 0; k < c->nlisten; k++)
         policies += c->listen[k].nallow > 0 || c->listen[k].read_only;
     if (conf_apply_override(c, &ovr, err, sizeof err) || conf_check_devices(c, conf_path, err, sizeof err) ||
-        conf_check_hosts(c, conf_path, err, sizeof err) || spb_conf_check_tls(&c->spb, conf_path, err, sizeof err)) {
+        conf_check_hosts(c, conf_path, err, sizeof err) || spb_tls_check(&c->spb, conf_path, err, sizeof err)) {
         log_err("%s", err);
         return -1;
     }

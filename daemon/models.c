@@ -1020,8 +1020,8 @@ int models_preload_paper(struct model *md)
     int rc = IT2N_OK;
     size_t mark = ulen;
     replaying = 1; /* configuration, not journaled */
-    for (size_t k = 0; k < paper_nrows && rc == IT2N_OK; k++) {
-        const struct paper_row *r = &paper_rows[k];
+    for (size_t k = 0; k < paper_data_nrows && rc == IT2N_OK; k++) {
+        const struct paper_row *r = &paper_data_rows[k];
         it2n_val v[IT2N_CH_COUNT] = { 0 };
         static const int ch[5] = { IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F };
         int fp = it2n_fp_from_name(r->fp, strlen(r->fp));

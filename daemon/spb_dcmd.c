@@ -140,7 +140,7 @@ void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_ma
     c.id = id;
     c.o = o;
     c.nm = spb_metrics_count(o);
-    if (spb_cmd_each(buf, len, dcmd_metric, &c, why, sizeof why)) {
+    if (spb_payload_cmd_each(buf, len, dcmd_metric, &c, why, sizeof why)) {
         log_warn("sparkplug: DCMD model-%d refused: %s", id, why);
         mb_map_refused(md, MB_MAP_ILLEGAL_VALUE);
         return;

@@ -22,13 +22,13 @@ struct slot {
     uint8_t *bytes;                 /* owned copy of an array value */
 };
 
-struct spb_pl {
+struct spb_payload {
     struct slot *s;
     Spb__Payload__Metric **mp;
     size_t n, cap;
 };
 
-int spb_val_equal(int type, const struct spb_val *a, const struct spb_val *b)
+int spb_payload_val_equal(int type, const struct spb_val *a, const struct spb_val *b)
 {
     if (a->null || b->null)
         return a->null == b->null;
@@ -39,22 +39,22 @@ int spb_val_equal(int type, const struct spb_val *a, const struct spb_val *b)
     return a->u == b->u;
 }
 
-struct spb_pl *spb_pl_new(size_t cap)
+struct spb_payload *spb_payload_new(size_t cap)
 {
-    struct spb_pl *pl = calloc(1, sizeof *pl);
+    struct spb_payload *pl = calloc(1, sizeof *pl);
     if (!pl)
         return NULL;
     pl->s = calloc(cap ? cap : 1, sizeof *pl->s);
     pl->mp = calloc(cap ? cap : 1, sizeof *pl->mp);
     if (!pl->s || !pl->mp) {
-        spb_pl_free(pl);
+        spb_payload_free(pl);
         return NULL;
     }
     pl->cap = cap;
     return pl;
 }
 
-void spb_pl_free(struct spb_pl *pl)
+void spb_payload_free(struct spb_payload *pl)
 {
     if (!pl)
         return;
@@ -77,7 +77,7 @@ static char *own(struct slot *s, const char *str)
     return c;
 }
 
-int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, uint64_t ts, const struct spb_val *v)
+int spb_payload_add(struct spb_payload *pl, const char *name, uint64_t alias, int type, uint64_t ts, const struct spb_val *v)
 {
     static const Spb__Payload__Metric init = SPB__PAYLOAD__METRIC__INIT;
     struct slot *s;
@@ -148,7 +148,7 @@ int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, ui
     return (int)pl->n++;
 }
 
-int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value)
+int spb_payload_prop(struct spb_payload *pl, int idx, const char *key, const char *value)
 {
     static const Spb__Payload__PropertySet ps_init = SPB__PAYLOAD__PROPERTY_SET__INIT;
     static const Spb__Payload__PropertyValue pv_init = SPB__PAYLOAD__PROPERTY_VALUE__INIT;
@@ -177,7 +177,7 @@ int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value)
     return 0;
 }
 
-void spb_pl_historical(struct spb_pl *pl)
+void spb_payload_historical(struct spb_payload *pl)
 {
     for (size_t k = 0; k < pl->n; k++) {
         pl->s[k].m.has_is_historical = 1;
@@ -185,7 +185,7 @@ void spb_pl_historical(struct spb_pl *pl)
     }
 }
 
-int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *len)
+int spb_payload_pack(struct spb_payload *pl, uint64_t ts, int seq, uint8_t **out, size_t *len)
 {
     Spb__Payload p = SPB__PAYLOAD__INIT;
     size_t n;
@@ -204,7 +204,7 @@ int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *
     return 0;
 }
 
-int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_cmd *cmd, char *why,
+int spb_payload_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_cmd *cmd, char *why,
                   size_t whysize)
 {
     Spb__Payload *p = spb__payload__unpack(NULL, len, buf);
@@ -234,7 +234,7 @@ int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct
     return rc;
 }
 
-int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_in *m), void *ctx,
+int spb_payload_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_in *m), void *ctx,
                  char *why, size_t whysize)
 {
     Spb__Payload *p = spb__payload__unpack(NULL, len, buf);
@@ -348,7 +348,7 @@ static int js_skip(struct js *j)
     return 0;
 }
 
-int spb_state_parse(const uint8_t *buf, size_t len, int *online, uint64_t *ts, char *why, size_t whysize)
+int spb_payload_state_parse(const uint8_t *buf, size_t len, int *online, uint64_t *ts, char *why, size_t whysize)
 {
     struct js j = { buf, buf + len };
     int have_on = 0, have_ts = 0;

@@ -2,7 +2,7 @@
  * compiled by protoc-c into spb.pb-c.c). A builder holds one payload's
  * metrics with their names, values and string properties in memory it
  * owns, so callers fill it from transient buffers and pack it once.
- * Decoding is for NCMD/DCMD: spb_cmd_parse() accepts what the edge node
+ * Decoding is for NCMD/DCMD: spb_payload_cmd_parse() accepts what the edge node
  * acts on and says why anything else is refused. No I/O, no globals. */
 #ifndef IT2ND_SPB_PAYLOAD_H
 #define IT2ND_SPB_PAYLOAD_H
@@ -21,7 +21,7 @@ enum spb_type {
  * sign-extended to 64 bits), Float in f, Boolean in u (0/1), String in s
  * (not owned). FloatArray: nb bytes at b (not owned, the packed wire form)
  * and in u a hash of them that stands for the value when values are
- * compared or kept (b is only read by spb_pl_add). null: the value is
+ * compared or kept (b is only read by spb_payload_add). null: the value is
  * unknown now (is_null, no value). */
 struct spb_val {
     uint64_t u;
@@ -33,29 +33,29 @@ struct spb_val {
 };
 
 /* Equal as the host would see them (floats bit for bit). */
-int spb_val_equal(int type, const struct spb_val *a, const struct spb_val *b);
+int spb_payload_val_equal(int type, const struct spb_val *a, const struct spb_val *b);
 
-struct spb_pl;
+struct spb_payload;
 
 /* A builder for up to cap metrics; NULL when out of memory. */
-struct spb_pl *spb_pl_new(size_t cap);
-void spb_pl_free(struct spb_pl *pl);
+struct spb_payload *spb_payload_new(size_t cap);
+void spb_payload_free(struct spb_payload *pl);
 
 /* Append a metric. name NULL: by alias only (DATA); alias 0: none; type
  * is written when name is given (births); ts: ms UTC. Returns its index,
  * or -1 when the builder is full or out of memory. */
-int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, uint64_t ts, const struct spb_val *v);
+int spb_payload_add(struct spb_payload *pl, const char *name, uint64_t alias, int type, uint64_t ts, const struct spb_val *v);
 
 /* Add a String property (key, value) to metric idx (at most 3 each). */
-int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value);
+int spb_payload_prop(struct spb_payload *pl, int idx, const char *key, const char *value);
 
 /* Mark every metric added so far as historical (is_historical = true:
  * store-and-forward data published after the host came back). */
-void spb_pl_historical(struct spb_pl *pl);
+void spb_payload_historical(struct spb_payload *pl);
 
 /* Encode: payload timestamp ts, seq (< 0: none, as in NDEATH). *out is
  * malloc'ed (free it). Returns 0 or -1 (out of memory). */
-int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *len);
+int spb_payload_pack(struct spb_payload *pl, uint64_t ts, int seq, uint8_t **out, size_t *len);
 
 /* One metric of a command (NCMD/DCMD), as decoded: by name or by alias,
  * and its value by protobuf field (kind). Valid during the callback. */
@@ -73,7 +73,7 @@ struct spb_in {
 
 /* Decode a command payload and call fn for each metric, in order.
  * Returns 0, or -1 with why (not a Sparkplug B payload). */
-int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_in *m), void *ctx,
+int spb_payload_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_in *m), void *ctx,
                  char *why, size_t whysize);
 
 /* What an NCMD/DCMD asks for. */
@@ -86,7 +86,7 @@ struct spb_cmd {
  * "Node Control/Rebirth" (a command may name it or use the alias).
  * Returns 0, or -1 with a reason in why (undecodable, or a Rebirth of a
  * type other than Boolean). Unknown metrics are counted, not refused. */
-int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_cmd *cmd, char *why,
+int spb_payload_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_cmd *cmd, char *why,
                   size_t whysize);
 
 /* A Sparkplug 3.0 STATE payload (spBv1.0/STATE/<host_id>, published by a
@@ -94,6 +94,6 @@ int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct
  * "timestamp": <ms>}, keys in any order, blanks allowed, other keys
  * ignored. Returns 0 with *online and *ts, or -1 with why (not such an
  * object: a missing or mistyped key, a bad number, trailing bytes). */
-int spb_state_parse(const uint8_t *buf, size_t len, int *online, uint64_t *ts, char *why, size_t whysize);
+int spb_payload_state_parse(const uint8_t *buf, size_t len, int *online, uint64_t *ts, char *why, size_t whysize);
 
 #endif

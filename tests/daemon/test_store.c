@@ -861,7 +861,7 @@ static void test_fine_memberships(void **st)
     {
         long len;
         uint8_t *sn = slurp("snapshot", &len);
-        assert_int_equal(sn[8], SNAP_VERSION_FINE);
+        assert_int_equal(sn[8], SNAPSHOT_VERSION_FINE);
         free(sn);
     }
     store_close();
@@ -878,7 +878,7 @@ static void test_fine_memberships(void **st)
     {
         long len;
         uint8_t *sn = slurp("snapshot", &len);
-        assert_int_equal(sn[8], SNAP_VERSION_BEZIER);
+        assert_int_equal(sn[8], SNAPSHOT_VERSION_BEZIER);
         free(sn);
     }
     store_close();
