@@ -3,7 +3,7 @@
  * goes through it2n_format_val/it2n_format_par, so output is exact decimal
  * rounding of the fixed-point results.
  */
-#include "cli.h"
+#include "commands.h"
 #include "csv.h"
 #include "out.h"
 
@@ -12,7 +12,7 @@
 #include <string.h>
 
 /* Big structs live here rather than on the stack. */
-static csv_reader g_csv;
+static cli_csv_reader g_csv;
 static it2n_dataset g_ds;
 static it2n_model g_mdl;
 
@@ -43,7 +43,7 @@ static int load(const cli_opts *o)
     int rc;
     g_bspline = o->kind == CLI_KIND_BSPLINE;
     if (g_bspline) {
-        const csv_reader *csv;
+        const cli_csv_reader *csv;
         rc = cli_load_bspline(o, &g_bds, &g_bmdl, &csv);
         g_flags = g_bds->flags;
         return rc;
@@ -221,7 +221,7 @@ static int cmd_locate(const cli_opts *o)
 
 static int run(const cli_opts *o);
 
-int cli_run(const cli_opts *o)
+int cmd_run(const cli_opts *o)
 {
     int rc = run(o);
     cli_free_bspline();
