@@ -596,28 +596,12 @@ static void where(char *buf, size_t size, const it2n_errinfo *info)
     }
 }
 
-int cli_csv_message(const cli_csv_error *e, const char *name, char *buf,
-                     size_t size)
+/* The message of a reader error (CLI_CSV_ERR_*) after pre ("FILE:LINE"),
+ * or -1 when e->code is not one: the core's have their own. */
+static int reader_message(const cli_csv_error *e, const char *pre,
+                          const char *chn, const char *at, char *buf,
+                          size_t size)
 {
-    char pre[256], at[48], v[32], lo[32], hi[32], txt[48];
-    const it2n_errinfo *info = &e->info;
-    const char *chn =
-        info->ch >= 0 ? it2n_ch_name((unsigned)info->ch) : NULL;
-
-    if (chn == NULL) {
-        chn = "value";
-    }
-    if (e->line != 0u) {
-        snprintf(pre, sizeof(pre), "%s:%lu", name, e->line);
-    } else {
-        snprintf(pre, sizeof(pre), "%s", name);
-    }
-    where(at, sizeof(at), info);
-    short_val(v, sizeof(v), info->value);
-    short_val(lo, sizeof(lo), info->lo);
-    short_val(hi, sizeof(hi), info->hi);
-    snprintf(txt, sizeof(txt), "%s", e->text[0] != '\0' ? e->text : v);
-
     switch (e->code) {
     case CLI_CSV_ERR_HEADER:
         if (e->line == 0u) {
@@ -683,6 +667,26 @@ int cli_csv_message(const cli_csv_error *e, const char *name, char *buf,
     case CLI_CSV_ERR_BINARY:
         return snprintf(buf, size, "%s: control byte 0x%02x in line", pre,
                         (unsigned)e->got);
+    default:
+        return -1;
+    }
+}
+
+/* The message of a core error (IT2N_ERR_*, with its it2n_errinfo) after
+ * pre. */
+static int core_message(const cli_csv_error *e, const char *pre,
+                        const char *chn, const char *at, char *buf,
+                        size_t size)
+{
+    char v[32], lo[32], hi[32], txt[48];
+    const it2n_errinfo *info = &e->info;
+
+    short_val(v, sizeof(v), info->value);
+    short_val(lo, sizeof(lo), info->lo);
+    short_val(hi, sizeof(hi), info->hi);
+    snprintf(txt, sizeof(txt), "%s", e->text[0] != '\0' ? e->text : v);
+
+    switch (e->code) {
     case IT2N_ERR_RANGE:
         return snprintf(buf, size, "%s: %s=%s outside [%s,%s]%s", pre, chn,
                         txt, lo, hi, at);
@@ -731,4 +735,26 @@ int cli_csv_message(const cli_csv_error *e, const char *name, char *buf,
         }
         return snprintf(buf, size, "%s: %s%s", pre, it2n_strerror(e->code), at);
     }
+}
+
+int cli_csv_message(const cli_csv_error *e, const char *name, char *buf,
+                     size_t size)
+{
+    char pre[256], at[48];
+    const it2n_errinfo *info = &e->info;
+    const char *chn =
+        info->ch >= 0 ? it2n_ch_name((unsigned)info->ch) : NULL;
+    int n;
+
+    if (chn == NULL) {
+        chn = "value";
+    }
+    if (e->line != 0u) {
+        snprintf(pre, sizeof(pre), "%s:%lu", name, e->line);
+    } else {
+        snprintf(pre, sizeof(pre), "%s", name);
+    }
+    where(at, sizeof(at), info);
+    n = reader_message(e, pre, chn, at, buf, size);
+    return n >= 0 ? n : core_message(e, pre, chn, at, buf, size);
 }
