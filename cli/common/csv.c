@@ -415,9 +415,16 @@ void cli_csv_locate(const cli_csv_reader *p, const it2n_errinfo *info,
     }
 }
 
-/* End of input checks shared by both kinds: IT2N_OK or the error. */
-static int finish_common(cli_csv_reader *p, cli_csv_error *err)
+/* End of input checks shared by both kinds (bspline: the kind the caller
+ * finishes, which must be the one the reader was set up for): IT2N_OK or
+ * the error. */
+static int finish_common(cli_csv_reader *p, bool bspline, cli_csv_error *err)
 {
+    if ((p->bspline != 0u) != bspline) {
+        p->line = 0;
+        fail(p, IT2N_ERR_INVAL, 0, NULL);
+        return report(p, err);
+    }
     if (p->error == 0 && (p->len > 0u || p->overlong)) {
         /* Last line without a line end. */
         cli_csv_feed(p, "\n", 1u, NULL);
@@ -453,12 +460,7 @@ int cli_csv_finish_bspline(cli_csv_reader *p, it2n_bspline_data *ds,
     size_t to = 0;
     int rc;
 
-    if (!p->bspline) {
-        p->line = 0;
-        fail(p, IT2N_ERR_INVAL, 0, NULL);
-        return report(p, err);
-    }
-    rc = finish_common(p, err);
+    rc = finish_common(p, true, err);
     if (rc != IT2N_OK) {
         return rc;
     }
@@ -510,33 +512,9 @@ int cli_csv_finish(cli_csv_reader *p, it2n_dataset *ds, cli_csv_error *err)
     unsigned flags, i, j, fp;
     int rc;
 
-    if (p->bspline) {
-        p->line = 0;
-        fail(p, IT2N_ERR_INVAL, 0, NULL);
-        return report(p, err);
-    }
-    if (p->error == 0 && (p->len > 0u || p->overlong)) {
-        /* Last line without a line end. */
-        cli_csv_feed(p, "\n", 1u, NULL);
-    }
-    if (p->error != 0) {
-        return report(p, err);
-    }
-    if (!p->header) {
-        p->line = 0;
-        fail(p, CLI_CSV_ERR_HEADER, 0, NULL);
-        return report(p, err);
-    }
-    if (p->rows == 0u) {
-        p->line = 0;
-        fail(p, CLI_CSV_ERR_EMPTY, 0, NULL);
-        return report(p, err);
-    }
-    if (p->max_i == 0u || p->max_j == 0u) {
-        p->line = 0;
-        fail(p, CLI_CSV_ERR_DEGREE, 0, NULL);
-        p->err.got = p->max_i == 0u ? 'i' : 'j';
-        return report(p, err);
+    rc = finish_common(p, false, err);
+    if (rc != IT2N_OK) {
+        return rc;
     }
     flags = p->flags | (p->z ? IT2N_F_Z : 0u) |
             (p->non_d ? 0u : IT2N_F_TYPE1);
