@@ -136,24 +136,14 @@ static int cmd_eval(const cli_opts *o)
     return cli_finish_output("it2n");
 }
 
-static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
-                      it2n_par w, const it2n_point *pt)
-{
-    (void)r;
-    (void)c;
-    (void)ctx;
-    cli_put_point(&g_out, u, w, pt);
-    return ferror(stdout) ? 1 : 0;
-}
-
 static int cmd_sample(const cli_opts *o)
 {
     int rc;
     cli_put_header(&g_out, "u,w,footprint", ",out_of_range");
-    rc = g_bspline ? it2n_bspline_sample(g_bmdl, o->rows, o->cols, sample_row,
-                                         (void *)o, NULL)
-                   : it2n_sample(&g_mdl, o->rows, o->cols, sample_row,
-                                 (void *)o, NULL);
+    rc = g_bspline ? it2n_bspline_sample(g_bmdl, o->rows, o->cols, cli_put_sample_row,
+                                         &g_out, NULL)
+                   : it2n_sample(&g_mdl, o->rows, o->cols, cli_put_sample_row,
+                                 &g_out, NULL);
     if (rc < 0) {
         return core_fail("sample", rc);
     }

@@ -388,16 +388,6 @@ int ctl_cmd_net(ctl_session *s, const ctl_args *a)
     return cli_finish_output("it2nctl");
 }
 
-static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
-                      it2n_par w, const it2n_point *pt)
-{
-    (void)r;
-    (void)c;
-    (void)ctx;
-    cli_put_point(&ctl_out, u, w, pt);
-    return ferror(stdout) ? CTL_EXIT_DATA : 0;
-}
-
 int ctl_cmd_sample(ctl_session *s, const ctl_args *a)
 {
     ctl_status st;
@@ -416,8 +406,8 @@ int ctl_cmd_sample(ctl_session *s, const ctl_args *a)
         }
     }
     cli_put_header(&ctl_out, "u,w,footprint", ",out_of_range");
-    rc = s->ops->sample(s->c, &st, a->o.rows, a->o.cols, sample_row,
-                        (void *)&a->o);
+    rc = s->ops->sample(s->c, &st, a->o.rows, a->o.cols, cli_put_sample_row,
+                        &ctl_out);
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
