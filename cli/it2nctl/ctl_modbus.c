@@ -8,6 +8,7 @@
  * 24 significant bits).
  */
 #include "ctl.h"
+#include "ctl_src.h"
 
 #include "it2n_regmap.h"
 
@@ -183,55 +184,16 @@ static int mb_status(void *p, ctl_status *st)
     return CTL_EXIT_OK;
 }
 
-/* The data pushed: a Bezier data set or a B-spline one. */
-typedef struct mb_src {
-    const it2n_dataset *ds;
-    const it2n_bspline_data *bds;
-} mb_src;
-
-static unsigned src_n(const mb_src *s)
-{
-    return s->bds != NULL ? s->bds->n : s->ds->n;
-}
-
-static unsigned src_m(const mb_src *s)
-{
-    return s->bds != NULL ? s->bds->m : s->ds->m;
-}
-
-static unsigned src_flags(const mb_src *s)
-{
-    return s->bds != NULL ? s->bds->flags : s->ds->flags;
-}
-
-static bool src_has(const mb_src *s, unsigned i, unsigned j, unsigned fp)
-{
-    if (s->bds != NULL) {
-        unsigned nfp = IT2N_BSPLINE_NFP(s->bds->flags);
-        if ((s->bds->flags & IT2N_F_TYPE1) && fp != IT2N_FP_D) {
-            return false;
-        }
-        return s->bds->rec[((size_t)i * (s->bds->m + 1u) + j) * nfp +
-                           (nfp == 1u ? 0u : fp)].present != 0u;
-    }
-    return (s->ds->present[i][j] & (1u << fp)) != 0u;
-}
-
 /* The upload block of entry (i, j, fp); false (rej filled) when a value
  * is not exactly representable in the map's scaled integers. */
-static bool upload_regs(const mb_conn *c, const mb_src *src, unsigned i,
+static bool upload_regs(const mb_conn *c, const ctl_src *src, unsigned i,
                         unsigned j, unsigned fp, uint16_t r[12],
                         it2n_errinfo *rej)
 {
     it2n_val v[IT2N_CH_COUNT], fine[IT2N_CH_COUNT];
     unsigned ch;
-    if (src->bds != NULL) {
-        it2n_bspline_data_get(src->bds, i, j, fp, v);
-        it2n_bspline_data_get_fine(src->bds, i, j, fp, fine);
-    } else {
-        it2n_dataset_get(src->ds, i, j, fp, v);
-        it2n_dataset_get_fine(src->ds, i, j, fp, fine);
-    }
+    ctl_src_get(src, i, j, fp, v);
+    ctl_src_get_fine(src, i, j, fp, fine);
     r[0] = (uint16_t)i;
     r[1] = (uint16_t)j;
     r[2] = (uint16_t)fp;
@@ -239,7 +201,7 @@ static bool upload_regs(const mb_conn *c, const mb_src *src, unsigned i,
         bool coord = ch < IT2N_CH_T;
         int64_t scale = coord ? c->coord_scale : IT2N_REGMAP_MEMB_SCALE;
         int64_t k;
-        if (ch == IT2N_CH_Z && !(src_flags(src) & IT2N_F_Z)) {
+        if (ch == IT2N_CH_Z && !(ctl_src_flags(src) & IT2N_F_Z)) {
             v[ch] = 0;
         }
         bool exact;
@@ -285,7 +247,7 @@ static void refused_detail(mb_conn *c, it2n_errinfo *rej)
     }
 }
 
-static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
+static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress,
                     void *pctx, it2n_errinfo *rej)
 {
     uint16_t cfg[4], up[12];
@@ -314,10 +276,10 @@ static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
     }
     /* Everything representable before the first write: a refused push
      * changes nothing. */
-    for (i = 0; i <= src_n(src); i++) {
-        for (j = 0; j <= src_m(src); j++) {
+    for (i = 0; i <= ctl_src_n(src); i++) {
+        for (j = 0; j <= ctl_src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                if (src_has(src, i, j, fp)) {
+                if (ctl_src_has(src, i, j, fp)) {
                     if (!upload_regs(c, src, i, j, fp, up, rej)) {
                         return CTL_REJECTED;
                     }
@@ -326,18 +288,18 @@ static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
             }
         }
     }
-    cfg[0] = (uint16_t)src_n(src);
-    cfg[1] = (uint16_t)src_m(src);
-    cfg[2] = (uint16_t)src_flags(src);
+    cfg[0] = (uint16_t)ctl_src_n(src);
+    cfg[1] = (uint16_t)ctl_src_m(src);
+    cfg[2] = (uint16_t)ctl_src_flags(src);
     cfg[3] = IT2N_REGMAP_CMD_CLEAR;
     rc = wr(c, IT2N_REGMAP_REG_CFG_N, 4, cfg, "configure");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    for (i = 0; i <= src_n(src); i++) {
-        for (j = 0; j <= src_m(src); j++) {
+    for (i = 0; i <= ctl_src_n(src); i++) {
+        for (j = 0; j <= ctl_src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                if (!src_has(src, i, j, fp)) {
+                if (!ctl_src_has(src, i, j, fp)) {
                     continue;
                 }
                 (void)upload_regs(c, src, i, j, fp, up, rej);
@@ -374,7 +336,7 @@ static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
 static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
                    void *pctx, it2n_errinfo *rej)
 {
-    mb_src src = {ds, NULL};
+    ctl_src src = {ds, NULL};
     return push_src(p, &src, progress, pctx, rej);
 }
 
@@ -382,7 +344,7 @@ static int mb_push_bspline(void *p, const it2n_bspline_data *bds,
                            ctl_progress_fn progress, void *pctx,
                            it2n_errinfo *rej)
 {
-    mb_src src = {NULL, bds};
+    ctl_src src = {NULL, bds};
     return push_src(p, &src, progress, pctx, rej);
 }
 
