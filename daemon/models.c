@@ -861,13 +861,31 @@ int models_put_fine(struct model *md, unsigned i, unsigned j, unsigned fp,
     return put_point(md, i, j, fp, vals, replace, true, err);
 }
 
+/* A change the core made (rc its result) into the journal: on the core's
+ * refusal or a journal failure the undo records since mark restore md and
+ * the error is recorded (a journal failure as a refusal). IT2N_OK or it. */
+static int journal_or_undo(struct model *md, const struct model_rec *rec, int rc, size_t mark,
+                           it2n_errinfo *err)
+{
+    int jrc = 0;
+    if (rc == IT2N_OK && (jrc = jlog(rec)) != 0)
+        rc = jrc;
+    if (rc != IT2N_OK) {
+        op_undo(md, mark);
+        if (jrc)
+            return refuse(md, err, jrc);
+        set_err(md, err);
+    }
+    return rc;
+}
+
 static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
                      const it2n_val vals[IT2N_CH_COUNT], bool replace, bool fine, it2n_errinfo *err)
 {
     struct model_rec rec = { .op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp, .replace = replace,
                              .fine = fine };
     size_t mark = ulen;
-    int rc, jrc = 0;
+    int rc;
     memcpy(rec.vals, vals, sizeof rec.vals);
 
     if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT) {
@@ -899,16 +917,9 @@ static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
         /* Incremental: the core's update changes md->ds and md->mdl
          * together and is atomic on error; the undo records undo a
          * journal failure. */
-        rc = core_update(md, i, j, fp, vals, fine, err);
-        if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0)
-            rc = jrc;
-        if (rc != IT2N_OK) {
-            op_undo(md, mark);
-            if (jrc)
-                return refuse(md, err, jrc);
-            set_err(md, err);
+        rc = journal_or_undo(md, &rec, core_update(md, i, j, fp, vals, fine, err), mark, err);
+        if (rc != IT2N_OK)
             return rc;
-        }
         md->gen++;
         md->points_rx++;
         md->last_op = MOP_POINT;
@@ -924,15 +935,9 @@ static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
         }
         rc = solve(md, err);
     }
-    if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0)
-        rc = jrc;
-    if (rc != IT2N_OK) {
-        op_undo(md, mark);
-        if (jrc)
-            return refuse(md, err, jrc);
-        set_err(md, err);
+    rc = journal_or_undo(md, &rec, rc, mark, err);
+    if (rc != IT2N_OK)
         return rc;
-    }
     if (md->state != IT2N_REGMAP_STATE_SOLVED)
         md->state = IT2N_REGMAP_STATE_INCOMPLETE;
     md->points_rx++;

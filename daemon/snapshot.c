@@ -197,6 +197,46 @@ static int check_structure(const uint8_t *buf, size_t len, uint32_t nmodels, siz
     return off == end ? 0 : -1;
 }
 
+/* One entry into a data set of either kind: fine, memberships in Q30. */
+typedef int (*put_fn)(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine,
+                      it2n_errinfo *err);
+
+static int put_bezier(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine,
+                      it2n_errinfo *err)
+{
+    return fine ? it2n_dataset_put_fine(set, i, j, fp, v, false, err)
+                : it2n_dataset_put(set, i, j, fp, v, false, err);
+}
+
+static int put_bspline(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine,
+                       it2n_errinfo *err)
+{
+    return fine ? it2n_bspline_data_put_fine(set, i, j, fp, v, false, err)
+                : it2n_bspline_data_put(set, i, j, fp, v, false, err);
+}
+
+/* The point records at p (i, j, footprint mask, then 8 bytes per channel
+ * of each footprint in the mask; their lengths checked before) into set,
+ * one put per entry. IT2N_OK or the first refusal. */
+static int load_points(const uint8_t *p, uint32_t points, int fine, put_fn put, void *set,
+                       it2n_errinfo *err)
+{
+    int rc = IT2N_OK;
+    for (uint32_t k = 0; k < points && rc == IT2N_OK; k++) {
+        unsigned i = p[0], j = p[1], mask = p[2];
+        p += 3;
+        for (unsigned fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
+            it2n_val v[IT2N_CH_COUNT];
+            if (!(mask & (1u << fp)))
+                continue;
+            for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
+                v[c] = (it2n_val)le_get64(p);
+            rc = put(set, i, j, fp, v, fine, err);
+        }
+    }
+    return rc;
+}
+
 /* Rebuild md (kind B-spline) from the points at p: data set into a
  * scratch copy of md's storage, solved if state says so, then copied in.
  * IT2N_OK or the core's refusal (md unchanged). */
@@ -214,19 +254,8 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
         return SNAPSHOT_NOMEM;
     }
     rc = it2n_bspline_data_init(&ds, rec, md->bds.cap, n, m, flags, err);
-    for (uint32_t k = 0; k < points && rc == IT2N_OK; k++) {
-        unsigned i = p[0], j = p[1], mask = p[2];
-        p += 3;
-        for (unsigned fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
-            it2n_val v[IT2N_CH_COUNT];
-            if (!(mask & (1u << fp)))
-                continue;
-            for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
-                v[c] = (it2n_val)le_get64(p);
-            rc = fine ? it2n_bspline_data_put_fine(&ds, i, j, fp, v, false, err)
-                      : it2n_bspline_data_put(&ds, i, j, fp, v, false, err);
-        }
-    }
+    if (rc == IT2N_OK)
+        rc = load_points(p, points, fine, put_bspline, &ds, err);
     it2n_bspline_model_init(&mdl, coef, md->bmdl.cap);
     if (rc == IT2N_OK && state == IT2N_REGMAP_STATE_SOLVED)
         rc = it2n_bspline_solve(&mdl, &ds, err);
@@ -341,19 +370,8 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
         goto out;
     }
     rc = it2n_dataset_init(ds, n, m, flags, &err);
-    for (uint32_t k = 0; k < points && rc == IT2N_OK; k++) {
-        unsigned i = p[0], j = p[1], mask = p[2];
-        p += 3;
-        for (unsigned fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
-            it2n_val v[IT2N_CH_COUNT];
-            if (!(mask & (1u << fp)))
-                continue;
-            for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
-                v[c] = (it2n_val)le_get64(p);
-            rc = fine ? it2n_dataset_put_fine(ds, i, j, fp, v, false, &err)
-                      : it2n_dataset_put(ds, i, j, fp, v, false, &err);
-        }
-    }
+    if (rc == IT2N_OK)
+        rc = load_points(p, points, fine, put_bezier, ds, &err);
     if (rc != IT2N_OK) {
         why = it2n_strerror(rc);
         goto out;
