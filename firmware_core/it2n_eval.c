@@ -574,14 +574,8 @@ int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
     if (!mdl->solved) {
         return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (rows < 2u || rows > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, (int)(rows > 32767u ? 32767u : rows),
-                          -1, -1, -1, (it2n_val)rows, 2, 65535);
-    }
-    if (cols < 2u || cols > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, -1,
-                          (int)(cols > 32767u ? 32767u : cols), -1, -1,
-                          (it2n_val)cols, 2, 65535);
+    if (it2n__check_grid(rows, cols, err) != IT2N_OK) {
+        return IT2N_ERR_RANGE;
     }
     n1 = mdl->n + 1u;
     m1 = mdl->m + 1u;
