@@ -152,20 +152,8 @@ static inline int it2n__check_uw(it2n_par u, it2n_par w, it2n_errinfo *err)
 
 /* Grid size check of it2n_sample and it2n_bspline_sample: IT2N_ERR_RANGE
  * (i names rows, j cols, clamped to an int16; value the size, lo 2, hi
- * 65535) unless both are within 2..65535. */
-static inline int it2n__check_grid(unsigned rows, unsigned cols, it2n_errinfo *err)
-{
-    if (rows < 2u || rows > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, (int)(rows > 32767u ? 32767u : rows),
-                          -1, -1, -1, (it2n_val)rows, 2, 65535);
-    }
-    if (cols < 2u || cols > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, -1,
-                          (int)(cols > 32767u ? 32767u : cols), -1, -1,
-                          (it2n_val)cols, 2, 65535);
-    }
-    return IT2N_OK;
-}
+ * 65535) unless both are within 2..65535 (it2n_eval.c). */
+int it2n__check_grid(unsigned rows, unsigned cols, it2n_errinfo *err);
 
 /* B-spline coefficient net of footprint fp, channel ch, as the solve lays
  * them out in mdl->coef (footprint-major, channels x, y, [z], T, I, F; a
