@@ -40,7 +40,7 @@ struct dev {
     int id;
     int dirty;                 /* a change was signalled: scan it      */
     int based;                 /* last holds values a host has or will have */
-    struct spb_val *last;      /* values as last published             */
+    struct spb_payload_val *last;      /* values as last published             */
     struct mb_map_query q;         /* its query (DCMD), like a Modbus connection's */
 };
 
@@ -181,7 +181,7 @@ static int nbirth(void)
 {
     struct spb_payload *pl = spb_payload_new(NA_COUNT);
     uint64_t ts = now_ms();
-    struct spb_val v;
+    struct spb_payload_val v;
     int rc = -1;
     char ver[96];
     if (!pl)
@@ -189,21 +189,21 @@ static int nbirth(void)
     snprintf(ver, sizeof ver, "it2nd %s", g.version);
     memset(&v, 0, sizeof v);
     v.u = (uint64_t)g.bdseq;
-    spb_payload_add(pl, "bdSeq", NA_BDSEQ, SPB_INT64, ts, &v);
+    spb_payload_add(pl, "bdSeq", NA_BDSEQ, SPB_PAYLOAD_INT64, ts, &v);
     v.u = 0;
-    spb_payload_add(pl, "Node Control/Rebirth", NA_REBIRTH, SPB_BOOLEAN, ts, &v);
+    spb_payload_add(pl, "Node Control/Rebirth", NA_REBIRTH, SPB_PAYLOAD_BOOLEAN, ts, &v);
     v.s = ver;
-    spb_payload_add(pl, "Properties/Software Version", NA_VERSION, SPB_STRING, ts, &v);
+    spb_payload_add(pl, "Properties/Software Version", NA_VERSION, SPB_PAYLOAD_STRING, ts, &v);
     v.s = NULL;
     v.u = IT2N_REGMAP_VERSION;
-    spb_payload_prop(pl, spb_payload_add(pl, "Properties/Register Map Version", NA_MAP_VERSION, SPB_UINT16, ts, &v),
+    spb_payload_prop(pl, spb_payload_add(pl, "Properties/Register Map Version", NA_MAP_VERSION, SPB_PAYLOAD_UINT16, ts, &v),
                 "description", "Layout version of the Modbus register map the device metrics mirror");
     v.u = (uint64_t)models_count();
-    spb_payload_prop(pl, spb_payload_add(pl, "Properties/Models", NA_MODELS, SPB_UINT32, ts, &v), "description",
+    spb_payload_prop(pl, spb_payload_add(pl, "Properties/Models", NA_MODELS, SPB_PAYLOAD_UINT32, ts, &v), "description",
                 "Devices (models) served by this edge node, each as model-N");
     if (g.sf_max) {
         v.u = (uint64_t)g.sf_dropped;
-        spb_payload_prop(pl, spb_payload_add(pl, "Store and Forward/Dropped", NA_SF_DROPPED, SPB_UINT64, ts, &v), "description",
+        spb_payload_prop(pl, spb_payload_add(pl, "Store and Forward/Dropped", NA_SF_DROPPED, SPB_PAYLOAD_UINT64, ts, &v), "description",
                     "Changes not kept for the host's history since start: the store (store_forward_max) was full or "
                     "could not be written (each is logged)");
     }
@@ -277,7 +277,7 @@ static void dev_scan(struct dev *d)
 {
     struct model *md = models_by_id(d->id);
     int nm = spb_metrics_count(&g.mbo), n = 0;
-    struct spb_val *cur;
+    struct spb_payload_val *cur;
     struct spb_payload *pl;
     uint64_t ts = now_ms();
     char topic[200];
@@ -358,9 +358,9 @@ static void sf_base(void)
 static void sf_store(int all)
 {
     int nm = spb_metrics_count(&g.mbo);
-    struct spb_val *cur = NULL;
+    struct spb_payload_val *cur = NULL;
     uint16_t *idx = NULL;
-    struct spb_val *vals = NULL;
+    struct spb_payload_val *vals = NULL;
     sf_base();
     for (int k = 0; k < g.ndevs; k++) {
         struct dev *d = &g.devs[k];
@@ -378,7 +378,7 @@ static void sf_store(int all)
         /* The nets (FloatArray) are derived from the points, which are
          * kept: the host gets the nets of now in the birth it will have. */
         for (int j = 0; j < nm; j++)
-            if (spb_metrics_type(j) != SPB_FLOATARRAY && !spb_payload_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
+            if (spb_metrics_type(j) != SPB_PAYLOAD_FLOATARRAY && !spb_payload_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
                 idx[n] = (uint16_t)j;
                 vals[n++] = cur[j];
             }
@@ -583,10 +583,10 @@ static void on_fd(void *arg, int fd, short revents)
 static struct spb_payload *ndeath_payload(int bd, uint64_t ts)
 {
     struct spb_payload *pl = spb_payload_new(1);
-    struct spb_val v;
+    struct spb_payload_val v;
     memset(&v, 0, sizeof v);
     v.u = (uint64_t)bd;
-    if (pl && spb_payload_add(pl, "bdSeq", 0, SPB_INT64, ts, &v) < 0) {
+    if (pl && spb_payload_add(pl, "bdSeq", 0, SPB_PAYLOAD_INT64, ts, &v) < 0) {
         spb_payload_free(pl);
         pl = NULL;
     }
@@ -765,7 +765,7 @@ static void on_state(const uint8_t *buf, size_t len)
 
 static void on_message(struct mosquitto *m, void *obj, const struct mosquitto_message *msg)
 {
-    struct spb_cmd cmd;
+    struct spb_payload_cmd cmd;
     char why[128];
     size_t pre = strlen(g.t_dpre[TP_DCMD]);
     (void)m;

@@ -25,7 +25,7 @@ struct dcmd {
     char why[200];
 };
 
-static int dcmd_index(const struct dcmd *c, const struct spb_in *m)
+static int dcmd_index(const struct dcmd *c, const struct spb_payload_in *m)
 {
     char name[96], desc[200];
     const char *unit;
@@ -50,7 +50,7 @@ static void dcmd_refuse(struct dcmd *c, const char *what, const char *reason)
         snprintf(c->why, sizeof c->why, "%s%s%s", what ? what : "", what ? ": " : "", reason);
 }
 
-static void dcmd_metric(void *ctx, const struct spb_in *m)
+static void dcmd_metric(void *ctx, const struct spb_payload_in *m)
 {
     struct dcmd *c = ctx;
     char label[64];
@@ -65,9 +65,9 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
     }
     switch (spb_metrics_seg(&rel)) {
     case SPB_SEG_QIN:
-        if (m->kind == SPB_IN_FLOAT)
+        if (m->kind == SPB_PAYLOAD_IN_FLOAT)
             c->q[rel] = (float)m->d;
-        else if (m->kind == SPB_IN_INT || m->kind == SPB_IN_LONG)
+        else if (m->kind == SPB_PAYLOAD_IN_INT || m->kind == SPB_PAYLOAD_IN_LONG)
             c->q[rel] = (float)m->u;
         else {
             dcmd_refuse(c, label, "expected a Float");
@@ -76,11 +76,11 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
         c->has_q[rel] = 1;
         return;
     case SPB_SEG_QLOC:
-        if (m->kind == SPB_IN_FLOAT)
+        if (m->kind == SPB_PAYLOAD_IN_FLOAT)
             c->xy[rel] = (float)m->d;
-        else if (m->kind == SPB_IN_INT)
+        else if (m->kind == SPB_PAYLOAD_IN_INT)
             c->xy[rel] = (float)(int32_t)(uint32_t)m->u;
-        else if (m->kind == SPB_IN_LONG)
+        else if (m->kind == SPB_PAYLOAD_IN_LONG)
             c->xy[rel] = (float)(int64_t)m->u;
         else {
             dcmd_refuse(c, label, "expected a Float");
@@ -89,7 +89,7 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
         c->has_xy[rel] = 1;
         return;
     case SPB_SEG_PAGE:
-        if ((m->kind != SPB_IN_INT && m->kind != SPB_IN_LONG) || m->u > 65535) {
+        if ((m->kind != SPB_PAYLOAD_IN_INT && m->kind != SPB_PAYLOAD_IN_LONG) || m->u > 65535) {
             dcmd_refuse(c, label, "expected an integer 0..65535");
             return;
         }
@@ -100,11 +100,11 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
         const it2n_regmap_field *f = spb_metrics_upload_field(rel);
         uint16_t *r = &c->up[f->addr - IT2N_REGMAP_REG_UP_I];
         int64_t v;
-        if (m->kind == SPB_IN_INT)
+        if (m->kind == SPB_PAYLOAD_IN_INT)
             v = f->type == IT2N_REGMAP_TYPE_I32 ? (int64_t)(int32_t)(uint32_t)m->u : (int64_t)(uint32_t)m->u;
-        else if (m->kind == SPB_IN_LONG)
+        else if (m->kind == SPB_PAYLOAD_IN_LONG)
             v = (int64_t)m->u;
-        else if (m->kind == SPB_IN_FLOAT && m->d == (double)(int64_t)m->d)
+        else if (m->kind == SPB_PAYLOAD_IN_FLOAT && m->d == (double)(int64_t)m->d)
             v = (int64_t)m->d;
         else {
             dcmd_refuse(c, label, "expected an integer (the register's value)");

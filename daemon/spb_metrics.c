@@ -107,11 +107,11 @@ int spb_metrics_seg(int *idx)
 static int field_type(int rt)
 {
     switch (rt) {
-    case IT2N_REGMAP_TYPE_I16: return SPB_INT16;
-    case IT2N_REGMAP_TYPE_U32: return SPB_UINT32;
-    case IT2N_REGMAP_TYPE_I32: return SPB_INT32;
-    case IT2N_REGMAP_TYPE_F32: return SPB_FLOAT;
-    default: return SPB_UINT16;
+    case IT2N_REGMAP_TYPE_I16: return SPB_PAYLOAD_INT16;
+    case IT2N_REGMAP_TYPE_U32: return SPB_PAYLOAD_UINT32;
+    case IT2N_REGMAP_TYPE_I32: return SPB_PAYLOAD_INT32;
+    case IT2N_REGMAP_TYPE_F32: return SPB_PAYLOAD_FLOAT;
+    default: return SPB_PAYLOAD_UINT16;
     }
 }
 
@@ -119,14 +119,14 @@ int spb_metrics_type(int idx)
 {
     switch (spb_metrics_seg(&idx)) {
     case SPB_SEG_STATUS: return field_type(status_block()->fields[idx].type);
-    case SPB_SEG_QGEN: return SPB_UINT32;
+    case SPB_SEG_QGEN: return SPB_PAYLOAD_UINT32;
     case SPB_SEG_UPLOAD: return field_type(upload_block()->fields[idx].type);
-    case SPB_SEG_COUNTS: return SPB_UINT32;
-    case SPB_SEG_QSTAT: return idx == 2 ? SPB_UINT32 : SPB_UINT16;
-    case SPB_SEG_PAGE: return SPB_UINT16;
+    case SPB_SEG_COUNTS: return SPB_PAYLOAD_UINT32;
+    case SPB_SEG_QSTAT: return idx == 2 ? SPB_PAYLOAD_UINT32 : SPB_PAYLOAD_UINT16;
+    case SPB_SEG_PAGE: return SPB_PAYLOAD_UINT16;
     case SPB_SEG_PAGEROW:
-    case SPB_SEG_NET: return SPB_FLOATARRAY;
-    default: return SPB_FLOAT;
+    case SPB_SEG_NET: return SPB_PAYLOAD_FLOATARRAY;
+    default: return SPB_PAYLOAD_FLOAT;
     }
 }
 
@@ -233,7 +233,7 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
 }
 
 /* Register fields of a block into metric values. */
-static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, struct spb_val *out)
+static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, struct spb_payload_val *out)
 {
     for (size_t k = 0; k < b->nfields; k++) {
         const it2n_regmap_field *f = &b->fields[k];
@@ -248,7 +248,7 @@ static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, stru
     }
 }
 
-static void set_null(struct spb_val *out, int n)
+static void set_null(struct spb_payload_val *out, int n)
 {
     for (int k = 0; k < n; k++)
         out[k].null = 1;
@@ -256,7 +256,7 @@ static void set_null(struct spb_val *out, int n)
 
 /* float32 registers (ABCD) into the packed little-endian bytes of a
  * FloatArray, with the hash that stands for the value (FNV-1a, 64 bit). */
-static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct spb_val *out)
+static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct spb_payload_val *out)
 {
     uint64_t h = 14695981039346656037u;
     for (unsigned k = 0; k < n; k++) {
@@ -277,7 +277,7 @@ static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct
  * coefficient window like a PLC, page by page (a scratch page select:
  * the device's own stays as a DCMD set it). */
 static void net_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned rows, unsigned cols,
-                       struct spb_val *out)
+                       struct spb_payload_val *out)
 {
     static uint16_t regs[2 * IT2N_REGMAP_WIN_COLS];
     static uint8_t page_bytes[4 * IT2N_REGMAP_WIN_COLS];
@@ -309,7 +309,7 @@ static void net_values(struct model *md, struct mb_map_query *q, const struct mb
  * the last durable state: the status block, this device's query (its own
  * connection-like state) and results, the upload block, the float32
  * sample grid. Null where Modbus answers an exception (not solved). */
-void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_val *out)
+void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_payload_val *out)
 {
     static uint16_t regs[IT2N_REGMAP_REG_GRID_F32_END - IT2N_REGMAP_REG_GRID_F32];
     const it2n_regmap_block *b = status_block(), *up = upload_block();

@@ -38,8 +38,8 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
 static void round_trip(const uint8_t *data, size_t size)
 {
     struct spb_payload *pl = spb_payload_new(2);
-    struct spb_val v;
-    struct spb_cmd cmd;
+    struct spb_payload_val v;
+    struct spb_payload_cmd cmd;
     char text[64], why[128];
     uint8_t *buf;
     size_t len, n = size < sizeof text - 1 ? size : sizeof text - 1;
@@ -50,10 +50,10 @@ static void round_trip(const uint8_t *data, size_t size)
         text[k] = data[k] ? (char)data[k] : '.';
     text[n] = 0;
     v.s = text;
-    fuzz_check(spb_payload_add(pl, "Other", 0, SPB_STRING, 1, &v) == 0, "add string");
+    fuzz_check(spb_payload_add(pl, "Other", 0, SPB_PAYLOAD_STRING, 1, &v) == 0, "add string");
     v.s = NULL;
     v.u = (uint64_t)want;
-    fuzz_check(spb_payload_add(pl, by_alias ? NULL : "Node Control/Rebirth", by_alias ? REBIRTH_ALIAS : 0, SPB_BOOLEAN,
+    fuzz_check(spb_payload_add(pl, by_alias ? NULL : "Node Control/Rebirth", by_alias ? REBIRTH_ALIAS : 0, SPB_PAYLOAD_BOOLEAN,
                           2, &v) == 1, "add rebirth");
     fuzz_check(spb_payload_pack(pl, 3, -1, &buf, &len) == 0, "pack");
     fuzz_check(spb_payload_cmd_parse(buf, len, REBIRTH_ALIAS, &cmd, why, sizeof why) == 0, "own payload decodes");
@@ -67,14 +67,14 @@ struct each_ctx {
 };
 
 /* Every metric the DCMD decoder hands over is well formed. */
-static void each_metric(void *ctx, const struct spb_in *m)
+static void each_metric(void *ctx, const struct spb_payload_in *m)
 {
     struct each_ctx *c = ctx;
     c->n++;
-    fuzz_check(m->kind >= SPB_IN_NONE && m->kind <= SPB_IN_OTHER, "value kind");
+    fuzz_check(m->kind >= SPB_PAYLOAD_IN_NONE && m->kind <= SPB_PAYLOAD_IN_OTHER, "value kind");
     fuzz_check(!m->name || strlen(m->name) < (1u << 17), "name terminated");
-    fuzz_check(m->kind != SPB_IN_BOOL || m->u <= 1, "boolean 0 or 1");
-    fuzz_check(m->kind != SPB_IN_INT || m->u <= UINT32_MAX, "int_value is 32 bits");
+    fuzz_check(m->kind != SPB_PAYLOAD_IN_BOOL || m->u <= 1, "boolean 0 or 1");
+    fuzz_check(m->kind != SPB_PAYLOAD_IN_INT || m->u <= UINT32_MAX, "int_value is 32 bits");
 }
 
 static void state_check(const uint8_t *data, size_t size)
@@ -97,7 +97,7 @@ static void state_check(const uint8_t *data, size_t size)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    struct spb_cmd cmd;
+    struct spb_payload_cmd cmd;
     struct each_ctx ec = { 0 };
     char why[128];
     int rc, rc2;
