@@ -5,7 +5,7 @@
 #   cli/it2nctl/  it2nctl: the same output from a running it2nd
 # Each is built normally for use and with $(SAN_FLAGS) for the tests.
 CLI_COMMON_SRC := $(wildcard cli/common/*.c)
-CLI_HDR := $(wildcard cli/common/*.h)
+CLI_HDR := $(wildcard cli/common/*.h cli/it2n/*.h)
 CLI_INC := -Icli/common
 CLI_SRC := $(wildcard cli/it2n/*.c)
 CLI_BIN := $(BUILD)/host/it2n

@@ -95,18 +95,6 @@ static int duplicate_key(struct parse *p, const char *section, const char *name)
     return 0;
 }
 
-static int parse_int(const char *v, long lo, long hi, int *out)
-{
-    char *end;
-    long x;
-    errno = 0;
-    x = strtol(v, &end, 10);
-    if (!*v || *end || errno || x < lo || x > hi)
-        return -1;
-    *out = (int)x;
-    return 0;
-}
-
 static int copy_str(char *dst, size_t size, const char *v)
 {
     size_t len = strlen(v);
@@ -142,7 +130,7 @@ static int parse_listen(const char *v, struct conf_listen *l)
         l->host[hlen] = 0;
     }
     int port;
-    if (parse_int(colon + 1, 0, 65535, &port))
+    if (conf_schema_int(colon + 1, 0, 65535, &port))
         return -1;
     if (port == 0)
         return -2;  /* the kernel would pick a port no client knows */
@@ -308,7 +296,7 @@ static int set_value(struct parse *p, int dflt, const struct conf_section *s, vo
             WHY("path empty or too long");
         if (k->type == CONF_T_FILE && !dflt) {
             /* Readable now (what it holds is checked later, e.g. by
-             * spb_conf_check_tls). */
+             * spb_tls_check). */
             FILE *f = fopen(v, "r");
             if (!f)
                 WHY("cannot open '%s': %s", v, strerror(errno));
@@ -432,7 +420,7 @@ static void *instance(struct parse *p, const struct conf_section *s, const char 
         *o = &p->link[k];
         return &c->link[k];
     case CONF_SEC_MODEL:
-        if (parse_int(arg, 0, 254, &id)) {
+        if (conf_schema_int(arg, 0, 254, &id)) {
             snprintf(p->err, sizeof p->err, "model section must be [model:ID], ID 0..254 (the model id on the links)");
             p->err_line = p->line;
             return NULL;

@@ -19,12 +19,12 @@
 #define STR(x) STR_(x)
 
 static const struct conf_word w_order[] = {
-    { "ABCD", IT2N_WO_ABCD, 0 }, { "CDAB", IT2N_WO_CDAB, 0 }, { "BADC", IT2N_WO_BADC, 0 }, { "DCBA", IT2N_WO_DCBA, 0 },
+    { "ABCD", IT2N_REGMAP_WO_ABCD, 0 }, { "CDAB", IT2N_REGMAP_WO_CDAB, 0 }, { "BADC", IT2N_REGMAP_WO_BADC, 0 }, { "DCBA", IT2N_REGMAP_WO_DCBA, 0 },
     { NULL, 0, 0 }
 };
 static const struct conf_word w_order32[] = {
-    { "float", -1, 0 }, { "ABCD", IT2N_WO_ABCD, 0 }, { "CDAB", IT2N_WO_CDAB, 0 }, { "BADC", IT2N_WO_BADC, 0 },
-    { "DCBA", IT2N_WO_DCBA, 0 }, { NULL, 0, 0 }
+    { "float", -1, 0 }, { "ABCD", IT2N_REGMAP_WO_ABCD, 0 }, { "CDAB", IT2N_REGMAP_WO_CDAB, 0 }, { "BADC", IT2N_REGMAP_WO_BADC, 0 },
+    { "DCBA", IT2N_REGMAP_WO_DCBA, 0 }, { NULL, 0, 0 }
 };
 static const struct conf_word w_default_model[] = {
     { "auto", CONF_DEFAULT_AUTO, 0 }, { "none", CONF_DEFAULT_NONE, 0 }, { NULL, 0, 0 }
@@ -438,10 +438,30 @@ static int parse_bool(const char *v, long *out)
     return -1;
 }
 
-int conf_schema_number(const struct conf_key *k, const char *v, long *out)
+/* A whole decimal number in [lo, hi], nothing around it. 0, or -1. */
+static int decimal(const char *v, long lo, long hi, long *out)
 {
     char *end;
     long x;
+    errno = 0;
+    x = strtol(v, &end, 10);
+    if (!*v || *end || errno || x < lo || x > hi)
+        return -1;
+    *out = x;
+    return 0;
+}
+
+int conf_schema_int(const char *v, int lo, int hi, int *out)
+{
+    long x;
+    if (decimal(v, lo, hi, &x))
+        return -1;
+    *out = (int)x;
+    return 0;
+}
+
+int conf_schema_number(const struct conf_key *k, const char *v, long *out)
+{
     if (k->type == CONF_T_BOOL || k->type == CONF_T_FLAG)
         return parse_bool(v, out);
     for (int j = 0; k->words && k->words[j].word; j++)
@@ -451,12 +471,7 @@ int conf_schema_number(const struct conf_key *k, const char *v, long *out)
         }
     if (k->type != CONF_T_INT)
         return -1;
-    errno = 0;
-    x = strtol(v, &end, 10);
-    if (!*v || *end || errno || x < k->lo || x > k->hi)
-        return -1;
-    *out = x;
-    return 0;
+    return decimal(v, k->lo, k->hi, out);
 }
 
 /* "a, b or c" of k's listed words into buf (at its end). */

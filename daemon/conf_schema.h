@@ -109,6 +109,11 @@ const struct conf_section *conf_schema_suggest_section(const char *header);
 /* The listed word of k nearest to a value k refused, or NULL. */
 const char *conf_schema_suggest_word(const struct conf_key *k, const char *value);
 
+/* A whole decimal number in [lo, hi] (nothing before or after it) into
+ * *out: the one number reader of every config value (keys and the port of
+ * an address). 0, or -1. */
+int conf_schema_int(const char *v, int lo, int hi, int *out);
+
 /* Read an INT, ENUM, BOOL or FLAG value of k into *out. 0, or -1. */
 int conf_schema_number(const struct conf_key *k, const char *value, long *out);
 

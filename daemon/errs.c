@@ -4,7 +4,7 @@
 #include "it2n.h"
 #include "it2n_proto.h"
 
-const char *it2nd_strerror(int code)
+const char *errs_strerror(int code)
 {
     switch (code) {
     case IT2ND_ERR_IO:

@@ -15,6 +15,6 @@ enum it2nd_error {
 };
 
 /* Text for any code: the daemon's, the protocol's or the core's. */
-const char *it2nd_strerror(int code);
+const char *errs_strerror(int code);
 
 #endif

@@ -99,7 +99,7 @@ int link_usb_init(void)
     return 0;
 }
 
-void link_usb_exit(void)
+void link_usb_free(void)
 {
     if (!ctx)
         return;

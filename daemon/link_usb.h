@@ -16,9 +16,10 @@ struct usb_link;
 typedef void (*usb_rx_fn)(void *arg, const uint8_t *buf, size_t len);
 typedef void (*usb_gone_fn)(void *arg, const char *why);
 
-/* Start libusb and hook its fds into the loop. 0 or -1. */
+/* Start libusb and hook its fds into the loop. 0 or -1. link_usb_free
+ * takes them out and ends libusb (after every device is closed). */
 int link_usb_init(void);
-void link_usb_exit(void);
+void link_usb_free(void);
 
 /* Called when any device matching a configured VID:PID arrives. */
 void link_usb_on_arrival(void (*fn)(void *arg), void *arg);

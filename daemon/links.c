@@ -338,9 +338,9 @@ static void send_hello(struct link *l)
 static int model_state(const struct model *md)
 {
     switch (md->state) {
-    case IT2N_RS_SOLVED: return IT2N_MS_SOLVED;
-    case IT2N_RS_INCOMPLETE: return IT2N_MS_COLLECTING;
-    case IT2N_RS_FAILED: return IT2N_MS_ERROR;
+    case IT2N_REGMAP_STATE_SOLVED: return IT2N_MS_SOLVED;
+    case IT2N_REGMAP_STATE_INCOMPLETE: return IT2N_MS_COLLECTING;
+    case IT2N_REGMAP_STATE_FAILED: return IT2N_MS_ERROR;
     default: return IT2N_MS_EMPTY;
     }
 }
@@ -412,7 +412,7 @@ static void pump_rsp(struct link *l)
             md = models_view(md);
         it2n_msg m;
         memset(&m, 0, sizeof m);
-        if (!md || md->state != IT2N_RS_SOLVED) {
+        if (!md || md->state != IT2N_REGMAP_STATE_SOLVED) {
             log_info("link %s: model %u changed state; response cut short", l->cfg.name, l->job.model);
             l->job.kind = 0;
             return;
@@ -466,7 +466,7 @@ static void pump_rsp(struct link *l)
 /* NACK with detail now; the callback's answer is then DEFER. */
 static int refuse(struct link *l, uint16_t seq, int code, const it2n_errinfo *err)
 {
-    log_info("link %s: seq %u refused: %s", l->cfg.name, seq, it2nd_strerror(code));
+    log_info("link %s: seq %u refused: %s", l->cfg.name, seq, errs_strerror(code));
     it2n_link_complete(&l->pl, seq, code, err);
     return IT2N_LINK_DEFER;
 }
@@ -512,7 +512,7 @@ static int start_job(struct link *l, uint16_t seq, int kind, uint8_t model, uint
     if (!md)
         return refuse_model(l, seq, model);
     md = models_view(md);
-    if (md->state != IT2N_RS_SOLVED)
+    if (md->state != IT2N_REGMAP_STATE_SOLVED)
         return IT2N_ERR_STATE;
     if (!models_has_fp(md, fp)) {
         it2n_errinfo e = detail(IT2N_ERR_INVAL, fp, IT2N_FP_D, IT2N_FP_D);
@@ -694,7 +694,7 @@ static int serve(struct link *l, uint16_t seq, const it2n_msg *msg)
         if (!md)
             return refuse_model(l, seq, msg->u.query.model);
         md = models_view(md); /* readers: the last durable state */
-        if (md->state != IT2N_RS_SOLVED)
+        if (md->state != IT2N_REGMAP_STATE_SOLVED)
             return IT2N_ERR_STATE;
         if (447 > it2n_link_max_payload(&l->pl))
             return too_big(l, seq, 447);
@@ -717,7 +717,7 @@ static int serve(struct link *l, uint16_t seq, const it2n_msg *msg)
         if (!md)
             return refuse_model(l, seq, msg->u.locate.model);
         md = models_view(md); /* readers: the last durable state */
-        if (md->state != IT2N_RS_SOLVED)
+        if (md->state != IT2N_REGMAP_STATE_SOLVED)
             return IT2N_ERR_STATE;
         if (474 > it2n_link_max_payload(&l->pl))
             return too_big(l, seq, 474);
@@ -1200,7 +1200,7 @@ void links_stop(void)
     free(links);
     links = NULL;
     nlinks = 0;
-    link_usb_exit();
+    link_usb_free();
 }
 
 void links_event(const struct model *md, int old_state)
@@ -1209,14 +1209,14 @@ void links_event(const struct model *md, int old_state)
     memset(&ev, 0, sizeof ev);
     ev.model = (uint8_t)md->id;
     ev.generation = md->gen;
-    if (md->state == IT2N_RS_FAILED) {
+    if (md->state == IT2N_REGMAP_STATE_FAILED) {
         ev.kind = IT2N_EV_ERROR;
         ev.code = (int16_t)md->last_err.code;
-    } else if (md->last_op == MOP_CONFIG && md->state == IT2N_RS_EMPTY) {
+    } else if (md->last_op == MOP_CONFIG && md->state == IT2N_REGMAP_STATE_EMPTY) {
         ev.kind = IT2N_EV_CONFIGURED;
-    } else if (md->last_op == MOP_CLEAR && md->state == IT2N_RS_EMPTY) {
+    } else if (md->last_op == MOP_CLEAR && md->state == IT2N_REGMAP_STATE_EMPTY) {
         ev.kind = IT2N_EV_RESET;
-    } else if (md->state == IT2N_RS_SOLVED && (old_state != IT2N_RS_SOLVED || md->last_op == MOP_COMMIT)) {
+    } else if (md->state == IT2N_REGMAP_STATE_SOLVED && (old_state != IT2N_REGMAP_STATE_SOLVED || md->last_op == MOP_COMMIT)) {
         ev.kind = IT2N_EV_SOLVED;
     } else {
         ev.kind = IT2N_EV_UPDATED;

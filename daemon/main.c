@@ -120,7 +120,7 @@ static int load_conf(struct conf *c)
     for (int k = 0; k < c->nlisten; k++)
         policies += c->listen[k].nallow > 0 || c->listen[k].read_only;
     if (conf_apply_override(c, &ovr, err, sizeof err) || conf_check_devices(c, conf_path, err, sizeof err) ||
-        conf_check_hosts(c, conf_path, err, sizeof err) || spb_conf_check_tls(&c->spb, conf_path, err, sizeof err)) {
+        conf_check_hosts(c, conf_path, err, sizeof err) || spb_tls_check(&c->spb, conf_path, err, sizeof err)) {
         log_err("%s", err);
         return -1;
     }
@@ -182,12 +182,12 @@ static int setup_models(void)
 static void on_model_changed(void *arg, const struct model *md, int old_state, uint32_t old_gen)
 {
     (void)arg;
-    if (md->gen != old_gen && md->state == IT2N_RS_SOLVED)
+    if (md->gen != old_gen && md->state == IT2N_REGMAP_STATE_SOLVED)
         log_info("model %d: solved, generation %u", md->id, (unsigned)md->gen);
-    else if (md->state != old_state && md->state == IT2N_RS_FAILED)
+    else if (md->state != old_state && md->state == IT2N_REGMAP_STATE_FAILED)
         log_info("model %d: solve failed: %s", md->id, it2n_strerror(md->last_err.code));
     else if (md->state != old_state)
-        log_info("model %d: %s", md->id, md->state == IT2N_RS_EMPTY ? "cleared" : "points missing");
+        log_info("model %d: %s", md->id, md->state == IT2N_REGMAP_STATE_EMPTY ? "cleared" : "points missing");
     links_event(md, old_state);
     spb_model_changed(md->id);
 }
@@ -353,7 +353,7 @@ static void send_status(void)
         const struct model *md = models_at(k);
         pts += md->points_rx;
         req += md->mb.requests;
-        solved += md->state == IT2N_RS_SOLVED;
+        solved += md->state == IT2N_REGMAP_STATE_SOLVED;
     }
     snprintf(buf, sizeof buf,
              "STATUS=%d/%d models solved, %d tcp clients, %d links up, %u requests, %u points, %llu wal records",

@@ -11,7 +11,7 @@
 #include "it2n_regmap.h"
 
 _Static_assert(IT2N_DIM <= IT2N_REGMAP_DIM, "control-net stride of the map too small");
-_Static_assert(IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32 <= IT2N_REG_CTRL_END - IT2N_REG_CTRL,
+_Static_assert(IT2N_REGMAP_REG_GRID_F32_END - IT2N_REGMAP_REG_GRID_F32 <= IT2N_REGMAP_REG_CTRL_END - IT2N_REGMAP_REG_CTRL,
                "scratch buffer holds the largest block");
 _Static_assert(IT2N_VAL_FRAC == IT2N_REGMAP_Q24_FRAC && IT2N_PAR_FRAC == IT2N_REGMAP_PAR_FRAC,
                "the map's codecs carry the core's fixed point");
@@ -21,14 +21,14 @@ _Static_assert(IT2N_FP_COUNT == IT2N_REGMAP_FP && IT2N_CH_COUNT == IT2N_REGMAP_C
 /* The float result block is it2n_point's values then its summary in
  * sum_value order, contiguous in the struct: converted in one call. */
 #define RES_F32_VALUES (IT2N_FP_COUNT * IT2N_CH_COUNT + 12)
-_Static_assert(IT2N_REG_SUM_F32 - IT2N_REG_RES_F32 == 2 * IT2N_FP_COUNT * IT2N_CH_COUNT &&
+_Static_assert(IT2N_REGMAP_REG_SUM_F32 - IT2N_REGMAP_REG_RES_F32 == 2 * IT2N_FP_COUNT * IT2N_CH_COUNT &&
                    offsetof(it2n_point, sum) == sizeof(it2n_val) * IT2N_FP_COUNT * IT2N_CH_COUNT &&
                    offsetof(it2n_summary, upper_min) == 0 && offsetof(it2n_summary, upper_max) == 3 * sizeof(it2n_val) &&
                    offsetof(it2n_summary, lower_min) == 6 * sizeof(it2n_val) &&
                    offsetof(it2n_summary, lower_max) == 9 * sizeof(it2n_val),
                "results_f32 is it2n_point's v then sum, in sum_value order");
 
-#define QIDX(a) ((a) - IT2N_REG_Q_U16)
+#define QIDX(a) ((a) - IT2N_REGMAP_REG_Q_U16)
 
 /* u32/i32 registers follow int32_word_order ([modbus]; by default the
  * float order, so a CDAB PLC sees CDAB everywhere). */
@@ -43,7 +43,7 @@ static uint16_t sat16(unsigned v)
 /* Make sure q's cached result matches the model's current generation. */
 static int query_result(struct model *md, struct mb_map_query *q)
 {
-    if (md->state != IT2N_RS_SOLVED)
+    if (md->state != IT2N_REGMAP_STATE_SOLVED)
         return MB_MAP_BUSY;
     if (q->kind == 0)
         return MB_MAP_OK;
@@ -179,7 +179,7 @@ static int grid_ready(struct model *md, const struct mb_map_opts *o, unsigned sp
 {
     if (span > o->grid_rows * o->grid_cols * regs_per_node)
         return MB_MAP_ILLEGAL_ADDRESS;
-    if (md->state != IT2N_RS_SOLVED)
+    if (md->state != IT2N_REGMAP_STATE_SOLVED)
         return MB_MAP_BUSY;
     if (!(*g = grid_of(md, o->grid_rows, o->grid_cols)))
         return MB_MAP_DEVICE_FAILURE;
@@ -211,47 +211,47 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
     int rc, sat;
     memset(buf, 0, len * sizeof *buf);
     switch (b->start) {
-    case IT2N_REG_MAP_VERSION: {
+    case IT2N_REGMAP_REG_MAP_VERSION: {
         uint16_t *r = buf;
-        r[IT2N_REG_MAP_VERSION] = IT2N_REGMAP_VERSION;
-        r[IT2N_REG_STATE] = (uint16_t)md->state;
-        r[IT2N_REG_N] = (uint16_t)models_n(md);
-        r[IT2N_REG_M] = (uint16_t)models_m(md);
-        r[IT2N_REG_FLAGS] = (uint16_t)models_flags(md);
-        r[IT2N_REG_PRESENT] = sat16(models_present(md));
-        r[IT2N_REG_REQUIRED] = sat16(models_required(md));
-        put_u32(&r[IT2N_REG_GENERATION], md->gen);
-        r[IT2N_REG_LAST_ERR] = (uint16_t)(int16_t)md->last_err.code;
-        r[IT2N_REG_ERR_I] = (uint16_t)(md->last_err.code ? md->last_err.i : -1);
-        r[IT2N_REG_ERR_J] = (uint16_t)(md->last_err.code ? md->last_err.j : -1);
-        r[IT2N_REG_ERR_FP] = (uint16_t)(md->last_err.code ? md->last_err.fp : -1);
-        put_u32(&r[IT2N_REG_POINTS_RX], md->points_rx);
-        put_u32(&r[IT2N_REG_SOLVES], md->solves);
-        put_u32(&r[IT2N_REG_REQUESTS], md->mb.requests);
-        put_u32(&r[IT2N_REG_EXCEPTIONS], md->mb.exceptions);
-        r[IT2N_REG_WORD_ORDER] = (uint16_t)o->word_order;
-        r[IT2N_REG_COORD_SCALE] = (uint16_t)o->coord_scale;
-        r[IT2N_REG_GRID_ROWS] = (uint16_t)o->grid_rows;
-        r[IT2N_REG_GRID_COLS] = (uint16_t)o->grid_cols;
-        r[IT2N_REG_MODEL_ID] = (uint16_t)md->id;
-        r[IT2N_REG_GRID_SAT] = grid_saturated(md, o);
-        r[IT2N_REG_INT32_ORDER] = (uint16_t)o->int32_order;
-        r[IT2N_REG_KIND] = md->kind == MODEL_BSPLINE ? IT2N_KIND_BSPLINE : IT2N_KIND_BEZIER;
-        r[IT2N_REG_NET_ROWS] = (uint16_t)(md->state == IT2N_RS_SOLVED ? models_net_rows(md) : 0u);
-        r[IT2N_REG_NET_COLS] = (uint16_t)(md->state == IT2N_RS_SOLVED ? models_net_cols(md) : 0u);
+        r[IT2N_REGMAP_REG_MAP_VERSION] = IT2N_REGMAP_VERSION;
+        r[IT2N_REGMAP_REG_STATE] = (uint16_t)md->state;
+        r[IT2N_REGMAP_REG_N] = (uint16_t)models_n(md);
+        r[IT2N_REGMAP_REG_M] = (uint16_t)models_m(md);
+        r[IT2N_REGMAP_REG_FLAGS] = (uint16_t)models_flags(md);
+        r[IT2N_REGMAP_REG_PRESENT] = sat16(models_present(md));
+        r[IT2N_REGMAP_REG_REQUIRED] = sat16(models_required(md));
+        put_u32(&r[IT2N_REGMAP_REG_GENERATION], md->gen);
+        r[IT2N_REGMAP_REG_LAST_ERR] = (uint16_t)(int16_t)md->last_err.code;
+        r[IT2N_REGMAP_REG_ERR_I] = (uint16_t)(md->last_err.code ? md->last_err.i : -1);
+        r[IT2N_REGMAP_REG_ERR_J] = (uint16_t)(md->last_err.code ? md->last_err.j : -1);
+        r[IT2N_REGMAP_REG_ERR_FP] = (uint16_t)(md->last_err.code ? md->last_err.fp : -1);
+        put_u32(&r[IT2N_REGMAP_REG_POINTS_RX], md->points_rx);
+        put_u32(&r[IT2N_REGMAP_REG_SOLVES], md->solves);
+        put_u32(&r[IT2N_REGMAP_REG_REQUESTS], md->mb.requests);
+        put_u32(&r[IT2N_REGMAP_REG_EXCEPTIONS], md->mb.exceptions);
+        r[IT2N_REGMAP_REG_WORD_ORDER] = (uint16_t)o->word_order;
+        r[IT2N_REGMAP_REG_COORD_SCALE] = (uint16_t)o->coord_scale;
+        r[IT2N_REGMAP_REG_GRID_ROWS] = (uint16_t)o->grid_rows;
+        r[IT2N_REGMAP_REG_GRID_COLS] = (uint16_t)o->grid_cols;
+        r[IT2N_REGMAP_REG_MODEL_ID] = (uint16_t)md->id;
+        r[IT2N_REGMAP_REG_GRID_SAT] = grid_saturated(md, o);
+        r[IT2N_REGMAP_REG_INT32_ORDER] = (uint16_t)o->int32_order;
+        r[IT2N_REGMAP_REG_KIND] = md->kind == MODEL_BSPLINE ? IT2N_REGMAP_KIND_BSPLINE : IT2N_REGMAP_KIND_BEZIER;
+        r[IT2N_REGMAP_REG_NET_ROWS] = (uint16_t)(md->state == IT2N_REGMAP_STATE_SOLVED ? models_net_rows(md) : 0u);
+        r[IT2N_REGMAP_REG_NET_COLS] = (uint16_t)(md->state == IT2N_REGMAP_STATE_SOLVED ? models_net_cols(md) : 0u);
         return MB_MAP_OK;
     }
-    case IT2N_REG_PRESENT32:
+    case IT2N_REGMAP_REG_PRESENT32:
         put_u32(&buf[0], models_present(md));
-        put_u32(&buf[IT2N_REG_REQUIRED32 - IT2N_REG_PRESENT32], models_required(md));
+        put_u32(&buf[IT2N_REGMAP_REG_REQUIRED32 - IT2N_REGMAP_REG_PRESENT32], models_required(md));
         return MB_MAP_OK;
-    case IT2N_REG_PG_FP:
+    case IT2N_REGMAP_REG_PG_FP:
         memcpy(buf, q->page, sizeof q->page);
         return MB_MAP_OK;
-    case IT2N_REG_WIN: {
+    case IT2N_REGMAP_REG_WIN: {
         unsigned fp = q->page[0], ch = q->page[1], row = q->page[2], cols = models_net_cols(md);
         unsigned first = (from - b->start) / 2, last = (to - b->start + 1) / 2;
-        if (md->state != IT2N_RS_SOLVED)
+        if (md->state != IT2N_REGMAP_STATE_SOLVED)
             return MB_MAP_BUSY;
         if (row >= models_net_rows(md) || !models_has_fp(md, fp))
             return MB_MAP_OK; /* zeros */
@@ -259,19 +259,19 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
             it2n_regmap_put_f32(&buf[s * 2], it2n_regmap_q24_to_f32(models_coef(md, row, s, fp, ch)), o->word_order);
         return MB_MAP_OK;
     }
-    case IT2N_REG_CFG_N:
+    case IT2N_REGMAP_REG_CFG_N:
         buf[0] = (uint16_t)models_n(md);
         buf[1] = (uint16_t)models_m(md);
         buf[2] = (uint16_t)models_flags(md);
         buf[3] = 0;
         return MB_MAP_OK;
-    case IT2N_REG_UP_I:
+    case IT2N_REGMAP_REG_UP_I:
         memcpy(buf, md->mb.upload, sizeof md->mb.upload);
         return MB_MAP_OK;
-    case IT2N_REG_Q_U16:
+    case IT2N_REGMAP_REG_Q_U16:
         memcpy(buf, q->regs, sizeof q->regs);
         return MB_MAP_OK;
-    case IT2N_REG_Q_KIND:
+    case IT2N_REGMAP_REG_Q_KIND:
         rc = query_result(md, q);
         if (rc == MB_MAP_BUSY) { /* status stays readable while unsolved */
             buf[0] = (uint16_t)q->kind;
@@ -280,11 +280,11 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
         if (rc)
             return rc;
         buf[0] = (uint16_t)q->kind;
-        put_u32(&buf[IT2N_REG_Q_GEN - IT2N_REG_Q_KIND], q->kind ? q->gen : 0);
-        buf[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND] = q->locfail;
-        put_u32(&buf[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND], q->pt.out_of_range);
+        put_u32(&buf[IT2N_REGMAP_REG_Q_GEN - IT2N_REGMAP_REG_Q_KIND], q->kind ? q->gen : 0);
+        buf[IT2N_REGMAP_REG_Q_LOCFAIL - IT2N_REGMAP_REG_Q_KIND] = q->locfail;
+        put_u32(&buf[IT2N_REGMAP_REG_Q_OOR - IT2N_REGMAP_REG_Q_KIND], q->pt.out_of_range);
         return MB_MAP_OK;
-    case IT2N_REG_RES_F32:
+    case IT2N_REGMAP_REG_RES_F32:
         if ((rc = query_result(md, q)) != MB_MAP_OK)
             return rc;
         if (q->kind == 0)
@@ -293,13 +293,13 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
          * conversion of 54 (asserted at the top of the file). */
         it2n_regmap_put_q24_f32s(buf, &q->pt.v[0][0], RES_F32_VALUES, o->word_order);
         return MB_MAP_OK;
-    case IT2N_REG_RES_SCALED:
+    case IT2N_REGMAP_REG_RES_SCALED:
         if ((rc = query_result(md, q)) != MB_MAP_OK)
             return rc;
         if (q->kind == 0)
             return MB_MAP_OK;
         for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
-            uint16_t *r = &buf[fp * IT2N_REG_RES_SCALED_STRIDE];
+            uint16_t *r = &buf[fp * IT2N_REGMAP_REG_RES_SCALED_STRIDE];
             uint16_t mask = 0;
             for (unsigned ch = 0; ch < 3; ch++) {
                 sat = 0;
@@ -313,20 +313,20 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
                 r[6 + k] = (uint16_t)(int16_t)v;
                 mask = (uint16_t)(mask | (sat ? 1u << (3 + k) : 0u));
             }
-            buf[IT2N_REG_SAT - IT2N_REG_RES_SCALED + fp] = mask;
+            buf[IT2N_REGMAP_REG_SAT - IT2N_REGMAP_REG_RES_SCALED + fp] = mask;
         }
         {
             uint16_t mask = 0;
             for (unsigned s = 0; s < 12; s++) {
                 sat = 0;
                 int64_t v = it2n_regmap_q24_to_scaled(sum_value(&q->pt.sum, s), IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
-                buf[IT2N_REG_SUM_SCALED - IT2N_REG_RES_SCALED + s] = (uint16_t)(int16_t)v;
+                buf[IT2N_REGMAP_REG_SUM_SCALED - IT2N_REGMAP_REG_RES_SCALED + s] = (uint16_t)(int16_t)v;
                 mask = (uint16_t)(mask | (sat ? 1u << s : 0u));
             }
-            buf[IT2N_REG_SAT_SUM - IT2N_REG_RES_SCALED] = mask;
+            buf[IT2N_REGMAP_REG_SAT_SUM - IT2N_REGMAP_REG_RES_SCALED] = mask;
         }
         return MB_MAP_OK;
-    case IT2N_REG_GRID: {
+    case IT2N_REGMAP_REG_GRID: {
         unsigned nodes = o->grid_rows * o->grid_cols;
         const struct grid_cache *g;
         int ready = grid_ready(md, o, to - b->start, 3u, &g);
@@ -340,7 +340,7 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
             }
         return MB_MAP_OK;
     }
-    case IT2N_REG_GRID_F32: {
+    case IT2N_REGMAP_REG_GRID_F32: {
         unsigned nodes = o->grid_rows * o->grid_cols;
         const struct grid_cache *g;
         int ready = grid_ready(md, o, to - b->start, 6u, &g);
@@ -351,10 +351,10 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
                 it2n_regmap_put_f32(&buf[(nd * 3 + k) * 2], it2n_regmap_q24_to_f32(g->v[nd][k]), o->word_order);
         return MB_MAP_OK;
     }
-    case IT2N_REG_CTRL: {
+    case IT2N_REGMAP_REG_CTRL: {
         if (md->kind != MODEL_BEZIER)
             return MB_MAP_ILLEGAL_ADDRESS; /* its nets are read through coef_window */
-        if (md->state != IT2N_RS_SOLVED)
+        if (md->state != IT2N_REGMAP_STATE_SOLVED)
             return MB_MAP_BUSY;
         /* Only the requested span: the block is 5376 registers. */
         unsigned first = (from - b->start) / 2, last = (to - b->start + 1) / 2;
@@ -373,7 +373,7 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
 int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
                unsigned count, uint16_t *out)
 {
-    static uint16_t buf[IT2N_REG_CTRL_END - IT2N_REG_CTRL]; /* the largest block */
+    static uint16_t buf[IT2N_REGMAP_REG_CTRL_END - IT2N_REGMAP_REG_CTRL]; /* the largest block */
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     int rc;
     if (!b)
@@ -433,21 +433,21 @@ static int write_config(struct model *md, unsigned addr, unsigned count, const u
     int rc;
     for (unsigned k = 0; k < count; k++) {
         unsigned a = addr + k;
-        if (a == IT2N_REG_CFG_N)
+        if (a == IT2N_REGMAP_REG_CFG_N)
             n = v[k];
-        else if (a == IT2N_REG_CFG_M)
+        else if (a == IT2N_REGMAP_REG_CFG_M)
             m = v[k];
-        else if (a == IT2N_REG_CFG_FLAGS)
+        else if (a == IT2N_REGMAP_REG_CFG_FLAGS)
             flags = v[k];
         else
             cmd = v[k];
     }
-    if (n < 1 || n > max || m < 1 || m > max || (flags & ~IT2N_F_ALL) || cmd > IT2N_CMD_CLEAR)
+    if (n < 1 || n > max || m < 1 || m > max || (flags & ~IT2N_F_ALL) || cmd > IT2N_REGMAP_CMD_CLEAR)
         return refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
     int changed = n != models_n(md) || m != models_m(md) || flags != models_flags(md);
-    if (cmd == IT2N_CMD_COMMIT && changed)
+    if (cmd == IT2N_REGMAP_CMD_COMMIT && changed)
         return refused(md, MB_MAP_BUSY, IT2N_ERR_MISSING, -1, -1, -1); /* a fresh configuration has no points */
-    if (cmd == IT2N_CMD_COMMIT && models_missing(md) != 0)
+    if (cmd == IT2N_REGMAP_CMD_COMMIT && models_missing(md) != 0)
         return refused(md, MB_MAP_BUSY, IT2N_ERR_MISSING, -1, -1, -1);
     if (changed) {
         rc = models_configure(md, n, m, flags, &err);
@@ -455,11 +455,11 @@ static int write_config(struct model *md, unsigned addr, unsigned count, const u
             return refused_err(md, &err);
         *persisted = 1;
     }
-    if (cmd == IT2N_CMD_CLEAR) {
+    if (cmd == IT2N_REGMAP_CMD_CLEAR) {
         if ((rc = models_clear(md)) != 0)
             return refused(md, MB_MAP_DEVICE_FAILURE, rc, -1, -1, -1);
         *persisted = 1;
-    } else if (cmd == IT2N_CMD_COMMIT) {
+    } else if (cmd == IT2N_REGMAP_CMD_COMMIT) {
         rc = models_commit(md, &err);
         if (rc)
             return refused_err(md, &err);
@@ -474,19 +474,19 @@ static int write_upload(struct model *md, const struct mb_map_opts *o, unsigned 
     it2n_val vals[IT2N_CH_COUNT] = { 0 };
     it2n_errinfo err;
     int rc;
-    if (addr != IT2N_REG_UP_I || count != IT2N_REG_UPLOAD_END - IT2N_REG_UP_I)
+    if (addr != IT2N_REGMAP_REG_UP_I || count != IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I)
         return refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
-#define UP(a) v[(a) - IT2N_REG_UP_I]
-    unsigned i = UP(IT2N_REG_UP_I), j = UP(IT2N_REG_UP_J), fp = UP(IT2N_REG_UP_FP);
+#define UP(a) v[(a) - IT2N_REGMAP_REG_UP_I]
+    unsigned i = UP(IT2N_REGMAP_REG_UP_I), j = UP(IT2N_REGMAP_REG_UP_J), fp = UP(IT2N_REGMAP_REG_UP_FP);
     if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT)
         return refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_INVAL, i > 0x7FFF ? -1 : (int)i, j > 0x7FFF ? -1 : (int)j,
                        fp >= IT2N_FP_COUNT ? -1 : (int)fp);
     for (unsigned c = 0; c < 3; c++)
-        vals[c] = it2n_regmap_q24_from_scaled((int32_t)get_u32(&UP(IT2N_REG_UP_X + 2 * c)), o->coord_scale);
+        vals[c] = it2n_regmap_q24_from_scaled((int32_t)get_u32(&UP(IT2N_REGMAP_REG_UP_X + 2 * c)), o->coord_scale);
     /* memberships into Q30 (the fine layout): round(t 2^30 / 10000), the
      * value 'it2n' reads from the same 4-decimal CSV */
     for (unsigned k = 0; k < 3; k++) {
-        unsigned t = UP(IT2N_REG_UP_T + k);
+        unsigned t = UP(IT2N_REGMAP_REG_UP_T + k);
         if (t > IT2N_REGMAP_MEMB_SCALE) {
             refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp);
             md->last_err.ch = (int8_t)(IT2N_CH_T + k);
@@ -529,17 +529,17 @@ static void sync_views(struct mb_map_query *q, const struct mb_map_opts *o)
 {
     int sat = 0;
     if (q->kind == 1) {
-        q->regs[QIDX(IT2N_REG_Q_U16)] = it2n_regmap_par_to_u16(q->u);
-        q->regs[QIDX(IT2N_REG_Q_W16)] = it2n_regmap_par_to_u16(q->w);
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE), o->word_order);
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE), o->word_order);
+        q->regs[QIDX(IT2N_REGMAP_REG_Q_U16)] = it2n_regmap_par_to_u16(q->u);
+        q->regs[QIDX(IT2N_REGMAP_REG_Q_W16)] = it2n_regmap_par_to_u16(q->w);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE), o->word_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE), o->word_order);
     } else if (q->kind == 2) {
-        put_u32(&q->regs[QIDX(IT2N_REG_Q_XS)],
+        put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XS)],
                 (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->x, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
-        put_u32(&q->regs[QIDX(IT2N_REG_Q_YS)],
+        put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YS)],
                 (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->y, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_XF)], it2n_regmap_q24_to_f32(q->x), o->word_order);
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REG_Q_YF)], it2n_regmap_q24_to_f32(q->y), o->word_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XF)], it2n_regmap_q24_to_f32(q->x), o->word_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YF)], it2n_regmap_q24_to_f32(q->y), o->word_order);
     }
 }
 
@@ -551,40 +551,40 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
     struct mb_map_query nq;
     unsigned end = addr + count;
     memcpy(&nq, q, offsetof(struct mb_map_query, valid));
-    static const unsigned wide[] = { IT2N_REG_Q_UF, IT2N_REG_Q_WF, IT2N_REG_Q_XS, IT2N_REG_Q_YS,
-                                     IT2N_REG_Q_XF, IT2N_REG_Q_YF };
+    static const unsigned wide[] = { IT2N_REGMAP_REG_Q_UF, IT2N_REGMAP_REG_Q_WF, IT2N_REGMAP_REG_Q_XS, IT2N_REGMAP_REG_Q_YS,
+                                     IT2N_REGMAP_REG_Q_XF, IT2N_REGMAP_REG_Q_YF };
     (void)md;
     for (unsigned k = 0; k < sizeof wide / sizeof wide[0]; k++)
         if (cuts(addr, count, wide[k]))
             return MB_MAP_ILLEGAL_VALUE;
-    int uv = addr < IT2N_REG_Q_XS, xy = end > IT2N_REG_Q_XS;
+    int uv = addr < IT2N_REGMAP_REG_Q_XS, xy = end > IT2N_REGMAP_REG_Q_XS;
     if (uv && xy)
         return MB_MAP_ILLEGAL_VALUE;
     memcpy(&nq.regs[QIDX(addr)], v, count * sizeof *v);
 #define IN(a) (addr <= (a) && (a) < end)
     if (uv) {
-        if (IN(IT2N_REG_Q_U16)) {
-            if (nq.regs[QIDX(IT2N_REG_Q_U16)] > IT2N_REGMAP_MEMB_SCALE)
+        if (IN(IT2N_REGMAP_REG_Q_U16)) {
+            if (nq.regs[QIDX(IT2N_REGMAP_REG_Q_U16)] > IT2N_REGMAP_MEMB_SCALE)
                 return MB_MAP_ILLEGAL_VALUE;
-            nq.u = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REG_Q_U16)]);
-        } else if (IN(IT2N_REG_Q_UF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_UF)], o->word_order), &nq.u)) {
+            nq.u = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REGMAP_REG_Q_U16)]);
+        } else if (IN(IT2N_REGMAP_REG_Q_UF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REGMAP_REG_Q_UF)], o->word_order), &nq.u)) {
             return MB_MAP_ILLEGAL_VALUE;
         }
-        if (IN(IT2N_REG_Q_W16)) {
-            if (nq.regs[QIDX(IT2N_REG_Q_W16)] > IT2N_REGMAP_MEMB_SCALE)
+        if (IN(IT2N_REGMAP_REG_Q_W16)) {
+            if (nq.regs[QIDX(IT2N_REGMAP_REG_Q_W16)] > IT2N_REGMAP_MEMB_SCALE)
                 return MB_MAP_ILLEGAL_VALUE;
-            nq.w = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REG_Q_W16)]);
-        } else if (IN(IT2N_REG_Q_WF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REG_Q_WF)], o->word_order), &nq.w)) {
+            nq.w = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REGMAP_REG_Q_W16)]);
+        } else if (IN(IT2N_REGMAP_REG_Q_WF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REGMAP_REG_Q_WF)], o->word_order), &nq.w)) {
             return MB_MAP_ILLEGAL_VALUE;
         }
         nq.kind = 1;
     } else {
-        if (IN(IT2N_REG_Q_XS))
-            nq.x = it2n_regmap_q24_from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_XS)]), o->coord_scale);
-        if (IN(IT2N_REG_Q_YS))
-            nq.y = it2n_regmap_q24_from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REG_Q_YS)]), o->coord_scale);
+        if (IN(IT2N_REGMAP_REG_Q_XS))
+            nq.x = it2n_regmap_q24_from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REGMAP_REG_Q_XS)]), o->coord_scale);
+        if (IN(IT2N_REGMAP_REG_Q_YS))
+            nq.y = it2n_regmap_q24_from_scaled((int32_t)get_u32(&nq.regs[QIDX(IT2N_REGMAP_REG_Q_YS)]), o->coord_scale);
         for (int c = 0; c < 2; c++) {
-            unsigned a = c ? IT2N_REG_Q_YF : IT2N_REG_Q_XF;
+            unsigned a = c ? IT2N_REGMAP_REG_Q_YF : IT2N_REGMAP_REG_Q_XF;
             if (!IN(a))
                 continue;
             float f = it2n_regmap_get_f32(&nq.regs[QIDX(a)], o->word_order);
@@ -613,7 +613,7 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
 int mb_map_write_changes_model(unsigned addr, unsigned count)
 {
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
-    return b && b->access == IT2N_RA_RW && !b->per_conn; /* per connection: query inputs, coefficient page */
+    return b && b->access == IT2N_REGMAP_ACCESS_RW && !b->per_conn; /* per connection: query inputs, coefficient page */
 }
 
 /* Select a coefficient page: every value within its limit, or 03 and
@@ -622,9 +622,9 @@ static int write_page(struct mb_map_query *q, unsigned addr, unsigned count, con
 {
     static const unsigned lim[] = { IT2N_REGMAP_FP, IT2N_REGMAP_CH, IT2N_REGMAP_WIN_ROWS };
     for (unsigned k = 0; k < count; k++)
-        if (v[k] >= lim[addr - IT2N_REG_PG_FP + k])
+        if (v[k] >= lim[addr - IT2N_REGMAP_REG_PG_FP + k])
             return MB_MAP_ILLEGAL_VALUE;
-    memcpy(&q->page[addr - IT2N_REG_PG_FP], v, count * sizeof *v);
+    memcpy(&q->page[addr - IT2N_REGMAP_REG_PG_FP], v, count * sizeof *v);
     return MB_MAP_OK;
 }
 
@@ -633,18 +633,18 @@ int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_o
 {
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     *persisted = 0;
-    if (!b || b->access != IT2N_RA_RW)
+    if (!b || b->access != IT2N_REGMAP_ACCESS_RW)
         return refused(md, MB_MAP_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
     switch (b->start) {
-    case IT2N_REG_CFG_N:
+    case IT2N_REGMAP_REG_CFG_N:
         return write_config(md, addr, count, vals, persisted);
-    case IT2N_REG_UP_I:
+    case IT2N_REGMAP_REG_UP_I:
         return write_upload(md, o, addr, count, vals, persisted);
-    case IT2N_REG_Q_U16: {
+    case IT2N_REGMAP_REG_Q_U16: {
         int rc = write_query(md, q, o, addr, count, vals);
         return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MB_MAP_OK;
     }
-    case IT2N_REG_PG_FP: {
+    case IT2N_REGMAP_REG_PG_FP: {
         int rc = write_page(q, addr, count, vals);
         return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MB_MAP_OK;
     }

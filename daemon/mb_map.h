@@ -40,7 +40,7 @@ int mb_map_write_changes_model(unsigned addr, unsigned count);
 
 /* Per-connection query state. Zero-initialise. */
 struct mb_map_query {
-    uint16_t regs[IT2N_REG_QUERY_END - IT2N_REG_Q_U16]; /* inputs as written */
+    uint16_t regs[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16]; /* inputs as written */
     int kind;            /* 0 none, 1 (u, w), 2 (x, y) */
     it2n_par u, w;
     it2n_val x, y;
@@ -53,7 +53,7 @@ struct mb_map_query {
     it2n_point pt;
     uint16_t locfail;
     /* The coefficient page selected (footprint, channel, row). */
-    uint16_t page[IT2N_REG_PAGE_END - IT2N_REG_PG_FP];
+    uint16_t page[IT2N_REGMAP_REG_PAGE_END - IT2N_REGMAP_REG_PG_FP];
 };
 
 /* Read count registers from addr into out. Returns MB_MAP_OK or an exception

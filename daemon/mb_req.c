@@ -245,7 +245,7 @@ int mb_req_handle(struct mb_req_session *s, const uint8_t *req, int len, const s
         unsigned addr = u16at(pdu + 1), count = u16at(pdu + 3);
         if (count < 1 || count > MODBUS_MAX_READ_REGISTERS)
             return exception(s, md, req, MB_MAP_ILLEGAL_VALUE);
-        if (addr + count > IT2N_REG_MAP_END)
+        if (addr + count > IT2N_REGMAP_REG_MAP_END)
             return exception(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
         /* Readers see the last durable state (models_view), never a
          * change whose batch is still being written. */

@@ -176,7 +176,7 @@ char *metrics_render(const struct conf *c, size_t *len)
     family(&b, "it2nd_model_solved", "gauge", "1 when the model is solved (status register state = 2), else 0.");
     for (int k = 0; k < models_count(); k++)
         put(&b, "it2nd_model_solved{model=\"%d\"} %d\n", models_at(k)->id,
-            models_view(models_at(k))->state == IT2N_RS_SOLVED);
+            models_view(models_at(k))->state == IT2N_REGMAP_STATE_SOLVED);
     family(&b, "it2nd_model_points_received_total", "counter", "Data points accepted since start (links and Modbus).");
     for (int k = 0; k < models_count(); k++)
         put(&b, "it2nd_model_points_received_total{model=\"%d\"} %u\n", models_at(k)->id,

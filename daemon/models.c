@@ -460,7 +460,7 @@ struct model *models_add(int id, int unit, int kind, unsigned n, unsigned m, uns
         return NULL;
     }
     it2n_model_init(&md->mdl);
-    md->state = IT2N_RS_EMPTY;
+    md->state = IT2N_REGMAP_STATE_EMPTY;
     memset(&slots[nmodels], 0, sizeof slots[nmodels]);
     slots[nmodels].view = view;
     table[nmodels++] = md;
@@ -714,7 +714,7 @@ static int solve(struct model *md, it2n_errinfo *err)
         set_err(md, err);
         return rc;
     }
-    md->state = IT2N_RS_SOLVED;
+    md->state = IT2N_REGMAP_STATE_SOLVED;
     md->gen++;
     md->solves++;
     memset(&md->last_err, 0, sizeof md->last_err);
@@ -797,7 +797,7 @@ int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, i
         op_undo(md, mark);
         return rc;
     }
-    md->state = IT2N_RS_EMPTY;
+    md->state = IT2N_REGMAP_STATE_EMPTY;
     md->gen++;
     md->last_op = MOP_CONFIG;
     return IT2N_OK;
@@ -818,7 +818,7 @@ int models_clear(struct model *md)
         return refuse(md, &err, rc);
     }
     reset_data(md, models_n(md), models_m(md), models_flags(md), &err);
-    md->state = IT2N_RS_EMPTY;
+    md->state = IT2N_REGMAP_STATE_EMPTY;
     md->gen++;
     md->last_op = MOP_CLEAR;
     return IT2N_OK;
@@ -861,18 +861,36 @@ int models_put_fine(struct model *md, unsigned i, unsigned j, unsigned fp,
     return put_point(md, i, j, fp, vals, replace, true, err);
 }
 
+/* A change the core made (rc its result) into the journal: on the core's
+ * refusal or a journal failure the undo records since mark restore md and
+ * the error is recorded (a journal failure as a refusal). IT2N_OK or it. */
+static int journal_or_undo(struct model *md, const struct model_rec *rec, int rc, size_t mark,
+                           it2n_errinfo *err)
+{
+    int jrc = 0;
+    if (rc == IT2N_OK && (jrc = jlog(rec)) != 0)
+        rc = jrc;
+    if (rc != IT2N_OK) {
+        op_undo(md, mark);
+        if (jrc)
+            return refuse(md, err, jrc);
+        set_err(md, err);
+    }
+    return rc;
+}
+
 static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
                      const it2n_val vals[IT2N_CH_COUNT], bool replace, bool fine, it2n_errinfo *err)
 {
     struct model_rec rec = { .op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp, .replace = replace,
                              .fine = fine };
     size_t mark = ulen;
-    int rc, jrc = 0;
+    int rc;
     memcpy(rec.vals, vals, sizeof rec.vals);
 
     if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT) {
         /* Refused by the core before anything is looked at. */
-        rc = md->state == IT2N_RS_SOLVED ? core_update(md, i, j, fp, vals, fine, err)
+        rc = md->state == IT2N_REGMAP_STATE_SOLVED ? core_update(md, i, j, fp, vals, fine, err)
                                          : core_put(md, i, j, fp, vals, fine, err);
         if (rc == IT2N_OK) { /* cannot happen: the core checks the indices */
             memset(err, 0, sizeof *err);
@@ -891,24 +909,17 @@ static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
         return IT2N_ERR_DUPLICATE;
     }
     if (save(md, md, MODEL_HDR_BYTES) || save_point(md, i, j, fp) ||
-        (md->state == IT2N_RS_SOLVED && save_update(md, fp))) {
+        (md->state == IT2N_REGMAP_STATE_SOLVED && save_update(md, fp))) {
         op_undo(md, mark);
         return refuse(md, err, IT2ND_ERR_NOMEM);
     }
-    if (md->state == IT2N_RS_SOLVED) {
+    if (md->state == IT2N_REGMAP_STATE_SOLVED) {
         /* Incremental: the core's update changes md->ds and md->mdl
          * together and is atomic on error; the undo records undo a
          * journal failure. */
-        rc = core_update(md, i, j, fp, vals, fine, err);
-        if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0)
-            rc = jrc;
-        if (rc != IT2N_OK) {
-            op_undo(md, mark);
-            if (jrc)
-                return refuse(md, err, jrc);
-            set_err(md, err);
+        rc = journal_or_undo(md, &rec, core_update(md, i, j, fp, vals, fine, err), mark, err);
+        if (rc != IT2N_OK)
             return rc;
-        }
         md->gen++;
         md->points_rx++;
         md->last_op = MOP_POINT;
@@ -924,17 +935,11 @@ static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
         }
         rc = solve(md, err);
     }
-    if (rc == IT2N_OK && (jrc = jlog(&rec)) != 0)
-        rc = jrc;
-    if (rc != IT2N_OK) {
-        op_undo(md, mark);
-        if (jrc)
-            return refuse(md, err, jrc);
-        set_err(md, err);
+    rc = journal_or_undo(md, &rec, rc, mark, err);
+    if (rc != IT2N_OK)
         return rc;
-    }
-    if (md->state != IT2N_RS_SOLVED)
-        md->state = IT2N_RS_INCOMPLETE;
+    if (md->state != IT2N_REGMAP_STATE_SOLVED)
+        md->state = IT2N_REGMAP_STATE_INCOMPLETE;
     md->points_rx++;
     md->last_op = MOP_POINT;
     return IT2N_OK;
@@ -961,14 +966,14 @@ int models_commit(struct model *md, it2n_errinfo *err)
         op_undo(md, mark);
         return refuse(md, err, rc);
     }
-    if (rc != IT2N_OK && md->state != IT2N_RS_SOLVED)
-        md->state = IT2N_RS_FAILED;
+    if (rc != IT2N_OK && md->state != IT2N_REGMAP_STATE_SOLVED)
+        md->state = IT2N_REGMAP_STATE_FAILED;
     if (rc == IT2N_OK)
         md->last_op = MOP_COMMIT;
     return rc;
 }
 
-int models_set_upload(struct model *md, const uint16_t regs[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I])
+int models_set_upload(struct model *md, const uint16_t regs[IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I])
 {
     if (save(md, md->mb.upload, sizeof md->mb.upload))
         return IT2ND_ERR_NOMEM;
@@ -1020,8 +1025,8 @@ int models_preload_paper(struct model *md)
     int rc = IT2N_OK;
     size_t mark = ulen;
     replaying = 1; /* configuration, not journaled */
-    for (size_t k = 0; k < paper_nrows && rc == IT2N_OK; k++) {
-        const struct paper_row *r = &paper_rows[k];
+    for (size_t k = 0; k < paper_data_nrows && rc == IT2N_OK; k++) {
+        const struct paper_row *r = &paper_data_rows[k];
         it2n_val v[IT2N_CH_COUNT] = { 0 };
         static const int ch[5] = { IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F };
         int fp = it2n_fp_from_name(r->fp, strlen(r->fp));

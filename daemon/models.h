@@ -28,7 +28,7 @@
  * 40..51, kept in snapshots). The sample grid cache is mb_map.c's own. */
 struct model_modbus {
     uint32_t requests, exceptions;
-    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
+    uint16_t upload[IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I];
 };
 
 /* Model kinds ([model:ID] kind; Modbus status register kind). */
@@ -50,7 +50,7 @@ struct model {
     struct model_modbus mb;
     /* The data. */
     it2n_dataset ds;           /* Bezier: current data (staging and solved) */
-    it2n_model mdl;            /* Bezier: valid when state == IT2N_RS_SOLVED */
+    it2n_model mdl;            /* Bezier: valid when state == IT2N_REGMAP_STATE_SOLVED */
     /* B-spline kind: data set and model over the storage that follows the
      * struct in the same allocation (records, then coefficients; sized by
      * the core's macros for cap_n x cap_m with every footprint and z), so
@@ -161,7 +161,7 @@ void models_set_journal_marks(model_jmark_fn mark, model_jrewind_fn rewind);
 
 /* The last upload block (Modbus registers 40..51) of md, recorded in the
  * undo log like every change. 0, or IT2ND_ERR_NOMEM (nothing changed). */
-int models_set_upload(struct model *md, const uint16_t regs[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I]);
+int models_set_upload(struct model *md, const uint16_t regs[IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I]);
 
 /* Tests and fuzzers, a model put back to a saved state: models_dup gives
  * a copy of md in an allocation of its own (free() it; its B-spline

@@ -12,7 +12,7 @@ struct paper_row {
     const char *val[5];  /* x, y, T, I, F as decimal text from the CSV */
 };
 
-extern const struct paper_row paper_rows[];
-extern const size_t paper_nrows;
+extern const struct paper_row paper_data_rows[];
+extern const size_t paper_data_nrows;
 
 #endif

@@ -30,7 +30,7 @@
 
 #define MODEL_HDR_V2 44u
 #define MODEL_HDR_V3 48u
-#define UPLOAD_WORDS (IT2N_REG_UPLOAD_END - IT2N_REG_UP_I)
+#define UPLOAD_WORDS (IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I)
 #define FP_BYTES (8u * IT2N_CH_COUNT)
 
 _Static_assert(UPLOAD_WORDS == 12, "snapshot model header holds 12 upload registers");
@@ -44,13 +44,13 @@ static unsigned popcount8(unsigned v)
     return c;
 }
 
-size_t snap_max_size(int nmodels)
+size_t snapshot_max_size(int nmodels)
 {
-    return SNAP_HDR + 4 +
+    return SNAPSHOT_HDR + 4 +
            (size_t)nmodels * (MODEL_HDR_V3 + (size_t)IT2N_DIM * IT2N_DIM * (3 + FP_BYTES * IT2N_FP_COUNT));
 }
 
-size_t snap_max_size_bspline(void)
+size_t snapshot_max_size_bspline(void)
 {
     size_t size = 0;
     for (int k = 0; k < models_count(); k++) {
@@ -90,19 +90,19 @@ static int needs_fine(const struct model *md)
 
 /* durable_view: encode models_view() of each model (the last durable
  * state, while a batch is gathered or in flight), else the models. */
-uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
+uint8_t *snapshot_encode(uint64_t seq, size_t *len, int durable_view)
 {
-    size_t size = SNAP_HDR + 4, off, mhdr;
+    size_t size = SNAPSHOT_HDR + 4, off, mhdr;
     int n = models_count();
-    unsigned version = SNAP_VERSION_BEZIER;
+    unsigned version = SNAPSHOT_VERSION_BEZIER;
     uint8_t *buf;
     for (int k = 0; k < n; k++)
         if (models_at(k)->kind != MODEL_BEZIER)
-            version = SNAP_VERSION;
-    for (int k = 0; k < n && version != SNAP_VERSION_FINE; k++)
+            version = SNAPSHOT_VERSION;
+    for (int k = 0; k < n && version != SNAPSHOT_VERSION_FINE; k++)
         if (needs_fine(durable_view ? models_view(models_at(k)) : models_at(k)))
-            version = SNAP_VERSION_FINE;
-    mhdr = version == SNAP_VERSION_BEZIER ? MODEL_HDR_V2 : MODEL_HDR_V3;
+            version = SNAPSHOT_VERSION_FINE;
+    mhdr = version == SNAPSHOT_VERSION_BEZIER ? MODEL_HDR_V2 : MODEL_HDR_V3;
     for (int k = 0; k < n; k++) {
         const struct model *md = durable_view ? models_view(models_at(k)) : models_at(k);
         size += mhdr;
@@ -116,11 +116,11 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
     buf = calloc(1, size);
     if (!buf)
         return NULL;
-    memcpy(buf, SNAP_MAGIC, 8);
+    memcpy(buf, SNAPSHOT_MAGIC, 8);
     le_put32(buf + 8, version);
     le_put64(buf + 16, seq);
     le_put32(buf + 24, (uint32_t)n);
-    off = SNAP_HDR;
+    off = SNAPSHOT_HDR;
     for (int k = 0; k < n; k++) {
         const struct model *md = durable_view ? models_view(models_at(k)) : models_at(k);
         uint8_t *h = buf + off;
@@ -138,7 +138,7 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
                 buf[off++] = (uint8_t)mask;
                 for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
                     if (mask & (1u << fp)) {
-                        if (version == SNAP_VERSION_FINE)
+                        if (version == SNAPSHOT_VERSION_FINE)
                             models_point_get_fine(md, i, j, fp, v);
                         else
                             models_point_get(md, i, j, fp, v); /* exact */
@@ -152,7 +152,7 @@ uint8_t *snap_encode(uint64_t seq, size_t *len, int durable_view)
         h[4] = (uint8_t)models_flags(md);
         h[5] = (uint8_t)md->state;
         le_put16(h + 6, points & 0xFFFFu);
-        if (version != SNAP_VERSION_BEZIER) {
+        if (version != SNAPSHOT_VERSION_BEZIER) {
             h[44] = (uint8_t)md->kind;
             le_put16(h + 46, points >> 16);
         }
@@ -176,7 +176,7 @@ static uint32_t model_points(const uint8_t *h, size_t mhdr)
 /* Walk the model records without using them: every length must add up. */
 static int check_structure(const uint8_t *buf, size_t len, uint32_t nmodels, size_t mhdr)
 {
-    size_t off = SNAP_HDR, end = len - 4;
+    size_t off = SNAPSHOT_HDR, end = len - 4;
     for (uint32_t k = 0; k < nmodels; k++) {
         if (end - off < mhdr)
             return -1;
@@ -197,6 +197,46 @@ static int check_structure(const uint8_t *buf, size_t len, uint32_t nmodels, siz
     return off == end ? 0 : -1;
 }
 
+/* One entry into a data set of either kind: fine, memberships in Q30. */
+typedef int (*put_fn)(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine,
+                      it2n_errinfo *err);
+
+static int put_bezier(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine,
+                      it2n_errinfo *err)
+{
+    return fine ? it2n_dataset_put_fine(set, i, j, fp, v, false, err)
+                : it2n_dataset_put(set, i, j, fp, v, false, err);
+}
+
+static int put_bspline(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine,
+                       it2n_errinfo *err)
+{
+    return fine ? it2n_bspline_data_put_fine(set, i, j, fp, v, false, err)
+                : it2n_bspline_data_put(set, i, j, fp, v, false, err);
+}
+
+/* The point records at p (i, j, footprint mask, then 8 bytes per channel
+ * of each footprint in the mask; their lengths checked before) into set,
+ * one put per entry. IT2N_OK or the first refusal. */
+static int load_points(const uint8_t *p, uint32_t points, int fine, put_fn put, void *set,
+                       it2n_errinfo *err)
+{
+    int rc = IT2N_OK;
+    for (uint32_t k = 0; k < points && rc == IT2N_OK; k++) {
+        unsigned i = p[0], j = p[1], mask = p[2];
+        p += 3;
+        for (unsigned fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
+            it2n_val v[IT2N_CH_COUNT];
+            if (!(mask & (1u << fp)))
+                continue;
+            for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
+                v[c] = (it2n_val)le_get64(p);
+            rc = put(set, i, j, fp, v, fine, err);
+        }
+    }
+    return rc;
+}
+
 /* Rebuild md (kind B-spline) from the points at p: data set into a
  * scratch copy of md's storage, solved if state says so, then copied in.
  * IT2N_OK or the core's refusal (md unchanged). */
@@ -211,24 +251,13 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
     if (!rec || !coef) {
         free(rec);
         free(coef);
-        return SNAP_NOMEM;
+        return SNAPSHOT_NOMEM;
     }
     rc = it2n_bspline_data_init(&ds, rec, md->bds.cap, n, m, flags, err);
-    for (uint32_t k = 0; k < points && rc == IT2N_OK; k++) {
-        unsigned i = p[0], j = p[1], mask = p[2];
-        p += 3;
-        for (unsigned fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
-            it2n_val v[IT2N_CH_COUNT];
-            if (!(mask & (1u << fp)))
-                continue;
-            for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
-                v[c] = (it2n_val)le_get64(p);
-            rc = fine ? it2n_bspline_data_put_fine(&ds, i, j, fp, v, false, err)
-                      : it2n_bspline_data_put(&ds, i, j, fp, v, false, err);
-        }
-    }
+    if (rc == IT2N_OK)
+        rc = load_points(p, points, fine, put_bspline, &ds, err);
     it2n_bspline_model_init(&mdl, coef, md->bmdl.cap);
-    if (rc == IT2N_OK && state == IT2N_RS_SOLVED)
+    if (rc == IT2N_OK && state == IT2N_REGMAP_STATE_SOLVED)
         rc = it2n_bspline_solve(&mdl, &ds, err);
     if (rc == IT2N_OK) {
         memcpy(md->bds.rec, rec, md->bds.cap * sizeof *rec);
@@ -245,8 +274,8 @@ static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags
 }
 
 /* Rebuild one model from its record at buf (structure already checked).
- * Returns the record's length; *rc = 0, SNAP_BAD_MODEL, SNAP_NOMEM or
- * SNAP_UNCONFIGURED. */
+ * Returns the record's length; *rc = 0, SNAPSHOT_BAD_MODEL, SNAPSHOT_NOMEM or
+ * SNAPSHOT_UNCONFIGURED. */
 static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
 {
     unsigned id = le_get16(buf), n = buf[2], m = buf[3], flags = buf[4], state = buf[5];
@@ -269,7 +298,7 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
         rlen += 3 + FP_BYTES * popcount8(buf[rlen + 2]);
     if (!md) {
         if (points && !store_may_drop((int)id, points, "snapshot")) {
-            *result = SNAP_UNCONFIGURED;
+            *result = SNAPSHOT_UNCONFIGURED;
             return rlen;
         }
         log_warn("snapshot: model %u no longer configured; dropped", id);
@@ -284,7 +313,7 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
                     "set the kind back, or remove the model with 'removed = yes' to discard them (docs/daemon.md); "
                     "refusing to start, files left as they are",
                     id, (unsigned)points, models_kind_name((int)kind), id, models_kind_name(md->kind));
-            *result = SNAP_UNCONFIGURED;
+            *result = SNAPSHOT_UNCONFIGURED;
             return rlen;
         }
         log_notice("snapshot: model %u was of kind %s with no data points; now %s", id, models_kind_name((int)kind),
@@ -299,7 +328,7 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
                     "its [model:%u] section now gives it; raise n and m there (or remove the model with "
                     "'removed = yes' to discard them); refusing to start, files left as they are",
                     id, (unsigned)points, n, m, md->cap_n, md->cap_m, id);
-            *result = SNAP_UNCONFIGURED;
+            *result = SNAPSHOT_UNCONFIGURED;
             return rlen;
         }
         log_notice("snapshot: B-spline model %u was %ux%u with no data points; now at most %ux%u", id, n, m,
@@ -311,20 +340,20 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
                 IT2N_MAX_DEGREE);
         return rlen;
     }
-    if (state > IT2N_RS_FAILED) { /* IT2N_RS_EMPTY is 0 */
+    if (state > IT2N_REGMAP_STATE_FAILED) { /* IT2N_REGMAP_STATE_EMPTY is 0 */
         log_err("snapshot: model %u has unknown state %u", id, state);
-        *result = SNAP_BAD_MODEL;
+        *result = SNAPSHOT_BAD_MODEL;
         return rlen;
     }
-    if (state == IT2N_RS_EMPTY && points) {
+    if (state == IT2N_REGMAP_STATE_EMPTY && points) {
         why = "points in an empty model";
         goto out;
     }
     if (kind == MODEL_BSPLINE) {
         rc = load_bspline(md, n, m, flags, state, points, p, fine, &err);
-        if (rc == SNAP_NOMEM) {
+        if (rc == SNAPSHOT_NOMEM) {
             log_err("snapshot: model %u: no memory to rebuild it", id);
-            *result = SNAP_NOMEM;
+            *result = SNAPSHOT_NOMEM;
             return rlen;
         }
         if (rc != IT2N_OK) {
@@ -337,29 +366,18 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
     mdl = malloc(sizeof *mdl);
     if (!ds || !mdl) {
         log_err("snapshot: model %u: no memory to rebuild it", id);
-        *result = SNAP_NOMEM;
+        *result = SNAPSHOT_NOMEM;
         goto out;
     }
     rc = it2n_dataset_init(ds, n, m, flags, &err);
-    for (uint32_t k = 0; k < points && rc == IT2N_OK; k++) {
-        unsigned i = p[0], j = p[1], mask = p[2];
-        p += 3;
-        for (unsigned fp = 0; fp < IT2N_FP_COUNT && rc == IT2N_OK; fp++) {
-            it2n_val v[IT2N_CH_COUNT];
-            if (!(mask & (1u << fp)))
-                continue;
-            for (unsigned c = 0; c < IT2N_CH_COUNT; c++, p += 8)
-                v[c] = (it2n_val)le_get64(p);
-            rc = fine ? it2n_dataset_put_fine(ds, i, j, fp, v, false, &err)
-                      : it2n_dataset_put(ds, i, j, fp, v, false, &err);
-        }
-    }
+    if (rc == IT2N_OK)
+        rc = load_points(p, points, fine, put_bezier, ds, &err);
     if (rc != IT2N_OK) {
         why = it2n_strerror(rc);
         goto out;
     }
     it2n_model_init(mdl);
-    if (state == IT2N_RS_SOLVED) {
+    if (state == IT2N_REGMAP_STATE_SOLVED) {
         /* The control nets are derived: solve again (bit-identical to the
          * incremental updates that produced them). */
         rc = it2n_model_solve(mdl, ds, &err);
@@ -380,35 +398,35 @@ counters:
 out:
     if (why) {
         log_err("snapshot: model %u does not validate (%s at i %d j %d fp %d)", id, why, err.i, err.j, err.fp);
-        *result = SNAP_BAD_MODEL;
+        *result = SNAPSHOT_BAD_MODEL;
     }
     free(ds);
     free(mdl);
     return rlen;
 }
 
-int snap_decode(const uint8_t *buf, size_t len, uint64_t *seq)
+int snapshot_decode(const uint8_t *buf, size_t len, uint64_t *seq)
 {
     uint32_t n, version;
-    size_t off = SNAP_HDR, mhdr;
-    if (len < SNAP_HDR + 4 || memcmp(buf, SNAP_MAGIC, 8))
-        return SNAP_BAD;
+    size_t off = SNAPSHOT_HDR, mhdr;
+    if (len < SNAPSHOT_HDR + 4 || memcmp(buf, SNAPSHOT_MAGIC, 8))
+        return SNAPSHOT_BAD;
     version = le_get32(buf + 8);
-    if (version != SNAP_VERSION && version != SNAP_VERSION_BEZIER && version != SNAP_VERSION_FINE)
-        return SNAP_BAD;
-    mhdr = version == SNAP_VERSION_BEZIER ? MODEL_HDR_V2 : MODEL_HDR_V3;
+    if (version != SNAPSHOT_VERSION && version != SNAPSHOT_VERSION_BEZIER && version != SNAPSHOT_VERSION_FINE)
+        return SNAPSHOT_BAD;
+    mhdr = version == SNAPSHOT_VERSION_BEZIER ? MODEL_HDR_V2 : MODEL_HDR_V3;
     if (le_get32(buf + len - 4) != it2n_crc32c(buf, len - 4)) {
         log_err("snapshot: truncated or checksum mismatch (%zu bytes)", len);
-        return SNAP_BAD;
+        return SNAPSHOT_BAD;
     }
     n = le_get32(buf + 24);
     if (check_structure(buf, len, n, mhdr)) {
         log_err("snapshot: records do not add up to the file length");
-        return SNAP_BAD;
+        return SNAPSHOT_BAD;
     }
     for (uint32_t k = 0; k < n; k++) {
         int rc;
-        off += load_model(buf + off, mhdr, version == SNAP_VERSION_FINE, &rc);
+        off += load_model(buf + off, mhdr, version == SNAPSHOT_VERSION_FINE, &rc);
         if (rc)
             return rc;
     }

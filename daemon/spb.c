@@ -40,7 +40,7 @@ struct dev {
     int id;
     int dirty;                 /* a change was signalled: scan it      */
     int based;                 /* last holds values a host has or will have */
-    struct spb_val *last;      /* values as last published             */
+    struct spb_payload_val *last;      /* values as last published             */
     struct mb_map_query q;         /* its query (DCMD), like a Modbus connection's */
 };
 
@@ -96,12 +96,12 @@ static void sync_fd(void);
 static void on_fd(void *arg, int fd, short revents);
 
 /* Pack and publish (QoS 0, not retained unless said): seq < 0 none. */
-static int publish(const char *topic, struct spb_pl *pl, uint64_t ts, int seq, int qos, int *mid)
+static int publish(const char *topic, struct spb_payload *pl, uint64_t ts, int seq, int qos, int *mid)
 {
     uint8_t *buf;
     size_t len;
     int rc;
-    if (spb_pl_pack(pl, ts, seq, &buf, &len)) {
+    if (spb_payload_pack(pl, ts, seq, &buf, &len)) {
         log_err("sparkplug: out of memory encoding %s", topic);
         return -1;
     }
@@ -116,7 +116,7 @@ static int publish(const char *topic, struct spb_pl *pl, uint64_t ts, int seq, i
 
 /* Publish with the next seq, taken only when the message is queued: a
  * failed publish leaves no gap a host would read as a lost message. */
-static int publish_seq(const char *topic, struct spb_pl *pl, uint64_t ts)
+static int publish_seq(const char *topic, struct spb_payload *pl, uint64_t ts)
 {
     if (publish(topic, pl, ts, g.seq, 0, NULL))
         return -1;
@@ -179,9 +179,9 @@ static int devs_build(void)
 
 static int nbirth(void)
 {
-    struct spb_pl *pl = spb_pl_new(NA_COUNT);
+    struct spb_payload *pl = spb_payload_new(NA_COUNT);
     uint64_t ts = now_ms();
-    struct spb_val v;
+    struct spb_payload_val v;
     int rc = -1;
     char ver[96];
     if (!pl)
@@ -189,34 +189,34 @@ static int nbirth(void)
     snprintf(ver, sizeof ver, "it2nd %s", g.version);
     memset(&v, 0, sizeof v);
     v.u = (uint64_t)g.bdseq;
-    spb_pl_add(pl, "bdSeq", NA_BDSEQ, SPB_INT64, ts, &v);
+    spb_payload_add(pl, "bdSeq", NA_BDSEQ, SPB_PAYLOAD_INT64, ts, &v);
     v.u = 0;
-    spb_pl_add(pl, "Node Control/Rebirth", NA_REBIRTH, SPB_BOOLEAN, ts, &v);
+    spb_payload_add(pl, "Node Control/Rebirth", NA_REBIRTH, SPB_PAYLOAD_BOOLEAN, ts, &v);
     v.s = ver;
-    spb_pl_add(pl, "Properties/Software Version", NA_VERSION, SPB_STRING, ts, &v);
+    spb_payload_add(pl, "Properties/Software Version", NA_VERSION, SPB_PAYLOAD_STRING, ts, &v);
     v.s = NULL;
     v.u = IT2N_REGMAP_VERSION;
-    spb_pl_prop(pl, spb_pl_add(pl, "Properties/Register Map Version", NA_MAP_VERSION, SPB_UINT16, ts, &v),
+    spb_payload_prop(pl, spb_payload_add(pl, "Properties/Register Map Version", NA_MAP_VERSION, SPB_PAYLOAD_UINT16, ts, &v),
                 "description", "Layout version of the Modbus register map the device metrics mirror");
     v.u = (uint64_t)models_count();
-    spb_pl_prop(pl, spb_pl_add(pl, "Properties/Models", NA_MODELS, SPB_UINT32, ts, &v), "description",
+    spb_payload_prop(pl, spb_payload_add(pl, "Properties/Models", NA_MODELS, SPB_PAYLOAD_UINT32, ts, &v), "description",
                 "Devices (models) served by this edge node, each as model-N");
     if (g.sf_max) {
         v.u = (uint64_t)g.sf_dropped;
-        spb_pl_prop(pl, spb_pl_add(pl, "Store and Forward/Dropped", NA_SF_DROPPED, SPB_UINT64, ts, &v), "description",
+        spb_payload_prop(pl, spb_payload_add(pl, "Store and Forward/Dropped", NA_SF_DROPPED, SPB_PAYLOAD_UINT64, ts, &v), "description",
                     "Changes not kept for the host's history since start: the store (store_forward_max) was full or "
                     "could not be written (each is logged)");
     }
     g.seq = 0;
     rc = publish_seq(g.t_nbirth, pl, ts);
-    spb_pl_free(pl);
+    spb_payload_free(pl);
     return rc;
 }
 
 static int dbirth(struct dev *d, struct model *md)
 {
     int nm = spb_metrics_count(&g.mbo), rc;
-    struct spb_pl *pl = spb_pl_new((size_t)nm);
+    struct spb_payload *pl = spb_payload_new((size_t)nm);
     uint64_t ts = now_ms();
     char topic[200], name[96], desc[200];
     if (!pl)
@@ -226,15 +226,15 @@ static int dbirth(struct dev *d, struct model *md)
         const char *unit;
         int idx;
         spb_metrics_info(&g.mbo, k, name, sizeof name, desc, sizeof desc, &unit);
-        idx = spb_pl_add(pl, name, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts, &d->last[k]);
-        if (idx < 0 || spb_pl_prop(pl, idx, "description", desc) || (unit && spb_pl_prop(pl, idx, "engUnit", unit))) {
-            spb_pl_free(pl);
+        idx = spb_payload_add(pl, name, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts, &d->last[k]);
+        if (idx < 0 || spb_payload_prop(pl, idx, "description", desc) || (unit && spb_payload_prop(pl, idx, "engUnit", unit))) {
+            spb_payload_free(pl);
             return -1;
         }
     }
     dev_topic(topic, sizeof topic, TP_DBIRTH, d->id);
     rc = publish_seq(topic, pl, ts);
-    spb_pl_free(pl);
+    spb_payload_free(pl);
     d->dirty = 0;
     d->based = 1;
     return rc;
@@ -277,8 +277,8 @@ static void dev_scan(struct dev *d)
 {
     struct model *md = models_by_id(d->id);
     int nm = spb_metrics_count(&g.mbo), n = 0;
-    struct spb_val *cur;
-    struct spb_pl *pl;
+    struct spb_payload_val *cur;
+    struct spb_payload *pl;
     uint64_t ts = now_ms();
     char topic[200];
     d->dirty = 0;
@@ -286,13 +286,13 @@ static void dev_scan(struct dev *d)
         return;
     spb_metrics_values(models_view(md), &d->q, &g.mbo, cur);
     for (int k = 0; k < nm; k++)
-        n += !spb_val_equal(spb_metrics_type(k), &cur[k], &d->last[k]);
+        n += !spb_payload_val_equal(spb_metrics_type(k), &cur[k], &d->last[k]);
     /* Sized for what changed: the 1 s scan of an unchanged device costs
      * the comparison only. */
-    pl = n ? spb_pl_new((size_t)n) : NULL;
+    pl = n ? spb_payload_new((size_t)n) : NULL;
     for (int k = 0; pl && k < nm; k++)
-        if (!spb_val_equal(spb_metrics_type(k), &cur[k], &d->last[k]))
-            spb_pl_add(pl, NULL, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts, &cur[k]);
+        if (!spb_payload_val_equal(spb_metrics_type(k), &cur[k], &d->last[k]))
+            spb_payload_add(pl, NULL, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts, &cur[k]);
     if (pl) {
         dev_topic(topic, sizeof topic, TP_DDATA, d->id);
         if (publish_seq(topic, pl, ts) == 0) {
@@ -300,7 +300,7 @@ static void dev_scan(struct dev *d)
             g.ddata++;
         }
     }
-    spb_pl_free(pl);
+    spb_payload_free(pl);
     free(cur);
 }
 
@@ -358,9 +358,9 @@ static void sf_base(void)
 static void sf_store(int all)
 {
     int nm = spb_metrics_count(&g.mbo);
-    struct spb_val *cur = NULL;
+    struct spb_payload_val *cur = NULL;
     uint16_t *idx = NULL;
-    struct spb_val *vals = NULL;
+    struct spb_payload_val *vals = NULL;
     sf_base();
     for (int k = 0; k < g.ndevs; k++) {
         struct dev *d = &g.devs[k];
@@ -378,7 +378,7 @@ static void sf_store(int all)
         /* The nets (FloatArray) are derived from the points, which are
          * kept: the host gets the nets of now in the birth it will have. */
         for (int j = 0; j < nm; j++)
-            if (spb_metrics_type(j) != SPB_FLOATARRAY && !spb_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
+            if (spb_metrics_type(j) != SPB_PAYLOAD_FLOATARRAY && !spb_payload_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
                 idx[n] = (uint16_t)j;
                 vals[n++] = cur[j];
             }
@@ -409,7 +409,7 @@ static void sf_forward(void)
     int nm = spb_metrics_count(&g.mbo);
     for (int b = 0; b < SF_BATCH; b++) {
         struct spb_sf_rec rec;
-        struct spb_pl *pl;
+        struct spb_payload *pl;
         char topic[200];
         int rc = spb_sf_read(&g.sf_off, &rec);
         if (rc == 0) {
@@ -425,20 +425,20 @@ static void sf_forward(void)
             g.sf_flushing = 0;
             return;
         }
-        pl = dev_find(rec.dev) ? spb_pl_new((size_t)rec.n) : NULL;
+        pl = dev_find(rec.dev) ? spb_payload_new((size_t)rec.n) : NULL;
         for (int k = 0; pl && k < rec.n; k++)
             if (rec.idx[k] < nm)
-                spb_pl_add(pl, NULL, (uint64_t)(rec.dev + 1) * SPB_DEV_ALIAS + rec.idx[k], spb_metrics_type(rec.idx[k]),
+                spb_payload_add(pl, NULL, (uint64_t)(rec.dev + 1) * SPB_DEV_ALIAS + rec.idx[k], spb_metrics_type(rec.idx[k]),
                            rec.ts, &rec.val[k]);
         if (!pl) {
             log_warn("sparkplug: a stored change of model-%d is not published: the device is gone", rec.dev);
         } else {
-            spb_pl_historical(pl);
+            spb_payload_historical(pl);
             dev_topic(topic, sizeof topic, TP_DDATA, rec.dev);
             if (publish_seq(topic, pl, rec.ts) == 0)
                 g.sf_sent++;
         }
-        spb_pl_free(pl);
+        spb_payload_free(pl);
         spb_sf_rec_free(&rec);
         if (mosquitto_want_write(g.mosq))
             return;
@@ -580,14 +580,14 @@ static void on_fd(void *arg, int fd, short revents)
     after();
 }
 
-static struct spb_pl *ndeath_payload(int bd, uint64_t ts)
+static struct spb_payload *ndeath_payload(int bd, uint64_t ts)
 {
-    struct spb_pl *pl = spb_pl_new(1);
-    struct spb_val v;
+    struct spb_payload *pl = spb_payload_new(1);
+    struct spb_payload_val v;
     memset(&v, 0, sizeof v);
     v.u = (uint64_t)bd;
-    if (pl && spb_pl_add(pl, "bdSeq", 0, SPB_INT64, ts, &v) < 0) {
-        spb_pl_free(pl);
+    if (pl && spb_payload_add(pl, "bdSeq", 0, SPB_PAYLOAD_INT64, ts, &v) < 0) {
+        spb_payload_free(pl);
         pl = NULL;
     }
     return pl;
@@ -597,7 +597,7 @@ static void try_connect(void *arg)
 {
     int bd = g.next_bd, rc;
     uint64_t ts = now_ms();
-    struct spb_pl *pl;
+    struct spb_payload *pl;
     uint8_t *buf;
     size_t len;
     (void)arg;
@@ -612,12 +612,12 @@ static void try_connect(void *arg)
         g.file_bd = bd;
     }
     pl = ndeath_payload(bd, ts);
-    if (!pl || spb_pl_pack(pl, ts, -1, &buf, &len)) {
-        spb_pl_free(pl);
+    if (!pl || spb_payload_pack(pl, ts, -1, &buf, &len)) {
+        spb_payload_free(pl);
         schedule_retry();
         return;
     }
-    spb_pl_free(pl);
+    spb_payload_free(pl);
     /* The will is the NDEATH: QoS 1, not retained, only the bdSeq. */
     rc = mosquitto_will_set(g.mosq, g.t_ndeath, (int)len, buf, 1, false);
     free(buf);
@@ -728,7 +728,7 @@ static void on_state(const uint8_t *buf, size_t len)
     int online;
     uint64_t ts;
     char why[128];
-    if (spb_state_parse(buf, len, &online, &ts, why, sizeof why)) {
+    if (spb_payload_state_parse(buf, len, &online, &ts, why, sizeof why)) {
         log_warn("sparkplug: STATE of %s refused: %s", g.sc.primary_host_id, why);
         return;
     }
@@ -750,12 +750,12 @@ static void on_state(const uint8_t *buf, size_t len)
         log_notice("sparkplug: primary host %s offline%s", g.sc.primary_host_id,
                    was_born ? ": NDEATH, disconnecting; changes are kept until it is back" : "; waiting for it");
         if (was_born && g.st == ST_ONLINE) {
-            struct spb_pl *pl = ndeath_payload(g.bdseq, now_ms());
+            struct spb_payload *pl = ndeath_payload(g.bdseq, now_ms());
             /* Both queued in order: the broker has the NDEATH before the
              * DISCONNECT that discards the will. */
             if (pl)
                 publish(g.t_ndeath, pl, now_ms(), -1, 1, NULL);
-            spb_pl_free(pl);
+            spb_payload_free(pl);
             g.leaving = 1;
             g.need_birth = 1;
             mosquitto_disconnect(g.mosq);
@@ -765,7 +765,7 @@ static void on_state(const uint8_t *buf, size_t len)
 
 static void on_message(struct mosquitto *m, void *obj, const struct mosquitto_message *msg)
 {
-    struct spb_cmd cmd;
+    struct spb_payload_cmd cmd;
     char why[128];
     size_t pre = strlen(g.t_dpre[TP_DCMD]);
     (void)m;
@@ -785,7 +785,7 @@ static void on_message(struct mosquitto *m, void *obj, const struct mosquitto_me
     }
     if (strcmp(msg->topic, g.t_ncmd))
         return;
-    if (spb_cmd_parse(msg->payload, (size_t)(msg->payloadlen > 0 ? msg->payloadlen : 0), NA_REBIRTH, &cmd, why,
+    if (spb_payload_cmd_parse(msg->payload, (size_t)(msg->payloadlen > 0 ? msg->payloadlen : 0), NA_REBIRTH, &cmd, why,
                       sizeof why)) {
         log_warn("sparkplug: NCMD refused: %s", why);
         return;
@@ -832,8 +832,8 @@ static void on_hook(void *arg)
 static void opts_from(const struct conf *c)
 {
     memset(&g.mbo, 0, sizeof g.mbo);
-    g.mbo.word_order = IT2N_WO_ABCD;
-    g.mbo.int32_order = IT2N_WO_ABCD;
+    g.mbo.word_order = IT2N_REGMAP_WO_ABCD;
+    g.mbo.int32_order = IT2N_REGMAP_WO_ABCD;
     g.mbo.coord_scale = c->coord_scale;
     /* The Modbus grid size, so the register map's grid cache serves both. */
     g.mbo.grid_rows = (unsigned)c->grid_rows;
@@ -966,12 +966,12 @@ void spb_reload(const struct conf *c)
         changed = 1;
         if (g.st == ST_ONLINE) {
             /* The model is gone: its device dies (spec 4.4.4). */
-            struct spb_pl *pl = spb_pl_new(1);
+            struct spb_payload *pl = spb_payload_new(1);
             char topic[200];
             dev_topic(topic, sizeof topic, TP_DDEATH, g.devs[k].id);
             if (pl)
                 publish_seq(topic, pl, now_ms());
-            spb_pl_free(pl);
+            spb_payload_free(pl);
         }
     }
     for (int k = 0; k < models_count(); k++)
@@ -1030,7 +1030,7 @@ void spb_stop(void)
         scan(0);  /* changes made durable by the last drain: kept */
     if (g.st == ST_ONLINE) {
         uint64_t ts = now_ms();
-        struct spb_pl *pl = ndeath_payload(g.bdseq, ts);
+        struct spb_payload *pl = ndeath_payload(g.bdseq, ts);
         wait_for(flushed, STOP_WAIT_MS / 2);
         scan(0);  /* changes made durable by the last drain */
         g.ndeath_mid = 0;
@@ -1043,7 +1043,7 @@ void spb_stop(void)
                 log_warn("sparkplug: NDEATH not acknowledged by the broker within %d ms; the will follows",
                          STOP_WAIT_MS);
         }
-        spb_pl_free(pl);
+        spb_payload_free(pl);
         if (g.ndeath_acked) {
             /* DISCONNECT only after the NDEATH is the broker's: a DISCONNECT
              * discards the will, so a lost NDEATH would leave no death. */

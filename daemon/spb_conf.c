@@ -1,5 +1,6 @@
 /* spb_conf.c — see spb_conf.h. */
 #include "spb_conf.h"
+#include "conf_schema.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -38,18 +39,6 @@ int spb_conf_sf_max(const struct spb_conf *s)
     return s->primary_host_id[0] ? SPB_SF_DEFAULT : 0;
 }
 
-static int parse_num(const char *v, long lo, long hi, int *out)
-{
-    char *end;
-    long x;
-    errno = 0;
-    x = strtol(v, &end, 10);
-    if (!*v || *end || errno || x < lo || x > hi)
-        return -1;
-    *out = (int)x;
-    return 0;
-}
-
 /* A Sparkplug id is one MQTT topic level: no '/', '+', '#' (the topic
  * separators and wildcards, spec 4.1.1), and printable ASCII here so it
  * reads the same in logs, topics and the docs. */
@@ -86,7 +75,7 @@ int spb_conf_parse_broker(struct spb_conf *s, const char *v)
     s->host[hlen] = 0;
     if (!colon)
         s->port = 1883;  /* the MQTT port (IANA) */
-    else if (parse_num(colon + 1, 1, 65535, &s->port))
+    else if (conf_schema_int(colon + 1, 1, 65535, &s->port))
         return -1;
     return 0;
 }

@@ -74,6 +74,6 @@ int spb_conf_check(const struct spb_conf *s, int *line, char *key, size_t keysiz
  * match), so a bad one fails --check-config, start and reload with
  * "path:line: [sparkplug] key: reason". Kept out of the key parsers so the
  * parser (and its fuzzer) stays free of OpenSSL. 0 or -1 with err. */
-int spb_conf_check_tls(const struct spb_conf *s, const char *path, char *err, size_t errsize);
+int spb_tls_check(const struct spb_conf *s, const char *path, char *err, size_t errsize);
 
 #endif

@@ -19,13 +19,13 @@ struct dcmd {
     int has_xy[2];
     uint16_t page[3];
     int has_page[3];
-    uint16_t up[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
+    uint16_t up[IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I];
     unsigned upmask;
     int bad;
     char why[200];
 };
 
-static int dcmd_index(const struct dcmd *c, const struct spb_in *m)
+static int dcmd_index(const struct dcmd *c, const struct spb_payload_in *m)
 {
     char name[96], desc[200];
     const char *unit;
@@ -50,7 +50,7 @@ static void dcmd_refuse(struct dcmd *c, const char *what, const char *reason)
         snprintf(c->why, sizeof c->why, "%s%s%s", what ? what : "", what ? ": " : "", reason);
 }
 
-static void dcmd_metric(void *ctx, const struct spb_in *m)
+static void dcmd_metric(void *ctx, const struct spb_payload_in *m)
 {
     struct dcmd *c = ctx;
     char label[64];
@@ -65,9 +65,9 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
     }
     switch (spb_metrics_seg(&rel)) {
     case SPB_SEG_QIN:
-        if (m->kind == SPB_IN_FLOAT)
+        if (m->kind == SPB_PAYLOAD_IN_FLOAT)
             c->q[rel] = (float)m->d;
-        else if (m->kind == SPB_IN_INT || m->kind == SPB_IN_LONG)
+        else if (m->kind == SPB_PAYLOAD_IN_INT || m->kind == SPB_PAYLOAD_IN_LONG)
             c->q[rel] = (float)m->u;
         else {
             dcmd_refuse(c, label, "expected a Float");
@@ -76,11 +76,11 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
         c->has_q[rel] = 1;
         return;
     case SPB_SEG_QLOC:
-        if (m->kind == SPB_IN_FLOAT)
+        if (m->kind == SPB_PAYLOAD_IN_FLOAT)
             c->xy[rel] = (float)m->d;
-        else if (m->kind == SPB_IN_INT)
+        else if (m->kind == SPB_PAYLOAD_IN_INT)
             c->xy[rel] = (float)(int32_t)(uint32_t)m->u;
-        else if (m->kind == SPB_IN_LONG)
+        else if (m->kind == SPB_PAYLOAD_IN_LONG)
             c->xy[rel] = (float)(int64_t)m->u;
         else {
             dcmd_refuse(c, label, "expected a Float");
@@ -89,7 +89,7 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
         c->has_xy[rel] = 1;
         return;
     case SPB_SEG_PAGE:
-        if ((m->kind != SPB_IN_INT && m->kind != SPB_IN_LONG) || m->u > 65535) {
+        if ((m->kind != SPB_PAYLOAD_IN_INT && m->kind != SPB_PAYLOAD_IN_LONG) || m->u > 65535) {
             dcmd_refuse(c, label, "expected an integer 0..65535");
             return;
         }
@@ -98,23 +98,23 @@ static void dcmd_metric(void *ctx, const struct spb_in *m)
         return;
     case SPB_SEG_UPLOAD: {
         const it2n_regmap_field *f = spb_metrics_upload_field(rel);
-        uint16_t *r = &c->up[f->addr - IT2N_REG_UP_I];
+        uint16_t *r = &c->up[f->addr - IT2N_REGMAP_REG_UP_I];
         int64_t v;
-        if (m->kind == SPB_IN_INT)
-            v = f->type == IT2N_RT_I32 ? (int64_t)(int32_t)(uint32_t)m->u : (int64_t)(uint32_t)m->u;
-        else if (m->kind == SPB_IN_LONG)
+        if (m->kind == SPB_PAYLOAD_IN_INT)
+            v = f->type == IT2N_REGMAP_TYPE_I32 ? (int64_t)(int32_t)(uint32_t)m->u : (int64_t)(uint32_t)m->u;
+        else if (m->kind == SPB_PAYLOAD_IN_LONG)
             v = (int64_t)m->u;
-        else if (m->kind == SPB_IN_FLOAT && m->d == (double)(int64_t)m->d)
+        else if (m->kind == SPB_PAYLOAD_IN_FLOAT && m->d == (double)(int64_t)m->d)
             v = (int64_t)m->d;
         else {
             dcmd_refuse(c, label, "expected an integer (the register's value)");
             return;
         }
-        if (f->type == IT2N_RT_I32 ? (v < INT32_MIN || v > INT32_MAX) : (v < 0 || v > 65535)) {
+        if (f->type == IT2N_REGMAP_TYPE_I32 ? (v < INT32_MIN || v > INT32_MAX) : (v < 0 || v > 65535)) {
             dcmd_refuse(c, label, "out of the register's range");
             return;
         }
-        if (f->type == IT2N_RT_I32) {
+        if (f->type == IT2N_REGMAP_TYPE_I32) {
             r[0] = (uint16_t)((uint32_t)v >> 16);
             r[1] = (uint16_t)v;
         } else {
@@ -140,7 +140,7 @@ void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_ma
     c.id = id;
     c.o = o;
     c.nm = spb_metrics_count(o);
-    if (spb_cmd_each(buf, len, dcmd_metric, &c, why, sizeof why)) {
+    if (spb_payload_cmd_each(buf, len, dcmd_metric, &c, why, sizeof why)) {
         log_warn("sparkplug: DCMD model-%d refused: %s", id, why);
         mb_map_refused(md, MB_MAP_ILLEGAL_VALUE);
         return;
@@ -161,13 +161,13 @@ void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_ma
     if (c.has_q[0] || c.has_q[1]) {
         uint16_t regs[4];
         float cur[2] = { 0.0f, 0.0f };
-        if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MB_MAP_OK) {
-            cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
-            cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
+        if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REGMAP_REG_Q_UF, 4, regs) == MB_MAP_OK) {
+            cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_REGMAP_WO_ABCD);
+            cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_REGMAP_WO_ABCD);
         }
-        it2n_regmap_put_f32(&regs[0], c.has_q[0] ? c.q[0] : cur[0], IT2N_WO_ABCD);
-        it2n_regmap_put_f32(&regs[2], c.has_q[1] ? c.q[1] : cur[1], IT2N_WO_ABCD);
-        rc = mb_map_write(md, q, o, IT2N_REG_Q_UF, 4, regs, &persisted);
+        it2n_regmap_put_f32(&regs[0], c.has_q[0] ? c.q[0] : cur[0], IT2N_REGMAP_WO_ABCD);
+        it2n_regmap_put_f32(&regs[2], c.has_q[1] ? c.q[1] : cur[1], IT2N_REGMAP_WO_ABCD);
+        rc = mb_map_write(md, q, o, IT2N_REGMAP_REG_Q_UF, 4, regs, &persisted);
         if (rc != MB_MAP_OK)
             log_warn("sparkplug: DCMD model-%d: query refused (u, w in [0, 1]): exception %02X", id, (unsigned)rc);
     }
@@ -176,24 +176,24 @@ void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_ma
          * given keeps the value in use (0 before any locate). */
         uint16_t regs[4];
         float cur[2] = { 0.0f, 0.0f };
-        if (q->kind == 2 && mb_map_read(md, q, o, IT2N_REG_Q_XF, 4, regs) == MB_MAP_OK) {
-            cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
-            cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
+        if (q->kind == 2 && mb_map_read(md, q, o, IT2N_REGMAP_REG_Q_XF, 4, regs) == MB_MAP_OK) {
+            cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_REGMAP_WO_ABCD);
+            cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_REGMAP_WO_ABCD);
         }
-        it2n_regmap_put_f32(&regs[0], c.has_xy[0] ? c.xy[0] : cur[0], IT2N_WO_ABCD);
-        it2n_regmap_put_f32(&regs[2], c.has_xy[1] ? c.xy[1] : cur[1], IT2N_WO_ABCD);
-        rc = mb_map_write(md, q, o, IT2N_REG_Q_XF, 4, regs, &persisted);
+        it2n_regmap_put_f32(&regs[0], c.has_xy[0] ? c.xy[0] : cur[0], IT2N_REGMAP_WO_ABCD);
+        it2n_regmap_put_f32(&regs[2], c.has_xy[1] ? c.xy[1] : cur[1], IT2N_REGMAP_WO_ABCD);
+        rc = mb_map_write(md, q, o, IT2N_REGMAP_REG_Q_XF, 4, regs, &persisted);
         if (rc != MB_MAP_OK)
             log_warn("sparkplug: DCMD model-%d: locate refused (x, y finite): exception %02X", id, (unsigned)rc);
     }
     if (c.has_page[0] || c.has_page[1] || c.has_page[2]) {
         /* The page select, as a Modbus write of registers 96..98. */
         uint16_t regs[3];
-        if (mb_map_read(md, q, o, IT2N_REG_PG_FP, 3, regs) == MB_MAP_OK) {
+        if (mb_map_read(md, q, o, IT2N_REGMAP_REG_PG_FP, 3, regs) == MB_MAP_OK) {
             for (int k = 0; k < 3; k++)
                 if (c.has_page[k])
                     regs[k] = c.page[k];
-            rc = mb_map_write(md, q, o, IT2N_REG_PG_FP, 3, regs, &persisted);
+            rc = mb_map_write(md, q, o, IT2N_REGMAP_REG_PG_FP, 3, regs, &persisted);
             if (rc != MB_MAP_OK)
                 log_warn("sparkplug: DCMD model-%d: page select refused (fp 0..6, ch 0..5, row 0..257): exception %02X",
                          id, (unsigned)rc);
@@ -204,7 +204,7 @@ void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_ma
          * Modbus upload (its DDATA follows the commit, on_model_changed). */
         struct model_txn t;
         models_txn_begin(&t);
-        rc = mb_map_write(md, q, o, IT2N_REG_UP_I, IT2N_REG_UPLOAD_END - IT2N_REG_UP_I, c.up, &persisted);
+        rc = mb_map_write(md, q, o, IT2N_REGMAP_REG_UP_I, IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I, c.up, &persisted);
         if (rc != MB_MAP_OK && persisted) {
             it2n_errinfo e = md->last_err;
             models_txn_rollback(&t);

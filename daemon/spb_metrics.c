@@ -41,12 +41,12 @@ static const it2n_regmap_block *block_at(unsigned start)
 
 static const it2n_regmap_block *status_block(void)
 {
-    return block_at(IT2N_REG_MAP_VERSION);
+    return block_at(IT2N_REGMAP_REG_MAP_VERSION);
 }
 
 static const it2n_regmap_block *upload_block(void)
 {
-    return block_at(IT2N_REG_UP_I);
+    return block_at(IT2N_REGMAP_REG_UP_I);
 }
 
 unsigned spb_metrics_upload_count(void)
@@ -107,11 +107,11 @@ int spb_metrics_seg(int *idx)
 static int field_type(int rt)
 {
     switch (rt) {
-    case IT2N_RT_I16: return SPB_INT16;
-    case IT2N_RT_U32: return SPB_UINT32;
-    case IT2N_RT_I32: return SPB_INT32;
-    case IT2N_RT_F32: return SPB_FLOAT;
-    default: return SPB_UINT16;
+    case IT2N_REGMAP_TYPE_I16: return SPB_PAYLOAD_INT16;
+    case IT2N_REGMAP_TYPE_U32: return SPB_PAYLOAD_UINT32;
+    case IT2N_REGMAP_TYPE_I32: return SPB_PAYLOAD_INT32;
+    case IT2N_REGMAP_TYPE_F32: return SPB_PAYLOAD_FLOAT;
+    default: return SPB_PAYLOAD_UINT16;
     }
 }
 
@@ -119,14 +119,14 @@ int spb_metrics_type(int idx)
 {
     switch (spb_metrics_seg(&idx)) {
     case SPB_SEG_STATUS: return field_type(status_block()->fields[idx].type);
-    case SPB_SEG_QGEN: return SPB_UINT32;
+    case SPB_SEG_QGEN: return SPB_PAYLOAD_UINT32;
     case SPB_SEG_UPLOAD: return field_type(upload_block()->fields[idx].type);
-    case SPB_SEG_COUNTS: return SPB_UINT32;
-    case SPB_SEG_QSTAT: return idx == 2 ? SPB_UINT32 : SPB_UINT16;
-    case SPB_SEG_PAGE: return SPB_UINT16;
+    case SPB_SEG_COUNTS: return SPB_PAYLOAD_UINT32;
+    case SPB_SEG_QSTAT: return idx == 2 ? SPB_PAYLOAD_UINT32 : SPB_PAYLOAD_UINT16;
+    case SPB_SEG_PAGE: return SPB_PAYLOAD_UINT16;
     case SPB_SEG_PAGEROW:
-    case SPB_SEG_NET: return SPB_FLOATARRAY;
-    default: return SPB_FLOAT;
+    case SPB_SEG_NET: return SPB_PAYLOAD_FLOATARRAY;
+    default: return SPB_PAYLOAD_FLOAT;
     }
 }
 
@@ -157,7 +157,7 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
         snprintf(name, nsize, "Query/%c", idx ? 'w' : 'u');
         snprintf(desc, dsize, "Parameter %c in [0, 1] of this device's query (Modbus q_%c_f, register %u); a DCMD "
                  "writing Query/u and/or Query/w evaluates the model there", idx ? 'w' : 'u', idx ? 'w' : 'u',
-                 idx ? IT2N_REG_Q_WF : IT2N_REG_Q_UF);
+                 idx ? IT2N_REGMAP_REG_Q_WF : IT2N_REGMAP_REG_Q_UF);
         return;
     case SPB_SEG_QGEN:
         snprintf(name, nsize, "Query/generation");
@@ -168,17 +168,17 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
             k = (unsigned)idx % IT2N_REGMAP_CH;
             snprintf(name, nsize, "Query/Result/%s/%c", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k]);
             snprintf(desc, dsize, "Surface value of footprint %s, channel %c at (Query/u, Query/w) (Modbus register "
-                     "%u, float32)", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k], IT2N_REG_RES_F32 + 2u * (unsigned)idx);
+                     "%u, float32)", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k], IT2N_REGMAP_REG_RES_F32 + 2u * (unsigned)idx);
             *unit = k < 3 ? "coord" : NULL;
         } else {
             idx -= (int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH);
             snprintf(name, nsize, "Query/Summary/%s/%c", sum_names[idx / 3], "TIF"[idx % 3]);
             snprintf(desc, dsize, "Interval summary %s of %c at (Query/u, Query/w) (Modbus register %u, float32)",
-                     sum_names[idx / 3], "TIF"[idx % 3], IT2N_REG_SUM_F32 + 2u * (unsigned)idx);
+                     sum_names[idx / 3], "TIF"[idx % 3], IT2N_REGMAP_REG_SUM_F32 + 2u * (unsigned)idx);
         }
         return;
     case SPB_SEG_COUNTS:
-        f = &block_at(IT2N_REG_PRESENT32)->fields[idx];
+        f = &block_at(IT2N_REGMAP_REG_PRESENT32)->fields[idx];
         snprintf(name, nsize, "Status/%s", f->name);
         snprintf(desc, dsize, "%s (Modbus registers %u..%u)", f->desc, (unsigned)f->addr, f->addr + 1u);
         *unit = f->unit;
@@ -188,17 +188,17 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
         snprintf(desc, dsize, "Locate: coordinate %c of this device's query (Modbus q_%c_f, register %u); a DCMD "
                  "writing Query/x and/or Query/y locates (x, y) on every footprint (the results are the surface "
                  "there); null unless the last query was a locate", idx ? 'y' : 'x', idx ? 'y' : 'x',
-                 idx ? IT2N_REG_Q_YF : IT2N_REG_Q_XF);
+                 idx ? IT2N_REGMAP_REG_Q_YF : IT2N_REGMAP_REG_Q_XF);
         *unit = "coord";
         return;
     case SPB_SEG_QSTAT:
-        f = &block_at(IT2N_REG_Q_KIND)->fields[idx == 0 ? 0 : idx + 1];
+        f = &block_at(IT2N_REGMAP_REG_Q_KIND)->fields[idx == 0 ? 0 : idx + 1];
         snprintf(name, nsize, "Query/%s", idx == 0 ? "kind" : idx == 1 ? "locate_fail" : "out_of_range");
         snprintf(desc, dsize, "%s (Modbus %s, register %u)", f->desc, f->name, (unsigned)f->addr);
         *unit = strcmp(f->unit, "-") ? f->unit : NULL;
         return;
     case SPB_SEG_PAGE:
-        f = &block_at(IT2N_REG_PG_FP)->fields[idx];
+        f = &block_at(IT2N_REGMAP_REG_PG_FP)->fields[idx];
         snprintf(name, nsize, "Net/Page/%s", idx == 0 ? "fp" : idx == 1 ? "ch" : "row");
         snprintf(desc, dsize, "%s (Modbus %s, register %u; a DCMD selects the page Net/Page/values shows)", f->desc,
                  f->name, (unsigned)f->addr);
@@ -207,7 +207,7 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
         snprintf(name, nsize, "Net/Page/values");
         snprintf(desc, dsize, "Row Net/Page/row of net (Net/Page/fp, Net/Page/ch): Status/net_cols float32 values, "
                  "little-endian (Modbus coef_window, registers %u..); the control points of a Bezier model, the "
-                 "coefficients c(r-1, s-1) of a B-spline; null while not solved", IT2N_REG_WIN);
+                 "coefficients c(r-1, s-1) of a B-spline; null while not solved", IT2N_REGMAP_REG_WIN);
         *unit = "coord / 1";
         return;
     case SPB_SEG_NET:
@@ -227,28 +227,28 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
         w = o->grid_cols > 1 ? (double)c / (o->grid_cols - 1) : 0.0;
         snprintf(name, nsize, "Sample Grid/r%u/c%u/%c", r, c, "TIF"[k]);
         snprintf(desc, dsize, "%s membership of footprint D at u = %.4g, w = %.4g (Modbus register %u, float32)",
-                 chname[k], u, w, IT2N_REG_GRID_F32 + (nd * 3 + k) * 2);
+                 chname[k], u, w, IT2N_REGMAP_REG_GRID_F32 + (nd * 3 + k) * 2);
         return;
     }
 }
 
 /* Register fields of a block into metric values. */
-static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, struct spb_val *out)
+static void fields_values(const it2n_regmap_block *b, const uint16_t *regs, struct spb_payload_val *out)
 {
     for (size_t k = 0; k < b->nfields; k++) {
         const it2n_regmap_field *f = &b->fields[k];
         const uint16_t *r = &regs[f->addr - b->start];
         switch (f->type) {
-        case IT2N_RT_I16: out[k].u = (uint64_t)(int64_t)(int16_t)r[0]; break;
-        case IT2N_RT_U32: out[k].u = (uint32_t)r[0] << 16 | r[1]; break;
-        case IT2N_RT_I32: out[k].u = (uint64_t)(int64_t)(int32_t)((uint32_t)r[0] << 16 | r[1]); break;
-        case IT2N_RT_F32: out[k].f = it2n_regmap_get_f32(r, IT2N_WO_ABCD); break;
+        case IT2N_REGMAP_TYPE_I16: out[k].u = (uint64_t)(int64_t)(int16_t)r[0]; break;
+        case IT2N_REGMAP_TYPE_U32: out[k].u = (uint32_t)r[0] << 16 | r[1]; break;
+        case IT2N_REGMAP_TYPE_I32: out[k].u = (uint64_t)(int64_t)(int32_t)((uint32_t)r[0] << 16 | r[1]); break;
+        case IT2N_REGMAP_TYPE_F32: out[k].f = it2n_regmap_get_f32(r, IT2N_REGMAP_WO_ABCD); break;
         default: out[k].u = r[0]; break;
         }
     }
 }
 
-static void set_null(struct spb_val *out, int n)
+static void set_null(struct spb_payload_val *out, int n)
 {
     for (int k = 0; k < n; k++)
         out[k].null = 1;
@@ -256,11 +256,11 @@ static void set_null(struct spb_val *out, int n)
 
 /* float32 registers (ABCD) into the packed little-endian bytes of a
  * FloatArray, with the hash that stands for the value (FNV-1a, 64 bit). */
-static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct spb_val *out)
+static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct spb_payload_val *out)
 {
     uint64_t h = 14695981039346656037u;
     for (unsigned k = 0; k < n; k++) {
-        float f = it2n_regmap_get_f32(&regs[2 * k], IT2N_WO_ABCD);
+        float f = it2n_regmap_get_f32(&regs[2 * k], IT2N_REGMAP_WO_ABCD);
         uint32_t bits;
         memcpy(&bits, &f, sizeof bits);
         for (unsigned b = 0; b < 4; b++)
@@ -277,13 +277,13 @@ static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct
  * coefficient window like a PLC, page by page (a scratch page select:
  * the device's own stays as a DCMD set it). */
 static void net_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned rows, unsigned cols,
-                       struct spb_val *out)
+                       struct spb_payload_val *out)
 {
     static uint16_t regs[2 * IT2N_REGMAP_WIN_COLS];
     static uint8_t page_bytes[4 * IT2N_REGMAP_WIN_COLS];
     static uint8_t net_bytes[N_NET][4 * SPB_NET_MAX];
     struct mb_map_query scratch;
-    if (!cols || mb_map_read(md, q, o, IT2N_REG_WIN, 2u * cols, regs) != MB_MAP_OK)
+    if (!cols || mb_map_read(md, q, o, IT2N_REGMAP_REG_WIN, 2u * cols, regs) != MB_MAP_OK)
         out[0].null = 1;
     else
         float_array(regs, cols, page_bytes, &out[0]);
@@ -296,7 +296,7 @@ static void net_values(struct model *md, struct mb_map_query *q, const struct mb
         for (unsigned r = 0; ok && r < rows; r++) {
             uint16_t page[3] = { (uint16_t)fp, (uint16_t)ch, (uint16_t)r };
             memcpy(scratch.page, page, sizeof page);
-            ok = mb_map_read(md, &scratch, o, IT2N_REG_WIN, 2u * cols, &net[2 * r * cols]) == MB_MAP_OK;
+            ok = mb_map_read(md, &scratch, o, IT2N_REGMAP_REG_WIN, 2u * cols, &net[2 * r * cols]) == MB_MAP_OK;
         }
         if (ok)
             float_array(net, rows * cols, net_bytes[k], &out[k]);
@@ -309,9 +309,9 @@ static void net_values(struct model *md, struct mb_map_query *q, const struct mb
  * the last durable state: the status block, this device's query (its own
  * connection-like state) and results, the upload block, the float32
  * sample grid. Null where Modbus answers an exception (not solved). */
-void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_val *out)
+void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_payload_val *out)
 {
-    static uint16_t regs[IT2N_REG_GRID_F32_END - IT2N_REG_GRID_F32];
+    static uint16_t regs[IT2N_REGMAP_REG_GRID_F32_END - IT2N_REGMAP_REG_GRID_F32];
     const it2n_regmap_block *b = status_block(), *up = upload_block();
     unsigned nodes = o->grid_rows * o->grid_cols;
     int n = spb_metrics_count(o);
@@ -321,18 +321,18 @@ void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct m
     else
         set_null(out, (int)b->nfields);
     out += seg_start(SPB_SEG_QIN);
-    if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REG_Q_UF, 4, regs) == MB_MAP_OK) {
-        out[0].f = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
-        out[1].f = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
+    if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REGMAP_REG_Q_UF, 4, regs) == MB_MAP_OK) {
+        out[0].f = it2n_regmap_get_f32(&regs[0], IT2N_REGMAP_WO_ABCD);
+        out[1].f = it2n_regmap_get_f32(&regs[2], IT2N_REGMAP_WO_ABCD);
     } else {
         set_null(out, N_QIN);
     }
     out += N_QIN;
-    if (q->kind && mb_map_read(md, q, o, IT2N_REG_Q_GEN, 2, regs) == MB_MAP_OK &&
-        mb_map_read(md, q, o, IT2N_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MB_MAP_OK) {
+    if (q->kind && mb_map_read(md, q, o, IT2N_REGMAP_REG_Q_GEN, 2, regs) == MB_MAP_OK &&
+        mb_map_read(md, q, o, IT2N_REGMAP_REG_RES_F32, 2u * (unsigned)N_RES, regs + 2) == MB_MAP_OK) {
         out[0].u = (uint32_t)regs[0] << 16 | regs[1];
         for (int k = 0; k < N_RES; k++)
-            out[1 + k].f = it2n_regmap_get_f32(&regs[2 + 2 * k], IT2N_WO_ABCD);
+            out[1 + k].f = it2n_regmap_get_f32(&regs[2 + 2 * k], IT2N_REGMAP_WO_ABCD);
     } else {
         set_null(out, N_QGEN + N_RES);  /* no query yet, or not solved (06) */
     }
@@ -342,32 +342,32 @@ void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct m
     else
         set_null(out, (int)up->nfields);
     out += up->nfields;
-    if (mb_map_read(md, q, o, IT2N_REG_PRESENT32, 4, regs) == MB_MAP_OK)
-        fields_values(block_at(IT2N_REG_PRESENT32), regs, out);
+    if (mb_map_read(md, q, o, IT2N_REGMAP_REG_PRESENT32, 4, regs) == MB_MAP_OK)
+        fields_values(block_at(IT2N_REGMAP_REG_PRESENT32), regs, out);
     else
         set_null(out, N_COUNTS);
     out += N_COUNTS;
-    if (q->kind == 2 && mb_map_read(md, q, o, IT2N_REG_Q_XF, 4, regs) == MB_MAP_OK) {
-        out[0].f = it2n_regmap_get_f32(&regs[0], IT2N_WO_ABCD);
-        out[1].f = it2n_regmap_get_f32(&regs[2], IT2N_WO_ABCD);
+    if (q->kind == 2 && mb_map_read(md, q, o, IT2N_REGMAP_REG_Q_XF, 4, regs) == MB_MAP_OK) {
+        out[0].f = it2n_regmap_get_f32(&regs[0], IT2N_REGMAP_WO_ABCD);
+        out[1].f = it2n_regmap_get_f32(&regs[2], IT2N_REGMAP_WO_ABCD);
     } else {
         set_null(out, N_QLOC);
     }
     out += N_QLOC;
     /* q_kind reads while unsolved; the bits only with a result. */
     memset(regs, 0, 6 * sizeof *regs);
-    if (mb_map_read(md, q, o, IT2N_REG_Q_KIND, 6, regs) == MB_MAP_OK)
+    if (mb_map_read(md, q, o, IT2N_REGMAP_REG_Q_KIND, 6, regs) == MB_MAP_OK)
         out[0].u = regs[0];
     else
         out[0].null = 1;
-    if (q->kind && mb_map_read(md, q, o, IT2N_REG_RES_F32, 2, regs + 8) == MB_MAP_OK) {
-        out[1].u = regs[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND];
-        out[2].u = (uint32_t)regs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND] << 16 | regs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND + 1];
+    if (q->kind && mb_map_read(md, q, o, IT2N_REGMAP_REG_RES_F32, 2, regs + 8) == MB_MAP_OK) {
+        out[1].u = regs[IT2N_REGMAP_REG_Q_LOCFAIL - IT2N_REGMAP_REG_Q_KIND];
+        out[2].u = (uint32_t)regs[IT2N_REGMAP_REG_Q_OOR - IT2N_REGMAP_REG_Q_KIND] << 16 | regs[IT2N_REGMAP_REG_Q_OOR - IT2N_REGMAP_REG_Q_KIND + 1];
     } else {
         set_null(out + 1, 2);
     }
     out += N_QSTAT;
-    if (mb_map_read(md, q, o, IT2N_REG_PG_FP, 3, regs) == MB_MAP_OK)
+    if (mb_map_read(md, q, o, IT2N_REGMAP_REG_PG_FP, 3, regs) == MB_MAP_OK)
         for (int k = 0; k < N_PAGE; k++)
             out[k].u = regs[k];
     else
@@ -375,7 +375,7 @@ void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct m
     out += N_PAGE;
     {
         unsigned rows = 0, cols = 0;
-        if (mb_map_read(md, q, o, IT2N_REG_NET_ROWS, 2, regs) == MB_MAP_OK) {
+        if (mb_map_read(md, q, o, IT2N_REGMAP_REG_NET_ROWS, 2, regs) == MB_MAP_OK) {
             rows = regs[0];
             cols = regs[1];
         }
@@ -384,10 +384,10 @@ void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct m
     out += N_PAGEROW + N_NET;
     if (!nodes)
         return;
-    if (mb_map_read(md, q, o, IT2N_REG_GRID_F32, nodes * 6u, regs) != MB_MAP_OK) {
+    if (mb_map_read(md, q, o, IT2N_REGMAP_REG_GRID_F32, nodes * 6u, regs) != MB_MAP_OK) {
         set_null(out, (int)nodes * 3);  /* not solved: no grid (Modbus answers 06) */
         return;
     }
     for (unsigned k = 0; k < nodes * 3u; k++)
-        out[k].f = it2n_regmap_get_f32(&regs[k * 2], IT2N_WO_ABCD);
+        out[k].f = it2n_regmap_get_f32(&regs[k * 2], IT2N_REGMAP_WO_ABCD);
 }

@@ -45,7 +45,7 @@ int spb_metrics_count(const struct mb_map_opts *o);
 /* The segment of metric *idx; *idx becomes its index in the segment. */
 int spb_metrics_seg(int *idx);
 
-/* The Sparkplug datatype of metric idx (enum spb_type). */
+/* The Sparkplug datatype of metric idx (enum spb_payload_type). */
 int spb_metrics_type(int idx);
 
 /* Name, description and unit (NULL: none) of metric idx. */
@@ -55,7 +55,7 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
 /* Every metric's value now (spb_metrics_count(o) of them into out): md
  * as readers see it (pass models_view()), q the device's query (its
  * results are cached in it). Null where Modbus answers an exception. */
-void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_val *out);
+void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_payload_val *out);
 
 /* The fields of the upload block (the Upload metrics, in order). */
 unsigned spb_metrics_upload_count(void);

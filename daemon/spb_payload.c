@@ -22,39 +22,39 @@ struct slot {
     uint8_t *bytes;                 /* owned copy of an array value */
 };
 
-struct spb_pl {
+struct spb_payload {
     struct slot *s;
     Spb__Payload__Metric **mp;
     size_t n, cap;
 };
 
-int spb_val_equal(int type, const struct spb_val *a, const struct spb_val *b)
+int spb_payload_val_equal(int type, const struct spb_payload_val *a, const struct spb_payload_val *b)
 {
     if (a->null || b->null)
         return a->null == b->null;
-    if (type == SPB_FLOAT)
+    if (type == SPB_PAYLOAD_FLOAT)
         return !memcmp(&a->f, &b->f, sizeof a->f);
-    if (type == SPB_STRING)
+    if (type == SPB_PAYLOAD_STRING)
         return a->s && b->s ? !strcmp(a->s, b->s) : a->s == b->s;
     return a->u == b->u;
 }
 
-struct spb_pl *spb_pl_new(size_t cap)
+struct spb_payload *spb_payload_new(size_t cap)
 {
-    struct spb_pl *pl = calloc(1, sizeof *pl);
+    struct spb_payload *pl = calloc(1, sizeof *pl);
     if (!pl)
         return NULL;
     pl->s = calloc(cap ? cap : 1, sizeof *pl->s);
     pl->mp = calloc(cap ? cap : 1, sizeof *pl->mp);
     if (!pl->s || !pl->mp) {
-        spb_pl_free(pl);
+        spb_payload_free(pl);
         return NULL;
     }
     pl->cap = cap;
     return pl;
 }
 
-void spb_pl_free(struct spb_pl *pl)
+void spb_payload_free(struct spb_payload *pl)
 {
     if (!pl)
         return;
@@ -77,7 +77,7 @@ static char *own(struct slot *s, const char *str)
     return c;
 }
 
-int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, uint64_t ts, const struct spb_val *v)
+int spb_payload_add(struct spb_payload *pl, const char *name, uint64_t alias, int type, uint64_t ts, const struct spb_payload_val *v)
 {
     static const Spb__Payload__Metric init = SPB__PAYLOAD__METRIC__INIT;
     struct slot *s;
@@ -105,32 +105,32 @@ int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, ui
         m->is_null = 1;
     } else {
         switch (type) {
-        case SPB_INT16:
-        case SPB_INT32:
-        case SPB_UINT16:
-        case SPB_UINT32:
+        case SPB_PAYLOAD_INT16:
+        case SPB_PAYLOAD_INT32:
+        case SPB_PAYLOAD_UINT16:
+        case SPB_PAYLOAD_UINT32:
             m->value_case = SPB__PAYLOAD__METRIC__VALUE_INT_VALUE;
             m->int_value = (uint32_t)v->u;
             break;
-        case SPB_INT64:
-        case SPB_UINT64:
+        case SPB_PAYLOAD_INT64:
+        case SPB_PAYLOAD_UINT64:
             m->value_case = SPB__PAYLOAD__METRIC__VALUE_LONG_VALUE;
             m->long_value = v->u;
             break;
-        case SPB_FLOAT:
+        case SPB_PAYLOAD_FLOAT:
             m->value_case = SPB__PAYLOAD__METRIC__VALUE_FLOAT_VALUE;
             m->float_value = v->f;
             break;
-        case SPB_BOOLEAN:
+        case SPB_PAYLOAD_BOOLEAN:
             m->value_case = SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE;
             m->boolean_value = v->u != 0;
             break;
-        case SPB_STRING:
+        case SPB_PAYLOAD_STRING:
             m->value_case = SPB__PAYLOAD__METRIC__VALUE_STRING_VALUE;
             if (!(m->string_value = own(s, v->s ? v->s : "")))
                 return -1;
             break;
-        case SPB_FLOATARRAY:
+        case SPB_PAYLOAD_FLOATARRAY:
             m->value_case = SPB__PAYLOAD__METRIC__VALUE_BYTES_VALUE;
             if (v->nb) {
                 if (!v->b || !(s->bytes = malloc(v->nb)))
@@ -148,7 +148,7 @@ int spb_pl_add(struct spb_pl *pl, const char *name, uint64_t alias, int type, ui
     return (int)pl->n++;
 }
 
-int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value)
+int spb_payload_prop(struct spb_payload *pl, int idx, const char *key, const char *value)
 {
     static const Spb__Payload__PropertySet ps_init = SPB__PAYLOAD__PROPERTY_SET__INIT;
     static const Spb__Payload__PropertyValue pv_init = SPB__PAYLOAD__PROPERTY_VALUE__INIT;
@@ -168,7 +168,7 @@ int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value)
         return -1;
     s->pv[k] = pv_init;
     s->pv[k].has_type = 1;
-    s->pv[k].type = SPB_STRING;
+    s->pv[k].type = SPB_PAYLOAD_STRING;
     s->pv[k].value_case = SPB__PAYLOAD__PROPERTY_VALUE__VALUE_STRING_VALUE;
     if (!(s->pv[k].string_value = own(s, value)) || !(s->keys[k] = own(s, key)))
         return -1;
@@ -177,7 +177,7 @@ int spb_pl_prop(struct spb_pl *pl, int idx, const char *key, const char *value)
     return 0;
 }
 
-void spb_pl_historical(struct spb_pl *pl)
+void spb_payload_historical(struct spb_payload *pl)
 {
     for (size_t k = 0; k < pl->n; k++) {
         pl->s[k].m.has_is_historical = 1;
@@ -185,7 +185,7 @@ void spb_pl_historical(struct spb_pl *pl)
     }
 }
 
-int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *len)
+int spb_payload_pack(struct spb_payload *pl, uint64_t ts, int seq, uint8_t **out, size_t *len)
 {
     Spb__Payload p = SPB__PAYLOAD__INIT;
     size_t n;
@@ -204,7 +204,7 @@ int spb_pl_pack(struct spb_pl *pl, uint64_t ts, int seq, uint8_t **out, size_t *
     return 0;
 }
 
-int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_cmd *cmd, char *why,
+int spb_payload_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_payload_cmd *cmd, char *why,
                   size_t whysize)
 {
     Spb__Payload *p = spb__payload__unpack(NULL, len, buf);
@@ -222,7 +222,7 @@ int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct
         if (!is_rebirth)
             continue;
         if (m->value_case != SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE ||
-            (m->has_datatype && m->datatype != SPB_BOOLEAN)) {
+            (m->has_datatype && m->datatype != SPB_PAYLOAD_BOOLEAN)) {
             snprintf(why, whysize, "Node Control/Rebirth must be a Boolean");
             rc = -1;
             break;
@@ -234,7 +234,7 @@ int spb_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct
     return rc;
 }
 
-int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_in *m), void *ctx,
+int spb_payload_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_payload_in *m), void *ctx,
                  char *why, size_t whysize)
 {
     Spb__Payload *p = spb__payload__unpack(NULL, len, buf);
@@ -244,7 +244,7 @@ int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const str
     }
     for (size_t k = 0; k < p->n_metrics; k++) {
         const Spb__Payload__Metric *m = p->metrics[k];
-        struct spb_in in;
+        struct spb_payload_in in;
         memset(&in, 0, sizeof in);
         in.name = m->name;
         in.has_alias = m->has_alias;
@@ -252,13 +252,13 @@ int spb_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const str
         in.has_datatype = m->has_datatype;
         in.datatype = m->datatype;
         switch (m->value_case) {
-        case SPB__PAYLOAD__METRIC__VALUE_INT_VALUE: in.kind = SPB_IN_INT; in.u = m->int_value; break;
-        case SPB__PAYLOAD__METRIC__VALUE_LONG_VALUE: in.kind = SPB_IN_LONG; in.u = m->long_value; break;
-        case SPB__PAYLOAD__METRIC__VALUE_FLOAT_VALUE: in.kind = SPB_IN_FLOAT; in.d = m->float_value; break;
-        case SPB__PAYLOAD__METRIC__VALUE_DOUBLE_VALUE: in.kind = SPB_IN_FLOAT; in.d = m->double_value; break;
-        case SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE: in.kind = SPB_IN_BOOL; in.u = m->boolean_value != 0; break;
-        case SPB__PAYLOAD__METRIC__VALUE__NOT_SET: in.kind = SPB_IN_NONE; break;
-        default: in.kind = SPB_IN_OTHER; break;
+        case SPB__PAYLOAD__METRIC__VALUE_INT_VALUE: in.kind = SPB_PAYLOAD_IN_INT; in.u = m->int_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_LONG_VALUE: in.kind = SPB_PAYLOAD_IN_LONG; in.u = m->long_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_FLOAT_VALUE: in.kind = SPB_PAYLOAD_IN_FLOAT; in.d = m->float_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_DOUBLE_VALUE: in.kind = SPB_PAYLOAD_IN_FLOAT; in.d = m->double_value; break;
+        case SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE: in.kind = SPB_PAYLOAD_IN_BOOL; in.u = m->boolean_value != 0; break;
+        case SPB__PAYLOAD__METRIC__VALUE__NOT_SET: in.kind = SPB_PAYLOAD_IN_NONE; break;
+        default: in.kind = SPB_PAYLOAD_IN_OTHER; break;
         }
         fn(ctx, &in);
     }
@@ -348,7 +348,7 @@ static int js_skip(struct js *j)
     return 0;
 }
 
-int spb_state_parse(const uint8_t *buf, size_t len, int *online, uint64_t *ts, char *why, size_t whysize)
+int spb_payload_state_parse(const uint8_t *buf, size_t len, int *online, uint64_t *ts, char *why, size_t whysize)
 {
     struct js j = { buf, buf + len };
     int have_on = 0, have_ts = 0;

@@ -98,7 +98,7 @@ int spb_sf_count(void)
     return s.count;
 }
 
-int spb_sf_append(int dev, uint64_t ts, int n, const uint16_t *idx, const struct spb_val *val)
+int spb_sf_append(int dev, uint64_t ts, int n, const uint16_t *idx, const struct spb_payload_val *val)
 {
     size_t len = BODY_FIXED + (size_t)n * VAL;
     uint8_t *b;

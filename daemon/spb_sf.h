@@ -27,7 +27,7 @@ struct spb_sf_rec {
     uint64_t ts;
     int n;
     uint16_t *idx;
-    struct spb_val *val;
+    struct spb_payload_val *val;
 };
 
 /* Open (create) state_dir/sparkplug.sf with room for max records; reads
@@ -41,7 +41,7 @@ int spb_sf_count(void);
 /* Append a change of device dev at ts (n metrics, their indexes and
  * values), durably. Returns 0, 1 when the store is full (nothing
  * written), -1 on an I/O error (logged; nothing kept). */
-int spb_sf_append(int dev, uint64_t ts, int n, const uint16_t *idx, const struct spb_val *val);
+int spb_sf_append(int dev, uint64_t ts, int n, const uint16_t *idx, const struct spb_payload_val *val);
 
 /* Read the record at *off (start at 0) into rec (caller frees rec->idx,
  * rec->val with spb_sf_rec_free) and advance *off. Returns 1 with a

@@ -1,4 +1,4 @@
-/* spb_tls.c — spb_conf_check_tls (spb_conf.h): the TLS files of
+/* spb_tls.c — spb_tls_check (spb_conf.h): the TLS files of
  * [sparkplug] loaded with OpenSSL, the library libmosquitto uses. */
 #include "spb_conf.h"
 
@@ -26,7 +26,7 @@ static const char *ssl_reason(void)
     return e ? buf : "unknown error";
 }
 
-int spb_conf_check_tls(const struct spb_conf *s, const char *path, char *err, size_t errsize)
+int spb_tls_check(const struct spb_conf *s, const char *path, char *err, size_t errsize)
 {
     SSL_CTX *ctx;
     int rc = -1;

@@ -63,7 +63,7 @@ static uint64_t seq, dseq, wal_bytes;
  * + new WAL, everything synced) succeeds. */
 static int degraded;
 /* What the B-spline models add to the checkpoint reserve
- * (snap_max_size_bspline()): set on the loop's thread while no job is in
+ * (snapshot_max_size_bspline()): set on the loop's thread while no job is in
  * flight, read by the writer. */
 static size_t bspline_reserve;
 static uint8_t *qbuf;
@@ -506,8 +506,8 @@ static int submit_checkpoint(int durable_view)
     }
     /* The durable state: the views (models.h) at dseq. Records gathered
      * meanwhile (seq > dseq) go to the new WAL after it. */
-    bspline_reserve = snap_max_size_bspline();
-    buf = snap_encode(dseq, &size, durable_view);
+    bspline_reserve = snapshot_max_size_bspline();
+    buf = snapshot_encode(dseq, &size, durable_view);
     if (!buf) {
         log_err("snapshot failed (encode): %s", strerror(ENOMEM));
         return -1;
@@ -747,7 +747,7 @@ out:
  * room for the filesystem's own blocks, in whole 4 KiB blocks. */
 static off_t reserve_size(void)
 {
-    size_t n = snap_max_size(CONF_MAX_MODELS) + bspline_reserve + WAL_HDR + ((size_t)64 << 10);
+    size_t n = snapshot_max_size(CONF_MAX_MODELS) + bspline_reserve + WAL_HDR + ((size_t)64 << 10);
     return (off_t)((n + 4095) & ~(size_t)4095);
 }
 
@@ -825,7 +825,7 @@ int store_snapshot(void)
 /* The snapshot is read whole; it holds at most CONF_MAX_MODELS models of
  * bounded size, far below this limit (plus what the configured B-spline
  * grids may hold), so a larger file is not ours. */
-#define SNAP_FILE_MAX (((off_t)64 << 20) + (off_t)snap_max_size_bspline())
+#define SNAPSHOT_FILE_MAX (((off_t)64 << 20) + (off_t)snapshot_max_size_bspline())
 
 /* Read a whole file. NULL with errno ENOENT when it does not exist, EFBIG
  * over max, or the I/O error; the caller decides (and logs) what follows. */
@@ -985,7 +985,7 @@ static int v1_rebuild(struct model *md, const struct store_v1_it2n_dataset *src,
 static int load_snapshot(uint64_t *seqp)
 {
     size_t len = 0;
-    uint8_t *buf = read_file("snapshot", SNAP_FILE_MAX, &len);
+    uint8_t *buf = read_file("snapshot", SNAPSHOT_FILE_MAX, &len);
     uint64_t sseq = 0;
     *seqp = 0;
     if (!buf) {
@@ -994,30 +994,30 @@ static int load_snapshot(uint64_t *seqp)
         if (errno == EFBIG)
             log_err("snapshot: %s/snapshot is larger than the limit of %lld bytes (not a snapshot of this "
                     "daemon?); refusing to start, file left as it is",
-                    state_dir, (long long)SNAP_FILE_MAX);
+                    state_dir, (long long)SNAPSHOT_FILE_MAX);
         else
             log_err("snapshot: cannot read %s/snapshot: %s; refusing to start, file left as it is", state_dir,
                     strerror(errno));
         return -1;
     }
-    if (len < 36 || memcmp(buf, SNAP_MAGIC, 8)) {
+    if (len < 36 || memcmp(buf, SNAPSHOT_MAGIC, 8)) {
         log_err("snapshot: not a snapshot (%zu bytes)", len);
         free(buf);
         return keep_damaged("snapshot", "not a snapshot");
     }
-    if (le_get32(buf + 8) == SNAP_VERSION || le_get32(buf + 8) == SNAP_VERSION_BEZIER ||
-        le_get32(buf + 8) == SNAP_VERSION_FINE) {
-        int drc = snap_decode(buf, len, &sseq);
+    if (le_get32(buf + 8) == SNAPSHOT_VERSION || le_get32(buf + 8) == SNAPSHOT_VERSION_BEZIER ||
+        le_get32(buf + 8) == SNAPSHOT_VERSION_FINE) {
+        int drc = snapshot_decode(buf, len, &sseq);
         free(buf);
-        if (drc == SNAP_UNCONFIGURED)
+        if (drc == SNAPSHOT_UNCONFIGURED)
             return -1;
-        if (drc == SNAP_NOMEM) {
+        if (drc == SNAPSHOT_NOMEM) {
             log_err("snapshot: out of memory while loading %s/snapshot; refusing to start, file left as it is",
                     state_dir);
             return -1;
         }
         if (drc)
-            return keep_damaged("snapshot", drc == SNAP_BAD_MODEL ? "a model record does not validate"
+            return keep_damaged("snapshot", drc == SNAPSHOT_BAD_MODEL ? "a model record does not validate"
                                                                   : "checksum or structure");
         *seqp = sseq;
         return 0;
@@ -1064,8 +1064,8 @@ static int load_snapshot(uint64_t *seqp)
         /* Never trust stored derived state: rebuild the data set entry by
          * entry through the core's checks and solve it again, as version 2
          * does (the stored control nets are ignored). */
-        if (sm.state < IT2N_RS_EMPTY || sm.state > IT2N_RS_FAILED ||
-            v1_rebuild(md, &sm.ds, sm.state == IT2N_RS_SOLVED, &err) != IT2N_OK) {
+        if (sm.state < IT2N_REGMAP_STATE_EMPTY || sm.state > IT2N_REGMAP_STATE_FAILED ||
+            v1_rebuild(md, &sm.ds, sm.state == IT2N_REGMAP_STATE_SOLVED, &err) != IT2N_OK) {
             log_err("snapshot: model %d fails validation (%s)", sm.id, it2n_strerror(err.code));
             free(buf);
             return keep_damaged("snapshot", "a model record does not validate");
@@ -1077,7 +1077,7 @@ static int load_snapshot(uint64_t *seqp)
         memcpy(md->mb.upload, sm.upload, sizeof md->mb.upload);
     }
     log_notice("snapshot: legacy version 1, %u model(s) loaded, seq %llu; the next one is written as version %u", n,
-               (unsigned long long)sseq, SNAP_VERSION_BEZIER);
+               (unsigned long long)sseq, SNAPSHOT_VERSION_BEZIER);
     free(buf);
     *seqp = sseq;
     return 0;
@@ -1508,7 +1508,7 @@ int store_open(const char *dir, int fsync_on)
     /* The checkpoint reserve, kept across restarts (a restart on a disk
      * the WAL filled needs it as much). Not having it is no reason to
      * refuse the start: logged, made at the next checkpoint if it can. */
-    bspline_reserve = snap_max_size_bspline();
+    bspline_reserve = snapshot_max_size_bspline();
     int re = reserve_make(1);
     reserve_held = re == 0;
     reserve_warned = !reserve_held;

@@ -165,7 +165,7 @@ struct store_v1_it2n_model {
 struct store_v1_snap_model {
     int32_t id, state;
     uint32_t gen, points_rx, solves;
-    uint16_t upload[IT2N_REG_UPLOAD_END - IT2N_REG_UP_I];
+    uint16_t upload[IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I];
     struct store_v1_it2n_dataset ds;
     struct store_v1_it2n_model mdl;
 };

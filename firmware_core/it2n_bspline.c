@@ -581,18 +581,6 @@ static void store_line(int32_t *out, size_t stride, const int64_t *v,
 /* 2^36 / 36 rounded: the two passes' factor 6 each. */
 #define INV36 1908874354u
 
-/* Net of footprint fp, channel ch (both stored by the model). */
-static int32_t *net_of(const it2n_bspline_model *mdl, unsigned fp,
-                       unsigned ch)
-{
-    unsigned nch = IT2N_BSPLINE_NCH(mdl->flags);
-    unsigned slot = (mdl->flags & IT2N_F_TYPE1) ? 0u : fp;
-    /* channels in order x, y, [z], T, I, F */
-    unsigned c = (ch > IT2N_CH_Z && nch == 5u) ? ch - 1u : ch;
-    size_t size = (size_t)(mdl->n + 3u) * (mdl->m + 3u);
-    return mdl->coef + (slot * nch + c) * size;
-}
-
 /* Pass-1 state of the nets of one footprint: per channel the input shift
  * (or -1: all data zero), the exponent of every intermediate row and the
  * largest of them. */
@@ -644,7 +632,7 @@ static void store_row(const it2n_bspline_model *mdl, unsigned fp,
     s = mx == 0u ? -31 : norm_shift(mx);
     st->rsh[ch][i] = (int8_t)s;
     st->tmax[ch] = s > st->tmax[ch] ? s : st->tmax[ch];
-    store_line(net_of(mdl, fp, ch) + (i + 1u) * w, 1u, v, w, s);
+    store_line(it2n__bspline_net(mdl, fp, ch) + (i + 1u) * w, 1u, v, w, s);
 }
 
 static void solve_rows(const it2n_bspline_model *mdl,
@@ -737,7 +725,7 @@ static int solve_cols(const it2n_bspline_model *mdl, unsigned fp, unsigned ch,
 #endif
     int8_t csh[LINE_MAX];
     unsigned n = mdl->n, w = mdl->m + 3u, i, j;
-    int32_t *net = net_of(mdl, fp, ch);
+    int32_t *net = it2n__bspline_net(mdl, fp, ch);
     int f1 = st->f1[ch], tmax = st->tmax[ch], cmax = -64, frac;
     if (f1 < 0) {
         for (i = 0; i < (n + 3u) * w; i++) {
@@ -919,7 +907,7 @@ it2n_val it2n_bspline_coef(const it2n_bspline_model *mdl, unsigned r,
         !it2n__ch_used(mdl->flags, ch)) {
         return 0;
     }
-    net = net_of(mdl, fp, ch);
+    net = it2n__bspline_net(mdl, fp, ch);
     /* frac >= -1: below 2^56 in Q24, no overflow */
     return it2n__shift_round(net[r * (mdl->m + 3u) + s],
                              mdl->frac[fp][ch] - IT2N_VAL_FRAC);

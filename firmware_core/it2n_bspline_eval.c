@@ -102,17 +102,6 @@ static it2n_val stage2(const int32_t q[4], const int32_t cw[4], int frac)
     return it2n__shift_round(acc, 30 + frac - IT2N_VAL_FRAC);
 }
 
-/* Net of footprint fp, channel ch (as it2n_bspline.c lays them out). */
-static const int32_t *net_of(const it2n_bspline_model *mdl, unsigned fp,
-                             unsigned ch)
-{
-    unsigned nch = IT2N_BSPLINE_NCH(mdl->flags);
-    unsigned slot = (mdl->flags & IT2N_F_TYPE1) ? 0u : fp;
-    unsigned c = (ch > IT2N_CH_Z && nch == 5u) ? ch - 1u : ch;
-    size_t size = (size_t)(mdl->n + 3u) * (mdl->m + 3u);
-    return mdl->coef + (slot * nch + c) * size;
-}
-
 static int check_model(const it2n_bspline_model *mdl, it2n_errinfo *err)
 {
     if (!mdl->solved || mdl->coef == NULL) {
@@ -623,7 +612,7 @@ int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
             if (!(mask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
                 continue;
             }
-            win = net_of(mdl, fp, ch) + k * stride + l;
+            win = it2n__bspline_net(mdl, fp, ch) + k * stride + l;
             if (!deriv_value(win, stride, dbu, bw, 31, mdl->frac[fp][ch],
                              mdl->n, &du->v[fp][ch]) ||
                 !deriv_value(win, stride, bu, dbw, 30, mdl->frac[fp][ch],
@@ -656,7 +645,7 @@ int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask,
                 v[at] = du[at] = dw[at] = 0;
                 continue;
             }
-            win = net_of(mdl, fp, ch) + k * stride + l;
+            win = it2n__bspline_net(mdl, fp, ch) + k * stride + l;
             stage1(win, stride, bu, 30, q);
             v[at] = stage2(q, bw, mdl->frac[fp][ch]);
             if (!deriv_value(win, stride, dbu, bw, 31, mdl->frac[fp][ch],
@@ -693,14 +682,9 @@ int it2n_bspline_sample(const it2n_bspline_model *mdl, unsigned rows,
     if (rc != IT2N_OK) {
         return rc;
     }
-    if (rows < 2u || rows > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, (int)(rows > 32767u ? 32767u : rows),
-                          -1, -1, -1, (it2n_val)rows, 2, 65535);
-    }
-    if (cols < 2u || cols > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, -1,
-                          (int)(cols > 32767u ? 32767u : cols), -1, -1,
-                          (it2n_val)cols, 2, 65535);
+    rc = it2n__check_grid(rows, cols, err);
+    if (rc != IT2N_OK) {
+        return rc;
     }
     for (r = 0; r < rows; r++) {
         it2n_par u = grid_par(r, rows);

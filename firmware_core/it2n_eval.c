@@ -695,6 +695,20 @@ static it2n_par grid_par(unsigned k, unsigned count)
     return (it2n_par)it2n__udiv64_32(((uint64_t)k << IT2N_PAR_FRAC) + d / 2u, (uint32_t)d);
 }
 
+int it2n__check_grid(unsigned rows, unsigned cols, it2n_errinfo *err)
+{
+    if (rows < 2u || rows > 65535u) {
+        return it2n__fail(err, IT2N_ERR_RANGE, (int)(rows > 32767u ? 32767u : rows),
+                          -1, -1, -1, (it2n_val)rows, 2, 65535);
+    }
+    if (cols < 2u || cols > 65535u) {
+        return it2n__fail(err, IT2N_ERR_RANGE, -1,
+                          (int)(cols > 32767u ? 32767u : cols), -1, -1,
+                          (it2n_val)cols, 2, 65535);
+    }
+    return IT2N_OK;
+}
+
 int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
                 it2n_sample_cb cb, void *ctx, it2n_errinfo *err)
 {
@@ -708,14 +722,8 @@ int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
     if (!mdl->solved) {
         return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (rows < 2u || rows > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, (int)(rows > 32767u ? 32767u : rows),
-                          -1, -1, -1, (it2n_val)rows, 2, 65535);
-    }
-    if (cols < 2u || cols > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, -1,
-                          (int)(cols > 32767u ? 32767u : cols), -1, -1,
-                          (it2n_val)cols, 2, 65535);
+    if (it2n__check_grid(rows, cols, err) != IT2N_OK) {
+        return IT2N_ERR_RANGE;
     }
     n1 = mdl->n + 1u;
     m1 = mdl->m + 1u;

@@ -150,6 +150,23 @@ static inline int it2n__check_uw(it2n_par u, it2n_par w, it2n_errinfo *err)
     return IT2N_OK;
 }
 
+/* Grid size check of it2n_sample and it2n_bspline_sample: IT2N_ERR_RANGE
+ * (i names rows, j cols, clamped to an int16; value the size, lo 2, hi
+ * 65535) unless both are within 2..65535 (it2n_eval.c). */
+int it2n__check_grid(unsigned rows, unsigned cols, it2n_errinfo *err);
+
+/* B-spline coefficient net of footprint fp, channel ch, as the solve lays
+ * them out in mdl->coef (footprint-major, channels x, y, [z], T, I, F; a
+ * type-1 model holds D only), (n + 3) x (m + 3) each. */
+static inline int32_t *it2n__bspline_net(const it2n_bspline_model *mdl, unsigned fp, unsigned ch)
+{
+    unsigned nch = IT2N_BSPLINE_NCH(mdl->flags);
+    unsigned slot = (mdl->flags & IT2N_F_TYPE1) ? 0u : fp;
+    unsigned c = (ch > IT2N_CH_Z && nch == 5u) ? ch - 1u : ch;
+    size_t size = (size_t)(mdl->n + 3u) * (mdl->m + 3u);
+    return mdl->coef + (slot * nch + c) * size;
+}
+
 /* B-spline solve: round(2^32 / d_k), the reciprocal of pivot k of the
  * (1, 4, 1) elimination (it2n_bspline.c; the tests recompute the table). */
 uint32_t it2n__bspline_pivot_inv(unsigned k);

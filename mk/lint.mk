@@ -5,6 +5,10 @@
 #   tests/cli/fn_length.py: no front-end function over 100 lines
 #   tests/lint/layers.py: nothing outside daemon/ includes a daemon/ header
 #   or passes -Idaemon (the layers of docs/design.md)
+#   tests/lint/names.py: every global symbol of the daemon's, the front
+#   ends' and the register map's objects carries its module's prefix, one
+#   set of lifecycle verbs (nm; docs/design.md, "Names"); its --selftest
+#   first shows it fails on wrong names
 # (clang-tidy is not used.)
 CPPCHECK_FLAGS := --enable=warning,portability,performance --error-exitcode=1 -q \
   --inline-suppr --suppress=missingIncludeSystem -Ifirmware_core -Iprotocol
@@ -20,8 +24,11 @@ LINT_C11 := cppcheck --std=c11 $(CPPCHECK_FLAGS) -D_GNU_SOURCE -DIT2N_VERSION='"
 LINT_TESTS := cppcheck --std=c11 --enable=warning,portability --error-exitcode=1 -q \
   --suppress=missingIncludeSystem -Ifirmware_core -Iprotocol -Iregmap
 
+# The objects tests/lint/names.py reads (nm), built as the programs are.
+LINT_NAMES_OBJ := $(sort $(DAEMON_OBJ) $(CLI_OBJ) $(CTL_SRC:%.c=$(BUILD)/host/%.o) $(REGMAP_OBJ))
+
 .PHONY: lint
-lint: ## Static checks: cppcheck over all C code, tests/lint/layers.py
+lint: $(LINT_NAMES_OBJ) ## Static checks: cppcheck over all C code, layers.py, names.py
 	$(LINT_C99) -Iregmap firmware_core protocol regmap
 	$(LINT_C99) -Iexamples/instrument -Iexamples/firmware -Itests/qemu examples/firmware
 	$(LINT_C11) -Iregmap -Icli/common -Icli/it2nctl cli daemon
@@ -31,6 +38,9 @@ lint: ## Static checks: cppcheck over all C code, tests/lint/layers.py
 	$(LINT_FUZZD)
 	@# Nothing outside the daemon includes daemon/ headers or passes -Idaemon.
 	/usr/bin/python3 tests/lint/layers.py --make "$(CLI_BIN) $(CTL_BIN) $(GEN_REGISTERS) $(SIM_PLC) $(SIM_INSTR) $(FC23_LOAD) $(FC23_BARE)"
-	@echo "lint: cppcheck clean, layers respected"
+	@# One prefix per module, one set of lifecycle verbs.
+	/usr/bin/python3 tests/lint/names.py --selftest
+	/usr/bin/python3 tests/lint/names.py $(BUILD)/host $(LINT_NAMES_OBJ)
+	@echo "lint: cppcheck clean, layers respected, module prefixes held"
 
 TEST_TARGETS += lint

@@ -20,9 +20,9 @@ void it2n_regmap_put_u32(uint16_t out[2], uint32_t v, unsigned order)
 {
     uint16_t hi = (uint16_t)(v >> 16), lo = (uint16_t)v;
     switch (order) {
-    case IT2N_WO_CDAB: out[0] = lo; out[1] = hi; break;
-    case IT2N_WO_BADC: out[0] = swap16(hi); out[1] = swap16(lo); break;
-    case IT2N_WO_DCBA: out[0] = swap16(lo); out[1] = swap16(hi); break;
+    case IT2N_REGMAP_WO_CDAB: out[0] = lo; out[1] = hi; break;
+    case IT2N_REGMAP_WO_BADC: out[0] = swap16(hi); out[1] = swap16(lo); break;
+    case IT2N_REGMAP_WO_DCBA: out[0] = swap16(lo); out[1] = swap16(hi); break;
     default: out[0] = hi; out[1] = lo; break;
     }
 }
@@ -31,9 +31,9 @@ uint32_t it2n_regmap_get_u32(const uint16_t in[2], unsigned order)
 {
     uint16_t hi, lo;
     switch (order) {
-    case IT2N_WO_CDAB: hi = in[1]; lo = in[0]; break;
-    case IT2N_WO_BADC: hi = swap16(in[0]); lo = swap16(in[1]); break;
-    case IT2N_WO_DCBA: hi = swap16(in[1]); lo = swap16(in[0]); break;
+    case IT2N_REGMAP_WO_CDAB: hi = in[1]; lo = in[0]; break;
+    case IT2N_REGMAP_WO_BADC: hi = swap16(in[0]); lo = swap16(in[1]); break;
+    case IT2N_REGMAP_WO_DCBA: hi = swap16(in[1]); lo = swap16(in[0]); break;
     default: hi = in[0]; lo = in[1]; break;
     }
     return ((uint32_t)hi << 16) | lo;
@@ -90,9 +90,9 @@ static __m128i f32x2(const int64_t *p, __m128i *bad)
 /* The word order of 4 floats (a constant where used: one loop per order). */
 static __m128i f32_order(__m128i f, unsigned order)
 {
-    if (order == IT2N_WO_ABCD || order == IT2N_WO_BADC)
+    if (order == IT2N_REGMAP_WO_ABCD || order == IT2N_REGMAP_WO_BADC)
         f = _mm_shufflehi_epi16(_mm_shufflelo_epi16(f, 0xB1), 0xB1);
-    if (order == IT2N_WO_BADC || order == IT2N_WO_DCBA)
+    if (order == IT2N_REGMAP_WO_BADC || order == IT2N_REGMAP_WO_DCBA)
         f = _mm_or_si128(_mm_slli_epi16(f, 8), _mm_srli_epi16(f, 8));
     return f;
 }
@@ -111,10 +111,10 @@ static size_t put_q24_f32s_sse2(uint16_t *out, const int64_t *v, size_t n, unsig
         k += 2u;                                                                                   \
     }
     switch (order) {
-    case IT2N_WO_CDAB: IT2N_REGMAP_F32S_LOOP(IT2N_WO_CDAB); break;
-    case IT2N_WO_BADC: IT2N_REGMAP_F32S_LOOP(IT2N_WO_BADC); break;
-    case IT2N_WO_DCBA: IT2N_REGMAP_F32S_LOOP(IT2N_WO_DCBA); break;
-    default: IT2N_REGMAP_F32S_LOOP(IT2N_WO_ABCD); break;
+    case IT2N_REGMAP_WO_CDAB: IT2N_REGMAP_F32S_LOOP(IT2N_REGMAP_WO_CDAB); break;
+    case IT2N_REGMAP_WO_BADC: IT2N_REGMAP_F32S_LOOP(IT2N_REGMAP_WO_BADC); break;
+    case IT2N_REGMAP_WO_DCBA: IT2N_REGMAP_F32S_LOOP(IT2N_REGMAP_WO_DCBA); break;
+    default: IT2N_REGMAP_F32S_LOOP(IT2N_REGMAP_WO_ABCD); break;
     }
 #undef IT2N_REGMAP_F32S_LOOP
     if (k < n) /* the odd last value: the scalar conversion */
@@ -139,10 +139,10 @@ void it2n_regmap_put_q24_f32s(uint16_t *out, const int64_t *v, size_t n, unsigne
     for (k = 0; k < n; k++)                                                         \
         it2n_regmap_put_f32(&out[2 * k], it2n_regmap_q24_to_f32(v[k]), (wo))
     switch (order) {
-    case IT2N_WO_CDAB: IT2N_REGMAP_PUT_F32S(IT2N_WO_CDAB); break;
-    case IT2N_WO_BADC: IT2N_REGMAP_PUT_F32S(IT2N_WO_BADC); break;
-    case IT2N_WO_DCBA: IT2N_REGMAP_PUT_F32S(IT2N_WO_DCBA); break;
-    default: IT2N_REGMAP_PUT_F32S(IT2N_WO_ABCD); break;
+    case IT2N_REGMAP_WO_CDAB: IT2N_REGMAP_PUT_F32S(IT2N_REGMAP_WO_CDAB); break;
+    case IT2N_REGMAP_WO_BADC: IT2N_REGMAP_PUT_F32S(IT2N_REGMAP_WO_BADC); break;
+    case IT2N_REGMAP_WO_DCBA: IT2N_REGMAP_PUT_F32S(IT2N_REGMAP_WO_DCBA); break;
+    default: IT2N_REGMAP_PUT_F32S(IT2N_REGMAP_WO_ABCD); break;
     }
 #undef IT2N_REGMAP_PUT_F32S
 }

@@ -66,14 +66,11 @@ enum { CLI_FMT_VTK = 0, CLI_FMT_OBJ, CLI_FMT_CSV };
 /* "<stdin>" for "-", else path: how messages name DATA.csv. */
 const char *cli_display_name(const char *path);
 
-/* Run the subcommand in o; returns an exit status. */
-int cli_run(const cli_opts *o);
-
 /* Read DATA.csv (o->path, "-" = stdin) with o->flags into csv and ds,
  * check it and solve it into mdl, as every it2n command does. Errors are
  * printed as FILE:LINE: ...; returns CLI_EXIT_OK or CLI_EXIT_DATA. Also
  * it2nctl's push, so both tools refuse a file alike. */
-int cli_load(const cli_opts *o, csv_reader *csv, it2n_dataset *ds, it2n_model *mdl);
+int cli_load(const cli_opts *o, cli_csv_reader *csv, it2n_dataset *ds, it2n_model *mdl);
 
 /*
  * The options both programs share (common_opts.c), in one cli_opt table:
@@ -214,7 +211,7 @@ int cli_export(const cli_opts *o, const cli_surface *mdl);
  * *bmdl and *csv (line numbers for messages) stay valid until then.
  * Errors printed as FILE:LINE: ...; CLI_EXIT_OK or CLI_EXIT_DATA. */
 int cli_load_bspline(const cli_opts *o, const it2n_bspline_data **bds, const it2n_bspline_model **bmdl,
-                     const csv_reader **csv);
+                     const cli_csv_reader **csv);
 void cli_free_bspline(void);
 
 #endif /* IT2N_CLI_H */

@@ -9,13 +9,13 @@
 #include <stdio.h>
 #include <string.h>
 
-#define CSV_MAX_FIELDS 10
+#define CLI_CSV_MAX_FIELDS 10
 
 /* Sizes the code relies on. */
-_Static_assert(CSV_LINE_MAX >= 64 && CSV_LINE_MAX < 65536,
+_Static_assert(CLI_CSV_LINE_MAX >= 64 && CLI_CSV_LINE_MAX < 65536,
                "line buffer");
 _Static_assert(IT2N_MAX_DEGREE <= 999, "grid index fits the 3-digit parse");
-_Static_assert(sizeof(((csv_error *)0)->text) >= 16, "error text");
+_Static_assert(sizeof(((cli_csv_error *)0)->text) >= 16, "error text");
 
 static const char hdr_xy[] = "i,j,footprint,x,y,T,I,F";
 static const char hdr_xyz[] = "i,j,footprint,x,y,z,T,I,F";
@@ -25,7 +25,7 @@ typedef struct csv_field {
     size_t len;
 } csv_field;
 
-static void set_text(csv_error *e, const char *s, size_t len)
+static void set_text(cli_csv_error *e, const char *s, size_t len)
 {
     if (len >= sizeof(e->text)) {
         len = sizeof(e->text) - 1u;
@@ -34,7 +34,7 @@ static void set_text(csv_error *e, const char *s, size_t len)
     e->text[len] = '\0';
 }
 
-static void err_clear(csv_error *e)
+static void err_clear(cli_csv_error *e)
 {
     memset(e, 0, sizeof(*e));
     e->info.i = -1;
@@ -44,7 +44,7 @@ static void err_clear(csv_error *e)
 }
 
 /* Record the first error (sticky) and return its code. */
-static int fail(csv_reader *p, int code, int field, const csv_field *f)
+static int fail(cli_csv_reader *p, int code, int field, const csv_field *f)
 {
     p->err.bspline = p->bspline;
     p->err.code = code;
@@ -95,7 +95,7 @@ static bool unquote(csv_field *f)
     return true;
 }
 
-/* Split on ','; returns the field count (CSV_MAX_FIELDS + 1 if more), or
+/* Split on ','; returns the field count (CLI_CSV_MAX_FIELDS + 1 if more), or
  * -(k + 1) when field k is badly quoted (out[k] is that field). */
 static int split(const char *s, size_t len, csv_field *out)
 {
@@ -103,8 +103,8 @@ static int split(const char *s, size_t len, csv_field *out)
     size_t start = 0, k;
     for (k = 0; k <= len; k++) {
         if (k == len || s[k] == ',') {
-            if (n == CSV_MAX_FIELDS) {
-                return CSV_MAX_FIELDS + 1;
+            if (n == CLI_CSV_MAX_FIELDS) {
+                return CLI_CSV_MAX_FIELDS + 1;
             }
             out[n] = trim(s + start, k - start);
             if (!unquote(&out[n])) {
@@ -119,9 +119,9 @@ static int split(const char *s, size_t len, csv_field *out)
 }
 
 /* A bad quote from split(): record it against field -n. */
-static int fail_quote(csv_reader *p, int n, const csv_field *f)
+static int fail_quote(cli_csv_reader *p, int n, const csv_field *f)
 {
-    return fail(p, CSV_ERR_QUOTE, -n, &f[-n - 1]);
+    return fail(p, CLI_CSV_ERR_QUOTE, -n, &f[-n - 1]);
 }
 
 static bool field_is(const csv_field *f, const char *name)
@@ -129,9 +129,9 @@ static bool field_is(const csv_field *f, const char *name)
     return f->len == strlen(name) && memcmp(f->s, name, f->len) == 0;
 }
 
-static int parse_header(csv_reader *p, const char *s, size_t len)
+static int parse_header(cli_csv_reader *p, const char *s, size_t len)
 {
-    csv_field f[CSV_MAX_FIELDS];
+    csv_field f[CLI_CSV_MAX_FIELDS];
     static const char *const xy[] = {"i", "j", "footprint", "x",
                                      "y", "T", "I", "F"};
     static const char *const xyz[] = {"i", "j", "footprint", "x", "y",
@@ -147,7 +147,7 @@ static int parse_header(csv_reader *p, const char *s, size_t len)
         /* One field: a spreadsheet's ';' (or tab) separated export. */
         for (k = 0; (size_t)k < len; k++) {
             if (s[k] == ';' || s[k] == '\t') {
-                fail(p, CSV_ERR_SEPARATOR, 0, NULL);
+                fail(p, CLI_CSV_ERR_SEPARATOR, 0, NULL);
                 p->err.got = s[k];
                 return p->error;
             }
@@ -165,14 +165,14 @@ static int parse_header(csv_reader *p, const char *s, size_t len)
     }
     if (want == NULL) {
         whole = trim(s, len);
-        return fail(p, CSV_ERR_HEADER, 0, &whole);
+        return fail(p, CLI_CSV_ERR_HEADER, 0, &whole);
     }
     p->z = n == 9;
     p->header = 1;
     if (p->bspline) {
         /* The largest grid, records not cleared (15 MB): bs_lines says which
          * are set, and finish rebuilds every present flag from it. */
-        p->bs_scratch.cap = CSV_BSPLINE_RECS;
+        p->bs_scratch.cap = CLI_CSV_BSPLINE_RECS;
         p->bs_scratch.n = IT2N_BSPLINE_MAX_N;
         p->bs_scratch.m = IT2N_BSPLINE_MAX_N;
         p->bs_scratch.flags = (uint8_t)(p->z ? IT2N_F_Z : 0u);
@@ -204,13 +204,13 @@ static bool parse_index(const csv_field *f, unsigned max, unsigned *out)
     return true;
 }
 
-static int parse_row(csv_reader *p, const char *s, size_t len)
+static int parse_row(cli_csv_reader *p, const char *s, size_t len)
 {
     static const int8_t ch_xy[] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I,
                                    IT2N_CH_F};
     static const int8_t ch_xyz[] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_Z,
                                     IT2N_CH_T, IT2N_CH_I, IT2N_CH_F};
-    csv_field f[CSV_MAX_FIELDS];
+    csv_field f[CLI_CSV_MAX_FIELDS];
     const int8_t *chs = p->z ? ch_xyz : ch_xy;
     int want = p->z ? 9 : 8;
     int n = split(s, len, f), k, rc, fp;
@@ -223,22 +223,22 @@ static int parse_row(csv_reader *p, const char *s, size_t len)
         return fail_quote(p, n, f);
     }
     if (n != want) {
-        fail(p, CSV_ERR_FIELDS, 0, NULL);
-        p->err.got = n > CSV_MAX_FIELDS ? CSV_MAX_FIELDS + 1 : n;
+        fail(p, CLI_CSV_ERR_FIELDS, 0, NULL);
+        p->err.got = n > CLI_CSV_MAX_FIELDS ? CLI_CSV_MAX_FIELDS + 1 : n;
         p->err.expected = want;
         return p->error;
     }
     if (!parse_index(&f[0], max, &i)) {
-        return fail(p, CSV_ERR_INDEX, 1, &f[0]);
+        return fail(p, CLI_CSV_ERR_INDEX, 1, &f[0]);
     }
     p->err.info.i = (int16_t)i;
     if (!parse_index(&f[1], max, &j)) {
-        return fail(p, CSV_ERR_INDEX, 2, &f[1]);
+        return fail(p, CLI_CSV_ERR_INDEX, 2, &f[1]);
     }
     p->err.info.j = (int16_t)j;
     fp = it2n_fp_from_name(f[2].s, f[2].len);
     if (fp < 0) {
-        return fail(p, CSV_ERR_FOOTPRINT, 3, &f[2]);
+        return fail(p, CLI_CSV_ERR_FOOTPRINT, 3, &f[2]);
     }
     p->err.info.fp = (int8_t)fp;
 
@@ -260,12 +260,12 @@ static int parse_row(csv_reader *p, const char *s, size_t len)
                 }
                 return fail(p, IT2N_ERR_RANGE, k + 1, &f[k]);
             }
-            return fail(p, CSV_ERR_NUMBER, k + 1, &f[k]);
+            return fail(p, CLI_CSV_ERR_NUMBER, k + 1, &f[k]);
         }
     }
 
     line = p->bspline
-               ? &p->bs_lines[((size_t)i * CSV_BSPLINE_SIDE + j) * IT2N_FP_COUNT + (unsigned)fp]
+               ? &p->bs_lines[((size_t)i * CLI_CSV_BSPLINE_SIDE + j) * IT2N_FP_COUNT + (unsigned)fp]
                : &p->lines[i][j][fp];
     if (*line != 0u) {
         fail(p, IT2N_ERR_DUPLICATE, 0, NULL);
@@ -299,14 +299,14 @@ static int parse_row(csv_reader *p, const char *s, size_t len)
     return IT2N_OK;
 }
 
-static int parse_line(csv_reader *p)
+static int parse_line(cli_csv_reader *p)
 {
     const char *s = p->buf;
     size_t len = p->len, k;
     csv_field t;
 
     if (p->overlong) {
-        return fail(p, CSV_ERR_LONG, 0, NULL);
+        return fail(p, CLI_CSV_ERR_LONG, 0, NULL);
     }
     if (p->line == 1u && len >= 3u && memcmp(s, "\xEF\xBB\xBF", 3) == 0) {
         s += 3; /* UTF-8 byte order mark */
@@ -315,7 +315,7 @@ static int parse_line(csv_reader *p)
     for (k = 0; k < len; k++) {
         unsigned char c = (unsigned char)s[k];
         if ((c < 0x20u && c != '\t') || c == 0x7Fu) {
-            fail(p, CSV_ERR_BINARY, 0, NULL);
+            fail(p, CLI_CSV_ERR_BINARY, 0, NULL);
             p->err.got = c;
             return p->error;
         }
@@ -331,25 +331,25 @@ static int parse_line(csv_reader *p)
     return parse_row(p, t.s, t.len);
 }
 
-void csv_init(csv_reader *p, unsigned flags)
+void cli_csv_init(cli_csv_reader *p, unsigned flags)
 {
     memset(p, 0, sizeof(*p));
     err_clear(&p->err);
     p->flags = flags & IT2N_F_CHORD;
 }
 
-void csv_init_bspline(csv_reader *p, it2n_bspline_rec *scratch,
+void cli_csv_init_bspline(cli_csv_reader *p, it2n_bspline_rec *scratch,
                            uint32_t *lines)
 {
-    csv_init(p, 0u);
+    cli_csv_init(p, 0u);
     p->bspline = 1;
     p->err.bspline = 1;
     p->bs_lines = lines;
-    memset(lines, 0, CSV_BSPLINE_LINES * sizeof(*lines));
+    memset(lines, 0, CLI_CSV_BSPLINE_LINES * sizeof(*lines));
     p->bs_scratch.rec = scratch;
 }
 
-static int report(const csv_reader *p, csv_error *err)
+static int report(const cli_csv_reader *p, cli_csv_error *err)
 {
     if (err != NULL) {
         *err = p->err;
@@ -357,8 +357,8 @@ static int report(const csv_reader *p, csv_error *err)
     return p->error;
 }
 
-int csv_feed(csv_reader *p, const char *data, size_t len,
-                  csv_error *err)
+int cli_csv_feed(cli_csv_reader *p, const char *data, size_t len,
+                  cli_csv_error *err)
 {
     size_t k;
     for (k = 0; k < len && p->error == 0; k++) {
@@ -368,13 +368,13 @@ int csv_feed(csv_reader *p, const char *data, size_t len,
             if (p->len > 0u && p->buf[p->len - 1u] == '\r') {
                 p->len--;
             }
-            if (p->len > CSV_LINE_MAX) {
+            if (p->len > CLI_CSV_LINE_MAX) {
                 p->overlong = 1;
             }
             parse_line(p);
             p->len = 0;
             p->overlong = 0;
-        } else if (p->len < CSV_LINE_MAX + 1u) {
+        } else if (p->len < CLI_CSV_LINE_MAX + 1u) {
             /* One extra byte so a CR before LF still fits a full line. */
             p->buf[p->len++] = c;
         } else {
@@ -384,8 +384,8 @@ int csv_feed(csv_reader *p, const char *data, size_t len,
     return report(p, err);
 }
 
-void csv_locate(const csv_reader *p, const it2n_errinfo *info,
-                     csv_error *err)
+void cli_csv_locate(const cli_csv_reader *p, const it2n_errinfo *info,
+                     cli_csv_error *err)
 {
     err_clear(err);
     err->code = info->code;
@@ -393,10 +393,10 @@ void csv_locate(const csv_reader *p, const it2n_errinfo *info,
     err->bspline = p->bspline;
     if (p->bspline) {
         if (info->i >= 0 && info->j >= 0 && info->fp >= 0 &&
-            (size_t)info->i < CSV_BSPLINE_SIDE &&
-            (size_t)info->j < CSV_BSPLINE_SIDE &&
+            (size_t)info->i < CLI_CSV_BSPLINE_SIDE &&
+            (size_t)info->j < CLI_CSV_BSPLINE_SIDE &&
             info->fp < IT2N_FP_COUNT) {
-            err->line = p->bs_lines[((size_t)info->i * CSV_BSPLINE_SIDE +
+            err->line = p->bs_lines[((size_t)info->i * CLI_CSV_BSPLINE_SIDE +
                                      (size_t)info->j) * IT2N_FP_COUNT +
                                     (size_t)info->fp];
             if (err->line != 0u && info->ch >= 0 && info->ch < IT2N_CH_COUNT) {
@@ -415,37 +415,44 @@ void csv_locate(const csv_reader *p, const it2n_errinfo *info,
     }
 }
 
-/* End of input checks shared by both kinds: IT2N_OK or the error. */
-static int finish_common(csv_reader *p, csv_error *err)
+/* End of input checks shared by both kinds (bspline: the kind the caller
+ * finishes, which must be the one the reader was set up for): IT2N_OK or
+ * the error. */
+static int finish_common(cli_csv_reader *p, bool bspline, cli_csv_error *err)
 {
+    if ((p->bspline != 0u) != bspline) {
+        p->line = 0;
+        fail(p, IT2N_ERR_INVAL, 0, NULL);
+        return report(p, err);
+    }
     if (p->error == 0 && (p->len > 0u || p->overlong)) {
         /* Last line without a line end. */
-        csv_feed(p, "\n", 1u, NULL);
+        cli_csv_feed(p, "\n", 1u, NULL);
     }
     if (p->error != 0) {
         return report(p, err);
     }
     if (!p->header) {
         p->line = 0;
-        fail(p, CSV_ERR_HEADER, 0, NULL);
+        fail(p, CLI_CSV_ERR_HEADER, 0, NULL);
         return report(p, err);
     }
     if (p->rows == 0u) {
         p->line = 0;
-        fail(p, CSV_ERR_EMPTY, 0, NULL);
+        fail(p, CLI_CSV_ERR_EMPTY, 0, NULL);
         return report(p, err);
     }
     if (p->max_i == 0u || p->max_j == 0u) {
         p->line = 0;
-        fail(p, CSV_ERR_DEGREE, 0, NULL);
+        fail(p, CLI_CSV_ERR_DEGREE, 0, NULL);
         p->err.got = p->max_i == 0u ? 'i' : 'j';
         return report(p, err);
     }
     return IT2N_OK;
 }
 
-int csv_finish_bspline(csv_reader *p, it2n_bspline_data *ds,
-                            csv_error *err)
+int cli_csv_finish_bspline(cli_csv_reader *p, it2n_bspline_data *ds,
+                            cli_csv_error *err)
 {
     it2n_bspline_data out;
     it2n_errinfo info;
@@ -453,12 +460,7 @@ int csv_finish_bspline(csv_reader *p, it2n_bspline_data *ds,
     size_t to = 0;
     int rc;
 
-    if (!p->bspline) {
-        p->line = 0;
-        fail(p, IT2N_ERR_INVAL, 0, NULL);
-        return report(p, err);
-    }
-    rc = finish_common(p, err);
+    rc = finish_common(p, true, err);
     if (rc != IT2N_OK) {
         return rc;
     }
@@ -469,7 +471,7 @@ int csv_finish_bspline(csv_reader *p, it2n_bspline_data *ds,
      * forward copy never overwrites a record still to be read. */
     for (i = 0; i <= p->max_i; i++) {
         for (j = 0; j <= p->max_j; j++) {
-            size_t from = ((size_t)i * CSV_BSPLINE_SIDE + j) * IT2N_FP_COUNT;
+            size_t from = ((size_t)i * CLI_CSV_BSPLINE_SIDE + j) * IT2N_FP_COUNT;
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 it2n_bspline_rec *r = &p->bs_scratch.rec[to];
                 if (nfp == 1u && fp != IT2N_FP_D) {
@@ -486,7 +488,7 @@ int csv_finish_bspline(csv_reader *p, it2n_bspline_data *ds,
         }
     }
     out.rec = p->bs_scratch.rec;
-    out.cap = CSV_BSPLINE_RECS;
+    out.cap = CLI_CSV_BSPLINE_RECS;
     out.n = (uint16_t)p->max_i;
     out.m = (uint16_t)p->max_j;
     out.flags = (uint8_t)flags;
@@ -494,7 +496,7 @@ int csv_finish_bspline(csv_reader *p, it2n_bspline_data *ds,
     p->bs_scratch.n = 0;
     rc = it2n_bspline_data_check(&out, &info);
     if (rc != IT2N_OK) {
-        csv_locate(p, &info, &p->err);
+        cli_csv_locate(p, &info, &p->err);
         p->err.code = rc;
         p->error = rc;
         return report(p, err);
@@ -503,40 +505,16 @@ int csv_finish_bspline(csv_reader *p, it2n_bspline_data *ds,
     return IT2N_OK;
 }
 
-int csv_finish(csv_reader *p, it2n_dataset *ds, csv_error *err)
+int cli_csv_finish(cli_csv_reader *p, it2n_dataset *ds, cli_csv_error *err)
 {
     it2n_dataset out;
     it2n_errinfo info;
     unsigned flags, i, j, fp;
     int rc;
 
-    if (p->bspline) {
-        p->line = 0;
-        fail(p, IT2N_ERR_INVAL, 0, NULL);
-        return report(p, err);
-    }
-    if (p->error == 0 && (p->len > 0u || p->overlong)) {
-        /* Last line without a line end. */
-        csv_feed(p, "\n", 1u, NULL);
-    }
-    if (p->error != 0) {
-        return report(p, err);
-    }
-    if (!p->header) {
-        p->line = 0;
-        fail(p, CSV_ERR_HEADER, 0, NULL);
-        return report(p, err);
-    }
-    if (p->rows == 0u) {
-        p->line = 0;
-        fail(p, CSV_ERR_EMPTY, 0, NULL);
-        return report(p, err);
-    }
-    if (p->max_i == 0u || p->max_j == 0u) {
-        p->line = 0;
-        fail(p, CSV_ERR_DEGREE, 0, NULL);
-        p->err.got = p->max_i == 0u ? 'i' : 'j';
-        return report(p, err);
+    rc = finish_common(p, false, err);
+    if (rc != IT2N_OK) {
+        return rc;
     }
     flags = p->flags | (p->z ? IT2N_F_Z : 0u) |
             (p->non_d ? 0u : IT2N_F_TYPE1);
@@ -556,7 +534,7 @@ int csv_finish(csv_reader *p, it2n_dataset *ds, csv_error *err)
         rc = it2n_dataset_check(&out, &info);
     }
     if (rc != IT2N_OK) {
-        csv_locate(p, &info, &p->err);
+        cli_csv_locate(p, &info, &p->err);
         p->err.code = rc;
         p->error = rc;
         return report(p, err);
@@ -596,30 +574,14 @@ static void where(char *buf, size_t size, const it2n_errinfo *info)
     }
 }
 
-int csv_message(const csv_error *e, const char *name, char *buf,
-                     size_t size)
+/* The message of a reader error (CLI_CSV_ERR_*) after pre ("FILE:LINE"),
+ * or -1 when e->code is not one: the core's have their own. */
+static int reader_message(const cli_csv_error *e, const char *pre,
+                          const char *chn, const char *at, char *buf,
+                          size_t size)
 {
-    char pre[256], at[48], v[32], lo[32], hi[32], txt[48];
-    const it2n_errinfo *info = &e->info;
-    const char *chn =
-        info->ch >= 0 ? it2n_ch_name((unsigned)info->ch) : NULL;
-
-    if (chn == NULL) {
-        chn = "value";
-    }
-    if (e->line != 0u) {
-        snprintf(pre, sizeof(pre), "%s:%lu", name, e->line);
-    } else {
-        snprintf(pre, sizeof(pre), "%s", name);
-    }
-    where(at, sizeof(at), info);
-    short_val(v, sizeof(v), info->value);
-    short_val(lo, sizeof(lo), info->lo);
-    short_val(hi, sizeof(hi), info->hi);
-    snprintf(txt, sizeof(txt), "%s", e->text[0] != '\0' ? e->text : v);
-
     switch (e->code) {
-    case CSV_ERR_HEADER:
+    case CLI_CSV_ERR_HEADER:
         if (e->line == 0u) {
             return snprintf(buf, size,
                             "%s: no header line (expected '%s' or '%s')", pre,
@@ -627,15 +589,15 @@ int csv_message(const csv_error *e, const char *name, char *buf,
         }
         return snprintf(buf, size, "%s: bad header '%s' (expected '%s' or '%s')",
                         pre, e->text, hdr_xy, hdr_xyz);
-    case CSV_ERR_FIELDS:
+    case CLI_CSV_ERR_FIELDS:
         return snprintf(buf, size, "%s: %s%d fields, expected %d (%s)", pre,
-                        e->got > CSV_MAX_FIELDS ? "more than " : "",
-                        e->got > CSV_MAX_FIELDS ? CSV_MAX_FIELDS : e->got,
+                        e->got > CLI_CSV_MAX_FIELDS ? "more than " : "",
+                        e->got > CLI_CSV_MAX_FIELDS ? CLI_CSV_MAX_FIELDS : e->got,
                         e->expected, e->expected == 9 ? hdr_xyz : hdr_xy);
-    case CSV_ERR_NUMBER:
+    case CLI_CSV_ERR_NUMBER:
         return snprintf(buf, size, "%s: %s='%s' is not a decimal number%s",
                         pre, chn, e->text, at);
-    case CSV_ERR_INDEX:
+    case CLI_CSV_ERR_INDEX:
         if (e->bspline) {
             return snprintf(buf, size,
                             "%s: %s='%s' is not a grid index 0..%d "
@@ -648,17 +610,17 @@ int csv_message(const csv_error *e, const char *name, char *buf,
                         "(IT2N_MAX_DEGREE)",
                         pre, e->field == 1 ? "i" : "j", e->text,
                         IT2N_MAX_DEGREE);
-    case CSV_ERR_FOOTPRINT:
+    case CLI_CSV_ERR_FOOTPRINT:
         return snprintf(buf, size,
                         "%s: unknown footprint '%s' (expected one of LL, LR, "
                         "L, D, R, RL, RR)",
                         pre, e->text);
-    case CSV_ERR_LONG:
+    case CLI_CSV_ERR_LONG:
         return snprintf(buf, size, "%s: line longer than %d bytes", pre,
-                        CSV_LINE_MAX);
-    case CSV_ERR_EMPTY:
+                        CLI_CSV_LINE_MAX);
+    case CLI_CSV_ERR_EMPTY:
         return snprintf(buf, size, "%s: no data rows after the header", pre);
-    case CSV_ERR_DEGREE:
+    case CLI_CSV_ERR_DEGREE:
         if (e->bspline) {
             return snprintf(buf, size,
                             "%s: every row has %c=0: need 2 to %d grid points "
@@ -669,20 +631,40 @@ int csv_message(const csv_error *e, const char *name, char *buf,
                         "%s: every row has %c=0: need 2 to %d grid points "
                         "per direction (degree 1..%d)",
                         pre, e->got, IT2N_MAX_DEGREE + 1, IT2N_MAX_DEGREE);
-    case CSV_ERR_QUOTE:
+    case CLI_CSV_ERR_QUOTE:
         return snprintf(buf, size,
                         "%s: field %d: bad quoting '%s' (a field may be "
                         "wrapped whole in \"...\", but never holds '\"' or ',')",
                         pre, e->field, e->text);
-    case CSV_ERR_SEPARATOR:
+    case CLI_CSV_ERR_SEPARATOR:
         return snprintf(buf, size,
                         "%s: fields separated by %s, not ',' (save the CSV "
                         "with ',' as separator and '.' as decimal point; "
                         "expected '%s')",
                         pre, e->got == ';' ? "';'" : "tabs", hdr_xy);
-    case CSV_ERR_BINARY:
+    case CLI_CSV_ERR_BINARY:
         return snprintf(buf, size, "%s: control byte 0x%02x in line", pre,
                         (unsigned)e->got);
+    default:
+        return -1;
+    }
+}
+
+/* The message of a core error (IT2N_ERR_*, with its it2n_errinfo) after
+ * pre. */
+static int core_message(const cli_csv_error *e, const char *pre,
+                        const char *chn, const char *at, char *buf,
+                        size_t size)
+{
+    char v[32], lo[32], hi[32], txt[48];
+    const it2n_errinfo *info = &e->info;
+
+    short_val(v, sizeof(v), info->value);
+    short_val(lo, sizeof(lo), info->lo);
+    short_val(hi, sizeof(hi), info->hi);
+    snprintf(txt, sizeof(txt), "%s", e->text[0] != '\0' ? e->text : v);
+
+    switch (e->code) {
     case IT2N_ERR_RANGE:
         return snprintf(buf, size, "%s: %s=%s outside [%s,%s]%s", pre, chn,
                         txt, lo, hi, at);
@@ -731,4 +713,26 @@ int csv_message(const csv_error *e, const char *name, char *buf,
         }
         return snprintf(buf, size, "%s: %s%s", pre, it2n_strerror(e->code), at);
     }
+}
+
+int cli_csv_message(const cli_csv_error *e, const char *name, char *buf,
+                     size_t size)
+{
+    char pre[256], at[48];
+    const it2n_errinfo *info = &e->info;
+    const char *chn =
+        info->ch >= 0 ? it2n_ch_name((unsigned)info->ch) : NULL;
+    int n;
+
+    if (chn == NULL) {
+        chn = "value";
+    }
+    if (e->line != 0u) {
+        snprintf(pre, sizeof(pre), "%s:%lu", name, e->line);
+    } else {
+        snprintf(pre, sizeof(pre), "%s", name);
+    }
+    where(at, sizeof(at), info);
+    n = reader_message(e, pre, chn, at, buf, size);
+    return n >= 0 ? n : core_message(e, pre, chn, at, buf, size);
 }

@@ -1,7 +1,7 @@
 /*
  * Streaming reader for the it2n dataset CSV format, shared by the CLI and the
  * daemon. No heap, never prints or exits: errors come back as structs and
- * csv_message() turns one into text (the only libc use is snprintf).
+ * cli_csv_message() turns one into text (the only libc use is snprintf).
  *
  * Format: '#' comment lines and blank lines anywhere; a header line
  *   i,j,footprint,x,y,T,I,F   or   i,j,footprint,x,y,z,T,I,F
@@ -14,19 +14,19 @@
  * is not moved by Q24 input rounding).
  *
  * Contract:
- *   csv_init(p, flags);                     flags: extra IT2N_F_* (CHORD)
- *   csv_feed(p, buf, len, &e) ...           any chunking, same result
- *   csv_finish(p, &ds, &e);                 builds and checks ds
+ *   cli_csv_init(p, flags);                     flags: extra IT2N_F_* (CHORD)
+ *   cli_csv_feed(p, buf, len, &e) ...           any chunking, same result
+ *   cli_csv_finish(p, &ds, &e);                 builds and checks ds
  * or, for the B-spline kind (grids up to 256 x 256, caller storage):
- *   csv_init_bspline(p, scratch, lines);
- *   csv_feed(p, buf, len, &e) ...
- *   csv_finish_bspline(p, &bds, &e);        bds lives in scratch
+ *   cli_csv_init_bspline(p, scratch, lines);
+ *   cli_csv_feed(p, buf, len, &e) ...
+ *   cli_csv_finish_bspline(p, &bds, &e);        bds lives in scratch
  * The first error is sticky: later feeds and finish return it again. The
  * parser keeps the line of every (i, j, footprint) so errors found later
- * (it2n_model_solve, ...) can be mapped back with csv_locate().
+ * (it2n_model_solve, ...) can be mapped back with cli_csv_locate().
  */
-#ifndef CSV_H
-#define CSV_H
+#ifndef CLI_CSV_H
+#define CLI_CSV_H
 
 #include "it2n.h"
 
@@ -34,26 +34,26 @@
 #include <stdint.h>
 
 /* Longest accepted line, in bytes, without the line end. */
-#define CSV_LINE_MAX 256
+#define CLI_CSV_LINE_MAX 256
 
 /* Reader errors; core errors (IT2N_ERR_*) are passed through unchanged. */
-enum csv_error_code {
-    CSV_ERR_HEADER = -101,   /* header missing or not a known layout */
-    CSV_ERR_FIELDS = -102,   /* wrong number of fields in a row      */
-    CSV_ERR_NUMBER = -103,   /* field is not a decimal number        */
-    CSV_ERR_INDEX = -104,    /* i or j not an integer in 0..MAX      */
-    CSV_ERR_FOOTPRINT = -105,/* unknown footprint name               */
-    CSV_ERR_LONG = -106,     /* line longer than CSV_LINE_MAX   */
-    CSV_ERR_EMPTY = -107,    /* no data rows                         */
-    CSV_ERR_DEGREE = -108,   /* max i or max j is 0 (degree < 1)     */
-    CSV_ERR_BINARY = -109,   /* NUL or other control byte in a line  */
-    CSV_ERR_QUOTE = -110,    /* a "quoted" field with '"' or ',' in it */
-    CSV_ERR_SEPARATOR = -111 /* header separated by ';' or tab, not ',' */
+enum cli_csv_error_code {
+    CLI_CSV_ERR_HEADER = -101,   /* header missing or not a known layout */
+    CLI_CSV_ERR_FIELDS = -102,   /* wrong number of fields in a row      */
+    CLI_CSV_ERR_NUMBER = -103,   /* field is not a decimal number        */
+    CLI_CSV_ERR_INDEX = -104,    /* i or j not an integer in 0..MAX      */
+    CLI_CSV_ERR_FOOTPRINT = -105,/* unknown footprint name               */
+    CLI_CSV_ERR_LONG = -106,     /* line longer than CLI_CSV_LINE_MAX   */
+    CLI_CSV_ERR_EMPTY = -107,    /* no data rows                         */
+    CLI_CSV_ERR_DEGREE = -108,   /* max i or max j is 0 (degree < 1)     */
+    CLI_CSV_ERR_BINARY = -109,   /* NUL or other control byte in a line  */
+    CLI_CSV_ERR_QUOTE = -110,    /* a "quoted" field with '"' or ',' in it */
+    CLI_CSV_ERR_SEPARATOR = -111 /* header separated by ';' or tab, not ',' */
 };
 
 /* What went wrong and where. line is 1-based, 0 when no row is to blame. */
-typedef struct csv_error {
-    int code;                /* CSV_ERR_* or IT2N_ERR_*              */
+typedef struct cli_csv_error {
+    int code;                /* CLI_CSV_ERR_* or IT2N_ERR_*              */
     unsigned long line;      /* offending line, or 0                      */
     unsigned long other;     /* first line of a duplicate, or 0           */
     int field;               /* 1-based field number, or 0                */
@@ -61,27 +61,27 @@ typedef struct csv_error {
     char text[40];           /* offending field text (truncated), or ""   */
     it2n_errinfo info;       /* core detail (code, i, j, fp, ch, ...)     */
     uint8_t bspline;         /* read for the B-spline kind (index limits) */
-} csv_error;
+} cli_csv_error;
 
 /* Storage of a B-spline read: scratch records and line numbers for the
  * largest grid, IT2N_BSPLINE_MAX_N + 1 points per side (type-2). */
-#define CSV_BSPLINE_SIDE ((size_t)IT2N_BSPLINE_MAX_N + 1u)
-#define CSV_BSPLINE_RECS                                                \
+#define CLI_CSV_BSPLINE_SIDE ((size_t)IT2N_BSPLINE_MAX_N + 1u)
+#define CLI_CSV_BSPLINE_RECS                                                \
     IT2N_BSPLINE_DATA_RECS(IT2N_BSPLINE_MAX_N, IT2N_BSPLINE_MAX_N, 0u)
-#define CSV_BSPLINE_LINES                                               \
-    (CSV_BSPLINE_SIDE * CSV_BSPLINE_SIDE * IT2N_FP_COUNT)
+#define CLI_CSV_BSPLINE_LINES                                               \
+    (CLI_CSV_BSPLINE_SIDE * CLI_CSV_BSPLINE_SIDE * IT2N_FP_COUNT)
 
 /* Parser state; all memory is here (about 24 KiB). Treat as opaque. */
-typedef struct csv_reader {
+typedef struct cli_csv_reader {
     int error;                       /* sticky first error, or 0      */
-    csv_error err;              /* ... and its detail            */
+    cli_csv_error err;              /* ... and its detail            */
     unsigned long line;              /* lines completed so far        */
     size_t len;                      /* bytes in buf                  */
     uint8_t overlong, cr, header, z; /* line state, header seen, z    */
     unsigned flags;                  /* extra IT2N_F_* from init      */
     unsigned rows, max_i, max_j;
     uint8_t non_d;                   /* a footprint other than D seen */
-    char buf[CSV_LINE_MAX + 1];
+    char buf[CLI_CSV_LINE_MAX + 1];
     uint32_t lines[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT]; /* 0 = absent */
     /* Rows as read, validated by it2n_dataset_put on a maximal grid so
      * range errors are found (and named) on the line that has them. */
@@ -91,35 +91,35 @@ typedef struct csv_reader {
     uint8_t bspline;
     uint32_t *bs_lines;
     it2n_bspline_data bs_scratch;
-} csv_reader;
+} cli_csv_reader;
 
 /* Start reading; flags are extra IT2N_F_* bits for the data set (CHORD). */
-void csv_init(csv_reader *p, unsigned flags);
+void cli_csv_init(cli_csv_reader *p, unsigned flags);
 
 /*
  * Start reading a data set for the B-spline kind: grid indices 0..
  * IT2N_BSPLINE_MAX_N, uniform parameters only. scratch holds
- * CSV_BSPLINE_RECS records, lines CSV_BSPLINE_LINES words (both
+ * CLI_CSV_BSPLINE_RECS records, lines CLI_CSV_BSPLINE_LINES words (both
  * the caller's, about 15 MB and 1.8 MB at the default 255; the line
  * table is cleared here, the records need not be).
  */
-void csv_init_bspline(csv_reader *p, it2n_bspline_rec *scratch,
+void cli_csv_init_bspline(cli_csv_reader *p, it2n_bspline_rec *scratch,
                            uint32_t *lines);
 
 /*
- * End of a B-spline read: as csv_finish, into *ds, whose records are
- * the scratch passed to csv_init_bspline (compacted in place to the
+ * End of a B-spline read: as cli_csv_finish, into *ds, whose records are
+ * the scratch passed to cli_csv_init_bspline (compacted in place to the
  * file's grid). ds is only written on success.
  */
-int csv_finish_bspline(csv_reader *p, it2n_bspline_data *ds,
-                            csv_error *err);
+int cli_csv_finish_bspline(cli_csv_reader *p, it2n_bspline_data *ds,
+                            cli_csv_error *err);
 
 /*
  * Consume len bytes (any split, even mid-line). Returns IT2N_OK or the first
  * error (also stored in *err when err is not NULL).
  */
-int csv_feed(csv_reader *p, const char *data, size_t len,
-                  csv_error *err);
+int cli_csv_feed(cli_csv_reader *p, const char *data, size_t len,
+                  cli_csv_error *err);
 
 /*
  * End of input: derive degrees, z and type-1, fill ds with
@@ -127,20 +127,20 @@ int csv_feed(csv_reader *p, const char *data, size_t len,
  * it2n_dataset_check. Returns IT2N_OK or the first error with its line.
  * ds is only written on success.
  */
-int csv_finish(csv_reader *p, it2n_dataset *ds, csv_error *err);
+int cli_csv_finish(cli_csv_reader *p, it2n_dataset *ds, cli_csv_error *err);
 
 /*
  * Turn a core error found after parsing (it2n_model_solve, ...) into a
  * reader error naming the line of (info->i, info->j, info->fp) if known.
  */
-void csv_locate(const csv_reader *p, const it2n_errinfo *info,
-                     csv_error *err);
+void cli_csv_locate(const cli_csv_reader *p, const it2n_errinfo *info,
+                     cli_csv_error *err);
 
 /*
  * Describe err as "NAME:LINE: message" (NAME alone if no line) in buf, NUL
  * terminated, truncated to size. Returns the length snprintf would write.
  */
-int csv_message(const csv_error *err, const char *name, char *buf,
+int cli_csv_message(const cli_csv_error *err, const char *name, char *buf,
                      size_t size);
 
-#endif /* CSV_H */
+#endif /* CLI_CSV_H */

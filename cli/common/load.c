@@ -13,7 +13,7 @@
 
 /* The B-spline kind's storage (up to 256 x 256 points) on the heap, and
  * its reader state (line numbers for messages). */
-static csv_reader g_csv;
+static cli_csv_reader g_csv;
 static it2n_bspline_data g_bds;
 static it2n_bspline_model g_bmdl;
 static it2n_bspline_rec *g_brec;
@@ -25,16 +25,16 @@ const char *cli_display_name(const char *path)
     return strcmp(path, "-") == 0 ? "<stdin>" : path;
 }
 
-static void report(const csv_error *e, const char *name)
+static void report(const cli_csv_error *e, const char *name)
 {
     char msg[512];
-    csv_message(e, name, msg, sizeof(msg));
+    cli_csv_message(e, name, msg, sizeof(msg));
     fprintf(stderr, "%s\n", msg);
 }
 
 /* Feed the file at path ("-": stdin) to csv; *rc the reader's answer.
  * CLI_EXIT_DATA after "NAME: cannot open/read error: why" on stderr. */
-static int feed_file(const char *path, csv_reader *csv, csv_error *e,
+static int feed_file(const char *path, cli_csv_reader *csv, cli_csv_error *e,
                      int *rc)
 {
     const char *name = cli_display_name(path);
@@ -48,7 +48,7 @@ static int feed_file(const char *path, csv_reader *csv, csv_error *e,
     }
     *rc = IT2N_OK;
     while (*rc == IT2N_OK && (got = fread(chunk, 1, sizeof(chunk), f)) > 0) {
-        *rc = csv_feed(csv, chunk, got, e);
+        *rc = cli_csv_feed(csv, chunk, got, e);
     }
     bad = *rc == IT2N_OK && ferror(f);
     if (bad) {
@@ -60,19 +60,19 @@ static int feed_file(const char *path, csv_reader *csv, csv_error *e,
     return bad ? CLI_EXIT_DATA : CLI_EXIT_OK;
 }
 
-int cli_load(const cli_opts *o, csv_reader *csv, it2n_dataset *ds, it2n_model *mdl)
+int cli_load(const cli_opts *o, cli_csv_reader *csv, it2n_dataset *ds, it2n_model *mdl)
 {
     const char *name = cli_display_name(o->path);
-    csv_error e;
+    cli_csv_error e;
     it2n_errinfo info;
     int rc;
 
-    csv_init(csv, o->flags);
+    cli_csv_init(csv, o->flags);
     if (feed_file(o->path, csv, &e, &rc) != CLI_EXIT_OK) {
         return CLI_EXIT_DATA;
     }
     if (rc == IT2N_OK) {
-        rc = csv_finish(csv, ds, &e);
+        rc = cli_csv_finish(csv, ds, &e);
     }
     if (rc != IT2N_OK) {
         report(&e, name);
@@ -81,7 +81,7 @@ int cli_load(const cli_opts *o, csv_reader *csv, it2n_dataset *ds, it2n_model *m
     it2n_model_init(mdl);
     rc = it2n_model_solve(mdl, ds, &info);
     if (rc != IT2N_OK) {
-        csv_locate(csv, &info, &e);
+        cli_csv_locate(csv, &info, &e);
         report(&e, name);
         return CLI_EXIT_DATA;
     }
@@ -92,23 +92,23 @@ int cli_load(const cli_opts *o, csv_reader *csv, it2n_dataset *ds, it2n_model *m
 static int load_bspline(const cli_opts *o)
 {
     const char *name = cli_display_name(o->path);
-    csv_error e;
+    cli_csv_error e;
     it2n_errinfo info;
     size_t words;
     int rc;
 
-    g_brec = malloc(CSV_BSPLINE_RECS * sizeof(*g_brec));
-    g_blines = malloc(CSV_BSPLINE_LINES * sizeof(*g_blines));
+    g_brec = malloc(CLI_CSV_BSPLINE_RECS * sizeof(*g_brec));
+    g_blines = malloc(CLI_CSV_BSPLINE_LINES * sizeof(*g_blines));
     if (g_brec == NULL || g_blines == NULL) {
         fprintf(stderr, "it2n: out of memory for a B-spline data set\n");
         return CLI_EXIT_DATA;
     }
-    csv_init_bspline(&g_csv, g_brec, g_blines);
+    cli_csv_init_bspline(&g_csv, g_brec, g_blines);
     if (feed_file(o->path, &g_csv, &e, &rc) != CLI_EXIT_OK) {
         return CLI_EXIT_DATA;
     }
     if (rc == IT2N_OK) {
-        rc = csv_finish_bspline(&g_csv, &g_bds, &e);
+        rc = cli_csv_finish_bspline(&g_csv, &g_bds, &e);
     }
     if (rc != IT2N_OK) {
         report(&e, name);
@@ -123,7 +123,7 @@ static int load_bspline(const cli_opts *o)
     it2n_bspline_model_init(&g_bmdl, g_bcoef, words);
     rc = it2n_bspline_solve(&g_bmdl, &g_bds, &info);
     if (rc != IT2N_OK) {
-        csv_locate(&g_csv, &info, &e);
+        cli_csv_locate(&g_csv, &info, &e);
         report(&e, name);
         return CLI_EXIT_DATA;
     }
@@ -133,7 +133,7 @@ static int load_bspline(const cli_opts *o)
 static void free_bspline(void);
 
 int cli_load_bspline(const cli_opts *o, const it2n_bspline_data **bds, const it2n_bspline_model **bmdl,
-                     const csv_reader **csv)
+                     const cli_csv_reader **csv)
 {
     int rc = load_bspline(o);
     *bds = &g_bds;

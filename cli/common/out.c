@@ -159,6 +159,15 @@ void cli_put_locate_row(const cli_out *w, it2n_val x, it2n_val y,
     printf(",%s\n", status);
 }
 
+int cli_put_sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
+                       it2n_par wp, const it2n_point *pt)
+{
+    (void)r;
+    (void)c;
+    cli_put_point(ctx, u, wp, pt);
+    return ferror(stdout) ? CLI_EXIT_DATA : CLI_EXIT_OK;
+}
+
 int cli_finish_output(const char *prog)
 {
     if (fflush(stdout) != 0 || ferror(stdout)) {

@@ -54,6 +54,12 @@ void cli_put_locate_row(const cli_out *w, it2n_val x, it2n_val y,
                         unsigned fp, const it2n_par *uw, const it2n_val *v,
                         const char *status);
 
+/* An it2n_sample_cb for both programs' sample command: the rows of one
+ * grid node (cli_put_point) with ctx the const cli_out *; non-zero
+ * (CLI_EXIT_DATA, which stops the sample) once stdout has failed. */
+int cli_put_sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
+                       it2n_par wp, const it2n_point *pt);
+
 /* Flush stdout: CLI_EXIT_OK, or "PROG: write error" and 2. */
 int cli_finish_output(const char *prog);
 

@@ -3,7 +3,7 @@
  * goes through it2n_format_val/it2n_format_par, so output is exact decimal
  * rounding of the fixed-point results.
  */
-#include "cli.h"
+#include "commands.h"
 #include "csv.h"
 #include "out.h"
 
@@ -12,7 +12,7 @@
 #include <string.h>
 
 /* Big structs live here rather than on the stack. */
-static csv_reader g_csv;
+static cli_csv_reader g_csv;
 static it2n_dataset g_ds;
 static it2n_model g_mdl;
 
@@ -43,7 +43,7 @@ static int load(const cli_opts *o)
     int rc;
     g_bspline = o->kind == CLI_KIND_BSPLINE;
     if (g_bspline) {
-        const csv_reader *csv;
+        const cli_csv_reader *csv;
         rc = cli_load_bspline(o, &g_bds, &g_bmdl, &csv);
         g_flags = g_bds->flags;
         return rc;
@@ -136,24 +136,14 @@ static int cmd_eval(const cli_opts *o)
     return cli_finish_output("it2n");
 }
 
-static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
-                      it2n_par w, const it2n_point *pt)
-{
-    (void)r;
-    (void)c;
-    (void)ctx;
-    cli_put_point(&g_out, u, w, pt);
-    return ferror(stdout) ? 1 : 0;
-}
-
 static int cmd_sample(const cli_opts *o)
 {
     int rc;
     cli_put_header(&g_out, "u,w,footprint", ",out_of_range");
-    rc = g_bspline ? it2n_bspline_sample(g_bmdl, o->rows, o->cols, sample_row,
-                                         (void *)o, NULL)
-                   : it2n_sample(&g_mdl, o->rows, o->cols, sample_row,
-                                 (void *)o, NULL);
+    rc = g_bspline ? it2n_bspline_sample(g_bmdl, o->rows, o->cols, cli_put_sample_row,
+                                         &g_out, NULL)
+                   : it2n_sample(&g_mdl, o->rows, o->cols, cli_put_sample_row,
+                                 &g_out, NULL);
     if (rc < 0) {
         return core_fail("sample", rc);
     }
@@ -221,7 +211,7 @@ static int cmd_locate(const cli_opts *o)
 
 static int run(const cli_opts *o);
 
-int cli_run(const cli_opts *o)
+int cmd_run(const cli_opts *o)
 {
     int rc = run(o);
     cli_free_bspline();

@@ -3,7 +3,7 @@
  * Option parsing and help texts; the commands are in commands.c.
  * Exit status: 0 ok, 1 usage error, 2 data error.
  */
-#include "cli.h"
+#include "commands.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -212,7 +212,7 @@ int main(int argc, char **argv)
     o.cmd = c->name;
     rc = parse_cmd(c, argc, argv, &o);
     if (rc < 0) {
-        rc = cli_run(&o);
+        rc = cmd_run(&o);
     }
     free(o.at);
     return rc;

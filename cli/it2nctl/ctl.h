@@ -24,7 +24,7 @@ enum {
     CTL_EXIT_COMM = 3   /* daemon unreachable, no answer, link failure     */
 };
 
-/* Model state, numbered as the status register (IT2N_RS_*). */
+/* Model state, numbered as the status register (IT2N_REGMAP_STATE_*). */
 enum { CTL_ST_EMPTY = 0, CTL_ST_INCOMPLETE, CTL_ST_SOLVED, CTL_ST_FAILED };
 
 typedef struct ctl_status {
@@ -34,7 +34,7 @@ typedef struct ctl_status {
     unsigned present, required;
     uint32_t generation;
     int last_error;       /* it2n error code, 0 none               */
-    unsigned kind;        /* 0 Bezier, 1 B-spline (IT2N_KIND_*)    */
+    unsigned kind;        /* 0 Bezier, 1 B-spline (IT2N_REGMAP_KIND_*)    */
     unsigned net_rows, net_cols; /* of each solved net, 0 unsolved */
 } ctl_status;
 

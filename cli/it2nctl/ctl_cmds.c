@@ -186,13 +186,13 @@ int ctl_cmd_watch(ctl_session *s, const ctl_args *a)
     }
 }
 
-static csv_reader g_csv;
+static cli_csv_reader g_csv;
 static it2n_dataset g_ds;
 static it2n_model g_mdl;
 
 /* Read, check and solve DATA.csv exactly as it2n does (the same code). */
 static const it2n_bspline_data *g_bds;  /* push --kind bspline */
-static const csv_reader *g_bcsv;
+static const cli_csv_reader *g_bcsv;
 
 int ctl_load(const cli_opts *o)
 {
@@ -249,7 +249,7 @@ int ctl_cmd_push(ctl_session *s, const ctl_args *a)
         g_bar_open = false;
     }
     if (rc == CTL_REJECTED) {
-        csv_error e;
+        cli_csv_error e;
         unsigned long line = 0;
         if (rej.i >= 0 && rej.j >= 0 && rej.fp >= 0 && rej.i < IT2N_DIM &&
             rej.j < IT2N_DIM && rej.fp < IT2N_FP_COUNT) {
@@ -258,7 +258,7 @@ int ctl_cmd_push(ctl_session *s, const ctl_args *a)
         if (g_bds != NULL && rej.i >= 0 && rej.j >= 0 && rej.fp >= 0 &&
             rej.i <= IT2N_BSPLINE_MAX_N && rej.j <= IT2N_BSPLINE_MAX_N &&
             rej.fp < IT2N_FP_COUNT) {
-            line = g_bcsv->bs_lines[((size_t)rej.i * CSV_BSPLINE_SIDE + (size_t)rej.j) * IT2N_FP_COUNT +
+            line = g_bcsv->bs_lines[((size_t)rej.i * CLI_CSV_BSPLINE_SIDE + (size_t)rej.j) * IT2N_FP_COUNT +
                                     (size_t)rej.fp];
         }
         if (rej.code == IT2N_ERR_RANGE && rej.ch >= 0 &&
@@ -276,8 +276,8 @@ int ctl_cmd_push(ctl_session *s, const ctl_args *a)
             fprintf(stderr, "%s\n", msg);
             return CTL_EXIT_DATA;
         }
-        csv_locate(g_bds != NULL ? g_bcsv : &g_csv, &rej, &e);
-        csv_message(&e, name, msg, sizeof(msg));
+        cli_csv_locate(g_bds != NULL ? g_bcsv : &g_csv, &rej, &e);
+        cli_csv_message(&e, name, msg, sizeof(msg));
         fprintf(stderr, "%s (refused by it2nd at %s; the model is left "
                         "incomplete)\n",
                 msg, s->where);
@@ -388,16 +388,6 @@ int ctl_cmd_net(ctl_session *s, const ctl_args *a)
     return cli_finish_output("it2nctl");
 }
 
-static int sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
-                      it2n_par w, const it2n_point *pt)
-{
-    (void)r;
-    (void)c;
-    (void)ctx;
-    cli_put_point(&ctl_out, u, w, pt);
-    return ferror(stdout) ? CTL_EXIT_DATA : 0;
-}
-
 int ctl_cmd_sample(ctl_session *s, const ctl_args *a)
 {
     ctl_status st;
@@ -416,8 +406,8 @@ int ctl_cmd_sample(ctl_session *s, const ctl_args *a)
         }
     }
     cli_put_header(&ctl_out, "u,w,footprint", ",out_of_range");
-    rc = s->ops->sample(s->c, &st, a->o.rows, a->o.cols, sample_row,
-                        (void *)&a->o);
+    rc = s->ops->sample(s->c, &st, a->o.rows, a->o.cols, cli_put_sample_row,
+                        &ctl_out);
     if (rc != CTL_EXIT_OK) {
         return rc;
     }

@@ -7,6 +7,7 @@
  * Values are exact (Q24 on the wire); parameters travel as Q2.30.
  */
 #include "ctl.h"
+#include "ctl_src.h"
 
 #include "it2n_link.h"
 
@@ -366,55 +367,11 @@ static void nack_info(const lk_conn *c, it2n_errinfo *rej)
     rej->hi = c->nack.hi;
 }
 
-/* What a push uploads: a Bezier data set or (bds != NULL) a B-spline one. */
-typedef struct lk_src {
-    const it2n_dataset *ds;
-    const it2n_bspline_data *bds;
-} lk_src;
-
-static unsigned src_n(const lk_src *s)
-{
-    return s->bds != NULL ? s->bds->n : s->ds->n;
-}
-
-static unsigned src_m(const lk_src *s)
-{
-    return s->bds != NULL ? s->bds->m : s->ds->m;
-}
-
-static unsigned src_flags(const lk_src *s)
-{
-    return s->bds != NULL ? s->bds->flags : s->ds->flags;
-}
-
-static bool src_has(const lk_src *s, unsigned i, unsigned j, unsigned fp)
-{
-    if (s->bds != NULL) {
-        const it2n_bspline_data *b = s->bds;
-        bool t1 = (b->flags & IT2N_F_TYPE1) != 0u;
-        if (t1 && fp != IT2N_FP_D) {
-            return false;
-        }
-        return b->rec[((size_t)i * (b->m + 1u) + j) * IT2N_BSPLINE_NFP(b->flags) + (t1 ? 0u : fp)].present != 0u;
-    }
-    return (s->ds->present[i][j] >> fp) & 1u;
-}
-
-/* Entry (i, j, fp) as stored: memberships in Q30 (the fine layout). */
-static void src_get_fine(const lk_src *s, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT])
-{
-    if (s->bds != NULL) {
-        it2n_bspline_data_get_fine(s->bds, i, j, fp, v);
-    } else {
-        it2n_dataset_get_fine(s->ds, i, j, fp, v);
-    }
-}
-
 /* Entry (i, j, fp) as a PUT carries it: memberships in Q30 (fine) or
  * Q24 (exact: push_format checked). */
-static void src_get_wire(const lk_src *s, unsigned i, unsigned j, unsigned fp, bool fine, it2n_val v[IT2N_CH_COUNT])
+static void src_get_wire(const ctl_src *s, unsigned i, unsigned j, unsigned fp, bool fine, it2n_val v[IT2N_CH_COUNT])
 {
-    src_get_fine(s, i, j, fp, v);
+    ctl_src_get_fine(s, i, j, fp, v);
     for (unsigned ch = IT2N_CH_T; !fine && ch <= IT2N_CH_F; ch++) {
         v[ch] /= (it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
     }
@@ -422,17 +379,17 @@ static void src_get_wire(const lk_src *s, unsigned i, unsigned j, unsigned fp, b
 
 /* A membership finer than Q24 in the source: what a PUT without FINE
  * would round (its (i, j, fp) in *at), or false. */
-static bool src_finer_than_q24(const lk_src *s, unsigned at[3])
+static bool src_finer_than_q24(const ctl_src *s, unsigned at[3])
 {
     const it2n_val low = ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC)) - 1;
-    for (unsigned i = 0; i <= src_n(s); i++) {
-        for (unsigned j = 0; j <= src_m(s); j++) {
+    for (unsigned i = 0; i <= ctl_src_n(s); i++) {
+        for (unsigned j = 0; j <= ctl_src_m(s); j++) {
             for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 it2n_val v[IT2N_CH_COUNT];
-                if (!src_has(s, i, j, fp)) {
+                if (!ctl_src_has(s, i, j, fp)) {
                     continue;
                 }
-                src_get_fine(s, i, j, fp, v);
+                ctl_src_get_fine(s, i, j, fp, v);
                 if ((v[IT2N_CH_T] & low) || (v[IT2N_CH_I] & low) || (v[IT2N_CH_F] & low)) {
                     at[0] = i;
                     at[1] = j;
@@ -453,7 +410,7 @@ static bool hello_seen(const lk_conn *c)
 /* What the daemon's HELLO (sent right after it ACKed ours) allows for
  * src: CTL_EXIT_OK with *fine set when memberships may travel in Q30 (PUT
  * FINE), or CTL_EXIT_DATA with the reason printed, nothing sent. */
-static int push_format(lk_conn *c, const lk_src *src, bool *fine)
+static int push_format(lk_conn *c, const ctl_src *src, bool *fine)
 {
     unsigned at[3];
     *fine = false;
@@ -489,7 +446,7 @@ static int push_format(lk_conn *c, const lk_src *src, bool *fine)
 
 /* CONFIGURE (the 5-byte v1.3 form for a B-spline), every entry in PUTs of
  * as many as fit (FINE when the daemon reads it), COMMIT. */
-static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
+static int push_src(lk_conn *c, const ctl_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
 {
     static it2n_msg m;
     unsigned i, j, fp, total = 0, done = 0;
@@ -498,19 +455,19 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    for (i = 0; i <= src_n(src); i++) {
-        for (j = 0; j <= src_m(src); j++) {
+    for (i = 0; i <= ctl_src_n(src); i++) {
+        for (j = 0; j <= ctl_src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                total += src_has(src, i, j, fp);
+                total += ctl_src_has(src, i, j, fp);
             }
         }
     }
     memset(&m, 0, sizeof(m));
     m.type = IT2N_MSG_CONFIGURE;
     m.u.configure.model = c->model;
-    m.u.configure.n = (uint8_t)src_n(src);
-    m.u.configure.m = (uint8_t)src_m(src);
-    m.u.configure.flags = (uint8_t)src_flags(src);
+    m.u.configure.n = (uint8_t)ctl_src_n(src);
+    m.u.configure.m = (uint8_t)ctl_src_m(src);
+    m.u.configure.flags = (uint8_t)ctl_src_flags(src);
     m.u.configure.kind = src->bds != NULL ? IT2N_CFG_BSPLINE : IT2N_CFG_BEZIER;
     rc = request(c, &m, false, "configure");
     if (rc == CTL_REJECTED) {
@@ -540,11 +497,11 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
     m.type = IT2N_MSG_PUT;
     m.u.put.model = c->model;
     m.u.put.flags = fine ? IT2N_PUT_FINE : 0u;
-    for (i = 0; i <= src_n(src); i++) {
-        for (j = 0; j <= src_m(src); j++) {
+    for (i = 0; i <= ctl_src_n(src); i++) {
+        for (j = 0; j <= ctl_src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 it2n_put_entry *e;
-                if (!src_has(src, i, j, fp)) {
+                if (!ctl_src_has(src, i, j, fp)) {
                     continue;
                 }
                 e = &m.u.put.e[m.u.put.count++];
@@ -552,7 +509,7 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
                 e->j = (uint8_t)j;
                 e->fp = (uint8_t)fp;
                 src_get_wire(src, i, j, fp, fine, e->vals);
-                if (!(src_flags(src) & IT2N_F_Z)) {
+                if (!(ctl_src_flags(src) & IT2N_F_Z)) {
                     e->vals[IT2N_CH_Z] = 0;
                 }
                 if (m.u.put.count < IT2N_PUT_MAX &&
@@ -589,7 +546,7 @@ static int push_src(lk_conn *c, const lk_src *src, ctl_progress_fn progress, voi
 static int lk_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
                    void *pctx, it2n_errinfo *rej)
 {
-    lk_src src = {ds, NULL};
+    ctl_src src = {ds, NULL};
     return push_src(p, &src, progress, pctx, rej);
 }
 
@@ -598,7 +555,7 @@ static int lk_push_bspline(void *p, const it2n_bspline_data *bds,
                            ctl_progress_fn progress, void *pctx,
                            it2n_errinfo *rej)
 {
-    lk_src src = {NULL, bds};
+    ctl_src src = {NULL, bds};
     return push_src(p, &src, progress, pctx, rej);
 }
 

@@ -8,6 +8,7 @@
  * 24 significant bits).
  */
 #include "ctl.h"
+#include "ctl_src.h"
 
 #include "it2n_regmap.h"
 
@@ -24,8 +25,8 @@
 typedef struct mb_conn {
     modbus_t *ctx;
     char where[160];     /* "127.0.0.1:1502 unit 1" for messages */
-    int word_order;      /* IT2N_WO_*, float32 registers          */
-    int int32_order;     /* IT2N_WO_*, u32/i32 registers (reg 27) */
+    int word_order;      /* IT2N_REGMAP_WO_*, float32 registers          */
+    int int32_order;     /* IT2N_REGMAP_WO_*, u32/i32 registers (reg 27) */
     int coord_scale;
     bool have_map;       /* word order / scale read              */
 } mb_conn;
@@ -122,18 +123,18 @@ static int64_t memb_scaled(it2n_val q30, int64_t scale, bool *exact)
 /* Word order and coordinate scale from the status block (once). */
 static int mb_map(mb_conn *c)
 {
-    uint16_t r[IT2N_REG_INT32_ORDER - IT2N_REG_WORD_ORDER + 1];
+    uint16_t r[IT2N_REGMAP_REG_INT32_ORDER - IT2N_REGMAP_REG_WORD_ORDER + 1];
     int rc;
     if (c->have_map) {
         return CTL_EXIT_OK;
     }
-    rc = rd(c, IT2N_REG_WORD_ORDER, IT2N_REG_INT32_ORDER - IT2N_REG_WORD_ORDER + 1, r, "read status");
+    rc = rd(c, IT2N_REGMAP_REG_WORD_ORDER, IT2N_REGMAP_REG_INT32_ORDER - IT2N_REGMAP_REG_WORD_ORDER + 1, r, "read status");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
     c->word_order = r[0] & 3;
-    c->coord_scale = r[IT2N_REG_COORD_SCALE - IT2N_REG_WORD_ORDER] ? r[IT2N_REG_COORD_SCALE - IT2N_REG_WORD_ORDER] : 100;
-    c->int32_order = r[IT2N_REG_INT32_ORDER - IT2N_REG_WORD_ORDER] & 3;
+    c->coord_scale = r[IT2N_REGMAP_REG_COORD_SCALE - IT2N_REGMAP_REG_WORD_ORDER] ? r[IT2N_REGMAP_REG_COORD_SCALE - IT2N_REGMAP_REG_WORD_ORDER] : 100;
+    c->int32_order = r[IT2N_REGMAP_REG_INT32_ORDER - IT2N_REGMAP_REG_WORD_ORDER] & 3;
     c->have_map = true;
     return CTL_EXIT_OK;
 }
@@ -141,31 +142,31 @@ static int mb_map(mb_conn *c)
 static int mb_status(void *p, ctl_status *st)
 {
     mb_conn *c = p;
-    uint16_t r[IT2N_REG_STATUS_END];
-    int rc = rd(c, 0, IT2N_REG_STATUS_END, r, "read status");
+    uint16_t r[IT2N_REGMAP_REG_STATUS_END];
+    int rc = rd(c, 0, IT2N_REGMAP_REG_STATUS_END, r, "read status");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
     memset(st, 0, sizeof(*st));
-    st->model = r[IT2N_REG_MODEL_ID];
-    st->state = r[IT2N_REG_STATE];
-    st->n = r[IT2N_REG_N];
-    st->m = r[IT2N_REG_M];
-    st->flags = r[IT2N_REG_FLAGS];
-    st->present = r[IT2N_REG_PRESENT];
-    st->required = r[IT2N_REG_REQUIRED];
+    st->model = r[IT2N_REGMAP_REG_MODEL_ID];
+    st->state = r[IT2N_REGMAP_REG_STATE];
+    st->n = r[IT2N_REGMAP_REG_N];
+    st->m = r[IT2N_REGMAP_REG_M];
+    st->flags = r[IT2N_REGMAP_REG_FLAGS];
+    st->present = r[IT2N_REGMAP_REG_PRESENT];
+    st->required = r[IT2N_REGMAP_REG_REQUIRED];
     {
         /* kind, net size and u32 counts: absent from older daemons (02),
          * which serve the Bezier kind only */
-        uint16_t k[IT2N_REG_STATUS_END - IT2N_REG_KIND], n32[4];
-        if (modbus_read_registers(c->ctx, IT2N_REG_KIND, IT2N_REG_STATUS_END - IT2N_REG_KIND, k) ==
-            (int)(IT2N_REG_STATUS_END - IT2N_REG_KIND)) {
+        uint16_t k[IT2N_REGMAP_REG_STATUS_END - IT2N_REGMAP_REG_KIND], n32[4];
+        if (modbus_read_registers(c->ctx, IT2N_REGMAP_REG_KIND, IT2N_REGMAP_REG_STATUS_END - IT2N_REGMAP_REG_KIND, k) ==
+            (int)(IT2N_REGMAP_REG_STATUS_END - IT2N_REGMAP_REG_KIND)) {
             st->kind = k[0];
-            st->net_rows = k[IT2N_REG_NET_ROWS - IT2N_REG_KIND];
-            st->net_cols = k[IT2N_REG_NET_COLS - IT2N_REG_KIND];
-            if (modbus_read_registers(c->ctx, IT2N_REG_PRESENT32, 4, n32) == 4) {
-                st->present = it2n_regmap_get_u32(&n32[0], r[IT2N_REG_INT32_ORDER] & 3);
-                st->required = it2n_regmap_get_u32(&n32[2], r[IT2N_REG_INT32_ORDER] & 3);
+            st->net_rows = k[IT2N_REGMAP_REG_NET_ROWS - IT2N_REGMAP_REG_KIND];
+            st->net_cols = k[IT2N_REGMAP_REG_NET_COLS - IT2N_REGMAP_REG_KIND];
+            if (modbus_read_registers(c->ctx, IT2N_REGMAP_REG_PRESENT32, 4, n32) == 4) {
+                st->present = it2n_regmap_get_u32(&n32[0], r[IT2N_REGMAP_REG_INT32_ORDER] & 3);
+                st->required = it2n_regmap_get_u32(&n32[2], r[IT2N_REGMAP_REG_INT32_ORDER] & 3);
             }
         } else if (errno != EMBXILADD) {
             return mb_fail(c, "read status");
@@ -174,64 +175,25 @@ static int mb_status(void *p, ctl_status *st)
             st->net_cols = st->state == CTL_ST_SOLVED ? st->m + 1u : 0u;
         }
     }
-    c->word_order = r[IT2N_REG_WORD_ORDER] & 3;
-    c->int32_order = r[IT2N_REG_INT32_ORDER] & 3;
-    st->generation = it2n_regmap_get_u32(&r[IT2N_REG_GENERATION], c->int32_order);
-    st->last_error = (int16_t)r[IT2N_REG_LAST_ERR];
-    c->coord_scale = r[IT2N_REG_COORD_SCALE] ? r[IT2N_REG_COORD_SCALE] : 100;
+    c->word_order = r[IT2N_REGMAP_REG_WORD_ORDER] & 3;
+    c->int32_order = r[IT2N_REGMAP_REG_INT32_ORDER] & 3;
+    st->generation = it2n_regmap_get_u32(&r[IT2N_REGMAP_REG_GENERATION], c->int32_order);
+    st->last_error = (int16_t)r[IT2N_REGMAP_REG_LAST_ERR];
+    c->coord_scale = r[IT2N_REGMAP_REG_COORD_SCALE] ? r[IT2N_REGMAP_REG_COORD_SCALE] : 100;
     c->have_map = true;
     return CTL_EXIT_OK;
 }
 
-/* The data pushed: a Bezier data set or a B-spline one. */
-typedef struct mb_src {
-    const it2n_dataset *ds;
-    const it2n_bspline_data *bds;
-} mb_src;
-
-static unsigned src_n(const mb_src *s)
-{
-    return s->bds != NULL ? s->bds->n : s->ds->n;
-}
-
-static unsigned src_m(const mb_src *s)
-{
-    return s->bds != NULL ? s->bds->m : s->ds->m;
-}
-
-static unsigned src_flags(const mb_src *s)
-{
-    return s->bds != NULL ? s->bds->flags : s->ds->flags;
-}
-
-static bool src_has(const mb_src *s, unsigned i, unsigned j, unsigned fp)
-{
-    if (s->bds != NULL) {
-        unsigned nfp = IT2N_BSPLINE_NFP(s->bds->flags);
-        if ((s->bds->flags & IT2N_F_TYPE1) && fp != IT2N_FP_D) {
-            return false;
-        }
-        return s->bds->rec[((size_t)i * (s->bds->m + 1u) + j) * nfp +
-                           (nfp == 1u ? 0u : fp)].present != 0u;
-    }
-    return (s->ds->present[i][j] & (1u << fp)) != 0u;
-}
-
 /* The upload block of entry (i, j, fp); false (rej filled) when a value
  * is not exactly representable in the map's scaled integers. */
-static bool upload_regs(const mb_conn *c, const mb_src *src, unsigned i,
+static bool upload_regs(const mb_conn *c, const ctl_src *src, unsigned i,
                         unsigned j, unsigned fp, uint16_t r[12],
                         it2n_errinfo *rej)
 {
     it2n_val v[IT2N_CH_COUNT], fine[IT2N_CH_COUNT];
     unsigned ch;
-    if (src->bds != NULL) {
-        it2n_bspline_data_get(src->bds, i, j, fp, v);
-        it2n_bspline_data_get_fine(src->bds, i, j, fp, fine);
-    } else {
-        it2n_dataset_get(src->ds, i, j, fp, v);
-        it2n_dataset_get_fine(src->ds, i, j, fp, fine);
-    }
+    ctl_src_get(src, i, j, fp, v);
+    ctl_src_get_fine(src, i, j, fp, fine);
     r[0] = (uint16_t)i;
     r[1] = (uint16_t)j;
     r[2] = (uint16_t)fp;
@@ -239,7 +201,7 @@ static bool upload_regs(const mb_conn *c, const mb_src *src, unsigned i,
         bool coord = ch < IT2N_CH_T;
         int64_t scale = coord ? c->coord_scale : IT2N_REGMAP_MEMB_SCALE;
         int64_t k;
-        if (ch == IT2N_CH_Z && !(src_flags(src) & IT2N_F_Z)) {
+        if (ch == IT2N_CH_Z && !(ctl_src_flags(src) & IT2N_F_Z)) {
             v[ch] = 0;
         }
         bool exact;
@@ -277,7 +239,7 @@ static void refused_detail(mb_conn *c, it2n_errinfo *rej)
     memset(rej, 0, sizeof(*rej));
     rej->i = rej->j = -1;
     rej->fp = rej->ch = -1;
-    if (modbus_read_registers(c->ctx, IT2N_REG_LAST_ERR, 4, r) == 4) {
+    if (modbus_read_registers(c->ctx, IT2N_REGMAP_REG_LAST_ERR, 4, r) == 4) {
         rej->code = (int16_t)r[0];
         rej->i = (int16_t)r[1];
         rej->j = (int16_t)r[2];
@@ -285,7 +247,7 @@ static void refused_detail(mb_conn *c, it2n_errinfo *rej)
     }
 }
 
-static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
+static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress,
                     void *pctx, it2n_errinfo *rej)
 {
     uint16_t cfg[4], up[12];
@@ -296,12 +258,12 @@ static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
         return rc;
     }
     /* The unit's kind (a daemon without the register is Bezier only) */
-    if (modbus_read_registers(c->ctx, IT2N_REG_KIND, 1, &kreg) == 1) {
+    if (modbus_read_registers(c->ctx, IT2N_REGMAP_REG_KIND, 1, &kreg) == 1) {
         kind = kreg;
     } else if (errno != EMBXILADD) {
         return mb_fail(c, "read status");
     }
-    if (kind != (src->bds != NULL ? IT2N_KIND_BSPLINE : IT2N_KIND_BEZIER)) {
+    if (kind != (src->bds != NULL ? IT2N_REGMAP_KIND_BSPLINE : IT2N_REGMAP_KIND_BEZIER)) {
         fprintf(stderr,
                 "it2nctl: unit %d holds a %s model and the data are for the "
                 "%s kind: push --kind %s to a [model:ID] with kind = %s "
@@ -314,10 +276,10 @@ static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
     }
     /* Everything representable before the first write: a refused push
      * changes nothing. */
-    for (i = 0; i <= src_n(src); i++) {
-        for (j = 0; j <= src_m(src); j++) {
+    for (i = 0; i <= ctl_src_n(src); i++) {
+        for (j = 0; j <= ctl_src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                if (src_has(src, i, j, fp)) {
+                if (ctl_src_has(src, i, j, fp)) {
                     if (!upload_regs(c, src, i, j, fp, up, rej)) {
                         return CTL_REJECTED;
                     }
@@ -326,22 +288,22 @@ static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
             }
         }
     }
-    cfg[0] = (uint16_t)src_n(src);
-    cfg[1] = (uint16_t)src_m(src);
-    cfg[2] = (uint16_t)src_flags(src);
-    cfg[3] = IT2N_CMD_CLEAR;
-    rc = wr(c, IT2N_REG_CFG_N, 4, cfg, "configure");
+    cfg[0] = (uint16_t)ctl_src_n(src);
+    cfg[1] = (uint16_t)ctl_src_m(src);
+    cfg[2] = (uint16_t)ctl_src_flags(src);
+    cfg[3] = IT2N_REGMAP_CMD_CLEAR;
+    rc = wr(c, IT2N_REGMAP_REG_CFG_N, 4, cfg, "configure");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    for (i = 0; i <= src_n(src); i++) {
-        for (j = 0; j <= src_m(src); j++) {
+    for (i = 0; i <= ctl_src_n(src); i++) {
+        for (j = 0; j <= ctl_src_m(src); j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                if (!src_has(src, i, j, fp)) {
+                if (!ctl_src_has(src, i, j, fp)) {
                     continue;
                 }
                 (void)upload_regs(c, src, i, j, fp, up, rej);
-                if (modbus_write_registers(c->ctx, IT2N_REG_UP_I, 12, up) !=
+                if (modbus_write_registers(c->ctx, IT2N_REGMAP_REG_UP_I, 12, up) !=
                     12) {
                     int e = errno;
                     if (exc_text(e) != NULL && e != EMBXILADD) {
@@ -358,8 +320,8 @@ static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
             }
         }
     }
-    cfg[0] = IT2N_CMD_COMMIT;
-    if (modbus_write_register(c->ctx, IT2N_REG_COMMAND, cfg[0]) != 1) {
+    cfg[0] = IT2N_REGMAP_CMD_COMMIT;
+    if (modbus_write_register(c->ctx, IT2N_REGMAP_REG_COMMAND, cfg[0]) != 1) {
         int e = errno;
         if (e == EMBXSFAIL) {
             refused_detail(c, rej);
@@ -374,7 +336,7 @@ static int push_src(mb_conn *c, const mb_src *src, ctl_progress_fn progress,
 static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
                    void *pctx, it2n_errinfo *rej)
 {
-    mb_src src = {ds, NULL};
+    ctl_src src = {ds, NULL};
     return push_src(p, &src, progress, pctx, rej);
 }
 
@@ -382,7 +344,7 @@ static int mb_push_bspline(void *p, const it2n_bspline_data *bds,
                            ctl_progress_fn progress, void *pctx,
                            it2n_errinfo *rej)
 {
-    mb_src src = {NULL, bds};
+    ctl_src src = {NULL, bds};
     return push_src(p, &src, progress, pctx, rej);
 }
 
@@ -408,7 +370,7 @@ static void read_results(const mb_conn *c, const uint16_t *r, it2n_point *pt)
         }
     }
     for (k = 0; k < 3u; k++) {
-        const uint16_t *s = &r[IT2N_REG_SUM_F32 - IT2N_REG_RES_F32];
+        const uint16_t *s = &r[IT2N_REGMAP_REG_SUM_F32 - IT2N_REGMAP_REG_RES_F32];
         pt->sum.upper_min[k] = f2q(it2n_regmap_get_f32(&s[(0 * 3 + k) * 2], c->word_order));
         pt->sum.upper_max[k] = f2q(it2n_regmap_get_f32(&s[(1 * 3 + k) * 2], c->word_order));
         pt->sum.lower_min[k] = f2q(it2n_regmap_get_f32(&s[(2 * 3 + k) * 2], c->word_order));
@@ -421,25 +383,25 @@ static void read_results(const mb_conn *c, const uint16_t *r, it2n_point *pt)
 static int query(mb_conn *c, unsigned addr, unsigned count, const uint16_t *w,
                  it2n_point *pt, uint16_t *locfail)
 {
-    uint16_t r[IT2N_REG_SUM_F32 + 24 - IT2N_REG_RES_F32];
-    uint16_t qs[IT2N_REG_QSTATUS_END - IT2N_REG_Q_KIND];
+    uint16_t r[IT2N_REGMAP_REG_SUM_F32 + 24 - IT2N_REGMAP_REG_RES_F32];
+    uint16_t qs[IT2N_REGMAP_REG_QSTATUS_END - IT2N_REGMAP_REG_Q_KIND];
     unsigned n = (unsigned)(sizeof(r) / sizeof(r[0]));
     int rc;
     if (modbus_write_and_read_registers(c->ctx, (int)addr, (int)count, w,
-                                        IT2N_REG_RES_F32, (int)n, r) !=
+                                        IT2N_REGMAP_REG_RES_F32, (int)n, r) !=
         (int)n) {
         return mb_fail(c, "query");
     }
-    rc = rd(c, IT2N_REG_Q_KIND, IT2N_REG_QSTATUS_END - IT2N_REG_Q_KIND, qs,
+    rc = rd(c, IT2N_REGMAP_REG_Q_KIND, IT2N_REGMAP_REG_QSTATUS_END - IT2N_REGMAP_REG_Q_KIND, qs,
             "query status");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
     memset(pt, 0, sizeof(*pt));
     read_results(c, r, pt);
-    pt->out_of_range = it2n_regmap_get_u32(&qs[IT2N_REG_Q_OOR - IT2N_REG_Q_KIND], c->int32_order);
+    pt->out_of_range = it2n_regmap_get_u32(&qs[IT2N_REGMAP_REG_Q_OOR - IT2N_REGMAP_REG_Q_KIND], c->int32_order);
     if (locfail != NULL) {
-        *locfail = qs[IT2N_REG_Q_LOCFAIL - IT2N_REG_Q_KIND];
+        *locfail = qs[IT2N_REGMAP_REG_Q_LOCFAIL - IT2N_REGMAP_REG_Q_KIND];
     }
     return CTL_EXIT_OK;
 }
@@ -453,7 +415,7 @@ static int mb_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
         return rc;
     }
     if (par_scaled(*u, &regs[0]) && par_scaled(*w, &regs[1])) {
-        return query(c, IT2N_REG_Q_U16, 2, regs, pt, NULL);
+        return query(c, IT2N_REGMAP_REG_Q_U16, 2, regs, pt, NULL);
     }
     /* float32: the daemon evaluates at llround(f * 2^32) */
     {
@@ -463,7 +425,7 @@ static int mb_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
         it2n_regmap_put_f32(&regs[2], fw, c->word_order);
         *u = (it2n_par)llround((double)fu * (double)IT2N_PAR_ONE);
         *w = (it2n_par)llround((double)fw * (double)IT2N_PAR_ONE);
-        return query(c, IT2N_REG_Q_UF, 4, regs, pt, NULL);
+        return query(c, IT2N_REGMAP_REG_Q_UF, 4, regs, pt, NULL);
     }
 }
 
@@ -482,7 +444,7 @@ static int mb_locate(void *p, it2n_val *x, it2n_val *y,
     if (exact_scaled(*x, c->coord_scale, &kx) && exact_scaled(*y, c->coord_scale, &ky)) {
         it2n_regmap_put_u32(&regs[0], (uint32_t)(int32_t)kx, c->int32_order);
         it2n_regmap_put_u32(&regs[2], (uint32_t)(int32_t)ky, c->int32_order);
-        rc = query(c, IT2N_REG_Q_XS, 4, regs, &pt, &fail);
+        rc = query(c, IT2N_REGMAP_REG_Q_XS, 4, regs, &pt, &fail);
     } else {
         float fx = (float)((double)*x / (double)IT2N_VAL_ONE);
         float fy = (float)((double)*y / (double)IT2N_VAL_ONE);
@@ -490,7 +452,7 @@ static int mb_locate(void *p, it2n_val *x, it2n_val *y,
         it2n_regmap_put_f32(&regs[2], fy, c->word_order);
         *x = f2q(fx);
         *y = f2q(fy);
-        rc = query(c, IT2N_REG_Q_XF, 4, regs, &pt, &fail);
+        rc = query(c, IT2N_REGMAP_REG_Q_XF, 4, regs, &pt, &fail);
     }
     if (rc != CTL_EXIT_OK) {
         return rc;
@@ -520,7 +482,7 @@ static int mb_net(void *p, const ctl_status *st, ctl_net *net)
             continue;
         }
         for (i = 0; i <= st->n; i++) {
-            unsigned addr = IT2N_REG_CTRL +
+            unsigned addr = IT2N_REGMAP_REG_CTRL +
                             ((fp * IT2N_REGMAP_DIM + i) * IT2N_REGMAP_DIM) *
                                 IT2N_REGMAP_CH * 2u;
             rc = rd(c, addr, cnt, r, "read control net");
@@ -607,13 +569,13 @@ static int mb_coef_row(void *p, const ctl_status *st, unsigned fp,
     sel[0] = (uint16_t)fp;
     sel[1] = (uint16_t)ch;
     sel[2] = (uint16_t)row;
-    rc = wr(c, IT2N_REG_PG_FP, 3, sel, "select coefficient page");
+    rc = wr(c, IT2N_REGMAP_REG_PG_FP, 3, sel, "select coefficient page");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
     while (done < total) {
         unsigned cnt = total - done > 124u ? 124u : total - done;
-        rc = rd(c, IT2N_REG_WIN + done, cnt, &r[done], "read coefficients");
+        rc = rd(c, IT2N_REGMAP_REG_WIN + done, cnt, &r[done], "read coefficients");
         if (rc != CTL_EXIT_OK) {
             return rc;
         }

@@ -243,6 +243,91 @@ static void w_dev_values(w_dev *d, const Spb__Payload *p, int birth)
     }
 }
 
+/* The bdSeq metric of an NBIRTH or NDEATH, -1 without one. */
+static int64_t payload_bdseq(const Spb__Payload *p)
+{
+    int64_t bd = -1;
+    for (size_t k = 0; k < p->n_metrics; k++) {
+        if (p->metrics[k]->name && strcmp(p->metrics[k]->name, "bdSeq") == 0) {
+            bd = int_value(p->metrics[k], 4u);
+        }
+    }
+    return bd;
+}
+
+static void w_node_birth(watch *w, w_node *n, const Spb__Payload *p)
+{
+    int64_t bd = payload_bdseq(p);
+    /* A Rebirth keeps the session (its bdSeq): said once, as such. */
+    w_line(w, n->node, NULL, n->online && bd == n->bdseq ? "rebirth" : "online", bd, -1, -1);
+    if (!n->online || bd != n->bdseq) {
+        for (size_t k = 0; k < w->nd; k++) {
+            if (strcmp(w->devs[k].node, n->node) == 0) {
+                w->devs[k].online = 0;  /* born again in the DBIRTHs */
+            }
+        }
+    }
+    n->bdseq = bd;
+    n->online = 1;
+}
+
+static void w_node_death(watch *w, w_node *n, const Spb__Payload *p)
+{
+    int64_t bd = payload_bdseq(p);
+    /* The will of an older session (another bdSeq) says nothing of
+     * this one (spec: a host compares the bdSeq). */
+    if (n->online && bd == n->bdseq) {
+        n->online = 0;
+        for (size_t k = 0; k < w->nd; k++) {
+            w_dev *d = &w->devs[k];
+            if (d->online && strcmp(d->node, n->node) == 0) {
+                d->online = 0;
+                w_line(w, n->node, d->dev, "offline", bd, d->gen, d->state);
+            }
+        }
+        w_line(w, n->node, NULL, "offline", bd, -1, -1);
+    }
+}
+
+/* DBIRTH, DDATA or DDEATH (type) of device dev of node n. */
+static void w_device(struct mosquitto *m, watch *w, w_node *n, const char *type, const char *dev,
+                     const Spb__Payload *p)
+{
+    w_dev *d = w_dev_get(w, n->node, dev);
+    if (d == NULL) {
+        return;
+    }
+    if (type[1] == 'B') {
+        int64_t gen = d->gen, st = d->state;
+        int was = d->online;
+        d->online = 1;
+        d->a_gen = d->a_state = 0;
+        w_dev_values(d, p, 1);
+        if (!was) {
+            w_line(w, n->node, d->dev, "online", n->bdseq, d->gen, d->state);
+        } else if (d->gen != gen || d->state != st) {
+            w_line(w, n->node, d->dev, "generation", n->bdseq, d->gen, d->state);
+        }
+    } else if (type[1] == 'D' && type[2] == 'A') {
+        int64_t gen = d->gen, st = d->state;
+        if (!d->online || !n->online) {
+            /* Data of a session this host has no birth of: ask. */
+            if (!n->asked) {
+                ask_rebirth(m, w->group, n->node);
+                n->asked = 1;
+            }
+        } else {
+            w_dev_values(d, p, 0);
+            if (d->gen != gen || d->state != st) {
+                w_line(w, n->node, d->dev, "generation", n->bdseq, d->gen, d->state);
+            }
+        }
+    } else if (d->online) {
+        d->online = 0;
+        w_line(w, n->node, d->dev, "offline", n->bdseq, d->gen, d->state);
+    }
+}
+
 static void w_message(struct mosquitto *m, void *obj, const struct mosquitto_message *msg)
 {
     watch *w = obj;
@@ -272,79 +357,12 @@ static void w_message(struct mosquitto *m, void *obj, const struct mosquitto_mes
         return;
     }
     if (strcmp(part[2], "NBIRTH") == 0) {
-        int64_t bd = -1;
-        for (size_t k = 0; k < p->n_metrics; k++) {
-            if (p->metrics[k]->name && strcmp(p->metrics[k]->name, "bdSeq") == 0) {
-                bd = int_value(p->metrics[k], 4u);
-            }
-        }
-        /* A Rebirth keeps the session (its bdSeq): said once, as such. */
-        w_line(w, n->node, NULL, n->online && bd == n->bdseq ? "rebirth" : "online", bd, -1, -1);
-        if (!n->online || bd != n->bdseq) {
-            for (size_t k = 0; k < w->nd; k++) {
-                if (strcmp(w->devs[k].node, n->node) == 0) {
-                    w->devs[k].online = 0;  /* born again in the DBIRTHs */
-                }
-            }
-        }
-        n->bdseq = bd;
-        n->online = 1;
+        w_node_birth(w, n, p);
     } else if (strcmp(part[2], "NDEATH") == 0) {
-        int64_t bd = -1;
-        for (size_t k = 0; k < p->n_metrics; k++) {
-            if (p->metrics[k]->name && strcmp(p->metrics[k]->name, "bdSeq") == 0) {
-                bd = int_value(p->metrics[k], 4u);
-            }
-        }
-        /* The will of an older session (another bdSeq) says nothing of
-         * this one (spec: a host compares the bdSeq). */
-        if (n->online && bd == n->bdseq) {
-            n->online = 0;
-            for (size_t k = 0; k < w->nd; k++) {
-                w_dev *d = &w->devs[k];
-                if (d->online && strcmp(d->node, n->node) == 0) {
-                    d->online = 0;
-                    w_line(w, n->node, d->dev, "offline", bd, d->gen, d->state);
-                }
-            }
-            w_line(w, n->node, NULL, "offline", bd, -1, -1);
-        }
+        w_node_death(w, n, p);
     } else if (np >= 5 && (strcmp(part[2], "DBIRTH") == 0 || strcmp(part[2], "DDATA") == 0 ||
                            strcmp(part[2], "DDEATH") == 0)) {
-        w_dev *d = w_dev_get(w, n->node, part[4]);
-        if (d == NULL) {
-            spb__payload__free_unpacked(p, NULL);
-            return;
-        }
-        if (part[2][1] == 'B') {
-            int64_t gen = d->gen, st = d->state;
-            int was = d->online;
-            d->online = 1;
-            d->a_gen = d->a_state = 0;
-            w_dev_values(d, p, 1);
-            if (!was) {
-                w_line(w, n->node, d->dev, "online", n->bdseq, d->gen, d->state);
-            } else if (d->gen != gen || d->state != st) {
-                w_line(w, n->node, d->dev, "generation", n->bdseq, d->gen, d->state);
-            }
-        } else if (part[2][1] == 'D' && part[2][2] == 'A') {
-            int64_t gen = d->gen, st = d->state;
-            if (!d->online || !n->online) {
-                /* Data of a session this host has no birth of: ask. */
-                if (!n->asked) {
-                    ask_rebirth(m, w->group, n->node);
-                    n->asked = 1;
-                }
-            } else {
-                w_dev_values(d, p, 0);
-                if (d->gen != gen || d->state != st) {
-                    w_line(w, n->node, d->dev, "generation", n->bdseq, d->gen, d->state);
-                }
-            }
-        } else if (d->online) {
-            d->online = 0;
-            w_line(w, n->node, d->dev, "offline", n->bdseq, d->gen, d->state);
-        }
+        w_device(m, w, n, part[2], part[4], p);
     } else if (strcmp(part[2], "NDATA") == 0 && !n->online && !n->asked) {
         ask_rebirth(m, w->group, n->node);
         n->asked = 1;

@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "board.h"
+#include "fw_print.h"
 #include "semihost.h"
 #include "it2n_inst.h"
 #include "synth.h"
@@ -56,46 +57,7 @@ static it2n_point local_pt;
 /* The peer's QUERY_RESULT. */
 static it2n_msg_query_result q_res;
 
-/* ---- output over semihosting ---- */
-
-static char line[1024];
-static size_t line_len;
-
-static void put_str(const char *s)
-{
-    while (*s != '\0' && line_len < sizeof line - 2u)
-        line[line_len++] = *s++;
-}
-
-static void put_u64(uint64_t v)
-{
-    char b[24];
-    unsigned n = sizeof b - 1u;
-    b[n] = '\0';
-    do {
-        b[--n] = (char)('0' + (char)(v % 10u));
-        v /= 10u;
-    } while (v != 0u && n > 0u);
-    put_str(&b[n]);
-}
-
-static void put_i64(int64_t v)
-{
-    if (v < 0) {
-        put_str("-");
-        put_u64((uint64_t)0 - (uint64_t)v);
-    } else {
-        put_u64((uint64_t)v);
-    }
-}
-
-static void flush_line(void)
-{
-    line[line_len++] = '\n';
-    line[line_len] = '\0';
-    it2n_sh_write0(line);
-    line_len = 0;
-}
+/* ---- output over semihosting: fw_print.h ---- */
 
 static uint32_t fw_seed(void)
 {
@@ -106,9 +68,9 @@ static uint32_t fw_seed(void)
     if (it2n_sh_read_file("fw-seed", b, sizeof b) > 0) {
         for (k = 0; b[k] >= '0' && b[k] <= '9' && k < 9u; k++)
             v = v * 10u + (uint32_t)(b[k] - '0');
-        put_str("SEED ");
-        put_u64(v);
-        flush_line();
+        fw_print_str("SEED ");
+        fw_print_u64(v);
+        fw_print_flush();
         return v;
     }
 #endif
@@ -155,35 +117,13 @@ static bool same_point(const it2n_point *a, const it2n_msg_query_result *r)
            a->out_of_range == r->out_of_range;
 }
 
-static void print_eval(uint16_t ku, uint16_t kw, const it2n_point *p)
-{
-    unsigned fp, ch, k;
-    put_str("EVAL ");
-    put_u64(ku);
-    put_str(" ");
-    put_u64(kw);
-    put_str(" ");
-    put_u64(p->out_of_range);
-    for (fp = 0; fp < IT2N_FP_COUNT; fp++)
-        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            put_str(" ");
-            put_i64(p->v[fp][ch]);
-        }
-    /* summary in register order: upper_min, upper_max, lower_min, lower_max */
-    for (k = 0; k < 3; k++) { put_str(" "); put_i64(p->sum.upper_min[k]); }
-    for (k = 0; k < 3; k++) { put_str(" "); put_i64(p->sum.upper_max[k]); }
-    for (k = 0; k < 3; k++) { put_str(" "); put_i64(p->sum.lower_min[k]); }
-    for (k = 0; k < 3; k++) { put_str(" "); put_i64(p->sum.lower_max[k]); }
-    flush_line();
-}
-
 static void fail(const char *what, int64_t code)
 {
-    put_str("FAIL: ");
-    put_str(what);
-    put_str(" ");
-    put_i64(code);
-    flush_line();
+    fw_print_str("FAIL: ");
+    fw_print_str(what);
+    fw_print_str(" ");
+    fw_print_i64(code);
+    fw_print_flush();
 }
 
 static unsigned resyncs;
@@ -260,23 +200,23 @@ static int query_retry(uint32_t wu, uint32_t ww)
     unsigned attempt;
     int r = it2n_inst_query(&inst, FW_MODEL, wu, ww, &q_res);
     for (attempt = 0; r != 0 && attempt < 3u; attempt++) {
-        put_str("QUERY failed (");
-        put_i64(r);
-        put_str("): resynchronising the link; stats rx_delivered ");
-        put_u64(inst.link.stats.rx_delivered);
-        put_str(" rx_dup ");
-        put_u64(inst.link.stats.rx_dup);
-        put_str(" rx_buffered ");
-        put_u64(inst.link.stats.rx_buffered);
-        put_str(" rx_nosync ");
-        put_u64(inst.link.stats.rx_nosync);
-        put_str(" tx_timeouts ");
-        put_u64(inst.link.stats.tx_timeouts);
-        put_str(" frames ok ");
-        put_u64(inst.link.dec.stats.ok);
-        put_str(" crc ");
-        put_u64(inst.link.dec.stats.crc);
-        flush_line();
+        fw_print_str("QUERY failed (");
+        fw_print_i64(r);
+        fw_print_str("): resynchronising the link; stats rx_delivered ");
+        fw_print_u64(inst.link.stats.rx_delivered);
+        fw_print_str(" rx_dup ");
+        fw_print_u64(inst.link.stats.rx_dup);
+        fw_print_str(" rx_buffered ");
+        fw_print_u64(inst.link.stats.rx_buffered);
+        fw_print_str(" rx_nosync ");
+        fw_print_u64(inst.link.stats.rx_nosync);
+        fw_print_str(" tx_timeouts ");
+        fw_print_u64(inst.link.stats.tx_timeouts);
+        fw_print_str(" frames ok ");
+        fw_print_u64(inst.link.dec.stats.ok);
+        fw_print_str(" crc ");
+        fw_print_u64(inst.link.dec.stats.crc);
+        fw_print_flush();
         resyncs++;
         if (it2n_inst_resync(&inst, (uint16_t)(inst.link.tx_next + 1000u)) == 0)
             r = it2n_inst_query(&inst, FW_MODEL, wu, ww, &q_res);
@@ -304,28 +244,28 @@ int main(void)
         fail("local solve", r);
         return 1;
     }
-    put_str("local model solved: n ");
-    put_u64(FW_N);
-    put_str(" m ");
-    put_u64(FW_M);
-    put_str(" flags z");
-    flush_line();
+    fw_print_str("local model solved: n ");
+    fw_print_u64(FW_N);
+    fw_print_str(" m ");
+    fw_print_u64(FW_M);
+    fw_print_str(" flags z");
+    fw_print_flush();
 
     t0 = board_now_ms();
     if (upload() != 0)
         return 1;
     t1 = board_now_ms();
-    put_str("UPLOAD committed ms ");
-    put_u64(t1 - t0);
-    put_str(" puts ");
-    put_u64(inst.puts);
-    put_str(" entries ");
-    put_u64(inst.entries);
-    put_str(" retx ");
-    put_u64(inst.link.stats.tx_retx);
-    put_str(" rx_overruns ");
-    put_u64(uart_rx_overruns());
-    flush_line();
+    fw_print_str("UPLOAD committed ms ");
+    fw_print_u64(t1 - t0);
+    fw_print_str(" puts ");
+    fw_print_u64(inst.puts);
+    fw_print_str(" entries ");
+    fw_print_u64(inst.entries);
+    fw_print_str(" retx ");
+    fw_print_u64(inst.link.stats.tx_retx);
+    fw_print_str(" rx_overruns ");
+    fw_print_u64(uart_rx_overruns());
+    fw_print_flush();
 
     for (k = 0; k < FW_NPOINTS; k++) {
         it2n_par u = par_from_x10000(fw_points[k][0]);
@@ -356,17 +296,17 @@ int main(void)
             fail("local eval", r);
             return 1;
         }
-        print_eval(fw_points[k][0], fw_points[k][1], &local_pt);
+        fw_print_eval(fw_points[k][0], fw_points[k][1], &local_pt);
     }
-    put_str("QUERY bit-identical ");
-    put_u64(FW_NPOINTS - mismatches);
-    put_str("/");
-    put_u64(FW_NPOINTS);
-    put_str(" retx ");
-    put_u64(inst.link.stats.tx_retx);
-    put_str(" resyncs ");
-    put_u64(resyncs);
-    flush_line();
+    fw_print_str("QUERY bit-identical ");
+    fw_print_u64(FW_NPOINTS - mismatches);
+    fw_print_str("/");
+    fw_print_u64(FW_NPOINTS);
+    fw_print_str(" retx ");
+    fw_print_u64(inst.link.stats.tx_retx);
+    fw_print_str(" resyncs ");
+    fw_print_u64(resyncs);
+    fw_print_flush();
     if (mismatches != 0u)
         return 1;
     it2n_sh_write0("PASS firmware\n");

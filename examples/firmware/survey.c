@@ -27,6 +27,7 @@
 #include <string.h>
 
 #include "board.h"
+#include "fw_print.h"
 #include "semihost.h"
 #include "it2n.h"
 
@@ -63,64 +64,25 @@ static it2n_bspline_data ds;
 static it2n_bspline_model mdl;
 static it2n_point pt;
 
-/* ---- output over semihosting ---- */
-
-static char line[2048];
-static size_t line_len;
-
-static void put_str(const char *s)
-{
-    while (*s != '\0' && line_len < sizeof line - 2u)
-        line[line_len++] = *s++;
-}
-
-static void put_u64(uint64_t v)
-{
-    char b[24];
-    unsigned n = sizeof b - 1u;
-    b[n] = '\0';
-    do {
-        b[--n] = (char)('0' + (char)(v % 10u));
-        v /= 10u;
-    } while (v != 0u && n > 0u);
-    put_str(&b[n]);
-}
-
-static void put_i64(int64_t v)
-{
-    if (v < 0) {
-        put_str("-");
-        put_u64((uint64_t)0 - (uint64_t)v);
-    } else {
-        put_u64((uint64_t)v);
-    }
-}
-
-static void flush_line(void)
-{
-    line[line_len++] = '\n';
-    line[line_len] = '\0';
-    it2n_sh_write0(line);
-    line_len = 0;
-}
+/* ---- output over semihosting: fw_print.h ---- */
 
 static int fail(const char *what, unsigned long lineno, const it2n_errinfo *e)
 {
-    put_str("FAIL: ");
-    put_str(what);
-    put_str(" at CSV line ");
-    put_u64(lineno);
+    fw_print_str("FAIL: ");
+    fw_print_str(what);
+    fw_print_str(" at CSV line ");
+    fw_print_u64(lineno);
     if (e != NULL) {
-        put_str(": error ");
-        put_i64(e->code);
-        put_str(" value ");
-        put_i64(e->value);
-        put_str(" limit ");
-        put_i64(e->lo);
-        put_str("..");
-        put_i64(e->hi);
+        fw_print_str(": error ");
+        fw_print_i64(e->code);
+        fw_print_str(" value ");
+        fw_print_i64(e->value);
+        fw_print_str(" limit ");
+        fw_print_i64(e->lo);
+        fw_print_str("..");
+        fw_print_i64(e->hi);
     }
-    flush_line();
+    fw_print_flush();
     return 1;
 }
 
@@ -228,34 +190,13 @@ static it2n_par par_from_x10000(uint16_t k)
     return (it2n_par)((((uint64_t)k << IT2N_PAR_FRAC) + 5000u) / 10000u);
 }
 
-static void print_eval(uint16_t ku, uint16_t kw, const it2n_point *p)
-{
-    unsigned fp, ch, k;
-    put_str("EVAL ");
-    put_u64(ku);
-    put_str(" ");
-    put_u64(kw);
-    put_str(" ");
-    put_u64(p->out_of_range);
-    for (fp = 0; fp < IT2N_FP_COUNT; fp++)
-        for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            put_str(" ");
-            put_i64(p->v[fp][ch]);
-        }
-    for (k = 0; k < 3; k++) { put_str(" "); put_i64(p->sum.upper_min[k]); }
-    for (k = 0; k < 3; k++) { put_str(" "); put_i64(p->sum.upper_max[k]); }
-    for (k = 0; k < 3; k++) { put_str(" "); put_i64(p->sum.lower_min[k]); }
-    for (k = 0; k < 3; k++) { put_str(" "); put_i64(p->sum.lower_max[k]); }
-    flush_line();
-}
-
 static int eval_at(uint16_t ku, uint16_t kw)
 {
     it2n_errinfo e;
     int rc = it2n_bspline_eval(&mdl, par_from_x10000(ku), par_from_x10000(kw), &pt, &e);
     if (rc != IT2N_OK)
         return fail("eval", 0, &e);
-    print_eval(ku, kw, &pt);
+    fw_print_eval(ku, kw, &pt);
     return 0;
 }
 
@@ -279,19 +220,19 @@ int main(void)
     rc = it2n_bspline_solve(&mdl, &ds, &e);
     if (rc != IT2N_OK)
         return fail("solve", 0, &e);
-    put_str("SURVEY n ");
-    put_u64(n);
-    put_str(" m ");
-    put_u64(m);
-    put_str(" flags ");
-    put_u64(flags);
-    put_str(" entries ");
-    put_u64(IT2N_BSPLINE_DATA_RECS(n, m, flags) - it2n_bspline_data_missing(&ds));
-    put_str(" solve ms ");
-    put_u64(board_now_ms() - t0);
-    put_str(" storage bytes ");
-    put_u64(sizeof rec + sizeof coef);
-    flush_line();
+    fw_print_str("SURVEY n ");
+    fw_print_u64(n);
+    fw_print_str(" m ");
+    fw_print_u64(m);
+    fw_print_str(" flags ");
+    fw_print_u64(flags);
+    fw_print_str(" entries ");
+    fw_print_u64(IT2N_BSPLINE_DATA_RECS(n, m, flags) - it2n_bspline_data_missing(&ds));
+    fw_print_str(" solve ms ");
+    fw_print_u64(board_now_ms() - t0);
+    fw_print_str(" storage bytes ");
+    fw_print_u64(sizeof rec + sizeof coef);
+    fw_print_flush();
     /* the grid, corners and edges included (k * 10000 / (G-1) rounded) */
     for (a = 0; a < FW_GRID; a++)
         for (b = 0; b < FW_GRID; b++)

@@ -9,7 +9,7 @@
 
 static void scale_text(char *buf, size_t size, const it2n_regmap_field *f)
 {
-    if (f->type == IT2N_RT_F32)
+    if (f->type == IT2N_REGMAP_TYPE_F32)
         snprintf(buf, size, "-");
     else if (f->scale == IT2N_REGMAP_SCALE_COORD)
         snprintf(buf, size, "÷coord_scale");
@@ -21,9 +21,9 @@ static void scale_text(char *buf, size_t size, const it2n_regmap_field *f)
 
 static const char *order_text(unsigned type)
 {
-    if (type == IT2N_RT_F32)
+    if (type == IT2N_REGMAP_TYPE_F32)
         return "configured (float_word_order)";
-    if (type == IT2N_RT_U32 || type == IT2N_RT_I32)
+    if (type == IT2N_REGMAP_TYPE_U32 || type == IT2N_REGMAP_TYPE_I32)
         return "configured (int32_word_order)";
     return "-";
 }
@@ -77,8 +77,8 @@ int main(void)
         const it2n_regmap_block *blk = &it2n_regmap_blocks[b];
         printf("| %s | %u..%u | %u..%u | %u..%u | %s | %s | %s |\n", blk->name, blk->start,
                blk->end - 1u, 30001u + blk->start, 30000u + blk->end, 40001u + blk->start,
-               40000u + blk->end, blk->access == IT2N_RA_RW ? "read/write" : "read-only",
-               blk->access == IT2N_RA_RW ? "03, 04, 06, 16, 23" : "03, 04 (and the read half of 23)",
+               40000u + blk->end, blk->access == IT2N_REGMAP_ACCESS_RW ? "read/write" : "read-only",
+               blk->access == IT2N_REGMAP_ACCESS_RW ? "03, 04, 06, 16, 23" : "03, 04 (and the read half of 23)",
                blk->per_conn ? "yes" : "no");
     }
     printf("\n");
@@ -101,7 +101,7 @@ int main(void)
             printf("| %s | %u | %u | %s | %s%s | %s | %s | %s | %s | %s |\n", addr, 30001u + f->addr,
                    40001u + f->addr, f->name, it2n_regmap_type_name(f->type),
                    f->count > 1u ? " array" : "", scale, order_text(f->type),
-                   blk->access == IT2N_RA_RW ? "RW" : "RO", f->unit, f->desc);
+                   blk->access == IT2N_REGMAP_ACCESS_RW ? "RW" : "RO", f->unit, f->desc);
         }
         printf("\n");
     }
@@ -110,7 +110,7 @@ int main(void)
            "```sh\n"
            "# status block, %u registers from address 0 (-0: 0-based references)\n"
            "mbpoll -m tcp -a 1 -0 -r 0 -c %u -t 3 -1 127.0.0.1 -p 1502\n",
-           IT2N_REG_STATUS_END, IT2N_REG_STATUS_END);
+           IT2N_REGMAP_REG_STATUS_END, IT2N_REGMAP_REG_STATUS_END);
     printf(
            "# sample grid node (0,0): D footprint T, I, F x10000\n"
            "mbpoll -m tcp -a 1 -0 -r 1024 -c 3 -t 4 -1 127.0.0.1 -p 1502\n"

@@ -29,29 +29,29 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
         }                                                                    \
     } while (0)
 
-static csv_reader g_a, g_b;
+static cli_csv_reader g_a, g_b;
 static it2n_dataset g_da, g_db;
 static it2n_model g_mdl;
 
-static int parse(csv_reader *p, it2n_dataset *ds, const uint8_t *data,
-                 size_t size, size_t chunk, csv_error *e)
+static int parse(cli_csv_reader *p, it2n_dataset *ds, const uint8_t *data,
+                 size_t size, size_t chunk, cli_csv_error *e)
 {
     size_t k;
     int rc = IT2N_OK;
-    csv_init(p, (size & 1u) ? IT2N_F_CHORD : 0u);
+    cli_csv_init(p, (size & 1u) ? IT2N_F_CHORD : 0u);
     for (k = 0; k < size && rc == IT2N_OK; k += chunk) {
         size_t n = size - k < chunk ? size - k : chunk;
-        rc = csv_feed(p, (const char *)data + k, n, e);
+        rc = cli_csv_feed(p, (const char *)data + k, n, e);
     }
     if (rc == IT2N_OK) {
-        rc = csv_finish(p, ds, e);
+        rc = cli_csv_finish(p, ds, e);
     }
     return rc;
 }
 
 static void fuzz_csv(const uint8_t *data, size_t size)
 {
-    csv_error ea, eb;
+    cli_csv_error ea, eb;
     it2n_errinfo info;
     char msg[600];
     int ra, rb, n;
@@ -61,7 +61,7 @@ static void fuzz_csv(const uint8_t *data, size_t size)
     REQUIRE(ra == rb);
     if (ra != IT2N_OK) {
         REQUIRE(ea.code == ra && eb.code == rb && ea.line == eb.line);
-        n = csv_message(&ea, "fuzz.csv", msg, sizeof(msg));
+        n = cli_csv_message(&ea, "fuzz.csv", msg, sizeof(msg));
         REQUIRE(n > 0 && strlen(msg) < sizeof(msg));
         REQUIRE(strncmp(msg, "fuzz.csv", 8) == 0);
         return;
@@ -79,8 +79,8 @@ static void fuzz_csv(const uint8_t *data, size_t size)
     } else {
         REQUIRE(info.code < 0);
         REQUIRE(g_mdl.solved == 0);
-        csv_locate(&g_a, &info, &ea);
-        n = csv_message(&ea, "fuzz.csv", msg, sizeof(msg));
+        cli_csv_locate(&g_a, &info, &ea);
+        n = cli_csv_message(&ea, "fuzz.csv", msg, sizeof(msg));
         REQUIRE(n > 0);
     }
 }
@@ -93,31 +93,31 @@ static void fuzz_bspline(const uint8_t *data, size_t size)
     static uint32_t *lines[2];
     static int32_t *coef;
     it2n_bspline_data ds[2];
-    csv_error e[2];
+    cli_csv_error e[2];
     it2n_errinfo info;
     char msg[600];
     int rc[2], t;
     for (t = 0; t < 2; t++) {
         size_t chunk = t == 0 ? (size > 0 ? size : 1u) : 1u + size % 53u, k;
         if (rec[t] == NULL) {
-            rec[t] = malloc(CSV_BSPLINE_RECS * sizeof(*rec[t]));
-            lines[t] = malloc(CSV_BSPLINE_LINES * sizeof(*lines[t]));
+            rec[t] = malloc(CLI_CSV_BSPLINE_RECS * sizeof(*rec[t]));
+            lines[t] = malloc(CLI_CSV_BSPLINE_LINES * sizeof(*lines[t]));
             REQUIRE(rec[t] != NULL && lines[t] != NULL);
         }
-        csv_init_bspline(t == 0 ? &g_a : &g_b, rec[t], lines[t]);
+        cli_csv_init_bspline(t == 0 ? &g_a : &g_b, rec[t], lines[t]);
         rc[t] = IT2N_OK;
         for (k = 0; k < size && rc[t] == IT2N_OK; k += chunk) {
             size_t n = size - k < chunk ? size - k : chunk;
-            rc[t] = csv_feed(t == 0 ? &g_a : &g_b, (const char *)data + k, n, &e[t]);
+            rc[t] = cli_csv_feed(t == 0 ? &g_a : &g_b, (const char *)data + k, n, &e[t]);
         }
         if (rc[t] == IT2N_OK) {
-            rc[t] = csv_finish_bspline(t == 0 ? &g_a : &g_b, &ds[t], &e[t]);
+            rc[t] = cli_csv_finish_bspline(t == 0 ? &g_a : &g_b, &ds[t], &e[t]);
         }
     }
     REQUIRE(rc[0] == rc[1]);
     if (rc[0] != IT2N_OK) {
         REQUIRE(e[0].code == rc[0] && e[0].line == e[1].line);
-        REQUIRE(csv_message(&e[0], "fuzz.csv", msg, sizeof(msg)) > 0);
+        REQUIRE(cli_csv_message(&e[0], "fuzz.csv", msg, sizeof(msg)) > 0);
         REQUIRE(strncmp(msg, "fuzz.csv", 8) == 0);
         return;
     }

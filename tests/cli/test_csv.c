@@ -16,7 +16,7 @@
 
 #define TEXT_MAX 65536
 
-static csv_reader g_p;
+static cli_csv_reader g_p;
 static it2n_dataset g_ds;
 static char g_text[TEXT_MAX];
 
@@ -59,17 +59,17 @@ static void replace_row(const char *prefix, const char *line)
     strcpy(g_text, tmp);
 }
 
-static int parse(const char *text, size_t chunk, csv_error *e)
+static int parse(const char *text, size_t chunk, cli_csv_error *e)
 {
     size_t len = strlen(text), k;
     int rc = IT2N_OK;
-    csv_init(&g_p, 0);
+    cli_csv_init(&g_p, 0);
     for (k = 0; k < len && rc == IT2N_OK; k += chunk) {
-        rc = csv_feed(&g_p, text + k, len - k < chunk ? len - k : chunk,
+        rc = cli_csv_feed(&g_p, text + k, len - k < chunk ? len - k : chunk,
                            e);
     }
     if (rc == IT2N_OK) {
-        rc = csv_finish(&g_p, &g_ds, e);
+        rc = cli_csv_finish(&g_p, &g_ds, e);
     }
     return rc;
 }
@@ -78,10 +78,10 @@ static int parse(const char *text, size_t chunk, csv_error *e)
 static void expect(const char *text, int code, unsigned long line,
                    const char *msg)
 {
-    csv_error e;
+    cli_csv_error e;
     char buf[512];
     int rc = parse(text, 4096, &e);
-    csv_message(&e, "f.csv", buf, sizeof(buf));
+    cli_csv_message(&e, "f.csv", buf, sizeof(buf));
     if (rc != code || strcmp(buf, msg) != 0 || e.line != line) {
         print_error("rc %d line %lu msg '%s'\n want %d line %lu '%s'\n", rc,
                     e.line, buf, code, line, msg);
@@ -94,7 +94,7 @@ static void expect(const char *text, int code, unsigned long line,
 
 static void test_ok_layouts(void **state)
 {
-    csv_error e;
+    cli_csv_error e;
     (void)state;
     assert_int_equal(parse(gen(2, 1, false, false), 4096, &e), IT2N_OK);
     assert_int_equal(g_ds.n, 2);
@@ -108,7 +108,7 @@ static void test_ok_layouts(void **state)
     {
         it2n_errinfo info = {IT2N_ERR_ORDER, 1, 0, IT2N_FP_L, IT2N_CH_Y,
                              0, 0, 0};
-        csv_locate(&g_p, &info, &e);
+        cli_csv_locate(&g_p, &info, &e);
         assert_int_equal(e.line, 18);
         assert_int_equal(e.field, 5);
     }
@@ -123,10 +123,10 @@ static void test_ok_layouts(void **state)
                 3 * IT2N_VAL_ONE / 2);
 
     /* --chord is passed through. */
-    csv_init(&g_p, IT2N_F_CHORD);
+    cli_csv_init(&g_p, IT2N_F_CHORD);
     gen(1, 1, true, false);
-    assert_int_equal(csv_feed(&g_p, g_text, strlen(g_text), &e), 0);
-    assert_int_equal(csv_finish(&g_p, &g_ds, &e), 0);
+    assert_int_equal(cli_csv_feed(&g_p, g_text, strlen(g_text), &e), 0);
+    assert_int_equal(cli_csv_finish(&g_p, &g_ds, &e), 0);
     assert_int_equal(g_ds.flags, IT2N_F_TYPE1 | IT2N_F_CHORD);
 }
 
@@ -143,7 +143,7 @@ static void test_ok_syntax(void **state)
         "  # indented comment\n"
         "1,0,D,+2,2e0,0.5,.5,5e-1\n"
         "1,1,D,3,3,1.0,0,0"; /* no final newline */
-    csv_error e;
+    cli_csv_error e;
     size_t chunk;
     (void)state;
     /* Any chunking gives the same data set. */
@@ -164,7 +164,7 @@ static void test_ok_syntax(void **state)
     /* Line numbers count comments and blank lines. */
     {
         it2n_errinfo info = {IT2N_ERR_RANGE, 1, 1, IT2N_FP_D, -1, 0, 0, 0};
-        csv_locate(&g_p, &info, &e);
+        cli_csv_locate(&g_p, &info, &e);
         assert_int_equal(e.line, 10);
     }
 }
@@ -172,16 +172,16 @@ static void test_ok_syntax(void **state)
 static void test_err_header(void **state)
 {
     (void)state;
-    expect("", CSV_ERR_HEADER, 0,
+    expect("", CLI_CSV_ERR_HEADER, 0,
            "f.csv: no header line (expected 'i,j,footprint,x,y,T,I,F' or "
            "'i,j,footprint,x,y,z,T,I,F')");
-    expect("# only a comment\n\n", CSV_ERR_HEADER, 0,
+    expect("# only a comment\n\n", CLI_CSV_ERR_HEADER, 0,
            "f.csv: no header line (expected 'i,j,footprint,x,y,T,I,F' or "
            "'i,j,footprint,x,y,z,T,I,F')");
-    expect("# c\ni,j,fp,x,y,T,I,F\n0,0,D,0,0,0,0,0\n", CSV_ERR_HEADER, 2,
+    expect("# c\ni,j,fp,x,y,T,I,F\n0,0,D,0,0,0,0,0\n", CLI_CSV_ERR_HEADER, 2,
            "f.csv:2: bad header 'i,j,fp,x,y,T,I,F' (expected "
            "'i,j,footprint,x,y,T,I,F' or 'i,j,footprint,x,y,z,T,I,F')");
-    expect("i,j,footprint,x,y,t,i,f\n", CSV_ERR_HEADER, 1,
+    expect("i,j,footprint,x,y,t,i,f\n", CLI_CSV_ERR_HEADER, 1,
            "f.csv:1: bad header 'i,j,footprint,x,y,t,i,f' (expected "
            "'i,j,footprint,x,y,T,I,F' or 'i,j,footprint,x,y,z,T,I,F')");
 }
@@ -190,7 +190,7 @@ static void test_err_header(void **state)
  * inside a field, or a ';'/tab separated file, gets its own message. */
 static void test_quotes_and_separators(void **state)
 {
-    csv_error e;
+    cli_csv_error e;
     it2n_dataset plain;
     char quoted[TEXT_MAX];
     size_t k, o = 0;
@@ -217,22 +217,22 @@ static void test_quotes_and_separators(void **state)
     assert_memory_equal(&g_ds, &plain, sizeof(plain));
 
     expect("i,j,footprint,x,y,T,I,F\n0,0,\"D,1\",0,0,0,0,0\n",
-           CSV_ERR_QUOTE, 2,
+           CLI_CSV_ERR_QUOTE, 2,
            "f.csv:2: field 3: bad quoting '\"D' (a field may be wrapped whole "
            "in \"...\", but never holds '\"' or ',')");
     expect("i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0.5,\"0\"\"5\",0\n",
-           CSV_ERR_QUOTE, 2,
+           CLI_CSV_ERR_QUOTE, 2,
            "f.csv:2: field 7: bad quoting '\"0\"\"5\"' (a field may be wrapped "
            "whole in \"...\", but never holds '\"' or ',')");
-    expect("\"i\",\"j,footprint,x,y,T,I,F\n", CSV_ERR_QUOTE, 1,
+    expect("\"i\",\"j,footprint,x,y,T,I,F\n", CLI_CSV_ERR_QUOTE, 1,
            "f.csv:1: field 2: bad quoting '\"j' (a field may be wrapped whole "
            "in \"...\", but never holds '\"' or ',')");
     expect("i;j;footprint;x;y;T;I;F\n0;0;D;0;0;0,5;0,5;0,5\n",
-           CSV_ERR_SEPARATOR, 1,
+           CLI_CSV_ERR_SEPARATOR, 1,
            "f.csv:1: fields separated by ';', not ',' (save the CSV with ',' "
            "as separator and '.' as decimal point; expected "
            "'i,j,footprint,x,y,T,I,F')");
-    expect("i\tj\tfootprint\tx\ty\tT\tI\tF\n", CSV_ERR_SEPARATOR, 1,
+    expect("i\tj\tfootprint\tx\ty\tT\tI\tF\n", CLI_CSV_ERR_SEPARATOR, 1,
            "f.csv:1: fields separated by tabs, not ',' (save the CSV with ',' "
            "as separator and '.' as decimal point; expected "
            "'i,j,footprint,x,y,T,I,F')");
@@ -243,38 +243,38 @@ static void test_err_rows(void **state)
     (void)state;
     gen(1, 1, false, false);
     replace_row("0,1,L,", "0,1,L,1,2,0.5,0.5");
-    expect(g_text, CSV_ERR_FIELDS, 11,
+    expect(g_text, CLI_CSV_ERR_FIELDS, 11,
            "f.csv:11: 7 fields, expected 8 (i,j,footprint,x,y,T,I,F)");
 
     gen(1, 1, false, true);
     replace_row("0,0,LL,", "0,0,LL,1,2,3,4,5,6,7,8,9,10");
-    expect(g_text, CSV_ERR_FIELDS, 2,
+    expect(g_text, CLI_CSV_ERR_FIELDS, 2,
            "f.csv:2: more than 10 fields, expected 9 "
            "(i,j,footprint,x,y,z,T,I,F)");
 
     gen(1, 1, false, false);
     replace_row("1,0,R,", "1,0,R,abc,14,0.5,0.5,0.5");
-    expect(g_text, CSV_ERR_NUMBER, 20,
+    expect(g_text, CLI_CSV_ERR_NUMBER, 20,
            "f.csv:20: x='abc' is not a decimal number at (i=1,j=0,R)");
 
     gen(1, 1, false, false);
     replace_row("1,1,D,", "1,1,D,13,13,0.5,,0.5");
-    expect(g_text, CSV_ERR_NUMBER, 26,
+    expect(g_text, CLI_CSV_ERR_NUMBER, 26,
            "f.csv:26: I='' is not a decimal number at (i=1,j=1,D)");
 
     gen(1, 1, false, false);
     replace_row("1,1,D,", "8,1,D,13,13,0.5,0.5,0.5");
-    expect(g_text, CSV_ERR_INDEX, 26,
+    expect(g_text, CLI_CSV_ERR_INDEX, 26,
            "f.csv:26: i='8' is not a grid index 0..7 (IT2N_MAX_DEGREE)");
 
     gen(1, 1, false, false);
     replace_row("1,1,D,", "1,-1,D,13,13,0.5,0.5,0.5");
-    expect(g_text, CSV_ERR_INDEX, 26,
+    expect(g_text, CLI_CSV_ERR_INDEX, 26,
            "f.csv:26: j='-1' is not a grid index 0..7 (IT2N_MAX_DEGREE)");
 
     gen(1, 1, false, false);
     replace_row("1,1,D,", "1,1,DD,13,13,0.5,0.5,0.5");
-    expect(g_text, CSV_ERR_FOOTPRINT, 26,
+    expect(g_text, CLI_CSV_ERR_FOOTPRINT, 26,
            "f.csv:26: unknown footprint 'DD' (expected one of LL, LR, L, D, "
            "R, RL, RR)");
 }
@@ -288,7 +288,7 @@ static void test_err_lines(void **state)
     longline[300] = '\0';
     gen(1, 1, false, false);
     replace_row("0,0,LL,", longline);
-    expect(g_text, CSV_ERR_LONG, 2, "f.csv:2: line longer than 256 bytes");
+    expect(g_text, CLI_CSV_ERR_LONG, 2, "f.csv:2: line longer than 256 bytes");
 
     /* Exactly 256 bytes plus CRLF is fine. */
     memset(longline, ' ', sizeof(longline));
@@ -297,22 +297,22 @@ static void test_err_lines(void **state)
     gen(1, 1, false, false);
     replace_row("0,0,LL,", longline);
     {
-        csv_error e;
+        cli_csv_error e;
         assert_int_equal(parse(g_text, 4096, &e), IT2N_OK);
     }
 
     gen(1, 1, false, false);
     replace_row("0,0,LR,", "0,0,LR,1,1,0.5\x01,0.25,0.125");
-    expect(g_text, CSV_ERR_BINARY, 3, "f.csv:3: control byte 0x01 in line");
+    expect(g_text, CLI_CSV_ERR_BINARY, 3, "f.csv:3: control byte 0x01 in line");
 
-    expect("i,j,footprint,x,y,T,I,F\n# nothing\n", CSV_ERR_EMPTY, 0,
+    expect("i,j,footprint,x,y,T,I,F\n# nothing\n", CLI_CSV_ERR_EMPTY, 0,
            "f.csv: no data rows after the header");
     expect("i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0,0,0\n0,1,D,0,1,0,0,0\n",
-           CSV_ERR_DEGREE, 0,
+           CLI_CSV_ERR_DEGREE, 0,
            "f.csv: every row has i=0: need 2 to 8 grid points per direction "
            "(degree 1..7)");
     expect("i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0,0,0\n1,0,D,0,1,0,0,0\n",
-           CSV_ERR_DEGREE, 0,
+           CLI_CSV_ERR_DEGREE, 0,
            "f.csv: every row has j=0: need 2 to 8 grid points per direction "
            "(degree 1..7)");
 }
@@ -322,7 +322,7 @@ static void test_err_lines(void **state)
  * is out of range. */
 static void test_memb_q30(void **state)
 {
-    csv_error e;
+    cli_csv_error e;
     (void)state;
     gen(1, 1, true, false);
     replace_row("1,0,D,", "1,0,D,10,0,0.123456789,0.000000001,0.9999999995");
@@ -343,15 +343,15 @@ static void test_memb_q30(void **state)
            "f.csv:4: T=1.000000001 outside [0,1] at (i=1,j=0,D)");
     /* the B-spline reader stores them alike */
     {
-        it2n_bspline_rec *scratch = malloc(CSV_BSPLINE_RECS * sizeof(*scratch));
-        uint32_t *lines = malloc(CSV_BSPLINE_LINES * sizeof(*lines));
+        it2n_bspline_rec *scratch = malloc(CLI_CSV_BSPLINE_RECS * sizeof(*scratch));
+        uint32_t *lines = malloc(CLI_CSV_BSPLINE_LINES * sizeof(*lines));
         it2n_bspline_data bds;
         assert_true(scratch != NULL && lines != NULL);
         it2n_val v[IT2N_CH_COUNT];
         replace_row("1,0,D,", "1,0,D,10,0,0.123456789,0.000000001,0.9999999995");
-        csv_init_bspline(&g_p, scratch, lines);
-        assert_int_equal(csv_feed(&g_p, g_text, strlen(g_text), &e), IT2N_OK);
-        assert_int_equal(csv_finish_bspline(&g_p, &bds, &e), IT2N_OK);
+        cli_csv_init_bspline(&g_p, scratch, lines);
+        assert_int_equal(cli_csv_feed(&g_p, g_text, strlen(g_text), &e), IT2N_OK);
+        assert_int_equal(cli_csv_finish_bspline(&g_p, &bds, &e), IT2N_OK);
         it2n_bspline_data_get_fine(&bds, 1, 0, IT2N_FP_D, v);
         assert_true(v[IT2N_CH_T] == 132560718 && v[IT2N_CH_I] == 1 &&
                     v[IT2N_CH_F] == IT2N_MEMB_ONE - 1);
@@ -405,25 +405,25 @@ static void test_err_values(void **state)
 
 static void test_sticky_and_untouched(void **state)
 {
-    csv_error e, e2;
+    cli_csv_error e, e2;
     it2n_dataset before;
     (void)state;
     memset(&g_ds, 0x5A, sizeof(g_ds));
     memcpy(&before, &g_ds, sizeof(before));
-    csv_init(&g_p, 0);
-    assert_int_equal(csv_feed(&g_p, "i,j,footprint,x,y,T,I,F\nX\n", 26, &e),
-                     CSV_ERR_FIELDS);
-    assert_int_equal(csv_feed(&g_p, "0,0,D,0,0,0,0,0\n", 16, &e2),
-                     CSV_ERR_FIELDS);
+    cli_csv_init(&g_p, 0);
+    assert_int_equal(cli_csv_feed(&g_p, "i,j,footprint,x,y,T,I,F\nX\n", 26, &e),
+                     CLI_CSV_ERR_FIELDS);
+    assert_int_equal(cli_csv_feed(&g_p, "0,0,D,0,0,0,0,0\n", 16, &e2),
+                     CLI_CSV_ERR_FIELDS);
     assert_int_equal(e2.line, 2);
-    assert_int_equal(csv_finish(&g_p, &g_ds, &e2), CSV_ERR_FIELDS);
+    assert_int_equal(cli_csv_finish(&g_p, &g_ds, &e2), CLI_CSV_ERR_FIELDS);
     assert_memory_equal(&before, &g_ds, sizeof(before));
 }
 
 static void test_solve_errors_map_to_lines(void **state)
 {
     static it2n_model mdl;
-    csv_error e;
+    cli_csv_error e;
     it2n_errinfo info;
     char buf[512];
     static const char text[] = "i,j,footprint,x,y,T,I,F\n"
@@ -432,13 +432,13 @@ static void test_solve_errors_map_to_lines(void **state)
                                "1,0,D,1,1,0,0,0\n"
                                "1,1,D,1,1,0,0,0\n";
     (void)state;
-    csv_init(&g_p, IT2N_F_CHORD);
-    assert_int_equal(csv_feed(&g_p, text, strlen(text), &e), 0);
-    assert_int_equal(csv_finish(&g_p, &g_ds, &e), 0);
+    cli_csv_init(&g_p, IT2N_F_CHORD);
+    assert_int_equal(cli_csv_feed(&g_p, text, strlen(text), &e), 0);
+    assert_int_equal(cli_csv_finish(&g_p, &g_ds, &e), 0);
     it2n_model_init(&mdl);
     assert_int_equal(it2n_model_solve(&mdl, &g_ds, &info), IT2N_ERR_DEGENERATE);
-    csv_locate(&g_p, &info, &e);
-    csv_message(&e, "f.csv", buf, sizeof(buf));
+    cli_csv_locate(&g_p, &info, &e);
+    cli_csv_message(&e, "f.csv", buf, sizeof(buf));
     assert_non_null(strstr(buf, "f.csv"));
     assert_non_null(strstr(buf, "degenerate chord-length parameterisation"));
     assert_int_equal(mdl.solved, 0);
@@ -451,26 +451,26 @@ static void test_bspline_reader(void **state)
     static it2n_bspline_rec *rec;
     static uint32_t *lines;
     it2n_bspline_data ds;
-    csv_error e;
+    cli_csv_error e;
     it2n_val v[IT2N_CH_COUNT];
     char msg[512];
     size_t k, len;
     int rc = IT2N_OK;
     unsigned pass;
     (void)state;
-    rec = malloc(CSV_BSPLINE_RECS * sizeof(*rec));
-    lines = malloc(CSV_BSPLINE_LINES * sizeof(*lines));
+    rec = malloc(CLI_CSV_BSPLINE_RECS * sizeof(*rec));
+    lines = malloc(CLI_CSV_BSPLINE_LINES * sizeof(*lines));
     assert_true(rec != NULL && lines != NULL);
     for (pass = 0; pass < 2; pass++) {
         bool type1 = pass == 0;
         gen(12, 9, type1, !type1);
         len = strlen(g_text);
-        csv_init_bspline(&g_p, rec, lines);
+        cli_csv_init_bspline(&g_p, rec, lines);
         for (k = 0; k < len && rc == IT2N_OK; k += 7) {
-            rc = csv_feed(&g_p, g_text + k, len - k < 7 ? len - k : 7, &e);
+            rc = cli_csv_feed(&g_p, g_text + k, len - k < 7 ? len - k : 7, &e);
         }
         assert_int_equal(rc, IT2N_OK);
-        assert_int_equal(csv_finish_bspline(&g_p, &ds, &e), IT2N_OK);
+        assert_int_equal(cli_csv_finish_bspline(&g_p, &ds, &e), IT2N_OK);
         assert_int_equal(ds.n, 12);
         assert_int_equal(ds.m, 9);
         assert_int_equal(ds.flags, type1 ? IT2N_F_TYPE1 : IT2N_F_Z);
@@ -487,44 +487,44 @@ static void test_bspline_reader(void **state)
             {
                 it2n_errinfo info = {IT2N_ERR_ORDER, 3, 2, IT2N_FP_R,
                                      IT2N_CH_Z, 0, 0, 0};
-                csv_locate(&g_p, &info, &e);
+                cli_csv_locate(&g_p, &info, &e);
                 assert_int_equal(e.line, 2 + 32 * 7 + 4);
                 assert_int_equal(e.field, 6);
             }
         }
     }
     /* index limit and the Bezier reader's refusal of a B-spline read */
-    csv_init_bspline(&g_p, rec, lines);
+    cli_csv_init_bspline(&g_p, rec, lines);
     strcpy(g_text, "i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0.5,0.5,0.5\n"
                    "255,1,D,0,0,0.5,0.5,0.5\n256,0,D,0,0,0.5,0.5,0.5\n");
-    assert_int_equal(csv_feed(&g_p, g_text, strlen(g_text), &e),
-                     CSV_ERR_INDEX);
+    assert_int_equal(cli_csv_feed(&g_p, g_text, strlen(g_text), &e),
+                     CLI_CSV_ERR_INDEX);
     assert_int_equal(e.line, 4);
-    csv_message(&e, "f.csv", msg, sizeof(msg));
+    cli_csv_message(&e, "f.csv", msg, sizeof(msg));
     assert_string_equal(msg, "f.csv:4: i='256' is not a grid index 0..255 "
                              "(IT2N_BSPLINE_MAX_N)");
     /* a missing row found at the end names its (i, j, footprint) */
-    csv_init_bspline(&g_p, rec, lines);
+    cli_csv_init_bspline(&g_p, rec, lines);
     strcpy(g_text, "i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0.5,0.5,0.5\n"
                    "0,1,D,0,1,0.5,0.5,0.5\n1,1,D,1,1,0.5,0.5,0.5\n");
-    assert_int_equal(csv_feed(&g_p, g_text, strlen(g_text), &e), IT2N_OK);
-    assert_int_equal(csv_finish_bspline(&g_p, &ds, &e), IT2N_ERR_MISSING);
-    csv_message(&e, "f.csv", msg, sizeof(msg));
+    assert_int_equal(cli_csv_feed(&g_p, g_text, strlen(g_text), &e), IT2N_OK);
+    assert_int_equal(cli_csv_finish_bspline(&g_p, &ds, &e), IT2N_ERR_MISSING);
+    cli_csv_message(&e, "f.csv", msg, sizeof(msg));
     assert_string_equal(msg, "f.csv: missing row at (i=1,j=0,D)");
     /* every row with i = 0: a direction needs 2 points */
-    csv_init_bspline(&g_p, rec, lines);
+    cli_csv_init_bspline(&g_p, rec, lines);
     strcpy(g_text, "i,j,footprint,x,y,T,I,F\n0,0,D,0,0,0.5,0.5,0.5\n"
                    "0,1,D,0,1,0.5,0.5,0.5\n");
-    assert_int_equal(csv_feed(&g_p, g_text, strlen(g_text), &e), IT2N_OK);
-    assert_int_equal(csv_finish_bspline(&g_p, &ds, &e), CSV_ERR_DEGREE);
-    csv_message(&e, "f.csv", msg, sizeof(msg));
+    assert_int_equal(cli_csv_feed(&g_p, g_text, strlen(g_text), &e), IT2N_OK);
+    assert_int_equal(cli_csv_finish_bspline(&g_p, &ds, &e), CLI_CSV_ERR_DEGREE);
+    cli_csv_message(&e, "f.csv", msg, sizeof(msg));
     assert_string_equal(msg, "f.csv: every row has i=0: need 2 to 256 grid "
                              "points per direction");
     /* the kinds' finish calls do not mix */
-    csv_init(&g_p, 0);
-    assert_int_equal(csv_finish_bspline(&g_p, &ds, &e), IT2N_ERR_INVAL);
-    csv_init_bspline(&g_p, rec, lines);
-    assert_int_equal(csv_finish(&g_p, &g_ds, &e), IT2N_ERR_INVAL);
+    cli_csv_init(&g_p, 0);
+    assert_int_equal(cli_csv_finish_bspline(&g_p, &ds, &e), IT2N_ERR_INVAL);
+    cli_csv_init_bspline(&g_p, rec, lines);
+    assert_int_equal(cli_csv_finish(&g_p, &g_ds, &e), IT2N_ERR_INVAL);
     free(rec);
     free(lines);
 }

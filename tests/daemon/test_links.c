@@ -101,7 +101,7 @@ static int setup(void **st)
     struct model *md = models_add(1, 1, MODEL_BEZIER, 3, 3, 0);
     assert_non_null(md);
     assert_int_equal(models_preload_paper(md), IT2N_OK);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     /* slave stays open here too, so the pty never hangs up. */
     assert_int_equal(openpty(&master, &slave, name, NULL, NULL), 0);
     assert_int_equal(fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK), 0);

@@ -15,7 +15,7 @@
 #include "models.h"
 
 static struct model *md;
-static const struct mb_map_opts opts = { IT2N_WO_ABCD, 100, 5, 5, { 0 }, IT2N_WO_ABCD, 0 };
+static const struct mb_map_opts opts = { IT2N_REGMAP_WO_ABCD, 100, 5, 5, { 0 }, IT2N_REGMAP_WO_ABCD, 0 };
 
 static int setup(void **st)
 {
@@ -36,27 +36,27 @@ static int teardown(void **st)
 static void test_status(void **st)
 {
     struct mb_map_query q;
-    uint16_t r[IT2N_REG_STATUS_END];
+    uint16_t r[IT2N_REGMAP_REG_STATUS_END];
     (void)st;
     memset(&q, 0, sizeof q);
-    assert_int_equal(mb_map_read(md, &q, &opts, 0, IT2N_REG_STATUS_END, r), MB_MAP_OK);
-    assert_int_equal(r[IT2N_REG_MAP_VERSION], IT2N_REGMAP_VERSION);
-    assert_int_equal(r[IT2N_REG_STATE], IT2N_RS_SOLVED);
-    assert_int_equal(r[IT2N_REG_PRESENT], 112);
-    assert_int_equal(r[IT2N_REG_REQUIRED], 112);
-    assert_int_equal(r[IT2N_REG_COORD_SCALE], 100);
-    assert_int_equal(r[IT2N_REG_KIND], IT2N_KIND_BEZIER);
-    assert_int_equal(r[IT2N_REG_NET_ROWS], 4);
-    assert_int_equal(r[IT2N_REG_NET_COLS], 4);
-    assert_int_equal(r[IT2N_REG_STATUS_RSV], 0);
+    assert_int_equal(mb_map_read(md, &q, &opts, 0, IT2N_REGMAP_REG_STATUS_END, r), MB_MAP_OK);
+    assert_int_equal(r[IT2N_REGMAP_REG_MAP_VERSION], IT2N_REGMAP_VERSION);
+    assert_int_equal(r[IT2N_REGMAP_REG_STATE], IT2N_REGMAP_STATE_SOLVED);
+    assert_int_equal(r[IT2N_REGMAP_REG_PRESENT], 112);
+    assert_int_equal(r[IT2N_REGMAP_REG_REQUIRED], 112);
+    assert_int_equal(r[IT2N_REGMAP_REG_COORD_SCALE], 100);
+    assert_int_equal(r[IT2N_REGMAP_REG_KIND], IT2N_REGMAP_KIND_BEZIER);
+    assert_int_equal(r[IT2N_REGMAP_REG_NET_ROWS], 4);
+    assert_int_equal(r[IT2N_REGMAP_REG_NET_COLS], 4);
+    assert_int_equal(r[IT2N_REGMAP_REG_STATUS_RSV], 0);
     /* gaps and block-spanning reads */
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_CONFIG_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_COUNTS_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_WIN_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_CONFIG_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_COUNTS_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_WIN_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
     assert_int_equal(mb_map_read(md, &q, &opts, 20, 20, r), MB_MAP_ILLEGAL_ADDRESS);
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_CTRL_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_MAP_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_GRID_F32 + 150, 1, r), MB_MAP_ILLEGAL_ADDRESS); /* past 5x5 nodes */
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_CTRL_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_MAP_END, 1, r), MB_MAP_ILLEGAL_ADDRESS);
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_GRID_F32 + 150, 1, r), MB_MAP_ILLEGAL_ADDRESS); /* past 5x5 nodes */
 }
 
 static void test_query_uw(void **st)
@@ -67,30 +67,30 @@ static void test_query_uw(void **st)
     int persisted;
     (void)st;
     memset(&q, 0, sizeof q);
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_Q_U16, 2, in, &persisted), MB_MAP_OK);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_Q_U16, 2, in, &persisted), MB_MAP_OK);
     assert_int_equal(persisted, 0);
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_RES_F32, 108, r), MB_MAP_OK);
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_RES_F32, 108, r), MB_MAP_OK);
     assert_int_equal(it2n_eval(&md->mdl, IT2N_PAR_ONE / 4, IT2N_PAR_ONE / 2, &pt, NULL), IT2N_OK);
     for (int fp = 0; fp < 7; fp++)
         for (int ch = 0; ch < 6; ch++)
-            assert_true(it2n_regmap_get_f32(&r[(fp * 6 + ch) * 2], IT2N_WO_ABCD) ==
+            assert_true(it2n_regmap_get_f32(&r[(fp * 6 + ch) * 2], IT2N_REGMAP_WO_ABCD) ==
                         (float)((double)pt.v[fp][ch] / IT2N_VAL_ONE));
     /* D footprint T in the scaled view */
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_RES_SCALED, 84, r), MB_MAP_OK);
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_RES_SCALED, 84, r), MB_MAP_OK);
     int sat = 0;
     assert_int_equal((int16_t)r[3 * 9 + 6], it2n_regmap_q24_to_scaled(pt.v[3][3], 10000, -32767, 32767, &sat));
-    assert_int_equal(r[IT2N_REG_SAT - IT2N_REG_RES_SCALED + 3], 0);
+    assert_int_equal(r[IT2N_REGMAP_REG_SAT - IT2N_REGMAP_REG_RES_SCALED + 3], 0);
 }
 
 /* Two registers to 32 bits: ABCD, CDAB, BADC, DCBA (as a PLC decodes). */
 static uint32_t reg32(const uint16_t *r, int order)
 {
     uint16_t a = r[0], b = r[1];
-    if (order == IT2N_WO_BADC || order == IT2N_WO_DCBA) {
+    if (order == IT2N_REGMAP_WO_BADC || order == IT2N_REGMAP_WO_DCBA) {
         a = (uint16_t)(a >> 8 | a << 8);
         b = (uint16_t)(b >> 8 | b << 8);
     }
-    return order == IT2N_WO_CDAB || order == IT2N_WO_DCBA ? (uint32_t)b << 16 | a : (uint32_t)a << 16 | b;
+    return order == IT2N_REGMAP_WO_CDAB || order == IT2N_REGMAP_WO_DCBA ? (uint32_t)b << 16 | a : (uint32_t)a << 16 | b;
 }
 
 /* The two views of each query input agree after a write of either, and
@@ -101,31 +101,31 @@ static void test_query_views_and_int32_order(void **st)
     for (int wo = 0; wo < 4; wo++) {
         const struct mb_map_opts o = { wo, 100, 5, 5, { 0 }, (wo + 1) % 4, 0 };
         struct mb_map_query q;
-        uint16_t in[2], r[IT2N_REG_QUERY_END - IT2N_REG_Q_U16], s[IT2N_REG_STATUS_END];
+        uint16_t in[2], r[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16], s[IT2N_REGMAP_REG_STATUS_END];
         int persisted;
         memset(&q, 0, sizeof q);
         /* q_u_f = 0.123456: q_u reads 1235, q_u_f the float as written */
         it2n_regmap_put_f32(in, 0.123456f, wo);
-        assert_int_equal(mb_map_write(md, &q, &o, IT2N_REG_Q_UF, 2, in, &persisted), MB_MAP_OK);
-        assert_int_equal(mb_map_read(md, &q, &o, IT2N_REG_Q_U16, 14, r), MB_MAP_OK);
+        assert_int_equal(mb_map_write(md, &q, &o, IT2N_REGMAP_REG_Q_UF, 2, in, &persisted), MB_MAP_OK);
+        assert_int_equal(mb_map_read(md, &q, &o, IT2N_REGMAP_REG_Q_U16, 14, r), MB_MAP_OK);
         assert_int_equal(r[0], 1235);
-        assert_true(it2n_regmap_get_f32(&r[IT2N_REG_Q_UF - IT2N_REG_Q_U16], wo) == 0.123456f);
+        assert_true(it2n_regmap_get_f32(&r[IT2N_REGMAP_REG_Q_UF - IT2N_REGMAP_REG_Q_U16], wo) == 0.123456f);
         /* q_w = 7500: q_w_f reads 0.75, u unchanged */
         in[0] = 7500;
-        assert_int_equal(mb_map_write(md, &q, &o, IT2N_REG_Q_W16, 1, in, &persisted), MB_MAP_OK);
-        assert_int_equal(mb_map_read(md, &q, &o, IT2N_REG_Q_U16, 14, r), MB_MAP_OK);
-        assert_true(it2n_regmap_get_f32(&r[IT2N_REG_Q_WF - IT2N_REG_Q_U16], wo) == 0.75f);
+        assert_int_equal(mb_map_write(md, &q, &o, IT2N_REGMAP_REG_Q_W16, 1, in, &persisted), MB_MAP_OK);
+        assert_int_equal(mb_map_read(md, &q, &o, IT2N_REGMAP_REG_Q_U16, 14, r), MB_MAP_OK);
+        assert_true(it2n_regmap_get_f32(&r[IT2N_REGMAP_REG_Q_WF - IT2N_REGMAP_REG_Q_U16], wo) == 0.75f);
         assert_int_equal(r[0], 1235);
         /* q_x_f = -17.5: q_x reads -1750 as i32 in int32_order */
         it2n_regmap_put_f32(in, -17.5f, wo);
-        assert_int_equal(mb_map_write(md, &q, &o, IT2N_REG_Q_XF, 2, in, &persisted), MB_MAP_OK);
-        assert_int_equal(mb_map_read(md, &q, &o, IT2N_REG_Q_U16, 14, r), MB_MAP_OK);
-        assert_int_equal((int32_t)reg32(&r[IT2N_REG_Q_XS - IT2N_REG_Q_U16], o.int32_order), -1750);
+        assert_int_equal(mb_map_write(md, &q, &o, IT2N_REGMAP_REG_Q_XF, 2, in, &persisted), MB_MAP_OK);
+        assert_int_equal(mb_map_read(md, &q, &o, IT2N_REGMAP_REG_Q_U16, 14, r), MB_MAP_OK);
+        assert_int_equal((int32_t)reg32(&r[IT2N_REGMAP_REG_Q_XS - IT2N_REGMAP_REG_Q_U16], o.int32_order), -1750);
         /* generation (u32) in int32_order, the order said in status 27 */
-        assert_int_equal(mb_map_read(md, &q, &o, 0, IT2N_REG_STATUS_END, s), MB_MAP_OK);
-        assert_int_equal(s[IT2N_REG_WORD_ORDER], wo);
-        assert_int_equal(s[IT2N_REG_INT32_ORDER], (wo + 1) % 4);
-        assert_int_equal(reg32(&s[IT2N_REG_GENERATION], o.int32_order), md->gen);
+        assert_int_equal(mb_map_read(md, &q, &o, 0, IT2N_REGMAP_REG_STATUS_END, s), MB_MAP_OK);
+        assert_int_equal(s[IT2N_REGMAP_REG_WORD_ORDER], wo);
+        assert_int_equal(s[IT2N_REGMAP_REG_INT32_ORDER], (wo + 1) % 4);
+        assert_int_equal(reg32(&s[IT2N_REGMAP_REG_GENERATION], o.int32_order), md->gen);
     }
 }
 
@@ -138,11 +138,11 @@ static void test_query_write_keeps_page(void **st)
     int persisted;
     (void)st;
     memset(&q, 0, sizeof q);
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_PG_FP, 3, page, &persisted), MB_MAP_OK);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_PG_FP, 3, page, &persisted), MB_MAP_OK);
     for (int k = 0; k < 3; k++) {
         in[0] = (uint16_t)(1000 + 3000 * k);
-        assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_Q_U16, 2, in, &persisted), MB_MAP_OK);
-        assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_PG_FP, 3, r), MB_MAP_OK);
+        assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_Q_U16, 2, in, &persisted), MB_MAP_OK);
+        assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_PG_FP, 3, r), MB_MAP_OK);
         assert_memory_equal(r, page, sizeof page);
     }
 }
@@ -155,51 +155,51 @@ static void test_rejected_writes_change_nothing(void **st)
     uint32_t gen = md->gen;
     (void)st;
     memset(&q, 0, sizeof q);
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_Q_U16, 2, good, &persisted), MB_MAP_OK);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_Q_U16, 2, good, &persisted), MB_MAP_OK);
     q0 = q;
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_Q_U16, 2, bad, &persisted), MB_MAP_ILLEGAL_VALUE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_Q_U16, 2, bad, &persisted), MB_MAP_ILLEGAL_VALUE);
     assert_memory_equal(&q, &q0, sizeof q);
     /* half a float */
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_Q_UF + 1, 1, good, &persisted), MB_MAP_ILLEGAL_VALUE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_Q_UF + 1, 1, good, &persisted), MB_MAP_ILLEGAL_VALUE);
     /* f32 u = 1.5 */
     uint16_t f[2];
-    it2n_regmap_put_f32(f, 1.5f, IT2N_WO_ABCD);
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_Q_UF, 2, f, &persisted), MB_MAP_ILLEGAL_VALUE);
+    it2n_regmap_put_f32(f, 1.5f, IT2N_REGMAP_WO_ABCD);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_Q_UF, 2, f, &persisted), MB_MAP_ILLEGAL_VALUE);
     assert_memory_equal(&q, &q0, sizeof q);
     /* degree 0 and 8, flags bit 3 */
     uint16_t cfg[3] = { 0, 3, 0 };
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_CFG_N, 3, cfg, &persisted), MB_MAP_ILLEGAL_VALUE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_CFG_N, 3, cfg, &persisted), MB_MAP_ILLEGAL_VALUE);
     cfg[0] = 8;
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_CFG_N, 3, cfg, &persisted), MB_MAP_ILLEGAL_VALUE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_CFG_N, 3, cfg, &persisted), MB_MAP_ILLEGAL_VALUE);
     cfg[0] = 3;
     cfg[2] = 8;
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_CFG_N, 3, cfg, &persisted), MB_MAP_ILLEGAL_VALUE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_CFG_N, 3, cfg, &persisted), MB_MAP_ILLEGAL_VALUE);
     /* upload that breaks footprint nesting: solve (update) fails -> 04 */
     uint16_t up[12] = { 0, 0, IT2N_FP_LL, 0, 1000, 0, 0, 0, 0, 5000, 5000, 5000 }; /* x = 10 > D's -17 */
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_UP_I, 12, up, &persisted), MB_MAP_DEVICE_FAILURE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_UP_I, 12, up, &persisted), MB_MAP_DEVICE_FAILURE);
     assert_int_equal(persisted, 0);
     /* read-only block */
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_STATE, 1, good, &persisted), MB_MAP_ILLEGAL_ADDRESS);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_STATE, 1, good, &persisted), MB_MAP_ILLEGAL_ADDRESS);
     assert_int_equal(md->gen, gen);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
 }
 
 static void test_incomplete_is_busy(void **st)
 {
     struct model *m2 = models_add(2, 2, MODEL_BEZIER, 2, 2, IT2N_F_TYPE1);
     struct mb_map_query q;
-    uint16_t r[8], one = IT2N_CMD_COMMIT;
+    uint16_t r[8], one = IT2N_REGMAP_CMD_COMMIT;
     int persisted;
     (void)st;
     assert_non_null(m2);
     memset(&q, 0, sizeof q);
-    assert_int_equal(mb_map_read(m2, &q, &opts, IT2N_REG_RES_F32, 2, r), MB_MAP_BUSY);
-    assert_int_equal(mb_map_read(m2, &q, &opts, IT2N_REG_GRID, 3, r), MB_MAP_BUSY);
-    assert_int_equal(mb_map_read(m2, &q, &opts, IT2N_REG_CTRL, 2, r), MB_MAP_BUSY);
-    assert_int_equal(mb_map_write(m2, &q, &opts, IT2N_REG_COMMAND, 1, &one, &persisted), MB_MAP_BUSY);
+    assert_int_equal(mb_map_read(m2, &q, &opts, IT2N_REGMAP_REG_RES_F32, 2, r), MB_MAP_BUSY);
+    assert_int_equal(mb_map_read(m2, &q, &opts, IT2N_REGMAP_REG_GRID, 3, r), MB_MAP_BUSY);
+    assert_int_equal(mb_map_read(m2, &q, &opts, IT2N_REGMAP_REG_CTRL, 2, r), MB_MAP_BUSY);
+    assert_int_equal(mb_map_write(m2, &q, &opts, IT2N_REGMAP_REG_COMMAND, 1, &one, &persisted), MB_MAP_BUSY);
     /* grid beyond rows*cols nodes is outside the map */
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_GRID + 75, 1, r), MB_MAP_ILLEGAL_ADDRESS);
-    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REG_GRID + 72, 3, r), MB_MAP_OK);
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_GRID + 75, 1, r), MB_MAP_ILLEGAL_ADDRESS);
+    assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_GRID + 72, 3, r), MB_MAP_OK);
 }
 
 /* Interpolants overshoot between data points: the x10000 grid view clamps
@@ -209,9 +209,9 @@ static void test_grid_saturation_flag(void **st)
 {
     /* A 7x7 checkerboard oscillates far outside [0, 1] at u, w = k/14. */
     struct model *m3 = models_add(3, 3, MODEL_BEZIER, 7, 7, IT2N_F_TYPE1);
-    const struct mb_map_opts g15 = { IT2N_WO_ABCD, 100, 15, 15, { 0 }, IT2N_WO_ABCD, 0 };
+    const struct mb_map_opts g15 = { IT2N_REGMAP_WO_ABCD, 100, 15, 15, { 0 }, IT2N_REGMAP_WO_ABCD, 0 };
     static uint16_t grid[15 * 15 * 3], gf[15 * 15 * 6];
-    uint16_t r[IT2N_REG_STATUS_END];
+    uint16_t r[IT2N_REGMAP_REG_STATUS_END];
     it2n_errinfo err;
     struct mb_map_query q;
     unsigned clamped = 0, raw_out = 0;
@@ -224,17 +224,17 @@ static void test_grid_saturation_flag(void **st)
                                           IT2N_VAL_ONE / 2 };
             assert_int_equal(models_put(m3, i, j, IT2N_FP_D, v, false, &err), IT2N_OK);
         }
-    if (m3->state != IT2N_RS_SOLVED)
+    if (m3->state != IT2N_REGMAP_STATE_SOLVED)
         assert_int_equal(models_commit(m3, &err), IT2N_OK);
     memset(&q, 0, sizeof q);
-    assert_int_equal(mb_map_read(m3, &q, &g15, 0, IT2N_REG_STATUS_END, r), MB_MAP_OK);
+    assert_int_equal(mb_map_read(m3, &q, &g15, 0, IT2N_REGMAP_REG_STATUS_END, r), MB_MAP_OK);
     /* FC 03 reads at most 125 registers: fetch both views in chunks. */
     for (unsigned k = 0; k < 675; k += 120)
-        assert_int_equal(mb_map_read(m3, &q, &g15, IT2N_REG_GRID + k, k + 120 <= 675 ? 120 : 675 - k, grid + k),
+        assert_int_equal(mb_map_read(m3, &q, &g15, IT2N_REGMAP_REG_GRID + k, k + 120 <= 675 ? 120 : 675 - k, grid + k),
                          MB_MAP_OK);
     for (unsigned k = 0; k < 1350; k += 120)
         assert_int_equal(
-            mb_map_read(m3, &q, &g15, IT2N_REG_GRID_F32 + k, k + 120 <= 1350 ? 120 : 1350 - k, gf + k), MB_MAP_OK);
+            mb_map_read(m3, &q, &g15, IT2N_REGMAP_REG_GRID_F32 + k, k + 120 <= 1350 ? 120 : 1350 - k, gf + k), MB_MAP_OK);
     for (unsigned k = 0; k < 675; k++) {
         int16_t v = (int16_t)grid[k];
         uint32_t bits = (uint32_t)gf[2 * k] << 16 | gf[2 * k + 1];
@@ -245,10 +245,10 @@ static void test_grid_saturation_flag(void **st)
     }
     assert_true(raw_out > 0);
     assert_int_equal(clamped, raw_out);
-    assert_int_equal(r[IT2N_REG_GRID_SAT], raw_out);
+    assert_int_equal(r[IT2N_REGMAP_REG_GRID_SAT], raw_out);
     /* The paper model stays within range. */
-    assert_int_equal(mb_map_read(md, &q, &opts, 0, IT2N_REG_STATUS_END, r), MB_MAP_OK);
-    assert_int_equal(r[IT2N_REG_GRID_SAT], 0);
+    assert_int_equal(mb_map_read(md, &q, &opts, 0, IT2N_REGMAP_REG_STATUS_END, r), MB_MAP_OK);
+    assert_int_equal(r[IT2N_REGMAP_REG_GRID_SAT], 0);
 }
 
 /* Every refused write says why in last_error (issue 8 item 11: an upload
@@ -264,13 +264,13 @@ static int journal_fails(void *arg, const struct model_rec *rec)
 static void status_err(int16_t *code, int16_t *i, int16_t *j, int16_t *fp)
 {
     struct mb_map_query q;
-    uint16_t r[IT2N_REG_STATUS_END];
+    uint16_t r[IT2N_REGMAP_REG_STATUS_END];
     memset(&q, 0, sizeof q);
-    assert_int_equal(mb_map_read(md, &q, &opts, 0, IT2N_REG_STATUS_END, r), MB_MAP_OK);
-    *code = (int16_t)r[IT2N_REG_LAST_ERR];
-    *i = (int16_t)r[IT2N_REG_ERR_I];
-    *j = (int16_t)r[IT2N_REG_ERR_J];
-    *fp = (int16_t)r[IT2N_REG_ERR_FP];
+    assert_int_equal(mb_map_read(md, &q, &opts, 0, IT2N_REGMAP_REG_STATUS_END, r), MB_MAP_OK);
+    *code = (int16_t)r[IT2N_REGMAP_REG_LAST_ERR];
+    *i = (int16_t)r[IT2N_REGMAP_REG_ERR_I];
+    *j = (int16_t)r[IT2N_REGMAP_REG_ERR_J];
+    *fp = (int16_t)r[IT2N_REGMAP_REG_ERR_FP];
 }
 
 static void test_refused_writes_set_last_error(void **st)
@@ -284,7 +284,7 @@ static void test_refused_writes_set_last_error(void **st)
     memset(&md->last_err, 0, sizeof md->last_err);
     /* T = 1.2 at (1, 2, D): 03, last_error RANGE at the point */
     uint16_t up[12] = { 1, 2, IT2N_FP_D, 0, 1000, 0, 0, 0, 0, 12000, 5000, 5000 };
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_UP_I, 12, up, &persisted), MB_MAP_ILLEGAL_VALUE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_UP_I, 12, up, &persisted), MB_MAP_ILLEGAL_VALUE);
     status_err(&code, &i, &j, &fp);
     assert_int_equal(code, IT2N_ERR_RANGE);
     assert_int_equal(i, 1);
@@ -294,18 +294,18 @@ static void test_refused_writes_set_last_error(void **st)
     /* index beyond the degree: INVAL */
     up[0] = 9;
     up[9] = 5000;
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_UP_I, 12, up, &persisted), MB_MAP_ILLEGAL_VALUE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_UP_I, 12, up, &persisted), MB_MAP_ILLEGAL_VALUE);
     status_err(&code, &i, &j, &fp);
     assert_int_equal(code, IT2N_ERR_INVAL);
     assert_int_equal(i, 9);
     /* a bad configuration and a query parameter beyond 1 */
     uint16_t cfg[3] = { 0, 3, 0 }, uw[2] = { 10001, 0 };
     memset(&md->last_err, 0, sizeof md->last_err);
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_CFG_N, 3, cfg, &persisted), MB_MAP_ILLEGAL_VALUE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_CFG_N, 3, cfg, &persisted), MB_MAP_ILLEGAL_VALUE);
     status_err(&code, &i, &j, &fp);
     assert_int_equal(code, IT2N_ERR_INVAL);
     memset(&md->last_err, 0, sizeof md->last_err);
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_Q_U16, 2, uw, &persisted), MB_MAP_ILLEGAL_VALUE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_Q_U16, 2, uw, &persisted), MB_MAP_ILLEGAL_VALUE);
     status_err(&code, &i, &j, &fp);
     assert_int_equal(code, IT2N_ERR_RANGE);
     memset(&md->last_err, 0, sizeof md->last_err);
@@ -314,19 +314,19 @@ static void test_refused_writes_set_last_error(void **st)
     /* The WAL refuses (degraded store): 04, the daemon's code, nothing changed. */
     models_set_journal(journal_fails, NULL);
     uint16_t recfg[3] = { 2, 2, 0 };
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_CFG_N, 3, recfg, &persisted), MB_MAP_DEVICE_FAILURE);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_CFG_N, 3, recfg, &persisted), MB_MAP_DEVICE_FAILURE);
     assert_int_equal(persisted, 0);
     status_err(&code, &i, &j, &fp);
     assert_int_equal(code, IT2ND_ERR_DEGRADED);
     assert_int_equal(i, -1);
     assert_int_equal(md->ds.n, 3);
-    uint16_t clear[4] = { md->ds.n, md->ds.m, md->ds.flags, IT2N_CMD_CLEAR };
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_CFG_N, 4, clear, &persisted), MB_MAP_DEVICE_FAILURE);
+    uint16_t clear[4] = { md->ds.n, md->ds.m, md->ds.flags, IT2N_REGMAP_CMD_CLEAR };
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_CFG_N, 4, clear, &persisted), MB_MAP_DEVICE_FAILURE);
     assert_int_equal(md->last_err.code, IT2ND_ERR_DEGRADED);
     models_set_journal(NULL, NULL);
     models_pass_end(1, NULL, NULL);
     assert_int_equal(md->gen, gen);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     memset(&md->last_err, 0, sizeof md->last_err);
 }
 
@@ -338,7 +338,7 @@ static void test_query_cache_after_rollback(void **st)
 {
     struct mb_map_query q, fresh;
     uint16_t uw[2] = { 5000, 5000 }, a[2], b[2], c[2];
-    const unsigned res_t = IT2N_REG_RES_F32 + (IT2N_FP_D * IT2N_CH_COUNT + IT2N_CH_T) * 2;
+    const unsigned res_t = IT2N_REGMAP_REG_RES_F32 + (IT2N_FP_D * IT2N_CH_COUNT + IT2N_CH_T) * 2;
     it2n_val v[IT2N_CH_COUNT], orig[IT2N_CH_COUNT];
     it2n_errinfo err;
     int persisted;
@@ -346,8 +346,8 @@ static void test_query_cache_after_rollback(void **st)
     memset(&q, 0, sizeof q);
     memset(&fresh, 0, sizeof fresh);
     uint32_t gen = md->gen;
-    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REG_Q_U16, 2, uw, &persisted), MB_MAP_OK);
-    assert_int_equal(mb_map_write(md, &fresh, &opts, IT2N_REG_Q_U16, 2, uw, &persisted), MB_MAP_OK);
+    assert_int_equal(mb_map_write(md, &q, &opts, IT2N_REGMAP_REG_Q_U16, 2, uw, &persisted), MB_MAP_OK);
+    assert_int_equal(mb_map_write(md, &fresh, &opts, IT2N_REGMAP_REG_Q_U16, 2, uw, &persisted), MB_MAP_OK);
     it2n_dataset_get(&md->ds, 1, 1, IT2N_FP_D, orig);
     memcpy(v, orig, sizeof v);
     v[IT2N_CH_T] += IT2N_VAL_ONE / 10;

@@ -117,10 +117,10 @@ static void test_fc23_all_or_nothing(void **st)
     (void)st;
     struct model *md = models_by_id(1);
     uint32_t gen = md->gen;
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
 
     /* FC 23: read 9 result registers of footprint LL, write n = m = 2. */
-    static const uint8_t bad[] = { 0x17, 0x01, 0x00, 0x00, 0x09, 0x00, IT2N_REG_CFG_N, 0x00, 0x02, 0x04,
+    static const uint8_t bad[] = { 0x17, 0x01, 0x00, 0x00, 0x09, 0x00, IT2N_REGMAP_REG_CFG_N, 0x00, 0x02, 0x04,
                                    0x00, 0x02, 0x00, 0x02 };
     n = run(bad, sizeof bad, rep, &held);
     assert_int_equal(n, 9);
@@ -130,7 +130,7 @@ static void test_fc23_all_or_nothing(void **st)
     md = models_by_id(1);
     assert_int_equal(md->ds.n, 3);
     assert_int_equal(md->ds.m, 3);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(md->gen, gen);
     assert_int_equal(store_pending(), 0);
 
@@ -139,10 +139,10 @@ static void test_fc23_all_or_nothing(void **st)
     models_free();
     md = open_table();
     assert_int_equal(md->ds.n, 3);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
 
     /* A valid FC 23: write u, w (query block), read the results. */
-    static const uint8_t good[] = { 0x17, 0x01, 0x00, 0x00, 0x09, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04,
+    static const uint8_t good[] = { 0x17, 0x01, 0x00, 0x00, 0x09, 0x00, IT2N_REGMAP_REG_Q_U16, 0x00, 0x02, 0x04,
                                     0x13, 0x88, 0x13, 0x88 };
     n = run(good, sizeof good, rep, &held);
     assert_int_equal(rep[7], 0x17);
@@ -151,14 +151,14 @@ static void test_fc23_all_or_nothing(void **st)
 
     /* The write half alone is valid: FC 16 reconfigures (held, then
      * answered after the commit). */
-    static const uint8_t cfg[] = { 0x10, 0x00, IT2N_REG_CFG_N, 0x00, 0x02, 0x04, 0x00, 0x02, 0x00, 0x02 };
+    static const uint8_t cfg[] = { 0x10, 0x00, IT2N_REGMAP_REG_CFG_N, 0x00, 0x02, 0x04, 0x00, 0x02, 0x00, 0x02 };
     n = run(cfg, sizeof cfg, rep, &held);
     assert_int_equal(n, 12);
     assert_int_equal(rep[7], 0x10);
     assert_true(held);
     md = models_by_id(1);
     assert_int_equal(md->ds.n, 2);
-    assert_int_equal(md->state, IT2N_RS_EMPTY);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_EMPTY);
 }
 
 /* Readers see the last durable state (docs/daemon.md, "The writer
@@ -307,19 +307,19 @@ static void test_reply_framed_as_libmodbus(void **st)
 {
     static const uint8_t pdus[][20] = {
         { 0x03, 0x00, 0x00, 0x00, 0x10 },                                     /* status block */
-        { 0x06, 0x00, IT2N_REG_Q_U16, 0x13, 0x88 },                           /* q_u = 0.5 */
-        { 0x10, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04, 0x07, 0xD0, 0x1F, 0x40 }, /* q_u, q_w */
+        { 0x06, 0x00, IT2N_REGMAP_REG_Q_U16, 0x13, 0x88 },                           /* q_u = 0.5 */
+        { 0x10, 0x00, IT2N_REGMAP_REG_Q_U16, 0x00, 0x02, 0x04, 0x07, 0xD0, 0x1F, 0x40 }, /* q_u, q_w */
         { 0x04, 0x00, 0x80, 0x00, 0x6C },                                     /* the results */
-        { 0x17, 0x00, 0x80, 0x00, 0x6C, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04, 0x27, 0x10, 0x00, 0x00 },
-        { 0x17, 0x00, IT2N_REG_Q_U16, 0x00, 0x03, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04, 0x0B, 0xB8, 0x00, 0x01 },
-        { 0x17, 0x00, 0x81, 0x00, 0x05, 0x00, IT2N_REG_Q_U16, 0x00, 0x02, 0x04, 0x00, 0x00, 0x27, 0x10 },
+        { 0x17, 0x00, 0x80, 0x00, 0x6C, 0x00, IT2N_REGMAP_REG_Q_U16, 0x00, 0x02, 0x04, 0x27, 0x10, 0x00, 0x00 },
+        { 0x17, 0x00, IT2N_REGMAP_REG_Q_U16, 0x00, 0x03, 0x00, IT2N_REGMAP_REG_Q_U16, 0x00, 0x02, 0x04, 0x0B, 0xB8, 0x00, 0x01 },
+        { 0x17, 0x00, 0x81, 0x00, 0x05, 0x00, IT2N_REGMAP_REG_Q_U16, 0x00, 0x02, 0x04, 0x00, 0x00, 0x27, 0x10 },
     };
     static const int plens[] = { 5, 5, 10, 5, 14, 14, 14 };
     int ref[2];
     (void)st;
     assert_int_equal(socketpair(AF_UNIX, SOCK_STREAM, 0, ref), 0);
     modbus_t *lib = modbus_new_tcp_pi(NULL, "502");
-    modbus_mapping_t *map = modbus_mapping_new(0, 0, IT2N_REG_MAP_END, IT2N_REG_MAP_END);
+    modbus_mapping_t *map = modbus_mapping_new(0, 0, IT2N_REGMAP_REG_MAP_END, IT2N_REGMAP_REG_MAP_END);
     assert_non_null(lib);
     assert_non_null(map);
     modbus_set_socket(lib, ref[0]);
@@ -360,7 +360,7 @@ static void test_refused_write_sets_last_error(void **st)
     struct model *md = models_by_id(1);
     memset(&md->last_err, 0, sizeof md->last_err);
     /* FC 16: n = m = 2 (a new configuration: held for the commit). */
-    static const uint8_t pdu[] = { 0x10, 0x00, IT2N_REG_CFG_N, 0x00, 0x02, 0x04, 0x00, 0x02, 0x00, 0x02 };
+    static const uint8_t pdu[] = { 0x10, 0x00, IT2N_REGMAP_REG_CFG_N, 0x00, 0x02, 0x04, 0x00, 0x02, 0x00, 0x02 };
     int len = adu(req, pdu, sizeof pdu);
     assert_int_equal(mb_req_handle(&sess, req, len, &opts), 1); /* held */
     models_pass_end(0, NULL, NULL);                             /* the commit failed */

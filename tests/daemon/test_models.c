@@ -60,7 +60,7 @@ static struct model *paper(int id, unsigned flags)
     struct model *md = models_add(id, id, MODEL_BEZIER, 3, 3, flags);
     assert_non_null(md);
     assert_int_equal(models_preload_paper(md), IT2N_OK);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     return md;
 }
 
@@ -340,7 +340,7 @@ static void test_batches(void **state)
     assert_int_equal(cb_calls, 1);
     assert_int_equal(cb_old_gen, g0);
     assert_int_equal(cb_gen, g0 + 1);
-    assert_int_equal(cb_old_state, IT2N_RS_SOLVED);
+    assert_int_equal(cb_old_state, IT2N_REGMAP_STATE_SOLVED);
     view = models_view(md);
     assert_int_equal(view->gen, g0 + 1);
     assert_memory_equal(&view->ds, s1 + offsetof(struct model, ds), sizeof view->ds);
@@ -450,7 +450,7 @@ static void test_bspline(void **state)
                 bs_vals(i, j, fp, v, 0);
                 assert_int_equal(models_put(md, i, j, fp, v, false, &err), IT2N_OK);
             }
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(models_net_rows(md), 11);
     assert_int_equal(models_net_cols(md), 8);
     assert_core_solve(md);

@@ -126,12 +126,12 @@ static void test_password_file(void **state)
     assert_non_null(strstr(err, "cannot open"));
 }
 
-static Spb__Payload *pack_unpack(struct spb_pl *pl, int seq)
+static Spb__Payload *pack_unpack(struct spb_payload *pl, int seq)
 {
     uint8_t *buf;
     size_t len;
     Spb__Payload *p;
-    assert_int_equal(spb_pl_pack(pl, 1700000000123u, seq, &buf, &len), 0);
+    assert_int_equal(spb_payload_pack(pl, 1700000000123u, seq, &buf, &len), 0);
     p = spb__payload__unpack(NULL, len, buf);
     free(buf);
     assert_non_null(p);
@@ -140,27 +140,27 @@ static Spb__Payload *pack_unpack(struct spb_pl *pl, int seq)
 
 static void test_payload_fields(void **state)
 {
-    struct spb_pl *pl = spb_pl_new(6);
-    struct spb_val v;
+    struct spb_payload *pl = spb_payload_new(6);
+    struct spb_payload_val v;
     char name[16] = "Status/x";
     Spb__Payload *p;
     (void)state;
     memset(&v, 0, sizeof v);
     v.u = (uint64_t)(int64_t)-7;  /* Int16 -7 */
-    assert_int_equal(spb_pl_add(pl, name, 20008, SPB_INT16, 5, &v), 0);
+    assert_int_equal(spb_payload_add(pl, name, 20008, SPB_PAYLOAD_INT16, 5, &v), 0);
     memset(name, 'X', sizeof name - 1);  /* the builder owns its copy */
-    assert_int_equal(spb_pl_prop(pl, 0, "description", "last error"), 0);
-    assert_int_equal(spb_pl_prop(pl, 0, "engUnit", "-"), 0);
+    assert_int_equal(spb_payload_prop(pl, 0, "description", "last error"), 0);
+    assert_int_equal(spb_payload_prop(pl, 0, "engUnit", "-"), 0);
     v.u = 0;
     v.f = 0.25f;
-    assert_int_equal(spb_pl_add(pl, NULL, 20023, SPB_FLOAT, 6, &v), 1);
+    assert_int_equal(spb_payload_add(pl, NULL, 20023, SPB_PAYLOAD_FLOAT, 6, &v), 1);
     v.null = 1;
-    assert_int_equal(spb_pl_add(pl, NULL, 20024, SPB_FLOAT, 6, &v), 2);
+    assert_int_equal(spb_payload_add(pl, NULL, 20024, SPB_PAYLOAD_FLOAT, 6, &v), 2);
     v.null = 0;
     v.u = 255;
-    assert_int_equal(spb_pl_add(pl, "bdSeq", 1, SPB_INT64, 7, &v), 3);
+    assert_int_equal(spb_payload_add(pl, "bdSeq", 1, SPB_PAYLOAD_INT64, 7, &v), 3);
     v.s = "it2nd 1";
-    assert_int_equal(spb_pl_add(pl, "Properties/Software Version", 3, SPB_STRING, 7, &v), 4);
+    assert_int_equal(spb_payload_add(pl, "Properties/Software Version", 3, SPB_PAYLOAD_STRING, 7, &v), 4);
     p = pack_unpack(pl, 200);
     assert_true(p->has_timestamp && p->timestamp == 1700000000123u);
     assert_true(p->has_seq && p->seq == 200);
@@ -174,7 +174,7 @@ static void test_payload_fields(void **state)
     assert_non_null(p->metrics[0]->properties);
     assert_int_equal(p->metrics[0]->properties->n_keys, 2);
     assert_string_equal(p->metrics[0]->properties->keys[1], "engUnit");
-    assert_int_equal(p->metrics[0]->properties->values[0]->type, SPB_STRING);
+    assert_int_equal(p->metrics[0]->properties->values[0]->type, SPB_PAYLOAD_STRING);
     assert_string_equal(p->metrics[0]->properties->values[0]->string_value, "last error");
     /* DATA: alias only, no name, no datatype */
     assert_null(p->metrics[1]->name);
@@ -187,25 +187,25 @@ static void test_payload_fields(void **state)
     assert_int_equal(p->metrics[3]->long_value, 255);
     assert_string_equal(p->metrics[4]->string_value, "it2nd 1");
     spb__payload__free_unpacked(p, NULL);
-    spb_pl_free(pl);
+    spb_payload_free(pl);
     /* NDEATH: no seq; a full builder refuses more */
-    pl = spb_pl_new(1);
+    pl = spb_payload_new(1);
     memset(&v, 0, sizeof v);
-    assert_int_equal(spb_pl_add(pl, "bdSeq", 0, SPB_INT64, 1, &v), 0);
-    assert_int_equal(spb_pl_add(pl, "more", 0, SPB_INT64, 1, &v), -1);
+    assert_int_equal(spb_payload_add(pl, "bdSeq", 0, SPB_PAYLOAD_INT64, 1, &v), 0);
+    assert_int_equal(spb_payload_add(pl, "more", 0, SPB_PAYLOAD_INT64, 1, &v), -1);
     p = pack_unpack(pl, -1);
     assert_false(p->has_seq);
     assert_false(p->metrics[0]->has_alias);
     spb__payload__free_unpacked(p, NULL);
-    spb_pl_free(pl);
+    spb_payload_free(pl);
 }
 
 /* A FloatArray (Net/...): the bytes as given, copied (the caller's buffer
- * may change after spb_pl_add), datatype 30; an empty one has no bytes. */
+ * may change after spb_payload_add), datatype 30; an empty one has no bytes. */
 static void test_payload_float_array(void **state)
 {
-    struct spb_pl *pl = spb_pl_new(2);
-    struct spb_val v;
+    struct spb_payload *pl = spb_payload_new(2);
+    struct spb_payload_val v;
     uint8_t bytes[8] = { 0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x00, 0xC0 };  /* 1.0f, -2.0f little-endian */
     Spb__Payload *p;
     (void)state;
@@ -213,11 +213,11 @@ static void test_payload_float_array(void **state)
     v.b = bytes;
     v.nb = sizeof bytes;
     v.u = 42;
-    assert_int_equal(spb_pl_add(pl, "Net/D/T", 20125, SPB_FLOATARRAY, 5, &v), 0);
+    assert_int_equal(spb_payload_add(pl, "Net/D/T", 20125, SPB_PAYLOAD_FLOATARRAY, 5, &v), 0);
     memset(bytes, 0xEE, sizeof bytes);
     v.b = NULL;
     v.nb = 0;
-    assert_int_equal(spb_pl_add(pl, NULL, 20126, SPB_FLOATARRAY, 5, &v), 1);
+    assert_int_equal(spb_payload_add(pl, NULL, 20126, SPB_PAYLOAD_FLOATARRAY, 5, &v), 1);
     p = pack_unpack(pl, 1);
     assert_true(p->metrics[0]->has_datatype && p->metrics[0]->datatype == 30);
     assert_int_equal(p->metrics[0]->value_case, SPB__PAYLOAD__METRIC__VALUE_BYTES_VALUE);
@@ -227,56 +227,56 @@ static void test_payload_float_array(void **state)
     assert_int_equal(p->metrics[1]->value_case, SPB__PAYLOAD__METRIC__VALUE_BYTES_VALUE);
     assert_int_equal(p->metrics[1]->bytes_value.len, 0);
     spb__payload__free_unpacked(p, NULL);
-    spb_pl_free(pl);
+    spb_payload_free(pl);
 }
 
 static void test_val_equal(void **state)
 {
-    struct spb_val a, b;
+    struct spb_payload_val a, b;
     (void)state;
     memset(&a, 0, sizeof a);
     memset(&b, 0, sizeof b);
     a.f = 0.0f;
     b.f = -0.0f;
-    assert_false(spb_val_equal(SPB_FLOAT, &a, &b));  /* bit for bit, as the host sees it */
+    assert_false(spb_payload_val_equal(SPB_PAYLOAD_FLOAT, &a, &b));  /* bit for bit, as the host sees it */
     b.f = 0.0f;
-    assert_true(spb_val_equal(SPB_FLOAT, &a, &b));
+    assert_true(spb_payload_val_equal(SPB_PAYLOAD_FLOAT, &a, &b));
     b.null = 1;
-    assert_false(spb_val_equal(SPB_FLOAT, &a, &b));
+    assert_false(spb_payload_val_equal(SPB_PAYLOAD_FLOAT, &a, &b));
     a.null = 1;
     a.f = 3.0f;
-    assert_true(spb_val_equal(SPB_FLOAT, &a, &b));  /* null equals null, whatever is left in f */
+    assert_true(spb_payload_val_equal(SPB_PAYLOAD_FLOAT, &a, &b));  /* null equals null, whatever is left in f */
 }
 
 static void test_cmd_parse(void **state)
 {
-    struct spb_pl *pl = spb_pl_new(2);
-    struct spb_val v;
-    struct spb_cmd cmd;
+    struct spb_payload *pl = spb_payload_new(2);
+    struct spb_payload_val v;
+    struct spb_payload_cmd cmd;
     char why[128];
     uint8_t *buf, junk[3] = { 0x12, 0x05, 0x0a };
     size_t len;
     (void)state;
     memset(&v, 0, sizeof v);
     v.u = 1;
-    spb_pl_add(pl, NULL, 2, SPB_BOOLEAN, 1, &v);
-    assert_int_equal(spb_pl_pack(pl, 1, -1, &buf, &len), 0);
-    assert_int_equal(spb_cmd_parse(buf, len, 2, &cmd, why, sizeof why), 0);
+    spb_payload_add(pl, NULL, 2, SPB_PAYLOAD_BOOLEAN, 1, &v);
+    assert_int_equal(spb_payload_pack(pl, 1, -1, &buf, &len), 0);
+    assert_int_equal(spb_payload_cmd_parse(buf, len, 2, &cmd, why, sizeof why), 0);
     assert_int_equal(cmd.rebirth, 1);
-    assert_int_equal(spb_cmd_parse(buf, len, 9, &cmd, why, sizeof why), 0);  /* another alias */
+    assert_int_equal(spb_payload_cmd_parse(buf, len, 9, &cmd, why, sizeof why), 0);  /* another alias */
     assert_int_equal(cmd.rebirth, 0);
     assert_int_equal(cmd.nmetrics, 1);
     free(buf);
-    spb_pl_free(pl);
-    pl = spb_pl_new(1);
+    spb_payload_free(pl);
+    pl = spb_payload_new(1);
     v.u = 1;
-    spb_pl_add(pl, "Node Control/Rebirth", 0, SPB_INT32, 1, &v);
-    assert_int_equal(spb_pl_pack(pl, 1, -1, &buf, &len), 0);
-    assert_int_equal(spb_cmd_parse(buf, len, 2, &cmd, why, sizeof why), -1);
+    spb_payload_add(pl, "Node Control/Rebirth", 0, SPB_PAYLOAD_INT32, 1, &v);
+    assert_int_equal(spb_payload_pack(pl, 1, -1, &buf, &len), 0);
+    assert_int_equal(spb_payload_cmd_parse(buf, len, 2, &cmd, why, sizeof why), -1);
     assert_non_null(strstr(why, "Boolean"));
     free(buf);
-    spb_pl_free(pl);
-    assert_int_equal(spb_cmd_parse(junk, sizeof junk, 2, &cmd, why, sizeof why), -1);
+    spb_payload_free(pl);
+    assert_int_equal(spb_payload_cmd_parse(junk, sizeof junk, 2, &cmd, why, sizeof why), -1);
     assert_non_null(strstr(why, "not a Sparkplug B payload"));
 }
 
@@ -285,13 +285,13 @@ struct seen {
     double last;
 };
 
-static void seen_metric(void *ctx, const struct spb_in *m)
+static void seen_metric(void *ctx, const struct spb_payload_in *m)
 {
     struct seen *c = ctx;
     c->n++;
-    if (!m->name && m->has_alias && m->alias == 2 && m->kind == SPB_IN_BOOL && m->u == 1)
+    if (!m->name && m->has_alias && m->alias == 2 && m->kind == SPB_PAYLOAD_IN_BOOL && m->u == 1)
         c->rebirth_alias++;
-    if (m->kind == SPB_IN_FLOAT) {
+    if (m->kind == SPB_PAYLOAD_IN_FLOAT) {
         c->floats++;
         c->last = m->d;
     }
@@ -299,8 +299,8 @@ static void seen_metric(void *ctx, const struct spb_in *m)
 
 static void test_cmd_each(void **state)
 {
-    struct spb_pl *pl = spb_pl_new(3);
-    struct spb_val v;
+    struct spb_payload *pl = spb_payload_new(3);
+    struct spb_payload_val v;
     struct seen c;
     char why[128];
     uint8_t *buf, junk[2] = { 0x12, 0x09 };
@@ -309,21 +309,21 @@ static void test_cmd_each(void **state)
     memset(&v, 0, sizeof v);
     memset(&c, 0, sizeof c);
     v.u = 1;
-    spb_pl_add(pl, NULL, 2, SPB_BOOLEAN, 1, &v);
+    spb_payload_add(pl, NULL, 2, SPB_PAYLOAD_BOOLEAN, 1, &v);
     v.f = 0.75f;
-    spb_pl_add(pl, "Query/u", 0, SPB_FLOAT, 1, &v);
+    spb_payload_add(pl, "Query/u", 0, SPB_PAYLOAD_FLOAT, 1, &v);
     v.null = 1;
-    spb_pl_add(pl, "Query/w", 0, SPB_FLOAT, 1, &v);
-    assert_int_equal(spb_pl_pack(pl, 1, -1, &buf, &len), 0);
-    assert_int_equal(spb_cmd_each(buf, len, seen_metric, &c, why, sizeof why), 0);
+    spb_payload_add(pl, "Query/w", 0, SPB_PAYLOAD_FLOAT, 1, &v);
+    assert_int_equal(spb_payload_pack(pl, 1, -1, &buf, &len), 0);
+    assert_int_equal(spb_payload_cmd_each(buf, len, seen_metric, &c, why, sizeof why), 0);
     assert_int_equal(c.n, 3);
     assert_int_equal(c.rebirth_alias, 1);
     assert_int_equal(c.floats, 1);  /* the null one has no value */
     assert_true(c.last == 0.75);
     free(buf);
-    spb_pl_free(pl);
+    spb_payload_free(pl);
     memset(&c, 0, sizeof c);
-    assert_int_equal(spb_cmd_each(junk, sizeof junk, seen_metric, &c, why, sizeof why), -1);
+    assert_int_equal(spb_payload_cmd_each(junk, sizeof junk, seen_metric, &c, why, sizeof why), -1);
     assert_int_equal(c.n, 0);  /* all or nothing */
 }
 
@@ -354,7 +354,7 @@ static void test_state_parse(void **state)
         int online = -1;
         uint64_t ts = 0;
         char why[128] = "";
-        int rc = spb_state_parse((const uint8_t *)cases[k].in, strlen(cases[k].in), &online, &ts, why, sizeof why);
+        int rc = spb_payload_state_parse((const uint8_t *)cases[k].in, strlen(cases[k].in), &online, &ts, why, sizeof why);
         assert_int_equal(rc, cases[k].rc);
         if (rc == 0) {
             assert_int_equal(online, cases[k].online);

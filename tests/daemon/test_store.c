@@ -165,13 +165,13 @@ static void test_wal_replay(void **st)
     assert_int_equal(store_pending(), 0);
     put(md, 1, 1, 10, 10, 4); /* completes: solved */
     assert_int_equal(store_commit(), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     it2n_model solved = md->mdl;
     store_close(); /* "crash": no snapshot */
 
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_same_nets(&md->mdl, &solved);
     store_close();
 
@@ -182,7 +182,7 @@ static void test_wal_replay(void **st)
     uint8_t *torn = slurp("wal", &tlen);
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_INCOMPLETE);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_INCOMPLETE);
     assert_int_equal(models_present(md), 3);
     long good = len - 5 - (len - 16) / 4 + 5;
     assert_int_equal(fsize("wal"), good); /* truncated at the last good record */
@@ -268,7 +268,7 @@ static void test_bspline(void **st)
         for (unsigned j = 0; j <= 5; j++)
             put(md, i, j, (int)(i * 10), (int)(j * 10 + i % 2), (int)((i + j) % 10));
     assert_int_equal(store_commit(), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     size_t words = IT2N_BSPLINE_MODEL_WORDS(6, 5, IT2N_F_TYPE1);
     int32_t *want = malloc(words * sizeof *want);
     memcpy(want, md->bmdl.coef, words * sizeof *want);
@@ -285,7 +285,7 @@ static void test_bspline(void **st)
     }
     md = fresh_bs(MODEL_BSPLINE);
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(models_n(md), 6);
     assert_int_equal(md->gen, gen);
     assert_memory_equal(md->bmdl.coef, want, words * sizeof *want);
@@ -300,7 +300,7 @@ static void test_bspline(void **st)
     }
     md = fresh_bs(MODEL_BSPLINE);
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(md->gen, gen);
     assert_memory_equal(md->bmdl.coef, want, words * sizeof *want);
     store_close();
@@ -362,7 +362,7 @@ static void test_snapshot(void **st)
 
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(md->gen, gen);
     assert_same_nets(&md->mdl, &want);
     store_close();
@@ -371,7 +371,7 @@ static void test_snapshot(void **st)
     assert_int_equal(rename(b, a), 0);
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(md->gen, gen - 1);  /* snapshot state; the later update was in the replaced WAL */
     store_close();
 
@@ -405,7 +405,7 @@ static void test_snapshot(void **st)
     assert_int_equal(unlink(p), 0);
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(models_present(md), 4);
     /* A WAL that continues a snapshot which is gone: refused, files left. */
     assert_int_equal(store_snapshot(), 0);
@@ -418,7 +418,7 @@ static void test_snapshot(void **st)
     md = fresh();
     assert_int_equal(store_open(dir, 0), -1);
     assert_int_equal(fsize("wal"), wlen);
-    assert_int_equal(md->state, IT2N_RS_EMPTY);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_EMPTY);
     cut("wal", 16);
 }
 
@@ -486,9 +486,9 @@ static void test_pass_rollback(void **st)
     put(md, 1, 0, 10, 0, 3);
     put(md, 1, 1, 10, 10, 4);
     models_pass_end(1, on_changed, NULL);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(changed_calls, 1);   /* four puts, one pass: one call */
-    assert_int_equal(changed_old_state, IT2N_RS_EMPTY);
+    assert_int_equal(changed_old_state, IT2N_REGMAP_STATE_EMPTY);
     assert_false(models_pass_dirty());
     it2n_model keep = md->mdl;
     uint32_t gen = md->gen;
@@ -500,7 +500,7 @@ static void test_pass_rollback(void **st)
     assert_true(models_pass_dirty());
     models_pass_end(0, on_changed, NULL);   /* the commit failed */
     assert_int_equal(changed_calls, 1);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(md->gen, gen);
     assert_int_equal(md->points_rx, rx);
     assert_same_nets(&md->mdl, &keep);
@@ -731,7 +731,7 @@ static void test_snapshot_format(void **st)
     put(md, 0, 1, 0, 10, 2);
     put(md, 1, 0, 10, 0, 3);
     put(md, 1, 1, 10, 10, 4);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     md->mb.upload[0] = 0;
     for (int k = 1; k < 12; k++)
         md->mb.upload[k] = (uint16_t)k;
@@ -743,7 +743,7 @@ static void test_snapshot_format(void **st)
     /* Byte for byte what the documented layout says (seq 5: the clear and
      * the four points). */
     whdr(&w, 5, 1);
-    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_SOLVED, 4, gen, md->points_rx, md->solves);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_REGMAP_STATE_SOLVED, 4, gen, md->points_rx, md->solves);
     wpoint(&w, 0, 0, 0, 0, 1);
     wpoint(&w, 0, 1, 0, 10, 2);
     wpoint(&w, 1, 0, 10, 0, 3);
@@ -763,7 +763,7 @@ static void test_snapshot_format(void **st)
     /* Loaded and re-solved: the same control nets and generation. */
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(md->gen, gen);
     assert_int_equal(md->mb.upload[11], 11);
     assert_same_nets(&md->mdl, &want);
@@ -808,7 +808,7 @@ static void test_fine_memberships(void **st)
     put_fine(md, 0, 1, 0, 10, IT2N_MEMB_ONE / 2);  /* Q24-exact */
     put_fine(md, 1, 0, 10, 0, 1);                  /* 2^-30 */
     put(md, 1, 1, 10, 10, 4);                      /* Q24 (a link PUT) */
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(store_commit(), 0);
     it2n_model want = md->mdl;
     for (unsigned k = 0; k < 4; k++)
@@ -853,7 +853,7 @@ static void test_fine_memberships(void **st)
     /* replayed: the same values at 2^-30 and the same nets */
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_same_data(md, data);
     assert_same_nets(&md->mdl, &want);
     /* snapshot: version 4, read back alike */
@@ -861,7 +861,7 @@ static void test_fine_memberships(void **st)
     {
         long len;
         uint8_t *sn = slurp("snapshot", &len);
-        assert_int_equal(sn[8], SNAP_VERSION_FINE);
+        assert_int_equal(sn[8], SNAPSHOT_VERSION_FINE);
         free(sn);
     }
     store_close();
@@ -878,7 +878,7 @@ static void test_fine_memberships(void **st)
     {
         long len;
         uint8_t *sn = slurp("snapshot", &len);
-        assert_int_equal(sn[8], SNAP_VERSION_BEZIER);
+        assert_int_equal(sn[8], SNAPSHOT_VERSION_BEZIER);
         free(sn);
     }
     store_close();
@@ -892,14 +892,14 @@ static void test_snapshot_foreign(void **st)
      * loads, model 2 (degree IT2N_MAX_DEGREE + 1) is dropped, model 9 is
      * not configured here. */
     whdr(&w, 0, 3);
-    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_SOLVED, 4, 42, 4, 1);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_REGMAP_STATE_SOLVED, 4, 42, 4, 1);
     wpoint(&w, 0, 0, 0, 0, 1);
     wpoint(&w, 0, 1, 0, 10, 2);
     wpoint(&w, 1, 0, 10, 0, 3);
     wpoint(&w, 1, 1, 10, 10, 4);
-    wmodel(&w, 2, IT2N_MAX_DEGREE + 1, 1, IT2N_F_TYPE1, IT2N_RS_INCOMPLETE, 1, 5, 1, 0);
+    wmodel(&w, 2, IT2N_MAX_DEGREE + 1, 1, IT2N_F_TYPE1, IT2N_REGMAP_STATE_INCOMPLETE, 1, 5, 1, 0);
     wpoint(&w, IT2N_MAX_DEGREE + 1, 0, 0, 0, 1);
-    wmodel(&w, 9, 1, 1, 0, IT2N_RS_EMPTY, 0, 3, 0, 0);
+    wmodel(&w, 9, 1, 1, 0, IT2N_REGMAP_STATE_EMPTY, 0, 3, 0, 0);
     mkdir(dir, 0750);
     wfile("snapshot", &w, 1);
     {
@@ -911,7 +911,7 @@ static void test_snapshot_foreign(void **st)
     struct model *md2 = models_add(2, 2, MODEL_BEZIER, 2, 2, 0);
     assert_non_null(md2);
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(md->gen, 42);
     assert_int_equal(models_present(md), 4);
     it2n_model direct;
@@ -919,7 +919,7 @@ static void test_snapshot_foreign(void **st)
     it2n_model_init(&direct);
     assert_int_equal(it2n_model_solve(&direct, &md->ds, &err), IT2N_OK);
     assert_same_nets(&md->mdl, &direct);
-    assert_int_equal(md2->state, IT2N_RS_EMPTY);  /* dropped: its configuration */
+    assert_int_equal(md2->state, IT2N_REGMAP_STATE_EMPTY);  /* dropped: its configuration */
     assert_int_equal(md2->ds.n, 2);
     store_close();
 
@@ -927,7 +927,7 @@ static void test_snapshot_foreign(void **st)
      * damaged (kept aside, start refused); the model is never served from
      * it, nor rebuilt from its configuration + WAL as if nothing was lost. */
     whdr(&w, 0, 1);
-    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_SOLVED, 4, 42, 4, 1);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_REGMAP_STATE_SOLVED, 4, 42, 4, 1);
     wpoint(&w, 0, 0, 0, 0, 11);
     wpoint(&w, 0, 1, 0, 10, 2);
     wpoint(&w, 1, 0, 10, 0, 3);
@@ -936,15 +936,15 @@ static void test_snapshot_foreign(void **st)
     cut("wal", 16);
     md = fresh();
     assert_int_equal(store_open(dir, 0), -1);
-    assert_int_equal(md->state, IT2N_RS_EMPTY);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_EMPTY);
     assert_int_equal(fsize("snapshot"), -1);
     unkeep("snapshot", (long)w.n);
 
     /* Records that do not add up (one model announced, two written), valid
      * CRC: damaged too. */
     whdr(&w, 0, 1);
-    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_EMPTY, 0, 8, 0, 0);
-    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_RS_EMPTY, 0, 9, 0, 0);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_REGMAP_STATE_EMPTY, 0, 8, 0, 0);
+    wmodel(&w, 1, 1, 1, IT2N_F_TYPE1, IT2N_REGMAP_STATE_EMPTY, 0, 9, 0, 0);
     wfile("snapshot", &w, 1);
     md = fresh();
     assert_int_equal(store_open(dir, 0), -1);
@@ -996,7 +996,7 @@ static void test_snapshot_v1(void **st)
     cut("wal", 16);
     md = fresh();
     assert_int_equal(store_open(dir, 0), 0);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(md->gen, 77);
     assert_int_equal(store_snapshot(), 0); /* rewritten as version 2 */
     store_close();
@@ -1153,7 +1153,7 @@ static void test_wal_large(void **st)
     store_get_stats(&after);
     assert_int_equal(after.dropped, before.dropped); /* nothing cut */
     assert_int_equal(fsize("wal"), total);
-    assert_int_equal(md->state, IT2N_RS_SOLVED);
+    assert_int_equal(md->state, IT2N_REGMAP_STATE_SOLVED);
     assert_int_equal(models_present(md), 4);
     assert_same_nets(&md->mdl, &solved);
     /* And the log keeps going: record 5 appends after the big file. */

@@ -344,7 +344,7 @@ int main(void)
     }
     CHECK(it2n_link_pending(&dl) == 0 && nacks == 0 && acks >= 4, "stream over bulk IN/OUT: %d ACKs, %d NACKs",
           acks, nacks);
-    CHECK(md->state == IT2N_RS_SOLVED, "model solved from the USB stream (state %d)", md->state);
+    CHECK(md->state == IT2N_REGMAP_STATE_SOLVED, "model solved from the USB stream (state %d)", md->state);
     CHECK(it2n_dataset_value(&md->ds, 1, 1, IT2N_FP_D, IT2N_CH_T) == IT2N_VAL_ONE / 4 * 3, "data point (1,1) T");
     if (!fails)
         printf("test_usb_bulk: HELLO/CONFIGURE/PUT/COMMIT over emulated bulk endpoints, %d ACKs, model solved\n",

@@ -112,7 +112,7 @@ int main(void)
         printf("test_usb_umockdev: hotplug arrival delivered through the poll loop\n");
     CHECK(link_usb_count(&c) >= 1, "device list after the arrival: %d", link_usb_count(&c));
 
-    link_usb_exit();
+    link_usb_free();
     loop_free();
     g_free(dev1);
     g_free(dev2);

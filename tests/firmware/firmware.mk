@@ -91,8 +91,8 @@ FWS_B := $(BUILD)/fw-m3-survey
 FW_SURVEY_CSV ?= examples/survey_64x64.csv
 FWS_MAX ?= 63
 FWS_SRC := $(CORE_SRC) tests/qemu/semihost.c examples/firmware/startup.c \
-           examples/firmware/board.c examples/firmware/survey.c
-FWS_CFLAGS := $(FW_CFLAGS) -DIT2N_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_M=$(FWS_MAX)
+           examples/firmware/board.c examples/firmware/fw_print.c examples/firmware/survey.c
+FWS_CFLAGS := $(FW_CFLAGS) -DFW_PRINT_LINE=2048u -DIT2N_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_N=$(FWS_MAX) -DFW_BSPLINE_MAX_M=$(FWS_MAX)
 FWS_OBJ := $(FWS_SRC:%.c=$(FWS_B)/%.o) $(FWS_B)/survey_csv.o
 FWS_ELF := $(FWS_B)/it2n-survey.elf
 

@@ -46,7 +46,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 /* ---- USB stubs: only a serial link is configured ---- */
 int link_usb_init(void) { return 0; }
-void link_usb_exit(void) {}
+void link_usb_free(void) {}
 void link_usb_on_arrival(void (*fn)(void *arg), void *arg) { (void)fn; (void)arg; }
 struct usb_link *link_usb_open(const struct conf_link *c, usb_rx_fn rx, usb_gone_fn gone, void *arg)
 {

@@ -41,8 +41,8 @@ static inline void fuzz_check_bspline(const struct model *md)
     const it2n_bspline_data *d = &md->bds;
     it2n_errinfo err;
     fuzz_check(d->n >= 1 && d->n <= md->cap_n && d->m >= 1 && d->m <= md->cap_m, "B-spline sizes in storage");
-    fuzz_check(md->state >= IT2N_RS_EMPTY && md->state <= IT2N_RS_FAILED, "state in range");
-    if (md->state != IT2N_RS_SOLVED)
+    fuzz_check(md->state >= IT2N_REGMAP_STATE_EMPTY && md->state <= IT2N_REGMAP_STATE_FAILED, "state in range");
+    if (md->state != IT2N_REGMAP_STATE_SOLVED)
         return;
     size_t words = IT2N_BSPLINE_MODEL_WORDS(d->n, d->m, d->flags);
     int32_t *coef = malloc(words * sizeof *coef);
@@ -70,8 +70,8 @@ static inline void fuzz_check_model(const struct model *md)
     }
     fuzz_check(md->ds.n >= 1 && md->ds.n <= IT2N_MAX_DEGREE && md->ds.m >= 1 && md->ds.m <= IT2N_MAX_DEGREE,
                "degrees in range");
-    fuzz_check(md->state >= IT2N_RS_EMPTY && md->state <= IT2N_RS_FAILED, "state in range");
-    if (md->state != IT2N_RS_SOLVED)
+    fuzz_check(md->state >= IT2N_REGMAP_STATE_EMPTY && md->state <= IT2N_REGMAP_STATE_FAILED, "state in range");
+    if (md->state != IT2N_REGMAP_STATE_SOLVED)
         return;
     fuzz_check((md->ds.flags & ~IT2N_F_ALL) == 0, "flags valid");
     fuzz_check(m->solved == 1, "solved model marked solved");
@@ -96,7 +96,7 @@ static inline void fuzz_standard_models(int max)
     it2n_errinfo err;
     fuzz_check(models_init(max) == 0, "models_init");
     struct model *a = models_add(1, 1, MODEL_BEZIER, 3, 3, 0);
-    fuzz_check(a && models_preload_paper(a) == IT2N_OK && a->state == IT2N_RS_SOLVED, "paper model");
+    fuzz_check(a && models_preload_paper(a) == IT2N_OK && a->state == IT2N_REGMAP_STATE_SOLVED, "paper model");
     fuzz_check(models_add(2, 2, MODEL_BEZIER, 2, 2, IT2N_F_TYPE1) != NULL, "model 2");
     struct model *b = models_add(3, 3, MODEL_BSPLINE, 5, 4, 0);
     fuzz_check(b && models_configure(b, 4, 3, 0, &err) == IT2N_OK, "B-spline model 3");
@@ -111,7 +111,7 @@ static inline void fuzz_standard_models(int max)
                 v[IT2N_CH_F] = (it2n_val)(fp % 2) * (IT2N_VAL_ONE / 8);
                 fuzz_check(models_put(b, i, j, fp, v, false, &err) == IT2N_OK, "B-spline point");
             }
-    fuzz_check(b->state == IT2N_RS_SOLVED, "B-spline model solved");
+    fuzz_check(b->state == IT2N_REGMAP_STATE_SOLVED, "B-spline model solved");
     models_pass_end(1, NULL, NULL);
 }
 

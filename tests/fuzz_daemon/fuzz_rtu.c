@@ -214,7 +214,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fuzz_check(open, "the port stays open whatever arrives");
     if (open) {
         /* Silence, then a valid request: the framer is back in sync. */
-        static const uint8_t probe[6] = { 1, 3, 0, IT2N_REG_N, 0, 2 };
+        static const uint8_t probe[6] = { 1, 3, 0, IT2N_REGMAP_REG_N, 0, 2 };
         uint8_t req[8], ans[64];
         fake_advance(25);
         pump(port);

@@ -48,7 +48,7 @@ static int read_all(void)
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     int n, max;
-    struct spb_val v[2];
+    struct spb_payload_val v[2];
     uint16_t idx[2] = { 3, 65535 };
     struct spb_sf_rec r;
     uint64_t off = 0;

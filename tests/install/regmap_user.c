@@ -8,8 +8,8 @@
 int main(void)
 {
     uint16_t r[2];
-    const it2n_regmap_block *b = it2n_regmap_find(IT2N_REG_GRID, 3);
-    it2n_regmap_put_f32(r, 1.5f, IT2N_WO_CDAB); /* 1.5f = 0x3FC00000 */
+    const it2n_regmap_block *b = it2n_regmap_find(IT2N_REGMAP_REG_GRID, 3);
+    it2n_regmap_put_f32(r, 1.5f, IT2N_REGMAP_WO_CDAB); /* 1.5f = 0x3FC00000 */
     printf("%04x %04x %s %u\n", r[0], r[1], b ? b->name : "-", it2n_regmap_par_to_u16((int64_t)1 << 31));
     return 0;
 }

@@ -217,7 +217,7 @@ static void test_table(void **st)
     for (size_t b = 0; b < it2n_regmap_nblocks; b++) {
         const it2n_regmap_block *bl = &it2n_regmap_blocks[b];
         assert_true(bl->start < bl->end);
-        assert_true(bl->end <= IT2N_REG_MAP_END);
+        assert_true(bl->end <= IT2N_REGMAP_REG_MAP_END);
         for (size_t c = 0; c < it2n_regmap_nblocks; c++)
             if (c != b) /* apart */
                 assert_true(bl->end <= it2n_regmap_blocks[c].start || it2n_regmap_blocks[c].end <= bl->start);
@@ -238,16 +238,16 @@ static void test_table(void **st)
      * and every address finds the block holding it (or none, in a gap). */
     for (size_t b = 1; b < it2n_regmap_nblocks; b++)
         assert_true(it2n_regmap_blocks[b - 1u].end <= it2n_regmap_blocks[b].start);
-    for (unsigned a = 0; a <= IT2N_REG_MAP_END; a++) {
+    for (unsigned a = 0; a <= IT2N_REGMAP_REG_MAP_END; a++) {
         const it2n_regmap_block *want = NULL;
         for (size_t b = 0; b < it2n_regmap_nblocks; b++)
             if (a >= it2n_regmap_blocks[b].start && a < it2n_regmap_blocks[b].end)
                 want = &it2n_regmap_blocks[b];
         assert_ptr_equal(it2n_regmap_find(a, 1), want);
     }
-    assert_null(it2n_regmap_find(IT2N_REG_MAP_VERSION, 0));
-    assert_null(it2n_regmap_find(IT2N_REG_MAP_END, 1));
-    assert_null(it2n_regmap_find(IT2N_REG_STATUS_END - 1u, 2)); /* spans status and configuration */
+    assert_null(it2n_regmap_find(IT2N_REGMAP_REG_MAP_VERSION, 0));
+    assert_null(it2n_regmap_find(IT2N_REGMAP_REG_MAP_END, 1));
+    assert_null(it2n_regmap_find(IT2N_REGMAP_REG_STATUS_END - 1u, 2)); /* spans status and configuration */
     assert_string_equal(it2n_regmap_type_name(99), "?");
 }
 

@@ -117,9 +117,9 @@ static void check_point(const uint16_t *rf, const uint16_t *rs, const it2n_point
     const it2n_val *sums[4] = { pt->sum.upper_min, pt->sum.upper_max, pt->sum.lower_min, pt->sum.lower_max };
     for (int s = 0; s < 4; s++)
         for (int k = 0; k < 3; k++) {
-            float got = f32(&rf[(IT2N_REG_SUM_F32 - IT2N_REG_RES_F32) + (s * 3 + k) * 2]);
+            float got = f32(&rf[(IT2N_REGMAP_REG_SUM_F32 - IT2N_REGMAP_REG_RES_F32) + (s * 3 + k) * 2]);
             CHECK(got == q24f(sums[s][k]), "%s summary %d %d", what, s, k);
-            int16_t gs = (int16_t)rs[IT2N_REG_SUM_SCALED - IT2N_REG_RES_SCALED + s * 3 + k];
+            int16_t gs = (int16_t)rs[IT2N_REGMAP_REG_SUM_SCALED - IT2N_REGMAP_REG_RES_SCALED + s * 3 + k];
             CHECK(gs == scaled(sums[s][k], 10000, 32767), "%s summary scaled %d %d", what, s, k);
         }
 }
@@ -141,10 +141,10 @@ static void solve_local(const char *csv, it2n_model *m)
 static void query_uw(modbus_t *ctx, unsigned u4, unsigned w4, uint16_t *rf, uint16_t *rs)
 {
     uint16_t in[2] = { (uint16_t)u4, (uint16_t)w4 };
-    int n = IT2N_REG_SUM_F32 + 24 - IT2N_REG_RES_F32;
-    int rc = modbus_write_and_read_registers(ctx, IT2N_REG_Q_U16, 2, in, IT2N_REG_RES_F32, n, rf);
+    int n = IT2N_REGMAP_REG_SUM_F32 + 24 - IT2N_REGMAP_REG_RES_F32;
+    int rc = modbus_write_and_read_registers(ctx, IT2N_REGMAP_REG_Q_U16, 2, in, IT2N_REGMAP_REG_RES_F32, n, rf);
     CHECK(rc == n, "FC23 query (%u,%u): %s", u4, w4, modbus_strerror(errno));
-    CHECK(read_regs(ctx, IT2N_REG_RES_SCALED, IT2N_REG_RESULTS_END - IT2N_REG_RES_SCALED, rs) == 0,
+    CHECK(read_regs(ctx, IT2N_REGMAP_REG_RES_SCALED, IT2N_REGMAP_REG_RESULTS_END - IT2N_REGMAP_REG_RES_SCALED, rs) == 0,
           "read scaled: %s", modbus_strerror(errno));
 }
 
@@ -152,15 +152,15 @@ static int cmd_verify(const char *csv, int steps)
 {
     static it2n_model m;
     modbus_t *ctx = connect_ctx();
-    uint16_t rf[128], rs[128], st[IT2N_REG_STATUS_END];
+    uint16_t rf[128], rs[128], st[IT2N_REGMAP_REG_STATUS_END];
     int points = 0;
     solve_local(csv, &m);
-    CHECK(read_regs(ctx, 0, IT2N_REG_STATUS_END, st) == 0, "status: %s", modbus_strerror(errno));
-    CHECK(st[IT2N_REG_STATE] == IT2N_RS_SOLVED, "state %u", st[IT2N_REG_STATE]);
-    CHECK(st[IT2N_REG_N] == m.n && st[IT2N_REG_M] == m.m, "degrees");
-    order = st[IT2N_REG_WORD_ORDER];
-    order32 = st[IT2N_REG_INT32_ORDER];
-    scale = st[IT2N_REG_COORD_SCALE];
+    CHECK(read_regs(ctx, 0, IT2N_REGMAP_REG_STATUS_END, st) == 0, "status: %s", modbus_strerror(errno));
+    CHECK(st[IT2N_REGMAP_REG_STATE] == IT2N_REGMAP_STATE_SOLVED, "state %u", st[IT2N_REGMAP_REG_STATE]);
+    CHECK(st[IT2N_REGMAP_REG_N] == m.n && st[IT2N_REGMAP_REG_M] == m.m, "degrees");
+    order = st[IT2N_REGMAP_REG_WORD_ORDER];
+    order32 = st[IT2N_REGMAP_REG_INT32_ORDER];
+    scale = st[IT2N_REGMAP_REG_COORD_SCALE];
     for (int a = 0; a < steps; a++)
         for (int b = 0; b < steps; b++) {
             unsigned u4 = (unsigned)(a * 10000 / (steps - 1)), w4 = (unsigned)(b * 10000 / (steps - 1));
@@ -175,9 +175,9 @@ static int cmd_verify(const char *csv, int steps)
             points++;
         }
     /* Sample grid block. */
-    unsigned rows = st[IT2N_REG_GRID_ROWS], cols = st[IT2N_REG_GRID_COLS];
+    unsigned rows = st[IT2N_REGMAP_REG_GRID_ROWS], cols = st[IT2N_REGMAP_REG_GRID_COLS];
     static uint16_t grid[3 * 256];
-    CHECK(read_regs(ctx, IT2N_REG_GRID, (int)(rows * cols * 3), grid) == 0, "grid read");
+    CHECK(read_regs(ctx, IT2N_REGMAP_REG_GRID, (int)(rows * cols * 3), grid) == 0, "grid read");
     for (unsigned r = 0; r < rows; r++)
         for (unsigned c = 0; c < cols; c++) {
             it2n_point pt;
@@ -194,7 +194,7 @@ static int cmd_verify(const char *csv, int steps)
         }
     /* Float32 view of the same grid. */
     static uint16_t gridf[6 * 256];
-    CHECK(read_regs(ctx, IT2N_REG_GRID_F32, (int)(rows * cols * 6), gridf) == 0, "grid f32 read");
+    CHECK(read_regs(ctx, IT2N_REGMAP_REG_GRID_F32, (int)(rows * cols * 6), gridf) == 0, "grid f32 read");
     for (unsigned r = 0; r < rows; r++)
         for (unsigned c = 0; c < cols; c++) {
             it2n_point pt;
@@ -206,8 +206,8 @@ static int cmd_verify(const char *csv, int steps)
             }
         }
     /* Control nets, footprint by footprint. */
-    static uint16_t net[IT2N_REG_CTRL_END - IT2N_REG_CTRL];
-    CHECK(read_regs(ctx, IT2N_REG_CTRL, (int)(IT2N_REG_CTRL_END - IT2N_REG_CTRL), net) == 0, "ctrl read");
+    static uint16_t net[IT2N_REGMAP_REG_CTRL_END - IT2N_REGMAP_REG_CTRL];
+    CHECK(read_regs(ctx, IT2N_REGMAP_REG_CTRL, (int)(IT2N_REGMAP_REG_CTRL_END - IT2N_REGMAP_REG_CTRL), net) == 0, "ctrl read");
     for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++)
         for (unsigned i = 0; i <= m.n; i++)
             for (unsigned j = 0; j <= m.m; j++)
@@ -235,16 +235,16 @@ static int cmd_upload(const char *csv, int commit, const char *logpath)
     FILE *log = logpath ? fopen(logpath, "w") : NULL;
     static it2n_dataset ds;
     modbus_t *ctx = connect_ctx();
-    uint16_t cfg[3], st[IT2N_REG_STATUS_END];
+    uint16_t cfg[3], st[IT2N_REGMAP_REG_STATUS_END];
     int sent = 0;
     sim_load_csv(csv, 0, &ds);
-    CHECK(read_regs(ctx, 0, IT2N_REG_STATUS_END, st) == 0, "status");
-    scale = st[IT2N_REG_COORD_SCALE];
-    order32 = st[IT2N_REG_INT32_ORDER];
+    CHECK(read_regs(ctx, 0, IT2N_REGMAP_REG_STATUS_END, st) == 0, "status");
+    scale = st[IT2N_REGMAP_REG_COORD_SCALE];
+    order32 = st[IT2N_REGMAP_REG_INT32_ORDER];
     cfg[0] = ds.n;
     cfg[1] = ds.m;
     cfg[2] = ds.flags;
-    CHECK(modbus_write_registers(ctx, IT2N_REG_CFG_N, 3, cfg) == 3, "configure: %s", modbus_strerror(errno));
+    CHECK(modbus_write_registers(ctx, IT2N_REGMAP_REG_CFG_N, 3, cfg) == 3, "configure: %s", modbus_strerror(errno));
     for (unsigned i = 0; i <= ds.n; i++)
         for (unsigned j = 0; j <= ds.m; j++)
             for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
@@ -258,7 +258,7 @@ static int cmd_upload(const char *csv, int commit, const char *logpath)
                     put_i32(&r[3 + 2 * c], (int32_t)scaled(it2n_dataset_value(&ds, i, j, fp, c), scale, INT32_MAX));
                 for (int k = 0; k < 3; k++)
                     r[9 + k] = (uint16_t)scaled(it2n_dataset_value(&ds, i, j, fp, 3 + k), 10000, 10000);
-                int rc = modbus_write_registers(ctx, IT2N_REG_UP_I, 12, r);
+                int rc = modbus_write_registers(ctx, IT2N_REGMAP_REG_UP_I, 12, r);
                 if (log && rc != 12) { /* daemon killed under us: stop */
                     fclose(log);
                     printf("plc: upload stopped after %d acknowledged points\n", sent);
@@ -272,14 +272,14 @@ static int cmd_upload(const char *csv, int commit, const char *logpath)
                 }
             }
     if (commit) {
-        uint16_t one = IT2N_CMD_COMMIT;
-        CHECK(modbus_write_register(ctx, IT2N_REG_COMMAND, one) == 1, "commit: %s", modbus_strerror(errno));
+        uint16_t one = IT2N_REGMAP_CMD_COMMIT;
+        CHECK(modbus_write_register(ctx, IT2N_REGMAP_REG_COMMAND, one) == 1, "commit: %s", modbus_strerror(errno));
     }
-    CHECK(read_regs(ctx, 0, IT2N_REG_STATUS_END, st) == 0, "status");
+    CHECK(read_regs(ctx, 0, IT2N_REGMAP_REG_STATUS_END, st) == 0, "status");
     if (log)
         fclose(log);
-    printf("plc: upload %s: %d points, state %u, generation %u\n", csv, sent, st[IT2N_REG_STATE],
-           (unsigned)get32(&st[IT2N_REG_GENERATION], order32));
+    printf("plc: upload %s: %d points, state %u, generation %u\n", csv, sent, st[IT2N_REGMAP_REG_STATE],
+           (unsigned)get32(&st[IT2N_REGMAP_REG_GENERATION], order32));
     modbus_close(ctx);
     modbus_free(ctx);
     return failures ? 1 : 0;
@@ -303,19 +303,19 @@ static int raw(modbus_t *ctx, const uint8_t *pdu, int len)
 static int cmd_exceptions(void)
 {
     modbus_t *ctx = connect_ctx();
-    uint16_t before[IT2N_REG_QUERY_END - IT2N_REG_Q_U16], after[IT2N_REG_QUERY_END - IT2N_REG_Q_U16];
-    uint16_t st0[IT2N_REG_STATUS_END], st1[IT2N_REG_STATUS_END], cfg0[4], cfg1[4];
+    uint16_t before[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16], after[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16];
+    uint16_t st0[IT2N_REGMAP_REG_STATUS_END], st1[IT2N_REGMAP_REG_STATUS_END], cfg0[4], cfg1[4];
     uint16_t good[2] = { 2500, 7500 };
-    CHECK(modbus_write_registers(ctx, IT2N_REG_Q_U16, 2, good) == 2, "query write");
-    read_regs(ctx, IT2N_REG_Q_U16, IT2N_REG_QUERY_END - IT2N_REG_Q_U16, before);
-    read_regs(ctx, 0, IT2N_REG_STATUS_END, st0);
-    read_regs(ctx, IT2N_REG_CFG_N, 4, cfg0);
+    CHECK(modbus_write_registers(ctx, IT2N_REGMAP_REG_Q_U16, 2, good) == 2, "query write");
+    read_regs(ctx, IT2N_REGMAP_REG_Q_U16, IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16, before);
+    read_regs(ctx, 0, IT2N_REGMAP_REG_STATUS_END, st0);
+    read_regs(ctx, IT2N_REGMAP_REG_CFG_N, 4, cfg0);
     struct {
         const char *what;
         uint8_t pdu[32];
         int len, code;
     } t[] = {
-        { "read gap after configuration", { 3, 0, IT2N_REG_CONFIG_END, 0, 1 }, 5, 2 },
+        { "read gap after configuration", { 3, 0, IT2N_REGMAP_REG_CONFIG_END, 0, 1 }, 5, 2 },
         { "read past end", { 3, 0x1D, 0x00, 0, 1 }, 5, 2 },
         { "read spans blocks", { 3, 0, 24, 0, 10 }, 5, 2 },
         { "FC04 count 0", { 4, 0, 0, 0, 0 }, 5, 3 },
@@ -335,18 +335,18 @@ static int cmd_exceptions(void)
         { "upload i > n", { 16, 0, 40, 0, 12, 24, 0, 9, 0, 0, 0, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
                             0, 0, 0, 0, 0, 0 }, 30, 3 },
         { "FC16 byte count wrong", { 16, 0, 64, 0, 1, 4, 0, 1, 0, 1 }, 10, 3 },
-        { "FC23 read outside map", { 23, 0, IT2N_REG_CONFIG_END, 0, 1, 0, 64, 0, 1, 2, 0, 1 }, 12, 2 },
+        { "FC23 read outside map", { 23, 0, IT2N_REGMAP_REG_CONFIG_END, 0, 1, 0, 64, 0, 1, 2, 0, 1 }, 12, 2 },
     };
     for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
         int code = raw(ctx, t[k].pdu, t[k].len);
         CHECK(code == t[k].code, "%s: exception %d, want %d", t[k].what, code, t[k].code);
     }
-    read_regs(ctx, IT2N_REG_Q_U16, IT2N_REG_QUERY_END - IT2N_REG_Q_U16, after);
-    read_regs(ctx, 0, IT2N_REG_STATUS_END, st1);
-    read_regs(ctx, IT2N_REG_CFG_N, 4, cfg1);
+    read_regs(ctx, IT2N_REGMAP_REG_Q_U16, IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16, after);
+    read_regs(ctx, 0, IT2N_REGMAP_REG_STATUS_END, st1);
+    read_regs(ctx, IT2N_REGMAP_REG_CFG_N, 4, cfg1);
     CHECK(!memcmp(before, after, sizeof before), "rejected query writes changed the query");
     CHECK(!memcmp(cfg0, cfg1, sizeof cfg0), "rejected config writes changed the configuration");
-    CHECK(!memcmp(&st0[IT2N_REG_STATE], &st1[IT2N_REG_STATE], (IT2N_REG_LAST_ERR - IT2N_REG_STATE) * 2),
+    CHECK(!memcmp(&st0[IT2N_REGMAP_REG_STATE], &st1[IT2N_REGMAP_REG_STATE], (IT2N_REGMAP_REG_LAST_ERR - IT2N_REGMAP_REG_STATE) * 2),
           "rejected writes changed the model state / generation");
     modbus_close(ctx);
     modbus_free(ctx);
@@ -380,14 +380,14 @@ static int cmd_concurrent(int n, const char *csv)
     for (int round = 0; round < 5; round++) {
         for (int k = 0; k < n; k++) {
             uint16_t in[2] = { (uint16_t)((k * 997 + round * 131) % 10001), (uint16_t)((k * 389 + round * 733) % 10001) };
-            CHECK(modbus_write_registers(ctx[k], IT2N_REG_Q_U16, 2, in) == 2, "write %d", k);
+            CHECK(modbus_write_registers(ctx[k], IT2N_REGMAP_REG_Q_U16, 2, in) == 2, "write %d", k);
         }
         for (int k = n - 1; k >= 0; k--) {
             unsigned u4 = (unsigned)((k * 997 + round * 131) % 10001), w4 = (unsigned)((k * 389 + round * 733) % 10001);
             it2n_point pt;
             char what[64];
-            CHECK(read_regs(ctx[k], IT2N_REG_RES_F32, IT2N_REG_SUM_F32 + 24 - IT2N_REG_RES_F32, rf) == 0, "read");
-            CHECK(read_regs(ctx[k], IT2N_REG_RES_SCALED, IT2N_REG_RESULTS_END - IT2N_REG_RES_SCALED, rs) == 0, "read");
+            CHECK(read_regs(ctx[k], IT2N_REGMAP_REG_RES_F32, IT2N_REGMAP_REG_SUM_F32 + 24 - IT2N_REGMAP_REG_RES_F32, rf) == 0, "read");
+            CHECK(read_regs(ctx[k], IT2N_REGMAP_REG_RES_SCALED, IT2N_REGMAP_REG_RESULTS_END - IT2N_REGMAP_REG_RES_SCALED, rs) == 0, "read");
             it2n_eval(&m, (it2n_par)(((i128)u4 * IT2N_PAR_ONE + 5000) / 10000),
                       (it2n_par)(((i128)w4 * IT2N_PAR_ONE + 5000) / 10000), &pt, NULL);
             snprintf(what, sizeof what, "conn %d round %d", k, round);
@@ -448,12 +448,12 @@ static int cmd_wait_gen(unsigned long gen, int ms)
 {
     for (int t = 0; t <= ms; t += 50) {
         modbus_t *ctx = connect_ctx();
-        uint16_t r[IT2N_REG_STATUS_END];
-        int ok = modbus_read_registers(ctx, 0, IT2N_REG_STATUS_END, r) == IT2N_REG_STATUS_END;
-        order32 = ok ? r[IT2N_REG_INT32_ORDER] : 0;
+        uint16_t r[IT2N_REGMAP_REG_STATUS_END];
+        int ok = modbus_read_registers(ctx, 0, IT2N_REGMAP_REG_STATUS_END, r) == IT2N_REGMAP_REG_STATUS_END;
+        order32 = ok ? r[IT2N_REGMAP_REG_INT32_ORDER] : 0;
         modbus_close(ctx);
         modbus_free(ctx);
-        if (ok && get32(&r[IT2N_REG_GENERATION], order32) >= gen)
+        if (ok && get32(&r[IT2N_REGMAP_REG_GENERATION], order32) >= gen)
             return 0;
         usleep(50000);
     }

@@ -13,8 +13,8 @@
 /* Load a data set CSV; exits with a message on error. */
 static inline void sim_load_csv(const char *path, unsigned flags, it2n_dataset *ds)
 {
-    static csv_reader p;
-    csv_error e;
+    static cli_csv_reader p;
+    cli_csv_error e;
     char buf[4096], msg[256];
     size_t n;
     FILE *f = fopen(path, "r");
@@ -22,12 +22,12 @@ static inline void sim_load_csv(const char *path, unsigned flags, it2n_dataset *
         perror(path);
         exit(2);
     }
-    csv_init(&p, flags);
+    cli_csv_init(&p, flags);
     while ((n = fread(buf, 1, sizeof buf, f)) > 0)
-        csv_feed(&p, buf, n, &e);
+        cli_csv_feed(&p, buf, n, &e);
     fclose(f);
-    if (csv_finish(&p, ds, &e) != IT2N_OK) {
-        csv_message(&e, path, msg, sizeof msg);
+    if (cli_csv_finish(&p, ds, &e) != IT2N_OK) {
+        cli_csv_message(&e, path, msg, sizeof msg);
         fprintf(stderr, "%s\n", msg);
         exit(2);
     }
