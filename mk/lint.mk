@@ -5,6 +5,9 @@
 #   tests/cli/fn_length.py: no front-end function over 100 lines
 #   tests/lint/layers.py: nothing outside daemon/ includes a daemon/ header
 #   or passes -Idaemon (the layers of docs/design.md)
+#   format-check: the product code laid out as .clang-format says
+#   (mk/format.mk; "format-check: skip: ..." without clang-format 14), and
+#   tests/lint/format_test.sh, which shows the check fails on mangled code
 # (clang-tidy is not used.)
 CPPCHECK_FLAGS := --enable=warning,portability,performance --error-exitcode=1 -q \
   --inline-suppr --suppress=missingIncludeSystem -Ifirmware_core -Iprotocol
@@ -21,7 +24,7 @@ LINT_TESTS := cppcheck --std=c11 --enable=warning,portability --error-exitcode=1
   --suppress=missingIncludeSystem -Ifirmware_core -Iprotocol -Iregmap
 
 .PHONY: lint
-lint: ## Static checks: cppcheck over all C code, tests/lint/layers.py
+lint: ## Static checks: cppcheck over all C code, tests/lint/layers.py, format-check
 	$(LINT_C99) -Iregmap firmware_core protocol regmap
 	$(LINT_C99) -Iexamples/instrument -Iexamples/firmware -Itests/qemu examples/firmware
 	$(LINT_C11) -Iregmap -Icli/common -Icli/it2nctl cli daemon
@@ -31,6 +34,8 @@ lint: ## Static checks: cppcheck over all C code, tests/lint/layers.py
 	$(LINT_FUZZD)
 	@# Nothing outside the daemon includes daemon/ headers or passes -Idaemon.
 	/usr/bin/python3 tests/lint/layers.py --make "$(CLI_BIN) $(CTL_BIN) $(GEN_REGISTERS) $(SIM_PLC) $(SIM_INSTR) $(FC23_LOAD) $(FC23_BARE)"
-	@echo "lint: cppcheck clean, layers respected"
+	@mk/format.sh lint $(FORMAT_FILES)
+	@tests/lint/format_test.sh
+	@echo "lint: cppcheck clean, layers respected (format-check: above)"
 
 TEST_TARGETS += lint
