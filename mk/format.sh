@@ -69,15 +69,16 @@ fi
 
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/it2n-format.XXXXXX") || die "cannot create a scratch directory"
 trap 'rm -rf "$tmp"' EXIT
-# Copies under their own paths (absolute ones under abs/).
+# Copy k of FILE is $tmp/k/NAME: the same name (clang-format picks the
+# language by it), whatever path FILE was given by.
 copies=()
+k=0
 for f in "$@"; do
-    case $f in
-    /*) c=$tmp/abs$f ;;
-    *) c=$tmp/rel/$f ;;
-    esac
-    mkdir -p "$(dirname "$c")" && cp "$f" "$c" || die "cannot copy $f to $tmp"
+    c=$tmp/$k/$(basename "$f")
+    mkdir -p "$tmp/$k" || die "cannot create $tmp/$k"
+    cp "$f" "$c" || die "cannot copy $f to $tmp"
     copies+=("$c")
+    k=$((k + 1))
 done
 "$cf" --style=file:"$style" -i "${copies[@]}" || die "$cf failed on the files above"
 
