@@ -75,6 +75,7 @@ include daemon/daemon.mk
 include tests/tests.mk
 include mk/cross.mk
 include mk/lint.mk
+include mk/format.mk
 include mk/install.mk
 
 .PHONY: all run test bench fuzz cross size install clean deps help

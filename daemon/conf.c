@@ -68,7 +68,9 @@ struct parse {
     struct origin model[CONF_MAX_MODELS], rtu[CONF_MAX_RTU], link[CONF_MAX_LINKS], listen[CONF_MAX_LISTEN];
     /* Every (section, key) set so far, for duplicate keys (heap, freed
      * with the parse). */
+    /* clang-format off */
     struct seen_key { char sec[64], key[64]; int line; } *seen;
+    /* clang-format on */
     int nseen, cap_seen;
 };
 

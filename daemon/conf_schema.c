@@ -18,6 +18,7 @@
 #define STR_(x) #x
 #define STR(x) STR_(x)
 
+/* clang-format off */
 static const struct conf_word w_order[] = {
     { "ABCD", IT2N_REGMAP_WO_ABCD, 0 }, { "CDAB", IT2N_REGMAP_WO_CDAB, 0 }, { "BADC", IT2N_REGMAP_WO_BADC, 0 }, { "DCBA", IT2N_REGMAP_WO_DCBA, 0 },
     { NULL, 0, 0 }
@@ -305,6 +306,7 @@ static const struct conf_section sections[] = {
       "a section with no keys has no effect; remove it or add keys", 0, KEYS(k_metrics) },
 };
 #define NSECTIONS ((int)(sizeof sections / sizeof sections[0]))
+/* clang-format on */
 
 const struct conf_section *conf_schema_sections(int *n)
 {
@@ -521,11 +523,13 @@ void conf_schema_expect(const struct conf_key *k, char *buf, size_t size)
 /* What a value of k looks like, for the reference. */
 static void type_text(const struct conf_key *k, char *buf, size_t size)
 {
+    /* clang-format off */
     static const char *const names[] = {
         [CONF_T_STR] = "text", [CONF_T_PATH] = "path", [CONF_T_FILE] = "file (readable)",
         [CONF_T_SECRET] = "file", [CONF_T_USER] = "user name", [CONF_T_LISTEN] = "host:port or none",
         [CONF_T_ADDR] = "host:port", [CONF_T_ENDPOINT] = "host:port or none", [CONF_T_ALLOW] = "addresses/prefixes",
         [CONF_T_USB] = "VID:PID[:serial]", [CONF_T_BROKER] = "host[:port]", [CONF_T_SPB_ID] = "topic level",
+    /* clang-format on */
     };
     buf[0] = 0;
     switch (k->type) {

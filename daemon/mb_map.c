@@ -28,7 +28,9 @@ _Static_assert(IT2N_REGMAP_REG_SUM_F32 - IT2N_REGMAP_REG_RES_F32 == 2 * IT2N_FP_
                    offsetof(it2n_summary, lower_max) == 9 * sizeof(it2n_val),
                "results_f32 is it2n_point's v then sum, in sum_value order");
 
+/* clang-format off */
 #define QIDX(a) ((a) - IT2N_REGMAP_REG_Q_U16)
+/* clang-format on */
 
 /* u32/i32 registers follow int32_word_order ([modbus]; by default the
  * float order, so a CDAB PLC sees CDAB everywhere). */
@@ -476,7 +478,9 @@ static int write_upload(struct model *md, const struct mb_map_opts *o, unsigned 
     int rc;
     if (addr != IT2N_REGMAP_REG_UP_I || count != IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I)
         return refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_INVAL, -1, -1, -1);
+/* clang-format off */
 #define UP(a) v[(a) - IT2N_REGMAP_REG_UP_I]
+    /* clang-format on */
     unsigned i = UP(IT2N_REGMAP_REG_UP_I), j = UP(IT2N_REGMAP_REG_UP_J), fp = UP(IT2N_REGMAP_REG_UP_FP);
     if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT)
         return refused(md, MB_MAP_ILLEGAL_VALUE, IT2N_ERR_INVAL, i > 0x7FFF ? -1 : (int)i, j > 0x7FFF ? -1 : (int)j,

@@ -466,9 +466,11 @@ int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
  */
 
 /* Footprints stored per grid point: 1 for type-1 (D only), else 7. */
+/* clang-format off */
 #define IT2N_BSPLINE_NFP(flags) (((flags) & IT2N_F_TYPE1) ? 1u : 7u)
 /* Channels stored per footprint in a model: 6 with z, else 5. */
 #define IT2N_BSPLINE_NCH(flags) (((flags) & IT2N_F_Z) ? 6u : 5u)
+/* clang-format on */
 /* Records a data set of n x m intervals needs. */
 #define IT2N_BSPLINE_DATA_RECS(n, m, flags)                                  \
     ((size_t)((n) + 1u) * ((m) + 1u) * IT2N_BSPLINE_NFP(flags))

@@ -156,6 +156,7 @@ typedef struct window_ctx {
     uint32_t count;       /* 32: nets left                      */
 } window_ctx;
 
+/* clang-format off */
 #define IT2N__ASM_COL(first, off)                                             \
     "ldr   %[t], [%[p0], %[sw], lsl #2]\n\t"                                  \
     "smull %[ql], %[qh], %[t], %[u1]\n\t"                                     \
@@ -171,6 +172,7 @@ typedef struct window_ctx {
     "orr   %[ql], %[ql], %[qh], lsl #2\n\t"                                   \
     "ldr   %[t], [%[cx], #" off "]\n\t"                                       \
     first " %[al], %[ah], %[t], %[ql]\n\t"
+/* clang-format on */
 
 static void window_run(const int32_t *win, size_t size, unsigned stride,
                        const int32_t bu[4], const int32_t bw[4],
@@ -189,6 +191,7 @@ static void window_run(const int32_t *win, size_t size, unsigned stride,
     ctx.frac = frac;
     ctx.out = out;
     ctx.count = count;
+    /* clang-format off */
     __asm__ volatile(
         "1:\n\t"
         "ldr   %[p0], [%[cx], #16]\n\t"
@@ -234,6 +237,7 @@ static void window_run(const int32_t *win, size_t size, unsigned stride,
         : [sw] "r"(stride), [u0] "r"(bu[0]), [u1] "r"(bu[1]), [u2] "r"(bu[2]),
           [u3] "r"(bu[3]), [cx] "r"(cx), [bias] "i"(30 - IT2N_VAL_FRAC - 1)
         : "cc", "memory");
+    /* clang-format on */
 }
 #undef IT2N__ASM_COL
 
@@ -274,6 +278,7 @@ IT2N_STATIC_ASSERT(offsetof(t1_ctx, bu) == 16 && offsetof(t1_ctx, adv) == 32 &&
 /* win: D's x window; v: &out->v[0][0]. */
 void it2n__bspline_t1_v7m(const int32_t *win, const t1_ctx *cx, it2n_val *v);
 
+/* clang-format off */
 __asm__(
     ".syntax unified\n\t"
     ".section .text.it2n__bspline_t1_v7m,\"ax\",%progbits\n\t"
@@ -391,6 +396,7 @@ __asm__(
     ".purgem it2n__t1col\n\t"
     ".size it2n__bspline_t1_v7m, . - it2n__bspline_t1_v7m\n\t"
     ".text\n");
+/* clang-format on */
 #else
 /* The two stages written out: the same sums as stage1 and stage2. */
 IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0,

@@ -22,10 +22,12 @@
 
 /* The basis recurrence's product: one copy of the multiply on ARMv6-M (a
  * handful of calls per evaluation, flash matters more there). */
+/* clang-format off */
 #if IT2N_MUL_HALVES
 __attribute__((noinline))
 #endif
 static uint64_t q30mul(uint32_t a, uint32_t b)
+/* clang-format on */
 {
     return it2n_umul32(a, b);
 }
@@ -76,6 +78,7 @@ void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
 #ifdef IT2N_BASIS30_K
     /* Only the degrees this build holds (IT2N_MAX_DEGREE): a constant
      * beyond them would index past the arrays. */
+    /* clang-format off */
     switch (deg) {
     IT2N_BASIS30_K(1);
 #if IT2N_MAX_DEGREE >= 2
@@ -100,6 +103,7 @@ void it2n__basis30(unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
         basis30(deg, t, b);
         break;
     }
+    /* clang-format on */
 #else
     basis30(deg, t, b);
 #endif
@@ -177,6 +181,7 @@ TWO_STAGES_LINKAGE int64_t two_stages(const int32_t *net, unsigned n1, unsigned 
 static int64_t two_stages_host(const int32_t *net, unsigned n1, unsigned m1,
                                const int32_t *cu, const int32_t *cw, int s1)
 {
+    /* clang-format off */
     switch (n1) {
     IT2N_TWO_STAGES_K(2);
     IT2N_TWO_STAGES_K(3);
@@ -189,6 +194,7 @@ static int64_t two_stages_host(const int32_t *net, unsigned n1, unsigned m1,
         return s1 == 30 ? two_stages(net, n1, m1, cu, cw, 30)
                         : two_stages(net, n1, m1, cu, cw, 31);
     }
+    /* clang-format on */
 }
 #define IT2N_TWO_STAGES_HOST 1
 #endif
@@ -469,6 +475,7 @@ static void apply_values_sse2(const it2n_model *mdl, unsigned fpmask,
         wo[b] = _mm_set_epi64x(c[3], c[1]);
     }
     /* Row counts this build holds only (IT2N_DIM), as it2n__basis30. */
+    /* clang-format off */
     switch (n1) {
     IT2N_VALUES_SSE2_K(2);
 #if IT2N_MAX_DEGREE >= 2
@@ -493,6 +500,7 @@ static void apply_values_sse2(const it2n_model *mdl, unsigned fpmask,
         values_sse2(mdl, fpmask, n1, m1, vu, we, wo, out);
         break;
     }
+    /* clang-format on */
 }
 
 /* The values of every net in fpmask (basis bu, bw: Q30, summing to 2^30)

@@ -3,7 +3,7 @@
 # what is missing with apt-get, otherwise it names the packages and fails.
 DEB_PACKAGES := gcc make pkg-config valgrind libcmocka-dev libmodbus-dev libinih-dev \
   libusb-1.0-0-dev umockdev libumockdev-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
-  qemu-system-arm mbpoll python3 python3-pymodbus python3-serial-asyncio cppcheck clang libclang-rt-14-dev \
+  qemu-system-arm mbpoll python3 python3-pymodbus python3-serial-asyncio cppcheck clang clang-format libclang-rt-14-dev \
   systemd gnuplot-nox libmicrohttpd-dev prometheus \
   libmosquitto-dev libprotobuf-c-dev protobuf-c-compiler libssl-dev mosquitto python3-paho-mqtt openssl
 

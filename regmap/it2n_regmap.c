@@ -4,6 +4,7 @@
  */
 #include "it2n_regmap.h"
 
+/* clang-format off */
 #define F1(a, t, s, n, u, d) { (a), 1u, 0u, (t), (s), (n), (u), (d) }
 #define FN(a, c, st, t, s, n, u, d) { (a), (c), (st), (t), (s), (n), (u), (d) }
 #define NF(x) (sizeof(x) / sizeof((x)[0]))
@@ -212,6 +213,7 @@ const it2n_regmap_block it2n_regmap_blocks[] = {
       "The sample grid again, float32 view (same nodes and refresh as sample_grid). "
       "Answers 06 while the model is not solved.", grid_f32_fields, NF(grid_f32_fields) },
 };
+/* clang-format on */
 
 const size_t it2n_regmap_nblocks = NF(it2n_regmap_blocks);
 

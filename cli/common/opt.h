@@ -43,7 +43,9 @@ typedef struct cli_optset {
     size_t count;
 } cli_optset;
 
+/* clang-format off */
 #define CLI_OPTSET(tab) {(tab), sizeof(tab) / sizeof((tab)[0])}
+/* clang-format on */
 
 /* Most tables a parser takes; bits of `seen` per option id. */
 #define CLI_OPT_MAX_SETS 4

@@ -76,6 +76,7 @@ void fw_fault_handler(void)
 typedef void (*fw_vector)(void);
 
 /* Exceptions 0..15, then external IRQ 0 (UART0 RX) .. 15. */
+/* clang-format off */
 __attribute__((section(".vectors"), used))
 const fw_vector fw_vector_table[32] = {
     (fw_vector)(uintptr_t)__stack_top,
@@ -97,3 +98,4 @@ const fw_vector fw_vector_table[32] = {
     fw_fault_handler, fw_fault_handler, fw_fault_handler, fw_fault_handler,
     fw_fault_handler, fw_fault_handler, fw_fault_handler,
 };
+/* clang-format on */
