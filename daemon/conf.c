@@ -25,7 +25,7 @@
  * key and the line of each of its keys (0: not in the file), indexed as
  * the section's keys in the schema. */
 struct origin {
-    int first_line;           /* its first key */
+    int first_line; /* its first key */
     char first_key[CONF_NAME];
     int line[CONF_SCHEMA_MAX_KEYS];
 };
@@ -36,21 +36,21 @@ struct origin {
 
 struct parse {
     struct conf c;
-    int listen_set;      /* first tcp_listen replaces the default */
-    int models_set;      /* first [model:N] replaces the default */
+    int listen_set; /* first tcp_listen replaces the default */
+    int models_set; /* first [model:N] replaces the default */
     char err[256];
-    char sec[64], key[64];  /* where the first error was raised */
+    char sec[64], key[64];     /* where the first error was raised */
     char value[CONF_LINE_CAP]; /* the value refused, for "did you mean" */
     const struct conf_key *err_key;
     int err_line, syntax;
     /* Lines are counted here (the reader), not by libinih, so a message
      * always names the physical line. */
-    const char *text;         /* the whole file, read by read_conf     */
+    const char *text; /* the whole file, read by read_conf     */
     size_t len, pos;
     char *lbuf;
     size_t lcap;
     int line, bad_line, maxline;
-    int nkeys;                /* keys in the whole file                 */
+    int nkeys; /* keys in the whole file                 */
     /* The first line that is neither blank, a comment, a header nor a
      * "key = value" (libinih calls it a syntax error, without saying why). */
     int noeq_line;
@@ -60,7 +60,7 @@ struct parse {
      * of it was seen (an empty section is an error: its keys are missing). */
     int sec_line, sec_keys;
     char sec_name[CONF_LINE_CAP]; /* whole: reader() refuses longer lines */
-    int empty_line;           /* first empty section's header line     */
+    int empty_line;               /* first empty section's header line     */
     char empty_name[CONF_LINE_CAP];
     /* Origins: one per section of a single kind (by enum conf_sec), one
      * per instance of the named kinds. */
@@ -87,7 +87,7 @@ static int duplicate_key(struct parse *p, const char *section, const char *name)
         int cap = p->cap_seen ? 2 * p->cap_seen : 64;
         struct seen_key *s = realloc(p->seen, (size_t)cap * sizeof *s);
         if (!s)
-            return 0;  /* no memory: the check is skipped, nothing breaks */
+            return 0; /* no memory: the check is skipped, nothing breaks */
         p->seen = s;
         p->cap_seen = cap;
     }
@@ -135,7 +135,7 @@ static int parse_listen(const char *v, struct conf_listen *l)
     if (conf_schema_int(colon + 1, 0, 65535, &port))
         return -1;
     if (port == 0)
-        return -2;  /* the kernel would pick a port no client knows */
+        return -2; /* the kernel would pick a port no client knows */
     snprintf(l->port, sizeof l->port, "%d", port);
     return 0;
 }
@@ -154,8 +154,17 @@ static int parse_usb(const char *v, struct conf_link *l)
     return v[used] ? -1 : 0;
 }
 
-#define FAIL(...) do { snprintf(p->err, sizeof p->err, __VA_ARGS__); p->err_line = p->line; return 0; } while (0)
-#define WHY(...) do { snprintf(why, whysize, __VA_ARGS__); return -1; } while (0)
+#define FAIL(...)                                     \
+    do {                                              \
+        snprintf(p->err, sizeof p->err, __VA_ARGS__); \
+        p->err_line = p->line;                        \
+        return 0;                                     \
+    } while (0)
+#define WHY(...)                             \
+    do {                                     \
+        snprintf(why, whysize, __VA_ARGS__); \
+        return -1;                           \
+    } while (0)
 #define PORT0_WHY "port 0: expected a port 1..65535 (0 would be a random port no client knows)"
 
 /* The values of the compound types (a listener, an allow-list, ...) into
@@ -250,10 +259,8 @@ static int set_compound(struct parse *p, void *base, const struct conf_key *k, c
         if (spb_conf_parse_broker(base, v))
             WHY("expected host:port, [v6addr]:port or host (port 1883)");
         return 0;
-    case CONF_T_SECRET:
-        return spb_conf_read_password(base, v, why, whysize);
-    default:
-        WHY("(no parser for this key's type)");
+    case CONF_T_SECRET: return spb_conf_read_password(base, v, why, whysize);
+    default: WHY("(no parser for this key's type)");
     }
 }
 
@@ -289,7 +296,8 @@ static int set_value(struct parse *p, int dflt, const struct conf_section *s, vo
     case CONF_T_SPB_ID:
         if (k->type == CONF_T_SPB_ID ? !spb_conf_valid_id(v) : copy_str(at, k->size, v))
             WHY(k->type == CONF_T_SPB_ID ? "expected 1..%zu printable ASCII characters without '/', '+', '#' or blanks"
-                                         : "expected 1..%zu characters", k->size - 1);
+                                         : "expected 1..%zu characters",
+                k->size - 1);
         snprintf(at, k->size, "%s", v);
         break;
     case CONF_T_PATH:
@@ -353,7 +361,8 @@ static int key_line(const struct origin *o, enum conf_sec id, const char *name)
 }
 
 _Static_assert(offsetof(struct conf_listen, name) == 0 && offsetof(struct conf_rtu, name) == 0 &&
-               offsetof(struct conf_link, name) == 0, "named() finds an instance by the name it starts with");
+                   offsetof(struct conf_link, name) == 0,
+               "named() finds an instance by the name it starts with");
 
 /* Index of the named instance `name` in names[0..*n) (a stride of `size`
  * bytes), created with its defaults if new; -1 with p->err when full. */
@@ -452,12 +461,8 @@ static void *instance(struct parse *p, const struct conf_section *s, const char 
         spb_opened(&c->spb, p->line, p->key);
         *o = &p->single[s->id];
         return &c->spb;
-    case CONF_SEC_METRICS:
-        *o = &p->single[s->id];
-        return &c->metrics;
-    default: /* [daemon], [modbus]: fields of struct conf itself */
-        *o = &p->single[s->id];
-        return c;
+    case CONF_SEC_METRICS: *o = &p->single[s->id]; return &c->metrics;
+    default: /* [daemon], [modbus]: fields of struct conf itself */ *o = &p->single[s->id]; return c;
     }
 }
 
@@ -471,11 +476,11 @@ static int handler(void *user, const char *section, const char *name, const char
     char why[200];
     void *base;
     int idx = 0;
-    if (!name)  /* section start without keys (INI_CALL_HANDLER_ON_NEW_SECTION) */
+    if (!name) /* section start without keys (INI_CALL_HANDLER_ON_NEW_SECTION) */
         return 1;
-    if (p->err[0])  /* libinih goes on after an error: keep the first */
+    if (p->err[0]) /* libinih goes on after an error: keep the first */
         return 1;
-    if (!name[0]) {  /* " = value": libinih passes an empty name */
+    if (!name[0]) { /* " = value": libinih passes an empty name */
         p->syntax = 1;
         FAIL("key name missing before '='");
     }
@@ -531,20 +536,21 @@ void conf_default(struct conf *c)
 /* Cross-key checks, done after the whole file is read. Each error names
  * the line of a key involved (or, for a missing key, the section's first
  * key): *line and *key are set, err gets "[section] key: reason". */
-#define VFAIL(l, sec, k, ...) do { \
-        *line = (l); \
-        snprintf(key, keysize, "%s", (k)); \
+#define VFAIL(l, sec, k, ...)                  \
+    do {                                       \
+        *line = (l);                           \
+        snprintf(key, keysize, "%s", (k));     \
         snprintf(sect, sectsize, "%s", (sec)); \
-        snprintf(err, errsize, __VA_ARGS__); \
-        return -1; \
+        snprintf(err, errsize, __VA_ARGS__);   \
+        return -1;                             \
     } while (0)
 
 /* [model:ID] sections with removed = yes leave the model list (their
  * unit id is free, they do not count in max_models) for conf.removed, the
  * operator's consent to discard what the state holds for them. Their
  * origins move with the models, so later errors name the right lines. */
-static int split_removed(struct parse *p, int *line, char *sect, size_t sectsize, char *key, size_t keysize,
-                         char *err, size_t errsize)
+static int split_removed(struct parse *p, int *line, char *sect, size_t sectsize, char *key, size_t keysize, char *err,
+                         size_t errsize)
 {
     struct conf *c = &p->c;
     int w = 0, last = -1;
@@ -579,10 +585,10 @@ static int device_refs(const struct conf *c, struct dev_ref *d)
     int n = 0;
     for (int k = 0; k < c->nrtu; k++)
         if (c->rtu[k].device[0])
-            d[n++] = (struct dev_ref){ "rtu", c->rtu[k].name, c->rtu[k].device, c->rtu[k].device_line };
+            d[n++] = (struct dev_ref){"rtu", c->rtu[k].name, c->rtu[k].device, c->rtu[k].device_line};
     for (int k = 0; k < c->nlinks; k++)
         if (c->link[k].type == CONF_LINK_SERIAL && c->link[k].device[0])
-            d[n++] = (struct dev_ref){ "link", c->link[k].name, c->link[k].device, c->link[k].device_line };
+            d[n++] = (struct dev_ref){"link", c->link[k].name, c->link[k].device, c->link[k].device_line};
     return n;
 }
 
@@ -637,8 +643,8 @@ static const char *first_flagged(const struct origin *o, enum conf_sec id, unsig
     return name;
 }
 
-static int validate(const struct parse *p, int *line, char *sect, size_t sectsize, char *key, size_t keysize,
-                    char *err, size_t errsize)
+static int validate(const struct parse *p, int *line, char *sect, size_t sectsize, char *key, size_t keysize, char *err,
+                    size_t errsize)
 {
     const struct conf *c = &p->c;
     const char *req;
@@ -651,7 +657,8 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
         while (k < c->nmodels && c->model[k].id != c->default_model)
             k++;
         if (k == c->nmodels)
-            VFAIL(key_line(dm, CONF_SEC_MODBUS, "default_model"), "modbus", "default_model", "no [model:%d] is configured", c->default_model);
+            VFAIL(key_line(dm, CONF_SEC_MODBUS, "default_model"), "modbus", "default_model",
+                  "no [model:%d] is configured", c->default_model);
     }
     if (c->nmodels > c->max_models) {
         const struct origin *o = &p->model[c->max_models];
@@ -659,12 +666,14 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
         if (max_models_line)
             VFAIL(max_models_line > o->first_line ? max_models_line : o->first_line, "daemon", "max_models",
                   "%d models configured, limit %d", c->nmodels, c->max_models);
-        VFAIL(o->first_line, sec, o->first_key, "model %d of at most max_models = %d (the default; set max_models in [daemon])",
-              c->max_models + 1, c->max_models);
+        VFAIL(o->first_line, sec, o->first_key,
+              "model %d of at most max_models = %d (the default; set max_models in [daemon])", c->max_models + 1,
+              c->max_models);
     }
     if (c->grid_rows * c->grid_cols > (int)IT2N_REGMAP_GRID_MAX_NODES)
-        VFAIL(rows_line > cols_line ? rows_line : cols_line, "modbus", rows_line > cols_line ? "grid_rows" : "grid_cols", "grid_rows x grid_cols = %d x %d exceeds %u nodes", c->grid_rows,
-              c->grid_cols, IT2N_REGMAP_GRID_MAX_NODES);
+        VFAIL(rows_line > cols_line ? rows_line : cols_line, "modbus",
+              rows_line > cols_line ? "grid_rows" : "grid_cols", "grid_rows x grid_cols = %d x %d exceeds %u nodes",
+              c->grid_rows, c->grid_cols, IT2N_REGMAP_GRID_MAX_NODES);
     for (int k = 0; k < c->nmodels; k++) {
         const struct conf_model *m = &c->model[k];
         const struct origin *o = &p->model[k];
@@ -678,8 +687,8 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
                 int other = key_line(&p->model[l], CONF_SEC_MODEL, "unit_id");
                 if (unit_line)
                     VFAIL(unit_line, sec, "unit_id", "%d already used by model %d", m->unit, c->model[l].id);
-                VFAIL(other ? other : o->first_line, sec, other ? "unit_id" : o->first_key, "unit id %d (the model id) already used by model %d",
-                      m->unit, c->model[l].id);
+                VFAIL(other ? other : o->first_line, sec, other ? "unit_id" : o->first_key,
+                      "unit id %d (the model id) already used by model %d", m->unit, c->model[l].id);
             }
         if (m->kind == CONF_KIND_BEZIER && (m->n > IT2N_MAX_DEGREE || m->m > IT2N_MAX_DEGREE)) {
             int ln = key_line(o, CONF_SEC_MODEL, m->n > IT2N_MAX_DEGREE ? "n" : "m");
@@ -705,17 +714,18 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
     for (int k = 0; k < c->nlisten; k++)
         for (int j = 0; j < k; j++)
             if (!strcmp(c->listen[k].host, c->listen[j].host) && !strcmp(c->listen[k].port, c->listen[j].port)) {
-                snprintf(sec, sizeof sec, "%s%s", c->listen[k].name[0] ? "listen:" : "modbus",
-                         c->listen[k].name);
+                snprintf(sec, sizeof sec, "%s%s", c->listen[k].name[0] ? "listen:" : "modbus", c->listen[k].name);
                 VFAIL(c->listen[k].line, sec, c->listen[k].name[0] ? "address" : "tcp_listen",
                       "%s%s%s:%s is already a listener address", strchr(c->listen[k].host, ':') ? "[" : "",
                       c->listen[k].host, strchr(c->listen[k].host, ':') ? "]" : "", c->listen[k].port);
             }
     for (int k = 0; k < c->nlisten && c->metrics.port[0]; k++)
         if (!strcmp(c->listen[k].host, c->metrics.host) && !strcmp(c->listen[k].port, c->metrics.port))
-            VFAIL(c->metrics.line, "metrics", "listen", "%s:%s is also a Modbus listener address (%s%.0d): "
-                  "the metrics endpoint needs a port of its own", c->metrics.host, c->metrics.port,
-                  c->listen[k].line ? "line " : "the built-in default", c->listen[k].line);
+            VFAIL(c->metrics.line, "metrics", "listen",
+                  "%s:%s is also a Modbus listener address (%s%.0d): "
+                  "the metrics endpoint needs a port of its own",
+                  c->metrics.host, c->metrics.port, c->listen[k].line ? "line " : "the built-in default",
+                  c->listen[k].line);
     for (int k = 0; k < c->nrtu; k++) {
         const struct conf_rtu *r = &c->rtu[k];
         const struct origin *o = &p->rtu[k];
@@ -734,7 +744,8 @@ static int validate(const struct parse *p, int *line, char *sect, size_t sectsiz
         if (r->rts != CONF_RTS_NONE && kern)
             VFAIL(kern_line, sec, kern,
                   "a kernel RS-485 option, but rs485_rts = %s (line %d) has libmodbus switch RTS instead; "
-                  "use one or the other", r->rts == CONF_RTS_UP ? "up" : "down", key_line(o, CONF_SEC_RTU, "rs485_rts"));
+                  "use one or the other",
+                  r->rts == CONF_RTS_UP ? "up" : "down", key_line(o, CONF_SEC_RTU, "rs485_rts"));
     }
     for (int k = 0; k < c->nlinks; k++) {
         const struct conf_link *l = &c->link[k];
@@ -842,7 +853,7 @@ static char *reader(char *str, int num, void *stream)
     p->line++;
     section_start(p, p->lbuf);
     no_equals(p, p->lbuf);
-    p->maxline = num - 2; /* room for the newline and the NUL */
+    p->maxline = num - 2;               /* room for the newline and the NUL */
     if (p->maxline > CONF_LINE_CAP - 1) /* a header's name must fit sec_name */
         p->maxline = CONF_LINE_CAP - 1;
     if (memchr(p->lbuf, 0, n)) {
@@ -862,8 +873,12 @@ static char *reader(char *str, int num, void *stream)
 /* What fstat says a path is, for "not a regular file". */
 static const char *file_kind(mode_t mode)
 {
-    return S_ISDIR(mode) ? "a directory" : S_ISFIFO(mode) ? "a FIFO" : S_ISCHR(mode) ? "a character device" :
-           S_ISBLK(mode) ? "a block device" : S_ISSOCK(mode) ? "a socket" : "not a regular file";
+    return S_ISDIR(mode)    ? "a directory"
+           : S_ISFIFO(mode) ? "a FIFO"
+           : S_ISCHR(mode)  ? "a character device"
+           : S_ISBLK(mode)  ? "a block device"
+           : S_ISSOCK(mode) ? "a socket"
+                            : "not a regular file";
 }
 
 /* Read path whole into a NUL-terminated heap buffer, never blocking and
@@ -922,8 +937,10 @@ static char *read_conf(const char *path, size_t *lenp, char *err, size_t errsize
         len += (size_t)n;
     }
     if (len != (size_t)st.st_size) {
-        snprintf(err, errsize, "%s: changed while it was read (%lld bytes, then %zu%s): it is being rewritten; "
-                 "reload once it is complete", path, (long long)st.st_size, len, len > (size_t)st.st_size ? " or more" : "");
+        snprintf(err, errsize,
+                 "%s: changed while it was read (%lld bytes, then %zu%s): it is being rewritten; "
+                 "reload once it is complete",
+                 path, (long long)st.st_size, len, len > (size_t)st.st_size ? " or more" : "");
         goto fail;
     }
     close(fd);
@@ -984,8 +1001,7 @@ static void suggest(const struct parse *p, char *out, size_t size)
     }
 }
 
-int conf_key(void *base, const char *section, const char *name, const char *value, int line, char *err,
-             size_t errsize)
+int conf_key(void *base, const char *section, const char *name, const char *value, int line, char *err, size_t errsize)
 {
     const struct conf_section *s = conf_schema_section(section);
     const struct conf_key *k = conf_schema_key(s, name, NULL);
@@ -1024,9 +1040,9 @@ int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t e
         if (res)
             freeaddrinfo(res);
         if (rc) {
-            snprintf(err, errsize, "%s:%d: [%s%s] %s: cannot resolve host '%s': %s", path ? path : "built-in",
-                     l->line, l->name[0] ? "listen:" : "modbus", l->name, l->name[0] ? "address" : "tcp_listen",
-                     l->host, rc == EAI_SYSTEM ? strerror(errno) : gai_strerror(rc));
+            snprintf(err, errsize, "%s:%d: [%s%s] %s: cannot resolve host '%s': %s", path ? path : "built-in", l->line,
+                     l->name[0] ? "listen:" : "modbus", l->name, l->name[0] ? "address" : "tcp_listen", l->host,
+                     rc == EAI_SYSTEM ? strerror(errno) : gai_strerror(rc));
             return -1;
         }
     }
@@ -1072,13 +1088,16 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
      * would load as the built-in default, and a file cut mid-line may still
      * parse ("n = 12" cut to "n = 1"); both are refused before parsing. */
     if (len == 0) {
-        snprintf(err, errsize, "%s: empty file (0 bytes): refused, a configuration sets at least one key (for the "
-                 "built-in default run it2nd without -c)", path);
+        snprintf(err, errsize,
+                 "%s: empty file (0 bytes): refused, a configuration sets at least one key (for the "
+                 "built-in default run it2nd without -c)",
+                 path);
         free(text);
         return -1;
     }
     if (text[len - 1] != '\n') {
-        snprintf(err, errsize, "%s:%d: no newline at the end of the last line: the file looks cut short (an "
+        snprintf(err, errsize,
+                 "%s:%d: no newline at the end of the last line: the file looks cut short (an "
                  "unfinished or interrupted rewrite); if it is complete, end it with a newline",
                  path, count_lines(text, len));
         free(text);
@@ -1098,8 +1117,8 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
         snprintf(err, errsize, "%s: out of memory", path);
     } else if (p->empty_line && (!p->err[0] || p->empty_line < p->err_line) && (rc <= 0 || p->empty_line < rc) &&
                (!p->bad_line || p->empty_line < p->bad_line)) {
-        snprintf(err, errsize, "%s:%d: [%s]: empty section: its required keys are missing (%s)", path,
-                 p->empty_line, p->empty_name, empty_needs(p->empty_name));
+        snprintf(err, errsize, "%s:%d: [%s]: empty section: its required keys are missing (%s)", path, p->empty_line,
+                 p->empty_name, empty_needs(p->empty_name));
         rc = 1;
     } else if (p->err[0] && (rc <= 0 || p->err_line <= rc)) {
         /* The first error in the file: ours (a key) before any syntax error. */
@@ -1116,8 +1135,8 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
         snprintf(word, sizeof word, "%.*s", (int)strcspn(p->noeq_text, " \t"), p->noeq_text);
         known = conf_schema_key(conf_schema_section(p->noeq_sec), word, NULL) != NULL;
         snprintf(err, errsize, "%s:%d: [%s] '%s': no '=' in this line: expected key = value%s%s%s", path, rc,
-                 p->noeq_sec[0] ? p->noeq_sec : "(no section)", p->noeq_text, known ? " (" : "",
-                 known ? word : "", known ? " = ...?)" : "");
+                 p->noeq_sec[0] ? p->noeq_sec : "(no section)", p->noeq_text, known ? " (" : "", known ? word : "",
+                 known ? " = ...?)" : "");
     } else if (rc > 0) {
         snprintf(err, errsize, "%s:%d: syntax error", path, rc);
     } else if (p->bad_line) {
@@ -1127,8 +1146,10 @@ int conf_load(struct conf *c, const char *path, char *err, size_t errsize)
             snprintf(err, errsize, "%s:%d: out of memory", path, p->bad_line);
         rc = 1;
     } else if (!p->nkeys) {
-        snprintf(err, errsize, "%s:1: no key in the file (only blank lines and comments): refused, a configuration "
-                 "sets at least one key (for the built-in default run it2nd without -c)", path);
+        snprintf(err, errsize,
+                 "%s:1: no key in the file (only blank lines and comments): refused, a configuration "
+                 "sets at least one key (for the built-in default run it2nd without -c)",
+                 path);
         rc = 1;
     } else if (split_removed(p, &vline, p->sec, sizeof p->sec, p->key, sizeof p->key, p->err, sizeof p->err) ||
                validate(p, &vline, p->sec, sizeof p->sec, p->key, sizeof p->key, p->err, sizeof p->err)) {
@@ -1176,9 +1197,10 @@ int conf_check_devices(const struct conf *c, const char *path, char *err, size_t
         return 0;
     if (!realpath(d[b].device, real))
         snprintf(real, sizeof real, "?");
-    snprintf(err, errsize, "%s:%d: [%s:%s] device: %s is the same device as %s of [%s:%s] (line %d), both %s: "
-             DEV_CONFLICT_WHY, path ? path : "built-in", d[b].line, d[b].kind, d[b].name, d[b].device, d[a].device,
-             d[a].kind, d[a].name, d[a].line, real);
+    snprintf(err, errsize,
+             "%s:%d: [%s:%s] device: %s is the same device as %s of [%s:%s] (line %d), both %s: " DEV_CONFLICT_WHY,
+             path ? path : "built-in", d[b].line, d[b].kind, d[b].name, d[b].device, d[a].device, d[a].kind, d[a].name,
+             d[a].line, real);
     return -1;
 }
 
@@ -1232,7 +1254,8 @@ int conf_apply_override(struct conf *c, const struct conf_override *o, char *err
         rc = parse_listen(o->metrics, &l);
         if (rc) {
             snprintf(err, errsize, "--metrics '%s': %s", o->metrics,
-                     rc == -2 ? "port 0: expected a port 1..65535" : "expected HOST:PORT, [V6ADDR]:PORT, :PORT or none");
+                     rc == -2 ? "port 0: expected a port 1..65535"
+                              : "expected HOST:PORT, [V6ADDR]:PORT, :PORT or none");
             goto fail;
         }
         memcpy(n->metrics.host, l.host, sizeof n->metrics.host);
@@ -1241,8 +1264,10 @@ int conf_apply_override(struct conf *c, const struct conf_override *o, char *err
     }
     for (int k = 0; k < n->nlisten && n->metrics.port[0]; k++)
         if (!strcmp(n->listen[k].host, n->metrics.host) && !strcmp(n->listen[k].port, n->metrics.port)) {
-            snprintf(err, errsize, "%s: the metrics endpoint and a Modbus listener on one address; give --metrics "
-                     "(or [metrics] listen) a port of its own", addr_text(n->metrics.host, n->metrics.port, a, sizeof a));
+            snprintf(err, errsize,
+                     "%s: the metrics endpoint and a Modbus listener on one address; give --metrics "
+                     "(or [metrics] listen) a port of its own",
+                     addr_text(n->metrics.host, n->metrics.port, a, sizeof a));
             goto fail;
         }
     *c = *n;

@@ -21,12 +21,12 @@
 #include "spb_conf.h"
 
 struct conf_listen {
-    char name[CONF_NAME];    /* [listen:NAME]; "" for a tcp_listen line */
+    char name[CONF_NAME]; /* [listen:NAME]; "" for a tcp_listen line */
     char host[64];
     char port[8];
-    int line;                /* config line of the address, 0 built-in */
-    int read_only;           /* 1: no Modbus write may change a model */
-    int nallow;              /* 0: every client address */
+    int line;      /* config line of the address, 0 built-in */
+    int read_only; /* 1: no Modbus write may change a model */
+    int nallow;    /* 0: every client address */
     struct acl_prefix allow[CONF_MAX_ALLOW];
 };
 
@@ -34,41 +34,41 @@ struct conf_rtu {
     char name[CONF_NAME];
     char device[CONF_PATH];
     int baud;
-    char parity;      /* 'N', 'E', 'O' */
-    int stop_bits;    /* 1 or 2 */
-    int t35_us;       /* inter-frame silence, 0 = the spec's t3.5 for the baud rate */
-    int read_only;    /* 1: no Modbus write may change a model through this port */
-    int rs485;        /* 1: RS-485 (see rts for who switches the line) */
+    char parity;   /* 'N', 'E', 'O' */
+    int stop_bits; /* 1 or 2 */
+    int t35_us;    /* inter-frame silence, 0 = the spec's t3.5 for the baud rate */
+    int read_only; /* 1: no Modbus write may change a model through this port */
+    int rs485;     /* 1: RS-485 (see rts for who switches the line) */
     /* RS-485 options, only with rs485 = 1; -1 = leave as the driver or
      * libmodbus has it. Two exclusive ways to switch the transceiver:
      * rts = CONF_RTS_NONE: the kernel driver does (TIOCSRS485), tuned by
      * the rs485_* kernel fields; UP/DOWN: libmodbus raises/lowers RTS
      * around each reply (modbus_rtu_set_rts), rts_delay_us around it. */
-    int rts;              /* enum conf_rts */
-    int rts_delay_us;     /* -1 or 0..CONF_RTS_DELAY_US_MAX */
-    int rts_on_send;      /* kernel: -1, 0 (RTS low while sending), 1 (high) */
-    int delay_before_ms;  /* kernel: -1 or 0..CONF_RS485_DELAY_MS_MAX */
-    int delay_after_ms;   /* kernel: -1 or 0..CONF_RS485_DELAY_MS_MAX */
-    int termination;      /* kernel: -1, 0, 1 (SER_RS485_TERMINATE_BUS) */
-    int strict;           /* 1: a device refusing any of it is not served */
-    int device_line;      /* config line of device, for conflicts */
+    int rts;             /* enum conf_rts */
+    int rts_delay_us;    /* -1 or 0..CONF_RTS_DELAY_US_MAX */
+    int rts_on_send;     /* kernel: -1, 0 (RTS low while sending), 1 (high) */
+    int delay_before_ms; /* kernel: -1 or 0..CONF_RS485_DELAY_MS_MAX */
+    int delay_after_ms;  /* kernel: -1 or 0..CONF_RS485_DELAY_MS_MAX */
+    int termination;     /* kernel: -1, 0, 1 (SER_RS485_TERMINATE_BUS) */
+    int strict;          /* 1: a device refusing any of it is not served */
+    int device_line;     /* config line of device, for conflicts */
 };
 
 /* Values of libmodbus' MODBUS_RTU_RTS_* (checked in mb_rtu.c). */
 enum conf_rts { CONF_RTS_NONE = 0, CONF_RTS_UP = 1, CONF_RTS_DOWN = 2 };
-#define CONF_RTS_DELAY_US_MAX 100000   /* the loop sleeps it twice a reply */
-#define CONF_RS485_DELAY_MS_MAX 100    /* the kernel's RS485_MAX_RTS_DELAY */
+#define CONF_RTS_DELAY_US_MAX 100000 /* the loop sleeps it twice a reply */
+#define CONF_RS485_DELAY_MS_MAX 100  /* the kernel's RS485_MAX_RTS_DELAY */
 
 struct conf_model {
-    int id;           /* 0..254, model id on the serial links */
-    int unit;         /* Modbus unit id 1..247 */
-    int kind;         /* CONF_KIND_* (models.h enum model_kind) */
-    int n, m;         /* bezier: degrees 1..7; bspline: intervals 1..255 (its storage) */
-    unsigned flags;   /* IT2N_F_* */
-    int preload;      /* 1: the paper's 4x4 example data set */
+    int id;            /* 0..254, model id on the serial links */
+    int unit;          /* Modbus unit id 1..247 */
+    int kind;          /* CONF_KIND_* (models.h enum model_kind) */
+    int n, m;          /* bezier: degrees 1..7; bspline: intervals 1..255 (its storage) */
+    unsigned flags;    /* IT2N_F_* */
+    int preload;       /* 1: the paper's 4x4 example data set */
     int write_protect; /* 1: no Modbus write may change it (links may) */
-    int removed;      /* parsing only: removed = yes moves the id to conf.removed */
-    unsigned set;     /* CONF_SET_*: the keys the file gives (not defaults) */
+    int removed;       /* parsing only: removed = yes moves the id to conf.removed */
+    unsigned set;      /* CONF_SET_*: the keys the file gives (not defaults) */
 };
 
 /* Keys of [model:ID] that change its shape (a change clears its points):
@@ -90,38 +90,38 @@ enum conf_link_type { CONF_LINK_SERIAL = 0, CONF_LINK_USB = 1 };
 struct conf_link {
     char name[CONF_NAME];
     int type;
-    char device[CONF_PATH];  /* serial */
+    char device[CONF_PATH]; /* serial */
     int baud;
-    uint16_t vid, pid;       /* usb */
-    char serial[64];         /* usb, optional */
-    int rto_ms;              /* first retransmission timeout; 0 = from baud */
-    int peer_timeout_ms;     /* unanswered this long: link declared down */
-    int device_line;         /* config line of device, for conflicts */
+    uint16_t vid, pid;   /* usb */
+    char serial[64];     /* usb, optional */
+    int rto_ms;          /* first retransmission timeout; 0 = from baud */
+    int peer_timeout_ms; /* unanswered this long: link declared down */
+    int device_line;     /* config line of device, for conflicts */
 };
 
 /* [metrics] listen: the Prometheus endpoint (daemon/metrics.c). */
 struct conf_metrics {
     char host[64];
-    char port[8];            /* "" = off (the default) */
-    int line;                /* config line of listen, 0 built-in or a flag */
+    char port[8]; /* "" = off (the default) */
+    int line;     /* config line of listen, 0 built-in or a flag */
 };
 
 struct conf {
     char state_dir[CONF_PATH];
-    int snapshot_interval;   /* s */
-    int fsync;               /* 1: fsync the WAL before acknowledging */
+    int snapshot_interval; /* s */
+    int fsync;             /* 1: fsync the WAL before acknowledging */
     int max_models;
     struct conf_listen listen[CONF_MAX_LISTEN];
     int nlisten;
     int max_clients;
-    int max_pending;         /* TCP connections without a slot (no complete request yet) */
-    int idle_timeout;        /* s */
-    int byte_timeout;        /* ms */
-    int tcp_keepalive;       /* s idle before keepalive probes, 0 off */
-    int evict_idle;          /* ms without a request before a slot may be taken */
-    int word_order;          /* enum it2n_regmap_order */
-    int int32_word_order;    /* of u32/i32 registers; -1: as word_order */
-    int default_model;       /* TCP units 0, 255: model id, or CONF_DEFAULT_* */
+    int max_pending;      /* TCP connections without a slot (no complete request yet) */
+    int idle_timeout;     /* s */
+    int byte_timeout;     /* ms */
+    int tcp_keepalive;    /* s idle before keepalive probes, 0 off */
+    int evict_idle;       /* ms without a request before a slot may be taken */
+    int word_order;       /* enum it2n_regmap_order */
+    int int32_word_order; /* of u32/i32 registers; -1: as word_order */
+    int default_model;    /* TCP units 0, 255: model id, or CONF_DEFAULT_* */
     int coord_scale;
     int grid_rows, grid_cols;
     struct conf_rtu rtu[CONF_MAX_RTU];
@@ -134,10 +134,10 @@ struct conf {
     int nremoved;
     struct conf_link link[CONF_MAX_LINKS];
     int nlinks;
-    int link_backoff_max;    /* s */
-    char user[CONF_NAME];    /* "" = keep the starting user          */
-    unsigned uid, gid;       /* resolved from user at load           */
-    struct spb_conf spb;     /* [sparkplug] (spb_conf.h)             */
+    int link_backoff_max; /* s */
+    char user[CONF_NAME]; /* "" = keep the starting user          */
+    unsigned uid, gid;    /* resolved from user at load           */
+    struct spb_conf spb;  /* [sparkplug] (spb_conf.h)             */
     struct conf_metrics metrics;
 };
 
@@ -176,8 +176,8 @@ int conf_check_hosts(const struct conf *c, const char *path, char *err, size_t e
 struct conf_override {
     const char *listen[CONF_MAX_LISTEN];
     int nlisten;
-    const char *state_dir;   /* NULL: the file's */
-    const char *metrics;     /* NULL: the file's; "none": off */
+    const char *state_dir; /* NULL: the file's */
+    const char *metrics;   /* NULL: the file's; "none": off */
 };
 
 /* Apply o over c (after conf_default/conf_load) and check what the flags
@@ -190,8 +190,7 @@ int conf_apply_override(struct conf *c, const struct conf_override *o, char *err
  * read as conf_load reads it; line is kept where the section keeps lines.
  * For tests of a section's own structs. 0, or -1 with the reason in err
  * (without file, line or key). */
-int conf_key(void *base, const char *section, const char *name, const char *value, int line, char *err,
-             size_t errsize);
+int conf_key(void *base, const char *section, const char *name, const char *value, int line, char *err, size_t errsize);
 
 /* Whether c removes model id with removed = yes. */
 int conf_removes(const struct conf *c, int id);

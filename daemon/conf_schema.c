@@ -377,8 +377,7 @@ static int close_to(const char *name, const char *cand, int *best)
     return 1;
 }
 
-const char *conf_schema_suggest_key(const struct conf_section *s, const char *name,
-                                    const struct conf_section **where)
+const char *conf_schema_suggest_key(const struct conf_section *s, const char *name, const struct conf_section **where)
 {
     const char *hit = NULL;
     int best = 99;
@@ -426,7 +425,7 @@ const char *conf_schema_suggest_word(const struct conf_key *k, const char *value
 
 static int parse_bool(const char *v, long *out)
 {
-    static const char *const yes[] = { "yes", "true", "on", "1" }, *const no[] = { "no", "false", "off", "0" };
+    static const char *const yes[] = {"yes", "true", "on", "1"}, *const no[] = {"no", "false", "off", "0"};
     for (int k = 0; k < 4; k++) {
         if (!strcasecmp(v, yes[k])) {
             *out = 1;
@@ -497,21 +496,15 @@ void conf_schema_expect(const struct conf_key *k, char *buf, size_t size)
     snprintf(buf, size, "expected ");
     switch (k->type) {
     case CONF_T_BOOL:
-    case CONF_T_FLAG:
-        snprintf(buf, size, "expected yes or no");
-        return;
-    case CONF_T_ENUM:
-        words_text(k, buf, size, " or ");
-        break;
+    case CONF_T_FLAG: snprintf(buf, size, "expected yes or no"); return;
+    case CONF_T_ENUM: words_text(k, buf, size, " or "); break;
     case CONF_T_INT:
         words_text(k, buf, size, ", ");
         len = strlen(buf);
         snprintf(buf + len, size - len, "%s%s%s%ld..%ld", k->words && k->words[0].word ? " or " : "",
                  k->unit ? k->unit : "", k->unit ? " " : "", k->lo, k->hi);
         break;
-    default:
-        snprintf(buf, size, "expected %s", k->help);
-        return;
+    default: snprintf(buf, size, "expected %s", k->help); return;
     }
     len = strlen(buf);
     if (k->note)
@@ -529,34 +522,28 @@ static void type_text(const struct conf_key *k, char *buf, size_t size)
         [CONF_T_SECRET] = "file", [CONF_T_USER] = "user name", [CONF_T_LISTEN] = "host:port or none",
         [CONF_T_ADDR] = "host:port", [CONF_T_ENDPOINT] = "host:port or none", [CONF_T_ALLOW] = "addresses/prefixes",
         [CONF_T_USB] = "VID:PID[:serial]", [CONF_T_BROKER] = "host[:port]", [CONF_T_SPB_ID] = "topic level",
-    /* clang-format on */
+        /* clang-format on */
     };
     buf[0] = 0;
     switch (k->type) {
     case CONF_T_BOOL:
-    case CONF_T_FLAG:
-        snprintf(buf, size, "yes/no");
-        break;
-    case CONF_T_ENUM:
-        words_text(k, buf, size, ", ");
-        break;
+    case CONF_T_FLAG: snprintf(buf, size, "yes/no"); break;
+    case CONF_T_ENUM: words_text(k, buf, size, ", "); break;
     case CONF_T_INT: {
         size_t len;
         words_text(k, buf, size, ", ");
         len = strlen(buf);
         snprintf(buf + len, size - len, "%s%ld..%ld%s%s%s%s", buf[0] ? ", " : "", k->lo, k->hi,
-                 k->unit && !strcmp(k->unit, "seconds") ? " s" : k->unit && !strcmp(k->unit, "milliseconds") ? " ms" :
-                 k->unit && !strcmp(k->unit, "microseconds") ? " µs" : "",
+                 k->unit && !strcmp(k->unit, "seconds")        ? " s"
+                 : k->unit && !strcmp(k->unit, "milliseconds") ? " ms"
+                 : k->unit && !strcmp(k->unit, "microseconds") ? " µs"
+                                                               : "",
                  k->note ? " (" : "", k->note ? k->note : "", k->note ? ")" : "");
         break;
     }
     case CONF_T_STR:
-    case CONF_T_SPB_ID:
-        snprintf(buf, size, "%s, 1..%zu bytes", names[k->type], k->size - 1);
-        break;
-    default:
-        snprintf(buf, size, "%s", names[k->type]);
-        break;
+    case CONF_T_SPB_ID: snprintf(buf, size, "%s, 1..%zu bytes", names[k->type], k->size - 1); break;
+    default: snprintf(buf, size, "%s", names[k->type]); break;
     }
 }
 

@@ -15,22 +15,22 @@
 /* How a value is read (conf.c stores it; the compound types have a parser
  * of their own there or in spb_conf.c/acl.c). */
 enum conf_type {
-    CONF_T_INT,       /* lo..hi, base 10; words[] may add named values    */
-    CONF_T_ENUM,      /* one of words[] (case ignored)                    */
-    CONF_T_BOOL,      /* yes/no, true/false, on/off, 1/0                  */
-    CONF_T_FLAG,      /* a bool kept as bit `bit` of an unsigned          */
-    CONF_T_STR,       /* 1..size-1 bytes                                  */
-    CONF_T_PATH,      /* a path, 1..size-1 bytes                          */
-    CONF_T_FILE,      /* a path readable at load                          */
-    CONF_T_SECRET,    /* a file whose first line is the secret            */
-    CONF_T_USER,      /* a user name known to the system at load          */
-    CONF_T_LISTEN,    /* host:port appended to the listeners, or none     */
-    CONF_T_ADDR,      /* host:port of this section's listener             */
-    CONF_T_ENDPOINT,  /* host:port of the metrics endpoint, or none       */
-    CONF_T_ALLOW,     /* IPv4/IPv6 addresses and prefixes (acl.c)         */
-    CONF_T_USB,       /* VID:PID[:serial] in hex                          */
-    CONF_T_BROKER,    /* host[:port] of an MQTT broker (spb_conf.c)       */
-    CONF_T_SPB_ID     /* one MQTT topic level (spb_conf.c)                */
+    CONF_T_INT,      /* lo..hi, base 10; words[] may add named values    */
+    CONF_T_ENUM,     /* one of words[] (case ignored)                    */
+    CONF_T_BOOL,     /* yes/no, true/false, on/off, 1/0                  */
+    CONF_T_FLAG,     /* a bool kept as bit `bit` of an unsigned          */
+    CONF_T_STR,      /* 1..size-1 bytes                                  */
+    CONF_T_PATH,     /* a path, 1..size-1 bytes                          */
+    CONF_T_FILE,     /* a path readable at load                          */
+    CONF_T_SECRET,   /* a file whose first line is the secret            */
+    CONF_T_USER,     /* a user name known to the system at load          */
+    CONF_T_LISTEN,   /* host:port appended to the listeners, or none     */
+    CONF_T_ADDR,     /* host:port of this section's listener             */
+    CONF_T_ENDPOINT, /* host:port of the metrics endpoint, or none       */
+    CONF_T_ALLOW,    /* IPv4/IPv6 addresses and prefixes (acl.c)         */
+    CONF_T_USB,      /* VID:PID[:serial] in hex                          */
+    CONF_T_BROKER,   /* host[:port] of an MQTT broker (spb_conf.c)       */
+    CONF_T_SPB_ID    /* one MQTT topic level (spb_conf.c)                */
 };
 
 /* A named value of an ENUM (or a word an INT also takes). hidden: an
@@ -42,11 +42,11 @@ struct conf_word {
 };
 
 /* Key flags. */
-#define CONF_K_RESTART 1u   /* a reload logs a change and keeps the running value */
-#define CONF_K_REPEAT 2u    /* may be given more than once (values add up)      */
-#define CONF_K_REQUIRED 4u  /* the section is refused without it                */
-#define CONF_K_RS485 8u     /* needs rs485 = yes in its section                 */
-#define CONF_K_KERNEL 16u   /* RS-485 switched by the kernel (rs485_rts = none) */
+#define CONF_K_RESTART 1u    /* a reload logs a change and keeps the running value */
+#define CONF_K_REPEAT 2u     /* may be given more than once (values add up)      */
+#define CONF_K_REQUIRED 4u   /* the section is refused without it                */
+#define CONF_K_RS485 8u      /* needs rs485 = yes in its section                 */
+#define CONF_K_KERNEL 16u    /* RS-485 switched by the kernel (rs485_rts = none) */
 #define CONF_K_LIBMODBUS 32u /* RS-485 switched by libmodbus (rs485_rts = up/down) */
 
 struct conf_key {
@@ -69,22 +69,28 @@ struct conf_key {
 
 /* Section kinds (conf.c finds the struct a section's keys go to by it). */
 enum conf_sec {
-    CONF_SEC_DAEMON, CONF_SEC_MODBUS, CONF_SEC_LISTEN, CONF_SEC_RTU, CONF_SEC_MODEL, CONF_SEC_LINK,
-    CONF_SEC_SPARKPLUG, CONF_SEC_METRICS
+    CONF_SEC_DAEMON,
+    CONF_SEC_MODBUS,
+    CONF_SEC_LISTEN,
+    CONF_SEC_RTU,
+    CONF_SEC_MODEL,
+    CONF_SEC_LINK,
+    CONF_SEC_SPARKPLUG,
+    CONF_SEC_METRICS
 };
 
 struct conf_section {
-    const char *name;      /* "daemon"; "rtu:" for [rtu:NAME]            */
+    const char *name; /* "daemon"; "rtu:" for [rtu:NAME]            */
     enum conf_sec id;
-    const char *arg;       /* "NAME", "ID" after the colon; NULL: none   */
-    const char *title;     /* the docs' heading after the section's name */
-    const char *needs;     /* why an empty section of this kind is refused */
-    size_t set_off;        /* the `unsigned set` mask, plus 1; 0: none   */
+    const char *arg;   /* "NAME", "ID" after the colon; NULL: none   */
+    const char *title; /* the docs' heading after the section's name */
+    const char *needs; /* why an empty section of this kind is refused */
+    size_t set_off;    /* the `unsigned set` mask, plus 1; 0: none   */
     const struct conf_key *keys;
     int nkeys;
 };
 
-#define CONF_SCHEMA_MAX_KEYS 16  /* keys of the largest section (checked by test_conf) */
+#define CONF_SCHEMA_MAX_KEYS 16 /* keys of the largest section (checked by test_conf) */
 
 /* The table: *n sections. */
 const struct conf_section *conf_schema_sections(int *n);
@@ -100,8 +106,7 @@ const struct conf_key *conf_schema_key(const struct conf_section *s, const char 
 /* "Did you mean": the key of s nearest to a misspelt name (edit distance,
  * case ignored), or a key of that exact name in another section (then
  * *where is that section; else NULL); NULL when none is close. */
-const char *conf_schema_suggest_key(const struct conf_section *s, const char *name,
-                                    const struct conf_section **where);
+const char *conf_schema_suggest_key(const struct conf_section *s, const char *name, const struct conf_section **where);
 
 /* The section kind nearest to an unknown header's kind, or NULL. */
 const struct conf_section *conf_schema_suggest_section(const char *header);

@@ -8,9 +8,9 @@
 #define IT2ND_ERRS_H
 
 enum it2nd_error {
-    IT2ND_ERR_IO = -200,       /* the state directory failed a write/fsync: not durable, refused */
-    IT2ND_ERR_NOMEM = -201,    /* out of memory: refused, nothing changed                        */
-    IT2ND_ERR_DEGRADED = -202  /* store degraded after an I/O error: writes refused until a
+    IT2ND_ERR_IO = -200,      /* the state directory failed a write/fsync: not durable, refused */
+    IT2ND_ERR_NOMEM = -201,   /* out of memory: refused, nothing changed                        */
+    IT2ND_ERR_DEGRADED = -202 /* store degraded after an I/O error: writes refused until a
                                   checkpoint (snapshot + new WAL) succeeds                        */
 };
 

@@ -15,10 +15,10 @@ struct usb_link {
     uint8_t ep_in, ep_out;
     struct libusb_transfer *in;
     uint8_t inbuf[IN_SIZE];
-    int in_busy;      /* IN transfer submitted, callback pending */
-    int outs;         /* OUT transfers in flight                */
+    int in_busy; /* IN transfer submitted, callback pending */
+    int outs;    /* OUT transfers in flight                */
     int dead;
-    const char *why;  /* failure reason (static string) */
+    const char *why; /* failure reason (static string) */
     long gone_timer;
     usb_rx_fn rx;
     usb_gone_fn gone;
@@ -34,7 +34,7 @@ static long usb_timer;
 
 static void on_usb_fd(void *arg, int fd, short revents)
 {
-    struct timeval zero = { 0, 0 };
+    struct timeval zero = {0, 0};
     (void)arg;
     (void)fd;
     (void)revents;
@@ -56,7 +56,7 @@ static void fd_removed(int fd, void *user)
 /* libusb may need timeouts handled even without fd activity. */
 static void on_usb_timer(void *arg)
 {
-    struct timeval zero = { 0, 0 };
+    struct timeval zero = {0, 0};
     (void)arg;
     libusb_handle_events_timeout_completed(ctx, &zero, NULL);
     usb_timer = loop_add_timer(500, on_usb_timer, NULL);
@@ -91,9 +91,9 @@ int link_usb_init(void)
     libusb_free_pollfds(fds);
     libusb_set_pollfd_notifiers(ctx, fd_added, fd_removed, NULL);
     if (libusb_has_capability(LIBUSB_CAP_HAS_HOTPLUG) &&
-        libusb_hotplug_register_callback(ctx, LIBUSB_HOTPLUG_EVENT_DEVICE_ARRIVED | LIBUSB_HOTPLUG_EVENT_DEVICE_LEFT,
-                                         0, LIBUSB_HOTPLUG_MATCH_ANY, LIBUSB_HOTPLUG_MATCH_ANY,
-                                         LIBUSB_HOTPLUG_MATCH_ANY, on_hotplug, NULL, &hp) == 0)
+        libusb_hotplug_register_callback(ctx, LIBUSB_HOTPLUG_EVENT_DEVICE_ARRIVED | LIBUSB_HOTPLUG_EVENT_DEVICE_LEFT, 0,
+                                         LIBUSB_HOTPLUG_MATCH_ANY, LIBUSB_HOTPLUG_MATCH_ANY, LIBUSB_HOTPLUG_MATCH_ANY,
+                                         on_hotplug, NULL, &hp) == 0)
         have_hp = 1;
     usb_timer = loop_add_timer(500, on_usb_timer, NULL);
     return 0;
@@ -272,8 +272,7 @@ struct usb_link *link_usb_open(const struct conf_link *c, usb_rx_fn rx, usb_gone
             continue;
         }
         if (find_endpoints(list[k], &ein, &eout)) {
-            log_warn("link %s: usb %04x:%04x has no bulk IN/OUT pair on interface 0", c->name, d.idVendor,
-                     d.idProduct);
+            log_warn("link %s: usb %04x:%04x has no bulk IN/OUT pair on interface 0", c->name, d.idVendor, d.idProduct);
             libusb_close(h);
             continue;
         }
@@ -290,8 +289,8 @@ struct usb_link *link_usb_open(const struct conf_link *c, usb_rx_fn rx, usb_gone
             log_warn("link %s: usb %04x:%04x: bulk IN submit failed", c->name, d.idVendor, d.idProduct);
             break;
         }
-        log_info("link %s: usb %04x:%04x serial '%s', endpoints in 0x%02x out 0x%02x", c->name, d.idVendor,
-                 d.idProduct, serial, ein, eout);
+        log_info("link %s: usb %04x:%04x serial '%s', endpoints in 0x%02x out 0x%02x", c->name, d.idVendor, d.idProduct,
+                 serial, ein, eout);
     }
     if (n >= 0)
         libusb_free_device_list(list, 1);
@@ -325,7 +324,7 @@ int link_usb_write(struct usb_link *u, const uint8_t *buf, size_t len)
 
 void link_usb_close(struct usb_link *u)
 {
-    struct timeval tv = { 0, 10000 };
+    struct timeval tv = {0, 10000};
     if (!u)
         return;
     u->dead = 1;

@@ -59,31 +59,31 @@
 
 struct link {
     struct conf_link cfg;
-    int fd;                   /* serial; -1 when closed        */
-    int tty;                  /* fd is a tty (VMIN 0: read 0 = no data) */
-    struct usb_link *usb;     /* usb; NULL when closed         */
+    int fd;               /* serial; -1 when closed        */
+    int tty;              /* fd is a tty (VMIN 0: read 0 = no data) */
+    struct usb_link *usb; /* usb; NULL when closed         */
     int up;
     it2n_link pl;
     it2n_ostream os;
-    uint16_t held[HELD_MAX];  /* seqs whose ACK waits for the commit */
+    uint16_t held[HELD_MAX];       /* seqs whose ACK waits for the commit */
     uint64_t held_batch[HELD_MAX]; /* the WAL batch each waits for */
     int nheld;
-    uint32_t held_sessions;   /* pl.stats.rx_sessions the held ACKs belong to */
-    long held_down_timer;     /* reopen after an impossible hold overflow */
+    uint32_t held_sessions; /* pl.stats.rx_sessions the held ACKs belong to */
+    long held_down_timer;   /* reopen after an impossible hold overflow */
     unsigned backoff_ms;
     long retry_timer, poll_timer;
-    uint32_t poll_due;        /* when poll_timer fires (ms, now32) */
-    uint32_t entries;         /* entries accepted, for logs   */
-    uint32_t entries_idem;    /* entries re-sent as stored: no effect */
+    uint32_t poll_due;     /* when poll_timer fires (ms, now32) */
+    uint32_t entries;      /* entries accepted, for logs   */
+    uint32_t entries_idem; /* entries re-sent as stored: no effect */
     /* A multi-frame response (SAMPLE_DATA or NET_ROW run) still to send,
      * produced lazily as the send window frees. */
     struct {
-        int kind;             /* 0 none, IT2N_MSG_SAMPLE or IT2N_MSG_GET_NET */
+        int kind; /* 0 none, IT2N_MSG_SAMPLE or IT2N_MSG_GET_NET */
         uint16_t re, rows, cols;
         uint8_t model, fp;
         uint32_t next, total;
     } job;
-    it2n_msg rsp;             /* a single response waiting for the window */
+    it2n_msg rsp; /* a single response waiting for the window */
     int has_rsp;
     /* Requests waiting for the response (run) before them: unanswered,
      * so the peer's window bounds the queue. */
@@ -92,12 +92,12 @@ struct link {
         it2n_msg req;
     } rq[IT2N_PROTO_WINDOW];
     int nrq;
-    uint32_t lost;            /* frames dropped when declared down, to report */
-    uint32_t lost_session;    /* ... to this peer session (it2n_link_session) */
+    uint32_t lost;         /* frames dropped when declared down, to report */
+    uint32_t lost_session; /* ... to this peer session (it2n_link_session) */
     uint32_t rto_ms;
-    int peer;                 /* a HELLO came from the peer since the open */
-    uint32_t hello_session;   /* ... in this peer session (EVENTs go to it) */
-    int hello_due;            /* our HELLO answer waits for room in the window */
+    int peer;               /* a HELLO came from the peer since the open */
+    uint32_t hello_session; /* ... in this peer session (EVENTs go to it) */
+    int hello_due;          /* our HELLO answer waits for room in the window */
     it2n_msg_event evq[EVQ_MAX];
     int nev;
     uint32_t ev_sent, ev_merged;
@@ -106,11 +106,11 @@ struct link {
      * written from out[out_off] up to out_len, the rest on POLLOUT. */
     uint8_t stage[IT2N_FRAME_MAX_WIRE];
     size_t nstage;
-    int stage_bad;            /* frame longer than the stage: dropped */
+    int stage_bad; /* frame longer than the stage: dropped */
     uint8_t out[OUTQ_SIZE];
     size_t out_off, out_len;
-    int pollout;              /* POLLOUT armed on fd */
-    int hold_flush;           /* frames queued, written at the end of
+    int pollout;    /* POLLOUT armed on fd */
+    int hold_flush; /* frames queued, written at the end of
                                  the input or release being handled */
     struct links_out_stats st;
 };
@@ -621,7 +621,8 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
              * once what is stored is durable. */
             l->entries_idem += p->count;
             log_info("link %s: PUT seq %u: all %u entries already stored with these values (a re-sent PUT): "
-                     "success, no effect", l->cfg.name, seq, p->count);
+                     "success, no effect",
+                     l->cfg.name, seq, p->count);
             if (store_degraded())
                 return refuse(l, seq, IT2ND_ERR_IO, NULL);
             if (store_pending())
@@ -634,7 +635,8 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
         }
         if (fresh.count < p->count)
             log_info("link %s: PUT seq %u: %u of %u entries already stored with these values (a re-sent PUT): "
-                     "no effect", l->cfg.name, seq, p->count - fresh.count, p->count);
+                     "no effect",
+                     l->cfg.name, seq, p->count - fresh.count, p->count);
         l->entries_idem += (uint32_t)(p->count - fresh.count);
         p = &fresh;
     }
@@ -642,11 +644,10 @@ static int do_put(struct link *l, uint16_t seq, struct model *md, const it2n_msg
     /* FINE (v1.3): memberships in Q30, stored as sent (what 'it2n' reads
      * from the same CSV); else Q24, stored exactly (x 2^6) */
     for (unsigned k = 0; k < p->count && rc == IT2N_OK; k++)
-        rc = (p->flags & IT2N_PUT_FINE)
-                 ? models_put_fine(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals,
-                                   (p->flags & IT2N_PUT_REPLACE) != 0, &err)
-                 : models_put(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals,
-                              (p->flags & IT2N_PUT_REPLACE) != 0, &err);
+        rc = (p->flags & IT2N_PUT_FINE) ? models_put_fine(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals,
+                                                          (p->flags & IT2N_PUT_REPLACE) != 0, &err)
+                                        : models_put(md, p->e[k].i, p->e[k].j, p->e[k].fp, p->e[k].vals,
+                                                     (p->flags & IT2N_PUT_REPLACE) != 0, &err);
     if (rc != IT2N_OK) {
         /* All or nothing: the model and the WAL queue go back. */
         it2n_errinfo keep = md->last_err;
@@ -769,18 +770,17 @@ static int on_hello(struct link *l, uint16_t seq, const it2n_msg_hello *h)
 {
     if (h->version_max < IT2N_PROTO_VERSION_MIN || h->version_min > IT2N_PROTO_VERSION_MAX) {
         it2n_errinfo e = detail(IT2N_PROTO_ERR_VERSION, h->version_max, IT2N_PROTO_VERSION_MIN, IT2N_PROTO_VERSION_MAX);
-        log_warn("link %s: peer '%.16s' speaks protocol versions %u..%u, this daemon %u..%u: refused",
-                 l->cfg.name, h->node, h->version_min, h->version_max, IT2N_PROTO_VERSION_MIN,
-                 IT2N_PROTO_VERSION_MAX);
+        log_warn("link %s: peer '%.16s' speaks protocol versions %u..%u, this daemon %u..%u: refused", l->cfg.name,
+                 h->node, h->version_min, h->version_max, IT2N_PROTO_VERSION_MIN, IT2N_PROTO_VERSION_MAX);
         return refuse(l, seq, IT2N_PROTO_ERR_VERSION, &e);
     }
     unsigned cap = send_window_cap(l);
     it2n_link_set_peer(&l->pl, h->window < cap ? h->window : (uint8_t)cap, h->max_payload);
     log_info("link %s: HELLO from '%.16s' (%s %08x, window %u, max_payload %u): we send up to %u "
-             "frames in flight, accept %u", l->cfg.name, h->node,
-             l->pl.rx_ver == IT2N_PROTO_VERSION_12 ? "v1.2, new session" : "v1.1, session",
-             (unsigned)it2n_link_session(&l->pl), h->window, h->max_payload,
-             (unsigned)it2n_link_send_window(&l->pl), (unsigned)it2n_link_window(&l->pl));
+             "frames in flight, accept %u",
+             l->cfg.name, h->node, l->pl.rx_ver == IT2N_PROTO_VERSION_12 ? "v1.2, new session" : "v1.1, session",
+             (unsigned)it2n_link_session(&l->pl), h->window, h->max_payload, (unsigned)it2n_link_send_window(&l->pl),
+             (unsigned)it2n_link_window(&l->pl));
     l->peer = 1;
     l->hello_session = it2n_link_session(&l->pl);
     it2n_link_complete(&l->pl, seq, 0, NULL);
@@ -802,8 +802,8 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
          * waiting for a response run (their numbers may be the new
          * sequence's). */
         if (l->nheld || l->nrq)
-            log_info("link %s: new peer session: %d ACK(s) and %d request(s) of the previous one dropped",
-                     l->cfg.name, l->nheld, l->nrq);
+            log_info("link %s: new peer session: %d ACK(s) and %d request(s) of the previous one dropped", l->cfg.name,
+                     l->nheld, l->nrq);
         l->nheld = 0;
         l->nrq = 0;
         l->held_sessions = l->pl.stats.rx_sessions;
@@ -815,14 +815,13 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
             l->has_rsp = 0;
             l->nev = 0;
         }
-        if (l->peer && l->hello_session != it2n_link_session(&l->pl) &&
-            msg->type != IT2N_MSG_HELLO)
+        if (l->peer && l->hello_session != it2n_link_session(&l->pl) && msg->type != IT2N_MSG_HELLO)
             l->peer = 0; /* EVENTs only to a session that said HELLO */
     }
     if (l->lost && l->lost_session != it2n_link_session(&l->pl)) {
         /* The session whose frames were dropped is gone: nobody to tell. */
-        log_info("link %s: %u frame(s) dropped for a previous peer session: no EVENT LOST to the new one",
-                 l->cfg.name, (unsigned)l->lost);
+        log_info("link %s: %u frame(s) dropped for a previous peer session: no EVENT LOST to the new one", l->cfg.name,
+                 (unsigned)l->lost);
         l->lost = 0;
     }
     if (l->lost && l->peer && l->hello_session == l->lost_session && l->nev < EVQ_MAX) {
@@ -836,12 +835,11 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         l->lost = 0;
     }
     switch (msg->type) {
-    case IT2N_MSG_HELLO:
-        return on_hello(l, seq, &msg->u.hello);
+    case IT2N_MSG_HELLO: return on_hello(l, seq, &msg->u.hello);
     case IT2N_MSG_CONFIGURE:
         log_info("link %s: CONFIGURE model %u: %s%ux%u, flags %u", l->cfg.name, msg->u.configure.model,
-                 msg->u.configure.kind == IT2N_CFG_BSPLINE ? "bspline " : "",
-                 msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags);
+                 msg->u.configure.kind == IT2N_CFG_BSPLINE ? "bspline " : "", msg->u.configure.n, msg->u.configure.m,
+                 msg->u.configure.flags);
         md = models_by_id(msg->u.configure.model);
         if (!md)
             return refuse_model(l, seq, msg->u.configure.model);
@@ -849,8 +847,8 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
             /* The kind is the configuration's ([model:ID] kind): a 4-byte
              * (Bezier) CONFIGURE of an older peer never turns a B-spline
              * model into a Bezier one, nor the reverse (protocol.md 5.3). */
-            it2n_errinfo e = detail(IT2N_ERR_INVAL, msg->u.configure.kind, md->kind == MODEL_BSPLINE,
-                                    md->kind == MODEL_BSPLINE);
+            it2n_errinfo e =
+                detail(IT2N_ERR_INVAL, msg->u.configure.kind, md->kind == MODEL_BSPLINE, md->kind == MODEL_BSPLINE);
             return refuse(l, seq, IT2N_ERR_INVAL, &e);
         }
         rc = models_configure(md, msg->u.configure.n, msg->u.configure.m, msg->u.configure.flags, &err);
@@ -914,8 +912,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         rc = serve(l, seq, msg);
         pump_job(l);
         return rc;
-    default:
-        return IT2N_PROTO_ERR_TYPE;
+    default: return IT2N_PROTO_ERR_TYPE;
     }
 }
 
@@ -1013,7 +1010,8 @@ static void on_poll(void *arg)
         l->job.kind = 0;
         l->nrq = 0; /* unanswered requests: the peer resends them */
         log_warn("link %s: peer silent for %d ms: declared down, %u frame(s) dropped (EVENT LOST follows "
-                 "when it speaks again)", l->cfg.name, l->cfg.peer_timeout_ms, n + more);
+                 "when it speaks again)",
+                 l->cfg.name, l->cfg.peer_timeout_ms, n + more);
     }
     pump_job(l); /* next: when a retransmission is due, else 100 ms (arm_poll) */
 }
@@ -1061,7 +1059,7 @@ static void link_open(void *arg)
     cfg.rto_max_ms = 8 * cfg.rto_ms;
     /* serial: the RTO counts from when a frame has left the line */
     cfg.baud = l->cfg.type == CONF_LINK_SERIAL && l->cfg.baud > 0 ? (uint32_t)l->cfg.baud : 0u;
-    cfg.max_tries = 0; /* never abandoned: retried until declared down */
+    cfg.max_tries = 0;                   /* never abandoned: retried until declared down */
     cfg.new_session = links_new_session; /* v1.2 peers get their session id */
     /* A new session id and first sequence number on every open, so that
      * a peer never takes our frames for a previous session's. */
@@ -1216,7 +1214,8 @@ void links_event(const struct model *md, int old_state)
         ev.kind = IT2N_EV_CONFIGURED;
     } else if (md->last_op == MOP_CLEAR && md->state == IT2N_REGMAP_STATE_EMPTY) {
         ev.kind = IT2N_EV_RESET;
-    } else if (md->state == IT2N_REGMAP_STATE_SOLVED && (old_state != IT2N_REGMAP_STATE_SOLVED || md->last_op == MOP_COMMIT)) {
+    } else if (md->state == IT2N_REGMAP_STATE_SOLVED &&
+               (old_state != IT2N_REGMAP_STATE_SOLVED || md->last_op == MOP_COMMIT)) {
         ev.kind = IT2N_EV_SOLVED;
     } else {
         ev.kind = IT2N_EV_UPDATED;

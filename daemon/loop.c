@@ -20,15 +20,15 @@
 struct fd_ent {
     int fd;
     short events;
-    int always;     /* not in the epoll set: ready for what it waits for */
-    uint32_t seq;   /* serial, in the epoll data with the fd */
+    int always;   /* not in the epoll set: ready for what it waits for */
+    uint32_t seq; /* serial, in the epoll data with the fd */
     loop_fd_cb cb;
     void *arg;
 };
 
 struct timer_ent {
     long id;
-    uint64_t due;   /* µs on CLOCK_MONOTONIC */
+    uint64_t due; /* µs on CLOCK_MONOTONIC */
     loop_timer_cb cb;
     void *arg;
 };
@@ -42,8 +42,8 @@ static struct fd_ent *fds;
 static size_t nfds, capfds;
 static int epfd = -1;
 static uint32_t next_seq;
-static size_t nalways;           /* entries with always set */
-static size_t *fd_idx;           /* fd number -> index in fds, SIZE_MAX none */
+static size_t nalways; /* entries with always set */
+static size_t *fd_idx; /* fd number -> index in fds, SIZE_MAX none */
 static size_t cap_idx;
 static struct timer_ent *timers;
 static size_t ntimers, captimers;
@@ -52,7 +52,7 @@ static size_t nhooks;
 static long next_timer_id = 1;
 static int woken;
 static uint64_t wake_us; /* loop_now_us() when the last wait returned, 0 before */
-static int deleted; /* entries marked by loop_del_fd, not yet compacted */
+static int deleted;      /* entries marked by loop_del_fd, not yet compacted */
 
 uint64_t loop_now_us(void)
 {
@@ -108,8 +108,8 @@ int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg)
     if (epfd < 0 && (epfd = epoll_create1(EPOLL_CLOEXEC)) < 0)
         return -1;
     uint32_t seq = ++next_seq;
-    struct epoll_event ev = { .events = (uint32_t)(unsigned short)events,
-                              .data.u64 = (uint64_t)seq << 32 | (uint32_t)fd };
+    struct epoll_event ev = {.events = (uint32_t)(unsigned short)events,
+                             .data.u64 = (uint64_t)seq << 32 | (uint32_t)fd};
     int always = 0;
     if (epoll_ctl(epfd, EPOLL_CTL_ADD, fd, &ev)) {
         /* Still registered: closed without loop_del_fd while a duplicate
@@ -141,8 +141,8 @@ void loop_mod_fd(int fd, short events)
         return;
     fds[k].events = events;
     if (!fds[k].always) {
-        struct epoll_event ev = { .events = (uint32_t)(unsigned short)events,
-                                  .data.u64 = (uint64_t)fds[k].seq << 32 | (uint32_t)fd };
+        struct epoll_event ev = {.events = (uint32_t)(unsigned short)events,
+                                 .data.u64 = (uint64_t)fds[k].seq << 32 | (uint32_t)fd};
         epoll_ctl(epfd, EPOLL_CTL_MOD, fd, &ev);
     }
 }
@@ -266,8 +266,7 @@ int loop_run_once(int max_wait_ms)
         return -1;
     rc = epoll_pwait2(epfd, evs, (int)(sizeof evs / sizeof evs[0]), timeout < 0 ? NULL : &ts, NULL);
     if (rc < 0 && errno == ENOSYS) /* before Linux 5.11: ms, rounded up */
-        rc = epoll_wait(epfd, evs, (int)(sizeof evs / sizeof evs[0]),
-                        timeout < 0 ? -1 : (int)((timeout + 999) / 1000));
+        rc = epoll_wait(epfd, evs, (int)(sizeof evs / sizeof evs[0]), timeout < 0 ? -1 : (int)((timeout + 999) / 1000));
     if (rc < 0 && errno != EINTR)
         return -1;
     wake_us = loop_now_us();

@@ -36,10 +36,10 @@
 #define IT2ND_VERSION IT2N_VERSION
 
 static volatile sig_atomic_t sig_stop, sig_reload;
-static int sig_pipe[2] = { -1, -1 };
+static int sig_pipe[2] = {-1, -1};
 static struct conf cfg;
 static const char *conf_path;
-static struct conf_override ovr;  /* --listen, --state-dir, --metrics */
+static struct conf_override ovr; /* --listen, --state-dir, --metrics */
 static struct mb_map_opts mbo;
 static long snap_timer, wd_timer, recover_timer;
 static int snap_due, recover_due;
@@ -68,29 +68,28 @@ static void on_sig_pipe(void *arg, int fd, short revents)
 
 static void usage(FILE *f)
 {
-    fprintf(f,
-            "usage: it2nd [-c FILE] [--listen HOST:PORT] [--state-dir DIR] [--metrics HOST:PORT]\n"
-            "             [--check-config] [--config-keys[=FORMAT]] [--accept-wal-loss] [--foreground]\n"
-            "             [-v...] [--help] [--version]\n"
-            "  -c, --config FILE     configuration (INI); default: built-in (Modbus TCP\n"
-            "                        127.0.0.1:1502, model 1 on unit 1 with the paper data)\n"
-            "  -l, --listen HOST:PORT  Modbus TCP address (repeatable); replaces the\n"
-            "                        file's listeners ([modbus] tcp_listen, [listen:NAME])\n"
-            "  -s, --state-dir DIR   state directory (WAL, snapshot); overrides state_dir\n"
-            "  -m, --metrics HOST:PORT  Prometheus endpoint (GET /metrics), or none;\n"
-            "                        overrides [metrics] listen (default: off)\n"
-            "  -t, --check-config    validate the configuration, check that the state\n"
-            "                        directory is writable and the ports free, and exit\n"
-            "  --config-keys[=FORMAT]  print every section and key of the configuration\n"
-            "                        (type, range, default, reload, help) and exit; FORMAT\n"
-            "                        text (default), markdown or dict (a fuzzer dictionary)\n"
-            "  --accept-wal-loss     the operator's act after damage inside the WAL: cut the\n"
-            "                        WAL at the damaged record (the rest kept in wal.cut-*),\n"
-            "                        log the records given up, and exit (docs/daemon.md)\n"
-            "  -f, --foreground      log to stderr (default when not started by systemd: syslog)\n"
-            "  -v, --verbose         more logging (-vv debug)\n"
-            "  -h, --help            this text\n"
-            "  -V, --version         print the version\n");
+    fprintf(f, "usage: it2nd [-c FILE] [--listen HOST:PORT] [--state-dir DIR] [--metrics HOST:PORT]\n"
+               "             [--check-config] [--config-keys[=FORMAT]] [--accept-wal-loss] [--foreground]\n"
+               "             [-v...] [--help] [--version]\n"
+               "  -c, --config FILE     configuration (INI); default: built-in (Modbus TCP\n"
+               "                        127.0.0.1:1502, model 1 on unit 1 with the paper data)\n"
+               "  -l, --listen HOST:PORT  Modbus TCP address (repeatable); replaces the\n"
+               "                        file's listeners ([modbus] tcp_listen, [listen:NAME])\n"
+               "  -s, --state-dir DIR   state directory (WAL, snapshot); overrides state_dir\n"
+               "  -m, --metrics HOST:PORT  Prometheus endpoint (GET /metrics), or none;\n"
+               "                        overrides [metrics] listen (default: off)\n"
+               "  -t, --check-config    validate the configuration, check that the state\n"
+               "                        directory is writable and the ports free, and exit\n"
+               "  --config-keys[=FORMAT]  print every section and key of the configuration\n"
+               "                        (type, range, default, reload, help) and exit; FORMAT\n"
+               "                        text (default), markdown or dict (a fuzzer dictionary)\n"
+               "  --accept-wal-loss     the operator's act after damage inside the WAL: cut the\n"
+               "                        WAL at the damaged record (the rest kept in wal.cut-*),\n"
+               "                        log the records given up, and exit (docs/daemon.md)\n"
+               "  -f, --foreground      log to stderr (default when not started by systemd: syslog)\n"
+               "  -v, --verbose         more logging (-vv debug)\n"
+               "  -h, --help            this text\n"
+               "  -V, --version         print the version\n");
 }
 
 static void fill_opts(void)
@@ -128,8 +127,8 @@ static int load_conf(struct conf *c)
      * say so once rather than widen access silently. */
     if (ovr.nlisten && policies && !warned++)
         log_warn("--listen replaces the listeners of %s, %d of them with an access policy (allow, read_only): "
-                 "the --listen address%s ha%s none", conf_path, policies, ovr.nlisten > 1 ? "es" : "",
-                 ovr.nlisten > 1 ? "ve" : "s");
+                 "the --listen address%s ha%s none",
+                 conf_path, policies, ovr.nlisten > 1 ? "es" : "", ovr.nlisten > 1 ? "ve" : "s");
     return 0;
 }
 
@@ -137,7 +136,7 @@ static int load_conf(struct conf *c)
  * start, so a restored model never shows up as "empty" first). */
 static void log_model(const struct model *md, const char *why)
 {
-    static const char *const st[] = { "empty", "incomplete", "solved", "solve failed" };
+    static const char *const st[] = {"empty", "incomplete", "solved", "solve failed"};
     unsigned need = models_required(md);
     unsigned missing = models_missing(md);
     log_info("model %d on unit %d: %s %ux%u, flags %u, %s, %u/%u points, generation %u%s", md->id, md->unit,
@@ -161,7 +160,7 @@ static int add_model(const struct conf_model *m, int at_start)
             return -1;
         }
     }
-    if (!at_start)  /* at start: logged once the WAL is replayed */
+    if (!at_start) /* at start: logged once the WAL is replayed */
         log_model(md, m->preload ? " (paper data preloaded)" : "");
     return 0;
 }
@@ -333,8 +332,8 @@ static int drop_privileges(void)
         log_err("user %s: cannot switch to uid %u gid %u: %s", cfg.user, cfg.uid, cfg.gid, strerror(errno));
         return -1;
     }
-    if (uid != 0 && (setuid(0) == 0 || seteuid(0) == 0 || getuid() != uid || geteuid() != uid ||
-                     getgid() != gid || getegid() != gid)) {
+    if (uid != 0 && (setuid(0) == 0 || seteuid(0) == 0 || getuid() != uid || geteuid() != uid || getgid() != gid ||
+                     getegid() != gid)) {
         log_err("user %s: root privileges could be regained; refusing to run", cfg.user);
         return -1;
     }
@@ -418,8 +417,13 @@ static int removals_refused(const struct conf *nc)
  * reconfigures a model holding data. Returns how many models refuse. */
 static int reconfigures_refused(const struct conf *nc)
 {
-    static const struct { unsigned set, flag; const char *key; } keys[] = {
-        { CONF_SET_Z, IT2N_F_Z, "z" }, { CONF_SET_TYPE1, IT2N_F_TYPE1, "type1" }, { CONF_SET_CHORD, IT2N_F_CHORD, "chord" },
+    static const struct {
+        unsigned set, flag;
+        const char *key;
+    } keys[] = {
+        {CONF_SET_Z, IT2N_F_Z, "z"},
+        {CONF_SET_TYPE1, IT2N_F_TYPE1, "type1"},
+        {CONF_SET_CHORD, IT2N_F_CHORD, "chord"},
     };
     int refused = 0;
     for (int k = 0; k < models_count(); k++) {
@@ -443,8 +447,8 @@ static int reconfigures_refused(const struct conf *nc)
             continue;
         log_err("reload refused: model %d (unit %d) holds %u data point(s) (generation %u) and [model:%d] in %s no "
                 "longer gives %s: its default would reconfigure the model and clear them; write the key to reconfigure "
-                "on purpose (docs/daemon.md)", md->id, md->unit, pts, (unsigned)md->gen, md->id,
-                conf_path ? conf_path : "the configuration", lost);
+                "on purpose (docs/daemon.md)",
+                md->id, md->unit, pts, (unsigned)md->gen, md->id, conf_path ? conf_path : "the configuration", lost);
         refused++;
     }
     return refused;
@@ -503,8 +507,8 @@ static void reload_models(const struct conf *nc)
             continue; /* added back below */
         }
         if (models_configure(md, (unsigned)m->n, (unsigned)m->m, m->flags, &err) == IT2N_OK)
-            log_notice("reload: model %d reconfigured to %dx%d, flags %u: points cleared (journaled CONFIGURE)",
-                       md->id, m->n, m->m, m->flags);
+            log_notice("reload: model %d reconfigured to %dx%d, flags %u: points cleared (journaled CONFIGURE)", md->id,
+                       m->n, m->m, m->flags);
         else
             log_err("reload: model %d cannot be reconfigured: %s", md->id, it2n_strerror(err.code));
     }
@@ -621,7 +625,8 @@ static int check_state_dir(const char *dir)
     }
     if (stat(dir, &st) != 0 && errno != ENOENT) {
         log_err("state_dir %s: %s; the daemon could not use it: make it reachable by %s or choose another "
-                "(state_dir or --state-dir)", dir, strerror(errno), who);
+                "(state_dir or --state-dir)",
+                dir, strerror(errno), who);
         return -1;
     }
     if (stat(dir, &st) != 0) {
@@ -630,13 +635,18 @@ static int check_state_dir(const char *dir)
         } else {
             e = errno;
             log_err("state_dir %s: cannot be created: %s%s; create it (writable by %s) or choose another (state_dir "
-                    "or --state-dir)", dir, strerror(e), e == ENOENT ? " (its parent directory does not exist; "
-                    "it2nd creates the last component only)" : "", who);
+                    "or --state-dir)",
+                    dir, strerror(e),
+                    e == ENOENT ? " (its parent directory does not exist; "
+                                  "it2nd creates the last component only)"
+                                : "",
+                    who);
         }
     }
     if (!e && (e = try_write(dir)) != 0)
         log_err("state_dir %s: not writable (creating a file: %s); the daemon could not keep its WAL there: make it "
-                "writable by %s or choose another (state_dir or --state-dir)", dir, strerror(e), who);
+                "writable by %s or choose another (state_dir or --state-dir)",
+                dir, strerror(e), who);
     if (made)
         rmdir(dir);
     return e ? -1 : 0;
@@ -675,8 +685,8 @@ static int check_port(const char *what, const char *host, const char *port, cons
         if (running) {
             porthint_holder(atoi(port), hint, sizeof hint);
             log_warn("%s %s%s%s:%s: in use%s%s while a running it2nd holds %s/lock: presumably that daemon's own "
-                     "listener (not an error)", what, v6 ? "[" : "", host, v6 ? "]" : "", port, hint[0] ? " by " : "",
-                     hint, cfg.state_dir);
+                     "listener (not an error)",
+                     what, v6 ? "[" : "", host, v6 ? "]" : "", port, hint[0] ? " by " : "", hint, cfg.state_dir);
             return 0;
         }
         porthint_in_use(host, port, flag, hint, sizeof hint);
@@ -684,8 +694,9 @@ static int check_port(const char *what, const char *host, const char *port, cons
         return -1;
     }
     log_err("%s %s%s%s:%s: cannot bind: %s%s", what, v6 ? "[" : "", host, v6 ? "]" : "", port, strerror(e),
-            e == EACCES ? " (ports below 1024 need root or CAP_NET_BIND_SERVICE)" :
-            e == EADDRNOTAVAIL ? " (no such local address)" : "");
+            e == EACCES          ? " (ports below 1024 need root or CAP_NET_BIND_SERVICE)"
+            : e == EADDRNOTAVAIL ? " (no such local address)"
+                                 : "");
     return -1;
 }
 
@@ -694,7 +705,8 @@ static int check_runtime(void)
     int bad = 0, running = state_dir_in_use(cfg.state_dir);
     if (running)
         log_warn("state_dir %s: locked by a running it2nd (fine when checking before a reload; a second daemon "
-                 "on it would refuse to start)", cfg.state_dir);
+                 "on it would refuse to start)",
+                 cfg.state_dir);
     else
         bad |= check_state_dir(cfg.state_dir);
     for (int k = 0; k < cfg.nlisten; k++)
@@ -708,15 +720,18 @@ static int check_runtime(void)
 
 int main(int argc, char **argv)
 {
-    static const struct option lopts[] = {
-        { "config", required_argument, NULL, 'c' }, { "check-config", no_argument, NULL, 't' },
-        { "foreground", no_argument, NULL, 'f' },   { "verbose", no_argument, NULL, 'v' },
-        { "help", no_argument, NULL, 'h' },         { "version", no_argument, NULL, 'V' },
-        { "accept-wal-loss", no_argument, NULL, 'A' }, { "listen", required_argument, NULL, 'l' },
-        { "state-dir", required_argument, NULL, 's' }, { "metrics", required_argument, NULL, 'm' },
-        { "config-keys", optional_argument, NULL, 'K' },
-        { NULL, 0, NULL, 0 }
-    };
+    static const struct option lopts[] = {{"config", required_argument, NULL, 'c'},
+                                          {"check-config", no_argument, NULL, 't'},
+                                          {"foreground", no_argument, NULL, 'f'},
+                                          {"verbose", no_argument, NULL, 'v'},
+                                          {"help", no_argument, NULL, 'h'},
+                                          {"version", no_argument, NULL, 'V'},
+                                          {"accept-wal-loss", no_argument, NULL, 'A'},
+                                          {"listen", required_argument, NULL, 'l'},
+                                          {"state-dir", required_argument, NULL, 's'},
+                                          {"metrics", required_argument, NULL, 'm'},
+                                          {"config-keys", optional_argument, NULL, 'K'},
+                                          {NULL, 0, NULL, 0}};
     int opt, check = 0, fg = 0, verbose = 0, accept_loss = 0;
     while ((opt = getopt_long(argc, argv, "c:tfvhVl:s:m:", lopts, NULL)) != -1) {
         switch (opt) {
@@ -756,8 +771,8 @@ int main(int argc, char **argv)
         if (check_runtime())
             return 1;
         printf("%s%s: configuration OK (%d listen, %d rtu, %d models, %d links", conf_path ? conf_path : "built-in",
-               ovr.nlisten || ovr.state_dir || ovr.metrics ? " with flags" : "",
-               cfg.nlisten, cfg.nrtu, cfg.nmodels, cfg.nlinks);
+               ovr.nlisten || ovr.state_dir || ovr.metrics ? " with flags" : "", cfg.nlisten, cfg.nrtu, cfg.nmodels,
+               cfg.nlinks);
         for (int k = 0; k < cfg.nremoved; k++)
             printf("%s%d", k ? ", " : "; removed = yes: model ", cfg.removed[k]);
         printf("%s)\n", cfg.metrics.port[0] ? ", metrics" : "");
@@ -845,7 +860,8 @@ int main(int argc, char **argv)
     int rc = 0;
     if (store_snapshot()) {
         log_err("stopping: the final snapshot could not be written; exit status 1 (the acknowledged state is in "
-                "%s: the last snapshot and the WAL)", cfg.state_dir);
+                "%s: the last snapshot and the WAL)",
+                cfg.state_dir);
         rc = 1;
     }
     store_close();

@@ -11,19 +11,20 @@
 #include "it2n_regmap.h"
 
 _Static_assert(IT2N_DIM <= IT2N_REGMAP_DIM, "control-net stride of the map too small");
-_Static_assert(IT2N_REGMAP_REG_GRID_F32_END - IT2N_REGMAP_REG_GRID_F32 <= IT2N_REGMAP_REG_CTRL_END - IT2N_REGMAP_REG_CTRL,
+_Static_assert(IT2N_REGMAP_REG_GRID_F32_END - IT2N_REGMAP_REG_GRID_F32 <=
+                   IT2N_REGMAP_REG_CTRL_END - IT2N_REGMAP_REG_CTRL,
                "scratch buffer holds the largest block");
 _Static_assert(IT2N_VAL_FRAC == IT2N_REGMAP_Q24_FRAC && IT2N_PAR_FRAC == IT2N_REGMAP_PAR_FRAC,
                "the map's codecs carry the core's fixed point");
-_Static_assert(IT2N_FP_COUNT == IT2N_REGMAP_FP && IT2N_CH_COUNT == IT2N_REGMAP_CH,
-               "map footprint/channel counts");
+_Static_assert(IT2N_FP_COUNT == IT2N_REGMAP_FP && IT2N_CH_COUNT == IT2N_REGMAP_CH, "map footprint/channel counts");
 
 /* The float result block is it2n_point's values then its summary in
  * sum_value order, contiguous in the struct: converted in one call. */
 #define RES_F32_VALUES (IT2N_FP_COUNT * IT2N_CH_COUNT + 12)
 _Static_assert(IT2N_REGMAP_REG_SUM_F32 - IT2N_REGMAP_REG_RES_F32 == 2 * IT2N_FP_COUNT * IT2N_CH_COUNT &&
                    offsetof(it2n_point, sum) == sizeof(it2n_val) * IT2N_FP_COUNT * IT2N_CH_COUNT &&
-                   offsetof(it2n_summary, upper_min) == 0 && offsetof(it2n_summary, upper_max) == 3 * sizeof(it2n_val) &&
+                   offsetof(it2n_summary, upper_min) == 0 &&
+                   offsetof(it2n_summary, upper_max) == 3 * sizeof(it2n_val) &&
                    offsetof(it2n_summary, lower_min) == 6 * sizeof(it2n_val) &&
                    offsetof(it2n_summary, lower_max) == 9 * sizeof(it2n_val),
                "results_f32 is it2n_point's v then sum, in sum_value order");
@@ -62,8 +63,8 @@ static int query_result(struct model *md, struct mb_map_query *q)
         if (models_locate(md, q->x, q->y, &lr, NULL) != IT2N_OK)
             return MB_MAP_DEVICE_FAILURE;
         it2n_val mn[4][3], mx[4][3];
-        static const int up[3] = { IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR };
-        static const int low[3] = { IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL };
+        static const int up[3] = {IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR};
+        static const int low[3] = {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL};
         for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
             if (!models_has_fp(md, fp))
                 continue;
@@ -79,7 +80,7 @@ static int query_result(struct model *md, struct mb_map_query *q)
         /* Interval summary from the located surface values (the core's
          * summary is per (u, w); here each footprint has its own). */
         for (int k = 0; k < 3; k++) {
-            const int *sets[2] = { up, low };
+            const int *sets[2] = {up, low};
             for (int s = 0; s < 2; s++) {
                 it2n_val lo = 0, hi = 0;
                 int first = 1;
@@ -206,8 +207,8 @@ static uint16_t grid_saturated(struct model *md, const struct mb_map_opts *o)
 }
 
 /* Fill registers [start, end) of one block into buf (indexed from start). */
-static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o,
-                      const it2n_regmap_block *b, uint16_t *buf, unsigned from, unsigned to)
+static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const it2n_regmap_block *b,
+                      uint16_t *buf, unsigned from, unsigned to)
 {
     unsigned len = b->end - b->start;
     int rc, sat;
@@ -247,9 +248,7 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
         put_u32(&buf[0], models_present(md));
         put_u32(&buf[IT2N_REGMAP_REG_REQUIRED32 - IT2N_REGMAP_REG_PRESENT32], models_required(md));
         return MB_MAP_OK;
-    case IT2N_REGMAP_REG_PG_FP:
-        memcpy(buf, q->page, sizeof q->page);
-        return MB_MAP_OK;
+    case IT2N_REGMAP_REG_PG_FP: memcpy(buf, q->page, sizeof q->page); return MB_MAP_OK;
     case IT2N_REGMAP_REG_WIN: {
         unsigned fp = q->page[0], ch = q->page[1], row = q->page[2], cols = models_net_cols(md);
         unsigned first = (from - b->start) / 2, last = (to - b->start + 1) / 2;
@@ -267,12 +266,8 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
         buf[2] = (uint16_t)models_flags(md);
         buf[3] = 0;
         return MB_MAP_OK;
-    case IT2N_REGMAP_REG_UP_I:
-        memcpy(buf, md->mb.upload, sizeof md->mb.upload);
-        return MB_MAP_OK;
-    case IT2N_REGMAP_REG_Q_U16:
-        memcpy(buf, q->regs, sizeof q->regs);
-        return MB_MAP_OK;
+    case IT2N_REGMAP_REG_UP_I: memcpy(buf, md->mb.upload, sizeof md->mb.upload); return MB_MAP_OK;
+    case IT2N_REGMAP_REG_Q_U16: memcpy(buf, q->regs, sizeof q->regs); return MB_MAP_OK;
     case IT2N_REGMAP_REG_Q_KIND:
         rc = query_result(md, q);
         if (rc == MB_MAP_BUSY) { /* status stays readable while unsolved */
@@ -311,7 +306,8 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
             }
             for (unsigned k = 0; k < 3; k++) {
                 sat = 0;
-                int64_t v = it2n_regmap_q24_to_scaled(q->pt.v[fp][IT2N_CH_T + k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+                int64_t v =
+                    it2n_regmap_q24_to_scaled(q->pt.v[fp][IT2N_CH_T + k], IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
                 r[6 + k] = (uint16_t)(int16_t)v;
                 mask = (uint16_t)(mask | (sat ? 1u << (3 + k) : 0u));
             }
@@ -321,7 +317,8 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
             uint16_t mask = 0;
             for (unsigned s = 0; s < 12; s++) {
                 sat = 0;
-                int64_t v = it2n_regmap_q24_to_scaled(sum_value(&q->pt.sum, s), IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
+                int64_t v =
+                    it2n_regmap_q24_to_scaled(sum_value(&q->pt.sum, s), IT2N_REGMAP_MEMB_SCALE, -32767, 32767, &sat);
                 buf[IT2N_REGMAP_REG_SUM_SCALED - IT2N_REGMAP_REG_RES_SCALED + s] = (uint16_t)(int16_t)v;
                 mask = (uint16_t)(mask | (sat ? 1u << s : 0u));
             }
@@ -337,8 +334,8 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
         for (unsigned nd = 0; nd < nodes; nd++)
             for (unsigned k = 0; k < 3; k++) {
                 sat = 0;
-                buf[nd * 3 + k] = (uint16_t)(int16_t)it2n_regmap_q24_to_scaled(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE, -32767,
-                                                                 32767, &sat);
+                buf[nd * 3 + k] = (uint16_t)(int16_t)it2n_regmap_q24_to_scaled(g->v[nd][k], IT2N_REGMAP_MEMB_SCALE,
+                                                                               -32767, 32767, &sat);
             }
         return MB_MAP_OK;
     }
@@ -363,17 +360,17 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
         for (unsigned e = first; e < last; e++) {
             unsigned ch = e % 6, j = (e / 6) % 8, i = (e / 48) % 8, fp = e / 384;
             if (i <= md->mdl.n && j <= md->mdl.m && it2n_model_has_fp(&md->mdl, fp))
-                it2n_regmap_put_f32(&buf[e * 2], it2n_regmap_q24_to_f32(it2n_model_ctrl(&md->mdl, i, j, fp, ch)), o->word_order);
+                it2n_regmap_put_f32(&buf[e * 2], it2n_regmap_q24_to_f32(it2n_model_ctrl(&md->mdl, i, j, fp, ch)),
+                                    o->word_order);
         }
         return MB_MAP_OK;
     }
-    default:
-        return MB_MAP_ILLEGAL_ADDRESS;
+    default: return MB_MAP_ILLEGAL_ADDRESS;
     }
 }
 
-int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
-               unsigned count, uint16_t *out)
+int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
+                uint16_t *out)
 {
     static uint16_t buf[IT2N_REGMAP_REG_CTRL_END - IT2N_REGMAP_REG_CTRL]; /* the largest block */
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
@@ -392,12 +389,9 @@ static int map_core_err(int code)
     switch (code) {
     case IT2N_ERR_INVAL:
     case IT2N_ERR_RANGE:
-    case IT2N_ERR_DUPLICATE:
-        return MB_MAP_ILLEGAL_VALUE;
-    case IT2N_ERR_MISSING:
-        return MB_MAP_BUSY;
-    default:
-        return MB_MAP_DEVICE_FAILURE;
+    case IT2N_ERR_DUPLICATE: return MB_MAP_ILLEGAL_VALUE;
+    case IT2N_ERR_MISSING: return MB_MAP_BUSY;
+    default: return MB_MAP_DEVICE_FAILURE;
     }
 }
 
@@ -426,8 +420,7 @@ void mb_map_refused(struct model *md, int exc)
     refused(md, exc, exc == MB_MAP_BUSY ? IT2N_ERR_STATE : IT2N_ERR_INVAL, -1, -1, -1);
 }
 
-static int write_config(struct model *md, unsigned addr, unsigned count, const uint16_t *v,
-                        int *persisted)
+static int write_config(struct model *md, unsigned addr, unsigned count, const uint16_t *v, int *persisted)
 {
     unsigned n = models_n(md), m = models_m(md), flags = models_flags(md), cmd = 0;
     unsigned max = md->kind == MODEL_BSPLINE ? IT2N_BSPLINE_MAX_N : IT2N_MAX_DEGREE;
@@ -470,10 +463,10 @@ static int write_config(struct model *md, unsigned addr, unsigned count, const u
     return MB_MAP_OK;
 }
 
-static int write_upload(struct model *md, const struct mb_map_opts *o, unsigned addr, unsigned count,
-                        const uint16_t *v, int *persisted)
+static int write_upload(struct model *md, const struct mb_map_opts *o, unsigned addr, unsigned count, const uint16_t *v,
+                        int *persisted)
 {
-    it2n_val vals[IT2N_CH_COUNT] = { 0 };
+    it2n_val vals[IT2N_CH_COUNT] = {0};
     it2n_errinfo err;
     int rc;
     if (addr != IT2N_REGMAP_REG_UP_I || count != IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I)
@@ -520,7 +513,7 @@ static int cuts(unsigned addr, unsigned count, unsigned a)
 
 static int par_from_f32(float f, it2n_par *out)
 {
-    if (!(f >= 0.0f && f <= 1.0f))  /* also rejects NaN */
+    if (!(f >= 0.0f && f <= 1.0f)) /* also rejects NaN */
         return -1;
     *out = (it2n_par)llround((double)f * (double)IT2N_PAR_ONE);
     return 0;
@@ -535,8 +528,10 @@ static void sync_views(struct mb_map_query *q, const struct mb_map_opts *o)
     if (q->kind == 1) {
         q->regs[QIDX(IT2N_REGMAP_REG_Q_U16)] = it2n_regmap_par_to_u16(q->u);
         q->regs[QIDX(IT2N_REGMAP_REG_Q_W16)] = it2n_regmap_par_to_u16(q->w);
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE), o->word_order);
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE), o->word_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE),
+                            o->word_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE),
+                            o->word_order);
     } else if (q->kind == 2) {
         put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XS)],
                 (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->x, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
@@ -555,13 +550,13 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
     struct mb_map_query nq;
     unsigned end = addr + count;
     memcpy(&nq, q, offsetof(struct mb_map_query, valid));
-    static const unsigned wide[] = { IT2N_REGMAP_REG_Q_UF, IT2N_REGMAP_REG_Q_WF, IT2N_REGMAP_REG_Q_XS, IT2N_REGMAP_REG_Q_YS,
-                                     IT2N_REGMAP_REG_Q_XF, IT2N_REGMAP_REG_Q_YF };
+    static const unsigned wide[] = {IT2N_REGMAP_REG_Q_UF, IT2N_REGMAP_REG_Q_WF, IT2N_REGMAP_REG_Q_XS,
+                                    IT2N_REGMAP_REG_Q_YS, IT2N_REGMAP_REG_Q_XF, IT2N_REGMAP_REG_Q_YF};
     (void)md;
     for (unsigned k = 0; k < sizeof wide / sizeof wide[0]; k++)
         if (cuts(addr, count, wide[k]))
             return MB_MAP_ILLEGAL_VALUE;
-    int uv = addr < IT2N_REGMAP_REG_Q_XS, xy = end > IT2N_REGMAP_REG_Q_XS;
+    int uv = addr<IT2N_REGMAP_REG_Q_XS, xy = end> IT2N_REGMAP_REG_Q_XS;
     if (uv && xy)
         return MB_MAP_ILLEGAL_VALUE;
     memcpy(&nq.regs[QIDX(addr)], v, count * sizeof *v);
@@ -571,14 +566,16 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
             if (nq.regs[QIDX(IT2N_REGMAP_REG_Q_U16)] > IT2N_REGMAP_MEMB_SCALE)
                 return MB_MAP_ILLEGAL_VALUE;
             nq.u = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REGMAP_REG_Q_U16)]);
-        } else if (IN(IT2N_REGMAP_REG_Q_UF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REGMAP_REG_Q_UF)], o->word_order), &nq.u)) {
+        } else if (IN(IT2N_REGMAP_REG_Q_UF) &&
+                   par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REGMAP_REG_Q_UF)], o->word_order), &nq.u)) {
             return MB_MAP_ILLEGAL_VALUE;
         }
         if (IN(IT2N_REGMAP_REG_Q_W16)) {
             if (nq.regs[QIDX(IT2N_REGMAP_REG_Q_W16)] > IT2N_REGMAP_MEMB_SCALE)
                 return MB_MAP_ILLEGAL_VALUE;
             nq.w = it2n_regmap_par_from_u16(nq.regs[QIDX(IT2N_REGMAP_REG_Q_W16)]);
-        } else if (IN(IT2N_REGMAP_REG_Q_WF) && par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REGMAP_REG_Q_WF)], o->word_order), &nq.w)) {
+        } else if (IN(IT2N_REGMAP_REG_Q_WF) &&
+                   par_from_f32(it2n_regmap_get_f32(&nq.regs[QIDX(IT2N_REGMAP_REG_Q_WF)], o->word_order), &nq.w)) {
             return MB_MAP_ILLEGAL_VALUE;
         }
         nq.kind = 1;
@@ -624,7 +621,7 @@ int mb_map_write_changes_model(unsigned addr, unsigned count)
  * nothing changed. */
 static int write_page(struct mb_map_query *q, unsigned addr, unsigned count, const uint16_t *v)
 {
-    static const unsigned lim[] = { IT2N_REGMAP_FP, IT2N_REGMAP_CH, IT2N_REGMAP_WIN_ROWS };
+    static const unsigned lim[] = {IT2N_REGMAP_FP, IT2N_REGMAP_CH, IT2N_REGMAP_WIN_ROWS};
     for (unsigned k = 0; k < count; k++)
         if (v[k] >= lim[addr - IT2N_REGMAP_REG_PG_FP + k])
             return MB_MAP_ILLEGAL_VALUE;
@@ -632,18 +629,16 @@ static int write_page(struct mb_map_query *q, unsigned addr, unsigned count, con
     return MB_MAP_OK;
 }
 
-int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
-                unsigned count, const uint16_t *vals, int *persisted)
+int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
+                 const uint16_t *vals, int *persisted)
 {
     const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     *persisted = 0;
     if (!b || b->access != IT2N_REGMAP_ACCESS_RW)
         return refused(md, MB_MAP_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
     switch (b->start) {
-    case IT2N_REGMAP_REG_CFG_N:
-        return write_config(md, addr, count, vals, persisted);
-    case IT2N_REGMAP_REG_UP_I:
-        return write_upload(md, o, addr, count, vals, persisted);
+    case IT2N_REGMAP_REG_CFG_N: return write_config(md, addr, count, vals, persisted);
+    case IT2N_REGMAP_REG_UP_I: return write_upload(md, o, addr, count, vals, persisted);
     case IT2N_REGMAP_REG_Q_U16: {
         int rc = write_query(md, q, o, addr, count, vals);
         return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MB_MAP_OK;
@@ -652,7 +647,6 @@ int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_o
         int rc = write_page(q, addr, count, vals);
         return rc ? refused(md, rc, IT2N_ERR_RANGE, -1, -1, -1) : MB_MAP_OK;
     }
-    default:
-        return refused(md, MB_MAP_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
+    default: return refused(md, MB_MAP_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);
     }
 }

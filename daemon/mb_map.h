@@ -28,7 +28,7 @@ struct mb_map_opts {
     /* Bit u set: unit u is write-protected ([model:] write_protect): no
      * Modbus write may change its model (query registers stay writable). */
     uint8_t write_protect[32];
-    int int32_order;     /* enum it2n_regmap_order of u32/i32 registers */
+    int int32_order; /* enum it2n_regmap_order of u32/i32 registers */
     /* Modbus TCP unit ids 0 and 255 ("this server", the Modbus TCP spec's
      * 0xFF) reach the model on this unit; 0 = they answer 0B. */
     int default_unit;
@@ -41,7 +41,7 @@ int mb_map_write_changes_model(unsigned addr, unsigned count);
 /* Per-connection query state. Zero-initialise. */
 struct mb_map_query {
     uint16_t regs[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16]; /* inputs as written */
-    int kind;            /* 0 none, 1 (u, w), 2 (x, y) */
+    int kind;                                                         /* 0 none, 1 (u, w), 2 (x, y) */
     it2n_par u, w;
     it2n_val x, y;
     /* (write_query copies the fields above, the inputs, up to `valid`.) */
@@ -58,15 +58,15 @@ struct mb_map_query {
 
 /* Read count registers from addr into out. Returns MB_MAP_OK or an exception
  * (02 outside the map, 06 results while unsolved, 04 evaluation failure). */
-int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
-               unsigned count, uint16_t *out);
+int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
+                uint16_t *out);
 
 /* Write count registers. Validates fully first; on any exception nothing
  * changed but the model's last_error, which says why (an it2n code, or
  * the daemon's, errs.h). *persisted set to 1 when the model changed (the
  * reply must wait for the WAL commit). */
-int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
-                unsigned count, const uint16_t *vals, int *persisted);
+int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
+                 const uint16_t *vals, int *persisted);
 
 /* A write request refused before mb_map_write (malformed PDU: exception
  * exc): set the model's last_error accordingly. */

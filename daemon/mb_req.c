@@ -116,7 +116,7 @@ static int exception(struct mb_req_session *s, struct model *md, const uint8_t *
     metrics_modbus_reply(req[hl], code);
     if (req[hl] & 0x80u) {
         uint8_t copy[MODBUS_TCP_MAX_ADU_LENGTH > MODBUS_RTU_MAX_ADU_LENGTH ? MODBUS_TCP_MAX_ADU_LENGTH
-                                                                         : MODBUS_RTU_MAX_ADU_LENGTH];
+                                                                           : MODBUS_RTU_MAX_ADU_LENGTH];
         memcpy(copy, req, (size_t)hl + 1u);
         copy[hl] = (uint8_t)(req[hl] & 0x7Fu);
         return modbus_reply_exception(s->ctx, copy, (unsigned)code) < 0 ? -1 : 0;
@@ -212,9 +212,9 @@ int mb_req_handle(struct mb_req_session *s, const uint8_t *req, int len, const s
     int unit, fc, rc, persisted = 0;
     struct model *md;
     uint16_t vals[MODBUS_MAX_WR_WRITE_REGISTERS > MODBUS_MAX_WRITE_REGISTERS ? MODBUS_MAX_WR_WRITE_REGISTERS
-                                                                          : MODBUS_MAX_WRITE_REGISTERS];
+                                                                             : MODBUS_MAX_WRITE_REGISTERS];
     uint16_t regs[MODBUS_MAX_READ_REGISTERS > MODBUS_MAX_WR_READ_REGISTERS ? MODBUS_MAX_READ_REGISTERS
-                                                                         : MODBUS_MAX_WR_READ_REGISTERS];
+                                                                           : MODBUS_MAX_WR_READ_REGISTERS];
     unsigned nregs = 0;
     const uint8_t *pdu = req + hl;
     int plen = len - hl - (s->is_tcp ? 0 : 2); /* RTU: CRC (already checked) */
@@ -299,8 +299,7 @@ int mb_req_handle(struct mb_req_session *s, const uint8_t *req, int len, const s
         nregs = rcount;
         break;
     }
-    default:
-        return exception(s, md, req, MB_MAP_ILLEGAL_FUNCTION);
+    default: return exception(s, md, req, MB_MAP_ILLEGAL_FUNCTION);
     }
     if (rc == MB_MAP_OK)
         frame_reply(s, req, fc, regs, nregs);

@@ -13,17 +13,17 @@
 #include "mb_map.h"
 
 struct mb_req_session {
-    modbus_t *ctx;              /* one per connection / serial port */
+    modbus_t *ctx; /* one per connection / serial port */
     int is_tcp;
-    int read_only;              /* the listener is read-only */
-    unsigned refused;           /* writes refused by access control */
-    char who[160];              /* peer, for the log */
-    struct mb_map_query q;          /* per-connection query state */
+    int read_only;         /* the listener is read-only */
+    unsigned refused;      /* writes refused by access control */
+    char who[160];         /* peer, for the log */
+    struct mb_map_query q; /* per-connection query state */
     uint8_t held[MODBUS_TCP_MAX_ADU_LENGTH];
-    int held_len;               /* > 0: reply waits for the commit */
-    int held_exc;               /* exception to send instead, or 0 */
+    int held_len; /* > 0: reply waits for the commit */
+    int held_exc; /* exception to send instead, or 0 */
     struct model *held_model;
-    uint64_t held_batch;        /* the WAL batch its reply waits for */
+    uint64_t held_batch;                    /* the WAL batch its reply waits for */
     uint8_t rsp[MODBUS_TCP_MAX_ADU_LENGTH]; /* the reply, framed */
     int rsp_len;
 };

@@ -39,9 +39,9 @@ struct rtu_port {
     struct mb_req_session s;
     uint8_t buf[MODBUS_RTU_MAX_ADU_LENGTH];
     size_t len;
-    size_t checked;         /* candidates ending at or before this were checked */
-    uint64_t last_rx;       /* us */
-    unsigned gap_us;        /* t3.5 */
+    size_t checked;   /* candidates ending at or before this were checked */
+    uint64_t last_rx; /* us */
+    unsigned gap_us;  /* t3.5 */
     long silence_timer;
     long retry_timer;
     unsigned backoff_ms;
@@ -95,7 +95,9 @@ static long expected_len(const uint8_t *b, size_t n)
     if (n < 2)
         return 0;
     switch (b[1]) {
-    case 3: case 4: case 6: return 8;
+    case 3:
+    case 4:
+    case 6: return 8;
     case 16: return n < 7 ? 0 : 9 + (long)b[6];
     case 23: return n < 11 ? 0 : 13 + (long)b[10];
     default: return -1;
@@ -294,7 +296,8 @@ static int rs485_kernel(const struct rtu_port *p, int *on, char *why, size_t siz
         want.flags |= c->rts_on_send ? SER_RS485_RTS_ON_SEND : SER_RS485_RTS_AFTER_SEND;
     }
     if (c->termination >= 0)
-        want.flags = c->termination ? want.flags | SER_RS485_TERMINATE_BUS : want.flags & ~(__u32)SER_RS485_TERMINATE_BUS;
+        want.flags =
+            c->termination ? want.flags | SER_RS485_TERMINATE_BUS : want.flags & ~(__u32)SER_RS485_TERMINATE_BUS;
     if (c->delay_before_ms >= 0)
         want.delay_rts_before_send = (__u32)c->delay_before_ms;
     if (c->delay_after_ms >= 0)
@@ -305,8 +308,9 @@ static int rs485_kernel(const struct rtu_port *p, int *on, char *why, size_t siz
         return -1;
     }
     why[0] = 0;
-#define DIFF(cond, ...) do { \
-        if ((cond) && n < size) \
+#define DIFF(cond, ...)                                            \
+    do {                                                           \
+        if ((cond) && n < size)                                    \
             n += (size_t)snprintf(why + n, size - n, __VA_ARGS__); \
     } while (0)
     DIFF(c->rts_on_send >= 0 && !(got.flags & SER_RS485_RTS_ON_SEND) != !c->rts_on_send,
@@ -373,8 +377,8 @@ static int rs485_setup(struct rtu_port *p, char *mode, size_t size)
         log_err("rtu %s: %s refuses %s; not served (rs485_strict = yes)", c->name, c->device, why);
         return -1;
     }
-    log_warn("rtu %s: %s refuses %s; serving in %s (rs485_strict = yes would refuse the port)", c->name,
-             c->device, why, on ? "RS-485 mode with the driver's settings" : "RS-232 mode");
+    log_warn("rtu %s: %s refuses %s; serving in %s (rs485_strict = yes would refuse the port)", c->name, c->device, why,
+             on ? "RS-485 mode with the driver's settings" : "RS-232 mode");
     snprintf(mode, size, on ? "RS-485 (kernel, driver's settings)" : "RS-232 (RS-485 refused)");
     return 0;
 }
@@ -438,8 +442,8 @@ static void port_open(void *arg)
     p->len = 0;
     p->checked = 0;
     loop_add_fd(p->fd, POLLIN, on_port, p);
-    log_notice("modbus rtu %s on %s, %d %c%d, %s, t3.5 %u us%s", p->cfg.name, p->cfg.device, p->cfg.baud,
-               p->cfg.parity, p->cfg.stop_bits, mode, p->gap_us, p->cfg.read_only ? ", read-only" : "");
+    log_notice("modbus rtu %s on %s, %d %c%d, %s, t3.5 %u us%s", p->cfg.name, p->cfg.device, p->cfg.baud, p->cfg.parity,
+               p->cfg.stop_bits, mode, p->gap_us, p->cfg.read_only ? ", read-only" : "");
 }
 
 static void close_port(struct rtu_port *p)

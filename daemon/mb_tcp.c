@@ -42,7 +42,7 @@
  * address holding most of them, so a flood from one address never pushes
  * out a newcomer from another while it holds more places. */
 struct peer_addr {
-    uint8_t a[16];          /* IPv6, IPv4 as ::ffff:a.b.c.d */
+    uint8_t a[16]; /* IPv6, IPv4 as ::ffff:a.b.c.d */
     int n;
     struct peer_addr *next;
 };
@@ -52,20 +52,20 @@ static int peer_max; /* an upper bound of the largest n */
 
 struct conn {
     int fd;
-    int slot;               /* 1: holds a slot (s is set up) */
-    int ready;              /* no slot yet, a complete request buffered */
-    int ro;                 /* the listener is read-only (s.read_only once in a slot) */
+    int slot;  /* 1: holds a slot (s is set up) */
+    int ready; /* no slot yet, a complete request buffered */
+    int ro;    /* the listener is read-only (s.read_only once in a slot) */
     struct mb_req_session s;
     uint8_t buf[MODBUS_TCP_MAX_ADU_LENGTH * 2];
     size_t len;
-    uint64_t accepted;      /* ms */
-    uint64_t last_rx;       /* ms, for the idle timeout */
-    uint64_t last_req;      /* us, last complete request: who is idle longest */
-    uint64_t ready_since;   /* ms, its first complete request (ready) */
-    uint64_t partial_since; /* ms, first byte of an incomplete request, 0 none */
+    uint64_t accepted;          /* ms */
+    uint64_t last_rx;           /* ms, for the idle timeout */
+    uint64_t last_req;          /* us, last complete request: who is idle longest */
+    uint64_t ready_since;       /* ms, its first complete request (ready) */
+    uint64_t partial_since;     /* ms, first byte of an incomplete request, 0 none */
     struct sockaddr_storage sa; /* peer, for the allow-list at a reload */
-    struct peer_addr *pa;   /* its address' count while pending without a request */
-    char laddr[80];         /* listener host:port, to find its policy at a reload */
+    struct peer_addr *pa;       /* its address' count while pending without a request */
+    char laddr[80];             /* listener host:port, to find its policy at a reload */
     char peer[64];
     struct conn *next, *prev; /* accept order: oldest first */
 };
@@ -352,8 +352,8 @@ static void admit(void)
             if (!v)
                 return; /* every slot in active use: try again at the next sweep */
             log_notice("tcp %s: evicted after %llu ms without a request: its slot goes to %s "
-                       "(all %d slots in use, max_clients)", v->peer,
-                       (unsigned long long)((now_us - v->last_req) / 1000u), w->peer, max_clients);
+                       "(all %d slots in use, max_clients)",
+                       v->peer, (unsigned long long)((now_us - v->last_req) / 1000u), w->peer, max_clients);
             conn_close(v, "evicted for a new client");
         }
         grant(w, loop_now_ms());
@@ -375,8 +375,8 @@ static struct conn *pending_victim(void)
 
 static void push_out(struct conn *v, const char *why)
 {
-    refusal_log("tcp %s: closed after %llu ms without a complete request: %s (%d pending, max_pending %d)",
-                v->peer, (unsigned long long)(loop_now_ms() - v->accepted), why, npending, pending_cap);
+    refusal_log("tcp %s: closed after %llu ms without a complete request: %s (%d pending, max_pending %d)", v->peer,
+                (unsigned long long)(loop_now_ms() - v->accepted), why, npending, pending_cap);
     conn_close(v, "no request; pushed out by a newer connection");
 }
 
@@ -441,8 +441,7 @@ static void on_accept(void *arg, int lfd, short revents)
             }
             return;
         }
-        getnameinfo((struct sockaddr *)&ss, sl, host, sizeof host, serv, sizeof serv,
-                    NI_NUMERICHOST | NI_NUMERICSERV);
+        getnameinfo((struct sockaddr *)&ss, sl, host, sizeof host, serv, sizeof serv, NI_NUMERICHOST | NI_NUMERICSERV);
         listen_key(l, lk, sizeof lk);
         if (!acl_allowed(l, (struct sockaddr *)&ss)) {
             refusal_log("tcp %s:%s: refused: not in the allow-list of listener %s%s%s", host, serv,
@@ -464,7 +463,8 @@ static void on_accept(void *arg, int lfd, short revents)
             /* Every pending connection has a complete request: they keep
              * their places, the newcomer is closed. */
             refusal_log("tcp %s:%s: refused: all %d pending places hold complete requests waiting for a slot "
-                        "(max_pending, max_clients)", host, serv, pending_cap);
+                        "(max_pending, max_clients)",
+                        host, serv, pending_cap);
             close(fd);
             continue;
         }
@@ -522,8 +522,8 @@ static void sweep(void *arg)
         if (c->partial_since && now - c->partial_since > (uint64_t)byte_ms)
             conn_close(c, "byte timeout: request incomplete");
         else if (c->ready && now - c->ready_since > WAIT_MS) {
-            refusal_log("tcp %s: refused: no slot within %d ms, all %d in use by active clients (max_clients)",
-                        c->peer, WAIT_MS, max_clients);
+            refusal_log("tcp %s: refused: no slot within %d ms, all %d in use by active clients (max_clients)", c->peer,
+                        WAIT_MS, max_clients);
             conn_close(c, "no slot");
         } else if (!c->ready && !c->s.held_len && now - c->last_rx > (uint64_t)idle_ms)
             conn_close(c, "idle timeout");
@@ -604,8 +604,8 @@ static void fd_budget(const struct conf *c)
         long room = (long)rl.rlim_cur - c->max_clients - FD_RESERVE;
         pending_cap = room < 4 ? 4 : (int)room;
         log_warn("tcp: RLIMIT_NOFILE %llu (hard %llu) leaves room for %d pending connections, not max_pending %d: "
-                 "raise the limit (LimitNOFILE=) or lower max_pending", (unsigned long long)rl.rlim_cur,
-                 (unsigned long long)rl.rlim_max, pending_cap, c->max_pending);
+                 "raise the limit (LimitNOFILE=) or lower max_pending",
+                 (unsigned long long)rl.rlim_cur, (unsigned long long)rl.rlim_max, pending_cap, c->max_pending);
     }
 }
 

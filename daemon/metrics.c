@@ -42,30 +42,29 @@ static const struct {
     int fc;
     const char *name;
 } funcs[] = {
-    { 3, "read_holding_registers" },   { 4, "read_input_registers" },
-    { 6, "write_single_register" },    { 16, "write_multiple_registers" },
-    { 23, "read_write_multiple_registers" }, { -1, "other" },
+    {3, "read_holding_registers"},    {4, "read_input_registers"},           {6, "write_single_register"},
+    {16, "write_multiple_registers"}, {23, "read_write_multiple_registers"}, {-1, "other"},
 };
 static const struct {
     int exc;
     const char *name;
 } results[] = {
-    { 0, "ok" },
-    { 1, "illegal_function" },
-    { 2, "illegal_data_address" },
-    { 3, "illegal_data_value" },
-    { 4, "server_device_failure" },
-    { 6, "server_device_busy" },
-    { 11, "gateway_target_failed" },
-    { -1, "other_exception" },
+    {0, "ok"},
+    {1, "illegal_function"},
+    {2, "illegal_data_address"},
+    {3, "illegal_data_value"},
+    {4, "server_device_failure"},
+    {6, "server_device_busy"},
+    {11, "gateway_target_failed"},
+    {-1, "other_exception"},
 };
 #define NFUNCS (sizeof funcs / sizeof funcs[0])
 #define NRESULTS (sizeof results / sizeof results[0])
 static uint64_t mb_count[NFUNCS][NRESULTS];
 
 /* WAL fsync histogram (written by the writer thread). */
-static const double fsync_le[] = { 0.0001, 0.00025, 0.0005, 0.001, 0.0025, 0.005, 0.01,
-                                   0.025,  0.05,    0.1,    0.25,  0.5,    1,     2.5, 5, 10 };
+static const double fsync_le[] = {0.0001, 0.00025, 0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025,
+                                  0.05,   0.1,     0.25,   0.5,   1,      2.5,   5,    10};
 #define NLE (sizeof fsync_le / sizeof fsync_le[0])
 static pthread_mutex_t fsync_mu = PTHREAD_MUTEX_INITIALIZER;
 static uint64_t fsync_bucket[NLE], fsync_count, fsync_sum_us, fsync_failed;
@@ -152,7 +151,7 @@ static void put_label(struct buf *b, const char *v)
 
 char *metrics_render(const struct conf *c, size_t *len)
 {
-    struct buf b = { malloc(8192), 0, 8192, 0 };
+    struct buf b = {malloc(8192), 0, 8192, 0};
     struct store_stats st;
     uint64_t bucket[NLE], count, sum_us, failed;
     if (!b.p)
@@ -165,7 +164,8 @@ char *metrics_render(const struct conf *c, size_t *len)
     family(&b, "it2nd_model_generation", "gauge",
            "Generation of the model (status register generation): bumped on every solve or update.");
     for (int k = 0; k < models_count(); k++)
-        put(&b, "it2nd_model_generation{model=\"%d\"} %u\n", models_at(k)->id, (unsigned)models_view(models_at(k))->gen);
+        put(&b, "it2nd_model_generation{model=\"%d\"} %u\n", models_at(k)->id,
+            (unsigned)models_view(models_at(k))->gen);
     family(&b, "it2nd_model_points", "gauge", "Data points present for the current configuration (points_present).");
     for (int k = 0; k < models_count(); k++)
         put(&b, "it2nd_model_points{model=\"%d\"} %u\n", models_at(k)->id, models_present(models_view(models_at(k))));
@@ -206,7 +206,8 @@ char *metrics_render(const struct conf *c, size_t *len)
         put_label(&b, c->link[k].name);
         put(&b, "\"} %u\n", (unsigned)ls.frames);
     }
-    family(&b, "it2nd_link_frames_dropped_total", "counter", "Frames dropped whole because the link's output queue was full.");
+    family(&b, "it2nd_link_frames_dropped_total", "counter",
+           "Frames dropped whole because the link's output queue was full.");
     for (int k = 0; c && k < c->nlinks; k++) {
         struct links_out_stats ls;
         if (links_out_stats(k, &ls))
@@ -222,7 +223,8 @@ char *metrics_render(const struct conf *c, size_t *len)
     put(&b, "it2nd_store_degraded %d\n", store_degraded());
     family(&b, "it2nd_wal_records_total", "counter", "WAL records committed since start.");
     put(&b, "it2nd_wal_records_total %llu\n", (unsigned long long)st.records);
-    family(&b, "it2nd_wal_commits_total", "counter", "WAL group commits (one write and one fdatasync each) since start.");
+    family(&b, "it2nd_wal_commits_total", "counter",
+           "WAL group commits (one write and one fdatasync each) since start.");
     put(&b, "it2nd_wal_commits_total %llu\n", (unsigned long long)st.commits);
     family(&b, "it2nd_snapshots_total", "counter", "Checkpoints (snapshot and new WAL) written since start.");
     put(&b, "it2nd_snapshots_total %llu\n", (unsigned long long)st.snapshots);
@@ -412,8 +414,8 @@ int metrics_start(const struct conf *c)
         return -1;
     /* No internal thread (see metrics.h): MHD_USE_EPOLL without
      * MHD_USE_INTERNAL_POLLING_THREAD is the external-loop mode. */
-    mhd = MHD_start_daemon(MHD_USE_EPOLL | MHD_USE_ERROR_LOG | (v6 ? MHD_USE_IPv6 : 0), 0, NULL, NULL, on_request,
-                           NULL, MHD_OPTION_LISTEN_SOCKET, (MHD_socket)listen_fd, MHD_OPTION_CONNECTION_LIMIT,
+    mhd = MHD_start_daemon(MHD_USE_EPOLL | MHD_USE_ERROR_LOG | (v6 ? MHD_USE_IPv6 : 0), 0, NULL, NULL, on_request, NULL,
+                           MHD_OPTION_LISTEN_SOCKET, (MHD_socket)listen_fd, MHD_OPTION_CONNECTION_LIMIT,
                            (unsigned)METRICS_MAX_CONNS, MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)METRICS_TIMEOUT_S,
                            MHD_OPTION_EXTERNAL_LOGGER, on_mhd_log, NULL, MHD_OPTION_SIGPIPE_HANDLED_BY_APP, 1,
                            MHD_OPTION_END);

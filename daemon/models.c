@@ -202,7 +202,7 @@ static int save(struct model *md, const void *p, size_t len)
         memcpy(s->hdr_gathered, md, MODEL_HDR_BYTES);
         s->in_gathered = 1;
     }
-    struct undo_rec r = { md, (uint32_t)((const unsigned char *)p - (const unsigned char *)md), (uint32_t)len };
+    struct undo_rec r = {md, (uint32_t)((const unsigned char *)p - (const unsigned char *)md), (uint32_t)len};
     uint64_t size = need;
     memcpy(ulog + ulen, &r, sizeof r);
     memcpy(ulog + ulen + sizeof r, p, len);
@@ -421,15 +421,14 @@ static int jlog(const struct model_rec *rec)
     return rc < 0 ? rc : rc ? IT2ND_ERR_IO : 0;
 }
 
-
 struct model *models_add(int id, int unit, int kind, unsigned n, unsigned m, unsigned flags)
 {
     struct model *md, *view;
     it2n_errinfo err;
     size_t bytes;
     if (nmodels == maxmodels || models_by_id(id) || models_by_unit(unit) ||
-        (kind != MODEL_BEZIER && kind != MODEL_BSPLINE) || n < 1 || m < 1 ||
-        n > IT2N_BSPLINE_MAX_N || m > IT2N_BSPLINE_MAX_N)
+        (kind != MODEL_BEZIER && kind != MODEL_BSPLINE) || n < 1 || m < 1 || n > IT2N_BSPLINE_MAX_N ||
+        m > IT2N_BSPLINE_MAX_N)
         return NULL;
     bytes = models_bytes(kind, n, m);
     md = calloc(1, bytes);
@@ -578,8 +577,7 @@ void models_point_get(const struct model *md, unsigned i, unsigned j, unsigned f
         memset(vals, 0, sizeof(it2n_val) * IT2N_CH_COUNT);
 }
 
-void models_point_get_fine(const struct model *md, unsigned i, unsigned j, unsigned fp,
-                           it2n_val vals[IT2N_CH_COUNT])
+void models_point_get_fine(const struct model *md, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT])
 {
     if (md->kind == MODEL_BSPLINE)
         it2n_bspline_data_get_fine(&md->bds, i, j, fp, vals);
@@ -602,8 +600,7 @@ int models_eval(const struct model *md, it2n_par u, it2n_par w, it2n_point *out,
                                      : it2n_eval(&md->mdl, u, w, out, err);
 }
 
-int models_deriv(const struct model *md, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw,
-                 it2n_errinfo *err)
+int models_deriv(const struct model *md, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw, it2n_errinfo *err)
 {
     return md->kind == MODEL_BSPLINE ? it2n_bspline_deriv(&md->bmdl, u, w, du, dw, err)
                                      : it2n_deriv(&md->mdl, u, w, du, dw, err);
@@ -615,8 +612,7 @@ int models_locate(const struct model *md, it2n_val x, it2n_val y, it2n_locate_re
                                      : it2n_locate(&md->mdl, x, y, out, err);
 }
 
-int models_sample(const struct model *md, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx,
-                  it2n_errinfo *err)
+int models_sample(const struct model *md, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx, it2n_errinfo *err)
 {
     return md->kind == MODEL_BSPLINE ? it2n_bspline_sample(&md->bmdl, rows, cols, cb, ctx, err)
                                      : it2n_sample(&md->mdl, rows, cols, cb, ctx, err);
@@ -685,13 +681,11 @@ static int save_update(struct model *md, unsigned fp)
         unsigned nch = IT2N_BSPLINE_NCH(md->bmdl.flags);
         unsigned slot = (md->bmdl.flags & IT2N_F_TYPE1) ? 0u : fp;
         size_t size = (size_t)(md->bmdl.n + 3u) * (md->bmdl.m + 3u) * nch;
-        return save(md, &md->bmdl, sizeof md->bmdl) ||
-               save(md, md->bmdl.coef + slot * size, size * sizeof(int32_t));
+        return save(md, &md->bmdl, sizeof md->bmdl) || save(md, md->bmdl.coef + slot * size, size * sizeof(int32_t));
     }
     if ((md->ds.flags & IT2N_F_CHORD) && fp == IT2N_FP_D)
         return save(md, &md->mdl, sizeof md->mdl);
-    return save(md, &md->mdl, offsetof(it2n_model, frac)) ||
-           save(md, md->mdl.frac[fp], sizeof md->mdl.frac[fp]) ||
+    return save(md, &md->mdl, offsetof(it2n_model, frac)) || save(md, md->mdl.frac[fp], sizeof md->mdl.frac[fp]) ||
            save(md, md->mdl.net[fp], sizeof md->mdl.net[fp]);
 }
 
@@ -700,8 +694,7 @@ static int save_update(struct model *md, unsigned fp)
 static int save_model(struct model *md)
 {
     if (md->kind == MODEL_BSPLINE)
-        return save(md, &md->bmdl, sizeof md->bmdl) ||
-               save(md, md->bmdl.coef, bs_used_words(md) * sizeof(int32_t));
+        return save(md, &md->bmdl, sizeof md->bmdl) || save(md, md->bmdl.coef, bs_used_words(md) * sizeof(int32_t));
     return save(md, &md->mdl, sizeof md->mdl);
 }
 
@@ -727,8 +720,7 @@ static int save_all(struct model *md)
 {
     if (md->kind == MODEL_BSPLINE)
         return save(md, md, MODEL_HDR_BYTES) || save(md, &md->bds, sizeof md->bds) ||
-               save(md, &md->bmdl, sizeof md->bmdl) ||
-               save(md, md->bds.rec, md->bds.cap * sizeof *md->bds.rec) ||
+               save(md, &md->bmdl, sizeof md->bmdl) || save(md, md->bds.rec, md->bds.cap * sizeof *md->bds.rec) ||
                save(md, md->bmdl.coef, md->bmdl.cap * sizeof *md->bmdl.coef);
     return save(md, md, MODEL_HDR_BYTES) || save(md, &md->ds, sizeof md->ds) || save(md, &md->mdl, sizeof md->mdl);
 }
@@ -757,7 +749,7 @@ static int reset_data(struct model *md, unsigned n, unsigned m, unsigned flags, 
 
 int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err)
 {
-    struct model_rec rec = { .op = MOP_CONFIG, .id = md->id, .n = n, .m = m, .flags = flags, .kind = (unsigned)md->kind };
+    struct model_rec rec = {.op = MOP_CONFIG, .id = md->id, .n = n, .m = m, .flags = flags, .kind = (unsigned)md->kind};
     size_t mark = ulen;
     int rc;
     /* Checked first (nothing recorded): the core's limits and, for a
@@ -806,7 +798,7 @@ int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, i
 int models_clear(struct model *md)
 {
     it2n_errinfo err;
-    struct model_rec rec = { .op = MOP_CLEAR, .id = md->id };
+    struct model_rec rec = {.op = MOP_CLEAR, .id = md->id};
     size_t mark = ulen;
     int rc;
     if (save_all(md)) {
@@ -846,17 +838,17 @@ static int core_update(struct model *md, unsigned i, unsigned j, unsigned fp, co
                                      : it2n_model_update(&md->mdl, &md->ds, i, j, fp, vals, err);
 }
 
-static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], bool replace, bool fine, it2n_errinfo *err);
+static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                     bool replace, bool fine, it2n_errinfo *err);
 
-int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
-               const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err)
+int models_put(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT], bool replace,
+               it2n_errinfo *err)
 {
     return put_point(md, i, j, fp, vals, replace, false, err);
 }
 
-int models_put_fine(struct model *md, unsigned i, unsigned j, unsigned fp,
-                    const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err)
+int models_put_fine(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                    bool replace, it2n_errinfo *err)
 {
     return put_point(md, i, j, fp, vals, replace, true, err);
 }
@@ -864,8 +856,7 @@ int models_put_fine(struct model *md, unsigned i, unsigned j, unsigned fp,
 /* A change the core made (rc its result) into the journal: on the core's
  * refusal or a journal failure the undo records since mark restore md and
  * the error is recorded (a journal failure as a refusal). IT2N_OK or it. */
-static int journal_or_undo(struct model *md, const struct model_rec *rec, int rc, size_t mark,
-                           it2n_errinfo *err)
+static int journal_or_undo(struct model *md, const struct model_rec *rec, int rc, size_t mark, it2n_errinfo *err)
 {
     int jrc = 0;
     if (rc == IT2N_OK && (jrc = jlog(rec)) != 0)
@@ -879,11 +870,10 @@ static int journal_or_undo(struct model *md, const struct model_rec *rec, int rc
     return rc;
 }
 
-static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], bool replace, bool fine, it2n_errinfo *err)
+static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                     bool replace, bool fine, it2n_errinfo *err)
 {
-    struct model_rec rec = { .op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp, .replace = replace,
-                             .fine = fine };
+    struct model_rec rec = {.op = MOP_POINT, .id = md->id, .i = i, .j = j, .fp = fp, .replace = replace, .fine = fine};
     size_t mark = ulen;
     int rc;
     memcpy(rec.vals, vals, sizeof rec.vals);
@@ -891,7 +881,7 @@ static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
     if (i > models_n(md) || j > models_m(md) || fp >= IT2N_FP_COUNT) {
         /* Refused by the core before anything is looked at. */
         rc = md->state == IT2N_REGMAP_STATE_SOLVED ? core_update(md, i, j, fp, vals, fine, err)
-                                         : core_put(md, i, j, fp, vals, fine, err);
+                                                   : core_put(md, i, j, fp, vals, fine, err);
         if (rc == IT2N_OK) { /* cannot happen: the core checks the indices */
             memset(err, 0, sizeof *err);
             err->code = rc = IT2N_ERR_INVAL;
@@ -947,7 +937,7 @@ static int put_point(struct model *md, unsigned i, unsigned j, unsigned fp,
 
 int models_commit(struct model *md, it2n_errinfo *err)
 {
-    struct model_rec rec = { .op = MOP_COMMIT, .id = md->id };
+    struct model_rec rec = {.op = MOP_COMMIT, .id = md->id};
     size_t mark = ulen;
     int rc;
     memset(err, 0, sizeof *err);
@@ -1004,15 +994,9 @@ int models_apply(const struct model_rec *rec, it2n_errinfo *err)
         rc = rec->fine ? models_put_fine(md, rec->i, rec->j, rec->fp, rec->vals, rec->replace, err)
                        : models_put(md, rec->i, rec->j, rec->fp, rec->vals, rec->replace, err);
         break;
-    case MOP_COMMIT:
-        rc = models_commit(md, err);
-        break;
-    case MOP_CLEAR:
-        rc = models_clear(md);
-        break;
-    default:
-        rc = err->code = IT2N_ERR_INVAL;
-        break;
+    case MOP_COMMIT: rc = models_commit(md, err); break;
+    case MOP_CLEAR: rc = models_clear(md); break;
+    default: rc = err->code = IT2N_ERR_INVAL; break;
     }
     replaying = 0;
     ulen = mark; /* nothing to roll back: drop the records */
@@ -1027,8 +1011,8 @@ int models_preload_paper(struct model *md)
     replaying = 1; /* configuration, not journaled */
     for (size_t k = 0; k < paper_data_nrows && rc == IT2N_OK; k++) {
         const struct paper_row *r = &paper_data_rows[k];
-        it2n_val v[IT2N_CH_COUNT] = { 0 };
-        static const int ch[5] = { IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F };
+        it2n_val v[IT2N_CH_COUNT] = {0};
+        static const int ch[5] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F};
         int fp = it2n_fp_from_name(r->fp, strlen(r->fp));
         if (fp < 0) {
             rc = fp;

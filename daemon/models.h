@@ -38,19 +38,19 @@ struct model {
     /* The header: every scalar of the model (an operation records it
      * whole in the undo log, MODEL_HDR_BYTES). */
     int id, unit;
-    int kind;                  /* enum model_kind, fixed by the configuration */
-    size_t bytes;              /* of the allocation (struct + B-spline storage) */
-    unsigned cap_n, cap_m;     /* B-spline: the largest grid the storage holds */
-    uint32_t instance;         /* unique per models_add and batch rollback (cache keys) */
-    int state;                 /* enum it2n_regmap_state              */
-    uint32_t gen;              /* bumped on every solve and update    */
-    it2n_errinfo last_err;     /* code 0 = none                       */
-    int last_op;               /* enum model_op of the last change     */
+    int kind;              /* enum model_kind, fixed by the configuration */
+    size_t bytes;          /* of the allocation (struct + B-spline storage) */
+    unsigned cap_n, cap_m; /* B-spline: the largest grid the storage holds */
+    uint32_t instance;     /* unique per models_add and batch rollback (cache keys) */
+    int state;             /* enum it2n_regmap_state              */
+    uint32_t gen;          /* bumped on every solve and update    */
+    it2n_errinfo last_err; /* code 0 = none                       */
+    int last_op;           /* enum model_op of the last change     */
     uint32_t points_rx, solves;
     struct model_modbus mb;
     /* The data. */
-    it2n_dataset ds;           /* Bezier: current data (staging and solved) */
-    it2n_model mdl;            /* Bezier: valid when state == IT2N_REGMAP_STATE_SOLVED */
+    it2n_dataset ds; /* Bezier: current data (staging and solved) */
+    it2n_model mdl;  /* Bezier: valid when state == IT2N_REGMAP_STATE_SOLVED */
     /* B-spline kind: data set and model over the storage that follows the
      * struct in the same allocation (records, then coefficients; sized by
      * the core's macros for cap_n x cap_m with every footprint and z), so
@@ -68,11 +68,11 @@ enum model_op { MOP_CONFIG = 1, MOP_POINT = 2, MOP_COMMIT = 3, MOP_CLEAR = 4 };
 struct model_rec {
     int op;
     int id;
-    unsigned n, m, flags, kind;        /* MOP_CONFIG */
-    unsigned i, j, fp;                 /* MOP_POINT  */
-    it2n_val vals[IT2N_CH_COUNT];      /* MOP_POINT: Q24, or the fine layout */
-    bool replace;                      /* MOP_POINT  */
-    bool fine;                         /* MOP_POINT: T, I, F in Q30 (it2n.h) */
+    unsigned n, m, flags, kind;   /* MOP_CONFIG */
+    unsigned i, j, fp;            /* MOP_POINT  */
+    it2n_val vals[IT2N_CH_COUNT]; /* MOP_POINT: Q24, or the fine layout */
+    bool replace;                 /* MOP_POINT  */
+    bool fine;                    /* MOP_POINT: T, I, F in Q30 (it2n.h) */
 };
 
 /* Called for every accepted change; a non-zero return (a negative
@@ -115,14 +115,14 @@ int models_preload_paper(struct model *md);
 int models_configure(struct model *md, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err);
 /* replace false: an entry already present fails with IT2N_ERR_DUPLICATE.
  * vals in Q24 (what the serial protocol carries). */
-int models_put(struct model *md, unsigned i, unsigned j, unsigned fp,
-               const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err);
+int models_put(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT], bool replace,
+               it2n_errinfo *err);
 /* The same with vals in the core's fine layout (T, I, F in Q30,
  * it2n_dataset_put_fine): the Modbus upload (x 10000 memberships) and the
  * paper's decimals, so the daemon holds what 'it2n' reads from the same
  * CSV. Journaled as such (store.c). */
-int models_put_fine(struct model *md, unsigned i, unsigned j, unsigned fp,
-                    const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err);
+int models_put_fine(struct model *md, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                    bool replace, it2n_errinfo *err);
 int models_commit(struct model *md, it2n_errinfo *err);
 int models_clear(struct model *md);
 
@@ -145,8 +145,8 @@ struct model_jmark {
     uint64_t seq;
 };
 struct model_txn {
-    size_t undo;               /* undo log length at begin */
-    struct model_jmark jmark;  /* journal queue position at begin */
+    size_t undo;              /* undo log length at begin */
+    struct model_jmark jmark; /* journal queue position at begin */
     int active;
 };
 void models_txn_begin(struct model_txn *t);
@@ -231,13 +231,11 @@ unsigned models_missing(const struct model *md);
 int models_point_present(const struct model *md, unsigned i, unsigned j, unsigned fp);
 void models_point_get(const struct model *md, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
 /* The same in the fine layout (T, I, F in Q30, as stored). */
-void models_point_get_fine(const struct model *md, unsigned i, unsigned j, unsigned fp,
-                           it2n_val vals[IT2N_CH_COUNT]);
+void models_point_get_fine(const struct model *md, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
 /* Does the solved model carry footprint fp? */
 int models_has_fp(const struct model *md, unsigned fp);
 int models_eval(const struct model *md, it2n_par u, it2n_par w, it2n_point *out, it2n_errinfo *err);
-int models_deriv(const struct model *md, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw,
-                 it2n_errinfo *err);
+int models_deriv(const struct model *md, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw, it2n_errinfo *err);
 int models_locate(const struct model *md, it2n_val x, it2n_val y, it2n_locate_result *out, it2n_errinfo *err);
 int models_sample(const struct model *md, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx,
                   it2n_errinfo *err);

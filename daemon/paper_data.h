@@ -9,7 +9,7 @@
 struct paper_row {
     unsigned char i, j;
     const char *fp;
-    const char *val[5];  /* x, y, T, I, F as decimal text from the CSV */
+    const char *val[5]; /* x, y, T, I, F as decimal text from the CSV */
 };
 
 extern const struct paper_row paper_data_rows[];

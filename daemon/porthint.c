@@ -11,7 +11,7 @@
 /* The inode of the socket listening on port (state 0A), or 0. */
 static unsigned long listen_inode(int port)
 {
-    static const char *const files[] = { "/proc/net/tcp", "/proc/net/tcp6" };
+    static const char *const files[] = {"/proc/net/tcp", "/proc/net/tcp6"};
     for (size_t f = 0; f < sizeof files / sizeof files[0]; f++) {
         FILE *fp = fopen(files[f], "r");
         char line[512];

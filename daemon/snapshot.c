@@ -198,18 +198,14 @@ static int check_structure(const uint8_t *buf, size_t len, uint32_t nmodels, siz
 }
 
 /* One entry into a data set of either kind: fine, memberships in Q30. */
-typedef int (*put_fn)(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine,
-                      it2n_errinfo *err);
+typedef int (*put_fn)(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine, it2n_errinfo *err);
 
-static int put_bezier(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine,
-                      it2n_errinfo *err)
+static int put_bezier(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine, it2n_errinfo *err)
 {
-    return fine ? it2n_dataset_put_fine(set, i, j, fp, v, false, err)
-                : it2n_dataset_put(set, i, j, fp, v, false, err);
+    return fine ? it2n_dataset_put_fine(set, i, j, fp, v, false, err) : it2n_dataset_put(set, i, j, fp, v, false, err);
 }
 
-static int put_bspline(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine,
-                       it2n_errinfo *err)
+static int put_bspline(void *set, unsigned i, unsigned j, unsigned fp, const it2n_val *v, int fine, it2n_errinfo *err)
 {
     return fine ? it2n_bspline_data_put_fine(set, i, j, fp, v, false, err)
                 : it2n_bspline_data_put(set, i, j, fp, v, false, err);
@@ -218,8 +214,7 @@ static int put_bspline(void *set, unsigned i, unsigned j, unsigned fp, const it2
 /* The point records at p (i, j, footprint mask, then 8 bytes per channel
  * of each footprint in the mask; their lengths checked before) into set,
  * one put per entry. IT2N_OK or the first refusal. */
-static int load_points(const uint8_t *p, uint32_t points, int fine, put_fn put, void *set,
-                       it2n_errinfo *err)
+static int load_points(const uint8_t *p, uint32_t points, int fine, put_fn put, void *set, it2n_errinfo *err)
 {
     int rc = IT2N_OK;
     for (uint32_t k = 0; k < points && rc == IT2N_OK; k++) {
@@ -240,8 +235,8 @@ static int load_points(const uint8_t *p, uint32_t points, int fine, put_fn put, 
 /* Rebuild md (kind B-spline) from the points at p: data set into a
  * scratch copy of md's storage, solved if state says so, then copied in.
  * IT2N_OK or the core's refusal (md unchanged). */
-static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags, unsigned state,
-                        uint32_t points, const uint8_t *p, int fine, it2n_errinfo *err)
+static int load_bspline(struct model *md, unsigned n, unsigned m, unsigned flags, unsigned state, uint32_t points,
+                        const uint8_t *p, int fine, it2n_errinfo *err)
 {
     it2n_bspline_rec *rec = malloc(md->bds.cap * sizeof *rec);
     int32_t *coef = malloc(md->bmdl.cap * sizeof *coef);
@@ -331,8 +326,8 @@ static size_t load_model(const uint8_t *buf, size_t mhdr, int fine, int *result)
             *result = SNAPSHOT_UNCONFIGURED;
             return rlen;
         }
-        log_notice("snapshot: B-spline model %u was %ux%u with no data points; now at most %ux%u", id, n, m,
-                   md->cap_n, md->cap_m);
+        log_notice("snapshot: B-spline model %u was %ux%u with no data points; now at most %ux%u", id, n, m, md->cap_n,
+                   md->cap_m);
         return rlen;
     }
     if (kind == MODEL_BEZIER && (n > IT2N_MAX_DEGREE || m > IT2N_MAX_DEGREE)) {

@@ -12,9 +12,9 @@
 #include <stdint.h>
 
 #define SNAPSHOT_MAGIC "IT2NSNP"   /* 8 bytes with the NUL */
-#define SNAPSHOT_VERSION_FINE 4u    /* written when a membership is not Q24-exact */
-#define SNAPSHOT_VERSION 3u         /* else when a model is of the B-spline kind */
-#define SNAPSHOT_VERSION_BEZIER 2u  /* written otherwise (older builds read it) */
+#define SNAPSHOT_VERSION_FINE 4u   /* written when a membership is not Q24-exact */
+#define SNAPSHOT_VERSION 3u        /* else when a model is of the B-spline kind */
+#define SNAPSHOT_VERSION_BEZIER 2u /* written otherwise (older builds read it) */
 #define SNAPSHOT_HDR 32u
 
 /* Encode every model of the table, covering the WAL up to seq. Returns a

@@ -26,9 +26,9 @@
 #define NS "spBv1.0"
 #define BDSEQ_FILE "sparkplug.bdseq"
 #define BACKOFF_FIRST_MS 500
-#define TICK_MS 1000            /* keep-alive check and the status scan */
-#define STOP_WAIT_MS 2000       /* NDEATH PUBACK at a graceful stop     */
-#define SF_BATCH 32             /* historical DDATA per loop pass       */
+#define TICK_MS 1000      /* keep-alive check and the status scan */
+#define STOP_WAIT_MS 2000 /* NDEATH PUBACK at a graceful stop     */
+#define SF_BATCH 32       /* historical DDATA per loop pass       */
 
 /* Node metrics (NBIRTH), by alias. Device metrics have the aliases
  * (model id + 1) * SPB_DEV_ALIAS + index: unique on the node, readable. */
@@ -38,10 +38,10 @@ enum st { ST_IDLE, ST_CONNECTING, ST_ONLINE };
 
 struct dev {
     int id;
-    int dirty;                 /* a change was signalled: scan it      */
-    int based;                 /* last holds values a host has or will have */
-    struct spb_payload_val *last;      /* values as last published             */
-    struct mb_map_query q;         /* its query (DCMD), like a Modbus connection's */
+    int dirty;                    /* a change was signalled: scan it      */
+    int based;                    /* last holds values a host has or will have */
+    struct spb_payload_val *last; /* values as last published             */
+    struct mb_map_query q;        /* its query (DCMD), like a Modbus connection's */
 };
 
 static struct {
@@ -53,33 +53,33 @@ static struct {
     char t_nbirth[160], t_ndeath[160], t_ncmd[160], t_dpre[4][160], t_dcmd_sub[160];
     struct mosquitto *mosq;
     enum st st;
-    int fd;                    /* the socket the loop watches, or -1   */
-    int parked;                /* a TLS socket that failed while connecting: not watched */
+    int fd;     /* the socket the loop watches, or -1   */
+    int parked; /* a TLS socket that failed while connecting: not watched */
     short events;
     long retry_timer, tick_timer;
     int backoff_ms;
-    int file_bd;               /* bdSeq in state_dir (-1: none yet)    */
-    int next_bd;               /* bdSeq of the next CONNECT            */
-    int bdseq;                 /* bdSeq of the current session         */
-    int seq;                   /* seq of the next message after NBIRTH */
-    int dropped;               /* on_disconnect since the last check   */
+    int file_bd; /* bdSeq in state_dir (-1: none yet)    */
+    int next_bd; /* bdSeq of the next CONNECT            */
+    int bdseq;   /* bdSeq of the current session         */
+    int seq;     /* seq of the next message after NBIRTH */
+    int dropped; /* on_disconnect since the last check   */
     int ndeath_mid, ndeath_acked;
-    int need_birth;            /* a birth sequence is incomplete       */
-    struct mb_map_opts mbo;        /* the grid as Modbus serves it, ABCD   */
+    int need_birth;         /* a birth sequence is incomplete       */
+    struct mb_map_opts mbo; /* the grid as Modbus serves it, ABCD   */
     struct dev *devs;
     int ndevs;
     unsigned long births, ddata;
     /* Primary host (Sparkplug 3.0 STATE) and store-and-forward. */
-    int use_host;              /* primary_host_id is set               */
+    int use_host; /* primary_host_id is set               */
     char t_state[160];
-    int host_on;               /* its last STATE this session: online  */
-    uint64_t host_ts;          /* timestamp of the last online STATE   */
-    int leaving;               /* NDEATH + DISCONNECT: the host went offline */
-    int sf_max;                /* store_forward_max in effect (0: off) */
-    int sf_flushing;           /* stored changes are being published   */
-    uint64_t sf_off;           /* the next stored record to publish    */
+    int host_on;      /* its last STATE this session: online  */
+    uint64_t host_ts; /* timestamp of the last online STATE   */
+    int leaving;      /* NDEATH + DISCONNECT: the host went offline */
+    int sf_max;       /* store_forward_max in effect (0: off) */
+    int sf_flushing;  /* stored changes are being published   */
+    uint64_t sf_off;  /* the next stored record to publish    */
     unsigned long sf_dropped, sf_stored, sf_sent;
-} g = { .fd = -1, .parked = -1 };
+} g = {.fd = -1, .parked = -1};
 
 enum { TP_DBIRTH, TP_DDATA, TP_DDEATH, TP_DCMD };
 
@@ -196,16 +196,19 @@ static int nbirth(void)
     spb_payload_add(pl, "Properties/Software Version", NA_VERSION, SPB_PAYLOAD_STRING, ts, &v);
     v.s = NULL;
     v.u = IT2N_REGMAP_VERSION;
-    spb_payload_prop(pl, spb_payload_add(pl, "Properties/Register Map Version", NA_MAP_VERSION, SPB_PAYLOAD_UINT16, ts, &v),
-                "description", "Layout version of the Modbus register map the device metrics mirror");
+    spb_payload_prop(pl,
+                     spb_payload_add(pl, "Properties/Register Map Version", NA_MAP_VERSION, SPB_PAYLOAD_UINT16, ts, &v),
+                     "description", "Layout version of the Modbus register map the device metrics mirror");
     v.u = (uint64_t)models_count();
     spb_payload_prop(pl, spb_payload_add(pl, "Properties/Models", NA_MODELS, SPB_PAYLOAD_UINT32, ts, &v), "description",
-                "Devices (models) served by this edge node, each as model-N");
+                     "Devices (models) served by this edge node, each as model-N");
     if (g.sf_max) {
         v.u = (uint64_t)g.sf_dropped;
-        spb_payload_prop(pl, spb_payload_add(pl, "Store and Forward/Dropped", NA_SF_DROPPED, SPB_PAYLOAD_UINT64, ts, &v), "description",
-                    "Changes not kept for the host's history since start: the store (store_forward_max) was full or "
-                    "could not be written (each is logged)");
+        spb_payload_prop(
+            pl, spb_payload_add(pl, "Store and Forward/Dropped", NA_SF_DROPPED, SPB_PAYLOAD_UINT64, ts, &v),
+            "description",
+            "Changes not kept for the host's history since start: the store (store_forward_max) was full or "
+            "could not be written (each is logged)");
     }
     g.seq = 0;
     rc = publish_seq(g.t_nbirth, pl, ts);
@@ -226,8 +229,10 @@ static int dbirth(struct dev *d, struct model *md)
         const char *unit;
         int idx;
         spb_metrics_info(&g.mbo, k, name, sizeof name, desc, sizeof desc, &unit);
-        idx = spb_payload_add(pl, name, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts, &d->last[k]);
-        if (idx < 0 || spb_payload_prop(pl, idx, "description", desc) || (unit && spb_payload_prop(pl, idx, "engUnit", unit))) {
+        idx = spb_payload_add(pl, name, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts,
+                              &d->last[k]);
+        if (idx < 0 || spb_payload_prop(pl, idx, "description", desc) ||
+            (unit && spb_payload_prop(pl, idx, "engUnit", unit))) {
             spb_payload_free(pl);
             return -1;
         }
@@ -248,7 +253,7 @@ static void births(void)
      * born): an incomplete one is tried again from the loop hook. */
     g.need_birth = 1;
     if (g.use_host && !g.host_on)
-        return;  /* spec 3.0: no birth before the primary host is online */
+        return; /* spec 3.0: no birth before the primary host is online */
     if (devs_build()) {
         log_err("sparkplug: out of memory building the device table");
         return;
@@ -292,7 +297,8 @@ static void dev_scan(struct dev *d)
     pl = n ? spb_payload_new((size_t)n) : NULL;
     for (int k = 0; pl && k < nm; k++)
         if (!spb_payload_val_equal(spb_metrics_type(k), &cur[k], &d->last[k]))
-            spb_payload_add(pl, NULL, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts, &cur[k]);
+            spb_payload_add(pl, NULL, (uint64_t)(d->id + 1) * SPB_DEV_ALIAS + (uint64_t)k, spb_metrics_type(k), ts,
+                            &cur[k]);
     if (pl) {
         dev_topic(topic, sizeof topic, TP_DDATA, d->id);
         if (publish_seq(topic, pl, ts) == 0) {
@@ -325,7 +331,7 @@ static void scan(int all)
         return;
     }
     if (g.sf_flushing) {
-        sf_forward();   /* history first: live changes wait, coalesced */
+        sf_forward(); /* history first: live changes wait, coalesced */
         return;
     }
     for (int k = 0; k < g.ndevs; k++)
@@ -378,7 +384,8 @@ static void sf_store(int all)
         /* The nets (FloatArray) are derived from the points, which are
          * kept: the host gets the nets of now in the birth it will have. */
         for (int j = 0; j < nm; j++)
-            if (spb_metrics_type(j) != SPB_PAYLOAD_FLOATARRAY && !spb_payload_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
+            if (spb_metrics_type(j) != SPB_PAYLOAD_FLOATARRAY &&
+                !spb_payload_val_equal(spb_metrics_type(j), &cur[j], &d->last[j])) {
                 idx[n] = (uint16_t)j;
                 vals[n++] = cur[j];
             }
@@ -392,7 +399,8 @@ static void sf_store(int all)
              * logged; the next birth carries the value, not its history. */
             if (rc > 0 && (g.sf_dropped == 0 || (g.sf_dropped & (g.sf_dropped + 1)) == 0))
                 log_warn("sparkplug: store-and-forward full (store_forward_max = %d): a change of model-%d not kept "
-                         "for the host's history (%lu dropped since start)", g.sf_max, d->id, g.sf_dropped + 1);
+                         "for the host's history (%lu dropped since start)",
+                         g.sf_max, d->id, g.sf_dropped + 1);
             g.sf_dropped++;
         }
         memcpy(d->last, cur, (size_t)nm * sizeof *cur);
@@ -428,8 +436,8 @@ static void sf_forward(void)
         pl = dev_find(rec.dev) ? spb_payload_new((size_t)rec.n) : NULL;
         for (int k = 0; pl && k < rec.n; k++)
             if (rec.idx[k] < nm)
-                spb_payload_add(pl, NULL, (uint64_t)(rec.dev + 1) * SPB_DEV_ALIAS + rec.idx[k], spb_metrics_type(rec.idx[k]),
-                           rec.ts, &rec.val[k]);
+                spb_payload_add(pl, NULL, (uint64_t)(rec.dev + 1) * SPB_DEV_ALIAS + rec.idx[k],
+                                spb_metrics_type(rec.idx[k]), rec.ts, &rec.val[k]);
         if (!pl) {
             log_warn("sparkplug: a stored change of model-%d is not published: the device is gone", rec.dev);
         } else {
@@ -521,7 +529,7 @@ static void sync_fd(void)
     if (fd < 0 || fd != g.parked)
         g.parked = -1;
     else
-        fd = -1;  /* parked: libmosquitto's keep-alive check closes it */
+        fd = -1; /* parked: libmosquitto's keep-alive check closes it */
     if (fd != g.fd) {
         if (g.fd >= 0)
             loop_del_fd(g.fd);
@@ -543,7 +551,7 @@ static void after(void)
 {
     if (g.dropped || (g.st != ST_IDLE && g.mosq && mosquitto_socket(g.mosq) < 0)) {
         g.dropped = 0;
-        g.sf_flushing = 0;  /* what was not cleared goes again next time */
+        g.sf_flushing = 0; /* what was not cleared goes again next time */
         if (g.leaving)
             log_info("sparkplug: disconnected while the primary host %s is offline; waiting for it",
                      g.sc.primary_host_id);
@@ -576,7 +584,8 @@ static void on_fd(void *arg, int fd, short revents)
     if (rc == MOSQ_ERR_SUCCESS && (revents & POLLOUT) && mosquitto_socket(g.mosq) >= 0)
         rc = mosquitto_loop_write(g.mosq, 1);
     if (rc != MOSQ_ERR_SUCCESS && g.st == ST_CONNECTING)
-        log_info("sparkplug: %s:%d: %s", g.sc.host, g.sc.port, rc == MOSQ_ERR_ERRNO ? strerror(errno) : mosquitto_strerror(rc));
+        log_info("sparkplug: %s:%d: %s", g.sc.host, g.sc.port,
+                 rc == MOSQ_ERR_ERRNO ? strerror(errno) : mosquitto_strerror(rc));
     after();
 }
 
@@ -635,7 +644,7 @@ static void try_connect(void *arg)
     g.bdseq = bd;
     g.next_bd = (bd + 1) & 255;
     g.st = ST_CONNECTING;
-    g.host_on = 0;  /* until its STATE (retained) says online */
+    g.host_on = 0; /* until its STATE (retained) says online */
     g.leaving = 0;
     g.dropped = 0;
     sync_fd();
@@ -656,7 +665,7 @@ static int no_password(char *buf, int size, int rwflag, void *u)
     (void)size;
     (void)rwflag;
     (void)u;
-    return 0;  /* encrypted keys are refused at load (spb_tls.c) */
+    return 0; /* encrypted keys are refused at load (spb_tls.c) */
 }
 
 static void on_connect(struct mosquitto *m, void *obj, int rc)
@@ -664,7 +673,8 @@ static void on_connect(struct mosquitto *m, void *obj, int rc)
     (void)m;
     (void)obj;
     if (rc) {
-        log_err("sparkplug: broker %s:%d refused the connection: %s", g.sc.host, g.sc.port, mosquitto_connack_string(rc));
+        log_err("sparkplug: broker %s:%d refused the connection: %s", g.sc.host, g.sc.port,
+                mosquitto_connack_string(rc));
         return; /* libmosquitto drops the socket: after() retries */
     }
     g.st = ST_ONLINE;
@@ -734,7 +744,8 @@ static void on_state(const uint8_t *buf, size_t len)
     }
     if (!online && ts < g.host_ts) {
         log_info("sparkplug: offline STATE of %s older than its last online STATE: ignored (a replaced session's "
-                 "will)", g.sc.primary_host_id);
+                 "will)",
+                 g.sc.primary_host_id);
         return;
     }
     if (online)
@@ -786,7 +797,7 @@ static void on_message(struct mosquitto *m, void *obj, const struct mosquitto_me
     if (strcmp(msg->topic, g.t_ncmd))
         return;
     if (spb_payload_cmd_parse(msg->payload, (size_t)(msg->payloadlen > 0 ? msg->payloadlen : 0), NA_REBIRTH, &cmd, why,
-                      sizeof why)) {
+                              sizeof why)) {
         log_warn("sparkplug: NCMD refused: %s", why);
         return;
     }
@@ -805,7 +816,7 @@ static void on_tick(void *arg)
     g.tick_timer = loop_add_timer(TICK_MS, on_tick, NULL);
     if (g.st == ST_IDLE) {
         if (g.sf_max && !models_pass_dirty())
-            scan(1);  /* stored: the moves without a durable change too */
+            scan(1); /* stored: the moves without a durable change too */
         return;
     }
     mosquitto_loop_misc(g.mosq); /* keep-alive: PINGREQ, or drop a silent broker */
@@ -879,7 +890,7 @@ int spb_start(const struct conf *c, const char *version)
             return -1;
         if (kept)
             log_notice("sparkplug: %d stored change(s) in %s/%s wait for the host", kept, g.state_dir, SPB_SF_FILE);
-        sf_base();  /* what the host will get in the births: the baseline */
+        sf_base(); /* what the host will get in the births: the baseline */
     }
     mosquitto_lib_init();
     /* Clean session (spec: always true for Sparkplug clients). */
@@ -890,8 +901,8 @@ int spb_start(const struct conf *c, const char *version)
     }
     mosquitto_int_option(g.mosq, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
     mosquitto_int_option(g.mosq, MOSQ_OPT_TCP_NODELAY, 1);
-    if (s->username[0] &&
-        (rc = mosquitto_username_pw_set(g.mosq, s->username, s->password_set ? s->password : NULL)) != MOSQ_ERR_SUCCESS) {
+    if (s->username[0] && (rc = mosquitto_username_pw_set(g.mosq, s->username, s->password_set ? s->password : NULL)) !=
+                              MOSQ_ERR_SUCCESS) {
         log_err("sparkplug: username: %s", mosquitto_strerror(rc));
         return -1;
     }
@@ -920,8 +931,8 @@ int spb_start(const struct conf *c, const char *version)
     g.backoff_ms = BACKOFF_FIRST_MS;
     g.retry_timer = loop_add_timer(0, try_connect, NULL);
     g.tick_timer = loop_add_timer(TICK_MS, on_tick, NULL);
-    log_info("sparkplug: edge node %s/%s, broker %s:%d, next bdSeq %d", s->group_id, s->edge_node_id, s->host,
-             s->port, g.next_bd);
+    log_info("sparkplug: edge node %s/%s, broker %s:%d, next bdSeq %d", s->group_id, s->edge_node_id, s->host, s->port,
+             g.next_bd);
     if (g.use_host || g.sf_max)
         log_info("sparkplug: primary host %s, store-and-forward of at most %d change(s)",
                  g.use_host ? s->primary_host_id : "(none)", g.sf_max);
@@ -980,7 +991,7 @@ void spb_reload(const struct conf *c)
     if (!changed)
         return;
     if (g.st == ST_ONLINE)
-        births();   /* the metric set changed: born again with it */
+        births(); /* the metric set changed: born again with it */
     else if (devs_build())
         log_err("sparkplug: out of memory building the device table");
     sync_fd();
@@ -1027,12 +1038,12 @@ void spb_stop(void)
         loop_cancel_timer(g.tick_timer);
     g.retry_timer = g.tick_timer = 0;
     if (g.st != ST_ONLINE && g.sf_max)
-        scan(0);  /* changes made durable by the last drain: kept */
+        scan(0); /* changes made durable by the last drain: kept */
     if (g.st == ST_ONLINE) {
         uint64_t ts = now_ms();
         struct spb_payload *pl = ndeath_payload(g.bdseq, ts);
         wait_for(flushed, STOP_WAIT_MS / 2);
-        scan(0);  /* changes made durable by the last drain */
+        scan(0); /* changes made durable by the last drain */
         g.ndeath_mid = 0;
         g.ndeath_acked = 0;
         if (pl && publish(g.t_ndeath, pl, ts, -1, 1, &g.ndeath_mid) == 0) {

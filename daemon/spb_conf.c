@@ -7,7 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define ERR(...) do { snprintf(err, errsize, __VA_ARGS__); return -1; } while (0)
+#define ERR(...)                             \
+    do {                                     \
+        snprintf(err, errsize, __VA_ARGS__); \
+        return -1;                           \
+    } while (0)
 
 void spb_conf_default(struct spb_conf *s)
 {
@@ -21,7 +25,7 @@ void spb_conf_default(struct spb_conf *s)
 int spb_conf_same(const struct spb_conf *a, const struct spb_conf *b)
 {
     struct spb_conf x, y;
-    struct spb_conf *v[2] = { &x, &y };
+    struct spb_conf *v[2] = {&x, &y};
     memcpy(&x, a, sizeof x); /* memcpy, not assignment: the padding too */
     memcpy(&y, b, sizeof y);
     for (int k = 0; k < 2; k++) {
@@ -66,7 +70,7 @@ int spb_conf_parse_broker(struct spb_conf *s, const char *v)
     } else {
         colon = strrchr(v, ':');
         if (colon && strchr(v, ':') != colon)
-            return -1;  /* a bare IPv6 address needs [] */
+            return -1; /* a bare IPv6 address needs [] */
         hlen = colon ? (size_t)(colon - v) : strlen(v);
     }
     if (hlen == 0 || hlen >= sizeof s->host)
@@ -74,7 +78,7 @@ int spb_conf_parse_broker(struct spb_conf *s, const char *v)
     memcpy(s->host, v, hlen);
     s->host[hlen] = 0;
     if (!colon)
-        s->port = 1883;  /* the MQTT port (IANA) */
+        s->port = 1883; /* the MQTT port (IANA) */
     else if (conf_schema_int(colon + 1, 1, 65535, &s->port))
         return -1;
     return 0;
@@ -109,8 +113,8 @@ int spb_conf_read_password(struct spb_conf *s, const char *path, char *err, size
 
 int spb_conf_check(const struct spb_conf *s, int *line, char *key, size_t keysize, char *err, size_t errsize)
 {
-    static const char *const need[] = { "broker", "group_id", "edge_node_id" };
-    const char *have[] = { s->host, s->group_id, s->edge_node_id };
+    static const char *const need[] = {"broker", "group_id", "edge_node_id"};
+    const char *have[] = {s->host, s->group_id, s->edge_node_id};
     if (!s->enabled)
         return 0;
     for (size_t k = 0; k < sizeof need / sizeof need[0]; k++)

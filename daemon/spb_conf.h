@@ -9,24 +9,24 @@
 
 #include <stddef.h>
 
-#define SPB_ID_MAX 64     /* group_id, edge_node_id, client_id (with the NUL) */
+#define SPB_ID_MAX 64 /* group_id, edge_node_id, client_id (with the NUL) */
 #define SPB_SECRET_MAX 256
 
 struct spb_conf {
-    int enabled;                 /* a [sparkplug] section was given          */
-    int first_line;              /* its first key, for "missing key" errors  */
+    int enabled;    /* a [sparkplug] section was given          */
+    int first_line; /* its first key, for "missing key" errors  */
     char first_key[32];
-    char host[256];              /* broker host (name or address, no [])     */
-    int port;                    /* broker port, default 1883                */
+    char host[256]; /* broker host (name or address, no [])     */
+    int port;       /* broker port, default 1883                */
     char group_id[SPB_ID_MAX];
     char edge_node_id[SPB_ID_MAX];
-    char client_id[SPB_ID_MAX];  /* "" = it2nd-<group_id>-<edge_node_id>     */
-    int keepalive;               /* s, MQTT keep alive (also the CONNACK wait) */
-    int reconnect_max;           /* s, the longest wait between attempts     */
+    char client_id[SPB_ID_MAX]; /* "" = it2nd-<group_id>-<edge_node_id>     */
+    int keepalive;              /* s, MQTT keep alive (also the CONNACK wait) */
+    int reconnect_max;          /* s, the longest wait between attempts     */
     char username[SPB_ID_MAX * 2];
     char password[SPB_SECRET_MAX]; /* the first line of password_file        */
     int password_set;
-    int password_line;           /* line of password_file, 0 when not given  */
+    int password_line; /* line of password_file, 0 when not given  */
     /* TLS: tls_ca set = TLS with server verification (certificate and host
      * name); tls_cert + tls_key = a client certificate too. */
     char tls_ca[256], tls_cert[256], tls_key[256];

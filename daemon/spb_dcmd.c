@@ -124,13 +124,15 @@ static void dcmd_metric(void *ctx, const struct spb_payload_in *m)
         return;
     }
     default:
-        dcmd_refuse(c, label, "read-only (a DCMD may write Query/u, Query/w, Query/x, Query/y, Net/Page/fp, "
-                              "Net/Page/ch, Net/Page/row and the Upload metrics)");
+        dcmd_refuse(c, label,
+                    "read-only (a DCMD may write Query/u, Query/w, Query/x, Query/y, Net/Page/fp, "
+                    "Net/Page/ch, Net/Page/row and the Upload metrics)");
         return;
     }
 }
 
-void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const uint8_t *buf, size_t len)
+void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const uint8_t *buf,
+                    size_t len)
 {
     struct dcmd c;
     int rc, persisted, id = md->id;
@@ -146,8 +148,9 @@ void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_ma
         return;
     }
     if (!c.bad && c.upmask && c.upmask != all)
-        dcmd_refuse(&c, NULL, "the 9 Upload metrics are one data point and go together (as one FC16 of registers "
-                                "40..51)");
+        dcmd_refuse(&c, NULL,
+                    "the 9 Upload metrics are one data point and go together (as one FC16 of registers "
+                    "40..51)");
     if (!c.bad && (c.has_q[0] || c.has_q[1]) && (c.has_xy[0] || c.has_xy[1]))
         dcmd_refuse(&c, NULL, "a query is (u, w) or a locate (x, y), not both (as one Modbus write may not mix them)");
     if (!c.bad && c.upmask && ((o->write_protect[md->unit / 8] >> (md->unit % 8)) & 1))
@@ -160,7 +163,7 @@ void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_ma
     }
     if (c.has_q[0] || c.has_q[1]) {
         uint16_t regs[4];
-        float cur[2] = { 0.0f, 0.0f };
+        float cur[2] = {0.0f, 0.0f};
         if (q->kind == 1 && mb_map_read(md, q, o, IT2N_REGMAP_REG_Q_UF, 4, regs) == MB_MAP_OK) {
             cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_REGMAP_WO_ABCD);
             cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_REGMAP_WO_ABCD);
@@ -175,7 +178,7 @@ void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_ma
         /* A locate, as a Modbus write of q_x_f and q_y_f: an axis not
          * given keeps the value in use (0 before any locate). */
         uint16_t regs[4];
-        float cur[2] = { 0.0f, 0.0f };
+        float cur[2] = {0.0f, 0.0f};
         if (q->kind == 2 && mb_map_read(md, q, o, IT2N_REGMAP_REG_Q_XF, 4, regs) == MB_MAP_OK) {
             cur[0] = it2n_regmap_get_f32(&regs[0], IT2N_REGMAP_WO_ABCD);
             cur[1] = it2n_regmap_get_f32(&regs[2], IT2N_REGMAP_WO_ABCD);
@@ -204,7 +207,8 @@ void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_ma
          * Modbus upload (its DDATA follows the commit, on_model_changed). */
         struct model_txn t;
         models_txn_begin(&t);
-        rc = mb_map_write(md, q, o, IT2N_REGMAP_REG_UP_I, IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I, c.up, &persisted);
+        rc = mb_map_write(md, q, o, IT2N_REGMAP_REG_UP_I, IT2N_REGMAP_REG_UPLOAD_END - IT2N_REGMAP_REG_UP_I, c.up,
+                          &persisted);
         if (rc != MB_MAP_OK && persisted) {
             it2n_errinfo e = md->last_err;
             models_txn_rollback(&t);

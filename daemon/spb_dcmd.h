@@ -17,6 +17,7 @@
 /* Apply the DCMD payload buf to md (the live model) with the device's
  * query q and the node's register-map options o (ABCD, grid size,
  * write_protect). */
-void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const uint8_t *buf, size_t len);
+void spb_dcmd_apply(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const uint8_t *buf,
+                    size_t len);
 
 #endif

@@ -130,15 +130,15 @@ int spb_metrics_type(int idx)
     }
 }
 
-static const char *const fp_names[IT2N_REGMAP_FP] = { "LL", "LR", "L", "D", "R", "RL", "RR" };
-static const char ch_names[IT2N_REGMAP_CH] = { 'x', 'y', 'z', 'T', 'I', 'F' };
-static const char *const sum_names[4] = { "upper_min", "upper_max", "lower_min", "lower_max" };
+static const char *const fp_names[IT2N_REGMAP_FP] = {"LL", "LR", "L", "D", "R", "RL", "RR"};
+static const char ch_names[IT2N_REGMAP_CH] = {'x', 'y', 'z', 'T', 'I', 'F'};
+static const char *const sum_names[4] = {"upper_min", "upper_max", "lower_min", "lower_max"};
 
 /* Name, and the description and unit for the birth. */
 void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t nsize, char *desc, size_t dsize,
                       const char **unit)
 {
-    static const char *const chname[3] = { "Truth", "Indeterminacy", "Falsity" };
+    static const char *const chname[3] = {"Truth", "Indeterminacy", "Falsity"};
     const it2n_regmap_field *f;
     unsigned nd, k, r, c;
     double u, w;
@@ -155,9 +155,10 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
         return;
     case SPB_SEG_QIN:
         snprintf(name, nsize, "Query/%c", idx ? 'w' : 'u');
-        snprintf(desc, dsize, "Parameter %c in [0, 1] of this device's query (Modbus q_%c_f, register %u); a DCMD "
-                 "writing Query/u and/or Query/w evaluates the model there", idx ? 'w' : 'u', idx ? 'w' : 'u',
-                 idx ? IT2N_REGMAP_REG_Q_WF : IT2N_REGMAP_REG_Q_UF);
+        snprintf(desc, dsize,
+                 "Parameter %c in [0, 1] of this device's query (Modbus q_%c_f, register %u); a DCMD "
+                 "writing Query/u and/or Query/w evaluates the model there",
+                 idx ? 'w' : 'u', idx ? 'w' : 'u', idx ? IT2N_REGMAP_REG_Q_WF : IT2N_REGMAP_REG_Q_UF);
         return;
     case SPB_SEG_QGEN:
         snprintf(name, nsize, "Query/generation");
@@ -167,8 +168,10 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
         if (idx < (int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH)) {
             k = (unsigned)idx % IT2N_REGMAP_CH;
             snprintf(name, nsize, "Query/Result/%s/%c", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k]);
-            snprintf(desc, dsize, "Surface value of footprint %s, channel %c at (Query/u, Query/w) (Modbus register "
-                     "%u, float32)", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k], IT2N_REGMAP_REG_RES_F32 + 2u * (unsigned)idx);
+            snprintf(desc, dsize,
+                     "Surface value of footprint %s, channel %c at (Query/u, Query/w) (Modbus register "
+                     "%u, float32)",
+                     fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[k], IT2N_REGMAP_REG_RES_F32 + 2u * (unsigned)idx);
             *unit = k < 3 ? "coord" : NULL;
         } else {
             idx -= (int)(IT2N_REGMAP_FP * IT2N_REGMAP_CH);
@@ -185,10 +188,11 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
         return;
     case SPB_SEG_QLOC:
         snprintf(name, nsize, "Query/%c", idx ? 'y' : 'x');
-        snprintf(desc, dsize, "Locate: coordinate %c of this device's query (Modbus q_%c_f, register %u); a DCMD "
+        snprintf(desc, dsize,
+                 "Locate: coordinate %c of this device's query (Modbus q_%c_f, register %u); a DCMD "
                  "writing Query/x and/or Query/y locates (x, y) on every footprint (the results are the surface "
-                 "there); null unless the last query was a locate", idx ? 'y' : 'x', idx ? 'y' : 'x',
-                 idx ? IT2N_REGMAP_REG_Q_YF : IT2N_REGMAP_REG_Q_XF);
+                 "there); null unless the last query was a locate",
+                 idx ? 'y' : 'x', idx ? 'y' : 'x', idx ? IT2N_REGMAP_REG_Q_YF : IT2N_REGMAP_REG_Q_XF);
         *unit = "coord";
         return;
     case SPB_SEG_QSTAT:
@@ -205,14 +209,17 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
         return;
     case SPB_SEG_PAGEROW:
         snprintf(name, nsize, "Net/Page/values");
-        snprintf(desc, dsize, "Row Net/Page/row of net (Net/Page/fp, Net/Page/ch): Status/net_cols float32 values, "
+        snprintf(desc, dsize,
+                 "Row Net/Page/row of net (Net/Page/fp, Net/Page/ch): Status/net_cols float32 values, "
                  "little-endian (Modbus coef_window, registers %u..); the control points of a Bezier model, the "
-                 "coefficients c(r-1, s-1) of a B-spline; null while not solved", IT2N_REGMAP_REG_WIN);
+                 "coefficients c(r-1, s-1) of a B-spline; null while not solved",
+                 IT2N_REGMAP_REG_WIN);
         *unit = "coord / 1";
         return;
     case SPB_SEG_NET:
         snprintf(name, nsize, "Net/%s/%c", fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[idx % (int)IT2N_REGMAP_CH]);
-        snprintf(desc, dsize, "Whole net of footprint %s, channel %c, row by row (Status/net_rows x Status/net_cols "
+        snprintf(desc, dsize,
+                 "Whole net of footprint %s, channel %c, row by row (Status/net_rows x Status/net_cols "
                  "float32, little-endian; Modbus control_net / coef_window); null while not solved, for a footprint "
                  "the model does not carry, or above %u values (read those rows with Net/Page/...)",
                  fp_names[idx / (int)IT2N_REGMAP_CH], ch_names[idx % (int)IT2N_REGMAP_CH], SPB_NET_MAX);
@@ -276,8 +283,8 @@ static void float_array(const uint16_t *regs, unsigned n, uint8_t *bytes, struct
 /* The nets: Net/Page/values and the whole nets, read through the
  * coefficient window like a PLC, page by page (a scratch page select:
  * the device's own stays as a DCMD set it). */
-static void net_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned rows, unsigned cols,
-                       struct spb_payload_val *out)
+static void net_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned rows,
+                       unsigned cols, struct spb_payload_val *out)
 {
     static uint16_t regs[2 * IT2N_REGMAP_WIN_COLS];
     static uint8_t page_bytes[4 * IT2N_REGMAP_WIN_COLS];
@@ -294,7 +301,7 @@ static void net_values(struct model *md, struct mb_map_query *q, const struct mb
         int ok = rows && cols && rows * cols <= SPB_NET_MAX && models_has_fp(md, fp);
         scratch = *q;
         for (unsigned r = 0; ok && r < rows; r++) {
-            uint16_t page[3] = { (uint16_t)fp, (uint16_t)ch, (uint16_t)r };
+            uint16_t page[3] = {(uint16_t)fp, (uint16_t)ch, (uint16_t)r};
             memcpy(scratch.page, page, sizeof page);
             ok = mb_map_read(md, &scratch, o, IT2N_REGMAP_REG_WIN, 2u * cols, &net[2 * r * cols]) == MB_MAP_OK;
         }
@@ -309,7 +316,8 @@ static void net_values(struct model *md, struct mb_map_query *q, const struct mb
  * the last durable state: the status block, this device's query (its own
  * connection-like state) and results, the upload block, the float32
  * sample grid. Null where Modbus answers an exception (not solved). */
-void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_payload_val *out)
+void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o,
+                        struct spb_payload_val *out)
 {
     static uint16_t regs[IT2N_REGMAP_REG_GRID_F32_END - IT2N_REGMAP_REG_GRID_F32];
     const it2n_regmap_block *b = status_block(), *up = upload_block();
@@ -334,7 +342,7 @@ void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct m
         for (int k = 0; k < N_RES; k++)
             out[1 + k].f = it2n_regmap_get_f32(&regs[2 + 2 * k], IT2N_REGMAP_WO_ABCD);
     } else {
-        set_null(out, N_QGEN + N_RES);  /* no query yet, or not solved (06) */
+        set_null(out, N_QGEN + N_RES); /* no query yet, or not solved (06) */
     }
     out += N_QGEN + N_RES;
     if (mb_map_read(md, q, o, up->start, (unsigned)(up->end - up->start), regs) == MB_MAP_OK)
@@ -362,7 +370,8 @@ void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct m
         out[0].null = 1;
     if (q->kind && mb_map_read(md, q, o, IT2N_REGMAP_REG_RES_F32, 2, regs + 8) == MB_MAP_OK) {
         out[1].u = regs[IT2N_REGMAP_REG_Q_LOCFAIL - IT2N_REGMAP_REG_Q_KIND];
-        out[2].u = (uint32_t)regs[IT2N_REGMAP_REG_Q_OOR - IT2N_REGMAP_REG_Q_KIND] << 16 | regs[IT2N_REGMAP_REG_Q_OOR - IT2N_REGMAP_REG_Q_KIND + 1];
+        out[2].u = (uint32_t)regs[IT2N_REGMAP_REG_Q_OOR - IT2N_REGMAP_REG_Q_KIND] << 16 |
+                   regs[IT2N_REGMAP_REG_Q_OOR - IT2N_REGMAP_REG_Q_KIND + 1];
     } else {
         set_null(out + 1, 2);
     }
@@ -385,7 +394,7 @@ void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct m
     if (!nodes)
         return;
     if (mb_map_read(md, q, o, IT2N_REGMAP_REG_GRID_F32, nodes * 6u, regs) != MB_MAP_OK) {
-        set_null(out, (int)nodes * 3);  /* not solved: no grid (Modbus answers 06) */
+        set_null(out, (int)nodes * 3); /* not solved: no grid (Modbus answers 06) */
         return;
     }
     for (unsigned k = 0; k < nodes * 3u; k++)

@@ -25,18 +25,18 @@
 
 /* The segments of the list, in order. */
 enum spb_seg {
-    SPB_SEG_STATUS,   /* Status/<field>: registers 0..31           */
-    SPB_SEG_QIN,      /* Query/u, Query/w                          */
-    SPB_SEG_QGEN,     /* Query/generation                          */
-    SPB_SEG_RES,      /* Query/Result/..., Query/Summary/...       */
-    SPB_SEG_UPLOAD,   /* Upload/<field>: registers 40..51          */
-    SPB_SEG_COUNTS,   /* Status/points_present32, .._required32    */
-    SPB_SEG_QLOC,     /* Query/x, Query/y (a locate)               */
-    SPB_SEG_QSTAT,    /* Query/kind, locate_fail, out_of_range     */
-    SPB_SEG_PAGE,     /* Net/Page/fp, ch, row (the page select)    */
-    SPB_SEG_PAGEROW,  /* Net/Page/values (the coefficient window)  */
-    SPB_SEG_NET,      /* Net/<FP>/<ch>: whole nets, FloatArray     */
-    SPB_SEG_GRID      /* Sample Grid/r<R>/c<C>/<T|I|F>             */
+    SPB_SEG_STATUS,  /* Status/<field>: registers 0..31           */
+    SPB_SEG_QIN,     /* Query/u, Query/w                          */
+    SPB_SEG_QGEN,    /* Query/generation                          */
+    SPB_SEG_RES,     /* Query/Result/..., Query/Summary/...       */
+    SPB_SEG_UPLOAD,  /* Upload/<field>: registers 40..51          */
+    SPB_SEG_COUNTS,  /* Status/points_present32, .._required32    */
+    SPB_SEG_QLOC,    /* Query/x, Query/y (a locate)               */
+    SPB_SEG_QSTAT,   /* Query/kind, locate_fail, out_of_range     */
+    SPB_SEG_PAGE,    /* Net/Page/fp, ch, row (the page select)    */
+    SPB_SEG_PAGEROW, /* Net/Page/values (the coefficient window)  */
+    SPB_SEG_NET,     /* Net/<FP>/<ch>: whole nets, FloatArray     */
+    SPB_SEG_GRID     /* Sample Grid/r<R>/c<C>/<T|I|F>             */
 };
 
 /* Metrics of a device with o's grid size. */
@@ -55,7 +55,8 @@ void spb_metrics_info(const struct mb_map_opts *o, int idx, char *name, size_t n
 /* Every metric's value now (spb_metrics_count(o) of them into out): md
  * as readers see it (pass models_view()), q the device's query (its
  * results are cached in it). Null where Modbus answers an exception. */
-void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, struct spb_payload_val *out);
+void spb_metrics_values(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o,
+                        struct spb_payload_val *out);
 
 /* The fields of the upload block (the Upload metrics, in order). */
 unsigned spb_metrics_upload_count(void);

@@ -17,9 +17,9 @@ struct slot {
     Spb__Payload__PropertyValue pv[SPB_PROPS];
     Spb__Payload__PropertyValue *pvp[SPB_PROPS];
     char *keys[SPB_PROPS];
-    char *strs[2 * SPB_PROPS + 2];  /* owned copies: name, string value, props */
+    char *strs[2 * SPB_PROPS + 2]; /* owned copies: name, string value, props */
     int nstrs;
-    uint8_t *bytes;                 /* owned copy of an array value */
+    uint8_t *bytes; /* owned copy of an array value */
 };
 
 struct spb_payload {
@@ -77,7 +77,8 @@ static char *own(struct slot *s, const char *str)
     return c;
 }
 
-int spb_payload_add(struct spb_payload *pl, const char *name, uint64_t alias, int type, uint64_t ts, const struct spb_payload_val *v)
+int spb_payload_add(struct spb_payload *pl, const char *name, uint64_t alias, int type, uint64_t ts,
+                    const struct spb_payload_val *v)
 {
     static const Spb__Payload__Metric init = SPB__PAYLOAD__METRIC__INIT;
     struct slot *s;
@@ -140,8 +141,7 @@ int spb_payload_add(struct spb_payload *pl, const char *name, uint64_t alias, in
             m->bytes_value.data = s->bytes;
             m->bytes_value.len = v->nb;
             break;
-        default:
-            return -1;
+        default: return -1;
         }
     }
     pl->mp[pl->n] = m;
@@ -204,8 +204,8 @@ int spb_payload_pack(struct spb_payload *pl, uint64_t ts, int seq, uint8_t **out
     return 0;
 }
 
-int spb_payload_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_payload_cmd *cmd, char *why,
-                  size_t whysize)
+int spb_payload_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias, struct spb_payload_cmd *cmd,
+                          char *why, size_t whysize)
 {
     Spb__Payload *p = spb__payload__unpack(NULL, len, buf);
     int rc = 0;
@@ -234,8 +234,8 @@ int spb_payload_cmd_parse(const uint8_t *buf, size_t len, uint64_t rebirth_alias
     return rc;
 }
 
-int spb_payload_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_payload_in *m), void *ctx,
-                 char *why, size_t whysize)
+int spb_payload_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, const struct spb_payload_in *m),
+                         void *ctx, char *why, size_t whysize)
 {
     Spb__Payload *p = spb__payload__unpack(NULL, len, buf);
     if (!p) {
@@ -252,11 +252,26 @@ int spb_payload_cmd_each(const uint8_t *buf, size_t len, void (*fn)(void *ctx, c
         in.has_datatype = m->has_datatype;
         in.datatype = m->datatype;
         switch (m->value_case) {
-        case SPB__PAYLOAD__METRIC__VALUE_INT_VALUE: in.kind = SPB_PAYLOAD_IN_INT; in.u = m->int_value; break;
-        case SPB__PAYLOAD__METRIC__VALUE_LONG_VALUE: in.kind = SPB_PAYLOAD_IN_LONG; in.u = m->long_value; break;
-        case SPB__PAYLOAD__METRIC__VALUE_FLOAT_VALUE: in.kind = SPB_PAYLOAD_IN_FLOAT; in.d = m->float_value; break;
-        case SPB__PAYLOAD__METRIC__VALUE_DOUBLE_VALUE: in.kind = SPB_PAYLOAD_IN_FLOAT; in.d = m->double_value; break;
-        case SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE: in.kind = SPB_PAYLOAD_IN_BOOL; in.u = m->boolean_value != 0; break;
+        case SPB__PAYLOAD__METRIC__VALUE_INT_VALUE:
+            in.kind = SPB_PAYLOAD_IN_INT;
+            in.u = m->int_value;
+            break;
+        case SPB__PAYLOAD__METRIC__VALUE_LONG_VALUE:
+            in.kind = SPB_PAYLOAD_IN_LONG;
+            in.u = m->long_value;
+            break;
+        case SPB__PAYLOAD__METRIC__VALUE_FLOAT_VALUE:
+            in.kind = SPB_PAYLOAD_IN_FLOAT;
+            in.d = m->float_value;
+            break;
+        case SPB__PAYLOAD__METRIC__VALUE_DOUBLE_VALUE:
+            in.kind = SPB_PAYLOAD_IN_FLOAT;
+            in.d = m->double_value;
+            break;
+        case SPB__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE:
+            in.kind = SPB_PAYLOAD_IN_BOOL;
+            in.u = m->boolean_value != 0;
+            break;
         case SPB__PAYLOAD__METRIC__VALUE__NOT_SET: in.kind = SPB_PAYLOAD_IN_NONE; break;
         default: in.kind = SPB_PAYLOAD_IN_OTHER; break;
         }
@@ -350,7 +365,7 @@ static int js_skip(struct js *j)
 
 int spb_payload_state_parse(const uint8_t *buf, size_t len, int *online, uint64_t *ts, char *why, size_t whysize)
 {
-    struct js j = { buf, buf + len };
+    struct js j = {buf, buf + len};
     int have_on = 0, have_ts = 0;
     char key[16];
     js_ws(&j);

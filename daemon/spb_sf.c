@@ -13,9 +13,9 @@
 #include "le_bytes.h"
 #include "log.h"
 
-#define HDR 8u              /* len, crc                          */
-#define BODY_FIXED 12u      /* dev, ts, count                    */
-#define VAL 15u             /* idx, null, float bits, integer    */
+#define HDR 8u         /* len, crc                          */
+#define BODY_FIXED 12u /* dev, ts, count                    */
+#define VAL 15u        /* idx, null, float bits, integer    */
 #define COUNT_MAX 65535u
 
 static struct {
@@ -23,7 +23,7 @@ static struct {
     int max, count;
     uint64_t size;
     char path[4200];
-} s = { .fd = -1 };
+} s = {.fd = -1};
 
 static int full_pread(uint8_t *buf, size_t n, uint64_t off)
 {

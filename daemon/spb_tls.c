@@ -48,14 +48,14 @@ int spb_tls_check(const struct spb_conf *s, const char *path, char *err, size_t 
                  s->tls_cert_line, s->tls_cert, ssl_reason());
     else if (s->tls_key[0] && SSL_CTX_use_PrivateKey_file(ctx, s->tls_key, SSL_FILETYPE_PEM) != 1 &&
              ERR_GET_REASON(ERR_peek_last_error()) != X509_R_KEY_VALUES_MISMATCH)
-        snprintf(err, errsize, "%s:%d: [sparkplug] tls_key: cannot load a private key (PEM, not encrypted) from '%s': %s",
-                 path, s->tls_key_line, s->tls_key, ssl_reason());
+        snprintf(err, errsize,
+                 "%s:%d: [sparkplug] tls_key: cannot load a private key (PEM, not encrypted) from '%s': %s", path,
+                 s->tls_key_line, s->tls_key, ssl_reason());
     else if (s->tls_key[0] && SSL_CTX_check_private_key(ctx) != 1) {
         ERR_clear_error();
         snprintf(err, errsize, "%s:%d: [sparkplug] tls_key: '%s' is not the key of tls_cert '%s' (line %d)", path,
                  s->tls_key_line, s->tls_key, s->tls_cert, s->tls_cert_line);
-    }
-    else
+    } else
         rc = 0;
     SSL_CTX_free(ctx);
     return rc;

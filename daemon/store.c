@@ -42,9 +42,9 @@
 #include "snapshot.h"
 
 #define WAL_MAGIC "IT2NWAL"
-#define FORMAT_VERSION 1u  /* WAL; and the legacy snapshot */
+#define FORMAT_VERSION 1u /* WAL; and the legacy snapshot */
 #define WAL_HDR 16u
-#define REC_HDR 17u        /* len, crc, seq, type */
+#define REC_HDR 17u /* len, crc, seq, type */
 #define REC_MAX 128u
 /* POINT record: T, I, F in Q30 (footprints are 0..6, so the bit is free
  * in every record older builds wrote). */
@@ -79,10 +79,10 @@ enum { JOB_COMMIT = 1, JOB_CHECKPOINT = 2 };
 enum { J_IDLE, J_QUEUED, J_DONE };
 struct job {
     int kind;
-    uint8_t *buf;            /* commit: the records; checkpoint: the snapshot */
+    uint8_t *buf; /* commit: the records; checkpoint: the snapshot */
     size_t len, cap;
     int recs;
-    uint64_t last_seq;       /* commit: seq of its last record; checkpoint: the snapshot's seq */
+    uint64_t last_seq; /* commit: seq of its last record; checkpoint: the snapshot's seq */
     uint64_t batch;
     /* results */
     int rc, err, new_wal, degrade;
@@ -94,14 +94,14 @@ struct job {
 };
 static struct job job;
 static int job_state = J_IDLE; /* under wmu while the thread runs */
-static int job_busy;             /* loop thread only: a job submitted, not reaped */
-static int wal_ok;               /* loop thread only: walfd is open */
-static uint64_t batches;     /* batch ids handed out (the gathered one is batches + 1) */
+static int job_busy;           /* loop thread only: a job submitted, not reaped */
+static int wal_ok;             /* loop thread only: walfd is open */
+static uint64_t batches;       /* batch ids handed out (the gathered one is batches + 1) */
 static pthread_t writer;
 static int writer_on, writer_stop, evfd = -1;
 static pthread_mutex_t wmu = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t wcv = PTHREAD_COND_INITIALIZER, dcv = PTHREAD_COND_INITIALIZER;
-static uint64_t delayed_us;  /* last job's duration, for the log */
+static uint64_t delayed_us; /* last job's duration, for the log */
 /* The checkpoint reserve (issue 20 item 4): state_dir/reserve, a file of
  * reserve_size() bytes allocated for real. A checkpoint needs room for
  * snapshot.tmp and wal.tmp; when the WAL has filled the disk there is
@@ -130,7 +130,8 @@ int store_may_drop(int id, unsigned points, const char *file)
         snprintf(what, sizeof what, "data points");
     log_err("state directory %s: %s holds %s of model %d, which the configuration does not have; add its "
             "[model:%d] section back, or keep one with 'removed = yes' to discard them (docs/daemon.md); refusing "
-            "to start, files left as they are", state_dir, file, what, id, id);
+            "to start, files left as they are",
+            state_dir, file, what, id, id);
     return 0;
 }
 
@@ -171,8 +172,7 @@ static size_t encode_payload(const struct model_rec *r, uint8_t *p)
         }
         break;
     }
-    default:
-        break;
+    default: break;
     }
     return n;
 }
@@ -207,10 +207,8 @@ static int decode_payload(int type, const uint8_t *p, size_t len, struct model_r
             r->vals[c] = (it2n_val)le_get64(p + 5 + 8 * c);
         return 0;
     case MOP_COMMIT:
-    case MOP_CLEAR:
-        return len == 2 ? 0 : -1;
-    default:
-        return -1;
+    case MOP_CLEAR: return len == 2 ? 0 : -1;
+    default: return -1;
     }
 }
 
@@ -252,7 +250,7 @@ int store_pending(void)
 
 struct store_mark store_mark(void)
 {
-    struct store_mark m = { qlen, qrecs, seq };
+    struct store_mark m = {qlen, qrecs, seq};
     return m;
 }
 
@@ -265,7 +263,7 @@ void store_rollback(struct store_mark m)
 
 struct model_jmark store_jmark(void)
 {
-    struct model_jmark m = { qlen, qrecs, seq };
+    struct model_jmark m = {qlen, qrecs, seq};
     return m;
 }
 
@@ -535,10 +533,10 @@ static void reserve_reap(const struct job *j)
 {
     if (j->reserve_used)
         log_notice("store: the disk is full; the checkpoint reserve (%s/reserve, %lld bytes) released for this "
-                   "checkpoint", state_dir, (long long)reserve_size());
+                   "checkpoint",
+                   state_dir, (long long)reserve_size());
     if (j->reserve_held && !reserve_held)
-        log_notice("store: checkpoint reserve %s/reserve (%lld bytes) in place", state_dir,
-                   (long long)reserve_size());
+        log_notice("store: checkpoint reserve %s/reserve (%lld bytes) in place", state_dir, (long long)reserve_size());
     else if (!j->reserve_held && j->rc == 0 && !reserve_warned)
         log_warn("store: no room for the checkpoint reserve (%s/reserve, %lld bytes): %s; if the WAL fills the "
                  "disk, writes stay refused until space is freed; retried at every checkpoint",
@@ -662,7 +660,7 @@ static void drop_tmp(const char *name)
  * crash, so the store is degraded until a checkpoint succeeds. */
 static int wal_reset(struct job *j)
 {
-    uint8_t h[WAL_HDR] = { 0 };
+    uint8_t h[WAL_HDR] = {0};
     int fd = openat(dirfd_, "wal.tmp", O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_CLOEXEC, 0640);
     if (fd < 0)
         return -1;
@@ -832,7 +830,7 @@ int store_snapshot(void)
 static uint8_t *read_file(const char *name, off_t max, size_t *len)
 {
     int fd = openat(dirfd_, name, O_RDONLY | O_CLOEXEC);
-    struct stat st = { 0 };
+    struct stat st = {0};
     uint8_t *buf;
     size_t got = 0;
     if (fd < 0)
@@ -949,8 +947,7 @@ static int keep_tail(uint64_t good, uint64_t total)
 
 /* Version 1: the data set of a raw record, re-put and (solve) re-solved
  * into md. On error md is unchanged. */
-static int v1_rebuild(struct model *md, const struct store_v1_it2n_dataset *src, int solve,
-                      it2n_errinfo *err)
+static int v1_rebuild(struct model *md, const struct store_v1_it2n_dataset *src, int solve, it2n_errinfo *err)
 {
     it2n_dataset *ds = malloc(sizeof *ds);
     it2n_model *mdl = malloc(sizeof *mdl);
@@ -1018,13 +1015,14 @@ static int load_snapshot(uint64_t *seqp)
         }
         if (drc)
             return keep_damaged("snapshot", drc == SNAPSHOT_BAD_MODEL ? "a model record does not validate"
-                                                                  : "checksum or structure");
+                                                                      : "checksum or structure");
         *seqp = sseq;
         return 0;
     }
     if (le_get32(buf + 8) != FORMAT_VERSION || le_get32(buf + 12) != store_v1_layout_tag()) {
         log_err("snapshot: %s/snapshot is version %u / layout %08x, which this build cannot read; refusing to "
-                "start, file left as it is", state_dir, le_get32(buf + 8), le_get32(buf + 12));
+                "start, file left as it is",
+                state_dir, le_get32(buf + 8), le_get32(buf + 12));
         free(buf);
         return -1;
     }
@@ -1042,7 +1040,7 @@ static int load_snapshot(uint64_t *seqp)
         memcpy(&sm, buf + 32 + (size_t)k * sizeof sm, sizeof sm);
         struct model *md = models_by_id(sm.id);
         if (!md) {
-            unsigned pts = 0;  /* counted over the whole array: n, m are not trusted yet */
+            unsigned pts = 0; /* counted over the whole array: n, m are not trusted yet */
             for (unsigned i = 0; i < IT2N_DIM; i++)
                 for (unsigned j = 0; j < IT2N_DIM; j++)
                     pts += (unsigned)__builtin_popcount(sm.ds.present[i][j]);
@@ -1057,7 +1055,8 @@ static int load_snapshot(uint64_t *seqp)
             /* version 1 models are all Bezier */
             log_err("snapshot: model %d is a Bezier model in the legacy snapshot, but [model:%d] says kind = %s; set "
                     "the kind back (or remove the model with 'removed = yes'); refusing to start, files left as "
-                    "they are", sm.id, sm.id, models_kind_name(md->kind));
+                    "they are",
+                    sm.id, sm.id, models_kind_name(md->kind));
             free(buf);
             return -1;
         }
@@ -1216,12 +1215,12 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
     int fd = openat(dirfd_, "wal", O_RDONLY | O_CLOEXEC);
     struct stat st;
     uint8_t *buf = NULL;
-    size_t have = 0, pos = 0;   /* bytes in buf; next record at buf[pos] */
-    uint64_t base = 0;          /* file offset of buf[0] */
-    uint64_t off = 0;           /* the record being read */
+    size_t have = 0, pos = 0; /* bytes in buf; next record at buf[pos] */
+    uint64_t base = 0;        /* file offset of buf[0] */
+    uint64_t off = 0;         /* the record being read */
     unsigned long long applied = 0, skipped = 0, failed = 0;
     int eof = 0, rc = -1, damaged = 0, seq_break = 0;
-    const char *why = NULL;     /* the damage at off */
+    const char *why = NULL; /* the damage at off */
     *good = *total = 0;
     if (fd < 0) {
         if (errno == ENOENT)
@@ -1328,8 +1327,8 @@ static int replay_wal(uint64_t sseq, uint64_t *good, uint64_t *total)
     if (why && wal_damage(fd, why, !seq_break, off, *total) < 0)
         goto out;
     *good = base + pos;
-    log_info("wal: %llu record(s) replayed, %llu already in the snapshot, %llu failed (%llu bytes)", applied,
-             skipped, failed, (unsigned long long)*good);
+    log_info("wal: %llu record(s) replayed, %llu already in the snapshot, %llu failed (%llu bytes)", applied, skipped,
+             failed, (unsigned long long)*good);
     stats.dropped += *total - *good;
     rc = 0;
 out:
@@ -1359,7 +1358,8 @@ static int take_lock(void)
         pid[strcspn(pid, "\n")] = 0;
         if (e == EWOULDBLOCK)
             log_err("state directory %s is in use by another it2nd (pid %s, lock %s/lock); not starting, nothing "
-                    "read or written", state_dir, pid[0] ? pid : "unknown", state_dir);
+                    "read or written",
+                    state_dir, pid[0] ? pid : "unknown", state_dir);
         else
             log_err("state directory %s: cannot lock %s/lock: %s", state_dir, state_dir, strerror(e));
         close(lockfd);
@@ -1528,7 +1528,7 @@ void store_accept_wal_loss(int on)
 
 int store_chown(unsigned uid, unsigned gid)
 {
-    static const char *const files[] = { "wal", "snapshot", "lock", "reserve" };
+    static const char *const files[] = {"wal", "snapshot", "lock", "reserve"};
     if (fchown(dirfd_, (uid_t)uid, (gid_t)gid))
         return -1;
     for (size_t k = 0; k < sizeof files / sizeof files[0]; k++)

@@ -85,10 +85,10 @@ int store_commit(void);
  * store_wait: block until the job in flight is done (synchronous paths:
  * reload, shutdown). */
 struct store_done {
-    int kind;          /* STORE_DONE_COMMIT or STORE_DONE_CHECKPOINT */
+    int kind; /* STORE_DONE_COMMIT or STORE_DONE_CHECKPOINT */
     int ok;
-    uint64_t batch;    /* commit: the batch id */
-    uint64_t us;       /* how long the job's I/O took */
+    uint64_t batch; /* commit: the batch id */
+    uint64_t us;    /* how long the job's I/O took */
 };
 enum { STORE_DONE_COMMIT = 1, STORE_DONE_CHECKPOINT = 2 };
 int store_start_writer(void);
@@ -171,8 +171,7 @@ struct store_v1_snap_model {
 };
 
 /* A data set in the frozen v1 layout (tests write legacy snapshots). */
-static inline void store_v1_dataset_from(struct store_v1_it2n_dataset *d,
-                                         const it2n_dataset *ds)
+static inline void store_v1_dataset_from(struct store_v1_it2n_dataset *d, const it2n_dataset *ds)
 {
     memset(d, 0, sizeof *d);
     d->n = ds->n;

@@ -155,29 +155,23 @@ typedef int64_t it2n_par;
 /* Negative codes so functions can return a count or an error. */
 enum it2n_error {
     IT2N_OK = 0,
-    IT2N_ERR_INVAL = -1,       /* bad argument (degree, index, flags)      */
-    IT2N_ERR_RANGE = -2,       /* value outside its accepted range         */
-    IT2N_ERR_DUPLICATE = -3,   /* (i, j, footprint) given twice            */
-    IT2N_ERR_MISSING = -4,     /* (i, j, footprint) absent                 */
-    IT2N_ERR_ORDER = -5,       /* footprints not nested on an axis         */
-    IT2N_ERR_OVERFLOW = -6,    /* intermediate result not representable    */
-    IT2N_ERR_SINGULAR = -7,    /* collocation matrix singular              */
-    IT2N_ERR_DEGENERATE = -8,  /* degenerate chord-length parameterisation */
-    IT2N_ERR_STATE = -9,       /* model not solved / wrong kind            */
-    IT2N_ERR_NOCONV = -10      /* iteration did not converge               */
+    IT2N_ERR_INVAL = -1,      /* bad argument (degree, index, flags)      */
+    IT2N_ERR_RANGE = -2,      /* value outside its accepted range         */
+    IT2N_ERR_DUPLICATE = -3,  /* (i, j, footprint) given twice            */
+    IT2N_ERR_MISSING = -4,    /* (i, j, footprint) absent                 */
+    IT2N_ERR_ORDER = -5,      /* footprints not nested on an axis         */
+    IT2N_ERR_OVERFLOW = -6,   /* intermediate result not representable    */
+    IT2N_ERR_SINGULAR = -7,   /* collocation matrix singular              */
+    IT2N_ERR_DEGENERATE = -8, /* degenerate chord-length parameterisation */
+    IT2N_ERR_STATE = -9,      /* model not solved / wrong kind            */
+    IT2N_ERR_NOCONV = -10     /* iteration did not converge               */
 };
 
 /* Footprints, in nesting order on every coordinate axis. */
-enum it2n_fp {
-    IT2N_FP_LL = 0, IT2N_FP_LR, IT2N_FP_L, IT2N_FP_D, IT2N_FP_R, IT2N_FP_RL,
-    IT2N_FP_RR, IT2N_FP_COUNT
-};
+enum it2n_fp { IT2N_FP_LL = 0, IT2N_FP_LR, IT2N_FP_L, IT2N_FP_D, IT2N_FP_R, IT2N_FP_RL, IT2N_FP_RR, IT2N_FP_COUNT };
 
 /* Channels of one footprint surface. */
-enum it2n_ch {
-    IT2N_CH_X = 0, IT2N_CH_Y, IT2N_CH_Z, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F,
-    IT2N_CH_COUNT
-};
+enum it2n_ch { IT2N_CH_X = 0, IT2N_CH_Y, IT2N_CH_Z, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F, IT2N_CH_COUNT };
 
 /* Where and why an operation failed; filled on every error. */
 typedef struct it2n_errinfo {
@@ -194,9 +188,9 @@ typedef struct it2n_errinfo {
 #define IT2N_DIM (IT2N_MAX_DEGREE + 1)
 
 /* Model flags (it2n_dataset.flags). */
-#define IT2N_F_Z 0x01u          /* coordinates carry z                   */
-#define IT2N_F_TYPE1 0x02u      /* only footprint D (type-1 neutrosophic) */
-#define IT2N_F_CHORD 0x04u      /* chord-length params instead of uniform */
+#define IT2N_F_Z 0x01u     /* coordinates carry z                   */
+#define IT2N_F_TYPE1 0x02u /* only footprint D (type-1 neutrosophic) */
+#define IT2N_F_CHORD 0x04u /* chord-length params instead of uniform */
 /* Flags this build accepts. */
 #define IT2N_F_ALL (IT2N_F_Z | IT2N_F_TYPE1 | (IT2N_CHORD ? IT2N_F_CHORD : 0u))
 
@@ -210,54 +204,45 @@ typedef struct it2n_dataset {
     uint32_t coord_lo[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][3]; /* x, y, z */
     uint32_t memb[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][3];     /* T, I, F */
     int16_t coord_hi[IT2N_DIM][IT2N_DIM][IT2N_FP_COUNT][3];
-    uint8_t n, m;   /* degrees: grid is (n+1) x (m+1) */
-    uint8_t flags;  /* IT2N_F_*                       */
+    uint8_t n, m;  /* degrees: grid is (n+1) x (m+1) */
+    uint8_t flags; /* IT2N_F_*                       */
     uint8_t present[IT2N_DIM][IT2N_DIM];
 } it2n_dataset;
 
 /* Channel ch of footprint fp at grid point (i, j) in the fine layout: a
  * coordinate in Q24, a membership in Q30 (no bounds checks: i, j <
  * IT2N_DIM, fp < IT2N_FP_COUNT, ch < IT2N_CH_COUNT). */
-static inline it2n_val it2n_dataset_value_fine(const it2n_dataset *ds,
-                                               unsigned i, unsigned j,
-                                               unsigned fp, unsigned ch)
+static inline it2n_val it2n_dataset_value_fine(const it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, unsigned ch)
 {
     if (ch >= 3u) {
         return (it2n_val)ds->memb[i][j][fp][ch - 3u];
     }
-    return (it2n_val)((uint64_t)(int64_t)ds->coord_hi[i][j][fp][ch] * 4294967296u |
-                      ds->coord_lo[i][j][fp][ch]);
+    return (it2n_val)((uint64_t)(int64_t)ds->coord_hi[i][j][fp][ch] * 4294967296u | ds->coord_lo[i][j][fp][ch]);
 }
 
 /* The same in Q24 for every channel (a membership rounded to nearest, ties
  * up). */
-static inline it2n_val it2n_dataset_value(const it2n_dataset *ds, unsigned i,
-                                          unsigned j, unsigned fp,
-                                          unsigned ch)
+static inline it2n_val it2n_dataset_value(const it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, unsigned ch)
 {
     it2n_val v = it2n_dataset_value_fine(ds, i, j, fp, ch);
     if (ch >= 3u) {
-        return (v + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >>
-               (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
+        return (v + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >> (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
     }
     return v;
 }
 
 /* All channels of footprint fp at (i, j) into vals (Q24; memberships
  * rounded to nearest, ties up). */
-void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j,
-                      unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
+void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
 
 /* The same in the fine layout (memberships in Q30, exactly as stored). */
-void it2n_dataset_get_fine(const it2n_dataset *ds, unsigned i, unsigned j,
-                           unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
+void it2n_dataset_get_fine(const it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT]);
 
 /*
  * Start an empty data set of degrees n x m (1..IT2N_MAX_DEGREE each) with
  * IT2N_F_* flags. Returns IT2N_OK, or IT2N_ERR_INVAL (ds untouched).
  */
-int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
-                      it2n_errinfo *err);
+int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err);
 
 /*
  * Store one footprint of grid point (i, j): vals[IT2N_CH_COUNT] in Q24
@@ -265,9 +250,8 @@ int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
  * coordinate limit and T, I, F in [0, 1]. With replace false a second put of
  * the same (i, j, fp) fails with IT2N_ERR_DUPLICATE. On error nothing changes.
  */
-int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], bool replace,
-                     it2n_errinfo *err);
+int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                     bool replace, it2n_errinfo *err);
 
 /*
  * it2n_dataset_put with vals in the fine layout (T, I, F in Q30, in
@@ -276,8 +260,7 @@ int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
  * out-of-range membership is reported rounded down to Q24, and one that
  * would round to 1 as 1 + 2^-24, so the value shown is outside too).
  */
-int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j,
-                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
                           bool replace, it2n_errinfo *err);
 
 /* Number of (i, j, footprint) entries the data set still lacks. */
@@ -317,8 +300,7 @@ void it2n_model_init(it2n_model *mdl);
  * parameters use exact inverse tables built into the library; chord-length
  * parameters invert at run time in 62-bit soft floating point.
  */
-int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
-                     it2n_errinfo *err);
+int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds, it2n_errinfo *err);
 
 /*
  * Replace one footprint of one data point: ds (the data set mdl was solved
@@ -328,36 +310,30 @@ int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
  * it2n_model_solve, so the result is bit-identical to a full re-solve.
  * Atomic: on any error neither ds nor mdl changes.
  */
-int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
-                      unsigned j, unsigned fp,
+int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
                       const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err);
 
 /* it2n_model_update with vals in the fine layout (T, I, F in Q30). */
-int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i,
-                           unsigned j, unsigned fp,
-                           const it2n_val vals[IT2N_CH_COUNT],
-                           it2n_errinfo *err);
+int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                           const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err);
 
 /*
  * Control point (i, j) of footprint fp, channel ch in Q24, rounded to
  * nearest; 0 outside the model's degrees or footprints.
  */
-it2n_val it2n_model_ctrl(const it2n_model *mdl, unsigned i, unsigned j,
-                         unsigned fp, unsigned ch);
+it2n_val it2n_model_ctrl(const it2n_model *mdl, unsigned i, unsigned j, unsigned fp, unsigned ch);
 
 /*
  * Collocation parameters of a data set (as the solve uses them): u[0..n],
  * w[0..m] in Q32. Uniform k/n, or chord-length from footprint D (which the
  * data set must then hold in full). Returns IT2N_OK or an error.
  */
-int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM],
-                it2n_par w[IT2N_DIM], it2n_errinfo *err);
+int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM], it2n_par w[IT2N_DIM], it2n_errinfo *err);
 
 /* Footprints a model carries: IT2N_FP_D only for type-1, else all seven. */
 static inline bool it2n_model_has_fp(const it2n_model *mdl, unsigned fp)
 {
-    return (mdl->flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D
-                                            : fp < IT2N_FP_COUNT;
+    return (mdl->flags & IT2N_F_TYPE1) ? fp == IT2N_FP_D : fp < IT2N_FP_COUNT;
 }
 
 /* ---- Evaluation --------------------------------------------------------- */
@@ -382,21 +358,18 @@ typedef struct it2n_point {
  * IT2N_ERR_RANGE (err->value is the offending parameter in Q24, ch 0 for u,
  * 1 for w). err may be NULL.
  */
-int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out,
-              it2n_errinfo *err);
+int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out, it2n_errinfo *err);
 
 /*
  * Partial derivatives dS/du (du) and dS/dw (dw) of every surface at (u, w).
  * Only the v arrays are filled. Errors as it2n_eval, plus IT2N_ERR_OVERFLOW
  * (fp, ch say which derivative does not fit Q39.24).
  */
-int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
-               it2n_point *dw, it2n_errinfo *err);
+int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw, it2n_errinfo *err);
 
 /* Sink for it2n_sample: called once per grid node, row-major. Return
  * non-zero to stop early (that value is returned by it2n_sample). */
-typedef int (*it2n_sample_cb)(void *ctx, unsigned r, unsigned c, it2n_par u,
-                              it2n_par w, const it2n_point *pt);
+typedef int (*it2n_sample_cb)(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w, const it2n_point *pt);
 
 /*
  * Evaluate on a uniform rows x cols parameter grid (each >= 2, <= 65535),
@@ -405,8 +378,7 @@ typedef int (*it2n_sample_cb)(void *ctx, unsigned r, unsigned c, it2n_par u,
  * names rows (i) or cols (j) and the limits), or the callback's non-zero
  * stop value.
  */
-int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
-                it2n_sample_cb cb, void *ctx, it2n_errinfo *err);
+int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx, it2n_errinfo *err);
 
 /* ---- Locate ------------------------------------------------------------- */
 
@@ -417,10 +389,10 @@ enum it2n_loc_status {
 };
 
 typedef struct it2n_locate_fp {
-    it2n_par u, w;                 /* parameters found (Q32)       */
-    it2n_val v[IT2N_CH_COUNT];     /* surface values there         */
-    it2n_val residual;             /* |S_xy(u,w) - (x,y)|_inf, Q24 */
-    uint8_t status;                /* enum it2n_loc_status         */
+    it2n_par u, w;             /* parameters found (Q32)       */
+    it2n_val v[IT2N_CH_COUNT]; /* surface values there         */
+    it2n_val residual;         /* |S_xy(u,w) - (x,y)|_inf, Q24 */
+    uint8_t status;            /* enum it2n_loc_status         */
 } it2n_locate_fp;
 
 typedef struct it2n_locate_result {
@@ -433,8 +405,7 @@ typedef struct it2n_locate_result {
  * x, y beyond +-IT2N_COORD_LIMIT give IT2N_ERR_RANGE (ch 0 or 1 names
  * which, lo/hi the limit). err may be NULL.
  */
-int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
-                it2n_locate_result *out, it2n_errinfo *err);
+int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y, it2n_locate_result *out, it2n_errinfo *err);
 
 /* ---- B-spline kind (cubic, not-a-knot) ----------------------------------- */
 
@@ -472,12 +443,10 @@ int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
 #define IT2N_BSPLINE_NCH(flags) (((flags) & IT2N_F_Z) ? 6u : 5u)
 /* clang-format on */
 /* Records a data set of n x m intervals needs. */
-#define IT2N_BSPLINE_DATA_RECS(n, m, flags)                                  \
-    ((size_t)((n) + 1u) * ((m) + 1u) * IT2N_BSPLINE_NFP(flags))
+#define IT2N_BSPLINE_DATA_RECS(n, m, flags) ((size_t)((n) + 1u) * ((m) + 1u) * IT2N_BSPLINE_NFP(flags))
 /* int32 words a model of n x m intervals needs. */
-#define IT2N_BSPLINE_MODEL_WORDS(n, m, flags)                                \
-    ((size_t)((n) + 3u) * ((m) + 3u) * IT2N_BSPLINE_NFP(flags) *             \
-     IT2N_BSPLINE_NCH(flags))
+#define IT2N_BSPLINE_MODEL_WORDS(n, m, flags) \
+    ((size_t)((n) + 3u) * ((m) + 3u) * IT2N_BSPLINE_NFP(flags) * IT2N_BSPLINE_NCH(flags))
 
 /* One footprint of one grid point as it2n_dataset: a coordinate in Q24 as
  * its low 32 bits (lo) and high 16 bits (hi), a membership in Q30 in memb.
@@ -506,36 +475,30 @@ typedef struct it2n_bspline_data {
  * (bad size or flags: value, lo, hi say which limit) or IT2N_ERR_RANGE (cap
  * too small: value is cap, lo the records needed); ds untouched on error.
  */
-int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec,
-                           size_t cap, unsigned n, unsigned m, unsigned flags,
-                           it2n_errinfo *err);
+int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec, size_t cap, unsigned n, unsigned m,
+                           unsigned flags, it2n_errinfo *err);
 
 /*
  * Store footprint fp of grid point (i, j), vals in Q24 as it2n_dataset_put
  * (same checks and errors; with replace false a second put fails with
  * IT2N_ERR_DUPLICATE). On error nothing changes.
  */
-int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
-                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                          bool replace, it2n_errinfo *err);
+int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                          const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err);
 
 /* it2n_bspline_data_put with vals in the fine layout (T, I, F in Q30), as
  * it2n_dataset_put_fine. */
-int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i,
-                               unsigned j, unsigned fp,
-                               const it2n_val vals[IT2N_CH_COUNT],
-                               bool replace, it2n_errinfo *err);
+int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                               const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err);
 
 /* All channels of footprint fp at (i, j) into vals (Q24, memberships
  * rounded to nearest, ties up); zeros for an index, footprint or record not
  * stored. */
-void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i,
-                           unsigned j, unsigned fp,
+void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
                            it2n_val vals[IT2N_CH_COUNT]);
 
 /* The same in the fine layout (memberships in Q30, exactly as stored). */
-void it2n_bspline_data_get_fine(const it2n_bspline_data *ds, unsigned i,
-                                unsigned j, unsigned fp,
+void it2n_bspline_data_get_fine(const it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
                                 it2n_val vals[IT2N_CH_COUNT]);
 
 /* Number of (i, j, footprint) entries the data set still lacks. */
@@ -564,8 +527,7 @@ typedef struct it2n_bspline_model {
 } it2n_bspline_model;
 
 /* An empty (unsolved) model over coef[0..cap). Always succeeds. */
-void it2n_bspline_model_init(it2n_bspline_model *mdl, int32_t *coef,
-                             size_t cap);
+void it2n_bspline_model_init(it2n_bspline_model *mdl, int32_t *coef, size_t cap);
 
 /*
  * Validate ds (it2n_bspline_data_check) and solve every net. Needs
@@ -574,8 +536,7 @@ void it2n_bspline_model_init(it2n_bspline_model *mdl, int32_t *coef,
  * Bumps mdl->generation. Cannot overflow: every coefficient is below 256
  * times the net's largest |value| (docs/numerics.md).
  */
-int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
-                       it2n_errinfo *err);
+int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds, it2n_errinfo *err);
 
 /*
  * Replace footprint fp of data point (i, j) in ds (the data set mdl was
@@ -586,39 +547,33 @@ int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
  * from a data set of other sizes or flags. Atomic: on error neither
  * changes. Cost: the nets of one footprint, O(n m) each.
  */
-int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
-                        unsigned i, unsigned j, unsigned fp,
-                        const it2n_val vals[IT2N_CH_COUNT],
-                        it2n_errinfo *err);
+int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                        const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err);
 
 /* it2n_bspline_update with vals in the fine layout (T, I, F in Q30). */
-int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds,
-                             unsigned i, unsigned j, unsigned fp,
-                             const it2n_val vals[IT2N_CH_COUNT],
-                             it2n_errinfo *err);
+int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                             const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err);
 
 /*
  * Coefficient c_{r-1, s-1} (r in 0..n+2, s in 0..m+2) of footprint fp,
  * channel ch in Q24, rounded to nearest; 0 outside the model.
  */
-it2n_val it2n_bspline_coef(const it2n_bspline_model *mdl, unsigned r,
-                           unsigned s, unsigned fp, unsigned ch);
+it2n_val it2n_bspline_coef(const it2n_bspline_model *mdl, unsigned r, unsigned s, unsigned fp, unsigned ch);
 
 /*
  * Every footprint surface at (u, w) (Q32, within [0, 1]): values, interval
  * summary and out_of_range as it2n_eval, same errors. Touches 4 x 4
  * coefficients per net whatever n and m.
  */
-int it2n_bspline_eval(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
-                      it2n_point *out, it2n_errinfo *err);
+int it2n_bspline_eval(const it2n_bspline_model *mdl, it2n_par u, it2n_par w, it2n_point *out, it2n_errinfo *err);
 
 /*
  * Partial derivatives dS/du and dS/dw at (u, w) as it2n_deriv (only the v
  * arrays are filled; IT2N_ERR_OVERFLOW names fp, ch if one does not fit
  * Q39.24).
  */
-int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
-                       it2n_point *du, it2n_point *dw, it2n_errinfo *err);
+int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw,
+                       it2n_errinfo *err);
 
 /*
  * For each footprint the (u, w) whose surface passes through (x, y), as
@@ -627,16 +582,15 @@ int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
  * with the model: on a large grid folded in (x, y) Newton may stop in a
  * local minimum (status noconv or outside).
  */
-int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
-                        it2n_locate_result *out, it2n_errinfo *err);
+int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y, it2n_locate_result *out,
+                        it2n_errinfo *err);
 
 /*
  * Evaluate on a uniform rows x cols parameter grid as it2n_sample (same
  * callback, limits and errors); every node bit-identical to
  * it2n_bspline_eval at the same (u, w).
  */
-int it2n_bspline_sample(const it2n_bspline_model *mdl, unsigned rows,
-                        unsigned cols, it2n_sample_cb cb, void *ctx,
+int it2n_bspline_sample(const it2n_bspline_model *mdl, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx,
                         it2n_errinfo *err);
 
 /* ---- Text conversion (no stdio; exact decimal rounding) ----------------- */

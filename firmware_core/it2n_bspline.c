@@ -39,8 +39,7 @@ static unsigned nfp_of(unsigned flags)
 }
 
 /* Record of footprint fp at (i, j); fp must be stored by this data set. */
-static it2n_bspline_rec *rec_at(const it2n_bspline_data *ds, unsigned i,
-                                unsigned j, unsigned fp)
+static it2n_bspline_rec *rec_at(const it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp)
 {
     unsigned nfp = nfp_of(ds->flags);
     size_t k = ((size_t)i * (ds->m + 1u) + j) * nfp + (nfp == 1u ? 0u : fp);
@@ -61,9 +60,8 @@ static bool fp_stored(unsigned flags, unsigned fp)
     return fp < IT2N_FP_COUNT && ((1u << fp) & it2n__fp_mask(flags)) != 0u;
 }
 
-int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec,
-                           size_t cap, unsigned n, unsigned m, unsigned flags,
-                           it2n_errinfo *err)
+int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec, size_t cap, unsigned n, unsigned m,
+                           unsigned flags, it2n_errinfo *err)
 {
     const unsigned ok_flags = IT2N_F_Z | IT2N_F_TYPE1;
     size_t need, k;
@@ -71,21 +69,17 @@ int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec,
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     if (n < 1u || n > IT2N_BSPLINE_MAX_N) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)n,
-                          1, IT2N_BSPLINE_MAX_N);
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)n, 1, IT2N_BSPLINE_MAX_N);
     }
     if (m < 1u || m > IT2N_BSPLINE_MAX_N) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)m,
-                          1, IT2N_BSPLINE_MAX_N);
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)m, 1, IT2N_BSPLINE_MAX_N);
     }
     if ((flags & ~ok_flags) != 0u) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1,
-                          (it2n_val)flags, 0, ok_flags);
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)flags, 0, ok_flags);
     }
     need = IT2N_BSPLINE_DATA_RECS(n, m, flags);
     if (cap < need) {
-        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, -1, (it2n_val)cap,
-                          (it2n_val)need, (it2n_val)need);
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, -1, (it2n_val)cap, (it2n_val)need, (it2n_val)need);
     }
     for (k = 0; k < need; k++) {
         memset(&rec[k], 0, sizeof(rec[k]));
@@ -100,8 +94,7 @@ int it2n_bspline_data_init(it2n_bspline_data *ds, it2n_bspline_rec *rec,
 
 /* Store checked values into a record (memberships with IT2N_MEMB_FRAC -
  * shift fraction bits). */
-static void rec_store(it2n_bspline_rec *r, unsigned flags,
-                      const it2n_val vals[IT2N_CH_COUNT], unsigned shift)
+static void rec_store(it2n_bspline_rec *r, unsigned flags, const it2n_val vals[IT2N_CH_COUNT], unsigned shift)
 {
     unsigned ch;
     for (ch = 0; ch < 3u; ch++) {
@@ -114,24 +107,20 @@ static void rec_store(it2n_bspline_rec *r, unsigned flags,
 }
 
 /* Index and footprint checks shared by put and update. */
-static int check_where(const it2n_bspline_data *ds, unsigned i, unsigned j,
-                       unsigned fp, it2n_errinfo *err)
+static int check_where(const it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp, it2n_errinfo *err)
 {
     if (i > ds->n || j > ds->m) {
-        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, -1, -1,
-                          (it2n_val)(i > ds->n ? i : j), 0,
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, -1, -1, (it2n_val)(i > ds->n ? i : j), 0,
                           (it2n_val)(i > ds->n ? ds->n : ds->m));
     }
     if (!fp_stored(ds->flags, fp)) {
-        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
-                          (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1, (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
     }
     return IT2N_OK;
 }
 
 /* it2n_bspline_data_put for memberships of mfrac fraction bits. */
-static int data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
-                    unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+static int data_put(it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
                     bool replace, int mfrac, it2n_errinfo *err)
 {
     it2n_bspline_rec *r;
@@ -149,43 +138,37 @@ static int data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
     }
     r = rec_at(ds, i, j, fp);
     if (!replace && r->present) {
-        return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp,
-                          -1, 0, 0, 0);
+        return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp, -1, 0, 0, 0);
     }
     rec_store(r, ds->flags, vals, (unsigned)(IT2N_MEMB_FRAC - mfrac));
     return IT2N_OK;
 }
 
-int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j,
-                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                          bool replace, it2n_errinfo *err)
+int it2n_bspline_data_put(it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                          const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err)
 {
     return data_put(ds, i, j, fp, vals, replace, IT2N_VAL_FRAC, err);
 }
 
-int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i,
-                               unsigned j, unsigned fp,
-                               const it2n_val vals[IT2N_CH_COUNT],
-                               bool replace, it2n_errinfo *err)
+int it2n_bspline_data_put_fine(it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                               const it2n_val vals[IT2N_CH_COUNT], bool replace, it2n_errinfo *err)
 {
     return data_put(ds, i, j, fp, vals, replace, IT2N_MEMB_FRAC, err);
 }
 
-void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i,
-                           unsigned j, unsigned fp,
+void it2n_bspline_data_get(const it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
                            it2n_val vals[IT2N_CH_COUNT])
 {
     unsigned ch;
     it2n_bspline_data_get_fine(ds, i, j, fp, vals);
     for (ch = IT2N_CH_T; ch < IT2N_CH_COUNT; ch++) {
         /* in [0, 2^30]: Q24 rounded to nearest, ties up */
-        vals[ch] = (vals[ch] + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >>
-                   (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
+        vals[ch] =
+            (vals[ch] + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >> (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
     }
 }
 
-void it2n_bspline_data_get_fine(const it2n_bspline_data *ds, unsigned i,
-                                unsigned j, unsigned fp,
+void it2n_bspline_data_get_fine(const it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
                                 it2n_val vals[IT2N_CH_COUNT])
 {
     const it2n_bspline_rec *r;
@@ -193,8 +176,7 @@ void it2n_bspline_data_get_fine(const it2n_bspline_data *ds, unsigned i,
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
         vals[ch] = 0;
     }
-    if (ds == NULL || ds->rec == NULL || i > ds->n || j > ds->m ||
-        !fp_stored(ds->flags, fp)) {
+    if (ds == NULL || ds->rec == NULL || i > ds->n || j > ds->m || !fp_stored(ds->flags, fp)) {
         return;
     }
     r = rec_at(ds, i, j, fp);
@@ -221,9 +203,8 @@ uint32_t it2n_bspline_data_missing(const it2n_bspline_data *ds)
 
 /* Nesting of footprint fp (values vals) with the stored fp - 1 and fp + 1
  * at (i, j), reported as a full check would. */
-static int check_nesting(const it2n_bspline_data *ds, unsigned i, unsigned j,
-                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                         it2n_errinfo *err)
+static int check_nesting(const it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                         const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
 {
     unsigned ch;
     if (ds->flags & IT2N_F_TYPE1) {
@@ -232,15 +213,13 @@ static int check_nesting(const it2n_bspline_data *ds, unsigned i, unsigned j,
     for (ch = 0; ch < it2n__ncoord(ds->flags) && fp > 0u; ch++) {
         it2n_val prev = rec_value(rec_at(ds, i, j, fp - 1u), ch);
         if (vals[ch] < prev) {
-            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp,
-                              (int)ch, vals[ch], prev, vals[ch]);
+            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp, (int)ch, vals[ch], prev, vals[ch]);
         }
     }
     for (ch = 0; ch < it2n__ncoord(ds->flags) && fp + 1u < IT2N_FP_COUNT; ch++) {
         it2n_val next = rec_value(rec_at(ds, i, j, fp + 1u), ch);
         if (next < vals[ch]) {
-            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
-                              (int)fp + 1, (int)ch, next, vals[ch], next);
+            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp + 1, (int)ch, next, vals[ch], next);
         }
     }
     return IT2N_OK;
@@ -249,10 +228,8 @@ static int check_nesting(const it2n_bspline_data *ds, unsigned i, unsigned j,
 /* Sizes and flags a data set may have (the struct may be filled by hand). */
 static bool data_shape_ok(const it2n_bspline_data *ds)
 {
-    return ds != NULL && ds->rec != NULL && ds->n >= 1u &&
-           ds->n <= IT2N_BSPLINE_MAX_N && ds->m >= 1u &&
-           ds->m <= IT2N_BSPLINE_MAX_N &&
-           (ds->flags & ~(unsigned)(IT2N_F_Z | IT2N_F_TYPE1)) == 0u &&
+    return ds != NULL && ds->rec != NULL && ds->n >= 1u && ds->n <= IT2N_BSPLINE_MAX_N && ds->m >= 1u &&
+           ds->m <= IT2N_BSPLINE_MAX_N && (ds->flags & ~(unsigned)(IT2N_F_Z | IT2N_F_TYPE1)) == 0u &&
            ds->cap >= IT2N_BSPLINE_DATA_RECS(ds->n, ds->m, ds->flags);
 }
 
@@ -307,12 +284,10 @@ int it2n_bspline_data_check(const it2n_bspline_data *ds, it2n_errinfo *err)
                     continue;
                 }
                 if (!rec_at(ds, i, j, fp)->present) {
-                    return it2n__fail(err, IT2N_ERR_MISSING, (int)i, (int)j,
-                                      (int)fp, -1, 0, 0, 0);
+                    return it2n__fail(err, IT2N_ERR_MISSING, (int)i, (int)j, (int)fp, -1, 0, 0, 0);
                 }
                 it2n_bspline_data_get_fine(ds, i, j, fp, vals);
-                rc = it2n__check_vals(ds->flags, i, j, fp, vals,
-                                      IT2N_MEMB_FRAC, err);
+                rc = it2n__check_vals(ds->flags, i, j, fp, vals, IT2N_MEMB_FRAC, err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }
@@ -322,9 +297,8 @@ int it2n_bspline_data_check(const it2n_bspline_data *ds, it2n_errinfo *err)
                     for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
                         it2n_val prev = rec_value(rec_at(ds, i, j, fp - 1u), ch);
                         if (vals[ch] < prev) {
-                            return it2n__fail(err, IT2N_ERR_ORDER, (int)i,
-                                              (int)j, (int)fp, (int)ch,
-                                              vals[ch], prev, vals[ch]);
+                            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp, (int)ch, vals[ch], prev,
+                                              vals[ch]);
                         }
                     }
                 }
@@ -342,8 +316,7 @@ static int64_t mulq32(int64_t a, uint32_t b)
 {
     int32_t hi = (int32_t)(a >> 32);
     uint32_t lo = (uint32_t)(uint64_t)a;
-    return it2n_mul32su(hi, b) +
-           (int64_t)((it2n_umul32(lo, b) + 0x80000000u) >> 32);
+    return it2n_mul32su(hi, b) + (int64_t)((it2n_umul32(lo, b) + 0x80000000u) >> 32);
 }
 
 /* Pivot reciprocals of the (1, 4, 1) elimination, round(2^32 / d_k) with
@@ -352,9 +325,8 @@ static int64_t mulq32(int64_t a, uint32_t b)
  * 2^32 (2 - sqrt 3). tests/core/test_bspline.c recomputes them. */
 #define PIVOTS 8u
 #define PIVOT_LIM 1150833018u /* the limit, from k = PIVOTS - 1 on */
-static const uint32_t inv_pivot[PIVOTS] = {
-    1073741824u, 1145324612u, 1150437669u, 1150804634u,
-    1150830981u, 1150832872u, 1150833008u, PIVOT_LIM};
+static const uint32_t inv_pivot[PIVOTS] = {1073741824u, 1145324612u, 1150437669u, 1150804634u,
+                                           1150830981u, 1150832872u, 1150833008u, PIVOT_LIM};
 
 uint32_t it2n__bspline_pivot_inv(unsigned k)
 {
@@ -558,8 +530,7 @@ static int64_t scale(int64_t v, int s)
 
 /* out[k * stride] = v[k] * 2^-s rounded, k < count, exactly as scale()
  * does it element by element (the shift's case decided once). */
-static void store_line(int32_t *out, size_t stride, const int64_t *v,
-                       unsigned count, int s)
+static void store_line(int32_t *out, size_t stride, const int64_t *v, unsigned count, int s)
 {
     unsigned k;
     if (s >= 63) {
@@ -598,8 +569,7 @@ typedef struct solve_fp_state {
  */
 /* Data row starting at record row (records nfp apart), channel ch, scaled
  * by 2^f1, into v[1..m+1]. */
-static void gather_row(int64_t *v, const it2n_bspline_rec *row,
-                       unsigned flags, unsigned m, unsigned ch, int f1)
+static void gather_row(int64_t *v, const it2n_bspline_rec *row, unsigned flags, unsigned m, unsigned ch, int f1)
 {
     size_t nfp = IT2N_BSPLINE_NFP(flags);
     const it2n_bspline_rec *r = row;
@@ -618,8 +588,7 @@ static void gather_row(int64_t *v, const it2n_bspline_rec *row,
 
 /* A solved data row i of channel ch into net row i + 1, with its own
  * exponent. */
-static void store_row(const it2n_bspline_model *mdl, unsigned fp,
-                      unsigned ch, unsigned i, const int64_t *v,
+static void store_row(const it2n_bspline_model *mdl, unsigned fp, unsigned ch, unsigned i, const int64_t *v,
                       solve_fp_state *st)
 {
     unsigned w = mdl->m + 3u, j;
@@ -635,8 +604,7 @@ static void store_row(const it2n_bspline_model *mdl, unsigned fp,
     store_line(it2n__bspline_net(mdl, fp, ch) + (i + 1u) * w, 1u, v, w, s);
 }
 
-static void solve_rows(const it2n_bspline_model *mdl,
-                       const it2n_bspline_data *ds, unsigned fp,
+static void solve_rows(const it2n_bspline_model *mdl, const it2n_bspline_data *ds, unsigned fp,
                        const uint64_t amax[IT2N_CH_COUNT], solve_fp_state *st)
 {
     int64_t v[LINE_MAX];
@@ -645,9 +613,7 @@ static void solve_rows(const it2n_bspline_model *mdl,
 #endif
     unsigned n = ds->n, m = ds->m, i, ch;
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        st->f1[ch] = amax[ch] == 0u || !it2n__ch_used(ds->flags, ch)
-                         ? -1
-                         : 55 - (int)it2n__bitlen64(amax[ch]);
+        st->f1[ch] = amax[ch] == 0u || !it2n__ch_used(ds->flags, ch) ? -1 : 55 - (int)it2n__bitlen64(amax[ch]);
         st->tmax[ch] = -64;
     }
     for (i = 0; i <= n; i++) {
@@ -685,8 +651,7 @@ static void solve_rows(const it2n_bspline_model *mdl,
  */
 /* Intermediate column j (net rows 1..n+1), rows brought to the largest
  * row's exponent tmax (each below 2^55), into v[1..n+1]. */
-static void gather_col(int64_t *v, const int32_t *net, unsigned w, unsigned n,
-                       unsigned j, const int8_t *rsh, int tmax)
+static void gather_col(int64_t *v, const int32_t *net, unsigned w, unsigned n, unsigned j, const int8_t *rsh, int tmax)
 {
     unsigned i;
     for (i = 0; i <= n; i++) {
@@ -698,8 +663,7 @@ static void gather_col(int64_t *v, const int32_t *net, unsigned w, unsigned n,
 
 /* A solved column: times 16/36, into net column j with its own exponent
  * (csh[j]; *cmax the largest so far). */
-static void store_col(int32_t *net, unsigned w, unsigned n, unsigned j,
-                      int64_t *v, int8_t *csh, int *cmax)
+static void store_col(int32_t *net, unsigned w, unsigned n, unsigned j, int64_t *v, int8_t *csh, int *cmax)
 {
     uint64_t mx = 0u;
     unsigned i;
@@ -716,8 +680,7 @@ static void store_col(int32_t *net, unsigned w, unsigned n, unsigned j,
     store_line(net + j, w, v, n + 3u, s);
 }
 
-static int solve_cols(const it2n_bspline_model *mdl, unsigned fp, unsigned ch,
-                      const solve_fp_state *st)
+static int solve_cols(const it2n_bspline_model *mdl, unsigned fp, unsigned ch, const solve_fp_state *st)
 {
     int64_t v[LINE_MAX];
 #if LINE_PAIRS
@@ -770,8 +733,7 @@ static int solve_cols(const it2n_bspline_model *mdl, unsigned fp, unsigned ch,
 
 /* ---- Model --------------------------------------------------------------- */
 
-void it2n_bspline_model_init(it2n_bspline_model *mdl, int32_t *coef,
-                             size_t cap)
+void it2n_bspline_model_init(it2n_bspline_model *mdl, int32_t *coef, size_t cap)
 {
     if (mdl == NULL) {
         return;
@@ -782,8 +744,7 @@ void it2n_bspline_model_init(it2n_bspline_model *mdl, int32_t *coef,
 }
 
 /* Solve every net of the footprints in fpmask (checks done). */
-static void solve_fps(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
-                      unsigned fpmask)
+static void solve_fps(it2n_bspline_model *mdl, const it2n_bspline_data *ds, unsigned fpmask)
 {
     solve_fp_state st;
     uint64_t amax[IT2N_FP_COUNT][IT2N_CH_COUNT];
@@ -824,8 +785,7 @@ static void solve_fps(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
     mdl->generation++;
 }
 
-int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
-                       it2n_errinfo *err)
+int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds, it2n_errinfo *err)
 {
     size_t need;
     int rc;
@@ -838,8 +798,7 @@ int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
     }
     need = IT2N_BSPLINE_MODEL_WORDS(ds->n, ds->m, ds->flags);
     if (mdl->coef == NULL || mdl->cap < need) {
-        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, -1,
-                          (it2n_val)mdl->cap, (it2n_val)need, (it2n_val)need);
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, -1, (it2n_val)mdl->cap, (it2n_val)need, (it2n_val)need);
     }
     /* nothing below can fail */
     mdl->n = ds->n;
@@ -852,17 +811,14 @@ int it2n_bspline_solve(it2n_bspline_model *mdl, const it2n_bspline_data *ds,
 }
 
 /* it2n_bspline_update for memberships of mfrac fraction bits. */
-static int bs_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
-                     unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], int mfrac,
-                     it2n_errinfo *err)
+static int bs_update(it2n_bspline_model *mdl, it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                     const it2n_val vals[IT2N_CH_COUNT], int mfrac, it2n_errinfo *err)
 {
     int rc;
     if (mdl == NULL || vals == NULL || !data_shape_ok(ds)) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (!mdl->solved || mdl->n != ds->n || mdl->m != ds->m ||
-        mdl->flags != ds->flags || mdl->coef == NULL ||
+    if (!mdl->solved || mdl->n != ds->n || mdl->m != ds->m || mdl->flags != ds->flags || mdl->coef == NULL ||
         mdl->cap < IT2N_BSPLINE_MODEL_WORDS(ds->n, ds->m, ds->flags)) {
         return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
     }
@@ -876,39 +832,31 @@ static int bs_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
     if (rc != IT2N_OK) {
         return rc;
     }
-    rec_store(rec_at(ds, i, j, fp), ds->flags, vals,
-              (unsigned)(IT2N_MEMB_FRAC - mfrac));
+    rec_store(rec_at(ds, i, j, fp), ds->flags, vals, (unsigned)(IT2N_MEMB_FRAC - mfrac));
     solve_fps(mdl, ds, 1u << fp);
     return IT2N_OK;
 }
 
-int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds,
-                        unsigned i, unsigned j, unsigned fp,
-                        const it2n_val vals[IT2N_CH_COUNT],
-                        it2n_errinfo *err)
+int it2n_bspline_update(it2n_bspline_model *mdl, it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                        const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
 {
     return bs_update(mdl, ds, i, j, fp, vals, IT2N_VAL_FRAC, err);
 }
 
-int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds,
-                             unsigned i, unsigned j, unsigned fp,
-                             const it2n_val vals[IT2N_CH_COUNT],
-                             it2n_errinfo *err)
+int it2n_bspline_update_fine(it2n_bspline_model *mdl, it2n_bspline_data *ds, unsigned i, unsigned j, unsigned fp,
+                             const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
 {
     return bs_update(mdl, ds, i, j, fp, vals, IT2N_MEMB_FRAC, err);
 }
 
-it2n_val it2n_bspline_coef(const it2n_bspline_model *mdl, unsigned r,
-                           unsigned s, unsigned fp, unsigned ch)
+it2n_val it2n_bspline_coef(const it2n_bspline_model *mdl, unsigned r, unsigned s, unsigned fp, unsigned ch)
 {
     const int32_t *net;
-    if (mdl == NULL || !mdl->solved || r > mdl->n + 2u || s > mdl->m + 2u ||
-        !fp_stored(mdl->flags, fp) || ch >= IT2N_CH_COUNT ||
-        !it2n__ch_used(mdl->flags, ch)) {
+    if (mdl == NULL || !mdl->solved || r > mdl->n + 2u || s > mdl->m + 2u || !fp_stored(mdl->flags, fp) ||
+        ch >= IT2N_CH_COUNT || !it2n__ch_used(mdl->flags, ch)) {
         return 0;
     }
     net = it2n__bspline_net(mdl, fp, ch);
     /* frac >= -1: below 2^56 in Q24, no overflow */
-    return it2n__shift_round(net[r * (mdl->m + 3u) + s],
-                             mdl->frac[fp][ch] - IT2N_VAL_FRAC);
+    return it2n__shift_round(net[r * (mdl->m + 3u) + s], mdl->frac[fp][ch] - IT2N_VAL_FRAC);
 }

@@ -76,8 +76,7 @@ static void dbasis(uint32_t t, int32_t db[4])
  * (stride w), rounded by 2^s1: the mantissa scale for the basis (s1 = 30,
  * a convex combination), half of it for derivative weights (s1 = 31: their
  * absolute sum is at most 1.5 * 2^30). */
-static void stage1(const int32_t *win, unsigned w, const int32_t cu[4],
-                   int s1, int32_t q[4])
+static void stage1(const int32_t *win, unsigned w, const int32_t cu[4], int s1, int32_t q[4])
 {
     unsigned r, s;
     for (s = 0; s < 4u; s++) {
@@ -114,9 +113,7 @@ static int check_model(const it2n_bspline_model *mdl, it2n_errinfo *err)
 /* stage1 (s1 = 30) then stage2 for the basis weights, which are never
  * negative (0..2^30): each product signed x unsigned, one sign correction
  * instead of two on ARMv6-M; the same exact products, so the same bits. */
-static it2n_val window_halves(const int32_t *win, unsigned stride,
-                              const int32_t bu[4], const int32_t bw[4],
-                              int frac)
+static it2n_val window_halves(const int32_t *win, unsigned stride, const int32_t bu[4], const int32_t bw[4], int frac)
 {
     int64_t acc = 0;
     unsigned r, s;
@@ -126,8 +123,7 @@ static it2n_val window_halves(const int32_t *win, unsigned stride,
         for (r = 0; r < 4u; r++, p += stride) {
             q += it2n_mul32su(*p, (uint32_t)bu[r]);
         }
-        acc += it2n_mul32su((int32_t)((q + ((int64_t)1 << 29)) >> 30),
-                            (uint32_t)bw[s]);
+        acc += it2n_mul32su((int32_t)((q + ((int64_t)1 << 29)) >> 30), (uint32_t)bw[s]);
     }
     return it2n__shift_round(acc, 30 + frac - IT2N_VAL_FRAC);
 }
@@ -136,8 +132,7 @@ static it2n_val window_halves(const int32_t *win, unsigned stride,
  * frac[0..count)) into out[0..count): the same sums as stage1 and stage2,
  * so the same bits, with the row weights loaded once per run. ARMv6-M
  * keeps the loops (flash). */
-#if defined(__GNUC__) && defined(__thumb2__) && \
-    (defined(__ARM_ARCH_7M__) || defined(__ARM_ARCH_7EM__))
+#if defined(__GNUC__) && defined(__thumb2__) && (defined(__ARM_ARCH_7M__) || defined(__ARM_ARCH_7EM__))
 #define IT2N__WINDOW_ASM 1
 /* ARMv7-M: every net of the run in one assembly loop. Per net, four
  * columns of the window at p0 (rows p0, p0 + 4 sw, p2, p2 + 4 sw bytes,
@@ -148,12 +143,12 @@ static it2n_val window_halves(const int32_t *win, unsigned stride,
  * GCC spills the weights of the C version; here the 13 registers hold
  * everything and the loop's state lives in ctx. */
 typedef struct window_ctx {
-    int32_t bw[4];        /*  0: column weights                 */
-    const int32_t *win;   /* 16: this net's window              */
-    uint32_t size;        /* 20: bytes from one net to the next */
-    const int8_t *frac;   /* 24: this net's exponent            */
-    it2n_val *out;        /* 28: this net's value               */
-    uint32_t count;       /* 32: nets left                      */
+    int32_t bw[4];      /*  0: column weights                 */
+    const int32_t *win; /* 16: this net's window              */
+    uint32_t size;      /* 20: bytes from one net to the next */
+    const int8_t *frac; /* 24: this net's exponent            */
+    it2n_val *out;      /* 28: this net's value               */
+    uint32_t count;     /* 32: nets left                      */
 } window_ctx;
 
 /* clang-format off */
@@ -174,8 +169,7 @@ typedef struct window_ctx {
     first " %[al], %[ah], %[t], %[ql]\n\t"
 /* clang-format on */
 
-static void window_run(const int32_t *win, size_t size, unsigned stride,
-                       const int32_t bu[4], const int32_t bw[4],
+static void window_run(const int32_t *win, size_t size, unsigned stride, const int32_t bu[4], const int32_t bw[4],
                        const int8_t *frac, it2n_val *out, unsigned count)
 {
     window_ctx ctx;
@@ -252,27 +246,22 @@ static void window_run(const int32_t *win, size_t size, unsigned stride,
  * cost otherwise outweighs its five or six nets.
  */
 typedef struct t1_ctx {
-    int32_t bw[4];   /*  0: column weights                          */
-    int32_t bu[4];   /* 16: row weights                             */
-    uint32_t adv;    /* 32: bytes from the end of one window to the next net's */
-    uint32_t stride; /* 36: words per row                            */
+    int32_t bw[4];      /*  0: column weights                          */
+    int32_t bu[4];      /* 16: row weights                             */
+    uint32_t adv;       /* 32: bytes from the end of one window to the next net's */
+    uint32_t stride;    /* 36: words per row                            */
     const int8_t *frac; /* 40: D's exponents by channel              */
-    uint32_t has_z;  /* 44: nets x, y, z, T, I, F (else x, y, T, I, F, z = 0) */
+    uint32_t has_z;     /* 44: nets x, y, z, T, I, F (else x, y, T, I, F, z = 0) */
 } t1_ctx;
 
-IT2N_STATIC_ASSERT(IT2N_FP_D == 3 && IT2N_CH_COUNT == 6 && IT2N_FP_COUNT == 7 &&
-                       IT2N_CH_T == 3 && IT2N_VAL_FRAC == 24 &&
-                       sizeof(it2n_val) == 8,
+IT2N_STATIC_ASSERT(IT2N_FP_D == 3 && IT2N_CH_COUNT == 6 && IT2N_FP_COUNT == 7 && IT2N_CH_T == 3 &&
+                       IT2N_VAL_FRAC == 24 && sizeof(it2n_val) == 8,
                    t1_asm_layout);
-IT2N_STATIC_ASSERT(offsetof(it2n_point, sum) == 336 &&
-                       offsetof(it2n_summary, upper_max) == 24 &&
-                       offsetof(it2n_summary, lower_min) == 48 &&
-                       offsetof(it2n_summary, lower_max) == 72,
+IT2N_STATIC_ASSERT(offsetof(it2n_point, sum) == 336 && offsetof(it2n_summary, upper_max) == 24 &&
+                       offsetof(it2n_summary, lower_min) == 48 && offsetof(it2n_summary, lower_max) == 72,
                    t1_asm_point);
-IT2N_STATIC_ASSERT(offsetof(t1_ctx, bu) == 16 && offsetof(t1_ctx, adv) == 32 &&
-                       offsetof(t1_ctx, stride) == 36 &&
-                       offsetof(t1_ctx, frac) == 40 &&
-                       offsetof(t1_ctx, has_z) == 44,
+IT2N_STATIC_ASSERT(offsetof(t1_ctx, bu) == 16 && offsetof(t1_ctx, adv) == 32 && offsetof(t1_ctx, stride) == 36 &&
+                       offsetof(t1_ctx, frac) == 40 && offsetof(t1_ctx, has_z) == 44,
                    t1_asm_ctx);
 
 /* win: D's x window; v: &out->v[0][0]. */
@@ -399,16 +388,14 @@ __asm__(
 /* clang-format on */
 #else
 /* The two stages written out: the same sums as stage1 and stage2. */
-IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0,
-                               int32_t u1, int32_t u2, int32_t u3,
+IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0, int32_t u1, int32_t u2, int32_t u3,
                                const int32_t bw[4])
 {
     const size_t st = stride;
     int64_t acc;
-#define IT2N__COL(s)                                                          \
-    ((int32_t)((it2n_smul32(u0, p[s]) + it2n_smul32(u1, p[st + (s)]) +        \
-                it2n_smul32(u2, p[2u * st + (s)]) +                            \
-                it2n_smul32(u3, p[3u * st + (s)]) + ((int64_t)1 << 29)) >>     \
+#define IT2N__COL(s)                                                                                       \
+    ((int32_t)((it2n_smul32(u0, p[s]) + it2n_smul32(u1, p[st + (s)]) + it2n_smul32(u2, p[2u * st + (s)]) + \
+                it2n_smul32(u3, p[3u * st + (s)]) + ((int64_t)1 << 29)) >>                                 \
                30))
     acc = it2n_smul32(bw[0], IT2N__COL(0));
     acc += it2n_smul32(bw[1], IT2N__COL(1));
@@ -418,8 +405,7 @@ IT2N_INLINE int64_t window_sum(const int32_t *p, unsigned stride, int32_t u0,
     return acc;
 }
 
-static void window_run(const int32_t *win, size_t size, unsigned stride,
-                       const int32_t bu[4], const int32_t bw[4],
+static void window_run(const int32_t *win, size_t size, unsigned stride, const int32_t bu[4], const int32_t bw[4],
                        const int8_t *frac, it2n_val *out, unsigned count)
 {
     const int32_t u0 = bu[0], u1 = bu[1], u2 = bu[2], u3 = bu[3];
@@ -437,8 +423,7 @@ static void window_run(const int32_t *win, size_t size, unsigned stride,
 
 /* Values of every net at (u, w) into out->v (unused channels 0). The nets
  * are visited in storage order: footprint, then channel. */
-static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
-                        it2n_par w, it2n_point *out)
+static void eval_values(const it2n_bspline_model *mdl, it2n_par u, it2n_par w, it2n_point *out)
 {
     int32_t bu[4], bw[4];
     uint32_t tu, tw;
@@ -499,8 +484,7 @@ static void eval_values(const it2n_bspline_model *mdl, it2n_par u,
 #if defined(IT2N__WINDOW_ASM)
 /* A type-1 query on ARMv7-M (it2n__bspline_t1_v7m): the values, summary and
  * out_of_range of eval_values + it2n__summarise_flags, bit for bit. */
-static void eval_type1(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
-                       it2n_point *out)
+static void eval_type1(const it2n_bspline_model *mdl, it2n_par u, it2n_par w, it2n_point *out)
 {
     t1_ctx cx;
     uint32_t tu, tw;
@@ -522,8 +506,7 @@ static void eval_type1(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
 }
 #endif
 
-int it2n_bspline_eval(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
-                      it2n_point *out, it2n_errinfo *err)
+int it2n_bspline_eval(const it2n_bspline_model *mdl, it2n_par u, it2n_par w, it2n_point *out, it2n_errinfo *err)
 {
     int rc;
     if (mdl == NULL || out == NULL) {
@@ -553,9 +536,8 @@ int it2n_bspline_eval(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
  * int64 (weights' absolute sums <= 1.5 * 2^30); the factor N is checked.
  * False if the result does not fit Q39.24.
  */
-static bool deriv_value(const int32_t *win, unsigned stride,
-                        const int32_t cu[4], const int32_t cw[4], int s1,
-                        int frac, unsigned N, it2n_val *out)
+static bool deriv_value(const int32_t *win, unsigned stride, const int32_t cu[4], const int32_t cw[4], int s1, int frac,
+                        unsigned N, it2n_val *out)
 {
     int32_t q[4];
     int64_t acc = 0, v;
@@ -585,8 +567,8 @@ static bool deriv_value(const int32_t *win, unsigned stride,
     return true;
 }
 
-int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
-                       it2n_point *du, it2n_point *dw, it2n_errinfo *err)
+int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw,
+                       it2n_errinfo *err)
 {
     int32_t bu[4], bw[4], dbu[4], dbw[4];
     uint32_t tu, tw;
@@ -619,20 +601,16 @@ int it2n_bspline_deriv(const it2n_bspline_model *mdl, it2n_par u, it2n_par w,
                 continue;
             }
             win = it2n__bspline_net(mdl, fp, ch) + k * stride + l;
-            if (!deriv_value(win, stride, dbu, bw, 31, mdl->frac[fp][ch],
-                             mdl->n, &du->v[fp][ch]) ||
-                !deriv_value(win, stride, bu, dbw, 30, mdl->frac[fp][ch],
-                             mdl->m, &dw->v[fp][ch])) {
-                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp,
-                                  (int)ch, 0, 0, 0);
+            if (!deriv_value(win, stride, dbu, bw, 31, mdl->frac[fp][ch], mdl->n, &du->v[fp][ch]) ||
+                !deriv_value(win, stride, bu, dbw, 30, mdl->frac[fp][ch], mdl->m, &dw->v[fp][ch])) {
+                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp, (int)ch, 0, 0, 0);
             }
         }
     }
     return IT2N_OK;
 }
 
-int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask,
-                            it2n_par u, it2n_par w, it2n_val *v,
+int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask, it2n_par u, it2n_par w, it2n_val *v,
                             it2n_val *du, it2n_val *dw, it2n_errinfo *err)
 {
     int32_t bu[4], bw[4], dbu[4], dbw[4], q[4];
@@ -654,12 +632,9 @@ int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask,
             win = it2n__bspline_net(mdl, fp, ch) + k * stride + l;
             stage1(win, stride, bu, 30, q);
             v[at] = stage2(q, bw, mdl->frac[fp][ch]);
-            if (!deriv_value(win, stride, dbu, bw, 31, mdl->frac[fp][ch],
-                             mdl->n, &du[at]) ||
-                !deriv_value(win, stride, bu, dbw, 30, mdl->frac[fp][ch],
-                             mdl->m, &dw[at])) {
-                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp,
-                                  (int)ch, 0, 0, 0);
+            if (!deriv_value(win, stride, dbu, bw, 31, mdl->frac[fp][ch], mdl->n, &du[at]) ||
+                !deriv_value(win, stride, bu, dbw, 30, mdl->frac[fp][ch], mdl->m, &dw[at])) {
+                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp, (int)ch, 0, 0, 0);
             }
         }
     }
@@ -670,12 +645,10 @@ int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask,
 static it2n_par grid_par(unsigned k, unsigned count)
 {
     uint64_t d = count - 1u;
-    return (it2n_par)it2n__udiv64_32(((uint64_t)k << IT2N_PAR_FRAC) + d / 2u,
-                                     (uint32_t)d);
+    return (it2n_par)it2n__udiv64_32(((uint64_t)k << IT2N_PAR_FRAC) + d / 2u, (uint32_t)d);
 }
 
-int it2n_bspline_sample(const it2n_bspline_model *mdl, unsigned rows,
-                        unsigned cols, it2n_sample_cb cb, void *ctx,
+int it2n_bspline_sample(const it2n_bspline_model *mdl, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx,
                         it2n_errinfo *err)
 {
     it2n_point pt;

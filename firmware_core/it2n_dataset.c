@@ -8,23 +8,19 @@
 
 #define COORD_MAX ((it2n_val)IT2N_COORD_LIMIT << IT2N_VAL_FRAC)
 
-int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
-                      it2n_errinfo *err)
+int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags, it2n_errinfo *err)
 {
     if (ds == NULL) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     if (n < 1u || n > IT2N_MAX_DEGREE) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1,
-                          (it2n_val)n, 1, IT2N_MAX_DEGREE);
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)n, 1, IT2N_MAX_DEGREE);
     }
     if (m < 1u || m > IT2N_MAX_DEGREE) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1,
-                          (it2n_val)m, 1, IT2N_MAX_DEGREE);
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)m, 1, IT2N_MAX_DEGREE);
     }
     if ((flags & ~IT2N_F_ALL) != 0u) {
-        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1,
-                          (it2n_val)flags, 0, IT2N_F_ALL);
+        return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)flags, 0, IT2N_F_ALL);
     }
     memset(ds, 0, sizeof(*ds));
     ds->n = (uint8_t)n;
@@ -33,8 +29,7 @@ int it2n_dataset_init(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
     return IT2N_OK;
 }
 
-int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT], int mfrac,
                      it2n_errinfo *err)
 {
     unsigned ch;
@@ -58,60 +53,52 @@ int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
                 v += v == IT2N_VAL_ONE ? 1 : 0;
                 hi = IT2N_VAL_ONE;
             }
-            return it2n__fail(err, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp,
-                              (int)ch, v, lo, hi);
+            return it2n__fail(err, IT2N_ERR_RANGE, (int)i, (int)j, (int)fp, (int)ch, v, lo, hi);
         }
     }
     return IT2N_OK;
 }
 
 /* it2n_dataset_put for memberships of mfrac fraction bits. */
-static int dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
-                       const it2n_val vals[IT2N_CH_COUNT], bool replace,
-                       int mfrac, it2n_errinfo *err)
+static int dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                       bool replace, int mfrac, it2n_errinfo *err)
 {
     int rc;
     if (ds == NULL || vals == NULL) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     if (i > ds->n || j > ds->m) {
-        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, -1, -1,
-                          (it2n_val)(i > ds->n ? i : j), 0,
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, -1, -1, (it2n_val)(i > ds->n ? i : j), 0,
                           (it2n_val)(i > ds->n ? ds->n : ds->m));
     }
     if (fp >= IT2N_FP_COUNT || ((1u << fp) & it2n__fp_mask(ds->flags)) == 0u) {
-        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
-                          (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1, (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
     }
     rc = it2n__check_vals(ds->flags, i, j, fp, vals, mfrac, err);
     if (rc != IT2N_OK) {
         return rc;
     }
     if (!replace && (ds->present[i][j] & (1u << fp)) != 0u) {
-        return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp,
-                          -1, 0, 0, 0);
+        return it2n__fail(err, IT2N_ERR_DUPLICATE, (int)i, (int)j, (int)fp, -1, 0, 0, 0);
     }
     it2n__dataset_store(ds, i, j, fp, vals, (unsigned)(IT2N_MEMB_FRAC - mfrac));
     ds->present[i][j] = (uint8_t)(ds->present[i][j] | (1u << fp));
     return IT2N_OK;
 }
 
-int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], bool replace,
-                     it2n_errinfo *err)
+int it2n_dataset_put(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+                     bool replace, it2n_errinfo *err)
 {
     return dataset_put(ds, i, j, fp, vals, replace, IT2N_VAL_FRAC, err);
 }
 
-int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j,
-                          unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+int it2n_dataset_put_fine(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
                           bool replace, it2n_errinfo *err)
 {
     return dataset_put(ds, i, j, fp, vals, replace, IT2N_MEMB_FRAC, err);
 }
 
-void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
-                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
                          unsigned shift)
 {
     unsigned ch;
@@ -127,20 +114,17 @@ void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
     }
 }
 
-void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j,
-                      unsigned fp, it2n_val vals[IT2N_CH_COUNT])
+void it2n_dataset_get(const it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT])
 {
     unsigned k;
     it2n_dataset_get_fine(ds, i, j, fp, vals);
     for (k = IT2N_CH_T; k < IT2N_CH_COUNT; k++) {
         /* in [0, 2^30]: Q24 rounded to nearest, ties up */
-        vals[k] = (vals[k] + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >>
-                  (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
+        vals[k] = (vals[k] + ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC - 1))) >> (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
     }
 }
 
-void it2n_dataset_get_fine(const it2n_dataset *ds, unsigned i, unsigned j,
-                           unsigned fp, it2n_val vals[IT2N_CH_COUNT])
+void it2n_dataset_get_fine(const it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, it2n_val vals[IT2N_CH_COUNT])
 {
     unsigned k;
     for (k = 0; k < 3u; k++) {
@@ -166,9 +150,8 @@ unsigned it2n_dataset_missing(const it2n_dataset *ds)
     return missing;
 }
 
-int it2n__check_nesting_point(const it2n_dataset *ds, unsigned i, unsigned j,
-                              unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                              it2n_errinfo *err)
+int it2n__check_nesting_point(const it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                              const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
 {
     unsigned ch;
     if (ds->flags & IT2N_F_TYPE1) {
@@ -179,23 +162,20 @@ int it2n__check_nesting_point(const it2n_dataset *ds, unsigned i, unsigned j,
     for (ch = 0; ch < it2n__ncoord(ds->flags) && fp > 0u; ch++) {
         it2n_val prev = it2n_dataset_value_fine(ds, i, j, fp - 1u, ch);
         if (vals[ch] < prev) {
-            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp,
-                              (int)ch, vals[ch], prev, vals[ch]);
+            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp, (int)ch, vals[ch], prev, vals[ch]);
         }
     }
     for (ch = 0; ch < it2n__ncoord(ds->flags) && fp + 1u < IT2N_FP_COUNT; ch++) {
         it2n_val next = it2n_dataset_value_fine(ds, i, j, fp + 1u, ch);
         if (next < vals[ch]) {
-            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
-                              (int)fp + 1, (int)ch, next, vals[ch], next);
+            return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp + 1, (int)ch, next, vals[ch], next);
         }
     }
     return IT2N_OK;
 }
 
 /* Nesting of the stored footprints of (i, j), read straight from ds. */
-static int check_nesting_ds(const it2n_dataset *ds, unsigned i, unsigned j,
-                            it2n_errinfo *err)
+static int check_nesting_ds(const it2n_dataset *ds, unsigned i, unsigned j, it2n_errinfo *err)
 {
     unsigned ch, fp;
     if (ds->flags & IT2N_F_TYPE1) {
@@ -206,8 +186,7 @@ static int check_nesting_ds(const it2n_dataset *ds, unsigned i, unsigned j,
             it2n_val prev = it2n_dataset_value_fine(ds, i, j, fp - 1u, ch);
             it2n_val v = it2n_dataset_value_fine(ds, i, j, fp, ch);
             if (v < prev) {
-                return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j,
-                                  (int)fp, (int)ch, v, prev, v);
+                return it2n__fail(err, IT2N_ERR_ORDER, (int)i, (int)j, (int)fp, (int)ch, v, prev, v);
             }
         }
     }
@@ -219,8 +198,8 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
     it2n_val vals[IT2N_CH_COUNT] = {0, 0, 0, 0, 0, 0};
     unsigned i, j, fp, mask;
     int rc;
-    if (ds == NULL || ds->n < 1u || ds->n > IT2N_MAX_DEGREE || ds->m < 1u ||
-        ds->m > IT2N_MAX_DEGREE || (ds->flags & ~IT2N_F_ALL) != 0u) {
+    if (ds == NULL || ds->n < 1u || ds->n > IT2N_MAX_DEGREE || ds->m < 1u || ds->m > IT2N_MAX_DEGREE ||
+        (ds->flags & ~IT2N_F_ALL) != 0u) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     mask = it2n__fp_mask(ds->flags);
@@ -231,13 +210,11 @@ int it2n_dataset_check(const it2n_dataset *ds, it2n_errinfo *err)
                     continue;
                 }
                 if (!(ds->present[i][j] & (1u << fp))) {
-                    return it2n__fail(err, IT2N_ERR_MISSING, (int)i, (int)j,
-                                      (int)fp, -1, 0, 0, 0);
+                    return it2n__fail(err, IT2N_ERR_MISSING, (int)i, (int)j, (int)fp, -1, 0, 0, 0);
                 }
                 /* Re-check ranges: the struct may have been filled by hand. */
                 it2n_dataset_get_fine(ds, i, j, fp, vals);
-                rc = it2n__check_vals(ds->flags, i, j, fp, vals,
-                                      IT2N_MEMB_FRAC, err);
+                rc = it2n__check_vals(ds->flags, i, j, fp, vals, IT2N_MEMB_FRAC, err);
                 if (rc != IT2N_OK) {
                     return rc;
                 }

@@ -67,9 +67,9 @@ IT2N_INLINE void basis30(const unsigned deg, it2n_par t, int32_t b[IT2N_DIM])
 #if !IT2N_MUL_HALVES && defined(__x86_64__)
 /* x86-64 hosts: one unrolled copy per degree (two per FC 23 query of
  * it2nd); the same arithmetic, the same values. */
-#define IT2N_BASIS30_K(k)                                                      \
-    case k:                                                                    \
-        basis30(k, t, b);                                                      \
+#define IT2N_BASIS30_K(k) \
+    case k:               \
+        basis30(k, t, b); \
         break
 #endif
 
@@ -148,9 +148,8 @@ static void dbasis26(unsigned deg, it2n_par t, int32_t db[IT2N_DIM])
 #else
 #define TWO_STAGES_UNROLL
 #endif
-TWO_STAGES_LINKAGE int64_t two_stages(const int32_t *net, unsigned n1, unsigned m1,
-                                      const int32_t *cu, const int32_t *cw,
-                                      const int s1)
+TWO_STAGES_LINKAGE int64_t two_stages(const int32_t *net, unsigned n1, unsigned m1, const int32_t *cu,
+                                      const int32_t *cw, const int s1)
 {
     int64_t acc = 0;
     unsigned i, j;
@@ -173,13 +172,11 @@ TWO_STAGES_LINKAGE int64_t two_stages(const int32_t *net, unsigned n1, unsigned 
  * products summed in the same order: results identical (core vectors),
  * about 28 % fewer instructions per it2n_eval at degree 3 (an FC 23 query
  * of it2nd is mostly this). MCU targets keep the single loop (flash). */
-#define IT2N_TWO_STAGES_K(k)                                                 \
-    case k:                                                                  \
-        return s1 == 30 ? two_stages(net, k, m1, cu, cw, 30)                 \
-                        : two_stages(net, k, m1, cu, cw, 31)
+#define IT2N_TWO_STAGES_K(k) \
+    case k: return s1 == 30 ? two_stages(net, k, m1, cu, cw, 30) : two_stages(net, k, m1, cu, cw, 31)
 
-static int64_t two_stages_host(const int32_t *net, unsigned n1, unsigned m1,
-                               const int32_t *cu, const int32_t *cw, int s1)
+static int64_t two_stages_host(const int32_t *net, unsigned n1, unsigned m1, const int32_t *cu, const int32_t *cw,
+                               int s1)
 {
     /* clang-format off */
     switch (n1) {
@@ -199,17 +196,15 @@ static int64_t two_stages_host(const int32_t *net, unsigned n1, unsigned m1,
 #define IT2N_TWO_STAGES_HOST 1
 #endif
 
-static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
-                    const int32_t *cu, int ufrac, const int32_t *cw, int wfrac,
-                    it2n_val *out)
+static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1, const int32_t *cu, int ufrac,
+                    const int32_t *cw, int wfrac, it2n_val *out)
 {
     int64_t acc;
     int s, s1 = ufrac < 30 ? 31 : 30;
 #ifdef IT2N_TWO_STAGES_HOST
     acc = two_stages_host(net, n1, m1, cu, cw, s1);
 #else
-    acc = s1 == 30 ? two_stages(net, n1, m1, cu, cw, 30)
-                   : two_stages(net, n1, m1, cu, cw, 31);
+    acc = s1 == 30 ? two_stages(net, n1, m1, cu, cw, 30) : two_stages(net, n1, m1, cu, cw, 31);
 #endif
     s = ufrac - s1 + wfrac + frac - IT2N_VAL_FRAC;
     if (s < 0) {
@@ -225,8 +220,8 @@ static bool surface(const int32_t *net, int frac, unsigned n1, unsigned m1,
 
 /* Hosted builds only: <emmintrin.h> includes <stdlib.h>. IT2N_NO_SIMD
  * keeps the scalar path (the same values). */
-#if !IT2N_MUL_HALVES && defined(__x86_64__) && defined(__SSE2__) && \
-    defined(__GNUC__) && __STDC_HOSTED__ && !defined(IT2N_NO_SIMD)
+#if !IT2N_MUL_HALVES && defined(__x86_64__) && defined(__SSE2__) && defined(__GNUC__) && __STDC_HOSTED__ && \
+    !defined(IT2N_NO_SIMD)
 /*
  * x86-64 hosts (it2nd answers every FC 23 query with this): the values of
  * every net at once with SSE2's PMULUDQ, two 32 x 32 -> 64 products per
@@ -250,8 +245,7 @@ IT2N_INLINE __m128i load_tail(const int32_t *p, unsigned cols)
 {
     __m128i x;
     if (cols == 3u) {
-        x = _mm_unpacklo_epi64(_mm_loadl_epi64((const __m128i *)(const void *)p),
-                               _mm_cvtsi32_si128(p[2]));
+        x = _mm_unpacklo_epi64(_mm_loadl_epi64((const __m128i *)(const void *)p), _mm_cvtsi32_si128(p[2]));
     } else if (cols == 2u) {
         x = _mm_loadl_epi64((const __m128i *)(const void *)p);
     } else {
@@ -265,8 +259,7 @@ IT2N_INLINE __m128i load_tail(const int32_t *p, unsigned cols)
 
 /* Stage 2 of one block of columns: ev / od hold the stage-1 sums of its
  * even / odd columns (biased), bwe / bwo their weights. */
-IT2N_INLINE __m128i stage2(__m128i acc, __m128i ev, __m128i od, __m128i bwe,
-                           __m128i bwo)
+IT2N_INLINE __m128i stage2(__m128i acc, __m128i ev, __m128i od, __m128i bwe, __m128i bwo)
 {
     const __m128i half = _mm_set1_epi64x((int64_t)1 << 29);
     ev = _mm_srli_epi64(_mm_add_epi64(ev, half), 30);
@@ -279,10 +272,8 @@ IT2N_INLINE __m128i stage2(__m128i acc, __m128i ev, __m128i od, __m128i bwe,
  * at each call: the row loop unrolls), m1 columns. bu[i] is B_i(u) in both
  * 64-bit lanes, bwe[b] / bwo[b] B_j(w) of the even / odd columns of the
  * 4-column block b (0 where a column is missing). */
-IT2N_INLINE void values_sse2(const it2n_model *mdl, unsigned fpmask,
-                             const unsigned n1, const unsigned m1, const __m128i *bu,
-                             const __m128i *bwe, const __m128i *bwo,
-                             it2n_val *out)
+IT2N_INLINE void values_sse2(const it2n_model *mdl, unsigned fpmask, const unsigned n1, const unsigned m1,
+                             const __m128i *bu, const __m128i *bwe, const __m128i *bwo, it2n_val *out)
 {
     const __m128i bias = _mm_set1_epi32(INT32_MIN);
     unsigned fp, ch, i, j, b;
@@ -300,9 +291,7 @@ IT2N_INLINE void values_sse2(const it2n_model *mdl, unsigned fpmask,
                 ev = od = _mm_setzero_si128();
                 TWO_STAGES_UNROLL
                 for (i = 0; i < n1; i++) {
-                    __m128i x = _mm_xor_si128(
-                        _mm_loadu_si128((const __m128i *)(const void *)(net + i * m1 + j)),
-                        bias);
+                    __m128i x = _mm_xor_si128(_mm_loadu_si128((const __m128i *)(const void *)(net + i * m1 + j)), bias);
                     od = _mm_add_epi64(od, _mm_mul_epu32(ODD(x), bu[i]));
                     ev = _mm_add_epi64(ev, _mm_mul_epu32(x, bu[i]));
                 }
@@ -329,13 +318,13 @@ IT2N_INLINE void values_sse2(const it2n_model *mdl, unsigned fpmask,
 
 /* Constant row counts (and the 4 columns of degree 3, the common bicubic
  * surface): the loops unroll. */
-#define IT2N_VALUES_SSE2_K(k)                                                  \
-    case k:                                                                    \
-        if (m1 == 4u) {                                                        \
-            values_sse2(mdl, fpmask, k, 4u, vu, we, wo, out);                  \
-        } else {                                                               \
-            values_sse2(mdl, fpmask, k, m1, vu, we, wo, out);                  \
-        }                                                                      \
+#define IT2N_VALUES_SSE2_K(k)                                 \
+    case k:                                                   \
+        if (m1 == 4u) {                                       \
+            values_sse2(mdl, fpmask, k, 4u, vu, we, wo, out); \
+        } else {                                              \
+            values_sse2(mdl, fpmask, k, m1, vu, we, wo, out); \
+        }                                                     \
         break
 
 #if defined(__GNUC__) && !defined(IT2N_NO_AVX2)
@@ -354,10 +343,8 @@ IT2N_INLINE void values_sse2(const it2n_model *mdl, unsigned fpmask,
 #define IT2N_VALUES_AVX2 1
 #define IT2N_AVX2_FN __attribute__((target("avx2")))
 
-IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask,
-                                          const unsigned n1, const unsigned m1,
-                                          const int32_t *cu, const int32_t *cw,
-                                          it2n_val *out)
+IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask, const unsigned n1, const unsigned m1,
+                                          const int32_t *cu, const int32_t *cw, it2n_val *out)
 {
     /* The weights as vectors (registers where n1 is a constant: no
      * 32-byte-aligned arrays on the stack). bw[b]: B_j(w) of the columns
@@ -399,9 +386,8 @@ IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask
                 TWO_STAGES_UNROLL
                 for (i = 0; i < n1; i++) {
                     const int32_t *p = net + i * m1 + j;
-                    __m128i x = m1 - j >= 4u
-                                    ? _mm_xor_si128(_mm_loadu_si128((const __m128i *)(const void *)p), bias)
-                                    : load_tail(p, m1 - j);
+                    __m128i x = m1 - j >= 4u ? _mm_xor_si128(_mm_loadu_si128((const __m128i *)(const void *)p), bias)
+                                             : load_tail(p, m1 - j);
                     q = _mm256_add_epi64(q, _mm256_mul_epu32(_mm256_cvtepu32_epi64(x), bu[i]));
                 }
                 q = _mm256_srli_epi64(_mm256_add_epi64(q, half), 30);
@@ -415,51 +401,48 @@ IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask
     }
 }
 
-#define IT2N_VALUES_AVX2_K(k)                                                  \
-    case k:                                                                    \
-        if (m1 == 4u) {                                                        \
-            values_avx2(mdl, fpmask, k, 4u, bu, bw, out);                      \
-        } else {                                                               \
-            values_avx2(mdl, fpmask, k, m1, bu, bw, out);                      \
-        }                                                                      \
+#define IT2N_VALUES_AVX2_K(k)                             \
+    case k:                                               \
+        if (m1 == 4u) {                                   \
+            values_avx2(mdl, fpmask, k, 4u, bu, bw, out); \
+        } else {                                          \
+            values_avx2(mdl, fpmask, k, m1, bu, bw, out); \
+        }                                                 \
         break
 
 /* apply_values with AVX2 (the caller checked the CPU has it). */
-IT2N_AVX2_FN static void apply_values_avx2(const it2n_model *mdl, unsigned fpmask,
-                                           const int32_t *bu, const int32_t *bw,
+IT2N_AVX2_FN static void apply_values_avx2(const it2n_model *mdl, unsigned fpmask, const int32_t *bu, const int32_t *bw,
                                            it2n_val *out)
 {
     unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u;
     switch (n1) {
-    IT2N_VALUES_AVX2_K(2);
+        IT2N_VALUES_AVX2_K(2);
 #if IT2N_MAX_DEGREE >= 2
-    IT2N_VALUES_AVX2_K(3);
+        IT2N_VALUES_AVX2_K(3);
 #endif
 #if IT2N_MAX_DEGREE >= 3
-    IT2N_VALUES_AVX2_K(4);
+        IT2N_VALUES_AVX2_K(4);
 #endif
 #if IT2N_MAX_DEGREE >= 4
-    IT2N_VALUES_AVX2_K(5);
+        IT2N_VALUES_AVX2_K(5);
 #endif
 #if IT2N_MAX_DEGREE >= 5
-    IT2N_VALUES_AVX2_K(6);
+        IT2N_VALUES_AVX2_K(6);
 #endif
 #if IT2N_MAX_DEGREE >= 6
-    IT2N_VALUES_AVX2_K(7);
+        IT2N_VALUES_AVX2_K(7);
 #endif
 #if IT2N_MAX_DEGREE >= 7
-    IT2N_VALUES_AVX2_K(8);
+        IT2N_VALUES_AVX2_K(8);
 #endif
-    default:
-        values_avx2(mdl, fpmask, n1, m1, bu, bw, out);
-        break;
+    default: values_avx2(mdl, fpmask, n1, m1, bu, bw, out); break;
     }
 }
 #endif
 
 /* apply_values with SSE2. */
-static void apply_values_sse2(const it2n_model *mdl, unsigned fpmask,
-                              const int32_t *bu, const int32_t *bw, it2n_val *out)
+static void apply_values_sse2(const it2n_model *mdl, unsigned fpmask, const int32_t *bu, const int32_t *bw,
+                              it2n_val *out)
 {
     __m128i vu[IT2N_DIM], we[(IT2N_DIM + 3) / 4], wo[(IT2N_DIM + 3) / 4];
     unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u, i, b;
@@ -507,8 +490,7 @@ static void apply_values_sse2(const it2n_model *mdl, unsigned fpmask,
  * into out[fp][ch], as apply() with ufrac = wfrac = 30 computes them:
  * AVX2 where the CPU has it, else SSE2 (a call of its own each, so neither
  * one's vectors are on the other's stack). */
-static void apply_values(const it2n_model *mdl, unsigned fpmask,
-                         const int32_t *bu, const int32_t *bw, it2n_val *out)
+static void apply_values(const it2n_model *mdl, unsigned fpmask, const int32_t *bu, const int32_t *bw, it2n_val *out)
 {
 #ifdef IT2N_VALUES_AVX2
     if (__builtin_cpu_supports("avx2")) {
@@ -525,9 +507,8 @@ static void apply_values(const it2n_model *mdl, unsigned fpmask,
  * out[fp][ch]. Returns false (and names fp, ch in *bad) if a result does not
  * fit Q39.24.
  */
-static bool apply(const it2n_model *mdl, unsigned fpmask, const int32_t *cu,
-                  int ufrac, const int32_t *cw, int wfrac, it2n_val *out,
-                  unsigned *bad)
+static bool apply(const it2n_model *mdl, unsigned fpmask, const int32_t *cu, int ufrac, const int32_t *cw, int wfrac,
+                  it2n_val *out, unsigned *bad)
 {
     unsigned n1 = mdl->n + 1u, m1 = mdl->m + 1u, fp, ch;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
@@ -537,8 +518,7 @@ static bool apply(const it2n_model *mdl, unsigned fpmask, const int32_t *cu,
             if (!(fpmask & (1u << fp)) || !it2n__ch_used(mdl->flags, ch)) {
                 continue;
             }
-            if (!surface(mdl->net[fp][ch], mdl->frac[fp][ch], n1, m1, cu,
-                         ufrac, cw, wfrac, o)) {
+            if (!surface(mdl->net[fp][ch], mdl->frac[fp][ch], n1, m1, cu, ufrac, cw, wfrac, o)) {
                 *bad = fp << 4 | ch; /* no division needed to split it */
                 return false;
             }
@@ -602,8 +582,7 @@ void it2n__summarise_flags(unsigned flags, it2n_point *out)
 }
 
 /* Common argument checks of the evaluation entry points. */
-static int check_args(const it2n_model *mdl, it2n_par u, it2n_par w,
-                      it2n_errinfo *err)
+static int check_args(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_errinfo *err)
 {
     if (!mdl->solved) {
         return it2n__fail(err, IT2N_ERR_STATE, -1, -1, -1, -1, 0, 0, 0);
@@ -611,10 +590,8 @@ static int check_args(const it2n_model *mdl, it2n_par u, it2n_par w,
     return it2n__check_uw(u, w, err);
 }
 
-
 /* Values of every footprint at (u, w) into v (no summary). */
-static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w,
-                        it2n_val *v)
+static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_val *v)
 {
     int32_t bu[IT2N_DIM], bw[IT2N_DIM];
     unsigned bad;
@@ -630,8 +607,7 @@ static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w,
 #endif
 }
 
-int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out,
-              it2n_errinfo *err)
+int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out, it2n_errinfo *err)
 {
     int rc;
     if (mdl == NULL || out == NULL) {
@@ -646,9 +622,8 @@ int it2n_eval(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *out,
     return IT2N_OK;
 }
 
-int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
-                    it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw,
-                    it2n_errinfo *err)
+int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u, it2n_par w, it2n_val *v, it2n_val *du,
+                    it2n_val *dw, it2n_errinfo *err)
 {
     int32_t bu[IT2N_DIM], bw[IT2N_DIM], d[IT2N_DIM];
     unsigned bad = 0u;
@@ -675,12 +650,10 @@ int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
     }
     return IT2N_OK;
 overflow:
-    return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)(bad >> 4),
-                      (int)(bad & 15u), 0, 0, 0);
+    return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)(bad >> 4), (int)(bad & 15u), 0, 0, 0);
 }
 
-int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
-               it2n_point *dw, it2n_errinfo *err)
+int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du, it2n_point *dw, it2n_errinfo *err)
 {
     int rc;
     if (mdl == NULL || du == NULL || dw == NULL) {
@@ -692,8 +665,7 @@ int it2n_deriv(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_point *du,
     }
     memset(du, 0, sizeof(*du));
     memset(dw, 0, sizeof(*dw));
-    return it2n__eval_full(mdl, it2n__fp_mask(mdl->flags), u, w, NULL,
-                           &du->v[0][0], &dw->v[0][0], err);
+    return it2n__eval_full(mdl, it2n__fp_mask(mdl->flags), u, w, NULL, &du->v[0][0], &dw->v[0][0], err);
 }
 
 /* Grid parameter k / (count - 1) in Q32. */
@@ -706,19 +678,17 @@ static it2n_par grid_par(unsigned k, unsigned count)
 int it2n__check_grid(unsigned rows, unsigned cols, it2n_errinfo *err)
 {
     if (rows < 2u || rows > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, (int)(rows > 32767u ? 32767u : rows),
-                          -1, -1, -1, (it2n_val)rows, 2, 65535);
+        return it2n__fail(err, IT2N_ERR_RANGE, (int)(rows > 32767u ? 32767u : rows), -1, -1, -1, (it2n_val)rows, 2,
+                          65535);
     }
     if (cols < 2u || cols > 65535u) {
-        return it2n__fail(err, IT2N_ERR_RANGE, -1,
-                          (int)(cols > 32767u ? 32767u : cols), -1, -1,
-                          (it2n_val)cols, 2, 65535);
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, (int)(cols > 32767u ? 32767u : cols), -1, -1, (it2n_val)cols, 2,
+                          65535);
     }
     return IT2N_OK;
 }
 
-int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols,
-                it2n_sample_cb cb, void *ctx, it2n_errinfo *err)
+int it2n_sample(const it2n_model *mdl, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx, it2n_errinfo *err)
 {
     it2n_point pt;
     int32_t bu[IT2N_DIM], bw[IT2N_DIM];

@@ -90,11 +90,9 @@ typedef struct it2n_i128 {
 #define IT2N_STATIC_ASSERT(cond, name) typedef char it2n_sa_##name[(cond) ? 1 : -1]
 
 IT2N_STATIC_ASSERT(sizeof(it2n_i128) == 16, i128_is_two_words);
-IT2N_STATIC_ASSERT(sizeof(int64_t) == 8 && (int64_t)-1 == ~(int64_t)0,
-                   twos_complement_int64);
+IT2N_STATIC_ASSERT(sizeof(int64_t) == 8 && (int64_t)-1 == ~(int64_t)0, twos_complement_int64);
 /* >> of a negative value is arithmetic (GCC, Clang, IAR, armcc all do so). */
-IT2N_STATIC_ASSERT(((int64_t)-5 >> 1) == -3 && ((int32_t)-5 >> 1) == -3,
-                   arithmetic_right_shift);
+IT2N_STATIC_ASSERT(((int64_t)-5 >> 1) == -3 && ((int32_t)-5 >> 1) == -3, arithmetic_right_shift);
 
 /* Zero. */
 static inline it2n_i128 it2n__i128_zero(void)
@@ -207,8 +205,7 @@ uint64_t it2n__i128_isqrt(it2n_i128 a);
 int64_t it2n__i128_round_fit(it2n_i128 a, unsigned shift);
 
 /* round(a * b / 2^shift), a and b int64; false on overflow. */
-static inline bool IT2N_WUR it2n_mul_shift(int64_t a, int64_t b,
-                                           unsigned shift, int64_t *out)
+static inline bool IT2N_WUR it2n_mul_shift(int64_t a, int64_t b, unsigned shift, int64_t *out)
 {
     return it2n__i128_round(it2n__mul64(a, b), shift, out);
 }

@@ -8,8 +8,7 @@
 #include "it2n_fixed.h"
 
 /* Fill *err (when non-NULL) and return code. */
-int it2n__fail(it2n_errinfo *err, int code, int i, int j, int fp, int ch,
-               it2n_val value, it2n_val lo, it2n_val hi);
+int it2n__fail(it2n_errinfo *err, int code, int i, int j, int fp, int ch, it2n_val value, it2n_val lo, it2n_val hi);
 
 /* Bernstein basis of degree deg at t (Q32, within [0, 1]) into b[0..deg] in
  * Q30 (1.0 = 2^30) by the de Casteljau recurrence, one rounding per step. */
@@ -59,23 +58,19 @@ extern const it2n__uinv it2n__uniform_inv[IT2N_MAX_DEGREE];
  * hi[], lo[] as above, *frac its scale. IT2N_ERR_SINGULAR or
  * IT2N_ERR_OVERFLOW.
  */
-int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
-                 int32_t hi[IT2N_DIM * IT2N_DIM],
-                 int32_t lo[IT2N_DIM * IT2N_DIM], int *frac,
-                 it2n_errinfo *err) IT2N_WUR;
+int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM], int32_t hi[IT2N_DIM * IT2N_DIM],
+                 int32_t lo[IT2N_DIM * IT2N_DIM], int *frac, it2n_errinfo *err) IT2N_WUR;
 
 /* Store checked values into the compact layout; memberships have
  * IT2N_MEMB_FRAC - shift fraction bits (shift 6: Q24 input, 0: fine). */
-void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j,
-                         unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
+void it2n__dataset_store(it2n_dataset *ds, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
                          unsigned shift);
 
 /* Validate one footprint's values for a data set with `flags`:
  * coordinates in Q24, memberships with mfrac fraction bits (IT2N_VAL_FRAC
  * or IT2N_MEMB_FRAC). Errors report Q24, a finer membership rounded down
  * (1 + 2^-24 for one just above 1) so the value shown is outside too. */
-int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp,
-                     const it2n_val vals[IT2N_CH_COUNT], int mfrac,
+int it2n__check_vals(unsigned flags, unsigned i, unsigned j, unsigned fp, const it2n_val vals[IT2N_CH_COUNT], int mfrac,
                      it2n_errinfo *err) IT2N_WUR;
 
 /* Fraction bits channel ch has in a data set: Q24 coordinates, Q30
@@ -88,9 +83,8 @@ static inline int it2n__ch_frac(unsigned ch)
 /* Check that vals (the new values of footprint fp at (i, j)) nest with the
  * stored footprints fp - 1 and fp + 1 on every coordinate axis (no-op for
  * type-1). Reports as a full check would. */
-int it2n__check_nesting_point(const it2n_dataset *ds, unsigned i, unsigned j,
-                              unsigned fp, const it2n_val vals[IT2N_CH_COUNT],
-                              it2n_errinfo *err) IT2N_WUR;
+int it2n__check_nesting_point(const it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                              const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err) IT2N_WUR;
 
 /* Number of coordinate channels in use (2 or 3). */
 static inline unsigned it2n__ncoord(unsigned flags)
@@ -113,14 +107,12 @@ static inline unsigned it2n__fp_mask(unsigned flags)
 /* Values (v, may be NULL), dS/du and dS/dw (may be NULL) of the footprints
  * in fpmask at (u, w), flat [fp][ch] arrays. IT2N_ERR_OVERFLOW (err says
  * which fp, ch) if a derivative does not fit Q39.24. */
-int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u,
-                    it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw,
-                    it2n_errinfo *err);
+int it2n__eval_full(const it2n_model *mdl, unsigned fpmask, it2n_par u, it2n_par w, it2n_val *v, it2n_val *du,
+                    it2n_val *dw, it2n_errinfo *err);
 
 /* it2n__eval_full for a B-spline model (values, d/du, d/dw of the
  * footprints in fpmask, all three arrays required). */
-int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask,
-                            it2n_par u, it2n_par w, it2n_val *v,
+int it2n__bspline_eval_full(const it2n_bspline_model *mdl, unsigned fpmask, it2n_par u, it2n_par w, it2n_val *v,
                             it2n_val *du, it2n_val *dw, it2n_errinfo *err);
 
 /* Fill out->sum and out->out_of_range from out->v. */
@@ -142,10 +134,8 @@ static inline int it2n__check_uw(it2n_par u, it2n_par w, it2n_errinfo *err)
     if (!it2n__par_ok(u) || !it2n__par_ok(w)) {
         it2n_par bad = it2n__par_ok(u) ? w : u;
         /* value in Q24 (parameters are Q32; saturate far-off values) */
-        it2n_val v = bad > ((int64_t)1 << 60) ? INT64_MAX >> 8
-                   : bad < -((int64_t)1 << 60) ? INT64_MIN >> 8 : bad >> 8;
-        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1,
-                          it2n__par_ok(u) ? 1 : 0, v, 0, IT2N_VAL_ONE);
+        it2n_val v = bad > ((int64_t)1 << 60) ? INT64_MAX >> 8 : bad < -((int64_t)1 << 60) ? INT64_MIN >> 8 : bad >> 8;
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, it2n__par_ok(u) ? 1 : 0, v, 0, IT2N_VAL_ONE);
     }
     return IT2N_OK;
 }

@@ -39,10 +39,8 @@ static void swap_xf(it2n__xf *a, it2n__xf *b)
     *b = t;
 }
 
-int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM],
-                 int32_t hi[IT2N_DIM * IT2N_DIM],
-                 int32_t lo[IT2N_DIM * IT2N_DIM], int *frac,
-                 it2n_errinfo *err)
+int it2n__invert(unsigned deg, const it2n_par t[IT2N_DIM], int32_t hi[IT2N_DIM * IT2N_DIM],
+                 int32_t lo[IT2N_DIM * IT2N_DIM], int *frac, it2n_errinfo *err)
 {
     it2n__xf a[IT2N_DIM][IT2N_DIM], rowmax, tiny, p, f, s;
     unsigned char perm[IT2N_DIM];

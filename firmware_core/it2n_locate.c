@@ -20,8 +20,7 @@
  * search below: each entry point gets its own copy with direct calls, so
  * an application using one kind links only that kind's code and the stack
  * analysis sees every call. */
-typedef int (*loc_eval_fn)(const void *mdl, unsigned fpmask, it2n_par u,
-                           it2n_par w, it2n_val *v, it2n_val *du,
+typedef int (*loc_eval_fn)(const void *mdl, unsigned fpmask, it2n_par u, it2n_par w, it2n_val *v, it2n_val *du,
                            it2n_val *dw);
 typedef struct loc_model {
     const void *mdl;
@@ -42,15 +41,13 @@ static int64_t abs64(int64_t v)
 }
 
 /* Evaluate footprint fp at (u, w) into st; false on derivative overflow. */
-IT2N_INLINE bool probe(const loc_model *mdl, loc_eval_fn eval, unsigned fp,
-                       it2n_par u, it2n_par w, it2n_val x, it2n_val y,
-                       loc_state *st)
+IT2N_INLINE bool probe(const loc_model *mdl, loc_eval_fn eval, unsigned fp, it2n_par u, it2n_par w, it2n_val x,
+                       it2n_val y, loc_state *st)
 {
     int64_t ax, ay;
     st->u = u;
     st->w = w;
-    if (eval(mdl->mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0],
-             &st->dw[0][0]) != IT2N_OK) {
+    if (eval(mdl->mdl, 1u << fp, u, w, &st->v[0][0], &st->du[0][0], &st->dw[0][0]) != IT2N_OK) {
         return false;
     }
     /* Surface points lie in the control net's hull (< 2^62): no overflow. */
@@ -82,8 +79,7 @@ static int64_t shr(int64_t v, unsigned s)
  * Newton step (du, dw) in Q32 solving J d = -r by Cramer's rule in the soft
  * float (range without scaling tricks); false if J is singular.
  */
-static bool newton_step(const loc_state *st, unsigned fp, int64_t *su,
-                        int64_t *sw)
+static bool newton_step(const loc_state *st, unsigned fp, int64_t *su, int64_t *sw)
 {
     it2n__xf xu, xw, yu, yw, rx, ry, det, p, q;
     it2n__xf_set(&xu, st->du[fp][IT2N_CH_X], 0);
@@ -119,8 +115,7 @@ static it2n_par clamp01(int64_t t)
 
 static bool on_boundary(const loc_state *st)
 {
-    return st->u == 0 || st->u == IT2N_PAR_ONE || st->w == 0 ||
-           st->w == IT2N_PAR_ONE;
+    return st->u == 0 || st->u == IT2N_PAR_ONE || st->w == 0 || st->w == IT2N_PAR_ONE;
 }
 
 /* Convergence tolerance: ~1e-6 absolute plus ~1e-6 of the net's extent,
@@ -179,8 +174,7 @@ static int64_t bs_extent(const it2n_bspline_model *mdl, unsigned fp)
     return big;
 }
 
-IT2N_INLINE void locate_fp(const loc_model *mdl, loc_eval_fn eval,
-                           unsigned fp, it2n_val x, it2n_val y,
+IT2N_INLINE void locate_fp(const loc_model *mdl, loc_eval_fn eval, unsigned fp, it2n_val x, it2n_val y,
                            it2n_locate_fp *out)
 {
     loc_state best, cand;
@@ -191,12 +185,9 @@ IT2N_INLINE void locate_fp(const loc_model *mdl, loc_eval_fn eval,
     memset(&best, 0, sizeof(best));
     for (a = 0; a <= IT2N_LOCATE_GRID; a++) {
         for (b = 0; b <= IT2N_LOCATE_GRID; b++) {
-            it2n_par u = (it2n_par)(((uint64_t)a << IT2N_PAR_FRAC) /
-                                    IT2N_LOCATE_GRID);
-            it2n_par w = (it2n_par)(((uint64_t)b << IT2N_PAR_FRAC) /
-                                    IT2N_LOCATE_GRID);
-            if (probe(mdl, eval, fp, u, w, x, y, &cand) &&
-                (!have || cand.res < best.res)) {
+            it2n_par u = (it2n_par)(((uint64_t)a << IT2N_PAR_FRAC) / IT2N_LOCATE_GRID);
+            it2n_par w = (it2n_par)(((uint64_t)b << IT2N_PAR_FRAC) / IT2N_LOCATE_GRID);
+            if (probe(mdl, eval, fp, u, w, x, y, &cand) && (!have || cand.res < best.res)) {
                 best = cand;
                 have = true;
             }
@@ -227,8 +218,7 @@ IT2N_INLINE void locate_fp(const loc_model *mdl, loc_eval_fn eval,
         }
         for (half = 0; half < 24u; half++) {
             it2n_par u = clamp01(best.u + su), w = clamp01(best.w + sw);
-            if ((u != best.u || w != best.w) &&
-                probe(mdl, eval, fp, u, w, x, y, &cand) && cand.res < best.res) {
+            if ((u != best.u || w != best.w) && probe(mdl, eval, fp, u, w, x, y, &cand) && cand.res < best.res) {
                 best = cand;
                 moved = true;
                 break;
@@ -253,18 +243,15 @@ IT2N_INLINE void locate_fp(const loc_model *mdl, loc_eval_fn eval,
 }
 
 /* Both kinds: range checks, then every footprint the model carries. */
-IT2N_INLINE int locate_all(const loc_model *lm, loc_eval_fn eval,
-                           unsigned flags, it2n_val x, it2n_val y,
+IT2N_INLINE int locate_all(const loc_model *lm, loc_eval_fn eval, unsigned flags, it2n_val x, it2n_val y,
                            it2n_locate_result *out, it2n_errinfo *err)
 {
     unsigned fp;
     if (x < -COORD_MAX || x > COORD_MAX) {
-        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, IT2N_CH_X, x,
-                          -COORD_MAX, COORD_MAX);
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, IT2N_CH_X, x, -COORD_MAX, COORD_MAX);
     }
     if (y < -COORD_MAX || y > COORD_MAX) {
-        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, IT2N_CH_Y, y,
-                          -COORD_MAX, COORD_MAX);
+        return it2n__fail(err, IT2N_ERR_RANGE, -1, -1, -1, IT2N_CH_Y, y, -COORD_MAX, COORD_MAX);
     }
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         if ((it2n__fp_mask(flags) & (1u << fp)) != 0u) {
@@ -277,21 +264,17 @@ IT2N_INLINE int locate_all(const loc_model *lm, loc_eval_fn eval,
     return IT2N_OK;
 }
 
-static int bz_eval(const void *mdl, unsigned fpmask, it2n_par u, it2n_par w,
-                   it2n_val *v, it2n_val *du, it2n_val *dw)
+static int bz_eval(const void *mdl, unsigned fpmask, it2n_par u, it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw)
 {
     return it2n__eval_full((const it2n_model *)mdl, fpmask, u, w, v, du, dw, NULL);
 }
 
-static int bs_eval(const void *mdl, unsigned fpmask, it2n_par u, it2n_par w,
-                   it2n_val *v, it2n_val *du, it2n_val *dw)
+static int bs_eval(const void *mdl, unsigned fpmask, it2n_par u, it2n_par w, it2n_val *v, it2n_val *du, it2n_val *dw)
 {
-    return it2n__bspline_eval_full((const it2n_bspline_model *)mdl, fpmask, u, w,
-                                   v, du, dw, NULL);
+    return it2n__bspline_eval_full((const it2n_bspline_model *)mdl, fpmask, u, w, v, du, dw, NULL);
 }
 
-int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
-                it2n_locate_result *out, it2n_errinfo *err)
+int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y, it2n_locate_result *out, it2n_errinfo *err)
 {
     loc_model lm;
     unsigned fp;
@@ -308,8 +291,8 @@ int it2n_locate(const it2n_model *mdl, it2n_val x, it2n_val y,
     return locate_all(&lm, bz_eval, mdl->flags, x, y, out, err);
 }
 
-int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
-                        it2n_locate_result *out, it2n_errinfo *err)
+int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y, it2n_locate_result *out,
+                        it2n_errinfo *err)
 {
     loc_model lm;
     unsigned fp;
@@ -321,8 +304,7 @@ int it2n_bspline_locate(const it2n_bspline_model *mdl, it2n_val x, it2n_val y,
     }
     lm.mdl = mdl;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        lm.tol[fp] = (it2n__fp_mask(mdl->flags) & (1u << fp)) != 0u
-                         ? tol_of(bs_extent(mdl, fp)) : 0;
+        lm.tol[fp] = (it2n__fp_mask(mdl->flags) & (1u << fp)) != 0u ? tol_of(bs_extent(mdl, fp)) : 0;
     }
     return locate_all(&lm, bs_eval, mdl->flags, x, y, out, err);
 }

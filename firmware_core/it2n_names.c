@@ -3,10 +3,8 @@
  */
 #include "it2n_internal.h"
 
-static const char *const fp_names[IT2N_FP_COUNT] = {"LL", "LR", "L", "D",
-                                                    "R",  "RL", "RR"};
-static const char *const ch_names[IT2N_CH_COUNT] = {"x", "y", "z",
-                                                    "T", "I", "F"};
+static const char *const fp_names[IT2N_FP_COUNT] = {"LL", "LR", "L", "D", "R", "RL", "RR"};
+static const char *const ch_names[IT2N_CH_COUNT] = {"x", "y", "z", "T", "I", "F"};
 
 const char *it2n_fp_name(unsigned fp)
 {
@@ -53,8 +51,7 @@ const char *it2n_strerror(int code)
     }
 }
 
-int it2n__fail(it2n_errinfo *err, int code, int i, int j, int fp, int ch,
-               it2n_val value, it2n_val lo, it2n_val hi)
+int it2n__fail(it2n_errinfo *err, int code, int i, int j, int fp, int ch, it2n_val value, it2n_val lo, it2n_val hi)
 {
     if (err != NULL) {
         err->code = code;

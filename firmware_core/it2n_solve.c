@@ -53,15 +53,14 @@ static void params_uniform(unsigned deg, it2n_par t[IT2N_DIM])
 
 #if IT2N_CHORD
 /* Distance between two D footprints, Q24. */
-static int64_t chord(const it2n_dataset *ds, unsigned i0, unsigned j0,
-                     unsigned i1, unsigned j1)
+static int64_t chord(const it2n_dataset *ds, unsigned i0, unsigned j0, unsigned i1, unsigned j1)
 {
     it2n_i128 sq = it2n__i128_zero();
     unsigned ch;
     for (ch = 0; ch < it2n__ncoord(ds->flags); ch++) {
         /* |difference| < 2^49 raw, square < 2^98: exact in 128 bits. */
-        int64_t d = it2n_dataset_value_fine(ds, i1, j1, IT2N_FP_D, ch) -
-                    it2n_dataset_value_fine(ds, i0, j0, IT2N_FP_D, ch);
+        int64_t d =
+            it2n_dataset_value_fine(ds, i1, j1, IT2N_FP_D, ch) - it2n_dataset_value_fine(ds, i0, j0, IT2N_FP_D, ch);
         sq = it2n_mac(sq, d, d);
     }
     return (int64_t)it2n__i128_isqrt(sq);
@@ -71,8 +70,7 @@ static int64_t chord(const it2n_dataset *ds, unsigned i0, unsigned j0,
  * Chord-length parameters averaged over rows (The NURBS Book, 9.2.5), from
  * the mean footprint D. dir 0: u along i for every j; dir 1: w along j.
  */
-static int params_chord(const it2n_dataset *ds, unsigned dir,
-                        it2n_par t[IT2N_DIM], it2n_errinfo *err)
+static int params_chord(const it2n_dataset *ds, unsigned dir, it2n_par t[IT2N_DIM], it2n_errinfo *err)
 {
     unsigned deg = dir ? ds->m : ds->n, lines = dir ? ds->n : ds->m;
     unsigned line, k, used = 0u;
@@ -81,8 +79,7 @@ static int params_chord(const it2n_dataset *ds, unsigned dir,
     for (line = 0; line <= lines; line++) {
         int64_t d[IT2N_DIM], total = 0, cum = 0;
         for (k = 1; k <= deg; k++) {
-            d[k] = dir ? chord(ds, line, k - 1u, line, k)
-                       : chord(ds, k - 1u, line, k, line);
+            d[k] = dir ? chord(ds, line, k - 1u, line, k) : chord(ds, k - 1u, line, k, line);
             total += d[k]; /* <= 15 * 2^50: no overflow */
         }
         if (total == 0) {
@@ -97,8 +94,7 @@ static int params_chord(const it2n_dataset *ds, unsigned dir,
         }
     }
     if (used == 0u) {
-        return it2n__fail(err, IT2N_ERR_DEGENERATE, -1, -1, IT2N_FP_D, -1,
-                          (it2n_val)dir, 0, 0);
+        return it2n__fail(err, IT2N_ERR_DEGENERATE, -1, -1, IT2N_FP_D, -1, (it2n_val)dir, 0, 0);
     }
     t[0] = 0;
     t[deg] = IT2N_PAR_ONE;
@@ -109,10 +105,8 @@ static int params_chord(const it2n_dataset *ds, unsigned dir,
         if (t[k] - t[k - 1u] < PIVOT_MIN) {
             /* Two parameters coincide: the collocation matrix is singular.
              * Report which (dir, k) via i/j. */
-            return it2n__fail(err, IT2N_ERR_DEGENERATE,
-                              dir ? -1 : (int)k, dir ? (int)k : -1,
-                              IT2N_FP_D, -1, (it2n_val)(t[k] >> 8),
-                              (it2n_val)(t[k - 1u] >> 8), 0);
+            return it2n__fail(err, IT2N_ERR_DEGENERATE, dir ? -1 : (int)k, dir ? (int)k : -1, IT2N_FP_D, -1,
+                              (it2n_val)(t[k] >> 8), (it2n_val)(t[k - 1u] >> 8), 0);
         }
     }
     return IT2N_OK;
@@ -120,12 +114,11 @@ static int params_chord(const it2n_dataset *ds, unsigned dir,
 
 #endif /* IT2N_CHORD */
 
-int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM],
-                it2n_par w[IT2N_DIM], it2n_errinfo *err)
+int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM], it2n_par w[IT2N_DIM], it2n_errinfo *err)
 {
     int rc;
-    if (ds == NULL || u == NULL || w == NULL || ds->n < 1u ||
-        ds->n > IT2N_MAX_DEGREE || ds->m < 1u || ds->m > IT2N_MAX_DEGREE) {
+    if (ds == NULL || u == NULL || w == NULL || ds->n < 1u || ds->n > IT2N_MAX_DEGREE || ds->m < 1u ||
+        ds->m > IT2N_MAX_DEGREE) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
     memset(u, 0, sizeof(it2n_par) * IT2N_DIM);
@@ -140,8 +133,7 @@ int it2n_params(const it2n_dataset *ds, it2n_par u[IT2N_DIM],
     return rc != IT2N_OK ? rc : params_chord(ds, 1u, w, err);
 #else
     (void)rc;
-    return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)ds->flags,
-                      0, IT2N_F_ALL);
+    return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, (it2n_val)ds->flags, 0, IT2N_F_ALL);
 #endif
 }
 
@@ -192,8 +184,7 @@ static unsigned data_bits(const it2n_dataset *ds, unsigned fp, unsigned ch)
  * bound (in bits) to stay under 2^NET_LIMIT_BITS for every net of the
  * footprints in fpmask. Returns IT2N_OK or IT2N_ERR_OVERFLOW naming fp, ch.
  */
-static int check_bound(const it2n_dataset *ds, unsigned fpmask,
-                       const dir_inv *du, const dir_inv *dw, it2n_errinfo *err)
+static int check_bound(const it2n_dataset *ds, unsigned fpmask, const dir_inv *du, const dir_inv *dw, it2n_errinfo *err)
 {
     unsigned fp, ch;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
@@ -204,11 +195,9 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
                 continue;
             }
             eb = data_bits(ds, fp, ch);
-            bits = (int)(eb + du->cs_bits + dw->cs_bits) - it2n__ch_frac(ch) -
-                   du->frac - dw->frac;
+            bits = (int)(eb + du->cs_bits + dw->cs_bits) - it2n__ch_frac(ch) - du->frac - dw->frac;
             if (eb != 0u && bits > NET_LIMIT_BITS) {
-                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp,
-                                  (int)ch, (it2n_val)bits, 0, NET_LIMIT_BITS);
+                return it2n__fail(err, IT2N_ERR_OVERFLOW, -1, -1, (int)fp, (int)ch, (it2n_val)bits, 0, NET_LIMIT_BITS);
             }
         }
     }
@@ -228,8 +217,7 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask,
  * 2^31 + 16, lo < 2^24): every int64 partial sum stays below 2^62 and
  * |g| < 2^62.
  */
-static void stage1(unsigned n1, unsigned m1, const int32_t *fa,
-                   const uint32_t *fb, const dir_inv *dw, unsigned j,
+static void stage1(unsigned n1, unsigned m1, const int32_t *fa, const uint32_t *fb, const dir_inv *dw, unsigned j,
                    bool wide, int64_t *g)
 {
     unsigned k, l;
@@ -277,8 +265,7 @@ static void stage1(unsigned n1, unsigned m1, const int32_t *fa,
  * fourth, sum lo gl < 2^59, is below 16 units of p and dropped (p is kept to
  * 2^-58 of its bound and rounded to 31 bits afterwards).
  */
-static void stage2(const dir_inv *du, unsigned n1, const int64_t *g,
-                   int64_t *p, unsigned stride)
+static void stage2(const dir_inv *du, unsigned n1, const int64_t *g, int64_t *p, unsigned stride)
 {
     int32_t gh[IT2N_DIM], gl[IT2N_DIM];
     unsigned i, k;
@@ -315,8 +302,7 @@ static void stage2(const dir_inv *du, unsigned n1, const int64_t *g,
  * moves a control point by at most 1.7e-7 of max|F| <= max|P| (the data
  * are convex combinations of the net), within the 1e-6 max|P| goal.
  */
-static void short_column(unsigned n1, unsigned m1, const int32_t *fa,
-                         const dir_inv *du, const dir_inv *dw, unsigned j,
+static void short_column(unsigned n1, unsigned m1, const int32_t *fa, const dir_inv *du, const dir_inv *dw, unsigned j,
                          int64_t *p, unsigned stride)
 {
     unsigned i, k, l;
@@ -353,8 +339,7 @@ static void short_column(unsigned n1, unsigned m1, const int32_t *fa,
  * data as int32 in fa; wide data split F = fh 2^24 + fl, fh in fa and fl
  * (in [0, 2^24)) in fb. Row k at k (m+1).
  */
-static void load_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
-                     bool wide, int32_t *fa, uint32_t *fb)
+static void load_net(const it2n_dataset *ds, unsigned fp, unsigned ch, bool wide, int32_t *fa, uint32_t *fb)
 {
     unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, k, l;
     for (k = 0; k < n1; k++) {
@@ -372,9 +357,8 @@ static void load_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
     }
 }
 
-static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
-                      const dir_inv *du, const dir_inv *dw, int32_t *net,
-                      int8_t *frac)
+static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch, const dir_inv *du, const dir_inv *dw,
+                      int32_t *net, int8_t *frac)
 {
     int64_t p64[IT2N_DIM * IT2N_DIM], g[IT2N_DIM];
     int32_t fa[IT2N_DIM * IT2N_DIM];
@@ -412,8 +396,7 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
     /* g has frac_m + (data frac - 24) fractional bits (wide: 18 fewer),
      * p64 frac_n + frac_g - 55, the mantissas s fewer. */
     f = shortp ? it2n__ch_frac(ch) + du->wfrac + dw->wfrac - 30 - s
-               : du->frac + dw->frac - 55 - (wide ? 18 : 0) - s +
-                     (it2n__ch_frac(ch) - IT2N_VAL_FRAC);
+               : du->frac + dw->frac - 55 - (wide ? 18 : 0) - s + (it2n__ch_frac(ch) - IT2N_VAL_FRAC);
     if (f > 127) { /* a net of values below 2^-96: keep the exponent */
         s += f - 127;
         f = 127;
@@ -425,8 +408,7 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch,
 }
 
 /* Solve the nets of the footprints in fpmask into mdl (after the checks). */
-static void solve_nets(it2n_model *mdl, const it2n_dataset *ds,
-                       unsigned fpmask, const dir_inv *du, const dir_inv *dw)
+static void solve_nets(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask, const dir_inv *du, const dir_inv *dw)
 {
     unsigned fp, ch;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
@@ -435,8 +417,7 @@ static void solve_nets(it2n_model *mdl, const it2n_dataset *ds,
         }
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
             if (it2n__ch_used(ds->flags, ch)) {
-                solve_net(ds, fp, ch, du, dw, mdl->net[fp][ch],
-                          &mdl->frac[fp][ch]);
+                solve_net(ds, fp, ch, du, dw, mdl->net[fp][ch], &mdl->frac[fp][ch]);
             }
         }
     }
@@ -446,14 +427,13 @@ static void solve_nets(it2n_model *mdl, const it2n_dataset *ds,
  * Inverses, bound check, then (commit point) the nets of fpmask. With
  * fpmask = every footprint the whole model is rewritten.
  */
-static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
-                      unsigned fpmask, bool full, it2n_errinfo *err);
+static int solve_core(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask, bool full, it2n_errinfo *err);
 
 /* Commit point: clear what a full solve does not write (unused footprints
  * and channels, entries beyond the degrees) so the model bytes are a
  * function of the data alone, then solve. */
-static void commit(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask,
-                   bool full, const dir_inv *du, const dir_inv *dw)
+static void commit(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask, bool full, const dir_inv *du,
+                   const dir_inv *dw)
 {
     if (full) {
         memset(mdl->net, 0, sizeof(mdl->net));
@@ -465,8 +445,7 @@ static void commit(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask,
 #if IT2N_CHORD
 /* Chord-length inverses need buffers; uniform ones are tables. Separate
  * frames keep the uniform solve's stack small. */
-static int solve_chord(it2n_model *mdl, const it2n_dataset *ds,
-                       unsigned fpmask, bool full, it2n_errinfo *err)
+static int solve_chord(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask, bool full, it2n_errinfo *err)
 {
     int32_t uh[IT2N_DIM * IT2N_DIM], ul[IT2N_DIM * IT2N_DIM];
     int32_t wh[IT2N_DIM * IT2N_DIM], wl[IT2N_DIM * IT2N_DIM];
@@ -500,8 +479,7 @@ static int solve_chord(it2n_model *mdl, const it2n_dataset *ds,
 
 #endif /* IT2N_CHORD */
 
-static int solve_core(it2n_model *mdl, const it2n_dataset *ds,
-                      unsigned fpmask, bool full, it2n_errinfo *err)
+static int solve_core(it2n_model *mdl, const it2n_dataset *ds, unsigned fpmask, bool full, it2n_errinfo *err)
 {
     dir_inv du, dw;
     int rc;
@@ -530,8 +508,7 @@ static void model_header(it2n_model *mdl, const it2n_dataset *ds)
     mdl->generation++;
 }
 
-int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
-                     it2n_errinfo *err)
+int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds, it2n_errinfo *err)
 {
     int rc;
     if (mdl == NULL || ds == NULL) {
@@ -550,10 +527,8 @@ int it2n_model_solve(it2n_model *mdl, const it2n_dataset *ds,
 }
 
 /* it2n_model_update for memberships of mfrac fraction bits. */
-static int model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
-                        unsigned j, unsigned fp,
-                        const it2n_val vals[IT2N_CH_COUNT], int mfrac,
-                        it2n_errinfo *err)
+static int model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                        const it2n_val vals[IT2N_CH_COUNT], int mfrac, it2n_errinfo *err)
 {
     it2n_val nv[IT2N_CH_COUNT], old[IT2N_CH_COUNT];
     unsigned ch, flags, mask;
@@ -561,21 +536,17 @@ static int model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     if (mdl == NULL || ds == NULL || vals == NULL) {
         return it2n__fail(err, IT2N_ERR_INVAL, -1, -1, -1, -1, 0, 0, 0);
     }
-    if (!mdl->solved || mdl->n != ds->n || mdl->m != ds->m ||
-        mdl->flags != ds->flags) {
+    if (!mdl->solved || mdl->n != ds->n || mdl->m != ds->m || mdl->flags != ds->flags) {
         /* not solved, or not solved from this data set */
-        return it2n__fail(err, IT2N_ERR_STATE, (int)i, (int)j, (int)fp, -1, 0,
-                          0, 0);
+        return it2n__fail(err, IT2N_ERR_STATE, (int)i, (int)j, (int)fp, -1, 0, 0, 0);
     }
     flags = ds->flags;
     if (i > ds->n || j > ds->m) {
-        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, -1, -1,
-                          (it2n_val)(i > ds->n ? i : j), 0,
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, -1, -1, (it2n_val)(i > ds->n ? i : j), 0,
                           (it2n_val)(i > ds->n ? ds->n : ds->m));
     }
     if (fp >= IT2N_FP_COUNT || ((1u << fp) & it2n__fp_mask(flags)) == 0u) {
-        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1,
-                          (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
+        return it2n__fail(err, IT2N_ERR_INVAL, (int)i, (int)j, (int)fp, -1, (it2n_val)fp, 0, IT2N_FP_COUNT - 1);
     }
     rc = it2n__check_vals(flags, i, j, fp, vals, mfrac, err);
     if (rc != IT2N_OK) {
@@ -584,16 +555,15 @@ static int model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
         /* memberships in Q30, as stored (checked: the shift is exact) */
         nv[ch] = !it2n__ch_used(flags, ch) ? 0
-               : ch < IT2N_CH_T ? vals[ch]
-                                : vals[ch] * ((it2n_val)1 << (IT2N_MEMB_FRAC - mfrac));
+                 : ch < IT2N_CH_T          ? vals[ch]
+                                           : vals[ch] * ((it2n_val)1 << (IT2N_MEMB_FRAC - mfrac));
     }
     rc = it2n__check_nesting_point(ds, i, j, fp, nv, err);
     if (rc != IT2N_OK) {
         return rc;
     }
     /* Chord-length parameters follow footprint D: every net moves. */
-    mask = ((flags & IT2N_F_CHORD) && fp == IT2N_FP_D) ? it2n__fp_mask(flags)
-                                                       : 1u << fp;
+    mask = ((flags & IT2N_F_CHORD) && fp == IT2N_FP_D) ? it2n__fp_mask(flags) : 1u << fp;
     it2n_dataset_get_fine(ds, i, j, fp, old);
     it2n__dataset_store(ds, i, j, fp, nv, 0u);
     rc = solve_core(mdl, ds, mask, false, err);
@@ -606,30 +576,24 @@ static int model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
     return IT2N_OK;
 }
 
-int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i,
-                      unsigned j, unsigned fp,
+int it2n_model_update(it2n_model *mdl, it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
                       const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
 {
     return model_update(mdl, ds, i, j, fp, vals, IT2N_VAL_FRAC, err);
 }
 
-int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i,
-                           unsigned j, unsigned fp,
-                           const it2n_val vals[IT2N_CH_COUNT],
-                           it2n_errinfo *err)
+int it2n_model_update_fine(it2n_model *mdl, it2n_dataset *ds, unsigned i, unsigned j, unsigned fp,
+                           const it2n_val vals[IT2N_CH_COUNT], it2n_errinfo *err)
 {
     return model_update(mdl, ds, i, j, fp, vals, IT2N_MEMB_FRAC, err);
 }
 
-it2n_val it2n_model_ctrl(const it2n_model *mdl, unsigned i, unsigned j,
-                         unsigned fp, unsigned ch)
+it2n_val it2n_model_ctrl(const it2n_model *mdl, unsigned i, unsigned j, unsigned fp, unsigned ch)
 {
-    if (mdl == NULL || !mdl->solved || i > mdl->n || j > mdl->m ||
-        fp >= IT2N_FP_COUNT || ch >= IT2N_CH_COUNT ||
+    if (mdl == NULL || !mdl->solved || i > mdl->n || j > mdl->m || fp >= IT2N_FP_COUNT || ch >= IT2N_CH_COUNT ||
         !it2n_model_has_fp(mdl, fp)) {
         return 0;
     }
     /* frac >= -8 (nets below 2^39): the left shift cannot overflow */
-    return it2n__shift_round(mdl->net[fp][ch][i * (mdl->m + 1u) + j],
-                             mdl->frac[fp][ch] - IT2N_VAL_FRAC);
+    return it2n__shift_round(mdl->net[fp][ch][i * (mdl->m + 1u) + j], mdl->frac[fp][ch] - IT2N_VAL_FRAC);
 }

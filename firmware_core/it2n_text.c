@@ -19,8 +19,7 @@
 /* Exponents beyond this only ever mean 0 or out of range. */
 #define TEXT_EXP_CAP 1000
 
-typedef char text_frac_digits_fit[(TEXT_FRAC_DIGITS >= IT2N_PAR_FRAC + 1 &&
-                                   TEXT_FRAC_DIGITS >= IT2N_VAL_FRAC + 1 &&
+typedef char text_frac_digits_fit[(TEXT_FRAC_DIGITS >= IT2N_PAR_FRAC + 1 && TEXT_FRAC_DIGITS >= IT2N_VAL_FRAC + 1 &&
                                    TEXT_FRAC_DIGITS >= IT2N_MEMB_FRAC + 1)
                                       ? 1
                                       : -1];
@@ -196,8 +195,7 @@ static bool text_exceeds(const text_dec *d, uint64_t limit)
 /* Parse into raw / 2^frac, |value| <= limit; negatives only if allowed
  * (a negative zero is zero). Shared by values (Q24), memberships (Q30) and
  * parameters (Q32). */
-static int text_parse(const char *s, size_t len, unsigned frac, uint64_t limit,
-                      bool allow_neg, int64_t *out)
+static int text_parse(const char *s, size_t len, unsigned frac, uint64_t limit, bool allow_neg, int64_t *out)
 {
     text_dec d;
     uint64_t mag;
@@ -210,8 +208,7 @@ static int text_parse(const char *s, size_t len, unsigned frac, uint64_t limit,
     if (rc != IT2N_OK) {
         return rc;
     }
-    if (text_exceeds(&d, limit) ||
-        (!allow_neg && d.neg && (d.ipart != 0u || d.frac_nonzero))) {
+    if (text_exceeds(&d, limit) || (!allow_neg && d.neg && (d.ipart != 0u || d.frac_nonzero))) {
         return IT2N_ERR_RANGE;
     }
     mag = (d.ipart << frac) + round_fraction(&d, frac);
@@ -221,15 +218,13 @@ static int text_parse(const char *s, size_t len, unsigned frac, uint64_t limit,
 
 int it2n_parse_val(const char *s, size_t len, it2n_val *out)
 {
-    return text_parse(s, len, IT2N_VAL_FRAC, (uint64_t)IT2N_COORD_LIMIT, true,
-                      out);
+    return text_parse(s, len, IT2N_VAL_FRAC, (uint64_t)IT2N_COORD_LIMIT, true, out);
 }
 
 /* IT2N_COORD_LIMIT < 2^23: |raw| < 2^53 in Q30, no overflow. */
 int it2n_parse_memb(const char *s, size_t len, it2n_val *out)
 {
-    return text_parse(s, len, IT2N_MEMB_FRAC, (uint64_t)IT2N_COORD_LIMIT, true,
-                      out);
+    return text_parse(s, len, IT2N_MEMB_FRAC, (uint64_t)IT2N_COORD_LIMIT, true, out);
 }
 
 int it2n_parse_par(const char *s, size_t len, it2n_par *out)
@@ -238,12 +233,10 @@ int it2n_parse_par(const char *s, size_t len, it2n_par *out)
 }
 
 /* Format raw / 2^bits with `decimals` digits, rounded half away from zero. */
-static int text_format(char *buf, size_t size, int64_t raw, unsigned bits,
-                       unsigned decimals)
+static int text_format(char *buf, size_t size, int64_t raw, unsigned bits, unsigned decimals)
 {
-    static const uint32_t pow10[10] = {1u,      10u,      100u,      1000u,
-                                       10000u,  100000u,  1000000u,  10000000u,
-                                       100000000u, 1000000000u};
+    static const uint32_t pow10[10] = {1u,      10u,      100u,      1000u,      10000u,
+                                       100000u, 1000000u, 10000000u, 100000000u, 1000000000u};
     char tmp[48]; /* sign + 20 integer digits + point + 9 decimals */
     size_t n = 0, k;
     uint64_t mag, ipart, frac, q;

@@ -69,8 +69,7 @@ static void cobs_put(cobs_out *c, const uint8_t *p, size_t len)
     }
 }
 
-int it2n_frame_write(it2n_ostream *os, const it2n_frame_hdr *hdr,
-                     const uint8_t *payload, size_t len)
+int it2n_frame_write(it2n_ostream *os, const it2n_frame_hdr *hdr, const uint8_t *payload, size_t len)
 {
     uint8_t h[IT2N_FRAME_HDR_SIZE], c[IT2N_FRAME_CRC_SIZE];
     static const uint8_t delim = 0u;
@@ -111,8 +110,7 @@ static int buf_write(it2n_ostream *s, const uint8_t *buf, size_t len)
     return 0;
 }
 
-int it2n_frame_encode(const it2n_frame_hdr *hdr, const uint8_t *payload,
-                      size_t len, uint8_t *out, size_t cap)
+int it2n_frame_encode(const it2n_frame_hdr *hdr, const uint8_t *payload, size_t len, uint8_t *out, size_t cap)
 {
     buf_sink b;
     it2n_ostream os;
@@ -152,8 +150,7 @@ static void dec_append(it2n_frame_decoder *d, uint8_t b)
 }
 
 /* A delimiter arrived: judge the frame collected so far. */
-static int dec_finish(it2n_frame_decoder *d, it2n_frame_hdr *hdr,
-                      const uint8_t **payload)
+static int dec_finish(it2n_frame_decoder *d, it2n_frame_hdr *hdr, const uint8_t **payload)
 {
     const uint8_t *b = d->buf;
     uint32_t crc;
@@ -173,8 +170,7 @@ static int dec_finish(it2n_frame_decoder *d, it2n_frame_hdr *hdr,
     }
     plen = (size_t)d->len - IT2N_FRAME_MIN_RAW;
     crc = frame_crc(b, b + IT2N_FRAME_HDR_SIZE, plen);
-    if ((uint32_t)(b[d->len - 4u] | ((uint32_t)b[d->len - 3u] << 8) |
-                   ((uint32_t)b[d->len - 2u] << 16) |
+    if ((uint32_t)(b[d->len - 4u] | ((uint32_t)b[d->len - 3u] << 8) | ((uint32_t)b[d->len - 2u] << 16) |
                    ((uint32_t)b[d->len - 1u] << 24)) != crc) {
         d->stats.crc++;
         return IT2N_PROTO_ERR_CRC;
@@ -189,8 +185,7 @@ static int dec_finish(it2n_frame_decoder *d, it2n_frame_hdr *hdr,
         d->stats.length++;
         return IT2N_PROTO_ERR_LENGTH;
     }
-    if (hdr->version < IT2N_PROTO_VERSION_MIN ||
-        hdr->version > IT2N_PROTO_VERSION_MAX) {
+    if (hdr->version < IT2N_PROTO_VERSION_MIN || hdr->version > IT2N_PROTO_VERSION_MAX) {
         d->stats.version++;
         return IT2N_PROTO_ERR_VERSION;
     }
@@ -198,8 +193,7 @@ static int dec_finish(it2n_frame_decoder *d, it2n_frame_hdr *hdr,
     return 1;
 }
 
-int it2n_frame_decode(it2n_frame_decoder *d, const uint8_t *data, size_t len,
-                      size_t *used, it2n_frame_hdr *hdr,
+int it2n_frame_decode(it2n_frame_decoder *d, const uint8_t *data, size_t len, size_t *used, it2n_frame_hdr *hdr,
                       const uint8_t **payload)
 {
     size_t k;

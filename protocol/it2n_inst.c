@@ -30,10 +30,8 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
         /* the daemon's limits bind what we send */
         c->hello = m->u.hello;
         c->peer_hello = 1;
-        it2n_link_set_peer(&c->link, m->u.hello.window,
-                           m->u.hello.max_payload);
-    } else if (m->type == IT2N_MSG_QUERY_RESULT && c->q_seq >= 0 &&
-               m->u.query_result.re == (uint16_t)c->q_seq) {
+        it2n_link_set_peer(&c->link, m->u.hello.window, m->u.hello.max_payload);
+    } else if (m->type == IT2N_MSG_QUERY_RESULT && c->q_seq >= 0 && m->u.query_result.re == (uint16_t)c->q_seq) {
         if (c->q_out != NULL)
             *c->q_out = m->u.query_result;
         c->q_have = 1;
@@ -42,16 +40,15 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *m)
     return 0; /* EVENTs and the rest: ACK */
 }
 
-static void on_done(void *app, uint16_t seq, uint8_t type, int code,
-                    const it2n_msg_nack *nack)
+static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *nack)
 {
     it2n_inst *c = (it2n_inst *)app;
     if ((int32_t)seq == c->barrier)
         c->barrier = -1; /* answered (or given up): the barrier lifts */
     if (code == 0)
         return;
-    if (type == IT2N_MSG_QUERY && c->q_seq == (int32_t)seq &&
-        code != IT2N_PROTO_ERR_TIMEOUT && code != IT2N_PROTO_ERR_DOWN) {
+    if (type == IT2N_MSG_QUERY && c->q_seq == (int32_t)seq && code != IT2N_PROTO_ERR_TIMEOUT &&
+        code != IT2N_PROTO_ERR_DOWN) {
         /* a refused QUERY changes nothing: its code, not a failure */
         c->q_seq = -1;
         c->q_code = code;
@@ -83,9 +80,7 @@ int it2n_inst_poll(it2n_inst *ctx)
             int n = ctx->cfg.read(ctx->cfg.user, buf, sizeof buf);
             if (n <= 0)
                 break;
-            (void)it2n_link_input(&ctx->link, buf,
-                                  (size_t)n > sizeof buf ? sizeof buf : (size_t)n,
-                                  now(ctx));
+            (void)it2n_link_input(&ctx->link, buf, (size_t)n > sizeof buf ? sizeof buf : (size_t)n, now(ctx));
         }
     }
     (void)it2n_link_poll(&ctx->link, now(ctx));
@@ -134,8 +129,7 @@ static bool query_answered(const it2n_inst *ctx)
 /* Send m: waits for window room in read mode. seq or an error. */
 static int32_t send(it2n_inst *ctx, const it2n_msg *m)
 {
-    bool (*ready)(const it2n_inst *) =
-        m->type == IT2N_MSG_CONFIGURE ? can_send_alone : can_send;
+    bool (*ready)(const it2n_inst *) = m->type == IT2N_MSG_CONFIGURE ? can_send_alone : can_send;
     int32_t seq;
     if (ctx->err != 0)
         return ctx->err;
@@ -177,19 +171,15 @@ static void hello(it2n_inst *ctx, it2n_msg *m)
     memset(m, 0, sizeof *m);
     m->type = IT2N_MSG_HELLO;
     /* the one version this context speaks */
-    m->u.hello.version_min = ctx->cfg.version == IT2N_PROTO_VERSION
-                                 ? (uint8_t)IT2N_PROTO_VERSION
-                                 : (uint8_t)IT2N_PROTO_VERSION_12;
+    m->u.hello.version_min =
+        ctx->cfg.version == IT2N_PROTO_VERSION ? (uint8_t)IT2N_PROTO_VERSION : (uint8_t)IT2N_PROTO_VERSION_12;
     m->u.hello.version_max = m->u.hello.version_min;
     m->u.hello.max_degree = IT2N_MAX_DEGREE;
     m->u.hello.window = it2n_link_window(&ctx->link);
-    m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_CHORD |
-                      IT2N_CAP_TYPE1 | IT2N_CAP_BSPLINE;
+    m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_CHORD | IT2N_CAP_TYPE1 | IT2N_CAP_BSPLINE;
     m->u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
     m->u.hello.max_models = 1;
-    for (k = 0; ctx->cfg.node != NULL && k < sizeof m->u.hello.node &&
-                ctx->cfg.node[k] != '\0';
-         k++)
+    for (k = 0; ctx->cfg.node != NULL && k < sizeof m->u.hello.node && ctx->cfg.node[k] != '\0'; k++)
         m->u.hello.node[k] = ctx->cfg.node[k];
 }
 
@@ -209,9 +199,7 @@ static int start(it2n_inst *ctx, uint16_t first_seq)
     lc.first_seq = first_seq;
     lc.session = ctx->cfg.session_id;
     /* v1.2 by default: the daemon hands out the session id */
-    lc.version = ctx->cfg.version == IT2N_PROTO_VERSION
-                     ? (uint8_t)IT2N_PROTO_VERSION
-                     : (uint8_t)IT2N_PROTO_VERSION_12;
+    lc.version = ctx->cfg.version == IT2N_PROTO_VERSION ? (uint8_t)IT2N_PROTO_VERSION : (uint8_t)IT2N_PROTO_VERSION_12;
     r = it2n_link_init(&ctx->link, &lc);
     if (r != IT2N_OK)
         return (int)r;
@@ -232,8 +220,7 @@ static int start(it2n_inst *ctx, uint16_t first_seq)
 int it2n_inst_open(it2n_inst *ctx, const it2n_inst_cfg *cfg)
 {
     if (cfg == NULL || cfg->write == NULL || cfg->now_ms == NULL ||
-        (cfg->version != 0u && cfg->version != IT2N_PROTO_VERSION &&
-         cfg->version != IT2N_PROTO_VERSION_12))
+        (cfg->version != 0u && cfg->version != IT2N_PROTO_VERSION && cfg->version != IT2N_PROTO_VERSION_12))
         return IT2N_ERR_INVAL;
     memset(ctx, 0, sizeof *ctx);
     ctx->cfg = *cfg;
@@ -270,23 +257,21 @@ int it2n_inst_flush(it2n_inst *ctx)
 /* Entries per PUT the daemon accepts (its max_payload). */
 static unsigned put_max(const it2n_inst *ctx)
 {
-    unsigned k = (it2n_link_max_payload(&ctx->link) - IT2N_PUT_HDR) /
-                 IT2N_PUT_ENTRY;
+    unsigned k = (it2n_link_max_payload(&ctx->link) - IT2N_PUT_HDR) / IT2N_PUT_ENTRY;
     return k < IT2N_PUT_MAX ? k : IT2N_PUT_MAX;
 }
 
 /* Take one entry into the PUT batch of layout `flags` (0 or
  * IT2N_PUT_FINE); a batch of another model or layout, or a full one, is
  * sent first. */
-static int put_entry(it2n_inst *ctx, uint8_t model, uint8_t flags, uint8_t i,
-                     uint8_t j, uint8_t fp, const it2n_val vals[IT2N_CH_COUNT])
+static int put_entry(it2n_inst *ctx, uint8_t model, uint8_t flags, uint8_t i, uint8_t j, uint8_t fp,
+                     const it2n_val vals[IT2N_CH_COUNT])
 {
     it2n_put_entry *e;
     unsigned ch;
     int r;
     if (ctx->msg.type == IT2N_MSG_PUT &&
-        (ctx->msg.u.put.model != model || ctx->msg.u.put.flags != flags ||
-         ctx->msg.u.put.count >= put_max(ctx))) {
+        (ctx->msg.u.put.model != model || ctx->msg.u.put.flags != flags || ctx->msg.u.put.count >= put_max(ctx))) {
         r = it2n_inst_flush(ctx); /* full, another model or layout: send it */
         if (r != 0)
             return r;
@@ -306,8 +291,7 @@ static int put_entry(it2n_inst *ctx, uint8_t model, uint8_t flags, uint8_t i,
     return IT2N_OK;
 }
 
-int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
-                  uint8_t fp, const it2n_val vals[IT2N_CH_COUNT])
+int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j, uint8_t fp, const it2n_val vals[IT2N_CH_COUNT])
 {
     if (ctx->err != 0)
         return ctx->err;
@@ -317,8 +301,8 @@ int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
     return put_entry(ctx, model, 0u, i, j, fp, vals);
 }
 
-int it2n_inst_put_fine(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
-                       uint8_t fp, const it2n_val vals[IT2N_CH_COUNT])
+int it2n_inst_put_fine(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j, uint8_t fp,
+                       const it2n_val vals[IT2N_CH_COUNT])
 {
     it2n_val q24[IT2N_CH_COUNT];
     unsigned ch;
@@ -333,17 +317,14 @@ int it2n_inst_put_fine(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
      * Q24 memberships only: sent so when that is exact (the same model),
      * refused otherwise, nothing taken (docs/protocol.md 5.4). */
     for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-        if (ch >= IT2N_CH_T &&
-            ((uint64_t)vals[ch] & (((uint64_t)1 << shift) - 1u)) != 0u)
+        if (ch >= IT2N_CH_T && ((uint64_t)vals[ch] & (((uint64_t)1 << shift) - 1u)) != 0u)
             return IT2N_PROTO_ERR_VERSION;
-        q24[ch] = ch >= IT2N_CH_T ? vals[ch] / ((it2n_val)1 << shift)
-                                  : vals[ch];
+        q24[ch] = ch >= IT2N_CH_T ? vals[ch] / ((it2n_val)1 << shift) : vals[ch];
     }
     return put_entry(ctx, model, 0u, i, j, fp, q24);
 }
 
-int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,
-                        uint8_t flags)
+int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m, uint8_t flags)
 {
     it2n_msg *c;
     int32_t r = it2n_inst_flush(ctx);
@@ -358,8 +339,7 @@ int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,
     return r < 0 ? (int)r : IT2N_OK;
 }
 
-int it2n_inst_configure_bspline(it2n_inst *ctx, uint8_t model, uint8_t n,
-                                uint8_t m, uint8_t flags)
+int it2n_inst_configure_bspline(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m, uint8_t flags)
 {
     it2n_msg *c;
     int32_t r;
@@ -399,13 +379,11 @@ int it2n_inst_sync(it2n_inst *ctx)
     if (r != 0)
         return r;
     if (ctx->cfg.read == NULL)
-        return ctx->err != 0 ? ctx->err
-                             : all_answered(ctx) ? IT2N_OK : IT2N_PROTO_ERR_BUSY;
+        return ctx->err != 0 ? ctx->err : all_answered(ctx) ? IT2N_OK : IT2N_PROTO_ERR_BUSY;
     return wait_for(ctx, all_answered);
 }
 
-int it2n_inst_query(it2n_inst *ctx, uint8_t model, uint32_t u, uint32_t w,
-                    it2n_msg_query_result *out)
+int it2n_inst_query(it2n_inst *ctx, uint8_t model, uint32_t u, uint32_t w, it2n_msg_query_result *out)
 {
     it2n_msg *q;
     int32_t seq;

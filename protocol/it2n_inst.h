@@ -44,19 +44,19 @@ typedef struct it2n_inst_cfg {
     int (*read)(void *user, uint8_t *buf, size_t len);
     /* Optional: called while waiting (e.g. __WFI()). */
     void (*idle)(void *user);
-    void *user;               /* passed to the callbacks                  */
-    uint32_t session_id;      /* v1.1 only (version below): differs from
+    void *user;          /* passed to the callbacks                  */
+    uint32_t session_id; /* v1.1 only (version below): differs from
                                  every earlier session of this instrument.
                                  v1.2 (the default) needs none: the daemon
                                  hands out the session id, so the same
                                  boot every time is safe                  */
-    uint16_t first_seq;       /* first sequence number (any; 0 is fine)  */
-    uint32_t rto_ms;          /* retransmission timeout; 0 = 200         */
-    uint8_t max_tries;        /* transmissions before giving up; 0 = 20  */
-    uint32_t timeout_ms;      /* longest wait of one call (read mode);
+    uint16_t first_seq;  /* first sequence number (any; 0 is fine)  */
+    uint32_t rto_ms;     /* retransmission timeout; 0 = 200         */
+    uint8_t max_tries;   /* transmissions before giving up; 0 = 20  */
+    uint32_t timeout_ms; /* longest wait of one call (read mode);
                                  0 = 10000                                */
-    const char *node;         /* name sent in HELLO (<= 16 chars), or NULL */
-    uint8_t version;          /* 0: protocol v1.2 (needs it2nd 1.2 or
+    const char *node;    /* name sent in HELLO (<= 16 chars), or NULL */
+    uint8_t version;     /* 0: protocol v1.2 (needs it2nd 1.2 or
                                  later); IT2N_PROTO_VERSION: v1.1, with
                                  session_id                              */
 } it2n_inst_cfg;
@@ -65,20 +65,20 @@ typedef struct it2n_inst {
     it2n_link link;
     it2n_ostream os;
     it2n_inst_cfg cfg;
-    int err;                  /* first failure (NACK or timeout), 0 none  */
+    int err; /* first failure (NACK or timeout), 0 none  */
     uint16_t err_seq;
     uint8_t err_type;
-    it2n_msg_nack nack;       /* its detail (NACK)                        */
-    uint8_t peer_hello;       /* the daemon's HELLO arrived               */
-    it2n_msg_hello hello;     /* ... and said this                        */
+    it2n_msg_nack nack;   /* its detail (NACK)                        */
+    uint8_t peer_hello;   /* the daemon's HELLO arrived               */
+    it2n_msg_hello hello; /* ... and said this                        */
     uint8_t put_model, put_flags;
-    it2n_msg msg;             /* PUT batch being filled; scratch          */
-    int32_t q_seq;            /* QUERY awaiting its result, or -1         */
-    int32_t barrier;          /* CONFIGURE awaiting its answer, or -1     */
+    it2n_msg msg;    /* PUT batch being filled; scratch          */
+    int32_t q_seq;   /* QUERY awaiting its result, or -1         */
+    int32_t barrier; /* CONFIGURE awaiting its answer, or -1     */
     uint8_t q_have;
-    int q_code;               /* NACK code of the last QUERY, 0 none       */
+    int q_code; /* NACK code of the last QUERY, 0 none       */
     it2n_msg_query_result *q_out;
-    uint32_t puts, entries;   /* PUT frames and entries sent              */
+    uint32_t puts, entries; /* PUT frames and entries sent              */
 } it2n_inst;
 
 /* it2n_inst holds a link context and a message: the library's name of
@@ -118,8 +118,7 @@ int it2n_inst_poll(it2n_inst *ctx);
  * mode, window full: poll/feed and call again), a field error
  * (IT2N_PROTO_ERR_FIELD: nothing sent) or an earlier failure.
  */
-int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,
-                        uint8_t flags);
+int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m, uint8_t flags);
 
 /*
  * CONFIGURE model (0..254) as a cubic not-a-knot B-spline of n x m
@@ -133,8 +132,7 @@ int it2n_inst_configure(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m,
  * (NACK RANGE) and its kind (NACK INVAL: the model is Bezier). Returns as
  * it2n_inst_configure.
  */
-int it2n_inst_configure_bspline(it2n_inst *ctx, uint8_t model, uint8_t n,
-                                uint8_t m, uint8_t flags);
+int it2n_inst_configure_bspline(it2n_inst *ctx, uint8_t model, uint8_t n, uint8_t m, uint8_t flags);
 
 /*
  * One footprint fp (enum it2n_fp) of grid point (i, j) of model: vals are
@@ -144,8 +142,7 @@ int it2n_inst_configure_bspline(it2n_inst *ctx, uint8_t model, uint8_t n,
  * model is addressed, or on it2n_inst_flush / it2n_inst_commit. Returns as
  * it2n_inst_configure; on IT2N_PROTO_ERR_BUSY the entry was NOT taken.
  */
-int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
-                  uint8_t fp, const it2n_val vals[IT2N_CH_COUNT]);
+int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j, uint8_t fp, const it2n_val vals[IT2N_CH_COUNT]);
 
 /*
  * it2n_inst_put with vals in the core's fine layout: x, y, z in Q24, T, I,
@@ -160,8 +157,8 @@ int it2n_inst_put(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
  * batch holds one layout: changing it sends the batch). Returns as
  * it2n_inst_put.
  */
-int it2n_inst_put_fine(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j,
-                       uint8_t fp, const it2n_val vals[IT2N_CH_COUNT]);
+int it2n_inst_put_fine(it2n_inst *ctx, uint8_t model, uint8_t i, uint8_t j, uint8_t fp,
+                       const it2n_val vals[IT2N_CH_COUNT]);
 
 /* Send the PUT batch now, if any. Returns as it2n_inst_configure. */
 int it2n_inst_flush(it2n_inst *ctx);
@@ -186,8 +183,7 @@ int it2n_inst_sync(it2n_inst *ctx);
  * returns IT2N_OK once sent; it2n_inst_query_done tells when *out is
  * filled. *out must stay valid until then.
  */
-int it2n_inst_query(it2n_inst *ctx, uint8_t model, uint32_t u, uint32_t w,
-                    it2n_msg_query_result *out);
+int it2n_inst_query(it2n_inst *ctx, uint8_t model, uint32_t u, uint32_t w, it2n_msg_query_result *out);
 
 /* Feed mode: the last QUERY's result is in *out. */
 bool it2n_inst_query_done(const it2n_inst *ctx);

@@ -39,8 +39,7 @@ static void put_u32(uint8_t *p, uint32_t v)
 
 static uint32_t get_u32(const uint8_t *p)
 {
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
-           ((uint32_t)p[3] << 24);
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
 }
 
 /* Time n bytes take on a line of `baud` bits/s (8N1: 10 bits a byte), ms
@@ -84,8 +83,7 @@ static uint32_t line_put(it2n_link *l, uint32_t n)
 }
 
 /* Write a frame and run the line clock. Returns when it leaves. */
-static uint32_t frame_out(it2n_link *l, const it2n_frame_hdr *h,
-                          const uint8_t *p, size_t len)
+static uint32_t frame_out(it2n_link *l, const it2n_frame_hdr *h, const uint8_t *p, size_t len)
 {
     int n = it2n_frame_write(l->cfg.out, h, p, len);
     /* A stream error only loses this transmission; the timer retries. */
@@ -94,12 +92,10 @@ static uint32_t frame_out(it2n_link *l, const it2n_frame_hdr *h,
 
 int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
 {
-    if (cfg == NULL || cfg->out == NULL || cfg->out->write == NULL ||
-        cfg->on_rx == NULL || cfg->rto_ms == 0u)
+    if (cfg == NULL || cfg->out == NULL || cfg->out->write == NULL || cfg->on_rx == NULL || cfg->rto_ms == 0u)
         return IT2N_ERR_INVAL;
     if (cfg->window != 0u &&
-        (cfg->window < IT2N_PROTO_WINDOW_MIN || cfg->window > W ||
-         (cfg->window & (cfg->window - 1u)) != 0u))
+        (cfg->window < IT2N_PROTO_WINDOW_MIN || cfg->window > W || (cfg->window & (cfg->window - 1u)) != 0u))
         return IT2N_ERR_INVAL;
     if ((cfg->version != 0u && cfg->version != V11 && cfg->version != V12) ||
         (cfg->version == V12 && cfg->new_session != NULL))
@@ -107,9 +103,7 @@ int it2n_link_init(it2n_link *l, const it2n_link_cfg *cfg)
     memset(l, 0, sizeof *l);
     l->cfg = *cfg;
     if (l->cfg.rto_max_ms < l->cfg.rto_ms)
-        l->cfg.rto_max_ms = l->cfg.rto_ms > UINT32_MAX / 8u
-                                ? UINT32_MAX
-                                : 8u * l->cfg.rto_ms;
+        l->cfg.rto_max_ms = l->cfg.rto_ms > UINT32_MAX / 8u ? UINT32_MAX : 8u * l->cfg.rto_ms;
     l->tx_next = cfg->first_seq;
     l->rto = l->cfg.rto_ms; /* until round trips are measured */
     l->win = cfg->window != 0u ? cfg->window : (uint8_t)W;
@@ -126,9 +120,7 @@ void it2n_link_set_peer(it2n_link *l, uint8_t window, uint16_t max_payload)
     if (window > 0u)
         l->peer_window = window < l->win ? window : l->win;
     if (max_payload > 0u)
-        l->peer_max_payload = max_payload < IT2N_PROTO_MAX_PAYLOAD
-                                  ? max_payload
-                                  : (uint16_t)IT2N_PROTO_MAX_PAYLOAD;
+        l->peer_max_payload = max_payload < IT2N_PROTO_MAX_PAYLOAD ? max_payload : (uint16_t)IT2N_PROTO_MAX_PAYLOAD;
 }
 
 uint8_t it2n_link_window(const it2n_link *l)
@@ -165,8 +157,7 @@ static const it2n_link_slot *oldest_of(const it2n_link *l)
     for (k = 0; k < W; k++) {
         const it2n_link_slot *s = &l->slot[k];
         /* Age relative to tx_next, which is ahead of every slot in flight. */
-        if (s->used && (best == NULL || (uint16_t)(l->tx_next - s->seq) >
-                                            (uint16_t)(l->tx_next - best->seq)))
+        if (s->used && (best == NULL || (uint16_t)(l->tx_next - s->seq) > (uint16_t)(l->tx_next - best->seq)))
             best = s;
     }
     return best;
@@ -257,8 +248,7 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
     const uint8_t *p = s->buf + SESS;
     h.version = s->ver;
     h.type = s->type;
-    h.flags = (uint8_t)(IT2N_FLAG_REL | s->flags |
-                        (s->tries > 0u ? IT2N_FLAG_RETX : 0u));
+    h.flags = (uint8_t)(IT2N_FLAG_REL | s->flags | (s->tries > 0u ? IT2N_FLAG_RETX : 0u));
     h.seq = s->seq;
     h.len = s->len;
     if (s->ver == V12) {
@@ -280,8 +270,7 @@ static void transmit(it2n_link *l, it2n_link_slot *s, uint32_t now)
          * (in order): their answers may wait for this copy, so their round
          * trips say nothing about the peer's (Karn's rule, extended). */
         for (k = 0; k < W; k++)
-            if (l->slot[k].used && l->slot[k].tries > 0u &&
-                (uint16_t)(l->tx_next - l->slot[k].seq) < age)
+            if (l->slot[k].used && l->slot[k].tries > 0u && (uint16_t)(l->tx_next - l->slot[k].seq) < age)
                 l->slot[k].nosample = 1;
     } else {
         s->first = now;
@@ -308,8 +297,7 @@ static void hello_out(it2n_link *l, uint32_t now)
     it2n_frame_hdr fh;
     fh.version = V12;
     fh.type = IT2N_MSG_HELLO;
-    fh.flags = (uint8_t)(IT2N_FLAG_REL | IT2N_FLAG_SYN |
-                         (h->tries > 0u ? IT2N_FLAG_RETX : 0u));
+    fh.flags = (uint8_t)(IT2N_FLAG_REL | IT2N_FLAG_SYN | (h->tries > 0u ? IT2N_FLAG_RETX : 0u));
     fh.seq = h->seq;
     fh.len = (uint16_t)(SESS + h->len);
     put_u32(h->buf, 0u);
@@ -365,8 +353,7 @@ static void drop_foreign(it2n_link *l, uint8_t ver, uint32_t keep)
         s->flags = 0;
         s->used = 0;
         if (l->cfg.on_done != NULL)
-            l->cfg.on_done(l->cfg.app, s->seq, s->type, IT2N_PROTO_ERR_SESSION,
-                           NULL);
+            l->cfg.on_done(l->cfg.app, s->seq, s->type, IT2N_PROTO_ERR_SESSION, NULL);
     }
 }
 
@@ -448,8 +435,8 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
     unsigned k;
     int len;
 
-    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK ||
-        msg->type == IT2N_MSG_GAP || msg->type == IT2N_MSG_RCVD)
+    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK || msg->type == IT2N_MSG_GAP ||
+        msg->type == IT2N_MSG_RCVD)
         return IT2N_PROTO_ERR_TYPE; /* link-internal, never reliable */
     if (CLIENT(l) && l->tag == 0u && msg->type == IT2N_MSG_HELLO)
         return send_hello(l, msg, now);
@@ -488,8 +475,7 @@ int32_t it2n_link_send(it2n_link *l, const it2n_msg *msg, uint32_t now)
     return (int32_t)s->seq;
 }
 
-static void finish(it2n_link *l, it2n_link_slot *s, int code,
-                   const it2n_msg_nack *nack)
+static void finish(it2n_link *l, it2n_link_slot *s, int code, const it2n_msg_nack *nack)
 {
     uint16_t seq = s->seq;
     uint8_t type = s->type;
@@ -540,8 +526,7 @@ unsigned it2n_link_drop_tx(it2n_link *l)
         l->hello.used = 0;
         n++;
         if (l->cfg.on_done != NULL)
-            l->cfg.on_done(l->cfg.app, l->hello.seq, IT2N_MSG_HELLO,
-                           IT2N_PROTO_ERR_DOWN, NULL);
+            l->cfg.on_done(l->cfg.app, l->hello.seq, IT2N_MSG_HELLO, IT2N_PROTO_ERR_DOWN, NULL);
     }
     l->stats.tx_dropped += n;
     l->tx_synced = 0;
@@ -597,8 +582,7 @@ static void restart_seq(it2n_link *l, uint32_t now)
  * flight but `have` is and seq comes before it, the receiver waits for a
  * frame we count as answered: its sequence is not ours (it synced on a
  * stale SYN copy), so we resync (docs/protocol.md 4.2 rule 5). */
-static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
-                   uint32_t now)
+static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held, uint32_t now)
 {
     it2n_link_slot *s = slot_of(l, seq), *h = slot_of(l, have);
     uint16_t span = (uint16_t)(have - seq);
@@ -615,8 +599,7 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
     for (k = 0; k < W; k++) {
         it2n_link_slot *o = &l->slot[k];
         uint16_t d = (uint16_t)(o->seq - seq);
-        if (!o->used || d == 0u || d > 64u || !((held >> (d - 1u)) & 1u) ||
-            o->held)
+        if (!o->used || d == 0u || d > 64u || !((held >> (d - 1u)) & 1u) || o->held)
             continue;
         o->held = 1;
         o->nosample = 1; /* its answer waits for the missing frame */
@@ -626,8 +609,7 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held,
         it2n_link_slot *o = &l->slot[k];
         if (!o->used || o->held || (uint16_t)(o->seq - seq) >= span)
             continue; /* answered, held, or not before `have` */
-        if (h != NULL ? (int32_t)(h->last - o->last) >= 0
-                      : (uint32_t)(now - o->last) >= (l->cfg.rto_ms + 3u) / 4u) {
+        if (h != NULL ? (int32_t)(h->last - o->last) >= 0 : (uint32_t)(now - o->last) >= (l->cfg.rto_ms + 3u) / 4u) {
             l->stats.tx_fast_retx++;
             transmit(l, o, now);
         }
@@ -768,8 +750,7 @@ static void hello_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
     l->hello.used = 0;
     l->stats.tx_nacked++;
     if (l->cfg.on_done != NULL)
-        l->cfg.on_done(l->cfg.app, l->hello.seq, IT2N_MSG_HELLO,
-                       m->u.nack.code, &m->u.nack);
+        l->cfg.on_done(l->cfg.app, l->hello.seq, IT2N_MSG_HELLO, m->u.nack.code, &m->u.nack);
 }
 
 /* Frame s is answered (ACK or NACK) at now. */
@@ -803,8 +784,7 @@ static void acked(it2n_link *l, it2n_link_slot *s, uint32_t now)
      * copy is ignored): send it again now, not at its timeout. */
     for (k = 0; k < W; k++) {
         it2n_link_slot *o = &l->slot[k];
-        if (o->used && l->tx_synced && (uint16_t)(l->tx_next - o->seq) > age &&
-            (int32_t)(acked_last - o->last) >= 0) {
+        if (o->used && l->tx_synced && (uint16_t)(l->tx_next - o->seq) > age && (int32_t)(acked_last - o->last) >= 0) {
             l->stats.tx_fast_retx++;
             transmit(l, o, now);
         }
@@ -812,18 +792,15 @@ static void acked(it2n_link *l, it2n_link_slot *s, uint32_t now)
 }
 
 /* ACK or NACK m, framed in version ver with session tag (v1.2). */
-static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
-                      uint32_t tag, uint32_t now)
+static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver, uint32_t tag, uint32_t now)
 {
     uint16_t seq = m->type == IT2N_MSG_ACK ? m->u.ack.seq : m->u.nack.seq;
     it2n_link_slot *s = NULL;
     unsigned k;
     /* Only an older peer's VERSION refusal is read across versions. */
-    bool any = m->type == IT2N_MSG_NACK && m->u.nack.code == IT2N_PROTO_ERR_VERSION &&
-               ver < V12;
+    bool any = m->type == IT2N_MSG_NACK && m->u.nack.code == IT2N_PROTO_ERR_VERSION && ver < V12;
 
-    if (l->hello.used && seq == l->hello.seq &&
-        ((ver == V12 && tag == 0u) || any)) {
+    if (l->hello.used && seq == l->hello.seq && ((ver == V12 && tag == 0u) || any)) {
         hello_answer(l, m, now);
         return;
     }
@@ -843,16 +820,13 @@ static void on_answer(it2n_link *l, const it2n_msg *m, uint8_t ver,
     }
     for (k = 0; k < W && s == NULL; k++)
         if (l->slot[k].used && l->slot[k].seq == seq &&
-            (any || (l->slot[k].ver == V12
-                         ? ver == V12 && l->slot[k].tag == tag
-                         : ver != V12)))
+            (any || (l->slot[k].ver == V12 ? ver == V12 && l->slot[k].tag == tag : ver != V12)))
             s = &l->slot[k];
     if (s == NULL) {
         l->stats.rx_stale_acks++;
         return;
     }
-    if (m->type == IT2N_MSG_NACK && m->u.nack.code == IT2N_PROTO_ERR_SESSION &&
-        s->ver == V12) {
+    if (m->type == IT2N_MSG_NACK && m->u.nack.code == IT2N_PROTO_ERR_SESSION && s->ver == V12) {
         /* The peer does not know the session of this frame. A client
          * whose session it is asks for a new one (the server restarted)
          * and sends the frame again in it; anything else is gone. */
@@ -911,8 +885,7 @@ static bool probe_out(it2n_link *l, it2n_link_slot *s, uint32_t now)
     unsigned k;
     for (k = 0; k < W; k++) {
         const it2n_link_slot *o = &l->slot[k];
-        if (!o->used || o->held != 0u || o->tries == 0u ||
-            (uint16_t)(l->tx_next - o->seq) <= age)
+        if (!o->used || o->held != 0u || o->tries == 0u || (uint16_t)(l->tx_next - o->seq) <= age)
             continue; /* not an older frame sent and not held */
         if (due(now, o->deadline)) {
             s->deadline = now; /* after it, on the next poll */
@@ -976,8 +949,7 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
             l->hello.used = 0;
             l->stats.tx_timeouts++;
             if (l->cfg.on_done != NULL)
-                l->cfg.on_done(l->cfg.app, l->hello.seq, IT2N_MSG_HELLO,
-                               IT2N_PROTO_ERR_TIMEOUT, NULL);
+                l->cfg.on_done(l->cfg.app, l->hello.seq, IT2N_MSG_HELLO, IT2N_PROTO_ERR_TIMEOUT, NULL);
         } else {
             l->hello.acked = 0;
             hello_out(l, now);
@@ -1004,8 +976,7 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
             /* The peer's bytes are still arriving: its answer may be
              * queued behind them (at most a window of maximum frames).
              * Look again once its line is quiet, or at that bound. */
-            uint32_t cap = s->gone + rto_for(l, s->tmo + 1u) +
-                           line_ms(WIN(l) * IT2N_FRAME_MAX_WIRE, l->cfg.baud);
+            uint32_t cap = s->gone + rto_for(l, s->tmo + 1u) + line_ms(WIN(l) * IT2N_FRAME_MAX_WIRE, l->cfg.baud);
             if (!due(now, cap)) {
                 uint32_t again = now + quiet_ms(l);
                 s->deadline = due(again, cap) ? cap : again;
@@ -1065,8 +1036,7 @@ uint32_t it2n_link_next_timeout(const it2n_link *l, uint32_t now)
 /* Send ACK/NACK a, framed with version `ver` (ours, or an older peer's so
  * that it can read the refusal: ACK and NACK never change layout); in
  * v1.2 after the session `tag` of the frame answered. */
-static void send_answer_acked(it2n_link *l, const it2n_msg_nack *a,
-                              uint8_t ver, uint32_t tag, uint64_t acked)
+static void send_answer_acked(it2n_link *l, const it2n_msg_nack *a, uint8_t ver, uint32_t tag, uint64_t acked)
 {
     it2n_msg m;
     uint8_t buf[64 + SESS];
@@ -1096,8 +1066,7 @@ static void send_answer_acked(it2n_link *l, const it2n_msg_nack *a,
     (void)frame_out(l, &h, buf, h.len);
 }
 
-static void send_answer_vt(it2n_link *l, const it2n_msg_nack *a, uint8_t ver,
-                           uint32_t tag)
+static void send_answer_vt(it2n_link *l, const it2n_msg_nack *a, uint8_t ver, uint32_t tag)
 {
     send_answer_acked(l, a, ver, tag, 0u);
 }
@@ -1169,8 +1138,7 @@ static void drain(it2n_link *l);
 
 /* Record and send the answer to seq (no delivery of kept frames here, so
  * drain -> deliver -> answer has no cycle). */
-static int answer(it2n_link *l, uint16_t seq, int code,
-                  const it2n_errinfo *detail)
+static int answer(it2n_link *l, uint16_t seq, int code, const it2n_errinfo *detail)
 {
     it2n_link_hist *h = hist_find(l, seq);
     if (h == NULL || h->state != H_WAITING)
@@ -1190,8 +1158,7 @@ static int answer(it2n_link *l, uint16_t seq, int code,
     return IT2N_OK;
 }
 
-int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
-                       const it2n_errinfo *detail)
+int it2n_link_complete(it2n_link *l, uint16_t seq, int code, const it2n_errinfo *detail)
 {
     int r = answer(l, seq, code, detail);
     if (r == IT2N_OK)
@@ -1207,8 +1174,7 @@ static bool can_deliver(const it2n_link *l, uint16_t seq)
 }
 
 /* Deliver frame seq = rx_next (message body p, len bytes). */
-static void deliver(it2n_link *l, uint16_t seq, uint8_t type,
-                    const uint8_t *p, size_t len)
+static void deliver(it2n_link *l, uint16_t seq, uint8_t type, const uint8_t *p, size_t len)
 {
     it2n_link_hist *h = &l->hist[seq & (WIN(l) - 1u)];
     it2n_proto_errinfo info;
@@ -1265,8 +1231,7 @@ static void refuse_busy(it2n_link *l, uint16_t seq)
 static bool refused_busy(const it2n_link *l, uint16_t seq)
 {
     const it2n_link_hist *h = &l->hist[seq & (WIN(l) - 1u)];
-    return (uint16_t)(l->rx_next - seq) - 1u < WIN(l) && h->state == H_WAITING &&
-           h->seq == (uint16_t)(seq - WIN(l));
+    return (uint16_t)(l->rx_next - seq) - 1u < WIN(l) && h->state == H_WAITING && h->seq == (uint16_t)(seq - WIN(l));
 }
 
 /* Deliver kept frames that are now in order (one W after a frame still
@@ -1299,8 +1264,7 @@ static void drain(it2n_link *l)
 
 /* Refuse frame fh (not delivered): NACK code, framed in its version and
  * after its session (v1.2), so that its sender, and only it, reads it. */
-static void refuse_frame(it2n_link *l, const it2n_frame_hdr *fh, uint32_t tag,
-                         int code, int64_t value, int64_t hi)
+static void refuse_frame(it2n_link *l, const it2n_frame_hdr *fh, uint32_t tag, int code, int64_t value, int64_t hi)
 {
     it2n_msg_nack a;
     nack_plain(&a, fh->seq, code);
@@ -1364,8 +1328,7 @@ static void start_seq(it2n_link *l, uint16_t seq, uint32_t sess, uint8_t ver)
 
 /* A HELLO that would start a session is well-formed? Otherwise it is
  * NACKed with the parse detail (after session t) and changes nothing. */
-static bool hello_ok(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t,
-                     const uint8_t *p, size_t len)
+static bool hello_ok(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t, const uint8_t *p, size_t len)
 {
     it2n_msg m;
     it2n_proto_errinfo info;
@@ -1386,8 +1349,7 @@ static bool hello_ok(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t,
 
 /* v1.2: may a frame of session t go on to the sequence rules (true), or
  * was it refused (false)? docs/protocol.md 4.1 and 4.3 rule 0. */
-static bool v12_admit(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t,
-                      const uint8_t *p, size_t len, uint32_t now)
+static bool v12_admit(it2n_link *l, const it2n_frame_hdr *fh, uint32_t t, const uint8_t *p, size_t len, uint32_t now)
 {
     bool syn = (fh->flags & IT2N_FLAG_SYN) != 0u;
     if (SERVER(l)) {
@@ -1440,8 +1402,7 @@ foreign:
     return false;
 }
 
-static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
-                        const uint8_t *p, uint32_t now)
+static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh, const uint8_t *p, uint32_t now)
 {
     it2n_link_hist *h;
     it2n_msg_nack a;
@@ -1472,9 +1433,8 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         /* A SYN frame is a retransmission only if it belongs to the
          * current peer session and its number is in the history; anything
          * else starts a new sequence (a restarted peer has a new id). */
-        if (l->rx_synced && sess == l->peer_session && sess != 0u &&
-            fh->version == l->rx_ver && hist_find(l, fh->seq) == NULL &&
-            (uint16_t)(l->rx_next - fh->seq) - 1u < 0x7FFFu) {
+        if (l->rx_synced && sess == l->peer_session && sess != 0u && fh->version == l->rx_ver &&
+            hist_find(l, fh->seq) == NULL && (uint16_t)(l->rx_next - fh->seq) - 1u < 0x7FFFu) {
             /* This session's SYN from behind `next` and out of the
              * history: a stale copy (a sender never restarts a sequence
              * behind what it sent); not a new sequence. */
@@ -1484,10 +1444,9 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
         /* Session id 0 is "no id": every SYN frame of it starts a new
          * sequence (never mistaken for an old session's frame; a SYN copy
          * whose ACK was lost is delivered again — it travels alone). */
-        if (!l->rx_synced || sess != l->peer_session || sess == 0u ||
-            fh->version != l->rx_ver || hist_find(l, fh->seq) == NULL) {
-            if (!l->rx_synced || sess != l->peer_session ||
-                fh->version != l->rx_ver) {
+        if (!l->rx_synced || sess != l->peer_session || sess == 0u || fh->version != l->rx_ver ||
+            hist_find(l, fh->seq) == NULL) {
+            if (!l->rx_synced || sess != l->peer_session || fh->version != l->rx_ver) {
                 /* a new peer session: its limits are unknown until its
                  * HELLO (delivered next, if this frame is one) */
                 l->stats.rx_sessions++;
@@ -1549,8 +1508,8 @@ static void on_reliable(it2n_link *l, const it2n_frame_hdr *fh,
                 memcpy(b->payload, p, len);
                 l->stats.rx_buffered++;
             }
-            if (ahead > 0u && !(l->rxbuf[l->rx_next & (WIN(l) - 1u)].used &&
-                                l->rxbuf[l->rx_next & (WIN(l) - 1u)].seq == l->rx_next))
+            if (ahead > 0u &&
+                !(l->rxbuf[l->rx_next & (WIN(l) - 1u)].used && l->rxbuf[l->rx_next & (WIN(l) - 1u)].seq == l->rx_next))
                 send_gap(l, fh->seq); /* tell the sender which frame we miss */
         }
         return;
@@ -1586,15 +1545,13 @@ static uint8_t ver_hi(const it2n_link *l)
     return CLIENT(l) || SERVER(l) ? (uint8_t)V12 : (uint8_t)V11;
 }
 
-static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
-                     const uint8_t *p, uint32_t now)
+static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh, const uint8_t *p, uint32_t now)
 {
     size_t len = fh->len;
     uint32_t tag = 0;
     if (r == 1 && (fh->version < ver_lo(l) || fh->version > ver_hi(l)))
         r = IT2N_PROTO_ERR_VERSION; /* a version the decoder knows, not we */
-    if ((r == 1 || r == IT2N_PROTO_ERR_VERSION) && fh->version == V12 &&
-        !(fh->flags & IT2N_FLAG_REL)) {
+    if ((r == 1 || r == IT2N_PROTO_ERR_VERSION) && fh->version == V12 && !(fh->flags & IT2N_FLAG_REL)) {
         /* v1.2 answers start with the session of the frame answered */
         if (len < SESS) {
             l->stats.rx_bad_msg++;
@@ -1623,20 +1580,16 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
             a.value = fh->version;
             a.lo = ver_lo(l);
             a.hi = ver_hi(l);
-            send_answer_v(l, &a,
-                          fh->version >= 1u && fh->version < ver_hi(l)
-                              ? fh->version
-                              : ver_hi(l));
+            send_answer_v(l, &a, fh->version >= 1u && fh->version < ver_hi(l) ? fh->version : ver_hi(l));
         }
         return;
     }
     if (r != 1)
         return; /* damaged: counted by the decoder, sender retransmits */
-    if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK ||
-        fh->type == IT2N_MSG_GAP || fh->type == IT2N_MSG_RCVD) {
+    if (fh->type == IT2N_MSG_ACK || fh->type == IT2N_MSG_NACK || fh->type == IT2N_MSG_GAP ||
+        fh->type == IT2N_MSG_RCVD) {
         it2n_msg m;
-        if (it2n_msg_unpack(fh->type, p, len, &m, NULL) != IT2N_OK ||
-            (fh->flags & IT2N_FLAG_REL) != 0u ||
+        if (it2n_msg_unpack(fh->type, p, len, &m, NULL) != IT2N_OK || (fh->flags & IT2N_FLAG_REL) != 0u ||
             (m.type == IT2N_MSG_ACK && fh->version != V12 && len != 2u))
             l->stats.rx_bad_msg++; /* answers are never REL; v1.1 ACK: 2 bytes */
         else if (m.type == IT2N_MSG_RCVD) {
@@ -1645,12 +1598,10 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
                 l->stats.rx_bad_msg++;
             else if (l->ver == V12 && tag == l->tag)
                 on_rcvd(l, m.u.rcvd.seq, now);
-        }
-        else if (m.type == IT2N_MSG_GAP) {
+        } else if (m.type == IT2N_MSG_GAP) {
             /* about our frames of that session only; v1.2 GAPs name the
              * frames held (12 bytes), v1.1 ones only `have` (4 bytes) */
-            if ((fh->version == V12) != (len == IT2N_GAP12_LEN) ||
-                (fh->version == V12 && m.u.gap.held == 0u))
+            if ((fh->version == V12) != (len == IT2N_GAP12_LEN) || (fh->version == V12 && m.u.gap.held == 0u))
                 l->stats.rx_bad_msg++;
             else if (fh->version == l->ver && (l->ver != V12 || tag == l->tag))
                 on_gap(l, m.u.gap.seq, m.u.gap.have, m.u.gap.held, now);
@@ -1665,8 +1616,7 @@ static void on_frame(it2n_link *l, int r, const it2n_frame_hdr *fh,
     on_reliable(l, fh, p, now);
 }
 
-int it2n_link_input(it2n_link *l, const uint8_t *data, size_t len,
-                    uint32_t now)
+int it2n_link_input(it2n_link *l, const uint8_t *data, size_t len, uint32_t now)
 {
     if (len > 0u) {
         l->rx_last = now;

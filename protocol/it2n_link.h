@@ -78,34 +78,33 @@ typedef int (*it2n_link_rx_fn)(void *app, uint16_t seq, const it2n_msg *msg);
  * A sent reliable message is finished: code 0 = ACKed, negative = NACKed
  * (nack points at the peer's detail) or IT2N_PROTO_ERR_TIMEOUT (nack NULL).
  */
-typedef void (*it2n_link_done_fn)(void *app, uint16_t seq, uint8_t type,
-                                  int code, const it2n_msg_nack *nack);
+typedef void (*it2n_link_done_fn)(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *nack);
 
 typedef struct it2n_link_cfg {
-    it2n_ostream *out;      /* where frames go (required)          */
-    it2n_istream *in;       /* for it2n_link_pump (may be NULL)    */
-    it2n_link_rx_fn on_rx;  /* required                           */
+    it2n_ostream *out;         /* where frames go (required)          */
+    it2n_istream *in;          /* for it2n_link_pump (may be NULL)    */
+    it2n_link_rx_fn on_rx;     /* required                           */
     it2n_link_done_fn on_done; /* may be NULL                      */
-    void *app;              /* passed to the callbacks             */
-    uint32_t rto_ms;        /* first retransmission timeout, >= 1;
+    void *app;                 /* passed to the callbacks             */
+    uint32_t rto_ms;           /* first retransmission timeout, >= 1;
                                the minimum: the RTO adapts to the
                                round trips measured above it       */
-    uint8_t max_tries;      /* transmissions before giving up,
+    uint8_t max_tries;         /* transmissions before giving up,
                                0 = retry until the app gives up    */
-    uint16_t first_seq;     /* initial sequence number (random)    */
+    uint16_t first_seq;        /* initial sequence number (random)    */
     /* v1.1 (added at the end: older positional initialisers still
      * compile and get 0 = defaults). */
-    uint32_t session;       /* this session's id: must differ from
+    uint32_t session;    /* this session's id: must differ from
                                every earlier session of this sender
                                (random, or a persisted boot counter);
                                0 = none: then a retransmitted SYN frame
                                may be delivered twice (docs/protocol.md
                                4.3 rule 1)                           */
-    uint32_t rto_max_ms;    /* backoff cap; 0 = 8 x rto_ms          */
-    uint8_t window;         /* own window: frames in flight we accept
+    uint32_t rto_max_ms; /* backoff cap; 0 = 8 x rto_ms          */
+    uint8_t window;      /* own window: frames in flight we accept
                                and send at most; a power of two within
                                4..IT2N_PROTO_WINDOW, 0 = IT2N_PROTO_WINDOW */
-    uint32_t baud;          /* line rate (bits/s, 10 bits a byte) or
+    uint32_t baud;       /* line rate (bits/s, 10 bits a byte) or
                                0 = unknown. When known, the RTO of a
                                frame counts from when its last byte
                                has left the line (estimated from the
@@ -116,7 +115,7 @@ typedef struct it2n_link_cfg {
                                IT2N_PROTO_WINDOW maximum frames take
                                (docs/protocol.md 4.2 rule 3)          */
     /* v1.2 (docs/protocol.md 4.1): the server hands out session ids. */
-    uint8_t version;        /* 0 or IT2N_PROTO_VERSION: v1.1 (session
+    uint8_t version;                    /* 0 or IT2N_PROTO_VERSION: v1.1 (session
                                above); IT2N_PROTO_VERSION_12: v1.2
                                client: the first message must be HELLO,
                                sent with session 0; the server's HELLO
@@ -138,27 +137,27 @@ typedef struct it2n_link_stats {
     uint32_t tx_frames, tx_retx, tx_acked, tx_nacked, tx_timeouts;
     uint32_t rx_delivered, rx_dup, rx_ahead, rx_nosync, rx_bad_msg;
     uint32_t rx_acks, rx_stale_acks;
-    uint32_t rx_buffered;   /* frames kept ahead of a gap          */
-    uint32_t rx_sessions;   /* new peer sessions seen              */
-    uint32_t tx_dropped;    /* frames dropped by it2n_link_drop_tx */
-    uint32_t tx_gaps;       /* GAPs sent (we hold frames past a gap) */
-    uint32_t tx_fast_retx;  /* retransmissions on a peer's GAP      */
-    uint32_t rx_stale;      /* behind next and out of the history:
+    uint32_t rx_buffered;     /* frames kept ahead of a gap          */
+    uint32_t rx_sessions;     /* new peer sessions seen              */
+    uint32_t tx_dropped;      /* frames dropped by it2n_link_drop_tx */
+    uint32_t tx_gaps;         /* GAPs sent (we hold frames past a gap) */
+    uint32_t tx_fast_retx;    /* retransmissions on a peer's GAP      */
+    uint32_t rx_stale;        /* behind next and out of the history:
                                answered NOSYNC                   */
-    uint32_t tx_resyncs;    /* restarts with SYN: the peer's NOSYNC,
+    uint32_t tx_resyncs;      /* restarts with SYN: the peer's NOSYNC,
                                or its GAP for a frame we count as
                                answered                          */
-    uint32_t rx_foreign;    /* v1.2: frames of a session not ours:
+    uint32_t rx_foreign;      /* v1.2: frames of a session not ours:
                                answered NACK SESSION, not delivered */
-    uint32_t tx_hellos;     /* v1.2 client: HELLOs sent for a session
+    uint32_t tx_hellos;       /* v1.2 client: HELLOs sent for a session
                                (first and re-sent ones, not retries) */
-    uint32_t tx_held;       /* our frames a GAP named as held (each
+    uint32_t tx_held;         /* our frames a GAP named as held (each
                                marked once): not resent on timeout  */
-    uint32_t tx_rcvd;       /* v1.2 RCVDs sent (answer deferred)    */
-    uint32_t rx_rcvd;       /* our frames a RCVD named (each once)  */
+    uint32_t tx_rcvd;         /* v1.2 RCVDs sent (answer deferred)    */
+    uint32_t rx_rcvd;         /* our frames a RCVD named (each once)  */
     uint32_t rx_acks_implied; /* our frames ended by a v1.2 ACK of a
                                later one (their own ACK was lost)   */
-    uint32_t rx_busy;       /* frames refused NACK BUSY: W after one
+    uint32_t rx_busy;         /* frames refused NACK BUSY: W after one
                                still awaiting our application's
                                answer (the peer broke its window)   */
 } it2n_link_stats;
@@ -170,21 +169,21 @@ typedef struct it2n_link_slot {
     uint8_t used, tries, type, flags;
     uint16_t seq, len;
     uint32_t deadline, first, last; /* next try, first and last sent */
-    uint32_t gone;  /* when the last copy left the line (estimated)   */
-    uint8_t tmo;    /* retransmissions on timeout: the backoff exponent
+    uint32_t gone;                  /* when the last copy left the line (estimated)   */
+    uint8_t tmo;                    /* retransmissions on timeout: the backoff exponent
                        (fast retransmissions do not back off)          */
-    uint8_t ver;    /* wire version it is framed in                     */
-    uint8_t held;   /* 1: the receiver holds it beyond a gap (its GAP
+    uint8_t ver;                    /* wire version it is framed in                     */
+    uint8_t held;                   /* 1: the receiver holds it beyond a gap (its GAP
                        said so): no retransmission on timeout while an
                        older frame is missing; 2: it was delivered, the
                        answer is pending (RCVD, v1.2): no retransmission
                        before rto_max_ms (docs/protocol.md 4.2 rule 4) */
-    uint32_t tag;   /* v1.2: the session it belongs to                  */
-    uint32_t rcvd;  /* when its RCVD came (held 2)                      */
-    uint8_t probe_wait; /* 1: its timeout fell due while an older frame's
+    uint32_t tag;                   /* v1.2: the session it belongs to                  */
+    uint32_t rcvd;                  /* when its RCVD came (held 2)                      */
+    uint8_t probe_wait;             /* 1: its timeout fell due while an older frame's
                        retransmission on timeout was unanswered and the
                        peer silent: it waits (one probe into silence)   */
-    uint8_t nosample; /* 1: an older frame was retransmitted while this
+    uint8_t nosample;               /* 1: an older frame was retransmitted while this
                        one was in flight, so its answer may have waited
                        for that one: no round-trip sample (Karn)         */
     uint8_t buf[IT2N_FRAME_MAX_LEN];
@@ -192,8 +191,8 @@ typedef struct it2n_link_slot {
 
 /* v1.2 client: the HELLO asking for a session (sent with session 0). */
 typedef struct it2n_link_hello {
-    uint8_t used;   /* in flight: no session yet                        */
-    uint8_t acked;  /* ACKed; the server's HELLO (the session) is due   */
+    uint8_t used;  /* in flight: no session yet                        */
+    uint8_t acked; /* ACKed; the server's HELLO (the session) is due   */
     uint8_t tries, len;
     uint16_t seq;
     uint32_t deadline, first; /* next try; when first asked          */
@@ -218,7 +217,7 @@ typedef struct it2n_link {
     it2n_link_cfg cfg;
     /* sender */
     uint16_t tx_next;
-    uint8_t tx_synced; /* peer accepted our SYN frame */
+    uint8_t tx_synced;         /* peer accepted our SYN frame */
     uint8_t win;               /* own window (cfg.window resolved)   */
     uint8_t peer_window;       /* frames in flight the peer accepts  */
     uint16_t peer_max_payload; /* largest message the peer accepts   */
@@ -227,7 +226,7 @@ typedef struct it2n_link {
     uint16_t rx_next;
     uint8_t rx_synced;
     uint8_t draining;
-    uint32_t peer_session;     /* session id of the current sequence */
+    uint32_t peer_session; /* session id of the current sequence */
     it2n_link_hist hist[IT2N_PROTO_WINDOW];
 #if IT2N_PROTO_RX_REORDER
     it2n_link_rxbuf rxbuf[IT2N_PROTO_WINDOW];
@@ -235,17 +234,17 @@ typedef struct it2n_link {
     it2n_frame_decoder dec;
     it2n_link_stats stats;
     /* v1.2 (docs/protocol.md 4.1) */
-    uint8_t ver;               /* wire version of our new frames      */
-    uint8_t rx_ver;            /* ... of the current receive sequence */
-    uint32_t tag;              /* the session: handed out by the server
+    uint8_t ver;           /* wire version of our new frames      */
+    uint8_t rx_ver;        /* ... of the current receive sequence */
+    uint32_t tag;          /* the session: handed out by the server
                                   (0 = none yet); our frames carry it */
-    uint32_t offer[4];         /* server: handed out, not taken up yet */
-    it2n_link_hello hello;     /* client: HELLO kept for re-sending   */
+    uint32_t offer[4];     /* server: handed out, not taken up yet */
+    it2n_link_hello hello; /* client: HELLO kept for re-sending   */
     /* line clock (cfg.baud > 0): when the bytes written so far have left
      * (line_free, plus line_frac / baud ms), the latest `now` seen, and
      * when the peer's bytes last arrived */
     uint32_t line_free, line_frac, clock, rx_last;
-    uint8_t rx_heard; /* rx_last is set */
+    uint8_t rx_heard;  /* rx_last is set */
     uint32_t defer_ms; /* how long the peer's deferred answers take after
                           their RCVD (the largest lately, decaying): a
                           frame with a RCVD is resent after twice that,
@@ -304,8 +303,7 @@ bool it2n_link_can_send(const it2n_link *l);
  * Feed received bytes (any chunking). Handles ACK/NACK, delivers messages,
  * answers bad frames. Returns IT2N_OK or IT2N_PROTO_ERR_STREAM.
  */
-int it2n_link_input(it2n_link *l, const uint8_t *data, size_t len,
-                    uint32_t now);
+int it2n_link_input(it2n_link *l, const uint8_t *data, size_t len, uint32_t now);
 
 /* Read everything available from cfg.in and feed it. Returns IT2N_OK, or
  * IT2N_PROTO_ERR_STREAM when the stream failed or ended. */
@@ -323,8 +321,7 @@ uint32_t it2n_link_next_timeout(const it2n_link *l, uint32_t now);
  * negative code sends NACK with detail (may be NULL). Returns IT2N_OK or
  * IT2N_PROTO_ERR_SEQ when seq is not awaiting an answer.
  */
-int it2n_link_complete(it2n_link *l, uint16_t seq, int code,
-                       const it2n_errinfo *detail);
+int it2n_link_complete(it2n_link *l, uint16_t seq, int code, const it2n_errinfo *detail);
 
 /*
  * Apply the limits the peer announced in its HELLO: at most `window`

@@ -10,9 +10,9 @@
 #include "it2n_msg.h"
 
 typedef struct cur {
-    uint8_t *out;     /* pack: destination                 */
+    uint8_t *out;      /* pack: destination                 */
     const uint8_t *in; /* unpack: source                    */
-    size_t pos, end;  /* end: capacity (pack) / length     */
+    size_t pos, end;   /* end: capacity (pack) / length     */
     bool pack;
     int err;
     it2n_proto_errinfo *info;
@@ -37,8 +37,8 @@ static bool io(cur *c, uint8_t *tmp, size_t n)
     if (c->err != 0)
         return false;
     if (n > c->end - c->pos) {
-        fail(c, c->pack ? IT2N_PROTO_ERR_NOSPACE : IT2N_PROTO_ERR_PAYLOAD,
-             c->pos, (int64_t)c->end, (int64_t)(c->pos + n));
+        fail(c, c->pack ? IT2N_PROTO_ERR_NOSPACE : IT2N_PROTO_ERR_PAYLOAD, c->pos, (int64_t)c->end,
+             (int64_t)(c->pos + n));
         return false;
     }
     if (c->pack)
@@ -116,9 +116,7 @@ static void c_i64(cur *c, int64_t *v)
         for (k = 0; k < 8u; k++)
             u |= (uint64_t)t[k] << (8u * k);
         /* Two's complement without implementation-defined conversion. */
-        *v = u >= 0x8000000000000000u
-                 ? -(int64_t)(~u) - 1
-                 : (int64_t)u;
+        *v = u >= 0x8000000000000000u ? -(int64_t)(~u) - 1 : (int64_t)u;
     }
 }
 
@@ -157,8 +155,7 @@ static void c_par(cur *c, uint32_t *p)
 {
     size_t off = c->pos;
     c_u32(c, p);
-    need(c, c->err != 0 || *p <= IT2N_WIRE_PAR_ONE, off, *p,
-         IT2N_WIRE_PAR_ONE);
+    need(c, c->err != 0 || *p <= IT2N_WIRE_PAR_ONE, off, *p, IT2N_WIRE_PAR_ONE);
 }
 
 static void c_hello(cur *c, it2n_msg_hello *h)
@@ -166,9 +163,8 @@ static void c_hello(cur *c, it2n_msg_hello *h)
     size_t off = c->pos;
     c_u8(c, &h->version_min);
     c_u8(c, &h->version_max);
-    need(c, c->err != 0 || (h->version_min >= 1u &&
-                            h->version_min <= h->version_max),
-         off, h->version_min, h->version_max);
+    need(c, c->err != 0 || (h->version_min >= 1u && h->version_min <= h->version_max), off, h->version_min,
+         h->version_max);
     c_u8(c, &h->max_degree);
     off = c->pos;
     c_u8(c, &h->window);
@@ -176,8 +172,7 @@ static void c_hello(cur *c, it2n_msg_hello *h)
     c_u32(c, &h->caps);
     off = c->pos;
     c_u16(c, &h->max_payload);
-    need(c, c->err != 0 || h->max_payload >= IT2N_HELLO_MIN_PAYLOAD, off,
-         h->max_payload, IT2N_HELLO_MIN_PAYLOAD);
+    need(c, c->err != 0 || h->max_payload >= IT2N_HELLO_MIN_PAYLOAD, off, h->max_payload, IT2N_HELLO_MIN_PAYLOAD);
     c_u16(c, &h->max_models);
     (void)io(c, (uint8_t *)h->node, sizeof h->node);
 }
@@ -214,16 +209,15 @@ static void c_configure(cur *c, it2n_msg_configure *m)
     need(c, m->m >= 1u && m->m <= max, off + 2u, m->m, max);
     need(c, (m->flags & ~IT2N_F_ALL) == 0u, off + 3u, m->flags, IT2N_F_ALL);
     /* the B-spline kind is uniform only: no chord-length parameters */
-    need(c, m->kind != IT2N_CFG_BSPLINE || (m->flags & IT2N_F_CHORD) == 0u,
-         off + 3u, m->flags, IT2N_F_ALL & ~IT2N_F_CHORD);
+    need(c, m->kind != IT2N_CFG_BSPLINE || (m->flags & IT2N_F_CHORD) == 0u, off + 3u, m->flags,
+         IT2N_F_ALL & ~IT2N_F_CHORD);
 }
 
 static void c_model(cur *c, uint8_t *model, bool all_ok)
 {
     size_t off = c->pos;
     c_u8(c, model);
-    need(c, c->err != 0 || all_ok || *model != IT2N_MODEL_ALL, off, *model,
-         IT2N_MODEL_ALL - 1);
+    need(c, c->err != 0 || all_ok || *model != IT2N_MODEL_ALL, off, *model, IT2N_MODEL_ALL - 1);
 }
 
 static void c_put(cur *c, it2n_msg_put *p)
@@ -236,10 +230,8 @@ static void c_put(cur *c, it2n_msg_put *p)
     if (c->err != 0)
         return;
     /* v1.3: FINE (memberships in Q30); the server bounds them */
-    need(c, (p->flags & ~IT2N_PUT_FLAGS) == 0u, off + 1u, p->flags,
-         IT2N_PUT_FLAGS);
-    need(c, p->count >= 1u && p->count <= IT2N_PUT_MAX, off + 2u, p->count,
-         IT2N_PUT_MAX);
+    need(c, (p->flags & ~IT2N_PUT_FLAGS) == 0u, off + 1u, p->flags, IT2N_PUT_FLAGS);
+    need(c, p->count >= 1u && p->count <= IT2N_PUT_MAX, off + 2u, p->count, IT2N_PUT_MAX);
     for (k = 0; k < p->count && c->err == 0; k++) {
         it2n_put_entry *e = &p->e[k];
         /* i, j: any u8 since v1.3 (B-spline grids up to 256 x 256); the
@@ -258,9 +250,7 @@ static void c_event(cur *c, it2n_msg_event *e)
     c_u8(c, &e->model);
     off = c->pos;
     c_u8(c, &e->kind);
-    need(c, c->err != 0 || (e->kind >= IT2N_EV_CONFIGURED &&
-                            e->kind <= IT2N_EV_LOST),
-         off, e->kind, IT2N_EV_LOST);
+    need(c, c->err != 0 || (e->kind >= IT2N_EV_CONFIGURED && e->kind <= IT2N_EV_LOST), off, e->kind, IT2N_EV_LOST);
     c_i16(c, &e->code);
     c_u32(c, &e->generation);
 }
@@ -311,8 +301,7 @@ static void c_locate_result(cur *c, it2n_msg_locate_result *l)
         c_par(c, &f->w);
         off = c->pos;
         c_u8(c, &f->status);
-        need(c, c->err != 0 || f->status <= IT2N_LOC_NOCONV, off, f->status,
-             IT2N_LOC_NOCONV);
+        need(c, c->err != 0 || f->status <= IT2N_LOC_NOCONV, off, f->status, IT2N_LOC_NOCONV);
         c_i64(c, &f->residual);
         c_vals(c, f->v, IT2N_CH_COUNT);
     }
@@ -335,10 +324,8 @@ static void c_sample_data(cur *c, it2n_msg_sample_data *s)
     total = (uint32_t)s->rows * s->cols;
     need(c, s->rows >= 2u, off, s->rows, 2);
     need(c, s->cols >= 2u, off + 2u, s->cols, 2);
-    need(c, s->count >= 1u && s->count <= IT2N_SAMPLE_MAX, off + 8u, s->count,
-         IT2N_SAMPLE_MAX);
-    need(c, s->start < total && s->count <= total - s->start, off + 4u,
-         s->start, total);
+    need(c, s->count >= 1u && s->count <= IT2N_SAMPLE_MAX, off + 8u, s->count, IT2N_SAMPLE_MAX);
+    need(c, s->start < total && s->count <= total - s->start, off + 4u, s->start, total);
     for (k = 0; k < s->count && c->err == 0; k++)
         c_vals(c, s->v[k], IT2N_CH_COUNT);
 }
@@ -356,8 +343,7 @@ static void c_net_row(cur *c, it2n_msg_net_row *r)
     if (c->err != 0)
         return;
     need(c, r->n >= 1u && r->n <= IT2N_MAX_DEGREE, off, r->n, IT2N_MAX_DEGREE);
-    need(c, r->m >= 1u && r->m <= IT2N_MAX_DEGREE, off + 1u, r->m,
-         IT2N_MAX_DEGREE);
+    need(c, r->m >= 1u && r->m <= IT2N_MAX_DEGREE, off + 1u, r->m, IT2N_MAX_DEGREE);
     need(c, r->row <= r->n, off + 2u, r->row, r->n);
     for (k = 0; k <= r->m && c->err == 0; k++)
         c_vals(c, r->v[k], IT2N_CH_COUNT);
@@ -370,14 +356,12 @@ static void c_status(cur *c, it2n_msg_status *s)
     c_model(c, &s->model, false);
     off = c->pos;
     c_u8(c, &s->state);
-    need(c, c->err != 0 || s->state <= IT2N_MS_ERROR, off, s->state,
-         IT2N_MS_ERROR);
+    need(c, c->err != 0 || s->state <= IT2N_MS_ERROR, off, s->state, IT2N_MS_ERROR);
     c_u8(c, &s->n);
     c_u8(c, &s->m);
     off = c->pos;
     c_u8(c, &s->flags);
-    need(c, c->err != 0 || (s->flags & ~IT2N_F_ALL) == 0u, off, s->flags,
-         IT2N_F_ALL);
+    need(c, c->err != 0 || (s->flags & ~IT2N_F_ALL) == 0u, off, s->flags, IT2N_F_ALL);
     c_u16(c, &s->missing);
     c_u32(c, &s->generation);
     c_i16(c, &s->last_error);
@@ -411,8 +395,7 @@ static void codec(cur *c, it2n_msg *m)
         c_u16(c, &m->u.sample.rows);
         c_u16(c, &m->u.sample.cols);
         need(c, c->err != 0 || m->u.sample.rows >= 2u, off, m->u.sample.rows, 2);
-        need(c, c->err != 0 || m->u.sample.cols >= 2u, off + 2u,
-             m->u.sample.cols, 2);
+        need(c, c->err != 0 || m->u.sample.cols >= 2u, off + 2u, m->u.sample.cols, 2);
         break;
     }
     case IT2N_MSG_GET_NET:
@@ -449,8 +432,7 @@ static void codec(cur *c, it2n_msg *m)
     }
 }
 
-int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
-                  it2n_proto_errinfo *err)
+int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap, it2n_proto_errinfo *err)
 {
     cur c;
 
@@ -493,17 +475,14 @@ static size_t expected_len(uint8_t type, const uint8_t *p, size_t len)
     case IT2N_MSG_NACK: return 34u;
     case IT2N_MSG_QUERY_RESULT: return 447u;
     case IT2N_MSG_LOCATE_RESULT: return 474u;
-    case IT2N_MSG_SAMPLE_DATA:
-        return len >= 13u ? IT2N_SAMPLE_HDR + IT2N_SAMPLE_POINT * (size_t)p[12] : 0u;
-    case IT2N_MSG_NET_ROW:
-        return len >= 6u ? IT2N_NET_ROW_HDR + IT2N_SAMPLE_POINT * ((size_t)p[5] + 1u) : 0u;
+    case IT2N_MSG_SAMPLE_DATA: return len >= 13u ? IT2N_SAMPLE_HDR + IT2N_SAMPLE_POINT * (size_t)p[12] : 0u;
+    case IT2N_MSG_NET_ROW: return len >= 6u ? IT2N_NET_ROW_HDR + IT2N_SAMPLE_POINT * ((size_t)p[5] + 1u) : 0u;
     case IT2N_MSG_STATUS: return 15u;
     default: return 0u;
     }
 }
 
-int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
-                    it2n_proto_errinfo *err)
+int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg, it2n_proto_errinfo *err)
 {
     cur c;
 

@@ -82,10 +82,14 @@ enum it2n_msg_type {
 #define IT2N_NET_ROW_HDR 7u
 
 /* Most entries in one PUT / points in one SAMPLE_DATA (payload-bound). */
-#define IT2N_PUT_MAX ((IT2N_PROTO_MAX_PAYLOAD - IT2N_PUT_HDR) / IT2N_PUT_ENTRY > 255u \
-    ? 255u : (IT2N_PROTO_MAX_PAYLOAD - IT2N_PUT_HDR) / IT2N_PUT_ENTRY)
-#define IT2N_SAMPLE_MAX ((IT2N_PROTO_MAX_PAYLOAD - IT2N_SAMPLE_HDR) / IT2N_SAMPLE_POINT > 255u \
-    ? 255u : (IT2N_PROTO_MAX_PAYLOAD - IT2N_SAMPLE_HDR) / IT2N_SAMPLE_POINT)
+#define IT2N_PUT_MAX                                                 \
+    ((IT2N_PROTO_MAX_PAYLOAD - IT2N_PUT_HDR) / IT2N_PUT_ENTRY > 255u \
+         ? 255u                                                      \
+         : (IT2N_PROTO_MAX_PAYLOAD - IT2N_PUT_HDR) / IT2N_PUT_ENTRY)
+#define IT2N_SAMPLE_MAX                                                    \
+    ((IT2N_PROTO_MAX_PAYLOAD - IT2N_SAMPLE_HDR) / IT2N_SAMPLE_POINT > 255u \
+         ? 255u                                                            \
+         : (IT2N_PROTO_MAX_PAYLOAD - IT2N_SAMPLE_HDR) / IT2N_SAMPLE_POINT)
 
 /* Q2.30 wire parameter, 1.0 = 0x40000000. */
 #define IT2N_WIRE_PAR_ONE 0x40000000u
@@ -128,9 +132,9 @@ typedef struct it2n_msg_configure {
 } it2n_msg_configure;
 
 typedef struct it2n_put_entry {
-    uint8_t i, j, fp;               /* grid point (0..255: the model's n, m
+    uint8_t i, j, fp;             /* grid point (0..255: the model's n, m
                                        bound it), footprint (enum it2n_fp) */
-    it2n_val vals[IT2N_CH_COUNT];   /* x, y, z, T, I, F in Q24; T, I, F in
+    it2n_val vals[IT2N_CH_COUNT]; /* x, y, z, T, I, F in Q24; T, I, F in
                                        Q30 with IT2N_PUT_FINE              */
 } it2n_put_entry;
 
@@ -164,8 +168,11 @@ typedef struct it2n_msg_get_net {
 
 /* EVENT kinds. */
 enum it2n_event_kind {
-    IT2N_EV_CONFIGURED = 1, IT2N_EV_UPDATED = 2, IT2N_EV_SOLVED = 3,
-    IT2N_EV_RESET = 4, IT2N_EV_ERROR = 5,
+    IT2N_EV_CONFIGURED = 1,
+    IT2N_EV_UPDATED = 2,
+    IT2N_EV_SOLVED = 3,
+    IT2N_EV_RESET = 4,
+    IT2N_EV_ERROR = 5,
     /* v1.1: the sender declared the link down and dropped frames it could
      * not deliver: model 0xFF, code IT2N_PROTO_ERR_DOWN, generation = the
      * number of reliable frames dropped. */
@@ -173,9 +180,9 @@ enum it2n_event_kind {
 };
 
 typedef struct it2n_msg_event {
-    uint8_t model, kind;  /* enum it2n_event_kind           */
-    int16_t code;         /* error code for IT2N_EV_ERROR   */
-    uint32_t generation;  /* it2n_model.generation after it */
+    uint8_t model, kind; /* enum it2n_event_kind           */
+    int16_t code;        /* error code for IT2N_EV_ERROR   */
+    uint32_t generation; /* it2n_model.generation after it */
 } it2n_msg_event;
 
 typedef struct it2n_msg_ack {
@@ -203,18 +210,18 @@ typedef struct it2n_msg_gap {
 #define IT2N_GAP12_LEN 12u
 
 typedef struct it2n_msg_nack {
-    uint16_t seq;  /* sequence number refused                       */
-    int16_t code;  /* enum it2n_error or enum it2n_proto_error      */
-    int16_t i, j;  /* grid point, or -1 (as it2n_errinfo)           */
-    int8_t fp, ch; /* footprint, channel, or -1                     */
+    uint16_t seq;           /* sequence number refused                       */
+    int16_t code;           /* enum it2n_error or enum it2n_proto_error      */
+    int16_t i, j;           /* grid point, or -1 (as it2n_errinfo)           */
+    int8_t fp, ch;          /* footprint, channel, or -1                     */
     it2n_val value, lo, hi; /* offending value and accepted range   */
 } it2n_msg_nack;
 
 typedef struct it2n_msg_query_result {
     uint16_t re;
     uint8_t model;
-    uint32_t u, w;           /* Q2.30 as queried                 */
-    uint32_t out_of_range;   /* as it2n_point.out_of_range       */
+    uint32_t u, w;         /* Q2.30 as queried                 */
+    uint32_t out_of_range; /* as it2n_point.out_of_range       */
     it2n_val v[IT2N_FP_COUNT][IT2N_CH_COUNT];
     it2n_summary sum;
 } it2n_msg_query_result;
@@ -249,10 +256,7 @@ typedef struct it2n_msg_net_row {
 } it2n_msg_net_row;
 
 /* Model states in STATUS. */
-enum it2n_model_state {
-    IT2N_MS_EMPTY = 0, IT2N_MS_COLLECTING = 1, IT2N_MS_SOLVED = 2,
-    IT2N_MS_ERROR = 3
-};
+enum it2n_model_state { IT2N_MS_EMPTY = 0, IT2N_MS_COLLECTING = 1, IT2N_MS_SOLVED = 2, IT2N_MS_ERROR = 3 };
 
 typedef struct it2n_msg_status {
     uint16_t re;
@@ -294,8 +298,7 @@ typedef struct it2n_msg {
  * IT2N_PROTO_ERR_NOSPACE; err (may be NULL) says which field.
  */
 #define it2n_msg_pack IT2N_PROTO_ABI(it2n_msg_pack)
-int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
-                  it2n_proto_errinfo *err);
+int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap, it2n_proto_errinfo *err);
 
 /*
  * Parse len payload bytes of a frame of `type` into *msg. Checks the exact
@@ -306,8 +309,7 @@ int it2n_msg_pack(const it2n_msg *msg, uint8_t *buf, size_t cap,
  * on error *msg is unspecified.
  */
 #define it2n_msg_unpack IT2N_PROTO_ABI(it2n_msg_unpack)
-int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg,
-                    it2n_proto_errinfo *err);
+int it2n_msg_unpack(uint8_t type, const uint8_t *p, size_t len, it2n_msg *msg, it2n_proto_errinfo *err);
 
 /* Session id carried by the SYN golden vector (00_hello) and by the v1.2
  * ones (every v1.2 payload starts with the session). */

@@ -50,8 +50,7 @@
 #if IT2N_PROTO_MAX_PAYLOAD < 480 || IT2N_PROTO_MAX_PAYLOAD > 65535
 #error "IT2N_PROTO_MAX_PAYLOAD must be within 480..65535"
 #endif
-#if IT2N_PROTO_WINDOW < 4 || IT2N_PROTO_WINDOW > 64 || \
-    (IT2N_PROTO_WINDOW & (IT2N_PROTO_WINDOW - 1)) != 0
+#if IT2N_PROTO_WINDOW < 4 || IT2N_PROTO_WINDOW > 64 || (IT2N_PROTO_WINDOW & (IT2N_PROTO_WINDOW - 1)) != 0
 #error "IT2N_PROTO_WINDOW must be a power of two within 4..64"
 #endif
 
@@ -92,8 +91,8 @@
 #endif
 #define IT2N_ABI_PROTO_(f, w, p, r, d) f##_abi_window##w##_payload##p##_reorder##r##_degree##d
 #define IT2N_ABI_PROTO(f, w, p, r, d) IT2N_ABI_PROTO_(f, w, p, r, d)
-#define IT2N_PROTO_ABI(f) IT2N_ABI_PROTO(f, IT2N_PROTO_WINDOW, IT2N_PROTO_MAX_PAYLOAD, \
-                                         IT2N_ABI_REORDER_, IT2N_MAX_DEGREE)
+#define IT2N_PROTO_ABI(f) \
+    IT2N_ABI_PROTO(f, IT2N_PROTO_WINDOW, IT2N_PROTO_MAX_PAYLOAD, IT2N_ABI_REORDER_, IT2N_MAX_DEGREE)
 
 #define IT2N_FRAME_HDR_SIZE 8
 #define IT2N_FRAME_CRC_SIZE 4
@@ -110,8 +109,9 @@
 #define IT2N_FRAME_MAX_WIRE (IT2N_COBS_MAX(IT2N_FRAME_MAX_RAW) + 1u)
 
 /* Header flags. */
-#define IT2N_FLAG_REL 0x01u  /* reliable: receiver answers ACK or NACK     */
-#define IT2N_FLAG_SYN 0x02u  /* first frame of a sequence; payload starts
+#define IT2N_FLAG_REL 0x01u /* reliable: receiver answers ACK or NACK     */
+#define IT2N_FLAG_SYN \
+    0x02u                    /* first frame of a sequence; payload starts
                                 with the sender's u32 session id       */
 #define IT2N_FLAG_RETX 0x04u /* retransmission (informational only)       */
 
@@ -198,16 +198,14 @@ typedef struct it2n_frame_hdr {
  * IT2N_PROTO_ERR_NOSPACE / IT2N_PROTO_ERR_OVERSIZE; out untouched on error
  * except for NOSPACE, where it may be partly written.
  */
-int it2n_frame_encode(const it2n_frame_hdr *hdr, const uint8_t *payload,
-                      size_t len, uint8_t *out, size_t cap);
+int it2n_frame_encode(const it2n_frame_hdr *hdr, const uint8_t *payload, size_t len, uint8_t *out, size_t cap);
 
 /*
  * Same, written through an output stream in blocks of at most 255 bytes,
  * with only a 255-byte buffer on the stack. Returns the wire length,
  * IT2N_PROTO_ERR_OVERSIZE or IT2N_PROTO_ERR_STREAM.
  */
-int it2n_frame_write(it2n_ostream *os, const it2n_frame_hdr *hdr,
-                     const uint8_t *payload, size_t len);
+int it2n_frame_write(it2n_ostream *os, const it2n_frame_hdr *hdr, const uint8_t *payload, size_t len);
 
 /* Decoder statistics: frames accepted and dropped per reason. */
 typedef struct it2n_frame_stats {
@@ -222,11 +220,11 @@ typedef struct it2n_frame_stats {
  * 0x00 to flush garbage at the receiver.
  */
 typedef struct it2n_frame_decoder {
-    uint16_t len;      /* bytes unstuffed so far                  */
-    uint8_t code;      /* bytes left in the current COBS block    */
-    uint8_t zero;      /* a 0x00 is due before the next block     */
-    uint8_t overflow;  /* frame too long: skipping to delimiter   */
-    uint8_t started;   /* at least one byte since last delimiter  */
+    uint16_t len;     /* bytes unstuffed so far                  */
+    uint8_t code;     /* bytes left in the current COBS block    */
+    uint8_t zero;     /* a 0x00 is due before the next block     */
+    uint8_t overflow; /* frame too long: skipping to delimiter   */
+    uint8_t started;  /* at least one byte since last delimiter  */
     it2n_frame_stats stats;
     uint8_t buf[IT2N_FRAME_MAX_RAW];
 } it2n_frame_decoder;
@@ -245,8 +243,7 @@ void it2n_frame_decoder_init(it2n_frame_decoder *d);
  *       _LENGTH, _VERSION). For _VERSION (CRC good) *hdr is filled so the
  *       receiver can answer the peer.
  */
-int it2n_frame_decode(it2n_frame_decoder *d, const uint8_t *data, size_t len,
-                      size_t *used, it2n_frame_hdr *hdr,
+int it2n_frame_decode(it2n_frame_decoder *d, const uint8_t *data, size_t len, size_t *used, it2n_frame_hdr *hdr,
                       const uint8_t **payload);
 
 /*

@@ -64,8 +64,7 @@ static int check_one(unsigned k, selftest_mem *t)
 
     if (it2n_proto_vector(k, &hdr, &t->msg) == NULL)
         return 1;
-    sess = ((hdr.flags & IT2N_FLAG_SYN) != 0u || hdr.version == IT2N_PROTO_VERSION_12)
-               ? IT2N_FRAME_SESSION_SIZE : 0u;
+    sess = ((hdr.flags & IT2N_FLAG_SYN) != 0u || hdr.version == IT2N_PROTO_VERSION_12) ? IT2N_FRAME_SESSION_SIZE : 0u;
     len = it2n_msg_pack(&t->msg, t->payload + sess, IT2N_PROTO_MAX_PAYLOAD, NULL);
     if (len < 0)
         return 2;
@@ -84,9 +83,8 @@ static int check_one(unsigned k, selftest_mem *t)
         return 3;
     it2n_frame_decoder_init(&t->dec);
     r = it2n_frame_decode(&t->dec, g->bytes, g->len, &used, &got, &p);
-    if (r != 1 || used != g->len || got.type != hdr.type || got.version != hdr.version ||
-        got.seq != hdr.seq || got.flags != hdr.flags || got.len != hdr.len ||
-        !same(p, t->payload, got.len))
+    if (r != 1 || used != g->len || got.type != hdr.type || got.version != hdr.version || got.seq != hdr.seq ||
+        got.flags != hdr.flags || got.len != hdr.len || !same(p, t->payload, got.len))
         return 4;
     if (it2n_msg_unpack(got.type, p + sess, got.len - sess, &t->back, NULL) != IT2N_OK)
         return 5;

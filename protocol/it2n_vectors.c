@@ -253,21 +253,19 @@ static void fill(unsigned k, it2n_msg *m)
 const char *it2n_proto_vector(unsigned k, it2n_frame_hdr *hdr, it2n_msg *msg)
 {
     static const char *const names[IT2N_VECTOR_COUNT] = {
-        "hello", "configure", "put", "commit", "query", "locate", "sample",
-        "get_net", "get_status", "reset", "event", "ack", "nack",
-        "query_result", "locate_result", "sample_data", "net_row", "status",
-        "gap", "configure_bspline", "gap_held", "ack_acked", "rcvd",
-        "put_fine"};
+        "hello",  "configure",         "put",           "commit",      "query",   "locate",
+        "sample", "get_net",           "get_status",    "reset",       "event",   "ack",
+        "nack",   "query_result",      "locate_result", "sample_data", "net_row", "status",
+        "gap",    "configure_bspline", "gap_held",      "ack_acked",   "rcvd",    "put_fine"};
 
     if (k >= IT2N_VECTOR_COUNT)
         return NULL;
     memset(msg, 0, sizeof *msg);
     fill(k, msg);
-    hdr->version = k >= IT2N_VECTOR_FIRST_V12 ? (uint8_t)IT2N_PROTO_VERSION_12
-                                              : (uint8_t)IT2N_PROTO_VERSION;
+    hdr->version = k >= IT2N_VECTOR_FIRST_V12 ? (uint8_t)IT2N_PROTO_VERSION_12 : (uint8_t)IT2N_PROTO_VERSION;
     hdr->type = msg->type;
-    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK ||
-        msg->type == IT2N_MSG_GAP || msg->type == IT2N_MSG_RCVD) {
+    if (msg->type == IT2N_MSG_ACK || msg->type == IT2N_MSG_NACK || msg->type == IT2N_MSG_GAP ||
+        msg->type == IT2N_MSG_RCVD) {
         hdr->flags = 0;
         hdr->seq = 0;
     } else {

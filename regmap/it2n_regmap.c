@@ -235,7 +235,7 @@ const it2n_regmap_block *it2n_regmap_find(unsigned addr, unsigned count)
 
 const char *it2n_regmap_type_name(unsigned type)
 {
-    static const char *const names[] = { "u16", "i16", "u32", "i32", "f32" };
+    static const char *const names[] = {"u16", "i16", "u32", "i32", "f32"};
     return type < 5u ? names[type] : "?";
 }
 

@@ -29,8 +29,8 @@
 /* Stride of the control-net read-out in i and j, independent of the core's
  * compile-time IT2N_MAX_DEGREE so addresses never move. */
 #define IT2N_REGMAP_DIM 8u
-#define IT2N_REGMAP_FP 7u  /* footprints LL..RR */
-#define IT2N_REGMAP_CH 6u  /* channels x, y, z, T, I, F */
+#define IT2N_REGMAP_FP 7u /* footprints LL..RR */
+#define IT2N_REGMAP_CH 6u /* channels x, y, z, T, I, F */
 #define IT2N_REGMAP_GRID_MAX_NODES 256u
 
 /* Membership scale of every scaled-integer membership register. */
@@ -38,21 +38,21 @@
 
 /* ---- Status (read-only) ---- */
 #define IT2N_REGMAP_REG_MAP_VERSION 0u
-#define IT2N_REGMAP_REG_STATE 1u        /* enum it2n_regmap_state            */
+#define IT2N_REGMAP_REG_STATE 1u /* enum it2n_regmap_state            */
 #define IT2N_REGMAP_REG_N 2u
 #define IT2N_REGMAP_REG_M 3u
 #define IT2N_REGMAP_REG_FLAGS 4u
-#define IT2N_REGMAP_REG_PRESENT 5u      /* (i, j, footprint) entries present */
-#define IT2N_REGMAP_REG_REQUIRED 6u     /* entries a complete model needs    */
-#define IT2N_REGMAP_REG_GENERATION 7u   /* u32, bumped on every solve/update */
-#define IT2N_REGMAP_REG_LAST_ERR 9u     /* i16 it2n error code, 0 = none     */
+#define IT2N_REGMAP_REG_PRESENT 5u    /* (i, j, footprint) entries present */
+#define IT2N_REGMAP_REG_REQUIRED 6u   /* entries a complete model needs    */
+#define IT2N_REGMAP_REG_GENERATION 7u /* u32, bumped on every solve/update */
+#define IT2N_REGMAP_REG_LAST_ERR 9u   /* i16 it2n error code, 0 = none     */
 #define IT2N_REGMAP_REG_ERR_I 10u
 #define IT2N_REGMAP_REG_ERR_J 11u
 #define IT2N_REGMAP_REG_ERR_FP 12u
-#define IT2N_REGMAP_REG_POINTS_RX 13u   /* u32 */
-#define IT2N_REGMAP_REG_SOLVES 15u      /* u32 */
-#define IT2N_REGMAP_REG_REQUESTS 17u    /* u32 */
-#define IT2N_REGMAP_REG_EXCEPTIONS 19u  /* u32 */
+#define IT2N_REGMAP_REG_POINTS_RX 13u  /* u32 */
+#define IT2N_REGMAP_REG_SOLVES 15u     /* u32 */
+#define IT2N_REGMAP_REG_REQUESTS 17u   /* u32 */
+#define IT2N_REGMAP_REG_EXCEPTIONS 19u /* u32 */
 #define IT2N_REGMAP_REG_WORD_ORDER 21u
 #define IT2N_REGMAP_REG_COORD_SCALE 22u
 #define IT2N_REGMAP_REG_GRID_ROWS 23u
@@ -77,23 +77,23 @@
 #define IT2N_REGMAP_REG_UP_I 40u
 #define IT2N_REGMAP_REG_UP_J 41u
 #define IT2N_REGMAP_REG_UP_FP 42u
-#define IT2N_REGMAP_REG_UP_X 43u  /* i32 scaled by the coordinate scale */
+#define IT2N_REGMAP_REG_UP_X 43u /* i32 scaled by the coordinate scale */
 #define IT2N_REGMAP_REG_UP_Y 45u
 #define IT2N_REGMAP_REG_UP_Z 47u
-#define IT2N_REGMAP_REG_UP_T 49u  /* u16 x10000 */
+#define IT2N_REGMAP_REG_UP_T 49u /* u16 x10000 */
 #define IT2N_REGMAP_REG_UP_I_M 50u
 #define IT2N_REGMAP_REG_UP_F 51u
 #define IT2N_REGMAP_REG_UPLOAD_END 52u
 
 /* ---- Query inputs (read/write, per connection) ---- */
-#define IT2N_REGMAP_REG_Q_U16 64u   /* u x10000 */
-#define IT2N_REGMAP_REG_Q_W16 65u   /* w x10000 */
-#define IT2N_REGMAP_REG_Q_UF 66u    /* f32 */
-#define IT2N_REGMAP_REG_Q_WF 68u    /* f32 */
-#define IT2N_REGMAP_REG_Q_XS 70u    /* i32 scaled */
-#define IT2N_REGMAP_REG_Q_YS 72u    /* i32 scaled */
-#define IT2N_REGMAP_REG_Q_XF 74u    /* f32 */
-#define IT2N_REGMAP_REG_Q_YF 76u    /* f32 */
+#define IT2N_REGMAP_REG_Q_U16 64u /* u x10000 */
+#define IT2N_REGMAP_REG_Q_W16 65u /* w x10000 */
+#define IT2N_REGMAP_REG_Q_UF 66u  /* f32 */
+#define IT2N_REGMAP_REG_Q_WF 68u  /* f32 */
+#define IT2N_REGMAP_REG_Q_XS 70u  /* i32 scaled */
+#define IT2N_REGMAP_REG_Q_YS 72u  /* i32 scaled */
+#define IT2N_REGMAP_REG_Q_XF 74u  /* f32 */
+#define IT2N_REGMAP_REG_Q_YF 76u  /* f32 */
 #define IT2N_REGMAP_REG_QUERY_END 78u
 
 /* ---- Point counts as u32 (read-only): a B-spline grid may need more
@@ -109,25 +109,25 @@
 #define IT2N_REGMAP_REG_PAGE_END 99u
 
 /* ---- Query status (read-only, per connection) ---- */
-#define IT2N_REGMAP_REG_Q_KIND 80u     /* 0 none, 1 (u, w), 2 (x, y)        */
-#define IT2N_REGMAP_REG_Q_GEN 81u      /* u32 model generation of the result */
-#define IT2N_REGMAP_REG_Q_LOCFAIL 83u  /* bit fp: (x, y) not inside surface  */
-#define IT2N_REGMAP_REG_Q_OOR 84u      /* u32, bit fp*3+k: membership k outside [0,1] */
+#define IT2N_REGMAP_REG_Q_KIND 80u    /* 0 none, 1 (u, w), 2 (x, y)        */
+#define IT2N_REGMAP_REG_Q_GEN 81u     /* u32 model generation of the result */
+#define IT2N_REGMAP_REG_Q_LOCFAIL 83u /* bit fp: (x, y) not inside surface  */
+#define IT2N_REGMAP_REG_Q_OOR 84u     /* u32, bit fp*3+k: membership k outside [0,1] */
 #define IT2N_REGMAP_REG_QSTATUS_END 86u
 
 /* ---- Results ---- */
-#define IT2N_REGMAP_REG_RES_F32 128u      /* f32 v[fp][ch], 2 words each   */
-#define IT2N_REGMAP_REG_SUM_F32 212u      /* f32 summary, 12 values        */
-#define IT2N_REGMAP_REG_RES_SCALED 256u   /* per fp: x,y,z i32; T,I,F i16  */
+#define IT2N_REGMAP_REG_RES_F32 128u    /* f32 v[fp][ch], 2 words each   */
+#define IT2N_REGMAP_REG_SUM_F32 212u    /* f32 summary, 12 values        */
+#define IT2N_REGMAP_REG_RES_SCALED 256u /* per fp: x,y,z i32; T,I,F i16  */
 #define IT2N_REGMAP_REG_RES_SCALED_STRIDE 9u
-#define IT2N_REGMAP_REG_SUM_SCALED 320u   /* i16 x10000, 12 values         */
-#define IT2N_REGMAP_REG_SAT 332u          /* per fp saturation mask, bit ch */
-#define IT2N_REGMAP_REG_SAT_SUM 339u      /* summary saturation mask, bit k */
+#define IT2N_REGMAP_REG_SUM_SCALED 320u /* i16 x10000, 12 values         */
+#define IT2N_REGMAP_REG_SAT 332u        /* per fp saturation mask, bit ch */
+#define IT2N_REGMAP_REG_SAT_SUM 339u    /* summary saturation mask, bit k */
 #define IT2N_REGMAP_REG_RESULTS_END 340u
 
 /* ---- Coefficient window (read-only, per connection): f32 coefficients
  * of the selected row, up to IT2N_REGMAP_WIN_COLS ---- */
-#define IT2N_REGMAP_WIN_COLS 258u  /* a 256 x 256 B-spline net has 258 columns */
+#define IT2N_REGMAP_WIN_COLS 258u /* a 256 x 256 B-spline net has 258 columns */
 #define IT2N_REGMAP_WIN_ROWS 258u
 #define IT2N_REGMAP_REG_WIN 384u
 #define IT2N_REGMAP_REG_WIN_END (IT2N_REGMAP_REG_WIN + 2u * IT2N_REGMAP_WIN_COLS)
@@ -150,8 +150,8 @@
 
 /* Values of IT2N_REGMAP_REG_KIND. */
 enum it2n_regmap_kind {
-    IT2N_REGMAP_KIND_BEZIER = 0,  /* one Bezier patch, degrees 1..7 */
-    IT2N_REGMAP_KIND_BSPLINE = 1  /* cubic B-spline, not-a-knot, 1..255 intervals */
+    IT2N_REGMAP_KIND_BEZIER = 0, /* one Bezier patch, degrees 1..7 */
+    IT2N_REGMAP_KIND_BSPLINE = 1 /* cubic B-spline, not-a-knot, 1..255 intervals */
 };
 
 /* Values of IT2N_REGMAP_REG_STATE. */
@@ -171,16 +171,19 @@ enum it2n_regmap_cmd {
 /* Word orders for float32 (IT2N_REGMAP_REG_WORD_ORDER); A is the most significant
  * byte of the IEEE-754 value. */
 enum it2n_regmap_order {
-    IT2N_REGMAP_WO_ABCD = 0, IT2N_REGMAP_WO_CDAB = 1, IT2N_REGMAP_WO_BADC = 2, IT2N_REGMAP_WO_DCBA = 3
+    IT2N_REGMAP_WO_ABCD = 0,
+    IT2N_REGMAP_WO_CDAB = 1,
+    IT2N_REGMAP_WO_BADC = 2,
+    IT2N_REGMAP_WO_DCBA = 3
 };
 
 /* Register value types. */
 enum it2n_regmap_type {
     IT2N_REGMAP_TYPE_U16 = 0,
     IT2N_REGMAP_TYPE_I16,
-    IT2N_REGMAP_TYPE_U32,   /* two registers, int32_word_order (default: as float) */
-    IT2N_REGMAP_TYPE_I32,   /* two registers, int32_word_order (default: as float) */
-    IT2N_REGMAP_TYPE_F32    /* two registers, configured word order */
+    IT2N_REGMAP_TYPE_U32, /* two registers, int32_word_order (default: as float) */
+    IT2N_REGMAP_TYPE_I32, /* two registers, int32_word_order (default: as float) */
+    IT2N_REGMAP_TYPE_F32  /* two registers, configured word order */
 };
 
 /* Scale of a field: 1 plain, IT2N_REGMAP_SCALE_COORD the configured
@@ -196,8 +199,8 @@ typedef struct it2n_regmap_field {
     uint16_t addr;
     uint16_t count;
     uint16_t stride;
-    uint8_t type;      /* enum it2n_regmap_type */
-    int32_t scale;     /* 1, IT2N_REGMAP_SCALE_COORD or a divisor */
+    uint8_t type;  /* enum it2n_regmap_type */
+    int32_t scale; /* 1, IT2N_REGMAP_SCALE_COORD or a divisor */
     const char *name;
     const char *unit;
     const char *desc;
@@ -208,9 +211,9 @@ typedef struct it2n_regmap_field {
  * exception 02. */
 typedef struct it2n_regmap_block {
     uint16_t start;
-    uint16_t end;       /* one past the last register */
-    uint8_t access;     /* enum it2n_regmap_access */
-    uint8_t per_conn;   /* 1: values belong to the Modbus connection */
+    uint16_t end;     /* one past the last register */
+    uint8_t access;   /* enum it2n_regmap_access */
+    uint8_t per_conn; /* 1: values belong to the Modbus connection */
     const char *name;
     const char *desc;
     const it2n_regmap_field *fields;

@@ -20,10 +20,22 @@ void it2n_regmap_put_u32(uint16_t out[2], uint32_t v, unsigned order)
 {
     uint16_t hi = (uint16_t)(v >> 16), lo = (uint16_t)v;
     switch (order) {
-    case IT2N_REGMAP_WO_CDAB: out[0] = lo; out[1] = hi; break;
-    case IT2N_REGMAP_WO_BADC: out[0] = swap16(hi); out[1] = swap16(lo); break;
-    case IT2N_REGMAP_WO_DCBA: out[0] = swap16(lo); out[1] = swap16(hi); break;
-    default: out[0] = hi; out[1] = lo; break;
+    case IT2N_REGMAP_WO_CDAB:
+        out[0] = lo;
+        out[1] = hi;
+        break;
+    case IT2N_REGMAP_WO_BADC:
+        out[0] = swap16(hi);
+        out[1] = swap16(lo);
+        break;
+    case IT2N_REGMAP_WO_DCBA:
+        out[0] = swap16(lo);
+        out[1] = swap16(hi);
+        break;
+    default:
+        out[0] = hi;
+        out[1] = lo;
+        break;
     }
 }
 
@@ -31,10 +43,22 @@ uint32_t it2n_regmap_get_u32(const uint16_t in[2], unsigned order)
 {
     uint16_t hi, lo;
     switch (order) {
-    case IT2N_REGMAP_WO_CDAB: hi = in[1]; lo = in[0]; break;
-    case IT2N_REGMAP_WO_BADC: hi = swap16(in[0]); lo = swap16(in[1]); break;
-    case IT2N_REGMAP_WO_DCBA: hi = swap16(in[1]); lo = swap16(in[0]); break;
-    default: hi = in[0]; lo = in[1]; break;
+    case IT2N_REGMAP_WO_CDAB:
+        hi = in[1];
+        lo = in[0];
+        break;
+    case IT2N_REGMAP_WO_BADC:
+        hi = swap16(in[0]);
+        lo = swap16(in[1]);
+        break;
+    case IT2N_REGMAP_WO_DCBA:
+        hi = swap16(in[1]);
+        lo = swap16(in[0]);
+        break;
+    default:
+        hi = in[0];
+        lo = in[1];
+        break;
     }
     return ((uint32_t)hi << 16) | lo;
 }
@@ -60,8 +84,7 @@ float it2n_regmap_q24_to_f32(int64_t v)
     return (float)((double)v * (1.0 / (double)((int64_t)1 << IT2N_REGMAP_Q24_FRAC)));
 }
 
-#if defined(__x86_64__) && defined(__SSE2__) && defined(__GNUC__) && __STDC_HOSTED__ && \
-    !defined(IT2N_NO_SIMD)
+#if defined(__x86_64__) && defined(__SSE2__) && defined(__GNUC__) && __STDC_HOSTED__ && !defined(IT2N_NO_SIMD)
 /*
  * x86-64 hosts (every FC 23 answer of it2nd carries 54 of these): four
  * values per step with SSE2. A Q24 value v below 2^51 in magnitude, added
@@ -101,14 +124,14 @@ static size_t put_q24_f32s_sse2(uint16_t *out, const int64_t *v, size_t n, unsig
 {
     __m128i bad = _mm_setzero_si128();
     size_t k = 0;
-#define IT2N_REGMAP_F32S_LOOP(wo)                                                                  \
-    for (k = 0; k + 4u <= n; k += 4u) {                                                            \
-        __m128i lo = f32x2(v + k, &bad), hi = f32x2(v + k + 2u, &bad);                             \
+#define IT2N_REGMAP_F32S_LOOP(wo)                                                                         \
+    for (k = 0; k + 4u <= n; k += 4u) {                                                                   \
+        __m128i lo = f32x2(v + k, &bad), hi = f32x2(v + k + 2u, &bad);                                    \
         _mm_storeu_si128((__m128i *)(void *)(out + 2u * k), f32_order(_mm_unpacklo_epi64(lo, hi), (wo))); \
-    }                                                                                              \
-    if (k + 2u <= n) {                                                                             \
-        _mm_storel_epi64((__m128i *)(void *)(out + 2u * k), f32_order(f32x2(v + k, &bad), (wo)));  \
-        k += 2u;                                                                                   \
+    }                                                                                                     \
+    if (k + 2u <= n) {                                                                                    \
+        _mm_storel_epi64((__m128i *)(void *)(out + 2u * k), f32_order(f32x2(v + k, &bad), (wo)));         \
+        k += 2u;                                                                                          \
     }
     switch (order) {
     case IT2N_REGMAP_WO_CDAB: IT2N_REGMAP_F32S_LOOP(IT2N_REGMAP_WO_CDAB); break;
@@ -133,11 +156,11 @@ void it2n_regmap_put_q24_f32s(uint16_t *out, const int64_t *v, size_t n, unsigne
     if (put_q24_f32s_sse2(out, v, n, order) == n)
         return;
 #endif
-    /* One loop per order, so the order is a constant inside it (the result
+        /* One loop per order, so the order is a constant inside it (the result
      * block is read with every query). */
-#define IT2N_REGMAP_PUT_F32S(wo)                                                    \
-    for (k = 0; k < n; k++)                                                         \
-        it2n_regmap_put_f32(&out[2 * k], it2n_regmap_q24_to_f32(v[k]), (wo))
+#define IT2N_REGMAP_PUT_F32S(wo) \
+    for (k = 0; k < n; k++)      \
+    it2n_regmap_put_f32(&out[2 * k], it2n_regmap_q24_to_f32(v[k]), (wo))
     switch (order) {
     case IT2N_REGMAP_WO_CDAB: IT2N_REGMAP_PUT_F32S(IT2N_REGMAP_WO_CDAB); break;
     case IT2N_REGMAP_WO_BADC: IT2N_REGMAP_PUT_F32S(IT2N_REGMAP_WO_BADC); break;

@@ -26,8 +26,7 @@ int cli_parse_pair(const char *s, bool par, cli_at *out, const char **why)
         return -1;
     }
     if (rc1 != IT2N_OK || rc2 != IT2N_OK) {
-        *why = par ? "parameters must lie in [0,1]"
-                   : "coordinate beyond IT2N_COORD_LIMIT";
+        *why = par ? "parameters must lie in [0,1]" : "coordinate beyond IT2N_COORD_LIMIT";
         return -1;
     }
     return 0;

@@ -32,22 +32,22 @@ typedef struct cli_at {
 } cli_at;
 
 typedef struct cli_opts {
-    const char *cmd;      /* subcommand name                  */
-    const char *path;     /* DATA.csv, "-" for stdin          */
-    unsigned flags;       /* extra IT2N_F_* (CHORD)           */
-    unsigned decimals;    /* 0..9 (parameters: at least 6)    */
-    bool summary;         /* eval/sample: interval summary    */
-    unsigned rows, cols;  /* sample --grid                    */
-    cli_at *at;           /* --at list (malloc'd)             */
+    const char *cmd;     /* subcommand name                  */
+    const char *path;    /* DATA.csv, "-" for stdin          */
+    unsigned flags;      /* extra IT2N_F_* (CHORD)           */
+    unsigned decimals;   /* 0..9 (parameters: at least 6)    */
+    bool summary;        /* eval/sample: interval summary    */
+    unsigned rows, cols; /* sample --grid                    */
+    cli_at *at;          /* --at list (malloc'd)             */
     size_t nat;
-    unsigned fpmask;      /* --footprint: bit per IT2N_FP_*, 0 = all */
-    int membership;       /* plot/export: 0..2 = T,I,F; -1 = all     */
-    bool interval;        /* plot --interval: band heat map   */
-    const char *output;   /* plot/export -o FILE (NULL: stdout) */
-    int format;           /* export --format: CLI_FMT_*       */
+    unsigned fpmask;        /* --footprint: bit per IT2N_FP_*, 0 = all */
+    int membership;         /* plot/export: 0..2 = T,I,F; -1 = all     */
+    bool interval;          /* plot --interval: band heat map   */
+    const char *output;     /* plot/export -o FILE (NULL: stdout) */
+    int format;             /* export --format: CLI_FMT_*       */
     unsigned width, height; /* plot --size WxH (pixels); 0: by figure */
-    bool nets;            /* plot --nets: draw the control nets */
-    int kind;             /* --kind: CLI_KIND_*               */
+    bool nets;              /* plot --nets: draw the control nets */
+    int kind;               /* --kind: CLI_KIND_*               */
 } cli_opts;
 
 /* --kind: the paper's Bezier patch (default) or the cubic B-spline. */
@@ -94,10 +94,21 @@ enum {
 
 /* Ids of the shared options; a program's own ids start at CLI_OPT_PROG. */
 enum {
-    CLI_OPT_KIND = 0, CLI_OPT_CHORD, CLI_OPT_DECIMALS, CLI_OPT_HELP,
-    CLI_OPT_VERSION, CLI_OPT_AT, CLI_OPT_SUMMARY, CLI_OPT_GRID, CLI_OPT_FP,
-    CLI_OPT_OUTPUT, CLI_OPT_MEMB, CLI_OPT_INTERVAL, CLI_OPT_NETS,
-    CLI_OPT_SIZE, CLI_OPT_PROG = 24
+    CLI_OPT_KIND = 0,
+    CLI_OPT_CHORD,
+    CLI_OPT_DECIMALS,
+    CLI_OPT_HELP,
+    CLI_OPT_VERSION,
+    CLI_OPT_AT,
+    CLI_OPT_SUMMARY,
+    CLI_OPT_GRID,
+    CLI_OPT_FP,
+    CLI_OPT_OUTPUT,
+    CLI_OPT_MEMB,
+    CLI_OPT_INTERVAL,
+    CLI_OPT_NETS,
+    CLI_OPT_SIZE,
+    CLI_OPT_PROG = 24
 };
 
 /* The shared table (its labels are it2n's "Common options" of --help). */
@@ -109,10 +120,10 @@ extern const cli_optset cli_common_opts;
  * and its help printers.
  */
 typedef struct cli_prog {
-    const char *name;           /* "it2n", for messages and --version     */
-    const void *cmds;           /* the command table                      */
+    const char *name; /* "it2n", for messages and --version     */
+    const void *cmds; /* the command table                      */
     size_t ncmds, stride;
-    void (*usage_all)(FILE *out);      /* `PROG --help`                   */
+    void (*usage_all)(FILE *out);       /* `PROG --help`                   */
     void (*usage_cmd)(const void *cmd); /* `PROG --help CMD`              */
     /* Options before the command (NULL: not allowed): move the command to
      * argv[1]; -1, or an exit status after a message. */
@@ -152,12 +163,12 @@ bool cli_parse_fps(const char *s, unsigned *mask);
  */
 typedef struct cli_surface {
     const it2n_model *bez;
-    const it2n_dataset *ds;         /* Bezier data, or NULL  */
+    const it2n_dataset *ds; /* Bezier data, or NULL  */
     const it2n_bspline_model *bsp;
-    const it2n_bspline_data *bds;   /* B-spline data, or NULL */
+    const it2n_bspline_data *bds; /* B-spline data, or NULL */
 } cli_surface;
 
-unsigned cli_surf_n(const cli_surface *s);     /* intervals (Bezier: degree) */
+unsigned cli_surf_n(const cli_surface *s); /* intervals (Bezier: degree) */
 unsigned cli_surf_m(const cli_surface *s);
 unsigned cli_surf_flags(const cli_surface *s);
 bool cli_surf_has_fp(const cli_surface *s, unsigned fp);
@@ -191,15 +202,12 @@ typedef struct cli_mesh {
 } cli_mesh;
 
 /* Fill mesh from it2n_sample; returns an exit status (message printed). */
-int cli_mesh_sample(cli_mesh *mesh, const cli_surface *mdl, unsigned rows,
-                    unsigned cols);
+int cli_mesh_sample(cli_mesh *mesh, const cli_surface *mdl, unsigned rows, unsigned cols);
 void cli_mesh_free(cli_mesh *mesh);
 
-static inline it2n_val cli_mesh_at(const cli_mesh *m, unsigned r, unsigned c,
-                                   unsigned fp, unsigned ch)
+static inline it2n_val cli_mesh_at(const cli_mesh *m, unsigned r, unsigned c, unsigned fp, unsigned ch)
 {
-    return m->v[(((size_t)r * m->cols + c) * IT2N_FP_COUNT + fp) *
-                    IT2N_CH_COUNT + ch];
+    return m->v[(((size_t)r * m->cols + c) * IT2N_FP_COUNT + fp) * IT2N_CH_COUNT + ch];
 }
 
 /* it2n plot and it2n export (plot.c, export.c); the model is solved. */

@@ -9,39 +9,27 @@
 #define CLI_GRID_DEFAULT 21u
 
 static const cli_opt common[] = {
-    {"kind", 0, CLI_ARG_WORD, CLI_OPT_KIND, CLI_O_KIND, 0, 0, "bezier|bspline",
-     "expected bezier or bspline", "(the daemon's model has its kind)",
-     "--kind K",
+    {"kind", 0, CLI_ARG_WORD, CLI_OPT_KIND, CLI_O_KIND, 0, 0, "bezier|bspline", "expected bezier or bspline",
+     "(the daemon's model has its kind)", "--kind K",
      "bezier (default: one Bezier patch, grids up to 8x8)\n"
      "or bspline (cubic not-a-knot B-spline, grids up to\n"
      "256x256; every command)"},
-    {"chord", 0, CLI_ARG_NONE, CLI_OPT_CHORD, CLI_O_CHORD, 0, 0, NULL, NULL,
-     NULL, "--chord", "chord-length parameters instead of uniform i/n, j/m"},
-    {"decimals", 0, CLI_ARG_UINT, CLI_OPT_DECIMALS, 0, 0, 9, NULL,
-     "expected 0..9", NULL, "--decimals N",
+    {"chord", 0, CLI_ARG_NONE, CLI_OPT_CHORD, CLI_O_CHORD, 0, 0, NULL, NULL, NULL, "--chord",
+     "chord-length parameters instead of uniform i/n, j/m"},
+    {"decimals", 0, CLI_ARG_UINT, CLI_OPT_DECIMALS, 0, 0, 9, NULL, "expected 0..9", NULL, "--decimals N",
      "digits after the point, 0..9 (default 6)"},
-    {"help", 'h', CLI_ARG_NONE, CLI_OPT_HELP, 0, 0, 0, NULL, NULL, NULL,
-     "-h, --help", "this help"},
-    {"version", 0, CLI_ARG_NONE, CLI_OPT_VERSION, 0, 0, 0, NULL, NULL, NULL,
-     NULL, NULL},
-    {"at", 0, CLI_ARG_TEXT, CLI_OPT_AT, CLI_O_AT_UW | CLI_O_AT_XY, 0, 0, NULL,
-     NULL, NULL, NULL, NULL},
-    {"summary", 0, CLI_ARG_NONE, CLI_OPT_SUMMARY, CLI_O_SUMMARY, 0, 0, NULL,
-     NULL, NULL, NULL, NULL},
-    {"grid", 0, CLI_ARG_TEXT, CLI_OPT_GRID, CLI_O_GRID | CLI_O_GRID_OPT, 0, 0,
-     NULL, NULL, NULL, NULL, NULL},
-    {"footprint", 0, CLI_ARG_TEXT, CLI_OPT_FP, CLI_O_FP, 0, 0, NULL, NULL,
-     NULL, NULL, NULL},
-    {"output", 'o', CLI_ARG_TEXT, CLI_OPT_OUTPUT, CLI_O_OUT, 0, 0, NULL, NULL,
-     NULL, NULL, NULL},
-    {"membership", 0, CLI_ARG_WORD, CLI_OPT_MEMB, CLI_O_MEMB, 0, 0,
-     "T|I|F|all", "expected T, I, F or all", NULL, NULL, NULL},
-    {"interval", 0, CLI_ARG_NONE, CLI_OPT_INTERVAL, CLI_O_PLOT, 0, 0, NULL,
-     NULL, NULL, NULL, NULL},
-    {"nets", 0, CLI_ARG_NONE, CLI_OPT_NETS, CLI_O_PLOT, 0, 0, NULL, NULL, NULL,
-     NULL, NULL},
-    {"size", 0, CLI_ARG_TEXT, CLI_OPT_SIZE, CLI_O_PLOT, 0, 0, NULL, NULL, NULL,
-     NULL, NULL},
+    {"help", 'h', CLI_ARG_NONE, CLI_OPT_HELP, 0, 0, 0, NULL, NULL, NULL, "-h, --help", "this help"},
+    {"version", 0, CLI_ARG_NONE, CLI_OPT_VERSION, 0, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"at", 0, CLI_ARG_TEXT, CLI_OPT_AT, CLI_O_AT_UW | CLI_O_AT_XY, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"summary", 0, CLI_ARG_NONE, CLI_OPT_SUMMARY, CLI_O_SUMMARY, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"grid", 0, CLI_ARG_TEXT, CLI_OPT_GRID, CLI_O_GRID | CLI_O_GRID_OPT, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"footprint", 0, CLI_ARG_TEXT, CLI_OPT_FP, CLI_O_FP, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"output", 'o', CLI_ARG_TEXT, CLI_OPT_OUTPUT, CLI_O_OUT, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"membership", 0, CLI_ARG_WORD, CLI_OPT_MEMB, CLI_O_MEMB, 0, 0, "T|I|F|all", "expected T, I, F or all", NULL, NULL,
+     NULL},
+    {"interval", 0, CLI_ARG_NONE, CLI_OPT_INTERVAL, CLI_O_PLOT, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"nets", 0, CLI_ARG_NONE, CLI_OPT_NETS, CLI_O_PLOT, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"size", 0, CLI_ARG_TEXT, CLI_OPT_SIZE, CLI_O_PLOT, 0, 0, NULL, NULL, NULL, NULL, NULL},
 };
 
 const cli_optset cli_common_opts = CLI_OPTSET(common);
@@ -64,8 +52,7 @@ static int take_at(const cli_parser *p, const char *text, cli_opts *o)
         return 2;
     }
     o->at = n;
-    if (cli_parse_pair(text, (p->cmdbits & CLI_O_AT_UW) != 0u, &o->at[o->nat],
-                       &why) != 0) {
+    if (cli_parse_pair(text, (p->cmdbits & CLI_O_AT_UW) != 0u, &o->at[o->nat], &why) != 0) {
         return cli_usage_error(p->prog, p->cmd, "--at '%s': %s", text, why);
     }
     o->nat++;
@@ -81,10 +68,8 @@ static int take_grid(const cli_parser *p, const char *text, cli_opts *o)
                                "2..65535",
                                text);
     }
-    if ((p->cmdbits & CLI_O_GRID_OPT) &&
-        (o->rows > CLI_GRID_MAX_MESH || o->cols > CLI_GRID_MAX_MESH)) {
-        return cli_usage_error(p->prog, p->cmd,
-                               "--grid '%s': at most 1001x1001 here", text);
+    if ((p->cmdbits & CLI_O_GRID_OPT) && (o->rows > CLI_GRID_MAX_MESH || o->cols > CLI_GRID_MAX_MESH)) {
+        return cli_usage_error(p->prog, p->cmd, "--grid '%s': at most 1001x1001 here", text);
     }
     return -1;
 }
@@ -93,52 +78,31 @@ int cli_common_take(const cli_parser *p, const cli_optval *v, cli_opts *o)
 {
     const char *t = v->text;
     switch (v->opt->id) {
-    case CLI_OPT_KIND:
-        o->kind = v->num == 0u ? CLI_KIND_BEZIER : CLI_KIND_BSPLINE;
-        return -1;
-    case CLI_OPT_CHORD:
-        o->flags |= IT2N_F_CHORD;
-        return -1;
-    case CLI_OPT_DECIMALS:
-        o->decimals = (unsigned)v->num;
-        return -1;
-    case CLI_OPT_AT:
-        return take_at(p, t, o);
-    case CLI_OPT_SUMMARY:
-        o->summary = true;
-        return -1;
-    case CLI_OPT_GRID:
-        return take_grid(p, t, o);
+    case CLI_OPT_KIND: o->kind = v->num == 0u ? CLI_KIND_BEZIER : CLI_KIND_BSPLINE; return -1;
+    case CLI_OPT_CHORD: o->flags |= IT2N_F_CHORD; return -1;
+    case CLI_OPT_DECIMALS: o->decimals = (unsigned)v->num; return -1;
+    case CLI_OPT_AT: return take_at(p, t, o);
+    case CLI_OPT_SUMMARY: o->summary = true; return -1;
+    case CLI_OPT_GRID: return take_grid(p, t, o);
     case CLI_OPT_FP:
-        return cli_parse_fps(t, &o->fpmask)
-                   ? -1
-                   : cli_usage_error(p->prog, p->cmd,
-                                     "--footprint '%s': expected names from "
-                                     "LL,LR,L,D,R,RL,RR separated by commas",
-                                     t);
-    case CLI_OPT_OUTPUT:
-        o->output = t;
-        return -1;
-    case CLI_OPT_MEMB:
-        o->membership = v->num == 3u ? -1 : (int)v->num;
-        return -1;
-    case CLI_OPT_INTERVAL:
-        o->interval = true;
-        return -1;
-    case CLI_OPT_NETS:
-        o->nets = true;
-        return -1;
+        return cli_parse_fps(t, &o->fpmask) ? -1
+                                            : cli_usage_error(p->prog, p->cmd,
+                                                              "--footprint '%s': expected names from "
+                                                              "LL,LR,L,D,R,RL,RR separated by commas",
+                                                              t);
+    case CLI_OPT_OUTPUT: o->output = t; return -1;
+    case CLI_OPT_MEMB: o->membership = v->num == 3u ? -1 : (int)v->num; return -1;
+    case CLI_OPT_INTERVAL: o->interval = true; return -1;
+    case CLI_OPT_NETS: o->nets = true; return -1;
     case CLI_OPT_SIZE:
-        return cli_parse_grid(t, &o->width, &o->height) && o->width >= 200u &&
-                       o->height >= 200u && o->width <= 8000u &&
+        return cli_parse_grid(t, &o->width, &o->height) && o->width >= 200u && o->height >= 200u && o->width <= 8000u &&
                        o->height <= 8000u
                    ? -1
                    : cli_usage_error(p->prog, p->cmd,
                                      "--size '%s': expected WxH with W, H in "
                                      "200..8000",
                                      t);
-    default:
-        return -1;
+    default: return -1;
     }
 }
 
@@ -147,14 +111,10 @@ static int finish_plot(const cli_parser *p, cli_opts *o)
 {
     const char *dot = o->output ? strrchr(o->output, '.') : NULL;
     if (o->output == NULL) {
-        return cli_usage_error(p->prog, p->cmd,
-                               "%s needs -o FILE.png or -o FILE.svg", p->cmd);
+        return cli_usage_error(p->prog, p->cmd, "%s needs -o FILE.png or -o FILE.svg", p->cmd);
     }
-    if (dot == NULL ||
-        (strcasecmp(dot, ".png") != 0 && strcasecmp(dot, ".svg") != 0)) {
-        return cli_usage_error(p->prog, p->cmd,
-                               "-o '%s': the name must end in .png or .svg",
-                               o->output);
+    if (dot == NULL || (strcasecmp(dot, ".png") != 0 && strcasecmp(dot, ".svg") != 0)) {
+        return cli_usage_error(p->prog, p->cmd, "-o '%s': the name must end in .png or .svg", o->output);
     }
     if (o->interval && cli_opt_seen(p, CLI_OPT_MEMB) && o->membership == -1) {
         return cli_usage_error(p->prog, p->cmd,
@@ -173,16 +133,13 @@ int cli_common_finish(const cli_parser *p, cli_opts *o)
 {
     unsigned bits = p->cmdbits;
     if ((bits & (CLI_O_AT_UW | CLI_O_AT_XY)) && o->nat == 0u) {
-        return cli_usage_error(p->prog, p->cmd, "%s needs at least one --at",
-                               p->cmd);
+        return cli_usage_error(p->prog, p->cmd, "%s needs at least one --at", p->cmd);
     }
     if ((bits & CLI_O_GRID) && !cli_opt_seen(p, CLI_OPT_GRID)) {
         return cli_usage_error(p->prog, p->cmd, "%s needs --grid RxC", p->cmd);
     }
     if ((bits & CLI_O_GRID_OPT) && !cli_opt_seen(p, CLI_OPT_GRID)) {
-        o->rows = o->cols = (bits & CLI_O_PLOT) && o->interval
-                                ? CLI_GRID_INTERVAL
-                                : CLI_GRID_DEFAULT;
+        o->rows = o->cols = (bits & CLI_O_PLOT) && o->interval ? CLI_GRID_INTERVAL : CLI_GRID_DEFAULT;
     }
     if (bits & CLI_O_PLOT) {
         int rc = finish_plot(p, o);
@@ -198,8 +155,7 @@ int cli_common_finish(const cli_parser *p, cli_opts *o)
 
 static const char *cmd_name(const cli_prog *pg, size_t k)
 {
-    return *(const char *const *)(const void *)((const char *)pg->cmds +
-                                                 k * pg->stride);
+    return *(const char *const *)(const void *)((const char *)pg->cmds + k * pg->stride);
 }
 
 static const void *find_cmd(const cli_prog *pg, const char *name)
@@ -223,9 +179,7 @@ static int unknown_command(const cli_prog *pg, const char *word)
     }
     near = cli_did_you_mean(word, names, n);
     if (near != NULL) {
-        return cli_usage_error(pg->name, NULL,
-                               "unknown command '%s' (did you mean '%s'?)",
-                               word, near);
+        return cli_usage_error(pg->name, NULL, "unknown command '%s' (did you mean '%s'?)", word, near);
     }
     return cli_usage_error(pg->name, NULL, "unknown command '%s'", word);
 }
@@ -239,8 +193,7 @@ const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc)
         *rc = 1;
         return NULL;
     }
-    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
-        strcmp(argv[1], "help") == 0) {
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "help") == 0) {
         if (argc > 2 && (c = find_cmd(pg, argv[2])) != NULL) {
             pg->usage_cmd(c);
         } else {
@@ -249,12 +202,10 @@ const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc)
         return NULL;
     }
     if (strcmp(argv[1], "--version") == 0) {
-        printf("%s %s (IT2N_MAX_DEGREE %d)\n", pg->name, IT2N_CLI_VERSION,
-               IT2N_MAX_DEGREE);
+        printf("%s %s (IT2N_MAX_DEGREE %d)\n", pg->name, IT2N_CLI_VERSION, IT2N_MAX_DEGREE);
         return NULL;
     }
-    if (argv[1][0] == '-' && pg->reorder != NULL &&
-        (*rc = pg->reorder(argc, argv)) >= 0) {
+    if (argv[1][0] == '-' && pg->reorder != NULL && (*rc = pg->reorder(argc, argv)) >= 0) {
         return NULL;
     }
     *rc = 0;

@@ -12,8 +12,7 @@
 #define CLI_CSV_MAX_FIELDS 10
 
 /* Sizes the code relies on. */
-_Static_assert(CLI_CSV_LINE_MAX >= 64 && CLI_CSV_LINE_MAX < 65536,
-               "line buffer");
+_Static_assert(CLI_CSV_LINE_MAX >= 64 && CLI_CSV_LINE_MAX < 65536, "line buffer");
 _Static_assert(IT2N_MAX_DEGREE <= 999, "grid index fits the 3-digit parse");
 _Static_assert(sizeof(((cli_csv_error *)0)->text) >= 16, "error text");
 
@@ -132,10 +131,8 @@ static bool field_is(const csv_field *f, const char *name)
 static int parse_header(cli_csv_reader *p, const char *s, size_t len)
 {
     csv_field f[CLI_CSV_MAX_FIELDS];
-    static const char *const xy[] = {"i", "j", "footprint", "x",
-                                     "y", "T", "I", "F"};
-    static const char *const xyz[] = {"i", "j", "footprint", "x", "y",
-                                      "z", "T", "I", "F"};
+    static const char *const xy[] = {"i", "j", "footprint", "x", "y", "T", "I", "F"};
+    static const char *const xyz[] = {"i", "j", "footprint", "x", "y", "z", "T", "I", "F"};
     const char *const *want = NULL;
     int n = split(s, len, f), k;
     csv_field whole;
@@ -178,8 +175,7 @@ static int parse_header(cli_csv_reader *p, const char *s, size_t len)
         p->bs_scratch.flags = (uint8_t)(p->z ? IT2N_F_Z : 0u);
         return IT2N_OK;
     }
-    it2n_dataset_init(&p->scratch, IT2N_MAX_DEGREE, IT2N_MAX_DEGREE,
-                      p->z ? IT2N_F_Z : 0u, NULL);
+    it2n_dataset_init(&p->scratch, IT2N_MAX_DEGREE, IT2N_MAX_DEGREE, p->z ? IT2N_F_Z : 0u, NULL);
     return IT2N_OK;
 }
 
@@ -206,10 +202,8 @@ static bool parse_index(const csv_field *f, unsigned max, unsigned *out)
 
 static int parse_row(cli_csv_reader *p, const char *s, size_t len)
 {
-    static const int8_t ch_xy[] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I,
-                                   IT2N_CH_F};
-    static const int8_t ch_xyz[] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_Z,
-                                    IT2N_CH_T, IT2N_CH_I, IT2N_CH_F};
+    static const int8_t ch_xy[] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F};
+    static const int8_t ch_xyz[] = {IT2N_CH_X, IT2N_CH_Y, IT2N_CH_Z, IT2N_CH_T, IT2N_CH_I, IT2N_CH_F};
     csv_field f[CLI_CSV_MAX_FIELDS];
     const int8_t *chs = p->z ? ch_xyz : ch_xy;
     int want = p->z ? 9 : 8;
@@ -264,19 +258,16 @@ static int parse_row(cli_csv_reader *p, const char *s, size_t len)
         }
     }
 
-    line = p->bspline
-               ? &p->bs_lines[((size_t)i * CLI_CSV_BSPLINE_SIDE + j) * IT2N_FP_COUNT + (unsigned)fp]
-               : &p->lines[i][j][fp];
+    line = p->bspline ? &p->bs_lines[((size_t)i * CLI_CSV_BSPLINE_SIDE + j) * IT2N_FP_COUNT + (unsigned)fp]
+                      : &p->lines[i][j][fp];
     if (*line != 0u) {
         fail(p, IT2N_ERR_DUPLICATE, 0, NULL);
         p->err.other = *line;
         return p->error;
     }
     /* (duplicates were caught above: replace, the flags are not cleared) */
-    rc = p->bspline ? it2n_bspline_data_put_fine(&p->bs_scratch, i, j, (unsigned)fp,
-                                                 vals, true, &info)
-                    : it2n_dataset_put_fine(&p->scratch, i, j, (unsigned)fp, vals,
-                                            false, &info);
+    rc = p->bspline ? it2n_bspline_data_put_fine(&p->bs_scratch, i, j, (unsigned)fp, vals, true, &info)
+                    : it2n_dataset_put_fine(&p->scratch, i, j, (unsigned)fp, vals, false, &info);
     if (rc != IT2N_OK) {
         int field = 0;
         for (k = 3; k < want; k++) {
@@ -338,8 +329,7 @@ void cli_csv_init(cli_csv_reader *p, unsigned flags)
     p->flags = flags & IT2N_F_CHORD;
 }
 
-void cli_csv_init_bspline(cli_csv_reader *p, it2n_bspline_rec *scratch,
-                           uint32_t *lines)
+void cli_csv_init_bspline(cli_csv_reader *p, it2n_bspline_rec *scratch, uint32_t *lines)
 {
     cli_csv_init(p, 0u);
     p->bspline = 1;
@@ -357,8 +347,7 @@ static int report(const cli_csv_reader *p, cli_csv_error *err)
     return p->error;
 }
 
-int cli_csv_feed(cli_csv_reader *p, const char *data, size_t len,
-                  cli_csv_error *err)
+int cli_csv_feed(cli_csv_reader *p, const char *data, size_t len, cli_csv_error *err)
 {
     size_t k;
     for (k = 0; k < len && p->error == 0; k++) {
@@ -384,20 +373,16 @@ int cli_csv_feed(cli_csv_reader *p, const char *data, size_t len,
     return report(p, err);
 }
 
-void cli_csv_locate(const cli_csv_reader *p, const it2n_errinfo *info,
-                     cli_csv_error *err)
+void cli_csv_locate(const cli_csv_reader *p, const it2n_errinfo *info, cli_csv_error *err)
 {
     err_clear(err);
     err->code = info->code;
     err->info = *info;
     err->bspline = p->bspline;
     if (p->bspline) {
-        if (info->i >= 0 && info->j >= 0 && info->fp >= 0 &&
-            (size_t)info->i < CLI_CSV_BSPLINE_SIDE &&
-            (size_t)info->j < CLI_CSV_BSPLINE_SIDE &&
-            info->fp < IT2N_FP_COUNT) {
-            err->line = p->bs_lines[((size_t)info->i * CLI_CSV_BSPLINE_SIDE +
-                                     (size_t)info->j) * IT2N_FP_COUNT +
+        if (info->i >= 0 && info->j >= 0 && info->fp >= 0 && (size_t)info->i < CLI_CSV_BSPLINE_SIDE &&
+            (size_t)info->j < CLI_CSV_BSPLINE_SIDE && info->fp < IT2N_FP_COUNT) {
+            err->line = p->bs_lines[((size_t)info->i * CLI_CSV_BSPLINE_SIDE + (size_t)info->j) * IT2N_FP_COUNT +
                                     (size_t)info->fp];
             if (err->line != 0u && info->ch >= 0 && info->ch < IT2N_CH_COUNT) {
                 err->field = 4 + info->ch - ((!p->z && info->ch > IT2N_CH_Z) ? 1 : 0);
@@ -405,8 +390,7 @@ void cli_csv_locate(const cli_csv_reader *p, const it2n_errinfo *info,
         }
         return;
     }
-    if (info->i >= 0 && info->j >= 0 && info->fp >= 0 &&
-        info->i < IT2N_DIM && info->j < IT2N_DIM &&
+    if (info->i >= 0 && info->j >= 0 && info->fp >= 0 && info->i < IT2N_DIM && info->j < IT2N_DIM &&
         info->fp < IT2N_FP_COUNT) {
         err->line = p->lines[info->i][info->j][info->fp];
         if (err->line != 0u && info->ch >= 0 && info->ch < IT2N_CH_COUNT) {
@@ -451,8 +435,7 @@ static int finish_common(cli_csv_reader *p, bool bspline, cli_csv_error *err)
     return IT2N_OK;
 }
 
-int cli_csv_finish_bspline(cli_csv_reader *p, it2n_bspline_data *ds,
-                            cli_csv_error *err)
+int cli_csv_finish_bspline(cli_csv_reader *p, it2n_bspline_data *ds, cli_csv_error *err)
 {
     it2n_bspline_data out;
     it2n_errinfo info;
@@ -516,8 +499,7 @@ int cli_csv_finish(cli_csv_reader *p, it2n_dataset *ds, cli_csv_error *err)
     if (rc != IT2N_OK) {
         return rc;
     }
-    flags = p->flags | (p->z ? IT2N_F_Z : 0u) |
-            (p->non_d ? 0u : IT2N_F_TYPE1);
+    flags = p->flags | (p->z ? IT2N_F_Z : 0u) | (p->non_d ? 0u : IT2N_F_TYPE1);
     rc = it2n_dataset_init(&out, p->max_i, p->max_j, flags, &info);
     for (i = 0; rc == IT2N_OK && i <= p->max_i; i++) {
         for (j = 0; rc == IT2N_OK && j <= p->max_j; j++) {
@@ -576,50 +558,39 @@ static void where(char *buf, size_t size, const it2n_errinfo *info)
 
 /* The message of a reader error (CLI_CSV_ERR_*) after pre ("FILE:LINE"),
  * or -1 when e->code is not one: the core's have their own. */
-static int reader_message(const cli_csv_error *e, const char *pre,
-                          const char *chn, const char *at, char *buf,
+static int reader_message(const cli_csv_error *e, const char *pre, const char *chn, const char *at, char *buf,
                           size_t size)
 {
     switch (e->code) {
     case CLI_CSV_ERR_HEADER:
         if (e->line == 0u) {
-            return snprintf(buf, size,
-                            "%s: no header line (expected '%s' or '%s')", pre,
-                            hdr_xy, hdr_xyz);
+            return snprintf(buf, size, "%s: no header line (expected '%s' or '%s')", pre, hdr_xy, hdr_xyz);
         }
-        return snprintf(buf, size, "%s: bad header '%s' (expected '%s' or '%s')",
-                        pre, e->text, hdr_xy, hdr_xyz);
+        return snprintf(buf, size, "%s: bad header '%s' (expected '%s' or '%s')", pre, e->text, hdr_xy, hdr_xyz);
     case CLI_CSV_ERR_FIELDS:
         return snprintf(buf, size, "%s: %s%d fields, expected %d (%s)", pre,
                         e->got > CLI_CSV_MAX_FIELDS ? "more than " : "",
-                        e->got > CLI_CSV_MAX_FIELDS ? CLI_CSV_MAX_FIELDS : e->got,
-                        e->expected, e->expected == 9 ? hdr_xyz : hdr_xy);
-    case CLI_CSV_ERR_NUMBER:
-        return snprintf(buf, size, "%s: %s='%s' is not a decimal number%s",
-                        pre, chn, e->text, at);
+                        e->got > CLI_CSV_MAX_FIELDS ? CLI_CSV_MAX_FIELDS : e->got, e->expected,
+                        e->expected == 9 ? hdr_xyz : hdr_xy);
+    case CLI_CSV_ERR_NUMBER: return snprintf(buf, size, "%s: %s='%s' is not a decimal number%s", pre, chn, e->text, at);
     case CLI_CSV_ERR_INDEX:
         if (e->bspline) {
             return snprintf(buf, size,
                             "%s: %s='%s' is not a grid index 0..%d "
                             "(IT2N_BSPLINE_MAX_N)",
-                            pre, e->field == 1 ? "i" : "j", e->text,
-                            IT2N_BSPLINE_MAX_N);
+                            pre, e->field == 1 ? "i" : "j", e->text, IT2N_BSPLINE_MAX_N);
         }
         return snprintf(buf, size,
                         "%s: %s='%s' is not a grid index 0..%d "
                         "(IT2N_MAX_DEGREE)",
-                        pre, e->field == 1 ? "i" : "j", e->text,
-                        IT2N_MAX_DEGREE);
+                        pre, e->field == 1 ? "i" : "j", e->text, IT2N_MAX_DEGREE);
     case CLI_CSV_ERR_FOOTPRINT:
         return snprintf(buf, size,
                         "%s: unknown footprint '%s' (expected one of LL, LR, "
                         "L, D, R, RL, RR)",
                         pre, e->text);
-    case CLI_CSV_ERR_LONG:
-        return snprintf(buf, size, "%s: line longer than %d bytes", pre,
-                        CLI_CSV_LINE_MAX);
-    case CLI_CSV_ERR_EMPTY:
-        return snprintf(buf, size, "%s: no data rows after the header", pre);
+    case CLI_CSV_ERR_LONG: return snprintf(buf, size, "%s: line longer than %d bytes", pre, CLI_CSV_LINE_MAX);
+    case CLI_CSV_ERR_EMPTY: return snprintf(buf, size, "%s: no data rows after the header", pre);
     case CLI_CSV_ERR_DEGREE:
         if (e->bspline) {
             return snprintf(buf, size,
@@ -642,18 +613,14 @@ static int reader_message(const cli_csv_error *e, const char *pre,
                         "with ',' as separator and '.' as decimal point; "
                         "expected '%s')",
                         pre, e->got == ';' ? "';'" : "tabs", hdr_xy);
-    case CLI_CSV_ERR_BINARY:
-        return snprintf(buf, size, "%s: control byte 0x%02x in line", pre,
-                        (unsigned)e->got);
-    default:
-        return -1;
+    case CLI_CSV_ERR_BINARY: return snprintf(buf, size, "%s: control byte 0x%02x in line", pre, (unsigned)e->got);
+    default: return -1;
     }
 }
 
 /* The message of a core error (IT2N_ERR_*, with its it2n_errinfo) after
  * pre. */
-static int core_message(const cli_csv_error *e, const char *pre,
-                        const char *chn, const char *at, char *buf,
+static int core_message(const cli_csv_error *e, const char *pre, const char *chn, const char *at, char *buf,
                         size_t size)
 {
     char v[32], lo[32], hi[32], txt[48];
@@ -665,31 +632,24 @@ static int core_message(const cli_csv_error *e, const char *pre,
     snprintf(txt, sizeof(txt), "%s", e->text[0] != '\0' ? e->text : v);
 
     switch (e->code) {
-    case IT2N_ERR_RANGE:
-        return snprintf(buf, size, "%s: %s=%s outside [%s,%s]%s", pre, chn,
-                        txt, lo, hi, at);
+    case IT2N_ERR_RANGE: return snprintf(buf, size, "%s: %s=%s outside [%s,%s]%s", pre, chn, txt, lo, hi, at);
     case IT2N_ERR_DUPLICATE:
         if (e->other != 0u) {
-            return snprintf(buf, size, "%s: duplicate row%s (first on line %lu)",
-                            pre, at, e->other);
+            return snprintf(buf, size, "%s: duplicate row%s (first on line %lu)", pre, at, e->other);
         }
         return snprintf(buf, size, "%s: duplicate row%s", pre, at);
     case IT2N_ERR_MISSING:
         return snprintf(buf, size, "%s: missing row%s%s", pre, at,
-                        info->fp >= 0 && info->fp != IT2N_FP_D
-                            ? " (rows other than D are present, so every "
-                              "grid point needs all seven footprints)"
-                            : "");
+                        info->fp >= 0 && info->fp != IT2N_FP_D ? " (rows other than D are present, so every "
+                                                                 "grid point needs all seven footprints)"
+                                                               : "");
     case IT2N_ERR_ORDER: {
         /* The core reports value = v and lo = the previous footprint's. */
-        const char *prev = info->fp > 0
-                               ? it2n_fp_name((unsigned)info->fp - 1u)
-                               : NULL;
+        const char *prev = info->fp > 0 ? it2n_fp_name((unsigned)info->fp - 1u) : NULL;
         return snprintf(buf, size,
                         "%s: %s=%s below %s's %s=%s: footprints must nest "
                         "LL<=LR<=L<=D<=R<=RL<=RR%s",
-                        pre, chn, v, prev != NULL ? prev : "previous", chn, lo,
-                        at);
+                        pre, chn, v, prev != NULL ? prev : "previous", chn, lo, at);
     }
     case IT2N_ERR_DEGENERATE: {
         /* i (u direction) or j (w direction) names the parameter that
@@ -698,8 +658,7 @@ static int core_message(const cli_csv_error *e, const char *pre,
         int k = wdir ? info->j : info->i;
         char which[48] = "every line of data points has zero length";
         if (k >= 0) {
-            snprintf(which, sizeof(which), "parameters %d and %d coincide",
-                     k - 1, k);
+            snprintf(which, sizeof(which), "parameters %d and %d coincide", k - 1, k);
         }
         return snprintf(buf, size,
                         "%s: degenerate chord-length parameterisation in the "
@@ -708,20 +667,17 @@ static int core_message(const cli_csv_error *e, const char *pre,
     }
     default:
         if (info->ch >= 0) {
-            return snprintf(buf, size, "%s: %s (%s)%s", pre,
-                            it2n_strerror(e->code), chn, at);
+            return snprintf(buf, size, "%s: %s (%s)%s", pre, it2n_strerror(e->code), chn, at);
         }
         return snprintf(buf, size, "%s: %s%s", pre, it2n_strerror(e->code), at);
     }
 }
 
-int cli_csv_message(const cli_csv_error *e, const char *name, char *buf,
-                     size_t size)
+int cli_csv_message(const cli_csv_error *e, const char *name, char *buf, size_t size)
 {
     char pre[256], at[48];
     const it2n_errinfo *info = &e->info;
-    const char *chn =
-        info->ch >= 0 ? it2n_ch_name((unsigned)info->ch) : NULL;
+    const char *chn = info->ch >= 0 ? it2n_ch_name((unsigned)info->ch) : NULL;
     int n;
 
     if (chn == NULL) {

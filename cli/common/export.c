@@ -35,8 +35,7 @@ static void put_par(exp_ctx *x, it2n_par p)
 {
     char buf[48];
     unsigned d = x->o->decimals;
-    if (it2n_format_par(buf, sizeof(buf), p,
-                        d < CLI_PAR_DECIMALS ? CLI_PAR_DECIMALS : d) < 0) {
+    if (it2n_format_par(buf, sizeof(buf), p, d < CLI_PAR_DECIMALS ? CLI_PAR_DECIMALS : d) < 0) {
         buf[0] = '?';
         buf[1] = '\0';
     }
@@ -44,8 +43,7 @@ static void put_par(exp_ctx *x, it2n_par p)
 }
 
 /* "x y value" of node (r, c) of footprint fp, membership k. */
-static void put_vertex(exp_ctx *x, unsigned r, unsigned c, unsigned fp,
-                       unsigned k, const char *sep)
+static void put_vertex(exp_ctx *x, unsigned r, unsigned c, unsigned fp, unsigned k, const char *sep)
 {
     put(x, cli_mesh_at(x->mesh, r, c, fp, IT2N_CH_X));
     fputs(sep, x->f);
@@ -61,8 +59,7 @@ static void put_quads(exp_ctx *x, const char *lead, size_t base)
     for (r = 0; r + 1u < x->mesh->rows; r++) {
         for (c = 0; c + 1u < cols; c++) {
             size_t a = base + (size_t)r * cols + c;
-            fprintf(x->f, "%s%zu %zu %zu %zu\n", lead, a, a + cols,
-                    a + cols + 1u, a + 1u);
+            fprintf(x->f, "%s%zu %zu %zu %zu\n", lead, a, a + cols, a + cols + 1u, a + 1u);
         }
     }
 }
@@ -98,8 +95,7 @@ static void export_vtk(exp_ctx *x)
     }
     fprintf(x->f, "CELL_DATA %zu\n", nobj * quads);
     for (arr = 0; arr < 2; arr++) {
-        fprintf(x->f, "SCALARS %s int 1\nLOOKUP_TABLE default\n",
-                arr == 0 ? "footprint_id" : "membership_id");
+        fprintf(x->f, "SCALARS %s int 1\nLOOKUP_TABLE default\n", arr == 0 ? "footprint_id" : "membership_id");
         for (a = 0; a < x->nfp; a++) {
             for (b = 0; b < x->nmem; b++) {
                 size_t q;
@@ -115,15 +111,13 @@ static void export_vtk(exp_ctx *x)
         if (arr == 3 && !x->z) {
             break;
         }
-        fprintf(x->f, "SCALARS %s double 1\nLOOKUP_TABLE default\n",
-                names[arr]);
+        fprintf(x->f, "SCALARS %s double 1\nLOOKUP_TABLE default\n", names[arr]);
         for (a = 0; a < x->nfp; a++) {
             for (b = 0; b < x->nmem; b++) {
                 for (r = 0; r < m->rows; r++) {
                     for (c = 0; c < m->cols; c++) {
                         if (arr == 0) {
-                            put(x, cli_mesh_at(m, r, c, x->fps[a],
-                                               IT2N_CH_T + x->mem[b]));
+                            put(x, cli_mesh_at(m, r, c, x->fps[a], IT2N_CH_T + x->mem[b]));
                         } else if (arr == 1) {
                             put_par(x, m->u[r]);
                         } else if (arr == 2) {
@@ -170,16 +164,14 @@ static void export_csv(exp_ctx *x)
 {
     const cli_mesh *m = x->mesh;
     unsigned a, b, r, c;
-    fprintf(x->f, "object,footprint,membership,r,c,u,w,x,y%s,value\n",
-            x->z ? ",z" : "");
+    fprintf(x->f, "object,footprint,membership,r,c,u,w,x,y%s,value\n", x->z ? ",z" : "");
     for (a = 0; a < x->nfp; a++) {
         for (b = 0; b < x->nmem; b++) {
             const char *fpn = it2n_fp_name(x->fps[a]);
             const char *mn = memb_name[x->mem[b]];
             for (r = 0; r < m->rows; r++) {
                 for (c = 0; c < m->cols; c++) {
-                    fprintf(x->f, "%s_%s,%s,%s,%u,%u,", fpn, mn, fpn, mn, r,
-                            c);
+                    fprintf(x->f, "%s_%s,%s,%s,%u,%u,", fpn, mn, fpn, mn, r, c);
                     put_par(x, m->u[r]);
                     fputc(',', x->f);
                     put_par(x, m->w[c]);
@@ -192,8 +184,7 @@ static void export_csv(exp_ctx *x)
                         put(x, cli_mesh_at(m, r, c, x->fps[a], IT2N_CH_Z));
                     }
                     fputc(',', x->f);
-                    put(x, cli_mesh_at(m, r, c, x->fps[a],
-                                       IT2N_CH_T + x->mem[b]));
+                    put(x, cli_mesh_at(m, r, c, x->fps[a], IT2N_CH_T + x->mem[b]));
                     fputc('\n', x->f);
                 }
             }
@@ -230,8 +221,7 @@ int cli_export(const cli_opts *o, const cli_surface *mdl)
     x.mesh = &mesh;
     x.f = to_stdout ? stdout : fopen(o->output, "w");
     if (x.f == NULL) {
-        fprintf(stderr, "%s: cannot create: %s\n", o->output,
-                strerror(errno));
+        fprintf(stderr, "%s: cannot create: %s\n", o->output, strerror(errno));
         cli_mesh_free(&mesh);
         return CLI_EXIT_DATA;
     }
@@ -244,8 +234,7 @@ int cli_export(const cli_opts *o, const cli_surface *mdl)
     }
     cli_mesh_free(&mesh);
     if (fflush(x.f) != 0 || ferror(x.f)) {
-        fprintf(stderr, "%s: write error: %s\n",
-                to_stdout ? "it2n" : o->output, strerror(errno));
+        fprintf(stderr, "%s: write error: %s\n", to_stdout ? "it2n" : o->output, strerror(errno));
         if (!to_stdout) {
             fclose(x.f);
         }

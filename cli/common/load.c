@@ -34,8 +34,7 @@ static void report(const cli_csv_error *e, const char *name)
 
 /* Feed the file at path ("-": stdin) to csv; *rc the reader's answer.
  * CLI_EXIT_DATA after "NAME: cannot open/read error: why" on stderr. */
-static int feed_file(const char *path, cli_csv_reader *csv, cli_csv_error *e,
-                     int *rc)
+static int feed_file(const char *path, cli_csv_reader *csv, cli_csv_error *e, int *rc)
 {
     const char *name = cli_display_name(path);
     FILE *f = strcmp(path, "-") == 0 ? stdin : fopen(path, "rb");
@@ -156,4 +155,3 @@ static void free_bspline(void)
     g_blines = NULL;
     g_bcoef = NULL;
 }
-

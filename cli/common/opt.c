@@ -13,8 +13,7 @@ int cli_usage_error(const char *prog, const char *cmd, const char *fmt, ...)
     va_start(ap, fmt);
     vfprintf(stderr, fmt, ap);
     va_end(ap);
-    fprintf(stderr, "\nTry '%s %s%s--help'.\n", prog, cmd ? cmd : "",
-            cmd ? " " : "");
+    fprintf(stderr, "\nTry '%s %s%s--help'.\n", prog, cmd ? cmd : "", cmd ? " " : "");
     return 1;
 }
 
@@ -31,8 +30,7 @@ static size_t edit_distance(const char *a, const char *b, size_t limit)
         d[0][j] = j;
     }
     for (i = 1; i <= la; i++) {
-        size_t *cur = d[i % 3u], *prev = d[(i - 1u) % 3u],
-               *prev2 = d[(i + 1u) % 3u];
+        size_t *cur = d[i % 3u], *prev = d[(i - 1u) % 3u], *prev2 = d[(i + 1u) % 3u];
         cur[0] = i;
         for (j = 1; j <= lb; j++) {
             size_t cost = a[i - 1u] == b[j - 1u] ? 0u : 1u;
@@ -43,8 +41,7 @@ static size_t edit_distance(const char *a, const char *b, size_t limit)
             if (cur[j - 1u] + 1u < best) {
                 best = cur[j - 1u] + 1u;
             }
-            if (i > 1u && j > 1u && a[i - 1u] == b[j - 2u] &&
-                a[i - 2u] == b[j - 1u] && prev2[j - 2u] + 1u < best) {
+            if (i > 1u && j > 1u && a[i - 1u] == b[j - 2u] && a[i - 2u] == b[j - 1u] && prev2[j - 2u] + 1u < best) {
                 best = prev2[j - 2u] + 1u;
             }
             cur[j] = best;
@@ -53,8 +50,7 @@ static size_t edit_distance(const char *a, const char *b, size_t limit)
     return d[la % 3u][lb];
 }
 
-const char *cli_did_you_mean(const char *word, const char *const *names,
-                             size_t count)
+const char *cli_did_you_mean(const char *word, const char *const *names, size_t count)
 {
     size_t len = strlen(word), k;
     size_t limit = len <= 4u ? 1u : len <= 8u ? 2u : 3u, best = limit + 1u;
@@ -69,9 +65,8 @@ const char *cli_did_you_mean(const char *word, const char *const *names,
     return pick;
 }
 
-void cli_opt_init(cli_parser *p, const char *prog, const char *cmd,
-                  unsigned cmdbits, const cli_optset *sets, size_t nsets,
-                  int argc, char **argv, int first)
+void cli_opt_init(cli_parser *p, const char *prog, const char *cmd, unsigned cmdbits, const cli_optset *sets,
+                  size_t nsets, int argc, char **argv, int first)
 {
     size_t k;
     memset(p, 0, sizeof(*p));
@@ -88,8 +83,7 @@ void cli_opt_init(cli_parser *p, const char *prog, const char *cmd,
     p->first = first;
 }
 
-const cli_opt *cli_opt_find(const cli_optset *sets, size_t nsets,
-                            const char *name)
+const cli_opt *cli_opt_find(const cli_optset *sets, size_t nsets, const char *name)
 {
     size_t s, k, len = strcspn(name, "=");
     for (s = 0; s < nsets; s++) {
@@ -131,8 +125,7 @@ static int unknown(const cli_parser *p, const char *word)
     size_t s, k, n = 0;
     if (word[1] == '-') {
         char name[64];
-        snprintf(name, sizeof(name), "%.*s", (int)strcspn(word + 2, "="),
-                 word + 2);
+        snprintf(name, sizeof(name), "%.*s", (int)strcspn(word + 2, "="), word + 2);
         for (s = 0; s < p->nsets; s++) {
             for (k = 0; k < p->sets[s].count && n < 128u; k++) {
                 names[n++] = p->sets[s].opts[k].name;
@@ -141,9 +134,7 @@ static int unknown(const cli_parser *p, const char *word)
         pick = cli_did_you_mean(name, names, n);
     }
     if (pick != NULL) {
-        return fail(cli_usage_error(p->prog, p->cmd,
-                               "unknown option '%s' (did you mean '--%s'?)",
-                               word, pick));
+        return fail(cli_usage_error(p->prog, p->cmd, "unknown option '%s' (did you mean '--%s'?)", word, pick));
     }
     return fail(cli_usage_error(p->prog, p->cmd, "unknown option '%s'", word));
 }
@@ -187,8 +178,7 @@ static bool check_value(const cli_opt *o, cli_optval *v)
             return false;
         }
         v->num = strtoul(v->text, &end, 10);
-        return *end == '\0' && errno == 0 && v->num >= o->lo &&
-               v->num <= o->hi;
+        return *end == '\0' && errno == 0 && v->num >= o->lo && v->num <= o->hi;
     }
     if (o->arg == CLI_ARG_WORD) {
         int k = word_index(o->words, v->text);
@@ -228,22 +218,18 @@ static int take_option(cli_parser *p, char *w, cli_optval *v)
         } else if (p->next < p->argc) {
             v->text = p->argv[p->next++];
         } else {
-            return fail(cli_usage_error(p->prog, p->cmd,
-                                   "option '%s' needs an argument", w));
+            return fail(cli_usage_error(p->prog, p->cmd, "option '%s' needs an argument", w));
         }
     } else if (eq != NULL) {
-        return fail(cli_usage_error(p->prog, p->cmd,
-                               "option '--%s' takes no argument", o->name));
+        return fail(cli_usage_error(p->prog, p->cmd, "option '--%s' takes no argument", o->name));
     }
     shown_name(o, shown, sizeof(shown));
     if (o->cmds != 0u && (o->cmds & p->cmdbits) == 0u) {
-        return fail(cli_usage_error(p->prog, p->cmd, "%s does not apply to %s%s%s",
-                               shown, p->cmd ? p->cmd : "",
-                               o->na ? " " : "", o->na ? o->na : ""));
+        return fail(cli_usage_error(p->prog, p->cmd, "%s does not apply to %s%s%s", shown, p->cmd ? p->cmd : "",
+                                    o->na ? " " : "", o->na ? o->na : ""));
     }
     if (!check_value(o, v)) {
-        return fail(cli_usage_error(p->prog, p->cmd, "%s '%s': %s", shown, v->text,
-                               o->expect ? o->expect : "refused"));
+        return fail(cli_usage_error(p->prog, p->cmd, "%s '%s': %s", shown, v->text, o->expect ? o->expect : "refused"));
     }
     if (o->id >= 0 && o->id < CLI_OPT_MAX_ID) {
         p->seen |= 1ull << (unsigned)o->id;
@@ -278,25 +264,21 @@ int cli_opt_operands(const cli_parser *p, char ***ops)
 
 bool cli_opt_seen(const cli_parser *p, int id)
 {
-    return id >= 0 && id < CLI_OPT_MAX_ID &&
-           (p->seen & (1ull << (unsigned)id)) != 0u;
+    return id >= 0 && id < CLI_OPT_MAX_ID && (p->seen & (1ull << (unsigned)id)) != 0u;
 }
 
-void cli_opt_help(FILE *out, const cli_opt *tab, size_t count,
-                  unsigned cmdbits, unsigned width)
+void cli_opt_help(FILE *out, const cli_opt *tab, size_t count, unsigned cmdbits, unsigned width)
 {
     size_t k;
     for (k = 0; k < count; k++) {
         const cli_opt *o = &tab[k];
         const char *h = o->help;
         size_t len;
-        if (o->label == NULL ||
-            (cmdbits != 0u && o->cmds != 0u && (o->cmds & cmdbits) == 0u)) {
+        if (o->label == NULL || (cmdbits != 0u && o->cmds != 0u && (o->cmds & cmdbits) == 0u)) {
             continue;
         }
         len = strlen(o->label);
-        fprintf(out, "  %s%*s", o->label,
-                len < width ? (int)(width - len) : 3, "");
+        fprintf(out, "  %s%*s", o->label, len < width ? (int)(width - len) : 3, "");
         for (;;) {
             size_t line = strcspn(h, "\n");
             fprintf(out, "%.*s\n", (int)line, h);

@@ -24,17 +24,17 @@ enum {
 };
 
 typedef struct cli_opt {
-    const char *name;    /* long name without "--"                        */
-    char short_name;     /* -X too, or 0                                  */
-    unsigned char arg;   /* CLI_ARG_*                                     */
-    int id;              /* what cli_opt_next returns for it               */
-    unsigned cmds;       /* command bits it applies to; 0: every command   */
+    const char *name;     /* long name without "--"                        */
+    char short_name;      /* -X too, or 0                                  */
+    unsigned char arg;    /* CLI_ARG_*                                     */
+    int id;               /* what cli_opt_next returns for it               */
+    unsigned cmds;        /* command bits it applies to; 0: every command   */
     unsigned long lo, hi; /* CLI_ARG_UINT range                            */
-    const char *words;   /* CLI_ARG_WORD: '|'-separated                    */
-    const char *expect;  /* a refused value: "--NAME 'VALUE': <expect>"    */
-    const char *na;      /* after "--NAME does not apply to CMD", or NULL  */
-    const char *label;   /* help: "--grid RxC" (NULL: not listed)          */
-    const char *help;    /* help: text, '\n' between lines                 */
+    const char *words;    /* CLI_ARG_WORD: '|'-separated                    */
+    const char *expect;   /* a refused value: "--NAME 'VALUE': <expect>"    */
+    const char *na;       /* after "--NAME does not apply to CMD", or NULL  */
+    const char *label;    /* help: "--grid RxC" (NULL: not listed)          */
+    const char *help;     /* help: text, '\n' between lines                 */
 } cli_opt;
 
 /* One table of options; a program passes several (its own, the shared). */
@@ -52,17 +52,17 @@ typedef struct cli_optset {
 #define CLI_OPT_MAX_ID 64
 
 typedef struct cli_parser {
-    const char *prog;      /* "it2n", for messages                        */
-    const char *cmd;       /* the command, for messages (NULL: none yet)  */
-    unsigned cmdbits;      /* the command's bit(s), matched to cli_opt.cmds */
+    const char *prog; /* "it2n", for messages                        */
+    const char *cmd;  /* the command, for messages (NULL: none yet)  */
+    unsigned cmdbits; /* the command's bit(s), matched to cli_opt.cmds */
     cli_optset sets[CLI_OPT_MAX_SETS];
     size_t nsets;
     int argc;
     char **argv;
-    int next;              /* argv index of the next word to read         */
-    int nops;              /* operands so far: argv[first .. first+nops)  */
+    int next; /* argv index of the next word to read         */
+    int nops; /* operands so far: argv[first .. first+nops)  */
     int first;
-    bool dashdash;         /* after "--": operands only                   */
+    bool dashdash;           /* after "--": operands only                   */
     unsigned long long seen; /* bit (1 << id) per option given            */
 } cli_parser;
 
@@ -79,9 +79,8 @@ enum { CLI_OPT_END = -1, CLI_OPT_ERROR = -2 };
 
 /* Start parsing argv[first..argc) for command cmd (bits cmdbits) with the
  * nsets tables of sets. Operands are moved, in order, to argv[first..]. */
-void cli_opt_init(cli_parser *p, const char *prog, const char *cmd,
-                  unsigned cmdbits, const cli_optset *sets, size_t nsets,
-                  int argc, char **argv, int first);
+void cli_opt_init(cli_parser *p, const char *prog, const char *cmd, unsigned cmdbits, const cli_optset *sets,
+                  size_t nsets, int argc, char **argv, int first);
 
 /* The next option: its id with *v filled, CLI_OPT_END when argv is read
  * (operands: cli_opt_operands), or CLI_OPT_ERROR after printing the usage
@@ -96,8 +95,7 @@ int cli_opt_operands(const cli_parser *p, char ***ops);
 bool cli_opt_seen(const cli_parser *p, int id);
 
 /* The option of the tables named `name` (long name, no "--"), or NULL. */
-const cli_opt *cli_opt_find(const cli_optset *sets, size_t nsets,
-                            const char *name);
+const cli_opt *cli_opt_find(const cli_optset *sets, size_t nsets, const char *name);
 
 /* Print "PROG: " and the printf-style message, then "Try 'PROG CMD
  * --help'." on stderr; returns the usage exit status, 1. cmd NULL: "Try
@@ -111,13 +109,11 @@ int cli_usage_error(const char *prog, const char *cmd, const char *fmt, ...)
 /* The closest of names[0..count) to word, or NULL when none is close
  * enough for a "did you mean": at most 1 edit (insert, delete, change,
  * swap of neighbours) for words up to 4 letters, 2 up to 8, else 3. */
-const char *cli_did_you_mean(const char *word, const char *const *names,
-                             size_t count);
+const char *cli_did_you_mean(const char *word, const char *const *names, size_t count);
 
 /* The help list of the options of tab that have a label and apply to
  * cmdbits (0: all): "  LABEL" padded to width, or three spaces when
  * longer, then the help; its further lines indented to width + 2. */
-void cli_opt_help(FILE *out, const cli_opt *tab, size_t count,
-                  unsigned cmdbits, unsigned width);
+void cli_opt_help(FILE *out, const cli_opt *tab, size_t count, unsigned cmdbits, unsigned width);
 
 #endif /* IT2N_CLI_OPT_H */

@@ -6,8 +6,7 @@
 #include <stdio.h>
 #include <string.h>
 
-void cli_out_init(cli_out *w, unsigned flags, unsigned decimals,
-                  unsigned fpmask, bool summary)
+void cli_out_init(cli_out *w, unsigned flags, unsigned decimals, unsigned fpmask, bool summary)
 {
     w->z = (flags & IT2N_F_Z) != 0u;
     w->type1 = (flags & IT2N_F_TYPE1) != 0u;
@@ -23,8 +22,7 @@ bool cli_out_has_fp(const cli_out *w, unsigned fp)
 
 bool cli_out_selected(const cli_out *w, unsigned fp)
 {
-    return cli_out_has_fp(w, fp) &&
-           (w->fpmask == 0u || (w->fpmask & (1u << fp)) != 0u);
+    return cli_out_has_fp(w, fp) && (w->fpmask == 0u || (w->fpmask & (1u << fp)) != 0u);
 }
 
 void cli_put_val(it2n_val v, unsigned decimals)
@@ -66,8 +64,7 @@ void cli_put_channels(const cli_out *w, const it2n_val *v)
     }
 }
 
-void cli_put_net_row(const cli_out *w, int i, int j, unsigned fp,
-                     const it2n_val *v)
+void cli_put_net_row(const cli_out *w, int i, int j, unsigned fp, const it2n_val *v)
 {
     printf("%d,%d,%s", i, j, it2n_fp_name(fp));
     cli_put_channels(w, v);
@@ -93,8 +90,7 @@ static void put_flags(unsigned bits)
 }
 
 /* A summary row: coordinates empty, T,I,F filled, flags from the values. */
-static void put_summary_row(const cli_out *w, it2n_par u, it2n_par wp,
-                            const char *what, const it2n_val tif[3])
+static void put_summary_row(const cli_out *w, it2n_par u, it2n_par wp, const char *what, const it2n_val tif[3])
 {
     unsigned k, bits = 0;
     cli_put_par(u, w->decimals);
@@ -112,8 +108,7 @@ static void put_summary_row(const cli_out *w, it2n_par u, it2n_par wp,
     putchar('\n');
 }
 
-void cli_put_point(const cli_out *w, it2n_par u, it2n_par wp,
-                   const it2n_point *pt)
+void cli_put_point(const cli_out *w, it2n_par u, it2n_par wp, const it2n_point *pt)
 {
     unsigned fp;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
@@ -136,8 +131,7 @@ void cli_put_point(const cli_out *w, it2n_par u, it2n_par wp,
     }
 }
 
-void cli_put_locate_row(const cli_out *w, it2n_val x, it2n_val y,
-                        unsigned fp, const it2n_par *uw, const it2n_val *v,
+void cli_put_locate_row(const cli_out *w, it2n_val x, it2n_val y, unsigned fp, const it2n_par *uw, const it2n_val *v,
                         const char *status)
 {
     unsigned ch;
@@ -159,8 +153,7 @@ void cli_put_locate_row(const cli_out *w, it2n_val x, it2n_val y,
     printf(",%s\n", status);
 }
 
-int cli_put_sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
-                       it2n_par wp, const it2n_point *pt)
+int cli_put_sample_row(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par wp, const it2n_point *pt)
 {
     (void)r;
     (void)c;

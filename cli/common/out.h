@@ -21,8 +21,7 @@ typedef struct cli_out {
 } cli_out;
 
 /* Rows for a model of IT2N_F_* flags with these options. */
-void cli_out_init(cli_out *w, unsigned flags, unsigned decimals,
-                  unsigned fpmask, bool summary);
+void cli_out_init(cli_out *w, unsigned flags, unsigned decimals, unsigned fpmask, bool summary);
 
 /* True if footprint fp is in the model (and, selected, by --footprint). */
 bool cli_out_has_fp(const cli_out *w, unsigned fp);
@@ -39,26 +38,22 @@ void cli_put_header(const cli_out *w, const char *lead, const char *tail);
 void cli_put_channels(const cli_out *w, const it2n_val *v);
 
 /* A control net row "I,J,FP,x,y[,z],T,I,F". */
-void cli_put_net_row(const cli_out *w, int i, int j, unsigned fp,
-                     const it2n_val *v);
+void cli_put_net_row(const cli_out *w, int i, int j, unsigned fp, const it2n_val *v);
 
 /* The rows of one evaluated point: each selected footprint with its
  * out_of_range names (T|F or -), then, with --summary, upper_min,
  * upper_max, lower_min, lower_max. */
-void cli_put_point(const cli_out *w, it2n_par u, it2n_par wp,
-                   const it2n_point *pt);
+void cli_put_point(const cli_out *w, it2n_par u, it2n_par wp, const it2n_point *pt);
 
 /* A locate row "X,Y,FP,U,W[,z],T,I,F,STATUS"; uw NULL: U, W empty (the
  * Modbus map does not carry them). */
-void cli_put_locate_row(const cli_out *w, it2n_val x, it2n_val y,
-                        unsigned fp, const it2n_par *uw, const it2n_val *v,
+void cli_put_locate_row(const cli_out *w, it2n_val x, it2n_val y, unsigned fp, const it2n_par *uw, const it2n_val *v,
                         const char *status);
 
 /* An it2n_sample_cb for both programs' sample command: the rows of one
  * grid node (cli_put_point) with ctx the const cli_out *; non-zero
  * (CLI_EXIT_DATA, which stops the sample) once stdout has failed. */
-int cli_put_sample_row(void *ctx, unsigned r, unsigned c, it2n_par u,
-                       it2n_par wp, const it2n_point *pt);
+int cli_put_sample_row(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par wp, const it2n_point *pt);
 
 /* Flush stdout: CLI_EXIT_OK, or "PROG: write error" and 2. */
 int cli_finish_output(const char *prog);

@@ -18,37 +18,30 @@
 
 extern char **environ;
 
-static const char *const memb_long[3] = {"truth", "indeterminacy",
-                                         "falsity"};
+static const char *const memb_long[3] = {"truth", "indeterminacy", "falsity"};
 static const char *const memb_short[3] = {"T", "I", "F"};
 
 /* Footprint classes: how a surface is drawn. */
 enum { CLS_UPPER = 0, CLS_LOWER, CLS_INNER, CLS_TYPE1, CLS_COUNT };
-static const char *const cls_name[CLS_COUNT] = {
-    "upper (LL, RR)", "lower (LR, RL)", "inner (L, R)", "type-1 D"};
+static const char *const cls_name[CLS_COUNT] = {"upper (LL, RR)", "lower (LR, RL)", "inner (L, R)", "type-1 D"};
 static const char *const cls_dash[CLS_COUNT] = {"1", "2", "3", "1"};
 static const char *const cls_width[CLS_COUNT] = {"1.2", "1.2", "1.2", "2.5"};
 /* Paper colours: truth green, indeterminacy blue, falsity red; one shade
  * per class (upper darkest, lower lightest). */
-static const char *const colour[3][CLS_COUNT] = {
-    {"#00441b", "#74c476", "#238b45", "#1a9641"},
-    {"#08306b", "#6baed6", "#2171b5", "#2166ac"},
-    {"#67000d", "#fb6a4a", "#cb181d", "#d7191c"}};
+static const char *const colour[3][CLS_COUNT] = {{"#00441b", "#74c476", "#238b45", "#1a9641"},
+                                                 {"#08306b", "#6baed6", "#2171b5", "#2166ac"},
+                                                 {"#67000d", "#fb6a4a", "#cb181d", "#d7191c"}};
 
 static unsigned fp_class(unsigned fp)
 {
     switch (fp) {
     case IT2N_FP_LL:
-    case IT2N_FP_RR:
-        return CLS_UPPER;
+    case IT2N_FP_RR: return CLS_UPPER;
     case IT2N_FP_LR:
-    case IT2N_FP_RL:
-        return CLS_LOWER;
+    case IT2N_FP_RL: return CLS_LOWER;
     case IT2N_FP_L:
-    case IT2N_FP_R:
-        return CLS_INNER;
-    default:
-        return CLS_TYPE1;
+    case IT2N_FP_R: return CLS_INNER;
+    default: return CLS_TYPE1;
     }
 }
 
@@ -88,8 +81,7 @@ static FILE *tmp_open(tmpfiles *t, const char *name)
     if (f != NULL) {
         t->n++;
     } else {
-        fprintf(stderr, "it2n: cannot create %s: %s\n", t->path[t->n],
-                strerror(errno));
+        fprintf(stderr, "it2n: cannot create %s: %s\n", t->path[t->n], strerror(errno));
     }
     return f;
 }
@@ -98,8 +90,7 @@ static int tmp_close(FILE *f)
 {
     bool bad = fflush(f) != 0 || ferror(f);
     if (fclose(f) != 0 || bad) {
-        fprintf(stderr, "it2n: cannot write temporary file: %s\n",
-                strerror(errno));
+        fprintf(stderr, "it2n: cannot write temporary file: %s\n", strerror(errno));
         return CLI_EXIT_DATA;
     }
     return CLI_EXIT_OK;
@@ -163,8 +154,7 @@ static void zspan_add(zspan *z, unsigned k, it2n_val v)
 }
 
 /* One row "x y T I F" (z left out: the plot is over (x, y)). */
-static void put_row(FILE *f, const it2n_val v[IT2N_CH_COUNT],
-                    unsigned decimals)
+static void put_row(FILE *f, const it2n_val v[IT2N_CH_COUNT], unsigned decimals)
 {
     unsigned ch;
     for (ch = IT2N_CH_X; ch < IT2N_CH_COUNT; ch++) {
@@ -182,8 +172,7 @@ static void put_row(FILE *f, const it2n_val v[IT2N_CH_COUNT],
 /* The data points of footprint fp: the data set's where it has them (it2n),
  * else the surfaces at the parameter nodes, where they interpolate the data
  * (it2nctl's live model; uniform parameters only). Returns how many. */
-static unsigned write_points(FILE *f, const cli_surface *mdl,
-                             unsigned fp, unsigned decimals, zspan *z)
+static unsigned write_points(FILE *f, const cli_surface *mdl, unsigned fp, unsigned decimals, zspan *z)
 {
     unsigned i, j, k, count = 0, n = cli_surf_n(mdl), m = cli_surf_m(mdl);
     it2n_val v[IT2N_CH_COUNT];
@@ -192,8 +181,7 @@ static unsigned write_points(FILE *f, const cli_surface *mdl,
             if (!cli_surf_point(mdl, i, j, fp, v)) {
                 it2n_point pt;
                 if ((cli_surf_flags(mdl) & IT2N_F_CHORD) ||
-                    cli_surf_eval(mdl, (it2n_par)(((uint64_t)i << 32) / n),
-                                  (it2n_par)(((uint64_t)j << 32) / m), &pt,
+                    cli_surf_eval(mdl, (it2n_par)(((uint64_t)i << 32) / n), (it2n_par)(((uint64_t)j << 32) / m), &pt,
                                   NULL) != IT2N_OK) {
                     continue;
                 }
@@ -211,9 +199,8 @@ static unsigned write_points(FILE *f, const cli_surface *mdl,
 
 /* Surfaces, data points and control nets: data blocks, one per selected
  * footprint in each file. */
-static int write_surfaces(const cli_opts *o, const cli_surface *mdl,
-                          tmpfiles *t, unsigned fps[],
-                          unsigned *nfp, zspan *z, unsigned *npoints)
+static int write_surfaces(const cli_opts *o, const cli_surface *mdl, tmpfiles *t, unsigned fps[], unsigned *nfp,
+                          zspan *z, unsigned *npoints)
 {
     cli_mesh mesh;
     FILE *s, *n, *p;
@@ -245,8 +232,7 @@ static int write_surfaces(const cli_opts *o, const cli_surface *mdl,
     for (a = 0; a < *nfp; a++) {
         it2n_val v[IT2N_CH_COUNT];
         fp = fps[a];
-        fprintf(s, "# footprint %s: x y T I F, %u rows of %u samples\n",
-                it2n_fp_name(fp), mesh.rows, mesh.cols);
+        fprintf(s, "# footprint %s: x y T I F, %u rows of %u samples\n", it2n_fp_name(fp), mesh.rows, mesh.cols);
         for (r = 0; r < mesh.rows; r++) {
             for (c = 0; c < mesh.cols; c++) {
                 for (k = 0; k < IT2N_CH_COUNT; k++) {
@@ -304,35 +290,33 @@ static void put_zrange(FILE *g, const zspan *z, unsigned k, unsigned decimals)
 
 /* One 3-D panel: membership k of every selected footprint, hidden lines
  * removed (hidden3d), data points and nets drawn on top. */
-static void put_panel(FILE *g, const cli_opts *o, const cli_surface *mdl,
-                      const unsigned fps[], unsigned nfp, unsigned k,
-                      const zspan *z, unsigned npoints, const char *key)
+static void put_panel(FILE *g, const cli_opts *o, const cli_surface *mdl, const unsigned fps[], unsigned nfp,
+                      unsigned k, const zspan *z, unsigned npoints, const char *key)
 {
     bool cls_seen[CLS_COUNT] = {false, false, false, false};
     bool type1 = (cli_surf_flags(mdl) & IT2N_F_TYPE1) != 0u;
     unsigned a;
-    fprintf(g, "set zlabel '%s %s' rotate parallel\n", memb_long[k],
-            memb_short[k]);
+    fprintf(g, "set zlabel '%s %s' rotate parallel\n", memb_long[k], memb_short[k]);
     put_zrange(g, z, k, 6u);
     fprintf(g, "set key %s\nsplot \\\n", key);
     for (a = 0; a < nfp; a++) {
         unsigned cl = fp_class(fps[a]);
-        fprintf(g, "%s  surf index %u using 1:2:%u with lines lc rgb '%s' "
-                   "dt %s lw %s ",
-                a == 0u ? "" : ", \\\n", a, 3u + k, colour[k][cl],
-                cls_dash[cl], cls_width[cl]);
+        fprintf(g,
+                "%s  surf index %u using 1:2:%u with lines lc rgb '%s' "
+                "dt %s lw %s ",
+                a == 0u ? "" : ", \\\n", a, 3u + k, colour[k][cl], cls_dash[cl], cls_width[cl]);
         if (cls_seen[cl]) {
             fputs("notitle", g);
         } else {
-            fprintf(g, "title '%s'",
-                    cl == CLS_TYPE1 && !type1 ? "mean (D)" : cls_name[cl]);
+            fprintf(g, "title '%s'", cl == CLS_TYPE1 && !type1 ? "mean (D)" : cls_name[cl]);
             cls_seen[cl] = true;
         }
     }
     if (npoints > 0u) {
         for (a = 0; a < nfp; a++) {
-            fprintf(g, ", \\\n  pts index %u using 1:2:%u with points "
-                       "nohidden3d pt 7 ps 0.7 lc rgb '#000000' %s",
+            fprintf(g,
+                    ", \\\n  pts index %u using 1:2:%u with points "
+                    "nohidden3d pt 7 ps 0.7 lc rgb '#000000' %s",
                     a, 3u + k, a == 0u ? "title 'data points'" : "notitle");
         }
     }
@@ -341,10 +325,10 @@ static void put_panel(FILE *g, const cli_opts *o, const cli_surface *mdl,
             unsigned cl = fp_class(fps[a]);
             /* Nets half transparent (#AARRGGBB): the surfaces stay
              * readable through them. */
-            fprintf(g, ", \\\n  nets index %u using 1:2:%u with linespoints "
-                       "nohidden3d lc rgb '#80%s' dt 1 lw 0.6 pt 6 ps 0.5 %s",
-                    a, 3u + k, colour[k][cl] + 1,
-                    a == 0u ? "title 'control nets'" : "notitle");
+            fprintf(g,
+                    ", \\\n  nets index %u using 1:2:%u with linespoints "
+                    "nohidden3d lc rgb '#80%s' dt 1 lw 0.6 pt 6 ps 0.5 %s",
+                    a, 3u + k, colour[k][cl] + 1, a == 0u ? "title 'control nets'" : "notitle");
         }
     }
     fputs("\n", g);
@@ -368,8 +352,7 @@ static void plot_size(const cli_opts *o, unsigned *w, unsigned *h)
     }
 }
 
-static int script_surfaces(const cli_opts *o, const cli_surface *mdl,
-                           tmpfiles *t)
+static int script_surfaces(const cli_opts *o, const cli_surface *mdl, tmpfiles *t)
 {
     unsigned fps[IT2N_FP_COUNT], nfp, k, npoints;
     zspan z;
@@ -387,11 +370,10 @@ static int script_surfaces(const cli_opts *o, const cli_surface *mdl,
         return CLI_EXIT_DATA;
     }
     put_terminal(g, o);
-    fprintf(g,
-            "set xlabel 'x'\nset ylabel 'y'\n"
-            "set view 60,35\nset xyplane relative 0\nset grid\n"
-            "set hidden3d front\n"
-            "set border 4095 lc rgb '#808080'\n");
+    fprintf(g, "set xlabel 'x'\nset ylabel 'y'\n"
+               "set view 60,35\nset xyplane relative 0\nset grid\n"
+               "set hidden3d front\n"
+               "set border 4095 lc rgb '#808080'\n");
     fputs("surf = ", g);
     put_quoted(g, t->path[0]);
     fputs("\nnets = ", g);
@@ -399,10 +381,10 @@ static int script_surfaces(const cli_opts *o, const cli_surface *mdl,
     fputs("\npts = ", g);
     put_quoted(g, t->path[2]);
     fputc('\n', g);
-    snprintf(title, sizeof(title), "%s: %u footprint surface%s%s, %ux%u "
-                                   "samples",
-             base_name(o), nfp, nfp == 1u ? "" : "s",
-             o->nets ? " with control nets" : "", o->rows, o->cols);
+    snprintf(title, sizeof(title),
+             "%s: %u footprint surface%s%s, %ux%u "
+             "samples",
+             base_name(o), nfp, nfp == 1u ? "" : "s", o->nets ? " with control nets" : "", o->rows, o->cols);
     if (o->membership < 0) {
         /* Three panels, T, I and F, each scaled to itself: drawn in one
          * box I hid behind F. */
@@ -417,16 +399,15 @@ static int script_surfaces(const cli_opts *o, const cli_surface *mdl,
         fputs("unset multiplot\n", g);
     } else {
         k = (unsigned)o->membership;
-        snprintf(title, sizeof(title), "%s: %s %s of %u footprint surface%s%s,"
-                                       " %ux%u samples",
-                 base_name(o), memb_long[k], memb_short[k], nfp,
-                 nfp == 1u ? "" : "s", o->nets ? " with control nets" : "",
-                 o->rows, o->cols);
+        snprintf(title, sizeof(title),
+                 "%s: %s %s of %u footprint surface%s%s,"
+                 " %ux%u samples",
+                 base_name(o), memb_long[k], memb_short[k], nfp, nfp == 1u ? "" : "s",
+                 o->nets ? " with control nets" : "", o->rows, o->cols);
         fputs("set title ", g);
         put_quoted(g, title);
         fputc('\n', g);
-        put_panel(g, o, mdl, fps, nfp, k, &z, npoints,
-                  "outside right top vertical spacing 1.1 box");
+        put_panel(g, o, mdl, fps, nfp, k, &z, npoints, "outside right top vertical spacing 1.1 box");
     }
     return tmp_close(g);
 }
@@ -439,11 +420,10 @@ typedef struct xybox {
 /* The bands at one (x, y): every footprint located through it. ok[b] when
  * all three footprints of band b (upper LL, D, RR; lower LR, D, RL) pass
  * there; lo/hi their extremes of channel ch. */
-static int band_at(const cli_surface *mdl, it2n_val x, it2n_val y, unsigned ch,
-                   bool ok[2], it2n_val lo[2], it2n_val hi[2])
+static int band_at(const cli_surface *mdl, it2n_val x, it2n_val y, unsigned ch, bool ok[2], it2n_val lo[2],
+                   it2n_val hi[2])
 {
-    static const unsigned set[2][3] = {{IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR},
-                                       {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL}};
+    static const unsigned set[2][3] = {{IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR}, {IT2N_FP_LR, IT2N_FP_D, IT2N_FP_RL}};
     it2n_locate_result res;
     unsigned b, s;
     int rc = cli_surf_locate(mdl, x, y, &res, NULL);
@@ -472,8 +452,8 @@ static it2n_val grid_at(it2n_val a, it2n_val b, unsigned i, unsigned n)
 /* The box of the nodes of a rows x cols grid over *in where a band is known,
  * widened by one cell (the region's edge lies between nodes) and kept in
  * *in. Returns false if no node has a band. */
-static int band_region(const cli_surface *mdl, unsigned ch, const xybox *in,
-                       unsigned rows, unsigned cols, xybox *out, bool *any)
+static int band_region(const cli_surface *mdl, unsigned ch, const xybox *in, unsigned rows, unsigned cols, xybox *out,
+                       bool *any)
 {
     unsigned r, c;
     it2n_val dx = (in->x1 - in->x0) / (it2n_val)(cols - 1u);
@@ -541,8 +521,7 @@ static int xy_extent(const cli_surface *mdl, xybox *all)
 
 /* One line of band.dat: x y, the two band widths, their bounds ('?' where
  * a band's footprints do not all pass through (x, y)). */
-static void put_band_line(FILE *d, it2n_val x, it2n_val y, const bool ok[2],
-                          const it2n_val lo[2], const it2n_val hi[2],
+static void put_band_line(FILE *d, it2n_val x, it2n_val y, const bool ok[2], const it2n_val lo[2], const it2n_val hi[2],
                           unsigned decimals)
 {
     unsigned b;
@@ -571,8 +550,7 @@ static void put_band_line(FILE *d, it2n_val x, it2n_val y, const bool ok[2],
 }
 
 /* band.dat over box: *wmax the widest band, *known the nodes with one. */
-static int write_band_data(const cli_opts *o, const cli_surface *mdl,
-                           const xybox *box, tmpfiles *t, it2n_val *wmax,
+static int write_band_data(const cli_opts *o, const cli_surface *mdl, const xybox *box, tmpfiles *t, it2n_val *wmax,
                            unsigned *known)
 {
     const unsigned k = (unsigned)o->membership, ch = IT2N_CH_T + k;
@@ -581,8 +559,9 @@ static int write_band_data(const cli_opts *o, const cli_surface *mdl,
     if (d == NULL) {
         return CLI_EXIT_DATA;
     }
-    fprintf(d, "# x y upper_width lower_width upper_min upper_max lower_min "
-               "lower_max of %s ('?': not every footprint passes here)\n",
+    fprintf(d,
+            "# x y upper_width lower_width upper_min upper_max lower_min "
+            "lower_max of %s ('?': not every footprint passes here)\n",
             memb_short[k]);
     for (r = 0; r < o->rows; r++) {
         it2n_val y = grid_at(box->y0, box->y1, r, o->rows);
@@ -609,8 +588,7 @@ static int write_band_data(const cli_opts *o, const cli_surface *mdl,
 }
 
 /* plot.gp: the two heat maps of band.dat side by side. */
-static int write_band_script(const cli_opts *o, const xybox *box,
-                             it2n_val wmax, tmpfiles *t)
+static int write_band_script(const cli_opts *o, const xybox *box, it2n_val wmax, tmpfiles *t)
 {
     const unsigned k = (unsigned)o->membership;
     char title[512];
@@ -624,7 +602,8 @@ static int write_band_script(const cli_opts *o, const xybox *box,
              "%ux%u nodes",
              base_name(o), memb_long[k], memb_short[k], o->rows, o->cols);
     fputs("set multiplot layout 1,2 margins 0.06,0.87,0.1,0.86 "
-          "spacing 0.16 title ", g);
+          "spacing 0.16 title ",
+          g);
     put_quoted(g, title);
     fprintf(g,
             "\nset datafile missing '?'\nset view map\nset size ratio -1\n"
@@ -633,8 +612,9 @@ static int write_band_script(const cli_opts *o, const xybox *box,
             "set cbrange [0:",
             colour[k][CLS_TYPE1]);
     put_val(g, wmax > 0 ? wmax : IT2N_VAL_ONE, o->decimals);
-    fprintf(g, "]\nset cblabel 'band width of %s' rotate\n"
-               "set xrange [",
+    fprintf(g,
+            "]\nset cblabel 'band width of %s' rotate\n"
+            "set xrange [",
             memb_short[k]);
     put_val(g, box->x0, o->decimals);
     fputc(':', g);
@@ -657,8 +637,7 @@ static int write_band_script(const cli_opts *o, const xybox *box,
 /* Interval band over (x, y): every footprint located through each node of
  * a grid over the region the bands cover (found on a coarse grid first, so
  * the map is not a small patch in a wide white frame). */
-static int script_interval(const cli_opts *o, const cli_surface *mdl,
-                           tmpfiles *t)
+static int script_interval(const cli_opts *o, const cli_surface *mdl, tmpfiles *t)
 {
     const unsigned ch = IT2N_CH_T + (unsigned)o->membership;
     it2n_val wmax = 0;
@@ -727,16 +706,13 @@ static int run_gnuplot(const cli_opts *o, const char *script)
     }
     while (waitpid(pid, &status, 0) < 0) {
         if (errno != EINTR) {
-            fprintf(stderr, "it2n: waiting for %s: %s\n", prog,
-                    strerror(errno));
+            fprintf(stderr, "it2n: waiting for %s: %s\n", prog, strerror(errno));
             return CLI_EXIT_DATA;
         }
     }
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        fprintf(stderr, "it2n: %s failed (%s %d) drawing %s\n", prog,
-                WIFEXITED(status) ? "exit status" : "signal",
-                WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status),
-                o->output);
+        fprintf(stderr, "it2n: %s failed (%s %d) drawing %s\n", prog, WIFEXITED(status) ? "exit status" : "signal",
+                WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status), o->output);
         return CLI_EXIT_DATA;
     }
     return CLI_EXIT_OK;
@@ -755,20 +731,16 @@ int cli_plot(const cli_opts *o, const cli_surface *mdl)
      * a file this run created is removed again on failure. */
     probe = fopen(o->output, "a");
     if (probe == NULL) {
-        fprintf(stderr, "%s: cannot create: %s\n", o->output,
-                strerror(errno));
+        fprintf(stderr, "%s: cannot create: %s\n", o->output, strerror(errno));
         return CLI_EXIT_DATA;
     }
     fclose(probe);
-    snprintf(t.dir, sizeof(t.dir), "%s/it2n-plot.XXXXXX",
-             tmp && tmp[0] ? tmp : "/tmp");
+    snprintf(t.dir, sizeof(t.dir), "%s/it2n-plot.XXXXXX", tmp && tmp[0] ? tmp : "/tmp");
     if (mkdtemp(t.dir) == NULL) {
-        fprintf(stderr, "it2n: cannot create a temporary directory %s: %s\n",
-                t.dir, strerror(errno));
+        fprintf(stderr, "it2n: cannot create a temporary directory %s: %s\n", t.dir, strerror(errno));
         return CLI_EXIT_DATA;
     }
-    rc = o->interval ? script_interval(o, mdl, &t)
-                     : script_surfaces(o, mdl, &t);
+    rc = o->interval ? script_interval(o, mdl, &t) : script_surfaces(o, mdl, &t);
     if (rc == CLI_EXIT_OK) {
         rc = run_gnuplot(o, t.path[t.n - 1u]);
     }

@@ -40,8 +40,7 @@ int cli_surf_locate(const cli_surface *s, it2n_val x, it2n_val y, it2n_locate_re
     return s->bsp != NULL ? it2n_bspline_locate(s->bsp, x, y, out, err) : it2n_locate(s->bez, x, y, out, err);
 }
 
-int cli_surf_sample(const cli_surface *s, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx,
-                    it2n_errinfo *err)
+int cli_surf_sample(const cli_surface *s, unsigned rows, unsigned cols, it2n_sample_cb cb, void *ctx, it2n_errinfo *err)
 {
     return s->bsp != NULL ? it2n_bspline_sample(s->bsp, rows, cols, cb, ctx, err)
                           : it2n_sample(s->bez, rows, cols, cb, ctx, err);
@@ -86,8 +85,7 @@ bool cli_surf_point(const cli_surface *s, unsigned i, unsigned j, unsigned fp, i
 
 bool cli_fp_selected(const cli_opts *o, const cli_surface *mdl, unsigned fp)
 {
-    return cli_surf_has_fp(mdl, fp) &&
-           (o->fpmask == 0u || (o->fpmask & (1u << fp)) != 0u);
+    return cli_surf_has_fp(mdl, fp) && (o->fpmask == 0u || (o->fpmask & (1u << fp)) != 0u);
 }
 
 void cli_fmt_val(char *buf, size_t size, it2n_val v, unsigned decimals)
@@ -108,19 +106,16 @@ typedef struct mesh_ctx {
     cli_mesh *mesh;
 } mesh_ctx;
 
-static int mesh_row(void *ctx, unsigned r, unsigned c, it2n_par u,
-                    it2n_par w, const it2n_point *pt)
+static int mesh_row(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w, const it2n_point *pt)
 {
     cli_mesh *m = ((mesh_ctx *)ctx)->mesh;
-    memcpy(&m->v[((size_t)r * m->cols + c) * IT2N_FP_COUNT * IT2N_CH_COUNT],
-           pt->v, sizeof(pt->v));
+    memcpy(&m->v[((size_t)r * m->cols + c) * IT2N_FP_COUNT * IT2N_CH_COUNT], pt->v, sizeof(pt->v));
     m->u[r] = u;
     m->w[c] = w;
     return 0;
 }
 
-int cli_mesh_sample(cli_mesh *mesh, const cli_surface *mdl, unsigned rows,
-                    unsigned cols)
+int cli_mesh_sample(cli_mesh *mesh, const cli_surface *mdl, unsigned rows, unsigned cols)
 {
     size_t nodes = (size_t)rows * cols;
     mesh_ctx ctx;
@@ -152,4 +147,3 @@ void cli_mesh_free(cli_mesh *mesh)
     mesh->v = NULL;
     mesh->u = mesh->w = NULL;
 }
-

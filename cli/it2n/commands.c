@@ -64,10 +64,8 @@ static int cmd_check(const cli_opts *o)
     bool t1 = (g_flags & IT2N_F_TYPE1) != 0u;
     printf("%s: ok: %ux%u grid (n=%u, m=%u), %s, coordinates %s, %s "
            "parameters%s\n",
-           display_name(o), n + 1u, m + 1u, n, m,
-           t1 ? "type-1 (footprint D)" : "type-2 (7 footprints)",
-           g_out.z ? "x,y,z" : "x,y",
-           (g_flags & IT2N_F_CHORD) ? "chord-length" : "uniform",
+           display_name(o), n + 1u, m + 1u, n, m, t1 ? "type-1 (footprint D)" : "type-2 (7 footprints)",
+           g_out.z ? "x,y,z" : "x,y", (g_flags & IT2N_F_CHORD) ? "chord-length" : "uniform",
            g_bspline ? ", cubic B-spline (not-a-knot)" : "");
     return cli_finish_output("it2n");
 }
@@ -125,9 +123,8 @@ static int cmd_eval(const cli_opts *o)
     size_t k;
     cli_put_header(&g_out, "u,w,footprint", ",out_of_range");
     for (k = 0; k < o->nat; k++) {
-        int rc = g_bspline
-                     ? it2n_bspline_eval(g_bmdl, o->at[k].a, o->at[k].b, &pt, NULL)
-                     : it2n_eval(&g_mdl, o->at[k].a, o->at[k].b, &pt, NULL);
+        int rc = g_bspline ? it2n_bspline_eval(g_bmdl, o->at[k].a, o->at[k].b, &pt, NULL)
+                           : it2n_eval(&g_mdl, o->at[k].a, o->at[k].b, &pt, NULL);
         if (rc != IT2N_OK) {
             return core_fail("eval", rc);
         }
@@ -140,10 +137,8 @@ static int cmd_sample(const cli_opts *o)
 {
     int rc;
     cli_put_header(&g_out, "u,w,footprint", ",out_of_range");
-    rc = g_bspline ? it2n_bspline_sample(g_bmdl, o->rows, o->cols, cli_put_sample_row,
-                                         &g_out, NULL)
-                   : it2n_sample(&g_mdl, o->rows, o->cols, cli_put_sample_row,
-                                 &g_out, NULL);
+    rc = g_bspline ? it2n_bspline_sample(g_bmdl, o->rows, o->cols, cli_put_sample_row, &g_out, NULL)
+                   : it2n_sample(&g_mdl, o->rows, o->cols, cli_put_sample_row, &g_out, NULL);
     if (rc < 0) {
         return core_fail("sample", rc);
     }
@@ -157,10 +152,8 @@ static int cmd_deriv(const cli_opts *o)
     unsigned fp;
     cli_put_header(&g_out, "u,w,footprint,wrt", "");
     for (k = 0; k < o->nat; k++) {
-        int rc = g_bspline ? it2n_bspline_deriv(g_bmdl, o->at[k].a, o->at[k].b,
-                                                &du, &dw, NULL)
-                           : it2n_deriv(&g_mdl, o->at[k].a, o->at[k].b, &du,
-                                        &dw, NULL);
+        int rc = g_bspline ? it2n_bspline_deriv(g_bmdl, o->at[k].a, o->at[k].b, &du, &dw, NULL)
+                           : it2n_deriv(&g_mdl, o->at[k].a, o->at[k].b, &du, &dw, NULL);
         if (rc != IT2N_OK) {
             return core_fail("deriv", rc);
         }
@@ -190,8 +183,7 @@ static int cmd_locate(const cli_opts *o)
     unsigned fp;
     printf("x,y,footprint,u,w%s,T,I,F,status\n", g_out.z ? ",z" : "");
     for (k = 0; k < o->nat; k++) {
-        int rc = g_bspline ? it2n_bspline_locate(g_bmdl, o->at[k].a, o->at[k].b,
-                                                 &res, NULL)
+        int rc = g_bspline ? it2n_bspline_locate(g_bmdl, o->at[k].a, o->at[k].b, &res, NULL)
                            : it2n_locate(&g_mdl, o->at[k].a, o->at[k].b, &res, NULL);
         if (rc != IT2N_OK) {
             return core_fail("locate", rc);
@@ -202,8 +194,7 @@ static int cmd_locate(const cli_opts *o)
             if (!fp_in_model(fp)) {
                 continue;
             }
-            cli_put_locate_row(&g_out, o->at[k].a, o->at[k].b, fp, uw, r->v,
-                               r->status < 3u ? status[r->status] : "?");
+            cli_put_locate_row(&g_out, o->at[k].a, o->at[k].b, fp, uw, r->v, r->status < 3u ? status[r->status] : "?");
         }
     }
     return cli_finish_output("it2n");

@@ -11,26 +11,25 @@
 
 typedef struct cli_cmd {
     const char *name;
-    const char *args;     /* synopsis after DATA.csv         */
-    const char *summary;  /* one line for `it2n --help`      */
-    const char *help;     /* details for `it2n CMD --help`   */
-    unsigned opts;        /* CLI_O_* and O_* accepted        */
+    const char *args;    /* synopsis after DATA.csv         */
+    const char *summary; /* one line for `it2n --help`      */
+    const char *help;    /* details for `it2n CMD --help`   */
+    unsigned opts;       /* CLI_O_* and O_* accepted        */
 } cli_cmd;
 
 /* it2n's own option bits and ids (the shared ones: cli.h). */
-#define O_FORMAT CLI_O_PROG /* --format (export) */
+#define O_FORMAT CLI_O_PROG              /* --format (export) */
 #define O_ALL (CLI_O_CHORD | CLI_O_KIND) /* every command */
 enum { OPT_FORMAT = CLI_OPT_PROG };
 
 static const cli_opt own_opts[] = {
-    {"format", 0, CLI_ARG_WORD, OPT_FORMAT, O_FORMAT, 0, 0, "vtk|obj|csv",
-     "expected vtk, obj or csv", NULL, NULL, NULL},
+    {"format", 0, CLI_ARG_WORD, OPT_FORMAT, O_FORMAT, 0, 0, "vtk|obj|csv", "expected vtk, obj or csv", NULL, NULL,
+     NULL},
 };
 
 /* After the option list of the shared table (cli_common_opts). */
-static const char common_tail[] =
-    "DATA.csv is '-' for standard input. Exit status: 0 ok, 1 usage error,\n"
-    "2 data error (message on stderr as FILE:LINE: ...).\n";
+static const char common_tail[] = "DATA.csv is '-' for standard input. Exit status: 0 ok, 1 usage error,\n"
+                                  "2 data error (message on stderr as FILE:LINE: ...).\n";
 
 static void common_help(FILE *out)
 {
@@ -50,8 +49,7 @@ static const cli_cmd cmds[] = {
      "Print the Bezier control points of every footprint surface as CSV\n"
      "with the input's columns: i,j,footprint,x,y[,z],T,I,F.\n",
      O_ALL},
-    {"eval", "--at U,W [--at U,W ...] [--summary]",
-     "evaluate the surfaces at parameters (u,w)",
+    {"eval", "--at U,W [--at U,W ...] [--summary]", "evaluate the surfaces at parameters (u,w)",
      "Evaluate every footprint surface at each (u,w) in [0,1]^2.\n"
      "Header u,w,footprint,x,y[,z],T,I,F,out_of_range; out_of_range names\n"
      "the memberships outside [0,1] (e.g. T|F) or is '-'.\n"
@@ -60,8 +58,7 @@ static const cli_cmd cmds[] = {
      "               LL,D,RR) and lower_min, lower_max (over LR,D,RL) with\n"
      "               empty coordinates and the T,I,F bounds\n",
      O_ALL | CLI_O_AT_UW | CLI_O_SUMMARY},
-    {"sample", "--grid RxC [--summary] [--footprint FP[,FP...]]",
-     "evaluate on a uniform RxC parameter grid",
+    {"sample", "--grid RxC [--summary] [--footprint FP[,FP...]]", "evaluate on a uniform RxC parameter grid",
      "Like eval on u = r/(R-1), w = c/(C-1), row-major; R, C in 2..65535.\n"
      "  --grid RxC        grid size\n"
      "  --summary         interval summary rows as in eval (always over all\n"
@@ -69,15 +66,13 @@ static const cli_cmd cmds[] = {
      "  --footprint LIST  only these footprints (LL,LR,L,D,R,RL,RR; comma-\n"
      "                    separated, repeatable; default all)\n",
      O_ALL | CLI_O_GRID | CLI_O_SUMMARY | CLI_O_FP},
-    {"locate", "--at X,Y [--at X,Y ...]",
-     "find each footprint's (u,w) through a location (x,y)",
+    {"locate", "--at X,Y [--at X,Y ...]", "find each footprint's (u,w) through a location (x,y)",
      "For each footprint find (u,w) whose surface passes through (x,y) and\n"
      "print the memberships there. Header x,y,footprint,u,w[,z],T,I,F,status\n"
      "with status inside, outside (nearest boundary point) or noconv.\n"
      "  --at X,Y     location, repeatable\n",
      O_ALL | CLI_O_AT_XY},
-    {"deriv", "--at U,W [--at U,W ...]",
-     "partial derivatives dS/du and dS/dw",
+    {"deriv", "--at U,W [--at U,W ...]", "partial derivatives dS/du and dS/dw",
      "Print dS/du (wrt=u) and dS/dw (wrt=w) of every surface at each (u,w).\n"
      "Header u,w,footprint,wrt,x,y[,z],T,I,F.\n"
      "  --at U,W     parameters, repeatable\n",
@@ -134,25 +129,23 @@ static const cli_cmd cmds[] = {
 static void usage_all(FILE *out)
 {
     size_t k;
-    fprintf(out,
-            "Usage: it2n COMMAND DATA.csv [OPTIONS]\n"
-            "Interval type-2 neutrosophic Bezier surface interpolation.\n\n"
-            "Commands:\n");
+    fprintf(out, "Usage: it2n COMMAND DATA.csv [OPTIONS]\n"
+                 "Interval type-2 neutrosophic Bezier surface interpolation.\n\n"
+                 "Commands:\n");
     for (k = 0; k < NCMDS; k++) {
         fprintf(out, "  %-8s %s\n", cmds[k].name, cmds[k].summary);
     }
-    fprintf(out,
-            "\nDATA.csv: header i,j,footprint,x,y[,z],T,I,F then one row per\n"
-            "grid point and footprint (LL,LR,L,D,R,RL,RR, or D only).\n"
-            "'it2n COMMAND --help' for details; 'it2n --version'.\n\n");
+    fprintf(out, "\nDATA.csv: header i,j,footprint,x,y[,z],T,I,F then one row per\n"
+                 "grid point and footprint (LL,LR,L,D,R,RL,RR, or D only).\n"
+                 "'it2n COMMAND --help' for details; 'it2n --version'.\n\n");
     common_help(out);
 }
 
 static void usage_cmd(const void *cmd)
 {
     const cli_cmd *c = cmd;
-    printf("Usage: it2n %s DATA.csv%s%s [--kind K] [--chord] [--decimals N]\n\n%s\n",
-           c->name, c->args[0] ? " " : "", c->args, c->help);
+    printf("Usage: it2n %s DATA.csv%s%s [--kind K] [--chord] [--decimals N]\n\n%s\n", c->name, c->args[0] ? " " : "",
+           c->args, c->help);
     common_help(stdout);
 }
 
@@ -184,13 +177,11 @@ static int parse_cmd(const cli_cmd *c, int argc, char **argv, cli_opts *o)
     }
     nops = cli_opt_operands(&p, &ops);
     if (nops != 1) {
-        return cli_usage_error("it2n", c->name, "%s",
-                               nops == 0 ? "missing DATA.csv" : "expected exactly one DATA.csv");
+        return cli_usage_error("it2n", c->name, "%s", nops == 0 ? "missing DATA.csv" : "expected exactly one DATA.csv");
     }
     o->path = ops[0];
     if (o->kind == CLI_KIND_BSPLINE && (o->flags & IT2N_F_CHORD)) {
-        return cli_usage_error("it2n", c->name, "%s",
-                               "--chord: the B-spline kind has uniform parameters only");
+        return cli_usage_error("it2n", c->name, "%s", "--chord: the B-spline kind has uniform parameters only");
     }
     if ((c->opts & O_FORMAT) && !cli_opt_seen(&p, OPT_FORMAT)) {
         return cli_usage_error("it2n", c->name, "%s needs --format vtk|obj|csv", c->name);
@@ -202,8 +193,7 @@ int main(int argc, char **argv)
 {
     cli_opts o;
     int rc;
-    static const cli_prog prog = {"it2n", cmds, NCMDS, sizeof(cmds[0]),
-                                  usage_all, usage_cmd, NULL};
+    static const cli_prog prog = {"it2n", cmds, NCMDS, sizeof(cmds[0]), usage_all, usage_cmd, NULL};
     const cli_cmd *c = cli_first_word(&prog, argc, argv, &rc);
     if (c == NULL) {
         return rc;

@@ -33,20 +33,19 @@ typedef struct ctl_status {
     unsigned n, m, flags; /* configured degrees and IT2N_F_*       */
     unsigned present, required;
     uint32_t generation;
-    int last_error;       /* it2n error code, 0 none               */
-    unsigned kind;        /* 0 Bezier, 1 B-spline (IT2N_REGMAP_KIND_*)    */
+    int last_error;              /* it2n error code, 0 none               */
+    unsigned kind;               /* 0 Bezier, 1 B-spline (IT2N_REGMAP_KIND_*)    */
     unsigned net_rows, net_cols; /* of each solved net, 0 unsolved */
 } ctl_status;
 
 /* Locate status of one footprint. Modbus has one bit per footprint
  * (inside or not), so CTL_LOC_NOT_INSIDE stands for outside-or-noconv. */
-enum { CTL_LOC_INSIDE = 0, CTL_LOC_OUTSIDE, CTL_LOC_NOCONV,
-       CTL_LOC_NOT_INSIDE };
+enum { CTL_LOC_INSIDE = 0, CTL_LOC_OUTSIDE, CTL_LOC_NOCONV, CTL_LOC_NOT_INSIDE };
 
 typedef struct ctl_loc {
-    bool has_uw;           /* u, w known (links; not in the register map) */
+    bool has_uw; /* u, w known (links; not in the register map) */
     it2n_par u, w;
-    int status;            /* CTL_LOC_*                              */
+    int status; /* CTL_LOC_*                              */
     it2n_val v[IT2N_CH_COUNT];
 } ctl_loc;
 
@@ -58,8 +57,7 @@ typedef void (*ctl_progress_fn)(void *ctx, unsigned done, unsigned total);
 
 /* A sample node: every footprint's channels (only fps of the model are
  * filled) and the out-of-range bits as it2n_point.out_of_range. */
-typedef int (*ctl_sample_fn)(void *ctx, unsigned r, unsigned c, it2n_par u,
-                             it2n_par w, const it2n_point *pt);
+typedef int (*ctl_sample_fn)(void *ctx, unsigned r, unsigned c, it2n_par u, it2n_par w, const it2n_point *pt);
 
 /* Return value of push when the daemon refused one data point: *rej names
  * it (i, j, fp, ch, value) so the caller can print FILE:LINE. */
@@ -71,19 +69,16 @@ typedef struct ctl_ops {
     /* Configure (n, m, flags), clear, upload every entry of ds, commit.
      * Checks what the transport cannot carry before sending anything
      * (returns CTL_REJECTED with *rej, ch >= 0, code IT2N_ERR_RANGE). */
-    int (*push)(void *c, const it2n_dataset *ds, ctl_progress_fn progress,
-                void *pctx, it2n_errinfo *rej);
+    int (*push)(void *c, const it2n_dataset *ds, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej);
     /* Evaluate at (*u, *w); on return *u, *w are the parameters the
      * daemon evaluated at (a transport may round them). */
     int (*eval)(void *c, it2n_par *u, it2n_par *w, it2n_point *pt);
     /* Locate (*x, *y) on every footprint (*x, *y as used by the daemon). */
-    int (*locate)(void *c, it2n_val *x, it2n_val *y,
-                  ctl_loc res[IT2N_FP_COUNT]);
+    int (*locate)(void *c, it2n_val *x, it2n_val *y, ctl_loc res[IT2N_FP_COUNT]);
     /* Control nets of the solved model described by st. */
     int (*net)(void *c, const ctl_status *st, ctl_net *net);
     /* Every footprint on a rows x cols grid, row-major. */
-    int (*sample)(void *c, const ctl_status *st, unsigned rows,
-                  unsigned cols, ctl_sample_fn cb, void *ctx);
+    int (*sample)(void *c, const ctl_status *st, unsigned rows, unsigned cols, ctl_sample_fn cb, void *ctx);
     /* Wait up to timeout_ms for the generation to differ from gen; fills
      * *st. Returns CTL_EXIT_OK (changed or not: compare st->generation). */
     int (*wait)(void *c, uint32_t gen, int timeout_ms, ctl_status *st);
@@ -91,36 +86,32 @@ typedef struct ctl_ops {
     /* The B-spline kind (NULL: the transport cannot carry it): push a
      * data set as push does; read row `row` of net (fp, ch), st->net_cols
      * coefficients in Q24, into out. */
-    int (*push_bspline)(void *c, const it2n_bspline_data *bds,
-                        ctl_progress_fn progress, void *pctx,
-                        it2n_errinfo *rej);
-    int (*coef_row)(void *c, const ctl_status *st, unsigned fp, unsigned ch,
-                    unsigned row, it2n_val *out);
+    int (*push_bspline)(void *c, const it2n_bspline_data *bds, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej);
+    int (*coef_row)(void *c, const ctl_status *st, unsigned fp, unsigned ch, unsigned row, it2n_val *out);
 } ctl_ops;
 
 /* Connection options from the command line. */
 typedef struct ctl_conn_opts {
-    const char *tcp;      /* HOST[:PORT], default 127.0.0.1:1502          */
-    const char *rtu;      /* serial device for Modbus RTU                 */
-    const char *link;     /* serial device / pty for the framing protocol */
-    unsigned unit;        /* Modbus unit id (default 1)                   */
-    unsigned model;       /* link model id (default 1)                    */
-    unsigned baud;        /* RTU / link baud rate                         */
-    char parity;          /* RTU: 'N', 'E', 'O'                           */
-    unsigned stop_bits;   /* RTU: 1 or 2                                  */
-    unsigned timeout_ms;  /* per request                                  */
-    int poll_ms;          /* watch: Modbus polling interval               */
-    const char *broker;   /* it2nctl spb: MQTT broker HOST[:PORT]         */
-    const char *group;    /* it2nctl spb: Sparkplug group_id              */
-    const char *node;     /* it2nctl spb: Sparkplug edge_node_id          */
+    const char *tcp;     /* HOST[:PORT], default 127.0.0.1:1502          */
+    const char *rtu;     /* serial device for Modbus RTU                 */
+    const char *link;    /* serial device / pty for the framing protocol */
+    unsigned unit;       /* Modbus unit id (default 1)                   */
+    unsigned model;      /* link model id (default 1)                    */
+    unsigned baud;       /* RTU / link baud rate                         */
+    char parity;         /* RTU: 'N', 'E', 'O'                           */
+    unsigned stop_bits;  /* RTU: 1 or 2                                  */
+    unsigned timeout_ms; /* per request                                  */
+    int poll_ms;         /* watch: Modbus polling interval               */
+    const char *broker;  /* it2nctl spb: MQTT broker HOST[:PORT]         */
+    const char *group;   /* it2nctl spb: Sparkplug group_id              */
+    const char *node;    /* it2nctl spb: Sparkplug edge_node_id          */
 } ctl_conn_opts;
 
 /* Split a --tcp argument, HOST:PORT or [V6]:PORT (HOST alone: port 1502),
  * into host[hn] and port[pn]. Returns NULL when it is well formed, else
  * what is wrong with it (a usage error: the port is not 1..65535, the host
  * is empty, a bracket is not closed); checks syntax only, no name lookup. */
-const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port,
-                          size_t pn);
+const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port, size_t pn);
 
 /* Open a transport; on failure prints why and returns NULL with *rc set. */
 void *ctl_modbus_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc);

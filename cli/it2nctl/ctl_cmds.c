@@ -46,15 +46,18 @@ void ctl_summarise(bool type1, it2n_point *pt)
         pt->sum.lower_min[k] = pt->sum.lower_max[k] = d;
         for (f = 0; f < 3u && !type1; f++) {
             it2n_val a = pt->v[upper[f]][ch], b = pt->v[lower[f]][ch];
-            if (a < pt->sum.upper_min[k]) pt->sum.upper_min[k] = a;
-            if (a > pt->sum.upper_max[k]) pt->sum.upper_max[k] = a;
-            if (b < pt->sum.lower_min[k]) pt->sum.lower_min[k] = b;
-            if (b > pt->sum.lower_max[k]) pt->sum.lower_max[k] = b;
+            if (a < pt->sum.upper_min[k])
+                pt->sum.upper_min[k] = a;
+            if (a > pt->sum.upper_max[k])
+                pt->sum.upper_max[k] = a;
+            if (b < pt->sum.lower_min[k])
+                pt->sum.lower_min[k] = b;
+            if (b > pt->sum.lower_max[k])
+                pt->sum.lower_max[k] = b;
         }
         for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
             it2n_val v = pt->v[fp][ch];
-            if ((type1 ? fp == IT2N_FP_D : true) &&
-                (v < 0 || v > IT2N_VAL_ONE)) {
+            if ((type1 ? fp == IT2N_FP_D : true) && (v < 0 || v > IT2N_VAL_ONE)) {
                 pt->out_of_range |= (uint32_t)1u << (fp * 3u + k);
             }
         }
@@ -68,16 +71,13 @@ int ctl_solved_status(ctl_session *s, const ctl_args *a, ctl_status *st)
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    cli_out_init(&ctl_out, st->flags, a->o.decimals, a->o.fpmask,
-                 a->o.summary);
+    cli_out_init(&ctl_out, st->flags, a->o.decimals, a->o.fpmask, a->o.summary);
     if (st->state != CTL_ST_SOLVED) {
         fprintf(stderr,
                 "it2nctl: %s: the model is not solved (state %s, %u of %u "
                 "points%s)\n",
-                s->where, ctl_state_name(st->state), st->present,
-                st->required,
-                st->state == CTL_ST_FAILED ? "; see last_error in status"
-                                           : "");
+                s->where, ctl_state_name(st->state), st->present, st->required,
+                st->state == CTL_ST_FAILED ? "; see last_error in status" : "");
         return CTL_EXIT_DATA;
     }
     return CTL_EXIT_OK;
@@ -91,13 +91,10 @@ static void put_status_header(void)
 
 static void put_status_row(const ctl_status *st)
 {
-    printf("%u,%s,%u,%u,%s,%s,%s,%u,%u,%lu,%d,%s\n", st->model,
-           ctl_state_name(st->state), st->n, st->m,
-           (st->flags & IT2N_F_TYPE1) ? "type-1" : "type-2",
-           (st->flags & IT2N_F_Z) ? "xyz" : "xy",
-           (st->flags & IT2N_F_CHORD) ? "chord-length" : "uniform",
-           st->present, st->required, (unsigned long)st->generation,
-           st->last_error, st->kind ? "bspline" : "bezier");
+    printf("%u,%s,%u,%u,%s,%s,%s,%u,%u,%lu,%d,%s\n", st->model, ctl_state_name(st->state), st->n, st->m,
+           (st->flags & IT2N_F_TYPE1) ? "type-1" : "type-2", (st->flags & IT2N_F_Z) ? "xyz" : "xy",
+           (st->flags & IT2N_F_CHORD) ? "chord-length" : "uniform", st->present, st->required,
+           (unsigned long)st->generation, st->last_error, st->kind ? "bspline" : "bezier");
 }
 
 int ctl_cmd_status(ctl_session *s, const ctl_args *a)
@@ -119,8 +116,7 @@ int ctl_cmd_status(ctl_session *s, const ctl_args *a)
  * for WATCH_SETTLE_MS — a cleared or abandoned model is shown, a push in
  * progress is not — or at once when every generation is asked for. */
 #define WATCH_SETTLE_MS 1000
-int ctl_next_generation(ctl_session *s, bool every, uint32_t gen,
-                        ctl_status *st)
+int ctl_next_generation(ctl_session *s, bool every, uint32_t gen, ctl_status *st)
 {
     int rc;
     for (;;) {
@@ -131,8 +127,7 @@ int ctl_next_generation(ctl_session *s, bool every, uint32_t gen,
             }
             continue;
         }
-        if (every || st->state == CTL_ST_SOLVED ||
-            st->state == CTL_ST_FAILED) {
+        if (every || st->state == CTL_ST_SOLVED || st->state == CTL_ST_FAILED) {
             return CTL_EXIT_OK;
         }
         /* A transport's wait may return early (an event that kept the
@@ -148,8 +143,7 @@ int ctl_next_generation(ctl_session *s, bool every, uint32_t gen,
                     return rc;
                 }
                 clock_gettime(CLOCK_MONOTONIC, &t);
-                left = WATCH_SETTLE_MS - ((t.tv_sec - t0.tv_sec) * 1000L +
-                                          (t.tv_nsec - t0.tv_nsec) / 1000000L);
+                left = WATCH_SETTLE_MS - ((t.tv_sec - t0.tv_sec) * 1000L + (t.tv_nsec - t0.tv_nsec) / 1000000L);
             }
         }
         if (st->generation == gen) {
@@ -191,7 +185,7 @@ static it2n_dataset g_ds;
 static it2n_model g_mdl;
 
 /* Read, check and solve DATA.csv exactly as it2n does (the same code). */
-static const it2n_bspline_data *g_bds;  /* push --kind bspline */
+static const it2n_bspline_data *g_bds; /* push --kind bspline */
 static const cli_csv_reader *g_bcsv;
 
 int ctl_load(const cli_opts *o)
@@ -203,8 +197,7 @@ int ctl_load(const cli_opts *o)
                             "uniform parameters only\n");
             return CTL_EXIT_USAGE;
         }
-        return cli_load_bspline(o, &g_bds, &bm, &g_bcsv) == CLI_EXIT_OK
-                   ? CTL_EXIT_OK : CTL_EXIT_DATA;
+        return cli_load_bspline(o, &g_bds, &bm, &g_bcsv) == CLI_EXIT_OK ? CTL_EXIT_OK : CTL_EXIT_DATA;
     }
     return cli_load(o, &g_csv, &g_ds, &g_mdl) == CLI_EXIT_OK ? CTL_EXIT_OK : CTL_EXIT_DATA;
 }
@@ -236,9 +229,10 @@ int ctl_cmd_push(ctl_session *s, const ctl_args *a)
     char msg[600];
     int rc;
     if (g_bds != NULL && s->ops->push_bspline == NULL) {
-        fprintf(stderr, "it2nctl: push --kind bspline: not over --%s (its "
-                        "messages carry Bezier degrees up to %d); push over "
-                        "Modbus (--tcp or --rtu)\n",
+        fprintf(stderr,
+                "it2nctl: push --kind bspline: not over --%s (its "
+                "messages carry Bezier degrees up to %d); push over "
+                "Modbus (--tcp or --rtu)\n",
                 s->ops->kind, IT2N_MAX_DEGREE);
         return CTL_EXIT_USAGE;
     }
@@ -251,35 +245,33 @@ int ctl_cmd_push(ctl_session *s, const ctl_args *a)
     if (rc == CTL_REJECTED) {
         cli_csv_error e;
         unsigned long line = 0;
-        if (rej.i >= 0 && rej.j >= 0 && rej.fp >= 0 && rej.i < IT2N_DIM &&
-            rej.j < IT2N_DIM && rej.fp < IT2N_FP_COUNT) {
+        if (rej.i >= 0 && rej.j >= 0 && rej.fp >= 0 && rej.i < IT2N_DIM && rej.j < IT2N_DIM && rej.fp < IT2N_FP_COUNT) {
             line = g_csv.lines[rej.i][rej.j][rej.fp];
         }
-        if (g_bds != NULL && rej.i >= 0 && rej.j >= 0 && rej.fp >= 0 &&
-            rej.i <= IT2N_BSPLINE_MAX_N && rej.j <= IT2N_BSPLINE_MAX_N &&
-            rej.fp < IT2N_FP_COUNT) {
-            line = g_bcsv->bs_lines[((size_t)rej.i * CLI_CSV_BSPLINE_SIDE + (size_t)rej.j) * IT2N_FP_COUNT +
-                                    (size_t)rej.fp];
+        if (g_bds != NULL && rej.i >= 0 && rej.j >= 0 && rej.fp >= 0 && rej.i <= IT2N_BSPLINE_MAX_N &&
+            rej.j <= IT2N_BSPLINE_MAX_N && rej.fp < IT2N_FP_COUNT) {
+            line =
+                g_bcsv
+                    ->bs_lines[((size_t)rej.i * CLI_CSV_BSPLINE_SIDE + (size_t)rej.j) * IT2N_FP_COUNT + (size_t)rej.fp];
         }
-        if (rej.code == IT2N_ERR_RANGE && rej.ch >= 0 &&
-            strcmp(s->ops->kind, "modbus") == 0 && rej.lo > 0) {
+        if (rej.code == IT2N_ERR_RANGE && rej.ch >= 0 && strcmp(s->ops->kind, "modbus") == 0 && rej.lo > 0) {
             char v[48];
             cli_fmt_val(v, sizeof(v), rej.value, 6);
-            snprintf(msg, sizeof(msg), "%s:%lu: %s=%s is not a multiple of "
+            snprintf(msg, sizeof(msg),
+                     "%s:%lu: %s=%s is not a multiple of "
                      "1/%lld: the Modbus map carries %s x%lld as %s "
                      "(use --link for exact values) at (i=%d,j=%d,%s)",
-                     name, line, it2n_ch_name((unsigned)rej.ch), v,
-                     (long long)rej.lo,
-                     rej.hi ? "coordinates" : "memberships",
-                     (long long)rej.lo, rej.hi ? "i32" : "u16", rej.i, rej.j,
+                     name, line, it2n_ch_name((unsigned)rej.ch), v, (long long)rej.lo,
+                     rej.hi ? "coordinates" : "memberships", (long long)rej.lo, rej.hi ? "i32" : "u16", rej.i, rej.j,
                      it2n_fp_name((unsigned)rej.fp));
             fprintf(stderr, "%s\n", msg);
             return CTL_EXIT_DATA;
         }
         cli_csv_locate(g_bds != NULL ? g_bcsv : &g_csv, &rej, &e);
         cli_csv_message(&e, name, msg, sizeof(msg));
-        fprintf(stderr, "%s (refused by it2nd at %s; the model is left "
-                        "incomplete)\n",
+        fprintf(stderr,
+                "%s (refused by it2nd at %s; the model is left "
+                "incomplete)\n",
                 msg, s->where);
         return CTL_EXIT_DATA;
     }
@@ -290,9 +282,8 @@ int ctl_cmd_push(ctl_session *s, const ctl_args *a)
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    printf("%s: pushed %u points to %s: %s, %ux%u grid, generation %lu\n",
-           name, st.present, s->where, ctl_state_name(st.state), st.n + 1u,
-           st.m + 1u, (unsigned long)st.generation);
+    printf("%s: pushed %u points to %s: %s, %ux%u grid, generation %lu\n", name, st.present, s->where,
+           ctl_state_name(st.state), st.n + 1u, st.m + 1u, (unsigned long)st.generation);
     return cli_finish_output("it2nctl");
 }
 
@@ -320,8 +311,7 @@ int ctl_cmd_eval(ctl_session *s, const ctl_args *a)
 
 int ctl_cmd_locate(ctl_session *s, const ctl_args *a)
 {
-    static const char *const status[4] = {"inside", "outside", "noconv",
-                                          "outside|noconv"};
+    static const char *const status[4] = {"inside", "outside", "noconv", "outside|noconv"};
     ctl_status st;
     ctl_loc res[IT2N_FP_COUNT];
     size_t k;
@@ -342,11 +332,8 @@ int ctl_cmd_locate(ctl_session *s, const ctl_args *a)
                 continue;
             }
             const it2n_par uw[2] = {res[fp].u, res[fp].w};
-            cli_put_locate_row(&ctl_out, x, y, fp, res[fp].has_uw ? uw : NULL,
-                               res[fp].v,
-                               res[fp].status >= 0 && res[fp].status < 4
-                                   ? status[res[fp].status]
-                                   : "?");
+            cli_put_locate_row(&ctl_out, x, y, fp, res[fp].has_uw ? uw : NULL, res[fp].v,
+                               res[fp].status >= 0 && res[fp].status < 4 ? status[res[fp].status] : "?");
         }
     }
     return cli_finish_output("it2nctl");
@@ -363,10 +350,11 @@ int ctl_cmd_net(ctl_session *s, const ctl_args *a)
         return rc;
     }
     if (st.kind != 0u) {
-        fprintf(stderr, "it2nctl: %s: net prints a Bezier control net; this "
-                        "model is a B-spline (its coefficients: the "
-                        "coef_page/coef_window registers, docs/registers.md; "
-                        "'it2n solve --kind bspline' prints them from the CSV)\n",
+        fprintf(stderr,
+                "it2nctl: %s: net prints a Bezier control net; this "
+                "model is a B-spline (its coefficients: the "
+                "coef_page/coef_window registers, docs/registers.md; "
+                "'it2n solve --kind bspline' prints them from the CSV)\n",
                 s->where);
         return CTL_EXIT_DATA;
     }
@@ -406,11 +394,9 @@ int ctl_cmd_sample(ctl_session *s, const ctl_args *a)
         }
     }
     cli_put_header(&ctl_out, "u,w,footprint", ",out_of_range");
-    rc = s->ops->sample(s->c, &st, a->o.rows, a->o.cols, cli_put_sample_row,
-                        &ctl_out);
+    rc = s->ops->sample(s->c, &st, a->o.rows, a->o.cols, cli_put_sample_row, &ctl_out);
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
     return cli_finish_output("it2nctl");
 }
-

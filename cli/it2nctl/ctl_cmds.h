@@ -22,11 +22,11 @@ typedef struct ctl_cmd {
 
 typedef struct ctl_args {
     const ctl_cmd *cmd;
-    cli_opts o;            /* output options as it2n's            */
+    cli_opts o; /* output options as it2n's            */
     ctl_conn_opts conn;
-    unsigned count;        /* watch/plot --count, 0 = forever      */
-    bool incomplete;       /* watch --incomplete                   */
-    bool follow;           /* plot --follow                        */
+    unsigned count;  /* watch/plot --count, 0 = forever      */
+    bool incomplete; /* watch --incomplete                   */
+    bool follow;     /* plot --follow                        */
 } ctl_args;
 
 typedef struct ctl_session {
@@ -56,8 +56,7 @@ int ctl_solved_status(ctl_session *s, const ctl_args *a, ctl_status *st);
 
 /* Wait for the next generation after gen worth a row or a drawing (every:
  * each one, a push's too). */
-int ctl_next_generation(ctl_session *s, bool every, uint32_t gen,
-                        ctl_status *st);
+int ctl_next_generation(ctl_session *s, bool every, uint32_t gen, ctl_status *st);
 
 /* The rows' options and the model's z and type (ctl_solved_status). */
 extern cli_out ctl_out;

@@ -27,16 +27,16 @@ typedef struct lk_conn {
     it2n_ostream os;
     it2n_istream is;
     int fd;
-    int io_err;              /* errno of a failed read/write, or -1 EOF */
+    int io_err; /* errno of a failed read/write, or -1 EOF */
     uint8_t model;
     unsigned timeout_ms;
     char where[300];
     /* the request in flight */
-    int32_t req_seq;         /* -1: none                             */
-    int req_done;            /* 0 waiting, 1 ACKed, < 0 NACK/timeout */
+    int32_t req_seq; /* -1: none                             */
+    int req_done;    /* 0 waiting, 1 ACKed, < 0 NACK/timeout */
     it2n_msg_nack nack;
     bool have_rsp;
-    it2n_msg rsp;            /* STATUS, QUERY_RESULT, LOCATE_RESULT  */
+    it2n_msg rsp; /* STATUS, QUERY_RESULT, LOCATE_RESULT  */
     /* multi-frame answers */
     ctl_net *net;
     unsigned net_fp, net_rows;
@@ -59,8 +59,7 @@ static uint32_t now_ms(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint32_t)((uint64_t)ts.tv_sec * 1000u +
-                      (uint64_t)ts.tv_nsec / 1000000u);
+    return (uint32_t)((uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u);
 }
 
 static int fd_write_all(lk_conn *c, const uint8_t *buf, size_t len)
@@ -138,19 +137,16 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         break;
     case IT2N_MSG_NET_ROW: {
         const it2n_msg_net_row *r = &msg->u.net_row;
-        if (c->net != NULL && c->req_seq >= 0 &&
-            r->re == (uint16_t)c->req_seq && r->fp == c->net_fp &&
+        if (c->net != NULL && c->req_seq >= 0 && r->re == (uint16_t)c->req_seq && r->fp == c->net_fp &&
             r->row < IT2N_DIM && r->m < IT2N_DIM) {
-            memcpy((*c->net)[r->fp][r->row], r->v,
-                   (r->m + 1u) * sizeof(r->v[0]));
+            memcpy((*c->net)[r->fp][r->row], r->v, (r->m + 1u) * sizeof(r->v[0]));
             c->net_rows++;
         }
         break;
     }
     case IT2N_MSG_SAMPLE_DATA: {
         const it2n_msg_sample_data *d = &msg->u.sample_data;
-        if (c->samp != NULL && c->req_seq >= 0 &&
-            d->re == (uint16_t)c->req_seq &&
+        if (c->samp != NULL && c->req_seq >= 0 && d->re == (uint16_t)c->req_seq &&
             d->start + d->count <= c->samp_total) {
             memcpy(c->samp[d->start], d->v, d->count * sizeof(d->v[0]));
             c->samp_got += d->count;
@@ -163,14 +159,12 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
         c->peer_hello = true;
         c->peer_caps = msg->u.hello.caps;
         break;
-    default:
-        break; /* anything else: ACK */
+    default: break; /* anything else: ACK */
     }
     return 0;
 }
 
-static void on_done(void *app, uint16_t seq, uint8_t type, int code,
-                    const it2n_msg_nack *nack)
+static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *nack)
 {
     lk_conn *c = app;
     (void)type;
@@ -186,8 +180,7 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code,
 }
 
 /* Run the link until done(c) or timeout_ms pass without progress. */
-static int run_until(lk_conn *c, bool (*done)(const lk_conn *),
-                     unsigned timeout_ms)
+static int run_until(lk_conn *c, bool (*done)(const lk_conn *), unsigned timeout_ms)
 {
     uint32_t start = now_ms();
     uint32_t progress = c->samp_got + c->net_rows;
@@ -249,16 +242,15 @@ static bool can_send(const lk_conn *c)
 static int comm_fail(lk_conn *c, int how, const char *what)
 {
     if (how == -2) {
-        fprintf(stderr, "it2nctl: %s: %s: %s\n", c->where, what,
-                c->io_err > 0 ? strerror(c->io_err) : "hang-up");
+        fprintf(stderr, "it2nctl: %s: %s: %s\n", c->where, what, c->io_err > 0 ? strerror(c->io_err) : "hang-up");
     } else {
-        fprintf(stderr, "it2nctl: %s: %s: no answer from it2nd within %u ms "
-                        "(is a [link:] of the daemon on the other end?)\n",
+        fprintf(stderr,
+                "it2nctl: %s: %s: no answer from it2nd within %u ms "
+                "(is a [link:] of the daemon on the other end?)\n",
                 c->where, what, c->timeout_ms);
     }
     return CTL_EXIT_COMM;
 }
-
 
 /* Send msg and wait for its ACK and, with wait_rsp, its response(s).
  * Returns CTL_EXIT_OK, CTL_REJECTED (c->nack holds the refusal) or a
@@ -281,8 +273,7 @@ static int request(lk_conn *c, it2n_msg *msg, bool wait_rsp, const char *what)
     c->req_seq = -1;
     seq = it2n_link_send(&c->link, msg, now_ms());
     if (seq < 0) {
-        fprintf(stderr, "it2nctl: %s: %s: cannot send: %s\n", c->where,
-                what, it2n_proto_strerror((int)seq));
+        fprintf(stderr, "it2nctl: %s: %s: cannot send: %s\n", c->where, what, it2n_proto_strerror((int)seq));
         return CTL_EXIT_COMM;
     }
     c->req_seq = seq;
@@ -308,12 +299,11 @@ static const char *code_text(int code)
 /* A refusal of a non-data request: print it. */
 static int refused(const lk_conn *c, const char *what)
 {
-    fprintf(stderr, "it2nctl: %s: %s refused by it2nd: %s (%d)%s\n", c->where,
-            what, code_text(c->nack.code), c->nack.code,
-            c->nack.code == IT2N_ERR_STATE ? ": the model is not solved"
-            : c->nack.code == IT2N_PROTO_ERR_MODEL
-                ? ": no such model on the daemon (--model ID)"
-                : "");
+    fprintf(stderr, "it2nctl: %s: %s refused by it2nd: %s (%d)%s\n", c->where, what, code_text(c->nack.code),
+            c->nack.code,
+            c->nack.code == IT2N_ERR_STATE         ? ": the model is not solved"
+            : c->nack.code == IT2N_PROTO_ERR_MODEL ? ": no such model on the daemon (--model ID)"
+                                                   : "");
     return CTL_EXIT_DATA;
 }
 
@@ -340,9 +330,7 @@ static int lk_status(void *p, ctl_status *st)
     st->n = s->n;
     st->m = s->m;
     st->flags = s->flags;
-    st->required = s->n == 0u ? 0u
-                   : (s->n + 1u) * (s->m + 1u) *
-                         ((s->flags & IT2N_F_TYPE1) ? 1u : IT2N_FP_COUNT);
+    st->required = s->n == 0u ? 0u : (s->n + 1u) * (s->m + 1u) * ((s->flags & IT2N_F_TYPE1) ? 1u : IT2N_FP_COUNT);
     st->present = st->required > s->missing ? st->required - s->missing : 0u;
     st->generation = s->generation;
     st->last_error = s->last_error;
@@ -418,11 +406,13 @@ static int push_format(lk_conn *c, const ctl_src *src, bool *fine)
         /* v1.3: a v1.2 daemon would refuse the B-spline CONFIGURE as
          * malformed */
         if (run_until(c, hello_seen, c->timeout_ms) != 0 || !(c->peer_caps & IT2N_CAP_BSPLINE)) {
-            fprintf(stderr, "it2nctl: %s: push --kind bspline: %s (protocol v1.3, "
-                            "docs/protocol.md 5.3); push over Modbus (--tcp or --rtu) "
-                            "or upgrade it2nd (nothing was sent)\n",
-                    c->where, c->peer_hello ? "this it2nd's link speaks protocol v1.2, without the B-spline CONFIGURE"
-                                            : "it2nd did not say which protocol revision it speaks");
+            fprintf(stderr,
+                    "it2nctl: %s: push --kind bspline: %s (protocol v1.3, "
+                    "docs/protocol.md 5.3); push over Modbus (--tcp or --rtu) "
+                    "or upgrade it2nd (nothing was sent)\n",
+                    c->where,
+                    c->peer_hello ? "this it2nd's link speaks protocol v1.2, without the B-spline CONFIGURE"
+                                  : "it2nd did not say which protocol revision it speaks");
             return CTL_EXIT_DATA;
         }
     }
@@ -433,9 +423,10 @@ static int push_format(lk_conn *c, const ctl_src *src, bool *fine)
     if (run_until(c, hello_seen, c->timeout_ms) == 0 && (c->peer_caps & IT2N_CAP_FINE)) {
         *fine = true;
     } else if (src_finer_than_q24(src, at)) {
-        fprintf(stderr, "it2nctl: %s: push: the membership of (i=%u, j=%u, %s) is finer than 2^-24 and %s "
-                        "(PUT FINE, protocol v1.3, docs/protocol.md 5.4); rounding would give it another model "
-                        "than 'it2n': push over Modbus (--tcp or --rtu) or upgrade it2nd (nothing was sent)\n",
+        fprintf(stderr,
+                "it2nctl: %s: push: the membership of (i=%u, j=%u, %s) is finer than 2^-24 and %s "
+                "(PUT FINE, protocol v1.3, docs/protocol.md 5.4); rounding would give it another model "
+                "than 'it2n': push over Modbus (--tcp or --rtu) or upgrade it2nd (nothing was sent)\n",
                 c->where, at[0], at[1], it2n_fp_name(at[2]) ? it2n_fp_name(at[2]) : "?",
                 c->peer_hello ? "this it2nd's link carries memberships in Q24 only"
                               : "it2nd did not say whether its link carries Q30 memberships");
@@ -471,8 +462,8 @@ static int push_src(lk_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
     m.u.configure.kind = src->bds != NULL ? IT2N_CFG_BSPLINE : IT2N_CFG_BEZIER;
     rc = request(c, &m, false, "configure");
     if (rc == CTL_REJECTED) {
-        if (c->nack.code == IT2N_ERR_INVAL && c->nack.value == m.u.configure.kind &&
-            c->nack.lo == c->nack.hi && c->nack.lo != c->nack.value) {
+        if (c->nack.code == IT2N_ERR_INVAL && c->nack.value == m.u.configure.kind && c->nack.lo == c->nack.hi &&
+            c->nack.lo != c->nack.value) {
             /* the model's configured kind is the other one (5.3) */
             fprintf(stderr,
                     "it2nctl: %s holds a %s model and the data are for the "
@@ -483,8 +474,9 @@ static int push_src(lk_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
             return CTL_EXIT_DATA;
         }
         if (c->nack.code == IT2N_ERR_RANGE && c->nack.i < 0) {
-            fprintf(stderr, "it2nctl: %s: configure refused by it2nd: %lld intervals, its model holds "
-                            "at most %lld (n, m of its [model:] section; nothing was changed)\n",
+            fprintf(stderr,
+                    "it2nctl: %s: configure refused by it2nd: %lld intervals, its model holds "
+                    "at most %lld (n, m of its [model:] section; nothing was changed)\n",
                     c->where, (long long)c->nack.value, (long long)c->nack.hi);
             return CTL_EXIT_DATA;
         }
@@ -512,8 +504,7 @@ static int push_src(lk_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
                 if (!(ctl_src_flags(src) & IT2N_F_Z)) {
                     e->vals[IT2N_CH_Z] = 0;
                 }
-                if (m.u.put.count < IT2N_PUT_MAX &&
-                    done + m.u.put.count < total) {
+                if (m.u.put.count < IT2N_PUT_MAX && done + m.u.put.count < total) {
                     continue;
                 }
                 rc = request(c, &m, false, "upload");
@@ -543,16 +534,14 @@ static int push_src(lk_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
     return rc;
 }
 
-static int lk_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
-                   void *pctx, it2n_errinfo *rej)
+static int lk_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
 {
     ctl_src src = {ds, NULL};
     return push_src(p, &src, progress, pctx, rej);
 }
 
 /* protocol v1.3: the 5-byte CONFIGURE carries the kind and sizes to 255 */
-static int lk_push_bspline(void *p, const it2n_bspline_data *bds,
-                           ctl_progress_fn progress, void *pctx,
+static int lk_push_bspline(void *p, const it2n_bspline_data *bds, ctl_progress_fn progress, void *pctx,
                            it2n_errinfo *rej)
 {
     ctl_src src = {NULL, bds};
@@ -586,8 +575,7 @@ static int lk_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
     return CTL_EXIT_OK;
 }
 
-static int lk_locate(void *p, it2n_val *x, it2n_val *y,
-                     ctl_loc res[IT2N_FP_COUNT])
+static int lk_locate(void *p, it2n_val *x, it2n_val *y, ctl_loc res[IT2N_FP_COUNT])
 {
     lk_conn *c = p;
     it2n_msg m;
@@ -644,8 +632,7 @@ static int lk_net(void *p, const ctl_status *st, ctl_net *net)
     return rc;
 }
 
-static int lk_sample(void *p, const ctl_status *st, unsigned rows,
-                     unsigned cols, ctl_sample_fn cb, void *ctx)
+static int lk_sample(void *p, const ctl_status *st, unsigned rows, unsigned cols, ctl_sample_fn cb, void *ctx)
 {
     lk_conn *c = p;
     size_t nodes = (size_t)rows * cols;
@@ -655,15 +642,15 @@ static int lk_sample(void *p, const ctl_status *st, unsigned rows,
     bool type1 = (st->flags & IT2N_F_TYPE1) != 0u;
     int rc = CTL_EXIT_OK;
     if (nodes > 65536u) {
-        fprintf(stderr, "it2nctl: %s: sample: at most 65536 nodes over a "
-                        "link (--grid %ux%u has %zu)\n",
+        fprintf(stderr,
+                "it2nctl: %s: sample: at most 65536 nodes over a "
+                "link (--grid %ux%u has %zu)\n",
                 c->where, rows, cols, nodes);
         return CTL_EXIT_DATA;
     }
     all = malloc(nodes * IT2N_FP_COUNT * sizeof(*all));
     if (all == NULL) {
-        fprintf(stderr, "it2nctl: out of memory for a %ux%u grid\n", rows,
-                cols);
+        fprintf(stderr, "it2nctl: out of memory for a %ux%u grid\n", rows, cols);
         return CTL_EXIT_DATA;
     }
     memset(all, 0, nodes * IT2N_FP_COUNT * sizeof(*all));
@@ -697,10 +684,8 @@ static int lk_sample(void *p, const ctl_status *st, unsigned rows,
             ctl_summarise(type1, &pt);
             /* The daemon's SAMPLE evaluates at floor(r * 2^32 / (rows-1))
              * (daemon/links.c); print the parameters it used. */
-            rc = cb(ctx, r, cc,
-                    (it2n_par)(((uint64_t)r << IT2N_PAR_FRAC) / (rows - 1u)),
-                    (it2n_par)(((uint64_t)cc << IT2N_PAR_FRAC) / (cols - 1u)),
-                    &pt);
+            rc = cb(ctx, r, cc, (it2n_par)(((uint64_t)r << IT2N_PAR_FRAC) / (rows - 1u)),
+                    (it2n_par)(((uint64_t)cc << IT2N_PAR_FRAC) / (cols - 1u)), &pt);
         }
     }
     free(all);
@@ -735,9 +720,8 @@ static void lk_close(void *p)
     free(c);
 }
 
-static const ctl_ops lk_ops = {"link",   lk_status, lk_push, lk_eval,
-                               lk_locate, lk_net,   lk_sample, lk_wait,
-                               lk_close, lk_push_bspline, NULL};
+static const ctl_ops lk_ops = {"link",    lk_status, lk_push,  lk_eval,         lk_locate, lk_net,
+                               lk_sample, lk_wait,   lk_close, lk_push_bspline, NULL};
 
 static speed_t baud_const(unsigned baud)
 {
@@ -771,8 +755,7 @@ void *ctl_link_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
     c->req_seq = -1;
     c->fd = open(o->link, O_RDWR | O_NOCTTY | O_NONBLOCK);
     if (c->fd < 0) {
-        fprintf(stderr, "it2nctl: cannot open %s: %s\n", o->link,
-                strerror(errno));
+        fprintf(stderr, "it2nctl: cannot open %s: %s\n", o->link, strerror(errno));
         free(c);
         *rc = CTL_EXIT_COMM;
         return NULL;
@@ -799,9 +782,7 @@ void *ctl_link_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
     /* Retransmit every 200 ms (the daemon's default RTO) until the
      * request timeout has passed. */
     cfg.rto_ms = o->timeout_ms < 200u ? o->timeout_ms : 200u;
-    cfg.max_tries = (uint8_t)(o->timeout_ms / cfg.rto_ms > 255u
-                                  ? 255u
-                                  : o->timeout_ms / cfg.rto_ms + 1u);
+    cfg.max_tries = (uint8_t)(o->timeout_ms / cfg.rto_ms > 255u ? 255u : o->timeout_ms / cfg.rto_ms + 1u);
     /* A fresh random session id and first sequence number each run
      * (protocol.md 4.2): a SYN frame of a new session is never taken for a
      * retransmission of an earlier one's. */
@@ -824,16 +805,14 @@ void *ctl_link_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
     m.u.hello.version_max = IT2N_PROTO_VERSION;
     m.u.hello.max_degree = IT2N_MAX_DEGREE;
     m.u.hello.window = it2n_link_window(&c->link);
-    m.u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_TYPE1 |
-                     IT2N_CAP_CHORD;
+    m.u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_TYPE1 | IT2N_CAP_CHORD;
     m.u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
     m.u.hello.max_models = 0;
     memcpy(m.u.hello.node, "it2nctl", 7);
     r = request(c, &m, false, "hello");
     if (r != CTL_EXIT_OK) {
         if (r == CTL_REJECTED) {
-            fprintf(stderr, "it2nctl: %s: HELLO refused: %s\n", c->where,
-                    code_text(c->nack.code));
+            fprintf(stderr, "it2nctl: %s: HELLO refused: %s\n", c->where, code_text(c->nack.code));
             r = CTL_EXIT_COMM;
         }
         close(c->fd);

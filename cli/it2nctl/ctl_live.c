@@ -28,8 +28,7 @@ static unsigned bitlen64(uint64_t v)
 
 /* The live model for plotting: the control nets (Q24) in the core's block
  * floating point, each net's largest point with 30 significant bits. */
-static void net_to_model(const ctl_status *st, ctl_net *net,
-                         it2n_model *mdl)
+static void net_to_model(const ctl_status *st, ctl_net *net, it2n_model *mdl)
 {
     unsigned fp, ch, i, j;
     memset(mdl, 0, sizeof(*mdl));
@@ -45,8 +44,7 @@ static void net_to_model(const ctl_status *st, ctl_net *net,
             for (i = 0; i <= st->n; i++) {
                 for (j = 0; j <= st->m; j++) {
                     it2n_val v = (*net)[fp][i][j][ch];
-                    uint64_t a = v < 0 ? (uint64_t)0 - (uint64_t)v
-                                       : (uint64_t)v;
+                    uint64_t a = v < 0 ? (uint64_t)0 - (uint64_t)v : (uint64_t)v;
                     big = a > big ? a : big;
                 }
             }
@@ -55,8 +53,7 @@ static void net_to_model(const ctl_status *st, ctl_net *net,
             for (i = 0; i <= st->n; i++) {
                 for (j = 0; j <= st->m; j++) {
                     it2n_val v = (*net)[fp][i][j][ch];
-                    int64_t q = s > 0 ? (v + ((int64_t)1 << (s - 1))) >> s
-                                      : v * ((int64_t)1 << -s);
+                    int64_t q = s > 0 ? (v + ((int64_t)1 << (s - 1))) >> s : v * ((int64_t)1 << -s);
                     mdl->net[fp][ch][i * (st->m + 1u) + j] = (int32_t)q;
                 }
             }
@@ -80,14 +77,17 @@ static int coef_to_model(ctl_session *s, const ctl_status *st)
     unsigned nch = (st->flags & IT2N_F_Z) ? 6u : 5u;
     it2n_val *v;
     if (s->ops->coef_row == NULL) {
-        fprintf(stderr, "it2nctl: %s: a B-spline model's coefficients are "
-                        "read over Modbus (--tcp or --rtu), not --%s\n",
+        fprintf(stderr,
+                "it2nctl: %s: a B-spline model's coefficients are "
+                "read over Modbus (--tcp or --rtu), not --%s\n",
                 s->where, s->ops->kind);
         return CTL_EXIT_USAGE;
     }
     if (rows < 4u || cols < 4u || rows != st->n + 3u || cols != st->m + 3u) {
-        fprintf(stderr, "it2nctl: %s: net of %ux%u for a %ux%u B-spline "
-                        "model\n", s->where, rows, cols, st->n, st->m);
+        fprintf(stderr,
+                "it2nctl: %s: net of %ux%u for a %ux%u B-spline "
+                "model\n",
+                s->where, rows, cols, st->n, st->m);
         return CTL_EXIT_DATA;
     }
     words = IT2N_BSPLINE_MODEL_WORDS(st->n, st->m, st->flags);
@@ -134,8 +134,7 @@ static int coef_to_model(ctl_session *s, const ctl_status *st)
             g_bmdl.frac[fp][ch] = (int8_t)(IT2N_VAL_FRAC - sh);
             net = g_bcoef + ((size_t)slot * nch + c) * size;
             for (k = 0; k < size; k++) {
-                net[k] = (int32_t)(sh > 0 ? (v[k] + ((int64_t)1 << (sh - 1))) >> sh
-                                          : v[k] * ((int64_t)1 << -sh));
+                net[k] = (int32_t)(sh > 0 ? (v[k] + ((int64_t)1 << (sh - 1))) >> sh : v[k] * ((int64_t)1 << -sh));
             }
             c++;
         }
@@ -145,8 +144,7 @@ static int coef_to_model(ctl_session *s, const ctl_status *st)
 }
 
 /* Draw the model described by st (already read, solved) into o->output. */
-static int draw_live(ctl_session *s, const ctl_args *a, const ctl_status *st,
-                     const char *output)
+static int draw_live(ctl_session *s, const ctl_args *a, const ctl_status *st, const char *output)
 {
     cli_opts o = a->o;
     char title[256];
@@ -168,10 +166,8 @@ static int draw_live(ctl_session *s, const ctl_args *a, const ctl_status *st,
         sf.bez = &g_mdl;
     }
     /* The title names the source: no '/' so it is printed whole. */
-    snprintf(title, sizeof(title), "it2nd %s %u generation %lu",
-             a->conn.link != NULL ? "model" : "unit",
-             a->conn.link != NULL ? a->conn.model : a->conn.unit,
-             (unsigned long)st->generation);
+    snprintf(title, sizeof(title), "it2nd %s %u generation %lu", a->conn.link != NULL ? "model" : "unit",
+             a->conn.link != NULL ? a->conn.model : a->conn.unit, (unsigned long)st->generation);
     o.path = title;
     o.output = output;
     return cli_plot(&o, &sf);
@@ -187,13 +183,11 @@ static int follow_plot(ctl_session *s, const ctl_args *a, ctl_status *st)
     int rc;
 
     base = base ? base + 1 : out;
-    snprintf(tmp, sizeof(tmp), "%.*s.%s.part%s", (int)(base - out), out, base,
-             strrchr(base, '.'));
+    snprintf(tmp, sizeof(tmp), "%.*s.%s.part%s", (int)(base - out), out, base, strrchr(base, '.'));
     for (;;) {
         rc = draw_live(s, a, st, tmp);
         if (rc == CTL_EXIT_OK && rename(tmp, out) != 0) {
-            fprintf(stderr, "it2nctl: cannot replace %s: %s\n", out,
-                    strerror(errno));
+            fprintf(stderr, "it2nctl: cannot replace %s: %s\n", out, strerror(errno));
             unlink(tmp);
             rc = CTL_EXIT_DATA;
         }
@@ -222,11 +216,8 @@ int ctl_cmd_plot(ctl_session *s, const ctl_args *a)
         return rc;
     }
     if (a->o.interval && ctl_out.type1) {
-        fprintf(stderr, "it2nctl: %s: --interval needs a type-2 model\n",
-                s->where);
+        fprintf(stderr, "it2nctl: %s: --interval needs a type-2 model\n", s->where);
         return CTL_EXIT_DATA;
     }
-    return a->follow ? follow_plot(s, a, &st)
-                     : draw_live(s, a, &st, a->o.output);
+    return a->follow ? follow_plot(s, a, &st) : draw_live(s, a, &st, a->o.output);
 }
-

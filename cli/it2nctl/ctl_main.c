@@ -55,16 +55,14 @@ static const ctl_cmd cmds[] = {
      "status is inside or outside|noconv.\n"
      "  --at X,Y    location (repeatable)\n",
      CLI_O_AT_XY, ctl_cmd_locate},
-    {"net", "", "Print the solved control nets",
-     "As 'it2n solve': i,j,footprint,x,y[,z],T,I,F.\n", 0, ctl_cmd_net},
+    {"net", "", "Print the solved control nets", "As 'it2n solve': i,j,footprint,x,y[,z],T,I,F.\n", 0, ctl_cmd_net},
     {"sample", "--grid RxC", "Evaluate on an RxC parameter grid",
      "As 'it2n sample': u = r/(R-1), w = c/(C-1), row-major.\n"
      "  --grid RxC          R, C in 2..65535\n"
      "  --summary           add interval bound rows\n"
      "  --footprint LIST    only these footprints\n",
      CLI_O_GRID | CLI_O_SUMMARY | CLI_O_FP, ctl_cmd_sample},
-    {"watch", "[--count N] [--incomplete]",
-     "Print a status row for each new generation",
+    {"watch", "[--count N] [--incomplete]", "Print a status row for each new generation",
      "Prints the status row now and again whenever the model's generation\n"
      "changes (Modbus: polled every 100 ms; link: on the daemon's EVENTs).\n"
      "Rows are committed generations: a solved or failed model at once, an\n"
@@ -73,8 +71,7 @@ static const ctl_cmd cmds[] = {
      "  --count N      stop after N rows (default: run until interrupted)\n"
      "  --incomplete   a row for every generation, a push's too\n",
      O_COUNT | O_INCOMPLETE, ctl_cmd_watch},
-    {"plot", "-o FILE.png|FILE.svg [--follow [--count N]]",
-     "Draw the live model with gnuplot",
+    {"plot", "-o FILE.png|FILE.svg [--follow [--count N]]", "Draw the live model with gnuplot",
      "Reads the control nets and draws them with it2n plot's code: same\n"
      "options, colours and errors (see 'it2n plot --help'); the data points\n"
      "marked are the surfaces at the parameter nodes.\n"
@@ -96,59 +93,58 @@ static const ctl_cmd cmds[] = {
 /* it2nctl's own options; the labelled ones are the "Connection" list of
  * --help. */
 enum {
-    OPT_TCP = CLI_OPT_PROG, OPT_RTU, OPT_LINK, OPT_UNIT, OPT_MODEL, OPT_BAUD,
-    OPT_PARITY, OPT_STOP, OPT_TIMEOUT, OPT_COUNT, OPT_FOLLOW, OPT_INCOMPLETE,
-    OPT_BROKER, OPT_GROUP, OPT_NODE
+    OPT_TCP = CLI_OPT_PROG,
+    OPT_RTU,
+    OPT_LINK,
+    OPT_UNIT,
+    OPT_MODEL,
+    OPT_BAUD,
+    OPT_PARITY,
+    OPT_STOP,
+    OPT_TIMEOUT,
+    OPT_COUNT,
+    OPT_FOLLOW,
+    OPT_INCOMPLETE,
+    OPT_BROKER,
+    OPT_GROUP,
+    OPT_NODE
 };
 
 static const cli_opt own_opts[] = {
-    {"tcp", 0, CLI_ARG_TEXT, OPT_TCP, 0, 0, 0, NULL, NULL, NULL,
-     "--tcp HOST[:PORT]", "Modbus TCP (PORT default 1502; [v6addr]:PORT)"},
-    {"rtu", 0, CLI_ARG_TEXT, OPT_RTU, 0, 0, 0, NULL, NULL, NULL,
-     "--rtu DEVICE", "Modbus RTU on a serial device"},
-    {"baud", 0, CLI_ARG_UINT, OPT_BAUD, 0, 1200, 4000000, NULL,
-     "expected 1200..4000000", NULL, "--baud N",
+    {"tcp", 0, CLI_ARG_TEXT, OPT_TCP, 0, 0, 0, NULL, NULL, NULL, "--tcp HOST[:PORT]",
+     "Modbus TCP (PORT default 1502; [v6addr]:PORT)"},
+    {"rtu", 0, CLI_ARG_TEXT, OPT_RTU, 0, 0, 0, NULL, NULL, NULL, "--rtu DEVICE", "Modbus RTU on a serial device"},
+    {"baud", 0, CLI_ARG_UINT, OPT_BAUD, 0, 1200, 4000000, NULL, "expected 1200..4000000", NULL, "--baud N",
      "RTU (default 19200) or link (default 115200)"},
-    {"parity", 0, CLI_ARG_WORD, OPT_PARITY, 0, 0, 0, "none|even|odd",
-     "expected none, even or odd", NULL, "--parity none|even|odd",
-     "RTU (default even), --stop-bits 1|2"},
-    {"stop-bits", 0, CLI_ARG_UINT, OPT_STOP, 0, 1, 2, NULL, "expected 1 or 2",
-     NULL, NULL, NULL},
-    {"unit", 0, CLI_ARG_UINT, OPT_UNIT, 0, 0, 255, NULL, "expected 0..255",
-     NULL, "--unit N",
+    {"parity", 0, CLI_ARG_WORD, OPT_PARITY, 0, 0, 0, "none|even|odd", "expected none, even or odd", NULL,
+     "--parity none|even|odd", "RTU (default even), --stop-bits 1|2"},
+    {"stop-bits", 0, CLI_ARG_UINT, OPT_STOP, 0, 1, 2, NULL, "expected 1 or 2", NULL, NULL, NULL},
+    {"unit", 0, CLI_ARG_UINT, OPT_UNIT, 0, 0, 255, NULL, "expected 0..255", NULL, "--unit N",
      "Modbus unit id 0..255 (default 1; on TCP 0 and 255\n"
      "reach the default model)"},
-    {"link", 0, CLI_ARG_TEXT, OPT_LINK, 0, 0, 0, NULL, NULL, NULL,
-     "--link DEVICE",
+    {"link", 0, CLI_ARG_TEXT, OPT_LINK, 0, 0, 0, NULL, NULL, NULL, "--link DEVICE",
      "framing protocol on a serial line or pty wired to\n"
      "one of the daemon's [link:] devices"},
-    {"model", 0, CLI_ARG_UINT, OPT_MODEL, 0, 0, 254, NULL, "expected 0..254",
-     NULL, "--model ID", "model id on a link, 0..254 (default 1)"},
-    {"timeout", 0, CLI_ARG_UINT, OPT_TIMEOUT, 0, 10, 600000, NULL,
-     "expected 10..600000 ms", NULL, "--timeout MS",
+    {"model", 0, CLI_ARG_UINT, OPT_MODEL, 0, 0, 254, NULL, "expected 0..254", NULL, "--model ID",
+     "model id on a link, 0..254 (default 1)"},
+    {"timeout", 0, CLI_ARG_UINT, OPT_TIMEOUT, 0, 10, 600000, NULL, "expected 10..600000 ms", NULL, "--timeout MS",
      "per request (default 3000)"},
-    {"broker", 0, CLI_ARG_TEXT, OPT_BROKER, 0, 0, 0, NULL, NULL, NULL,
-     "--broker HOST:PORT",
+    {"broker", 0, CLI_ARG_TEXT, OPT_BROKER, 0, 0, 0, NULL, NULL, NULL, "--broker HOST:PORT",
      "'it2nctl spb status|eval': through a Sparkplug B\n"
      "edge node's DCMD query on this MQTT broker (PORT\n"
      "default 1883), with --group G --node N; --model ID\n"
      "is the device model-ID (default 1)"},
-    {"group", 0, CLI_ARG_TEXT, OPT_GROUP, 0, 0, 0, NULL, NULL, NULL, NULL,
-     NULL},
+    {"group", 0, CLI_ARG_TEXT, OPT_GROUP, 0, 0, 0, NULL, NULL, NULL, NULL, NULL},
     {"node", 0, CLI_ARG_TEXT, OPT_NODE, 0, 0, 0, NULL, NULL, NULL, NULL, NULL},
-    {"count", 0, CLI_ARG_UINT, OPT_COUNT, O_COUNT, 1, 1000000000, NULL,
-     "expected 1 or more", NULL, NULL, NULL},
-    {"follow", 0, CLI_ARG_NONE, OPT_FOLLOW, O_FOLLOW, 0, 0, NULL, NULL, NULL,
-     NULL, NULL},
-    {"incomplete", 0, CLI_ARG_NONE, OPT_INCOMPLETE, O_INCOMPLETE, 0, 0, NULL,
-     NULL, NULL, NULL, NULL},
+    {"count", 0, CLI_ARG_UINT, OPT_COUNT, O_COUNT, 1, 1000000000, NULL, "expected 1 or more", NULL, NULL, NULL},
+    {"follow", 0, CLI_ARG_NONE, OPT_FOLLOW, O_FOLLOW, 0, 0, NULL, NULL, NULL, NULL, NULL},
+    {"incomplete", 0, CLI_ARG_NONE, OPT_INCOMPLETE, O_INCOMPLETE, 0, 0, NULL, NULL, NULL, NULL, NULL},
 };
 
 static void conn_help(FILE *out)
 {
     fputs("Connection (default Modbus TCP 127.0.0.1:1502, unit 1):\n", out);
-    cli_opt_help(out, own_opts, sizeof(own_opts) / sizeof(own_opts[0]), 0u,
-                 20u);
+    cli_opt_help(out, own_opts, sizeof(own_opts) / sizeof(own_opts[0]), 0u, 20u);
     fputs("Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
           "127.0.0.1:1502.\n"
           "Common: --decimals N (0..9, default 6), --help.\n"
@@ -166,8 +162,7 @@ static void usage_all(FILE *out)
     for (k = 0; k < NCMDS; k++) {
         fprintf(out, "  %-7s %s\n", cmds[k].name, cmds[k].summary);
     }
-    fprintf(out, "  %-7s %s\n", "spb",
-            "Sparkplug B host mode: spb watch, spb status, spb eval");
+    fprintf(out, "  %-7s %s\n", "spb", "Sparkplug B host mode: spb watch, spb status, spb eval");
     fprintf(out, "\n'it2nctl COMMAND --help' for details; 'it2nctl "
                  "--version'.\n\n");
     conn_help(out);
@@ -176,8 +171,8 @@ static void usage_all(FILE *out)
 static void usage_cmd(const void *cmd)
 {
     const ctl_cmd *c = cmd;
-    printf("Usage: it2nctl %s%s%s [CONNECTION] [--decimals N]\n\n%s\n",
-           c->name, c->args[0] ? " " : "", c->args, c->help);
+    printf("Usage: it2nctl %s%s%s [CONNECTION] [--decimals N]\n\n%s\n", c->name, c->args[0] ? " " : "", c->args,
+           c->help);
     conn_help(stdout);
 }
 
@@ -188,20 +183,16 @@ static int open_session(const ctl_args *a, ctl_session *s)
     int rc = CTL_EXIT_OK;
     if (a->conn.broker != NULL) {
         s->c = ctl_spb_open(&a->conn, &s->ops, &rc);
-        snprintf(s->wbuf, sizeof(s->wbuf), "%s/%s model-%u", a->conn.group,
-                 a->conn.node, a->conn.model);
+        snprintf(s->wbuf, sizeof(s->wbuf), "%s/%s model-%u", a->conn.group, a->conn.node, a->conn.model);
     } else if (a->conn.link != NULL) {
         s->c = ctl_link_open(&a->conn, &s->ops, &rc);
-        snprintf(s->wbuf, sizeof(s->wbuf), "%s model %u", a->conn.link,
-                 a->conn.model);
+        snprintf(s->wbuf, sizeof(s->wbuf), "%s model %u", a->conn.link, a->conn.model);
     } else {
         s->c = ctl_modbus_open(&a->conn, &s->ops, &rc);
         if (a->conn.rtu != NULL) {
-            snprintf(s->wbuf, sizeof(s->wbuf), "%s unit %u", a->conn.rtu,
-                     a->conn.unit);
+            snprintf(s->wbuf, sizeof(s->wbuf), "%s unit %u", a->conn.rtu, a->conn.unit);
         } else {
-            snprintf(s->wbuf, sizeof(s->wbuf), "%s unit %u",
-                     a->conn.tcp ? a->conn.tcp : "127.0.0.1:1502",
+            snprintf(s->wbuf, sizeof(s->wbuf), "%s unit %u", a->conn.tcp ? a->conn.tcp : "127.0.0.1:1502",
                      a->conn.unit);
         }
     }
@@ -224,14 +215,12 @@ static int command_first(int argc, char **argv)
         if (argv[i][1] == '-' && strchr(argv[i], '=') == NULL) {
             lo = cli_opt_find(sets, 2, argv[i] + 2);
         }
-        i += (lo != NULL && lo->arg != CLI_ARG_NONE) ||
-                     strcmp(argv[i], "-o") == 0
-                 ? 2
-                 : 1;
+        i += (lo != NULL && lo->arg != CLI_ARG_NONE) || strcmp(argv[i], "-o") == 0 ? 2 : 1;
     }
     if (i >= argc) {
-        return usage_error(NULL, "%s", "no command given (it may stand "
-                                       "before or after the options)");
+        return usage_error(NULL, "%s",
+                           "no command given (it may stand "
+                           "before or after the options)");
     }
     cmd = argv[i];
     memmove(&argv[2], &argv[1], (size_t)(i - 1) * sizeof(argv[0]));
@@ -242,8 +231,7 @@ static int command_first(int argc, char **argv)
 /* --help, --version and the command word into a->cmd; -1 to go on. */
 static int first_word(int argc, char **argv, ctl_args *a)
 {
-    static const cli_prog prog = {"it2nctl", cmds, NCMDS, sizeof(cmds[0]),
-                                  usage_all, usage_cmd, command_first};
+    static const cli_prog prog = {"it2nctl", cmds, NCMDS, sizeof(cmds[0]), usage_all, usage_cmd, command_first};
     int rc;
     a->cmd = cli_first_word(&prog, argc, argv, &rc);
     if (a->cmd == NULL) {
@@ -289,16 +277,15 @@ static int take_own(const cli_parser *p, const cli_optval *v, ctl_args *a)
 /* One transport at most; $IT2NCTL_TCP; RTU unit ids; the baud default. */
 static int finish_conn(const cli_parser *p, ctl_args *a)
 {
-    int nconn = cli_opt_seen(p, OPT_TCP) + cli_opt_seen(p, OPT_RTU) +
-                cli_opt_seen(p, OPT_LINK) + cli_opt_seen(p, OPT_BROKER);
+    int nconn =
+        cli_opt_seen(p, OPT_TCP) + cli_opt_seen(p, OPT_RTU) + cli_opt_seen(p, OPT_LINK) + cli_opt_seen(p, OPT_BROKER);
     const char *env = getenv("IT2NCTL_TCP");
     if (nconn > 1) {
         return usage_error(p->cmd, "%s", "give one of --tcp, --rtu and --link");
     }
     if (nconn == 0 && env != NULL && env[0] != '\0') {
         char host[128], port[16];
-        const char *bad = ctl_tcp_split(env, host, sizeof(host), port,
-                                        sizeof(port));
+        const char *bad = ctl_tcp_split(env, host, sizeof(host), port, sizeof(port));
         a->conn.tcp = env;
         if (bad != NULL) {
             return usage_error(p->cmd, "IT2NCTL_TCP='%.200s': %s", env, bad);
@@ -340,8 +327,7 @@ static int parse_args(int argc, char **argv, ctl_args *a)
             printf("it2nctl %s\n", IT2N_CLI_VERSION);
             return CTL_EXIT_OK;
         }
-        rc = id >= CLI_OPT_PROG ? take_own(&p, &v, a)
-                                : cli_common_take(&p, &v, &a->o);
+        rc = id >= CLI_OPT_PROG ? take_own(&p, &v, a) : cli_common_take(&p, &v, &a->o);
         if (rc >= 0) {
             return rc;
         }
@@ -351,8 +337,7 @@ static int parse_args(int argc, char **argv, ctl_args *a)
     }
     nops = cli_opt_operands(&p, &ops);
     if ((c->opts & O_DATA) && nops != 1) {
-        return usage_error(c->name, "%s", nops == 0 ? "missing DATA.csv"
-                                                    : "expected exactly one DATA.csv");
+        return usage_error(c->name, "%s", nops == 0 ? "missing DATA.csv" : "expected exactly one DATA.csv");
     }
     if (!(c->opts & O_DATA) && nops != 0) {
         return usage_error(c->name, "unexpected argument '%s'", ops[0]);
@@ -372,8 +357,7 @@ static int ctl_spb_args(int *argc, char ***argv)
     if (*argc > 2 && strcmp((*argv)[2], "watch") == 0) {
         return ctl_spb_watch(*argc - 2, *argv + 2);
     }
-    if (*argc == 3 && (strcmp((*argv)[2], "--help") == 0 ||
-                       strcmp((*argv)[2], "-h") == 0)) {
+    if (*argc == 3 && (strcmp((*argv)[2], "--help") == 0 || strcmp((*argv)[2], "-h") == 0)) {
         printf("Usage: it2nctl spb watch --broker HOST:PORT --group G "
                "[--node N] [--count N]\n"
                "       it2nctl spb status|eval --broker HOST:PORT --group G "
@@ -389,8 +373,7 @@ static int ctl_spb_args(int *argc, char ***argv)
                "--help', 'it2nctl eval --help').\n");
         return CTL_EXIT_OK;
     }
-    if (*argc < 3 || (strcmp((*argv)[2], "eval") != 0 &&
-                      strcmp((*argv)[2], "status") != 0)) {
+    if (*argc < 3 || (strcmp((*argv)[2], "eval") != 0 && strcmp((*argv)[2], "status") != 0)) {
         fprintf(stderr, "it2nctl: spb: expected watch, status or eval\n"
                         "Try 'it2nctl spb watch --help', "
                         "'it2nctl spb eval --help'.\n");

@@ -24,18 +24,19 @@
 
 typedef struct mb_conn {
     modbus_t *ctx;
-    char where[160];     /* "127.0.0.1:1502 unit 1" for messages */
-    int word_order;      /* IT2N_REGMAP_WO_*, float32 registers          */
-    int int32_order;     /* IT2N_REGMAP_WO_*, u32/i32 registers (reg 27) */
+    char where[160]; /* "127.0.0.1:1502 unit 1" for messages */
+    int word_order;  /* IT2N_REGMAP_WO_*, float32 registers          */
+    int int32_order; /* IT2N_REGMAP_WO_*, u32/i32 registers (reg 27) */
     int coord_scale;
-    bool have_map;       /* word order / scale read              */
+    bool have_map; /* word order / scale read              */
 } mb_conn;
 
 static const char *exc_text(int err)
 {
     switch (err) {
     case EMBXILFUN: return "exception 01: function not supported";
-    case EMBXILADD: return "exception 02: address refused (read-only listener, write-protected model, or not in the map)";
+    case EMBXILADD:
+        return "exception 02: address refused (read-only listener, write-protected model, or not in the map)";
     case EMBXILVAL: return "exception 03: value refused";
     case EMBXSFAIL: return "exception 04: the solve failed";
     case EMBXSBUSY: return "exception 06: model incomplete or not solved";
@@ -58,21 +59,17 @@ static int mb_fail(const mb_conn *c, const char *what)
     return CTL_EXIT_COMM;
 }
 
-static int rd(mb_conn *c, unsigned addr, unsigned count, uint16_t *out,
-              const char *what)
+static int rd(mb_conn *c, unsigned addr, unsigned count, uint16_t *out, const char *what)
 {
-    if (modbus_read_registers(c->ctx, (int)addr, (int)count, out) !=
-        (int)count) {
+    if (modbus_read_registers(c->ctx, (int)addr, (int)count, out) != (int)count) {
         return mb_fail(c, what);
     }
     return CTL_EXIT_OK;
 }
 
-static int wr(mb_conn *c, unsigned addr, unsigned count, const uint16_t *v,
-              const char *what)
+static int wr(mb_conn *c, unsigned addr, unsigned count, const uint16_t *v, const char *what)
 {
-    if (modbus_write_registers(c->ctx, (int)addr, (int)count, v) !=
-        (int)count) {
+    if (modbus_write_registers(c->ctx, (int)addr, (int)count, v) != (int)count) {
         return mb_fail(c, what);
     }
     return CTL_EXIT_OK;
@@ -128,12 +125,15 @@ static int mb_map(mb_conn *c)
     if (c->have_map) {
         return CTL_EXIT_OK;
     }
-    rc = rd(c, IT2N_REGMAP_REG_WORD_ORDER, IT2N_REGMAP_REG_INT32_ORDER - IT2N_REGMAP_REG_WORD_ORDER + 1, r, "read status");
+    rc = rd(c, IT2N_REGMAP_REG_WORD_ORDER, IT2N_REGMAP_REG_INT32_ORDER - IT2N_REGMAP_REG_WORD_ORDER + 1, r,
+            "read status");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
     c->word_order = r[0] & 3;
-    c->coord_scale = r[IT2N_REGMAP_REG_COORD_SCALE - IT2N_REGMAP_REG_WORD_ORDER] ? r[IT2N_REGMAP_REG_COORD_SCALE - IT2N_REGMAP_REG_WORD_ORDER] : 100;
+    c->coord_scale = r[IT2N_REGMAP_REG_COORD_SCALE - IT2N_REGMAP_REG_WORD_ORDER]
+                         ? r[IT2N_REGMAP_REG_COORD_SCALE - IT2N_REGMAP_REG_WORD_ORDER]
+                         : 100;
     c->int32_order = r[IT2N_REGMAP_REG_INT32_ORDER - IT2N_REGMAP_REG_WORD_ORDER] & 3;
     c->have_map = true;
     return CTL_EXIT_OK;
@@ -186,8 +186,7 @@ static int mb_status(void *p, ctl_status *st)
 
 /* The upload block of entry (i, j, fp); false (rej filled) when a value
  * is not exactly representable in the map's scaled integers. */
-static bool upload_regs(const mb_conn *c, const ctl_src *src, unsigned i,
-                        unsigned j, unsigned fp, uint16_t r[12],
+static bool upload_regs(const mb_conn *c, const ctl_src *src, unsigned i, unsigned j, unsigned fp, uint16_t r[12],
                         it2n_errinfo *rej)
 {
     it2n_val v[IT2N_CH_COUNT], fine[IT2N_CH_COUNT];
@@ -247,8 +246,7 @@ static void refused_detail(mb_conn *c, it2n_errinfo *rej)
     }
 }
 
-static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress,
-                    void *pctx, it2n_errinfo *rej)
+static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
 {
     uint16_t cfg[4], up[12];
     unsigned i, j, fp, total = 0, done = 0, kind = 0;
@@ -268,10 +266,8 @@ static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress,
                 "it2nctl: unit %d holds a %s model and the data are for the "
                 "%s kind: push --kind %s to a [model:ID] with kind = %s "
                 "(nothing was sent)\n",
-                modbus_get_slave(c->ctx), kind ? "bspline" : "bezier",
-                src->bds != NULL ? "bspline" : "bezier",
-                src->bds != NULL ? "bspline" : "bezier",
-                src->bds != NULL ? "bspline" : "bezier");
+                modbus_get_slave(c->ctx), kind ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier",
+                src->bds != NULL ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier");
         return CTL_EXIT_DATA;
     }
     /* Everything representable before the first write: a refused push
@@ -303,8 +299,7 @@ static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress,
                     continue;
                 }
                 (void)upload_regs(c, src, i, j, fp, up, rej);
-                if (modbus_write_registers(c->ctx, IT2N_REGMAP_REG_UP_I, 12, up) !=
-                    12) {
+                if (modbus_write_registers(c->ctx, IT2N_REGMAP_REG_UP_I, 12, up) != 12) {
                     int e = errno;
                     if (exc_text(e) != NULL && e != EMBXILADD) {
                         refused_detail(c, rej);
@@ -333,15 +328,13 @@ static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress,
     return CTL_EXIT_OK;
 }
 
-static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress,
-                   void *pctx, it2n_errinfo *rej)
+static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
 {
     ctl_src src = {ds, NULL};
     return push_src(p, &src, progress, pctx, rej);
 }
 
-static int mb_push_bspline(void *p, const it2n_bspline_data *bds,
-                           ctl_progress_fn progress, void *pctx,
+static int mb_push_bspline(void *p, const it2n_bspline_data *bds, ctl_progress_fn progress, void *pctx,
                            it2n_errinfo *rej)
 {
     ctl_src src = {NULL, bds};
@@ -365,8 +358,7 @@ static void read_results(const mb_conn *c, const uint16_t *r, it2n_point *pt)
     unsigned fp, ch, k;
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-            pt->v[fp][ch] = f2q(it2n_regmap_get_f32(&r[(fp * IT2N_CH_COUNT + ch) * 2],
-                                        c->word_order));
+            pt->v[fp][ch] = f2q(it2n_regmap_get_f32(&r[(fp * IT2N_CH_COUNT + ch) * 2], c->word_order));
         }
     }
     for (k = 0; k < 3u; k++) {
@@ -380,20 +372,17 @@ static void read_results(const mb_conn *c, const uint16_t *r, it2n_point *pt)
 
 /* One FC 23 query: write regs at addr, read the float32 results, then the
  * query status (out of range bits, locate failures). */
-static int query(mb_conn *c, unsigned addr, unsigned count, const uint16_t *w,
-                 it2n_point *pt, uint16_t *locfail)
+static int query(mb_conn *c, unsigned addr, unsigned count, const uint16_t *w, it2n_point *pt, uint16_t *locfail)
 {
     uint16_t r[IT2N_REGMAP_REG_SUM_F32 + 24 - IT2N_REGMAP_REG_RES_F32];
     uint16_t qs[IT2N_REGMAP_REG_QSTATUS_END - IT2N_REGMAP_REG_Q_KIND];
     unsigned n = (unsigned)(sizeof(r) / sizeof(r[0]));
     int rc;
-    if (modbus_write_and_read_registers(c->ctx, (int)addr, (int)count, w,
-                                        IT2N_REGMAP_REG_RES_F32, (int)n, r) !=
+    if (modbus_write_and_read_registers(c->ctx, (int)addr, (int)count, w, IT2N_REGMAP_REG_RES_F32, (int)n, r) !=
         (int)n) {
         return mb_fail(c, "query");
     }
-    rc = rd(c, IT2N_REGMAP_REG_Q_KIND, IT2N_REGMAP_REG_QSTATUS_END - IT2N_REGMAP_REG_Q_KIND, qs,
-            "query status");
+    rc = rd(c, IT2N_REGMAP_REG_Q_KIND, IT2N_REGMAP_REG_QSTATUS_END - IT2N_REGMAP_REG_Q_KIND, qs, "query status");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
@@ -429,8 +418,7 @@ static int mb_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
     }
 }
 
-static int mb_locate(void *p, it2n_val *x, it2n_val *y,
-                     ctl_loc res[IT2N_FP_COUNT])
+static int mb_locate(void *p, it2n_val *x, it2n_val *y, ctl_loc res[IT2N_FP_COUNT])
 {
     mb_conn *c = p;
     uint16_t regs[4], fail = 0;
@@ -460,8 +448,7 @@ static int mb_locate(void *p, it2n_val *x, it2n_val *y,
     for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
         memset(&res[fp], 0, sizeof(res[fp]));
         res[fp].has_uw = false;
-        res[fp].status = (fail & (1u << fp)) ? CTL_LOC_NOT_INSIDE
-                                             : CTL_LOC_INSIDE;
+        res[fp].status = (fail & (1u << fp)) ? CTL_LOC_NOT_INSIDE : CTL_LOC_INSIDE;
         memcpy(res[fp].v, pt.v[fp], sizeof(res[fp].v));
     }
     return CTL_EXIT_OK;
@@ -482,17 +469,14 @@ static int mb_net(void *p, const ctl_status *st, ctl_net *net)
             continue;
         }
         for (i = 0; i <= st->n; i++) {
-            unsigned addr = IT2N_REGMAP_REG_CTRL +
-                            ((fp * IT2N_REGMAP_DIM + i) * IT2N_REGMAP_DIM) *
-                                IT2N_REGMAP_CH * 2u;
+            unsigned addr = IT2N_REGMAP_REG_CTRL + ((fp * IT2N_REGMAP_DIM + i) * IT2N_REGMAP_DIM) * IT2N_REGMAP_CH * 2u;
             rc = rd(c, addr, cnt, r, "read control net");
             if (rc != CTL_EXIT_OK) {
                 return rc;
             }
             for (j = 0; j <= st->m; j++) {
                 for (ch = 0; ch < IT2N_CH_COUNT; ch++) {
-                    (*net)[fp][i][j][ch] = f2q(it2n_regmap_get_f32(
-                        &r[(j * IT2N_REGMAP_CH + ch) * 2], c->word_order));
+                    (*net)[fp][i][j][ch] = f2q(it2n_regmap_get_f32(&r[(j * IT2N_REGMAP_CH + ch) * 2], c->word_order));
                 }
             }
         }
@@ -500,8 +484,7 @@ static int mb_net(void *p, const ctl_status *st, ctl_net *net)
     return CTL_EXIT_OK;
 }
 
-static int mb_sample(void *p, const ctl_status *st, unsigned rows,
-                     unsigned cols, ctl_sample_fn cb, void *ctx)
+static int mb_sample(void *p, const ctl_status *st, unsigned rows, unsigned cols, ctl_sample_fn cb, void *ctx)
 {
     unsigned r, cc;
     (void)st;
@@ -556,8 +539,7 @@ static void mb_close(void *p)
 
 /* One row of one net through the coefficient page (docs/registers.md):
  * st->net_cols values into out, Q24 from float32. */
-static int mb_coef_row(void *p, const ctl_status *st, unsigned fp,
-                       unsigned ch, unsigned row, it2n_val *out)
+static int mb_coef_row(void *p, const ctl_status *st, unsigned fp, unsigned ch, unsigned row, it2n_val *out)
 {
     mb_conn *c = p;
     uint16_t sel[3], r[2u * IT2N_REGMAP_WIN_COLS];
@@ -587,12 +569,10 @@ static int mb_coef_row(void *p, const ctl_status *st, unsigned fp,
     return CTL_EXIT_OK;
 }
 
-static const ctl_ops mb_ops = {"modbus", mb_status, mb_push, mb_eval,
-                               mb_locate, mb_net, mb_sample, mb_wait,
-                               mb_close, mb_push_bspline, mb_coef_row};
+static const ctl_ops mb_ops = {"modbus",  mb_status, mb_push,  mb_eval,         mb_locate,  mb_net,
+                               mb_sample, mb_wait,   mb_close, mb_push_bspline, mb_coef_row};
 
-const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port,
-                          size_t pn)
+const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port, size_t pn)
 {
     const char *colon, *end;
     size_t hl;
@@ -628,8 +608,7 @@ const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port,
     end = colon ? colon + 1 : "1502";
     errno = 0;
     v = strtoul(end, &stop, 10);
-    if (end[0] < '0' || end[0] > '9' || *stop != '\0' || errno != 0 ||
-        v < 1 || v > 65535 || strlen(end) >= pn) {
+    if (end[0] < '0' || end[0] > '9' || *stop != '\0' || errno != 0 || v < 1 || v > 65535 || strlen(end) >= pn) {
         return "the port is not a number 1..65535 (expected HOST:PORT)";
     }
     snprintf(port, pn, "%lu", v);
@@ -647,8 +626,9 @@ static bool tcp_resolves(const char *host, const char *port)
     hints.ai_socktype = SOCK_STREAM;
     e = getaddrinfo(host, port, &hints, &res);
     if (e != 0) {
-        fprintf(stderr, "it2nctl: cannot resolve host '%s': %s (check the "
-                        "name in --tcp HOST:PORT, or give an address)\n",
+        fprintf(stderr,
+                "it2nctl: cannot resolve host '%s': %s (check the "
+                "name in --tcp HOST:PORT, or give an address)\n",
                 host, gai_strerror(e));
         return false;
     }
@@ -667,13 +647,10 @@ void *ctl_modbus_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
     }
     *rc = CTL_EXIT_COMM;
     if (o->rtu != NULL) {
-        c->ctx = modbus_new_rtu(o->rtu, (int)o->baud, o->parity, 8,
-                                (int)o->stop_bits);
+        c->ctx = modbus_new_rtu(o->rtu, (int)o->baud, o->parity, 8, (int)o->stop_bits);
         snprintf(c->where, sizeof(c->where), "%s unit %u", o->rtu, o->unit);
     } else {
-        const char *why = ctl_tcp_split(o->tcp ? o->tcp : "127.0.0.1:1502",
-                                        host, sizeof(host), port,
-                                        sizeof(port));
+        const char *why = ctl_tcp_split(o->tcp ? o->tcp : "127.0.0.1:1502", host, sizeof(host), port, sizeof(port));
         if (why != NULL) { /* parse_args checked it: not reached */
             fprintf(stderr, "it2nctl: --tcp '%s': %s\n", o->tcp, why);
             free(c);
@@ -685,8 +662,7 @@ void *ctl_modbus_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
             return NULL;
         }
         c->ctx = modbus_new_tcp_pi(host, port);
-        snprintf(c->where, sizeof(c->where), "%s%s%s:%s unit %u",
-                 strchr(host, ':') ? "[" : "", host,
+        snprintf(c->where, sizeof(c->where), "%s%s%s:%s unit %u", strchr(host, ':') ? "[" : "", host,
                  strchr(host, ':') ? "]" : "", port, o->unit);
     }
     if (c->ctx == NULL) {
@@ -695,22 +671,21 @@ void *ctl_modbus_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
         return NULL;
     }
     modbus_set_slave(c->ctx, (int)o->unit);
-    modbus_set_response_timeout(c->ctx, o->timeout_ms / 1000u,
-                                (o->timeout_ms % 1000u) * 1000u);
+    modbus_set_response_timeout(c->ctx, o->timeout_ms / 1000u, (o->timeout_ms % 1000u) * 1000u);
     if (modbus_connect(c->ctx) != 0) {
         int e = errno;
         if (o->rtu != NULL) {
-            fprintf(stderr, "it2nctl: cannot open serial device %s: %s (%s)\n",
-                    o->rtu, modbus_strerror(e),
-                    e == ENOENT ? "check the path in --rtu DEVICE, e.g. "
-                                  "ls /dev/serial/by-id/"
+            fprintf(stderr, "it2nctl: cannot open serial device %s: %s (%s)\n", o->rtu, modbus_strerror(e),
+                    e == ENOENT   ? "check the path in --rtu DEVICE, e.g. "
+                                    "ls /dev/serial/by-id/"
                     : e == EACCES ? "add yourself to the dialout group, or "
                                     "run as a user allowed to open it"
                                   : "is another program holding it?");
         } else {
-            fprintf(stderr, "it2nctl: cannot connect to %s: %s (is it2nd "
-                            "running? --tcp HOST:PORT, --rtu DEVICE or "
-                            "--link DEVICE)\n",
+            fprintf(stderr,
+                    "it2nctl: cannot connect to %s: %s (is it2nd "
+                    "running? --tcp HOST:PORT, --rtu DEVICE or "
+                    "--link DEVICE)\n",
                     c->where, modbus_strerror(e));
         }
         modbus_free(c->ctx);

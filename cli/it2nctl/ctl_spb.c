@@ -50,14 +50,12 @@ static const char *split_broker(const char *b, char *host, size_t hn, int *port)
         return bad;
     }
     /* ctl_tcp_split defaults to Modbus's 1502: MQTT's is 1883. */
-    *port = strchr(b, ']') ? (strrchr(b, ':') > strchr(b, ']') ? atoi(ps) : 1883)
-                           : (strchr(b, ':') ? atoi(ps) : 1883);
+    *port = strchr(b, ']') ? (strrchr(b, ':') > strchr(b, ']') ? atoi(ps) : 1883) : (strchr(b, ':') ? atoi(ps) : 1883);
     return NULL;
 }
 
 /* A connected client, or NULL (the reason printed, *rc = CTL_EXIT_COMM). */
-static struct mosquitto *connect_broker(const char *broker, const char *what,
-                                        void *obj, int *rc)
+static struct mosquitto *connect_broker(const char *broker, const char *what, void *obj, int *rc)
 {
     char host[256], cid[64];
     int port = 1883, r;
@@ -69,8 +67,7 @@ static struct mosquitto *connect_broker(const char *broker, const char *what,
         return NULL;
     }
     mosquitto_lib_init();
-    snprintf(cid, sizeof(cid), "it2nctl-%s-%ld-%lu", what, (long)getpid(),
-             (unsigned long)(now_ms() % 1000000u));
+    snprintf(cid, sizeof(cid), "it2nctl-%s-%ld-%lu", what, (long)getpid(), (unsigned long)(now_ms() % 1000000u));
     m = mosquitto_new(cid, true, obj);
     if (m == NULL) {
         fprintf(stderr, "it2nctl: out of memory\n");
@@ -131,7 +128,7 @@ static int64_t int_value(const Spb__Payload__Metric *mt, uint32_t type)
 typedef struct w_dev {
     char node[64], dev[64];
     int online;
-    uint64_t a_gen, a_state;  /* aliases of Status/generation, Status/state */
+    uint64_t a_gen, a_state; /* aliases of Status/generation, Status/state */
     int64_t gen, state;
 } w_dev;
 
@@ -201,8 +198,8 @@ static void put_num(int64_t v)
     }
 }
 
-static void w_line(watch *w, const char *node, const char *dev, const char *event,
-                   int64_t bdseq, int64_t gen, int64_t state)
+static void w_line(watch *w, const char *node, const char *dev, const char *event, int64_t bdseq, int64_t gen,
+                   int64_t state)
 {
     uint64_t ms = now_ms();
     time_t t = (time_t)(ms / 1000u);
@@ -263,7 +260,7 @@ static void w_node_birth(watch *w, w_node *n, const Spb__Payload *p)
     if (!n->online || bd != n->bdseq) {
         for (size_t k = 0; k < w->nd; k++) {
             if (strcmp(w->devs[k].node, n->node) == 0) {
-                w->devs[k].online = 0;  /* born again in the DBIRTHs */
+                w->devs[k].online = 0; /* born again in the DBIRTHs */
             }
         }
     }
@@ -290,8 +287,7 @@ static void w_node_death(watch *w, w_node *n, const Spb__Payload *p)
 }
 
 /* DBIRTH, DDATA or DDEATH (type) of device dev of node n. */
-static void w_device(struct mosquitto *m, watch *w, w_node *n, const char *type, const char *dev,
-                     const Spb__Payload *p)
+static void w_device(struct mosquitto *m, watch *w, w_node *n, const char *type, const char *dev, const Spb__Payload *p)
 {
     w_dev *d = w_dev_get(w, n->node, dev);
     if (d == NULL) {
@@ -360,8 +356,8 @@ static void w_message(struct mosquitto *m, void *obj, const struct mosquitto_mes
         w_node_birth(w, n, p);
     } else if (strcmp(part[2], "NDEATH") == 0) {
         w_node_death(w, n, p);
-    } else if (np >= 5 && (strcmp(part[2], "DBIRTH") == 0 || strcmp(part[2], "DDATA") == 0 ||
-                           strcmp(part[2], "DDEATH") == 0)) {
+    } else if (np >= 5 &&
+               (strcmp(part[2], "DBIRTH") == 0 || strcmp(part[2], "DDATA") == 0 || strcmp(part[2], "DDEATH") == 0)) {
         w_device(m, w, n, part[2], part[4], p);
     } else if (strcmp(part[2], "NDATA") == 0 && !n->online && !n->asked) {
         ask_rebirth(m, w->group, n->node);
@@ -370,22 +366,21 @@ static void w_message(struct mosquitto *m, void *obj, const struct mosquitto_mes
     spb__payload__free_unpacked(p, NULL);
 }
 
-static const char watch_help[] =
-    "Usage: it2nctl spb watch --broker HOST:PORT --group G [--node N] [--count N]\n"
-    "Watch a Sparkplug B group as a host application: one CSV line per event,\n"
-    "time,node,device,event,bdseq,generation,state\n"
-    "  event  online, offline (node: NBIRTH, NDEATH of its session; device:\n"
-    "         DBIRTH, DDEATH, or its node's death), rebirth (a node's NBIRTH\n"
-    "         in the same session: a Rebirth), generation (a device's model\n"
-    "         changed generation or state).\n"
-    "With --node, the node is asked for a Rebirth at once, so its current\n"
-    "state is printed; without, a node is asked when data of it comes before\n"
-    "its birth.\n"
-    "  --broker HOST:PORT   the MQTT broker (port 1883 when left out)\n"
-    "  --group G            Sparkplug group_id\n"
-    "  --node N             only this edge_node_id\n"
-    "  --count N            stop after N lines (default: until interrupted)\n"
-    "Exit status: 0 ok, 1 usage error, 3 broker unreachable or lost.\n";
+static const char watch_help[] = "Usage: it2nctl spb watch --broker HOST:PORT --group G [--node N] [--count N]\n"
+                                 "Watch a Sparkplug B group as a host application: one CSV line per event,\n"
+                                 "time,node,device,event,bdseq,generation,state\n"
+                                 "  event  online, offline (node: NBIRTH, NDEATH of its session; device:\n"
+                                 "         DBIRTH, DDEATH, or its node's death), rebirth (a node's NBIRTH\n"
+                                 "         in the same session: a Rebirth), generation (a device's model\n"
+                                 "         changed generation or state).\n"
+                                 "With --node, the node is asked for a Rebirth at once, so its current\n"
+                                 "state is printed; without, a node is asked when data of it comes before\n"
+                                 "its birth.\n"
+                                 "  --broker HOST:PORT   the MQTT broker (port 1883 when left out)\n"
+                                 "  --group G            Sparkplug group_id\n"
+                                 "  --node N             only this edge_node_id\n"
+                                 "  --count N            stop after N lines (default: until interrupted)\n"
+                                 "Exit status: 0 ok, 1 usage error, 3 broker unreachable or lost.\n";
 
 int ctl_spb_watch(int argc, char **argv)
 {
@@ -556,7 +551,7 @@ static void c_message(struct mosquitto *m, void *obj, const struct mosquitto_mes
         for (size_t k = 0; k < p->n_metrics; k++) {
             const Spb__Payload__Metric *mt = p->metrics[k];
             if (mt->has_is_historical && mt->is_historical) {
-                continue;  /* the past: the birth has the present */
+                continue; /* the past: the birth has the present */
             }
             for (size_t j = 0; j < c->nmet; j++) {
                 if ((mt->name && strcmp(mt->name, c->met[j].name) == 0) ||
@@ -588,8 +583,7 @@ static int64_t met_i(const spb_conn *c, const char *name)
 
 /* Run the client until done(c) or the timeout; CTL_EXIT_COMM with a
  * message on a timeout or a lost connection. */
-static int run_until(spb_conn *c, int (*done)(const spb_conn *, const void *), const void *arg,
-                     const char *what)
+static int run_until(spb_conn *c, int (*done)(const spb_conn *, const void *), const void *arg, const char *what)
 {
     uint64_t end = mono_ms() + c->timeout_ms;
     while (!done(c, arg)) {
@@ -600,8 +594,8 @@ static int run_until(spb_conn *c, int (*done)(const spb_conn *, const void *), c
             return CTL_EXIT_COMM;
         }
         if (now >= end) {
-            fprintf(stderr, "it2nctl: %s/%s model-%u: no %s within %u ms\n", c->group, c->node, c->model,
-                    what, c->timeout_ms);
+            fprintf(stderr, "it2nctl: %s/%s model-%u: no %s within %u ms\n", c->group, c->node, c->model, what,
+                    c->timeout_ms);
             return CTL_EXIT_COMM;
         }
         r = mosquitto_loop(c->m, (int)(end - now < 100 ? end - now : 100), 1);
@@ -704,8 +698,8 @@ static int c_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
         return rc;
     }
     if (c->died) {
-        fprintf(stderr, "it2nctl: %s/%s model-%u: the device died (DDEATH or NDEATH) before answering\n",
-                c->group, c->node, c->model);
+        fprintf(stderr, "it2nctl: %s/%s model-%u: the device died (DDEATH or NDEATH) before answering\n", c->group,
+                c->node, c->model);
         return CTL_EXIT_COMM;
     }
     *u = (it2n_par)llround((double)q.u * (double)IT2N_PAR_ONE);
@@ -720,8 +714,7 @@ static int c_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
         }
     }
     for (unsigned k = 0; k < 3u; k++) {
-        it2n_val *dst[4] = {&pt->sum.upper_min[k], &pt->sum.upper_max[k], &pt->sum.lower_min[k],
-                            &pt->sum.lower_max[k]};
+        it2n_val *dst[4] = {&pt->sum.upper_min[k], &pt->sum.upper_max[k], &pt->sum.lower_min[k], &pt->sum.lower_max[k]};
         for (unsigned s_ = 0; s_ < 4u; s_++) {
             const s_met *s;
             snprintf(name, sizeof(name), "Query/Summary/%s/%s", sums[s_], chs[IT2N_CH_T + k]);

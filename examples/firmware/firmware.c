@@ -44,8 +44,7 @@
 
 /* (u, w) x10000, as written to the Modbus q_u / q_w registers. */
 static const uint16_t fw_points[][2] = {
-    {0, 0}, {10000, 10000}, {2500, 5000}, {7000, 3000},
-    {1234, 8765}, {5000, 5000}, {9999, 1}, {3333, 6667},
+    {0, 0}, {10000, 10000}, {2500, 5000}, {7000, 3000}, {1234, 8765}, {5000, 5000}, {9999, 1}, {3333, 6667},
 };
 #define FW_NPOINTS (sizeof fw_points / sizeof fw_points[0])
 
@@ -112,8 +111,7 @@ static it2n_par par_from_x10000(uint16_t k)
 
 static bool same_point(const it2n_point *a, const it2n_msg_query_result *r)
 {
-    return memcmp(a->v, r->v, sizeof a->v) == 0 &&
-           memcmp(&a->sum, &r->sum, sizeof a->sum) == 0 &&
+    return memcmp(a->v, r->v, sizeof a->v) == 0 && memcmp(&a->sum, &r->sum, sizeof a->sum) == 0 &&
            a->out_of_range == r->out_of_range;
 }
 
@@ -142,8 +140,7 @@ static int send_model(void)
                 /* as stored (memberships in Q30): PUT FINE to a v1.3
                  * daemon, so its model is this one bit for bit */
                 it2n_dataset_get_fine(&ds, i, j, fp, v);
-                r = it2n_inst_put_fine(&inst, FW_MODEL, (uint8_t)i, (uint8_t)j,
-                                       (uint8_t)fp, v);
+                r = it2n_inst_put_fine(&inst, FW_MODEL, (uint8_t)i, (uint8_t)j, (uint8_t)fp, v);
             }
     if (r == 0)
         r = it2n_inst_commit(&inst, FW_MODEL);
@@ -274,8 +271,7 @@ int main(void)
 
         /* 1. the peer's answer over the link vs the local core at the
          *    same wire parameters */
-        r = it2n_eval(&mdl, it2n_par_from_wire(wu), it2n_par_from_wire(ww),
-                      &local_pt, &err);
+        r = it2n_eval(&mdl, it2n_par_from_wire(wu), it2n_par_from_wire(ww), &local_pt, &err);
         if (r != IT2N_OK) {
             fail("local eval (wire)", r);
             return 1;

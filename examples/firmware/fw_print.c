@@ -60,9 +60,21 @@ void fw_print_eval(uint16_t ku, uint16_t kw, const it2n_point *p)
             fw_print_str(" ");
             fw_print_i64(p->v[fp][ch]);
         }
-    for (k = 0; k < 3; k++) { fw_print_str(" "); fw_print_i64(p->sum.upper_min[k]); }
-    for (k = 0; k < 3; k++) { fw_print_str(" "); fw_print_i64(p->sum.upper_max[k]); }
-    for (k = 0; k < 3; k++) { fw_print_str(" "); fw_print_i64(p->sum.lower_min[k]); }
-    for (k = 0; k < 3; k++) { fw_print_str(" "); fw_print_i64(p->sum.lower_max[k]); }
+    for (k = 0; k < 3; k++) {
+        fw_print_str(" ");
+        fw_print_i64(p->sum.upper_min[k]);
+    }
+    for (k = 0; k < 3; k++) {
+        fw_print_str(" ");
+        fw_print_i64(p->sum.upper_max[k]);
+    }
+    for (k = 0; k < 3; k++) {
+        fw_print_str(" ");
+        fw_print_i64(p->sum.lower_min[k]);
+    }
+    for (k = 0; k < 3; k++) {
+        fw_print_str(" ");
+        fw_print_i64(p->sum.lower_max[k]);
+    }
     fw_print_flush();
 }

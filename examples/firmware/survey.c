@@ -156,8 +156,7 @@ static int walk(int pass, unsigned *n, unsigned *m, unsigned *flags)
             header = true;
             continue;
         }
-        if (nf != 9u || !index_of(&f[0], &i) || !index_of(&f[1], &j) ||
-            (fp = it2n_fp_from_name(f[2].s, f[2].len)) < 0)
+        if (nf != 9u || !index_of(&f[0], &i) || !index_of(&f[1], &j) || (fp = it2n_fp_from_name(f[2].s, f[2].len)) < 0)
             return fail("bad row", lineno, NULL);
         if (pass == 0) {
             *n = i > *n ? i : *n;

@@ -25,17 +25,17 @@
 static void usage(FILE *f)
 {
     fprintf(f,
-        "usage: it2n-instrument [--device PATH] [--model ID] [--degree N[xM]] [--seed S]\n"
-        "                       [--csv FILE] [--type1] [--z] [--chord]\n"
-        "                       [--rto MS] [--tries N] [--timeout S] [--quiet]\n"
-        "  --device PATH  tty/pty (or any fd-like path) to talk to it2nd, reliable mode;\n"
-        "                 without it, frames are written once to stdout (no ACKs)\n"
-        "  --model ID     model id 0..254 (default 0)\n"
-        "  --degree NxM   grid degrees 1..%d (default 3x3)\n"
-        "  --seed S       synthetic data seed (default 1)\n"
-        "  --csv FILE     send FILE (header i,j,footprint,x,y[,z],T,I,F) instead\n"
-        "exit: 0 all ACKed, 1 NACKed, 2 usage/data error, 3 I/O error or timeout\n",
-        IT2N_MAX_DEGREE);
+            "usage: it2n-instrument [--device PATH] [--model ID] [--degree N[xM]] [--seed S]\n"
+            "                       [--csv FILE] [--type1] [--z] [--chord]\n"
+            "                       [--rto MS] [--tries N] [--timeout S] [--quiet]\n"
+            "  --device PATH  tty/pty (or any fd-like path) to talk to it2nd, reliable mode;\n"
+            "                 without it, frames are written once to stdout (no ACKs)\n"
+            "  --model ID     model id 0..254 (default 0)\n"
+            "  --degree NxM   grid degrees 1..%d (default 3x3)\n"
+            "  --seed S       synthetic data seed (default 1)\n"
+            "  --csv FILE     send FILE (header i,j,footprint,x,y[,z],T,I,F) instead\n"
+            "exit: 0 all ACKed, 1 NACKed, 2 usage/data error, 3 I/O error or timeout\n",
+            IT2N_MAX_DEGREE);
 }
 
 /* ---- fd streams (the only OS-specific part) ---------------------------- */
@@ -126,7 +126,10 @@ static int split(char *line, char **f, int max)
 static int load_csv(const char *path, it2n_dataset *ds, unsigned extra_flags)
 {
     enum { MAXROWS = IT2N_DIM * IT2N_DIM * IT2N_FP_COUNT };
-    static struct row { unsigned i, j, fp; it2n_val v[IT2N_CH_COUNT]; } rows[MAXROWS];
+    static struct row {
+        unsigned i, j, fp;
+        it2n_val v[IT2N_CH_COUNT];
+    } rows[MAXROWS];
     char line[512], *f[10];
     unsigned nrows = 0, n = 0, m = 0, lineno = 0, fpmask = 0;
     int has_z, cols;
@@ -162,8 +165,7 @@ static int load_csv(const char *path, it2n_dataset *ds, unsigned extra_flags)
         if (line[0] == '\n' || line[0] == '#')
             continue;
         if (nrows == MAXROWS || split(line, f, 10) != cols) {
-            fprintf(stderr, "%s:%u: %s\n", path, lineno,
-                    nrows == MAXROWS ? "too many rows" : "wrong number of fields");
+            fprintf(stderr, "%s:%u: %s\n", path, lineno, nrows == MAXROWS ? "too many rows" : "wrong number of fields");
             fclose(in);
             return -1;
         }
@@ -171,8 +173,7 @@ static int load_csv(const char *path, it2n_dataset *ds, unsigned extra_flags)
         unsigned long ii = strtoul(f[0], &end, 10), jj = strtoul(f[1], &end, 10);
         int fp = it2n_fp_from_name(f[2], strlen(f[2]));
         if (ii > IT2N_MAX_DEGREE || jj > IT2N_MAX_DEGREE || fp < 0) {
-            fprintf(stderr, "%s:%u: bad index or footprint (i, j <= %d; LL..RR)\n",
-                    path, lineno, IT2N_MAX_DEGREE);
+            fprintf(stderr, "%s:%u: bad index or footprint (i, j <= %d; LL..RR)\n", path, lineno, IT2N_MAX_DEGREE);
             fclose(in);
             return -1;
         }
@@ -185,28 +186,29 @@ static int load_csv(const char *path, it2n_dataset *ds, unsigned extra_flags)
         for (int c = 3; c < cols; c++) {
             int ch = chx[has_z][c - 3];
             if (it2n_parse_val(f[c], strlen(f[c]), &r->v[ch]) != IT2N_OK) {
-                fprintf(stderr, "%s:%u: field %d (%s) is not a number in range: '%s'\n",
-                        path, lineno, c + 1, it2n_ch_name((unsigned)ch), f[c]);
+                fprintf(stderr, "%s:%u: field %d (%s) is not a number in range: '%s'\n", path, lineno, c + 1,
+                        it2n_ch_name((unsigned)ch), f[c]);
                 fclose(in);
                 return -1;
             }
         }
-        if (r->i > n) n = r->i;
-        if (r->j > m) m = r->j;
+        if (r->i > n)
+            n = r->i;
+        if (r->j > m)
+            m = r->j;
         fpmask |= 1u << r->fp;
         nrows++;
     }
     fclose(in);
-    unsigned flags = extra_flags | (has_z ? IT2N_F_Z : 0u) |
-                     (fpmask == (1u << IT2N_FP_D) ? IT2N_F_TYPE1 : 0u);
+    unsigned flags = extra_flags | (has_z ? IT2N_F_Z : 0u) | (fpmask == (1u << IT2N_FP_D) ? IT2N_F_TYPE1 : 0u);
     if (it2n_dataset_init(ds, n, m, flags, &err) != IT2N_OK) {
         fprintf(stderr, "%s: grid %ux%u not accepted: %s\n", path, n, m, it2n_strerror(err.code));
         return -1;
     }
     for (unsigned k = 0; k < nrows; k++) {
         if (it2n_dataset_put(ds, rows[k].i, rows[k].j, rows[k].fp, rows[k].v, false, &err) != IT2N_OK) {
-            fprintf(stderr, "%s: row %u (%u,%u,%s): %s (channel %s)\n", path, k + 2, rows[k].i,
-                    rows[k].j, it2n_fp_name(rows[k].fp), it2n_strerror(err.code),
+            fprintf(stderr, "%s: row %u (%u,%u,%s): %s (channel %s)\n", path, k + 2, rows[k].i, rows[k].j,
+                    it2n_fp_name(rows[k].fp), it2n_strerror(err.code),
                     err.ch >= 0 ? it2n_ch_name((unsigned)err.ch) : "-");
             return -1;
         }
@@ -283,8 +285,7 @@ int main(int argc, char **argv)
             ok = 0;
         }
         if (!ok) {
-            fprintf(stderr, "it2n-instrument: bad or incomplete option '%s'%s%s\n", a,
-                    v ? " " : "", v ? v : "");
+            fprintf(stderr, "it2n-instrument: bad or incomplete option '%s'%s%s\n", a, v ? " " : "", v ? v : "");
             usage(stderr);
             return 2;
         }
@@ -313,8 +314,8 @@ int main(int argc, char **argv)
     uint32_t rnd[2] = {t0 ^ (uint32_t)getpid(), (t0 ^ (uint32_t)getpid()) * 2654435761u};
     if (getrandom(rnd, sizeof rnd, GRND_NONBLOCK) != (ssize_t)sizeof rnd)
         rnd[0] ^= (uint32_t)time(NULL);
-    if (session_init(&sess, &ds, (uint8_t)model, &os, &is, (uint32_t)rto, (uint8_t)tries,
-                     device == NULL, (uint16_t)rnd[1], rnd[0] ? rnd[0] : 1u) != IT2N_OK)
+    if (session_init(&sess, &ds, (uint8_t)model, &os, &is, (uint32_t)rto, (uint8_t)tries, device == NULL,
+                     (uint16_t)rnd[1], rnd[0] ? rnd[0] : 1u) != IT2N_OK)
         return 2;
     int st;
     for (;;) {
@@ -340,7 +341,8 @@ int main(int argc, char **argv)
             return 3;
         }
         const it2n_msg_nack *k = &sess.nack;
-        fprintf(stderr, "it2n-instrument: %s seq %u refused: %s (code %d) at point (%d,%d) "
+        fprintf(stderr,
+                "it2n-instrument: %s seq %u refused: %s (code %d) at point (%d,%d) "
                 "footprint %s channel %s\n",
                 it2n_msg_name(sess.fail_type) ? it2n_msg_name(sess.fail_type) : "?", sess.fail_seq,
                 sess.fail_code <= -100 ? it2n_proto_strerror(sess.fail_code) : it2n_strerror(sess.fail_code),
@@ -349,8 +351,10 @@ int main(int argc, char **argv)
         return 1;
     }
     if (!quiet)
-        fprintf(stderr, "it2n-instrument: model %lu (%ux%u, flags 0x%x): %u entries in %u PUTs %s; "
-                "%u retransmissions\n", model, ds.n, ds.m, ds.flags, sess.entries, sess.puts,
-                device ? "acknowledged" : "written", sess.link.stats.tx_retx);
+        fprintf(stderr,
+                "it2n-instrument: model %lu (%ux%u, flags 0x%x): %u entries in %u PUTs %s; "
+                "%u retransmissions\n",
+                model, ds.n, ds.m, ds.flags, sess.entries, sess.puts, device ? "acknowledged" : "written",
+                sess.link.stats.tx_retx);
     return 0;
 }

@@ -17,8 +17,7 @@ static int on_rx(void *app, uint16_t seq, const it2n_msg *msg)
     return 0;
 }
 
-static void on_done(void *app, uint16_t seq, uint8_t type, int code,
-                    const it2n_msg_nack *nack)
+static void on_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_msg_nack *nack)
 {
     session *s = app;
     if (code == 0 || s->state == SESSION_FAILED)
@@ -31,10 +30,8 @@ static void on_done(void *app, uint16_t seq, uint8_t type, int code,
         s->nack = *nack;
 }
 
-int session_init(session *s, const it2n_dataset *ds, uint8_t model,
-                 it2n_ostream *out, it2n_istream *in, uint32_t rto_ms,
-                 uint8_t tries, bool oneway, uint16_t first_seq,
-                 uint32_t session_id)
+int session_init(session *s, const it2n_dataset *ds, uint8_t model, it2n_ostream *out, it2n_istream *in,
+                 uint32_t rto_ms, uint8_t tries, bool oneway, uint16_t first_seq, uint32_t session_id)
 {
     it2n_link_cfg cfg;
     memset(s, 0, sizeof *s);
@@ -54,8 +51,7 @@ int session_init(session *s, const it2n_dataset *ds, uint8_t model,
     cfg.session = session_id;
     /* v1.2: the daemon hands out the session id (its HELLO); one-way mode
      * hears no answer, so it speaks v1.1 with session_id */
-    cfg.version = oneway ? (uint8_t)IT2N_PROTO_VERSION
-                         : (uint8_t)IT2N_PROTO_VERSION_12;
+    cfg.version = oneway ? (uint8_t)IT2N_PROTO_VERSION : (uint8_t)IT2N_PROTO_VERSION_12;
     s->ow_hdr.seq = first_seq;
     return it2n_link_init(&s->link, &cfg);
 }
@@ -110,8 +106,7 @@ static bool build(session *s, it2n_msg *m)
         m->u.hello.version_max = s->link.cfg.version;
         m->u.hello.max_degree = IT2N_MAX_DEGREE;
         m->u.hello.window = it2n_link_window(&s->link);
-        m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_TYPE1 |
-                          IT2N_CAP_CHORD;
+        m->u.hello.caps = IT2N_CAP_INSTRUMENT | IT2N_CAP_Z | IT2N_CAP_TYPE1 | IT2N_CAP_CHORD;
         m->u.hello.max_payload = IT2N_PROTO_MAX_PAYLOAD;
         m->u.hello.max_models = 1;
         memcpy(m->u.hello.node, "it2n-instrument", 15);
@@ -123,14 +118,12 @@ static bool build(session *s, it2n_msg *m)
         m->u.configure.m = s->ds->m;
         m->u.configure.flags = s->ds->flags;
         return true;
-    case 2:
-        return next_put(s, m);
+    case 2: return next_put(s, m);
     case 3:
         m->type = IT2N_MSG_COMMIT;
         m->u.model.model = s->model;
         return true;
-    default:
-        return false;
+    default: return false;
     }
 }
 
@@ -148,8 +141,7 @@ static int send_oneway(session *s, const it2n_msg *m)
     len += (int)sess;
     s->ow_hdr.version = IT2N_PROTO_VERSION;
     s->ow_hdr.type = m->type;
-    s->ow_hdr.flags = (uint8_t)(IT2N_FLAG_REL |
-                                (s->step == 0u ? IT2N_FLAG_SYN : 0u));
+    s->ow_hdr.flags = (uint8_t)(IT2N_FLAG_REL | (s->step == 0u ? IT2N_FLAG_SYN : 0u));
     s->ow_hdr.len = (uint16_t)len;
     len = it2n_frame_write(s->out, &s->ow_hdr, payload, (size_t)len);
     s->ow_hdr.seq++;
@@ -172,11 +164,10 @@ int session_step(session *s, uint32_t now)
     }
     /* CONFIGURE is a barrier (docs/protocol.md 4.2 rule 7): sent with
      * nothing else in flight, and nothing follows it until it is answered. */
-    while (s->state == SESSION_RUNNING && s->step < 4u &&
-           (s->oneway ||
-            ((s->step == 0u || it2n_link_can_send(&s->link)) &&
-             ((s->step != 1u && !(s->step == 2u && s->puts == 0u)) ||
-              it2n_link_pending(&s->link) == 0u)))) {
+    while (
+        s->state == SESSION_RUNNING && s->step < 4u &&
+        (s->oneway || ((s->step == 0u || it2n_link_can_send(&s->link)) &&
+                       ((s->step != 1u && !(s->step == 2u && s->puts == 0u)) || it2n_link_pending(&s->link) == 0u)))) {
         if (!build(s, &m)) {
             s->step++; /* PUTs exhausted */
             continue;
@@ -197,8 +188,7 @@ int session_step(session *s, uint32_t now)
         if (m.type != IT2N_MSG_PUT)
             s->step++;
     }
-    if (s->state == SESSION_RUNNING && s->step >= 4u &&
-        (s->oneway || it2n_link_pending(&s->link) == 0u))
+    if (s->state == SESSION_RUNNING && s->step >= 4u && (s->oneway || it2n_link_pending(&s->link) == 0u))
         s->state = SESSION_DONE;
     return s->state;
 }

@@ -11,17 +11,17 @@
 
 enum session_state {
     SESSION_RUNNING = 0,
-    SESSION_DONE = 1,     /* all ACKed (or all sent, one-way) */
-    SESSION_FAILED = -1   /* NACK or timeout: see nack / fail_code */
+    SESSION_DONE = 1,   /* all ACKed (or all sent, one-way) */
+    SESSION_FAILED = -1 /* NACK or timeout: see nack / fail_code */
 };
 
 typedef struct session {
     it2n_link link;
     const it2n_dataset *ds;
     uint8_t model;
-    bool oneway;           /* no peer answers: send once, don't wait */
+    bool oneway; /* no peer answers: send once, don't wait */
     /* progress through the data set: next (i, j, fp) to PUT */
-    unsigned step;         /* 0 HELLO, 1 CONFIGURE, 2 PUTs, 3 COMMIT, 4 sent */
+    unsigned step; /* 0 HELLO, 1 CONFIGURE, 2 PUTs, 3 COMMIT, 4 sent */
     unsigned i, j, fp;
     unsigned puts, entries;
     int state;
@@ -40,10 +40,8 @@ typedef struct session {
  * never taken for a retransmission of its previous run. One-way mode
  * (nothing is read back) speaks v1.1 and needs session_id, different from
  * every earlier session of this instrument (random, or a boot counter). */
-int session_init(session *s, const it2n_dataset *ds, uint8_t model,
-                 it2n_ostream *out, it2n_istream *in, uint32_t rto_ms,
-                 uint8_t tries, bool oneway, uint16_t first_seq,
-                 uint32_t session_id);
+int session_init(session *s, const it2n_dataset *ds, uint8_t model, it2n_ostream *out, it2n_istream *in,
+                 uint32_t rto_ms, uint8_t tries, bool oneway, uint16_t first_seq, uint32_t session_id);
 
 /* Do whatever is possible now: read input, retransmit, send the next
  * messages while the window allows. Returns the session state. */

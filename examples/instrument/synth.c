@@ -16,8 +16,7 @@ static it2n_val frac(uint32_t *s, it2n_val span)
     return (it2n_val)((uint64_t)(xorshift32(s) >> 8) * (uint64_t)span >> 24);
 }
 
-int synth_dataset(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
-                  uint32_t seed, it2n_errinfo *err)
+int synth_dataset(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags, uint32_t seed, it2n_errinfo *err)
 {
     uint32_t s = seed * 2654435761u + 0x9E3779B9u;
     unsigned i, j, fp;
@@ -29,13 +28,9 @@ int synth_dataset(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
     for (i = 0; i <= n; i++) {
         for (j = 0; j <= m; j++) {
             it2n_val base[IT2N_CH_COUNT], spread;
-            base[IT2N_CH_X] = (it2n_val)i * 10 * IT2N_VAL_ONE - IT2N_VAL_ONE +
-                              frac(&s, 2 * IT2N_VAL_ONE);
-            base[IT2N_CH_Y] = (it2n_val)j * 10 * IT2N_VAL_ONE - IT2N_VAL_ONE +
-                              frac(&s, 2 * IT2N_VAL_ONE);
-            base[IT2N_CH_Z] = (flags & IT2N_F_Z)
-                                  ? (it2n_val)(i * (m - j) + 1) * IT2N_VAL_ONE / 2
-                                  : 0;
+            base[IT2N_CH_X] = (it2n_val)i * 10 * IT2N_VAL_ONE - IT2N_VAL_ONE + frac(&s, 2 * IT2N_VAL_ONE);
+            base[IT2N_CH_Y] = (it2n_val)j * 10 * IT2N_VAL_ONE - IT2N_VAL_ONE + frac(&s, 2 * IT2N_VAL_ONE);
+            base[IT2N_CH_Z] = (flags & IT2N_F_Z) ? (it2n_val)(i * (m - j) + 1) * IT2N_VAL_ONE / 2 : 0;
             base[IT2N_CH_T] = frac(&s, IT2N_VAL_ONE + 1);
             base[IT2N_CH_I] = frac(&s, IT2N_VAL_ONE + 1);
             base[IT2N_CH_F] = frac(&s, IT2N_VAL_ONE + 1);

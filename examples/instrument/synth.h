@@ -11,7 +11,6 @@
  * IT2N_F_Z, memberships T, I, F in [0, 1] shared by a point's footprints.
  * Returns IT2N_OK or the core's error (err filled).
  */
-int synth_dataset(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags,
-                  uint32_t seed, it2n_errinfo *err);
+int synth_dataset(it2n_dataset *ds, unsigned n, unsigned m, unsigned flags, uint32_t seed, it2n_errinfo *err);
 
 #endif

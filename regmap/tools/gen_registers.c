@@ -62,22 +62,23 @@ int main(void)
            "  A value that does not fit is clamped and flagged in the saturation registers.\n"
            "- **Results** are per connection: what one client wrote as a query never changes\n"
            "  what another client reads. Write u/w (or x/y) then read, or use FC 23 for both.\n\n");
-    printf("## Exceptions\n\n"
-           "| Code | When |\n|---|---|\n"
-           "| 01 | Function code other than 03, 04, 06, 16, 23. A request function 80..FF (no Modbus function has bit 7 set) is answered with that function unchanged and 01, so the reply still reads as an exception |\n"
-           "| 02 | Address range leaves the map, spans two blocks, or a write hits a read-only block; also a write to the configuration or upload block through a read-only listener or RTU port, or of a write-protected unit (docs/daemon.md, Access control) |\n"
-           "| 03 | Bad count, or a bad value: membership outside [0, 1], parameter outside [0, 1], bad degree, flags, footprint or index, half of a 32-bit value, partial upload |\n"
-           "| 04 | A solve (commit, completion, update) failed; see `last_error` |\n"
-           "| 06 | The model is incomplete or not solved (results, grid, control net, commit) |\n"
-           "| 0B | No model on this unit id (TCP only; units 0 and 255 reach the default model if there is one) |\n\n"
-           "A rejected request changes nothing.\n\n");
+    printf(
+        "## Exceptions\n\n"
+        "| Code | When |\n|---|---|\n"
+        "| 01 | Function code other than 03, 04, 06, 16, 23. A request function 80..FF (no Modbus function has bit 7 set) is answered with that function unchanged and 01, so the reply still reads as an exception |\n"
+        "| 02 | Address range leaves the map, spans two blocks, or a write hits a read-only block; also a write to the configuration or upload block through a read-only listener or RTU port, or of a write-protected unit (docs/daemon.md, Access control) |\n"
+        "| 03 | Bad count, or a bad value: membership outside [0, 1], parameter outside [0, 1], bad degree, flags, footprint or index, half of a 32-bit value, partial upload |\n"
+        "| 04 | A solve (commit, completion, update) failed; see `last_error` |\n"
+        "| 06 | The model is incomplete or not solved (results, grid, control net, commit) |\n"
+        "| 0B | No model on this unit id (TCP only; units 0 and 255 reach the default model if there is one) |\n\n"
+        "A rejected request changes nothing.\n\n");
     printf("## Blocks\n\n| Block | Addresses | 3xxxx | 4xxxx | Access | Function codes | Per connection |\n"
            "|---|---|---|---|---|---|---|\n");
     for (b = 0; b < it2n_regmap_nblocks; b++) {
         const it2n_regmap_block *blk = &it2n_regmap_blocks[b];
-        printf("| %s | %u..%u | %u..%u | %u..%u | %s | %s | %s |\n", blk->name, blk->start,
-               blk->end - 1u, 30001u + blk->start, 30000u + blk->end, 40001u + blk->start,
-               40000u + blk->end, blk->access == IT2N_REGMAP_ACCESS_RW ? "read/write" : "read-only",
+        printf("| %s | %u..%u | %u..%u | %u..%u | %s | %s | %s |\n", blk->name, blk->start, blk->end - 1u,
+               30001u + blk->start, 30000u + blk->end, 40001u + blk->start, 40000u + blk->end,
+               blk->access == IT2N_REGMAP_ACCESS_RW ? "read/write" : "read-only",
                blk->access == IT2N_REGMAP_ACCESS_RW ? "03, 04, 06, 16, 23" : "03, 04 (and the read half of 23)",
                blk->per_conn ? "yes" : "no");
     }
@@ -91,16 +92,14 @@ int main(void)
             const it2n_regmap_field *f = &blk->fields[k];
             char scale[32], addr[64];
             unsigned words = it2n_regmap_type_words(f->type);
-            unsigned last = f->addr + (f->count > 1u ? (unsigned)(f->count - 1u) * f->stride : 0u) +
-                            words - 1u;
+            unsigned last = f->addr + (f->count > 1u ? (unsigned)(f->count - 1u) * f->stride : 0u) + words - 1u;
             scale_text(scale, sizeof scale, f);
             if (last == f->addr)
                 snprintf(addr, sizeof addr, "%u", f->addr);
             else
                 snprintf(addr, sizeof addr, "%u..%u", f->addr, last);
-            printf("| %s | %u | %u | %s | %s%s | %s | %s | %s | %s | %s |\n", addr, 30001u + f->addr,
-                   40001u + f->addr, f->name, it2n_regmap_type_name(f->type),
-                   f->count > 1u ? " array" : "", scale, order_text(f->type),
+            printf("| %s | %u | %u | %s | %s%s | %s | %s | %s | %s | %s |\n", addr, 30001u + f->addr, 40001u + f->addr,
+                   f->name, it2n_regmap_type_name(f->type), f->count > 1u ? " array" : "", scale, order_text(f->type),
                    blk->access == IT2N_REGMAP_ACCESS_RW ? "RW" : "RO", f->unit, f->desc);
         }
         printf("\n");
@@ -111,8 +110,7 @@ int main(void)
            "# status block, %u registers from address 0 (-0: 0-based references)\n"
            "mbpoll -m tcp -a 1 -0 -r 0 -c %u -t 3 -1 127.0.0.1 -p 1502\n",
            IT2N_REGMAP_REG_STATUS_END, IT2N_REGMAP_REG_STATUS_END);
-    printf(
-           "# sample grid node (0,0): D footprint T, I, F x10000\n"
+    printf("# sample grid node (0,0): D footprint T, I, F x10000\n"
            "mbpoll -m tcp -a 1 -0 -r 1024 -c 3 -t 4 -1 127.0.0.1 -p 1502\n"
            "# the same node as float32 ABCD\n"
            "mbpoll -m tcp -a 1 -0 -r 8192 -c 3 -t 4:float -B -1 127.0.0.1 -p 1502\n"
