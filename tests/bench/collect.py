@@ -2,9 +2,12 @@
 """bench/results.json: every benchmark's headline figures in one list.
 
 Each benchmark writes its own bench/<name>.json. Its headline figures are
-rows {name, unit, value, baseline, ratio, target, met[, sense]} (the
-schema of tests/bench/mcu/results.py: "sense": ">=" marks a target that is
-a lower bound, such as a throughput ratio): the file is either a JSON array of rows
+rows {name, unit, value, baseline, ratio, target, met[, sense, interval,
+rounds, max_rounds_reached, deterministic]} (the schema of
+tests/bench/mcu/results.py: "sense": ">=" marks a target that is a lower
+bound, such as a throughput ratio; a ratio row carries the 95 % interval of
+its interleaved rounds, or "deterministic": true for counts that are the
+same on every run, else it is refused): the file is either a JSON array of rows
 (bench/mcu.json) or an object with a "rows" array (and anything else the
 benchmark wants to keep: conditions, raw samples). Two early benchmarks
 write no rows; ADAPTERS derives theirs from the figures they do write.
