@@ -12,7 +12,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from results import validate  # noqa: E402
+from results import validate, within  # noqa: E402
 
 HEAD = """# Performance
 
@@ -103,7 +103,10 @@ def row(r):
         if r.get("deterministic"):
             ratio += f" [{lo:.3g}, {hi:.3g}] (exact, spread over {r['rounds']} points)"
         else:
-            cap = ", max rounds reached" if r.get("max_rounds_reached") else ""
+            # rows written before the flag: the rounds stop early only once
+            # the interval is within +-PRECISION (results.row())
+            capped = r.get("max_rounds_reached", not within(lo, hi))
+            cap = ", max rounds reached" if capped else ""
             ratio += f" [{lo:.3g}, {hi:.3g}] ({r['rounds']} rounds{cap})"
     elif r["ratio"] is not None and r.get("deterministic"):
         ratio += " (exact)"
