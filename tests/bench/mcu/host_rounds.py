@@ -7,8 +7,8 @@ it2n/double ratio's 95 % interval lies within +-5 % on every data set
 usage: host_rounds.py BENCH_HOST MAX_ROUNDS [quick] > LOG
 
 LOG: "R SET.x86.IMPL_ns t1 t2 ..." (ns per query, one per round, paired by
-position), "R x86.rounds N" and "R x86.max_rounds_reached 0|1", read by
-results.py.
+position), "R x86.loadavg 1m 5m 15m" (at the end of the rounds),
+"R x86.rounds N" and "R x86.max_rounds_reached 0|1", read by results.py.
 """
 import os
 import subprocess
@@ -51,6 +51,7 @@ def main():
     for s, t in times.items():
         for impl in IMPLS:
             print(f"R {s}.x86.{impl}_ns " + " ".join(f"{v:.3f}" for v in t[impl]))
+    print("R x86.loadavg " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
     print(f"R x86.rounds {rounds}")
     print(f"R x86.max_rounds_reached {int(capped)}")
     return 0

@@ -5,8 +5,10 @@ usage: results.py [--smoke] --mode MODE --m0p LOG --m4f LOG --host LOG [LOG...]
                   --flash-map MAP --out JSON
 
 Every LOG holds "R key value..." lines (images, bench_host, sizes.txt, the
-callgrind totals). The JSON is an array of objects
-  {name, unit, value, baseline, ratio, target, met}
+callgrind totals). The JSON is an object: "rows", an array of objects
+  {name, unit, value, baseline, ratio, target, met[, interval, rounds,
+  max_rounds_reached, deterministic]}, and the x86-64 rounds' conditions
+("x86_rounds", "x86_loadavg", "cpus"):
 - a ratio target: baseline is the compared figure, ratio = value/baseline,
   met = ratio <= target;
 - a limit: baseline and ratio are null, met = value <= target;
@@ -22,6 +24,7 @@ Exit 1 with the reasons on failure.
 import argparse
 import json
 import math
+import os
 import re
 import statistics
 import sys
@@ -458,7 +461,12 @@ def main():
 
     problems += [f"figure missing from the logs: {n}" for n in t.missing]
     problems += validate(t.rows)
-    text = json.dumps(t.rows, indent=1, ensure_ascii=False) + "\n"
+    # The x86-64 times follow the machine's load: the load average during
+    # their rounds is kept beside the rows (host_rounds.py).
+    la = host.get("x86.loadavg")
+    doc = {"rows": t.rows, "x86_rounds": host.get("x86.rounds"),
+           "x86_loadavg": la if isinstance(la, list) else None, "cpus": os.cpu_count()}
+    text = json.dumps(doc, indent=1, ensure_ascii=False) + "\n"
     try:
         json.loads(text)
     except ValueError as e:
