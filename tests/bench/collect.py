@@ -132,7 +132,12 @@ def main():
     if not check:
         with open(out, "w", encoding="utf-8") as f:
             f.write(text)
-        print(f"collect.py: {out}: {len(rows)} figures from {len(set(r['source'] for r in rows))} benchmarks")
+        ratios = [r for r in rows if r["ratio"] is not None]
+        print(f"collect.py: {out}: {len(rows)} figures from {len(set(r['source'] for r in rows))} benchmarks; "
+              f"{len(ratios)} ratios: {sum(1 for r in ratios if r.get('deterministic'))} exact counts "
+              f"(deterministic), {sum(1 for r in ratios if not r.get('deterministic'))} from interleaved "
+              f"rounds with a 95 % interval "
+              f"({sum(1 for r in ratios if r.get('max_rounds_reached'))} at their maximum of rounds)")
         return 0
     try:
         with open(out, encoding="utf-8") as f:
