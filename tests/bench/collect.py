@@ -2,9 +2,12 @@
 """bench/results.json: every benchmark's headline figures in one list.
 
 Each benchmark writes its own bench/<name>.json. Its headline figures are
-rows {name, unit, value, baseline, ratio, target, met[, sense]} (the
-schema of tests/bench/mcu/results.py: "sense": ">=" marks a target that is
-a lower bound, such as a throughput ratio): the file is either a JSON array of rows
+rows {name, unit, value, baseline, ratio, target, met[, sense, interval,
+rounds, max_rounds_reached, deterministic]} (the schema of
+tests/bench/mcu/results.py: "sense": ">=" marks a target that is a lower
+bound, such as a throughput ratio; a ratio row carries the 95 % interval of
+its interleaved rounds, or "deterministic": true for counts that are the
+same on every run, else it is refused): the file is either a JSON array of rows
 (bench/mcu.json) or an object with a "rows" array (and anything else the
 benchmark wants to keep: conditions, raw samples). Two early benchmarks
 write no rows; ADAPTERS derives theirs from the figures they do write.
@@ -129,7 +132,12 @@ def main():
     if not check:
         with open(out, "w", encoding="utf-8") as f:
             f.write(text)
-        print(f"collect.py: {out}: {len(rows)} figures from {len(set(r['source'] for r in rows))} benchmarks")
+        ratios = [r for r in rows if r["ratio"] is not None]
+        print(f"collect.py: {out}: {len(rows)} figures from {len(set(r['source'] for r in rows))} benchmarks; "
+              f"{len(ratios)} ratios: {sum(1 for r in ratios if r.get('deterministic'))} exact counts "
+              f"(deterministic), {sum(1 for r in ratios if not r.get('deterministic'))} from interleaved "
+              f"rounds with a 95 % interval "
+              f"({sum(1 for r in ratios if r.get('max_rounds_reached'))} at their maximum of rounds)")
         return 0
     try:
         with open(out, encoding="utf-8") as f:

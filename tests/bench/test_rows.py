@@ -12,6 +12,15 @@ over many random magnitudes and digit counts, and runs collect.py on a
 bench directory holding them. Then the confidence intervals of ratios from
 interleaved rounds: their coverage on simulated noise, the stopping rule,
 and that a target counts as met only when the whole interval meets it.
+
+A ratio from one run read met or unmet with the noise (bench/proto_loss.json
+stored the 10 % faults vs clean wall-time ratio of one set of runs, and
+bench/firmware.json the lossy vs direct upload of one pair): the collector
+now refuses a row with a ratio that has neither an interval from
+interleaved rounds nor "deterministic": true (counts: qemu -icount and
+callgrind instructions, bytes). The first part feeds it such rows as they
+were committed, through validate() and collect.py, and the generated
+docs/performance.md must show an interval or "exact" for every ratio.
 """
 import json
 import os
@@ -22,6 +31,7 @@ import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "mcu"))
+import results  # noqa: E402
 from results import precise, ratio_interval, row, validate  # noqa: E402
 
 sys.path.insert(0, os.path.join(HERE, "..", "lib"))
@@ -38,10 +48,68 @@ def old_row(name, value, baseline, digits):
             "ratio": round(value / baseline, 3), "target": None, "met": None}
 
 
+def collect_dir(files):
+    """collect.py on a bench directory holding files {stem: JSON}; returns
+    (exit status, stderr, rows of results.json or None)."""
+    with tempfile.TemporaryDirectory(prefix="it2n-rows.") as d:
+        for stem, data in files.items():
+            with open(os.path.join(d, stem + ".json"), "w", encoding="utf-8") as f:
+                json.dump(data, f)
+        p = subprocess.run([sys.executable, os.path.join(HERE, "collect.py"), d], capture_output=True, text=True)
+        out = os.path.join(d, "results.json")
+        got = json.load(open(out, encoding="utf-8")) if p.returncode == 0 and os.path.exists(out) else None
+        return p.returncode, p.stderr, got
+
+
+# ---- a ratio needs an interval or the deterministic flag (issue 22) -------
+# Rows exactly as the single-run writers committed them (bench/proto_loss.json
+# and bench/firmware.json before the rounds), and an instruction ratio of
+# bench/mcu.json before it carried its flag.
+ONE_RUN = [
+    {"name": "proto session, 10 % faults per direction vs clean, 921600 Bd (wall time)", "unit": "s",
+     "value": 2.019, "baseline": 0.931, "ratio": 2.1686, "target": 3.0, "met": True},
+    {"name": "firmware upload, 500 ppm byte drop vs direct", "unit": "ms", "value": 558, "baseline": 169,
+     "ratio": 3.3018, "target": None, "met": None},
+    {"name": "M0+ solve, paper 4×4: it2n vs float", "unit": "instructions", "value": 48480,
+     "baseline": 58962, "ratio": 0.8222, "target": 1.0, "met": True},
+]
+NEITHER = "neither an interval"
+for r in ONE_RUN:
+    bad = validate([r])
+    check(any(NEITHER in b for b in bad), f"a one-run ratio not refused by validate(): {r['name']}: {bad}")
+    rc, err, _ = collect_dir({"proto_loss": {"rows": [r]}})
+    check(rc != 0 and NEITHER in err, f"collect.py accepted a one-run ratio: {r['name']} (exit {rc})")
+# The same figures with the flag (a count) or an interval (rounds) pass.
+det = dict(ONE_RUN[2], deterministic=True)
+check(validate([det]) == [], f"a flagged instruction ratio refused: {validate([det])}")
+rounds = dict(ONE_RUN[0], interval=[2.08, 2.26], rounds=9, max_rounds_reached=False)
+check(validate([rounds]) == [], f"a ratio with its interval refused: {validate([rounds])}")
+rc, err, got = collect_dir({"mcu": [det], "proto_loss": {"rows": [rounds]}})
+check(rc == 0 and got is not None and got[0].get("deterministic") is True and got[1].get("interval") == [2.08, 2.26],
+      f"collect.py on flagged rows: exit {rc}: {err[-300:]}")
+# ... and perfdoc shows how far to trust each: "exact" or the interval.
+if got is not None:
+    sys.path.insert(0, os.path.join(HERE, "mcu"))
+    import perfdoc  # noqa: E402
+    page = perfdoc.render([dict(x, met=x["met"]) for x in got if x["met"] is not False])
+    check("0.822× (exact)" in page and "2.17× [2.08, 2.26] (9 rounds)" in page,
+          "docs/performance.md rows without the exact mark or the interval")
+# A value without a baseline (an absolute time, a count) needs neither.
+check(validate([row("soak duration", "s", 600)]) == [], "a value without a ratio refused")
+# The flag is true or absent; "max rounds reached" goes with an interval and
+# says the truth about it (rounds stop early only once within +-5 %).
+check(any("deterministic" in b for b in validate([dict(ONE_RUN[2], deterministic=False)])),
+      "deterministic: false accepted as a flag")
+check(any("max_rounds_reached" in b for b in validate([dict(rounds, interval=[1.6, 2.9])])),
+      "an interval of +-30 % with max_rounds_reached false accepted")
+check(any("max_rounds_reached" in b for b in validate([dict(ONE_RUN[2], deterministic=True,
+                                                            max_rounds_reached=True)])),
+      "max_rounds_reached without an interval accepted")
+
 # The figures of the failing run (issue 22): 11.2749 vs 8.7751 us.
 bad = validate([old_row("fc23 cpu", 11.2749, 8.7751, 2)])
 check(bad and "ratio != value/baseline" in bad[0], f"the old rounding is not caught: {bad}")
-good = row("fc23 cpu", "us", round(11.2749, 2), round(8.7751, 2))
+good = row("fc23 cpu", "us", round(11.2749, 2), round(8.7751, 2), interval=(1.21, 1.36), rounds=20)
 check(validate([good]) == [], f"the issue's figures, stored by row(): {validate([good])}")
 
 rng = random.Random(22)
@@ -52,10 +120,11 @@ for i in range(5000):
     d = rng.choice([0, 1, 2, 3])
     sense = rng.choice(["<=", ">="])
     t = rng.choice([None, 1.0, 0.75])
-    r = row(f"r{i}", "x", round(v, d) if d else round(v), round(b, d) if d else round(b), t, sense=sense)
+    r = row(f"r{i}", "x", round(v, d) if d else round(v), round(b, d) if d else round(b), t, sense=sense,
+            deterministic=True)
     if r["baseline"]:
         rows.append(r)
-    caught += bool(validate([old_row(f"o{i}", v, b, d)]))
+    caught += any("ratio != value/baseline" in x for x in validate([old_row(f"o{i}", v, b, d)]))
 probs = validate(rows)
 check(probs == [], f"{len(probs)} of {len(rows)} rows built by row() refused, first: {probs[:3]}")
 check(caught > 0, "no row built the old way was refused: the check cannot fail")
@@ -86,6 +155,29 @@ check(0.92 <= hits / trials <= 0.98, f"interval coverage {hits / trials:.3f}, wa
 quiet = [100 * rng.lognormvariate(0, 0.01) for _ in range(5)]
 check(precise(quiet, [100.0] * 5) and not precise(quiet[:2], [100.0] * 2), "precise() on quiet rounds")
 check(not precise([100, 140, 70, 120, 90], [100] * 5), "precise() on rounds spread +-40 %")
+# until_precise(): rounds until every interval is within +-5 %, at least 3.
+def rounds_of(noise, max_rounds, n_ratios=2):
+    vals = [([], []) for _ in range(n_ratios)]
+
+    def one(_r):
+        for v, b in vals:
+            v.append(100 * rng.lognormvariate(0, noise))
+            b.append(100 * rng.lognormvariate(0, noise))
+    n, capped = results.until_precise(one, lambda: vals, max_rounds)
+    return n, capped, vals
+
+
+n, capped, vals = rounds_of(0.005, 20)
+check(n == 3 and not capped, f"quiet rounds: {n} rounds, max reached {capped}, want 3 and no")
+n, capped, vals = rounds_of(0.3, 12)
+check(n == 12 and capped and all(len(v) == 12 for v, _ in vals), f"noisy rounds: {n}, max reached {capped}")
+_, _, lo, hi = ratio_interval(*vals[0])
+r = row("noisy", "s", 1.0, 1.0, 2.0, interval=(lo, hi), rounds=n)
+check(r["max_rounds_reached"] is True and validate([r]) == [], f"a row from capped rounds: {r}")
+n, capped, vals = rounds_of(0.04, 40)
+check(3 < n < 40 and not capped and all(precise(v, b) for v, b in vals),
+      f"rounds until precise: {n}, max reached {capped}")
+
 # A target is met only when the whole interval meets it.
 r = row("tp", "req/s", 101.0, 100.0, 1.0, sense=">=", interval=(0.97, 1.05), rounds=6)
 check(r["ratio"] == 1.01 and r["met"] is False and validate([r]) == [], f"straddling interval: {r}")

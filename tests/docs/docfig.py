@@ -78,7 +78,8 @@ def firmware_figures():
     for name in ("core", "protocol", "driver", "application", "libc+libgcc"):
         if name in parts:
             out.append("  %-14s %8d %8d" % (name, parts[name]["flash"], parts[name]["ram"]))
-    hw = max((r.get("stack_high_water_bytes") or 0) for r in runs.values()) if runs else 0
+    every = list(runs.values()) + [r for rd in fw.get("upload_rounds", []) for r in rd.values()]
+    hw = max((r.get("stack_high_water_bytes") or 0) for r in every) if every else 0
     out.append("  stack: worst case %d bytes (static bound: main %d + interrupt %d), high-water %d bytes (measured)"
                % (st["worst_case_bytes"], st["main_bytes"], st["interrupt_bytes"], hw))
     for name in ("direct", "lossy"):

@@ -3,7 +3,8 @@
 # [link:]; Modbus results must equal the firmware's own evaluations.
 #   make fw-image   build the firmware image (ELF + map)
 #   make fw-e2e     the end-to-end test, in make test (figures under build/)
-#   make bench-firmware  the same, writing the committed bench/firmware.json
+#   make bench-firmware  the same in rounds (FW_ROUNDS), writing the committed
+#                        bench/firmware.json
 FW_B := $(BUILD)/fw-m3
 FW_CPU := -mcpu=cortex-m3 -mthumb
 FW_SRC := $(CORE_SRC) $(PROTO_SRC) \
@@ -74,9 +75,11 @@ fw-reboot-legacy: $(FWR11_ELF) $(IT2ND) ## fw-reboot with the v1.1 handshake (cl
 	IT2ND=$(IT2ND) FW_ELF=$(FWR11_ELF) FW_REBOOTS=$${FW_REBOOTS:-10} FW_EXPECT_FAIL=1 tests/firmware/fw_reboot.sh
 
 .PHONY: bench-firmware
+# at most this many rounds of a direct and a lossy upload (fw_e2e.sh)
+FW_ROUNDS ?= 10
 bench-firmware: $(FW_ELF) $(IT2ND)
 	IT2ND=$(IT2ND) FW_ELF=$(FW_ELF) FW_MAP=$(FW_B)/it2n-firmware.map FW_OUT=$(CURDIR)/bench/firmware.json \
-	  tests/firmware/fw_e2e.sh
+	  FW_ROUNDS=$(FW_ROUNDS) tests/firmware/fw_e2e.sh
 BENCH_TARGETS += bench-firmware
 
 # ---- the survey image: issue 21's Done-when leg --------------------------

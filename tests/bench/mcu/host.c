@@ -6,8 +6,10 @@
  *                              worst errors of it2n, float and double against
  *                              the reference (eval on a grid, control nets);
  *                              hash of it2n's results at the hash points.
- *   bench_host time [quick]    ns per full query, it2n / double / float,
- *                              min over several runs.
+ *   bench_host time ROUNDS [quick]
+ *                              ns per full query, it2n / double / float, in
+ *                              interleaved rounds (tests/bench/mcu/
+ *                              host_rounds.py reads them until precise).
  *   bench_host cg IMPL SET     BC_NPTS_MAX queries of IMPL (it2n, double,
  *                              float) on data set SET inside cg_queries(),
  *                              for valgrind --toggle-collect=cg_queries.
@@ -257,38 +259,48 @@ static void pass(int impl)
     }
 }
 
-static int timing(int quick)
+/* Interleaved rounds, up to max_rounds (the caller, host_rounds.py, stops
+ * reading once every ratio's interval is narrow enough and ends the
+ * process): per round and data set, one timed run of each implementation,
+ * the order alternating with the round, so all see the same drift of the
+ * machine's load. "R x86.sets N", then a line per round and set, flushed:
+ *   R x86.round.SET it2n_ns double_ns float_ns */
+static int timing(int quick, int max_rounds)
 {
-    static const char *names[3] = {"it2n", "double", "float"};
-    int runs = quick ? 3 : 9;
     double budget = quick ? 0.01 : 0.05; /* seconds per run and implementation */
+    long reps[BENCH_NSETS][3];
     points();
     for (unsigned s = 0; s < BENCH_NSETS; s++) {
-        double best[3] = {1e30, 1e30, 1e30};
-        long reps[3];
         setup(&bench_sets[s], 0);
         for (int impl = 0; impl < 3; impl++) {
             double t0 = now();
-            reps[impl] = 0;
+            reps[s][impl] = 0;
             while (now() - t0 < budget) {
                 pass(impl);
-                reps[impl]++;
+                reps[s][impl]++;
             }
         }
-        /* Runs interleaved, so every implementation sees the same load. */
-        for (int r = 0; r < runs; r++)
-            for (int impl = 0; impl < 3; impl++) {
-                double a = now(), b, per;
-                for (long i = 0; i < reps[impl]; i++)
+    }
+    printf("R x86.sets %u\n", (unsigned)BENCH_NSETS);
+    for (int r = 0; r < max_rounds; r++)
+        for (unsigned s = 0; s < BENCH_NSETS; s++) {
+            double per[3];
+            setup(&bench_sets[s], 0);
+            for (int k = 0; k < 3; k++) {
+                int impl = r % 2 == 0 ? k : 2 - k;
+                double a = now(), b;
+                for (long i = 0; i < reps[s][impl]; i++)
                     pass(impl);
                 b = now();
-                per = (b - a) / (double)(reps[impl] * (long)BC_NPTS_MAX);
-                if (per < best[impl])
-                    best[impl] = per;
+                per[impl] = (b - a) / (double)(reps[s][impl] * (long)BC_NPTS_MAX);
             }
-        for (int impl = 0; impl < 3; impl++)
-            printf("R %s.x86.%s_ns %.3f\n", bench_sets[s].name, names[impl], best[impl] * 1e9);
-    }
+            printf("R x86.round.%s", bench_sets[s].name);
+            for (int impl = 0; impl < 3; impl++)
+                printf(" %.3f", per[impl] * 1e9);
+            printf("\n");
+            if (fflush(stdout) != 0)
+                return 1;
+        }
     return 0;
 }
 
@@ -302,8 +314,8 @@ int main(int argc, char **argv)
 {
     if (argc >= 2 && strcmp(argv[1], "check") == 0)
         return check(argc >= 3 && strcmp(argv[2], "smoke") == 0);
-    if (argc >= 2 && strcmp(argv[1], "time") == 0)
-        return timing(argc >= 3 && strcmp(argv[2], "quick") == 0);
+    if (argc >= 3 && strcmp(argv[1], "time") == 0)
+        return timing(argc >= 4 && strcmp(argv[3], "quick") == 0, atoi(argv[2]));
     if (argc == 4 && strcmp(argv[1], "cg") == 0) {
         int impl = strcmp(argv[2], "it2n") == 0 ? 0 : strcmp(argv[2], "double") == 0 ? 1 : 2;
         points();
@@ -311,6 +323,6 @@ int main(int argc, char **argv)
         cg_queries(impl);
         return 0;
     }
-    fprintf(stderr, "usage: bench_host check [smoke] | time [quick] | cg it2n|double|float SET\n");
+    fprintf(stderr, "usage: bench_host check [smoke] | time ROUNDS [quick] | cg it2n|double|float SET\n");
     return 2;
 }

@@ -12,7 +12,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from results import validate  # noqa: E402
+from results import validate, within  # noqa: E402
 
 HEAD = """# Performance
 
@@ -41,8 +41,8 @@ the core with `make cross`'s flags) runs on `mps2-an385`, ARMv7E-M+FPU code
 (`-mcpu=cortex-m4 -mfloat-abi=hard -mfpu=fpv4-sp-d16 -O2`, the core -O2
 too) on `mps2-an386`. Stacks are painted on the M0+ image and counted from
 the call (the slot of the callee's saved return address). x86-64 (`-O2`):
-the minimum over several interleaved timed runs, and callgrind instructions
-per query. Struct sizes come from `tests/qemu/sizes.c`; flash from the map
+the geometric mean of interleaved timed rounds (`host_rounds.py`), and
+callgrind instructions per query. Struct sizes come from `tests/qemu/sizes.c`; flash from the map
 of a `--gc-sections` link that references only `it2n_model_solve`,
 `it2n_eval` and `it2n_locate`. Accuracy is measured on the host against the
 long-double reference of `tests/core/ref.c` (exact decimal inputs) on a grid
@@ -52,12 +52,19 @@ degree-7 inverse amplifies the data's own Q24 rounding (up to 3·10⁻⁸) by up
 to 4.4·10⁴ — a property of the input format, not of the solve (the error
 against the decimal data is listed too). Reading a row: with a baseline, the
 target applies to the ratio value/baseline; without one, it is a limit on the
-value; rows without a target are information. All figures come from one run.
-Wall-clock ratios measured in interleaved rounds (the two sides back to
-back, order alternating) show their 95 % confidence interval and the number
-of rounds after the ratio: rounds are added until the interval lies within
-±5 % of the ratio or the benchmark's maximum is reached, and such a target
-counts as met only when the whole interval meets it.
+value; rows without a target are information. Every ratio says how far to
+trust it. A ratio of counts — instructions under `qemu -icount` or
+callgrind, bytes — is the same on every run and is marked "exact" (a query
+ratio over 32 points shows their spread as an interval too). A ratio of
+times or rates comes from interleaved rounds (the two sides back to back,
+order alternating; the faulty runs with a new fault seed each round) and
+shows its 95 % confidence interval and the number of rounds: rounds are
+added until the interval lies within ±5 % of the ratio or the benchmark's
+maximum is reached ("max rounds reached": the interval is still wider), and
+such a target counts as met only when the whole interval meets it.
+`tests/bench/collect.py` refuses a ratio with neither an interval nor the
+exact mark. Absolute times (ms, req/s without a baseline) are from the run
+that wrote the file, whose JSON keeps the machine's load average.
 
 **Where the rows come from.** The "bench" column names the file
 `bench/<bench>.json` that a benchmark target of `make bench` wrote (`mcu`:
@@ -92,7 +99,17 @@ def row(r):
     baseline = "—" if r["baseline"] is None else num(r["baseline"], unit)
     ratio = "—" if r["ratio"] is None else f"{r['ratio']:.3g}×"
     if r.get("interval"):
-        ratio += f" [{r['interval'][0]:.3g}, {r['interval'][1]:.3g}] ({r['rounds']} rounds)"
+        lo, hi = r["interval"]
+        if r.get("deterministic"):
+            ratio += f" [{lo:.3g}, {hi:.3g}] (exact, spread over {r['rounds']} points)"
+        else:
+            # rows written before the flag: the rounds stop early only once
+            # the interval is within +-PRECISION (results.row())
+            capped = r.get("max_rounds_reached", not within(lo, hi))
+            cap = ", max rounds reached" if capped else ""
+            ratio += f" [{lo:.3g}, {hi:.3g}] ({r['rounds']} rounds{cap})"
+    elif r["ratio"] is not None and r.get("deterministic"):
+        ratio += " (exact)"
     if r["target"] is None:
         target = "—"
     elif r["baseline"] is not None:

@@ -5,8 +5,10 @@ usage: results.py [--smoke] --mode MODE --m0p LOG --m4f LOG --host LOG [LOG...]
                   --flash-map MAP --out JSON
 
 Every LOG holds "R key value..." lines (images, bench_host, sizes.txt, the
-callgrind totals). The JSON is an array of objects
-  {name, unit, value, baseline, ratio, target, met}
+callgrind totals). The JSON is an object: "rows", an array of objects
+  {name, unit, value, baseline, ratio, target, met[, interval, rounds,
+  max_rounds_reached, deterministic]}, and the x86-64 rounds' conditions
+("x86_rounds", "x86_loadavg", "cpus"):
 - a ratio target: baseline is the compared figure, ratio = value/baseline,
   met = ratio <= target;
 - a limit: baseline and ratio are null, met = value <= target;
@@ -22,6 +24,7 @@ Exit 1 with the reasons on failure.
 import argparse
 import json
 import math
+import os
 import re
 import statistics
 import sys
@@ -82,9 +85,19 @@ def flash_from_map(path):
 
 
 # Optional keys after KEYS, in this order: "sense" (">=" for a lower bound),
-# "interval" ([lo, hi], the 95 % confidence interval of the ratio) and
-# "rounds" (how many interleaved rounds gave it).
-OPTIONAL = ["sense", "interval", "rounds"]
+# "interval" ([lo, hi], the 95 % confidence interval of the ratio),
+# "rounds" (how many interleaved rounds gave it), "max_rounds_reached"
+# (true: the rounds stopped at the benchmark's maximum with this interval
+# still wider than +-PRECISION) and "deterministic" (true: the figures are
+# counts that do not depend on the machine's load: instructions under
+# qemu -icount or callgrind, sizes, stack bytes). A row with a ratio has an
+# interval or "deterministic": a ratio of times from one run reads met or
+# unmet with the noise (issue 22), validate() refuses it.
+OPTIONAL = ["sense", "interval", "rounds", "max_rounds_reached", "deterministic"]
+
+# Rounds are added until the ratio's 95 % interval lies within +-PRECISION
+# of it (or the benchmark's maximum of rounds).
+PRECISION = 0.05
 
 # Two-sided 95 % quantiles of Student's t, by degrees of freedom (1..30);
 # beyond 30 the normal 1.96 is within 2 %.
@@ -111,23 +124,51 @@ def ratio_interval(values, baselines):
     return gv, gb, math.exp(mean - half), math.exp(mean + half)
 
 
-def precise(values, baselines, rel=0.05):
-    """True once the ratio's 95 % interval lies within +-rel of it."""
-    if len(values) < 3:
-        return False
-    _, _, lo, hi = ratio_interval(values, baselines)
+def within(lo, hi, rel=PRECISION):
+    """True when the interval [lo, hi] lies within +-rel of its (geometric)
+    middle, the ratio of the geometric means."""
     mid = math.sqrt(lo * hi)
     return hi / mid - 1 <= rel and 1 - lo / mid <= rel
 
 
-def row(name, unit, value, baseline=None, target=None, sense="<=", met=None, interval=None, rounds=None):
+def precise(values, baselines, rel=PRECISION):
+    """True once the ratio's 95 % interval lies within +-rel of it."""
+    if len(values) < 3:
+        return False
+    _, _, lo, hi = ratio_interval(values, baselines)
+    return within(lo, hi, rel)
+
+
+def until_precise(one_round, pairs, max_rounds, min_rounds=3):
+    """Interleaved rounds: one_round(r) for r = 0, 1, ... (it measures both
+    sides of every ratio, order alternating with r, and appends to the
+    lists pairs() returns as [(values, baselines), ...]) until every pair's
+    interval is precise() or max_rounds have run. Returns (rounds,
+    max_rounds_reached): reached is true when the rounds stopped at the
+    maximum with an interval still too wide."""
+    r = 0
+    while r < max_rounds:
+        if r >= min_rounds and all(precise(v, b) for v, b in pairs()):
+            break
+        one_round(r)
+        r += 1
+    return r, not all(precise(v, b) for v, b in pairs())
+
+
+def row(name, unit, value, baseline=None, target=None, sense="<=", met=None, interval=None, rounds=None,
+        max_rounds_reached=None, deterministic=False):
     """One figure as stored: the ratio is computed from the value and
     baseline exactly as given (round them first, if at all), and met from
     that stored ratio, so validate() holds by construction whatever the
     digits (a ratio taken before rounding once failed its own check). With
-    an interval, a target is met only when the whole interval meets it."""
+    an interval, a target is met only when the whole interval meets it.
+    A ratio needs an interval (from interleaved rounds: rounds, and whether
+    they stopped at their maximum, default: whether the interval is wider
+    than +-PRECISION) or deterministic=True (counts, not times)."""
     ratio = None if baseline in (None, 0) else round(value / baseline, 4)
     if interval is not None:
+        if max_rounds_reached is None and not deterministic:
+            max_rounds_reached = not within(interval[0], interval[1])
         interval = [min(round(interval[0], 4), ratio), max(round(interval[1], 4), ratio)]
     if target is not None:
         got = ratio if baseline is not None else value
@@ -141,6 +182,10 @@ def row(name, unit, value, baseline=None, target=None, sense="<=", met=None, int
     if interval is not None:
         r["interval"] = interval
         r["rounds"] = rounds
+        if not deterministic:
+            r["max_rounds_reached"] = bool(max_rounds_reached)
+    if deterministic:
+        r["deterministic"] = True
     return r
 
 
@@ -155,14 +200,18 @@ class Table:
         self.missing = []
         self.require = require_targets
 
-    def add(self, name, unit, value, baseline=None, target=None, limit=None, met=None):
+    def add(self, name, unit, value, baseline=None, target=None, limit=None, met=None, interval=None,
+            rounds=None):
         if value is None or (target is not None and baseline is None):
             if self.require and (target is not None or limit is not None):
                 self.missing.append(name)
             return
         if baseline is None and limit is not None:
             target = limit
-        self.rows.append(row(name, unit, value, baseline, target, met=met))
+        # Instructions (qemu -icount, callgrind) and bytes (maps, sizeof,
+        # painted stacks) are the same on every run; times are not.
+        self.rows.append(row(name, unit, value, baseline, target, met=met, interval=interval, rounds=rounds,
+                             deterministic=unit in ("instructions", "bytes")))
 
 
 def validate(rows):
@@ -171,7 +220,8 @@ def validate(rows):
     that is a lower bound (throughput); without it the target is an upper
     bound (met when the ratio, or the value without a baseline, is <= it).
     A row with "interval" [lo, hi] (and "rounds") meets its target only
-    when the whole interval does."""
+    when the whole interval does. A row with a ratio has an interval or
+    "deterministic": true (see OPTIONAL)."""
     bad = []
     names = set()
     for r in rows:
@@ -200,14 +250,31 @@ def validate(rows):
             if abs(r["ratio"] - r["value"] / r["baseline"]) > 1e-3 * max(1.0, abs(r["ratio"])):
                 bad.append(f"{r['name']}: ratio != value/baseline")
         iv = r.get("interval")
+        det = r.get("deterministic")
+        if det is not None and det is not True:
+            bad.append(f"{r['name']}: deterministic {det!r} (true or absent)")
+        if r["ratio"] is not None and iv is None and det is not True:
+            bad.append(f"{r['name']}: a ratio with neither an interval from interleaved rounds "
+                       f"(results.until_precise) nor \"deterministic\": true")
+        cap = r.get("max_rounds_reached")
+        if cap is not None and (not isinstance(cap, bool) or iv is None):
+            bad.append(f"{r['name']}: max_rounds_reached {cap!r} (a bool, beside an interval)")
         if iv is not None:
             if (not isinstance(iv, list) or len(iv) != 2 or r["ratio"] is None
-                    or not all(isinstance(x, (int, float)) for x in iv)
+                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0 for x in iv)
                     or not iv[0] <= r["ratio"] <= iv[1]):
                 bad.append(f"{r['name']}: interval {iv!r} does not hold ratio {r['ratio']!r}")
                 continue
             if not isinstance(r.get("rounds"), int) or r["rounds"] < 2:
                 bad.append(f"{r['name']}: rounds {r.get('rounds')!r}")
+            # Rounds stop early only once the interval is within +-PRECISION
+            # (slack: the stored bounds are rounded to 4 digits).
+            if cap is False and not within(iv[0], iv[1], PRECISION + 2e-3):
+                bad.append(f"{r['name']}: interval {iv!r} wider than +-{PRECISION:.0%} but "
+                           f"max_rounds_reached false")
+            if cap is True and within(iv[0], iv[1], PRECISION - 2e-3):
+                bad.append(f"{r['name']}: interval {iv!r} within +-{PRECISION:.0%} but "
+                           f"max_rounds_reached true")
         if r["target"] is not None:
             got = r["ratio"] if r["baseline"] is not None else r["value"]
             if iv is not None:
@@ -277,9 +344,24 @@ def main():
     for s, sname in SETS:
         t.add(f"M4F one full query, {sname}: it2n vs float on the FPU (median instructions)", "instructions",
               med("m4f", f"{s}.it2n.query"), med("m4f", f"{s}.float.query"), target=2.0)
+    def x86(s, impl):
+        """Geometric mean of the interleaved rounds' times (host_rounds.py)."""
+        v = host.get(f"{s}.x86.{impl}_ns")
+        if v is None:
+            return None
+        v = v if isinstance(v, list) else [v]
+        return round(math.exp(statistics.fmean(math.log(x) for x in v)), 3)
+
     for s, sname in SETS:
-        t.add(f"x86-64 one full query, {sname}: it2n vs double (time, min of runs)", "ns",
-              host.get(f"{s}.x86.it2n_ns"), host.get(f"{s}.x86.double_ns"), target=2.0)
+        it, dbl = host.get(f"{s}.x86.it2n_ns"), host.get(f"{s}.x86.double_ns")
+        iv = None
+        if isinstance(it, list) and isinstance(dbl, list) and len(it) == len(dbl) >= 2:
+            _, _, lo, hi = ratio_interval(it, dbl)
+            iv = [lo, hi]
+        elif it is not None and not a.smoke:
+            problems.append(f"{sname}: x86-64 times from fewer than 2 rounds (host_rounds.py)")
+        t.add(f"x86-64 one full query, {sname}: it2n vs double (time, interleaved rounds)", "ns",
+              x86(s, "it2n"), x86(s, "double"), target=2.0, interval=iv, rounds=host.get("x86.rounds"))
         cg_i, cg_d, npts = host.get(f"{s}.cg.it2n"), host.get(f"{s}.cg.double"), host.get("host.points")
         t.add(f"x86-64 one full query, {sname}: it2n vs double (callgrind instructions, mean of {npts} points)",
               "instructions", None if None in (cg_i, npts) else cg_i / npts,
@@ -359,7 +441,8 @@ def main():
                       img["m0p"].get(f"{s}.{impl}.{key}"))
     for s, sname in SETS:
         for impl in IMPLS:
-            t.add(f"x86-64 one full query, {sname}, {impl} (time)", "ns", host.get(f"{s}.x86.{impl}_ns"))
+            t.add(f"x86-64 one full query, {sname}, {impl} (time, geometric mean of the rounds)", "ns",
+                  x86(s, impl))
     for c in ("d3", "d7"):
         for st in ("model", "dataset"):
             t.add(f"sizeof(it2n_{st}), IT2N_MAX_DEGREE={c[1]}", "bytes", host.get(f"sizes.{c}.{st}"))
@@ -378,7 +461,12 @@ def main():
 
     problems += [f"figure missing from the logs: {n}" for n in t.missing]
     problems += validate(t.rows)
-    text = json.dumps(t.rows, indent=1, ensure_ascii=False) + "\n"
+    # The x86-64 times follow the machine's load: the load average during
+    # their rounds is kept beside the rows (host_rounds.py).
+    la = host.get("x86.loadavg")
+    doc = {"rows": t.rows, "x86_rounds": host.get("x86.rounds"),
+           "x86_loadavg": la if isinstance(la, list) else None, "cpus": os.cpu_count()}
+    text = json.dumps(doc, indent=1, ensure_ascii=False) + "\n"
     try:
         json.loads(text)
     except ValueError as e:

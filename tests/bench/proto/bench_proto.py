@@ -10,22 +10,28 @@ each direction, with fixed seeds. Every run's results are checked bit for
 bit by proto_session against its own solve, and their digest must equal
 the clean run's.
 
-usage: bench_proto.py --out FILE [--smoke | --sack] [--keep]
+usage: bench_proto.py --out FILE [--smoke | --sack] [--max-rounds N] [--keep]
   full (make bench-proto): degree 7x7 with z (448 entries), 16 QUERYs,
-       SAMPLE 33x33 at 921600 Bd; clean x3, 1 % x3 seeds, 10 % x3 seeds
-       (ratios of medians); durable ingest over one pty pair (the daemon
-       on the slave, the session on the master, no relay), window 16, with
-       fsync on and off (3 runs each, medians). Writes FILE with a "rows"
-       list.
+       SAMPLE 33x33 at 921600 Bd; interleaved rounds of a clean, a 1 % and
+       a 10 % run (order alternating, fault seed = round) until both
+       wall-time ratios' 95 % intervals lie within +-5 % (results.py
+       until_precise: at least 3, at most N = 40 rounds); durable ingest
+       over one pty pair (the daemon on the slave, the session on the
+       master, no relay), window 16, fsync on and off in rounds likewise
+       (at most 16).
+       Each ratio row keeps its interval, rounds and max_rounds_reached; a
+       target is met only when the whole interval meets it; host
+       re-requests are the total over all rounds. Writes FILE with a
+       "rows" list.
   --smoke (make test): degree 3x3, 4 QUERYs, SAMPLE 9x9, clean and 10 %
        faults (2 seeds) at 921600 Bd, a short ingest; asserts completion and
        equal digests, never a time. Writes FILE (under build/).
   --sack (make bench-proto-sack): selective acknowledgement (protocol.md
        4.2 rule 4): v1.2 sessions with window 16 and 1 KB PUTs (19 entries),
-       degree 7x7 with z, at 921600 Bd: clean, 10 % faults x3 seeds (upload
-       time, median over the clean run's: target <= 2), and a clean run with
-       a busy loop per core (retransmissions both ways: target 0). Ratios
-       from this one run. Writes FILE (bench/proto_sack.json).
+       degree 7x7 with z, at 921600 Bd: rounds of a clean and a 10 % run
+       (upload time ratio with its interval, target <= 2, as above), then a
+       clean run with a busy loop per core (retransmissions both ways:
+       target 0). Writes FILE (bench/proto_sack.json).
 """
 import json
 import os
@@ -38,7 +44,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "mcu"))
-from results import row  # noqa: E402
+from results import ratio_interval, row, until_precise  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 BUILD = os.environ.get("BUILD", os.path.join(ROOT, "build"))
@@ -48,6 +54,14 @@ SESSION = os.environ.get("PROTO_SESSION", os.path.join(BUILD, "bench", "proto", 
 BAUD = 921600
 # PUTs in flight in the ingest runs: the daemon's window (host builds, 16).
 INGEST_WINDOW = 16
+# Interleaved rounds at most (--max-rounds): each ratio's 95 % interval is
+# narrowed until within +-5 % (results.until_precise), or this many ran.
+# The 10 % runs' wall time varies with the fault seed by about +-15 % (a
+# lost frame at the end of a burst waits for a timeout), so their ratio
+# needs about 40 rounds; the ingest ratio (information, no target) follows
+# the disk's fsync latency and stops at INGEST_MAX_ROUNDS.
+MAX_ROUNDS = 40
+INGEST_MAX_ROUNDS = 16
 
 
 class Run:
@@ -199,16 +213,40 @@ def busy_loops():
     return [subprocess.Popen(["/bin/sh", "-c", "while :; do :; done"]) for _ in range(os.cpu_count() or 2)]
 
 
-def sack_main(out, keep):
-    """Window 16 v1.2 sessions: upload under 10 % faults vs clean, and the
+def injected(rel):
+    """Faults the relay injected, both directions, every kind."""
+    return sum((rel or {}).get(d, {}).get(k, 0) for d in ("a_to_b", "b_to_a")
+               for k in ("dropped", "duplicated", "reordered", "corrupted"))
+
+
+def every_kind(rel):
+    """True when the relay injected every fault kind in both directions."""
+    return all((rel or {}).get(d, {}).get(k, 0) > 0 for d in ("a_to_b", "b_to_a")
+               for k in ("dropped", "duplicated", "reordered", "corrupted"))
+
+
+def interval_row(name, unit, values, baselines, target, rounds, sense="<=", digits=3):
+    """A ratio row from paired rounds (values[i] measured beside
+    baselines[i]): geometric means, their 95 % interval, the rounds and
+    whether they stopped at their maximum with the interval still wider
+    than +-5 % (results.row() derives the flag from the interval: the
+    rounds stop early only once it is that narrow)."""
+    v, b, lo, hi = ratio_interval(values, baselines)
+    return row(name, unit, round(v, digits) if digits else round(v), round(b, digits) if digits else round(b),
+               target, sense=sense, interval=[lo, hi], rounds=rounds)
+
+
+def sack_main(out, keep, max_rounds):
+    """Window 16 v1.2 sessions: upload under 10 % faults vs clean in
+    interleaved rounds (a new fault seed per round), and the
     retransmissions of a clean run under CPU load (docs/protocol.md 4.2)."""
     tmp = tempfile.mkdtemp(prefix="it2n-protobench-sack.")
     failures = []
     sess = ["--degree", "7x7", "--queries", "16", "--sample", "33", "--window", "16", "--version", "3"]
-    plan = [("w16-clean", 0, 1, False), ("w16-f10-s1", 10, 1, False), ("w16-f10-s2", 10, 2, False),
-            ("w16-f10-s3", 10, 3, False), ("w16-clean-load", 0, 1, True)]
     runs = {}
-    for name, pct, seed, load in plan:
+    clean, f10 = [], []
+
+    def one(name, pct, seed, load):
         hogs = busy_loops() if load else []
         try:
             r = Run(tmp, name, BAUD, pct, seed).session(sess, 600)
@@ -221,7 +259,7 @@ def sack_main(out, keep):
         # the daemon's (duplicates it sent us: rx_dup)
         r["spurious"] = r["link"]["tx_retx"] + r["link"]["rx_dup"] if not pct else None
         r["cpu_load"] = load
-        print("bench-proto-sack: %-14s faults %3s%%  upload %7.3f s  wall %7.3f s  retx %d (fast %d)  "
+        print("bench-proto-sack: %-16s faults %3s%%  upload %7.3f s  wall %7.3f s  retx %d (fast %d)  "
               "dup rx %d  in flight %d  exit %d" % (name, pct, r["upload_s"], r["wall_s"], r["link"]["tx_retx"],
                                                    r["link"]["tx_fast_retx"], r["link"]["rx_dup"],
                                                    r["max_in_flight"], r["exit"]), flush=True)
@@ -229,32 +267,45 @@ def sack_main(out, keep):
             failures.append("%s: session failed (exit %d); logs in %s" % (name, r["exit"], os.path.join(tmp, name)))
         if r["max_in_flight"] != 16:
             failures.append("%s: at most %d PUTs in flight, want 16" % (name, r["max_in_flight"]))
-        rel = r["relay"] or {}
-        if pct and not all(rel.get(d, {}).get(k, 0) > 0 for d in ("a_to_b", "b_to_a")
-                           for k in ("dropped", "duplicated", "reordered", "corrupted")):
-            failures.append("%s: the relay did not inject every fault in both directions: %s" % (name, rel))
-    ref = runs["w16-clean"]["digest"]
+        if pct and not every_kind(r["relay"]):
+            failures.append("%s: the relay did not inject every fault in both directions: %s" % (name, r["relay"]))
+        return r
+
+    def one_round(k):
+        # clean and faulty back to back, the order alternating: both see
+        # the same drift of the machine's load; a new fault seed per round
+        order = [("r%d-clean" % (k + 1), 0), ("r%d-f10-s%d" % (k + 1, k + 1), 10)]
+        for name, pct in (order if k % 2 == 0 else order[::-1]):
+            r = one(name, pct, k + 1, False)
+            (f10 if pct else clean).append(r["upload_s"])
+
+    rounds, capped = until_precise(one_round, lambda: [(f10, clean)], max_rounds)
+    load = one("clean-load", 0, 1, True)
+    ref = runs["r1-clean"]["digest"]
     for n, r in runs.items():
         if r["digest"] != ref:
             failures.append("%s: results differ from the clean run" % n)
-    c = runs["w16-clean"]["upload_s"]
-    f10 = statistics.median(r["upload_s"] for n, r in runs.items() if "-f10-" in n)
     res = {"what": "v1.2 sessions, window 16, 1 KB PUTs (19 entries), it2nd over a pty relay paced at %d Bd; "
                    "10 %% faults = drop, duplicate, reorder and corrupt each at 10 %% per frame, each direction; "
-                   "the load run has a busy loop on every core" % BAUD,
+                   "rounds of a clean and a 10 %% run back to back (order alternating, fault seed = round) until "
+                   "the upload ratio's 95 %% interval lies within +-5 %% (at least 3, at most %d rounds); "
+                   "ratio = geometric mean of the faulty uploads over the clean ones; the load run has a busy "
+                   "loop on every core (one run, after the rounds)" % (BAUD, max_rounds),
+           "rounds": rounds, "max_rounds": max_rounds, "max_rounds_reached": capped,
            "loadavg_at_end": os.getloadavg(), "cpus": os.cpu_count(), "runs": runs, "failures": failures,
            "rows": [
-               row("proto upload, window 16, 1 KB PUTs, 10 % faults per direction vs clean, 921600 Bd "
-                   "(selective acknowledgement)", "s", round(f10, 3), round(c, 3), 2.0),
+               interval_row("proto upload, window 16, 1 KB PUTs, 10 % faults per direction vs clean, 921600 Bd "
+                            "(selective acknowledgement)", "s", f10, clean, 2.0, rounds),
                row("proto clean session under CPU load (a busy loop per core): retransmissions both ways",
-                   "frames", runs["w16-clean-load"]["spurious"], target=0),
+                   "frames", load["spurious"], target=0),
            ]}
     res["reasons"] = {r["name"]: REASONS_SACK[k] for r in res["rows"] if r["met"] is False
                       for k in REASONS_SACK if k in r["name"]}
     with open(out, "w") as f:
         json.dump(res, f, indent=2, sort_keys=True)
         f.write("\n")
-    print("bench-proto-sack: results in %s" % out)
+    print("bench-proto-sack: %d rounds%s; results in %s"
+          % (rounds, " (the maximum, interval wider than +-5 %)" if capped else "", out))
     for x in failures:
         print("bench-proto-sack: FAIL: " + x, file=sys.stderr)
     if failures or keep:
@@ -264,86 +315,122 @@ def sack_main(out, keep):
     return 1 if failures else 0
 
 
+def check_session(name, r, pct, failures, tmp):
+    """A run's own checks (the relay's faults and pacing, the session's
+    results); every fault kind is required at 10 % (the 1 % runs are
+    checked together: a single small run may draw none)."""
+    rel = r["relay"] or {}
+    if pct >= 5 and not every_kind(rel):
+        failures.append("%s: the relay did not inject every fault in both directions: %s" % (name, rel))
+    if not pct and any(rel.get(d, {}).get("bytes_in") != rel.get(d, {}).get("bytes_out")
+                       for d in ("a_to_b", "b_to_a")):
+        failures.append("%s: the clean relay lost or added bytes: %s" % (name, rel))
+    if rel:
+        # share of the wall time the busier line was sending (pacing sanity: <= 1)
+        r["line_busy"] = round(max(rel[d]["bytes_out"] for d in ("a_to_b", "b_to_a")) * 10.0 / BAUD
+                               / r["wall_s"], 3) if r["wall_s"] else None
+        if r["line_busy"] and r["line_busy"] > 1.02:
+            failures.append("%s: more bytes than the line can carry at %d Bd: pacing broken" % (name, BAUD))
+    if r["exit"] != 0 or not r["ok"]:
+        failures.append("%s: session failed (exit %d, mismatches %d, refused %d); logs in %s"
+                        % (name, r["exit"], r["mismatches"], r["refused"], os.path.join(tmp, name)))
+
+
+def ingest_run(tmp, name, fs, rounds, limit, failures):
+    r = Run(tmp, name, 0, 0, 1, fsync=fs, direct=True).session(
+        ["--degree", "7x7", "--ingest", str(rounds), "--window", str(INGEST_WINDOW)], limit)
+    if r["daemon_cpu_s"] and r["entries_acked"]:
+        r["daemon_cpu_us_per_entry"] = round(r["daemon_cpu_s"] * 1e6 / r["entries_acked"], 1)
+    print("bench-proto: %s  %d entries in %.3f s: %.0f entries/s, at most %d PUTs in flight "
+          "(daemon window %d), daemon CPU %s s, exit %d"
+          % (name, r["entries_acked"], r["put_s"], r["entries_per_s"], r["max_in_flight"],
+             r["daemon_window"], r["daemon_cpu_s"], r["exit"]), flush=True)
+    if r["exit"] != 0 or r["entries_acked"] != r["entries"]:
+        failures.append("%s: ingest failed (exit %d, %d of %d entries ACKed)"
+                        % (name, r["exit"], r["entries_acked"], r["entries"]))
+    if r["daemon_window"] != INGEST_WINDOW or r["max_in_flight"] != INGEST_WINDOW:
+        failures.append("%s: window not negotiated: daemon announced %d, at most %d PUTs in flight, "
+                        "want %d" % (name, r["daemon_window"], r["max_in_flight"], INGEST_WINDOW))
+    return r
+
+
 def main():
     args = sys.argv[1:]
     out = args[args.index("--out") + 1]
+    max_rounds = int(args[args.index("--max-rounds") + 1]) if "--max-rounds" in args else MAX_ROUNDS
     if "--sack" in args:
-        return sack_main(out, "--keep" in args)
+        return sack_main(out, "--keep" in args, max_rounds)
     smoke = "--smoke" in args
     tmp = tempfile.mkdtemp(prefix="it2n-protobench.")
     failures = []
-    if smoke:
-        sess = ["--degree", "3x3", "--queries", "4", "--sample", "9"]
-        # seeds whose fault streams hold every kind within the first 16 frames
-        # of each direction (the small session has about 30 per direction)
-        plan = [("clean", 0, 1), ("f10-s44", 10, 44), ("f10-s49", 10, 49)]
-        ingest_rounds, ingest_reps = 5, 1
-        limit = 120
-    else:
-        sess = ["--degree", "7x7", "--queries", "16", "--sample", "33"]
-        plan = [("clean-1", 0, 1), ("clean-2", 0, 2), ("clean-3", 0, 3),
-                ("f1-s1", 1, 1), ("f1-s2", 1, 2), ("f1-s3", 1, 3),
-                ("f10-s1", 10, 1), ("f10-s2", 10, 2), ("f10-s3", 10, 3)]
-        ingest_rounds, ingest_reps = 40, 3
-        limit = 600
-    runs = {}
-    for name, pct, seed in plan:
+    runs, ingest = {}, {}
+    clean, f1, f10, on, off = [], [], [], [], []
+
+    def session(name, pct, seed):
         r = Run(tmp, name, BAUD, pct, seed).session(sess, limit)
         runs[name] = r
-        print("bench-proto: %-8s faults %4s%%  wall %7.3f s  host re-requests %d  retx %d  exit %d  digest %s"
+        print("bench-proto: %-10s faults %4s%%  wall %7.3f s  host re-requests %d  retx %d  exit %d  digest %s"
               % (name, pct, r["wall_s"], r["host_rerequests"], r["link"]["tx_retx"], r["exit"], r["digest"]),
               flush=True)
-        rel = r["relay"] or {}
-        if pct >= 5 and not all(rel.get(d, {}).get(k, 0) > 0 for d in ("a_to_b", "b_to_a")
-                           for k in ("dropped", "duplicated", "reordered", "corrupted")):
-            failures.append("%s: the relay did not inject every fault in both directions: %s" % (name, rel))
-        if 0 < pct < 5 and not sum(rel.get(d, {}).get(k, 0) for d in ("a_to_b", "b_to_a")
-                                   for k in ("dropped", "duplicated", "reordered", "corrupted")):
-            failures.append("%s: the relay injected no fault: %s" % (name, rel))
-        if not pct and any(rel.get(d, {}).get("bytes_in") != rel.get(d, {}).get("bytes_out")
-                           for d in ("a_to_b", "b_to_a")):
-            failures.append("%s: the clean relay lost or added bytes: %s" % (name, rel))
-        if rel:
-            # share of the wall time the busier line was sending (pacing sanity: <= 1)
-            r["line_busy"] = round(max(rel[d]["bytes_out"] for d in ("a_to_b", "b_to_a")) * 10.0 / BAUD
-                                   / r["wall_s"], 3) if r["wall_s"] else None
-            if r["line_busy"] and r["line_busy"] > 1.02:
-                failures.append("%s: more bytes than the line can carry at %d Bd: pacing broken" % (name, BAUD))
-        if r["exit"] != 0 or not r["ok"]:
-            failures.append("%s: session failed (exit %d, mismatches %d, refused %d); logs in %s"
-                            % (name, r["exit"], r["mismatches"], r["refused"], os.path.join(tmp, name)))
-    clean = [r for n, r in runs.items() if n.startswith("clean")]
-    ref = clean[0]["digest"]
+        check_session(name, r, pct, failures, tmp)
+        return r
+
+    if smoke:
+        sess = ["--degree", "3x3", "--queries", "4", "--sample", "9"]
+        limit = 120
+        # seeds whose fault streams hold every kind within the first 16 frames
+        # of each direction (the small session has about 30 per direction)
+        for name, pct, seed in (("clean", 0, 1), ("f10-s44", 10, 44), ("f10-s49", 10, 49)):
+            session(name, pct, seed)
+        ingest_rounds = 5
+        for fs in (True, False):
+            name = "ingest-fsync-%s-1" % ("on" if fs else "off")
+            ingest[name] = ingest_run(tmp, name, fs, ingest_rounds, limit, failures)
+        rounds = ingest_reps = 1
+        capped = capped_ingest = None
+    else:
+        sess = ["--degree", "7x7", "--queries", "16", "--sample", "33"]
+        limit = 600
+
+        def one_round(k):
+            # clean, 1 % and 10 % back to back, the order alternating (both
+            # sides of each ratio see the same drift of the machine's load);
+            # a new fault seed per round
+            order = [("r%d-clean" % (k + 1), 0, clean), ("r%d-f1-s%d" % (k + 1, k + 1), 1, f1),
+                     ("r%d-f10-s%d" % (k + 1, k + 1), 10, f10)]
+            for name, pct, into in (order if k % 2 == 0 else order[::-1]):
+                into.append(session(name, pct, k + 1)["wall_s"])
+
+        rounds, capped = until_precise(one_round, lambda: [(f1, clean), (f10, clean)], max_rounds)
+        if not sum(injected(r["relay"]) for n, r in runs.items() if "-f1-" in n):
+            failures.append("the relay injected no fault in any 1 % run")
+        ingest_rounds = 40
+
+        def ingest_round(k):  # fsync on and off back to back, the order alternating
+            for fs in ((True, False) if k % 2 == 0 else (False, True)):
+                name = "ingest-fsync-%s-%d" % ("on" if fs else "off", k + 1)
+                r = ingest[name] = ingest_run(tmp, name, fs, ingest_rounds, limit, failures)
+                (on if fs else off).append(r["entries_per_s"])
+
+        ingest_reps, capped_ingest = until_precise(ingest_round, lambda: [(off, on)],
+                                                   min(max_rounds, INGEST_MAX_ROUNDS))
+    first = runs[next(iter(runs))]
+    ref = first["digest"]
     for n, r in runs.items():
         if r["digest"] != ref:
             failures.append("%s: results differ from the clean run (digest %s, clean %s)" % (n, r["digest"], ref))
-    ingest = {}
-    for k in range(ingest_reps):  # interleaved, so both see the same machine load
-        for fs in (True, False):
-            name = "ingest-fsync-%s-%d" % ("on" if fs else "off", k + 1)
-            r = Run(tmp, name, 0, 0, 1, fsync=fs, direct=True).session(
-                ["--degree", "7x7", "--ingest", str(ingest_rounds), "--window", str(INGEST_WINDOW)], limit)
-            ingest[name] = r
-            if r["daemon_cpu_s"] and r["entries_acked"]:
-                r["daemon_cpu_us_per_entry"] = round(r["daemon_cpu_s"] * 1e6 / r["entries_acked"], 1)
-            print("bench-proto: %s  %d entries in %.3f s: %.0f entries/s, at most %d PUTs in flight "
-                  "(daemon window %d), daemon CPU %s s, exit %d"
-                  % (name, r["entries_acked"], r["put_s"], r["entries_per_s"], r["max_in_flight"],
-                     r["daemon_window"], r["daemon_cpu_s"], r["exit"]), flush=True)
-            if r["exit"] != 0 or r["entries_acked"] != r["entries"]:
-                failures.append("%s: ingest failed (exit %d, %d of %d entries ACKed)"
-                                % (name, r["exit"], r["entries_acked"], r["entries"]))
-            if r["daemon_window"] != INGEST_WINDOW or r["max_in_flight"] != INGEST_WINDOW:
-                failures.append("%s: window not negotiated: daemon announced %d, at most %d PUTs in flight, "
-                                "want %d" % (name, r["daemon_window"], r["max_in_flight"], INGEST_WINDOW))
-
-    def med(prefix, key):
-        return statistics.median(r[key] for n, r in runs.items() if n.startswith(prefix))
 
     res = {"what": "it2nd link session over a pty relay paced at %d Bd (10 bits/byte), frame faults "
-                   "(drop, duplicate, reorder, corrupt, each at the rate, each direction, fixed seeds)" % BAUD,
-           "session": {"degree": runs[plan[0][0]]["degree"], "entries": runs[plan[0][0]]["entries"],
-                       "queries": runs[plan[0][0]]["queries"], "sample": runs[plan[0][0]]["sample"],
+                   "(drop, duplicate, reorder, corrupt, each at the rate, each direction, fault seed = round)" % BAUD,
+           "method": "rounds of a clean, a 1 %% and a 10 %% run back to back (order alternating) until both "
+                     "wall-time ratios' 95 %% intervals lie within +-5 %% (at least 3, at most %d rounds); "
+                     "ratio = geometric mean of the faulty runs' wall times over the clean ones' "
+                     "(results.py ratio_interval); the ingest likewise, fsync on and off (at most %d)"
+                     % (max_rounds, min(max_rounds, INGEST_MAX_ROUNDS)),
+           "rounds": rounds, "ingest_rounds": ingest_reps, "max_rounds": max_rounds,
+           "max_rounds_reached": capped, "ingest_max_rounds_reached": capped_ingest,
+           "session": {"degree": first["degree"], "entries": first["entries"],
+                       "queries": first["queries"], "sample": first["sample"],
                        "z": True, "queries_pipelined": "within the window (4)",
                        "rto": "host and daemon: 20 ms + one maximum frame at the baud (32 ms at 921600), "
                               "counted from when the frame has left the line (protocol.md 4.2 rule 3)",
@@ -353,25 +440,23 @@ def main():
                                 "first round completes and solves the model, the others update it), 19 entries per "
                                 "PUT, window %d (negotiated in HELLO); entries/s from the first PUT to the last "
                                 "PUT's ACK (ACK after the WAL's fdatasync when fsync = yes); state directory under "
-                                "%s; median of %d runs each, interleaved"
+                                "%s; %d rounds of fsync on and off back to back (order alternating)"
                                 % (ingest_rounds, INGEST_WINDOW, tempfile.gettempdir(), ingest_reps),
            "loadavg_at_end": os.getloadavg(), "cpus": os.cpu_count(),
            "runs": runs, "ingest": ingest, "smoke": smoke}
     if not smoke:
-        c, f1, f10 = med("clean", "wall_s"), med("f1-", "wall_s"), med("f10-", "wall_s")
-        rr = sum(r["host_rerequests"] for n, r in runs.items() if n.startswith("f"))
-        on = statistics.median(r["entries_per_s"] for n, r in ingest.items() if "-on-" in n)
-        off = statistics.median(r["entries_per_s"] for n, r in ingest.items() if "-off-" in n)
+        rr = sum(r["host_rerequests"] for n, r in runs.items() if "-f" in n)
         res["rows"] = [
-            row("proto session, 10 % faults per direction vs clean, 921600 Bd (wall time)", "s", round(f10, 3),
-                round(c, 3), 3.0),
-            row("proto session, 1 % faults per direction vs clean, 921600 Bd (wall time)", "s", round(f1, 3),
-                round(c, 3), 1.3),
-            row("proto session host re-requests, 1 % and 10 % faults (6 runs)", "requests", rr, target=0),
-            row("durable ingest over a pty, fsync on (PUT entries/s, 7x7 grid, REPLACE)", "entries/s",
-                round(on), target=20000, sense=">="),
-            row("durable ingest over a pty, fsync off vs on (PUT entries/s)", "entries/s",
-                round(off), round(on), None),
+            interval_row("proto session, 10 % faults per direction vs clean, 921600 Bd (wall time)", "s",
+                         f10, clean, 3.0, rounds),
+            interval_row("proto session, 1 % faults per direction vs clean, 921600 Bd (wall time)", "s",
+                         f1, clean, 1.3, rounds),
+            row("proto session host re-requests, 1 % and 10 % faults (total over all rounds)", "requests", rr,
+                target=0),
+            row("durable ingest over a pty, fsync on (PUT entries/s, 7x7 grid, REPLACE; median of the rounds)",
+                "entries/s", round(statistics.median(on)), target=20000, sense=">="),
+            interval_row("durable ingest over a pty, fsync off vs on (PUT entries/s)", "entries/s", off, on, None,
+                         ingest_reps, digits=0),
         ]
         # An unmet target says why (tests/bench/collect.py passes this on to
         # docs/performance.md, which refuses an unexplained miss).
@@ -382,6 +467,10 @@ def main():
     with open(out, "w") as f:
         json.dump(res, f, indent=2, sort_keys=True)
         f.write("\n")
+    if not smoke:
+        print("bench-proto: %d session rounds%s, %d ingest rounds%s"
+              % (rounds, " (the maximum, an interval wider than +-5 %)" if capped else "",
+                 ingest_reps, " (the maximum, interval wider than +-5 %)" if capped_ingest else ""))
     print("bench-proto: results in %s" % out)
     if failures:
         for x in failures:

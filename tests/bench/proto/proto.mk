@@ -1,8 +1,10 @@
 # tests/bench/proto/: the serial protocol over a paced, faulty line
 # (issue 11). faultrelay paces a pty pair at a baud rate and injects frame
 # faults; proto_session runs a host session against a real it2nd.
-#   make bench-proto        clean vs 1 % and 10 % faults at 921600 Bd, durable
-#                           ingest with fsync on/off -> bench/proto_loss.json
+#   make bench-proto        clean vs 1 % and 10 % faults at 921600 Bd in
+#                           interleaved rounds until each ratio's 95 % interval
+#                           is within +-5 % (at most 40), durable ingest with
+#                           fsync on/off likewise -> bench/proto_loss.json
 #   make bench-proto-smoke  (make test) a small session under 10 % faults must
 #                           complete with the clean run's results; no time asserted
 PB_B := $(BUILD)/bench/proto
