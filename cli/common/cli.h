@@ -135,6 +135,12 @@ typedef struct cli_prog {
  * its entry, or NULL with *rc the exit status when there is no more to do. */
 const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc);
 
+/* The answers both programs give alike to an option id after the command:
+ * CLI_OPT_ERROR the usage status (cli_opt_next printed why), CLI_OPT_HELP
+ * pg->usage_cmd(cmd) and 0, CLI_OPT_VERSION the --version line of
+ * cli_first_word and 0. -1 for any other id: the caller's to take. */
+int cli_builtin_opt(const cli_prog *pg, const void *cmd, int id);
+
 /* Defaults of cli_opts before parsing (decimals 6, membership -1). */
 void cli_opts_init(cli_opts *o);
 

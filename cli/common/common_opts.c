@@ -184,6 +184,28 @@ static int unknown_command(const cli_prog *pg, const char *word)
     return cli_usage_error(pg->name, NULL, "unknown command '%s'", word);
 }
 
+/* One --version line for `PROG --version` and `PROG CMD --version`. */
+static void print_version(const cli_prog *pg)
+{
+    printf("%s %s (IT2N_MAX_DEGREE %d)\n", pg->name, IT2N_CLI_VERSION, IT2N_MAX_DEGREE);
+}
+
+int cli_builtin_opt(const cli_prog *pg, const void *cmd, int id)
+{
+    if (id == CLI_OPT_ERROR) {
+        return CLI_EXIT_USAGE;
+    }
+    if (id == CLI_OPT_HELP) {
+        pg->usage_cmd(cmd);
+        return CLI_EXIT_OK;
+    }
+    if (id == CLI_OPT_VERSION) {
+        print_version(pg);
+        return CLI_EXIT_OK;
+    }
+    return -1;
+}
+
 const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc)
 {
     const void *c;
@@ -202,7 +224,7 @@ const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc)
         return NULL;
     }
     if (strcmp(argv[1], "--version") == 0) {
-        printf("%s %s (IT2N_MAX_DEGREE %d)\n", pg->name, IT2N_CLI_VERSION, IT2N_MAX_DEGREE);
+        print_version(pg);
         return NULL;
     }
     if (argv[1][0] == '-' && pg->reorder != NULL && (*rc = pg->reorder(argc, argv)) >= 0) {

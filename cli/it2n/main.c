@@ -149,6 +149,8 @@ static void usage_cmd(const void *cmd)
     common_help(stdout);
 }
 
+static const cli_prog prog = {"it2n", cmds, NCMDS, sizeof(cmds[0]), usage_all, usage_cmd, NULL};
+
 /* The options and DATA.csv of command c into o; -1 to go on, else the
  * exit status (help printed, or a usage error). */
 static int parse_cmd(const cli_cmd *c, int argc, char **argv, cli_opts *o)
@@ -161,14 +163,8 @@ static int parse_cmd(const cli_cmd *c, int argc, char **argv, cli_opts *o)
 
     cli_opt_init(&p, "it2n", c->name, c->opts, sets, 2, argc, argv, 2);
     while ((id = cli_opt_next(&p, &v)) != CLI_OPT_END) {
-        if (id == CLI_OPT_ERROR) {
-            return CLI_EXIT_USAGE;
-        } else if (id == CLI_OPT_HELP) {
-            usage_cmd(c);
-            return CLI_EXIT_OK;
-        } else if (id == CLI_OPT_VERSION) {
-            printf("it2n %s\n", IT2N_CLI_VERSION);
-            return CLI_EXIT_OK;
+        if ((rc = cli_builtin_opt(&prog, c, id)) >= 0) {
+            return rc;
         } else if (id == OPT_FORMAT) {
             o->format = (int)v.num; /* CLI_FMT_* in the order of words */
         } else if ((rc = cli_common_take(&p, &v, o)) >= 0) {
@@ -193,7 +189,6 @@ int main(int argc, char **argv)
 {
     cli_opts o;
     int rc;
-    static const cli_prog prog = {"it2n", cmds, NCMDS, sizeof(cmds[0]), usage_all, usage_cmd, NULL};
     const cli_cmd *c = cli_first_word(&prog, argc, argv, &rc);
     if (c == NULL) {
         return rc;

@@ -228,10 +228,11 @@ static int command_first(int argc, char **argv)
     return -1;
 }
 
+static const cli_prog prog = {"it2nctl", cmds, NCMDS, sizeof(cmds[0]), usage_all, usage_cmd, command_first};
+
 /* --help, --version and the command word into a->cmd; -1 to go on. */
 static int first_word(int argc, char **argv, ctl_args *a)
 {
-    static const cli_prog prog = {"it2nctl", cmds, NCMDS, sizeof(cmds[0]), usage_all, usage_cmd, command_first};
     int rc;
     a->cmd = cli_first_word(&prog, argc, argv, &rc);
     if (a->cmd == NULL) {
@@ -318,14 +319,8 @@ static int parse_args(int argc, char **argv, ctl_args *a)
     c = a->cmd;
     cli_opt_init(&p, "it2nctl", c->name, c->opts, sets, 2, argc, argv, 2);
     while ((id = cli_opt_next(&p, &v)) != CLI_OPT_END) {
-        if (id == CLI_OPT_ERROR) {
-            return CTL_EXIT_USAGE;
-        } else if (id == CLI_OPT_HELP) {
-            usage_cmd(c);
-            return CTL_EXIT_OK;
-        } else if (id == CLI_OPT_VERSION) {
-            printf("it2nctl %s\n", IT2N_CLI_VERSION);
-            return CTL_EXIT_OK;
+        if ((rc = cli_builtin_opt(&prog, c, id)) >= 0) {
+            return rc;
         }
         rc = id >= CLI_OPT_PROG ? take_own(&p, &v, a) : cli_common_take(&p, &v, &a->o);
         if (rc >= 0) {

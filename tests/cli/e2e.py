@@ -186,6 +186,9 @@ def main():
               f"{cmd} --help")
     rc, out, _ = run("--version")
     check(rc == 0 and out.startswith("it2n "), "--version")
+    for cmd in ["eval", "plot"]:  # after a command: the same line (cli_builtin_opt)
+        rc2, out2, _ = run(cmd, "--version")
+        check(rc2 == 0 and out2 == out, f"{cmd} --version is it2n --version's line")
     usage = [
         ([], ""),
         (["frobnicate", paper], "unknown command 'frobnicate'"),
