@@ -99,7 +99,8 @@ TEST_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 test: deps ## Build and run every test, one line per suite (V=1: full output; TEST_JOBS=1: one at a time; logs in build/logs/)
 	@/usr/bin/python3 tests/run_suites.py --make "$(MAKE)" --build $(BUILD) --jobs $(TEST_JOBS) \
 	  $(if $(findstring k,$(firstword -$(MAKEFLAGS))),--keep) $(if $(filter 1,$(V)),--verbose) \
-	  --solo "$(strip $(TEST_SOLO))" --light "$(strip $(TEST_LIGHT))" $(TEST_TARGETS)
+	  --solo "$(strip $(TEST_SOLO))" --light "$(strip $(TEST_LIGHT))" \
+	  --build-first "$(strip $(TEST_BUILD_FIRST))" $(TEST_TARGETS)
 
 bench: $(BENCH_TARGETS) ## Run benchmarks (ratios from one run) into bench/*.json, bench/results.json, docs/performance.md
 	@$(MAKE) --no-print-directory bench-collect

@@ -105,3 +105,6 @@ $(DEB_STAMP): deb-if-changed | deb-deps
 	  echo "deb: $(DEB_OUT) is current (no source newer than $@)"; \
 	else mk/deb.sh $(DEB_OUT) && touch $@; fi
 deb-check deb-contents deb-lintian: $(DEB_STAMP)
+# The package build is one long chain of steps (dpkg-buildpackage): make
+# test's first step starts it before the rest (tests/run_suites.py).
+TEST_BUILD_FIRST += $(DEB_STAMP)

@@ -4,7 +4,8 @@ sub-make, one line per suite (name, ok/FAIL/skip, seconds), logs in
 BUILD/logs/SUITE.log.
 
   run_suites.py --make MAKE --build BUILD [--jobs N] [--keep] [--verbose]
-                [--solo "SUITE ..."] [--light "SUITE ..."] SUITE ...
+                [--solo "SUITE ..."] [--light "SUITE ..."] [--build-first "TARGET ..."]
+                SUITE ...
 
 Why a runner and not a shell loop: CI machines have 2 cores and most suites
 spend their time waiting on daemons, links and brokers, so running them one
@@ -13,7 +14,10 @@ after another left a core idle for most of `make test`. The runner
   1. builds every prerequisite of every suite first, in one `make -jN -k`
      (so two suites never build the same file at once; a prerequisite that
      does not build is reported by the suite that needs it, whose own
-     sub-make retries it and logs the error);
+     sub-make retries it and logs the error); the BUILD_FIRST targets
+     (TEST_BUILD_FIRST: long chains of steps that make cannot spread over
+     the cores, such as the Debian packages) are named first, so that they
+     start at once and the rest is built beside them;
   2. then runs the suites that may share the machine, up to N at once, and
      after them the solo ones, one at a time. A suite runs alone ("solo")
      when it measures latency or timing (the SOLO list, TEST_SOLO in the
@@ -22,8 +26,9 @@ after another left a core idle for most of `make test`. The runner
      list, TEST_LIGHT) spends its time waiting (daemons, timeouts, links)
      and asserts no latency: it counts as half a job, so two of them run
      where one other suite would. Light suites start first (they are the
-     long ones), the others fill the rest, so the shared part ends with
-     short suites rather than with one long wait holding the solo ones back.
+     long ones), at most N at once, the others fill the rest, so the shared
+     part ends with short suites rather than with one long wait holding the
+     solo ones back.
 
 Lines are printed as suites finish. Skips are never "ok": a suite that
 cannot run prints "skip suite: REASON" and is listed as skip; a part that
@@ -112,6 +117,7 @@ def main():
     ap.add_argument("--verbose", action="store_true")
     ap.add_argument("--solo", default="")
     ap.add_argument("--light", default="")
+    ap.add_argument("--build-first", default="")
     ap.add_argument("suites", nargs="+")
     a = ap.parse_args()
     logs = os.path.join(a.build, "logs")
@@ -125,6 +131,8 @@ def main():
     build = []
     for s in a.suites:
         build += [p for p in info[s]["build"] if p not in build]
+    first = [p for p in a.build_first.split() if p in build]
+    build = first + [p for p in build if p not in first]
     jobs = max(1, a.jobs)
     if jobs == 1:   # TEST_JOBS=1: one suite at a time, light or not
         for i in info.values():
@@ -156,14 +164,18 @@ def main():
     while pending or running:
         # start what can start: the suites that may share the machine
         # first, as many as fit in `jobs` (a light suite counts as half a
-        # job; light ones first, then in TEST_TARGETS order); the solo
-        # ones after them, one at a time with nothing else running.
+        # job; light ones first, but no more than `jobs` of them, so the
+        # waiting ones never hold every core back from the others; then in
+        # TEST_TARGETS order); the solo ones after them, one at a time with
+        # nothing else running.
         while pending and not stop:
             if any(info[n]["solo"] for n in running):
                 break
             free = jobs - sum(info[n]["weight"] for n in running)
+            lights = sum(1 for n in running if info[n]["weight"] < 1)
             ready = [n for n in pending if all(d in done for d in info[n]["after"])]
-            shared = [n for n in ready if not info[n]["solo"] and info[n]["weight"] <= free]
+            shared = [n for n in ready if not info[n]["solo"] and info[n]["weight"] <= free and
+                      (info[n]["weight"] == 1 or lights < jobs)]
             shared.sort(key=lambda n: info[n]["weight"])
             if shared:
                 nxt = shared[0]

@@ -176,6 +176,9 @@ $(IT2ND_TSAN): VERSION $(DAEMON_SRC) $(DAEMON_HDR) $(REGMAP_SRC) $(CORE_SRC) $(C
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(REGMAP_SRC) $(BUILD)/daemon/paper_data.c $(SPB_PB_C) \
 	  $(CORE_SRC) $(PROTO_SRC) -o $@ $(DAEMON_LIBS)
+# (One compiler run over every source: make test's first step starts it
+# early, tests/run_suites.py.)
+TEST_BUILD_FIRST += $(IT2ND_TSAN)
 daemon-slowdisk: $(IT2ND) $(IT2ND_SAN) $(IT2ND_TSAN) $(DT_FAILIO)
 	timeout 300 /usr/bin/python3 $(DT)/slowdisk_test.py --it2nd $(IT2ND) --failio $(DT_FAILIO) \
 	  --delay-ms $(DT_SLOW_MS) --seconds $(DT_SLOW_TEST_S) --baseline-seconds 2 --out $(BUILD)/daemon_slowdisk.json
@@ -221,11 +224,17 @@ daemon-systemd: $(IT2ND)
 # requests sent, one fsync per acknowledged write; a 1 byte/s HTTP client
 # and 8 silent ones never delay Modbus reads (tests/daemon/metrics_test.py,
 # ~20 s). The ASan+UBSan build runs the endpoint and slow-client part.
-.PHONY: daemon-metrics
-TEST_TARGETS += daemon-metrics
-daemon-metrics: $(IT2ND) $(IT2ND_SAN)
-	timeout 300 /usr/bin/python3 $(DT)/metrics_test.py --it2nd $(IT2ND)
+# make test runs it as two suites: daemon-metrics-latency (the slow clients
+# beside timed Modbus reads, both builds) alone, daemon-metrics-prom (the
+# rest: Prometheus, which only waits for scrapes) light (TEST_LIGHT).
+.PHONY: daemon-metrics daemon-metrics-latency daemon-metrics-prom
+TEST_TARGETS += daemon-metrics-latency daemon-metrics-prom
+daemon-metrics: daemon-metrics-latency daemon-metrics-prom ## it2nd's Prometheus endpoint scraped by a real Prometheus (docs/daemon.md)
+daemon-metrics-latency: $(IT2ND) $(IT2ND_SAN)
+	timeout 300 /usr/bin/python3 $(DT)/metrics_test.py --it2nd $(IT2ND) --quick --latency-seconds 5
 	ASAN_OPTIONS=verify_asan_link_order=0 timeout 300 /usr/bin/python3 $(DT)/metrics_test.py --it2nd $(IT2ND_SAN) --quick
+daemon-metrics-prom: $(IT2ND)
+	timeout 300 /usr/bin/python3 $(DT)/metrics_test.py --it2nd $(IT2ND) --no-latency
 
 # Flags and --check-config (issue 18 items 2 and 4): it2nd --listen
 # --state-dir --metrics without a file and over one, a state directory the
