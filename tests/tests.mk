@@ -16,12 +16,12 @@ include $(TEST_MK)
 # Suites that measure latency or timing, or whose daemons must not share the
 # machine with another suite (tests/run_suites.py runs them alone).
 TEST_SOLO += daemon-slowdisk daemon-admit daemon-conn daemon-reload daemon-e2e daemon-sparkplug-node \
-             daemon-metrics proto-daemon proto-e2e fw-e2e fw-reboot fw-survey bench-proto-smoke \
+             daemon-metrics-latency proto-daemon proto-e2e fw-e2e fw-reboot fw-survey bench-proto-smoke \
              bench-fc23-smoke soak-smoke
 # Not here, so sharing the machine (they time nothing; a slower run is all a
-# busy machine does to them): daemon-powercut (cuts, replay-compare),
-# ctl-e2e and ctl-bspline (answers compared with it2n's; the one timeout
-# asserted is "< 5 s" for a 300 ms client timeout), docs-snippets.
+# busy machine does to them): ctl-e2e and ctl-bspline (answers compared with
+# it2n's; the one time asserted is "< 5 s" for a 300 ms client timeout),
+# docs-snippets.
 
 # Suites that spend their time waiting (daemon starts, fsyncs, timeouts,
 # brokers) and time nothing: each counts as half a job, so they run two
@@ -31,7 +31,9 @@ TEST_SOLO += daemon-slowdisk daemon-admit daemon-conn daemon-reload daemon-e2e d
 #   daemon-diskfull    full disks heal (a 5 s liveness bound on a 1 s
 #                      checkpoint, not a latency figure)
 #   daemon-fleet       10 nodes on one broker, waits up to 30 s per step
+#   daemon-powercut    cuts, restarts and replay-compares (a third of a core)
 #   daemon-sparkplug-refusals, daemon-sparkplug-sf  (tests/sparkplug/)
-TEST_LIGHT += daemon-durability daemon-waldamage daemon-diskfull daemon-fleet \
-              daemon-sparkplug-refusals daemon-sparkplug-sf
+#   daemon-metrics-prom  Prometheus scrapes, waits for values (daemon.mk)
+TEST_LIGHT += daemon-durability daemon-waldamage daemon-diskfull daemon-fleet daemon-powercut \
+              daemon-sparkplug-refusals daemon-sparkplug-sf daemon-metrics-prom
 
