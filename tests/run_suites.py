@@ -83,10 +83,27 @@ def classify(suites, solo, rules, light=()):
     it runs alone and its share of a job when it does not."""
     info = {}
     names = set(suites)
+    phony = set(rules.get(".PHONY", ([], []))[0])
+
+    def files(p, seen):
+        # A phony prerequisite with a recipe (core-unit-plain: it runs the
+        # tests) would run in the first step and again in the suite: the
+        # first step builds what it needs instead.
+        if p not in phony or not rules.get(p, ([], []))[1]:
+            return [p]
+        out = []
+        for q in rules[p][0]:
+            if q not in seen:
+                seen.add(q)
+                out += files(q, seen)
+        return out
     for s in suites:
         prereqs, recipe = rules.get(s, ([], []))
         after = [p for p in prereqs if p in names]
-        build = [p for p in prereqs if p not in names and p != "deps"]
+        build, seen = [], set()
+        for p in prereqs:
+            if p not in names and p != "deps":
+                build += [q for q in files(p, seen) if q not in build and q not in names and q != "deps"]
         makes = any(re.search(r"\$\(MAKE\)|\$\{MAKE\}|(^|[\s;&|(])make\s", r) for r in recipe)
         alone = s in solo or makes or bool(after)
         info[s] = {"build": build, "after": after, "solo": alone,
