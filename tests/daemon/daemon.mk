@@ -176,9 +176,6 @@ $(IT2ND_TSAN): VERSION $(DAEMON_SRC) $(DAEMON_HDR) $(REGMAP_SRC) $(CORE_SRC) $(C
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) -O1 -fsanitize=thread $(DAEMON_SRC) $(REGMAP_SRC) $(BUILD)/daemon/paper_data.c $(SPB_PB_C) \
 	  $(CORE_SRC) $(PROTO_SRC) -o $@ $(DAEMON_LIBS)
-# (One compiler run over every source: make test's first step starts it
-# early, tests/run_suites.py.)
-TEST_BUILD_FIRST += $(IT2ND_TSAN)
 daemon-slowdisk: $(IT2ND) $(IT2ND_SAN) $(IT2ND_TSAN) $(DT_FAILIO)
 	timeout 300 /usr/bin/python3 $(DT)/slowdisk_test.py --it2nd $(IT2ND) --failio $(DT_FAILIO) \
 	  --delay-ms $(DT_SLOW_MS) --seconds $(DT_SLOW_TEST_S) --baseline-seconds 2 --out $(BUILD)/daemon_slowdisk.json
