@@ -97,7 +97,14 @@ CROSS_PUB_HDR = firmware_core/it2n.h $(wildcard protocol/*.h)
 CROSS_PUBLIC = $(1) --defined-only -g $(2) | awk '$$2 == "T" {print $$3}' | sort -u | \
   grep -xF -f <(grep -ohE '\<it2n_[a-z0-9_]+ *\(' $(CROSS_PUB_HDR) | tr -d '( ' | sort -u)
 
-size: $(CROSS_ARCHS:%=cross-%) $(CROSS_HOST_OBJ) $(CROSS_DIR)/sizes-default.o $(CROSS_DIR)/sizes-d3.o $(CROSS_DIR)/sizes-host.o ## Flash, static RAM, worst-case stack per target; struct sizes
+SIZE_DEPS = $(CROSS_ARCHS:%=cross-%) $(CROSS_HOST_OBJ) $(CROSS_DIR)/sizes-default.o $(CROSS_DIR)/sizes-d3.o \
+  $(CROSS_DIR)/sizes-host.o
+# docfig.py (docs-check, docs-figures; tests/docs/docs.mk) runs `make size`:
+# what it reads is built beforehand, by make test's prerequisite step, and
+# not by the make inside the suite while other suites share the machine
+# (the cross builds, not the cross suite: a suite after another runs alone).
+docs-check docs-figures: $(SIZE_DEPS)
+size: $(SIZE_DEPS) ## Flash, static RAM, worst-case stack per target; struct sizes
 	@echo "== Flash and static RAM, bytes (core + protocol, every function kept; last column:"
 	@echo "   text of a --gc-sections link of the whole core API with libgcc and newlib's mem*) =="
 	@printf '  %-24s %12s %10s %12s %18s\n' target "text+rodata" "data+bss" "(core only)" "linked, core API"

@@ -87,4 +87,24 @@ deb-deps:
 	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(DEB_TOOL_PACKAGES)"
 
 deb: deb-deps ## Build the Debian packages it2n and libit2n-dev into build/deb/ (docs/packaging.md)
-	@mk/deb.sh $(DEB_OUT)
+	@mk/deb.sh $(DEB_OUT) && touch $(DEB_STAMP)
+
+# The packages as of the sources mk/deb.sh copies (tracked and untracked, not
+# ignored): what the deb suites check. make test's first step builds them
+# once; the suites (tests/install/install.mk) do not build them again unless
+# a source is newer than the stamp. (Checked in the recipe, not by listing the
+# sources as prerequisites: make would then remake a generated one, such as
+# docs/registers.md, before regmap-doc could find it stale.)
+DEB_STAMP := $(DEB_OUT)/built.stamp
+.PHONY: deb-if-changed
+deb-if-changed:
+$(DEB_STAMP): deb-if-changed | deb-deps
+	@if git rev-parse --is-inside-work-tree >/dev/null 2>&1 && [ -f $@ ] && \
+	    [ -z "$$(git ls-files -z --cached --others --exclude-standard | \
+	             xargs -0 -r sh -c 'for f; do [ ! "$$f" -nt "$$0" ] || echo "$$f"; done' $@ | head -n 1)" ]; then \
+	  echo "deb: $(DEB_OUT) is current (no source newer than $@)"; \
+	else mk/deb.sh $(DEB_OUT) && touch $@; fi
+deb-check deb-contents deb-lintian: $(DEB_STAMP)
+# The package build is one long chain of steps (dpkg-buildpackage): make
+# test's first step starts it before the rest (tests/run_suites.py).
+TEST_BUILD_FIRST += $(DEB_STAMP)

@@ -4,7 +4,8 @@ sub-make, one line per suite (name, ok/FAIL/skip, seconds), logs in
 BUILD/logs/SUITE.log.
 
   run_suites.py --make MAKE --build BUILD [--jobs N] [--keep] [--verbose]
-                [--solo "SUITE ..."] SUITE ...
+                [--solo "SUITE ..."] [--light "SUITE ..."] [--build-first "TARGET ..."]
+                SUITE ...
 
 Why a runner and not a shell loop: CI machines have 2 cores and most suites
 spend their time waiting on daemons, links and brokers, so running them one
@@ -13,12 +14,21 @@ after another left a core idle for most of `make test`. The runner
   1. builds every prerequisite of every suite first, in one `make -jN -k`
      (so two suites never build the same file at once; a prerequisite that
      does not build is reported by the suite that needs it, whose own
-     sub-make retries it and logs the error);
+     sub-make retries it and logs the error); the BUILD_FIRST targets
+     (TEST_BUILD_FIRST: long chains of steps that make cannot spread over
+     the cores, such as the Debian packages) are named first, so that they
+     start at once and the rest is built beside them;
   2. then runs the suites that may share the machine, up to N at once, and
      after them the solo ones, one at a time. A suite runs alone ("solo")
      when it measures latency or timing (the SOLO list, TEST_SOLO in the
      makefiles), when its recipe runs make itself, or when it depends on
-     another suite (that one finishes first).
+     another suite (that one finishes first). A "light" suite (the LIGHT
+     list, TEST_LIGHT) spends its time waiting (daemons, timeouts, links)
+     and asserts no latency: it counts as half a job, so two of them run
+     where one other suite would. Light suites start first (they are the
+     long ones), at most N at once, the others fill the rest, so the shared
+     part ends with short suites rather than with one long wait holding the
+     solo ones back.
 
 Lines are printed as suites finish. Skips are never "ok": a suite that
 cannot run prints "skip suite: REASON" and is listed as skip; a part that
@@ -65,17 +75,39 @@ def database(make):
     return rules
 
 
-def classify(suites, solo, rules):
-    """Each suite's build prerequisites, the suites it waits for and whether
-    it runs alone."""
+LIGHT_WEIGHT = 0.5  # of a job: a suite that mostly waits
+
+
+def classify(suites, solo, rules, light=()):
+    """Each suite's build prerequisites, the suites it waits for, whether
+    it runs alone and its share of a job when it does not."""
     info = {}
     names = set(suites)
+    phony = set(rules.get(".PHONY", ([], []))[0])
+
+    def files(p, seen):
+        # A phony prerequisite with a recipe (core-unit-plain: it runs the
+        # tests) would run in the first step and again in the suite: the
+        # first step builds what it needs instead.
+        if p not in phony or not rules.get(p, ([], []))[1]:
+            return [p]
+        out = []
+        for q in rules[p][0]:
+            if q not in seen:
+                seen.add(q)
+                out += files(q, seen)
+        return out
     for s in suites:
         prereqs, recipe = rules.get(s, ([], []))
         after = [p for p in prereqs if p in names]
-        build = [p for p in prereqs if p not in names and p != "deps"]
+        build, seen = [], set()
+        for p in prereqs:
+            if p not in names and p != "deps":
+                build += [q for q in files(p, seen) if q not in build and q not in names and q != "deps"]
         makes = any(re.search(r"\$\(MAKE\)|\$\{MAKE\}|(^|[\s;&|(])make\s", r) for r in recipe)
-        info[s] = {"build": build, "after": after, "solo": s in solo or makes or bool(after)}
+        alone = s in solo or makes or bool(after)
+        info[s] = {"build": build, "after": after, "solo": alone,
+                   "weight": LIGHT_WEIGHT if s in light and not alone else 1.0}
     return info
 
 
@@ -101,6 +133,8 @@ def main():
     ap.add_argument("--keep", action="store_true")
     ap.add_argument("--verbose", action="store_true")
     ap.add_argument("--solo", default="")
+    ap.add_argument("--light", default="")
+    ap.add_argument("--build-first", default="")
     ap.add_argument("suites", nargs="+")
     a = ap.parse_args()
     logs = os.path.join(a.build, "logs")
@@ -110,11 +144,16 @@ def main():
         env.pop(k, None)
     t0 = time.monotonic()
 
-    info = classify(a.suites, set(a.solo.split()), database(a.make))
+    info = classify(a.suites, set(a.solo.split()), database(a.make), set(a.light.split()))
     build = []
     for s in a.suites:
         build += [p for p in info[s]["build"] if p not in build]
+    first = [p for p in a.build_first.split() if p in build]
+    build = first + [p for p in build if p not in first]
     jobs = max(1, a.jobs)
+    if jobs == 1:   # TEST_JOBS=1: one suite at a time, light or not
+        for i in info.values():
+            i["weight"] = 1.0
     s = time.monotonic()
     blog = os.path.join(logs, "_prerequisites.log")
     with open(blog, "w") as f:
@@ -141,13 +180,20 @@ def main():
 
     while pending or running:
         # start what can start: the suites that may share the machine
-        # first, up to `jobs` at once (in TEST_TARGETS order); the solo
-        # ones after them, one at a time with nothing else running.
+        # first, as many as fit in `jobs` (a light suite counts as half a
+        # job; light ones first, but no more than `jobs` of them, so the
+        # waiting ones never hold every core back from the others; then in
+        # TEST_TARGETS order); the solo ones after them, one at a time with
+        # nothing else running.
         while pending and not stop:
-            if any(info[n]["solo"] for n in running) or len(running) >= jobs:
+            if any(info[n]["solo"] for n in running):
                 break
+            free = jobs - sum(info[n]["weight"] for n in running)
+            lights = sum(1 for n in running if info[n]["weight"] < 1)
             ready = [n for n in pending if all(d in done for d in info[n]["after"])]
-            shared = [n for n in ready if not info[n]["solo"]]
+            shared = [n for n in ready if not info[n]["solo"] and info[n]["weight"] <= free and
+                      (info[n]["weight"] == 1 or lights < jobs)]
+            shared.sort(key=lambda n: info[n]["weight"])
             if shared:
                 nxt = shared[0]
             elif ready and not running and not any(not info[n]["solo"] for n in pending):

@@ -1,7 +1,9 @@
 # tests/docs/: figures in README.md and docs/ that come from the build
 # (docfig.py: `<!-- fig:NAME -->` blocks). docs-figures rewrites them;
 # docs-check (make test) fails if a committed figure differs from the build.
-DOCFIG_DEPS = cross $(BUILD)/tests/core/test_accuracy $(BUILD)/tests/core/test_operations \
+# (The cross builds and what `make size` reads are added in mk/cross.mk, read
+# after this file.)
+DOCFIG_DEPS = $(BUILD)/tests/core/test_accuracy $(BUILD)/tests/core/test_operations \
               $(BUILD)/tests/core/test_bspline $(BUILD)/tests/daemon/test_models $(IT2ND)
 
 .PHONY: docs-figures docs-check

@@ -40,16 +40,26 @@ FZD_SECONDS ?= $(FUZZ_SECONDS)
 # links: the harness takes the daemon's write()s to the link (fuzz_links.c).
 FZD_LD_links := -Wl,--wrap=write
 
+# The gcc builds (make test) link the daemon's own objects, the ones it2nd
+# and the daemon's unit tests link (same flags: DAEMON_CFLAGS is FZD_CFLAGS
+# but for the harness's include directory), instead of compiling the same
+# sources again for each of the 14 programs; the regmap sources come from
+# its library. FZD_OBJ(target, object directory).
+FZD_OBJ = $(patsubst daemon/%.c,$(2)/daemon/%.o,$(patsubst $(BUILD)/daemon/%.c,$(2)/daemon/%.o,\
+  $(filter-out $(REGMAP_SRC),$(FZD_SRC_$(1)))))
+
 define FZD_RULES
-$(FZD_B)/fuzz_$(1): $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD_HDR) $(PROTO_LIB) $(CORE_LIB)
+$(FZD_B)/fuzz_$(1): $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) $(call FZD_OBJ,$(1),$(BUILD)/host) $(FZD_HDR) \
+  $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB)
 	@mkdir -p $$(@D)
 	$(CC) $(FZD_CFLAGS) -o $$@ $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) \
-	  $(FZD_SRC_$(1)) $(PROTO_LIB) $(CORE_LIB) $(FZD_PKGS) $(FZD_LD_$(1))
+	  $(call FZD_OBJ,$(1),$(BUILD)/host) $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB) $(FZD_PKGS) $(FZD_LD_$(1))
 
-$(FZD_B)/san/fuzz_$(1): $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD_HDR) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
+$(FZD_B)/san/fuzz_$(1): $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) $(call FZD_OBJ,$(1),$(BUILD)/san) $(FZD_HDR) \
+  $(REGMAP_SAN_LIB) $(PROTO_SAN_LIB) $(CORE_SAN_LIB)
 	@mkdir -p $$(@D)
 	$(CC) $(FZD_CFLAGS) $(SAN_FLAGS) -o $$@ $(FZD)/fuzz_$(1).c $(FZD)/fuzz_main.c $(FZD_COMMON) \
-	  $(FZD_SRC_$(1)) $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(FZD_PKGS) $(FZD_LD_$(1))
+	  $(call FZD_OBJ,$(1),$(BUILD)/san) $(REGMAP_SAN_LIB) $(PROTO_SAN_LIB) $(CORE_SAN_LIB) $(FZD_PKGS) $(FZD_LD_$(1))
 
 $(BUILD)/fuzz/fuzzd_$(1): $(FZD)/fuzz_$(1).c $(FZD_COMMON) $(FZD_SRC_$(1)) $(FZD_HDR) $(CORE_SRC) $(PROTO_SRC)
 	@mkdir -p $$(@D)

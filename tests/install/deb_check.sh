@@ -20,10 +20,15 @@
 #     no error, and the warnings
 #     and notes are exactly those listed in docs/packaging.md (the block
 #     between the lintian markers; DEB_CHECK_UPDATE=1 rewrites it).
-# usage: deb_check.sh DEB_OUT   (from the repository root; MAKE may name make)
+# usage: deb_check.sh DEB_OUT [contents|lintian]   (from the repository root;
+# MAKE may name make). Without PART, both: make test runs them as two suites,
+# deb-contents (its make install runs alone) and deb-lintian (no make in it:
+# it shares the machine).
 set -euo pipefail
 MAKE=${MAKE:-make}
 out=$1
+part=${2:-all}
+case $part in all | contents | lintian) ;; *) echo "deb_check.sh: PART is contents or lintian, not '$part'" >&2; exit 2 ;; esac
 doc=docs/packaging.md
 . "$(dirname "$0")/../lib/testlib.sh"
 TL_FAIL_FAST=1
@@ -39,6 +44,10 @@ main=$out/it2n_${ver}_$arch.deb
 dev=$out/libit2n-dev_${ver}_$arch.deb
 changes=$out/it2n_${ver}_$arch.changes
 for f in "$main" "$dev" "$changes"; do [ -s "$f" ] || fail "$f missing (make deb)"; done
+
+# The package contents (PART contents, or both); not indented, to keep the
+# history of the lines readable.
+if [ "$part" != lintian ]; then
 
 # ---- dpkg-deb -I -------------------------------------------------------------
 field() { dpkg-deb -f "$1" "$2"; }
@@ -128,6 +137,8 @@ ex1=$r/usr/share/doc/it2n/examples/paper_4x4.csv
 "$w/consumer" 0.25 0.75 >"$w/got.csv" || fail "the libit2n-dev consumer failed"
 diff -u "$w/want.csv" "$w/got.csv" >&2 || fail "the libit2n-dev consumer differs from the packaged it2n eval"
 say "unpacked: it2n check $(echo $ex | tr '\n' ' ')ok, it2nd accepts /etc/it2n/it2nd.conf, pkg-config consumer of libit2n-dev = it2n eval"
+fi
+[ "$part" != contents ] || exit 0
 
 # ---- lintian ------------------------------------------------------------------
 dsc=$out/it2n_$ver.dsc

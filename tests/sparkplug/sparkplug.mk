@@ -5,13 +5,26 @@
 # The ASan+UBSan build runs the births, DDATA, Rebirth and SIGTERM part, and
 # the primary host / store-and-forward test with it2nctl spb watch, status
 # and eval (spb_sf_test.py, ~10 s).
+# make test runs this in three suites: daemon-sparkplug-refusals
+# (configuration errors, wrong password, TLS, ACL: spb_test.py --refusals)
+# and daemon-sparkplug-sf (spb_sf_test.py) time nothing and share the
+# machine (TEST_LIGHT); daemon-sparkplug-node, which times DDATA and Modbus
+# answers (the broker stalls), runs alone (TEST_SOLO). `make
+# daemon-sparkplug` runs all three.
 
-.PHONY: daemon-sparkplug
-TEST_TARGETS += daemon-sparkplug
+.PHONY: daemon-sparkplug daemon-sparkplug-node daemon-sparkplug-refusals daemon-sparkplug-sf
+TEST_TARGETS += daemon-sparkplug-node daemon-sparkplug-refusals daemon-sparkplug-sf
 
-daemon-sparkplug: $(IT2ND) $(IT2ND_SAN) $(CTL_SAN_BIN)
-	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND) --doc docs/sparkplug.md
+daemon-sparkplug: daemon-sparkplug-refusals daemon-sparkplug-node daemon-sparkplug-sf ## it2nd as a Sparkplug B edge node against mosquitto (docs/sparkplug.md)
+
+daemon-sparkplug-node: $(IT2ND) $(IT2ND_SAN)
+	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND) --no-refusals --doc docs/sparkplug.md
 	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND_SAN) --quick
+
+daemon-sparkplug-refusals: $(IT2ND)
+	timeout 120 /usr/bin/python3 tests/sparkplug/spb_test.py --it2nd $(IT2ND) --refusals
+
+daemon-sparkplug-sf: $(IT2ND_SAN) $(CTL_SAN_BIN)
 	timeout 60 /usr/bin/python3 tests/sparkplug/spb_sf_test.py --it2nd $(IT2ND_SAN) --it2nctl $(CTL_SAN_BIN)
 
 # A fleet on one broker (issue 16 item 7, docs/fleet.md): 10 it2nd nodes,

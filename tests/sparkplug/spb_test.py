@@ -14,8 +14,12 @@ promptly, kill -9 -> NDEATH with the session's bdSeq, restart -> bdSeq + 1,
 broker restart -> reconnect and rebirth, SIGTERM -> one NDEATH then
 DISCONNECT (no will after it), configuration errors with file:line.
 
-usage: spb_test.py --it2nd PATH [--quick]   (--quick: births, DDATA, rebirth,
-SIGTERM only; for the sanitizer build). Prints "skip suite: why" and exits 0 when
+usage: spb_test.py --it2nd PATH [--quick | --refusals | --no-refusals]
+(--quick: births, DDATA, rebirth, SIGTERM only; for the sanitizer build.
+--refusals: only the configuration errors, wrong password, TLS and ACL
+refusals, which time nothing and so may share the machine with other
+suites; --no-refusals: all but those, the part that times DDATA and Modbus
+answers.) Prints "skip suite: why" and exits 0 when
 mosquitto or paho-mqtt is missing."""
 import argparse
 import os
@@ -918,10 +922,16 @@ def tls_checks(args, d, broker, host, certs):
               % (why, [l for l in log.splitlines() if "libmosquitto" in l or "sparkplug: 127" in l][:1]))
 
 
+class RefusalsDone(Exception):
+    """--refusals: the refusals are checked, the node part is not run."""
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--it2nd", required=True)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--refusals", action="store_true", help="only the refusals (no timing in them)")
+    ap.add_argument("--no-refusals", action="store_true", help="all but the refusals")
     ap.add_argument("--doc", help="check the worked examples of this file (docs/sparkplug.md)")
     ap.add_argument("--write-doc", action="store_true", help="rewrite them instead")
     args = ap.parse_args()
@@ -937,7 +947,8 @@ def main():
     node = host = plc = None
     try:
         broker.start()
-        if not args.quick:
+        refusals = not args.quick and not args.no_refusals
+        if refusals:
             config_errors(args, d)
         mbport = free_port()
         conf = os.path.join(d, "it2nd.conf")
@@ -960,10 +971,12 @@ def main():
         write_conf()
         devs = [("model-1", 1), ("model-2", 2), ("model-3", 3)]
         host = Host(broker.port)
-        if not args.quick:
+        if refusals:
             wrong_password(args, d, broker, host)
             tls_checks(args, d, broker, host, certs)
             acl_confines(args, d, broker, host, pwfile)
+        if args.refusals:
+            raise RefusalsDone()
         seq = Seq()
         node = start_it2nd(args, conf)
         plc = Plc(mbport)
@@ -1199,6 +1212,8 @@ def main():
             else:
                 check(not bad, "%s: the worked examples are what the node sends %s (tests/sparkplug/spb_test.py "
                       "--write-doc rewrites them)" % (args.doc, bad))
+    except RefusalsDone:
+        pass
     finally:
         if node is not None and node.poll() is None:
             node.kill()
