@@ -22,14 +22,18 @@ FZD_HDR := $(wildcard $(FZD)/*.h daemon/*.h) $(REGMAP_HDR) $(CORE_HDR) $(wildcar
 FZD_COMMON := $(FZD)/fake_env.c
 FZD_MB := daemon/mb_req.c daemon/mb_map.c $(REGMAP_SRC) daemon/models.c daemon/store.c daemon/snapshot.c daemon/errs.c $(FZD_PAPER)
 FZD_SRC_modbus := daemon/mb_tcp.c daemon/acl.c daemon/porthint.c $(FZD_MB)
-FZD_SRC_rtu := daemon/mb_rtu.c daemon/link_serial.c $(FZD_MB)
+# conf: what a reload compares a port's or a link's section with (conf_rtu_same,
+# conf_link_same) lives with the parser.
+FZD_CONF := daemon/conf.c daemon/conf_schema.c daemon/acl.c daemon/spb_conf.c
+FZD_SRC_rtu := daemon/mb_rtu.c daemon/link_serial.c $(FZD_MB) $(FZD_CONF)
 FZD_SRC_store := daemon/store.c daemon/models.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
-FZD_SRC_conf := daemon/conf.c daemon/conf_schema.c daemon/acl.c daemon/spb_conf.c
+FZD_SRC_conf := $(FZD_CONF)
 # conf: a dictionary of the schema's section headers, "key = " and words
 # (tests/fuzz_daemon/conf_dict.c), for libFuzzer (-dict=) and the plain
 # driver's token insertions (FUZZ_DICT).
 FZD_DICT_conf := $(FZD_B)/conf.dict
-FZD_SRC_links := daemon/links.c daemon/link_serial.c daemon/models.c daemon/store.c $(wildcard daemon/snapshot.c) daemon/errs.c $(FZD_PAPER)
+FZD_SRC_links := daemon/links.c daemon/link_serial.c daemon/models.c daemon/store.c $(wildcard daemon/snapshot.c) daemon/errs.c \
+  $(FZD_PAPER) $(FZD_CONF)
 # spbcmd: the Sparkplug NCMD/DCMD payload decoder (daemon/spb_payload.c and
 # the protoc-c code of daemon/spb.proto).
 FZD_SRC_spbcmd := daemon/spb_payload.c $(SPB_PB_C)
