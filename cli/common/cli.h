@@ -135,6 +135,11 @@ typedef struct cli_prog {
  * its entry, or NULL with *rc the exit status when there is no more to do. */
 const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc);
 
+/* The command list of `PROG --help`: "  NAME SUMMARY" per entry, the name
+ * padded to width; an entry of a command table starts with its name and
+ * holds its one-line summary, a const char *, at summary_at bytes. */
+void cli_put_commands(FILE *out, const cli_prog *pg, size_t summary_at, int width);
+
 /* The answers both programs give alike to an option id after the command:
  * CLI_OPT_ERROR the usage status (cli_opt_next printed why), CLI_OPT_HELP
  * pg->usage_cmd(cmd) and 0, CLI_OPT_VERSION the --version line of

@@ -158,6 +158,16 @@ static const char *cmd_name(const cli_prog *pg, size_t k)
     return *(const char *const *)(const void *)((const char *)pg->cmds + k * pg->stride);
 }
 
+void cli_put_commands(FILE *out, const cli_prog *pg, size_t summary_at, int width)
+{
+    size_t k;
+    for (k = 0; k < pg->ncmds; k++) {
+        const char *summary;
+        memcpy(&summary, (const char *)pg->cmds + k * pg->stride + summary_at, sizeof summary);
+        fprintf(out, "  %-*s %s\n", width, cmd_name(pg, k), summary);
+    }
+}
+
 static const void *find_cmd(const cli_prog *pg, const char *name)
 {
     size_t k;

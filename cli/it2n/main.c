@@ -5,6 +5,7 @@
  */
 #include "commands.h"
 
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -126,15 +127,14 @@ static const cli_cmd cmds[] = {
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
 
+static const cli_prog prog;
+
 static void usage_all(FILE *out)
 {
-    size_t k;
     fprintf(out, "Usage: it2n COMMAND DATA.csv [OPTIONS]\n"
                  "Interval type-2 neutrosophic Bezier surface interpolation.\n\n"
                  "Commands:\n");
-    for (k = 0; k < NCMDS; k++) {
-        fprintf(out, "  %-8s %s\n", cmds[k].name, cmds[k].summary);
-    }
+    cli_put_commands(out, &prog, offsetof(cli_cmd, summary), 8);
     fprintf(out, "\nDATA.csv: header i,j,footprint,x,y[,z],T,I,F then one row per\n"
                  "grid point and footprint (LL,LR,L,D,R,RL,RR, or D only).\n"
                  "'it2n COMMAND --help' for details; 'it2n --version'.\n\n");

@@ -10,6 +10,7 @@
 #include "ctl_cmds.h"
 #include "out.h"
 
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -153,15 +154,14 @@ static void conn_help(FILE *out)
           out);
 }
 
+static const cli_prog prog;
+
 static void usage_all(FILE *out)
 {
-    size_t k;
     fprintf(out, "Usage: it2nctl COMMAND [ARGS] [OPTIONS]\n"
                  "Client for a running it2nd (Modbus TCP/RTU or a protocol "
                  "link).\n\nCommands:\n");
-    for (k = 0; k < NCMDS; k++) {
-        fprintf(out, "  %-7s %s\n", cmds[k].name, cmds[k].summary);
-    }
+    cli_put_commands(out, &prog, offsetof(ctl_cmd, summary), 7);
     fprintf(out, "  %-7s %s\n", "spb", "Sparkplug B host mode: spb watch, spb status, spb eval");
     fprintf(out, "\n'it2nctl COMMAND --help' for details; 'it2nctl "
                  "--version'.\n\n");
