@@ -17,7 +17,9 @@ include $(TEST_MK)
 # machine with another suite (tests/run_suites.py runs them alone).
 TEST_SOLO += daemon-slowdisk daemon-admit daemon-conn daemon-reload daemon-e2e daemon-sparkplug-node \
              daemon-metrics-latency proto-daemon proto-e2e fw-e2e fw-reboot fw-survey bench-proto-smoke \
-             bench-fc23-smoke soak-smoke ctl-e2e
+             bench-fc23-smoke soak-smoke ctl-e2e daemon-diskfull
+# (daemon-diskfull: its "writes refused for 2.5 s while the disk is full"
+# phase failed once beside other suites, the refusal window measured 1.08 s.)
 # (ctl-e2e: its plot --follow check expects the generation a push ends on,
 # and on a busy machine the follower drew one the push passed through.)
 # Not here, so sharing the machine (they time nothing; a slower run is all a
@@ -29,12 +31,10 @@ TEST_SOLO += daemon-slowdisk daemon-admit daemon-conn daemon-reload daemon-e2e d
 # where another suite would run one, beside the other suites.
 #   daemon-durability  fault cases: writes for 2.5 s, kill -9, restart, compare
 #   daemon-waldamage   damaged WALs: starts refused, kept files compared
-#   daemon-diskfull    full disks heal (a 5 s liveness bound on a 1 s
-#                      checkpoint, not a latency figure)
 #   daemon-fleet       10 nodes on one broker, waits up to 30 s per step
 #   daemon-powercut    cuts, restarts and replay-compares (a third of a core)
 #   daemon-sparkplug-refusals, daemon-sparkplug-sf  (tests/sparkplug/)
 #   daemon-metrics-prom  Prometheus scrapes, waits for values (daemon.mk)
-TEST_LIGHT += daemon-durability daemon-waldamage daemon-diskfull daemon-fleet daemon-powercut \
+TEST_LIGHT += daemon-durability daemon-waldamage daemon-fleet daemon-powercut \
               daemon-sparkplug-refusals daemon-sparkplug-sf daemon-metrics-prom
 
