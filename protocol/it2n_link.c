@@ -305,7 +305,9 @@ static void hello_out(it2n_link *l, uint32_t now)
         l->stats.tx_retx++;
     l->stats.tx_frames++;
     l->clock = now;
-    h->deadline = frame_out(l, &fh, h->buf, fh.len) + rto_for(l, h->tries + 1u);
+    /* twice the RTO: the server creates the session first (its answer
+     * takes longer than an ACK), and no round trip is measured yet */
+    h->deadline = frame_out(l, &fh, h->buf, fh.len) + 2u * rto_for(l, h->tries + 1u);
     if (h->tries < 255u)
         h->tries++;
 }
@@ -655,6 +657,38 @@ static void rtt_sample(it2n_link *l, const it2n_link_slot *s, uint32_t now)
     l->rto = rto;
 }
 
+/* How long a frame answered RCVD waits for its deferred answer: twice
+ * the deferrals seen lately, at least 2 RTO, at most rto_max_ms. */
+static uint32_t rcvd_wait(const it2n_link *l)
+{
+    uint32_t w = l->defer_ms > l->rto ? l->defer_ms : l->rto;
+    return w > l->cfg.rto_max_ms / 2u ? l->cfg.rto_max_ms : 2u * w;
+}
+
+/* In-order delivery (docs/protocol.md 4.2 rule 3): the peer has just
+ * answered frame s (RCVD, ACK or NACK), so it is running and works through
+ * its input in order: the frames sent after s come next. Their timers run
+ * from now at the earliest: a peer working through its input (a loaded
+ * machine, an fsync) answers them one by one, each later than its
+ * departure plus an RTO, and none of them is lost. TCP restarts its timer
+ * on every ACK of new data likewise (RFC 6298, 5.3). Frames held by a GAP
+ * or answered RCVD keep their own timers. */
+static void delivered(it2n_link *l, const it2n_link_slot *s, uint32_t now)
+{
+    uint16_t age = (uint16_t)(l->tx_next - s->seq);
+    unsigned k;
+    for (k = 0; k < W; k++) {
+        it2n_link_slot *o = &l->slot[k];
+        uint32_t t;
+        if (!o->used || o->tries == 0u || o->held == 1u || o->probe_wait != 0u ||
+            (uint16_t)(l->tx_next - o->seq) >= age)
+            continue;
+        t = now + (o->held == 2u ? rcvd_wait(l) : rto_for(l, o->tmo + 1u));
+        if (due(t, o->deadline))
+            o->deadline = t;
+    }
+}
+
 /* RCVD from the receiver: it has frame seq and will answer it later. No
  * retransmission before twice the time the peer's deferred answers take
  * lately (an fsync on a loaded machine), at least 2 RTO, at most
@@ -663,16 +697,17 @@ static void rtt_sample(it2n_link *l, const it2n_link_slot *s, uint32_t now)
 static void on_rcvd(it2n_link *l, uint16_t seq, uint32_t now)
 {
     it2n_link_slot *s = slot_of(l, seq);
-    uint32_t w = l->defer_ms > l->rto ? l->defer_ms : l->rto;
-    uint32_t t;
-    w = w > l->cfg.rto_max_ms / 2u ? l->cfg.rto_max_ms : 2u * w;
-    t = now + w;
-    if (s == NULL || s->ver != V12 || s->tag != l->tag || !l->tx_synced)
+    uint32_t t = now + rcvd_wait(l);
+    /* Before the SYN frame is answered only its own RCVD counts: the
+     * receiver has started the sequence with it (an fsync may defer its
+     * answer, as for the first CONFIGURE of a session). */
+    if (s == NULL || s->ver != V12 || s->tag != l->tag || (!l->tx_synced && !(s->flags & IT2N_FLAG_SYN)))
         return;
     if (s->held != 2u) {
         rtt_sample(l, s, now); /* its delivery took a round trip */
         l->stats.rx_rcvd++;
         s->rcvd = now;
+        delivered(l, s, now);
     }
     s->held = 2u;
     if (due(t, s->deadline))
@@ -757,6 +792,7 @@ static void hello_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
 static void answered(it2n_link *l, const it2n_link_slot *s, uint32_t now)
 {
     l->stats.rx_acks++;
+    delivered(l, s, now);
     if (s->tries == 1u)
         line_sync(l, s->gone, now);
     if (s->held == 2u) { /* how long the peer took after its RCVD */
@@ -867,18 +903,40 @@ static uint32_t quiet_ms(const it2n_link *l)
     return 2u + line_ms(64u, l->cfg.baud);
 }
 
+/* The peer's bytes are still arriving: some came within quiet_ms, or a
+ * frame of it is half received (the rest is on its way: a peer or relay
+ * held by the scheduler mid-frame). */
 static bool reverse_busy(const it2n_link *l, uint32_t now)
 {
-    return l->rx_heard && (uint32_t)(now - l->rx_last) < quiet_ms(l);
+    return l->rx_heard && ((uint32_t)(now - l->rx_last) < quiet_ms(l) || l->dec.started);
 }
 
-/* One probe into silence (docs/protocol.md 4.2 rule 3): frame s is due,
- * but an older frame (not held) was resent on timeout and nothing has
- * come from the peer since that copy was written, or an older frame is
- * due now too (it goes first). A stalled peer or line would otherwise
- * cost a retransmission per frame in flight; as RFC 6298 (5.4) only the
- * earliest is resent. s waits for that frame's next timeout; anything
- * heard from the peer brings it back (it2n_link_input). True: s waits. */
+/* Will the ACK of a later frame name s (v1.2 `acked`, 64 frames back)?
+ * A later frame of its session is in flight. */
+static bool acked_later(const it2n_link *l, const it2n_link_slot *s)
+{
+    uint16_t age = (uint16_t)(l->tx_next - s->seq);
+    unsigned k;
+    if (s->ver != V12)
+        return false;
+    for (k = 0; k < W; k++) {
+        const it2n_link_slot *o = &l->slot[k];
+        uint16_t a = (uint16_t)(l->tx_next - o->seq);
+        if (o->used && o->tries > 0u && o->ver == V12 && o->tag == s->tag && a < age && (uint16_t)(age - a) <= 64u)
+            return true;
+    }
+    return false;
+}
+
+/* Oldest first (docs/protocol.md 4.2 rule 3): frame s is due, but an
+ * older frame is still unanswered (no ACK, NACK or RCVD, not held by a
+ * GAP). The receiver delivers in order, so s cannot be answered before
+ * that frame, and were s alone lost, the older frame's delivery would
+ * bring a GAP: s's timeout says nothing yet. A stalled peer or line would
+ * otherwise cost a retransmission per frame in flight; as in TCP (RFC
+ * 6298, 5.4) only the earliest is resent. s waits for that frame's next
+ * timeout (after it, if it is due now too); anything heard from the peer
+ * starts its timer again (it2n_link_input). True: s waits. */
 static bool probe_out(it2n_link *l, it2n_link_slot *s, uint32_t now)
 {
     uint16_t age = (uint16_t)(l->tx_next - s->seq);
@@ -891,13 +949,45 @@ static bool probe_out(it2n_link *l, it2n_link_slot *s, uint32_t now)
             s->deadline = now; /* after it, on the next poll */
             return true;
         }
-        if (o->tmo > 0u && (!l->rx_heard || (int32_t)(l->rx_last - o->last) < 0)) {
-            s->deadline = o->deadline;
-            s->probe_wait = 1;
-            return true;
-        }
+        s->deadline = o->deadline;
+        s->probe_wait = 1;
+        return true;
     }
     return false;
+}
+
+/* A stall, not a loss (docs/protocol.md 4.2 rule 3): frame s is due, the
+ * peer has been silent for a whole RTO, and either a newer frame left the
+ * line at least half the minimum RTO ago (had only s been lost, the peer
+ * would have answered that frame with a GAP) or an older frame waits for
+ * this silence already. Silence after frames the peer should have
+ * answered says the peer or the line is not running (a loaded machine
+ * holds a process for 40-100 ms), not that frames were lost: s waits
+ * until half the backoff cap after its timer started (4 minimum RTOs by
+ * default, 128 ms at 921 600 Bd) or until the peer speaks, when
+ * its timer starts again from then (probe_heard). Only once per timeout:
+ * if the silence lasts, the probe goes. True: s waits. */
+static bool silent_stall(it2n_link *l, it2n_link_slot *s, uint32_t now)
+{
+    uint32_t rto = rto_for(l, s->tmo + 1u);
+    uint16_t age = (uint16_t)(l->tx_next - s->seq);
+    bool stall = false;
+    unsigned k;
+    uint32_t half = l->cfg.rto_max_ms / 2u;
+    if (s->probe_wait == 2u || rto >= half || (l->rx_heard && (uint32_t)(now - l->rx_last) < rto))
+        return false;
+    for (k = 0; k < W && !stall; k++) {
+        const it2n_link_slot *o = &l->slot[k];
+        if (o->used && o->tries > 0u && o != s)
+            stall = (uint16_t)(l->tx_next - o->seq) > age ? o->probe_wait == 2u
+                                                          : o->held == 0u && due(now, o->gone + l->cfg.rto_ms / 2u);
+    }
+    if (stall) {
+        s->deadline = now + (half - rto);
+        s->probe_wait = 2u;
+        l->stats.tx_stall_waits++;
+    }
+    return stall;
 }
 
 /* Something came from the peer: it runs again. The timers of frames
@@ -970,8 +1060,17 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
             s->deadline = now + rto_for(l, s->tmo + 1u);
             continue;
         }
+        if (s->held == 2u && acked_later(l, s)) {
+            /* Delivered (RCVD), its answer deferred: a later ACK names it
+             * if this one's is lost (v1.2 `acked`), so no copy is needed
+             * while a later frame is in flight (4.2 rule 4c). */
+            s->deadline = now + rcvd_wait(l);
+            continue;
+        }
         if (probe_out(l, s, now))
             continue; /* one probe into silence at a time */
+        if (silent_stall(l, s, now))
+            continue; /* the peer stalls: no loss said so */
         if (l->cfg.baud != 0u && reverse_busy(l, now)) {
             /* The peer's bytes are still arriving: its answer may be
              * queued behind them (at most a window of maximum frames).

@@ -160,6 +160,9 @@ typedef struct it2n_link_stats {
     uint32_t rx_busy;         /* frames refused NACK BUSY: W after one
                                still awaiting our application's
                                answer (the peer broke its window)   */
+    uint32_t tx_stall_waits;  /* timeouts not resent at once: the peer
+                               was silent after newer frames it would
+                               have answered (a stall, 4.2 rule 3)  */
 } it2n_link_stats;
 
 /* One sender slot: a reliable frame in flight. The message starts at
@@ -182,7 +185,9 @@ typedef struct it2n_link_slot {
     uint32_t rcvd;                  /* when its RCVD came (held 2)                      */
     uint8_t probe_wait;             /* 1: its timeout fell due while an older frame's
                        retransmission on timeout was unanswered and the
-                       peer silent: it waits (one probe into silence)   */
+                       peer silent: it waits (one probe into silence);
+                       2: it fell due in a silence of the peer after
+                       newer frames: a stall, it waits once (rule 3)    */
     uint8_t nosample;               /* 1: an older frame was retransmitted while this
                        one was in flight, so its answer may have waited
                        for that one: no round-trip sample (Karn)         */

@@ -1246,9 +1246,9 @@ static it2n_msg hello_msg(uint8_t vmax, uint8_t window)
     return m;
 }
 
-/* A: a v1.2 client, B: a server, both with window 16, the session open
- * and a first CONFIGURE answered (A's sequence is synced). Time 0..3. */
-static void v12_pair(void)
+/* A: a v1.2 client, B: a server, both with window 16, the session open,
+ * no frame of A's sequence sent yet (its first will carry SYN). Time 0..2. */
+static void v12_hello(void)
 {
     it2n_link_cfg c;
     it2n_msg m;
@@ -1284,6 +1284,14 @@ static void v12_pair(void)
     assert_int_equal(it2n_link_session(&A->l), 0xC0DE0001u);
     it2n_link_set_peer(&A->l, 16, 0);
     it2n_link_set_peer(&B->l, 16, 0);
+}
+
+/* v12_hello, then a first CONFIGURE answered (A's sequence is synced).
+ * Time 0..3. */
+static void v12_pair(void)
+{
+    it2n_msg m;
+    v12_hello();
     m = cfg_msg(1);
     assert_true(it2n_link_send(&A->l, &m, 3) >= 0);
     xfer(A, B, 3, 0);
@@ -1513,7 +1521,11 @@ static void test_rto_bounds_and_karn(void **st)
     xfer(A, B, t + 10, 0); /* kept by B beyond the gap */
     B->out.len = 0;        /* (its GAP lost) */
     it2n_link_poll(&A->l, t + 33);
-    assert_int_equal(A->l.stats.tx_retx, 2); /* the first, at its timeout */
+    /* silence after a newer frame: taken for a stall first (4.2 rule 3) */
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    assert_int_equal(A->l.stats.tx_stall_waits, 1);
+    it2n_link_poll(&A->l, t + 33 + 4 * 32 - 32);
+    assert_int_equal(A->l.stats.tx_retx, 2); /* the first, 4 RTO after its timer started */
     xfer(A, B, t + 200, 0);
     xfer(B, A, t + 200, 0); /* both answered now */
     assert_int_equal(it2n_link_pending(&A->l), 0);
@@ -1521,9 +1533,11 @@ static void test_rto_bounds_and_karn(void **st)
 }
 
 /* Issue 17: a peer (or line) that stalls while 3 frames are in flight
- * cost 3 spurious retransmissions (one per frame timer); now only the
- * oldest is resent into the silence (RFC 6298 5.4), the others wait for
- * it, their timers starting again when the peer is heard again. */
+ * cost 3 spurious retransmissions (one per frame timer), then one (only
+ * the oldest resent into the silence, RFC 6298 5.4); now none: had only
+ * the oldest been lost, the peer would have answered the newer ones with
+ * a GAP, so silence after them is taken for a stall for 4 RTO (4.2 rule
+ * 3), then one probe goes. */
 static void test_one_probe_into_silence(void **st)
 {
     (void)st;
@@ -1532,31 +1546,59 @@ static void test_one_probe_into_silence(void **st)
     it2n_msg m = cfg_msg(1);
     for (uint32_t k = 0; k < 3; k++)
         assert_true(it2n_link_send(&A->l, &m, t + k) >= 0);
-    xfer(A, B, t + 2, 0); /* B has them, but does not run for 60 ms */
+    xfer(A, B, t + 2, 0); /* B has them, but does not run for 100 ms */
     uint8_t answers[256];
     size_t n = B->out.len;
     memcpy(answers, B->out.buf, n);
     B->out.len = 0;
-    for (uint32_t u = t + 2; u < t + 60; u++)
+    for (uint32_t u = t + 2; u < t + 100; u++)
         it2n_link_poll(&A->l, u);
-    assert_int_equal(A->l.stats.tx_retx, 1); /* was 3 */
-    assert_int_equal(it2n_link_input(&A->l, answers, n, t + 60), IT2N_OK);
+    assert_int_equal(A->l.stats.tx_retx, 0); /* was 3, then 1 */
+    assert_true(A->l.stats.tx_stall_waits >= 1);
+    assert_int_equal(it2n_link_input(&A->l, answers, n, t + 100), IT2N_OK);
     assert_int_equal(it2n_link_pending(&A->l), 0);
 
-    /* two frames really lost: the first is resent at its timeout; once
-     * its answer comes, the second's timer runs again from then */
-    t += 100;
+    /* a longer silence: one probe (the oldest) once the frame's timer has
+     * run 4 RTO, none of the others (a fresh link: the answers above were
+     * round-trip samples of 100 ms, the RTO has grown to cover them) */
+    rto_link(32, 0);
+    t = exchange_after(0, 1);
+    for (uint32_t k = 0; k < 3; k++)
+        assert_true(it2n_link_send(&A->l, &m, t + k) >= 0);
+    xfer(A, B, t + 2, 0);
+    n = B->out.len;
+    memcpy(answers, B->out.buf, n);
+    B->out.len = 0;
+    unsigned r0 = A->l.stats.tx_retx;
+    uint32_t u = t + 2;
+    for (; A->l.stats.tx_retx == r0; u++)
+        it2n_link_poll(&A->l, u);
+    assert_true(u - t >= 4u * 32u);
+    for (uint32_t v = u; v < u + 60; v++)
+        it2n_link_poll(&A->l, v);
+    assert_int_equal(A->l.stats.tx_retx, r0 + 1);
+    A->out.len = 0;
+    assert_int_equal(it2n_link_input(&A->l, answers, n, u + 60), IT2N_OK);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+
+    /* two frames really lost: the first is resent once the stall wait
+     * is over; the second waits for it (oldest first), and once its
+     * answer comes, the second's timer runs again from then */
+    rto_link(32, 0);
+    t = exchange_after(0, 1);
     A->out.len = 0;
     assert_true(it2n_link_send(&A->l, &m, t) >= 0);
     assert_true(it2n_link_send(&A->l, &m, t) >= 0);
     A->out.len = 0; /* both lost */
-    unsigned r0 = A->l.stats.tx_retx;
-    uint32_t u = t;
-    for (; A->l.stats.tx_retx == r0; u++)
+    r0 = A->l.stats.tx_retx;
+    u = t;
+    for (; A->l.stats.tx_retx == r0; u++) {
         it2n_link_poll(&A->l, u);
+    }
     assert_int_equal(A->l.stats.tx_retx, r0 + 1);
-    for (uint32_t v = u; v < u + 10; v++)
+    for (uint32_t v = u; v < u + 10; v++) {
         it2n_link_poll(&A->l, v);
+    }
     assert_int_equal(A->l.stats.tx_retx, r0 + 1); /* the second waits */
     xfer(A, B, u + 10, 0);
     xfer(B, A, u + 10, 0); /* the answer to the first */
@@ -1569,6 +1611,146 @@ static void test_one_probe_into_silence(void **st)
     xfer(A, B, u + 43, 0);
     xfer(B, A, u + 43, 0);
     assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+/* The frames in buf[0..len) one by one: the end of the k-th (0-based)
+ * wire frame, or len if there are fewer. */
+static size_t frame_end(const uint8_t *buf, size_t len, unsigned k)
+{
+    for (size_t i = 0; i < len; i++)
+        if (buf[i] == 0 && k-- == 0)
+            return i + 1;
+    return len;
+}
+
+/* Issue 17 (4.2 rule 3, in-order delivery): a receiver working through
+ * its input on a loaded machine answers 4 frames one by one, 20 ms apart,
+ * each later than its departure plus the RTO (32 ms). None is lost: each
+ * answer restarts the timers of the frames behind it. Before, frames 2..4
+ * were resent at departure + RTO (spurious). */
+static void test_slow_receiver_in_order(void **st)
+{
+    (void)st;
+    rto_link(32, 0);
+    uint32_t t = exchange_after(0, 1);
+    it2n_msg m = cfg_msg(1);
+    for (uint32_t k = 0; k < 4; k++)
+        assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    xfer(A, B, t, 0);
+    uint8_t answers[256];
+    size_t n = B->out.len, at = 0;
+    memcpy(answers, B->out.buf, n);
+    B->out.len = 0;
+    for (uint32_t u = t; u <= t + 80; u++) {
+        if (u > t && (u - t) % 20 == 0) {
+            size_t end = frame_end(answers, n, (u - t) / 20 - 1);
+            assert_int_equal(it2n_link_input(&A->l, answers + at, end - at, u), IT2N_OK);
+            at = end;
+        }
+        it2n_link_poll(&A->l, u);
+    }
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+/* Issue 17 (4.2 rule 3): the peer's answer is half received when the
+ * frame's timeout falls due (a peer or relay held by the scheduler
+ * mid-frame): the rest is on its way, the frame is not resent. */
+static void test_half_received_answer_waits(void **st)
+{
+    (void)st;
+    rto_link(32, 0);
+    uint32_t t = exchange_after(0, 1);
+    it2n_msg m = cfg_msg(1);
+    assert_true(it2n_link_send(&A->l, &m, t) >= 0);
+    xfer(A, B, t, 0);
+    size_t n = B->out.len;
+    assert_true(n > 4);
+    assert_int_equal(it2n_link_input(&A->l, B->out.buf, 4, t + 20), IT2N_OK);
+    for (uint32_t u = t + 20; u < t + 60; u++)
+        it2n_link_poll(&A->l, u);
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    assert_int_equal(it2n_link_input(&A->l, B->out.buf + 4, n - 4, t + 60), IT2N_OK);
+    B->out.len = 0;
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+/* Issue 17 (4.2 rule 4c): frames answered RCVD whose deferred answers are
+ * slow (an fsync on a loaded machine): the older one is not resent while
+ * a later frame is in flight (the later ACK names it in `acked` if its own
+ * ACK is lost); only the newest is asked again after the RCVD wait. */
+static void test_rcvd_waits_for_later_ack(void **st)
+{
+    (void)st;
+    v12_pair();
+    it2n_msg m = cfg_msg(1);
+    B->rx_ret = IT2N_LINK_DEFER;
+    uint16_t s1 = (uint16_t)it2n_link_send(&A->l, &m, 10);
+    uint16_t s2 = (uint16_t)it2n_link_send(&A->l, &m, 10);
+    xfer(A, B, 10, 0);
+    assert_int_equal(B->l.stats.tx_rcvd, 2);
+    xfer(B, A, 11, 0);
+    assert_int_equal(A->l.stats.rx_rcvd, 2);
+    for (uint32_t t = 12; t <= 260; t++)
+        it2n_link_poll(&A->l, t); /* past twice the RTO (100) */
+    assert_int_equal(A->l.stats.tx_retx, 1);
+    assert_int_equal(slot_seq(A, s1)->tries, 1); /* was resent too */
+    assert_int_equal(slot_seq(A, s2)->tries, 2);
+    xfer(A, B, 260, 0);
+    assert_int_equal(it2n_link_complete(&B->l, s1, 0, NULL), IT2N_OK);
+    assert_int_equal(it2n_link_complete(&B->l, s2, 0, NULL), IT2N_OK);
+    xfer(B, A, 261, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+    assert_int_equal(B->nrx, 2); /* each delivered once */
+}
+
+/* Issue 17 (4.3 rule 3): the first frame of a session (it carries SYN)
+ * whose answer the receiver defers (the first CONFIGURE's fsync): its
+ * RCVD counts, so it is not resent at the RTO. Before, a RCVD was
+ * ignored while the SYN frame was unanswered. */
+static void test_rcvd_of_syn_frame(void **st)
+{
+    (void)st;
+    v12_hello();
+    A->l.stats = B->l.stats = (it2n_link_stats){0};
+    it2n_msg m = cfg_msg(1);
+    B->rx_ret = IT2N_LINK_DEFER;
+    uint16_t seq = (uint16_t)it2n_link_send(&A->l, &m, 3);
+    xfer(A, B, 3, 0);
+    assert_int_equal(B->l.stats.tx_rcvd, 1);
+    xfer(B, A, 4, 0);
+    assert_int_equal(A->l.stats.rx_rcvd, 1);
+    for (uint32_t t = 5; t <= 150; t++)
+        it2n_link_poll(&A->l, t); /* past the RTO (100) */
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    assert_int_equal(it2n_link_complete(&B->l, seq, 0, NULL), IT2N_OK);
+    xfer(B, A, 150, 0);
+    assert_int_equal(it2n_link_pending(&A->l), 0);
+}
+
+/* Issue 17 (4.1): a v1.2 HELLO waits twice the RTO for its answer (the
+ * server creates the session first). */
+static void test_hello_waits_two_rto(void **st)
+{
+    (void)st;
+    it2n_link_cfg c;
+    memset(&c, 0, sizeof c);
+    c.out = &A->os;
+    c.on_rx = on_rx;
+    c.on_done = on_done;
+    c.app = A;
+    c.rto_ms = 100;
+    c.first_seq = 1000;
+    c.window = 16;
+    c.version = IT2N_PROTO_VERSION_12;
+    assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
+    it2n_msg m = hello_msg(IT2N_PROTO_VERSION_12, 16);
+    assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
+    A->out.len = 0;
+    it2n_link_poll(&A->l, 199);
+    assert_int_equal(A->l.stats.tx_retx, 0);
+    it2n_link_poll(&A->l, 200);
+    assert_int_equal(A->l.stats.tx_retx, 1);
 }
 
 /* Issue 17 (docs/protocol.md 4.3 rule 3, 5.1, 7): a peer that keeps more
@@ -1771,6 +1953,11 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_rto_bounds_and_karn, setup, teardown),
         cmocka_unit_test_setup_teardown(test_over_window_busy, setup, teardown),
         cmocka_unit_test_setup_teardown(test_one_probe_into_silence, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_slow_receiver_in_order, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_half_received_answer_waits, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rcvd_waits_for_later_ack, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_rcvd_of_syn_frame, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_hello_waits_two_rto, setup, teardown),
     };
     return cmocka_run_group_tests_name("proto_link", tests, NULL, NULL);
 }

@@ -343,7 +343,15 @@ static int pump(unsigned max_ms)
         }
     }
     uint32_t retx0 = lk.stats.tx_retx;
-    it2n_link_poll(&lk, now_ms());
+    it2n_link pre_dbg; /* trace 4: the link as it was before a poll that resent */
+    if (trace > 3) pre_dbg = lk;
+    uint32_t pnow = now_ms();
+    it2n_link_poll(&lk, pnow);
+    if (trace > 3 && lk.stats.tx_retx != retx0) {
+        fprintf(stderr, "DBG now %u rx_last %u heard %u rto %u\n", pnow, pre_dbg.rx_last, pre_dbg.rx_heard, (unsigned)it2n_link_rto(&pre_dbg));
+        for (unsigned k = 0; k < IT2N_PROTO_WINDOW; k++) if (pre_dbg.slot[k].used)
+            fprintf(stderr, "DBG  seq %u tries %u tmo %u held %u pw %u dl %d gone %d last %d\n", pre_dbg.slot[k].seq, pre_dbg.slot[k].tries, pre_dbg.slot[k].tmo, pre_dbg.slot[k].held, pre_dbg.slot[k].probe_wait, (int)(pre_dbg.slot[k].deadline - pnow), (int)(pre_dbg.slot[k].gone - pnow), (int)(pre_dbg.slot[k].last - pnow));
+    }
     if (trace > 2 && lk.stats.tx_retx != retx0)
         for (unsigned k = 0; k < IT2N_PROTO_WINDOW; k++)
             if (lk.slot[k].used && lk.slot[k].last == now_ms())
@@ -710,7 +718,7 @@ out:;
            "\"host_rerequests\": %u, \"rerequests_stalled\": %u, \"rerequests_busy\": %u, "
            "\"rerequests_lost\": %u, \"busy_retries\": %u, \"link\": {\"tx_frames\": %u, \"tx_retx\": %u, \"tx_timeouts\": %u, "
            "\"rx_delivered\": %u, \"rx_dup\": %u, \"rx_ahead\": %u, \"rx_nosync\": %u, \"tx_fast_retx\": %u, "
-           "\"tx_resyncs\": %u, \"rx_stale_acks\": %u}, \"window\": %u, \"version\": %u, "
+           "\"tx_resyncs\": %u, \"rx_stale_acks\": %u, \"tx_stall_waits\": %u}, \"window\": %u, \"version\": %u, "
            "\"daemon_window\": %u, \"max_in_flight\": %u, \"rto_ms\": %u}\n",
            rc == 0 ? "true" : "false", rc, wall, t_upload ? (double)(t_upload - t0) / 1e6 : 0.0,
            t_queries ? (double)(t_queries - t_upload) / 1e6 : 0.0,
@@ -721,6 +729,6 @@ out:;
            rereq_timeout + rereq_busy + rereq_lost, rereq_timeout, rereq_busy, rereq_lost,
            busy_retries, lk.stats.tx_frames, lk.stats.tx_retx, lk.stats.tx_timeouts, lk.stats.rx_delivered,
            lk.stats.rx_dup, lk.stats.rx_ahead, lk.stats.rx_nosync, lk.stats.tx_fast_retx, lk.stats.tx_resyncs,
-           lk.stats.rx_stale_acks, window, version, daemon_window, max_in_flight, (unsigned)it2n_link_rto(&lk));
+           lk.stats.rx_stale_acks, lk.stats.tx_stall_waits, window, version, daemon_window, max_in_flight, (unsigned)it2n_link_rto(&lk));
     return rc;
 }
