@@ -187,19 +187,17 @@ REASONS = {
 # Why a row of the --sack run can miss its target (what its traces show).
 REASONS_SACK = {
     "under CPU load":
-        "the pipeline stops for longer than any round trip measured so far: "
-        "with the CPUs loaded, traces show 40-100 ms in which nothing reaches "
-        "the session, then the daemon's RCVDs and ACKs arrive together (the "
-        "daemon or the relay did not run). The RTO follows the measured round "
-        "trips (SRTT + 4 RTTVAR with Karn's rule, docs/protocol.md 4.2 rule 3; "
-        "rto_ms of each run is the session's at the end), only the oldest "
-        "frame is resent into a silence (one probe), the session and the "
-        "daemon read their input before their timers, RCVD covers deferred "
-        "answers: stalls within the spread seen lately cost nothing, but a "
-        "stall longer than any seen so far (early in a run, before the "
-        "samples show the load, or when other jobs load the machine beyond a "
-        "busy loop per core: loadavg_at_end) cannot be told from a lost frame "
-        "and costs one retransmission (harmless: the receiver's history)",
+        "the pipeline stops for longer than the link's rules cover: with the "
+        "CPUs loaded, traces show 40-100 ms in which nothing reaches the "
+        "session (the daemon or the relay did not run). The timers restart "
+        "on every answer (in-order delivery), only the oldest unanswered "
+        "frame times out, silence after newer frames waits 4 RTO (128 ms) "
+        "before a probe, a RCVD'd frame waits while a later ACK can name it, "
+        "a half-received answer holds the timer (docs/protocol.md 4.2 rules 3 "
+        "and 4c): a stall longer than that, or a lone frame (no newer one to "
+        "tell a stall from a loss) held longer than the adaptive RTO, still "
+        "costs one retransmission (harmless: the receiver's history); "
+        "loadavg_at_end shows other jobs' load",
     "vs clean":
         "each loss at the end of a burst (the last PUTs, COMMIT) waits for a "
         "timeout, and a deferred answer whose ACK is lost for twice the "
