@@ -619,7 +619,7 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held, uin
 }
 
 /* A round-trip sample (docs/protocol.md 4.2 rule 3): the first answer
- * (ACK, NACK or RCVD) to frame s, sent once (Karn's rule: the answer to a
+ * (ACK, NACK or RCVD) to frame s, or to a HELLO, sent once (Karn's rule: the answer to a
  * retransmitted frame may be the first copy's), not held by a GAP or
  * deferred (RCVD) and not sent while an older frame was retransmitted.
  * It runs from when the frame left the line (with the line clock) or was
@@ -627,13 +627,10 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held, uin
  * scaled by 8 and 4); the RTO is SRTT + max(1, 4 RTTVAR) within rto_ms ..
  * rto_max_ms, so that a peer whose answers come late now and then (a
  * loaded machine, a USB adapter's latency) is not taken for a lossy one. */
-static void rtt_sample(it2n_link *l, const it2n_link_slot *s, uint32_t now)
+static void rtt_update(it2n_link *l, uint32_t r)
 {
-    uint32_t r, rto;
+    uint32_t rto;
     int32_t err;
-    if (s->tries != 1u || s->held != 0u || s->nosample)
-        return;
-    r = due(now, s->gone) ? now - s->gone : 0u;
     if (r > l->cfg.rto_max_ms)
         r = l->cfg.rto_max_ms; /* beyond the cap says nothing more */
     if (r > 0x00FFFFFFu)
@@ -655,6 +652,13 @@ static void rtt_sample(it2n_link *l, const it2n_link_slot *s, uint32_t now)
     if (rto > l->cfg.rto_max_ms)
         rto = l->cfg.rto_max_ms;
     l->rto = rto;
+}
+
+static void rtt_sample(it2n_link *l, const it2n_link_slot *s, uint32_t now)
+{
+    if (s->tries != 1u || s->held != 0u || s->nosample)
+        return;
+    rtt_update(l, due(now, s->gone) ? now - s->gone : 0u);
 }
 
 /* How long a frame answered RCVD waits for its deferred answer: twice
@@ -775,6 +779,8 @@ static void line_sync(it2n_link *l, uint32_t gone, uint32_t now)
 static void hello_answer(it2n_link *l, const it2n_msg *m, uint32_t now)
 {
     l->stats.rx_acks++;
+    if (l->hello.tries == 1u && !l->hello.acked)
+        rtt_update(l, now - l->hello.first); /* the first round trip (sent once: Karn) */
     if (m->type == IT2N_MSG_ACK) {
         /* Wait for the server's HELLO, which it retransmits itself; ask
          * again only if it stays away (the ACK was a stale copy). */

@@ -1729,7 +1729,8 @@ static void test_rcvd_of_syn_frame(void **st)
 }
 
 /* Issue 17 (4.1): a v1.2 HELLO waits twice the RTO for its answer (the
- * server creates the session first). */
+ * server creates the session first), and its round trip is the first
+ * sample of the adaptive RTO (4.2 rule 3). */
 static void test_hello_waits_two_rto(void **st)
 {
     (void)st;
@@ -1751,6 +1752,36 @@ static void test_hello_waits_two_rto(void **st)
     assert_int_equal(A->l.stats.tx_retx, 0);
     it2n_link_poll(&A->l, 200);
     assert_int_equal(A->l.stats.tx_retx, 1);
+    /* a server answers the copy: no round-trip sample (Karn) */
+    c.app = B;
+    c.out = &B->os;
+    c.first_seq = 7;
+    c.version = 0;
+    c.new_session = srv_session;
+    assert_int_equal(it2n_link_init(&B->l, &c), IT2N_OK);
+    xfer(A, B, 230, 0);
+    xfer(B, A, 231, 0);
+    assert_int_equal(it2n_link_rto(&A->l), 100);
+
+    /* sent once and answered after 160 ms: the first round-trip sample
+     * (RTO = R + 4 R/2), so the first frames of the session do not take
+     * a slow start (a loaded machine) for a loss */
+    c.app = A;
+    c.out = &A->os;
+    c.first_seq = 1000;
+    c.version = IT2N_PROTO_VERSION_12;
+    c.new_session = NULL;
+    assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
+    c.app = B;
+    c.out = &B->os;
+    c.first_seq = 7;
+    c.version = 0;
+    c.new_session = srv_session;
+    assert_int_equal(it2n_link_init(&B->l, &c), IT2N_OK);
+    assert_int_equal(it2n_link_send(&A->l, &m, 1000), 1000);
+    xfer(A, B, 1000, 0);
+    xfer(B, A, 1160, 0);
+    assert_int_equal(it2n_link_rto(&A->l), 160 + 4 * 80);
 }
 
 /* Issue 17 (docs/protocol.md 4.3 rule 3, 5.1, 7): a peer that keeps more
