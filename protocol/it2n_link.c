@@ -619,8 +619,8 @@ static void on_gap(it2n_link *l, uint16_t seq, uint16_t have, uint64_t held, uin
 }
 
 /* A round-trip sample (docs/protocol.md 4.2 rule 3): the first answer
- * (ACK, NACK or RCVD) to frame s, or to a HELLO, sent once (Karn's rule: the answer to a
- * retransmitted frame may be the first copy's), not held by a GAP or
+ * (ACK, NACK or RCVD) to frame s, or to a HELLO, sent once (Karn's
+ * rule: the answer to a retransmitted frame may be the first copy's), not held by a GAP or
  * deferred (RCVD) and not sent while an older frame was retransmitted.
  * It runs from when the frame left the line (with the line clock) or was
  * written. SRTT and RTTVAR as RFC 6298 (gains 1/8 and 1/4, integer ms,
@@ -675,8 +675,9 @@ static uint32_t rcvd_wait(const it2n_link *l)
  * from now at the earliest: a peer working through its input (a loaded
  * machine, an fsync) answers them one by one, each later than its
  * departure plus an RTO, and none of them is lost. TCP restarts its timer
- * on every ACK of new data likewise (RFC 6298, 5.3). Frames held by a GAP
- * or answered RCVD keep their own timers. */
+ * on every ACK of new data likewise (RFC 6298, 5.3). A frame answered
+ * RCVD waits its RCVD wait from now; frames held by a GAP or waiting
+ * behind an older one keep their timers. */
 static void delivered(it2n_link *l, const it2n_link_slot *s, uint32_t now)
 {
     uint16_t age = (uint16_t)(l->tx_next - s->seq);
@@ -1074,7 +1075,7 @@ int it2n_link_poll(it2n_link *l, uint32_t now)
             continue;
         }
         if (probe_out(l, s, now))
-            continue; /* one probe into silence at a time */
+            continue; /* oldest first */
         if (silent_stall(l, s, now))
             continue; /* the peer stalls: no loss said so */
         if (l->cfg.baud != 0u && reverse_busy(l, now)) {
