@@ -197,16 +197,45 @@ bool cli_parse_grid(const char *s, unsigned *r, unsigned *c);
 bool cli_parse_fps(const char *s, unsigned *mask);
 
 /*
+ * A data set of either kind as DATA.csv was read, read through one set of
+ * accessors (what it2nctl push uploads over any transport, the data points
+ * plot draws): at most one of ds (Bezier) and bds (B-spline) is set; n, m
+ * (grid i in 0..n, j in 0..m) and flags (IT2N_F_*) are copied from it.
+ * Neither set: no data (n = m = 0, no entry present).
+ */
+typedef struct cli_data {
+    const it2n_dataset *ds;
+    const it2n_bspline_data *bds;
+    unsigned n, m, flags;
+} cli_data;
+
+/* The data of a Bezier (ds) or a B-spline (bds) data set; NULL: none. */
+cli_data cli_data_bezier(const it2n_dataset *ds);
+cli_data cli_data_bspline(const it2n_bspline_data *bds);
+
+/* True if entry (i, j, fp) is present (a type-1 set holds D only); false
+ * outside the grid. */
+bool cli_data_has(const cli_data *d, unsigned i, unsigned j, unsigned fp);
+
+/* Present entry (i, j, fp) with memberships in Q24 (cli_data_get) or as
+ * stored, in Q30 (cli_data_get_fine). */
+void cli_data_get(const cli_data *d, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT]);
+void cli_data_get_fine(const cli_data *d, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT]);
+
+/* How many entries are present: what a push uploads. */
+unsigned cli_data_count(const cli_data *d);
+
+/*
  * A solved model of either kind, for plot and export (and it2nctl's live
  * drawing): exactly one of bez, bsp is set. The data points are drawn from
- * ds / bds where given (it2n), else from the surface at the parameter
- * nodes, where it interpolates them (it2nctl; uniform parameters only).
+ * data where it has them (it2n), else from the surface at the parameter
+ * nodes, where it interpolates them (it2nctl: no data; uniform parameters
+ * only).
  */
 typedef struct cli_surface {
     const it2n_model *bez;
-    const it2n_dataset *ds; /* Bezier data, or NULL  */
     const it2n_bspline_model *bsp;
-    const it2n_bspline_data *bds; /* B-spline data, or NULL */
+    cli_data data; /* of the model's kind, or none */
 } cli_surface;
 
 unsigned cli_surf_n(const cli_surface *s); /* intervals (Bezier: degree) */
