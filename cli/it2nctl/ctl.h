@@ -138,4 +138,9 @@ void ctl_summarise(bool type1, it2n_point *pt);
 /* Name of a model state ("solved"). */
 const char *ctl_state_name(int state);
 
+/* A push refused because the daemon's model (named by where: "unit 3",
+ * the link's "DEVICE model 1") is of the other kind than src: says so and
+ * how to push, "(nothing was <nothing>)". Returns CTL_EXIT_DATA. */
+int ctl_wrong_kind(const char *where, bool held_bspline, const cli_data *src, const char *nothing);
+
 #endif /* IT2N_CTL_H */

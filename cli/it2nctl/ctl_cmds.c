@@ -33,6 +33,16 @@ const char *ctl_state_name(int state)
     }
 }
 
+int ctl_wrong_kind(const char *where, bool held_bspline, const cli_data *src, const char *nothing)
+{
+    const char *want = src->bds != NULL ? "bspline" : "bezier";
+    fprintf(stderr,
+            "it2nctl: %s holds a %s model and the data are for the %s kind: push --kind %s to a [model:ID] with "
+            "kind = %s (nothing was %s)\n",
+            where, held_bspline ? "bspline" : "bezier", want, want, want, nothing);
+    return CTL_EXIT_DATA;
+}
+
 void ctl_summarise(bool type1, it2n_point *pt)
 {
     static const unsigned char upper[3] = {IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR};

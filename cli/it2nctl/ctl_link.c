@@ -463,13 +463,7 @@ static int lk_push(void *p, const cli_data *src, ctl_progress_fn progress, void 
         if (c->nack.code == IT2N_ERR_INVAL && c->nack.value == m.u.configure.kind && c->nack.lo == c->nack.hi &&
             c->nack.lo != c->nack.value) {
             /* the model's configured kind is the other one (5.3) */
-            fprintf(stderr,
-                    "it2nctl: %s holds a %s model and the data are for the "
-                    "%s kind: push --kind %s to a [model:ID] with kind = %s "
-                    "(nothing was changed)\n",
-                    c->where, c->nack.lo ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier",
-                    src->bds != NULL ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier");
-            return CTL_EXIT_DATA;
+            return ctl_wrong_kind(c->where, c->nack.lo != 0, src, "changed");
         }
         if (c->nack.code == IT2N_ERR_RANGE && c->nack.i < 0) {
             fprintf(stderr,

@@ -262,13 +262,9 @@ static int mb_push(void *p, const cli_data *src, ctl_progress_fn progress, void 
         return mb_fail(c, "read status");
     }
     if (kind != (src->bds != NULL ? IT2N_REGMAP_KIND_BSPLINE : IT2N_REGMAP_KIND_BEZIER)) {
-        fprintf(stderr,
-                "it2nctl: unit %d holds a %s model and the data are for the "
-                "%s kind: push --kind %s to a [model:ID] with kind = %s "
-                "(nothing was sent)\n",
-                modbus_get_slave(c->ctx), kind ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier",
-                src->bds != NULL ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier");
-        return CTL_EXIT_DATA;
+        char where[32];
+        snprintf(where, sizeof(where), "unit %d", modbus_get_slave(c->ctx));
+        return ctl_wrong_kind(where, kind != IT2N_REGMAP_KIND_BEZIER, src, "sent");
     }
     /* Everything representable before the first write: a refused push
      * changes nothing. */
