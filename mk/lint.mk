@@ -9,6 +9,9 @@
 #   ends' and the register map's objects carries its module's prefix, one
 #   set of lifecycle verbs (nm; docs/design.md, "Names"); its --selftest
 #   first shows it fails on wrong names
+#   tests/lint/tracked.py: no generated file (bytecode, logs, build
+#   outputs, libFuzzer artefacts) is tracked by git; its --selftest first
+#   shows it fails on a scratch repository where one is
 #   format-check: the product code laid out as .clang-format says
 #   (mk/format.mk; "format-check: skip: ..." without clang-format 14), and
 #   tests/lint/format_test.sh, which shows the check fails on mangled code
@@ -31,7 +34,7 @@ LINT_TESTS := cppcheck --std=c11 --enable=warning,portability --error-exitcode=1
 LINT_NAMES_OBJ := $(sort $(DAEMON_OBJ) $(CLI_OBJ) $(CTL_SRC:%.c=$(BUILD)/host/%.o) $(REGMAP_OBJ))
 
 .PHONY: lint
-lint: $(LINT_NAMES_OBJ) ## Static checks: cppcheck over all C code, layers.py, names.py, format-check
+lint: $(LINT_NAMES_OBJ) ## Static checks: cppcheck over all C code, layers.py, names.py, tracked.py, format-check
 	$(LINT_C99) -Iregmap firmware_core protocol regmap
 	$(LINT_C99) -Iexamples/instrument -Iexamples/firmware -Itests/qemu examples/firmware
 	$(LINT_C11) -Iregmap -Icli/common -Icli/it2nctl cli daemon
@@ -44,8 +47,11 @@ lint: $(LINT_NAMES_OBJ) ## Static checks: cppcheck over all C code, layers.py, n
 	@# One prefix per module, one set of lifecycle verbs.
 	/usr/bin/python3 tests/lint/names.py --selftest
 	/usr/bin/python3 tests/lint/names.py $(BUILD)/host $(LINT_NAMES_OBJ)
+	@# No generated file tracked by git (issue 19: a libFuzzer log was).
+	/usr/bin/python3 tests/lint/tracked.py --selftest
+	/usr/bin/python3 tests/lint/tracked.py
 	@mk/format.sh lint $(FORMAT_FILES)
 	@tests/lint/format_test.sh
-	@echo "lint: cppcheck clean, layers respected, module prefixes held (format-check: above)"
+	@echo "lint: cppcheck clean, layers respected, module prefixes held, no generated file tracked (format-check: above)"
 
 TEST_TARGETS += lint

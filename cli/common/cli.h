@@ -115,16 +115,51 @@ enum {
 extern const cli_optset cli_common_opts;
 
 /*
- * A program's command words for cli_first_word: its table of commands
- * (entries of `stride` bytes, each starting with its name, a const char *)
- * and its help printers.
+ * What `PROG --help` and `PROG CMD --help` say of a command: the first
+ * member of every entry of a program's command table (the rest of an entry
+ * is the program's own: option bits, what runs it).
+ */
+typedef struct cli_cmd_text {
+    const char *name;
+    const char *args;    /* synopsis after the command's operands     */
+    const char *summary; /* one line of `PROG --help`'s command list  */
+    const char *help;    /* details of `PROG CMD --help`              */
+} cli_cmd_text;
+
+/*
+ * A program as cli_first_word and the help see it: its command table and
+ * the words of its help, which prog.c lays out the same way for both:
+ *
+ *   Usage: PROG SYNOPSIS            Usage: PROG CMD OPERANDS ARGS TAIL
+ *   ABOUT
+ *                                   HELP
+ *   Commands:
+ *     NAME SUMMARY  (cmds, more)    OPTIONS
+ *
+ *   NOTES'PROG COMMAND --help' for details; 'PROG --version'.
+ *
+ *   OPTIONS
+ *
+ * OPTIONS: opts_title, the labelled options of opts (cli_opt_help, labels
+ * padded to opts_width), opts_tail.
  */
 typedef struct cli_prog {
-    const char *name; /* "it2n", for messages and --version     */
-    const void *cmds; /* the command table                      */
-    size_t ncmds, stride;
-    void (*usage_all)(FILE *out);       /* `PROG --help`                   */
-    void (*usage_cmd)(const void *cmd); /* `PROG --help CMD`              */
+    const char *name; /* "it2n", for messages and --version          */
+    const void *cmds; /* entries of `stride` bytes, each starting    */
+    size_t ncmds;     /* with its cli_cmd_text                       */
+    size_t stride;
+    const char *synopsis;     /* after "Usage: PROG "                  */
+    const char *about;        /* one line (no '\n' at the end)         */
+    int width;                /* the command names' column             */
+    const cli_cmd_text *more; /* listed after the table, not in it     */
+    size_t nmore;             /* (it2nctl spb: a form of its own)      */
+    const char *notes;        /* lines before "'PROG COMMAND --help'"  */
+    const char *operands;     /* after CMD: " DATA.csv" or ""          */
+    const char *tail;         /* after ARGS: what every command takes  */
+    const char *opts_title;
+    const cli_optset *opts;
+    unsigned opts_width;
+    const char *opts_tail;
     /* Options before the command (NULL: not allowed): move the command to
      * argv[1]; -1, or an exit status after a message. */
     int (*reorder)(int argc, char **argv);
@@ -135,14 +170,9 @@ typedef struct cli_prog {
  * its entry, or NULL with *rc the exit status when there is no more to do. */
 const void *cli_first_word(const cli_prog *pg, int argc, char **argv, int *rc);
 
-/* The command list of `PROG --help`: "  NAME SUMMARY" per entry, the name
- * padded to width; an entry of a command table starts with its name and
- * holds its one-line summary, a const char *, at summary_at bytes. */
-void cli_put_commands(FILE *out, const cli_prog *pg, size_t summary_at, int width);
-
 /* The answers both programs give alike to an option id after the command:
  * CLI_OPT_ERROR the usage status (cli_opt_next printed why), CLI_OPT_HELP
- * pg->usage_cmd(cmd) and 0, CLI_OPT_VERSION the --version line of
+ * `PROG CMD --help` and 0, CLI_OPT_VERSION the --version line of
  * cli_first_word and 0. -1 for any other id: the caller's to take. */
 int cli_builtin_opt(const cli_prog *pg, const void *cmd, int id);
 
@@ -167,16 +197,45 @@ bool cli_parse_grid(const char *s, unsigned *r, unsigned *c);
 bool cli_parse_fps(const char *s, unsigned *mask);
 
 /*
+ * A data set of either kind as DATA.csv was read, read through one set of
+ * accessors (what it2nctl push uploads over any transport, the data points
+ * plot draws): at most one of ds (Bezier) and bds (B-spline) is set; n, m
+ * (grid i in 0..n, j in 0..m) and flags (IT2N_F_*) are copied from it.
+ * Neither set: no data (n = m = 0, no entry present).
+ */
+typedef struct cli_data {
+    const it2n_dataset *ds;
+    const it2n_bspline_data *bds;
+    unsigned n, m, flags;
+} cli_data;
+
+/* The data of a Bezier (ds) or a B-spline (bds) data set; NULL: none. */
+cli_data cli_data_bezier(const it2n_dataset *ds);
+cli_data cli_data_bspline(const it2n_bspline_data *bds);
+
+/* True if entry (i, j, fp) is present (a type-1 set holds D only); false
+ * outside the grid. */
+bool cli_data_has(const cli_data *d, unsigned i, unsigned j, unsigned fp);
+
+/* Present entry (i, j, fp) with memberships in Q24 (cli_data_get) or as
+ * stored, in Q30 (cli_data_get_fine). */
+void cli_data_get(const cli_data *d, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT]);
+void cli_data_get_fine(const cli_data *d, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT]);
+
+/* How many entries are present: what a push uploads. */
+unsigned cli_data_count(const cli_data *d);
+
+/*
  * A solved model of either kind, for plot and export (and it2nctl's live
  * drawing): exactly one of bez, bsp is set. The data points are drawn from
- * ds / bds where given (it2n), else from the surface at the parameter
- * nodes, where it interpolates them (it2nctl; uniform parameters only).
+ * data where it has them (it2n), else from the surface at the parameter
+ * nodes, where it interpolates them (it2nctl: no data; uniform parameters
+ * only).
  */
 typedef struct cli_surface {
     const it2n_model *bez;
-    const it2n_dataset *ds; /* Bezier data, or NULL  */
     const it2n_bspline_model *bsp;
-    const it2n_bspline_data *bds; /* B-spline data, or NULL */
+    cli_data data; /* of the model's kind, or none */
 } cli_surface;
 
 unsigned cli_surf_n(const cli_surface *s); /* intervals (Bezier: degree) */

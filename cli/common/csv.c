@@ -347,6 +347,16 @@ static int report(const cli_csv_reader *p, cli_csv_error *err)
     return p->error;
 }
 
+/* The core refused the finished data set (code rc): the error at the row
+ * info names, kept as the reader's. */
+static int refused(cli_csv_reader *p, const it2n_errinfo *info, int rc, cli_csv_error *err)
+{
+    cli_csv_locate(p, info, &p->err);
+    p->err.code = rc;
+    p->error = rc;
+    return report(p, err);
+}
+
 int cli_csv_feed(cli_csv_reader *p, const char *data, size_t len, cli_csv_error *err)
 {
     size_t k;
@@ -479,10 +489,7 @@ int cli_csv_finish_bspline(cli_csv_reader *p, it2n_bspline_data *ds, cli_csv_err
     p->bs_scratch.n = 0;
     rc = it2n_bspline_data_check(&out, &info);
     if (rc != IT2N_OK) {
-        cli_csv_locate(p, &info, &p->err);
-        p->err.code = rc;
-        p->error = rc;
-        return report(p, err);
+        return refused(p, &info, rc, err);
     }
     *ds = out;
     return IT2N_OK;
@@ -516,10 +523,7 @@ int cli_csv_finish(cli_csv_reader *p, it2n_dataset *ds, cli_csv_error *err)
         rc = it2n_dataset_check(&out, &info);
     }
     if (rc != IT2N_OK) {
-        cli_csv_locate(p, &info, &p->err);
-        p->err.code = rc;
-        p->error = rc;
-        return report(p, err);
+        return refused(p, &info, rc, err);
     }
     memcpy(ds, &out, sizeof(out));
     return IT2N_OK;

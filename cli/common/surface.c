@@ -63,23 +63,10 @@ it2n_val cli_surf_coef(const cli_surface *s, unsigned r, unsigned c, unsigned fp
 
 bool cli_surf_point(const cli_surface *s, unsigned i, unsigned j, unsigned fp, it2n_val v[IT2N_CH_COUNT])
 {
-    if (s->bsp != NULL) {
-        const it2n_bspline_data *d = s->bds;
-        unsigned nfp;
-        if (d == NULL || i > d->n || j > d->m || !cli_surf_has_fp(s, fp)) {
-            return false;
-        }
-        nfp = IT2N_BSPLINE_NFP(d->flags);
-        if (!d->rec[((size_t)i * (d->m + 1u) + j) * nfp + (nfp == 1u ? 0u : fp)].present) {
-            return false;
-        }
-        it2n_bspline_data_get(d, i, j, fp, v);
-        return true;
-    }
-    if (s->ds == NULL || i > s->ds->n || j > s->ds->m || !s->ds->present[i][j]) {
+    if (!cli_surf_has_fp(s, fp) || !cli_data_has(&s->data, i, j, fp)) {
         return false;
     }
-    it2n_dataset_get(s->ds, i, j, fp, v);
+    cli_data_get(&s->data, i, j, fp, v);
     return true;
 }
 

@@ -231,10 +231,10 @@ static int run(const cli_opts *o)
         memset(&sf, 0, sizeof(sf));
         if (g_bspline) {
             sf.bsp = g_bmdl;
-            sf.bds = g_bds;
+            sf.data = cli_data_bspline(g_bds);
         } else {
             sf.bez = &g_mdl;
-            sf.ds = &g_ds;
+            sf.data = cli_data_bezier(&g_ds);
         }
         return strcmp(o->cmd, "plot") == 0 ? cli_plot(o, &sf) : cli_export(o, &sf);
     }

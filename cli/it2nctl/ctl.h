@@ -10,6 +10,7 @@
 #ifndef IT2N_CTL_H
 #define IT2N_CTL_H
 
+#include "cli.h"
 #include "it2n.h"
 
 #include <stdbool.h>
@@ -66,10 +67,11 @@ typedef int (*ctl_sample_fn)(void *ctx, unsigned r, unsigned c, it2n_par u, it2n
 typedef struct ctl_ops {
     const char *kind; /* "modbus" or "link" */
     int (*status)(void *c, ctl_status *st);
-    /* Configure (n, m, flags), clear, upload every entry of ds, commit.
-     * Checks what the transport cannot carry before sending anything
-     * (returns CTL_REJECTED with *rej, ch >= 0, code IT2N_ERR_RANGE). */
-    int (*push)(void *c, const it2n_dataset *ds, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej);
+    /* Configure (kind, n, m, flags), clear, upload every entry of src,
+     * commit. Checks what the transport cannot carry before sending
+     * anything (returns CTL_REJECTED with *rej, ch >= 0, code
+     * IT2N_ERR_RANGE). */
+    int (*push)(void *c, const cli_data *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej);
     /* Evaluate at (*u, *w); on return *u, *w are the parameters the
      * daemon evaluated at (a transport may round them). */
     int (*eval)(void *c, it2n_par *u, it2n_par *w, it2n_point *pt);
@@ -83,10 +85,8 @@ typedef struct ctl_ops {
      * *st. Returns CTL_EXIT_OK (changed or not: compare st->generation). */
     int (*wait)(void *c, uint32_t gen, int timeout_ms, ctl_status *st);
     void (*close)(void *c);
-    /* The B-spline kind (NULL: the transport cannot carry it): push a
-     * data set as push does; read row `row` of net (fp, ch), st->net_cols
-     * coefficients in Q24, into out. */
-    int (*push_bspline)(void *c, const it2n_bspline_data *bds, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej);
+    /* The B-spline kind (NULL: the transport cannot carry it): read row
+     * `row` of net (fp, ch), st->net_cols coefficients in Q24, into out. */
     int (*coef_row)(void *c, const ctl_status *st, unsigned fp, unsigned ch, unsigned row, it2n_val *out);
 } ctl_ops;
 
@@ -137,5 +137,10 @@ void ctl_summarise(bool type1, it2n_point *pt);
 
 /* Name of a model state ("solved"). */
 const char *ctl_state_name(int state);
+
+/* A push refused because the daemon's model (named by where: "unit 3",
+ * the link's "DEVICE model 1") is of the other kind than src: says so and
+ * how to push, "(nothing was <nothing>)". Returns CTL_EXIT_DATA. */
+int ctl_wrong_kind(const char *where, bool held_bspline, const cli_data *src, const char *nothing);
 
 #endif /* IT2N_CTL_H */

@@ -33,6 +33,16 @@ const char *ctl_state_name(int state)
     }
 }
 
+int ctl_wrong_kind(const char *where, bool held_bspline, const cli_data *src, const char *nothing)
+{
+    const char *want = src->bds != NULL ? "bspline" : "bezier";
+    fprintf(stderr,
+            "it2nctl: %s holds a %s model and the data are for the %s kind: push --kind %s to a [model:ID] with "
+            "kind = %s (nothing was %s)\n",
+            where, held_bspline ? "bspline" : "bezier", want, want, want, nothing);
+    return CTL_EXIT_DATA;
+}
+
 void ctl_summarise(bool type1, it2n_point *pt)
 {
     static const unsigned char upper[3] = {IT2N_FP_LL, IT2N_FP_D, IT2N_FP_RR};
@@ -224,20 +234,12 @@ static void progress_bar(void *ctx, unsigned done, unsigned total)
 int ctl_cmd_push(ctl_session *s, const ctl_args *a)
 {
     const char *name = cli_display_name(a->o.path);
+    const cli_data src = g_bds != NULL ? cli_data_bspline(g_bds) : cli_data_bezier(&g_ds);
     it2n_errinfo rej;
     ctl_status st;
     char msg[600];
     int rc;
-    if (g_bds != NULL && s->ops->push_bspline == NULL) {
-        fprintf(stderr,
-                "it2nctl: push --kind bspline: not over --%s (its "
-                "messages carry Bezier degrees up to %d); push over "
-                "Modbus (--tcp or --rtu)\n",
-                s->ops->kind, IT2N_MAX_DEGREE);
-        return CTL_EXIT_USAGE;
-    }
-    rc = g_bds != NULL ? s->ops->push_bspline(s->c, g_bds, isatty(2) ? progress_bar : NULL, NULL, &rej)
-                       : s->ops->push(s->c, &g_ds, isatty(2) ? progress_bar : NULL, NULL, &rej);
+    rc = s->ops->push(s->c, &src, isatty(2) ? progress_bar : NULL, NULL, &rej);
     if (g_bar_open) { /* failed midway: the message on its own line */
         fputc('\n', stderr);
         g_bar_open = false;

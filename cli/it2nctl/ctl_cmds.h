@@ -12,10 +12,10 @@
 struct ctl_args;
 struct ctl_session;
 
-/* A command: its name, help texts, option bits (CLI_O_*, O_*) and what
- * runs it once the daemon is reached. */
+/* A command: its name and help texts, option bits (CLI_O_*, O_*) and
+ * what runs it once the daemon is reached. */
 typedef struct ctl_cmd {
-    const char *name, *args, *summary, *help;
+    cli_cmd_text t;
     unsigned opts;
     int (*run)(struct ctl_session *s, const struct ctl_args *a);
 } ctl_cmd;

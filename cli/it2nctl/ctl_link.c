@@ -7,7 +7,6 @@
  * Values are exact (Q24 on the wire); parameters travel as Q2.30.
  */
 #include "ctl.h"
-#include "ctl_src.h"
 
 #include "it2n_link.h"
 
@@ -307,6 +306,14 @@ static int refused(const lk_conn *c, const char *what)
     return CTL_EXIT_DATA;
 }
 
+/* A query (status, eval, locate, net, sample): request with its
+ * response(s), a refusal printed. CTL_EXIT_OK or an exit status. */
+static int query(lk_conn *c, it2n_msg *msg, const char *what)
+{
+    int rc = request(c, msg, true, what);
+    return rc == CTL_REJECTED ? refused(c, what) : rc;
+}
+
 static int lk_status(void *p, ctl_status *st)
 {
     lk_conn *c = p;
@@ -316,10 +323,7 @@ static int lk_status(void *p, ctl_status *st)
     memset(&m, 0, sizeof(m));
     m.type = IT2N_MSG_GET_STATUS;
     m.u.model.model = c->model;
-    rc = request(c, &m, true, "status");
-    if (rc == CTL_REJECTED) {
-        return refused(c, "status");
-    }
+    rc = query(c, &m, "status");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
@@ -357,9 +361,9 @@ static void nack_info(const lk_conn *c, it2n_errinfo *rej)
 
 /* Entry (i, j, fp) as a PUT carries it: memberships in Q30 (fine) or
  * Q24 (exact: push_format checked). */
-static void src_get_wire(const ctl_src *s, unsigned i, unsigned j, unsigned fp, bool fine, it2n_val v[IT2N_CH_COUNT])
+static void src_get_wire(const cli_data *s, unsigned i, unsigned j, unsigned fp, bool fine, it2n_val v[IT2N_CH_COUNT])
 {
-    ctl_src_get_fine(s, i, j, fp, v);
+    cli_data_get_fine(s, i, j, fp, v);
     for (unsigned ch = IT2N_CH_T; !fine && ch <= IT2N_CH_F; ch++) {
         v[ch] /= (it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC);
     }
@@ -367,17 +371,17 @@ static void src_get_wire(const ctl_src *s, unsigned i, unsigned j, unsigned fp, 
 
 /* A membership finer than Q24 in the source: what a PUT without FINE
  * would round (its (i, j, fp) in *at), or false. */
-static bool src_finer_than_q24(const ctl_src *s, unsigned at[3])
+static bool src_finer_than_q24(const cli_data *s, unsigned at[3])
 {
     const it2n_val low = ((it2n_val)1 << (IT2N_MEMB_FRAC - IT2N_VAL_FRAC)) - 1;
-    for (unsigned i = 0; i <= ctl_src_n(s); i++) {
-        for (unsigned j = 0; j <= ctl_src_m(s); j++) {
+    for (unsigned i = 0; i <= s->n; i++) {
+        for (unsigned j = 0; j <= s->m; j++) {
             for (unsigned fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 it2n_val v[IT2N_CH_COUNT];
-                if (!ctl_src_has(s, i, j, fp)) {
+                if (!cli_data_has(s, i, j, fp)) {
                     continue;
                 }
-                ctl_src_get_fine(s, i, j, fp, v);
+                cli_data_get_fine(s, i, j, fp, v);
                 if ((v[IT2N_CH_T] & low) || (v[IT2N_CH_I] & low) || (v[IT2N_CH_F] & low)) {
                     at[0] = i;
                     at[1] = j;
@@ -398,7 +402,7 @@ static bool hello_seen(const lk_conn *c)
 /* What the daemon's HELLO (sent right after it ACKed ours) allows for
  * src: CTL_EXIT_OK with *fine set when memberships may travel in Q30 (PUT
  * FINE), or CTL_EXIT_DATA with the reason printed, nothing sent. */
-static int push_format(lk_conn *c, const ctl_src *src, bool *fine)
+static int push_format(lk_conn *c, const cli_data *src, bool *fine)
 {
     unsigned at[3];
     *fine = false;
@@ -437,41 +441,29 @@ static int push_format(lk_conn *c, const ctl_src *src, bool *fine)
 
 /* CONFIGURE (the 5-byte v1.3 form for a B-spline), every entry in PUTs of
  * as many as fit (FINE when the daemon reads it), COMMIT. */
-static int push_src(lk_conn *c, const ctl_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
+static int lk_push(void *p, const cli_data *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
 {
     static it2n_msg m;
-    unsigned i, j, fp, total = 0, done = 0;
+    lk_conn *c = p;
+    unsigned i, j, fp, total = cli_data_count(src), done = 0;
     bool fine;
     int rc = push_format(c, src, &fine);
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    for (i = 0; i <= ctl_src_n(src); i++) {
-        for (j = 0; j <= ctl_src_m(src); j++) {
-            for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                total += ctl_src_has(src, i, j, fp);
-            }
-        }
-    }
     memset(&m, 0, sizeof(m));
     m.type = IT2N_MSG_CONFIGURE;
     m.u.configure.model = c->model;
-    m.u.configure.n = (uint8_t)ctl_src_n(src);
-    m.u.configure.m = (uint8_t)ctl_src_m(src);
-    m.u.configure.flags = (uint8_t)ctl_src_flags(src);
+    m.u.configure.n = (uint8_t)src->n;
+    m.u.configure.m = (uint8_t)src->m;
+    m.u.configure.flags = (uint8_t)src->flags;
     m.u.configure.kind = src->bds != NULL ? IT2N_CFG_BSPLINE : IT2N_CFG_BEZIER;
     rc = request(c, &m, false, "configure");
     if (rc == CTL_REJECTED) {
         if (c->nack.code == IT2N_ERR_INVAL && c->nack.value == m.u.configure.kind && c->nack.lo == c->nack.hi &&
             c->nack.lo != c->nack.value) {
             /* the model's configured kind is the other one (5.3) */
-            fprintf(stderr,
-                    "it2nctl: %s holds a %s model and the data are for the "
-                    "%s kind: push --kind %s to a [model:ID] with kind = %s "
-                    "(nothing was changed)\n",
-                    c->where, c->nack.lo ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier",
-                    src->bds != NULL ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier");
-            return CTL_EXIT_DATA;
+            return ctl_wrong_kind(c->where, c->nack.lo != 0, src, "changed");
         }
         if (c->nack.code == IT2N_ERR_RANGE && c->nack.i < 0) {
             fprintf(stderr,
@@ -489,11 +481,11 @@ static int push_src(lk_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
     m.type = IT2N_MSG_PUT;
     m.u.put.model = c->model;
     m.u.put.flags = fine ? IT2N_PUT_FINE : 0u;
-    for (i = 0; i <= ctl_src_n(src); i++) {
-        for (j = 0; j <= ctl_src_m(src); j++) {
+    for (i = 0; i <= src->n; i++) {
+        for (j = 0; j <= src->m; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
                 it2n_put_entry *e;
-                if (!ctl_src_has(src, i, j, fp)) {
+                if (!cli_data_has(src, i, j, fp)) {
                     continue;
                 }
                 e = &m.u.put.e[m.u.put.count++];
@@ -501,7 +493,7 @@ static int push_src(lk_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
                 e->j = (uint8_t)j;
                 e->fp = (uint8_t)fp;
                 src_get_wire(src, i, j, fp, fine, e->vals);
-                if (!(ctl_src_flags(src) & IT2N_F_Z)) {
+                if (!(src->flags & IT2N_F_Z)) {
                     e->vals[IT2N_CH_Z] = 0;
                 }
                 if (m.u.put.count < IT2N_PUT_MAX && done + m.u.put.count < total) {
@@ -534,20 +526,6 @@ static int push_src(lk_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
     return rc;
 }
 
-static int lk_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
-{
-    ctl_src src = {ds, NULL};
-    return push_src(p, &src, progress, pctx, rej);
-}
-
-/* protocol v1.3: the 5-byte CONFIGURE carries the kind and sizes to 255 */
-static int lk_push_bspline(void *p, const it2n_bspline_data *bds, ctl_progress_fn progress, void *pctx,
-                           it2n_errinfo *rej)
-{
-    ctl_src src = {NULL, bds};
-    return push_src(p, &src, progress, pctx, rej);
-}
-
 static int lk_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
 {
     lk_conn *c = p;
@@ -559,10 +537,7 @@ static int lk_eval(void *p, it2n_par *u, it2n_par *w, it2n_point *pt)
     m.u.query.model = c->model;
     m.u.query.u = it2n_par_to_wire(*u);
     m.u.query.w = it2n_par_to_wire(*w);
-    rc = request(c, &m, true, "query");
-    if (rc == CTL_REJECTED) {
-        return refused(c, "query");
-    }
+    rc = query(c, &m, "query");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
@@ -586,10 +561,7 @@ static int lk_locate(void *p, it2n_val *x, it2n_val *y, ctl_loc res[IT2N_FP_COUN
     m.u.locate.model = c->model;
     m.u.locate.x = *x;
     m.u.locate.y = *y;
-    rc = request(c, &m, true, "locate");
-    if (rc == CTL_REJECTED) {
-        return refused(c, "locate");
-    }
+    rc = query(c, &m, "locate");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
@@ -623,11 +595,8 @@ static int lk_net(void *p, const ctl_status *st, ctl_net *net)
         c->net_fp = fp;
         c->net_rows = 0;
         c->samp_total = st->n + 1u;
-        rc = request(c, &m, true, "control net");
+        rc = query(c, &m, "control net");
         c->net = NULL;
-        if (rc == CTL_REJECTED) {
-            rc = refused(c, "control net");
-        }
     }
     return rc;
 }
@@ -667,11 +636,8 @@ static int lk_sample(void *p, const ctl_status *st, unsigned rows, unsigned cols
         c->samp = &all[fp * nodes];
         c->samp_total = (uint32_t)nodes;
         c->samp_got = 0;
-        rc = request(c, &m, true, "sample");
+        rc = query(c, &m, "sample");
         c->samp = NULL;
-        if (rc == CTL_REJECTED) {
-            rc = refused(c, "sample");
-        }
     }
     for (r = 0; r < rows && rc == CTL_EXIT_OK; r++) {
         for (cc = 0; cc < cols && rc == CTL_EXIT_OK; cc++) {
@@ -720,8 +686,8 @@ static void lk_close(void *p)
     free(c);
 }
 
-static const ctl_ops lk_ops = {"link",    lk_status, lk_push,  lk_eval,         lk_locate, lk_net,
-                               lk_sample, lk_wait,   lk_close, lk_push_bspline, NULL};
+static const ctl_ops lk_ops = {"link", lk_status, lk_push, lk_eval,  lk_locate,
+                               lk_net, lk_sample, lk_wait, lk_close, NULL};
 
 static speed_t baud_const(unsigned baud)
 {

@@ -25,69 +25,76 @@ enum {
 };
 
 static const ctl_cmd cmds[] = {
-    {"status", "", "Print the model's state, degrees, points and generation",
-     "One CSV row: model,state,n,m,type,coordinates,parameters,\n"
-     "points_present,points_required,generation,last_error,kind. state is\n"
-     "empty, incomplete, solved or failed; last_error an it2n error code\n"
-     "(0 none); kind bezier or bspline (n, m: degrees or intervals).\n",
-     0, ctl_cmd_status},
-    {"push", "DATA.csv", "Configure the model, upload every point, commit",
-     "Reads DATA.csv as 'it2n check' does (errors FILE:LINE, exit 2, nothing\n"
-     "sent), then configures the model to the file's degrees and flags,\n"
-     "clears it, uploads every point and commits (solves). A progress bar\n"
-     "goes to standard error when it is a terminal. Over Modbus every value\n"
-     "must be exact in the map's scaled integers (memberships x10000,\n"
-     "coordinates x coord_scale); --link carries any value exactly.\n"
-     "  --chord   chord-length parameters\n"
-     "  --kind bezier|bspline\n"
-     "            bspline: read DATA.csv for the cubic B-spline kind (grids up\n"
-     "            to 256x256) and push it to a [model:ID] with kind = bspline\n"
-     "            (over Modbus; the default is bezier)\n",
-     O_DATA | CLI_O_CHORD | CLI_O_KIND, ctl_cmd_push},
-    {"eval", "--at U,W [--at U,W ...]", "Evaluate every footprint at (u, w)",
-     "As 'it2n eval', answered by the daemon: u,w,footprint,x,y[,z],T,I,F,\n"
-     "out_of_range.\n"
-     "  --at U,W    parameters in [0,1] (repeatable)\n"
-     "  --summary   add upper/lower interval bound rows\n",
-     CLI_O_AT_UW | CLI_O_SUMMARY, ctl_cmd_eval},
-    {"locate", "--at X,Y [--at X,Y ...]", "Find (u, w) of location (x, y)",
-     "As 'it2n locate': x,y,footprint,u,w[,z],T,I,F,status. Over Modbus the\n"
-     "register map carries no u, w (left empty) and one bit per footprint:\n"
-     "status is inside or outside|noconv.\n"
-     "  --at X,Y    location (repeatable)\n",
-     CLI_O_AT_XY, ctl_cmd_locate},
-    {"net", "", "Print the solved control nets", "As 'it2n solve': i,j,footprint,x,y[,z],T,I,F.\n", 0, ctl_cmd_net},
-    {"sample", "--grid RxC", "Evaluate on an RxC parameter grid",
-     "As 'it2n sample': u = r/(R-1), w = c/(C-1), row-major.\n"
-     "  --grid RxC          R, C in 2..65535\n"
-     "  --summary           add interval bound rows\n"
-     "  --footprint LIST    only these footprints\n",
-     CLI_O_GRID | CLI_O_SUMMARY | CLI_O_FP, ctl_cmd_sample},
-    {"watch", "[--count N] [--incomplete]", "Print a status row for each new generation",
-     "Prints the status row now and again whenever the model's generation\n"
-     "changes (Modbus: polled every 100 ms; link: on the daemon's EVENTs).\n"
-     "Rows are committed generations: a solved or failed model at once, an\n"
-     "empty or incomplete one once it has stood for 1 s (a push in progress\n"
-     "configures, clears and uploads before it commits: no rows).\n"
-     "  --count N      stop after N rows (default: run until interrupted)\n"
-     "  --incomplete   a row for every generation, a push's too\n",
-     O_COUNT | O_INCOMPLETE, ctl_cmd_watch},
-    {"plot", "-o FILE.png|FILE.svg [--follow [--count N]]", "Draw the live model with gnuplot",
-     "Reads the control nets and draws them with it2n plot's code: same\n"
-     "options, colours and errors (see 'it2n plot --help'); the data points\n"
-     "marked are the surfaces at the parameter nodes.\n"
-     "  -o FILE            .png or .svg\n"
-     "  --membership M     T, I, F or all (three panels; default)\n"
-     "  --interval         upper/lower band of one membership\n"
-     "  --nets             also draw the control nets\n"
-     "  --grid RxC         2..1001 each (default 21x21; --interval 81x81)\n"
-     "  --footprint LIST   only these footprints\n"
-     "  --size WxH         200..8000 each (default by figure, see it2n)\n"
-     "  --follow           draw again on every new solved generation (the\n"
-     "                     file is replaced whole, never seen half written);\n"
-     "                     one line 'generation G: FILE' per drawing\n"
-     "  --count N          with --follow: stop after N drawings\n",
-     O_PLOT | CLI_O_GRID_OPT | CLI_O_FP | O_COUNT | O_FOLLOW, ctl_cmd_plot},
+    {{"status", "", "Print the model's state, degrees, points and generation",
+      "One CSV row: model,state,n,m,type,coordinates,parameters,\n"
+      "points_present,points_required,generation,last_error,kind. state is\n"
+      "empty, incomplete, solved or failed; last_error an it2n error code\n"
+      "(0 none); kind bezier or bspline (n, m: degrees or intervals).\n"},
+     0,
+     ctl_cmd_status},
+    {{"push", "DATA.csv", "Configure the model, upload every point, commit",
+      "Reads DATA.csv as 'it2n check' does (errors FILE:LINE, exit 2, nothing\n"
+      "sent), then configures the model to the file's degrees and flags,\n"
+      "clears it, uploads every point and commits (solves). A progress bar\n"
+      "goes to standard error when it is a terminal. Over Modbus every value\n"
+      "must be exact in the map's scaled integers (memberships x10000,\n"
+      "coordinates x coord_scale); --link carries any value exactly.\n"
+      "  --chord   chord-length parameters\n"
+      "  --kind bezier|bspline\n"
+      "            bspline: read DATA.csv for the cubic B-spline kind (grids up\n"
+      "            to 256x256) and push it to a [model:ID] with kind = bspline\n"
+      "            (over Modbus; the default is bezier)\n"},
+     O_DATA | CLI_O_CHORD | CLI_O_KIND,
+     ctl_cmd_push},
+    {{"eval", "--at U,W [--at U,W ...]", "Evaluate every footprint at (u, w)",
+      "As 'it2n eval', answered by the daemon: u,w,footprint,x,y[,z],T,I,F,\n"
+      "out_of_range.\n"
+      "  --at U,W    parameters in [0,1] (repeatable)\n"
+      "  --summary   add upper/lower interval bound rows\n"},
+     CLI_O_AT_UW | CLI_O_SUMMARY,
+     ctl_cmd_eval},
+    {{"locate", "--at X,Y [--at X,Y ...]", "Find (u, w) of location (x, y)",
+      "As 'it2n locate': x,y,footprint,u,w[,z],T,I,F,status. Over Modbus the\n"
+      "register map carries no u, w (left empty) and one bit per footprint:\n"
+      "status is inside or outside|noconv.\n"
+      "  --at X,Y    location (repeatable)\n"},
+     CLI_O_AT_XY,
+     ctl_cmd_locate},
+    {{"net", "", "Print the solved control nets", "As 'it2n solve': i,j,footprint,x,y[,z],T,I,F.\n"}, 0, ctl_cmd_net},
+    {{"sample", "--grid RxC", "Evaluate on an RxC parameter grid",
+      "As 'it2n sample': u = r/(R-1), w = c/(C-1), row-major.\n"
+      "  --grid RxC          R, C in 2..65535\n"
+      "  --summary           add interval bound rows\n"
+      "  --footprint LIST    only these footprints\n"},
+     CLI_O_GRID | CLI_O_SUMMARY | CLI_O_FP,
+     ctl_cmd_sample},
+    {{"watch", "[--count N] [--incomplete]", "Print a status row for each new generation",
+      "Prints the status row now and again whenever the model's generation\n"
+      "changes (Modbus: polled every 100 ms; link: on the daemon's EVENTs).\n"
+      "Rows are committed generations: a solved or failed model at once, an\n"
+      "empty or incomplete one once it has stood for 1 s (a push in progress\n"
+      "configures, clears and uploads before it commits: no rows).\n"
+      "  --count N      stop after N rows (default: run until interrupted)\n"
+      "  --incomplete   a row for every generation, a push's too\n"},
+     O_COUNT | O_INCOMPLETE,
+     ctl_cmd_watch},
+    {{"plot", "-o FILE.png|FILE.svg [--follow [--count N]]", "Draw the live model with gnuplot",
+      "Reads the control nets and draws them with it2n plot's code: same\n"
+      "options, colours and errors (see 'it2n plot --help'); the data points\n"
+      "marked are the surfaces at the parameter nodes.\n"
+      "  -o FILE            .png or .svg\n"
+      "  --membership M     T, I, F or all (three panels; default)\n"
+      "  --interval         upper/lower band of one membership\n"
+      "  --nets             also draw the control nets\n"
+      "  --grid RxC         2..1001 each (default 21x21; --interval 81x81)\n"
+      "  --footprint LIST   only these footprints\n"
+      "  --size WxH         200..8000 each (default by figure, see it2n)\n"
+      "  --follow           draw again on every new solved generation (the\n"
+      "                     file is replaced whole, never seen half written);\n"
+      "                     one line 'generation G: FILE' per drawing\n"
+      "  --count N          with --follow: stop after N drawings\n"},
+     O_PLOT | CLI_O_GRID_OPT | CLI_O_FP | O_COUNT | O_FOLLOW,
+     ctl_cmd_plot},
 };
 #define NCMDS (sizeof(cmds) / sizeof(cmds[0]))
 
@@ -142,39 +149,12 @@ static const cli_opt own_opts[] = {
     {"incomplete", 0, CLI_ARG_NONE, OPT_INCOMPLETE, O_INCOMPLETE, 0, 0, NULL, NULL, NULL, NULL, NULL},
 };
 
-static void conn_help(FILE *out)
-{
-    fputs("Connection (default Modbus TCP 127.0.0.1:1502, unit 1):\n", out);
-    cli_opt_help(out, own_opts, sizeof(own_opts) / sizeof(own_opts[0]), 0u, 20u);
-    fputs("Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
-          "127.0.0.1:1502.\n"
-          "Common: --decimals N (0..9, default 6), --help.\n"
-          "Exit status: 0 ok, 1 usage error, 2 data error or refused by the\n"
-          "daemon, 3 daemon unreachable or not answering.\n",
-          out);
-}
+/* The connection options are the option list of both help texts. */
+static const cli_optset own_set = CLI_OPTSET(own_opts);
 
-static const cli_prog prog;
-
-static void usage_all(FILE *out)
-{
-    fprintf(out, "Usage: it2nctl COMMAND [ARGS] [OPTIONS]\n"
-                 "Client for a running it2nd (Modbus TCP/RTU or a protocol "
-                 "link).\n\nCommands:\n");
-    cli_put_commands(out, &prog, offsetof(ctl_cmd, summary), 7);
-    fprintf(out, "  %-7s %s\n", "spb", "Sparkplug B host mode: spb watch, spb status, spb eval");
-    fprintf(out, "\n'it2nctl COMMAND --help' for details; 'it2nctl "
-                 "--version'.\n\n");
-    conn_help(out);
-}
-
-static void usage_cmd(const void *cmd)
-{
-    const ctl_cmd *c = cmd;
-    printf("Usage: it2nctl %s%s%s [CONNECTION] [--decimals N]\n\n%s\n", c->name, c->args[0] ? " " : "", c->args,
-           c->help);
-    conn_help(stdout);
-}
+/* Listed with the commands; `it2nctl spb ...` has a form of its own
+ * (ctl_spb_args). */
+static const cli_cmd_text spb_text = {"spb", "", "Sparkplug B host mode: spb watch, spb status, spb eval", ""};
 
 #define usage_error(...) cli_usage_error("it2nctl", __VA_ARGS__)
 
@@ -207,7 +187,7 @@ static int open_session(const ctl_args *a, ctl_session *s)
  * front, the rest keep their order. Returns -1, or an exit status. */
 static int command_first(int argc, char **argv)
 {
-    const cli_optset sets[2] = {cli_common_opts, CLI_OPTSET(own_opts)};
+    const cli_optset sets[2] = {cli_common_opts, own_set};
     char *cmd;
     int i = 1;
     while (i < argc && argv[i][0] == '-') {
@@ -228,7 +208,29 @@ static int command_first(int argc, char **argv)
     return -1;
 }
 
-static const cli_prog prog = {"it2nctl", cmds, NCMDS, sizeof(cmds[0]), usage_all, usage_cmd, command_first};
+static const cli_prog prog = {
+    .name = "it2nctl",
+    .cmds = cmds,
+    .ncmds = NCMDS,
+    .stride = sizeof(cmds[0]),
+    .synopsis = "COMMAND [ARGS] [OPTIONS]",
+    .about = "Client for a running it2nd (Modbus TCP/RTU or a protocol link).",
+    .width = 7,
+    .more = &spb_text,
+    .nmore = 1,
+    .notes = "",
+    .operands = "",
+    .tail = " [CONNECTION] [--decimals N]",
+    .opts_title = "Connection (default Modbus TCP 127.0.0.1:1502, unit 1):\n",
+    .opts = &own_set,
+    .opts_width = 20,
+    .opts_tail = "Without --tcp, --rtu or --link: $IT2NCTL_TCP if set, else\n"
+                 "127.0.0.1:1502.\n"
+                 "Common: --decimals N (0..9, default 6), --help.\n"
+                 "Exit status: 0 ok, 1 usage error, 2 data error or refused by the\n"
+                 "daemon, 3 daemon unreachable or not answering.\n",
+    .reorder = command_first,
+};
 
 /* --help, --version and the command word into a->cmd; -1 to go on. */
 static int first_word(int argc, char **argv, ctl_args *a)
@@ -238,7 +240,7 @@ static int first_word(int argc, char **argv, ctl_args *a)
     if (a->cmd == NULL) {
         return rc;
     }
-    a->o.cmd = a->cmd->name;
+    a->o.cmd = a->cmd->t.name;
     return -1;
 }
 
@@ -307,7 +309,7 @@ static int finish_conn(const cli_parser *p, ctl_args *a)
 /* Parse argv into a; returns -1 to go on, else an exit status. */
 static int parse_args(int argc, char **argv, ctl_args *a)
 {
-    const cli_optset sets[2] = {cli_common_opts, CLI_OPTSET(own_opts)};
+    const cli_optset sets[2] = {cli_common_opts, own_set};
     const ctl_cmd *c;
     cli_parser p;
     cli_optval v;
@@ -317,7 +319,7 @@ static int parse_args(int argc, char **argv, ctl_args *a)
         return rc;
     }
     c = a->cmd;
-    cli_opt_init(&p, "it2nctl", c->name, c->opts, sets, 2, argc, argv, 2);
+    cli_opt_init(&p, "it2nctl", c->t.name, c->opts, sets, 2, argc, argv, 2);
     while ((id = cli_opt_next(&p, &v)) != CLI_OPT_END) {
         if ((rc = cli_builtin_opt(&prog, c, id)) >= 0) {
             return rc;
@@ -332,14 +334,14 @@ static int parse_args(int argc, char **argv, ctl_args *a)
     }
     nops = cli_opt_operands(&p, &ops);
     if ((c->opts & O_DATA) && nops != 1) {
-        return usage_error(c->name, "%s", nops == 0 ? "missing DATA.csv" : "expected exactly one DATA.csv");
+        return usage_error(c->t.name, "%s", nops == 0 ? "missing DATA.csv" : "expected exactly one DATA.csv");
     }
     if (!(c->opts & O_DATA) && nops != 0) {
-        return usage_error(c->name, "unexpected argument '%s'", ops[0]);
+        return usage_error(c->t.name, "unexpected argument '%s'", ops[0]);
     }
     a->o.path = (c->opts & O_DATA) ? ops[0] : NULL;
     if ((c->opts & O_FOLLOW) && a->count != 0u && !a->follow) {
-        return usage_error(c->name, "%s", "--count needs --follow");
+        return usage_error(c->t.name, "%s", "--count needs --follow");
     }
     return cli_common_finish(&p, &a->o);
 }
@@ -385,12 +387,12 @@ static int ctl_spb_check(const ctl_args *a, const char *argv0)
 {
     bool spb = strcmp(argv0, "spb") == 0;
     if (!spb && (a->conn.broker || a->conn.group || a->conn.node)) {
-        return usage_error(a->cmd->name, "%s",
+        return usage_error(a->cmd->t.name, "%s",
                            "--broker, --group and --node belong to "
                            "'it2nctl spb status|eval'");
     }
     if (spb && (!a->conn.broker || !a->conn.group || !a->conn.node)) {
-        return usage_error(a->cmd->name, "%s",
+        return usage_error(a->cmd->t.name, "%s",
                            "it2nctl spb needs --broker HOST:PORT, --group G "
                            "and --node N (and --model N, default 1)");
     }

@@ -8,7 +8,6 @@
  * 24 significant bits).
  */
 #include "ctl.h"
-#include "ctl_src.h"
 
 #include "it2n_regmap.h"
 
@@ -186,13 +185,13 @@ static int mb_status(void *p, ctl_status *st)
 
 /* The upload block of entry (i, j, fp); false (rej filled) when a value
  * is not exactly representable in the map's scaled integers. */
-static bool upload_regs(const mb_conn *c, const ctl_src *src, unsigned i, unsigned j, unsigned fp, uint16_t r[12],
+static bool upload_regs(const mb_conn *c, const cli_data *src, unsigned i, unsigned j, unsigned fp, uint16_t r[12],
                         it2n_errinfo *rej)
 {
     it2n_val v[IT2N_CH_COUNT], fine[IT2N_CH_COUNT];
     unsigned ch;
-    ctl_src_get(src, i, j, fp, v);
-    ctl_src_get_fine(src, i, j, fp, fine);
+    cli_data_get(src, i, j, fp, v);
+    cli_data_get_fine(src, i, j, fp, fine);
     r[0] = (uint16_t)i;
     r[1] = (uint16_t)j;
     r[2] = (uint16_t)fp;
@@ -200,7 +199,7 @@ static bool upload_regs(const mb_conn *c, const ctl_src *src, unsigned i, unsign
         bool coord = ch < IT2N_CH_T;
         int64_t scale = coord ? c->coord_scale : IT2N_REGMAP_MEMB_SCALE;
         int64_t k;
-        if (ch == IT2N_CH_Z && !(ctl_src_flags(src) & IT2N_F_Z)) {
+        if (ch == IT2N_CH_Z && !(src->flags & IT2N_F_Z)) {
             v[ch] = 0;
         }
         bool exact;
@@ -246,8 +245,9 @@ static void refused_detail(mb_conn *c, it2n_errinfo *rej)
     }
 }
 
-static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
+static int mb_push(void *p, const cli_data *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
 {
+    mb_conn *c = p;
     uint16_t cfg[4], up[12];
     unsigned i, j, fp, total = 0, done = 0, kind = 0;
     uint16_t kreg;
@@ -262,20 +262,16 @@ static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
         return mb_fail(c, "read status");
     }
     if (kind != (src->bds != NULL ? IT2N_REGMAP_KIND_BSPLINE : IT2N_REGMAP_KIND_BEZIER)) {
-        fprintf(stderr,
-                "it2nctl: unit %d holds a %s model and the data are for the "
-                "%s kind: push --kind %s to a [model:ID] with kind = %s "
-                "(nothing was sent)\n",
-                modbus_get_slave(c->ctx), kind ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier",
-                src->bds != NULL ? "bspline" : "bezier", src->bds != NULL ? "bspline" : "bezier");
-        return CTL_EXIT_DATA;
+        char where[32];
+        snprintf(where, sizeof(where), "unit %d", modbus_get_slave(c->ctx));
+        return ctl_wrong_kind(where, kind != IT2N_REGMAP_KIND_BEZIER, src, "sent");
     }
     /* Everything representable before the first write: a refused push
      * changes nothing. */
-    for (i = 0; i <= ctl_src_n(src); i++) {
-        for (j = 0; j <= ctl_src_m(src); j++) {
+    for (i = 0; i <= src->n; i++) {
+        for (j = 0; j <= src->m; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                if (ctl_src_has(src, i, j, fp)) {
+                if (cli_data_has(src, i, j, fp)) {
                     if (!upload_regs(c, src, i, j, fp, up, rej)) {
                         return CTL_REJECTED;
                     }
@@ -284,18 +280,18 @@ static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
             }
         }
     }
-    cfg[0] = (uint16_t)ctl_src_n(src);
-    cfg[1] = (uint16_t)ctl_src_m(src);
-    cfg[2] = (uint16_t)ctl_src_flags(src);
+    cfg[0] = (uint16_t)src->n;
+    cfg[1] = (uint16_t)src->m;
+    cfg[2] = (uint16_t)src->flags;
     cfg[3] = IT2N_REGMAP_CMD_CLEAR;
     rc = wr(c, IT2N_REGMAP_REG_CFG_N, 4, cfg, "configure");
     if (rc != CTL_EXIT_OK) {
         return rc;
     }
-    for (i = 0; i <= ctl_src_n(src); i++) {
-        for (j = 0; j <= ctl_src_m(src); j++) {
+    for (i = 0; i <= src->n; i++) {
+        for (j = 0; j <= src->m; j++) {
             for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-                if (!ctl_src_has(src, i, j, fp)) {
+                if (!cli_data_has(src, i, j, fp)) {
                     continue;
                 }
                 (void)upload_regs(c, src, i, j, fp, up, rej);
@@ -326,19 +322,6 @@ static int push_src(mb_conn *c, const ctl_src *src, ctl_progress_fn progress, vo
         return mb_fail(c, "commit");
     }
     return CTL_EXIT_OK;
-}
-
-static int mb_push(void *p, const it2n_dataset *ds, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
-{
-    ctl_src src = {ds, NULL};
-    return push_src(p, &src, progress, pctx, rej);
-}
-
-static int mb_push_bspline(void *p, const it2n_bspline_data *bds, ctl_progress_fn progress, void *pctx,
-                           it2n_errinfo *rej)
-{
-    ctl_src src = {NULL, bds};
-    return push_src(p, &src, progress, pctx, rej);
 }
 
 /* Parameter as the daemon reads q_u (x10000) — exact when it matches. */
@@ -569,8 +552,8 @@ static int mb_coef_row(void *p, const ctl_status *st, unsigned fp, unsigned ch, 
     return CTL_EXIT_OK;
 }
 
-static const ctl_ops mb_ops = {"modbus",  mb_status, mb_push,  mb_eval,         mb_locate,  mb_net,
-                               mb_sample, mb_wait,   mb_close, mb_push_bspline, mb_coef_row};
+static const ctl_ops mb_ops = {"modbus", mb_status, mb_push, mb_eval,  mb_locate,
+                               mb_net,   mb_sample, mb_wait, mb_close, mb_coef_row};
 
 const char *ctl_tcp_split(const char *t, char *host, size_t hn, char *port, size_t pn)
 {

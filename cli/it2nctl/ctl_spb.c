@@ -735,10 +735,10 @@ static int c_none(const char *what)
     return CTL_EXIT_USAGE;
 }
 
-static int c_push(void *c, const it2n_dataset *ds, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
+static int c_push(void *c, const cli_data *src, ctl_progress_fn progress, void *pctx, it2n_errinfo *rej)
 {
     (void)c;
-    (void)ds;
+    (void)src;
     (void)progress;
     (void)pctx;
     (void)rej;
@@ -792,17 +792,6 @@ static void c_close(void *p)
     free(c);
 }
 
-static int c_push_bspline(void *c, const it2n_bspline_data *bds, ctl_progress_fn progress, void *pctx,
-                          it2n_errinfo *rej)
-{
-    (void)c;
-    (void)bds;
-    (void)progress;
-    (void)pctx;
-    (void)rej;
-    return c_none("push");
-}
-
 static int c_coef_row(void *c, const ctl_status *st, unsigned fp, unsigned ch, unsigned row, it2n_val *out)
 {
     (void)c;
@@ -814,8 +803,8 @@ static int c_coef_row(void *c, const ctl_status *st, unsigned fp, unsigned ch, u
     return c_none("net");
 }
 
-static const ctl_ops spb_ops = {"sparkplug", c_status, c_push,  c_eval,         c_locate,  c_net,
-                                c_sample,    c_wait,   c_close, c_push_bspline, c_coef_row};
+static const ctl_ops spb_ops = {"sparkplug", c_status, c_push, c_eval,  c_locate,
+                                c_net,       c_sample, c_wait, c_close, c_coef_row};
 
 void *ctl_spb_open(const ctl_conn_opts *o, const ctl_ops **ops, int *rc)
 {

@@ -18,7 +18,8 @@ libgcc's 64-bit division) are counted as 64 bytes each call chain (they use
 at most a few registers pushed; '+ext').
 
 usage: fw_stack.py ELF CI_FILE...   -> JSON on stdout
-Exit 1 on recursion, unbounded dynamic frames or no frame information.
+Exit 1 on recursion, unbounded dynamic frames or no frame information, each
+said on stderr as "fw_stack: FAIL: ..." (tests/lib's Report).
 """
 import json
 import os
@@ -27,7 +28,9 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "qemu"))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
 from stack_report import parse  # noqa: E402  (the .ci parser of make size)
+from it2ntest import report  # noqa: E402
 
 ENTRY = "fw_reset_handler"
 ISRS = ("fw_systick_isr", "fw_uart0_rx_isr", "fw_fault_handler")
@@ -37,12 +40,13 @@ EXT = 64
 
 def main():
     elf, cis = sys.argv[1], sys.argv[2:]
+    R = report.Report("fw_stack", quiet_ok=True)
     nm = subprocess.run(["arm-none-eabi-nm", elf], check=True, capture_output=True, text=True).stdout
     linked = {l.split()[2] for l in nm.splitlines() if len(l.split()) == 3 and l.split()[1] in "tTwW"}
     frames, edges = parse(cis)
     if not frames:
-        print("fw_stack: no frame information", file=sys.stderr)
-        return 1
+        R.fail("no frame information in %d .ci file(s)" % len(cis))
+        return R.finish(summary=False)
     frames = {k: v for k, v in frames.items() if k[1].rsplit(":", 1)[-1] in linked}
     by_name = {}
     for key in frames:
@@ -90,8 +94,8 @@ def main():
 
     e = resolve("", ENTRY)
     if e is None:
-        print("fw_stack: no frame information for " + ENTRY, file=sys.stderr)
-        return 1
+        R.fail("no frame information for " + ENTRY)
+        return R.finish(summary=False)
     main_w = worst(e, frozenset())
     isr = {}
     for n in ISRS:
@@ -109,7 +113,11 @@ def main():
            "isrs": {n: v[0] for n, v in isr.items()},
            "problems": sorted(problems)}
     print(json.dumps(out, indent=2))
-    return 1 if problems else 0
+    for p in sorted(problems):
+        R.fail(p)
+    if not problems:
+        R.ok("worst case bounded: %d bytes" % total)
+    return R.finish(summary=False)
 
 
 if __name__ == "__main__":

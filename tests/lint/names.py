@@ -18,7 +18,11 @@ or when a global function ends in a finalising verb other than the
 project's: X_init/X_new pair with X_free, X_start with X_stop, X_open with
 X_close (no _exit, _fini, _destroy, _cleanup, _deinit, _shutdown, ...).
 It also holds the installed header regmap/it2n_regmap.h to its prefix:
-every macro, enum constant, typedef and tag is IT2N_REGMAP_/it2n_regmap_.
+every macro, enum constant, typedef and tag is IT2N_REGMAP_/it2n_regmap_;
+and the daemon's error codes (daemon/errs.h) to the daemon's layer prefix,
+IT2ND_/it2nd_, not to their file's (errs_): error codes name a range of
+one namespace shared by the layers (IT2N_ERR_* -1..-10, IT2N_PROTO_ERR_*
+-100.., IT2ND_ERR_* -200..), not a module (docs/design.md, "Names").
 
 The allow-list below is the whole of the exceptions, each with its reason.
 
@@ -31,6 +35,9 @@ import re
 import subprocess
 import sys
 import tempfile
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
 
 # (pattern of the source path, prefix; None = the file's own name + "_").
 RULES = [
@@ -48,7 +55,9 @@ ALLOW = [
 # A finaliser that is not free/stop/close.
 BAD_VERB = re.compile(r"_(fini|exit|destroy|cleanup|clean_up|deinit|uninit|shutdown|teardown|"
                       r"finali[sz]e|term|terminate|dispose|delete|del|quit)$")
-HEADERS = {"regmap/it2n_regmap.h": "it2n_regmap_"}
+HEADERS = {"regmap/it2n_regmap.h": "it2n_regmap_",
+           # error codes: the layer's prefix (the module docstring says why)
+           "daemon/errs.h": "it2nd_"}
 
 
 def prefix_of(src):
@@ -108,6 +117,7 @@ def check_header(path, pre):
 
 def selftest(nm):
     """A module with wrong names must fail, one with right names pass."""
+    R = report.Report("names --selftest")
     with tempfile.TemporaryDirectory() as d:
         os.makedirs(os.path.join(d, "daemon"))
         os.makedirs(os.path.join(d, "cli", "it2nctl"))
@@ -128,20 +138,23 @@ def selftest(nm):
         fails, _ = check_objects(nm, d, objs)
         got = sorted(re.search(r"(global \w+|: \w+:)", f).group(1) for f in fails)
         want = sorted(["global bad_global", "global mtr_read", ": meter_exit:", "global cli_put"])
-        if got != want:
-            print(f"FAIL: names.py selftest: findings {got}, expected {want}")
-            return 1
+        R.check(got == want, "wrong prefixes and a foreign finaliser are caught, right names pass",
+                f"findings {got}, expected {want}")
         bad = os.path.join(d, "bad.h")
         with open(bad, "w", encoding="utf-8") as fh:
             fh.write("#define IT2N_REGMAP_OK 1\n#define IT2N_WO_ABCD 0\nenum it2n_regmap_x { IT2N_REGMAP_A, IT2N_RT_B = 2 };\n"
                      "typedef struct { int a; } regmap_thing;\n")
         hf = check_header(bad, "it2n_regmap_")
         want_h = ["IT2N_RT_B", "IT2N_WO_ABCD", "regmap_thing"]
-        if sorted(f.split(": ")[1].split()[0] for f in hf) != want_h:
-            print(f"FAIL: names.py selftest: header findings {hf}, expected {want_h}")
-            return 1
-    print("names: selftest ok (wrong prefixes, a foreign finaliser and header names are caught)")
-    return 0
+        R.check(sorted(f.split(": ")[1].split()[0] for f in hf) == want_h, "header names without the prefix are "
+                "caught", f"header findings {hf}, expected {want_h}")
+        with open(bad, "w", encoding="utf-8") as fh:
+            fh.write("#ifndef IT2ND_ERRS_H\n#define IT2ND_ERRS_H\nenum it2nd_error { IT2ND_ERR_IO = -200, "
+                     "ERRS_NOMEM = -201 };\n#endif\n")
+        hf = check_header(bad, "it2nd_")
+        R.check([f.split(": ")[1].split()[0] for f in hf] == ["ERRS_NOMEM"], "an error code without the layer "
+                "prefix IT2ND_ is caught", hf)
+    return R.finish()
 
 
 def main(argv):
@@ -156,11 +169,11 @@ def main(argv):
     fails, n = check_objects(nm, root, objs)
     for h, pre in HEADERS.items():
         fails += check_header(h, pre)
-    for f in fails:
-        print(f"FAIL: {f}")
-    print(f"names: {len(objs)} objects, {n} global symbols, {len(HEADERS)} installed header(s); "
-          f"{len(fails)} without their module's prefix or verb")
-    return 1 if fails else 0
+    R = report.Report("names")
+    if n == 0:
+        fails.append(f"no global symbol in the {len(objs)} objects: nothing was checked")
+    return R.verdict(fails, f"{len(objs)} objects, {n} global symbols, {len(HEADERS)} headers: every name carries "
+                     f"its module's prefix and verb")
 
 
 if __name__ == "__main__":

@@ -10,10 +10,16 @@ function is its frame plus the deepest callee chain. Calls leaving the
 library (memcpy, libgcc helpers) count as 0 and are marked '+ext'; calls
 through pointers (it2n_sample's callback) are marked '+cb' (add the callback's
 own stack); recursion or dynamic frames are marked and make the number a
-lower bound. Exit 1 if the input cannot be parsed.
+lower bound. Exit 1 if the input cannot be parsed or no public function
+has frame information (tests/lib's Report: "stack_report: FAIL: ..." on
+stderr; nothing is added to the table on stdout, which `make size` shows).
 """
+import os
 import re
 import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib"))
+from it2ntest import report  # noqa: E402
 
 NODE = re.compile(r'^node: \{ title: "([^"]+)" label: "([^"]*)"')
 EDGE = re.compile(r'^edge: \{ sourcename: "([^"]+)" targetname: "([^"]+)"')
@@ -43,12 +49,13 @@ def main():
         print(__doc__, file=sys.stderr)
         return 2
     title, public_list, cis = sys.argv[1], sys.argv[2], sys.argv[3:]
+    R = report.Report("stack_report", quiet_ok=True)
     with open(public_list, encoding="utf-8") as f:
         public = sorted({l.strip() for l in f if l.strip()})
     frames, edges = parse(cis)
     if not frames:
-        print("stack_report: no frame information in the .ci files", file=sys.stderr)
-        return 1
+        R.fail("no frame information in the .ci files")
+        return R.finish(summary=False)
     # Resolve a callee name: same file first (static functions), else any.
     by_name = {}
     for key in frames:
@@ -97,9 +104,10 @@ def main():
             continue
         total, flags, chain = worst(key, frozenset())
         rows.append((name, frames[key][0], total, flags, chain))
+        R.ok("%s: %d bytes" % (name, total))
     if not rows:
-        print("stack_report: none of the public functions has frame info", file=sys.stderr)
-        return 1
+        R.fail("none of the %d public functions has frame info" % len(public))
+        return R.finish(summary=False)
     print(f"Worst-case stack, {title} (bytes; +ext: excludes memcpy/libgcc leaf helpers,"
           " +cb: plus the callback's own stack)")
     print(f"  {'function':<26} {'frame':>6} {'worst':>6}  deepest chain")
@@ -109,7 +117,7 @@ def main():
         print(f"  {name:<26} {own:>6} {total:>6}  {path}{mark}")
     deepest = max(rows, key=lambda r: r[2])
     print(f"  deepest public entry point: {deepest[0]} = {deepest[2]} bytes")
-    return 0
+    return R.finish(summary=False)
 
 
 if __name__ == "__main__":
