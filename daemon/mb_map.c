@@ -206,13 +206,19 @@ static uint16_t grid_saturated(struct model *md, const struct mb_map_opts *o)
     return (uint16_t)(count > 65535u ? 65535u : count);
 }
 
+_Static_assert(2 * RES_F32_VALUES == IT2N_REGMAP_REG_SUM_F32 + 24u - IT2N_REGMAP_REG_RES_F32,
+               "the conversion of the results fills the whole results_f32 block");
+
 /* Fill registers [start, end) of one block into buf (indexed from start). */
 static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const it2n_regmap_block *b,
                       uint16_t *buf, unsigned from, unsigned to)
 {
     unsigned len = b->end - b->start;
     int rc, sat;
-    memset(buf, 0, len * sizeof *buf);
+    /* zeros where a block leaves registers unset; the float results are
+     * all written when there are results (every FC 23 answer) */
+    if (b->start != IT2N_REGMAP_REG_RES_F32)
+        memset(buf, 0, len * sizeof *buf);
     switch (b->start) {
     case IT2N_REGMAP_REG_MAP_VERSION: {
         uint16_t *r = buf;
@@ -284,8 +290,10 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
     case IT2N_REGMAP_REG_RES_F32:
         if ((rc = query_result(md, q)) != MB_MAP_OK)
             return rc;
-        if (q->kind == 0)
+        if (q->kind == 0) {
+            memset(buf, 0, len * sizeof *buf);
             return MB_MAP_OK;
+        }
         /* The values then the summary, as they lie in it2n_point: one
          * conversion of 54 (asserted at the top of the file). */
         it2n_regmap_put_q24_f32s(buf, &q->pt.v[0][0], RES_F32_VALUES, o->word_order);
@@ -377,6 +385,11 @@ int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_op
     int rc;
     if (!b)
         return MB_MAP_ILLEGAL_ADDRESS;
+    /* The whole float results block (what an FC 23 query reads) is
+     * converted in place: fill_block writes none of it before its checks,
+     * so out is left as it was on an exception, as through buf. */
+    if (b->start == IT2N_REGMAP_REG_RES_F32 && addr == b->start && count == (unsigned)(b->end - b->start))
+        return fill_block(md, q, o, b, out, addr, addr + count);
     rc = fill_block(md, q, o, b, buf, addr, addr + count);
     if (rc)
         return rc;

