@@ -401,10 +401,137 @@ IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask
     }
 }
 
+/*
+ * Four columns (m1 == 4: cubic in w, the common bicubic surface): four
+ * nets at a time, one per group of four consecutive flat [fp][ch]
+ * indices (frac and net are flat arrays in that order). Stage 1 of a net
+ * multiplies each row, sign-extended, by B_i(u) (VPMULDQ: signed, exact),
+ * its lanes the four columns, starting from 2^61 + 2^29: the sum
+ * S_j + 2^61 + 2^29 is non-negative (|S_j| <= 2^30 2^31), so a logical
+ * shift by 30 gives the rounded stage-1 value q_j plus 2^31, the biased
+ * value values_avx2 computes. Stage 2 as there. The four nets' lanes are
+ * added in one transpose (the values biased by 2^61), and the rounding to
+ * Q24 is one variable shift per lane: for 1 <= s <= 61,
+ *   (v + 2^61 + 2^(s-1)) >> s  ==  ((v + 2^(s-1)) >> s) + 2^(61-s)
+ * (2^61 is a multiple of 2^s), which is it2n__shift_round(v, s) once
+ * 2^(61-s) is subtracted; a group with another shift on a net in use
+ * goes through it2n__shift_round. Nets of unused channels are computed
+ * and zeroed. The same integers as values_avx2 and two_stages.
+ */
+IT2N_AVX2_FN IT2N_INLINE __m256i net_m4(const int32_t *net, const unsigned n1, const __m256i *bu, __m256i bw)
+{
+    __m256i q = _mm256_set1_epi64x(((int64_t)1 << 61) + ((int64_t)1 << 29));
+    unsigned i;
+    TWO_STAGES_UNROLL
+    for (i = 0; i < n1; i++) {
+        __m256i x = _mm256_cvtepi32_epi64(_mm_loadu_si128((const __m128i *)(const void *)(net + 4u * i)));
+        q = _mm256_add_epi64(q, _mm256_mul_epi32(x, bu[i]));
+    }
+    return _mm256_mul_epu32(_mm256_srli_epi64(q, 30), bw);
+}
+
+#define IT2N_NETS (IT2N_FP_COUNT * IT2N_CH_COUNT)
+
+/* The nets k, k + l1, k + l2, k + l3 (the first cnt of them distinct: a
+ * partial group repeats its last net, read, never stored) into out[k..],
+ * their lanes of `used` (bit k: a net in use) zero where unused. */
+IT2N_AVX2_FN IT2N_INLINE void group_m4(const it2n_model *mdl, const unsigned n1, const __m256i *bu, __m256i bw,
+                                       uint64_t used, unsigned k, const unsigned l1, const unsigned l2,
+                                       const unsigned l3, const unsigned cnt, it2n_val *out)
+{
+    const int32_t *net0 = &mdl->net[0][0][0];
+    const int8_t *frac = &mdl->frac[0][0];
+    const __m256i one = _mm256_set1_epi64x(1), lanebit = _mm256_set_epi64x(8, 4, 2, 1);
+    __m256i a0 = net_m4(net0 + (size_t)k * IT2N_DIM * IT2N_DIM, n1, bu, bw);
+    __m256i a1 = net_m4(net0 + (size_t)(k + l1) * IT2N_DIM * IT2N_DIM, n1, bu, bw);
+    __m256i a2 = net_m4(net0 + (size_t)(k + l2) * IT2N_DIM * IT2N_DIM, n1, bu, bw);
+    __m256i a3 = net_m4(net0 + (size_t)(k + l3) * IT2N_DIM * IT2N_DIM, n1, bu, bw);
+    /* the lanes of a0..a3 summed: v + 2^61 of net l in lane l */
+    __m256i s01 = _mm256_add_epi64(_mm256_unpacklo_epi64(a0, a1), _mm256_unpackhi_epi64(a0, a1));
+    __m256i s23 = _mm256_add_epi64(_mm256_unpacklo_epi64(a2, a3), _mm256_unpackhi_epi64(a2, a3));
+    __m256i v = _mm256_add_epi64(_mm256_permute2x128_si256(s01, s23, 0x20), _mm256_permute2x128_si256(s01, s23, 0x31));
+    __m256i live = _mm256_set1_epi64x((int64_t)((used >> k) & 15u));
+    __m256i s, r, ok;
+    int64_t t[4];
+    unsigned i;
+    if (cnt == 4u) {
+        int32_t f4;
+        memcpy(&f4, frac + k, sizeof f4); /* frac[k..k+3], sign-extended */
+        s = _mm256_cvtepi8_epi64(_mm_cvtsi32_si128(f4));
+    } else {
+        s = _mm256_set_epi64x(frac[k + l3], frac[k + l2], frac[k + l1], frac[k]);
+    }
+    live = _mm256_cmpeq_epi64(_mm256_and_si256(live, lanebit), lanebit);
+    s = _mm256_add_epi64(s, _mm256_set1_epi64x(30 - IT2N_VAL_FRAC));
+    ok = _mm256_and_si256(_mm256_cmpgt_epi64(s, _mm256_setzero_si256()), _mm256_cmpgt_epi64(_mm256_set1_epi64x(62), s));
+    if (_mm256_testz_si256(_mm256_andnot_si256(ok, live), live)) {
+        r = _mm256_add_epi64(v, _mm256_sllv_epi64(one, _mm256_sub_epi64(s, one)));
+        r = _mm256_sub_epi64(_mm256_srlv_epi64(r, s),
+                             _mm256_sllv_epi64(one, _mm256_sub_epi64(_mm256_set1_epi64x(61), s)));
+        r = _mm256_and_si256(r, live);
+    } else {
+        /* a shift of 0 or less (a left shift) or of 62 or more */
+        _mm256_storeu_si256((__m256i *)(void *)t, v);
+        for (i = 0; i < cnt; i++) {
+            t[i] = (used >> (k + i)) & 1u ? it2n__shift_round((int64_t)((uint64_t)t[i] - ((uint64_t)1 << 61)),
+                                                              30 + frac[k + i] - IT2N_VAL_FRAC)
+                                          : 0;
+        }
+        r = _mm256_loadu_si256((const __m256i *)(const void *)t);
+    }
+    if (cnt == 4u) {
+        _mm256_storeu_si256((__m256i *)(void *)(out + k), r);
+    } else {
+        _mm256_storeu_si256((__m256i *)(void *)t, r);
+        for (i = 0; i < cnt; i++) {
+            out[k + i] = t[i];
+        }
+    }
+}
+
+IT2N_AVX2_FN IT2N_INLINE void values_avx2_m4(const it2n_model *mdl, unsigned fpmask, const unsigned n1,
+                                             const int32_t *cu, const int32_t *cw, it2n_val *out)
+{
+    __m256i bu[IT2N_DIM];
+    const __m256i bw = _mm256_set_epi64x(cw[3], cw[2], cw[1], cw[0]);
+    uint64_t used = 0u;
+    unsigned i, k, k0 = IT2N_NETS, k1 = 0u, fp, chbits = 0u;
+    for (i = 0; i < n1; i++) {
+        bu[i] = _mm256_set1_epi64x(cu[i]);
+    }
+    for (i = 0; i < IT2N_CH_COUNT; i++) {
+        chbits |= it2n__ch_used(mdl->flags, i) ? 1u << i : 0u;
+    }
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        if (fpmask & (1u << fp)) {
+            used |= (uint64_t)chbits << (fp * IT2N_CH_COUNT);
+            k0 = k0 < fp * IT2N_CH_COUNT ? k0 : fp * IT2N_CH_COUNT;
+            k1 = (fp + 1u) * IT2N_CH_COUNT;
+        }
+    }
+    /* the footprints before the first and after the last one in fpmask */
+    for (k = 0; k < k0; k++) {
+        out[k] = 0;
+    }
+    for (k = k1; k < IT2N_NETS; k++) {
+        out[k] = 0;
+    }
+    for (k = k0; k + 4u <= k1; k += 4u) {
+        group_m4(mdl, n1, bu, bw, used, k, 1u, 2u, 3u, 4u, out);
+    }
+    if (k1 - k == 3u) {
+        group_m4(mdl, n1, bu, bw, used, k, 1u, 2u, 2u, 3u, out);
+    } else if (k1 - k == 2u) {
+        group_m4(mdl, n1, bu, bw, used, k, 1u, 1u, 1u, 2u, out);
+    } else if (k1 - k == 1u) {
+        group_m4(mdl, n1, bu, bw, used, k, 0u, 0u, 0u, 1u, out);
+    }
+}
+
 #define IT2N_VALUES_AVX2_K(k)                             \
     case k:                                               \
         if (m1 == 4u) {                                   \
-            values_avx2(mdl, fpmask, k, 4u, bu, bw, out); \
+            values_avx2_m4(mdl, fpmask, k, bu, bw, out);  \
         } else {                                          \
             values_avx2(mdl, fpmask, k, m1, bu, bw, out); \
         }                                                 \
