@@ -380,8 +380,13 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
 int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
                 uint16_t *out)
 {
+    return mb_map_read_in(md, q, o, it2n_regmap_find(addr, count), addr, count, out);
+}
+
+int mb_map_read_in(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const it2n_regmap_block *b,
+                   unsigned addr, unsigned count, uint16_t *out)
+{
     static uint16_t buf[IT2N_REGMAP_REG_CTRL_END - IT2N_REGMAP_REG_CTRL]; /* the largest block */
-    const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     int rc;
     if (!b)
         return MB_MAP_ILLEGAL_ADDRESS;
@@ -626,7 +631,11 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
 
 int mb_map_write_changes_model(unsigned addr, unsigned count)
 {
-    const it2n_regmap_block *b = it2n_regmap_find(addr, count);
+    return mb_map_block_changes_model(it2n_regmap_find(addr, count));
+}
+
+int mb_map_block_changes_model(const it2n_regmap_block *b)
+{
     return b && b->access == IT2N_REGMAP_ACCESS_RW && !b->per_conn; /* per connection: query inputs, coefficient page */
 }
 
@@ -645,7 +654,12 @@ static int write_page(struct mb_map_query *q, unsigned addr, unsigned count, con
 int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
                  const uint16_t *vals, int *persisted)
 {
-    const it2n_regmap_block *b = it2n_regmap_find(addr, count);
+    return mb_map_write_in(md, q, o, it2n_regmap_find(addr, count), addr, count, vals, persisted);
+}
+
+int mb_map_write_in(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const it2n_regmap_block *b,
+                    unsigned addr, unsigned count, const uint16_t *vals, int *persisted)
+{
     *persisted = 0;
     if (!b || b->access != IT2N_REGMAP_ACCESS_RW)
         return refused(md, MB_MAP_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);

@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "it2n.h"
+#include "it2n_regmap.h"
 #include "models.h"
 
 /* Modbus exception codes used by the map. */
@@ -38,6 +39,10 @@ struct mb_map_opts {
  * or upload block), as opposed to the per-connection query registers? */
 int mb_map_write_changes_model(unsigned addr, unsigned count);
 
+/* The same for the block it2n_regmap_find(addr, count) returned (NULL: a
+ * range outside the map, which changes nothing). */
+int mb_map_block_changes_model(const it2n_regmap_block *b);
+
 /* Per-connection query state. Zero-initialise. */
 struct mb_map_query {
     uint16_t regs[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16]; /* inputs as written */
@@ -61,12 +66,21 @@ struct mb_map_query {
 int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
                 uint16_t *out);
 
+/* mb_map_read with b = it2n_regmap_find(addr, count) already looked up
+ * (the request handler looks each range up once). */
+int mb_map_read_in(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const it2n_regmap_block *b,
+                   unsigned addr, unsigned count, uint16_t *out);
+
 /* Write count registers. Validates fully first; on any exception nothing
  * changed but the model's last_error, which says why (an it2n code, or
  * the daemon's, errs.h). *persisted set to 1 when the model changed (the
  * reply must wait for the WAL commit). */
 int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
                  const uint16_t *vals, int *persisted);
+
+/* mb_map_write with b = it2n_regmap_find(addr, count) already looked up. */
+int mb_map_write_in(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const it2n_regmap_block *b,
+                    unsigned addr, unsigned count, const uint16_t *vals, int *persisted);
 
 /* A write request refused before mb_map_write (malformed PDU: exception
  * exc): set the model's last_error accordingly. */
