@@ -522,13 +522,6 @@ static int write_upload(struct model *md, const struct mb_map_opts *o, unsigned 
     return MB_MAP_OK;
 }
 
-/* Does [addr, addr+count) cut a 32-bit value starting at `a` in half? */
-static int cuts(unsigned addr, unsigned count, unsigned a)
-{
-    unsigned end = addr + count;
-    return (addr == a + 1) || (end == a + 1);
-}
-
 static int par_from_f32(float f, it2n_par *out)
 {
     if (!(f >= 0.0f && f <= 1.0f)) /* also rejects NaN */
@@ -568,12 +561,17 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
     struct mb_map_query nq;
     unsigned end = addr + count;
     memcpy(&nq, q, offsetof(struct mb_map_query, valid));
-    static const unsigned wide[] = {IT2N_REGMAP_REG_Q_UF, IT2N_REGMAP_REG_Q_WF, IT2N_REGMAP_REG_Q_XS,
-                                    IT2N_REGMAP_REG_Q_YS, IT2N_REGMAP_REG_Q_XF, IT2N_REGMAP_REG_Q_YF};
+    /* Bit a - Q_U16 for every a = (start of a 32-bit input) + 1: a range
+     * starting or ending there cuts that value in half (addr and end lie
+     * in the query block: its own lookup). */
+#define CUT(a) (1u << ((a) + 1u - IT2N_REGMAP_REG_Q_U16))
+    const unsigned cut = CUT(IT2N_REGMAP_REG_Q_UF) | CUT(IT2N_REGMAP_REG_Q_WF) | CUT(IT2N_REGMAP_REG_Q_XS) |
+                         CUT(IT2N_REGMAP_REG_Q_YS) | CUT(IT2N_REGMAP_REG_Q_XF) | CUT(IT2N_REGMAP_REG_Q_YF);
+#undef CUT
+    _Static_assert(IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16 < 32, "query block within the cut mask");
     (void)md;
-    for (unsigned k = 0; k < sizeof wide / sizeof wide[0]; k++)
-        if (cuts(addr, count, wide[k]))
-            return MB_MAP_ILLEGAL_VALUE;
+    if (((cut >> (addr - IT2N_REGMAP_REG_Q_U16)) | (cut >> (end - IT2N_REGMAP_REG_Q_U16))) & 1u)
+        return MB_MAP_ILLEGAL_VALUE;
     int uv = addr<IT2N_REGMAP_REG_Q_XS, xy = end> IT2N_REGMAP_REG_Q_XS;
     if (uv && xy)
         return MB_MAP_ILLEGAL_VALUE;

@@ -328,9 +328,10 @@ int mb_req_handle(struct mb_req_session *s, const uint8_t *req, int len, const s
         rc = write_req(s, md, o, wb, waddr, wcount, vals, rb, raddr, rcount, regs, &persisted);
         /* As libmodbus' modbus_reply (which stored the written values
          * before reading): an overlapping read echoes what was written. */
-        for (unsigned k = 0; rc == MB_MAP_OK && k < wcount; k++)
-            if (waddr + k >= raddr && waddr + k < raddr + rcount)
-                regs[waddr + k - raddr] = vals[k];
+        if (rc == MB_MAP_OK && waddr < raddr + rcount && raddr < waddr + wcount)
+            for (unsigned k = 0; k < wcount; k++)
+                if (waddr + k >= raddr && waddr + k < raddr + rcount)
+                    regs[waddr + k - raddr] = vals[k];
         nregs = rcount;
         break;
     }

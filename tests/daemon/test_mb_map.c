@@ -147,6 +147,38 @@ static void test_query_write_keeps_page(void **st)
     }
 }
 
+/* Every range of the query block: refused (03, nothing changed) exactly
+ * when it cuts a 32-bit input in half at either end, or spans both the
+ * (u, w) and the (x, y) inputs; all-zero values are valid otherwise. */
+static void test_query_ranges(void **st)
+{
+    static const unsigned wide[] = { IT2N_REGMAP_REG_Q_UF, IT2N_REGMAP_REG_Q_WF, IT2N_REGMAP_REG_Q_XS,
+                                     IT2N_REGMAP_REG_Q_YS, IT2N_REGMAP_REG_Q_XF, IT2N_REGMAP_REG_Q_YF };
+    uint16_t zero[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16] = { 0 };
+    unsigned tried = 0, refused = 0;
+    (void)st;
+    for (unsigned a = IT2N_REGMAP_REG_Q_U16; a < IT2N_REGMAP_REG_QUERY_END; a++)
+        for (unsigned end = a + 1; end <= IT2N_REGMAP_REG_QUERY_END; end++) {
+            struct mb_map_query q, q0;
+            int persisted, cut = 0;
+            for (unsigned k = 0; k < sizeof wide / sizeof wide[0]; k++)
+                cut |= a == wide[k] + 1 || end == wide[k] + 1;
+            int bad = cut || (a < IT2N_REGMAP_REG_Q_XS && end > IT2N_REGMAP_REG_Q_XS);
+            memset(&q, 0, sizeof q);
+            q0 = q;
+            int rc = mb_map_write(md, &q, &opts, a, end - a, zero, &persisted);
+            if (rc != (bad ? MB_MAP_ILLEGAL_VALUE : MB_MAP_OK))
+                fail_msg("query registers %u..%u: exception %d, expected %d", a, end - 1, rc,
+                         bad ? MB_MAP_ILLEGAL_VALUE : MB_MAP_OK);
+            if (bad)
+                assert_memory_equal(&q, &q0, sizeof q);
+            tried++;
+            refused += bad != 0;
+        }
+    assert_int_equal(tried, 105);
+    assert_true(refused > 0 && refused < tried);
+}
+
 static void test_rejected_writes_change_nothing(void **st)
 {
     struct mb_map_query q, q0;
@@ -376,6 +408,7 @@ int main(void)
         cmocka_unit_test(test_query_uw),
         cmocka_unit_test(test_query_views_and_int32_order),
         cmocka_unit_test(test_query_write_keeps_page),
+        cmocka_unit_test(test_query_ranges),
         cmocka_unit_test(test_rejected_writes_change_nothing),
         cmocka_unit_test(test_incomplete_is_busy),
         cmocka_unit_test(test_grid_saturation_flag),
