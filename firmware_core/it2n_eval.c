@@ -659,10 +659,51 @@ void it2n__summarise(const it2n_model *mdl, it2n_point *out)
     it2n__summarise_flags(mdl->flags, out);
 }
 
+#ifdef IT2N_VALUES_AVX2
+/*
+ * The type-2 summary with AVX2 (the caller checked the CPU): the
+ * memberships T, I, F of a footprint are three consecutive values, one
+ * vector each (a fourth lane read from the next field and never used):
+ * minima and maxima by compare and blend, the out-of-range flags by one
+ * unsigned compare per footprint (sign bits flipped). The same values and
+ * bits as the scalar code below, which it replaces for it2nd's FC 23.
+ */
+IT2N_AVX2_FN static void summarise_avx2(it2n_point *out)
+{
+    const __m256i flip = _mm256_set1_epi64x(INT64_MIN), one = _mm256_set1_epi64x(IT2N_VAL_ONE ^ INT64_MIN);
+    const __m256i three = _mm256_set_epi64x(0, -1, -1, -1);
+#define IT2N_LOAD_TIF(fp) _mm256_loadu_si256((const __m256i *)(const void *)&out->v[(fp)][IT2N_CH_T])
+#define IT2N_MIN(a, b) _mm256_blendv_epi8((a), (b), _mm256_cmpgt_epi64((a), (b)))
+#define IT2N_MAX(a, b) _mm256_blendv_epi8((a), (b), _mm256_cmpgt_epi64((b), (a)))
+    __m256i d = IT2N_LOAD_TIF(IT2N_FP_D), a0 = IT2N_LOAD_TIF(IT2N_FP_LL), a1 = IT2N_LOAD_TIF(IT2N_FP_RR);
+    __m256i b0 = IT2N_LOAD_TIF(IT2N_FP_LR), b1 = IT2N_LOAD_TIF(IT2N_FP_RL);
+    uint32_t oor = 0u;
+    unsigned fp;
+    _mm256_maskstore_epi64((long long *)(void *)out->sum.upper_min, three, IT2N_MIN(IT2N_MIN(d, a0), a1));
+    _mm256_maskstore_epi64((long long *)(void *)out->sum.upper_max, three, IT2N_MAX(IT2N_MAX(d, a0), a1));
+    _mm256_maskstore_epi64((long long *)(void *)out->sum.lower_min, three, IT2N_MIN(IT2N_MIN(d, b0), b1));
+    _mm256_maskstore_epi64((long long *)(void *)out->sum.lower_max, three, IT2N_MAX(IT2N_MAX(d, b0), b1));
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        __m256i x = _mm256_xor_si256(IT2N_LOAD_TIF(fp), flip);
+        oor |= ((uint32_t)_mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpgt_epi64(x, one))) & 7u) << (fp * 3u);
+    }
+#undef IT2N_LOAD_TIF
+#undef IT2N_MIN
+#undef IT2N_MAX
+    out->out_of_range = oor;
+}
+#endif
+
 void it2n__summarise_flags(unsigned flags, it2n_point *out)
 {
     unsigned k, fp;
     uint32_t oor = 0u;
+#ifdef IT2N_VALUES_AVX2
+    if ((flags & IT2N_F_TYPE1) == 0u && __builtin_cpu_supports("avx2")) {
+        summarise_avx2(out);
+        return;
+    }
+#endif
     if ((flags & IT2N_F_TYPE1) != 0u) {
         /* one footprint: every bound is its value */
         for (k = 0; k < 3u; k++) {
