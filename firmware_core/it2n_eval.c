@@ -499,14 +499,21 @@ IT2N_AVX2_FN IT2N_INLINE void values_avx2_m4(const it2n_model *mdl, unsigned fpm
     for (i = 0; i < n1; i++) {
         bu[i] = _mm256_set1_epi64x(cu[i]);
     }
-    for (i = 0; i < IT2N_CH_COUNT; i++) {
-        chbits |= it2n__ch_used(mdl->flags, i) ? 1u << i : 0u;
-    }
-    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
-        if (fpmask & (1u << fp)) {
+    /* every channel but z without IT2N_F_Z (it2n__ch_used) */
+    chbits = ((1u << IT2N_CH_COUNT) - 1u) & ~((mdl->flags & IT2N_F_Z) ? 0u : 1u << IT2N_CH_Z);
+    if (fpmask == (1u << IT2N_FP_COUNT) - 1u) { /* type-2: chbits in every footprint's six bits */
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
             used |= (uint64_t)chbits << (fp * IT2N_CH_COUNT);
-            k0 = k0 < fp * IT2N_CH_COUNT ? k0 : fp * IT2N_CH_COUNT;
-            k1 = (fp + 1u) * IT2N_CH_COUNT;
+        }
+        k0 = 0u;
+        k1 = IT2N_NETS;
+    } else {
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            if (fpmask & (1u << fp)) {
+                used |= (uint64_t)chbits << (fp * IT2N_CH_COUNT);
+                k0 = k0 < fp * IT2N_CH_COUNT ? k0 : fp * IT2N_CH_COUNT;
+                k1 = (fp + 1u) * IT2N_CH_COUNT;
+            }
         }
     }
     /* the footprints before the first and after the last one in fpmask */
