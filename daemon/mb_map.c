@@ -206,6 +206,8 @@ static uint16_t grid_saturated(struct model *md, const struct mb_map_opts *o)
     return (uint16_t)(count > 65535u ? 65535u : count);
 }
 
+static void sync_views(struct mb_map_query *q);
+
 _Static_assert(2 * RES_F32_VALUES == IT2N_REGMAP_REG_SUM_F32 + 24u - IT2N_REGMAP_REG_RES_F32,
                "the conversion of the results fills the whole results_f32 block");
 
@@ -273,7 +275,11 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
         buf[3] = 0;
         return MB_MAP_OK;
     case IT2N_REGMAP_REG_UP_I: memcpy(buf, md->mb.upload, sizeof md->mb.upload); return MB_MAP_OK;
-    case IT2N_REGMAP_REG_Q_U16: memcpy(buf, q->regs, sizeof q->regs); return MB_MAP_OK;
+    case IT2N_REGMAP_REG_Q_U16:
+        if (q->views_due)
+            sync_views(q);
+        memcpy(buf, q->regs, sizeof q->regs);
+        return MB_MAP_OK;
     case IT2N_REGMAP_REG_Q_KIND:
         rc = query_result(md, q);
         if (rc == MB_MAP_BUSY) { /* status stays readable while unsolved */
@@ -533,24 +539,28 @@ static int par_from_f32(float f, it2n_par *out)
 /* The two views of a query input say the same: after a write of q_u the
  * float q_u_f reads the new u and vice versa (likewise w, and x, y in
  * scaled and float form), each rounded from the value in use. */
-static void sync_views(struct mb_map_query *q, const struct mb_map_opts *o)
+static void sync_views(struct mb_map_query *q)
 {
     int sat = 0;
-    if (q->kind == 1) {
+    if (q->views_due & 1u) {
         q->regs[QIDX(IT2N_REGMAP_REG_Q_U16)] = it2n_regmap_par_to_u16(q->u);
         q->regs[QIDX(IT2N_REGMAP_REG_Q_W16)] = it2n_regmap_par_to_u16(q->w);
         it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE),
-                            o->word_order);
+                            (unsigned)q->uv_order);
         it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE),
-                            o->word_order);
-    } else if (q->kind == 2) {
-        put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XS)],
-                (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->x, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
-        put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YS)],
-                (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->y, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XF)], it2n_regmap_q24_to_f32(q->x), o->word_order);
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YF)], it2n_regmap_q24_to_f32(q->y), o->word_order);
+                            (unsigned)q->uv_order);
     }
+    if (q->views_due & 2u) {
+        it2n_regmap_put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XS)],
+                            (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->x, q->xy_scale, INT32_MIN, INT32_MAX, &sat),
+                            (unsigned)q->xy_int32_order);
+        it2n_regmap_put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YS)],
+                            (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->y, q->xy_scale, INT32_MIN, INT32_MAX, &sat),
+                            (unsigned)q->xy_int32_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XF)], it2n_regmap_q24_to_f32(q->x), (unsigned)q->xy_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YF)], it2n_regmap_q24_to_f32(q->y), (unsigned)q->xy_order);
+    }
+    q->views_due = 0u;
 }
 
 static int write_query(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
@@ -619,7 +629,17 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
         nq.kind = 2;
     }
 #undef IN
-    sync_views(&nq, o);
+    /* the other views when the query block is read (sync_views), as this
+     * write's options would have formatted them */
+    if (nq.kind == 1) {
+        nq.views_due |= 1u;
+        nq.uv_order = o->word_order;
+    } else {
+        nq.views_due |= 2u;
+        nq.xy_order = o->word_order;
+        nq.xy_int32_order = o->int32_order;
+        nq.xy_scale = o->coord_scale;
+    }
     /* The inputs back, the cached result invalid; the rest of *q (the
      * coefficient page) is not nq's to give: it was never copied in. */
     memcpy(q, &nq, offsetof(struct mb_map_query, valid));

@@ -49,6 +49,13 @@ struct mb_map_query {
     int kind;                                                         /* 0 none, 1 (u, w), 2 (x, y) */
     it2n_par u, w;
     it2n_val x, y;
+    /* The other views of the inputs (u as x10000 and float, likewise w,
+     * x, y) still to be written into regs, when the query block is read
+     * (a query's write need not format them): bit 0 (u, w), bit 1 (x, y),
+     * in the word orders and scale of the write that made them due. */
+    unsigned views_due;
+    int uv_order, xy_order, xy_int32_order;
+    int32_t xy_scale;
     /* (write_query copies the fields above, the inputs, up to `valid`.) */
     /* Cached result, valid when valid && the same model instance (not
      * just id: a model removed and added again by a reload) && gen. */

@@ -129,6 +129,34 @@ static void test_query_views_and_int32_order(void **st)
     }
 }
 
+/* The views a write makes (formatted when the block is read) are those of
+ * that write: a (u, w) write then an (x, y) write, both read afterwards,
+ * in the word orders and scale the writes had, not the reader's (a
+ * reload between them changes the options). */
+static void test_query_views_of_the_write(void **st)
+{
+    const struct mb_map_opts w1 = { IT2N_REGMAP_WO_ABCD, 100, 5, 5, { 0 }, IT2N_REGMAP_WO_CDAB, 0 };
+    const struct mb_map_opts w2 = { IT2N_REGMAP_WO_DCBA, 10, 5, 5, { 0 }, IT2N_REGMAP_WO_BADC, 0 };
+    const struct mb_map_opts rd = { IT2N_REGMAP_WO_BADC, 1000, 5, 5, { 0 }, IT2N_REGMAP_WO_ABCD, 0 };
+    struct mb_map_query q;
+    uint16_t in[2], r[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16];
+    int persisted;
+    (void)st;
+    memset(&q, 0, sizeof q);
+    in[0] = 2500;
+    in[1] = 7500;
+    assert_int_equal(mb_map_write(md, &q, &w1, IT2N_REGMAP_REG_Q_U16, 2, in, &persisted), MB_MAP_OK);
+    it2n_regmap_put_f32(in, -17.5f, w2.word_order);
+    assert_int_equal(mb_map_write(md, &q, &w2, IT2N_REGMAP_REG_Q_XF, 2, in, &persisted), MB_MAP_OK);
+    assert_int_equal(mb_map_read(md, &q, &rd, IT2N_REGMAP_REG_Q_U16, 14, r), MB_MAP_OK);
+    assert_true(it2n_regmap_get_f32(&r[IT2N_REGMAP_REG_Q_UF - IT2N_REGMAP_REG_Q_U16], w1.word_order) == 0.25f);
+    assert_true(it2n_regmap_get_f32(&r[IT2N_REGMAP_REG_Q_WF - IT2N_REGMAP_REG_Q_U16], w1.word_order) == 0.75f);
+    assert_int_equal((int32_t)reg32(&r[IT2N_REGMAP_REG_Q_XS - IT2N_REGMAP_REG_Q_U16], w2.int32_order), -175);
+    assert_true(it2n_regmap_get_f32(&r[IT2N_REGMAP_REG_Q_XF - IT2N_REGMAP_REG_Q_U16], w2.word_order) == -17.5f);
+    assert_int_equal(r[0], 2500);
+    assert_int_equal(r[1], 7500);
+}
+
 /* A query write changes the query inputs only: the coefficient page the
  * connection selected, and the result of a later read, stay its own. */
 static void test_query_write_keeps_page(void **st)
@@ -407,6 +435,7 @@ int main(void)
         cmocka_unit_test(test_status),
         cmocka_unit_test(test_query_uw),
         cmocka_unit_test(test_query_views_and_int32_order),
+        cmocka_unit_test(test_query_views_of_the_write),
         cmocka_unit_test(test_query_write_keeps_page),
         cmocka_unit_test(test_query_ranges),
         cmocka_unit_test(test_rejected_writes_change_nothing),
