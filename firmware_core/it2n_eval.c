@@ -574,6 +574,99 @@ IT2N_AVX2_FN static void apply_values_avx2(const it2n_model *mdl, unsigned fpmas
 }
 #endif
 
+/*
+ * The bases of u and w together when their degrees are equal (the
+ * bicubic surface): basis30's recurrence in the two 64-bit lanes of SSE2
+ * (PMULUDQ: the same 32 x 32 -> 64 unsigned products, the same sums and
+ * roundings), then each lane's partition-of-unity correction as there.
+ * The same values as two calls of it2n__basis30 (test_eval_exact checks
+ * them against its own basis).
+ */
+IT2N_INLINE void basis30_pair(const unsigned deg, it2n_par u, it2n_par w, int32_t bu[IT2N_DIM], int32_t bw[IT2N_DIM])
+{
+    const __m128i half = _mm_set1_epi64x((int64_t)1 << 29);
+    uint32_t tu = (uint32_t)((u + 2) >> 2), tw = (uint32_t)((w + 2) >> 2);
+    __m128i t = _mm_set_epi64x(tw, tu);
+    __m128i sv = _mm_sub_epi64(_mm_set1_epi64x(Q30_ONE), t);
+    __m128i v[IT2N_DIM];
+    unsigned k, i;
+    v[0] = _mm_set1_epi64x(Q30_ONE);
+    TWO_STAGES_UNROLL
+    for (k = 1; k <= deg; k++) {
+        v[k] = _mm_srli_epi64(_mm_add_epi64(_mm_mul_epu32(t, v[k - 1u]), half), 30);
+        TWO_STAGES_UNROLL
+        for (i = k - 1u; i >= 1u; i--) {
+            __m128i acc = _mm_add_epi64(_mm_mul_epu32(sv, v[i]), _mm_mul_epu32(t, v[i - 1u]));
+            v[i] = _mm_srli_epi64(_mm_add_epi64(acc, half), 30);
+        }
+        v[0] = _mm_srli_epi64(_mm_add_epi64(_mm_mul_epu32(sv, v[0]), half), 30);
+    }
+    /* Each lane's correction: the first largest value takes 2^30 - sum.
+     * Values are at most 2^30: the low 32 bits of a lane compare signed. */
+    {
+        __m128i sum = v[0], mx = v[0], big = _mm_setzero_si128(), res;
+        TWO_STAGES_UNROLL
+        for (i = 1; i <= deg; i++) {
+            __m128i gt = _mm_cmpgt_epi32(v[i], mx);
+            sum = _mm_add_epi64(sum, v[i]);
+            mx = _mm_or_si128(_mm_and_si128(gt, v[i]), _mm_andnot_si128(gt, mx));
+        }
+        TWO_STAGES_UNROLL
+        for (i = deg + 1u; i-- > 0u;) { /* down: the first index of the largest is left */
+            __m128i eq = _mm_cmpeq_epi32(v[i], mx);
+            big = _mm_or_si128(_mm_and_si128(eq, _mm_set1_epi32((int)i)), _mm_andnot_si128(eq, big));
+        }
+        res = _mm_sub_epi32(_mm_set1_epi32(Q30_ONE), sum);
+        TWO_STAGES_UNROLL
+        for (i = 0; i <= deg; i++) {
+            __m128i at = _mm_cmpeq_epi32(big, _mm_set1_epi32((int)i));
+            __m128i x = _mm_add_epi32(v[i], _mm_and_si128(at, res));
+            bu[i] = _mm_cvtsi128_si32(x);
+            bw[i] = _mm_cvtsi128_si32(_mm_srli_si128(x, 8));
+        }
+    }
+}
+
+/* Constant degrees (the loops unroll), as it2n__basis30. */
+#define IT2N_BASIS30_PAIR_K(k) \
+    case k: basis30_pair(k, u, w, bu, bw); break
+
+static void bases30(const it2n_model *mdl, it2n_par u, it2n_par w, int32_t bu[IT2N_DIM], int32_t bw[IT2N_DIM])
+{
+    if (mdl->n != mdl->m) {
+        it2n__basis30(mdl->n, u, bu);
+        it2n__basis30(mdl->m, w, bw);
+        return;
+    }
+    /* clang-format off */
+    switch (mdl->n) {
+    IT2N_BASIS30_PAIR_K(1);
+#if IT2N_MAX_DEGREE >= 2
+    IT2N_BASIS30_PAIR_K(2);
+#endif
+#if IT2N_MAX_DEGREE >= 3
+    IT2N_BASIS30_PAIR_K(3);
+#endif
+#if IT2N_MAX_DEGREE >= 4
+    IT2N_BASIS30_PAIR_K(4);
+#endif
+#if IT2N_MAX_DEGREE >= 5
+    IT2N_BASIS30_PAIR_K(5);
+#endif
+#if IT2N_MAX_DEGREE >= 6
+    IT2N_BASIS30_PAIR_K(6);
+#endif
+#if IT2N_MAX_DEGREE >= 7
+    IT2N_BASIS30_PAIR_K(7);
+#endif
+    default:
+        it2n__basis30(mdl->n, u, bu);
+        it2n__basis30(mdl->m, w, bw);
+        break;
+    }
+    /* clang-format on */
+}
+
 /* apply_values with SSE2. */
 static void apply_values_sse2(const it2n_model *mdl, unsigned fpmask, const int32_t *bu, const int32_t *bw,
                               it2n_val *out)
@@ -770,12 +863,13 @@ static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_val 
 {
     int32_t bu[IT2N_DIM], bw[IT2N_DIM];
     unsigned bad;
-    it2n__basis30(mdl->n, u, bu);
-    it2n__basis30(mdl->m, w, bw);
 #ifdef IT2N_VALUES_SSE2
     (void)bad;
+    bases30(mdl, u, w, bu, bw);
     apply_values(mdl, it2n__fp_mask(mdl->flags), bu, bw, v);
 #else
+    it2n__basis30(mdl->n, u, bu);
+    it2n__basis30(mdl->m, w, bw);
     if (!apply(mdl, it2n__fp_mask(mdl->flags), bu, 30, bw, 30, v, &bad)) {
         IT2N_ASSERT(false); /* convex weights: values are within the net */
     }
