@@ -515,13 +515,13 @@ IT2N_AVX2_FN IT2N_INLINE void values_avx2_m4(const it2n_model *mdl, unsigned fpm
                 k1 = (fp + 1u) * IT2N_CH_COUNT;
             }
         }
-    }
-    /* the footprints before the first and after the last one in fpmask */
-    for (k = 0; k < k0; k++) {
-        out[k] = 0;
-    }
-    for (k = k1; k < IT2N_NETS; k++) {
-        out[k] = 0;
+        /* the footprints before the first and after the last one in fpmask */
+        for (k = 0; k < k0; k++) {
+            out[k] = 0;
+        }
+        for (k = k1; k < IT2N_NETS; k++) {
+            out[k] = 0;
+        }
     }
     for (k = k0; k + 4u <= k1; k += 4u) {
         group_m4(mdl, n1, bu, bw, used, k, 1u, 2u, 3u, 4u, out);
