@@ -144,6 +144,7 @@ __attribute__((target("avx2"))) static size_t put_q24_f32s_avx2(uint16_t *out, c
      * 16-bit values) */
     __m128i m;
     __m256i bad = _mm256_setzero_si256();
+    __m128i bad2 = _mm_setzero_si128();
     size_t k = 0;
     switch (order) {
     case IT2N_REGMAP_WO_CDAB: m = _mm_setr_epi8(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15); break;
@@ -157,10 +158,19 @@ __attribute__((target("avx2"))) static size_t put_q24_f32s_avx2(uint16_t *out, c
         bad = _mm256_or_si256(bad, _mm256_srli_epi32(_mm256_add_epi32(x, r19), 20));
         _mm_storeu_si128((__m128i *)(void *)(out + 2u * k), _mm_shuffle_epi8(_mm_castps_si128(f), m));
     }
+    if (k + 2u <= n) { /* two more (54 results: 13 steps of four, then two) */
+        __m128i x = _mm_loadu_si128((const __m128i *)(const void *)(v + k));
+        __m128 f = _mm_cvtpd_ps(_mm_sub_pd(_mm_castsi128_pd(_mm_add_epi64(x, _mm256_castsi256_si128(magic_i))),
+                                           _mm256_castpd256_pd128(magic_d)));
+        bad2 = _mm_srli_epi32(_mm_add_epi32(x, _mm256_castsi256_si128(r19)), 20);
+        _mm_storel_epi64((__m128i *)(void *)(out + 2u * k), _mm_shuffle_epi8(_mm_castps_si128(f), m));
+        k += 2u;
+    }
     /* the high halves' flags (odd 32-bit lanes) */
-    if (!_mm256_testz_si256(bad, _mm256_set1_epi64x((int64_t)0xFFFFFFFF00000000LL)))
+    if (!_mm256_testz_si256(bad, _mm256_set1_epi64x((int64_t)0xFFFFFFFF00000000LL)) ||
+        !_mm_testz_si128(bad2, _mm_set1_epi64x((int64_t)0xFFFFFFFF00000000LL)))
         return 0u;
-    for (; k < n; k++) /* the last 1..3 values: the scalar conversion */
+    if (k < n) /* the odd last value: the scalar conversion */
         it2n_regmap_put_f32(&out[2u * k], it2n_regmap_q24_to_f32(v[k]), order);
     return n;
 }
