@@ -206,13 +206,21 @@ static uint16_t grid_saturated(struct model *md, const struct mb_map_opts *o)
     return (uint16_t)(count > 65535u ? 65535u : count);
 }
 
+static void sync_views(struct mb_map_query *q);
+
+_Static_assert(2 * RES_F32_VALUES == IT2N_REGMAP_REG_SUM_F32 + 24u - IT2N_REGMAP_REG_RES_F32,
+               "the conversion of the results fills the whole results_f32 block");
+
 /* Fill registers [start, end) of one block into buf (indexed from start). */
 static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const it2n_regmap_block *b,
                       uint16_t *buf, unsigned from, unsigned to)
 {
     unsigned len = b->end - b->start;
     int rc, sat;
-    memset(buf, 0, len * sizeof *buf);
+    /* zeros where a block leaves registers unset; the float results are
+     * all written when there are results (every FC 23 answer) */
+    if (b->start != IT2N_REGMAP_REG_RES_F32)
+        memset(buf, 0, len * sizeof *buf);
     switch (b->start) {
     case IT2N_REGMAP_REG_MAP_VERSION: {
         uint16_t *r = buf;
@@ -267,7 +275,11 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
         buf[3] = 0;
         return MB_MAP_OK;
     case IT2N_REGMAP_REG_UP_I: memcpy(buf, md->mb.upload, sizeof md->mb.upload); return MB_MAP_OK;
-    case IT2N_REGMAP_REG_Q_U16: memcpy(buf, q->regs, sizeof q->regs); return MB_MAP_OK;
+    case IT2N_REGMAP_REG_Q_U16:
+        if (q->views_due)
+            sync_views(q);
+        memcpy(buf, q->regs, sizeof q->regs);
+        return MB_MAP_OK;
     case IT2N_REGMAP_REG_Q_KIND:
         rc = query_result(md, q);
         if (rc == MB_MAP_BUSY) { /* status stays readable while unsolved */
@@ -284,8 +296,10 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
     case IT2N_REGMAP_REG_RES_F32:
         if ((rc = query_result(md, q)) != MB_MAP_OK)
             return rc;
-        if (q->kind == 0)
+        if (q->kind == 0) {
+            memset(buf, 0, len * sizeof *buf);
             return MB_MAP_OK;
+        }
         /* The values then the summary, as they lie in it2n_point: one
          * conversion of 54 (asserted at the top of the file). */
         it2n_regmap_put_q24_f32s(buf, &q->pt.v[0][0], RES_F32_VALUES, o->word_order);
@@ -372,11 +386,21 @@ static int fill_block(struct model *md, struct mb_map_query *q, const struct mb_
 int mb_map_read(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
                 uint16_t *out)
 {
+    return mb_map_read_in(md, q, o, it2n_regmap_find(addr, count), addr, count, out);
+}
+
+int mb_map_read_in(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const it2n_regmap_block *b,
+                   unsigned addr, unsigned count, uint16_t *out)
+{
     static uint16_t buf[IT2N_REGMAP_REG_CTRL_END - IT2N_REGMAP_REG_CTRL]; /* the largest block */
-    const it2n_regmap_block *b = it2n_regmap_find(addr, count);
     int rc;
     if (!b)
         return MB_MAP_ILLEGAL_ADDRESS;
+    /* The whole float results block (what an FC 23 query reads) is
+     * converted in place: fill_block writes none of it before its checks,
+     * so out is left as it was on an exception, as through buf. */
+    if (b->start == IT2N_REGMAP_REG_RES_F32 && addr == b->start && count == (unsigned)(b->end - b->start))
+        return fill_block(md, q, o, b, out, addr, addr + count);
     rc = fill_block(md, q, o, b, buf, addr, addr + count);
     if (rc)
         return rc;
@@ -504,13 +528,6 @@ static int write_upload(struct model *md, const struct mb_map_opts *o, unsigned 
     return MB_MAP_OK;
 }
 
-/* Does [addr, addr+count) cut a 32-bit value starting at `a` in half? */
-static int cuts(unsigned addr, unsigned count, unsigned a)
-{
-    unsigned end = addr + count;
-    return (addr == a + 1) || (end == a + 1);
-}
-
 static int par_from_f32(float f, it2n_par *out)
 {
     if (!(f >= 0.0f && f <= 1.0f)) /* also rejects NaN */
@@ -522,24 +539,28 @@ static int par_from_f32(float f, it2n_par *out)
 /* The two views of a query input say the same: after a write of q_u the
  * float q_u_f reads the new u and vice versa (likewise w, and x, y in
  * scaled and float form), each rounded from the value in use. */
-static void sync_views(struct mb_map_query *q, const struct mb_map_opts *o)
+static void sync_views(struct mb_map_query *q)
 {
     int sat = 0;
-    if (q->kind == 1) {
+    if (q->views_due & 1u) {
         q->regs[QIDX(IT2N_REGMAP_REG_Q_U16)] = it2n_regmap_par_to_u16(q->u);
         q->regs[QIDX(IT2N_REGMAP_REG_Q_W16)] = it2n_regmap_par_to_u16(q->w);
         it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_UF)], (float)((double)q->u / (double)IT2N_PAR_ONE),
-                            o->word_order);
+                            (unsigned)q->uv_order);
         it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_WF)], (float)((double)q->w / (double)IT2N_PAR_ONE),
-                            o->word_order);
-    } else if (q->kind == 2) {
-        put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XS)],
-                (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->x, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
-        put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YS)],
-                (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->y, o->coord_scale, INT32_MIN, INT32_MAX, &sat));
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XF)], it2n_regmap_q24_to_f32(q->x), o->word_order);
-        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YF)], it2n_regmap_q24_to_f32(q->y), o->word_order);
+                            (unsigned)q->uv_order);
     }
+    if (q->views_due & 2u) {
+        it2n_regmap_put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XS)],
+                            (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->x, q->xy_scale, INT32_MIN, INT32_MAX, &sat),
+                            (unsigned)q->xy_int32_order);
+        it2n_regmap_put_u32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YS)],
+                            (uint32_t)(int32_t)it2n_regmap_q24_to_scaled(q->y, q->xy_scale, INT32_MIN, INT32_MAX, &sat),
+                            (unsigned)q->xy_int32_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_XF)], it2n_regmap_q24_to_f32(q->x), (unsigned)q->xy_order);
+        it2n_regmap_put_f32(&q->regs[QIDX(IT2N_REGMAP_REG_Q_YF)], it2n_regmap_q24_to_f32(q->y), (unsigned)q->xy_order);
+    }
+    q->views_due = 0u;
 }
 
 static int write_query(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr,
@@ -550,12 +571,17 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
     struct mb_map_query nq;
     unsigned end = addr + count;
     memcpy(&nq, q, offsetof(struct mb_map_query, valid));
-    static const unsigned wide[] = {IT2N_REGMAP_REG_Q_UF, IT2N_REGMAP_REG_Q_WF, IT2N_REGMAP_REG_Q_XS,
-                                    IT2N_REGMAP_REG_Q_YS, IT2N_REGMAP_REG_Q_XF, IT2N_REGMAP_REG_Q_YF};
+    /* Bit a - Q_U16 for every a = (start of a 32-bit input) + 1: a range
+     * starting or ending there cuts that value in half (addr and end lie
+     * in the query block: its own lookup). */
+#define CUT(a) (1u << ((a) + 1u - IT2N_REGMAP_REG_Q_U16))
+    const unsigned cut = CUT(IT2N_REGMAP_REG_Q_UF) | CUT(IT2N_REGMAP_REG_Q_WF) | CUT(IT2N_REGMAP_REG_Q_XS) |
+                         CUT(IT2N_REGMAP_REG_Q_YS) | CUT(IT2N_REGMAP_REG_Q_XF) | CUT(IT2N_REGMAP_REG_Q_YF);
+#undef CUT
+    _Static_assert(IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16 < 32, "query block within the cut mask");
     (void)md;
-    for (unsigned k = 0; k < sizeof wide / sizeof wide[0]; k++)
-        if (cuts(addr, count, wide[k]))
-            return MB_MAP_ILLEGAL_VALUE;
+    if (((cut >> (addr - IT2N_REGMAP_REG_Q_U16)) | (cut >> (end - IT2N_REGMAP_REG_Q_U16))) & 1u)
+        return MB_MAP_ILLEGAL_VALUE;
     int uv = addr<IT2N_REGMAP_REG_Q_XS, xy = end> IT2N_REGMAP_REG_Q_XS;
     if (uv && xy)
         return MB_MAP_ILLEGAL_VALUE;
@@ -603,7 +629,17 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
         nq.kind = 2;
     }
 #undef IN
-    sync_views(&nq, o);
+    /* the other views when the query block is read (sync_views), as this
+     * write's options would have formatted them */
+    if (nq.kind == 1) {
+        nq.views_due |= 1u;
+        nq.uv_order = o->word_order;
+    } else {
+        nq.views_due |= 2u;
+        nq.xy_order = o->word_order;
+        nq.xy_int32_order = o->int32_order;
+        nq.xy_scale = o->coord_scale;
+    }
     /* The inputs back, the cached result invalid; the rest of *q (the
      * coefficient page) is not nq's to give: it was never copied in. */
     memcpy(q, &nq, offsetof(struct mb_map_query, valid));
@@ -613,7 +649,11 @@ static int write_query(struct model *md, struct mb_map_query *q, const struct mb
 
 int mb_map_write_changes_model(unsigned addr, unsigned count)
 {
-    const it2n_regmap_block *b = it2n_regmap_find(addr, count);
+    return mb_map_block_changes_model(it2n_regmap_find(addr, count));
+}
+
+int mb_map_block_changes_model(const it2n_regmap_block *b)
+{
     return b && b->access == IT2N_REGMAP_ACCESS_RW && !b->per_conn; /* per connection: query inputs, coefficient page */
 }
 
@@ -632,7 +672,12 @@ static int write_page(struct mb_map_query *q, unsigned addr, unsigned count, con
 int mb_map_write(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, unsigned addr, unsigned count,
                  const uint16_t *vals, int *persisted)
 {
-    const it2n_regmap_block *b = it2n_regmap_find(addr, count);
+    return mb_map_write_in(md, q, o, it2n_regmap_find(addr, count), addr, count, vals, persisted);
+}
+
+int mb_map_write_in(struct model *md, struct mb_map_query *q, const struct mb_map_opts *o, const it2n_regmap_block *b,
+                    unsigned addr, unsigned count, const uint16_t *vals, int *persisted)
+{
     *persisted = 0;
     if (!b || b->access != IT2N_REGMAP_ACCESS_RW)
         return refused(md, MB_MAP_ILLEGAL_ADDRESS, IT2N_ERR_INVAL, -1, -1, -1);

@@ -29,6 +29,32 @@ void mb_req_session_free(struct mb_req_session *s)
  * code elsewhere). */
 typedef uint16_t mb_u16x8 __attribute__((vector_size(16)));
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define MB_SWAP_AVX2 1
+/* x86-64 with AVX2 (checked at run time): regs[0..n) big-endian into dst,
+ * sixteen registers per byte shuffle (VPSHUFB), then eight; returns how
+ * many were done (a multiple of 8; the caller's loops do the rest). An FC 23
+ * answer is 108 registers: 7 shuffles where the SSE2 shifts took 13 steps
+ * of three operations (callgrind: about 160 -> 50 instructions). */
+__attribute__((target("avx2"))) static unsigned swap16s_avx2(uint8_t *dst, const uint16_t *regs, unsigned n)
+{
+    const __m256i m = _mm256_setr_epi8(1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14, 1, 0, 3, 2, 5, 4, 7, 6, 9,
+                                       8, 11, 10, 13, 12, 15, 14);
+    unsigned i = 0;
+    for (; i + 16u <= n; i += 16u)
+        _mm256_storeu_si256((__m256i *)(void *)(dst + 2u * i),
+                            _mm256_shuffle_epi8(_mm256_loadu_si256((const __m256i *)(const void *)(regs + i)), m));
+    if (i + 8u <= n) {
+        _mm_storeu_si128(
+            (__m128i *)(void *)(dst + 2u * i),
+            _mm_shuffle_epi8(_mm_loadu_si128((const __m128i *)(const void *)(regs + i)), _mm256_castsi256_si128(m)));
+        i += 8u;
+    }
+    return i;
+}
+#endif
+
 /* The reply to a request that succeeded, framed here into s->rsp as
  * libmodbus' modbus_reply() would frame it (the daemon owns its framing:
  * no scratch register mapping, no copy through it): TCP, the request's
@@ -56,6 +82,10 @@ static void frame_reply(struct mb_req_session *s, const uint8_t *req, int fc, co
     } else {
         r[k++] = (uint8_t)(n * 2u);
         unsigned i = 0;
+#ifdef MB_SWAP_AVX2
+        if (__builtin_cpu_supports("avx2"))
+            i = swap16s_avx2(r + k, regs, n);
+#endif
         /* Big-endian, eight registers per step (a byte swap in each 16-bit
          * lane of a 128-bit vector: three SSE2 instructions on x86-64),
          * then four (a 64-bit word): 108 registers are every FC 23 answer.
@@ -146,31 +176,31 @@ static unsigned u16at(const uint8_t *p)
  * exception is answered at once: it means "nothing changed" (security
  * finding 8). A write refused before any change keeps its own report
  * (last_error). */
-static int write_req(struct mb_req_session *s, struct model *md, const struct mb_map_opts *o, unsigned waddr,
-                     unsigned wcount, const uint16_t *vals, unsigned raddr, unsigned rcount, uint16_t *regs,
-                     int *persisted)
+static int write_req(struct mb_req_session *s, struct model *md, const struct mb_map_opts *o,
+                     const it2n_regmap_block *wb, unsigned waddr, unsigned wcount, const uint16_t *vals,
+                     const it2n_regmap_block *rb, unsigned raddr, unsigned rcount, uint16_t *regs, int *persisted)
 {
     int rc;
     *persisted = 0;
-    if (!mb_map_write_changes_model(waddr, wcount)) {
+    if (!mb_map_block_changes_model(wb)) {
         /* Query registers: per connection, the model is not touched (no
          * transaction, no copy). write_query validates completely before
          * it changes s->q, so an exception leaves s->q as it was. The read
          * half reads like FC 04: the last durable state. */
-        rc = mb_map_write(md, &s->q, o, waddr, wcount, vals, persisted);
+        rc = mb_map_write_in(md, &s->q, o, wb, waddr, wcount, vals, persisted);
         if (rc == MB_MAP_OK && rcount > 0)
-            rc = mb_map_read(models_view(md), &s->q, o, raddr, rcount, regs);
+            rc = mb_map_read_in(models_view(md), &s->q, o, rb, raddr, rcount, regs);
         return rc;
     }
     struct mb_map_query q = s->q;
     struct model_txn t;
     models_txn_begin(&t);
-    rc = mb_map_write(md, &s->q, o, waddr, wcount, vals, persisted);
+    rc = mb_map_write_in(md, &s->q, o, wb, waddr, wcount, vals, persisted);
     /* The read half of FC 23: a write reads the model it just changed
      * (its reply waits for that change to be durable); a write that
      * changed nothing reads like FC 04, the last durable state. */
     if (rc == MB_MAP_OK && rcount > 0)
-        rc = mb_map_read(*persisted ? md : models_view(md), &s->q, o, raddr, rcount, regs);
+        rc = mb_map_read_in(*persisted ? md : models_view(md), &s->q, o, rb, raddr, rcount, regs);
     if (rc != MB_MAP_OK && *persisted) {
         it2n_errinfo why = md->last_err;
         models_txn_rollback(&t); /* the model and the WAL records queued since begin */
@@ -193,10 +223,11 @@ static int write_req(struct mb_req_session *s, struct model *md, const struct mb
  * client of the model) is left as it was. Query registers stay writable:
  * querying is reading. The first refusal per session is logged at notice
  * level, the rest at debug. */
-static int write_denied(struct mb_req_session *s, int unit, const struct mb_map_opts *o, unsigned addr, unsigned count)
+static int write_denied(struct mb_req_session *s, int unit, const struct mb_map_opts *o, const it2n_regmap_block *b,
+                        unsigned addr, unsigned count)
 {
     int prot = (o->write_protect[unit / 8] >> (unit % 8)) & 1;
-    if ((!s->read_only && !prot) || !mb_map_write_changes_model(addr, count))
+    if ((!s->read_only && !prot) || !mb_map_block_changes_model(b))
         return 0;
     int first = s->refused++ == 0;
     log_msg(first ? LOG_NOTICE : LOG_DEBUG, "%s: write to unit %d registers %u..%u refused: %s%s",
@@ -257,9 +288,10 @@ int mb_req_handle(struct mb_req_session *s, const uint8_t *req, int len, const s
         if (plen != 5)
             return refuse_write(s, md, req, MB_MAP_ILLEGAL_VALUE);
         vals[0] = (uint16_t)u16at(pdu + 3);
-        if (write_denied(s, unit, o, u16at(pdu + 1), 1))
+        const it2n_regmap_block *wb = it2n_regmap_find(u16at(pdu + 1), 1);
+        if (write_denied(s, unit, o, wb, u16at(pdu + 1), 1))
             return exception(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
-        rc = write_req(s, md, o, u16at(pdu + 1), 1, vals, 0, 0, NULL, &persisted);
+        rc = write_req(s, md, o, wb, u16at(pdu + 1), 1, vals, NULL, 0, 0, NULL, &persisted);
         break;
     }
     case MODBUS_FC_WRITE_MULTIPLE_REGISTERS: {
@@ -268,11 +300,12 @@ int mb_req_handle(struct mb_req_session *s, const uint8_t *req, int len, const s
         unsigned addr = u16at(pdu + 1), count = u16at(pdu + 3), bytes = pdu[5];
         if (count < 1 || count > MODBUS_MAX_WRITE_REGISTERS || bytes != count * 2 || plen != 6 + (int)bytes)
             return refuse_write(s, md, req, MB_MAP_ILLEGAL_VALUE);
-        if (write_denied(s, unit, o, addr, count))
+        const it2n_regmap_block *wb = it2n_regmap_find(addr, count);
+        if (write_denied(s, unit, o, wb, addr, count))
             return exception(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < count; k++)
             vals[k] = (uint16_t)u16at(pdu + 6 + 2 * k);
-        rc = write_req(s, md, o, addr, count, vals, 0, 0, NULL, &persisted);
+        rc = write_req(s, md, o, wb, addr, count, vals, NULL, 0, 0, NULL, &persisted);
         break;
     }
     case MODBUS_FC_WRITE_AND_READ_REGISTERS: {
@@ -284,18 +317,21 @@ int mb_req_handle(struct mb_req_session *s, const uint8_t *req, int len, const s
             wcount > MODBUS_MAX_WR_WRITE_REGISTERS || bytes != wcount * 2 || plen != 10 + (int)bytes)
             return refuse_write(s, md, req, MB_MAP_ILLEGAL_VALUE);
         /* Check the read range before writing, so a bad read changes nothing. */
-        if (!it2n_regmap_find(raddr, rcount))
+        const it2n_regmap_block *rb = it2n_regmap_find(raddr, rcount), *wb;
+        if (!rb)
             return refuse_write(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
-        if (write_denied(s, unit, o, waddr, wcount))
+        wb = it2n_regmap_find(waddr, wcount);
+        if (write_denied(s, unit, o, wb, waddr, wcount))
             return exception(s, md, req, MB_MAP_ILLEGAL_ADDRESS);
         for (unsigned k = 0; k < wcount; k++)
             vals[k] = (uint16_t)u16at(pdu + 10 + 2 * k);
-        rc = write_req(s, md, o, waddr, wcount, vals, raddr, rcount, regs, &persisted);
+        rc = write_req(s, md, o, wb, waddr, wcount, vals, rb, raddr, rcount, regs, &persisted);
         /* As libmodbus' modbus_reply (which stored the written values
          * before reading): an overlapping read echoes what was written. */
-        for (unsigned k = 0; rc == MB_MAP_OK && k < wcount; k++)
-            if (waddr + k >= raddr && waddr + k < raddr + rcount)
-                regs[waddr + k - raddr] = vals[k];
+        if (rc == MB_MAP_OK && waddr < raddr + rcount && raddr < waddr + wcount)
+            for (unsigned k = 0; k < wcount; k++)
+                if (waddr + k >= raddr && waddr + k < raddr + rcount)
+                    regs[waddr + k - raddr] = vals[k];
         nregs = rcount;
         break;
     }

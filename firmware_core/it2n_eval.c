@@ -401,10 +401,144 @@ IT2N_AVX2_FN IT2N_INLINE void values_avx2(const it2n_model *mdl, unsigned fpmask
     }
 }
 
+/*
+ * Four columns (m1 == 4: cubic in w, the common bicubic surface): four
+ * nets at a time, one per group of four consecutive flat [fp][ch]
+ * indices (frac and net are flat arrays in that order). Stage 1 of a net
+ * multiplies each row, sign-extended, by B_i(u) (VPMULDQ: signed, exact),
+ * its lanes the four columns, starting from 2^61 + 2^29: the sum
+ * S_j + 2^61 + 2^29 is non-negative (|S_j| <= 2^30 2^31), so a logical
+ * shift by 30 gives the rounded stage-1 value q_j plus 2^31, the biased
+ * value values_avx2 computes. Stage 2 as there. The four nets' lanes are
+ * added in one transpose (the values biased by 2^61), and the rounding to
+ * Q24 is one variable shift per lane: for 1 <= s <= 61,
+ *   (v + 2^61 + 2^(s-1)) >> s  ==  ((v + 2^(s-1)) >> s) + 2^(61-s)
+ * (2^61 is a multiple of 2^s), which is it2n__shift_round(v, s) once
+ * 2^(61-s) is subtracted; a group with another shift on a net in use
+ * goes through it2n__shift_round. Nets of unused channels are computed
+ * and zeroed. The same integers as values_avx2 and two_stages.
+ */
+IT2N_AVX2_FN IT2N_INLINE __m256i net_m4(const int32_t *net, const unsigned n1, const __m256i *bu, __m256i bw)
+{
+    __m256i q = _mm256_set1_epi64x(((int64_t)1 << 61) + ((int64_t)1 << 29));
+    unsigned i;
+    TWO_STAGES_UNROLL
+    for (i = 0; i < n1; i++) {
+        __m256i x = _mm256_cvtepi32_epi64(_mm_loadu_si128((const __m128i *)(const void *)(net + 4u * i)));
+        q = _mm256_add_epi64(q, _mm256_mul_epi32(x, bu[i]));
+    }
+    return _mm256_mul_epu32(_mm256_srli_epi64(q, 30), bw);
+}
+
+#define IT2N_NETS (IT2N_FP_COUNT * IT2N_CH_COUNT)
+
+/* The nets k, k + l1, k + l2, k + l3 (the first cnt of them distinct: a
+ * partial group repeats its last net, read, never stored) into out[k..],
+ * their lanes of `used` (bit k: a net in use) zero where unused. */
+IT2N_AVX2_FN IT2N_INLINE void group_m4(const it2n_model *mdl, const unsigned n1, const __m256i *bu, __m256i bw,
+                                       uint64_t used, unsigned k, const unsigned l1, const unsigned l2,
+                                       const unsigned l3, const unsigned cnt, it2n_val *out)
+{
+    const int32_t *net0 = &mdl->net[0][0][0];
+    const int8_t *frac = &mdl->frac[0][0];
+    const __m256i one = _mm256_set1_epi64x(1), lanebit = _mm256_set_epi64x(8, 4, 2, 1);
+    __m256i a0 = net_m4(net0 + (size_t)k * IT2N_DIM * IT2N_DIM, n1, bu, bw);
+    __m256i a1 = net_m4(net0 + (size_t)(k + l1) * IT2N_DIM * IT2N_DIM, n1, bu, bw);
+    __m256i a2 = net_m4(net0 + (size_t)(k + l2) * IT2N_DIM * IT2N_DIM, n1, bu, bw);
+    __m256i a3 = net_m4(net0 + (size_t)(k + l3) * IT2N_DIM * IT2N_DIM, n1, bu, bw);
+    /* the lanes of a0..a3 summed: v + 2^61 of net l in lane l */
+    __m256i s01 = _mm256_add_epi64(_mm256_unpacklo_epi64(a0, a1), _mm256_unpackhi_epi64(a0, a1));
+    __m256i s23 = _mm256_add_epi64(_mm256_unpacklo_epi64(a2, a3), _mm256_unpackhi_epi64(a2, a3));
+    __m256i v = _mm256_add_epi64(_mm256_permute2x128_si256(s01, s23, 0x20), _mm256_permute2x128_si256(s01, s23, 0x31));
+    __m256i live = _mm256_set1_epi64x((int64_t)((used >> k) & 15u));
+    __m256i s, r, ok;
+    int64_t t[4];
+    unsigned i;
+    if (cnt == 4u) {
+        int32_t f4;
+        memcpy(&f4, frac + k, sizeof f4); /* frac[k..k+3], sign-extended */
+        s = _mm256_cvtepi8_epi64(_mm_cvtsi32_si128(f4));
+    } else {
+        s = _mm256_set_epi64x(frac[k + l3], frac[k + l2], frac[k + l1], frac[k]);
+    }
+    live = _mm256_cmpeq_epi64(_mm256_and_si256(live, lanebit), lanebit);
+    s = _mm256_add_epi64(s, _mm256_set1_epi64x(30 - IT2N_VAL_FRAC));
+    ok = _mm256_and_si256(_mm256_cmpgt_epi64(s, _mm256_setzero_si256()), _mm256_cmpgt_epi64(_mm256_set1_epi64x(62), s));
+    if (_mm256_testz_si256(_mm256_andnot_si256(ok, live), live)) {
+        r = _mm256_add_epi64(v, _mm256_sllv_epi64(one, _mm256_sub_epi64(s, one)));
+        r = _mm256_sub_epi64(_mm256_srlv_epi64(r, s),
+                             _mm256_sllv_epi64(one, _mm256_sub_epi64(_mm256_set1_epi64x(61), s)));
+        r = _mm256_and_si256(r, live);
+    } else {
+        /* a shift of 0 or less (a left shift) or of 62 or more */
+        _mm256_storeu_si256((__m256i *)(void *)t, v);
+        for (i = 0; i < cnt; i++) {
+            t[i] = (used >> (k + i)) & 1u ? it2n__shift_round((int64_t)((uint64_t)t[i] - ((uint64_t)1 << 61)),
+                                                              30 + frac[k + i] - IT2N_VAL_FRAC)
+                                          : 0;
+        }
+        r = _mm256_loadu_si256((const __m256i *)(const void *)t);
+    }
+    if (cnt == 4u) {
+        _mm256_storeu_si256((__m256i *)(void *)(out + k), r);
+    } else {
+        _mm256_storeu_si256((__m256i *)(void *)t, r);
+        for (i = 0; i < cnt; i++) {
+            out[k + i] = t[i];
+        }
+    }
+}
+
+IT2N_AVX2_FN IT2N_INLINE void values_avx2_m4(const it2n_model *mdl, unsigned fpmask, const unsigned n1,
+                                             const int32_t *cu, const int32_t *cw, it2n_val *out)
+{
+    __m256i bu[IT2N_DIM];
+    const __m256i bw = _mm256_set_epi64x(cw[3], cw[2], cw[1], cw[0]);
+    uint64_t used = 0u;
+    unsigned i, k, k0 = IT2N_NETS, k1 = 0u, fp, chbits = 0u;
+    for (i = 0; i < n1; i++) {
+        bu[i] = _mm256_set1_epi64x(cu[i]);
+    }
+    /* every channel but z without IT2N_F_Z (it2n__ch_used) */
+    chbits = ((1u << IT2N_CH_COUNT) - 1u) & ~((mdl->flags & IT2N_F_Z) ? 0u : 1u << IT2N_CH_Z);
+    if (fpmask == (1u << IT2N_FP_COUNT) - 1u) { /* type-2: chbits in every footprint's six bits */
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            used |= (uint64_t)chbits << (fp * IT2N_CH_COUNT);
+        }
+        k0 = 0u;
+        k1 = IT2N_NETS;
+    } else {
+        for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+            if (fpmask & (1u << fp)) {
+                used |= (uint64_t)chbits << (fp * IT2N_CH_COUNT);
+                k0 = k0 < fp * IT2N_CH_COUNT ? k0 : fp * IT2N_CH_COUNT;
+                k1 = (fp + 1u) * IT2N_CH_COUNT;
+            }
+        }
+        /* the footprints before the first and after the last one in fpmask */
+        for (k = 0; k < k0; k++) {
+            out[k] = 0;
+        }
+        for (k = k1; k < IT2N_NETS; k++) {
+            out[k] = 0;
+        }
+    }
+    for (k = k0; k + 4u <= k1; k += 4u) {
+        group_m4(mdl, n1, bu, bw, used, k, 1u, 2u, 3u, 4u, out);
+    }
+    if (k1 - k == 3u) {
+        group_m4(mdl, n1, bu, bw, used, k, 1u, 2u, 2u, 3u, out);
+    } else if (k1 - k == 2u) {
+        group_m4(mdl, n1, bu, bw, used, k, 1u, 1u, 1u, 2u, out);
+    } else if (k1 - k == 1u) {
+        group_m4(mdl, n1, bu, bw, used, k, 0u, 0u, 0u, 1u, out);
+    }
+}
+
 #define IT2N_VALUES_AVX2_K(k)                             \
     case k:                                               \
         if (m1 == 4u) {                                   \
-            values_avx2(mdl, fpmask, k, 4u, bu, bw, out); \
+            values_avx2_m4(mdl, fpmask, k, bu, bw, out);  \
         } else {                                          \
             values_avx2(mdl, fpmask, k, m1, bu, bw, out); \
         }                                                 \
@@ -439,6 +573,99 @@ IT2N_AVX2_FN static void apply_values_avx2(const it2n_model *mdl, unsigned fpmas
     }
 }
 #endif
+
+/*
+ * The bases of u and w together when their degrees are equal (the
+ * bicubic surface): basis30's recurrence in the two 64-bit lanes of SSE2
+ * (PMULUDQ: the same 32 x 32 -> 64 unsigned products, the same sums and
+ * roundings), then each lane's partition-of-unity correction as there.
+ * The same values as two calls of it2n__basis30 (test_eval_exact checks
+ * them against its own basis).
+ */
+IT2N_INLINE void basis30_pair(const unsigned deg, it2n_par u, it2n_par w, int32_t bu[IT2N_DIM], int32_t bw[IT2N_DIM])
+{
+    const __m128i half = _mm_set1_epi64x((int64_t)1 << 29);
+    uint32_t tu = (uint32_t)((u + 2) >> 2), tw = (uint32_t)((w + 2) >> 2);
+    __m128i t = _mm_set_epi64x(tw, tu);
+    __m128i sv = _mm_sub_epi64(_mm_set1_epi64x(Q30_ONE), t);
+    __m128i v[IT2N_DIM];
+    unsigned k, i;
+    v[0] = _mm_set1_epi64x(Q30_ONE);
+    TWO_STAGES_UNROLL
+    for (k = 1; k <= deg; k++) {
+        v[k] = _mm_srli_epi64(_mm_add_epi64(_mm_mul_epu32(t, v[k - 1u]), half), 30);
+        TWO_STAGES_UNROLL
+        for (i = k - 1u; i >= 1u; i--) {
+            __m128i acc = _mm_add_epi64(_mm_mul_epu32(sv, v[i]), _mm_mul_epu32(t, v[i - 1u]));
+            v[i] = _mm_srli_epi64(_mm_add_epi64(acc, half), 30);
+        }
+        v[0] = _mm_srli_epi64(_mm_add_epi64(_mm_mul_epu32(sv, v[0]), half), 30);
+    }
+    /* Each lane's correction: the first largest value takes 2^30 - sum.
+     * Values are at most 2^30: the low 32 bits of a lane compare signed. */
+    {
+        __m128i sum = v[0], mx = v[0], big = _mm_setzero_si128(), res;
+        TWO_STAGES_UNROLL
+        for (i = 1; i <= deg; i++) {
+            __m128i gt = _mm_cmpgt_epi32(v[i], mx);
+            sum = _mm_add_epi64(sum, v[i]);
+            mx = _mm_or_si128(_mm_and_si128(gt, v[i]), _mm_andnot_si128(gt, mx));
+        }
+        TWO_STAGES_UNROLL
+        for (i = deg + 1u; i-- > 0u;) { /* down: the first index of the largest is left */
+            __m128i eq = _mm_cmpeq_epi32(v[i], mx);
+            big = _mm_or_si128(_mm_and_si128(eq, _mm_set1_epi32((int)i)), _mm_andnot_si128(eq, big));
+        }
+        res = _mm_sub_epi32(_mm_set1_epi32(Q30_ONE), sum);
+        TWO_STAGES_UNROLL
+        for (i = 0; i <= deg; i++) {
+            __m128i at = _mm_cmpeq_epi32(big, _mm_set1_epi32((int)i));
+            __m128i x = _mm_add_epi32(v[i], _mm_and_si128(at, res));
+            bu[i] = _mm_cvtsi128_si32(x);
+            bw[i] = _mm_cvtsi128_si32(_mm_srli_si128(x, 8));
+        }
+    }
+}
+
+/* Constant degrees (the loops unroll), as it2n__basis30. */
+#define IT2N_BASIS30_PAIR_K(k) \
+    case k: basis30_pair(k, u, w, bu, bw); break
+
+static void bases30(const it2n_model *mdl, it2n_par u, it2n_par w, int32_t bu[IT2N_DIM], int32_t bw[IT2N_DIM])
+{
+    if (mdl->n != mdl->m) {
+        it2n__basis30(mdl->n, u, bu);
+        it2n__basis30(mdl->m, w, bw);
+        return;
+    }
+    /* clang-format off */
+    switch (mdl->n) {
+    IT2N_BASIS30_PAIR_K(1);
+#if IT2N_MAX_DEGREE >= 2
+    IT2N_BASIS30_PAIR_K(2);
+#endif
+#if IT2N_MAX_DEGREE >= 3
+    IT2N_BASIS30_PAIR_K(3);
+#endif
+#if IT2N_MAX_DEGREE >= 4
+    IT2N_BASIS30_PAIR_K(4);
+#endif
+#if IT2N_MAX_DEGREE >= 5
+    IT2N_BASIS30_PAIR_K(5);
+#endif
+#if IT2N_MAX_DEGREE >= 6
+    IT2N_BASIS30_PAIR_K(6);
+#endif
+#if IT2N_MAX_DEGREE >= 7
+    IT2N_BASIS30_PAIR_K(7);
+#endif
+    default:
+        it2n__basis30(mdl->n, u, bu);
+        it2n__basis30(mdl->m, w, bw);
+        break;
+    }
+    /* clang-format on */
+}
 
 /* apply_values with SSE2. */
 static void apply_values_sse2(const it2n_model *mdl, unsigned fpmask, const int32_t *bu, const int32_t *bw,
@@ -532,10 +759,51 @@ void it2n__summarise(const it2n_model *mdl, it2n_point *out)
     it2n__summarise_flags(mdl->flags, out);
 }
 
+#ifdef IT2N_VALUES_AVX2
+/*
+ * The type-2 summary with AVX2 (the caller checked the CPU): the
+ * memberships T, I, F of a footprint are three consecutive values, one
+ * vector each (a fourth lane read from the next field and never used):
+ * minima and maxima by compare and blend, the out-of-range flags by one
+ * unsigned compare per footprint (sign bits flipped). The same values and
+ * bits as the scalar code below, which it replaces for it2nd's FC 23.
+ */
+IT2N_AVX2_FN static void summarise_avx2(it2n_point *out)
+{
+    const __m256i flip = _mm256_set1_epi64x(INT64_MIN), one = _mm256_set1_epi64x(IT2N_VAL_ONE ^ INT64_MIN);
+    const __m256i three = _mm256_set_epi64x(0, -1, -1, -1);
+#define IT2N_LOAD_TIF(fp) _mm256_loadu_si256((const __m256i *)(const void *)&out->v[(fp)][IT2N_CH_T])
+#define IT2N_MIN(a, b) _mm256_blendv_epi8((a), (b), _mm256_cmpgt_epi64((a), (b)))
+#define IT2N_MAX(a, b) _mm256_blendv_epi8((a), (b), _mm256_cmpgt_epi64((b), (a)))
+    __m256i d = IT2N_LOAD_TIF(IT2N_FP_D), a0 = IT2N_LOAD_TIF(IT2N_FP_LL), a1 = IT2N_LOAD_TIF(IT2N_FP_RR);
+    __m256i b0 = IT2N_LOAD_TIF(IT2N_FP_LR), b1 = IT2N_LOAD_TIF(IT2N_FP_RL);
+    uint32_t oor = 0u;
+    unsigned fp;
+    _mm256_maskstore_epi64((long long *)(void *)out->sum.upper_min, three, IT2N_MIN(IT2N_MIN(d, a0), a1));
+    _mm256_maskstore_epi64((long long *)(void *)out->sum.upper_max, three, IT2N_MAX(IT2N_MAX(d, a0), a1));
+    _mm256_maskstore_epi64((long long *)(void *)out->sum.lower_min, three, IT2N_MIN(IT2N_MIN(d, b0), b1));
+    _mm256_maskstore_epi64((long long *)(void *)out->sum.lower_max, three, IT2N_MAX(IT2N_MAX(d, b0), b1));
+    for (fp = 0; fp < IT2N_FP_COUNT; fp++) {
+        __m256i x = _mm256_xor_si256(IT2N_LOAD_TIF(fp), flip);
+        oor |= ((uint32_t)_mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpgt_epi64(x, one))) & 7u) << (fp * 3u);
+    }
+#undef IT2N_LOAD_TIF
+#undef IT2N_MIN
+#undef IT2N_MAX
+    out->out_of_range = oor;
+}
+#endif
+
 void it2n__summarise_flags(unsigned flags, it2n_point *out)
 {
     unsigned k, fp;
     uint32_t oor = 0u;
+#ifdef IT2N_VALUES_AVX2
+    if ((flags & IT2N_F_TYPE1) == 0u && __builtin_cpu_supports("avx2")) {
+        summarise_avx2(out);
+        return;
+    }
+#endif
     if ((flags & IT2N_F_TYPE1) != 0u) {
         /* one footprint: every bound is its value */
         for (k = 0; k < 3u; k++) {
@@ -595,12 +863,13 @@ static void eval_values(const it2n_model *mdl, it2n_par u, it2n_par w, it2n_val 
 {
     int32_t bu[IT2N_DIM], bw[IT2N_DIM];
     unsigned bad;
-    it2n__basis30(mdl->n, u, bu);
-    it2n__basis30(mdl->m, w, bw);
 #ifdef IT2N_VALUES_SSE2
     (void)bad;
+    bases30(mdl, u, w, bu, bw);
     apply_values(mdl, it2n__fp_mask(mdl->flags), bu, bw, v);
 #else
+    it2n__basis30(mdl->n, u, bu);
+    it2n__basis30(mdl->m, w, bw);
     if (!apply(mdl, it2n__fp_mask(mdl->flags), bu, 30, bw, 30, v, &bad)) {
         IT2N_ASSERT(false); /* convex weights: values are within the net */
     }

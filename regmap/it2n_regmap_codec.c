@@ -120,6 +120,62 @@ static __m128i f32_order(__m128i f, unsigned order)
     return f;
 }
 
+#ifndef IT2N_NO_AVX2
+/*
+ * With AVX2 (checked at run time): the same sum and subtraction on four
+ * values per instruction, one CVTPD2PS of four doubles (the same rounding,
+ * MXCSR), and the word order (with the byte swaps of BADC and DCBA) one
+ * byte shuffle: about 9 instructions per 4 values where SSE2 takes 23.
+ * The same bits as put_q24_f32s_sse2 and the scalar conversion
+ * (tests/regmap checks every order against it2n_regmap_put_f32).
+ */
+#include <immintrin.h>
+#define IT2N_REGMAP_F32S_AVX2 1
+
+__attribute__((target("avx2"))) static size_t put_q24_f32s_avx2(uint16_t *out, const int64_t *v, size_t n,
+                                                                unsigned order)
+{
+    const __m256i magic_i = _mm256_set1_epi64x(0x41B8000000000000LL); /* 1.5 2^28 */
+    const __m256d magic_d = _mm256_set1_pd(402653184.0);
+    const __m256i r19 = _mm256_set1_epi32(1 << 19);
+    /* bytes of each float (little-endian in the lane) into the order's
+     * registers: ABCD high word first, CDAB as in memory, BADC / DCBA
+     * those with each register's bytes swapped (registers are host-order
+     * 16-bit values) */
+    __m128i m;
+    __m256i bad = _mm256_setzero_si256();
+    __m128i bad2 = _mm_setzero_si128();
+    size_t k = 0;
+    switch (order) {
+    case IT2N_REGMAP_WO_CDAB: m = _mm_setr_epi8(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15); break;
+    case IT2N_REGMAP_WO_BADC: m = _mm_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12); break;
+    case IT2N_REGMAP_WO_DCBA: m = _mm_setr_epi8(1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14); break;
+    default: m = _mm_setr_epi8(2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13); break;
+    }
+    for (; k + 4u <= n; k += 4u) {
+        __m256i x = _mm256_loadu_si256((const __m256i *)(const void *)(v + k));
+        __m128 f = _mm256_cvtpd_ps(_mm256_sub_pd(_mm256_castsi256_pd(_mm256_add_epi64(x, magic_i)), magic_d));
+        bad = _mm256_or_si256(bad, _mm256_srli_epi32(_mm256_add_epi32(x, r19), 20));
+        _mm_storeu_si128((__m128i *)(void *)(out + 2u * k), _mm_shuffle_epi8(_mm_castps_si128(f), m));
+    }
+    if (k + 2u <= n) { /* two more (54 results: 13 steps of four, then two) */
+        __m128i x = _mm_loadu_si128((const __m128i *)(const void *)(v + k));
+        __m128 f = _mm_cvtpd_ps(_mm_sub_pd(_mm_castsi128_pd(_mm_add_epi64(x, _mm256_castsi256_si128(magic_i))),
+                                           _mm256_castpd256_pd128(magic_d)));
+        bad2 = _mm_srli_epi32(_mm_add_epi32(x, _mm256_castsi256_si128(r19)), 20);
+        _mm_storel_epi64((__m128i *)(void *)(out + 2u * k), _mm_shuffle_epi8(_mm_castps_si128(f), m));
+        k += 2u;
+    }
+    /* the high halves' flags (odd 32-bit lanes) */
+    if (!_mm256_testz_si256(bad, _mm256_set1_epi64x((int64_t)0xFFFFFFFF00000000LL)) ||
+        !_mm_testz_si128(bad2, _mm_set1_epi64x((int64_t)0xFFFFFFFF00000000LL)))
+        return 0u;
+    if (k < n) /* the odd last value: the scalar conversion */
+        it2n_regmap_put_f32(&out[2u * k], it2n_regmap_q24_to_f32(v[k]), order);
+    return n;
+}
+#endif
+
 static size_t put_q24_f32s_sse2(uint16_t *out, const int64_t *v, size_t n, unsigned order)
 {
     __m128i bad = _mm_setzero_si128();
@@ -152,7 +208,11 @@ static size_t put_q24_f32s_sse2(uint16_t *out, const int64_t *v, size_t n, unsig
 void it2n_regmap_put_q24_f32s(uint16_t *out, const int64_t *v, size_t n, unsigned order)
 {
     size_t k;
-#ifdef IT2N_REGMAP_F32S_SSE2
+#if defined(IT2N_REGMAP_F32S_AVX2)
+    if ((__builtin_cpu_supports("avx2") ? put_q24_f32s_avx2(out, v, n, order) : put_q24_f32s_sse2(out, v, n, order)) ==
+        n)
+        return;
+#elif defined(IT2N_REGMAP_F32S_SSE2)
     if (put_q24_f32s_sse2(out, v, n, order) == n)
         return;
 #endif

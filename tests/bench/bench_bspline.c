@@ -5,8 +5,9 @@
  * (`make bench-bspline` runs it under callgrind: a query reads a 4x4 window,
  * so its instruction count must not grow with the grid).
  *   bench_bspline --time          solve and eval timings
- *   bench_bspline --rows          solve times as "R host.solve_ms.<case> t1 .. t5"
- *                                 lines (tests/bench/mcu/bspline_results.py)
+ *   bench_bspline --rounds MAX    solve times in interleaved rounds, one line
+ *                                 per round (tests/bench/mcu/bspline_rounds.py
+ *                                 reads them until the intervals are tight)
  *   bench_bspline --eval N        build an N x N type-2 x,y,z model, then
  *                                 256 queries (what callgrind counts)
  */
@@ -130,43 +131,70 @@ static double cpu_now(void)
     return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
 }
 
-/* Wall-clock and process CPU times of `runs` solves, in ms, as two R lines
- * (the target is on the CPU time; the wall clock shows how much other jobs
- * took). */
-static void rows_one(unsigned pts, unsigned flags, const char *key, int runs)
+/* The cases timed in rounds, in the order of each round's line. */
+#define ROUND_CASES 3
+static const struct {
+    unsigned pts, flags;
+    const char *key;
+} round_case[ROUND_CASES] = {
+    {64, IT2N_F_Z, "t2xyz64"},
+    {256, IT2N_F_TYPE1 | IT2N_F_Z, "t1xyz256"},
+    {256, IT2N_F_Z, "t2xyz256"},
+};
+
+/* Up to `max` interleaved rounds, each solving every case once (in reverse
+ * order on odd rounds, so neither side of a ratio always runs first on a
+ * warm or cold cache), one line per round:
+ *   R host.round <key> <wall ms> <cpu ms> ...  (cases in round_case order)
+ * flushed at once: the reader stops the rounds when its intervals are
+ * tight (a ratio of times from one run reads met or unmet with the other
+ * jobs' load, issue 22). The target is on the CPU time; the wall clock
+ * shows how much other jobs took. */
+static int rounds(int max)
 {
-    bmodel b;
-    double wall[16], cpu[16];
-    int k;
-    build(&b, pts, flags);
-    for (k = 0; k < runs && k < 16; k++) {
-        double t0 = now(), c0 = cpu_now();
-        if (it2n_bspline_solve(&b.mdl, &b.ds, NULL) != IT2N_OK) {
+    static bmodel b[ROUND_CASES];
+    double wall[ROUND_CASES], cpu[ROUND_CASES];
+    int r, c, k;
+    for (c = 0; c < ROUND_CASES; c++) {
+        build(&b[c], round_case[c].pts, round_case[c].flags);
+        /* untimed: the first solve into fresh memory pays its page faults
+         * (a first round of 80 ms against 45 for the next ones) */
+        if (it2n_bspline_solve(&b[c].mdl, &b[c].ds, NULL) != IT2N_OK) {
             fprintf(stderr, "bench_bspline: solve failed\n");
-            exit(1);
+            return 1;
         }
-        cpu[k] = (cpu_now() - c0) * 1e3;
-        wall[k] = (now() - t0) * 1e3;
     }
-    printf("R host.solve_ms.%s", key);
-    for (k = 0; k < runs && k < 16; k++) {
-        printf(" %.3f", wall[k]);
+    for (r = 0; r < max; r++) {
+        for (k = 0; k < ROUND_CASES; k++) {
+            double t0, c0;
+            c = (r & 1) ? ROUND_CASES - 1 - k : k;
+            t0 = now();
+            c0 = cpu_now();
+            if (it2n_bspline_solve(&b[c].mdl, &b[c].ds, NULL) != IT2N_OK) {
+                fprintf(stderr, "bench_bspline: solve failed\n");
+                return 1;
+            }
+            cpu[c] = (cpu_now() - c0) * 1e3;
+            wall[c] = (now() - t0) * 1e3;
+        }
+        printf("R host.round");
+        for (c = 0; c < ROUND_CASES; c++) {
+            printf(" %s %.3f %.3f", round_case[c].key, wall[c], cpu[c]);
+        }
+        printf("\n");
+        fflush(stdout);
     }
-    printf("\nR host.solve_cpu_ms.%s", key);
-    for (k = 0; k < runs && k < 16; k++) {
-        printf(" %.3f", cpu[k]);
+    for (c = 0; c < ROUND_CASES; c++) {
+        drop(&b[c]);
     }
-    printf("\n");
-    drop(&b);
+    return 0;
 }
 
 int main(int argc, char **argv)
 {
-    if (argc == 2 && strcmp(argv[1], "--rows") == 0) {
-        rows_one(64, IT2N_F_Z, "t2xyz64", 5);
-        rows_one(256, IT2N_F_TYPE1 | IT2N_F_Z, "t1xyz256", 5);
-        rows_one(256, IT2N_F_Z, "t2xyz256", 5);
-        return 0;
+    if (argc == 3 && strcmp(argv[1], "--rounds") == 0) {
+        int max = atoi(argv[2]);
+        return max < 2 || max > 1000 ? 2 : rounds(max);
     }
     if (argc == 3 && strcmp(argv[1], "--eval") == 0) {
         bmodel b;
@@ -190,6 +218,6 @@ int main(int argc, char **argv)
         time_one(256, IT2N_F_Z, "type-2 x,y,z");
         return 0;
     }
-    fprintf(stderr, "usage: bench_bspline --time | --rows | --eval POINTS\n");
+    fprintf(stderr, "usage: bench_bspline --time | --rounds MAX | --eval POINTS\n");
     return 2;
 }

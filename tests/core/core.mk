@@ -27,9 +27,11 @@ $(BUILD)/tests/core/san/%: $(TC_DIR)/%.c $(TC_COMMON) $(TC_HDRS) $(CORE_SAN_LIB)
 	$(CC) $(TC_CFLAGS) $(SAN_FLAGS) $< $(TC_COMMON) $(CORE_SAN_LIB) $(TC_LIBS) -o $@
 
 # x86-64 hosts with AVX2 evaluate with it (chosen at run time); the same
-# exactness check against a core built without it covers the SSE2 path.
-TC_EXACT_SSE2 := $(BUILD)/tests/core/test_eval_exact_sse2
-$(TC_EXACT_SSE2): $(TC_DIR)/test_eval_exact.c $(TC_COMMON) $(TC_HDRS) $(CORE_SRC)
+# exactness check against a core built without it covers the SSE2 path,
+# and the accuracy checks (the summary's bounds and out-of-range flags
+# against their own computation) the scalar summary.
+TC_EXACT_SSE2 := $(BUILD)/tests/core/test_eval_exact_sse2 $(BUILD)/tests/core/test_accuracy_sse2
+$(BUILD)/tests/core/%_sse2: $(TC_DIR)/%.c $(TC_COMMON) $(TC_HDRS) $(CORE_SRC)
 	@mkdir -p $(@D)
 	$(CC) $(TC_CFLAGS) -DIT2N_NO_AVX2 $< $(TC_COMMON) $(CORE_SRC) $(TC_LIBS) -o $@
 

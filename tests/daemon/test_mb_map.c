@@ -129,6 +129,34 @@ static void test_query_views_and_int32_order(void **st)
     }
 }
 
+/* The views a write makes (formatted when the block is read) are those of
+ * that write: a (u, w) write then an (x, y) write, both read afterwards,
+ * in the word orders and scale the writes had, not the reader's (a
+ * reload between them changes the options). */
+static void test_query_views_of_the_write(void **st)
+{
+    const struct mb_map_opts w1 = { IT2N_REGMAP_WO_ABCD, 100, 5, 5, { 0 }, IT2N_REGMAP_WO_CDAB, 0 };
+    const struct mb_map_opts w2 = { IT2N_REGMAP_WO_DCBA, 10, 5, 5, { 0 }, IT2N_REGMAP_WO_BADC, 0 };
+    const struct mb_map_opts rd = { IT2N_REGMAP_WO_BADC, 1000, 5, 5, { 0 }, IT2N_REGMAP_WO_ABCD, 0 };
+    struct mb_map_query q;
+    uint16_t in[2], r[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16];
+    int persisted;
+    (void)st;
+    memset(&q, 0, sizeof q);
+    in[0] = 2500;
+    in[1] = 7500;
+    assert_int_equal(mb_map_write(md, &q, &w1, IT2N_REGMAP_REG_Q_U16, 2, in, &persisted), MB_MAP_OK);
+    it2n_regmap_put_f32(in, -17.5f, w2.word_order);
+    assert_int_equal(mb_map_write(md, &q, &w2, IT2N_REGMAP_REG_Q_XF, 2, in, &persisted), MB_MAP_OK);
+    assert_int_equal(mb_map_read(md, &q, &rd, IT2N_REGMAP_REG_Q_U16, 14, r), MB_MAP_OK);
+    assert_true(it2n_regmap_get_f32(&r[IT2N_REGMAP_REG_Q_UF - IT2N_REGMAP_REG_Q_U16], w1.word_order) == 0.25f);
+    assert_true(it2n_regmap_get_f32(&r[IT2N_REGMAP_REG_Q_WF - IT2N_REGMAP_REG_Q_U16], w1.word_order) == 0.75f);
+    assert_int_equal((int32_t)reg32(&r[IT2N_REGMAP_REG_Q_XS - IT2N_REGMAP_REG_Q_U16], w2.int32_order), -175);
+    assert_true(it2n_regmap_get_f32(&r[IT2N_REGMAP_REG_Q_XF - IT2N_REGMAP_REG_Q_U16], w2.word_order) == -17.5f);
+    assert_int_equal(r[0], 2500);
+    assert_int_equal(r[1], 7500);
+}
+
 /* A query write changes the query inputs only: the coefficient page the
  * connection selected, and the result of a later read, stay its own. */
 static void test_query_write_keeps_page(void **st)
@@ -145,6 +173,38 @@ static void test_query_write_keeps_page(void **st)
         assert_int_equal(mb_map_read(md, &q, &opts, IT2N_REGMAP_REG_PG_FP, 3, r), MB_MAP_OK);
         assert_memory_equal(r, page, sizeof page);
     }
+}
+
+/* Every range of the query block: refused (03, nothing changed) exactly
+ * when it cuts a 32-bit input in half at either end, or spans both the
+ * (u, w) and the (x, y) inputs; all-zero values are valid otherwise. */
+static void test_query_ranges(void **st)
+{
+    static const unsigned wide[] = { IT2N_REGMAP_REG_Q_UF, IT2N_REGMAP_REG_Q_WF, IT2N_REGMAP_REG_Q_XS,
+                                     IT2N_REGMAP_REG_Q_YS, IT2N_REGMAP_REG_Q_XF, IT2N_REGMAP_REG_Q_YF };
+    uint16_t zero[IT2N_REGMAP_REG_QUERY_END - IT2N_REGMAP_REG_Q_U16] = { 0 };
+    unsigned tried = 0, refused = 0;
+    (void)st;
+    for (unsigned a = IT2N_REGMAP_REG_Q_U16; a < IT2N_REGMAP_REG_QUERY_END; a++)
+        for (unsigned end = a + 1; end <= IT2N_REGMAP_REG_QUERY_END; end++) {
+            struct mb_map_query q, q0;
+            int persisted, cut = 0;
+            for (unsigned k = 0; k < sizeof wide / sizeof wide[0]; k++)
+                cut |= a == wide[k] + 1 || end == wide[k] + 1;
+            int bad = cut || (a < IT2N_REGMAP_REG_Q_XS && end > IT2N_REGMAP_REG_Q_XS);
+            memset(&q, 0, sizeof q);
+            q0 = q;
+            int rc = mb_map_write(md, &q, &opts, a, end - a, zero, &persisted);
+            if (rc != (bad ? MB_MAP_ILLEGAL_VALUE : MB_MAP_OK))
+                fail_msg("query registers %u..%u: exception %d, expected %d", a, end - 1, rc,
+                         bad ? MB_MAP_ILLEGAL_VALUE : MB_MAP_OK);
+            if (bad)
+                assert_memory_equal(&q, &q0, sizeof q);
+            tried++;
+            refused += bad != 0;
+        }
+    assert_int_equal(tried, 105);
+    assert_true(refused > 0 && refused < tried);
 }
 
 static void test_rejected_writes_change_nothing(void **st)
@@ -375,7 +435,9 @@ int main(void)
         cmocka_unit_test(test_status),
         cmocka_unit_test(test_query_uw),
         cmocka_unit_test(test_query_views_and_int32_order),
+        cmocka_unit_test(test_query_views_of_the_write),
         cmocka_unit_test(test_query_write_keeps_page),
+        cmocka_unit_test(test_query_ranges),
         cmocka_unit_test(test_rejected_writes_change_nothing),
         cmocka_unit_test(test_incomplete_is_busy),
         cmocka_unit_test(test_grid_saturation_flag),

@@ -31,5 +31,12 @@ bench-fc23: $(IT2ND) $(FC23_LOAD) $(FC23_BARE) ## FC 23 query vs bare libmodbus 
 bench-fc23-smoke: $(IT2ND) $(FC23_LOAD) $(FC23_BARE)
 	timeout 120 /usr/bin/python3 tests/fc23/fc23_bench.py $(FC23_ARGS) --smoke --out $(BUILD)/fc23_smoke.json
 
+# User-space instructions per FC 23 request of each server under callgrind
+# (load-independent, unlike the times: for profiling code changes on a
+# shared machine; prints, writes no JSON; about 1 minute).
+.PHONY: bench-fc23-callgrind
+bench-fc23-callgrind: $(IT2ND) $(FC23_LOAD) $(FC23_BARE) ## FC 23 instructions per request, it2nd vs bare libmodbus (callgrind, 1/8/32 connections)
+	timeout 600 /usr/bin/python3 tests/fc23/fc23_callgrind.py $(FC23_ARGS)
+
 BENCH_TARGETS += bench-fc23
 TEST_TARGETS += bench-fc23-smoke

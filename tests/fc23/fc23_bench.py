@@ -43,24 +43,26 @@ CPU_TARGET = 1.0
 LAT_TARGET = 1.0
 LAT_CONNS = 32
 # Why a ratio can fall short (callgrind, per request at 8 connections,
-# issue 22: valgrind --tool=callgrind on each server under fc23_load): it2nd
-# runs about 4 300 user-space instructions per FC 23 request (was 5 800
-# before the AVX2 evaluation, the 4-per-step float conversion and the
-# cheaper register lookups), the bare server about 1 200: the core's
-# evaluation of the query is about 2 370 of them (35 of the 42 surfaces
-# carry data, AVX2 where the CPU has it; the bare server evaluates
-# nothing), the float conversion of the 54 results about 360, framing,
-# map and request handling the rest. Both servers make the same system
-# calls per request (strace -c -f: one recv, one send, and one wait per
-# wake-up: 1.0 per request at 1 connection, 0.15-0.2 at 8, 0.03-0.04 at
-# 32, no epoll_ctl, clock or other call per request); the kernel is most
-# of both servers' CPU time (the user/kernel split of each side, from
-# /proc, is in cpu_split). The query points vary: each connection cycles
-# through 256 (u, w) points over [0, 1]^2, consecutive requests differ,
-# so every request is evaluated (fc23_load.c).
-REASON = ("it2nd runs about 4 300 user-space instructions per request (callgrind, 8 connections) where "
-          "the bare server runs about 1 200: the core evaluates the query (about 2 370: 35 surfaces with "
-          "data, AVX2), the 54 results are converted to float (about 360), framed and mapped; both make "
+# issue 22: `make bench-fc23-callgrind`, each server under fc23_load): it2nd
+# runs about 3 100 user-space instructions per FC 23 request (was 5 800,
+# then 4 300 before four nets per AVX2 step with one rounding per lane, the
+# two bases in one SSE2 recurrence, the AVX2 summary and float conversion,
+# the reply's byte shuffle, one register lookup per range and the query
+# views formatted when read), the bare server about 1 200: the core's
+# evaluation of the query is about 1 630 of them (35 of the 42 surfaces
+# carry data; the bare server evaluates nothing), the float conversion of
+# the 54 results about 230, framing, map and request handling the rest.
+# Both servers make the same system calls per request (strace -c -f: one
+# recv, one send, and one wait per wake-up: 1.0 per request at 1
+# connection, 0.15-0.2 at 8, 0.03-0.04 at 32, no epoll_ctl, clock or other
+# call per request); the kernel is most of both servers' CPU time (the
+# user/kernel split of each side, from /proc, is in cpu_split). The query
+# points vary: each connection cycles through 256 (u, w) points over
+# [0, 1]^2, consecutive requests differ, so every request is evaluated
+# (fc23_load.c).
+REASON = ("it2nd runs about 3 100 user-space instructions per request (callgrind, 8 connections) where "
+          "the bare server runs about 1 200: the core evaluates the query (about 1 630: 35 surfaces with "
+          "data, AVX2), the 54 results are converted to float (about 230), framed and mapped; both make "
           "the same system calls per request (one recv, one send, one wait per wake-up), the kernel "
           "being most of either's CPU time; this run's user + kernel CPU per request (/proc clock ticks, coarse): %s; with the "
           "client on the same 2 cores, other jobs too (load_average), the per-round ratios spread "

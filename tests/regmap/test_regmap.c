@@ -98,7 +98,7 @@ static void test_q24_f32s(void **st)
     }
 }
 
-/* The bulk encoder's fast path (SSE2 on x86-64: two values per step,
+/* The bulk encoder's fast paths (AVX2 or SSE2 on x86-64, regmap-unit runs both: four or two values per step,
  * exact below 2^51 in magnitude, else all values the scalar way) writes
  * what the single encoder does: rounding ties and the values next to
  * 2^51, at every length and position, in every order. */
