@@ -85,7 +85,9 @@ all: $(ALL_TARGETS) ## Build the core, protocol, CLI and daemon
 # `make test` runs each TEST_TARGETS entry as its own sub-make with its
 # output in $(BUILD)/logs/SUITE.log and prints one line per suite: name,
 # ok/FAIL/skip, seconds (tests/run_suites.py). It first builds every suite's
-# prerequisites in one make -jTEST_JOBS, then runs up to TEST_JOBS suites at
+# prerequisites with make -jTEST_JOBS (TEST_BUILD_FIRST in a make of its own
+# from the start; the TEST_LIGHT suites start once their part is built),
+# then runs up to TEST_JOBS suites at
 # once (a suite in TEST_LIGHT, which mostly waits, counts as half); suites in
 # TEST_SOLO (timing and latency checks), suites whose recipe runs make and
 # suites depending on another suite run alone. A failing

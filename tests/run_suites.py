@@ -11,13 +11,18 @@ Why a runner and not a shell loop: CI machines have 2 cores and most suites
 spend their time waiting on daemons, links and brokers, so running them one
 after another left a core idle for most of `make test`. The runner
 
-  1. builds every prerequisite of every suite first, in one `make -jN -k`
-     (so two suites never build the same file at once; a prerequisite that
-     does not build is reported by the suite that needs it, whose own
-     sub-make retries it and logs the error); the BUILD_FIRST targets
-     (TEST_BUILD_FIRST: long chains of steps that make cannot spread over
-     the cores, such as the Debian packages) are named first, so that they
-     start at once and the rest is built beside them;
+  1. builds every prerequisite of every suite first, with -jN -k (so two
+     suites never build the same file at once; a prerequisite that does not
+     build is reported by the suite that needs it, whose own sub-make
+     retries it and logs the error), in up to three makes, each target in
+     one of them only: the BUILD_FIRST targets (TEST_BUILD_FIRST: long
+     chains of steps that make cannot spread over the cores, such as the
+     Debian packages, built in their own directory) in their own make,
+     started at once (named first in one make they still waited for a free
+     job slot, and started late); beside it the prerequisites of the light
+     suites, then the rest. The light suites start as soon as their part is
+     built and wait beside the compilers (after a failed build, every suite
+     waits for every build);
   2. then runs the suites that may share the machine, up to N at once, and
      after them the solo ones, one at a time. A suite runs alone ("solo")
      when it measures latency or timing (the SOLO list, TEST_SOLO in the
@@ -154,15 +159,74 @@ def main():
     if jobs == 1:   # TEST_JOBS=1: one suite at a time, light or not
         for i in info.values():
             i["weight"] = 1.0
-    s = time.monotonic()
-    blog = os.path.join(logs, "_prerequisites.log")
-    with open(blog, "w") as f:
-        rc = subprocess.call([a.make, "--no-print-directory", "-k", "-j%d" % jobs] + build,
-                             stdout=f, stderr=subprocess.STDOUT, env=env)
-    print("  %-26s %-4s %6.1f s  (%d targets, -j%d%s)" % (
-        "(prerequisites)", "ok" if rc == 0 else "part", time.monotonic() - s, len(build), jobs,
-        "" if rc == 0 else "; what failed is reported by its suites, log: " + blog), flush=True)
+    # The first step, in up to three makes: the BUILD_FIRST targets (their
+    # own make, started at once: a long chain such as the Debian packages,
+    # built in its own directory, must not wait for a free job slot behind
+    # the others), the prerequisites of the light suites (stage 1), then the
+    # rest (stage 2). The light suites start as soon as stage 1 is built
+    # and wait through stage 2 beside the compilers; the other suites wait
+    # for every build. Each target is built by one make only.
+    light_build = []
+    for s_ in a.suites:
+        if info[s_]["weight"] < 1:
+            light_build += [p for p in info[s_]["build"] if p not in first and p not in light_build]
+    rest = [p for p in build if p not in first and p not in light_build]
+    stages = [("first", first), ("stage1", light_build), ("stage2", rest)]
+    owner = {}
+    for sname, targets in stages:
+        for p in targets:
+            owner[p] = sname
+    builds = {}    # stage -> [Popen or None, start, rc, log, logfile]
+    bstart = time.monotonic()
 
+    def start_build(sname):
+        targets = dict(stages)[sname]
+        if not targets:
+            builds[sname] = [None, time.monotonic(), 0, None, None]
+            return
+        log = os.path.join(logs, "_prerequisites.log" if sname != "first" else "_prerequisites-first.log")
+        lf = open(log, "a" if sname == "stage2" else "w")
+        p = subprocess.Popen([a.make, "--no-print-directory", "-k", "-j%d" % jobs] + targets,
+                             stdout=lf, stderr=subprocess.STDOUT, env=env)
+        builds[sname] = [p, time.monotonic(), None, log, lf]
+
+    def poll_builds():
+        """Reap finished builds, start stage 2 after stage 1; True while
+        any build runs."""
+        for sname in ("first", "stage1", "stage2"):
+            b = builds.get(sname)
+            if b is None or b[2] is not None:
+                continue
+            rc = b[0].poll()
+            if rc is None:
+                continue
+            b[2] = rc
+            b[4].close()
+        if "stage2" not in builds and builds["stage1"][2] is not None:
+            start_build("stage2")
+        running_b = any(b[2] is None for b in builds.values()) or "stage2" not in builds
+        if not running_b and not reported[0]:
+            reported[0] = True
+            failed_b = [n for n, b in builds.items() if b[2] != 0]
+            print("  %-26s %-4s %6.1f s  (%d targets, -j%d; light suites from %.0f s%s)" % (
+                "(prerequisites)", "ok" if not failed_b else "part", time.monotonic() - bstart, len(build), jobs,
+                builds["stage2"][1] - bstart,
+                "" if not failed_b else "; what failed is reported by its suites, log: " + " ".join(
+                    sorted(set(builds[n][3] for n in failed_b)))), flush=True)
+        return running_b
+
+    def built(name):
+        """May suite `name` start as far as the first step goes: every make
+        building one of its prerequisites finished, with no failure in any
+        build (after a failure, suites wait for all builds, so that a suite's
+        own make retrying a target never runs beside a make building it)."""
+        if any(b[2] is not None and b[2] != 0 for b in builds.values()) or "stage2" not in builds:
+            return not any(b[2] is None for b in builds.values()) and "stage2" in builds
+        return all(builds[owner[p]][2] is not None for p in info[name]["build"] if p in owner)
+
+    reported = [False]
+    start_build("first")
+    start_build("stage1")
     pending = list(a.suites)
     running = {}   # name -> (Popen, start, log, logfile)
     done = {}      # name -> status
@@ -178,34 +242,35 @@ def main():
         p = subprocess.Popen(cmd, stdout=lf, stderr=subprocess.STDOUT, env=env)
         running[name] = (p, time.monotonic(), log, lf)
 
-    while pending or running:
+    while True:
+        building = poll_builds()
+        if not running and (stop or not pending):
+            break
         # start what can start: the suites that may share the machine
         # first, as many as fit in `jobs` (a light suite counts as half a
         # job; light ones first, but no more than `jobs` of them, so the
         # waiting ones never hold every core back from the others; then in
         # TEST_TARGETS order); the solo ones after them, one at a time with
-        # nothing else running.
+        # nothing else running. While the first step still builds, only
+        # light suites whose prerequisites are built start (the build has
+        # the cores; they wait beside it).
         while pending and not stop:
             if any(info[n]["solo"] for n in running):
                 break
             free = jobs - sum(info[n]["weight"] for n in running)
             lights = sum(1 for n in running if info[n]["weight"] < 1)
-            ready = [n for n in pending if all(d in done for d in info[n]["after"])]
+            ready = [n for n in pending if all(d in done for d in info[n]["after"]) and built(n)]
             shared = [n for n in ready if not info[n]["solo"] and info[n]["weight"] <= free and
-                      (info[n]["weight"] == 1 or lights < jobs)]
+                      (info[n]["weight"] == 1 or lights < jobs) and (not building or info[n]["weight"] < 1)]
             shared.sort(key=lambda n: info[n]["weight"])
             if shared:
                 nxt = shared[0]
-            elif ready and not running and not any(not info[n]["solo"] for n in pending):
+            elif ready and not running and not building and not any(not info[n]["solo"] for n in pending):
                 nxt = ready[0]
             else:
                 break
             pending.remove(nxt)
             start(nxt, info[nxt]["solo"] or jobs == 1)
-        if not running:
-            if pending and not stop:
-                continue
-            break
         time.sleep(0.1)
         for name in list(running):
             p, st, log, lf = running[name]
@@ -232,6 +297,11 @@ def main():
                 sys.stdout.write(open(log, encoding="utf-8", errors="replace").read())
             print(line, flush=True)
 
+    for b in builds.values():   # stopped after a failure: no make left behind
+        if b[2] is None:
+            b[0].terminate()
+            b[0].wait()
+            b[4].close()
     secs = time.monotonic() - t0
     skips = "" if nskip == 0 and nparts == 0 else "; %d suite(s) and %d part(s) skipped" % (nskip, nparts)
     if failed or pending:
