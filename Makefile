@@ -90,7 +90,8 @@ all: $(ALL_TARGETS) ## Build the core, protocol, CLI and daemon
 # then runs up to TEST_JOBS suites at
 # once (a suite in TEST_LIGHT, which mostly waits, counts as half); suites in
 # TEST_SOLO (timing and latency checks), suites whose recipe runs make and
-# suites depending on another suite run alone. A failing
+# suites depending on another suite run alone, with nothing beside them but
+# a TEST_BACKGROUND suite at idle priority (tests/tests.mk). A failing
 # suite's log is printed in full; V=1 prints every log. It starts no new
 # suite after the first failure unless make runs with -k.
 # Skips are never "ok": a suite that cannot run prints a line
@@ -103,7 +104,7 @@ test: deps ## Build and run every test, one line per suite (V=1: full output; TE
 	@/usr/bin/python3 tests/run_suites.py --make "$(MAKE)" --build $(BUILD) --jobs $(TEST_JOBS) \
 	  $(if $(findstring k,$(firstword -$(MAKEFLAGS))),--keep) $(if $(filter 1,$(V)),--verbose) \
 	  --solo "$(strip $(TEST_SOLO))" --light "$(strip $(TEST_LIGHT))" \
-	  --build-first "$(strip $(TEST_BUILD_FIRST))" $(TEST_TARGETS)
+	  --build-first "$(strip $(TEST_BUILD_FIRST))" --background "$(strip $(TEST_BACKGROUND))" $(TEST_TARGETS)
 
 # Under `make bench` (and -j), time x86-64 (bench-mcu) only after the other
 # benchmarks finish (here, where BENCH_TARGETS holds every *.mk's targets;

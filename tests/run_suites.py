@@ -5,7 +5,7 @@ BUILD/logs/SUITE.log.
 
   run_suites.py --make MAKE --build BUILD [--jobs N] [--keep] [--verbose]
                 [--solo "SUITE ..."] [--light "SUITE ..."] [--build-first "TARGET ..."]
-                SUITE ...
+                [--background "SUITE ..."] SUITE ...
 
 Why a runner and not a shell loop: CI machines have 2 cores and most suites
 spend their time waiting on daemons, links and brokers, so running them one
@@ -33,7 +33,13 @@ after another left a core idle for most of `make test`. The runner
      where one other suite would. Light suites start first (they are the
      long ones), at most N at once, the others fill the rest, so the shared
      part ends with short suites rather than with one long wait holding the
-     solo ones back.
+     solo ones back. A "background" suite (the BACKGROUND list,
+     TEST_BACKGROUND: no daemon, no timing, only its own processes) waits
+     for the solo part and runs beside the solo suites, up to N-1 at once,
+     at idle priority (SCHED_IDLE and the idle I/O class: a core only when
+     the solo suite leaves it idle, which waiting on daemons, links and
+     timers it mostly does); those left when no solo suite is left run as
+     the shared ones do.
 
 Lines are printed as suites finish. Skips are never "ok": a suite that
 cannot run prints "skip suite: REASON" and is listed as skip; a part that
@@ -140,6 +146,7 @@ def main():
     ap.add_argument("--solo", default="")
     ap.add_argument("--light", default="")
     ap.add_argument("--build-first", default="")
+    ap.add_argument("--background", default="")
     ap.add_argument("suites", nargs="+")
     a = ap.parse_args()
     logs = os.path.join(a.build, "logs")
@@ -159,6 +166,11 @@ def main():
     if jobs == 1:   # TEST_JOBS=1: one suite at a time, light or not
         for i in info.values():
             i["weight"] = 1.0
+    # Background suites: not solo, and never beside a solo one but at idle
+    # priority (TEST_JOBS=1: none).
+    bg_names = set(a.background.split()) if jobs > 1 else set()
+    for n, i in info.items():
+        i["bg"] = n in bg_names and not i["solo"]
     # The first step, in up to three makes: the BUILD_FIRST targets (their
     # own make, started at once: a long chain such as the Debian packages,
     # built in its own directory, must not wait for a free job slot behind
@@ -233,13 +245,26 @@ def main():
     failed, npass, nskip, nparts = [], 0, 0, 0
     stop = False
 
-    def start(name, solo):
+    idle = set()   # the suites started at idle priority (beside a solo one)
+
+    def idle_priority():
+        # in the child, before exec: SCHED_IDLE (a core only when no other
+        # process wants it; its children inherit it)
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+
+    def start(name, solo, background=False):
         log = os.path.join(logs, name + ".log")
         lf = open(log, "w")
         cmd = [a.make, "--no-print-directory"] + (["-j%d" % jobs] if solo else []) + [name]
         if a.verbose:
             print("== " + name, flush=True)
-        p = subprocess.Popen(cmd, stdout=lf, stderr=subprocess.STDOUT, env=env)
+        if background:
+            # and the idle I/O class: its disk I/O waits for the solo one's
+            if os.path.exists("/usr/bin/ionice"):
+                cmd = ["/usr/bin/ionice", "-c3"] + cmd
+            idle.add(name)
+        p = subprocess.Popen(cmd, stdout=lf, stderr=subprocess.STDOUT, env=env,
+                             preexec_fn=idle_priority if background else None)
         running[name] = (p, time.monotonic(), log, lf)
 
     while True:
@@ -251,22 +276,35 @@ def main():
         # job; light ones first, but no more than `jobs` of them, so the
         # waiting ones never hold every core back from the others; then in
         # TEST_TARGETS order); the solo ones after them, one at a time with
-        # nothing else running. While the first step still builds, only
-        # light suites whose prerequisites are built start (the build has
-        # the cores; they wait beside it).
+        # nothing else running but background suites: each solo suite has
+        # up to jobs-1 of them beside it at idle priority (they take what
+        # the solo suite leaves of the cores); the background suites left
+        # when no solo suite is left run as the shared ones do. While the
+        # first step still builds, only light suites whose prerequisites
+        # are built start (the build has the cores; they wait beside it).
         while pending and not stop:
-            if any(info[n]["solo"] for n in running):
+            ready = [n for n in pending if all(d in done for d in info[n]["after"]) and built(n)]
+            solo_running = any(info[n]["solo"] for n in running)
+            others_left = any(not info[n]["solo"] and not info[n]["bg"] for n in pending)
+            if solo_running:
+                bgs = [n for n in ready if info[n]["bg"]]
+                if bgs and not building and sum(1 for n in running if n in idle) < jobs - 1:
+                    nxt = bgs[0]
+                    pending.remove(nxt)
+                    start(nxt, False, background=True)
+                    continue
                 break
             free = jobs - sum(info[n]["weight"] for n in running)
             lights = sum(1 for n in running if info[n]["weight"] < 1)
-            ready = [n for n in pending if all(d in done for d in info[n]["after"]) and built(n)]
             shared = [n for n in ready if not info[n]["solo"] and info[n]["weight"] <= free and
+                      (not info[n]["bg"] or not (others_left or any(info[m]["solo"] for m in ready))) and
                       (info[n]["weight"] == 1 or lights < jobs) and (not building or info[n]["weight"] < 1)]
             shared.sort(key=lambda n: info[n]["weight"])
             if shared:
                 nxt = shared[0]
-            elif ready and not running and not building and not any(not info[n]["solo"] for n in pending):
-                nxt = ready[0]
+            elif (ready and not building and not others_left and all(n in idle for n in running)
+                  and any(info[n]["solo"] for n in ready)):
+                nxt = [n for n in ready if info[n]["solo"]][0]
             else:
                 break
             pending.remove(nxt)

@@ -38,3 +38,12 @@ TEST_SOLO += daemon-slowdisk daemon-admit daemon-conn daemon-reload daemon-e2e d
 TEST_LIGHT += daemon-durability daemon-waldamage daemon-fleet daemon-powercut \
               daemon-sparkplug-refusals daemon-sparkplug-sf daemon-metrics-prom
 
+
+# Suites that start no daemon, time nothing and wait for nothing but their
+# own processes (compilers, cppcheck, lintian, the CLI, unit tests): they
+# run beside the solo suites, one at a time at idle priority (SCHED_IDLE,
+# idle I/O class: they get a core only when the solo suite leaves it idle,
+# which the solo suites, waiting on daemons, links and timers, mostly do).
+# What is left of them when the solo suites are done runs as usual.
+TEST_BACKGROUND += cmake-consumer cli-plot cli-e2e lint core-unit fuzzd-corpus deb-lintian docs-check \
+                   pkg-completion dropin-check cli-docs cross-selftest
