@@ -39,7 +39,9 @@ after another left a core idle for most of `make test`. The runner
      at idle priority (SCHED_IDLE and the idle I/O class: a core only when
      the solo suite leaves it idle, which waiting on daemons, links and
      timers it mostly does); those left when no solo suite is left run as
-     the shared ones do.
+     the shared ones do. A background suite whose recipe runs make (make
+     install into a scratch directory, make -n) is one too, since
+     everything is built by then; after a failed build it runs alone.
 
 Lines are printed as suites finish. Skips are never "ok": a suite that
 cannot run prints "skip suite: REASON" and is listed as skip; a part that
@@ -117,7 +119,7 @@ def classify(suites, solo, rules, light=()):
                 build += [q for q in files(p, seen) if q not in build and q not in names and q != "deps"]
         makes = any(re.search(r"\$\(MAKE\)|\$\{MAKE\}|(^|[\s;&|(])make\s", r) for r in recipe)
         alone = s in solo or makes or bool(after)
-        info[s] = {"build": build, "after": after, "solo": alone,
+        info[s] = {"build": build, "after": after, "solo": alone, "makes": makes and s not in solo and not after,
                    "weight": LIGHT_WEIGHT if s in light and not alone else 1.0}
     return info
 
@@ -168,9 +170,15 @@ def main():
             i["weight"] = 1.0
     # Background suites: not solo, and never beside a solo one but at idle
     # priority (TEST_JOBS=1: none).
+    # A background suite whose recipe runs make (make install into a scratch
+    # directory, make -n) runs beside a solo one too: every prerequisite is
+    # built by then, its make only reads the build. After a failed build it
+    # is solo again (its make would retry what failed).
     bg_names = set(a.background.split()) if jobs > 1 else set()
     for n, i in info.items():
-        i["bg"] = n in bg_names and not i["solo"]
+        i["bg"] = n in bg_names and (not i["solo"] or i["makes"])
+        if i["bg"]:
+            i["solo"] = False
     # The first step, in up to three makes: the BUILD_FIRST targets (their
     # own make, started at once: a long chain such as the Debian packages,
     # built in its own directory, must not wait for a free job slot behind
@@ -220,6 +228,9 @@ def main():
         if not running_b and not reported[0]:
             reported[0] = True
             failed_b = [n for n, b in builds.items() if b[2] != 0]
+            for i in info.values():
+                if failed_b and i["bg"] and i["makes"]:
+                    i["bg"], i["solo"] = False, True
             print("  %-26s %-4s %6.1f s  (%d targets, -j%d; light suites from %.0f s%s)" % (
                 "(prerequisites)", "ok" if not failed_b else "part", time.monotonic() - bstart, len(build), jobs,
                 builds["stage2"][1] - bstart,
