@@ -104,7 +104,8 @@ test: deps ## Build and run every test, one line per suite (V=1: full output; TE
 	@/usr/bin/python3 tests/run_suites.py --make "$(MAKE)" --build $(BUILD) --jobs $(TEST_JOBS) \
 	  $(if $(findstring k,$(firstword -$(MAKEFLAGS))),--keep) $(if $(filter 1,$(V)),--verbose) \
 	  --solo "$(strip $(TEST_SOLO))" --light "$(strip $(TEST_LIGHT))" \
-	  --build-first "$(strip $(TEST_BUILD_FIRST))" --background "$(strip $(TEST_BACKGROUND))" $(TEST_TARGETS)
+	  --build-first "$(strip $(TEST_BUILD_FIRST))" --background "$(strip $(TEST_BACKGROUND))" \
+	  --alone "$(strip $(TEST_SOLO_ALONE))" $(TEST_TARGETS)
 
 # Under `make bench` (and -j), time x86-64 (bench-mcu) only after the other
 # benchmarks finish (here, where BENCH_TARGETS holds every *.mk's targets;

@@ -5,7 +5,7 @@ BUILD/logs/SUITE.log.
 
   run_suites.py --make MAKE --build BUILD [--jobs N] [--keep] [--verbose]
                 [--solo "SUITE ..."] [--light "SUITE ..."] [--build-first "TARGET ..."]
-                [--background "SUITE ..."] SUITE ...
+                [--background "SUITE ..."] [--alone "SUITE ..."] SUITE ...
 
 Why a runner and not a shell loop: CI machines have 2 cores and most suites
 spend their time waiting on daemons, links and brokers, so running them one
@@ -39,7 +39,8 @@ after another left a core idle for most of `make test`. The runner
      at idle priority (SCHED_IDLE and the idle I/O class: a core only when
      the solo suite leaves it idle, which waiting on daemons, links and
      timers it mostly does); those left when no solo suite is left run as
-     the shared ones do. A background suite whose recipe runs make (make
+     the shared ones do (an ALONE suite, TEST_SOLO_ALONE, has no
+     background suite beside it either). A background suite whose recipe runs make (make
      install into a scratch directory, make -n) is one too, since
      everything is built by then; after a failed build it runs alone.
 
@@ -149,6 +150,7 @@ def main():
     ap.add_argument("--light", default="")
     ap.add_argument("--build-first", default="")
     ap.add_argument("--background", default="")
+    ap.add_argument("--alone", default="")
     ap.add_argument("suites", nargs="+")
     a = ap.parse_args()
     logs = os.path.join(a.build, "logs")
@@ -175,6 +177,7 @@ def main():
     # built by then, its make only reads the build. After a failed build it
     # is solo again (its make would retry what failed).
     bg_names = set(a.background.split()) if jobs > 1 else set()
+    alone = set(a.alone.split())   # solo ones with no background suite beside them either
     for n, i in info.items():
         i["bg"] = n in bg_names and (not i["solo"] or i["makes"])
         if i["bg"]:
@@ -299,7 +302,8 @@ def main():
             others_left = any(not info[n]["solo"] and not info[n]["bg"] for n in pending)
             if solo_running:
                 bgs = [n for n in ready if info[n]["bg"]]
-                if bgs and not building and sum(1 for n in running if n in idle) < jobs - 1:
+                if bgs and not building and sum(1 for n in running if n in idle) < jobs - 1 and \
+                        not any(n in alone for n in running):
                     nxt = bgs[0]
                     pending.remove(nxt)
                     start(nxt, False, background=True)
@@ -314,8 +318,8 @@ def main():
             if shared:
                 nxt = shared[0]
             elif (ready and not building and not others_left and all(n in idle for n in running)
-                  and any(info[n]["solo"] for n in ready)):
-                nxt = [n for n in ready if info[n]["solo"]][0]
+                  and any(info[n]["solo"] and (n not in alone or not running) for n in ready)):
+                nxt = [n for n in ready if info[n]["solo"] and (n not in alone or not running)][0]
             else:
                 break
             pending.remove(nxt)
