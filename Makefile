@@ -85,10 +85,13 @@ all: $(ALL_TARGETS) ## Build the core, protocol, CLI and daemon
 # `make test` runs each TEST_TARGETS entry as its own sub-make with its
 # output in $(BUILD)/logs/SUITE.log and prints one line per suite: name,
 # ok/FAIL/skip, seconds (tests/run_suites.py). It first builds every suite's
-# prerequisites in one make -jTEST_JOBS, then runs up to TEST_JOBS suites at
+# prerequisites with make -jTEST_JOBS (TEST_BUILD_FIRST in a make of its own
+# from the start; the TEST_LIGHT suites start once their part is built),
+# then runs up to TEST_JOBS suites at
 # once (a suite in TEST_LIGHT, which mostly waits, counts as half); suites in
 # TEST_SOLO (timing and latency checks), suites whose recipe runs make and
-# suites depending on another suite run alone. A failing
+# suites depending on another suite run alone, with nothing beside them but
+# a TEST_BACKGROUND suite at idle priority (tests/tests.mk). A failing
 # suite's log is printed in full; V=1 prints every log. It starts no new
 # suite after the first failure unless make runs with -k.
 # Skips are never "ok": a suite that cannot run prints a line
@@ -101,7 +104,8 @@ test: deps ## Build and run every test, one line per suite (V=1: full output; TE
 	@/usr/bin/python3 tests/run_suites.py --make "$(MAKE)" --build $(BUILD) --jobs $(TEST_JOBS) \
 	  $(if $(findstring k,$(firstword -$(MAKEFLAGS))),--keep) $(if $(filter 1,$(V)),--verbose) \
 	  --solo "$(strip $(TEST_SOLO))" --light "$(strip $(TEST_LIGHT))" \
-	  --build-first "$(strip $(TEST_BUILD_FIRST))" $(TEST_TARGETS)
+	  --build-first "$(strip $(TEST_BUILD_FIRST))" --background "$(strip $(TEST_BACKGROUND))" \
+	  --alone "$(strip $(TEST_SOLO_ALONE))" $(TEST_TARGETS)
 
 # Under `make bench` (and -j), time x86-64 (bench-mcu) only after the other
 # benchmarks finish (here, where BENCH_TARGETS holds every *.mk's targets;
