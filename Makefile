@@ -125,7 +125,7 @@ clean: ## Remove build output
 	rm -rf $(BUILD)
 
 help: ## List targets, then every test suite, benchmark and fuzzer by name
-	@grep -hE '^[a-z][a-z_-]*:.*## ' $(MAKEFILE_LIST) | sort -u | \
+	@grep -hE '^[a-z][a-z0-9_-]*:.*## ' $(MAKEFILE_LIST) | sort -u | \
 	  awk -F':.*## ' '{printf "  %-16s %s\n", $$1, $$2}'
 	@echo "Test suites (make test runs them in turn; each is also a target):"
 	@echo "$(TEST_TARGETS)" | fmt -w 76 | sed 's/^/  /'
