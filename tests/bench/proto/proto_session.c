@@ -347,8 +347,9 @@ static int pump(unsigned max_ms)
     if (trace > 3) pre_dbg = lk;
     uint32_t pnow = now_ms();
     it2n_link_poll(&lk, pnow);
-    if (trace > 3 && lk.stats.tx_retx != retx0) {
-        fprintf(stderr, "DBG now %u rx_last %u heard %u rto %u\n", pnow, pre_dbg.rx_last, pre_dbg.rx_heard, (unsigned)it2n_link_rto(&pre_dbg));
+    if (trace > 3 && (lk.stats.tx_retx != retx0 || lk.stats.tx_stall_waits != pre_dbg.stats.tx_stall_waits)) {
+        fprintf(stderr, "DBG%s now %u rx_last %u heard %u rto %u\n",
+                lk.stats.tx_stall_waits != pre_dbg.stats.tx_stall_waits ? " STALLWAIT" : "", pnow, pre_dbg.rx_last, pre_dbg.rx_heard, (unsigned)it2n_link_rto(&pre_dbg));
         for (unsigned k = 0; k < IT2N_PROTO_WINDOW; k++) if (pre_dbg.slot[k].used)
             fprintf(stderr, "DBG  seq %u tries %u tmo %u held %u pw %u dl %d gone %d last %d\n", pre_dbg.slot[k].seq, pre_dbg.slot[k].tries, pre_dbg.slot[k].tmo, pre_dbg.slot[k].held, pre_dbg.slot[k].probe_wait, (int)(pre_dbg.slot[k].deadline - pnow), (int)(pre_dbg.slot[k].gone - pnow), (int)(pre_dbg.slot[k].last - pnow));
     }
