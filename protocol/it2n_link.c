@@ -979,9 +979,10 @@ static bool probe_out(it2n_link *l, it2n_link_slot *s, uint32_t now)
 
 /* Newer frames that left the line after the peer last spoke, with no
  * word from it since: from this many on, silence is taken for a stall
- * (each frame or its answer is lost about one time in five on a line
- * with 10 % drops and 10 % corruption each way: all three, 1 in 100). */
-#define STALL_UNHEARD 3u
+ * (each frame or its GAP is lost about one time in three on a line with
+ * 10 % drops and 10 % corruption each way: both, one time in eight; and
+ * the daemon keeps only 4 frames in flight on a serial line). */
+#define STALL_UNHEARD 2u
 
 /* A stall, not a loss (docs/protocol.md 4.2 rule 3): frame s is due, the
  * peer has been silent for a whole RTO, and either STALL_UNHEARD newer

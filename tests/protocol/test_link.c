@@ -1533,9 +1533,9 @@ static void test_rto_bounds_and_karn(void **st)
 /* Issue 17: a peer (or line) that stalls while 4 frames are in flight
  * cost 4 spurious retransmissions (one per frame timer), then one (only
  * the oldest resent into the silence, RFC 6298 5.4); now none: had only
- * the oldest been lost, the peer would have answered the 3 newer ones
- * with GAPs, so silence after them is taken for a stall for 4 RTO (4.2
- * rule 3), then one probe goes. */
+ * the oldest been lost, the peer would have answered the newer ones
+ * with GAPs, so silence after two of them is taken for a stall for 4 RTO
+ * (4.2 rule 3), then one probe goes. */
 static void test_one_probe_into_silence(void **st)
 {
     (void)st;
