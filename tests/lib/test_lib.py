@@ -104,9 +104,11 @@ with open(fake, "w") as f:
     f.write("#!%s\nimport socket, sys, time\nconf = open(sys.argv[sys.argv.index('-c') + 1]).read()\n"
             "port = int(conf.split('tcp_listen = 127.0.0.1:')[1].split()[0])\n"
             "if 'die' in conf: print('bad config', flush=True); sys.exit(1)\n"
-            "time.sleep(0.3)\ns = socket.socket()\ns.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)\ns.bind(('127.0.0.1', port))\ns.listen()\n"
+            "time.sleep(0.3)\ns = socket.socket()\ns.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)\ns.bind(('127.0.0.1', port))\n"
             "import signal\nsignal.signal(signal.SIGHUP, lambda *a: print('reloaded', flush=True))\n"
-            "print('listening', port, flush=True)\nwhile True: s.accept()[0].close()\n" % PY)
+            # the line goes out before listen(): start() returns once a connect succeeds,
+            # and the checks below read the log then (printed after listen() it raced them)
+            "print('listening', port, flush=True)\ns.listen()\nwhile True: s.accept()[0].close()\n" % PY)
 os.chmod(fake, 0o755)
 d = daemon.start_simple(fake, T, "d1")
 R.check(proc.wait_port(d.port, timeout=1), "Daemon: start returns once it listens")
