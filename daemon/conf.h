@@ -110,6 +110,7 @@ struct conf {
     char state_dir[CONF_PATH];
     int snapshot_interval; /* s */
     int fsync;             /* 1: fsync the WAL before acknowledging */
+    int io;                /* enum loop_io (daemon/loop.h): auto, io_uring, epoll */
     int max_models;
     struct conf_listen listen[CONF_MAX_LISTEN];
     int nlisten;

@@ -12,6 +12,7 @@
 #include "conf.h"
 #include "it2n.h"
 #include "it2n_regmap.h"
+#include "loop.h"
 
 #define F(T, f) .off = offsetof(struct T, f), .size = sizeof(((struct T *)0)->f)
 #define LINE(T, f) .line_off = offsetof(struct T, f) + 1
@@ -34,6 +35,9 @@ static const struct conf_word w_parity[] = {
     { "none", 'N', 0 }, { "even", 'E', 0 }, { "odd", 'O', 0 },
     { "N", 'N', 1 }, { "E", 'E', 1 }, { "O", 'O', 1 }, { NULL, 0, 0 }
 };
+static const struct conf_word w_io[] = {
+    { "auto", LOOP_IO_AUTO, 0 }, { "io_uring", LOOP_IO_URING, 0 }, { "epoll", LOOP_IO_EPOLL, 0 }, { NULL, 0, 0 }
+};
 static const struct conf_word w_auto0[] = { { "auto", 0, 0 }, { NULL, 0, 0 } };
 static const struct conf_word w_rts[] = {
     { "none", CONF_RTS_NONE, 0 }, { "up", CONF_RTS_UP, 0 }, { "down", CONF_RTS_DOWN, 0 }, { NULL, 0, 0 }
@@ -54,6 +58,12 @@ static const struct conf_key k_daemon[] = {
       F(conf, snapshot_interval), .def = "60", .help = "seconds between snapshots (only if the WAL has records)" },
     { .name = "fsync", .type = CONF_T_BOOL, F(conf, fsync), .def = "yes",
       .help = "fdatasync the WAL before acknowledging; `no` is for tests only" },
+    { .name = "io", .type = CONF_T_ENUM, .words = w_io, F(conf, io), .def = "auto", .flags = CONF_K_RESTART,
+      .help = "how the event loop waits and moves Modbus TCP data: `io_uring` (one system call per wake-up carries "
+              "every read and reply), `epoll` (a wait, then a recv and a send per request), or `auto`: io_uring "
+              "unless the kernel refuses it (too old, `kernel.io_uring_disabled`, a seccomp filter), then epoll. "
+              "The log's start line names the one in use. Explicit `io_uring` that the kernel refuses stops the "
+              "start with the reason" },
     { .name = "max_models", .type = CONF_T_INT, .lo = 1, .hi = CONF_MAX_MODELS, F(conf, max_models), .def = "8",
       .help = "models this daemon may serve" },
     { .name = "link_backoff_max", .type = CONF_T_INT, .lo = 1, .hi = 3600, .unit = "seconds",

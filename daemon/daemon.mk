@@ -1,6 +1,6 @@
 # daemon/: it2nd, the Linux daemon (Modbus TCP/RTU, links, persistence).
 # Exports IT2ND (host build) and IT2ND_SAN (ASan+UBSan build).
-DAEMON_PKGS := libmodbus inih libusb-1.0 libmicrohttpd libmosquitto libprotobuf-c libssl libcrypto
+DAEMON_PKGS := libmodbus liburing inih libusb-1.0 libmicrohttpd libmosquitto libprotobuf-c libssl libcrypto
 DAEMON_CFLAGS := $(HOST_CFLAGS) -Idaemon $(REGMAP_INC) -I$(BUILD)/daemon $(shell pkg-config --cflags $(DAEMON_PKGS) 2>/dev/null)
 DAEMON_LIBS := $(shell pkg-config --libs $(DAEMON_PKGS) 2>/dev/null) -lm -pthread
 DAEMON_SRC := $(wildcard daemon/*.c)

@@ -7,15 +7,53 @@
  * data: an event queued for an fd deleted by an earlier callback (and
  * perhaps added again under the same number) is recognised and dropped.
  * An fd epoll refuses (EPERM: a regular file, always ready to poll()) is
- * kept on a side list and dispatched every iteration as poll() would. */
+ * kept on a side list and dispatched every iteration as poll() would.
+ *
+ * With io_uring (loop_init) the wait is io_uring_enter: the epoll set is
+ * one poll request in the ring (its readiness wakes the wait, then
+ * epoll_wait(0) says which fds), and readers (Modbus TCP connections) read
+ * and send through the ring, so a wake-up that answers requests costs one
+ * system call where epoll costs a wait, a recv and a send each. A reader's
+ * fd also stays in the epoll set with no events: a hang-up or error while
+ * it is paused still comes through. Sends carry MSG_DONTWAIT: each is tried
+ * in the submitting call and never waits in the kernel, so the staging
+ * buffer is free again once io_uring_submit returns, and a client too slow
+ * to take a reply gets the same "short send" as with send(). */
 #include "loop.h"
 
 #include <errno.h>
+#include <liburing.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/epoll.h>
+#include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
+
+/* A reader: its buffer and what is in flight in the ring. Owned by the
+ * loop, freed once deleted with nothing in flight (the kernel may still
+ * write the buffer of a cancelled read until its completion is reaped). */
+struct reader {
+    int fd;
+    int dead;    /* loop_del_fd done */
+    int paused;  /* loop_pause_reader */
+    int armed;   /* a recv in the ring */
+    int stashed; /* a chunk read while paused, stash_n bytes in buf */
+    int on_due;  /* in the due list (stash to hand over after resume) */
+    ssize_t stash_n;
+    unsigned inflight;      /* completions to come: recv + sends */
+    unsigned sends;         /* sends in flight */
+    size_t sent_want;       /* bytes of the sends in flight */
+    size_t sent_done;       /* bytes they sent so far */
+    int send_err;           /* first failure among them (-errno) */
+    struct reader *due;     /* next in the due list */
+    struct reader *all_nx;  /* every reader, for loop_free */
+    struct reader *all_pv;
+    loop_read_cb cb;
+    void *arg;
+    size_t max;
+    uint8_t buf[];
+};
 
 struct fd_ent {
     int fd;
@@ -24,6 +62,7 @@ struct fd_ent {
     uint32_t seq; /* serial, in the epoll data with the fd */
     loop_fd_cb cb;
     void *arg;
+    struct reader *rd; /* a reader's entry, NULL for a plain fd */
 };
 
 struct timer_ent {
@@ -53,6 +92,24 @@ static long next_timer_id = 1;
 static int woken;
 static uint64_t wake_us; /* loop_now_us() when the last wait returned, 0 before */
 static int deleted;      /* entries marked by loop_del_fd, not yet compacted */
+
+/* io_uring (use_ring): user_data is a reader's address with a tag in its
+ * low bits (malloc aligns to 8 at least), or a tag alone. */
+#define TAG_EPOLL 1u
+#define TAG_RECV 2u
+#define TAG_SEND 3u
+#define TAG_CANCEL 4u
+#define TAG_MASK 7u
+#define RING_ENTRIES 1024u
+#define STAGE_CAP 65536u
+static struct io_uring ring;
+static int use_ring;
+static int epoll_armed;          /* the ring's poll of epfd is in flight */
+static uint8_t *stage;           /* sends' bytes until io_uring_submit */
+static size_t stage_len;
+static unsigned sends_queued;    /* sends in the SQ, not yet submitted */
+static struct reader *due_head;  /* stashes handed over at the next iteration */
+static struct reader *all_readers;
 
 uint64_t loop_now_us(void)
 {
@@ -129,6 +186,7 @@ int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg)
     fds[nfds].seq = seq;
     fds[nfds].cb = cb;
     fds[nfds].arg = arg;
+    fds[nfds].rd = NULL;
     fd_idx[fd] = nfds;
     nfds++;
     return 0;
@@ -147,6 +205,8 @@ void loop_mod_fd(int fd, short events)
     }
 }
 
+static void reader_drop(struct reader *rd);
+
 void loop_del_fd(int fd)
 {
     /* Mark only: the dispatcher may be iterating; compacted after. */
@@ -156,10 +216,351 @@ void loop_del_fd(int fd)
             nalways--;
         else
             epoll_ctl(epfd, EPOLL_CTL_DEL, fd, NULL); /* before the caller closes it */
+        if (fds[k].rd)
+            reader_drop(fds[k].rd);
         fds[k].fd = -1;
+        fds[k].rd = NULL;
         fd_idx[fd] = SIZE_MAX;
         deleted = 1;
     }
+}
+
+/* ---- io_uring and readers ---- */
+
+int loop_init(enum loop_io io)
+{
+    struct io_uring_params p;
+    int rc;
+    if (use_ring || io == LOOP_IO_EPOLL)
+        return 0;
+    stage = malloc(STAGE_CAP);
+    if (!stage)
+        return -1;
+    /* Completions run only when the loop waits (DEFER_TASKRUN, 6.1), else
+     * at the next system call (COOP_TASKRUN, 5.19), else by interrupt. */
+    static const unsigned flags[] = {IORING_SETUP_SINGLE_ISSUER | IORING_SETUP_DEFER_TASKRUN,
+                                     IORING_SETUP_COOP_TASKRUN, 0};
+    rc = -ENOSYS;
+    for (size_t k = 0; k < sizeof flags / sizeof flags[0]; k++) {
+        memset(&p, 0, sizeof p);
+        p.flags = flags[k];
+        rc = io_uring_queue_init_params(RING_ENTRIES, &ring, &p);
+        if (rc != -EINVAL)
+            break;
+    }
+    /* Submitting and waiting with a timeout in one call needs EXT_ARG (5.11). */
+    if (rc == 0 && !(p.features & IORING_FEAT_EXT_ARG)) {
+        io_uring_queue_exit(&ring);
+        rc = -ENOSYS;
+    }
+    if (rc < 0) {
+        free(stage);
+        stage = NULL;
+        errno = -rc;
+        return io == LOOP_IO_URING ? -1 : 0;
+    }
+    use_ring = 1;
+    return 0;
+}
+
+const char *loop_io_name(void)
+{
+    return use_ring ? "io_uring" : "epoll";
+}
+
+/* Submit what is queued; the staged bytes are free once nothing waits. */
+static void ring_flush(void)
+{
+    if (io_uring_sq_ready(&ring))
+        io_uring_submit(&ring);
+    if (!io_uring_sq_ready(&ring))
+        stage_len = 0, sends_queued = 0;
+}
+
+static struct io_uring_sqe *ring_sqe(void)
+{
+    struct io_uring_sqe *sqe = io_uring_get_sqe(&ring);
+    if (!sqe) {
+        ring_flush();
+        sqe = io_uring_get_sqe(&ring);
+    }
+    return sqe;
+}
+
+static void reader_free(struct reader *rd)
+{
+    if (!rd->dead || rd->inflight || rd->on_due)
+        return;
+    *(rd->all_pv ? &rd->all_pv->all_nx : &all_readers) = rd->all_nx;
+    if (rd->all_nx)
+        rd->all_nx->all_pv = rd->all_pv;
+    free(rd);
+}
+
+static void reader_arm(struct reader *rd)
+{
+    struct io_uring_sqe *sqe;
+    if (rd->dead || rd->paused || rd->armed || rd->stashed || !(sqe = ring_sqe()))
+        return;
+    io_uring_prep_recv(sqe, rd->fd, rd->buf, rd->max, 0);
+    io_uring_sqe_set_data64(sqe, (uint64_t)(uintptr_t)rd | TAG_RECV);
+    rd->armed = 1;
+    rd->inflight++;
+}
+
+/* Hand a chunk (or the end, or an error) to the reader's owner; read on
+ * after data unless it paused or dropped the reader meanwhile. */
+static void reader_deliver(struct reader *rd, ssize_t n)
+{
+    rd->inflight++; /* the callback may drop the reader: freed after it */
+    rd->cb(rd->arg, rd->fd, rd->buf, n);
+    rd->inflight--;
+    if (rd->dead)
+        reader_free(rd);
+    else if (use_ring && n > 0)
+        reader_arm(rd);
+}
+
+static void reader_drop(struct reader *rd)
+{
+    rd->dead = 1;
+    if (!use_ring) {
+        reader_free(rd);
+        return;
+    }
+    if (rd->armed) {
+        struct io_uring_sqe *sqe = ring_sqe();
+        if (sqe) {
+            io_uring_prep_cancel64(sqe, (uint64_t)(uintptr_t)rd | TAG_RECV, 0);
+            io_uring_sqe_set_data64(sqe, TAG_CANCEL);
+        }
+    }
+    /* Queued sends and re-arms name this fd number: out before the caller
+     * closes it (and a new connection may take the number). */
+    ring_flush();
+    reader_free(rd);
+}
+
+/* The reader's entry in the epoll set: with epoll its data, with io_uring
+ * only a hang-up or error (no events asked). */
+static void reader_event(void *arg, int fd, short revents)
+{
+    struct reader *rd = arg;
+    if ((revents & POLLIN) && !use_ring && !rd->paused) {
+        ssize_t r = recv(fd, rd->buf, rd->max, 0);
+        if (r < 0 && (errno == EAGAIN || errno == EINTR))
+            return;
+        reader_deliver(rd, r < 0 ? -errno : r);
+        return;
+    }
+    if (revents & POLLERR) {
+        int err = 0;
+        socklen_t l = sizeof err;
+        if (getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &l) || !err)
+            err = EIO;
+        reader_deliver(rd, -err);
+    } else if (revents & (POLLHUP | POLLNVAL)) {
+        reader_deliver(rd, 0);
+    }
+}
+
+int loop_add_reader(int fd, size_t max_chunk, loop_read_cb cb, void *arg)
+{
+    struct reader *rd;
+    if (!max_chunk || !(rd = calloc(1, sizeof *rd + max_chunk)))
+        return -1;
+    rd->fd = fd;
+    rd->cb = cb;
+    rd->arg = arg;
+    rd->max = max_chunk;
+    if (loop_add_fd(fd, use_ring ? 0 : POLLIN, reader_event, rd)) {
+        free(rd);
+        return -1;
+    }
+    fds[fd_idx[fd]].rd = rd;
+    rd->all_nx = all_readers;
+    if (all_readers)
+        all_readers->all_pv = rd;
+    all_readers = rd;
+    if (use_ring)
+        reader_arm(rd);
+    return 0;
+}
+
+static struct reader *reader_of(int fd)
+{
+    size_t k = idx_of(fd);
+    return k == SIZE_MAX ? NULL : fds[k].rd;
+}
+
+void loop_pause_reader(int fd, int paused)
+{
+    struct reader *rd = reader_of(fd);
+    if (!rd || rd->paused == !!paused)
+        return;
+    rd->paused = !!paused;
+    if (!use_ring) {
+        loop_mod_fd(fd, paused ? 0 : POLLIN);
+        return;
+    }
+    if (paused)
+        return; /* a read under way is kept (stashed) when it completes */
+    if (rd->stashed && !rd->on_due) {
+        /* Handed over by the loop, not from inside the caller's code. */
+        rd->on_due = 1;
+        rd->due = due_head;
+        due_head = rd;
+        loop_wake();
+    } else {
+        reader_arm(rd);
+    }
+}
+
+int loop_send(int fd, const void *buf, size_t len)
+{
+    struct reader *rd = reader_of(fd);
+    struct io_uring_sqe *sqe;
+    if (!use_ring || !rd) {
+        ssize_t w = send(fd, buf, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+        return w == (ssize_t)len ? 0 : -1;
+    }
+    if (len > STAGE_CAP - stage_len || !io_uring_sq_space_left(&ring))
+        ring_flush();
+    if (len > STAGE_CAP - stage_len || !(sqe = io_uring_get_sqe(&ring)))
+        return -1; /* cannot queue: the caller closes, as for a short send */
+    memcpy(stage + stage_len, buf, len);
+    io_uring_prep_send(sqe, fd, stage + stage_len, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+    io_uring_sqe_set_data64(sqe, (uint64_t)(uintptr_t)rd | TAG_SEND);
+    stage_len += len;
+    sends_queued++;
+    rd->inflight++;
+    rd->sends++;
+    rd->sent_want += len;
+    return 0;
+}
+
+static void on_recv_done(struct reader *rd, int res)
+{
+    rd->inflight--;
+    rd->armed = 0;
+    if (rd->dead) {
+        reader_free(rd);
+        return;
+    }
+    if (res == -EAGAIN || res == -EINTR || res == -ECANCELED) {
+        reader_arm(rd);
+        return;
+    }
+    if (rd->paused && res > 0) {
+        rd->stashed = 1;
+        rd->stash_n = res;
+        return;
+    }
+    reader_deliver(rd, res);
+}
+
+static void on_send_done(struct reader *rd, int res)
+{
+    rd->inflight--;
+    rd->sends--;
+    if (res < 0 && !rd->send_err)
+        rd->send_err = res;
+    else if (res > 0)
+        rd->sent_done += (size_t)res;
+    if (rd->dead) {
+        reader_free(rd);
+        return;
+    }
+    if (rd->sends)
+        return;
+    /* Whole or not at all: a short send broke the stream. */
+    int err = rd->send_err ? rd->send_err : rd->sent_done != rd->sent_want ? -EAGAIN : 0;
+    rd->send_err = 0;
+    rd->sent_done = rd->sent_want = 0;
+    if (err) {
+        rd->inflight++;
+        rd->cb(rd->arg, rd->fd, rd->buf, err);
+        rd->inflight--;
+        reader_free(rd);
+    }
+}
+
+static void epoll_dispatch(void);
+
+/* One wait on the ring; every completion dispatched. */
+static int ring_wait(int64_t timeout_us)
+{
+    struct io_uring_cqe *cqe;
+    struct __kernel_timespec ts;
+    int rc;
+    if (!epoll_armed) {
+        struct io_uring_sqe *sqe = ring_sqe();
+        if (!sqe)
+            return -1;
+        /* One-shot: re-armed after each epoll_wait, so an fd left ready
+         * (level-triggered) completes it again at once. */
+        io_uring_prep_poll_add(sqe, epfd, POLLIN);
+        io_uring_sqe_set_data64(sqe, TAG_EPOLL);
+        epoll_armed = 1;
+    }
+    ts.tv_sec = timeout_us < 0 ? 0 : timeout_us / 1000000;
+    ts.tv_nsec = timeout_us < 0 ? 0 : (timeout_us % 1000000) * 1000;
+    /* Each queued send completes in this very call (MSG_DONTWAIT): wait for
+     * one completion more than those, or the wake-up after a reply would be
+     * its send's completion and the next request cost a second call. */
+    unsigned want = io_uring_cq_ready(&ring) + sends_queued + 1;
+    rc = io_uring_submit_and_wait_timeout(&ring, &cqe, want, timeout_us < 0 ? NULL : &ts, NULL);
+    if (!io_uring_sq_ready(&ring))
+        stage_len = 0, sends_queued = 0;
+    if (rc < 0 && rc != -ETIME && rc != -EINTR && rc != -EBUSY) {
+        errno = -rc;
+        return -1;
+    }
+    wake_us = loop_now_us();
+    for (;;) {
+        struct io_uring_cqe *batch[64];
+        struct {
+            uint64_t ud;
+            int res;
+        } got[64];
+        unsigned n = io_uring_peek_batch_cqe(&ring, batch, 64);
+        if (!n)
+            break;
+        /* Copied out first: callbacks may submit, and a slot is reused
+         * once advanced. */
+        for (unsigned k = 0; k < n; k++) {
+            got[k].ud = batch[k]->user_data;
+            got[k].res = batch[k]->res;
+        }
+        io_uring_cq_advance(&ring, n);
+        for (unsigned k = 0; k < n; k++) {
+            unsigned tag = (unsigned)(got[k].ud & TAG_MASK);
+            struct reader *rd = (struct reader *)(uintptr_t)(got[k].ud & ~(uint64_t)TAG_MASK);
+            if (tag == TAG_RECV)
+                on_recv_done(rd, got[k].res);
+            else if (tag == TAG_SEND)
+                on_send_done(rd, got[k].res);
+            else if (tag == TAG_EPOLL) {
+                epoll_armed = 0;
+                epoll_dispatch();
+            }
+        }
+    }
+    /* Stashes resumed since: handed over now. */
+    while (due_head) {
+        struct reader *rd = due_head;
+        due_head = rd->due;
+        rd->on_due = 0;
+        if (rd->dead) {
+            reader_free(rd);
+        } else if (rd->stashed && !rd->paused) {
+            rd->stashed = 0;
+            reader_deliver(rd, rd->stash_n);
+        } else {
+            reader_arm(rd);
+        }
+    }
+    return 0;
 }
 
 long loop_add_timer(uint64_t delay_ms, loop_timer_cb cb, void *arg)
@@ -239,6 +640,28 @@ static void run_timers(void)
     }
 }
 
+/* Events of the epoll set: each to its entry's callback. An event whose
+ * entry was deleted by an earlier callback, or whose fd number a new entry
+ * took since, is dropped (the serial differs). A level-triggered fd not
+ * served this time is reported again. */
+static void dispatch_events(const struct epoll_event *evs, int n)
+{
+    for (int e = 0; e < n; e++) {
+        int fd = (int)(uint32_t)evs[e].data.u64;
+        size_t k = idx_of(fd);
+        if (k != SIZE_MAX && fds[k].seq == (uint32_t)(evs[e].data.u64 >> 32))
+            fds[k].cb(fds[k].arg, fd, (short)evs[e].events);
+    }
+}
+
+static void epoll_dispatch(void)
+{
+    struct epoll_event evs[64];
+    int rc = epoll_wait(epfd, evs, (int)(sizeof evs / sizeof evs[0]), 0);
+    if (rc > 0)
+        dispatch_events(evs, rc);
+}
+
 int loop_run_once(int max_wait_ms)
 {
     struct epoll_event evs[64];
@@ -260,24 +683,23 @@ int loop_run_once(int max_wait_ms)
         timeout = 0;
         woken = 0;
     }
-    ts.tv_sec = (time_t)(timeout / 1000000);
-    ts.tv_nsec = (long)(timeout % 1000000) * 1000;
     if (epfd < 0 && (epfd = epoll_create1(EPOLL_CLOEXEC)) < 0)
         return -1;
-    rc = epoll_pwait2(epfd, evs, (int)(sizeof evs / sizeof evs[0]), timeout < 0 ? NULL : &ts, NULL);
-    if (rc < 0 && errno == ENOSYS) /* before Linux 5.11: ms, rounded up */
-        rc = epoll_wait(epfd, evs, (int)(sizeof evs / sizeof evs[0]), timeout < 0 ? -1 : (int)((timeout + 999) / 1000));
-    if (rc < 0 && errno != EINTR)
-        return -1;
-    wake_us = loop_now_us();
-    /* An event whose entry was deleted by an earlier callback, or whose fd
-     * number a new entry took since, is dropped (the serial differs). A
-     * level-triggered fd not served this time is reported again. */
-    for (int e = 0; e < rc; e++) {
-        int fd = (int)(uint32_t)evs[e].data.u64;
-        size_t k = idx_of(fd);
-        if (k != SIZE_MAX && fds[k].seq == (uint32_t)(evs[e].data.u64 >> 32))
-            fds[k].cb(fds[k].arg, fd, (short)evs[e].events);
+    if (use_ring) {
+        if (ring_wait(timeout))
+            return -1;
+    } else {
+        ts.tv_sec = (time_t)(timeout / 1000000);
+        ts.tv_nsec = (long)(timeout % 1000000) * 1000;
+        rc = epoll_pwait2(epfd, evs, (int)(sizeof evs / sizeof evs[0]), timeout < 0 ? NULL : &ts, NULL);
+        if (rc < 0 && errno == ENOSYS) /* before Linux 5.11: ms, rounded up */
+            rc = epoll_wait(epfd, evs, (int)(sizeof evs / sizeof evs[0]),
+                            timeout < 0 ? -1 : (int)((timeout + 999) / 1000));
+        if (rc < 0 && errno != EINTR)
+            return -1;
+        wake_us = loop_now_us();
+        if (rc > 0)
+            dispatch_events(evs, rc);
     }
     /* Fds epoll cannot watch (regular files): always ready, as to poll(). */
     for (size_t k = 0, n = nfds; nalways && k < n; k++) {
@@ -295,6 +717,19 @@ int loop_run_once(int max_wait_ms)
 
 void loop_free(void)
 {
+    if (use_ring) {
+        io_uring_queue_exit(&ring); /* cancels what is in flight */
+        free(stage);
+        stage = NULL;
+        stage_len = 0;
+        use_ring = epoll_armed = 0;
+    }
+    while (all_readers) {
+        struct reader *rd = all_readers;
+        all_readers = rd->all_nx;
+        free(rd);
+    }
+    due_head = NULL;
     free(fds);
     free(fd_idx);
     free(timers);

@@ -5,11 +5,28 @@
 #define IT2ND_LOOP_H
 
 #include <poll.h>
+#include <stddef.h>
 #include <stdint.h>
+#include <sys/types.h>
 
 typedef void (*loop_fd_cb)(void *arg, int fd, short revents);
 typedef void (*loop_timer_cb)(void *arg);
 typedef void (*loop_hook_cb)(void *arg);
+/* A reader's chunk: n > 0 bytes at data (valid during the call only), 0 the
+ * peer closed, < 0 -errno (a failed read, a hang-up, or a loop_send() that
+ * could not send its whole buffer at once). */
+typedef void (*loop_read_cb)(void *arg, int fd, const uint8_t *data, ssize_t n);
+
+/* How the loop waits and moves stream data (`io` in [daemon]). */
+enum loop_io { LOOP_IO_AUTO = 0, LOOP_IO_URING = 1, LOOP_IO_EPOLL = 2 };
+
+/* Choose the I/O path before the first fd is added. LOOP_IO_AUTO: io_uring
+ * when the kernel allows it (not disabled by sysctl or a seccomp filter),
+ * else epoll; LOOP_IO_URING: io_uring or -1 (errno from the kernel);
+ * LOOP_IO_EPOLL: epoll. Without a call the loop uses epoll. 0 or -1. */
+int loop_init(enum loop_io io);
+/* The path in use: "io_uring" or "epoll". */
+const char *loop_io_name(void);
 
 /* Milliseconds / microseconds on CLOCK_MONOTONIC. */
 uint64_t loop_now_ms(void);
@@ -24,8 +41,25 @@ uint64_t loop_wake_us(void);
 int loop_add_fd(int fd, short events, loop_fd_cb cb, void *arg);
 /* Change the events of a watched fd. */
 void loop_mod_fd(int fd, short events);
-/* Stop watching fd (does not close it). Safe inside a callback. */
+/* Stop watching fd (does not close it; a reader's read under way is
+ * cancelled and its queued sends go out first). Safe inside a callback. */
 void loop_del_fd(int fd);
+
+/* Read a stream socket for cb: chunks of at most max_chunk bytes, each
+ * handed to cb as it arrives. With io_uring the read rides on the wait's
+ * system call (one io_uring_enter per wake-up carries every read and send:
+ * the FC 23 benchmark, issue 22); with epoll it is a recv() on readiness.
+ * A hang-up or socket error comes to cb as 0 / -errno even while paused.
+ * Removed with loop_del_fd(). 0 or -1. */
+int loop_add_reader(int fd, size_t max_chunk, loop_read_cb cb, void *arg);
+/* Stop (1) or resume (0) reading a reader (back-pressure): no chunk comes
+ * while paused; one read already under way is kept and comes after resume. */
+void loop_pause_reader(int fd, int paused);
+/* Send len bytes on a reader's fd without blocking: whole or not at all
+ * (epoll: send() now, -1 when short; io_uring: queued, sent in order at the
+ * next wait, a short send reaches the reader's cb as -errno). The buffer
+ * may be reused on return. 0 or -1. */
+int loop_send(int fd, const void *buf, size_t len);
 
 /* Call cb(arg) once, delay_ms from now. Returns a timer id (> 0) or -1. */
 long loop_add_timer(uint64_t delay_ms, loop_timer_cb cb, void *arg);

@@ -562,6 +562,10 @@ static void reload(void)
         nc.uid = cfg.uid;
         nc.gid = cfg.gid;
     }
+    if (nc.io != cfg.io) {
+        log_warn("reload: io change takes effect at restart (now %s)", loop_io_name());
+        nc.io = cfg.io;
+    }
     reload_models(&nc);
     if (nc.fsync != cfg.fsync)
         log_notice("reload: fsync %s", nc.fsync ? "on: WAL writes are fsynced again" : "off (tests only)");
@@ -779,6 +783,12 @@ int main(int argc, char **argv)
         return 0;
     }
     notify_init();
+    if (loop_init((enum loop_io)cfg.io)) {
+        log_err("io = io_uring: the kernel refuses io_uring (%s); set io = auto or epoll in [daemon]", strerror(errno));
+        return 1;
+    }
+    log_notice("I/O: %s%s", loop_io_name(),
+               cfg.io == LOOP_IO_AUTO && strcmp(loop_io_name(), "io_uring") ? " (io = auto: io_uring refused)" : "");
 
     if (pipe2(sig_pipe, O_NONBLOCK | O_CLOEXEC))
         return 1;

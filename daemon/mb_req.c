@@ -9,6 +9,7 @@
 #include "it2n_regmap.h"
 #include "errs.h"
 #include "log.h"
+#include "loop.h"
 #include "metrics.h"
 #include "store.h"
 
@@ -127,8 +128,8 @@ static int send_reply(struct mb_req_session *s)
             return 0;
         return modbus_send_raw_request(s->ctx, s->rsp, len) < 0 ? -1 : 0;
     }
-    ssize_t w = send(modbus_get_socket(s->ctx), s->rsp, (size_t)len, MSG_NOSIGNAL);
-    return w == (ssize_t)len ? 0 : -1;
+    /* Through the loop: with io_uring the send rides on the next wait. */
+    return loop_send(modbus_get_socket(s->ctx), s->rsp, (size_t)len);
 }
 
 /* Answer req with exception `code`. libmodbus builds the reply function as
@@ -144,6 +145,19 @@ static int exception(struct mb_req_session *s, struct model *md, const uint8_t *
     if (md)
         md->mb.exceptions++;
     metrics_modbus_reply(req[hl], code);
+    if (s->is_tcp) {
+        /* Framed here as modbus_reply_exception() frames it (MBAP with the
+         * request's transaction and unit, length 3), and sent the way every
+         * other TCP reply goes, in order with them. */
+        memcpy(s->rsp, req, 4);
+        s->rsp[4] = 0;
+        s->rsp[5] = 3;
+        s->rsp[6] = req[6];
+        s->rsp[7] = (uint8_t)(req[hl] | 0x80u);
+        s->rsp[8] = (uint8_t)code;
+        s->rsp_len = 9;
+        return send_reply(s);
+    }
     if (req[hl] & 0x80u) {
         uint8_t copy[MODBUS_TCP_MAX_ADU_LENGTH > MODBUS_RTU_MAX_ADU_LENGTH ? MODBUS_TCP_MAX_ADU_LENGTH
                                                                            : MODBUS_RTU_MAX_ADU_LENGTH];

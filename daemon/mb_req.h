@@ -1,7 +1,8 @@
 /* mb_req — one Modbus request (a complete ADU, TCP or RTU) against the
  * model table: decode, check counts, run mb_map, answer: the reply framed
- * here (as modbus_reply() frames it) and sent at once (TCP: one send();
- * RTU: libmodbus adds the CRC), exceptions with modbus_reply_exception(). A
+ * here (as modbus_reply() frames it) and sent at once (TCP: loop_send(),
+ * exceptions framed here too; RTU: libmodbus adds the CRC, exceptions with
+ * modbus_reply_exception()). A
  * request that changed a model is held until the WAL commit (group commit)
  * and answered by mb_req_release(). */
 #ifndef IT2ND_MB_REQ_H

@@ -235,7 +235,7 @@ static int process(struct conn *c)
             /* A free slot and no request waiting before it: at once. */
             if (nready == 1 && nconns < max_clients)
                 return grant(c, c->ready_since);
-            loop_mod_fd(c->fd, 0);
+            loop_pause_reader(c->fd, 1);
             schedule_admit();
             return 0;
         }
@@ -257,35 +257,32 @@ static int process(struct conn *c)
         c->partial_since = 0;
     /* Stop reading while a reply is held: back-pressure, and the buffer
      * cannot overflow. */
-    loop_mod_fd(c->fd, c->s.held_len ? 0 : POLLIN);
+    loop_pause_reader(c->fd, c->s.held_len != 0);
     return 0;
 }
 
-static void on_conn(void *arg, int fd, short revents)
+/* A chunk from the loop (daemon/loop.h, loop_add_reader): data, the end,
+ * or an error (also a reply the socket could not take whole). */
+static void on_data(void *arg, int fd, const uint8_t *data, ssize_t n)
 {
     struct conn *c = arg;
-    ssize_t r;
-    if (revents & (POLLERR | POLLNVAL)) {
-        conn_close(c, "socket error");
-        return;
-    }
-    if (c->ready) {
-        /* Not reading until admitted: only a hang-up is news. */
-        if (revents & POLLHUP)
-            conn_close(c, "peer closed");
-        return;
-    }
-    r = recv(fd, c->buf + c->len, sizeof c->buf - c->len, 0);
-    if (r == 0) {
+    (void)fd;
+    if (n == 0) {
         conn_close(c, "peer closed");
         return;
     }
-    if (r < 0) {
-        if (errno != EAGAIN && errno != EINTR)
-            conn_close(c, strerror(errno));
+    if (n < 0) {
+        conn_close(c, n == -EAGAIN ? "send failed: the client does not read its replies" : strerror((int)-n));
         return;
     }
-    c->len += (size_t)r;
+    /* Reading is paused while a request waits (ready) or a reply is held,
+     * and every complete request is taken out before: a chunk fits. */
+    if ((size_t)n > sizeof c->buf - c->len) {
+        conn_close(c, "request buffer overflow");
+        return;
+    }
+    memcpy(c->buf + c->len, data, (size_t)n);
+    c->len += (size_t)n;
     c->last_rx = loop_wake_ms(); /* no clock read per request */
     process(c);
 }
@@ -484,7 +481,7 @@ static void on_accept(void *arg, int lfd, short revents)
         c->ro = l->read_only;
         snprintf(c->laddr, sizeof c->laddr, "%s", lk);
         snprintf(c->peer, sizeof c->peer, "%s:%s", host, serv);
-        if (loop_add_fd(fd, POLLIN, on_conn, c)) {
+        if (loop_add_reader(fd, MODBUS_TCP_MAX_ADU_LENGTH, on_data, c)) {
             log_err("tcp: out of memory");
             close(fd);
             free(c);
@@ -505,7 +502,10 @@ static void on_accept(void *arg, int lfd, short revents)
         /* A request sent right after the handshake is often here already:
          * read it now, so that the connection is ready (and can no longer
          * be pushed out) before the next connection is accepted. */
-        on_conn(c, fd, 0);
+        uint8_t first[MODBUS_TCP_MAX_ADU_LENGTH];
+        ssize_t r = recv(fd, first, sizeof first, 0);
+        if (r >= 0 || (errno != EAGAIN && errno != EINTR))
+            on_data(c, fd, first, r < 0 ? -errno : r);
     }
 }
 
