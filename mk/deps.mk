@@ -1,7 +1,7 @@
 # Debian packages the build and tests need. `make deps` checks with dpkg
 # first, so it is a fast no-op when everything is present; as root it installs
 # what is missing with apt-get, otherwise it names the packages and fails.
-DEB_PACKAGES := gcc make pkg-config valgrind libcmocka-dev libmodbus-dev libinih-dev \
+DEB_PACKAGES := gcc make pkg-config valgrind libcmocka-dev libmodbus-dev liburing-dev libinih-dev \
   libusb-1.0-0-dev umockdev libumockdev-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
   qemu-system-arm mbpoll python3 python3-pymodbus python3-serial-asyncio cppcheck clang clang-format libclang-rt-14-dev \
   systemd gnuplot-nox libmicrohttpd-dev prometheus \

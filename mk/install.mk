@@ -81,7 +81,7 @@ install-completion:
 # `make deb` and deb-check (in make test) pull in debhelper and lintian.
 DEB_OUT ?= $(BUILD)/deb
 DEB_TOOL_PACKAGES := debhelper dpkg-dev fakeroot lintian pkg-config libinih-dev \
-  libmodbus-dev libusb-1.0-0-dev systemd
+  libmodbus-dev liburing-dev libusb-1.0-0-dev systemd
 .PHONY: deb deb-deps
 deb-deps:
 	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(DEB_TOOL_PACKAGES)"

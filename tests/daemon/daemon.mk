@@ -40,7 +40,7 @@ DT_USB := $(DTB)/test_usb_umockdev
 $(DT_USB): $(DT)/test_usb_umockdev.c daemon/link_usb.c daemon/loop.c daemon/log.c $(DAEMON_HDR)
 	@mkdir -p $(@D)
 	$(CC) $(DAEMON_CFLAGS) $(shell pkg-config --cflags umockdev-1.0 2>/dev/null) $< daemon/link_usb.c \
-	  daemon/loop.c daemon/log.c -o $@ $(shell pkg-config --libs umockdev-1.0 libusb-1.0 2>/dev/null)
+	  daemon/loop.c daemon/log.c -o $@ $(shell pkg-config --libs umockdev-1.0 libusb-1.0 liburing 2>/dev/null)
 
 DT_USB_BULK := $(DTB)/test_usb_bulk
 $(DT_USB_BULK): $(DT)/test_usb_bulk.c $(DT_MODS) $(REGMAP_LIB) $(PROTO_LIB) $(CORE_LIB)
