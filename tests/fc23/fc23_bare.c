@@ -1,10 +1,11 @@
 /* fc23_bare — the baseline of the FC 23 benchmark: a bare libmodbus
  * server answering FC 23 of the same sizes as it2nd's query (write 2
- * registers at 64, read 108 at 128) from a modbus_mapping_t, with the same
- * poll()-style multi-client loop as it2nd's daemon/mb_tcp.c (one process,
- * one thread; a readable client is read with one recv() into its buffer,
- * every complete ADU, framed by the MBAP length, is answered with
- * modbus_reply()). With "receive" as second argument each readable client
+ * registers at 64, read 108 at 128) from a modbus_mapping_t, in a poll()
+ * multi-client loop (one process, one thread; a readable client is read
+ * with one recv() into its buffer, every complete ADU, framed by the MBAP
+ * length, is answered with modbus_reply()): libmodbus used as carefully as
+ * it allows. it2nd's own loop (daemon/loop.c) moves the same bytes through
+ * io_uring where the kernel allows it. With "receive" as second argument each readable client
  * is read with libmodbus' own modbus_receive() instead (select + a recv
  * per header/body step: slower; an informational second baseline).
  *
