@@ -41,13 +41,13 @@ struct reader {
     int stashed; /* a chunk read while paused, stash_n bytes in buf */
     int on_due;  /* in the due list (stash to hand over after resume) */
     ssize_t stash_n;
-    unsigned inflight;      /* completions to come: recv + sends */
-    unsigned sends;         /* sends in flight */
-    size_t sent_want;       /* bytes of the sends in flight */
-    size_t sent_done;       /* bytes they sent so far */
-    int send_err;           /* first failure among them (-errno) */
-    struct reader *due;     /* next in the due list */
-    struct reader *all_nx;  /* every reader, for loop_free */
+    unsigned inflight;     /* completions to come: recv + sends */
+    unsigned sends;        /* sends in flight */
+    size_t sent_want;      /* bytes of the sends in flight */
+    size_t sent_done;      /* bytes they sent so far */
+    int send_err;          /* first failure among them (-errno) */
+    struct reader *due;    /* next in the due list */
+    struct reader *all_nx; /* every reader, for loop_free */
     struct reader *all_pv;
     loop_read_cb cb;
     void *arg;
@@ -104,11 +104,11 @@ static int deleted;      /* entries marked by loop_del_fd, not yet compacted */
 #define STAGE_CAP 65536u
 static struct io_uring ring;
 static int use_ring;
-static int epoll_armed;          /* the ring's poll of epfd is in flight */
-static uint8_t *stage;           /* sends' bytes until io_uring_submit */
+static int epoll_armed; /* the ring's poll of epfd is in flight */
+static uint8_t *stage;  /* sends' bytes until io_uring_submit */
 static size_t stage_len;
-static unsigned sends_queued;    /* sends in the SQ, not yet submitted */
-static struct reader *due_head;  /* stashes handed over at the next iteration */
+static unsigned sends_queued;   /* sends in the SQ, not yet submitted */
+static struct reader *due_head; /* stashes handed over at the next iteration */
 static struct reader *all_readers;
 
 uint64_t loop_now_us(void)
@@ -238,8 +238,8 @@ int loop_init(enum loop_io io)
         return -1;
     /* Completions run only when the loop waits (DEFER_TASKRUN, 6.1), else
      * at the next system call (COOP_TASKRUN, 5.19), else by interrupt. */
-    static const unsigned flags[] = {IORING_SETUP_SINGLE_ISSUER | IORING_SETUP_DEFER_TASKRUN,
-                                     IORING_SETUP_COOP_TASKRUN, 0};
+    static const unsigned flags[] = {IORING_SETUP_SINGLE_ISSUER | IORING_SETUP_DEFER_TASKRUN, IORING_SETUP_COOP_TASKRUN,
+                                     0};
     rc = -ENOSYS;
     for (size_t k = 0; k < sizeof flags / sizeof flags[0]; k++) {
         memset(&p, 0, sizeof p);
@@ -259,6 +259,9 @@ int loop_init(enum loop_io io)
         errno = -rc;
         return io == LOOP_IO_URING ? -1 : 0;
     }
+    /* The ring's own fd registered (5.18): no fd lookup per io_uring_enter;
+     * refused by an older kernel, which only costs that lookup. */
+    (void)io_uring_register_ring_fd(&ring);
     use_ring = 1;
     return 0;
 }
