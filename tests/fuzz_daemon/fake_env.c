@@ -2,10 +2,12 @@
  * counters of daemon/metrics.c. */
 #include "fake_env.h"
 
+#include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 
 #include "log.h"
 #include "metrics.h"
@@ -93,8 +95,69 @@ void loop_mod_fd(int fd, short events)
             fds[k].events = events;
 }
 
+/* Readers as loop.c's epoll path has them: the harness dispatches POLLIN,
+ * the fake reads and hands the chunk over; pausing clears the events (the
+ * harness sees a held reply as events == 0). */
+struct fake_reader {
+    int fd; /* -1: free */
+    loop_read_cb cb;
+    void *arg;
+    size_t max;
+    uint8_t buf[1024];
+};
+static struct fake_reader readers[FAKE_FDS];
+static int readers_init;
+
+static void fake_reader_event(void *arg, int fd, short revents)
+{
+    struct fake_reader *rd = arg;
+    if (revents & POLLIN) {
+        ssize_t r = recv(fd, rd->buf, rd->max, 0);
+        if (r < 0 && (errno == EAGAIN || errno == EINTR))
+            return;
+        rd->cb(rd->arg, fd, rd->buf, r < 0 ? -errno : r);
+    } else if (revents & (POLLHUP | POLLERR)) {
+        rd->cb(rd->arg, fd, rd->buf, revents & POLLERR ? -EIO : 0);
+    }
+}
+
+int loop_add_reader(int fd, size_t max_chunk, loop_read_cb cb, void *arg)
+{
+    if (!readers_init) {
+        for (size_t k = 0; k < FAKE_FDS; k++)
+            readers[k].fd = -1;
+        readers_init = 1;
+    }
+    fuzz_check(max_chunk > 0 && max_chunk <= sizeof readers[0].buf, "loop_add_reader: chunk size");
+    for (size_t k = 0; k < FAKE_FDS; k++)
+        if (readers[k].fd < 0) {
+            if (loop_add_fd(fd, POLLIN, fake_reader_event, &readers[k]))
+                return -1;
+            readers[k].fd = fd;
+            readers[k].cb = cb;
+            readers[k].arg = arg;
+            readers[k].max = max_chunk;
+            return 0;
+        }
+    return -1;
+}
+
+void loop_pause_reader(int fd, int paused)
+{
+    loop_mod_fd(fd, paused ? 0 : POLLIN);
+}
+
+int loop_send(int fd, const void *buf, size_t len)
+{
+    ssize_t w = send(fd, buf, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+    return w == (ssize_t)len ? 0 : -1;
+}
+
 void loop_del_fd(int fd)
 {
+    for (size_t k = 0; readers_init && k < FAKE_FDS; k++)
+        if (readers[k].fd == fd)
+            readers[k].fd = -1;
     for (size_t k = 0; k < nfds; k++)
         if (fds[k].fd == fd) {
             fds[k] = fds[--nfds];
