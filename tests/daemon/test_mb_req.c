@@ -353,6 +353,47 @@ static void test_reply_framed_as_libmodbus(void **st)
     close(ref[1]);
 }
 
+/* TCP exceptions are framed by the daemon too (issue 22: they go through
+ * loop_send, in order with the other replies, not through libmodbus' own
+ * send): byte for byte what modbus_reply_exception() sends for the same
+ * request: illegal function (also a function code with the top bit set,
+ * answered with that code unchanged), illegal address, illegal value. */
+static void test_exception_framed_as_libmodbus(void **st)
+{
+    static const uint8_t pdus[][8] = {
+        { 0x2B, 0x0E, 0x01, 0x00 },       /* no such function here */
+        { 0x83, 0x00, 0x00, 0x00, 0x01 }, /* top bit set */
+        { 0x03, 0xFF, 0x00, 0x00, 0x01 }, /* beyond the map */
+        { 0x03, 0x00, 0x00, 0x00, 0x00 }, /* count 0 */
+    };
+    static const int plens[] = { 4, 5, 5, 5 };
+    int ref[2];
+    (void)st;
+    assert_int_equal(socketpair(AF_UNIX, SOCK_STREAM, 0, ref), 0);
+    modbus_t *lib = modbus_new_tcp_pi(NULL, "502");
+    assert_non_null(lib);
+    modbus_set_socket(lib, ref[0]);
+    for (size_t k = 0; k < sizeof plens / sizeof plens[0]; k++) {
+        uint8_t req[300], rep[300], want[300];
+        int held;
+        int n = run(pdus[k], plens[k], rep, &held);
+        assert_int_equal(n, 9);
+        assert_true(rep[7] & 0x80);
+        tid--;
+        int len = adu(req, pdus[k], plens[k]);
+        uint8_t copy[300];
+        memcpy(copy, req, (size_t)len);
+        copy[7] &= 0x7F; /* libmodbus adds 0x80 itself */
+        assert_true(modbus_reply_exception(lib, copy, rep[8]) > 0);
+        ssize_t m = read(ref[1], want, sizeof want);
+        assert_int_equal(m, n);
+        assert_memory_equal(rep, want, (size_t)n);
+    }
+    modbus_free(lib);
+    close(ref[0]);
+    close(ref[1]);
+}
+
 static void test_refused_write_sets_last_error(void **st)
 {
     uint8_t req[300], rep[300];
@@ -379,6 +420,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_refused_write_sets_last_error, setup, teardown),
         cmocka_unit_test_setup_teardown(test_reply_framed_as_libmodbus, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_exception_framed_as_libmodbus, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fc23_all_or_nothing, setup, teardown),
         cmocka_unit_test_setup_teardown(test_readers_see_durable, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fc23_query_touches_nothing, setup, teardown),
