@@ -105,6 +105,7 @@ static int deleted;      /* entries marked by loop_del_fd, not yet compacted */
 static struct io_uring ring;
 static int use_ring;
 static int epoll_armed; /* the ring's poll of epfd is in flight */
+static int poll_first;  /* a recv waits for readiness before trying (6.1+) */
 static uint8_t *stage;  /* sends' bytes until io_uring_submit */
 static size_t stage_len;
 static unsigned sends_queued;   /* sends in the SQ, not yet submitted */
@@ -262,6 +263,10 @@ int loop_init(enum loop_io io)
     /* The ring's own fd registered (5.18): no fd lookup per io_uring_enter;
      * refused by an older kernel, which only costs that lookup. */
     (void)io_uring_register_ring_fd(&ring);
+    /* A kernel that took DEFER_TASKRUN (6.1) knows IORING_RECVSEND_POLL_FIRST
+     * (5.19): a read is armed right after a reply, before the client can
+     * have sent its next request, so it waits for readiness untried. */
+    poll_first = (p.flags & IORING_SETUP_DEFER_TASKRUN) != 0;
     use_ring = 1;
     return 0;
 }
@@ -306,6 +311,8 @@ static void reader_arm(struct reader *rd)
     if (rd->dead || rd->paused || rd->armed || rd->stashed || !(sqe = ring_sqe()))
         return;
     io_uring_prep_recv(sqe, rd->fd, rd->buf, rd->max, 0);
+    if (poll_first)
+        sqe->ioprio |= IORING_RECVSEND_POLL_FIRST;
     io_uring_sqe_set_data64(sqe, (uint64_t)(uintptr_t)rd | TAG_RECV);
     rd->armed = 1;
     rd->inflight++;
