@@ -19,6 +19,7 @@
 #include <string.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include "loop.h"
@@ -194,6 +195,9 @@ static void tcp_pair(int *srv, int *cli)
     }
     assert_int_equal(getsockname(lfd, (struct sockaddr *)&sa, &sl), 0);
     *cli = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    /* A read the loop should have answered fails the test, never hangs it. */
+    struct timeval tv = {2, 0};
+    assert_int_equal(setsockopt(*cli, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv), 0);
     assert_int_equal(connect(*cli, (struct sockaddr *)&sa, sizeof sa), 0);
     *srv = accept4(lfd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
     assert_true(*srv >= 0);
