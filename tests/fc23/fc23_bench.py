@@ -92,16 +92,17 @@ class Bare:
 
 
 class It2nd:
-    def __init__(self, exe, tmp, port, conns, io="auto"):
-        self.state = os.path.join(tmp, "state-" + io)
+    def __init__(self, exe, tmp, port, conns, io="auto", prefix=(), tag=None):
+        tag = tag or io
+        self.state = os.path.join(tmp, "state-" + tag)
         os.makedirs(self.state, exist_ok=True)
-        self.conf = os.path.join(tmp, "it2nd-%s.conf" % io)
+        self.conf = os.path.join(tmp, "it2nd-%s.conf" % tag)
         with open(self.conf, "w") as f:
             f.write("[daemon]\nstate_dir = %s\nsnapshot_interval = 3600\nio = %s\n"
                     "[modbus]\ntcp_listen = 127.0.0.1:%d\nmax_clients = %d\n"
                     "[model:1]\nunit_id = 1\npreload = paper\n" % (self.state, io, port, max(conns, 32) + 8))
-        self.log = open(os.path.join(tmp, "it2nd-%s.log" % io), "w")
-        self.p = subprocess.Popen([exe, "-c", self.conf, "--foreground"], stdout=self.log,
+        self.log = open(os.path.join(tmp, "it2nd-%s.log" % tag), "w")
+        self.p = subprocess.Popen(list(prefix) + [exe, "-c", self.conf, "--foreground"], stdout=self.log,
                                   stderr=subprocess.STDOUT)
         self.port = port
         for _ in range(100):
@@ -148,6 +149,33 @@ def load(exe, port, conns, seconds, expect, pid, split=None):
     return float(d["rate"]), int(d["requests"]), cpu, float(d["p99_us"])
 
 
+def noring_check(a, tmp, n):
+    """io_uring refused (a seccomp filter, as a hardened host has it):
+    io = auto falls back to epoll, says so in its start line and answers
+    every request; io = io_uring refuses to start, naming the reason."""
+    e = It2nd(a.it2nd, tmp, free_port(), n, prefix=[a.noring], tag="auto-noring")
+    try:
+        _, req, _, _ = load(a.load, e.port, n, 0.5, "model", e.p.pid)
+    finally:
+        e.stop()
+    with open(e.log.name) as f:
+        log = f.read()
+    if "I/O: epoll (io = auto: io_uring refused)" not in log:
+        raise SystemExit("fc23 smoke: FAIL: io = auto with io_uring refused did not say it fell back to epoll:\n" + log)
+    print("fc23 smoke: ok: io_uring refused (seccomp): io = auto serves on epoll, says so, %d answers correct" % req)
+    conf = os.path.join(tmp, "it2nd-uring-noring.conf")
+    with open(conf, "w") as f:
+        f.write("[daemon]\nstate_dir = %s\nio = io_uring\n[modbus]\ntcp_listen = 127.0.0.1:%d\n"
+                % (os.path.join(tmp, "state-uring-noring"), free_port()))
+    r = subprocess.run([a.noring, a.it2nd, "-c", conf, "--foreground"], capture_output=True, text=True, timeout=20)
+    out = r.stdout + r.stderr
+    if r.returncode == 0 or "io = io_uring: the kernel refuses io_uring" not in out:
+        raise SystemExit("fc23 smoke: FAIL: io = io_uring with io_uring refused: exit %d, output:\n%s"
+                         % (r.returncode, out))
+    print("fc23 smoke: ok: io_uring refused: io = io_uring stops the start (exit %d): %s"
+          % (r.returncode, [x for x in out.splitlines() if "io_uring" in x][0].strip()))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--it2nd", required=True)
@@ -158,6 +186,7 @@ def main():
     ap.add_argument("--rounds", type=int, default=20, help="at most this many rounds per connection count")
     ap.add_argument("--min-rounds", type=int, default=5)
     ap.add_argument("--smoke", action="store_true")
+    ap.add_argument("--noring", help="smoke: a wrapper refusing io_uring_setup (tests/fc23/noring.c)")
     ap.add_argument("--out")
     a = ap.parse_args()
     conns = [int(c) for c in a.conns.split(",")]
@@ -243,6 +272,8 @@ def main():
             e.stop()
         print("fc23 smoke: every FC 23 answer correct under %d concurrent connections, io = auto (%s) and "
               "io = epoll (%d answers) (no timing checked)" % (conns[0], d.io_name(), req))
+        if a.noring:
+            noring_check(a, tmp, conns[0])
     rows = []
     for n in conns:
         it, bb, ci, cb, _, _ = results[n]
