@@ -1248,6 +1248,29 @@ static it2n_msg hello_msg(uint8_t vmax, uint8_t window)
 
 /* A: a v1.2 client, B: a server, both with window 16, the session open,
  * no frame of A's sequence sent yet (its first will carry SYN). Time 0..2. */
+/* The configuration of v12_hello's endpoints: the client A (v1.2, first
+ * sequence 1000) or the server B (first sequence 7, any version); both with
+ * window 16 and a 100 ms RTO. */
+static it2n_link_cfg v12_cfg(ep *e)
+{
+    it2n_link_cfg c;
+    memset(&c, 0, sizeof c);
+    c.out = &e->os;
+    c.on_rx = on_rx;
+    c.on_done = on_done;
+    c.app = e;
+    c.rto_ms = 100;
+    c.window = 16;
+    if (e == A) {
+        c.first_seq = 1000;
+        c.version = IT2N_PROTO_VERSION_12;
+    } else {
+        c.first_seq = 7;
+        c.new_session = srv_session;
+    }
+    return c;
+}
+
 static void v12_hello(void)
 {
     it2n_link_cfg c;
@@ -1256,22 +1279,9 @@ static void v12_hello(void)
     memset(B, 0, sizeof *B);
     A->os = mem_stream(&A->out);
     B->os = mem_stream(&B->out);
-    memset(&c, 0, sizeof c);
-    c.out = &A->os;
-    c.on_rx = on_rx;
-    c.on_done = on_done;
-    c.app = A;
-    c.rto_ms = 100;
-    c.max_tries = 0;
-    c.first_seq = 1000;
-    c.window = 16;
-    c.version = IT2N_PROTO_VERSION_12;
+    c = v12_cfg(A);
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
-    c.out = &B->os;
-    c.app = B;
-    c.first_seq = 7;
-    c.version = 0;
-    c.new_session = srv_session;
+    c = v12_cfg(B);
     assert_int_equal(it2n_link_init(&B->l, &c), IT2N_OK);
     m = hello_msg(IT2N_PROTO_VERSION_12, 16);
     assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
@@ -1732,16 +1742,7 @@ static void test_rcvd_of_syn_frame(void **st)
 static void test_hello_rtt_sample(void **st)
 {
     (void)st;
-    it2n_link_cfg c;
-    memset(&c, 0, sizeof c);
-    c.out = &A->os;
-    c.on_rx = on_rx;
-    c.on_done = on_done;
-    c.app = A;
-    c.rto_ms = 100;
-    c.first_seq = 1000;
-    c.window = 16;
-    c.version = IT2N_PROTO_VERSION_12;
+    it2n_link_cfg c = v12_cfg(A);
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
     it2n_msg m = hello_msg(IT2N_PROTO_VERSION_12, 16);
     assert_int_equal(it2n_link_send(&A->l, &m, 0), 1000);
@@ -1749,11 +1750,7 @@ static void test_hello_rtt_sample(void **st)
     it2n_link_poll(&A->l, 100);
     assert_int_equal(A->l.stats.tx_retx, 1);
     /* a server answers the copy: no round-trip sample (Karn) */
-    c.app = B;
-    c.out = &B->os;
-    c.first_seq = 7;
-    c.version = 0;
-    c.new_session = srv_session;
+    c = v12_cfg(B);
     assert_int_equal(it2n_link_init(&B->l, &c), IT2N_OK);
     xfer(A, B, 230, 0);
     xfer(B, A, 231, 0);
@@ -1762,17 +1759,9 @@ static void test_hello_rtt_sample(void **st)
     /* sent once and answered after 160 ms: the first round-trip sample
      * (RTO = R + 4 R/2), so the first frames of the session do not take
      * a slow start (a loaded machine) for a loss */
-    c.app = A;
-    c.out = &A->os;
-    c.first_seq = 1000;
-    c.version = IT2N_PROTO_VERSION_12;
-    c.new_session = NULL;
+    c = v12_cfg(A);
     assert_int_equal(it2n_link_init(&A->l, &c), IT2N_OK);
-    c.app = B;
-    c.out = &B->os;
-    c.first_seq = 7;
-    c.version = 0;
-    c.new_session = srv_session;
+    c = v12_cfg(B);
     assert_int_equal(it2n_link_init(&B->l, &c), IT2N_OK);
     assert_int_equal(it2n_link_send(&A->l, &m, 1000), 1000);
     xfer(A, B, 1000, 0);
