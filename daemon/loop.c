@@ -276,13 +276,20 @@ const char *loop_io_name(void)
     return use_ring ? "io_uring" : "epoll";
 }
 
-/* Submit what is queued; the staged bytes are free once nothing waits. */
+/* The staged bytes are free once nothing waits in the SQ (every send
+ * was tried in the submitting call). */
+static void stage_release(void)
+{
+    if (!io_uring_sq_ready(&ring))
+        stage_len = 0, sends_queued = 0;
+}
+
+/* Submit what is queued. */
 static void ring_flush(void)
 {
     if (io_uring_sq_ready(&ring))
         io_uring_submit(&ring);
-    if (!io_uring_sq_ready(&ring))
-        stage_len = 0, sends_queued = 0;
+    stage_release();
 }
 
 static struct io_uring_sqe *ring_sqe(void)
@@ -520,8 +527,7 @@ static int ring_wait(int64_t timeout_us)
      * its send's completion and the next request cost a second call. */
     unsigned want = io_uring_cq_ready(&ring) + sends_queued + 1;
     rc = io_uring_submit_and_wait_timeout(&ring, &cqe, want, timeout_us < 0 ? NULL : &ts, NULL);
-    if (!io_uring_sq_ready(&ring))
-        stage_len = 0, sends_queued = 0;
+    stage_release();
     if (rc < 0 && rc != -ETIME && rc != -EINTR && rc != -EBUSY) {
         errno = -rc;
         return -1;
