@@ -55,7 +55,10 @@
  *                what v1.2 fixes.
  *
  * Usage: daemon_link IT2ND SCENARIO ARG [SCENARIO ARG ...]
- * Prints one line of figures per scenario; exit 0 when all held.
+ * Environment: LINK_EXTRA and DAEMON_EXTRA, lines added to it2nd.conf's
+ * [link:inst] and [daemon] sections (e.g. DAEMON_EXTRA='io = epoll').
+ * Prints one line of figures per scenario; exit 0 when all held. A stalled
+ * reboot prints what it waited for and the daemon log's tail at once.
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -171,7 +174,8 @@ static void setup(const char *extra)
         exit(2);
     }
     f = fopen(conf_path, "w");
-    fprintf(f, "[daemon]\nstate_dir = %s/state\nsnapshot_interval = 3600\nlink_backoff_max = 1\n", dir);
+    fprintf(f, "[daemon]\nstate_dir = %s/state\nsnapshot_interval = 3600\nlink_backoff_max = 1\n%s\n", dir,
+            getenv("DAEMON_EXTRA") ? getenv("DAEMON_EXTRA") : "");
     fprintf(f, "[modbus]\ntcp_listen = 127.0.0.1:%u\n", 31000u + (unsigned)getpid() % 900u);
     fprintf(f, "[model:1]\nunit_id = 1\nn = 1\nm = 1\ntype1 = yes\n");
     fprintf(f, "[model:2]\nunit_id = 2\nn = 7\nm = 7\n");
@@ -1343,6 +1347,25 @@ static void rb_done(void *app, uint16_t seq, uint8_t type, int code, const it2n_
         rb.commit_acked = 1;
 }
 
+/* What a stalled boot was waiting for, and the daemon's last words then
+ * (the log's tail at the end of the run is many boots later). */
+static void stall_report(unsigned b, unsigned step, unsigned nsteps, unsigned kill_at, int late_frames)
+{
+    char cmd[400];
+    const it2n_link_stats *st = &P.l.stats;
+    fprintf(stderr,
+            "stall: boot %u at step %u of %u (kill at %u, late frames %d): hello %d, status %d, configure %d, "
+            "PUTs ACKed %u, commit %d, results %u; link: %u pending, session %08x, rto %u ms, retx %u, "
+            "RCVD seen %u, foreign %u, resyncs %u, stall waits %u, HELLOs sent %u, answered %u\n",
+            b, step, nsteps, kill_at, late_frames, rb.hello_at_set, rb.status_seen, rb.cfg_acked, rb.puts_acked,
+            (int)rb.commit_acked, P.results, (unsigned)it2n_link_pending(&P.l), (unsigned)it2n_link_session(&P.l),
+            (unsigned)it2n_link_rto(&P.l), (unsigned)st->tx_retx, (unsigned)st->rx_rcvd, (unsigned)st->rx_foreign,
+            (unsigned)st->tx_resyncs, (unsigned)st->tx_stall_waits, (unsigned)st->tx_hellos, P.hellos);
+    snprintf(cmd, sizeof cmd, "tail -30 '%s' | sed 's/^/stall: daemon: /' >&2", log_path);
+    if (system(cmd) != 0)
+        fprintf(stderr, "stall: (no daemon log)\n");
+}
+
 static void reboots(unsigned n, int v12, unsigned pct)
 {
     static it2n_dataset ds[2];
@@ -1491,6 +1514,8 @@ static void reboots(unsigned n, int v12, unsigned pct)
             }
             if (now_ms() - progress > 3000) {
                 stalled = 1; /* never a timeout: nothing moved for 3 s */
+                if (v12) /* reboot11 stalls by design */
+                    stall_report(b, step, nsteps, kill_at, late_frames);
                 break;
             }
         }
