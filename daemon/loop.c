@@ -15,7 +15,11 @@
  * and send through the ring, so a wake-up that answers requests costs one
  * system call where epoll costs a wait, a recv and a send each. A reader's
  * fd also stays in the epoll set with no events: a hang-up or error while
- * it is paused still comes through. Sends carry MSG_DONTWAIT: each is tried
+ * it is paused still comes through. A reader with chunks of at least
+ * LOOP_RING_CHUNK reads through one multishot recv into a shared buffer
+ * ring (kept armed across requests; cancelled on pause, what it read
+ * meanwhile held in order; single-shot when the ring runs dry). Sends
+ * carry MSG_DONTWAIT: each is tried
  * in the submitting call and never waits in the kernel, so the staging
  * buffer is free again once io_uring_submit returns, and a client too slow
  * to take a reply gets the same "short send" as with send(). */
@@ -35,11 +39,16 @@
  * write the buffer of a cancelled read until its completion is reaped). */
 struct reader {
     int fd;
-    int dead;    /* loop_del_fd done */
-    int paused;  /* loop_pause_reader */
-    int armed;   /* a recv in the ring */
-    int stashed; /* a chunk read while paused, stash_n bytes in buf */
-    int on_due;  /* in the due list (stash to hand over after resume) */
+    int dead;                 /* loop_del_fd done */
+    int paused;               /* loop_pause_reader */
+    int armed;                /* a recv in the ring */
+    int multi;                /* ... a multishot one (chunks in the loop's buffer ring) */
+    int stashed;              /* a chunk read while paused, stash_n bytes in buf */
+    int held_head, held_tail; /* ring buffers read while paused, in order; -1 none */
+    int end_held;             /* the end (end_res: 0 or -errno) came after them */
+    int end_res;
+    int single_next; /* the ring ran dry: the next read is single-shot */
+    int on_due;      /* in the due list (stash or held chunks to hand over) */
     ssize_t stash_n;
     unsigned inflight;     /* completions to come: recv + sends */
     unsigned sends;        /* sends in flight */
@@ -110,6 +119,19 @@ static uint8_t *stage;  /* sends' bytes until io_uring_submit */
 static size_t stage_len;
 static unsigned sends_queued;   /* sends in the SQ, not yet submitted */
 static struct reader *due_head; /* stashes handed over at the next iteration */
+/* Multishot reads (6.0, with DEFER_TASKRUN's 6.1): one recv stays armed
+ * across requests and takes a buffer of this ring for each chunk, so a
+ * request costs no re-arm. A chunk read while its reader is paused keeps
+ * its buffer (held, in a per-reader list) until handed over. */
+#define RB_ENTRIES 256u
+#define RB_SIZE LOOP_RING_CHUNK
+#define RB_GROUP 1
+static struct io_uring_buf_ring *rb_ring;
+static uint8_t *rb_bufs;
+static int rb_next[RB_ENTRIES];     /* held list links */
+static unsigned rb_len[RB_ENTRIES]; /* bytes in a held buffer */
+static unsigned rb_out;             /* buffers not in the ring (held) */
+static struct loop_stats stats;
 static struct reader *all_readers;
 
 uint64_t loop_now_us(void)
@@ -228,6 +250,8 @@ void loop_del_fd(int fd)
 
 /* ---- io_uring and readers ---- */
 
+static void rb_setup(void);
+
 int loop_init(enum loop_io io)
 {
     struct io_uring_params p;
@@ -268,7 +292,52 @@ int loop_init(enum loop_io io)
      * have sent its next request, so it waits for readiness untried. */
     poll_first = (p.flags & IORING_SETUP_DEFER_TASKRUN) != 0;
     use_ring = 1;
+    if (poll_first)
+        rb_setup();
     return 0;
+}
+
+/* The buffer ring of multishot reads; without it (refused, no memory)
+ * every read is single-shot. */
+static void rb_setup(void)
+{
+    struct io_uring_buf_reg reg;
+    void *mem = NULL;
+    if (posix_memalign(&mem, 4096, RB_ENTRIES * sizeof(struct io_uring_buf)))
+        return;
+    rb_bufs = malloc((size_t)RB_ENTRIES * RB_SIZE);
+    memset(&reg, 0, sizeof reg);
+    reg.ring_addr = (uint64_t)(uintptr_t)mem;
+    reg.ring_entries = RB_ENTRIES;
+    reg.bgid = RB_GROUP;
+    if (!rb_bufs || io_uring_register_buf_ring(&ring, &reg, 0)) {
+        free(mem);
+        free(rb_bufs);
+        rb_bufs = NULL;
+        return;
+    }
+    rb_ring = mem;
+    io_uring_buf_ring_init(rb_ring);
+    for (unsigned b = 0; b < RB_ENTRIES; b++)
+        io_uring_buf_ring_add(rb_ring, rb_bufs + (size_t)b * RB_SIZE, RB_SIZE, (unsigned short)b,
+                              io_uring_buf_ring_mask(RB_ENTRIES), (int)b);
+    io_uring_buf_ring_advance(rb_ring, (int)RB_ENTRIES);
+    rb_out = 0;
+}
+
+/* A buffer back into the ring. */
+static void rb_recycle(int bid)
+{
+    io_uring_buf_ring_add(rb_ring, rb_bufs + (size_t)bid * RB_SIZE, RB_SIZE, (unsigned short)bid,
+                          io_uring_buf_ring_mask(RB_ENTRIES), 0);
+    io_uring_buf_ring_advance(rb_ring, 1);
+    rb_out--;
+}
+
+void loop_get_stats(struct loop_stats *st)
+{
+    *st = stats;
+    st->buffers_out = rb_out;
 }
 
 const char *loop_io_name(void)
@@ -315,9 +384,21 @@ static void reader_free(struct reader *rd)
 static void reader_arm(struct reader *rd)
 {
     struct io_uring_sqe *sqe;
-    if (rd->dead || rd->paused || rd->armed || rd->stashed || !(sqe = ring_sqe()))
+    if (rd->dead || rd->paused || rd->armed || rd->stashed || rd->held_head >= 0 || rd->end_held || !(sqe = ring_sqe()))
         return;
-    io_uring_prep_recv(sqe, rd->fd, rd->buf, rd->max, 0);
+    /* Multishot while the ring has buffers to spare (paused readers hold
+     * some), chunks of RB_SIZE; else single-shot into the reader's buffer. */
+    rd->multi = rb_ring && rd->max >= RB_SIZE && !rd->single_next && rb_out < RB_ENTRIES / 2;
+    rd->single_next = 0;
+    stats.reads_armed++;
+    stats.reads_multishot += (unsigned)rd->multi;
+    if (rd->multi) {
+        io_uring_prep_recv_multishot(sqe, rd->fd, NULL, 0, 0);
+        sqe->flags |= IOSQE_BUFFER_SELECT;
+        sqe->buf_group = RB_GROUP;
+    } else {
+        io_uring_prep_recv(sqe, rd->fd, rd->buf, rd->max, 0);
+    }
     if (poll_first)
         sqe->ioprio |= IORING_RECVSEND_POLL_FIRST;
     io_uring_sqe_set_data64(sqe, (uint64_t)(uintptr_t)rd | TAG_RECV);
@@ -327,10 +408,10 @@ static void reader_arm(struct reader *rd)
 
 /* Hand a chunk (or the end, or an error) to the reader's owner; read on
  * after data unless it paused or dropped the reader meanwhile. */
-static void reader_deliver(struct reader *rd, ssize_t n)
+static void reader_deliver_from(struct reader *rd, const uint8_t *data, ssize_t n)
 {
     rd->inflight++; /* the callback may drop the reader: freed after it */
-    rd->cb(rd->arg, rd->fd, rd->buf, n);
+    rd->cb(rd->arg, rd->fd, data, n);
     rd->inflight--;
     if (rd->dead)
         reader_free(rd);
@@ -338,20 +419,74 @@ static void reader_deliver(struct reader *rd, ssize_t n)
         reader_arm(rd);
 }
 
+static void reader_deliver(struct reader *rd, ssize_t n)
+{
+    reader_deliver_from(rd, rd->buf, n);
+}
+
+/* Held ring buffers (and the end after them) handed over in order while
+ * the reader is not paused, each buffer back into the ring after; then
+ * reading goes on. */
+static void reader_drain_held(struct reader *rd)
+{
+    rd->inflight++;
+    while (!rd->dead && !rd->paused && rd->held_head >= 0) {
+        int bid = rd->held_head;
+        rd->held_head = rb_next[bid];
+        if (rd->held_head < 0)
+            rd->held_tail = -1;
+        /* Out of the list before the call (which may pause or drop). */
+        reader_deliver_from(rd, rb_bufs + (size_t)bid * RB_SIZE, (ssize_t)rb_len[bid]);
+        rb_recycle(bid);
+    }
+    if (!rd->dead && !rd->paused && rd->end_held) {
+        rd->end_held = 0;
+        reader_deliver_from(rd, rd->buf, rd->end_res);
+    }
+    rd->inflight--;
+    if (rd->dead)
+        reader_free(rd);
+    else
+        reader_arm(rd);
+}
+
+static void reader_hold(struct reader *rd, int bid, unsigned len)
+{
+    rb_next[bid] = -1;
+    rb_len[bid] = len;
+    if (rd->held_tail >= 0)
+        rb_next[rd->held_tail] = bid;
+    else
+        rd->held_head = bid;
+    rd->held_tail = bid;
+}
+
+static void reader_cancel(struct reader *rd)
+{
+    struct io_uring_sqe *sqe = ring_sqe();
+    if (sqe) {
+        io_uring_prep_cancel64(sqe, (uint64_t)(uintptr_t)rd | TAG_RECV, 0);
+        io_uring_sqe_set_data64(sqe, TAG_CANCEL);
+    }
+}
+
 static void reader_drop(struct reader *rd)
 {
     rd->dead = 1;
+    /* Held buffers: ours since their completions, the kernel writes them no
+     * more. */
+    while (use_ring && rd->held_head >= 0) {
+        int bid = rd->held_head;
+        rd->held_head = rb_next[bid];
+        rb_recycle(bid);
+    }
+    rd->held_tail = -1;
     if (!use_ring) {
         reader_free(rd);
         return;
     }
-    if (rd->armed) {
-        struct io_uring_sqe *sqe = ring_sqe();
-        if (sqe) {
-            io_uring_prep_cancel64(sqe, (uint64_t)(uintptr_t)rd | TAG_RECV, 0);
-            io_uring_sqe_set_data64(sqe, TAG_CANCEL);
-        }
-    }
+    if (rd->armed)
+        reader_cancel(rd);
     /* Queued sends and re-arms name this fd number: out before the caller
      * closes it (and a new connection may take the number). */
     ring_flush();
@@ -390,6 +525,7 @@ int loop_add_reader(int fd, size_t max_chunk, loop_read_cb cb, void *arg)
     rd->cb = cb;
     rd->arg = arg;
     rd->max = max_chunk;
+    rd->held_head = rd->held_tail = -1;
     if (loop_add_fd(fd, use_ring ? 0 : POLLIN, reader_event, rd)) {
         free(rd);
         return -1;
@@ -420,9 +556,14 @@ void loop_pause_reader(int fd, int paused)
         loop_mod_fd(fd, paused ? 0 : POLLIN);
         return;
     }
-    if (paused)
-        return; /* a read under way is kept (stashed) when it completes */
-    if (rd->stashed && !rd->on_due) {
+    if (paused) {
+        /* A single-shot read under way is kept (stashed) when it completes;
+         * a multishot one is cancelled, what it reads until then held. */
+        if (rd->armed && rd->multi)
+            reader_cancel(rd);
+        return;
+    }
+    if ((rd->stashed || rd->held_head >= 0 || rd->end_held) && !rd->on_due) {
         /* Handed over by the loop, not from inside the caller's code. */
         rd->on_due = 1;
         rd->due = due_head;
@@ -456,12 +597,50 @@ int loop_send(int fd, const void *buf, size_t len)
     return 0;
 }
 
-static void on_recv_done(struct reader *rd, int res)
+static void on_recv_done(struct reader *rd, int res, unsigned flags)
 {
-    rd->inflight--;
-    rd->armed = 0;
+    int bid = flags & IORING_CQE_F_BUFFER ? (int)(flags >> IORING_CQE_BUFFER_SHIFT) : -1;
+    if (bid >= 0)
+        rb_out++;
+    stats.ring_dry += res == -ENOBUFS;
+    if (!(flags & IORING_CQE_F_MORE)) { /* the read is over (a multishot one too) */
+        rd->inflight--;
+        rd->armed = 0;
+    }
     if (rd->dead) {
+        if (bid >= 0)
+            rb_recycle(bid);
         reader_free(rd);
+        return;
+    }
+    if (bid >= 0 || rd->held_head >= 0 || rd->end_held) {
+        /* Multishot: a chunk in a ring buffer, or the end; in order after
+         * what is held. */
+        if (rd->paused || rd->held_head >= 0 || rd->on_due) {
+            if (bid >= 0)
+                reader_hold(rd, bid, (unsigned)res);
+            else if (res != -EAGAIN && res != -EINTR && res != -ECANCELED && res != -ENOBUFS)
+                rd->end_held = 1, rd->end_res = res;
+            if (!rd->paused && !rd->on_due) {
+                rd->on_due = 1;
+                rd->due = due_head;
+                due_head = rd;
+            }
+            return;
+        }
+        if (bid >= 0) {
+            rd->inflight++;
+            reader_deliver_from(rd, rb_bufs + (size_t)bid * RB_SIZE, res);
+            rb_recycle(bid);
+            rd->inflight--;
+            if (rd->dead)
+                reader_free(rd);
+            return;
+        }
+    }
+    if (res == -ENOBUFS) { /* every buffer out: read on single-shot */
+        rd->single_next = 1;
+        reader_arm(rd);
         return;
     }
     if (res == -EAGAIN || res == -EINTR || res == -ECANCELED) {
@@ -538,6 +717,7 @@ static int ring_wait(int64_t timeout_us)
         struct {
             uint64_t ud;
             int res;
+            unsigned flags;
         } got[64];
         unsigned n = io_uring_peek_batch_cqe(&ring, batch, 64);
         if (!n)
@@ -547,13 +727,14 @@ static int ring_wait(int64_t timeout_us)
         for (unsigned k = 0; k < n; k++) {
             got[k].ud = batch[k]->user_data;
             got[k].res = batch[k]->res;
+            got[k].flags = batch[k]->flags;
         }
         io_uring_cq_advance(&ring, n);
         for (unsigned k = 0; k < n; k++) {
             unsigned tag = (unsigned)(got[k].ud & TAG_MASK);
             struct reader *rd = (struct reader *)(uintptr_t)(got[k].ud & ~(uint64_t)TAG_MASK);
             if (tag == TAG_RECV)
-                on_recv_done(rd, got[k].res);
+                on_recv_done(rd, got[k].res, got[k].flags);
             else if (tag == TAG_SEND)
                 on_send_done(rd, got[k].res);
             else if (tag == TAG_EPOLL) {
@@ -572,6 +753,8 @@ static int ring_wait(int64_t timeout_us)
         } else if (rd->stashed && !rd->paused) {
             rd->stashed = 0;
             reader_deliver(rd, rd->stash_n);
+        } else if ((rd->held_head >= 0 || rd->end_held) && !rd->paused) {
+            reader_drain_held(rd);
         } else {
             reader_arm(rd);
         }
@@ -735,6 +918,12 @@ void loop_free(void)
 {
     if (use_ring) {
         io_uring_queue_exit(&ring); /* cancels what is in flight */
+        free(rb_ring);
+        free(rb_bufs);
+        rb_ring = NULL;
+        rb_bufs = NULL;
+        rb_out = 0;
+        memset(&stats, 0, sizeof stats);
         free(stage);
         stage = NULL;
         stage_len = 0;

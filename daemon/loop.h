@@ -48,18 +48,36 @@ void loop_del_fd(int fd);
 /* Read a stream socket for cb: chunks of at most max_chunk bytes, each
  * handed to cb as it arrives. With io_uring the read rides on the wait's
  * system call (one io_uring_enter per wake-up carries every read and send:
- * the FC 23 benchmark, issue 22); with epoll it is a recv() on readiness.
+ * the FC 23 benchmark, issue 22), and with max_chunk >= LOOP_RING_CHUNK on
+ * 6.1+ it is one multishot read, not re-armed per chunk; with epoll it is a
+ * recv() on readiness.
  * A hang-up or socket error comes to cb as 0 / -errno even while paused.
  * Removed with loop_del_fd(). 0 or -1. */
 int loop_add_reader(int fd, size_t max_chunk, loop_read_cb cb, void *arg);
 /* Stop (1) or resume (0) reading a reader (back-pressure): no chunk comes
- * while paused; one read already under way is kept and comes after resume. */
+ * while paused; what was read before the pause took hold (one single-shot
+ * read, or the multishot read's chunks until its cancel) is kept and comes
+ * after resume, in order. */
 void loop_pause_reader(int fd, int paused);
 /* Send len bytes on a reader's fd without blocking: whole or not at all
  * (epoll: send() now, -1 when short; io_uring: queued, sent in order at the
  * next wait, a short send reaches the reader's cb as -errno). The buffer
  * may be reused on return. 0 or -1. */
 int loop_send(int fd, const void *buf, size_t len);
+
+/* Chunks of a reader with max_chunk >= LOOP_RING_CHUNK come through one
+ * multishot read (io_uring on 6.1+: armed once, not per request) and are
+ * at most this size. */
+#define LOOP_RING_CHUNK 256u
+
+/* What the io_uring readers did (tests, diagnostics); zeros with epoll. */
+struct loop_stats {
+    unsigned long reads_armed;     /* recv requests put in the ring */
+    unsigned long reads_multishot; /* of them multishot */
+    unsigned long ring_dry;        /* multishot reads ended: no buffer left */
+    unsigned buffers_out;          /* ring buffers the loop holds now */
+};
+void loop_get_stats(struct loop_stats *st);
 
 /* Call cb(arg) once, delay_ms from now. Returns a timer id (> 0) or -1. */
 long loop_add_timer(uint64_t delay_ms, loop_timer_cb cb, void *arg);

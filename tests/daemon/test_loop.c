@@ -4,9 +4,12 @@
  * closed and reused by a callback never gets the old entry's events.
  * Readers (issue 22: Modbus TCP data through io_uring): chunks in order,
  * pause and resume, a reset while paused, a client that does not read,
- * a reader dropped with a read and a send under way. Every test runs with
- * io = epoll and again with io = io_uring (skipped, and said, when the
- * kernel refuses io_uring). */
+ * a reader dropped with a read and a send under way, a pause from inside
+ * the callback with more data already read, a bulk stream. Every test runs
+ * with io = epoll, with io = io_uring and small chunks (single-shot reads)
+ * and with io = io_uring and chunks of LOOP_RING_CHUNK (one multishot read
+ * through the loop's buffer ring); the io_uring groups are skipped, and
+ * say so, when the kernel refuses io_uring. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -165,6 +168,13 @@ static void test_wake_time(void **st)
 /* ---- readers ---- */
 
 static enum loop_io io_mode;
+static int multishot; /* the group whose readers take ring-sized chunks */
+
+/* A reader's max_chunk in this group. */
+static size_t rsize(size_t n)
+{
+    return multishot && n < LOOP_RING_CHUNK ? LOOP_RING_CHUNK : n;
+}
 
 static int setup_io(void **st)
 {
@@ -207,7 +217,8 @@ static char got[4096];
 static size_t got_len;
 static int got_end;  /* 1: end of stream, < 0: -errno */
 static int got_calls;
-static int drop_in_cb = -1; /* fd to drop (and close) from inside the callback */
+static int drop_in_cb = -1;  /* fd to drop (and close) from inside the callback */
+static int pause_in_cb = -1; /* fd to pause from inside the callback */
 
 static void on_chunk(void *arg, int fd, const uint8_t *data, ssize_t n)
 {
@@ -219,6 +230,10 @@ static void on_chunk(void *arg, int fd, const uint8_t *data, ssize_t n)
         got_len += (size_t)n;
     } else {
         got_end = n == 0 ? 1 : (int)n;
+    }
+    if (fd == pause_in_cb) {
+        loop_pause_reader(fd, 1);
+        pause_in_cb = -1;
     }
     if (fd == drop_in_cb) {
         loop_del_fd(fd);
@@ -258,7 +273,7 @@ static void test_reader_chunks_and_sends(void **st)
     (void)st;
     reset_got();
     tcp_pair(&srv, &cli);
-    assert_int_equal(loop_add_reader(srv, 8, on_chunk, NULL), 0);
+    assert_int_equal(loop_add_reader(srv, rsize(8), on_chunk, NULL), 0);
     /* More than one chunk of 8: in order, nothing lost. */
     assert_int_equal(send(cli, "0123456789abcdefXYZ", 19, 0), 19);
     run_until(19);
@@ -285,7 +300,7 @@ static void test_reader_pause(void **st)
     (void)st;
     reset_got();
     tcp_pair(&srv, &cli);
-    assert_int_equal(loop_add_reader(srv, 64, on_chunk, NULL), 0);
+    assert_int_equal(loop_add_reader(srv, rsize(64), on_chunk, NULL), 0);
     assert_int_equal(send(cli, "first", 5, 0), 5);
     run_until(5);
     assert_int_equal(got_len, 5);
@@ -314,7 +329,7 @@ static void test_reader_reset_while_paused(void **st)
     (void)st;
     reset_got();
     tcp_pair(&srv, &cli);
-    assert_int_equal(loop_add_reader(srv, 64, on_chunk, NULL), 0);
+    assert_int_equal(loop_add_reader(srv, rsize(64), on_chunk, NULL), 0);
     assert_int_equal(loop_run_once(0), 0);
     loop_pause_reader(srv, 1);
     assert_int_equal(setsockopt(cli, SOL_SOCKET, SO_LINGER, &lg, sizeof lg), 0);
@@ -339,7 +354,7 @@ static void test_reader_client_not_reading(void **st)
     tcp_pair(&srv, &cli);
     setsockopt(srv, SOL_SOCKET, SO_SNDBUF, &small, sizeof small);
     setsockopt(cli, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
-    assert_int_equal(loop_add_reader(srv, 64, on_chunk, NULL), 0);
+    assert_int_equal(loop_add_reader(srv, rsize(64), on_chunk, NULL), 0);
     for (int k = 0; k < 100000 && !refused && !got_end; k++) {
         if (loop_send(srv, blob, sizeof blob))
             refused = 1;
@@ -364,13 +379,13 @@ static void test_reader_drop_with_io_in_flight(void **st)
     (void)st;
     reset_got();
     tcp_pair(&srv, &cli);
-    assert_int_equal(loop_add_reader(srv, 64, on_chunk, NULL), 0);
+    assert_int_equal(loop_add_reader(srv, rsize(64), on_chunk, NULL), 0);
     assert_int_equal(loop_run_once(0), 0); /* the read is in the kernel now */
     assert_int_equal(loop_send(srv, "bye", 3), 0);
     loop_del_fd(srv);
     close(srv);
     tcp_pair(&srv2, &cli2); /* likely the same fd number */
-    assert_int_equal(loop_add_reader(srv2, 64, on_chunk, NULL), 0);
+    assert_int_equal(loop_add_reader(srv2, rsize(64), on_chunk, NULL), 0);
     for (int k = 0; k < 3; k++)
         assert_int_equal(loop_run_once(10), 0);
     read_exact(cli, buf, 3);
@@ -392,7 +407,219 @@ static void test_reader_drop_with_io_in_flight(void **st)
     loop_free();
 }
 
-/* Each test from a clean slate: the group runs twice. */
+/* The reader pauses itself on its first chunk while more of the stream has
+ * already been read (multishot: ring buffers completed in the same wait):
+ * nothing more comes while paused, the rest comes in order after resume,
+ * and every ring buffer goes back. Then the same with the reader dropped
+ * while paused: its held buffers go back too. */
+static void test_reader_pause_in_callback(void **st)
+{
+    int srv, cli;
+    static char blob[600];
+    struct loop_stats ls;
+    (void)st;
+    for (size_t k = 0; k < sizeof blob; k++)
+        blob[k] = (char)('A' + k % 23);
+    for (int drop = 0; drop < 2; drop++) {
+        reset_got();
+        tcp_pair(&srv, &cli);
+        assert_int_equal(loop_add_reader(srv, rsize(64), on_chunk, NULL), 0);
+        assert_int_equal(loop_run_once(0), 0); /* armed */
+        pause_in_cb = srv;
+        assert_int_equal(send(cli, blob, sizeof blob, 0), (ssize_t)sizeof blob);
+        for (int k = 0; k < 200 && !got_calls; k++)
+            assert_int_equal(loop_run_once(10), 0);
+        for (int k = 0; k < 5; k++)
+            assert_int_equal(loop_run_once(10), 0);
+        assert_int_equal(got_calls, 1); /* only the first chunk while paused */
+        assert_true(got_len > 0 && got_len <= rsize(64));
+        if (drop) {
+            loop_del_fd(srv);
+            close(srv);
+            for (int k = 0; k < 3; k++)
+                assert_int_equal(loop_run_once(10), 0);
+        } else {
+            loop_pause_reader(srv, 0);
+            run_until(sizeof blob);
+            assert_int_equal(got_len, sizeof blob);
+            assert_memory_equal(got, blob, sizeof blob);
+            loop_del_fd(srv);
+            close(srv);
+        }
+        loop_get_stats(&ls);
+        assert_int_equal(ls.buffers_out, 0);
+        if (multishot && loop_io_name()[0] == 'i')
+            assert_true(ls.reads_multishot >= 1);
+        close(cli);
+    }
+    loop_free();
+}
+
+/* A stream far larger than the buffer ring (256 KB, the client writing as
+ * the socket takes it): every byte in order. With multishot reads a read is
+ * armed once for many chunks (again only when the ring ran dry). */
+static size_t bulk_at;
+static int bulk_bad, bulk_chunks;
+
+static void on_bulk(void *arg, int fd, const uint8_t *data, ssize_t n)
+{
+    (void)arg;
+    (void)fd;
+    bulk_chunks++;
+    for (ssize_t k = 0; k < n; k++, bulk_at++)
+        bulk_bad += data[k] != (uint8_t)(bulk_at % 251u);
+    if (n <= 0)
+        bulk_bad++;
+}
+
+static void test_reader_bulk(void **st)
+{
+    enum { TOTAL = 256 * 1024 };
+    static uint8_t blob[TOTAL];
+    int srv, cli;
+    size_t sent = 0;
+    struct loop_stats ls;
+    (void)st;
+    for (size_t k = 0; k < TOTAL; k++)
+        blob[k] = (uint8_t)(k % 251u);
+    bulk_at = 0;
+    bulk_bad = bulk_chunks = 0;
+    tcp_pair(&srv, &cli);
+    assert_int_equal(fcntl(cli, F_SETFL, O_NONBLOCK), 0);
+    assert_int_equal(loop_add_reader(srv, rsize(64), on_bulk, NULL), 0);
+    for (int k = 0; k < 100000 && bulk_at < TOTAL && !bulk_bad; k++) {
+        if (sent < TOTAL) {
+            ssize_t w = send(cli, blob + sent, TOTAL - sent, 0);
+            if (w > 0)
+                sent += (size_t)w;
+        }
+        assert_int_equal(loop_run_once(sent < TOTAL ? 0 : 10), 0);
+    }
+    assert_int_equal(bulk_bad, 0);
+    assert_int_equal(bulk_at, TOTAL);
+    loop_get_stats(&ls);
+    print_message("bulk: %d chunks, %lu reads armed (%lu multishot, %lu ended by a dry ring), %u buffers out\n",
+                  bulk_chunks, ls.reads_armed, ls.reads_multishot, ls.ring_dry, ls.buffers_out);
+    if (multishot && loop_io_name()[0] == 'i') {
+        assert_true(ls.reads_multishot >= 1);
+        assert_true(ls.reads_armed < (unsigned long)bulk_chunks / 4);
+    }
+    loop_del_fd(srv);
+    close(srv);
+    close(cli);
+    loop_get_stats(&ls);
+    assert_int_equal(ls.buffers_out, 0);
+    loop_free();
+}
+
+/* The buffer ring runs dry: NA readers pause on their first chunk with
+ * a burst already read ahead (held: Linux reads up to 32 chunks per
+ * wake-up, so NA x 31 > the ring's 256), then reader B's data comes. Every
+ * reader gets every byte in order (B, more than the buffers left, while
+ * the others are paused: its multishot read runs dry and it goes on
+ * single-shot), and every
+ * buffer goes back to the ring. */
+#define NA 12
+static size_t na_at[NA];
+static int na_fd[NA], na_bad, na_calls[NA];
+static char got_b[4096];
+static size_t got_b_len;
+
+static void on_chunk_na(void *arg, int fd, const uint8_t *data, ssize_t n)
+{
+    int i = (int)(intptr_t)arg;
+    if (n <= 0) {
+        na_bad++;
+        return;
+    }
+    for (ssize_t k = 0; k < n; k++, na_at[i]++)
+        na_bad += data[k] != (uint8_t)((na_at[i] + (size_t)i) % 251u);
+    if (!na_calls[i]++)
+        loop_pause_reader(fd, 1);
+}
+
+static void on_chunk_b(void *arg, int fd, const uint8_t *data, ssize_t n)
+{
+    (void)arg;
+    (void)fd;
+    if (n > 0 && got_b_len + (size_t)n <= sizeof got_b) {
+        memcpy(got_b + got_b_len, data, (size_t)n);
+        got_b_len += (size_t)n;
+    }
+}
+
+static void test_reader_ring_dry(void **st)
+{
+    enum { BURST = 16 * 1024 };
+    static uint8_t blob[BURST + 251];
+    static char blob_b[3000]; /* more than the buffers left */
+    int ca[NA], b, cb;
+    struct loop_stats ls;
+    size_t total = 0;
+    (void)st;
+    if (!multishot || loop_io_name()[0] != 'i') {
+        print_message("skip: the buffer ring is the multishot group's\n");
+        skip();
+    }
+    for (size_t k = 0; k < sizeof blob; k++)
+        blob[k] = (uint8_t)(k % 251u);
+    for (size_t k = 0; k < sizeof blob_b; k++)
+        blob_b[k] = (char)('a' + k % 26);
+    na_bad = 0;
+    got_b_len = 0;
+    for (int i = 0; i < NA; i++) {
+        na_at[i] = 0;
+        na_calls[i] = 0;
+        tcp_pair(&na_fd[i], &ca[i]);
+        assert_int_equal(loop_add_reader(na_fd[i], rsize(64), on_chunk_na, (void *)(intptr_t)i), 0);
+    }
+    tcp_pair(&b, &cb);
+    assert_int_equal(loop_add_reader(b, rsize(64), on_chunk_b, NULL), 0);
+    assert_int_equal(loop_run_once(0), 0); /* all armed */
+    for (int i = 0; i < NA; i++) /* reader i's stream starts at blob[i] */
+        assert_int_equal(send(ca[i], blob + i, BURST, 0), BURST);
+    for (int k = 0; k < 5; k++)
+        assert_int_equal(loop_run_once(10), 0);
+    loop_get_stats(&ls);
+    print_message("ring dry: %d paused readers hold %u buffers, %lu reads ended by a dry ring\n", NA,
+                  ls.buffers_out, ls.ring_dry);
+    for (int i = 0; i < NA; i++)
+        assert_int_equal(na_calls[i], 1); /* paused after the first chunk */
+    assert_true(ls.ring_dry >= 1);
+    unsigned long single = ls.reads_armed - ls.reads_multishot;
+    assert_int_equal(send(cb, blob_b, sizeof blob_b, 0), (ssize_t)sizeof blob_b);
+    for (int k = 0; k < 200 && got_b_len < sizeof blob_b; k++)
+        assert_int_equal(loop_run_once(10), 0);
+    assert_int_equal(got_b_len, sizeof blob_b);
+    assert_memory_equal(got_b, blob_b, sizeof blob_b);
+    loop_get_stats(&ls);
+    assert_true(ls.reads_armed - ls.reads_multishot > single); /* B went on single-shot */
+    for (int i = 0; i < NA; i++) {
+        assert_int_equal(na_calls[i], 1);
+        loop_pause_reader(na_fd[i], 0);
+    }
+    for (int k = 0; k < 1000 && total < (size_t)NA * BURST && !na_bad; k++) {
+        assert_int_equal(loop_run_once(10), 0);
+        total = 0;
+        for (int i = 0; i < NA; i++)
+            total += na_at[i];
+    }
+    assert_int_equal(na_bad, 0);
+    assert_int_equal(total, (size_t)NA * BURST);
+    loop_get_stats(&ls);
+    assert_int_equal(ls.buffers_out, 0);
+    for (int i = 0; i < NA; i++) {
+        loop_del_fd(na_fd[i]);
+        close(na_fd[i]);
+        close(ca[i]);
+    }
+    loop_del_fd(b);
+    close(b);
+    close(cb);
+    loop_free();
+}
+
+/* Each test from a clean slate: the group runs three times. */
 static int setup_plain(void **st)
 {
     memset(hits, 0, sizeof hits);
@@ -415,6 +642,9 @@ int main(void)
         BOTH(test_reader_reset_while_paused),
         BOTH(test_reader_client_not_reading),
         BOTH(test_reader_drop_with_io_in_flight),
+        BOTH(test_reader_pause_in_callback),
+        BOTH(test_reader_bulk),
+        BOTH(test_reader_ring_dry),
     };
     int rc;
     io_mode = LOOP_IO_EPOLL;
@@ -425,6 +655,8 @@ int main(void)
         return rc;
     }
     loop_free();
-    rc |= cmocka_run_group_tests_name("loop, io = io_uring", tests, NULL, NULL);
+    rc |= cmocka_run_group_tests_name("loop, io = io_uring, single-shot reads", tests, NULL, NULL);
+    multishot = 1;
+    rc |= cmocka_run_group_tests_name("loop, io = io_uring, multishot reads", tests, NULL, NULL);
     return rc;
 }
