@@ -297,6 +297,11 @@ int loop_init(enum loop_io io)
     return 0;
 }
 
+static uint8_t *rb_buf(int bid)
+{
+    return rb_bufs + (size_t)bid * RB_SIZE;
+}
+
 /* The buffer ring of multishot reads; without it (refused, no memory)
  * every read is single-shot. */
 static void rb_setup(void)
@@ -319,8 +324,8 @@ static void rb_setup(void)
     rb_ring = mem;
     io_uring_buf_ring_init(rb_ring);
     for (unsigned b = 0; b < RB_ENTRIES; b++)
-        io_uring_buf_ring_add(rb_ring, rb_bufs + (size_t)b * RB_SIZE, RB_SIZE, (unsigned short)b,
-                              io_uring_buf_ring_mask(RB_ENTRIES), (int)b);
+        io_uring_buf_ring_add(rb_ring, rb_buf((int)b), RB_SIZE, (unsigned short)b, io_uring_buf_ring_mask(RB_ENTRIES),
+                              (int)b);
     io_uring_buf_ring_advance(rb_ring, (int)RB_ENTRIES);
     rb_out = 0;
 }
@@ -328,8 +333,7 @@ static void rb_setup(void)
 /* A buffer back into the ring. */
 static void rb_recycle(int bid)
 {
-    io_uring_buf_ring_add(rb_ring, rb_bufs + (size_t)bid * RB_SIZE, RB_SIZE, (unsigned short)bid,
-                          io_uring_buf_ring_mask(RB_ENTRIES), 0);
+    io_uring_buf_ring_add(rb_ring, rb_buf(bid), RB_SIZE, (unsigned short)bid, io_uring_buf_ring_mask(RB_ENTRIES), 0);
     io_uring_buf_ring_advance(rb_ring, 1);
     rb_out--;
 }
@@ -436,7 +440,7 @@ static void reader_drain_held(struct reader *rd)
         if (rd->held_head < 0)
             rd->held_tail = -1;
         /* Out of the list before the call (which may pause or drop). */
-        reader_deliver_from(rd, rb_bufs + (size_t)bid * RB_SIZE, (ssize_t)rb_len[bid]);
+        reader_deliver_from(rd, rb_buf(bid), (ssize_t)rb_len[bid]);
         rb_recycle(bid);
     }
     if (!rd->dead && !rd->paused && rd->end_held) {
@@ -459,6 +463,15 @@ static void reader_hold(struct reader *rd, int bid, unsigned len)
     else
         rd->held_head = bid;
     rd->held_tail = bid;
+}
+
+/* Into the due list: its stash or held chunks handed over at the end of
+ * the current wait's dispatch. */
+static void reader_due(struct reader *rd)
+{
+    rd->on_due = 1;
+    rd->due = due_head;
+    due_head = rd;
 }
 
 static void reader_cancel(struct reader *rd)
@@ -565,9 +578,7 @@ void loop_pause_reader(int fd, int paused)
     }
     if ((rd->stashed || rd->held_head >= 0 || rd->end_held) && !rd->on_due) {
         /* Handed over by the loop, not from inside the caller's code. */
-        rd->on_due = 1;
-        rd->due = due_head;
-        due_head = rd;
+        reader_due(rd);
         loop_wake();
     } else {
         reader_arm(rd);
@@ -621,16 +632,13 @@ static void on_recv_done(struct reader *rd, int res, unsigned flags)
                 reader_hold(rd, bid, (unsigned)res);
             else if (res != -EAGAIN && res != -EINTR && res != -ECANCELED && res != -ENOBUFS)
                 rd->end_held = 1, rd->end_res = res;
-            if (!rd->paused && !rd->on_due) {
-                rd->on_due = 1;
-                rd->due = due_head;
-                due_head = rd;
-            }
+            if (!rd->paused && !rd->on_due)
+                reader_due(rd);
             return;
         }
         if (bid >= 0) {
             rd->inflight++;
-            reader_deliver_from(rd, rb_bufs + (size_t)bid * RB_SIZE, res);
+            reader_deliver_from(rd, rb_buf(bid), res);
             rb_recycle(bid);
             rd->inflight--;
             if (rd->dead)
