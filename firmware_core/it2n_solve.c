@@ -209,6 +209,37 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask, const dir_inv *d
  * small path's bounds) never do. */
 #define SMALL_DATA_BITS 30
 
+/* Dot products of n int32 pairs, exact in int64 (every caller's bounds keep
+ * the partial sums below 2^62, so the order of the terms does not matter):
+ * sum a[k] b[k], and sum a[k] b[k] with b[k] in [0, 2^31). ARMv6-M keeps one
+ * out-of-line copy of each (flash: the solve's dozen product sites cost
+ * about 0.6 KB inline, a call about a tenth of an 8-term sum); wider cores
+ * inline them, one accumulator per loop as before. */
+#if IT2N_MUL_HALVES
+#define DOT_LINKAGE __attribute__((noinline)) static
+#else
+#define DOT_LINKAGE IT2N_INLINE
+#endif
+DOT_LINKAGE int64_t dot_ss(const int32_t *a, const int32_t *b, unsigned n)
+{
+    int64_t s = 0;
+    unsigned k;
+    for (k = 0; k < n; k++) {
+        s += it2n_smul32(a[k], b[k]);
+    }
+    return s;
+}
+
+DOT_LINKAGE int64_t dot_su(const int32_t *a, const int32_t *b, unsigned n)
+{
+    int64_t s = 0;
+    unsigned k;
+    for (k = 0; k < n; k++) {
+        s += it2n_mul32su(a[k], (uint32_t)b[k]);
+    }
+    return s;
+}
+
 /*
  * Stage 1 for column j: g[k] = sum_l F[k][l] C_m[j][l], rounded. Small data
  * (|F| <= 2^30): F * (hi 2^24 + lo), g = S / 2^24 (frac of C_m plus the
@@ -217,23 +248,14 @@ static int check_bound(const it2n_dataset *ds, unsigned fpmask, const dir_inv *d
  * 2^31 + 16, lo < 2^24): every int64 partial sum stays below 2^62 and
  * |g| < 2^62.
  */
-static void stage1(unsigned n1, unsigned m1, const int32_t *fa, const uint32_t *fb, const dir_inv *dw, unsigned j,
+static void stage1(unsigned n1, unsigned m1, const int32_t *fa, const int32_t *fb, const dir_inv *dw, unsigned j,
                    bool wide, int64_t *g)
 {
-    unsigned k, l;
+    unsigned k;
     const int32_t *hi = &dw->hi[j * m1], *lo = &dw->lo[j * m1];
     for (k = 0; k < n1; k++, fa += m1, fb += m1) {
-        int64_t a1 = 0, a2 = 0;
         if (!wide) {
-            /* one accumulator per loop: no register spills on ARMv6-M */
-            const int32_t *f = fa;
-            for (l = 0; l < m1; l++) {
-                a1 += it2n_smul32(f[l], hi[l]);
-            }
-            for (l = 0; l < m1; l++) {
-                a2 += it2n_mul32su(f[l], (uint32_t)lo[l]);
-            }
-            g[k] = a1 + ((a2 + ((int64_t)1 << 23)) >> 24);
+            g[k] = dot_ss(fa, hi, m1) + ((dot_su(fa, lo, m1) + ((int64_t)1 << 23)) >> 24);
             continue;
         }
         {
@@ -244,16 +266,8 @@ static void stage1(unsigned n1, unsigned m1, const int32_t *fa, const uint32_t *
              * of 32 x 32 products. round(S / 2^42) (ties up, as
              * it2n__i128_round) is then A 2^6 + (B + (D >> 24) + 2^17) >>
              * 18 exactly: the same value as one 128-bit sum, without it. */
-            int64_t a = 0, b = 0, e;
-            uint64_t d = 0u;
-            for (l = 0; l < m1; l++) {
-                int32_t fh = fa[l];
-                uint32_t fl = fb[l];
-                a += it2n_smul32(fh, hi[l]);
-                b += it2n_mul32su(fh, (uint32_t)lo[l]) + it2n_mul32su(hi[l], fl);
-                d += it2n_umul32(fl, (uint32_t)lo[l]);
-            }
-            e = b + (int64_t)(d >> 24);
+            int64_t a = dot_ss(fa, hi, m1);
+            int64_t e = dot_su(fa, lo, m1) + dot_su(hi, fb, m1) + (dot_su(fb, lo, m1) >> 24);
             g[k] = (int64_t)((uint64_t)a << 6) + ((e + ((int64_t)1 << 17)) >> 18);
         }
     }
@@ -275,20 +289,9 @@ static void stage2(const dir_inv *du, unsigned n1, const int64_t *g, int64_t *p,
     }
     for (i = 0; i < n1; i++) {
         const int32_t *hi = &du->hi[i * n1], *lo = &du->lo[i * n1];
-        int64_t a = 0, b = 0, c = 0;
-        /* one accumulator per loop: no register spills on ARMv6-M */
-        for (k = 0; k < n1; k++) {
-            a += it2n_smul32(hi[k], gh[k]);
-        }
-        for (k = 0; k < n1; k++) {
-            b += it2n_mul32su(gh[k], (uint32_t)lo[k]);
-        }
-        for (k = 0; k < n1; k++) {
-            c += it2n_mul32su(hi[k], (uint32_t)gl[k]);
-        }
         /* S = a 2^55 + b 2^31 + c 2^24; p = S / 2^55 (floor inside, one
          * rounding at the end) */
-        b += c >> 7;
+        int64_t a = dot_ss(hi, gh, n1), b = dot_su(gh, lo, n1) + (dot_su(hi, gl, n1) >> 7);
         p[i * stride] = a + ((b + ((int64_t)1 << 23)) >> 24);
     }
 }
@@ -305,26 +308,17 @@ static void stage2(const dir_inv *du, unsigned n1, const int64_t *g, int64_t *p,
 static void short_column(unsigned n1, unsigned m1, const int32_t *fa, const dir_inv *du, const dir_inv *dw, unsigned j,
                          int64_t *p, unsigned stride)
 {
-    unsigned i, k, l;
+    unsigned i, k;
     const int32_t *wm = &dw->w[j * m1];
     int32_t gh[IT2N_DIM], gl[IT2N_DIM];
     for (k = 0; k < n1; k++, fa += m1) {
-        int64_t g = 0;
-        for (l = 0; l < m1; l++) {
-            g += it2n_smul32(fa[l], wm[l]);
-        }
+        int64_t g = dot_ss(fa, wm, m1);
         gh[k] = (int32_t)(g >> 31);
         gl[k] = (int32_t)(g & 0x7FFFFFFF);
     }
     for (i = 0; i < n1; i++) {
         const int32_t *wn = &du->w[i * n1];
-        int64_t a = 0, b = 0;
-        for (k = 0; k < n1; k++) {
-            a += it2n_smul32(wn[k], gh[k]);
-        }
-        for (k = 0; k < n1; k++) {
-            b += it2n_mul32su(wn[k], (uint32_t)gl[k]);
-        }
+        int64_t a = dot_ss(wn, gh, n1), b = dot_su(wn, gl, n1);
         p[i * stride] = a + a + ((b + ((int64_t)1 << 29)) >> 30);
     }
 }
@@ -339,7 +333,7 @@ static void short_column(unsigned n1, unsigned m1, const int32_t *fa, const dir_
  * data as int32 in fa; wide data split F = fh 2^24 + fl, fh in fa and fl
  * (in [0, 2^24)) in fb. Row k at k (m+1).
  */
-static void load_net(const it2n_dataset *ds, unsigned fp, unsigned ch, bool wide, int32_t *fa, uint32_t *fb)
+static void load_net(const it2n_dataset *ds, unsigned fp, unsigned ch, bool wide, int32_t *fa, int32_t *fb)
 {
     unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, k, l;
     for (k = 0; k < n1; k++) {
@@ -351,7 +345,7 @@ static void load_net(const it2n_dataset *ds, unsigned fp, unsigned ch, bool wide
             {
                 it2n_val f = it2n_dataset_value(ds, k, l, fp, ch);
                 *fa = (int32_t)(f >> 24);
-                *fb = (uint32_t)f & 0xFFFFFFu;
+                *fb = (int32_t)(f & 0xFFFFFF);
             }
         }
     }
@@ -362,7 +356,7 @@ static void solve_net(const it2n_dataset *ds, unsigned fp, unsigned ch, const di
 {
     int64_t p64[IT2N_DIM * IT2N_DIM], g[IT2N_DIM];
     int32_t fa[IT2N_DIM * IT2N_DIM];
-    uint32_t fb[IT2N_DIM * IT2N_DIM];
+    int32_t fb[IT2N_DIM * IT2N_DIM];
     unsigned n1 = ds->n + 1u, m1 = ds->m + 1u, j, k, count = n1 * m1;
     unsigned eb = data_bits(ds, fp, ch), eh;
     bool wide = eb > SMALL_DATA_BITS + (ch >= IT2N_CH_T ? 1u : 0u);
