@@ -105,6 +105,27 @@ check(any("max_rounds_reached" in b for b in validate([dict(rounds, interval=[1.
 check(any("max_rounds_reached" in b for b in validate([dict(ONE_RUN[2], deterministic=True,
                                                             max_rounds_reached=True)])),
       "max_rounds_reached without an interval accepted")
+# A row whose rounds aim narrower ("precision", the FC23 1-connection
+# throughput: +-0.5 %): make bench once failed on its own row (issue 22,
+# [1.0099, 1.0219] after the maximum of 40 rounds, flagged, refused as
+# "within +-5 % but max_rounds_reached true").
+fine = row("fc23 1 conn", "req/s", 25800.0, 25400.0, 1.0, sense=">=", interval=(1.0099, 1.0219), rounds=40,
+           precision=0.005)
+check(fine["max_rounds_reached"] is True and fine["precision"] == 0.005 and validate([fine]) == [],
+      f"a +-0.6 % interval after the maximum, aiming at +-0.5 %: {fine}, {validate([fine])}")
+check(any("max_rounds_reached" in b for b in validate([dict(fine, max_rounds_reached=False)])),
+      "an interval of +-0.6 % aiming at +-0.5 % with max_rounds_reached false accepted")
+narrow = row("fc23 1 conn", "req/s", 25800.0, 25400.0, 1.0, sense=">=", interval=(1.0110, 1.0205), rounds=31,
+             precision=0.005)
+check(narrow["max_rounds_reached"] is False and validate([narrow]) == [],
+      f"a +-0.47 % interval aiming at +-0.5 %: {narrow}, {validate([narrow])}")
+check(any("max_rounds_reached" in b for b in validate([dict(narrow, interval=[1.012, 1.0195],
+                                                             max_rounds_reached=True)])),
+      "an interval of +-0.37 % aiming at +-0.5 % with max_rounds_reached true accepted")
+check(any("precision" in b for b in validate([dict(narrow, precision=0.2)])),
+      "a precision wider than +-5 % accepted")
+check("precision" not in row("r", "x", 2.0, 1.0, interval=(1.9, 2.1), rounds=5),
+      "a row at the default precision carries the key")
 
 # The figures of the failing run (issue 22): 11.2749 vs 8.7751 us.
 bad = validate([old_row("fc23 cpu", 11.2749, 8.7751, 2)])

@@ -88,12 +88,14 @@ def flash_from_map(path):
 # "interval" ([lo, hi], the 95 % confidence interval of the ratio),
 # "rounds" (how many interleaved rounds gave it), "max_rounds_reached"
 # (true: the rounds stopped at the benchmark's maximum with this interval
-# still wider than +-PRECISION) and "deterministic" (true: the figures are
+# still wider than +-PRECISION), "precision" (a row whose rounds went on
+# to a narrower interval than +-PRECISION: that width, e.g. 0.005 for a
+# ratio within about 1 % of its target) and "deterministic" (true: the figures are
 # counts that do not depend on the machine's load: instructions under
 # qemu -icount or callgrind, sizes, stack bytes). A row with a ratio has an
 # interval or "deterministic": a ratio of times from one run reads met or
 # unmet with the noise (issue 22), validate() refuses it.
-OPTIONAL = ["sense", "interval", "rounds", "max_rounds_reached", "deterministic"]
+OPTIONAL = ["sense", "interval", "rounds", "max_rounds_reached", "precision", "deterministic"]
 
 # Rounds are added until the ratio's 95 % interval lies within +-PRECISION
 # of it (or the benchmark's maximum of rounds).
@@ -156,7 +158,7 @@ def until_precise(one_round, pairs, max_rounds, min_rounds=3):
 
 
 def row(name, unit, value, baseline=None, target=None, sense="<=", met=None, interval=None, rounds=None,
-        max_rounds_reached=None, deterministic=False):
+        max_rounds_reached=None, deterministic=False, precision=PRECISION):
     """One figure as stored: the ratio is computed from the value and
     baseline exactly as given (round them first, if at all), and met from
     that stored ratio, so validate() holds by construction whatever the
@@ -164,11 +166,11 @@ def row(name, unit, value, baseline=None, target=None, sense="<=", met=None, int
     an interval, a target is met only when the whole interval meets it.
     A ratio needs an interval (from interleaved rounds: rounds, and whether
     they stopped at their maximum, default: whether the interval is wider
-    than +-PRECISION) or deterministic=True (counts, not times)."""
+    than +-precision) or deterministic=True (counts, not times)."""
     ratio = None if baseline in (None, 0) else round(value / baseline, 4)
     if interval is not None:
         if max_rounds_reached is None and not deterministic:
-            max_rounds_reached = not within(interval[0], interval[1])
+            max_rounds_reached = not within(interval[0], interval[1], precision)
         interval = [min(round(interval[0], 4), ratio), max(round(interval[1], 4), ratio)]
     if target is not None:
         got = ratio if baseline is not None else value
@@ -184,6 +186,8 @@ def row(name, unit, value, baseline=None, target=None, sense="<=", met=None, int
         r["rounds"] = rounds
         if not deterministic:
             r["max_rounds_reached"] = bool(max_rounds_reached)
+            if precision != PRECISION:
+                r["precision"] = precision
     if deterministic:
         r["deterministic"] = True
     return r
@@ -267,13 +271,20 @@ def validate(rows):
                 continue
             if not isinstance(r.get("rounds"), int) or r["rounds"] < 2:
                 bad.append(f"{r['name']}: rounds {r.get('rounds')!r}")
-            # Rounds stop early only once the interval is within +-PRECISION
-            # (slack: the stored bounds are rounded to 4 digits).
-            if cap is False and not within(iv[0], iv[1], PRECISION + 2e-3):
-                bad.append(f"{r['name']}: interval {iv!r} wider than +-{PRECISION:.0%} but "
+            # Rounds stop early only once the interval is within
+            # +-precision (slack: the stored bounds are rounded to 4 digits).
+            prec = r.get("precision", PRECISION)
+            if (not isinstance(prec, float) or not 0 < prec < PRECISION
+                    or "precision" in r and (cap is None or det is True)):
+                if "precision" in r:
+                    bad.append(f"{r['name']}: precision {prec!r} (below {PRECISION}, beside max_rounds_reached)")
+                prec = PRECISION
+            slack = 2e-3 if prec == PRECISION else prec / 50
+            if cap is False and not within(iv[0], iv[1], prec + slack):
+                bad.append(f"{r['name']}: interval {iv!r} wider than +-{prec:.1%} but "
                            f"max_rounds_reached false")
-            if cap is True and within(iv[0], iv[1], PRECISION - 2e-3):
-                bad.append(f"{r['name']}: interval {iv!r} within +-{PRECISION:.0%} but "
+            if cap is True and within(iv[0], iv[1], prec - slack):
+                bad.append(f"{r['name']}: interval {iv!r} within +-{prec:.1%} but "
                            f"max_rounds_reached true")
         if r["target"] is not None:
             got = r["ratio"] if r["baseline"] is not None else r["value"]
