@@ -109,7 +109,11 @@ def row(r):
             # the interval is within +-PRECISION (results.row())
             capped = r.get("max_rounds_reached", not within(lo, hi))
             cap = ", max rounds reached" if capped else ""
-            ratio += f" [{lo:.3g}, {hi:.3g}] ({r['rounds']} rounds{cap})"
+            # A row measured to a finer precision shows one digit more, so
+            # that a bound of 1.005 does not read as the target 1.
+            g = ".4g" if "precision" in r else ".3g"
+            ratio = f"{r['ratio']:{g}}×" if "precision" in r else ratio
+            ratio += f" [{lo:{g}}, {hi:{g}}] ({r['rounds']} rounds{cap})"
     elif r["ratio"] is not None and r.get("deterministic"):
         ratio += " (exact)"
     if r["target"] is None:
