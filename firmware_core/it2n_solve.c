@@ -289,8 +289,8 @@ static void stage2(const dir_inv *du, unsigned n1, const int64_t *g, int64_t *p,
     }
     for (i = 0; i < n1; i++) {
         const int32_t *hi = &du->hi[i * n1], *lo = &du->lo[i * n1];
-        /* S = a 2^55 + b 2^31 + c 2^24; p = S / 2^55 (floor inside, one
-         * rounding at the end) */
+        /* S = a 2^55 + b 2^31 + c 2^24 (c = sum hi gl, folded into b as
+         * c >> 7); p = S / 2^55 (floor inside, one rounding at the end) */
         int64_t a = dot_ss(hi, gh, n1), b = dot_su(gh, lo, n1) + (dot_su(hi, gl, n1) >> 7);
         p[i * stride] = a + ((b + ((int64_t)1 << 23)) >> 24);
     }

@@ -54,6 +54,12 @@ LAT_CONNS = 32
 # does not favour either answer (issue 22).
 FINE_CONNS = 1
 FINE_PRECISION = 0.005
+
+
+def thr_precision(n):
+    """The width the throughput ratio's rounds aim at, n connections."""
+    return FINE_PRECISION if n == FINE_CONNS else PRECISION
+
 # Why a ratio can fall short (callgrind, per request at 8 connections,
 # `make bench-fc23-callgrind`): it2nd runs about 3 100 user-space
 # instructions per FC 23 request, the bare server about 1 200: the core's
@@ -215,7 +221,7 @@ def main():
     bare = Bare(a.bare)
     recv = None if a.smoke else Bare(a.bare, "receive")
     d = It2nd(a.it2nd, tmp, free_port(), max(conns))
-    results, slow, spread, intervals, lat, cpu_split, capped = {}, {}, {}, {}, {}, {}, {}
+    results, slow, spread, intervals, lat, cpu_split = {}, {}, {}, {}, {}, {}
     try:
         # Warm-up, not counted: first connections, page faults, caches.
         load(a.load, bare.port, 8, 1.0, "pattern", bare.p.pid)
@@ -228,11 +234,9 @@ def main():
             # Every row's interval decides when the rounds are enough, the
             # p99 latency's too (a target at LAT_CONNS only): a row marked
             # "max rounds reached" did run to the maximum.
-            fine = n == FINE_CONNS
             def enough():
-                return (precise(ri, rb, FINE_PRECISION if fine else PRECISION) and precise(cb, ci)
-                        and precise(li, lb))
-            max_rounds = a.fine_rounds if fine else a.rounds
+                return precise(ri, rb, thr_precision(n)) and precise(cb, ci) and precise(li, lb)
+            max_rounds = a.fine_rounds if n == FINE_CONNS else a.rounds
             for r in range(max_rounds):
                 if r >= a.min_rounds and enough():
                     break
@@ -252,8 +256,7 @@ def main():
                         ni += req
                         ci.append(cpu / max(req, 1) * 1e6)
                 pairs.append(round(ri[-1] / rb[-1], 3))
-            capped[n] = not a.smoke and not enough()
-            if capped[n]:
+            if not a.smoke and not enough():
                 print("fc23: %d connection(s): an interval wider than wanted after %d rounds (the maximum)"
                       % (n, len(ri)), flush=True)
                 if recv:
@@ -300,11 +303,10 @@ def main():
     for n in conns:
         it, bb, ci, cb, _, _ = results[n]
         iv, _, k, _ = intervals.get(n, (None, None, None, None))
-        # At FINE_CONNS the rounds stop at +-FINE_PRECISION: an interval
-        # wider than that came from the maximum of rounds (the row says so).
+        # an interval wider than the rounds aimed at came from their maximum
         rows.append(row("FC23 full query, %d connection(s): it2nd vs bare libmodbus (req/s)" % n,
                         "req/s", round(it, 1), round(bb, 1), TARGET, sense=">=", interval=iv, rounds=k,
-                        precision=FINE_PRECISION if n == FINE_CONNS else PRECISION))
+                        precision=thr_precision(n)))
     for n in conns:
         it, bb, ci, cb, _, _ = results[n]
         _, iv, k, _ = intervals.get(n, (None, None, None, None))

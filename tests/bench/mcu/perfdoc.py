@@ -99,7 +99,10 @@ def row(r):
     if unit not in ("abs", "bool"):
         value += f" {unit}"
     baseline = "—" if r["baseline"] is None else num(r["baseline"], unit)
-    ratio = "—" if r["ratio"] is None else f"{r['ratio']:.3g}×"
+    # A row measured to a finer precision shows one digit more, so that a
+    # bound of 1.005 does not read as the target 1.
+    g = ".4g" if "precision" in r else ".3g"
+    ratio = "—" if r["ratio"] is None else f"{r['ratio']:{g}}×"
     if r.get("interval"):
         lo, hi = r["interval"]
         if r.get("deterministic"):
@@ -109,10 +112,6 @@ def row(r):
             # the interval is within +-PRECISION (results.row())
             capped = r.get("max_rounds_reached", not within(lo, hi))
             cap = ", max rounds reached" if capped else ""
-            # A row measured to a finer precision shows one digit more, so
-            # that a bound of 1.005 does not read as the target 1.
-            g = ".4g" if "precision" in r else ".3g"
-            ratio = f"{r['ratio']:{g}}×" if "precision" in r else ratio
             ratio += f" [{lo:{g}}, {hi:{g}}] ({r['rounds']} rounds{cap})"
     elif r["ratio"] is not None and r.get("deterministic"):
         ratio += " (exact)"

@@ -274,10 +274,9 @@ def validate(rows):
             # Rounds stop early only once the interval is within
             # +-precision (slack: the stored bounds are rounded to 4 digits).
             prec = r.get("precision", PRECISION)
-            if (not isinstance(prec, float) or not 0 < prec < PRECISION
-                    or "precision" in r and (cap is None or det is True)):
-                if "precision" in r:
-                    bad.append(f"{r['name']}: precision {prec!r} (below {PRECISION}, beside max_rounds_reached)")
+            if "precision" in r and (not isinstance(prec, float) or not 0 < prec < PRECISION
+                                     or cap is None or det is True):
+                bad.append(f"{r['name']}: precision {prec!r} (below {PRECISION}, beside max_rounds_reached)")
                 prec = PRECISION
             slack = 2e-3 if prec == PRECISION else prec / 50
             if cap is False and not within(iv[0], iv[1], prec + slack):

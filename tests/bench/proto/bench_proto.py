@@ -368,10 +368,10 @@ def ingest_run(tmp, name, fs, rounds, limit, failures):
 def main():
     args = sys.argv[1:]
     out = args[args.index("--out") + 1]
-    max_rounds = int(args[args.index("--max-rounds") + 1]) if "--max-rounds" in args else MAX_ROUNDS
+    given = int(args[args.index("--max-rounds") + 1]) if "--max-rounds" in args else None
     if "--sack" in args:
-        return sack_main(out, "--keep" in args,
-                         max_rounds if "--max-rounds" in args else SACK_MAX_ROUNDS)
+        return sack_main(out, "--keep" in args, given or SACK_MAX_ROUNDS)
+    max_rounds = given or MAX_ROUNDS
     smoke = "--smoke" in args
     tmp = tempfile.mkdtemp(prefix="it2n-protobench.")
     failures = []
